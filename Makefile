@@ -1,0 +1,37 @@
+# Two entry points: `make demo` (the main job) and `make test` (the suite).
+# Both create or reuse .venv in the repo root and install what they need into it.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+PIP := $(PY) -m pip install --disable-pip-version-check -q -c constraints.txt
+DEMO_OUT ?= out/demo
+
+.PHONY: demo test lint speed clean
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+
+# Stamps record which extras are installed; they are redone when pyproject.toml changes.
+$(VENV)/.demo-installed: pyproject.toml constraints.txt | $(PY)
+	$(PIP) -e ".[bench]"
+	touch $@
+
+$(VENV)/.test-installed: pyproject.toml constraints.txt | $(PY)
+	$(PIP) -e ".[bench,mujoco,rl,dev]"
+	touch $@ $(VENV)/.demo-installed
+
+demo: $(VENV)/.demo-installed
+	$(VENV)/bin/hri-bench demo --out $(DEMO_OUT)
+
+test: $(VENV)/.test-installed
+	MUJOCO_GL=egl $(PY) -m pytest -q
+
+lint: $(VENV)/.test-installed
+	$(VENV)/bin/ruff check hri_envs agents baselines tests examples benchmarks
+	$(VENV)/bin/mypy
+
+speed: $(VENV)/.demo-installed
+	$(VENV)/bin/hri-bench speed
+
+clean:
+	rm -rf $(VENV) out .pytest_cache .ruff_cache .mypy_cache

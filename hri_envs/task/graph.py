@@ -1,0 +1,296 @@
+"""The abstract transition graph of a cooperative carrying task, precomputed as numpy arrays.
+
+States (paper Sect. 4.1) are ``s = (position, orientation, grasp μ)`` with μ a 2-bit code:
+bit 0 = the human holds, bit 1 = the robot holds. They are numbered
+
+* support states first: ``support_state(k, μ) = 4 k + μ`` for support ``k`` and μ in 0..3;
+* then free-space waypoints (always μ = 3): column ``c`` (a support's mounting (x, y)),
+  height index ``h``, orientation ``o``, at ``4 K + (c H + h) O + o``.
+
+Actions (paper Table 1) share one global numbering for both agents::
+
+    0 wait | 1 grasp/let go | 2 take off | 3 put on | 4 rotate
+    5 .. 5+K-1     move over to column k
+    5+K .. 5+K+H-1 move (up or down) to height h
+
+The joint transition is deterministic (SPEC §2): grasp toggles first, then the step is
+*aborted* if either action is invalid in the resulting state, else the object moves by the
+human's motion or, when the human makes none, by the robot's.
+
+Every array is built once per scenario; the envs, the scripted humans and the learners all
+read the same :class:`TaskGraph`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from hri_envs.task.features import state_features
+from hri_envs.task.geometry import Scenario
+
+__all__ = [
+    "GRASP_NAMES",
+    "PUT_ON",
+    "ROTATE",
+    "TAKE_OFF",
+    "TOGGLE",
+    "WAIT",
+    "TaskGraph",
+    "build_graph",
+]
+
+WAIT, TOGGLE, TAKE_OFF, PUT_ON, ROTATE = 0, 1, 2, 3, 4
+N_FIXED_ACTIONS = 5
+GRASP_NAMES = ("held by nobody", "held by the human", "held by the robot", "held by both")
+HUMAN_BIT, ROBOT_BIT, BOTH = 1, 2, 3
+
+
+@dataclass(frozen=True, eq=False)
+class TaskGraph:
+    """Tabular model of one scenario. All arrays are read-only.
+
+    Shapes use S states, A actions, K supports (= intentions), H heights, O orientations,
+    F features.
+
+    Attributes:
+        scenario: The geometry this graph was built from.
+        grasp: (S,) int, μ of each state.
+        support: (S,) int, the support a state rests on, -1 in free space.
+        column, height, orientation: (S,) int waypoint indices (support states: those of the
+            support's resting pose; ``height`` is -1 there).
+        position: (S, 3) nominal object position [m] (features use these).
+        quaternion: (S, 4) object orientation.
+        valid: (S, A) bool, the actions either agent may take in a state.
+        next_state: (S, A, A) int, ``next_state[s, a_R, a_H]``.
+        aborted: (S, A, A) bool, the joint action was aborted (no motion).
+        penalty: (S, A, A) bool, steps punished with r⁻ = -1 (aborted, counteracted, or the
+            human waited and nothing changed).
+        robot_passive: (S, A, A) bool, the robot waited while the human acted (rewarded r0).
+        terminal: (K,) int, the state "resting on support k, μ = 0".
+        mounting_state: (K,) int, the waypoint from which support k is mounted.
+        features: (K, S, F) float, φ(s, ι) for each intention ι.
+        state_names, action_names: readable labels.
+    """
+
+    scenario: Scenario
+    grasp: np.ndarray
+    support: np.ndarray
+    column: np.ndarray
+    height: np.ndarray
+    orientation: np.ndarray
+    position: np.ndarray
+    quaternion: np.ndarray
+    valid: np.ndarray
+    next_state: np.ndarray
+    aborted: np.ndarray
+    penalty: np.ndarray
+    robot_passive: np.ndarray
+    terminal: np.ndarray
+    mounting_state: np.ndarray
+    features: np.ndarray
+    state_names: tuple[str, ...]
+    action_names: tuple[str, ...]
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def n_states(self) -> int:
+        """Number of abstract states S."""
+        return int(self.grasp.shape[0])
+
+    @property
+    def n_actions(self) -> int:
+        """Size A of the global action set."""
+        return int(self.valid.shape[1])
+
+    @property
+    def n_intentions(self) -> int:
+        """Number of supports K, each a possible intention."""
+        return self.scenario.n_supports
+
+    @property
+    def n_features(self) -> int:
+        """Length F of the preference feature vector φ(s, ι)."""
+        return int(self.features.shape[2])
+
+    @property
+    def support_names(self) -> tuple[str, ...]:
+        """Support (= intention) labels."""
+        return self.scenario.support_names
+
+    @property
+    def name(self) -> str:
+        """Scenario name."""
+        return self.scenario.name
+
+    # ------------------------------------------------------------------ helpers
+    def support_state(self, k: int, grasp: int = 0) -> int:
+        """Index of the state "resting on support ``k`` with grasp code ``grasp``"."""
+        return 4 * k + grasp
+
+    def move_over(self, k: int) -> int:
+        """Action index of "move over to column k"."""
+        return N_FIXED_ACTIONS + k
+
+    def move_to_height(self, h: int) -> int:
+        """Action index of "move to height index h"."""
+        return N_FIXED_ACTIONS + self.n_intentions + h
+
+    def waypoint_state(self, column: int, height: int, orientation: int) -> int:
+        """Index of the free-space state at the given waypoint indices."""
+        n_h, n_o = len(self.scenario.heights), len(self.scenario.orientations)
+        return 4 * self.n_intentions + (column * n_h + height) * n_o + orientation
+
+    def reward(self, r0: float) -> np.ndarray:
+        """Robot cooperation reward R_R(s, a_R, a_H) in {-1, r0, 0}, shape (S, A, A)."""
+        out = np.where(self.robot_passive, r0, 0.0)
+        out[self.penalty] = -1.0
+        return out
+
+    def action_label(self, state: int, action: int) -> str:
+        """Readable name of ``action`` as taken in ``state`` ("grasp" vs "let go", up vs down)."""
+        name = self.action_names[action]
+        if action == TOGGLE:
+            return "grasp/let go"
+        h = action - N_FIXED_ACTIONS - self.n_intentions
+        if 0 <= h and self.height[state] >= 0:
+            return ("move up" if h > self.height[state] else "move down") + name[len("move") :]
+        return name
+
+    def agent_action_label(self, state: int, action: int, robot: bool) -> str:
+        """Like :meth:`action_label`, resolving the grasp toggle for one agent."""
+        if action == TOGGLE:
+            bit = ROBOT_BIT if robot else HUMAN_BIT
+            return "let go" if self.grasp[state] & bit else "grasp"
+        return self.action_label(state, action)
+
+    @cached_property
+    def is_support_state(self) -> np.ndarray:
+        """(S,) bool, the object rests on a support."""
+        return self.support >= 0
+
+    @cached_property
+    def valid_counts(self) -> np.ndarray:
+        """(S,) number of valid actions per state."""
+        return self.valid.sum(axis=1)
+
+    def step(self, s: int, a_r: int, a_h: int) -> tuple[int, bool]:
+        """The joint transition for one step: ``(next state, aborted)``."""
+        return int(self.next_state[s, a_r, a_h]), bool(self.aborted[s, a_r, a_h])
+
+
+def _freeze(*arrays: np.ndarray) -> None:
+    for a in arrays:
+        a.setflags(write=False)
+
+
+def build_graph(scenario: Scenario) -> TaskGraph:
+    """Build the :class:`TaskGraph` of a scenario (states, actions, transitions, features)."""
+    sc = scenario
+    n_k, n_h, n_o = sc.n_supports, len(sc.heights), len(sc.orientations)
+    n_s = 4 * n_k + n_k * n_h * n_o
+    n_a = N_FIXED_ACTIONS + n_k + n_h
+
+    grasp = np.full(n_s, BOTH, dtype=np.int64)
+    support = np.full(n_s, -1, dtype=np.int64)
+    column = np.zeros(n_s, dtype=np.int64)
+    height = np.full(n_s, -1, dtype=np.int64)
+    orientation = np.zeros(n_s, dtype=np.int64)
+    position = np.zeros((n_s, 3))
+    names: list[str] = []
+
+    mount_h = np.array([sc.height_index(s.mounting[2]) for s in sc.supports])
+    for k, sup in enumerate(sc.supports):
+        for mu in range(4):
+            s = 4 * k + mu
+            grasp[s], support[s], column[s] = mu, k, k
+            orientation[s], position[s] = sup.orientation, sup.position
+            names.append(f"on {sup.name}, {GRASP_NAMES[mu]}")
+    for c in range(n_k):
+        for h in range(n_h):
+            for o in range(n_o):
+                s = 4 * n_k + (c * n_h + h) * n_o + o
+                column[s], height[s], orientation[s] = c, h, o
+                position[s] = [*sc.supports[c].mounting[:2], sc.heights[h]]
+                prime = "′" if h == mount_h[c] else ""
+                names.append(
+                    f"held at {sc.supports[c].name}{prime} column, {sc.heights[h]:.3g} m, "
+                    f"{sc.orientation_names[o]}"
+                )
+    quaternion = sc.orientations[orientation]
+
+    def free_state(c: int, h: int, o: int) -> int:
+        return 4 * n_k + (c * n_h + h) * n_o + o
+
+    mounting_state = np.array([free_state(k, mount_h[k], sc.supports[k].orientation)
+                               for k in range(n_k)])
+
+    # ---- single-agent validity and the effect of each motion action (Table 1)
+    valid = np.zeros((n_s, n_a), dtype=bool)
+    motion_target = np.full((n_s, n_a), -1, dtype=np.int64)
+    valid[:, WAIT] = True
+    for s in range(n_s):
+        if support[s] >= 0:
+            valid[s, TOGGLE] = True
+            if grasp[s] == BOTH:
+                valid[s, TAKE_OFF] = True
+                motion_target[s, TAKE_OFF] = mounting_state[support[s]]
+            continue
+        c, h, o = column[s], height[s], orientation[s]
+        if s == mounting_state[c]:
+            valid[s, PUT_ON] = True
+            motion_target[s, PUT_ON] = 4 * c + BOTH
+        if n_o > 1:
+            valid[s, ROTATE] = True
+            motion_target[s, ROTATE] = free_state(c, h, (o + 1) % n_o)
+        for k in range(n_k):
+            if k != c:
+                a = N_FIXED_ACTIONS + k
+                valid[s, a], motion_target[s, a] = True, free_state(k, h, o)
+        for hh in range(n_h):
+            if hh != h:
+                a = N_FIXED_ACTIONS + n_k + hh
+                valid[s, a], motion_target[s, a] = True, free_state(c, hh, o)
+
+    # ---- the joint transition, vectorised over (s, a_R, a_H)
+    s_idx = np.arange(n_s)[:, None, None]
+    a_r = np.arange(n_a)[None, :, None]
+    a_h = np.arange(n_a)[None, None, :]
+    toggle_r = (a_r == TOGGLE) & valid[s_idx, TOGGLE]
+    toggle_h = (a_h == TOGGLE) & valid[s_idx, TOGGLE]
+    new_grasp = grasp[s_idx] ^ (ROBOT_BIT * toggle_r) ^ (HUMAN_BIT * toggle_h)
+    # After the toggles only support states change their μ: 4k + μ'.
+    s1 = np.where(support[s_idx] >= 0, 4 * support[s_idx] + new_grasp, s_idx)
+    s1 = np.broadcast_to(s1, (n_s, n_a, n_a))
+    aborted = ~(valid[s1, np.broadcast_to(a_r, s1.shape)]
+                & valid[s1, np.broadcast_to(a_h, s1.shape)])
+    is_motion_h = a_h >= TAKE_OFF
+    is_motion_r = a_r >= TAKE_OFF
+    mover = np.where(is_motion_h, a_h, np.where(is_motion_r, a_r, -1))
+    mover = np.broadcast_to(mover, s1.shape)
+    moved = motion_target[s1, np.maximum(mover, 0)]
+    next_state = np.where(aborted | (mover < 0), s1, moved)
+
+    same = next_state == s_idx
+    counteracted = is_motion_r & is_motion_h & (a_r != a_h)
+    penalty = aborted | ((a_h == WAIT) & same) | (counteracted & ~aborted)
+    robot_passive = ~penalty & (a_r == WAIT) & (a_h != WAIT)
+
+    action_names = ["wait", "grasp/let go", "take off", "put on", "rotate"]
+    action_names += [f"move over to {s.name}" for s in sc.supports]
+    action_names += [f"move to {h:.3g} m" for h in sc.heights]
+
+    terminal = np.array([4 * k for k in range(n_k)])
+    features = state_features(sc, position, quaternion, grasp)
+
+    next_state = np.ascontiguousarray(next_state)
+    aborted = np.ascontiguousarray(aborted)
+    penalty = np.ascontiguousarray(penalty)
+    robot_passive = np.ascontiguousarray(robot_passive)
+    quaternion = np.ascontiguousarray(quaternion)
+    arrays = (grasp, support, column, height, orientation, position, quaternion, valid,
+              next_state, aborted, penalty, robot_passive, terminal, mounting_state, features)
+    _freeze(*arrays)
+    return TaskGraph(sc, *arrays, state_names=tuple(names), action_names=tuple(action_names))

@@ -1,0 +1,296 @@
+"""Scripted humans: preference-following and Boltzmann-rational partners.
+
+A scripted human is a policy table ``policy[start, goal, s, a]`` (probabilities over the
+human's actions, given the episode's start support, the current intention and the state)
+plus two behaviours layered on top of it:
+
+* ``passive``: the probability of waiting in any step instead of acting (paper Fig. 10c
+  uses 0.2);
+* ``turn_back``: the probability that, in an episode, the human changes their mind halfway
+  and returns the object to the start support (paper Table 2, episode 8).
+
+Preference-following humans are deterministic; they are built from a *preference*: the
+order in which the human changes column ("over"), height and orientation on the way from
+one support to another. Off the preferred route (for example after the robot moved the
+object while the human was passive) the human re-plans with the same order from where the
+object is. All sampling takes an explicit :class:`numpy.random.Generator` and works on
+arrays of episodes at once.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from hri_envs.task.graph import (
+    BOTH,
+    HUMAN_BIT,
+    N_FIXED_ACTIONS,
+    PUT_ON,
+    ROTATE,
+    TAKE_OFF,
+    TOGGLE,
+    WAIT,
+    TaskGraph,
+)
+
+__all__ = [
+    "HANGER_DEFAULT_PREFERENCE",
+    "HANGER_PREFERENCES",
+    "WHEEL_PREFERENCES",
+    "ScriptedHuman",
+    "boltzmann_human",
+    "preference_human",
+    "preferences_for",
+]
+
+# An op moves one waypoint coordinate to a target: ("over", column), ("height", index),
+# ("rotate", orientation index).
+Op = tuple[str, int]
+
+_PEG_STEPS = ("down", "over", "rotate")
+_RAIL_STEPS = ("over", "up", "rotate")
+#: The 36 hanger preferences, "to-peg order/to-rail order", e.g. "down-over-rotate/over-rotate-up".
+HANGER_PREFERENCES: tuple[str, ...] = tuple(
+    "-".join(p) + "/" + "-".join(r)
+    for p in itertools.permutations(_PEG_STEPS)
+    for r in itertools.permutations(_RAIL_STEPS)
+)
+#: The user study's most frequent preference (paper Sect. 6.3, Fig. 8).
+HANGER_DEFAULT_PREFERENCE = "down-over-rotate/over-rotate-up"
+#: The wheel's two preferences (paper Fig. 9).
+WHEEL_PREFERENCES: tuple[str, ...] = ("straight", "detour")
+
+
+def preferences_for(scenario: str) -> tuple[str, ...]:
+    """The preference names a scenario accepts."""
+    if scenario == "hanger":
+        return HANGER_PREFERENCES
+    if scenario == "wheel":
+        return WHEEL_PREFERENCES
+    raise ValueError(f"unknown scenario {scenario!r}; expected 'hanger' or 'wheel'")
+
+
+def _ops(graph: TaskGraph, preference: str, start: int, goal: int) -> list[Op]:
+    """The preference's ordered waypoint changes from support ``start`` to support ``goal``."""
+    sc = graph.scenario
+    goal_sup = sc.supports[goal]
+    mount_h = sc.height_index(goal_sup.mounting[2])
+    natural: list[Op] = [("over", goal), ("height", mount_h), ("rotate", goal_sup.orientation)]
+    if sc.name == "wheel":
+        if preference == "straight":
+            return natural
+        horizontal = sc.orientation_names.index("horizontal")
+        return [("rotate", horizontal), ("height", sc.height_index(sc.comfort_height)),
+                ("over", goal), ("height", mount_h), ("rotate", goal_sup.orientation)]
+    to_peg, to_rail = (part.split("-") for part in preference.split("/"))
+    peg = [k for k, s in enumerate(sc.supports) if s.orientation != sc.supports[1].orientation]
+    if (goal in peg) == (start in peg):
+        return natural
+    order = to_peg if goal in peg else to_rail
+    table = {"over": ("over", goal), "rotate": ("rotate", goal_sup.orientation),
+             "down": ("height", mount_h), "up": ("height", mount_h)}
+    return [table[step] for step in order]
+
+
+def _apply(graph: TaskGraph, s: int, op: Op) -> tuple[int, int] | None:
+    """(action, next state) that makes progress on ``op`` from free state ``s``; None if done."""
+    kind, target = op
+    c, h, o = int(graph.column[s]), int(graph.height[s]), int(graph.orientation[s])
+    if kind == "over" and c != target:
+        a = graph.move_over(target)
+    elif kind == "height" and h != target:
+        a = graph.move_to_height(target)
+    elif kind == "rotate" and o != target:
+        a = ROTATE
+    else:
+        return None
+    return a, int(graph.next_state[s, WAIT, a])
+
+
+def _plan(graph: TaskGraph, s: int, ops: Sequence[Op]) -> list[tuple[int, int]]:
+    """The (action, next state) sequence the ops prescribe from free state ``s``."""
+    path = []
+    for op in ops:
+        while (step := _apply(graph, s, op)) is not None:
+            path.append(step)
+            s = step[1]
+    return path
+
+
+@dataclass(frozen=True, eq=False)
+class ScriptedHuman:
+    """A scripted human partner.
+
+    Attributes:
+        graph: The task graph the human acts on.
+        policy: (K, K, S, A) probabilities ``π_H(a | s; start, goal)``; zero on invalid actions.
+        name: Readable description (the preference or "boltzmann").
+        passive: Probability of waiting in a step instead of acting.
+        turn_back: Probability per episode of returning to the start halfway.
+        turn_state: (K, K) int, the state at which a turning-back human changes their
+            intention to the start support, -1 where the route is too short.
+    """
+
+    graph: TaskGraph
+    policy: np.ndarray
+    name: str
+    passive: float = 0.0
+    turn_back: float = 0.0
+    turn_state: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        k, s, a = self.graph.n_intentions, self.graph.n_states, self.graph.n_actions
+        if self.policy.shape != (k, k, s, a):
+            raise ValueError(f"policy must have shape {(k, k, s, a)}, got {self.policy.shape}")
+        for label, p in (("passive", self.passive), ("turn_back", self.turn_back)):
+            if not 0.0 <= p <= 1.0:
+                raise ValueError(f"{label} must be a probability in [0, 1], got {p}")
+        if np.any(self.policy[..., ~self.graph.valid.astype(bool)] > 0):
+            raise ValueError("policy puts probability on actions that are invalid in the state")
+        table = np.argmax(self.policy, axis=-1)
+        object.__setattr__(self, "_greedy", table)
+        object.__setattr__(self, "_deterministic", bool(np.all(self.policy.max(-1) == 1.0)))
+        object.__setattr__(self, "_cumulative", np.cumsum(self.policy, axis=-1))
+        if self.turn_state is None:
+            object.__setattr__(self, "turn_state", np.full((k, k), -1, dtype=np.int64))
+
+    @property
+    def deterministic(self) -> bool:
+        """Whether the policy table is deterministic (passivity aside)."""
+        return bool(self._deterministic)  # type: ignore[attr-defined]
+
+    def preferred_action(self, state: np.ndarray, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+        """The most likely action of the policy table, ignoring passivity (arrays broadcast)."""
+        return self._greedy[start, goal, state]  # type: ignore[attr-defined,no-any-return]
+
+    def act(
+        self,
+        rng: np.random.Generator,
+        state: np.ndarray,
+        start: np.ndarray,
+        goal: np.ndarray,
+    ) -> np.ndarray:
+        """Sample the human's actions for a batch of episodes (int arrays of equal shape)."""
+        state, start, goal = np.broadcast_arrays(state, start, goal)
+        if self.deterministic:
+            actions = self._greedy[start, goal, state].copy()  # type: ignore[attr-defined]
+        else:
+            cum = self._cumulative[start, goal, state]  # type: ignore[attr-defined]
+            u = rng.random(state.shape + (1,))
+            actions = np.minimum((u > cum).sum(axis=-1), self.graph.n_actions - 1)
+        if self.passive > 0.0:
+            actions[rng.random(state.shape) < self.passive] = WAIT
+        return actions  # type: ignore[no-any-return]
+
+    def draw_turn_back(self, rng: np.random.Generator, n: int = 1) -> np.ndarray:
+        """Whether each of ``n`` new episodes has the human turn back halfway."""
+        if self.turn_back <= 0.0:
+            return np.zeros(n, dtype=bool)
+        return rng.random(n) < self.turn_back
+
+
+def _support_actions(graph: TaskGraph, table: np.ndarray) -> None:
+    """Fill the human's grasp behaviour at supports into ``table[start, goal, s]``."""
+    for s in np.flatnonzero(graph.is_support_state):
+        k, mu = int(graph.support[s]), int(graph.grasp[s])
+        holds = bool(mu & HUMAN_BIT)
+        for goal in range(graph.n_intentions):
+            if k == goal:  # arrived (the start only counts once lifted: see the envs)
+                table[:, goal, s] = TOGGLE if holds else WAIT
+            elif not holds:
+                table[:, goal, s] = TOGGLE
+            else:
+                table[:, goal, s] = TAKE_OFF if mu == BOTH else WAIT
+
+
+def preference_human(
+    graph: TaskGraph,
+    preference: str | None = None,
+    *,
+    passive: float = 0.0,
+    turn_back: float = 0.0,
+) -> ScriptedHuman:
+    """A deterministic human following a named preference.
+
+    Args:
+        graph: The task graph.
+        preference: One of :func:`preferences_for` (default: the hanger study's most frequent
+            preference, or the wheel's "straight").
+        passive: Probability of waiting in a step (0.2 in paper Fig. 10c).
+        turn_back: Probability per episode of turning back halfway to the start support.
+    """
+    allowed = preferences_for(graph.name)
+    if preference is None:
+        preference = HANGER_DEFAULT_PREFERENCE if graph.name == "hanger" else "straight"
+    if preference not in allowed:
+        raise ValueError(
+            f"unknown {graph.name} preference {preference!r}; allowed: {', '.join(allowed)}"
+        )
+    n_k, n_s = graph.n_intentions, graph.n_states
+    table = np.zeros((n_k, n_k, n_s), dtype=np.int64)
+    _support_actions(graph, table)
+    turn_state = np.full((n_k, n_k), -1, dtype=np.int64)
+    free = np.flatnonzero(~graph.is_support_state)
+    for start, goal in itertools.product(range(n_k), repeat=2):
+        ops = _ops(graph, preference, start, goal)
+        route = _plan(graph, int(graph.mounting_state[start]), ops)
+        on_route = {int(graph.mounting_state[start]): route[0][0]} if route else {}
+        for (_, s_prev), (a, _) in zip(route, route[1:], strict=False):
+            on_route[s_prev] = a
+        if start != goal and len(route) >= 2:
+            turn_state[start, goal] = route[(len(route) - 1) // 2][1]
+        for s in free:
+            if int(s) in on_route:
+                table[start, goal, s] = on_route[int(s)]
+            else:
+                plan = _plan(graph, int(s), ops)
+                table[start, goal, s] = plan[0][0] if plan else PUT_ON
+            if s == graph.mounting_state[goal]:
+                table[start, goal, s] = PUT_ON
+    policy = np.zeros((n_k, n_k, n_s, graph.n_actions))
+    np.put_along_axis(policy, table[..., None], 1.0, axis=-1)
+    return ScriptedHuman(graph, policy, preference, passive, turn_back, turn_state)
+
+
+def boltzmann_human(
+    graph: TaskGraph,
+    theta: np.ndarray,
+    *,
+    temperature: float = 25.0,
+    gamma: float = 0.9,
+    passive: float = 0.0,
+    turn_back: float = 0.0,
+) -> ScriptedHuman:
+    """A Boltzmann-rational human: ``π_H ∝ exp(τ Q_H)`` for the reward ``θᵀφ(s, ι)``.
+
+    Q_H comes from Q-iteration with the robot following the passive baseline (grasp at the
+    start, let go elsewhere), so the human's model of the robot is the nominal one.
+
+    Args:
+        graph: The task graph.
+        theta: (F,) feature weights.
+        temperature: τ of the soft-max; larger is more deterministic.
+        gamma: Discount of the human's Q-iteration.
+        passive: Probability of waiting in a step.
+        turn_back: Probability per episode of turning back halfway.
+    """
+    from agents import mdp  # the learning math lives with the agents
+
+    theta = np.asarray(theta, dtype=float)
+    if theta.shape != (graph.n_features,):
+        raise ValueError(f"theta must have shape ({graph.n_features},), got {theta.shape}")
+    if temperature <= 0:
+        raise ValueError(f"temperature must be > 0, got {temperature}")
+    n_k = graph.n_intentions
+    policy = np.zeros((n_k, n_k, graph.n_states, graph.n_actions))
+    reward = graph.features @ theta  # (K, S)
+    for start in range(n_k):
+        robot = mdp.passive_policy(graph, start)  # (S, A)
+        t_h = mdp.human_transition(graph, robot[None].repeat(n_k, 0))  # (K, S, A, S)
+        q = mdp.q_iteration(t_h, reward, graph.valid, graph.terminal, gamma)
+        policy[start] = mdp.softmax(q, graph.valid, temperature)
+    return ScriptedHuman(graph, policy, "boltzmann", passive, turn_back)
