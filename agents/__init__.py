@@ -1,0 +1,23 @@
+"""Robot policies: the agent protocol, the paper's Learner (Algorithm 1) and its math.
+
+- :mod:`agents.protocol`: the protocol every policy implements (:class:`Agent`,
+  :class:`BatchAgent`).
+- :mod:`agents.learner`: the Learner.
+- :mod:`agents.mdp`: Q-iteration, soft-max policies, Bayes filter, ME-IRL as batched functions.
+- :mod:`agents.config`: validated parameters with the paper's defaults.
+"""
+
+from agents.config import LearnerConfig, default_config
+from agents.learner import Learner, LearnerStateError
+from agents.protocol import Agent, BatchAgent, Batched, Trace
+
+__all__ = [
+    "Agent",
+    "BatchAgent",
+    "Batched",
+    "Learner",
+    "LearnerConfig",
+    "LearnerStateError",
+    "Trace",
+    "default_config",
+]

@@ -113,7 +113,8 @@ def state_features(
 
 def initial_theta(n_features: int) -> np.ndarray:
     """θ⁰: +0.1 on "resting on the goal support, μ = 0", -1 on "resting on a non-goal support,
-    μ = 0", 0 elsewhere (paper Sect. 4.5)."""
+    μ = 0", 0 elsewhere (paper Sect. 4.5).
+    """
     theta = np.zeros(n_features)
     theta[0] = 0.1
     theta[4 + 2 * ((n_features - 8) // 5)] = -1.0

@@ -69,6 +69,9 @@ class TaskGraph:
         penalty: (S, A, A) bool, steps punished with r⁻ = -1 (aborted, counteracted, or the
             human waited and nothing changed).
         robot_passive: (S, A, A) bool, the robot waited while the human acted (rewarded r0).
+        robot_effective: (S, A, A) bool, the robot acted and got the effect it acted towards
+            (not aborted, not overridden by a different human motion): a *correct* decision
+            in the paper's Sect. 6.3 sense; acting otherwise is *wrong*.
         terminal: (K,) int, the state "resting on support k, μ = 0".
         mounting_state: (K,) int, the waypoint from which support k is mounted.
         features: (K, S, F) float, φ(s, ι) for each intention ι.
@@ -88,6 +91,7 @@ class TaskGraph:
     aborted: np.ndarray
     penalty: np.ndarray
     robot_passive: np.ndarray
+    robot_effective: np.ndarray
     terminal: np.ndarray
     mounting_state: np.ndarray
     features: np.ndarray
@@ -277,6 +281,7 @@ def build_graph(scenario: Scenario) -> TaskGraph:
     counteracted = is_motion_r & is_motion_h & (a_r != a_h)
     penalty = aborted | ((a_h == WAIT) & same) | (counteracted & ~aborted)
     robot_passive = ~penalty & (a_r == WAIT) & (a_h != WAIT)
+    robot_effective = (a_r != WAIT) & ~aborted & ~counteracted
 
     action_names = ["wait", "grasp/let go", "take off", "put on", "rotate"]
     action_names += [f"move over to {s.name}" for s in sc.supports]
@@ -289,8 +294,10 @@ def build_graph(scenario: Scenario) -> TaskGraph:
     aborted = np.ascontiguousarray(aborted)
     penalty = np.ascontiguousarray(penalty)
     robot_passive = np.ascontiguousarray(robot_passive)
+    robot_effective = np.ascontiguousarray(robot_effective)
     quaternion = np.ascontiguousarray(quaternion)
     arrays = (grasp, support, column, height, orientation, position, quaternion, valid,
-              next_state, aborted, penalty, robot_passive, terminal, mounting_state, features)
+              next_state, aborted, penalty, robot_passive, robot_effective, terminal,
+              mounting_state, features)
     _freeze(*arrays)
     return TaskGraph(sc, *arrays, state_names=tuple(names), action_names=tuple(action_names))

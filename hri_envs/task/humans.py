@@ -28,7 +28,6 @@ import numpy as np
 from hri_envs.task.graph import (
     BOTH,
     HUMAN_BIT,
-    N_FIXED_ACTIONS,
     PUT_ON,
     ROTATE,
     TAKE_OFF,
@@ -163,7 +162,9 @@ class ScriptedHuman:
         """Whether the policy table is deterministic (passivity aside)."""
         return bool(self._deterministic)  # type: ignore[attr-defined]
 
-    def preferred_action(self, state: np.ndarray, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    def preferred_action(
+        self, state: np.ndarray, start: np.ndarray, goal: np.ndarray
+    ) -> np.ndarray:
         """The most likely action of the policy table, ignoring passivity (arrays broadcast)."""
         return self._greedy[start, goal, state]  # type: ignore[attr-defined,no-any-return]
 

@@ -1,0 +1,77 @@
+"""Validated parameters of the Learner and the plain ME-IRL baseline."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["LearnerConfig", "default_config"]
+
+
+@dataclass(frozen=True)
+class LearnerConfig:
+    """Parameters of Algorithm 1 (paper Sect. 5 values as defaults, see :func:`default_config`).
+
+    Attributes:
+        learning_rate: λ, the ME-IRL step size.
+        robot_temperature: τ_R of the robot's soft-max.
+        eta: η, the robot's relative probability bound.
+        human_temperature: τ_H of the human policy estimate.
+        beta: Intention bias β of the Bayes filter, in [1/n, 1].
+        gamma: Discount of every Q-iteration (0.9 hanger, 0.6 wheel).
+        r0: Robot reward for waiting while the human acts, in (-1, 0).
+        irl_temperature: Demonstrator temperature inside the ME-IRL expectation. The paper
+            is silent; its published code uses 1 (a near-uniform demonstrator given
+            |θ| ≤ 1), which we keep as the default.
+        robot_model_temperature: Temperature of the robot policy the human model assumes
+            (T_H); the paper's code uses the robot's own τ_R.
+    """
+
+    learning_rate: float = 0.1
+    robot_temperature: float = 5.0
+    eta: float = 0.9
+    human_temperature: float = 25.0
+    beta: float = 0.95
+    gamma: float = 0.9
+    r0: float = -0.33
+    irl_temperature: float = 1.0
+    robot_model_temperature: float = 5.0
+
+    def __post_init__(self) -> None:
+        checks = [
+            ("learning_rate", self.learning_rate > 0, "> 0"),
+            ("robot_temperature", self.robot_temperature > 0, "> 0"),
+            ("eta", 0.0 <= self.eta <= 1.0, "in [0, 1]"),
+            ("human_temperature", self.human_temperature > 0, "> 0"),
+            ("beta", 0.0 < self.beta <= 1.0, "in (0, 1] (and >= 1/n intentions)"),
+            ("gamma", 0.0 <= self.gamma < 1.0, "in [0, 1)"),
+            ("r0", -1.0 < self.r0 < 0.0, "in (-1, 0)"),
+            ("irl_temperature", self.irl_temperature > 0, "> 0"),
+            ("robot_model_temperature", self.robot_model_temperature > 0, "> 0"),
+        ]
+        for name, ok, allowed in checks:
+            if not ok:
+                raise ValueError(f"{name} must be {allowed}, got {getattr(self, name)!r}")
+
+    def replace(self, **changes: Any) -> LearnerConfig:
+        """A copy with some fields changed (validated)."""
+        names = {f.name for f in dataclasses.fields(self)}
+        unknown = set(changes) - names
+        if unknown:
+            raise ValueError(f"unknown parameter(s) {sorted(unknown)}; allowed: {sorted(names)}")
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, float]:
+        """Plain dict, for JSON."""
+        return dataclasses.asdict(self)
+
+
+def default_config(scenario: str, **changes: Any) -> LearnerConfig:
+    """The paper's parameters for a scenario ("hanger": γ = 0.9, r0 = -0.33;
+    "wheel": γ = 0.6, r0 = -0.25), with optional changes.
+    """
+    base = {"hanger": LearnerConfig(), "wheel": LearnerConfig(gamma=0.6, r0=-0.25)}
+    if scenario not in base:
+        raise ValueError(f"unknown scenario {scenario!r}; expected one of {sorted(base)}")
+    return base[scenario].replace(**changes)

@@ -1,0 +1,267 @@
+"""The paper's Learner (Algorithm 1): intention-aware cooperation with IRL preference learning.
+
+The Learner keeps a model of the human, ``R_H(s, ι) = θᵀφ(s, ι)``, from which it derives
+
+* the human policy estimate ``π̂_H = softmax(τ_H Q_H)``, with Q_H from Q-iteration on the
+  human's transition model T_H (the robot's current policy substituted);
+* one robot Q-function per intention from Q-iteration on T_R and R_R (π̂_H substituted).
+
+During an episode it filters a belief over intentions from the human's actions (Eqs. 3-4)
+and samples from a bounded soft-max of the belief-weighted Q (Eq. 5). After the episode it
+removes loops from the state trace and makes one ME-IRL step on θ for the intention the
+episode revealed, then recomputes π̂_H and the robot's Q.
+
+All of this is batched: ``n_runs`` independent learners (one per simulated run) advance in
+one call. A single learner is ``n_runs=1`` (or :meth:`Learner.single`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import ClassVar
+
+import numpy as np
+
+from agents import mdp
+from agents.config import LearnerConfig, default_config
+from agents.protocol import BatchAgent, Trace, run_streams
+from hri_envs.task.features import initial_theta
+from hri_envs.task.graph import TaskGraph
+
+__all__ = ["Learner", "LearnerStateError", "graph_fingerprint", "sample_actions"]
+
+_FORMAT = "hri-envs/learner/1"
+
+
+class LearnerStateError(ValueError):
+    """A saved learner state cannot be loaded (wrong scenario, corrupted, other format)."""
+
+
+def graph_fingerprint(graph: TaskGraph) -> str:
+    """A short hash of the graph's dynamics and features (to match saved states to graphs)."""
+    h = hashlib.sha256()
+    for a in (graph.next_state, graph.valid, np.round(graph.features, 9)):
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()[:16]
+
+
+def sample_actions(probs: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Inverse-CDF sampling: (N, A) probabilities and (N,) uniforms -> (N,) actions."""
+    cum = np.cumsum(probs, axis=-1)
+    return np.minimum((u[:, None] >= cum).sum(axis=-1), probs.shape[-1] - 1)  # type: ignore[no-any-return]
+
+
+class Learner(BatchAgent):
+    """Algorithm 1 for ``n_runs`` independent runs.
+
+    Args:
+        graph: The scenario's task graph.
+        n_runs: Number of independent learners advanced together.
+        config: Parameters; default: the paper's for the graph's scenario.
+        seed: Base seed; run ``r`` draws from a generator seeded by ``(seed, r)``.
+        runs: The run indices of this batch (default ``range(n_runs)``), so that a run's
+            randomness does not depend on which batch it is in.
+
+    Attributes:
+        theta: (B, F) feature weights of the human model.
+        pi_h: (B, I, S, A) human policy estimate π̂_H(a | s, ι).
+        q_r: (B, I, S, A) robot Q per intention.
+        pi_r: (B, I, S, A) robot policy per intention assumed by the human model.
+        belief: (B, I) current belief over intentions.
+    """
+
+    name: ClassVar[str] = "learner"
+
+    def __init__(
+        self,
+        graph: TaskGraph,
+        n_runs: int = 1,
+        config: LearnerConfig | None = None,
+        *,
+        seed: int = 0,
+        runs: Sequence[int] | None = None,
+    ) -> None:
+        super().__init__(n_runs)
+        self.graph = graph
+        self.config = config if config is not None else default_config(graph.name)
+        runs = range(n_runs) if runs is None else runs
+        if len(runs) != n_runs:
+            raise ValueError(f"runs has {len(runs)} entries, expected n_runs={n_runs}")
+        self.rngs = run_streams(seed, runs)
+        self._onehot = mdp.joint_onehot(graph)
+        self._reward = graph.reward(self.config.r0)  # (S, A, A)
+        self._valid = graph.valid
+        n_i, n_s, n_a = graph.n_intentions, graph.n_states, graph.n_actions
+        self.theta = np.tile(initial_theta(graph.n_features), (n_runs, 1))
+        uniform = np.where(self._valid, 1.0, 0.0) / self._valid.sum(1, keepdims=True)
+        self.pi_r = np.broadcast_to(uniform, (n_runs, n_i, n_s, n_a)).copy()
+        self.belief = np.full((n_runs, n_i), 1.0 / n_i)
+        self.start = np.zeros(n_runs, dtype=np.int64)
+        self.lifted = np.zeros(n_runs, dtype=bool)
+        self.episodes = 0
+        self._warm_h: np.ndarray | None = None
+        self._warm_r: np.ndarray | None = None
+        self._update_policies()
+
+    # ------------------------------------------------------------------ model updates
+    def _update_policies(self) -> None:
+        """π̂_H from θ and the current π_R (Alg. 1 l. 20-22), then the robot's Q (l. 3-5)."""
+        g, c = self.graph, self.config
+        t_h = mdp.absorbing(mdp.human_transition(self._onehot, self.pi_r), g.terminal, copy=False)
+        r_state = np.einsum("isf,bf->bis", g.features, self.theta)  # (B, I, S)
+        r_h = np.einsum("bisaz,biz->bisa", t_h, r_state)
+        q_h = mdp.solve_q(t_h, r_h, self._valid, c.gamma, policy=self._warm_h)
+        self._warm_h = np.where(self._valid, q_h, -np.inf).argmax(-1)
+        self.q_h = q_h
+        self.pi_h = mdp.softmax(q_h, self._valid, c.human_temperature)
+
+        t_r = mdp.absorbing(mdp.robot_transition(self._onehot, self.pi_h), g.terminal, copy=False)
+        r_r = mdp.robot_reward(self._reward, self.pi_h)
+        r_r[:, np.arange(g.n_intentions), g.terminal, :] = 0.0
+        self.q_r = mdp.solve_q(t_r, r_r, self._valid, c.gamma, policy=self._warm_r)
+        self._warm_r = np.where(self._valid, self.q_r, -np.inf).argmax(-1)
+        self.pi_r = mdp.softmax(self.q_r, self._valid, c.robot_model_temperature)
+
+    def _irl(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
+        """One ME-IRL step per run on its loop-free trace (Alg. 1 l. 17-19)."""
+        g, c = self.graph, self.config
+        n_b = self.n_runs
+        demo = np.zeros((n_b, g.n_features))
+        start = np.zeros(n_b, dtype=np.int64)
+        horizon = np.zeros(n_b, dtype=np.int64)
+        for b, (trace, iota) in enumerate(zip(traces, intentions, strict=True)):
+            kept = trace.states[mdp.remove_loops(trace.states)]
+            demo[b] = g.features[iota, kept].sum(axis=0)
+            start[b], horizon[b] = kept[0], len(kept)
+        rows = np.arange(n_b)
+        terminal = g.terminal[intentions]
+        t_h = mdp.human_transition(self._onehot, self.pi_r[rows, intentions])  # (B, S, A, S)
+        t_h[rows, terminal] = 0.0
+        t_h[rows, terminal, :, terminal] = 1.0
+        phi = g.features[intentions]  # (B, S, F)
+        r_h = np.einsum("bsaz,bz->bsa", t_h, np.einsum("bsf,bf->bs", phi, self.theta))
+        q = mdp.solve_q(t_h, r_h, self._valid, c.gamma)
+        policy = mdp.softmax(q, self._valid, c.irl_temperature)
+        expected = mdp.expected_feature_counts(t_h, policy, phi, start, terminal, horizon)
+        self.theta = mdp.irl_step(self.theta, demo, expected, c.learning_rate)
+
+    # ------------------------------------------------------------------ protocol
+    def begin_episode(self, starts: np.ndarray) -> None:
+        """Reset the belief: zero on the start support, uniform on the others (Sect. 4.1)."""
+        starts = np.asarray(starts, dtype=np.int64).reshape(self.n_runs)
+        n_i = self.graph.n_intentions
+        self.start = starts
+        self.lifted = np.zeros(self.n_runs, dtype=bool)
+        self.belief = np.where(np.arange(n_i)[None, :] == starts[:, None], 0.0, 1.0 / (n_i - 1))
+
+    def policy(self, states: np.ndarray) -> np.ndarray:
+        """(B, A) the robot's bounded soft-max policy in ``states`` under the current belief."""
+        rows = np.arange(self.n_runs)
+        q = np.einsum("bi,bia->ba", self.belief, self.q_r[rows, :, states])
+        baseline = mdp.passive_actions(self.graph, self.start, self.lifted)[rows, states]
+        c = self.config
+        return mdp.bounded_softmax(q, self._valid[states], c.robot_temperature, c.eta, baseline)
+
+    def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
+        """Sample the robot's actions from the bounded soft-max of Σ_ι b(ι) Q_ι (Eq. 5)."""
+        states = np.asarray(observations["state"], dtype=np.int64).reshape(self.n_runs)
+        probs = self.policy(states)
+        u = np.zeros(self.n_runs)
+        for i in np.flatnonzero(active):
+            u[i] = self.rngs[i].random()
+        return sample_actions(probs, u)
+
+    def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
+                next_states: np.ndarray, active: np.ndarray) -> None:
+        """Bayes update of the belief from the human's action (Eqs. 3-4)."""
+        rows = np.arange(self.n_runs)
+        likelihood = self.pi_h[rows, :, states, human_actions]  # (B, I)
+        new = mdp.bayes_update(self.belief, likelihood, self.config.beta)
+        self.belief = np.where(active[:, None], new, self.belief)
+        left = self.graph.support[next_states] != self.start
+        self.lifted |= active & left
+
+    def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
+        """Loop removal, one IRL step, then recompute π̂_H and the robot's Q."""
+        intentions = np.asarray(intentions, dtype=np.int64).reshape(self.n_runs)
+        self._irl(traces, intentions)
+        self._update_policies()
+        self.episodes += 1
+
+    # ------------------------------------------------------------------ inspection
+    def human_policy(self, state: int, intention: int) -> np.ndarray:
+        """(B, A) π̂_H(a | state, ι)."""
+        return self.pi_h[:, intention, state]
+
+    def robot_policy(self, state: int, intention: int, start: int | None = None) -> np.ndarray:
+        """(B, A) the robot's bounded soft-max policy in ``state`` if it were sure of ι.
+
+        Args:
+            state: The state.
+            intention: The intention ι the belief is concentrated on.
+            start: The episode's start support for the passive baseline (default: a support
+                other than ``intention``... the first one that is not ι).
+        """
+        if start is None:
+            start = next(k for k in range(self.graph.n_intentions) if k != intention)
+        q = self.q_r[:, intention, state]
+        baseline = mdp.passive_actions(self.graph, np.full(self.n_runs, start))[:, state]
+        c = self.config
+        valid = np.broadcast_to(self._valid[state], q.shape)
+        return mdp.bounded_softmax(q, valid, c.robot_temperature, c.eta, baseline)
+
+    # ------------------------------------------------------------------ persistence
+    def save(self, path: str | Path) -> None:
+        """Write the learner's state to an ``.npz`` file (no pickle)."""
+        meta = {"format": _FORMAT, "scenario": self.graph.name, "episodes": self.episodes,
+                "fingerprint": graph_fingerprint(self.graph), "config": self.config.to_dict()}
+        np.savez(path, meta=np.array(json.dumps(meta)), theta=self.theta, pi_h=self.pi_h,
+                 q_r=self.q_r, pi_r=self.pi_r)
+
+    @classmethod
+    def load(cls, path: str | Path, graph: TaskGraph, *, seed: int = 0) -> Learner:
+        """Restore a learner saved by :meth:`save` for the same scenario.
+
+        Raises:
+            LearnerStateError: The file is not a learner state, is from another scenario or
+                graph, or its arrays are damaged.
+        """
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                meta = json.loads(str(data["meta"]))
+                theta = np.array(data["theta"])
+                pi_h, q_r, pi_r = (np.array(data[k]) for k in ("pi_h", "q_r", "pi_r"))
+        except (OSError, ValueError, KeyError, json.JSONDecodeError) as exc:
+            raise LearnerStateError(f"{path} is not a readable learner state: {exc}") from exc
+        if meta.get("format") != _FORMAT:
+            raise LearnerStateError(f"{path}: unknown format {meta.get('format')!r}, "
+                                    f"expected {_FORMAT!r}")
+        same_graph = meta.get("fingerprint") == graph_fingerprint(graph)
+        if meta.get("scenario") != graph.name or not same_graph:
+            raise LearnerStateError(
+                f"{path} holds a learner for scenario {meta.get('scenario')!r}; it cannot be "
+                f"loaded for {graph.name!r} (or the task graph changed)"
+            )
+        n_b = theta.shape[0] if theta.ndim == 2 else -1
+        shape_r = (n_b, graph.n_intentions, graph.n_states, graph.n_actions)
+        arrays = {"theta": theta, "pi_h": pi_h, "q_r": q_r, "pi_r": pi_r}
+        expected = {"theta": (n_b, graph.n_features), "pi_h": shape_r, "q_r": shape_r,
+                    "pi_r": shape_r}
+        for key, arr in arrays.items():
+            if arr.shape != expected[key]:
+                raise LearnerStateError(f"{path}: {key} has shape {arr.shape}, expected "
+                                        f"{expected[key]}")
+            if not np.all(np.isfinite(arr)):
+                raise LearnerStateError(f"{path}: {key} contains NaN or infinity")
+        for key in ("pi_h", "pi_r"):
+            p = arrays[key]
+            if np.abs(p.sum(-1) - 1).max() > 1e-6 or np.any(p[..., ~graph.valid] > 0):
+                raise LearnerStateError(f"{path}: {key} is not a policy over valid actions")
+        config = LearnerConfig(**meta["config"])
+        learner = cls(graph, n_b, config, seed=seed)
+        learner.theta, learner.pi_h, learner.q_r, learner.pi_r = theta, pi_h, q_r, pi_r
+        learner.episodes = int(meta.get("episodes", 0))
+        return learner

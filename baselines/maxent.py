@@ -1,0 +1,127 @@
+"""Plain ME-IRL (Algorithm 4): the robot adopts the learned preference reward as its own.
+
+It has no separate human model: it assumes maximum cooperation,
+``T(s'|s, a) = T(s'|s, a, a)`` (both agents take the same action, or for the grasp the
+matching one), learns ``R(s, ι) = θᵀφ(s, ι)`` by one ME-IRL step per episode
+(λ = 0.03), and estimates the intention by counting how often each intention
+occurred in a state given the start support, ``Λ(ι | s_0, s)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import ClassVar
+
+import numpy as np
+
+from agents import mdp
+from agents.config import LearnerConfig, default_config
+from agents.learner import sample_actions
+from agents.protocol import Trace, run_streams
+from baselines.simple import _Tracking
+from hri_envs.task.features import initial_theta
+from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
+
+__all__ = ["MaxEntIRL"]
+
+
+class MaxEntIRL(_Tracking):
+    """Algorithm 4 for ``n_runs`` independent runs.
+
+    Args:
+        graph: The task graph.
+        n_runs: Number of runs advanced together.
+        config: Parameters (the Learner's, with λ = 0.03 by default).
+        seed: Base seed; run ``r`` draws from ``(seed, r)``.
+        runs: Run indices of this batch.
+
+    Attributes:
+        theta: (B, F) the agent's own reward weights.
+        q: (B, I, S, A) Q per intention.
+        counts: (B, K, S, I) how often intention ι was seen in state s from start k.
+    """
+
+    name: ClassVar[str] = "maxent"
+
+    def __init__(self, graph: TaskGraph, n_runs: int = 1, config: LearnerConfig | None = None,
+                 *, seed: int = 0, runs: Sequence[int] | None = None) -> None:
+        super().__init__(graph, n_runs)
+        self.config = (config if config is not None
+                       else default_config(graph.name, learning_rate=0.03))
+        self.rngs = run_streams(seed, range(n_runs) if runs is None else runs)
+        n_i, n_s, n_a = graph.n_intentions, graph.n_states, graph.n_actions
+        # Both agents take the same action; for the grasp toggle the "matching" human action
+        # makes the grasp cooperative (grasp together, or let go together), i.e. the human
+        # toggles only when both hands are in the same state.
+        matching = np.tile(np.arange(n_a), (n_s, 1))  # (S, A) the human's matching action
+        same_hold = (graph.grasp & 1) == (graph.grasp >> 1)
+        matching[:, TOGGLE] = np.where(same_hold, TOGGLE, WAIT)
+        diag = graph.next_state[np.arange(n_s)[:, None], np.arange(n_a)[None, :], matching]
+        single = np.zeros((n_s, n_a, n_s))
+        np.put_along_axis(single, diag[..., None], 1.0, axis=-1)
+        self._transition = mdp.absorbing(np.broadcast_to(single, (n_i, n_s, n_a, n_s)),
+                                         graph.terminal)  # (I, S, A, S)
+        self.theta = np.tile(initial_theta(graph.n_features), (n_runs, 1))
+        self.counts = np.zeros((n_runs, n_i, n_s, n_i))
+        self.belief = np.full((n_runs, n_i), 1.0 / n_i)
+        self._solve()
+
+    def _solve(self) -> None:
+        reward = np.einsum("isf,bf->bis", self.graph.features, self.theta)  # (B, I, S)
+        r_sa = np.einsum("isaz,biz->bisa", self._transition, reward)
+        t = np.broadcast_to(self._transition, (self.n_runs, *self._transition.shape))
+        self.q = mdp.solve_q(t, r_sa, self.graph.valid, self.config.gamma)
+
+    def _belief(self, states: np.ndarray) -> np.ndarray:
+        """Λ(ι | s_0, s): observed frequencies, uniform over non-start supports before data.
+
+        Where the object rests on a support after leaving the start, that support is taken
+        as the intention, the knowledge the Passive baseline also has. Without it the agent
+        can hold on forever at a goal it has not seen yet (its own model punishes letting go
+        at a non-goal support), and an episode would only end by truncation.
+        """
+        c = self.counts[np.arange(self.n_runs), self.start, states]  # (B, I)
+        n_i = c.shape[1]
+        ids = np.arange(n_i)[None]
+        prior = np.where(ids == self.start[:, None], 0.0, 1.0 / (n_i - 1))
+        total = c.sum(axis=1, keepdims=True)
+        belief = np.where(total > 0, c / np.maximum(total, 1e-300), prior)
+        sup = self.graph.support[states]
+        arrived = (sup >= 0) & ((sup != self.start) | self.lifted)
+        return np.where(arrived[:, None], (ids == sup[:, None]).astype(float), belief)  # type: ignore[no-any-return]
+
+    def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
+        """Bounded soft-max of Σ_ι Λ(ι|s_0,s) Q_ι(s, ·)."""
+        states = np.asarray(observations["state"], dtype=np.int64)
+        self.belief = self._belief(states)
+        q = np.einsum("bi,bia->ba", self.belief, self.q[np.arange(self.n_runs), :, states])
+        c = self.config
+        probs = mdp.bounded_softmax(q, self.graph.valid[states], c.robot_temperature, c.eta,
+                                    self.passive(states))
+        u = np.zeros(self.n_runs)
+        for i in np.flatnonzero(active):
+            u[i] = self.rngs[i].random()
+        return sample_actions(probs, u)
+
+    def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
+        """Count intentions along the trace and take one ME-IRL step (λ = 0.03)."""
+        g, c = self.graph, self.config
+        n_b = self.n_runs
+        intentions = np.asarray(intentions, dtype=np.int64)
+        demo = np.zeros((n_b, g.n_features))
+        start = np.zeros(n_b, dtype=np.int64)
+        horizon = np.zeros(n_b, dtype=np.int64)
+        for b, (trace, iota) in enumerate(zip(traces, intentions, strict=True)):
+            kept = trace.states[mdp.remove_loops(trace.states)]
+            demo[b] = g.features[iota, kept].sum(axis=0)
+            start[b], horizon[b] = kept[0], len(kept)
+            self.counts[b, g.support[trace.states[0]], kept, iota] += 1
+        rows = np.arange(n_b)
+        t = self._transition[intentions]  # (B, S, A, S)
+        phi = g.features[intentions]
+        q = self.q[rows, intentions]
+        policy = mdp.softmax(q, g.valid, c.irl_temperature)
+        expected = mdp.expected_feature_counts(t, policy, phi, start, g.terminal[intentions],
+                                               horizon)
+        self.theta = mdp.irl_step(self.theta, demo, expected, c.learning_rate)
+        self._solve()
