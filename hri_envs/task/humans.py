@@ -176,15 +176,32 @@ class ScriptedHuman:
         goal: np.ndarray,
     ) -> np.ndarray:
         """Sample the human's actions for a batch of episodes (int arrays of equal shape)."""
+        state = np.asarray(state)
+        u = rng.random((2, *state.shape))
+        return self.act_from_uniforms(state, start, goal, u[0], u[1])
+
+    def act_from_uniforms(
+        self,
+        state: np.ndarray,
+        start: np.ndarray,
+        goal: np.ndarray,
+        u_passive: np.ndarray,
+        u_choice: np.ndarray,
+    ) -> np.ndarray:
+        """The human's actions given uniform draws in [0, 1) per episode.
+
+        ``u_passive < passive`` makes the human wait; ``u_choice`` samples the policy
+        (inverse CDF). Supplying the draws lets callers keep one random stream per run.
+        """
         state, start, goal = np.broadcast_arrays(state, start, goal)
         if self.deterministic:
             actions = self._greedy[start, goal, state].copy()  # type: ignore[attr-defined]
         else:
             cum = self._cumulative[start, goal, state]  # type: ignore[attr-defined]
-            u = rng.random(state.shape + (1,))
-            actions = np.minimum((u > cum).sum(axis=-1), self.graph.n_actions - 1)
+            actions = np.minimum((u_choice[..., None] >= cum).sum(axis=-1),
+                                 self.graph.n_actions - 1)
         if self.passive > 0.0:
-            actions[rng.random(state.shape) < self.passive] = WAIT
+            actions = np.where(u_passive < self.passive, WAIT, actions)
         return actions  # type: ignore[no-any-return]
 
     def draw_turn_back(self, rng: np.random.Generator, n: int = 1) -> np.ndarray:

@@ -1,0 +1,1 @@
+"""The benchmark: batched simulation of the paper's studies, metrics, plots and the CLI."""
