@@ -196,15 +196,21 @@ class Learner(BatchAgent):
         """(B, A) π̂_H(a | state, ι)."""
         return self.pi_h[:, intention, state]
 
-    def robot_policy(self, state: int, intention: int, start: int | None = None) -> np.ndarray:
-        """(B, A) the robot's bounded soft-max policy in ``state`` if it were sure of ι.
+    def robot_policy(
+        self, state: int, intention: int, *, bounded: bool = False, start: int | None = None
+    ) -> np.ndarray:
+        """(B, A) the robot's policy in ``state`` if it were sure of the intention.
 
         Args:
             state: The state.
             intention: The intention ι the belief is concentrated on.
-            start: The episode's start support for the passive baseline (default: a support
-                other than ``intention``... the first one that is not ι).
+            bounded: Return the bounded soft-max the robot samples from (default: the plain
+                soft-max ``softmax(τ_R Q_ι)``, whose ratios the paper's Figs. 8, 11, 12 show).
+            start: Start support for the bounded soft-max's passive baseline (default: the
+                first support that is not ι).
         """
+        if not bounded:
+            return self.pi_r[:, intention, state]
         if start is None:
             start = next(k for k in range(self.graph.n_intentions) if k != intention)
         q = self.q_r[:, intention, state]

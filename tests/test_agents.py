@@ -1,0 +1,213 @@
+"""The Learner and baselines: the paper's qualitative claims on small seeds, batching,
+persistence and robustness."""
+
+import json
+
+import numpy as np
+import pytest
+
+from agents import Learner, LearnerStateError, Trace, default_config
+from agents.protocol import Agent, Batched
+from baselines import Imitator, MaxEntIRL, Oracle, Passive
+from hri_envs.bench.runner import make_schedule, simulate
+from hri_envs.task import build_graph, hanger_scenario, wheel_scenario
+from hri_envs.task.graph import ROTATE, WAIT
+from hri_envs.task.humans import preference_human
+
+
+@pytest.fixture(scope="module")
+def wheel():
+    return build_graph(wheel_scenario())
+
+
+@pytest.fixture(scope="module")
+def hanger():
+    return build_graph(hanger_scenario())
+
+
+class Recorder(Learner):
+    """A Learner that remembers the states in which it waited in each episode."""
+
+    def begin_episode(self, starts):
+        super().begin_episode(starts)
+        self.waited = [[] for _ in range(self.n_runs)]
+
+    def observe(self, states, robot_actions, human_actions, next_states, active):
+        for i in np.flatnonzero(active & (robot_actions == WAIT)):
+            self.waited[i].append(int(states[i]))
+        super().observe(states, robot_actions, human_actions, next_states, active)
+
+
+def study(graph, agent, human, episodes=8, runs=30, r0=-0.25, seed=0):
+    r = np.arange(runs)
+    return simulate(graph, agent, human, make_schedule(graph, "random", r, episodes, seed, human),
+                    runs=r, seed=seed, r0=r0)
+
+
+def test_learner_beats_imitator_and_maxent_on_the_wheel(wheel):
+    """Paper Fig. 10a: straight preference, r0 = -0.25, deterministic human."""
+    human = preference_human(wheel, "straight")
+    cfg = default_config("wheel")
+    learner = Recorder(wheel, 30, cfg)
+    ours = study(wheel, learner, human)
+    imitator = study(wheel, Imitator(wheel, 30), human)
+    maxent = study(wheel, MaxEntIRL(wheel, 30), human)
+    late = slice(5, 8)
+    assert ours.reward[:, late].mean() > imitator.reward[:, late].mean() + 0.2
+    assert ours.reward[:, late].mean() > maxent.reward[:, late].mean() + 0.2
+    assert ours.reward[:, 0].mean() < ours.reward[:, late].mean()  # it learned
+    # It waits only where the human reveals the goal: the start's mounting point.
+    mounting = set(wheel.mounting_state.tolist())
+    waited = {s for run in learner.waited for s in run}
+    assert waited <= mounting, [wheel.state_names[s] for s in waited - mounting]
+    assert ours.wrong[:, late].mean() < 0.02
+
+
+def test_oracle_and_passive_bracket_the_learner(wheel):
+    human = preference_human(wheel, "straight")
+    oracle = study(wheel, Oracle(wheel, human, 20), human, runs=20)
+    passive = study(wheel, Passive(wheel, 20), human, runs=20)
+    learner = study(wheel, Learner(wheel, 20), human, runs=20)
+    assert np.all(oracle.reward == 0.0)
+    assert passive.reward.mean() < learner.reward[:, 4:].mean() < 0.0
+
+
+def test_hanger_learns_the_preferred_actions_in_the_critical_states(hanger):
+    """Paper Fig. 8, most frequent preference: the preferred actions become the robot's most
+    likely actions for the intention in s4, s1, s3 (s10 is learned more slowly)."""
+    human = preference_human(hanger)  # down-over-rotate / over-rotate-up
+    learner = Learner(hanger, 40)
+    study(hanger, learner, human, episodes=10, runs=40, r0=-0.33)
+    w = hanger.waypoint_state
+    a, b = 0, 1
+    critical = {
+        "s4: B low rail-facing, to A: move over to A": (w(1, 0, 1), a, hanger.move_over(a)),
+        "s1: A' peg-facing, to B: move over to B": (w(0, 0, 0), b, hanger.move_over(b)),
+        "s3: B low peg-facing, to B: rotate": (w(1, 0, 0), b, ROTATE),
+    }
+    for label, (s, iota, preferred) in critical.items():
+        pi_r = learner.robot_policy(s, iota)
+        assert np.mean(pi_r.argmax(-1) == preferred) >= 0.8, label
+        assert np.median(pi_r[:, preferred] / pi_r[:, WAIT]) > 1.0, label
+        assert np.median(learner.human_policy(s, iota)[:, preferred]) > 0.5, label
+    s10 = w(1, 1, 1)  # B' rail-facing: moving down to A is learned, if slower
+    assert np.median(learner.human_policy(s10, a)[:, hanger.move_to_height(0)]) > 0.5
+
+
+def test_batched_equals_unbatched(wheel):
+    human = preference_human(wheel, "detour")
+    runs = np.arange(3)
+    sched = make_schedule(wheel, "random", runs, 3, 5, human)
+    batch = Learner(wheel, 3, seed=5)
+    m = simulate(wheel, batch, human, sched, runs=runs, seed=5, r0=-0.25)
+    for i in range(3):
+        one = Learner(wheel, 1, seed=5, runs=[i])
+        sub = make_schedule(wheel, "random", [i], 3, 5, human)
+        mi = simulate(wheel, one, human, sub, runs=[i], seed=5, r0=-0.25)
+        np.testing.assert_array_equal(mi.reward[0], m.reward[i])
+        np.testing.assert_allclose(one.theta[0], batch.theta[i], atol=1e-12)
+
+
+def test_learner_policies_are_distributions(hanger):
+    learner = Learner(hanger, 2)
+    for arr in (learner.pi_h, learner.pi_r):
+        np.testing.assert_allclose(arr.sum(-1), 1.0)
+        assert np.all(arr[..., ~hanger.valid] == 0.0)
+    assert np.all(np.abs(learner.theta) <= 1.0)
+
+
+def test_belief_never_breaks_and_follows_a_change_of_mind(hanger):
+    learner = Learner(hanger, 1)
+    learner.begin_episode(np.array([0]))
+    # The human does something the model finds impossible (an invalid action index): the
+    # belief stays a distribution.
+    s = np.array([hanger.waypoint_state(0, 0, 0)])
+    learner.pi_h[:] = 0.0
+    learner.observe(s, np.array([0]), np.array([9]), s, np.ones(1, bool))
+    assert np.all(np.isfinite(learner.belief)) and learner.belief.sum() == pytest.approx(1.0)
+    # Restore a model and show evidence for going back to A (the start): belief recovers.
+    fresh = Learner(hanger, 1)
+    fresh.begin_episode(np.array([0]))
+    fresh.pi_h[0, :, s[0], :] = 0.0
+    fresh.pi_h[0, 0, s[0], 3] = 1.0  # put on A: only intention A does that
+    fresh.pi_h[0, 1:, s[0], 0] = 1.0
+    for _ in range(3):
+        fresh.observe(s, np.array([0]), np.array([3]), s, np.ones(1, bool))
+    assert fresh.belief[0].argmax() == 0
+
+
+def test_save_load_round_trip_gives_the_same_actions(tmp_path, hanger):
+    human = preference_human(hanger)
+    learner = Learner(hanger, 4, seed=3)
+    study(hanger, learner, human, episodes=3, runs=4, r0=-0.33, seed=3)
+    path = tmp_path / "learner.npz"
+    learner.save(path)
+    loaded = Learner.load(path, hanger, seed=3)
+    np.testing.assert_array_equal(loaded.theta, learner.theta)
+    states = np.array([hanger.waypoint_state(1, 1, 1)] * 4)
+    for agent in (learner, loaded):
+        agent.begin_episode(np.array([1, 1, 1, 1]))
+    np.testing.assert_allclose(loaded.policy(states), learner.policy(states))
+
+
+def test_load_rejects_other_scenarios_and_damage(tmp_path, hanger, wheel):
+    path = tmp_path / "h.npz"
+    Learner(hanger, 1).save(path)
+    with pytest.raises(LearnerStateError, match="hanger"):
+        Learner.load(path, wheel)
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a zip file")
+    with pytest.raises(LearnerStateError, match="not a readable"):
+        Learner.load(bad, hanger)
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    arrays["pi_r"] = arrays["pi_r"] * np.nan
+    nan_path = tmp_path / "nan.npz"
+    np.savez(nan_path, **arrays)
+    with pytest.raises(LearnerStateError, match="NaN"):
+        Learner.load(nan_path, hanger)
+    meta = json.loads(str(arrays["meta"]))
+    meta["format"] = "something-else"
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez(nan_path, **arrays)
+    with pytest.raises(LearnerStateError, match="format"):
+        Learner.load(nan_path, hanger)
+
+
+def test_config_rejects_bad_values():
+    with pytest.raises(ValueError, match="r0 must be in"):
+        default_config("wheel", r0=0.5)
+    with pytest.raises(ValueError, match="unknown parameter"):
+        default_config("wheel", tau=3)
+    with pytest.raises(ValueError, match="unknown scenario"):
+        default_config("kitchen")
+
+
+def test_user_agents_plug_in_through_batched(wheel):
+    class Copycat(Agent):
+        name = "copycat"
+
+        def begin_episode(self, start):
+            self.episodes = getattr(self, "episodes", 0)
+
+        def act(self, observation):
+            a = int(observation["last_human_action"])
+            return a if observation["action_mask"][a] else 0
+
+        def observe(self, state, robot_action, human_action, next_state):
+            pass
+
+        def end_episode(self, trace, intention):
+            assert isinstance(trace, Trace)
+            self.episodes += 1
+
+    human = preference_human(wheel, "straight")
+    agent = Batched.from_factory(lambda run: Copycat(), range(4))
+    m = study(wheel, agent, human, episodes=2, runs=4)
+    assert m.reward.shape == (4, 2)
+    assert all(a.episodes == 2 for a in agent.agents)
+    single = Learner(wheel, 1).single()
+    single.begin_episode(0)
+    mask = wheel.valid[0].astype(np.int8)
+    action = single.act({"state": 0, "start": 0, "last_human_action": 0, "action_mask": mask})
+    assert mask[action]
