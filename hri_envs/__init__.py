@@ -3,8 +3,11 @@
 Importing the package registers the Gymnasium ids (see :mod:`hri_envs.registration`).
 """
 
+from hri_envs.registration import register_envs
 from hri_envs.task import TaskGraph, build_graph, hanger_scenario, wheel_scenario
 
 __version__ = "0.1.0"
 
 __all__ = ["TaskGraph", "__version__", "build_graph", "hanger_scenario", "wheel_scenario"]
+
+register_envs()

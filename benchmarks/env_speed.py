@@ -1,0 +1,36 @@
+"""Environment throughput: PettingZoo joint steps/s and vector-env steps/s.
+
+    python benchmarks/env_speed.py [--num-envs 1024]
+
+Targets (2-core machine): parallel env >= 30,000 joint steps/s, vector env with 1024 envs
+>= 1,000,000 env steps/s. The measuring code lives in hri_envs.envs.speed (also used by
+``hri-bench speed``).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from hri_envs.envs.speed import parallel_env_steps_per_s, vector_env_steps_per_s
+
+PARALLEL_TARGET = 30_000
+VECTOR_TARGET = 1_000_000
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--num-envs", type=int, default=1024)
+    parser.add_argument("--scenario", choices=["hanger", "wheel", "both"], default="both")
+    args = parser.parse_args()
+    scenarios = ["hanger", "wheel"] if args.scenario == "both" else [args.scenario]
+    for scenario in scenarios:
+        par = parallel_env_steps_per_s(scenario)
+        vec = vector_env_steps_per_s(args.num_envs, scenario)
+        print(f"{scenario:6s} parallel env: {par.steps_per_s:12,.0f} joint steps/s "
+              f"(target {PARALLEL_TARGET:,})")
+        print(f"{scenario:6s} vector env ({args.num_envs} envs): {vec.steps_per_s:12,.0f} "
+              f"env steps/s (target {VECTOR_TARGET:,})")
+
+
+if __name__ == "__main__":
+    main()

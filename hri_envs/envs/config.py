@@ -1,0 +1,214 @@
+"""Configuration shared by the environments: scenarios, defaults and input validation.
+
+Every check raises :class:`~hri_envs.envs.errors.ConfigError` (a ``ValueError``) with a
+message that lists what is allowed.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from hri_envs.envs.errors import BackendUnavailableError, ConfigError
+from hri_envs.task.geometry import Scenario, hanger_scenario, wheel_scenario
+from hri_envs.task.graph import TaskGraph, build_graph
+from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_for
+
+__all__ = [
+    "BACKENDS",
+    "DEFAULT_R0",
+    "RESET_OPTION_KEYS",
+    "SCENARIOS",
+    "ResetOptions",
+    "check_backend",
+    "check_max_cycles",
+    "check_r0",
+    "check_render_mode",
+    "check_scenario",
+    "episode_scenario",
+    "make_human",
+    "parse_reset_options",
+    "scenario_graph",
+    "support_index",
+]
+
+SCENARIOS: tuple[str, ...] = ("hanger", "wheel")
+#: The paper's r0 per scenario (hanger Sect. 6; wheel Sect. 7 also uses -0.5).
+DEFAULT_R0: dict[str, float] = {"hanger": -0.33, "wheel": -0.25}
+BACKENDS: tuple[str, ...] = ("graph", "mujoco")
+#: Keys ``reset(options=...)`` understands ("layout" only for the wheel).
+RESET_OPTION_KEYS: tuple[str, ...] = ("start", "intention", "turn_back", "layout")
+# pettingzoo.test's api tests probe ``reset(options={"options": 1})``; that key is ignored.
+_IGNORED_OPTION_KEYS = frozenset({"options"})
+
+
+def check_scenario(name: str) -> str:
+    """Return ``name`` if it is a known scenario."""
+    if name not in SCENARIOS:
+        raise ConfigError(f"unknown scenario {name!r}; allowed: {', '.join(SCENARIOS)}")
+    return name
+
+
+@functools.cache
+def scenario_graph(name: str) -> TaskGraph:
+    """The (read-only, shared) task graph of a scenario."""
+    check_scenario(name)
+    return build_graph(hanger_scenario() if name == "hanger" else wheel_scenario())
+
+
+def check_r0(r0: float | None, scenario: str) -> float:
+    """Validate the robot's passive reward r0 ∈ (-1, 0); None gives the scenario default."""
+    if r0 is None:
+        return DEFAULT_R0[scenario]
+    try:
+        value = float(r0)
+    except (TypeError, ValueError):
+        value = math.nan
+    if not -1.0 < value < 0.0:
+        raise ConfigError(
+            f"r0 must be a number in the open interval (-1, 0), got {r0!r} "
+            f"(the paper uses {DEFAULT_R0[scenario]} for the {scenario})"
+        )
+    return value
+
+
+def check_max_cycles(max_cycles: int) -> int:
+    """Validate the step limit per episode (a positive integer)."""
+    if isinstance(max_cycles, bool) or not isinstance(max_cycles, int | np.integer):
+        raise ConfigError(f"max_cycles must be a positive integer, got {max_cycles!r}")
+    if max_cycles < 1:
+        raise ConfigError(f"max_cycles must be a positive integer, got {max_cycles}")
+    return int(max_cycles)
+
+
+def check_render_mode(render_mode: str | None, allowed: list[str]) -> str | None:
+    """Validate ``render_mode`` against an env's ``metadata["render_modes"]``."""
+    if render_mode is not None and render_mode not in allowed:
+        modes = ", ".join([repr(m) for m in allowed] + ["None"])
+        raise ConfigError(f"unsupported render_mode {render_mode!r}; allowed: {modes}")
+    return render_mode
+
+
+def check_backend(backend: str) -> str:
+    """Validate the simulation backend; only the abstract graph backend exists so far."""
+    if backend == "mujoco":
+        raise BackendUnavailableError(
+            "the MuJoCo physics backend (backend='mujoco') is not available yet; "
+            "use backend='graph' (the abstract transition graph)"
+        )
+    if backend not in BACKENDS:
+        raise ConfigError(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
+    return backend
+
+
+def make_human(
+    graph: TaskGraph,
+    preference: str | None = None,
+    passive: float = 0.0,
+    turn_back: float = 0.0,
+    human: ScriptedHuman | None = None,
+) -> ScriptedHuman:
+    """The scripted human of a robot-only env: ``human`` as given, or a preference human."""
+    if human is not None:
+        if human.graph.name != graph.name or human.graph.n_states != graph.n_states:
+            raise ConfigError(
+                f"the scripted human was built for the {human.graph.name} scenario, "
+                f"not the {graph.name}"
+            )
+        return human
+    allowed = preferences_for(graph.name)
+    if preference is not None and preference not in allowed:
+        raise ConfigError(
+            f"unknown {graph.name} preference {preference!r}; allowed: {', '.join(allowed)}"
+        )
+    for label, p in (("human_passive", passive), ("turn_back", turn_back)):
+        if not isinstance(p, int | float | np.floating) or not 0.0 <= p <= 1.0:
+            raise ConfigError(f"{label} must be a probability in [0, 1], got {p!r}")
+    return preference_human(graph, preference, passive=float(passive), turn_back=float(turn_back))
+
+
+def support_index(value: Any, scenario: Scenario, key: str) -> int:
+    """A support given by index or name ("A", "B", ...) as an index."""
+    names = scenario.support_names
+    if isinstance(value, str):
+        if value in names:
+            return names.index(value)
+    elif isinstance(value, int | np.integer) and not isinstance(value, bool):
+        if 0 <= value < len(names):
+            return int(value)
+    allowed = ", ".join(f"{i} or {n!r}" for i, n in enumerate(names))
+    raise ConfigError(f"reset option {key!r} must name a support ({allowed}), got {value!r}")
+
+
+class ResetOptions(NamedTuple):
+    """Validated ``reset(options=...)`` of a single-episode env (None = draw at random)."""
+
+    start: int | None = None
+    intention: int | None = None
+    turn_back: bool | None = None
+    layout: tuple[tuple[float, float], tuple[float, float]] | None = None
+
+
+def _check_option_keys(options: Mapping[str, Any], scenario: Scenario) -> None:
+    allowed = RESET_OPTION_KEYS if scenario.name == "wheel" else RESET_OPTION_KEYS[:3]
+    unknown = sorted(set(options) - set(allowed) - _IGNORED_OPTION_KEYS)
+    if unknown:
+        raise ConfigError(
+            f"unknown reset option(s) {', '.join(map(repr, unknown))} for the {scenario.name}; "
+            f"allowed: {', '.join(allowed)}"
+        )
+
+
+def _check_layout(value: Any) -> tuple[tuple[float, float], tuple[float, float]]:
+    try:
+        xy = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        xy = np.zeros(0)
+    if xy.shape != (2, 2) or not np.all(np.isfinite(xy)):
+        raise ConfigError(
+            f"reset option 'layout' must be ((xB, yB), (xC, yC)) in [m], got {value!r}"
+        )
+    return (float(xy[0, 0]), float(xy[0, 1])), (float(xy[1, 0]), float(xy[1, 1]))
+
+
+def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -> ResetOptions:
+    """Validate the reset options of a single-episode env.
+
+    Allowed keys: ``start`` and ``intention`` (a support index or name; they must differ),
+    ``turn_back`` (bool) and, for the wheel, ``layout`` (stand positions, see
+    :func:`~hri_envs.task.geometry.sample_wheel_layout`).
+    """
+    if not options:
+        return ResetOptions()
+    _check_option_keys(options, scenario)
+    start = intention = turn_back = layout = None
+    if options.get("start") is not None:
+        start = support_index(options["start"], scenario, "start")
+    if options.get("intention") is not None:
+        intention = support_index(options["intention"], scenario, "intention")
+    if start is not None and start == intention:
+        raise ConfigError(
+            f"the intention must differ from the start support, both are "
+            f"{scenario.support_names[start]!r}"
+        )
+    if options.get("turn_back") is not None:
+        value = options["turn_back"]
+        if not isinstance(value, bool | np.bool_):
+            raise ConfigError(f"reset option 'turn_back' must be a bool, got {value!r}")
+        turn_back = bool(value)
+    if options.get("layout") is not None:
+        layout = _check_layout(options["layout"])
+    return ResetOptions(start, intention, turn_back, layout)
+
+
+def episode_scenario(
+    name: str, layout: tuple[tuple[float, float], ...] | None
+) -> Scenario:
+    """The geometry of one episode (the wheel's stands move; the hanger's do not)."""
+    if name == "wheel" and layout is not None:
+        return wheel_scenario(layout)
+    return scenario_graph(name).scenario

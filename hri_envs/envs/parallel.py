@@ -1,0 +1,267 @@
+"""The two-agent PettingZoo environment: a human and a robot carry an object together."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from pettingzoo.utils.env import ParallelEnv
+
+from hri_envs.envs.config import (
+    check_backend,
+    check_max_cycles,
+    check_r0,
+    check_render_mode,
+    check_scenario,
+    episode_scenario,
+    parse_reset_options,
+    scenario_graph,
+)
+from hri_envs.envs.episode import Episode, EpisodeRules
+from hri_envs.envs.errors import ActionError
+from hri_envs.envs.render import render_ansi, render_rgb
+from hri_envs.envs.spaces import check_action, human_observation_space, robot_observation_space
+from hri_envs.task.geometry import sample_wheel_layout
+from hri_envs.task.humans import preference_human
+
+__all__ = ["AGENTS", "CooperationParallelEnv"]
+
+AGENTS: tuple[str, str] = ("human", "robot")
+
+
+class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
+    """Physical human-robot cooperation with a hidden human intention, for two agents.
+
+    ## Description
+
+    A human and a robot carry an object (a clothes hanger, or a wheel) from the support it
+    rests on to the support the human intends (paper: van der Spaa, Kober, Gienger,
+    *Simultaneously learning intentions and preferences during physical human-robot
+    cooperation*). The task is the abstract transition graph of
+    :mod:`hri_envs.task.graph`: states are (position, orientation, grasp μ), both agents act
+    in every step, and the joint transition is deterministic: grasp toggles first, the step
+    is aborted if either action is invalid afterwards, and a held object moves by the
+    human's action, or by the robot's when the human waits. The human knows the goal ι;
+    the robot never observes it.
+
+    ## Action Space
+
+    ``Discrete(A)`` for both agents, one global numbering (hanger A = 10, wheel A = 12):
+    0 wait, 1 grasp/let go, 2 take off, 3 put on, 4 rotate, 5.. move over to support k,
+    then move (up/down) to height h. Which actions are valid in a state is in the
+    observation's ``action_mask``; an invalid (masked) action aborts the step.
+
+    ## Observation Space
+
+    A ``Dict`` per agent:
+
+    - ``"state"``: ``Discrete(S)``, the abstract state (hanger S = 24, wheel S = 36);
+    - ``"start"``: ``Discrete(K)``, the support the episode started on;
+    - ``"last_human_action"``: ``Discrete(A)``, the human's previous action (wait at reset);
+      on the graph backend the robot senses it directly;
+    - ``"action_mask"``: ``Box(0, 1, (A,), int8)``, the actions valid in the state;
+    - ``"intention"``: ``Discrete(K)``, the human's goal ι, **human only**.
+
+    :meth:`state` returns ``[state, start, intention, last_human_action, lifted]``.
+
+    ## Rewards
+
+    Both agents receive the robot cooperation reward R_R (paper Sect. 4.5): -1 for an
+    aborted step or a robot motion the human counteracts, r0 when the robot waits while the
+    human acts, -1 when the human waits and the object's pose does not change, 0
+    otherwise. The human's own preference reward θᵀφ(s, ι) is what learners infer and is
+    not paid out; sharing R_R makes the game fully cooperative.
+
+    ## Starting State
+
+    The object rests on a start support with μ = 0; start and ι ≠ start are uniform, or set
+    with ``reset(options={"start": k, "intention": k})`` (indices or names "A", "B", ...).
+    ``options={"turn_back": True}`` makes the human change ι to the start support halfway
+    along the default preference's route (paper Table 2, episode 8; routes of a single
+    motion, such as B → C on the hanger, have no halfway point). The wheel's stands are
+    placed at random each episode (``options={"layout": ((xB, yB), (xC, yC))}`` fixes
+    them); the layout only changes the picture, not the graph.
+
+    ## Episode End
+
+    Terminated when the object rests with μ = 0 on a support other than the start, or on
+    the start after it was lifted. Truncated after ``max_cycles`` steps.
+
+    ## Arguments
+
+    ```python
+    from hri_envs import hanger_v0, wheel_v0
+    env = hanger_v0.parallel_env(r0=-0.33, max_cycles=100, render_mode=None, backend="graph")
+    ```
+
+    - ``scenario``: "hanger" or "wheel" (fixed by the versioned modules);
+    - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
+    - ``max_cycles``: step limit per episode (default 100);
+    - ``render_mode``: None, "ansi" or "rgb_array";
+    - ``backend``: "graph" (the MuJoCo backend is not available yet);
+    - ``render_intention``: show ι in renderings (default hidden).
+
+    ## Version History
+
+    - v0: initial version.
+    """
+
+    metadata: dict[str, Any] = {
+        "name": "hri_cooperation_v0",
+        "render_modes": ["ansi", "rgb_array"],
+        "is_parallelizable": True,
+        "render_fps": 4,
+    }
+
+    def __init__(
+        self,
+        scenario: str = "hanger",
+        *,
+        r0: float | None = None,
+        max_cycles: int = 100,
+        render_mode: str | None = None,
+        backend: str = "graph",
+        render_intention: bool = False,
+    ) -> None:
+        self.scenario_name = check_scenario(scenario)
+        self.metadata = {**type(self).metadata, "name": f"{scenario}_v0",
+                         "render_modes": list(type(self).metadata["render_modes"])}
+        self.r0 = check_r0(r0, scenario)
+        self.max_cycles = check_max_cycles(max_cycles)
+        self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
+        self.backend = check_backend(backend)
+        self.render_intention = bool(render_intention)
+
+        self.graph = scenario_graph(scenario)
+        self.rules = EpisodeRules(self.graph, self.r0)
+        self._episode = Episode(self.rules, preference_human(self.graph).turn_state)
+        n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
+        self._observation_spaces = {"human": human_observation_space(n_s, n_k, n_a),
+                                    "robot": robot_observation_space(n_s, n_k, n_a)}
+        self._action_spaces = {agent: spaces.Discrete(n_a) for agent in AGENTS}
+        self.state_space = spaces.MultiDiscrete([n_s, n_k, n_k, n_a, 2])
+
+        self.possible_agents = list(AGENTS)
+        self.agents: list[str] = []
+        self.layout: tuple[tuple[float, float], ...] | None = None
+        self._reward = 0.0
+        self._np_random: np.random.Generator | None = None
+        self._np_random_seed: int | None = None
+
+    # ----------------------------------------------------------------- spaces
+    def observation_space(self, agent: str) -> spaces.Dict:  # noqa: D102
+        return self._observation_spaces[self._known(agent)]
+
+    def action_space(self, agent: str) -> spaces.Discrete:  # noqa: D102
+        return self._action_spaces[self._known(agent)]
+
+    def _known(self, agent: str) -> str:
+        if agent not in self._action_spaces:
+            raise ValueError(f"unknown agent {agent!r}; agents: {', '.join(AGENTS)}")
+        return agent
+
+    @property
+    def np_random(self) -> np.random.Generator:
+        """The env's generator (seeded by :meth:`reset`)."""
+        if self._np_random is None:
+            self._np_random, self._np_random_seed = seeding.np_random()
+        return self._np_random
+
+    @property
+    def intention(self) -> int:
+        """The human's current goal ι (for the human agent, loggers and tests)."""
+        return self._episode.intention
+
+    # ----------------------------------------------------------------- API
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, dict[str, Any]], dict[str, dict[str, Any]]]:
+        """Start an episode; see the class docstring for ``options``."""
+        opts = parse_reset_options(options, self.graph.scenario)
+        if seed is not None:
+            self._np_random, self._np_random_seed = seeding.np_random(seed)
+        rng = self.np_random
+        self._episode.draw(rng, opts.start, opts.intention, opts.turn_back)
+        if self.scenario_name == "wheel":
+            self.layout = opts.layout if opts.layout is not None else sample_wheel_layout(rng)
+        self.agents = list(AGENTS)
+        self._reward = 0.0
+        info = {"aborted": False, "invalid_action": False, "robot_reward": 0.0}
+        human_info = {**info, "intention": self._episode.intention}
+        return self._observations(), {"human": human_info, "robot": dict(info)}
+
+    def step(
+        self, actions: dict[str, Any]
+    ) -> tuple[
+        dict[str, dict[str, Any]],
+        dict[str, float],
+        dict[str, bool],
+        dict[str, bool],
+        dict[str, dict[str, Any]],
+    ]:
+        """Apply both agents' actions ``{"human": a_H, "robot": a_R}`` at once."""
+        if not self.agents:
+            raise RuntimeError("the episode has ended (or never started); call reset() first")
+        n_a = self.rules.n_actions
+        try:
+            a_h = check_action("human", actions["human"], n_a)
+            a_r = check_action("robot", actions["robot"], n_a)
+        except KeyError as missing:
+            raise ActionError(
+                f"missing action for agent {missing}; step() needs one action per agent in "
+                f"{self.agents}"
+            ) from None
+        ep = self._episode
+        t = ep.advance(a_r, a_h)
+        self._reward = r = t.reward
+        truncated = not t.terminated and ep.steps >= self.max_cycles
+        obs = self._observations()
+        if t.terminated or truncated:
+            self.agents = []
+        return (
+            obs,
+            {"human": r, "robot": r},
+            {"human": t.terminated, "robot": t.terminated},
+            {"human": truncated, "robot": truncated},
+            {
+                "human": {"aborted": t.aborted, "invalid_action": t.human_invalid,
+                          "robot_reward": r, "intention": ep.intention},
+                "robot": {"aborted": t.aborted, "invalid_action": t.robot_invalid,
+                          "robot_reward": r},
+            },
+        )
+
+    def _observations(self) -> dict[str, dict[str, Any]]:
+        ep = self._episode
+        mask = self.rules.action_mask[ep.state]
+        robot = {"state": ep.state, "start": ep.start, "last_human_action": ep.last_human,
+                 "action_mask": mask.copy()}
+        human = {"state": ep.state, "start": ep.start, "last_human_action": ep.last_human,
+                 "action_mask": mask.copy(), "intention": ep.intention}
+        return {"human": human, "robot": robot}
+
+    def state(self) -> np.ndarray:
+        """``[state, start, intention, last_human_action, lifted]``, int64, shape (5,)."""
+        ep = self._episode
+        return np.array([ep.state, ep.start, ep.intention, ep.last_human, int(ep.lifted)],
+                        dtype=np.int64)
+
+    def render(self) -> str | np.ndarray | None:
+        """Render according to ``render_mode`` (None: nothing)."""
+        ep = self._episode
+        if self.render_mode == "ansi":
+            return render_ansi(
+                self.graph, title=self.metadata["name"], state=ep.state, previous=ep.previous,
+                start=ep.start, intention=ep.intention if self.render_intention else None,
+                last_human=ep.last_human, last_robot=ep.last_robot, reward=self._reward,
+                steps=ep.steps, max_cycles=self.max_cycles,
+            )
+        if self.render_mode == "rgb_array":
+            scenario = episode_scenario(self.scenario_name, self.layout)
+            return render_rgb(scenario, self.graph, ep.state)
+        return None
+
+    def close(self) -> None:
+        """Nothing to release on the graph backend."""

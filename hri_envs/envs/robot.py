@@ -1,0 +1,201 @@
+"""The single-agent Gymnasium environment: the robot cooperates with a scripted human."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from hri_envs.envs.config import (
+    check_backend,
+    check_max_cycles,
+    check_r0,
+    check_render_mode,
+    check_scenario,
+    episode_scenario,
+    make_human,
+    parse_reset_options,
+    scenario_graph,
+)
+from hri_envs.envs.episode import Episode, EpisodeRules
+from hri_envs.envs.render import render_ansi, render_rgb
+from hri_envs.envs.spaces import check_action, robot_observation_space
+from hri_envs.task.geometry import sample_wheel_layout
+from hri_envs.task.humans import ScriptedHuman
+
+__all__ = ["RobotEnv"]
+
+
+class RobotEnv(gym.Env[dict[str, Any], np.int64]):
+    """The robot's side of physical human-robot cooperation, with a scripted human partner.
+
+    ## Description
+
+    The robot helps a scripted human carry an object (clothes hanger or wheel) to the
+    support the human intends, without ever observing that intention ι (paper: van der
+    Spaa, Kober, Gienger, *Simultaneously learning intentions and preferences during
+    physical human-robot cooperation*). The dynamics are the abstract transition graph of
+    :mod:`hri_envs.task.graph`; in each step the human acts by its preference
+    (:func:`hri_envs.task.humans.preference_human`), optionally passive or turning back.
+    This is the two-agent :class:`~hri_envs.envs.parallel.CooperationParallelEnv` seen from
+    the robot.
+
+    ## Action Space
+
+    ``Discrete(A)`` (hanger A = 10, wheel A = 12): 0 wait, 1 grasp/let go, 2 take off,
+    3 put on, 4 rotate, 5.. move over to support k, then move (up/down) to height h.
+    :meth:`action_masks` (sb3-contrib's convention) gives the actions valid in the state;
+    an invalid action aborts the step with reward -1.
+
+    ## Observation Space
+
+    ``Dict`` with ``"state"`` ``Discrete(S)``, ``"start"`` ``Discrete(K)``,
+    ``"last_human_action"`` ``Discrete(A)`` (wait at reset) and ``"action_mask"``
+    ``Box(0, 1, (A,), int8)``. ι is not observed.
+
+    ## Rewards
+
+    The robot cooperation reward R_R (paper Sect. 4.5): -1 for an aborted step or a robot
+    motion the human counteracts, r0 when the robot waits while the human acts, -1 when the
+    human waits and the object's pose does not change, 0 otherwise.
+
+    ## Starting State
+
+    The object rests on a uniformly drawn start support with μ = 0, and ι is uniform among
+    the other supports; ``reset(options={"start": k, "intention": k, "turn_back": bool})``
+    fixes them (supports by index or name "A", "B", ...). The wheel's stands are placed at
+    random per episode (``options={"layout": ((xB, yB), (xC, yC))}`` fixes them); the
+    layout changes the picture only.
+
+    ## Episode End
+
+    Terminated when the object rests with μ = 0 on a support other than the start, or on
+    the start after it was lifted. Truncated after ``max_cycles`` steps.
+
+    ## Arguments
+
+    ```python
+    import gymnasium as gym
+    import hri_envs
+    env = gym.make("hri_envs/Hanger-v0", preference=None, human_passive=0.0,
+                   turn_back=0.0, r0=-0.33, max_cycles=100, render_mode=None)
+    ```
+
+    - ``scenario``: "hanger" or "wheel" (set by the registered id);
+    - ``preference``: the scripted human's preference, one of
+      :func:`hri_envs.task.humans.preferences_for` (default: the hanger study's most frequent
+      one, or the wheel's "straight");
+    - ``human_passive``: probability that the human waits in a step (paper Fig. 10c: 0.2);
+    - ``turn_back``: probability per episode that the human turns back halfway;
+    - ``human``: a ready-made :class:`~hri_envs.task.humans.ScriptedHuman` (for example a
+      Boltzmann human); replaces the three arguments above;
+    - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
+    - ``max_cycles``: step limit per episode (default 100);
+    - ``render_mode``: None, "ansi" or "rgb_array"; ``render_intention`` shows ι in it;
+    - ``backend``: "graph" (the MuJoCo backend is not available yet).
+
+    The human draws from its own generator, seeded from the env's ``np_random`` at every
+    reset, so ``reset(seed=...)`` reproduces the episode.
+
+    ## Version History
+
+    - v0: initial version.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        scenario: str = "hanger",
+        *,
+        preference: str | None = None,
+        human_passive: float = 0.0,
+        turn_back: float = 0.0,
+        human: ScriptedHuman | None = None,
+        r0: float | None = None,
+        max_cycles: int = 100,
+        render_mode: str | None = None,
+        backend: str = "graph",
+        render_intention: bool = False,
+    ) -> None:
+        self.scenario_name = check_scenario(scenario)
+        self.r0 = check_r0(r0, scenario)
+        self.max_cycles = check_max_cycles(max_cycles)
+        self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
+        self.backend = check_backend(backend)
+        self.render_intention = bool(render_intention)
+
+        self.graph = scenario_graph(scenario)
+        self.human = make_human(self.graph, preference, human_passive, turn_back, human)
+        self.rules = EpisodeRules(self.graph, self.r0)
+        self._episode = Episode(self.rules, self.human.turn_state)
+        n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
+        self.observation_space = robot_observation_space(n_s, n_k, n_a)
+        self.action_space = spaces.Discrete(n_a)
+        self.layout: tuple[tuple[float, float], ...] | None = None
+        self._human_rng = np.random.default_rng(0)
+        self._reward = 0.0
+        self._done = True
+
+    @property
+    def intention(self) -> int:
+        """The human's current goal ι (hidden from the robot's observation)."""
+        return self._episode.intention
+
+    def action_masks(self) -> np.ndarray:
+        """(A,) bool, the robot's valid actions in the current state."""
+        return self.graph.valid[self._episode.state].copy()
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Start an episode; see the class docstring for ``options``."""
+        opts = parse_reset_options(options, self.graph.scenario)
+        super().reset(seed=seed)
+        rng = self.np_random
+        self._human_rng = np.random.default_rng(int(rng.integers(2**63)))
+        self._episode.draw(rng, opts.start, opts.intention, opts.turn_back,
+                           self.human.turn_back)
+        if self.scenario_name == "wheel":
+            self.layout = opts.layout if opts.layout is not None else sample_wheel_layout(rng)
+        self._reward = 0.0
+        self._done = False
+        return self._observation(), {"aborted": False, "invalid_action": False}
+
+    def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
+        """The robot acts, the scripted human acts, the object moves."""
+        a_r = check_action("robot", action, self.rules.n_actions)
+        if self._done:
+            raise RuntimeError("the episode has ended (or never started); call reset() first")
+        ep = self._episode
+        a_h = int(self.human.act(self._human_rng, np.array([ep.state]), np.array([ep.start]),
+                                 np.array([ep.intention]))[0])
+        t = ep.advance(a_r, a_h)
+        self._reward = t.reward
+        truncated = not t.terminated and ep.steps >= self.max_cycles
+        self._done = t.terminated or truncated
+        info = {"aborted": t.aborted, "invalid_action": t.robot_invalid}
+        return self._observation(), t.reward, t.terminated, truncated, info
+
+    def _observation(self) -> dict[str, Any]:
+        ep = self._episode
+        return {"state": ep.state, "start": ep.start, "last_human_action": ep.last_human,
+                "action_mask": self.rules.action_mask[ep.state].copy()}
+
+    def render(self) -> str | np.ndarray | None:  # type: ignore[override]
+        """Render according to ``render_mode`` (None: nothing)."""
+        ep = self._episode
+        if self.render_mode == "ansi":
+            return render_ansi(
+                self.graph, title=f"{self.scenario_name} (robot)", state=ep.state,
+                previous=ep.previous, start=ep.start,
+                intention=ep.intention if self.render_intention else None,
+                last_human=ep.last_human, last_robot=ep.last_robot, reward=self._reward,
+                steps=ep.steps, max_cycles=self.max_cycles,
+            )
+        if self.render_mode == "rgb_array":
+            return render_rgb(episode_scenario(self.scenario_name, self.layout), self.graph,
+                              ep.state)
+        return None

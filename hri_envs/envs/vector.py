@@ -1,0 +1,286 @@
+"""N robot-vs-scripted-human episodes stepped at once with array operations."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from hri_envs.envs.config import (
+    RESET_OPTION_KEYS,
+    check_backend,
+    check_max_cycles,
+    check_r0,
+    check_render_mode,
+    check_scenario,
+    make_human,
+    scenario_graph,
+    support_index,
+)
+from hri_envs.envs.episode import EpisodeRules, draw_start_intention
+from hri_envs.envs.errors import ActionError, ConfigError
+from hri_envs.envs.spaces import robot_observation_space
+from hri_envs.task.graph import WAIT
+from hri_envs.task.humans import ScriptedHuman
+
+__all__ = ["RobotVectorEnv"]
+
+_VECTOR_OPTION_KEYS = RESET_OPTION_KEYS[:3]
+
+
+class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
+    """``num_envs`` copies of :class:`~hri_envs.envs.robot.RobotEnv`, batched in numpy.
+
+    ## Description
+
+    The robot-vs-scripted-human task of :class:`~hri_envs.envs.robot.RobotEnv`, for N
+    episodes at once. Every step is a handful of array look-ups into the same
+    :class:`~hri_envs.envs.episode.EpisodeRules` tables the single env uses, with no
+    Python loop over episodes. Made by
+    ``gymnasium.make_vec("hri_envs/Hanger-v0", num_envs=N,
+    vectorization_mode="vector_entry_point")``.
+
+    ## Action Space
+
+    ``MultiDiscrete([A] * N)``: one robot action per episode, numbered as in the single
+    env. :meth:`action_masks` returns the (N, A) bool mask of valid actions.
+
+    ## Observation Space
+
+    The single env's ``Dict``, batched: ``"state"``, ``"start"``, ``"last_human_action"``
+    (N,) int64 and ``"action_mask"`` (N, A) int8. ι is not observed.
+
+    ## Rewards
+
+    (N,) float64, the robot cooperation reward R_R; 0 in the step that autoresets an env.
+
+    ## Starting State
+
+    As the single env. ``reset(options=...)`` takes ``"start"``, ``"intention"`` (a
+    support index or name, or an (N,) array of them) and ``"turn_back"`` (bool or (N,)
+    bools) for the episodes it starts; autoresets draw at random. The wheel's stand
+    layout is not drawn: it only affects rendering, and this env does not render.
+
+    ## Episode End
+
+    As the single env. Autoreset is Gymnasium's next-step mode
+    (``metadata["autoreset_mode"] = AutoresetMode.NEXT_STEP``): the step after an episode
+    ends ignores that env's action and returns the first observation of a new episode with
+    reward 0 and ``terminated = truncated = False``. Infos are ``"aborted"`` and
+    ``"invalid_action"``, (N,) bool, with Gymnasium's ``"_aborted"`` and
+    ``"_invalid_action"`` masks.
+
+    ## Arguments
+
+    - ``num_envs``: number of episodes N stepped together;
+    - ``scenario``, ``preference``, ``human_passive``, ``turn_back``, ``human``, ``r0``,
+      ``max_cycles``, ``backend``: as for :class:`~hri_envs.envs.robot.RobotEnv`;
+    - ``render_mode``: must be None.
+
+    ``reset(seed=...)`` takes one int (or None) for the whole batch; the scripted humans
+    draw from a generator seeded from it.
+
+    ## Version History
+
+    - v0: initial version.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        scenario: str = "hanger",
+        *,
+        preference: str | None = None,
+        human_passive: float = 0.0,
+        turn_back: float = 0.0,
+        human: ScriptedHuman | None = None,
+        r0: float | None = None,
+        max_cycles: int = 100,
+        render_mode: str | None = None,
+        backend: str = "graph",
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
+            raise ConfigError(f"num_envs must be a positive integer, got {num_envs!r}")
+        self.num_envs = int(num_envs)
+        self.scenario_name = check_scenario(scenario)
+        self.r0 = check_r0(r0, scenario)
+        self.max_cycles = check_max_cycles(max_cycles)
+        self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
+        self.backend = check_backend(backend)
+
+        self.graph = scenario_graph(scenario)
+        self.human = make_human(self.graph, preference, human_passive, turn_back, human)
+        self.rules = EpisodeRules(self.graph, self.r0)
+        n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
+        self.single_observation_space = robot_observation_space(n_s, n_k, n_a)
+        self.single_action_space = spaces.Discrete(n_a)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        turn_state = self.human.turn_state
+        if turn_state is None:  # a human who never turns back
+            turn_state = np.full((n_k, n_k), -1)
+        self._turn_state = np.asarray(turn_state, dtype=np.int64).reshape(-1)  # (K K,)
+
+        n = self.num_envs
+        self._state = np.zeros(n, dtype=np.int64)
+        self._start = np.zeros(n, dtype=np.int64)
+        self._intention = np.ones(n, dtype=np.int64) % n_k
+        self._turn = np.zeros(n, dtype=bool)
+        self._lifted = np.zeros(n, dtype=bool)
+        self._steps = np.zeros(n, dtype=np.int64)
+        self._last_human = np.zeros(n, dtype=np.int64)
+        self._done = np.zeros(n, dtype=bool)
+        self._all = np.ones(n, dtype=bool)
+        self._human_rng = np.random.default_rng(0)
+        self._needs_reset = True
+
+    # ----------------------------------------------------------------- helpers
+    def action_masks(self) -> np.ndarray:
+        """(N, A) bool, each env's valid actions in its current state."""
+        return self.graph.valid[self._state]
+
+    @property
+    def intention(self) -> np.ndarray:
+        """(N,) int, the humans' current goals ι (hidden from the observations)."""
+        return self._intention.copy()
+
+    def _observations(self) -> dict[str, np.ndarray]:
+        return {
+            "state": self._state.copy(),
+            "start": self._start.copy(),
+            "last_human_action": self._last_human.copy(),
+            "action_mask": self.rules.action_mask[self._state],
+        }
+
+    def _supports(self, value: Any, key: str) -> np.ndarray:
+        scenario = self.graph.scenario
+        items = np.asarray(value, dtype=object).reshape(-1)
+        if items.shape[0] not in (1, self.num_envs):
+            raise ConfigError(
+                f"reset option {key!r} must be one support or {self.num_envs} of them, "
+                f"got {items.shape[0]}"
+            )
+        idx = np.array([support_index(v, scenario, key) for v in items], dtype=np.int64)
+        return np.broadcast_to(idx, (self.num_envs,)).copy()
+
+    def _begin(self, which: np.ndarray, start: np.ndarray, intention: np.ndarray,
+               turn: np.ndarray) -> None:
+        """Start new episodes in the envs ``which`` (bool (N,) or index array)."""
+        self._start[which] = start
+        self._intention[which] = intention
+        self._turn[which] = turn
+        self._state[which] = 4 * start  # graph.support_state(start, μ = 0)
+        self._lifted[which] = False
+        self._steps[which] = 0
+        self._last_human[which] = WAIT
+
+    def _draw_turn(self, n: int) -> np.ndarray:
+        return self.human.draw_turn_back(self.np_random, n)
+
+    # ----------------------------------------------------------------- API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Start N new episodes; see the class docstring for ``options``."""
+        options = dict(options or {})
+        unknown = sorted(set(options) - set(_VECTOR_OPTION_KEYS))
+        if unknown:
+            raise ConfigError(
+                f"unknown reset option(s) {', '.join(map(repr, unknown))} for the vector env; "
+                f"allowed: {', '.join(_VECTOR_OPTION_KEYS)}"
+            )
+        if seed is not None and not isinstance(seed, int | np.integer):
+            raise ConfigError(f"seed must be an int or None for this batched env, got {seed!r}")
+        super().reset(seed=seed)
+        rng = self.np_random
+        self._human_rng = np.random.default_rng(int(rng.integers(2**63)))
+        n, n_k = self.num_envs, self.graph.n_intentions
+        start = self._supports(options["start"], "start") if "start" in options else None
+        intention = (self._supports(options["intention"], "intention")
+                     if "intention" in options else None)
+        if start is None:
+            if intention is None:
+                start, intention = draw_start_intention(rng, n_k, n)
+            else:
+                start = (intention + 1 + rng.integers(n_k - 1, size=n)) % n_k
+        elif intention is None:
+            intention = (start + 1 + rng.integers(n_k - 1, size=n)) % n_k
+        if np.any(start == intention):
+            raise ConfigError("the intention must differ from the start support in every env")
+        if "turn_back" in options:
+            turn = np.broadcast_to(np.asarray(options["turn_back"]), (n,))
+            if turn.dtype != np.bool_:
+                raise ConfigError("reset option 'turn_back' must be a bool or (N,) bools")
+        else:
+            turn = self._draw_turn(n)
+        self._begin(self._all, start, intention, turn)
+        self._done[:] = False
+        self._needs_reset = False
+        return self._observations(), {}
+
+    def step(
+        self, actions: Any
+    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every env with the robots' actions (N,); the scripted humans act too."""
+        if self._needs_reset:
+            raise RuntimeError("call reset() before step()")
+        a_r = self._check_actions(actions)
+        r = self.rules
+        n_a, n_k = r.n_actions, r.n_supports
+        s = self._state
+        a_h = self.human.act(self._human_rng, s, self._start, self._intention)
+        s_a = s * n_a
+        i = (s_a + a_r) * n_a + a_h
+        s_next = np.take(r.next_state, i)
+        reward = np.take(r.reward, i)
+        aborted = np.take(r.aborted, i)
+        invalid = ~np.take(r.valid, s_a + a_r)
+        lifted = self._lifted | np.take(r.lifts, s_next)
+        terminated = np.take(r.ends, (s_next * n_k + self._start) * 2 + lifted)
+        self._steps += 1
+        truncated = (self._steps >= self.max_cycles) & ~terminated
+        self._state, self._lifted, self._last_human = s_next, lifted, a_h
+        if self._turn.any():
+            ctx = self._start * n_k + self._intention
+            back = self._turn & (s_next == np.take(self._turn_state, ctx))
+            self._intention = np.where(back, self._start, self._intention)
+            self._turn &= ~back
+
+        done = self._done  # episodes that ended in the previous step start afresh now
+        if done.any():
+            which = np.flatnonzero(done)
+            start, intention = draw_start_intention(self.np_random, n_k, which.size)
+            self._begin(which, start, intention, self._draw_turn(which.size))
+            reward[which] = 0.0
+            terminated[which] = False
+            truncated[which] = False
+            aborted[which] = False
+            invalid[which] = False
+        self._done = terminated | truncated
+        infos = {"aborted": aborted, "_aborted": self._all,
+                 "invalid_action": invalid, "_invalid_action": self._all}
+        return self._observations(), reward, terminated, truncated, infos
+
+    def _check_actions(self, actions: Any) -> np.ndarray:
+        a = np.asarray(actions)
+        n, n_a = self.num_envs, self.rules.n_actions
+        if a.shape != (n,) or a.dtype.kind not in "iu":
+            raise ActionError(
+                f"robot actions must be an integer array of shape ({n},) in the action space "
+                f"MultiDiscrete([{n_a}] * {n}): integers 0..{n_a - 1}; got {a.dtype} {a.shape}"
+            )
+        if a.min() < 0 or a.max() >= n_a:
+            bad = a[(a < 0) | (a >= n_a)]
+            raise ActionError(
+                f"robot action(s) {bad[:5].tolist()} outside the robot's action space: "
+                f"valid actions are 0..{n_a - 1}"
+            )
+        return a.astype(np.int64, copy=False)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Nothing to release."""

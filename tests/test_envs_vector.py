@@ -1,0 +1,139 @@
+"""The numpy-batched robot env: make_vec, agreement with the single env, autoreset, errors."""
+
+import itertools
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode
+
+import hri_envs  # noqa: F401  (registers the ids)
+from hri_envs.envs import ActionError, ConfigError, RobotEnv, RobotVectorEnv
+
+IDS = ["hri_envs/Hanger-v0", "hri_envs/Wheel-v0"]
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_make_vec_with_the_vector_entry_point(env_id):
+    envs = gym.make_vec(env_id, num_envs=16, vectorization_mode="vector_entry_point")
+    assert isinstance(envs.unwrapped, RobotVectorEnv)
+    assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    obs, _ = envs.reset(seed=0)
+    assert envs.observation_space.contains(obs)
+    for _ in range(20):
+        obs, rew, term, trunc, info = envs.step(envs.action_space.sample())
+        assert envs.observation_space.contains(obs)
+        assert rew.shape == term.shape == trunc.shape == (16,)
+        assert info["aborted"].shape == info["invalid_action"].shape == (16,)
+        assert np.array_equal(envs.unwrapped.action_masks(), obs["action_mask"].astype(bool))
+
+
+def _pairs(n_supports):
+    return [(s, i) for s, i in itertools.product(range(n_supports), repeat=2) if s != i]
+
+
+@pytest.mark.parametrize("scenario", ["hanger", "wheel"])
+@pytest.mark.parametrize("turn_back", [False, True])
+def test_agrees_with_the_single_env(scenario, turn_back):
+    """Same starts, intentions and robot actions, deterministic human: same episodes."""
+    single = RobotEnv(scenario, max_cycles=40)
+    pairs = _pairs(single.graph.n_intentions) * 4  # (start, intention) per env
+    n, n_a = len(pairs), single.action_space.n
+    start, intention = (np.array(x) for x in zip(*pairs, strict=True))
+    vec = RobotVectorEnv(n, scenario, max_cycles=40)
+    obs_v, _ = vec.reset(seed=5, options={"start": start, "intention": intention,
+                                          "turn_back": turn_back})
+    # robot: the human's preferred action, sometimes replaced by a random one
+    rng = np.random.default_rng(3)
+    noise = rng.integers(n_a, size=(40, n))
+    use_noise = rng.random((40, n)) < 0.3
+    trace_v = [obs_v]
+    for t in range(40):
+        want = single.human.preferred_action(obs_v["state"], start, vec.intention)
+        obs_v, rew, term, trunc, info = vec.step(np.where(use_noise[t], noise[t], want))
+        trace_v.append((obs_v, rew, term, trunc, info))
+    checked = 0
+    for j, (s, i) in enumerate(pairs):
+        obs, _ = single.reset(seed=0, options={"start": s, "intention": i,
+                                               "turn_back": turn_back})
+        _assert_same_obs(obs, trace_v[0], j)
+        for t in range(40):
+            want = single.human.preferred_action(obs["state"], s, single.intention)
+            obs, rew, term, trunc, info = single.step(noise[t, j] if use_noise[t, j] else want)
+            obs_v, rew_v, term_v, trunc_v, info_v = trace_v[t + 1]
+            _assert_same_obs(obs, obs_v, j)
+            assert (rew, term, trunc) == (rew_v[j], term_v[j], trunc_v[j])
+            assert info["aborted"] == info_v["aborted"][j]
+            assert info["invalid_action"] == info_v["invalid_action"][j]
+            checked += 1
+            if term or trunc:
+                break
+    assert checked > 4 * n
+
+
+def _assert_same_obs(obs, obs_v, j):
+    for key in ("state", "start", "last_human_action"):
+        assert obs[key] == obs_v[key][j], key
+    assert np.array_equal(obs["action_mask"], obs_v["action_mask"][j])
+
+
+def test_next_step_autoreset():
+    vec = RobotVectorEnv(64, "hanger", max_cycles=3)
+    vec.reset(seed=0)
+    wait = np.zeros(64, dtype=np.int64)
+    for _ in range(2):
+        _, _, term, trunc, _ = vec.step(wait)
+        assert not (term | trunc).any()
+    _, rew, term, trunc, _ = vec.step(wait)
+    assert trunc.all() and not term.any() and (rew == -1.0).all()
+    obs, rew, term, trunc, info = vec.step(np.full(64, 3))  # ignored: these envs reset
+    assert (rew == 0.0).all() and not (term | trunc).any() and not info["aborted"].any()
+    assert np.isin(obs["state"], [0, 4, 8]).all() and (obs["last_human_action"] == 0).all()
+    assert (obs["start"] == obs["state"] // 4).all()
+    assert len(np.unique(obs["start"])) == 3
+    _, _, _, trunc, _ = vec.step(wait)
+    assert not trunc.any()  # the step counter restarted
+
+
+def test_terminated_episodes_restart_while_others_run():
+    vec = RobotVectorEnv(2, "hanger")
+    vec.reset(seed=0, options={"start": ["B", "A"], "intention": ["C", "B"]})
+    # env 0 goes B -> C in 5 steps (the robot helps the human); in env 1 the robot waits,
+    # so the human grasps the object and waits for the robot
+    for a in (1, 2, 7, 3, 1):
+        obs, rew, term, trunc, _ = vec.step(np.array([a, 0]))
+    assert term.tolist() == [True, False] and obs["state"][0] == 8
+    obs, rew, term, _, _ = vec.step(np.array([0, 0]))
+    assert obs["state"][0] in (0, 4, 8) and rew[0] == 0.0 and obs["state"][1] == 1
+
+
+def test_reset_seed_reproduces():
+    vec = RobotVectorEnv(32, "wheel", human_passive=0.3, turn_back=0.5)
+    actions = np.random.default_rng(0).integers(12, size=(30, 32))
+    runs = []
+    for _ in range(2):
+        out = [vec.reset(seed=9)[0]["state"]]
+        out += [vec.step(a)[0]["state"] for a in actions]
+        runs.append(np.array(out))
+    assert np.array_equal(runs[0], runs[1])
+
+
+def test_bad_actions_and_options_raise():
+    vec = RobotVectorEnv(4, "hanger")
+    with pytest.raises(RuntimeError, match="reset"):
+        vec.step(np.zeros(4, dtype=np.int64))
+    vec.reset(seed=0)
+    with pytest.raises(ActionError, match=r"robot action\(s\) \[10\] .*0\.\.9"):
+        vec.step(np.array([0, 10, 1, 2]))
+    with pytest.raises(ActionError, match=r"shape \(4,\)"):
+        vec.step(np.zeros(3, dtype=np.int64))
+    with pytest.raises(ActionError, match="integer"):
+        vec.step(np.zeros(4))
+    with pytest.raises(ConfigError, match="allowed: start, intention, turn_back"):
+        vec.reset(options={"layout": ((0, 2), (1, 2))})
+    with pytest.raises(ConfigError, match="must differ"):
+        vec.reset(options={"start": "A", "intention": [1, 2, 0, 1]})
+    with pytest.raises(ConfigError, match="num_envs"):
+        RobotVectorEnv(0)
+    with pytest.raises(ConfigError, match="allowed: None"):
+        RobotVectorEnv(2, render_mode="rgb_array")
