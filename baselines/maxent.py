@@ -103,6 +103,12 @@ class MaxEntIRL(_Tracking):
             u[i] = self.rngs[i].random()
         return sample_actions(probs, u)
 
+    def robot_policy(self, state: int, intention: int) -> np.ndarray:
+        """(B, A) ``softmax(τ_R Q_ι(state, ·))``, the agent's policy if sure of ι."""
+        q = self.q[:, intention, state]
+        valid = np.broadcast_to(self.graph.valid[state], q.shape)
+        return mdp.softmax(q, valid, self.config.robot_temperature)
+
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Count intentions along the trace and take one ME-IRL step (λ = 0.03)."""
         g, c = self.graph, self.config

@@ -1,0 +1,126 @@
+"""Paper-style plots of study results (matplotlib, headless)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+
+from hri_envs.bench.study import StudyResult  # noqa: E402
+
+__all__ = ["decision_bars", "policy_lines", "reward_bands", "study_plots"]
+
+COLORS = {"learner": "#1f5fa8", "imitator": "#7fb2e5", "maxent": "#7a7a7a",
+          "passive": "#e0a030", "oracle": "#2a9d55"}
+LABELS = {"learner": "Learner", "imitator": "Imitator", "maxent": "plain ME-IRL",
+          "passive": "Passive", "oracle": "Oracle"}
+DECISION_COLORS = {"correct": "#1f5fa8", "passive": "#bcd3ea", "wrong": "#c8102e"}
+
+plt.rcParams.update({"font.size": 10, "axes.spines.top": False, "axes.spines.right": False,
+                     "figure.dpi": 110, "savefig.bbox": "tight"})
+
+
+def _label(agent: str) -> str:
+    return LABELS.get(agent, agent)
+
+
+def reward_bands(ax: Axes, result: StudyResult, agents: Sequence[str] | None = None,
+                 title: str | None = None) -> None:
+    """Mean (line) and interquartile band of the cooperation reward per episode (Fig. 10)."""
+    episodes = np.arange(1, result.config.n_episodes + 1)
+    for agent in agents or list(result.metrics):
+        r = result.metrics[agent]["reward"]
+        color = COLORS.get(agent)
+        style = "--" if agent == "oracle" else "-"
+        ax.fill_between(episodes, np.percentile(r, 25, 0), np.percentile(r, 75, 0),
+                        color=color, alpha=0.18, linewidth=0)
+        ax.plot(episodes, r.mean(0), style, color=color, label=_label(agent), linewidth=1.8)
+    ax.set_xlabel("episode")
+    ax.set_ylabel("robot cooperation reward per episode")
+    ax.set_xlim(1, episodes[-1])
+    if title:
+        ax.set_title(title)
+
+
+def decision_bars(ax: Axes, result: StudyResult, agents: Sequence[str] | None = None,
+                  title: str | None = None) -> None:
+    """Correct / passive / wrong fractions of the robot's decisions per episode (Fig. 4)."""
+    agents = list(agents or result.metrics)
+    n_e = result.config.n_episodes
+    width = 0.8 / len(agents)
+    for j, agent in enumerate(agents):
+        m = result.metrics[agent]
+        x = np.arange(1, n_e + 1) - 0.4 + width * (j + 0.5)
+        bottom = np.zeros(n_e)
+        for kind in ("correct", "passive", "wrong"):
+            h = 100 * m[kind].mean(0)
+            ax.bar(x, h, width * 0.92, bottom=bottom, color=DECISION_COLORS[kind],
+                   edgecolor="white", linewidth=0.4, alpha=1.0 - 0.25 * j,
+                   label=f"{_label(agent)}: {kind}")
+            bottom += h
+    ax.set_xticks(np.arange(1, n_e + 1))
+    ax.set_xlabel("episode")
+    ax.set_ylabel("robot decisions [%]")
+    ax.set_ylim(0, 100)
+    if title:
+        ax.set_title(title)
+
+
+def policy_lines(ax: Axes, values: np.ndarray, labels: Sequence[str], *, relative: bool = False,
+                 title: str | None = None) -> None:
+    """Median and interquartile band of probed policy entries over episodes (Figs. 8, 11, 12).
+
+    Args:
+        ax: Target axes.
+        values: (runs, episodes + 1, P) probed probabilities (episode 0 = before learning).
+        labels: One label per probe.
+        relative: Values are ratios to waiting, drawn on a log axis with the 1.0 line.
+        title: Axes title.
+    """
+    x = np.arange(values.shape[1])
+    cmap = plt.get_cmap("tab10" if values.shape[2] <= 10 else "tab20")
+    for j, label in enumerate(labels):
+        v = values[:, :, j]
+        color = cmap(j % cmap.N)
+        ax.fill_between(x, np.nanpercentile(v, 25, 0), np.nanpercentile(v, 75, 0), color=color,
+                        alpha=0.15, linewidth=0)
+        ax.plot(x, np.nanmedian(v, 0), color=color, label=label, linewidth=1.5)
+    ax.set_xlabel("episodes learned")
+    if relative:
+        ax.set_yscale("log")
+        ax.axhline(1.0, color="k", linestyle="-.", linewidth=0.8)
+        ax.set_ylabel("p(preferred action) / p(wait)")
+    else:
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_ylabel("action probability")
+    if title:
+        ax.set_title(title)
+
+
+def _save(fig: plt.Figure, path: Path) -> Path:
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def study_plots(result: StudyResult, out: Path) -> list[Path]:
+    """``reward.png`` (Fig. 10 style) and ``decisions.png`` (Fig. 4 style) for a study."""
+    cfg = result.config
+    title = (f"{cfg.scenario}, {cfg.schedule} schedule, r0 = {cfg.waiting_reward:g}, "
+             f"human passive {cfg.human_passive:.0%}, {cfg.runs} runs")
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    reward_bands(ax, result, title=title)
+    ax.legend(frameon=False, fontsize=8)
+    paths = [_save(fig, out / "reward.png")]
+    fig, ax = plt.subplots(figsize=(max(6.4, 0.55 * cfg.n_episodes * len(result.metrics)), 4.0))
+    decision_bars(ax, result, title=title)
+    ax.legend(frameon=False, fontsize=7, ncol=len(result.metrics), loc="upper center",
+              bbox_to_anchor=(0.5, -0.15))
+    paths.append(_save(fig, out / "decisions.png"))
+    return paths

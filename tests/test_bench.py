@@ -1,0 +1,127 @@
+"""hri-bench: the study CLI contract (SPEC §5), figures, play and the speed command."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from hri_envs.bench.cli import main
+from hri_envs.bench.figures import make_figures
+from hri_envs.bench.play import play
+from hri_envs.bench.study import StudyConfig, run_study
+
+SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive", "runs",
+                "episodes", "seed", "wall_time_s", "agents"}
+
+
+def test_study_writes_the_contracted_files(tmp_path, capsys):
+    out = tmp_path / "wheel"
+    code = main(["study", "wheel", "--runs", "4", "--episodes", "3", "--out", str(out),
+                 "--agents", "learner,imitator,oracle", "--no-progress", "--seed", "7"])
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary) == SUMMARY_KEYS
+    assert summary["scenario"] == "wheel" and summary["r0"] == -0.25 and summary["seed"] == 7
+    assert set(summary["agents"]) == {"learner", "imitator", "oracle"}
+    for stats in summary["agents"].values():
+        assert set(stats) == {"reward", "correct", "passive", "wrong"}
+        assert set(stats["reward"]) == {"mean", "q25", "q75"}
+        for metric in stats.values():
+            for values in metric.values():
+                assert len(values) == 3
+        fractions = [stats[k]["mean"] for k in ("correct", "passive", "wrong")]
+        np.testing.assert_allclose(np.sum(fractions, axis=0), 1.0)
+    assert summary["agents"]["oracle"]["reward"]["mean"] == [0.0, 0.0, 0.0]
+    with (out / "episodes.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 3 * 4 * 3  # agents x runs x episodes
+    assert {"agent", "run", "episode", "reward", "correct", "passive", "wrong"} <= set(rows[0])
+    for png in ("reward.png", "decisions.png"):
+        data = (out / png).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5_000
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_same_seed_same_numbers_whatever_the_executor():
+    base = {"agents": ("learner", "maxent", "imitator"), "runs": 6, "episodes": 3, "seed": 3}
+    serial = run_study(StudyConfig("hanger", **base))
+    pooled = run_study(StudyConfig("hanger", **base, jobs=2, executor="process"))
+    for agent, metrics in serial.metrics.items():
+        for key, values in metrics.items():
+            np.testing.assert_array_equal(values, pooled.metrics[agent][key], err_msg=key)
+    other_seed = run_study(StudyConfig("hanger", **{**base, "seed": 4}))
+    assert not np.array_equal(other_seed.metrics["learner"]["reward"],
+                              serial.metrics["learner"]["reward"])
+
+
+def test_table2_schedule_and_turning_back():
+    res = run_study(StudyConfig("hanger", agents=("imitator", "learner"), runs=3,
+                                schedule="table2", preference="all"))
+    assert res.config.n_episodes == 9
+    assert res.schedule["turn_back"][:, 7].all() and not res.schedule["turn_back"][:, :7].any()
+    # Episode 8 (A -> (B) A): the Imitator has no notion of intention and keeps pushing to B.
+    assert res.metrics["imitator"]["wrong"][:, 7].mean() > res.metrics["learner"]["wrong"][:, 7].mean()
+    assert not res.metrics["learner"]["truncated"].any()
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["study", "kitchen", "--out", "x"], "invalid choice: 'kitchen'"),
+        (["study", "wheel", "--out", "x", "--r0", "0.5"], "--r0"),
+        (["study", "wheel", "--out", "x", "--runs", "0"], "--runs"),
+        (["study", "wheel", "--out", "x", "--agents", "robot9000"], "allowed: learner"),
+        (["study", "wheel", "--out", "x", "--schedule", "table2"], "table2"),
+        (["study", "wheel", "--out", "x", "--preference", "zigzag"], "--preference"),
+        (["study", "wheel", "--out", "x", "--human-passive", "2"], "--human-passive"),
+        (["study", "wheel", "--out", "x", "--executor", "slurm"], "choose from"),
+        (["study", "wheel", "--out", "x", "--backend", "mujoco"], "not available yet"),
+        (["study", "wheel"], "--out"),
+        (["figures", "--out", "x", "--only", "fig99"], "fig99"),
+    ],
+)
+def test_bad_arguments_exit_2_naming_the_argument(args, fragment, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    assert exc.value.code == 2
+    assert fragment in capsys.readouterr().err
+
+
+def test_user_agent_by_module_path(tmp_path):
+    res = run_study(StudyConfig("wheel", agents=("tests.helpers_agents:AlwaysWait",), runs=2,
+                                episodes=2))
+    name = "tests.helpers_agents:AlwaysWait"
+    assert np.all(res.metrics[name]["passive"] == 1.0)
+
+
+def test_figures_subset_are_written(tmp_path):
+    paths = make_figures(tmp_path, runs=3, only=("fig4", "fig8"), log=lambda _: None)
+    assert sorted(p.name for p in paths) == ["fig4.png", "fig8.png"]
+    assert all(p.stat().st_size > 10_000 for p in paths)
+
+
+def test_play_in_the_terminal_with_scripted_answers():
+    answers = iter(["x", "99"] + ["1"] * 200)  # junk first, then always the second choice
+    lines: list[str] = []
+    totals = play("wheel", episodes=1, read=lambda _: next(answers), write=lines.append,
+                  max_steps=6)
+    assert len(totals) == 1
+    text = "\n".join(lines)
+    assert "Robot belief" in text and "robot chooses" in text and "Type a number" in text
+
+
+def test_speed_json_last_line(monkeypatch, capsys):
+    import hri_envs.bench.speed as speed
+
+    fake = {"parallel_env_steps_per_s": 1.0, "vector_env_steps_per_s": 2.0,
+            "learner_update_ms": 3.0, "hanger_study_s": 4.0}
+    monkeypatch.setattr(speed, "measure", lambda jobs=1: fake)
+    assert main(["speed", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1]) == fake
+
+
+def test_learner_update_is_measured():
+    from hri_envs.bench.speed import learner_update_ms
+
+    assert 0.0 < learner_update_ms(repeats=3) < 1e4
