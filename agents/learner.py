@@ -91,7 +91,7 @@ class Learner(BatchAgent):
         if len(runs) != n_runs:
             raise ValueError(f"runs has {len(runs)} entries, expected n_runs={n_runs}")
         self.rngs = run_streams(seed, runs)
-        self._onehot = mdp.joint_onehot(graph)
+        self._next = graph.next_state
         self._reward = graph.reward(self.config.r0)  # (S, A, A)
         self._valid = graph.valid
         n_i, n_s, n_a = graph.n_intentions, graph.n_states, graph.n_actions
@@ -110,7 +110,7 @@ class Learner(BatchAgent):
     def _update_policies(self) -> None:
         """π̂_H from θ and the current π_R (Alg. 1 l. 20-22), then the robot's Q (l. 3-5)."""
         g, c = self.graph, self.config
-        t_h = mdp.absorbing(mdp.human_transition(self._onehot, self.pi_r), g.terminal, copy=False)
+        t_h = mdp.absorbing(mdp.human_transition(self._next, self.pi_r), g.terminal, copy=False)
         r_state = np.einsum("isf,bf->bis", g.features, self.theta)  # (B, I, S)
         r_h = np.einsum("bisaz,biz->bisa", t_h, r_state)
         q_h = mdp.solve_q(t_h, r_h, self._valid, c.gamma, policy=self._warm_h)
@@ -118,7 +118,7 @@ class Learner(BatchAgent):
         self.q_h = q_h
         self.pi_h = mdp.softmax(q_h, self._valid, c.human_temperature)
 
-        t_r = mdp.absorbing(mdp.robot_transition(self._onehot, self.pi_h), g.terminal, copy=False)
+        t_r = mdp.absorbing(mdp.robot_transition(self._next, self.pi_h), g.terminal, copy=False)
         r_r = mdp.robot_reward(self._reward, self.pi_h)
         r_r[:, np.arange(g.n_intentions), g.terminal, :] = 0.0
         self.q_r = mdp.solve_q(t_r, r_r, self._valid, c.gamma, policy=self._warm_r)
@@ -138,7 +138,7 @@ class Learner(BatchAgent):
             start[b], horizon[b] = kept[0], len(kept)
         rows = np.arange(n_b)
         terminal = g.terminal[intentions]
-        t_h = mdp.human_transition(self._onehot, self.pi_r[rows, intentions])  # (B, S, A, S)
+        t_h = mdp.human_transition(self._next, self.pi_r[rows, intentions])  # (B, S, A, S)
         t_h[rows, terminal] = 0.0
         t_h[rows, terminal, :, terminal] = 1.0
         phi = g.features[intentions]  # (B, S, F)

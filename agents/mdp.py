@@ -24,7 +24,6 @@ __all__ = [
     "expected_feature_counts",
     "human_transition",
     "irl_step",
-    "joint_onehot",
     "passive_policy",
     "q_iteration",
     "remove_loops",
@@ -79,46 +78,48 @@ def bounded_softmax(
     return kept / kept.sum(axis=-1, keepdims=True)  # type: ignore[no-any-return]
 
 
-def joint_onehot(graph: TaskGraph) -> np.ndarray:
-    """(S, A_R, A_H, S) one-hot encoding of the deterministic joint transition."""
-    s, a = graph.n_states, graph.n_actions
-    out = np.zeros((s, a, a, s))
-    np.put_along_axis(out, graph.next_state[..., None], 1.0, axis=-1)
-    return out
+def _partner_transition(next_state: np.ndarray, partner: np.ndarray) -> np.ndarray:
+    """Σ_p π_p(p|s) 1[next_state[s, a, p] = s'] as a dense (..., S, A, S) array.
+
+    ``next_state`` is (S, A_self, A_partner). Built with one ``bincount`` over the
+    (run, s, a, p) combinations: cheaper than a one-hot matrix product.
+    """
+    n_s, n_a, n_p = next_state.shape
+    lead = partner.shape[:-2]
+    flat = partner.reshape(-1, n_s, n_p)
+    n = flat.shape[0]
+    cell = (np.arange(n)[:, None, None] * n_s + np.arange(n_s)[None, :, None]) * n_a
+    cell = cell + np.arange(n_a)[None, None, :]  # (N, S, A): index of (n, s, a)
+    idx = cell[..., None] * n_s + next_state[None]  # (N, S, A, P): index of (n, s, a, s')
+    weights = np.broadcast_to(flat[:, :, None, :], idx.shape)
+    out = np.bincount(idx.ravel(), weights.ravel(), minlength=n * n_s * n_a * n_s)
+    return out.reshape(*lead, n_s, n_a, n_s)
 
 
-def robot_transition(onehot: np.ndarray, pi_h: np.ndarray) -> np.ndarray:
+def robot_transition(next_state: np.ndarray, pi_h: np.ndarray) -> np.ndarray:
     """T_R(s'|s, ι, a_R) = Σ_{a_H} π̂_H(a_H|s, ι) T(s'|s, a_R, a_H).
 
     Args:
-        onehot: (S, A, A, S) from :func:`joint_onehot`.
+        next_state: (S, A, A) the joint transition ``next_state[s, a_R, a_H]``.
         pi_h: (..., S, A) human policy.
 
     Returns:
         (..., S, A, S).
     """
-    n_s, n_a = pi_h.shape[-2:]
-    lead = pi_h.shape[:-2]
-    # Batched over s: (S, N, A_H) @ (S, A_H, A_R S) -> (S, N, A_R S)
-    p = np.moveaxis(pi_h.reshape(-1, n_s, n_a), 1, 0)
-    t = np.swapaxes(onehot, 1, 2).reshape(n_s, n_a, n_a * n_s)
-    out = np.matmul(p, t).reshape(n_s, -1, n_a, n_s)
-    return np.moveaxis(out, 0, 1).reshape(*lead, n_s, n_a, n_s)
+    return _partner_transition(next_state, pi_h)
 
 
-def human_transition(graph_or_onehot: TaskGraph | np.ndarray, pi_r: np.ndarray) -> np.ndarray:
+def human_transition(next_state: np.ndarray, pi_r: np.ndarray) -> np.ndarray:
     """T_H(s'|s, ι, a_H) = Σ_{a_R} π_R(a_R|s, ι) T(s'|s, a_R, a_H).
 
     Args:
-        graph_or_onehot: The graph, or its (S, A, A, S) :func:`joint_onehot`.
+        next_state: (S, A, A) the joint transition ``next_state[s, a_R, a_H]``.
         pi_r: (..., S, A) robot policy.
 
     Returns:
         (..., S, A, S).
     """
-    onehot = (joint_onehot(graph_or_onehot) if isinstance(graph_or_onehot, TaskGraph)
-              else graph_or_onehot)
-    return robot_transition(np.swapaxes(onehot, 1, 2), pi_r)
+    return _partner_transition(np.swapaxes(next_state, 1, 2), pi_r)
 
 
 def robot_reward(reward: np.ndarray, pi_h: np.ndarray) -> np.ndarray:

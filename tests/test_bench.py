@@ -61,7 +61,8 @@ def test_table2_schedule_and_turning_back():
     assert res.config.n_episodes == 9
     assert res.schedule["turn_back"][:, 7].all() and not res.schedule["turn_back"][:, :7].any()
     # Episode 8 (A -> (B) A): the Imitator has no notion of intention and keeps pushing to B.
-    assert res.metrics["imitator"]["wrong"][:, 7].mean() > res.metrics["learner"]["wrong"][:, 7].mean()
+    wrong = {a: res.metrics[a]["wrong"][:, 7].mean() for a in ("imitator", "learner")}
+    assert wrong["imitator"] > wrong["learner"]
     assert not res.metrics["learner"]["truncated"].any()
 
 

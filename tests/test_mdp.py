@@ -131,9 +131,19 @@ def test_single_agent_transitions_are_distributions():
     rng = np.random.default_rng(0)
     pi = rng.random((2, g.n_states, g.n_actions)) * g.valid
     pi /= pi.sum(-1, keepdims=True)
-    for t in (mdp.robot_transition(mdp.joint_onehot(g), pi), mdp.human_transition(g, pi)):
+    for t in (mdp.robot_transition(g.next_state, pi), mdp.human_transition(g.next_state, pi)):
         assert t.shape == (2, g.n_states, g.n_actions, g.n_states)
         np.testing.assert_allclose(t.sum(-1), 1.0)
+    # By hand: robot moves over to B from A′ while the human waits with probability 0.3 and
+    # moves up with probability 0.7: the object ends over B w.p. 0.3, up at A w.p. 0.7.
+    s, over_b, up = g.waypoint_state(0, 0, 0), g.move_over(1), g.move_to_height(1)
+    pi_h = np.zeros((g.n_states, g.n_actions))
+    pi_h[:, 0] = 1.0
+    pi_h[s] = 0.0
+    pi_h[s, [0, up]] = [0.3, 0.7]
+    t_r = mdp.robot_transition(g.next_state, pi_h)
+    assert t_r[s, over_b, g.waypoint_state(1, 0, 0)] == pytest.approx(0.3)
+    assert t_r[s, over_b, g.waypoint_state(0, 1, 0)] == pytest.approx(0.7)
 
 
 def test_passive_policy_grasps_at_start_and_lets_go_elsewhere():

@@ -308,7 +308,7 @@ def boltzmann_human(
     reward = graph.features @ theta  # (K, S)
     for start in range(n_k):
         robot = mdp.passive_policy(graph, start)  # (S, A)
-        t_h = mdp.human_transition(graph, robot[None].repeat(n_k, 0))  # (K, S, A, S)
+        t_h = mdp.human_transition(graph.next_state, robot[None].repeat(n_k, 0))  # (K, S, A, S)
         q = mdp.q_iteration(t_h, reward, graph.valid, graph.terminal, gamma)
         policy[start] = mdp.softmax(q, graph.valid, temperature)
     return ScriptedHuman(graph, policy, "boltzmann", passive, turn_back)
