@@ -11,6 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.axes import Axes  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from hri_envs.bench.study import StudyResult  # noqa: E402
 
@@ -42,6 +43,7 @@ def reward_bands(ax: Axes, result: StudyResult, agents: Sequence[str] | None = N
                         color=color, alpha=0.18, linewidth=0)
         ax.plot(episodes, r.mean(0), style, color=color, label=_label(agent), linewidth=1.8)
     ax.set_xlabel("episode")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("robot cooperation reward per episode")
     ax.set_xlim(1, episodes[-1])
     if title:
@@ -92,6 +94,7 @@ def policy_lines(ax: Axes, values: np.ndarray, labels: Sequence[str], *, relativ
                         alpha=0.15, linewidth=0)
         ax.plot(x, np.nanmedian(v, 0), color=color, label=label, linewidth=1.5)
     ax.set_xlabel("episodes learned")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     if relative:
         ax.set_yscale("log")
         ax.axhline(1.0, color="k", linestyle="-.", linewidth=0.8)
