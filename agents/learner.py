@@ -129,13 +129,7 @@ class Learner(BatchAgent):
         """One ME-IRL step per run on its loop-free trace (Alg. 1 l. 17-19)."""
         g, c = self.graph, self.config
         n_b = self.n_runs
-        demo = np.zeros((n_b, g.n_features))
-        start = np.zeros(n_b, dtype=np.int64)
-        horizon = np.zeros(n_b, dtype=np.int64)
-        for b, (trace, iota) in enumerate(zip(traces, intentions, strict=True)):
-            kept = trace.states[mdp.remove_loops(trace.states)]
-            demo[b] = g.features[iota, kept].sum(axis=0)
-            start[b], horizon[b] = kept[0], len(kept)
+        demo = mdp.demonstrations(g.features, [tr.states for tr in traces], intentions)
         rows = np.arange(n_b)
         terminal = g.terminal[intentions]
         t_h = mdp.human_transition(self._next, self.pi_r[rows, intentions])  # (B, S, A, S)
@@ -145,8 +139,9 @@ class Learner(BatchAgent):
         r_h = np.einsum("bsaz,bz->bsa", t_h, np.einsum("bsf,bf->bs", phi, self.theta))
         q = mdp.solve_q(t_h, r_h, self._valid, c.gamma)
         policy = mdp.softmax(q, self._valid, c.irl_temperature)
-        expected = mdp.expected_feature_counts(t_h, policy, phi, start, terminal, horizon)
-        self.theta = mdp.irl_step(self.theta, demo, expected, c.learning_rate)
+        expected = mdp.expected_feature_counts(t_h, policy, phi, demo.start, terminal,
+                                               demo.horizon)
+        self.theta = mdp.irl_step(self.theta, demo.counts, expected, c.learning_rate)
 
     # ------------------------------------------------------------------ protocol
     def begin_episode(self, starts: np.ndarray) -> None:

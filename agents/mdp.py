@@ -14,13 +14,18 @@ in a handful of solves instead of hundreds of sweeps.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import NamedTuple
+
 import numpy as np
 
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
 
 __all__ = [
+    "Demonstrations",
     "bayes_update",
     "bounded_softmax",
+    "demonstrations",
     "expected_feature_counts",
     "human_transition",
     "irl_step",
@@ -309,6 +314,39 @@ def remove_loops(states: np.ndarray) -> np.ndarray:
                 break
         kept.append(t)
     return np.asarray(kept, dtype=np.int64)
+
+
+class Demonstrations(NamedTuple):
+    """Loop-free demonstrations for one ME-IRL step.
+
+    Attributes:
+        counts: (B, F) Σ φ(s, ι) along each loop-free path.
+        start: (B,) first state of each path.
+        horizon: (B,) number of states of each path.
+        paths: The loop-free state paths.
+    """
+
+    counts: np.ndarray
+    start: np.ndarray
+    horizon: np.ndarray
+    paths: list[np.ndarray]
+
+
+def demonstrations(
+    features: np.ndarray, state_traces: Sequence[np.ndarray], intentions: np.ndarray
+) -> Demonstrations:
+    """Remove loops from each state trace and count its features (Alg. 1 l. 17).
+
+    Args:
+        features: (I, S, F) φ(s, ι).
+        state_traces: One (T+1,) state sequence per run.
+        intentions: (B,) the intention revealed by each episode.
+    """
+    paths = [np.asarray(s)[remove_loops(s)] for s in state_traces]
+    counts = np.stack([features[i, p].sum(axis=0) for i, p in zip(intentions, paths, strict=True)])
+    start = np.array([p[0] for p in paths], dtype=np.int64)
+    horizon = np.array([len(p) for p in paths], dtype=np.int64)
+    return Demonstrations(counts, start, horizon, paths)
 
 
 def expected_feature_counts(

@@ -114,20 +114,15 @@ class MaxEntIRL(_Tracking):
         g, c = self.graph, self.config
         n_b = self.n_runs
         intentions = np.asarray(intentions, dtype=np.int64)
-        demo = np.zeros((n_b, g.n_features))
-        start = np.zeros(n_b, dtype=np.int64)
-        horizon = np.zeros(n_b, dtype=np.int64)
-        for b, (trace, iota) in enumerate(zip(traces, intentions, strict=True)):
-            kept = trace.states[mdp.remove_loops(trace.states)]
-            demo[b] = g.features[iota, kept].sum(axis=0)
-            start[b], horizon[b] = kept[0], len(kept)
-            self.counts[b, g.support[trace.states[0]], kept, iota] += 1
+        demo = mdp.demonstrations(g.features, [tr.states for tr in traces], intentions)
+        for b, (trace, path) in enumerate(zip(traces, demo.paths, strict=True)):
+            self.counts[b, g.support[trace.states[0]], path, intentions[b]] += 1
         rows = np.arange(n_b)
         t = self._transition[intentions]  # (B, S, A, S)
         phi = g.features[intentions]
         q = self.q[rows, intentions]
         policy = mdp.softmax(q, g.valid, c.irl_temperature)
-        expected = mdp.expected_feature_counts(t, policy, phi, start, g.terminal[intentions],
-                                               horizon)
-        self.theta = mdp.irl_step(self.theta, demo, expected, c.learning_rate)
+        expected = mdp.expected_feature_counts(t, policy, phi, demo.start,
+                                               g.terminal[intentions], demo.horizon)
+        self.theta = mdp.irl_step(self.theta, demo.counts, expected, c.learning_rate)
         self._solve()

@@ -18,8 +18,9 @@ import json
 import re
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 from hri_envs.bench.agents import BUILTIN_AGENTS
 from hri_envs.bench.study import BACKENDS, EXECUTORS, SCENARIOS
@@ -41,35 +42,25 @@ def _agents(text: str) -> tuple[str, ...]:
     return names
 
 
-def _positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {value}")
-    return value
+def _bounded(kind: type, allowed: str, ok: Callable[[Any], bool]) -> Callable[[str], Any]:
+    """An argparse ``type`` parsing ``kind`` and checking it, with a message saying what is
+    allowed."""
+
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}") from None
+        if not ok(value):
+            raise argparse.ArgumentTypeError(f"expected {allowed}, got {value}")
+        return value
+
+    return parse
 
 
-def _probability(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        msg = f"expected a probability in [0, 1], got {text!r}"
-        raise argparse.ArgumentTypeError(msg) from None
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"expected a probability in [0, 1], got {value}")
-    return value
-
-
-def _r0(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number in (-1, 0), got {text!r}") from None
-    if not -1.0 < value < 0.0:
-        raise argparse.ArgumentTypeError(f"expected a number in (-1, 0), got {value}")
-    return value
+_positive = _bounded(int, "a whole number >= 1", lambda v: v >= 1)
+_probability = _bounded(float, "a probability in [0, 1]", lambda v: 0.0 <= v <= 1.0)
+_r0 = _bounded(float, "a number in (-1, 0)", lambda v: -1.0 < v < 0.0)
 
 
 def build_parser() -> argparse.ArgumentParser:
