@@ -44,7 +44,8 @@ def _agents(text: str) -> tuple[str, ...]:
 
 def _bounded(kind: type, allowed: str, ok: Callable[[Any], bool]) -> Callable[[str], Any]:
     """An argparse ``type`` parsing ``kind`` and checking it, with a message saying what is
-    allowed."""
+    allowed.
+    """
 
     def parse(text: str) -> Any:
         try:
