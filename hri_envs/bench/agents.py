@@ -79,8 +79,10 @@ def make_agent(
         return Oracle(graph, human, n)
     cls = _import(name)
     if inspect.isclass(cls) and issubclass(cls, BatchAgent):
-        return cls(graph, n)  # type: ignore[call-arg]
+        return cls(graph, n)  # type: ignore[call-arg,arg-type]  # user class: documented signature
     if inspect.isclass(cls) and issubclass(cls, Agent):
         takes_graph = "graph" in inspect.signature(cls).parameters
-        return Batched.from_factory(lambda run: cls(graph=graph) if takes_graph else cls(), runs)
+        return Batched.from_factory(
+            lambda run: cls(graph=graph) if takes_graph else cls(), runs  # type: ignore[call-arg]
+        )
     raise ValueError(f"{name!r} is neither an agents.Agent nor an agents.BatchAgent subclass")

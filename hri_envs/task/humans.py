@@ -137,9 +137,9 @@ class ScriptedHuman:
     graph: TaskGraph
     policy: np.ndarray
     name: str
+    turn_state: np.ndarray
     passive: float = 0.0
     turn_back: float = 0.0
-    turn_state: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         k, s, a = self.graph.n_intentions, self.graph.n_states, self.graph.n_actions
@@ -154,8 +154,8 @@ class ScriptedHuman:
         object.__setattr__(self, "_greedy", table)
         object.__setattr__(self, "_deterministic", bool(np.all(self.policy.max(-1) == 1.0)))
         object.__setattr__(self, "_cumulative", np.cumsum(self.policy, axis=-1))
-        if self.turn_state is None:
-            object.__setattr__(self, "turn_state", np.full((k, k), -1, dtype=np.int64))
+        if self.turn_state.shape != (k, k):
+            raise ValueError(f"turn_state must have shape {(k, k)}, got {self.turn_state.shape}")
 
     @property
     def deterministic(self) -> bool:
@@ -271,7 +271,7 @@ def preference_human(
                 table[start, goal, s] = PUT_ON
     policy = np.zeros((n_k, n_k, n_s, graph.n_actions))
     np.put_along_axis(policy, table[..., None], 1.0, axis=-1)
-    return ScriptedHuman(graph, policy, preference, passive, turn_back, turn_state)
+    return ScriptedHuman(graph, policy, preference, turn_state, passive, turn_back)
 
 
 def boltzmann_human(
@@ -281,7 +281,6 @@ def boltzmann_human(
     temperature: float = 25.0,
     gamma: float = 0.9,
     passive: float = 0.0,
-    turn_back: float = 0.0,
 ) -> ScriptedHuman:
     """A Boltzmann-rational human: ``π_H ∝ exp(τ Q_H)`` for the reward ``θᵀφ(s, ι)``.
 
@@ -294,7 +293,8 @@ def boltzmann_human(
         temperature: τ of the soft-max; larger is more deterministic.
         gamma: Discount of the human's Q-iteration.
         passive: Probability of waiting in a step.
-        turn_back: Probability per episode of turning back halfway.
+
+    It has no preferred route, hence no halfway point, and does not turn back by itself.
     """
     from agents import mdp  # the learning math lives with the agents
 
@@ -311,4 +311,6 @@ def boltzmann_human(
         t_h = mdp.human_transition(graph.next_state, robot[None].repeat(n_k, 0))  # (K, S, A, S)
         q = mdp.q_iteration(t_h, reward, graph.valid, graph.terminal, gamma)
         policy[start] = mdp.softmax(q, graph.valid, temperature)
-    return ScriptedHuman(graph, policy, "boltzmann", passive, turn_back)
+    # A Boltzmann human has no route, so no halfway point: it never turns back by itself.
+    no_turn = np.full((n_k, n_k), -1, dtype=np.int64)
+    return ScriptedHuman(graph, policy, "boltzmann", no_turn, passive)
