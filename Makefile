@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --disable-pip-version-check -q -c constraints.txt
 DEMO_OUT ?= out/demo
 
-.PHONY: demo test lint speed clean
+.PHONY: demo test speed clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -23,12 +23,11 @@ $(VENV)/.test-installed: pyproject.toml constraints.txt | $(PY)
 demo: $(VENV)/.demo-installed
 	$(VENV)/bin/hri-bench demo --out $(DEMO_OUT)
 
+# Lint and type checks first, so that pytest's summary is the last line.
 test: $(VENV)/.test-installed
-	MUJOCO_GL=egl $(PY) -m pytest -q
-
-lint: $(VENV)/.test-installed
 	$(VENV)/bin/ruff check hri_envs agents baselines tests examples benchmarks
 	$(VENV)/bin/mypy
+	MUJOCO_GL=egl $(PY) -m pytest -q
 
 speed: $(VENV)/.demo-installed
 	$(VENV)/bin/hri-bench speed
