@@ -211,3 +211,16 @@ def test_user_agents_plug_in_through_batched(wheel):
     mask = wheel.valid[0].astype(np.int8)
     action = single.act({"state": 0, "start": 0, "last_human_action": 0, "action_mask": mask})
     assert mask[action]
+
+
+def test_learner_learns_inside_the_gymnasium_env():
+    import gymnasium as gym
+
+    import hri_envs  # noqa: F401  (registers the ids)
+    from hri_envs.envs.rollout import run_episode
+
+    env = gym.make("hri_envs/Wheel-v0", preference="straight", r0=-0.25)
+    robot = Learner(env.unwrapped.graph, 1, default_config("wheel"), seed=0).single()
+    rewards = [run_episode(env, robot, seed=e).reward for e in range(10)]
+    assert np.mean(rewards[-4:]) > np.mean(rewards[:2]) + 0.3
+    assert rewards[-1] >= -0.5
