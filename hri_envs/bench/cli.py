@@ -177,7 +177,8 @@ def _figures(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     t0 = time.perf_counter()
     paths = make_figures(args.out, runs=args.runs, jobs=args.jobs,
                          executor="process" if args.jobs > 1 else "serial", seed=args.seed,
-                         only=only, wheel_episodes=args.wheel_episodes)
+                         only=only, wheel_episodes=args.wheel_episodes,
+                         progress=sys.stderr.isatty())
     print(f"figures in {time.perf_counter() - t0:.1f} s: " + ", ".join(str(p) for p in paths))
     return 0
 
@@ -202,7 +203,8 @@ def _demo(args: argparse.Namespace) -> int:
     print("hri-bench demo: the wheel study (Fig. 10a-c, 100 runs, 12 episodes), the Learner's "
           "policies (Figs. 11-12) and the hanger studies (Figs. 4 and 8)")
     paths = make_figures(args.out, runs=100, jobs=args.jobs,
-                         executor="process" if args.jobs > 1 else "serial", wheel_episodes=12)
+                         executor="process" if args.jobs > 1 else "serial", wheel_episodes=12,
+                         progress=sys.stderr.isatty())
     print(f"done in {time.perf_counter() - t0:.0f} s; plots:")
     for p in paths:
         print(f"  {p}")
