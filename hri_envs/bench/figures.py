@@ -139,21 +139,24 @@ def make_figures(
     for fig, pref in (("fig11", "straight"), ("fig12", "detour")):
         if fig not in only:
             continue
-        f, axes = plt.subplots(2, 3, figsize=(15, 7.5), sharex=True, sharey=True)
+        f, axes = plt.subplots(3, 3, figsize=(15, 11), sharex=True, sharey=True)
+        rows = (("learner", "human", "Learner's π̂_H"), ("learner", "robot", "Learner's π_R"),
+                ("maxent", "robot", "plain ME-IRL's π"))
         for col, setting in enumerate(WHEEL_SETTINGS):
             res = wheel_results[setting, pref]
             probes = res.config.probes
-            for row, kind in enumerate(("human", "robot")):
+            r0, passive = WHEEL_SETTINGS[setting]
+            for row, (agent, kind, name) in enumerate(rows):
                 idx = [j for j, p in enumerate(probes) if p.kind == kind]
-                r0, passive = WHEEL_SETTINGS[setting]
-                policy_lines(axes[row, col], res.probes["learner"][:, :, idx],
+                policy_lines(axes[row, col], res.probes[agent][:, :, idx],
                              [probes[j].label for j in idx],
-                             title=f"{'π̂_H' if kind == 'human' else 'π_R'}: r0 = {r0:g}, "
-                                   f"passive {passive:.0%}")
-        axes[0, 2].legend(frameon=False, fontsize=7, loc="center left", bbox_to_anchor=(1, 0.5))
-        axes[1, 2].legend(frameon=False, fontsize=7, loc="center left", bbox_to_anchor=(1, 0.5))
-        f.suptitle(f"Learner's human-policy estimate (top) and robot policy (bottom), "
-                   f"{pref} preference (median, interquartile band)")
+                             title=f"{name}: r0 = {r0:g}, passive {passive:.0%}")
+        for row in range(3):
+            axes[row, 2].legend(frameon=False, fontsize=7, loc="center left",
+                                bbox_to_anchor=(1, 0.5))
+        f.suptitle(f"{pref.capitalize()} preference: the Learner's human-policy estimate (top), "
+                   "its robot policy (middle), plain ME-IRL's policy (bottom); median and "
+                   "interquartile band")
         paths.append(_save(f, out / f"{fig}.png"))
     if "fig8" in only:
         graph = graph_for("hanger")
