@@ -5,6 +5,9 @@
 - :mod:`agents.learner`: the Learner.
 - :mod:`agents.mdp`: Q-iteration, soft-max policies, Bayes filter, ME-IRL as batched functions.
 - :mod:`agents.config`: validated parameters with the paper's defaults.
+- :mod:`agents.sb3`: a trained stable-baselines3 / sb3-contrib model as a protocol agent;
+  :mod:`agents.rl`: training helpers (MaskablePPO, masked DQN, vector envs for SB3). Both
+  need the ``rl`` extra and are not imported here.
 """
 
 from agents.config import LearnerConfig, default_config

@@ -1,9 +1,17 @@
 """Which robot agents the benchmark can run, by name.
 
-Built in: ``learner``, ``imitator``, ``maxent``, ``passive``, ``oracle``. Any other entry of
-the form ``module:Class`` imports ``Class`` from ``module``: a :class:`~agents.protocol.Agent`
-subclass is instantiated once per run (with ``graph=`` if its constructor accepts it), a
-:class:`~agents.protocol.BatchAgent` subclass once per batch as ``Class(graph, n_runs)``.
+Built in: ``learner``, ``imitator``, ``maxent``, ``passive``, ``oracle``.
+
+``sb3:PATH`` plays a trained stable-baselines3 / sb3-contrib model saved at ``PATH`` (a
+``.zip``; MaskablePPO, PPO, A2C, DQN or :class:`agents.rl.MaskedDQN`) through
+:class:`agents.sb3.SB3BatchAgent`: deterministic, invalid actions masked, frozen (it does
+not learn between episodes). The file is opened with SB3's own ``Model.load``, which
+unpickles parts of it: use only models you trust.
+
+Any other entry of the form ``module:Class`` imports ``Class`` from ``module``: a
+:class:`~agents.protocol.Agent` subclass is instantiated once per run (with ``graph=`` if its
+constructor accepts it), a :class:`~agents.protocol.BatchAgent` subclass once per batch as
+``Class(graph, n_runs)``.
 """
 
 from __future__ import annotations
@@ -11,6 +19,7 @@ from __future__ import annotations
 import importlib
 import inspect
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from agents.config import default_config
@@ -20,20 +29,31 @@ from baselines import Imitator, MaxEntIRL, Oracle, Passive
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman
 
-__all__ = ["BUILTIN_AGENTS", "make_agent", "validate_agent_name"]
+__all__ = ["BUILTIN_AGENTS", "SB3_PREFIX", "make_agent", "validate_agent_name"]
 
 BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
+#: Agent names ``sb3:PATH`` load a saved SB3 model.
+SB3_PREFIX = "sb3:"
 
 
 def validate_agent_name(name: str) -> None:
-    """Raise ``ValueError`` naming the allowed agents when ``name`` is not one."""
+    """Raise ``ValueError`` naming the allowed agents when ``name`` is not one.
+
+    For ``sb3:PATH`` the file must exist (its contents are checked when it is loaded).
+    """
     if name in BUILTIN_AGENTS:
+        return
+    if name.startswith(SB3_PREFIX):
+        path = Path(name[len(SB3_PREFIX):])
+        if not path.is_file():
+            raise ValueError(f"agent {name!r}: no SB3 model file at {str(path)!r}; give "
+                             "'sb3:PATH' with the .zip written by model.save()")
         return
     if ":" in name and all(name.split(":", 1)):
         return
     raise ValueError(
         f"unknown agent {name!r}; allowed: {', '.join(BUILTIN_AGENTS)}, "
-        "or 'module:Class' for your own agent"
+        "'sb3:PATH' for a saved stable-baselines3 model, or 'module:Class' for your own agent"
     )
 
 
@@ -77,6 +97,10 @@ def make_agent(
         return Passive(graph, n)
     if name == "oracle":
         return Oracle(graph, human, n)
+    if name.startswith(SB3_PREFIX):
+        from agents.sb3 import SB3BatchAgent
+
+        return SB3BatchAgent(name[len(SB3_PREFIX):], n, graph=graph, seed=seed, runs=runs)
     cls = _import(name)
     if inspect.isclass(cls) and issubclass(cls, BatchAgent):
         return cls(graph, n)  # type: ignore[call-arg,arg-type]  # user class: documented signature
