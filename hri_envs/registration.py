@@ -22,8 +22,12 @@ _SPECS: tuple[dict[str, object], ...] = (
      "vector_entry_point": _ROBOT_VECTOR_ENV, "kwargs": {"scenario": "hanger"}},
     {"id": "hri_envs/Wheel-v0", "entry_point": _ROBOT_ENV,
      "vector_entry_point": _ROBOT_VECTOR_ENV, "kwargs": {"scenario": "wheel"}},
-    # The same tasks on a simulated Franka Emika Panda (MuJoCo) will follow as
-    # hri_envs/HangerPanda-v0 and hri_envs/WheelPanda-v0 (kwargs {"backend": "mujoco"}).
+    # The same tasks on a simulated Franka Emika Panda (MuJoCo, mink IK, compliant control);
+    # needs the "mujoco" extra. See hri_envs.physics.
+    {"id": "hri_envs/HangerPanda-v0", "entry_point": _ROBOT_ENV,
+     "kwargs": {"scenario": "hanger", "backend": "mujoco"}},
+    {"id": "hri_envs/WheelPanda-v0", "entry_point": _ROBOT_ENV,
+     "kwargs": {"scenario": "wheel", "backend": "mujoco"}},
 )
 
 

@@ -263,8 +263,13 @@ def test_bad_configuration_raises(kwargs, message):
         hanger_v0.parallel_env(**kwargs)
 
 
-def test_mujoco_backend_is_not_available_yet():
-    with pytest.raises(BackendUnavailableError, match="not available yet") as err:
+def test_missing_mujoco_extra_is_reported(monkeypatch):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "mink" else real(name, *a))
+    with pytest.raises(BackendUnavailableError, match=r"needs mink.*hri-envs\[mujoco\]") as err:
         wheel_v0.parallel_env(backend="mujoco")
     assert isinstance(err.value, NotImplementedError) and isinstance(err.value, ValueError)
 

@@ -21,11 +21,13 @@ from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_fo
 __all__ = [
     "BACKENDS",
     "DEFAULT_R0",
+    "PHYSICS_OPTION_KEYS",
     "RESET_OPTION_KEYS",
     "SCENARIOS",
     "ResetOptions",
     "check_backend",
     "check_max_cycles",
+    "check_physics_options",
     "check_r0",
     "check_render_mode",
     "check_scenario",
@@ -94,15 +96,42 @@ def check_render_mode(render_mode: str | None, allowed: list[str]) -> str | None
 
 
 def check_backend(backend: str) -> str:
-    """Validate the simulation backend; only the abstract graph backend exists so far."""
-    if backend == "mujoco":
-        raise BackendUnavailableError(
-            "the MuJoCo physics backend (backend='mujoco') is not available yet; "
-            "use backend='graph' (the abstract transition graph)"
-        )
+    """Validate the simulation backend: "graph" (the abstract transition graph) or "mujoco"
+    (the simulated Franka Panda of :mod:`hri_envs.physics`, which needs the ``mujoco`` extra).
+    """
     if backend not in BACKENDS:
         raise ConfigError(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
+    if backend == "mujoco":
+        import importlib.util
+
+        missing = [m for m in ("mujoco", "mink", "gymnasium_robotics")
+                   if importlib.util.find_spec(m) is None]
+        if missing:
+            raise BackendUnavailableError(
+                f"backend='mujoco' needs {', '.join(missing)}: pip install 'hri-envs[mujoco]' "
+                "(or use backend='graph', the abstract transition graph)"
+            )
     return backend
+
+
+#: Keys of the ``physics`` options of ``backend="mujoco"``.
+PHYSICS_OPTION_KEYS: tuple[str, ...] = ("video_path", "video_fps")
+
+
+def check_physics_options(physics: Mapping[str, Any] | None, backend: str) -> dict[str, Any]:
+    """Validate the ``physics`` options (only with ``backend="mujoco"``)."""
+    if not physics:
+        return {}
+    if backend != "mujoco":
+        raise ConfigError(f"physics options need backend='mujoco', got backend={backend!r}")
+    unknown = sorted(set(physics) - set(PHYSICS_OPTION_KEYS))
+    if unknown:
+        raise ConfigError(f"unknown physics option(s) {', '.join(map(repr, unknown))}; "
+                          f"allowed: {', '.join(PHYSICS_OPTION_KEYS)}")
+    fps = physics.get("video_fps", 10.0)
+    if isinstance(fps, bool) or not isinstance(fps, int | float) or not fps > 0:
+        raise ConfigError(f"physics option 'video_fps' must be a positive number, got {fps!r}")
+    return dict(physics)
 
 
 def make_human(

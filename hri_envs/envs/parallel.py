@@ -12,6 +12,7 @@ from pettingzoo.utils.env import ParallelEnv
 from hri_envs.envs.config import (
     check_backend,
     check_max_cycles,
+    check_physics_options,
     check_r0,
     check_render_mode,
     check_scenario,
@@ -100,7 +101,14 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
     - ``max_cycles``: step limit per episode (default 100);
     - ``render_mode``: None, "ansi" or "rgb_array";
-    - ``backend``: "graph" (the MuJoCo backend is not available yet);
+    - ``backend``: "graph" (the abstract transition graph) or "mujoco" (the same task on a
+      simulated Franka Panda, :mod:`hri_envs.physics`: both agents' actions are executed
+      physically, the next state is the closest abstract state, and the robot's
+      ``"last_human_action"`` is the action it *infers* from the transition; ``info``
+      carries the step's interaction impulses, duration and whether physics and graph
+      agree; a simulation fault truncates the episode with ``info["truncation_reason"]``);
+    - ``physics``: options of the mujoco backend, e.g. ``{"video_path": "ep{episode}.gif",
+      "video_fps": 10}`` to record every episode;
     - ``render_intention``: show ι in renderings (default hidden).
 
     ## Version History
@@ -124,6 +132,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         render_mode: str | None = None,
         backend: str = "graph",
         render_intention: bool = False,
+        physics: dict[str, Any] | None = None,
     ) -> None:
         self.scenario_name = check_scenario(scenario)
         self.metadata = {**type(self).metadata, "name": f"{scenario}_v0",
@@ -132,11 +141,19 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         self.max_cycles = check_max_cycles(max_cycles)
         self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
         self.backend = check_backend(backend)
+        physics = check_physics_options(physics, self.backend)
         self.render_intention = bool(render_intention)
 
         self.graph = scenario_graph(scenario)
         self.rules = EpisodeRules(self.graph, self.r0)
-        self._episode = Episode(self.rules, preference_human(self.graph).turn_state)
+        turn_state = preference_human(self.graph).turn_state
+        if self.backend == "mujoco":
+            from hri_envs.physics.episode import PhysicsEpisode
+
+            self._episode: Episode = PhysicsEpisode(
+                self.rules, turn_state, **physics)
+        else:
+            self._episode = Episode(self.rules, turn_state)
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self._observation_spaces = {"human": human_observation_space(n_s, n_k, n_a),
                                     "robot": robot_observation_space(n_s, n_k, n_a)}
@@ -186,6 +203,8 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         self._episode.draw(rng, opts.start, opts.intention, opts.turn_back)
         if self.scenario_name == "wheel":
             self.layout = opts.layout if opts.layout is not None else sample_wheel_layout(rng)
+        if self.backend == "mujoco":
+            self._episode.place(episode_scenario(self.scenario_name, self.layout), rng)  # type: ignore[attr-defined]
         self.agents = list(AGENTS)
         self._reward = 0.0
         info = {"aborted": False, "invalid_action": False, "robot_reward": 0.0}
@@ -217,6 +236,10 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         t = ep.advance(a_r, a_h)
         self._reward = r = t.reward
         truncated = not t.terminated and ep.steps >= self.max_cycles
+        extra: dict[str, Any] = {}
+        if self.backend == "mujoco":
+            extra = ep.step_info()  # type: ignore[attr-defined]
+            truncated = truncated or (not t.terminated and "truncation_reason" in extra)
         obs = self._observations()
         if t.terminated or truncated:
             self.agents = []
@@ -227,16 +250,17 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
             {"human": truncated, "robot": truncated},
             {
                 "human": {"aborted": t.aborted, "invalid_action": t.human_invalid,
-                          "robot_reward": r, "intention": ep.intention},
+                          "robot_reward": r, "intention": ep.intention, **extra},
                 "robot": {"aborted": t.aborted, "invalid_action": t.robot_invalid,
-                          "robot_reward": r},
+                          "robot_reward": r, **extra},
             },
         )
 
     def _observations(self) -> dict[str, dict[str, Any]]:
         ep = self._episode
         mask = self.rules.action_mask[ep.state]
-        robot = {"state": ep.state, "start": ep.start, "last_human_action": ep.last_human,
+        seen = ep.observed_human if self.backend == "mujoco" else ep.last_human  # type: ignore[attr-defined]
+        robot = {"state": ep.state, "start": ep.start, "last_human_action": seen,
                  "action_mask": mask.copy()}
         human = {"state": ep.state, "start": ep.start, "last_human_action": ep.last_human,
                  "action_mask": mask.copy(), "intention": ep.intention}
@@ -259,9 +283,13 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
                 steps=ep.steps, max_cycles=self.max_cycles,
             )
         if self.render_mode == "rgb_array":
+            if self.backend == "mujoco":
+                return ep.render()  # type: ignore[attr-defined,no-any-return]
             scenario = episode_scenario(self.scenario_name, self.layout)
             return render_rgb(scenario, self.graph, ep.state)
         return None
 
     def close(self) -> None:
-        """Nothing to release on the graph backend."""
+        """Release the physics backend's renderer and write a pending video."""
+        if self.backend == "mujoco":
+            self._episode.close()  # type: ignore[attr-defined]

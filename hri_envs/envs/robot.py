@@ -11,6 +11,7 @@ from gymnasium import spaces
 from hri_envs.envs.config import (
     check_backend,
     check_max_cycles,
+    check_physics_options,
     check_r0,
     check_render_mode,
     check_scenario,
@@ -94,7 +95,14 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
     - ``max_cycles``: step limit per episode (default 100);
     - ``render_mode``: None, "ansi" or "rgb_array"; ``render_intention`` shows ι in it;
-    - ``backend``: "graph" (the MuJoCo backend is not available yet).
+    - ``backend``: "graph" (the abstract transition graph) or "mujoco": the same task on a
+      simulated Franka Panda (:mod:`hri_envs.physics`, registered as
+      ``hri_envs/HangerPanda-v0`` and ``hri_envs/WheelPanda-v0``). Both agents' actions are
+      executed physically; the next state is the closest abstract state; the observed
+      ``"last_human_action"`` is the action the robot *infers*; ``info`` carries the step's
+      interaction impulses, duration and whether physics and graph agree; a simulation
+      fault truncates the episode with ``info["truncation_reason"]``;
+    - ``physics``: options of the mujoco backend, e.g. ``{"video_path": "ep{episode}.gif"}``.
 
     The human draws from its own generator, seeded from the env's ``np_random`` at every
     reset, so ``reset(seed=...)`` reproduces the episode.
@@ -119,18 +127,26 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         render_mode: str | None = None,
         backend: str = "graph",
         render_intention: bool = False,
+        physics: dict[str, Any] | None = None,
     ) -> None:
         self.scenario_name = check_scenario(scenario)
         self.r0 = check_r0(r0, scenario)
         self.max_cycles = check_max_cycles(max_cycles)
         self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
         self.backend = check_backend(backend)
+        physics = check_physics_options(physics, self.backend)
         self.render_intention = bool(render_intention)
 
         self.graph = scenario_graph(scenario)
         self.human = make_human(self.graph, preference, human_passive, turn_back, human)
         self.rules = EpisodeRules(self.graph, self.r0)
-        self._episode = Episode(self.rules, self.human.turn_state)
+        if self.backend == "mujoco":
+            from hri_envs.physics.episode import PhysicsEpisode
+
+            self._episode: Episode = PhysicsEpisode(
+                self.rules, self.human.turn_state, **physics)
+        else:
+            self._episode = Episode(self.rules, self.human.turn_state)
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self.observation_space = robot_observation_space(n_s, n_k, n_a)
         self.action_space = spaces.Discrete(n_a)
@@ -160,6 +176,8 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
                            self.human.turn_back)
         if self.scenario_name == "wheel":
             self.layout = opts.layout if opts.layout is not None else sample_wheel_layout(rng)
+        if self.backend == "mujoco":
+            self._episode.place(episode_scenario(self.scenario_name, self.layout), rng)  # type: ignore[attr-defined]
         self._reward = 0.0
         self._done = False
         return self._observation(), {"aborted": False, "invalid_action": False}
@@ -175,13 +193,17 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         t = ep.advance(a_r, a_h)
         self._reward = t.reward
         truncated = not t.terminated and ep.steps >= self.max_cycles
+        info: dict[str, Any] = {"aborted": t.aborted, "invalid_action": t.robot_invalid}
+        if self.backend == "mujoco":
+            info.update(ep.step_info())  # type: ignore[attr-defined]
+            truncated = truncated or (not t.terminated and "truncation_reason" in info)
         self._done = t.terminated or truncated
-        info = {"aborted": t.aborted, "invalid_action": t.robot_invalid}
         return self._observation(), t.reward, t.terminated, truncated, info
 
     def _observation(self) -> dict[str, Any]:
         ep = self._episode
-        return {"state": ep.state, "start": ep.start, "last_human_action": ep.last_human,
+        seen = ep.observed_human if self.backend == "mujoco" else ep.last_human  # type: ignore[attr-defined]
+        return {"state": ep.state, "start": ep.start, "last_human_action": seen,
                 "action_mask": self.rules.action_mask[ep.state].copy()}
 
     def render(self) -> str | np.ndarray | None:  # type: ignore[override]
@@ -196,6 +218,13 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
                 steps=ep.steps, max_cycles=self.max_cycles,
             )
         if self.render_mode == "rgb_array":
+            if self.backend == "mujoco":
+                return ep.render()  # type: ignore[attr-defined,no-any-return]
             return render_rgb(episode_scenario(self.scenario_name, self.layout), self.graph,
                               ep.state)
         return None
+
+    def close(self) -> None:
+        """Release the physics backend's renderer and write a pending video."""
+        if self.backend == "mujoco":
+            self._episode.close()  # type: ignore[attr-defined]

@@ -1,0 +1,44 @@
+"""The physics backend: the cooperation tasks on a simulated Franka Emika Panda (MuJoCo).
+
+=================  ==============================================================
+module             contents
+=================  ==============================================================
+``assets``         the Panda MJCF and meshes from the gymnasium-robotics wheel
+``design``         per-scenario physical design: robot placement, grasp, gains
+``scene``          the scene built in code (``MjSpec``): supports, object, Panda
+``kinematics``     poses, quaternions, straight-line minimum-jerk trajectories
+``ik``             mink (daqp) differential IK for the reference configurations
+``controller``     Cartesian impedance + null space + DAVI (disagreement-aware)
+``human``          the simulated human's saturating spring-damper on the handle
+``seats``          supports as unilateral seats (hook, peg, plate)
+``observer``       closest abstract state, human-action inference, step reward
+``sim``            :class:`PandaSim`: one abstract step of both agents
+``episode``        the backend inside the envs (``backend="mujoco"``)
+``runner``         :func:`simulate_physics` for ``hri-bench study --backend mujoco``
+``speed``          real-time factor and wall time per abstract step
+``rendering``      headless ``rgb_array`` (EGL, OSMesa fallback) and videos
+=================  ==============================================================
+
+Importing this package selects MuJoCo's headless OpenGL backend (``MUJOCO_GL``) unless it
+is set already; do so before anything imports ``mujoco`` to render.
+"""
+
+from hri_envs.physics.rendering import select_gl_backend
+
+select_gl_backend()
+
+from hri_envs.physics.design import PhysicsDesign, design_for  # noqa: E402
+from hri_envs.physics.ik import IKFailure  # noqa: E402
+from hri_envs.physics.rendering import SceneRenderer, write_video  # noqa: E402
+from hri_envs.physics.sim import PandaSim, StepResult  # noqa: E402
+
+__all__ = [
+    "IKFailure",
+    "PandaSim",
+    "PhysicsDesign",
+    "SceneRenderer",
+    "StepResult",
+    "design_for",
+    "select_gl_backend",
+    "write_video",
+]

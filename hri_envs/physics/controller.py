@@ -1,0 +1,161 @@
+"""Cartesian impedance control with disagreement-aware variable impedance (DAVI).
+
+Joint torques (all controlled joints: the wheel's base joints, then the arm)::
+
+    τ = Jᵀ [K (x_ref - x) + D (ẋ_ref - ẋ)]          Cartesian impedance of the grip frame
+      + c(q, q̇)                                    gravity and Coriolis compensation
+      + J_cᵀ m g ẑ                                  payload: the held object's weight
+      + (I - Jᵀ Λ J M⁻¹) [K_n (q_ref - q) - D_n q̇]  null-space posture towards the IK reference
+
+clipped to the joint torque limits. In *passive mode* the stiffness is zero (gravity and
+payload compensation with a little damping: the human drags the robot around). While
+tracking, :class:`Disagreement` watches the interaction wrench: when the human pushes
+against the robot's intended motion, the stiffness fades out and, if the disagreement
+persists, the robot gives up its action and turns passive (paper Sect. 4.3: the human is
+always in control).
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from hri_envs.physics.design import PhysicsDesign
+from hri_envs.physics.kinematics import TrajectorySample, rotation_error
+from hri_envs.physics.scene import Scene
+
+__all__ = ["Disagreement", "ImpedanceController"]
+
+
+class ImpedanceController:
+    """Computes the robot's joint torques from the state in ``data``.
+
+    Args:
+        scene: The compiled scene (ids, limits, design).
+    """
+
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+        d: PhysicsDesign = scene.design
+        m = scene.model
+        self.dofs = scene.robot_dofs
+        n = len(self.dofs)
+        self._jacp = np.zeros((3, m.nv))
+        self._jacr = np.zeros((3, m.nv))
+        self._jacc = np.zeros((3, m.nv))
+        self._quat = np.zeros(4)
+        self._rhs = np.zeros((7, m.nv))
+        self._minv = np.zeros((7, m.nv))
+        self._jac = np.zeros((6, n))
+        self._wrench = np.zeros(6)
+        self._reg = 1e-6 * np.eye(6)
+        # The robot's joints lead the model and are contiguous in qpos and qvel (no ball or
+        # free joints): plain slices instead of index arrays.
+        if not (np.array_equal(self.dofs, np.arange(n))
+                and np.array_equal(scene.robot_qpos, np.arange(n))):
+            raise ValueError("the robot's joints must come first in the model")
+        self.sl = slice(0, n)
+        self.kn = np.full(n, d.posture_stiffness)
+        self.dn = np.full(n, d.posture_damping)
+        n_base = n - 7
+        self.kn[:n_base], self.dn[:n_base] = d.base_stiffness, d.base_damping
+        self.weight = d.object_mass * -m.opt.gravity
+        self.grip_pos_in_object = d.grip_pos
+        self.com_in_object = d.object_com
+
+    def torques(self, data: mujoco.MjData, ref: TrajectorySample | None, q_ref: np.ndarray,
+                stiffness_scale: float, payload: bool) -> np.ndarray:
+        """Joint torques (n,) for the controlled joints.
+
+        Args:
+            data: Simulation state (kinematics computed, e.g. after ``mj_step1``).
+            ref: Cartesian reference of the grip frame; None for passive mode.
+            q_ref: (n,) null-space posture reference.
+            stiffness_scale: DAVI factor in [0, 1] on the Cartesian stiffness.
+            payload: Compensate the weight of the held object.
+        """
+        sc, d, m, sl = self.scene, self.scene.design, self.scene.model, self.sl
+        mujoco.mj_jacSite(m, data, self._jacp, self._jacr, sc.grip_site)
+        jac = self._jac  # (6, n)
+        jac[:3] = self._jacp[:, sl]
+        jac[3:] = self._jacr[:, sl]
+        qd = data.qvel[sl]
+        twist = jac @ qd
+        wrench = self._wrench
+        if ref is None:
+            d_p, d_r = d.passive_damping
+            wrench[:3] = -d_p * twist[:3]
+            wrench[3:] = -d_r * twist[3:]
+        else:
+            s = stiffness_scale
+            k_p, k_r = d.stiffness[0] * s, d.stiffness[1] * s
+            d_p = s * d.damping[0] + (1 - s) * d.passive_damping[0]
+            d_r = s * d.damping[1] + (1 - s) * d.passive_damping[1]
+            mujoco.mju_mat2Quat(self._quat, data.site_xmat[sc.grip_site])
+            wrench[:3] = (k_p * (ref.pos - data.site_xpos[sc.grip_site])
+                          + d_p * (s * ref.vel - twist[:3]))
+            wrench[3:] = (k_r * rotation_error(ref.quat, self._quat)
+                          + d_r * (s * ref.angvel - twist[3:]))
+        tau = jac.T @ wrench + data.qfrc_bias[sl]
+        if payload:
+            mujoco.mj_jac(m, data, self._jacc, None, data.xipos[sc.object_body], sc.hand_body)
+            tau += self._jacc[:, sl].T @ self.weight
+        # Null-space posture, dynamically consistent: N = I - Jᵀ Λ J M⁻¹, Λ = (J M⁻¹ Jᵀ)⁻¹,
+        # so it produces no acceleration of the grip frame.
+        tau0 = self.kn * (q_ref - data.qpos[sl]) - self.dn * qd
+        rhs = self._rhs
+        rhs[:6, sl] = jac
+        rhs[6, sl] = tau0
+        mujoco.mj_solveM(m, data, self._minv, rhs)
+        minv_jt = self._minv[:6, sl]  # (6, n) = (M⁻¹ Jᵀ)ᵀ
+        lam_inv = minv_jt @ jac.T + self._reg
+        tau += tau0 - jac.T @ np.linalg.solve(lam_inv, jac @ self._minv[6, sl])
+        return np.clip(tau, -sc.torque_limit, sc.torque_limit)
+
+
+class Disagreement:
+    """Disagreement-aware variable impedance (after Van der Spaa et al., 2022).
+
+    The disagreement force is the part of the human's wrench that does not push along the
+    robot's intended motion: its component across the motion plus whatever opposes the
+    motion beyond a slack (so that a partner who is a little slower is not taken for one
+    who disagrees); torques count as force × ``lever``. The stiffness scale ``1 - α``
+    follows the disagreement between ``disagree_force[0]`` (stiff) and ``[1]`` (soft) with
+    a rise time of 0.1 s and a fall time of 0.3 s; when α stays above 0.9 for 0.3 s the
+    robot *yields*: it abandons its action and is passive until the step ends.
+
+    Args:
+        design: Thresholds and lever.
+    """
+
+    def __init__(self, design: PhysicsDesign) -> None:
+        self.f0, self.f1 = design.disagree_force
+        self.lever = design.lever
+        self.slack = 0.5 * self.f0
+        self.alpha = 0.0
+        self.yielded = False
+        self._high = 0.0
+
+    def reset(self) -> None:
+        """Stiff again (a new action)."""
+        self.alpha, self.yielded, self._high = 0.0, False, 0.0
+
+    def force(self, force: np.ndarray, torque: np.ndarray, direction: np.ndarray,
+              axis: np.ndarray) -> float:
+        """Disagreement force [N] of a human wrench against a motion (unit vectors or 0)."""
+        along = float(force @ direction)
+        across = float(np.linalg.norm(force - along * direction))
+        t_along = float(torque @ axis)
+        t_across = float(np.linalg.norm(torque - t_along * axis))
+        return (across + max(-along - self.slack, 0.0)
+                + (t_across + max(-t_along - self.slack * self.lever, 0.0)) / self.lever)
+
+    def update(self, disagreement: float, dt: float) -> float:
+        """Advance by ``dt`` [s] with the current disagreement force; the stiffness scale."""
+        target = min(max((disagreement - self.f0) / (self.f1 - self.f0), 0.0), 1.0)
+        tau = 0.1 if target > self.alpha else 0.3
+        self.alpha += (target - self.alpha) * min(dt / tau, 1.0)
+        self._high = self._high + dt if self.alpha > 0.9 else 0.0
+        if self._high >= 0.3:
+            self.yielded = True
+        return 0.0 if self.yielded else 1.0 - self.alpha

@@ -1,0 +1,221 @@
+"""Physical design of each scenario: robot placement, grasps, object, gains and tolerances.
+
+The scenario geometry (:mod:`hri_envs.task.geometry`) fixes where the supports and
+waypoints are; this module fixes everything the abstract model leaves open. Frames:
+
+* The *object frame* is the pose the scenario gives for a state: its origin is the point
+  that rests on a support, its orientation the scenario's quaternion ``(w, x, y, z)``.
+* The robot's *grip frame* is fixed in the object frame (``grip_pos``, ``grip_quat``); the
+  hand's grip site is welded onto it while the robot holds the object. Its z axis is the
+  gripper's approach direction.
+* The human holds the object at ``handle_pos`` (object frame).
+
+**Hanger.** The scenario's coordinates are those of the paper's user study. With the robot
+base at their origin, no single grasp of the hanger reaches all 12 waypoints and 3 supports
+in both orientations (checked with mink IK); the Panda is therefore mounted 20 cm in front of
+and 5 cm to the left of that origin on a 10 cm plate, ``base_pos = (0.20, 0.05, 0.10)``, and
+holds the hanger by its neck, 8 cm below the hook, with the gripper pointing along the
+hanger's bar and tilted 45° down. This placement and grasp came out of a search over base
+positions and grasp directions in which the IK reference had to follow every abstract
+motion (straight lines and rotations) of the graph; with it all 108 (state, motion) pairs
+of the hanger reach the state the graph predicts (``tests/test_physics.py``).
+
+**Wheel.** The wheel scenario is human-scale: the rack is at 1.7 m and the stands are
+1.6-3.6 m from it. A fixed-base Panda reaches about 0.85 m, so here the Panda stands on an
+omnidirectional mobile base with a vertical lift, modelled as three prismatic joints
+(x, y on the floor, z for the lift) under the arm, torque-driven like the arm. The robot
+holds the wheel's rim on the -x side with its gripper pointing at the wheel's centre (+x),
+the human holds the opposite rim point, so the abstract "rotate" (about x, the axis from the
+robot to the human) spins the gripper about its own axis.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+__all__ = ["PhysicsDesign", "design_for", "hanger_design", "wheel_design"]
+
+
+def _quat_from_axes(x: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of the frame with axes x, z (y = z × x)."""
+    x = np.asarray(x, float) / np.linalg.norm(x)
+    z = np.asarray(z, float) / np.linalg.norm(z)
+    r = np.stack([x, np.cross(z, x), z], axis=1)
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, r.flatten())
+    return q
+
+
+@dataclass(frozen=True)
+class PhysicsDesign:
+    """Everything physical about one scenario that the task graph does not fix.
+
+    Units: metres, kilograms, seconds, newtons, radians.
+
+    Attributes:
+        scenario: "hanger" or "wheel".
+        base_pos: Panda mount position (fixed base), or the zero of the mobile base's joints.
+        mobile_base: Add prismatic x, y, z joints under the arm (wheel).
+        home: Nominal arm configuration (7,), the IK posture target.
+        grip_pos, grip_quat: The robot's grip frame in the object frame.
+        handle_pos: The human's handle in the object frame.
+        object_mass: Mass of the carried object.
+        object_com: Its centre of mass in the object frame.
+        object_inertia: Diagonal inertia about the centre of mass.
+        linear_speed, angular_speed: Peak speeds of the robot's straight-line motions.
+        stiffness: Cartesian stiffness (translational [N/m], rotational [N m/rad]).
+        damping: Cartesian damping when tracking (translational, rotational).
+        passive_damping: Cartesian damping in passive mode (zero stiffness).
+        posture_stiffness, posture_damping: Null-space joint impedance (arm joints).
+        base_stiffness, base_damping: Null-space impedance of the base joints (mobile).
+        human_stiffness, human_damping, human_force: The simulated human's translational
+            spring, damper and force saturation.
+        human_rot_stiffness, human_rot_damping, human_torque: The same for rotation.
+        human_noise: Standard deviation of the human's force noise [N] (torque: x 0.1 m).
+        seat_stiffness, seat_damping, seat_hold: Supports' seat spring, damper and the
+            detent force needed to pull the object out of a seat.
+        seat_rot_stiffness, seat_rot_damping: The seat's rotational spring and damper.
+        disagree_force: Disagreement force [N] where the robot starts softening, and where
+            it is fully soft (DAVI); torques count as force × ``lever``.
+        lever: Length [m] converting torques into comparable forces.
+        position_tolerance, angle_tolerance: Distance to an abstract state's pose within
+            which the object counts as *at* that state.
+        step_time_limit: Simulated seconds after which an abstract step ends.
+    """
+
+    scenario: str
+    base_pos: np.ndarray
+    mobile_base: bool
+    home: np.ndarray
+    grip_pos: np.ndarray
+    grip_quat: np.ndarray
+    handle_pos: np.ndarray
+    object_mass: float
+    object_com: np.ndarray
+    object_inertia: np.ndarray
+    linear_speed: float
+    angular_speed: float
+    stiffness: tuple[float, float]
+    damping: tuple[float, float]
+    passive_damping: tuple[float, float]
+    posture_stiffness: float
+    posture_damping: float
+    base_stiffness: float
+    base_damping: float
+    human_stiffness: float
+    human_damping: float
+    human_force: float
+    human_rot_stiffness: float
+    human_rot_damping: float
+    human_torque: float
+    human_noise: float
+    seat_stiffness: float
+    seat_damping: float
+    seat_hold: float
+    seat_rot_stiffness: float
+    seat_rot_damping: float
+    disagree_force: tuple[float, float]
+    lever: float
+    position_tolerance: float
+    angle_tolerance: float
+    step_time_limit: float
+
+
+def hanger_design() -> PhysicsDesign:
+    """The clothes hanger on a fixed-base Panda (see the module docstring)."""
+    tilt = np.deg2rad(45.0)  # the gripper points along the bar, 45° down
+    approach = np.array([-np.sin(tilt), np.cos(tilt), 0.0])
+    up = np.array([np.cos(tilt), np.sin(tilt), 0.0])
+    return PhysicsDesign(
+        scenario="hanger",
+        base_pos=np.array([0.20, 0.05, 0.10]),
+        mobile_base=False,
+        home=np.array([0.0, -0.5, 0.0, -2.2, 0.0, 0.9, 0.785]),
+        grip_pos=np.array([-0.08, 0.0, 0.0]),
+        grip_quat=_quat_from_axes(up, approach),
+        handle_pos=np.array([-0.16, 0.2, 0.0]),
+        object_mass=0.3,
+        object_com=np.array([-0.12, 0.0, 0.0]),
+        object_inertia=np.array([0.004, 0.0015, 0.0055]),
+        linear_speed=0.25,
+        angular_speed=0.9,
+        stiffness=(600.0, 30.0),
+        damping=(60.0, 2.5),
+        passive_damping=(12.0, 0.6),
+        posture_stiffness=15.0,
+        posture_damping=2.0,
+        base_stiffness=0.0,
+        base_damping=0.0,
+        human_stiffness=200.0,
+        human_damping=18.0,
+        human_force=12.0,
+        human_rot_stiffness=8.0,
+        human_rot_damping=0.8,
+        human_torque=2.0,
+        human_noise=0.4,
+        seat_stiffness=2000.0,
+        seat_damping=40.0,
+        seat_hold=4.0,
+        seat_rot_stiffness=20.0,
+        seat_rot_damping=0.25,
+        disagree_force=(4.0, 9.0),
+        lever=0.2,
+        position_tolerance=0.02,
+        angle_tolerance=np.deg2rad(8.0),
+        step_time_limit=20.0,
+    )
+
+
+def wheel_design() -> PhysicsDesign:
+    """The wheel on a Panda with a mobile base and lift (see the module docstring)."""
+    return PhysicsDesign(
+        scenario="wheel",
+        base_pos=np.array([-0.9, 0.0, 0.6]),
+        mobile_base=True,
+        # Gripper horizontal and forward: q6 - (q2 - q4) = 0 in this model's convention.
+        home=np.array([0.0, 0.3, 0.0, -1.4, 0.0, 1.7, 0.0]),
+        grip_pos=np.array([-0.32, 0.0, 0.0]),
+        grip_quat=_quat_from_axes(np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0])),
+        handle_pos=np.array([0.32, 0.0, 0.0]),
+        object_mass=1.0,  # a bicycle wheel: the Panda's wrist (12 N m) holds it at the rim
+        object_com=np.zeros(3),
+        object_inertia=np.array([0.025, 0.025, 0.045]),
+        linear_speed=0.5,
+        angular_speed=0.9,
+        stiffness=(900.0, 60.0),
+        damping=(120.0, 6.0),
+        passive_damping=(30.0, 1.5),
+        posture_stiffness=20.0,
+        posture_damping=3.0,
+        base_stiffness=3000.0,
+        base_damping=800.0,
+        human_stiffness=300.0,
+        human_damping=50.0,
+        human_force=30.0,
+        human_rot_stiffness=25.0,
+        human_rot_damping=3.0,
+        human_torque=8.0,
+        human_noise=1.0,
+        seat_stiffness=8000.0,
+        seat_damping=200.0,
+        seat_hold=10.0,
+        seat_rot_stiffness=150.0,
+        seat_rot_damping=6.0,
+        disagree_force=(8.0, 18.0),
+        lever=0.3,
+        position_tolerance=0.03,
+        angle_tolerance=np.deg2rad(8.0),
+        step_time_limit=40.0,
+    )
+
+
+def design_for(scenario: str) -> PhysicsDesign:
+    """The design of a scenario by name."""
+    if scenario == "hanger":
+        return hanger_design()
+    if scenario == "wheel":
+        return wheel_design()
+    raise ValueError(f"unknown scenario {scenario!r}; allowed: 'hanger', 'wheel'")

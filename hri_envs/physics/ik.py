@@ -1,0 +1,110 @@
+"""Reference joint configurations from mink differential IK (QP solver daqp).
+
+At 50 Hz the reference configuration takes one differential-IK step towards the current
+Cartesian reference of the grip frame, under the joint limits, with a posture task that
+keeps the arm near its nominal configuration (and lets a mobile base do the travelling).
+The controller pulls the arm towards this configuration in the null space of the Cartesian
+task (paper Sect. 4.2 uses a GP-learned IK for the same purpose).
+"""
+
+from __future__ import annotations
+
+import mink
+import mujoco
+import numpy as np
+
+from hri_envs.physics.kinematics import Pose, slerp
+
+__all__ = ["IKFailure", "ReferenceIK"]
+
+
+class IKFailure(RuntimeError):
+    """The IK problem has no solution, or the reference cannot follow its target."""
+
+
+class ReferenceIK:
+    """Differential IK on the robot-only model.
+
+    Args:
+        model: The robot-only model (:func:`hri_envs.physics.scene.build_robot_model`).
+        n_joints: Number of controlled joints (leading qpos entries: base, then arm).
+        n_base: How many of them are mobile-base joints.
+        home: (n_joints,) nominal configuration (posture task target for the arm).
+        site: Name of the grip site.
+    """
+
+    def __init__(self, model: mujoco.MjModel, n_joints: int, n_base: int, home: np.ndarray,
+                 site: str = "grip") -> None:
+        self.model, self.n, self.n_base = model, n_joints, n_base
+        self.configuration = mink.Configuration(model)
+        self.frame = mink.FrameTask(site, "site", position_cost=1.0, orientation_cost=0.5,
+                                    lm_damping=1e-3)
+        cost = np.full(model.nv, 1e-2)
+        cost[:n_base] = 1e-4
+        self.posture = mink.PostureTask(model, cost=cost)
+        self.limits = [mink.ConfigurationLimit(model, gain=0.9)]
+        self.home = np.array(model.qpos0)
+        self.home[:n_joints] = home
+        self.home[n_joints:] = 0.04  # fingers open
+        self.posture.set_target(self.home)
+
+    @property
+    def q(self) -> np.ndarray:
+        """(n_joints,) the current reference configuration."""
+        return self.configuration.q[: self.n].copy()
+
+    def reset(self, q: np.ndarray, base_target: np.ndarray | None = None) -> None:
+        """Restart from configuration ``q`` (n_joints,); optionally re-centre the base."""
+        full = self.home.copy()
+        full[: self.n] = q
+        self.configuration.update(full)
+        target = self.home.copy()
+        if self.n_base:
+            target[: self.n_base] = q[: self.n_base] if base_target is None else base_target
+        self.posture.set_target(target)
+
+    def error(self) -> float:
+        """Position error [m] plus 0.1 m/rad times the orientation error, of the reference."""
+        e = self.frame.compute_error(self.configuration)
+        return float(np.linalg.norm(e[:3]) + 0.1 * np.linalg.norm(e[3:]))
+
+    def step(self, target: Pose, dt: float) -> np.ndarray:
+        """One differential-IK step of ``dt`` [s] towards ``target``; the new reference.
+
+        Raises:
+            IKFailure: The QP has no solution.
+        """
+        self.frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3(target.quat),
+                                                                     target.pos))
+        try:
+            v = mink.solve_ik(self.configuration, [self.frame, self.posture], dt, "daqp",
+                              damping=1e-4, limits=self.limits)
+        except mink.NoSolutionFound as exc:
+            raise IKFailure(f"mink found no IK solution: {exc}") from exc
+        self.configuration.integrate_inplace(v, dt)
+        return self.configuration.q[: self.n]
+
+    def current(self) -> Pose:
+        """The grip frame's pose at the reference configuration."""
+        t = self.configuration.get_transform_frame_to_world(self.frame.frame_name, "site")
+        wxyz_xyz = t.wxyz_xyz
+        return Pose(np.array(wxyz_xyz[4:]), np.array(wxyz_xyz[:4]))
+
+    def solve(self, target: Pose, iterations: int = 200, tolerance: float = 1e-3,
+              approach_steps: int = 20) -> float:
+        """Move the reference to ``target`` along a straight line (``approach_steps``
+        increments, so the solution stays on the branch of the start), then iterate
+        :meth:`step` until the error is below ``tolerance``; the final error.
+        """
+        start = self.current()
+        for i in range(1, approach_steps + 1):
+            x = i / approach_steps
+            self.step(Pose(start.pos + x * (target.pos - start.pos),
+                           slerp(start.quat, target.quat, x)), 0.05)
+        err = np.inf
+        for _ in range(iterations):
+            self.step(target, 0.05)
+            err = self.error()
+            if err < tolerance:
+                break
+        return err

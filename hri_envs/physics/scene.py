@@ -1,0 +1,262 @@
+"""Build the MuJoCo scene of a scenario in code (``MjSpec``): supports, object, Panda.
+
+The scene has, in this order of degrees of freedom: the robot (for the wheel three
+prismatic base joints, then) seven arm joints and two fingers, and the object's free
+joint. Supports are mocap bodies, so the wheel's stands move to each episode's layout
+without recompiling. Contacts are disabled: the supports hold the object through seat
+force laws (:mod:`hri_envs.physics.seats`), the robot through a weld constraint
+(activated on grasp), the human through an applied wrench. The arm and the base are driven
+by joint torques (``motor`` actuators with the Panda's torque limits); the fingers by
+position servos, for show.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from hri_envs.physics.assets import PANDA_ARM_JOINTS, PANDA_FINGER_JOINTS, panda_xml
+from hri_envs.physics.design import PhysicsDesign
+from hri_envs.task.geometry import Scenario
+
+__all__ = ["BASE_JOINTS", "Scene", "build_robot_model", "build_scene"]
+
+#: Prismatic joints of the wheel's mobile base (x, y on the floor, z lift).
+BASE_JOINTS: tuple[str, ...] = ("base_x", "base_y", "base_lift")
+_TORQUE_LIMITS = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
+_BASE_FORCE_LIMITS = (1500.0, 1500.0, 3000.0)
+_GRIP_SITE = "grip"
+_WIRE, _GREY, _DARK = (0.85, 0.6, 0.2, 1.0), (0.6, 0.6, 0.62, 1.0), (0.3, 0.3, 0.33, 1.0)
+
+
+def _visual(body: mujoco.MjsBody, **kwargs: object) -> mujoco.MjsGeom:
+    geom = body.add_geom(contype=0, conaffinity=0, **kwargs)
+    return geom
+
+
+def _robot_spec(design: PhysicsDesign) -> mujoco.MjSpec:
+    spec = mujoco.MjSpec.from_string(panda_xml())
+    spec.option.timestep = 0.002
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    for geom in spec.geoms:
+        geom.contype, geom.conaffinity = 0, 0
+    for i, name in enumerate(PANDA_ARM_JOINTS):
+        joint = spec.joint(name)
+        joint.damping = [0.5, 0.0, 0.0]
+        joint.armature = 0.1 if i < 4 else 0.05
+        joint.frictionloss = 0.0
+    for name in PANDA_FINGER_JOINTS:
+        spec.joint(name).damping = [5.0, 0.0, 0.0]
+        spec.joint(name).armature = 0.01
+    spec.body("panda0_link7").add_site(
+        name=_GRIP_SITE, pos=[0.0, 0.0, 0.21],
+        quat=[np.cos(-np.pi / 8), 0.0, 0.0, np.sin(-np.pi / 8)], size=[0.01, 0, 0],
+    )
+    mount = spec.body("panda_mount")
+    mount.pos = design.base_pos
+    if design.mobile_base:
+        mount.mass, mount.inertia, mount.explicitinertial = 25.0, [2.0, 2.0, 2.0], True
+        ranges = ((-8.0, 8.0), (-8.0, 8.0), (-0.55, 1.0))  # [m] from base_pos
+        for name, axis, rng in zip(BASE_JOINTS, np.eye(3), ranges, strict=True):
+            mount.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis,
+                            damping=[50.0, 0.0, 0.0], armature=5.0, range=rng, limited=True)
+        _visual(mount, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.06, 1.0, 0],
+                pos=[0, 0, -1.0], rgba=_DARK)
+    else:
+        _visual(mount, type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.12, 0.12, design.base_pos[2] / 2],
+                pos=[0, 0, -design.base_pos[2] / 2], rgba=_DARK)
+    for name, limit in zip(PANDA_ARM_JOINTS, _TORQUE_LIMITS, strict=True):
+        act = spec.add_actuator(name=name.split(":")[-1], target=name,
+                                trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_motor()
+        act.ctrlrange = [-limit, limit]
+    if design.mobile_base:
+        for name, limit in zip(BASE_JOINTS, _BASE_FORCE_LIMITS, strict=True):
+            act = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+            act.set_to_motor()
+            act.ctrlrange = [-limit, limit]
+    for name in PANDA_FINGER_JOINTS:
+        act = spec.add_actuator(name=name.split(":")[-1], target=name,
+                                trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_position(kp=200.0)
+        act.ctrlrange = [0.0, 0.04]
+    return spec
+
+
+def build_robot_model(design: PhysicsDesign) -> mujoco.MjModel:
+    """The robot alone (same joint order as in the scene), for inverse kinematics."""
+    return _robot_spec(design).compile()
+
+
+def _hanger_visuals(body: mujoco.MjsBody) -> None:
+    cap = mujoco.mjtGeom.mjGEOM_CAPSULE
+    r = [0.006, 0, 0]
+    wire = [  # in the object frame: x up, the hanger's plane is x-y
+        (0.0, 0.0, 0.0, 0.02, 0.0, 0.03), (0.02, 0.0, 0.03, 0.0, 0.0, 0.05),
+        (0.0, 0.0, 0.0, -0.08, 0.0, 0.0), (-0.08, 0.0, 0.0, -0.16, -0.2, 0.0),
+        (-0.08, 0.0, 0.0, -0.16, 0.2, 0.0), (-0.16, -0.2, 0.0, -0.16, 0.2, 0.0),
+    ]
+    for seg in wire:
+        _visual(body, type=cap, fromto=list(seg), size=r, rgba=_WIRE)
+
+
+def _wheel_visuals(body: mujoco.MjsBody, radius: float) -> None:
+    _visual(body, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[radius, 0.02, 0],
+            rgba=(0.15, 0.15, 0.15, 0.35))
+    _visual(body, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.06, 0.04, 0], rgba=_GREY)
+    n = 16
+    ang = np.linspace(0.0, 2 * np.pi, n + 1)
+    for a0, a1 in zip(ang[:-1], ang[1:], strict=True):
+        seg = [radius * np.cos(a0), radius * np.sin(a0), 0, radius * np.cos(a1),
+               radius * np.sin(a1), 0]
+        _visual(body, type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=seg, size=[0.03, 0, 0],
+                rgba=(0.1, 0.1, 0.1, 1.0))
+
+
+def _support_visuals(spec: mujoco.MjSpec, scenario: Scenario) -> list[str]:
+    names = []
+    cyl, box = mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_BOX
+    for sup in scenario.supports:
+        body = spec.worldbody.add_body(name=f"support_{sup.name}", mocap=True, pos=sup.position)
+        names.append(body.name)
+        out = sup.mounting - sup.position
+        out_h = np.array([out[0], out[1], 0.0])
+        z = sup.position[2]
+        if scenario.name == "hanger":
+            d = out_h / max(np.linalg.norm(out_h), 1e-9)
+            a, b = -0.12 * d - [0, 0, 0.012], 0.04 * d - [0, 0, 0.012]
+            _visual(body, type=cyl, fromto=[*a, *b], size=[0.01, 0, 0], rgba=_GREY)
+            _visual(body, type=box, pos=[*(a - [0, 0, z / 2]), ], size=[0.02, 0.02, z / 2],
+                    rgba=_DARK)
+        elif sup.blocks_below:  # wheel stand: plate under the lying wheel, post to the floor
+            _visual(body, type=cyl, pos=[0, 0, -0.035], size=[0.22, 0.01, 0], rgba=_GREY)
+            _visual(body, type=cyl, pos=[0, 0, -(z + 0.035) / 2], size=[0.03, z / 2, 0],
+                    rgba=_DARK)
+        else:  # wheel rack: a peg through the hub from a post behind the wheel
+            _visual(body, type=cyl, fromto=[0, -0.15, 0, 0, 0.12, 0], size=[0.02, 0, 0],
+                    rgba=_GREY)
+            _visual(body, type=box, pos=[0, -0.17, -z / 2 + 0.1], size=[0.04, 0.02, z / 2 + 0.1],
+                    rgba=_DARK)
+    if scenario.name == "hanger":  # the rail joining B and C
+        b, c = scenario.supports[1].position, scenario.supports[2].position
+        ext = (c - b) / np.linalg.norm(c - b) * 0.08
+        _visual(spec.worldbody, type=cyl, fromto=[*(b - ext - [0, -0.03, 0.012]),
+                                                   *(c + ext - [0, -0.03, 0.012])],
+                size=[0.01, 0, 0], rgba=_GREY)
+    return names
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A compiled scene and the indices the backend needs.
+
+    Attributes:
+        model: The compiled model.
+        design: The physical design it was built from.
+        robot_qpos, robot_dofs: (n,) qpos / dof addresses of the controlled robot joints
+            (base joints, then arm joints), n = 7 or 10.
+        arm_dofs: (7,) the arm joints' positions within ``robot_dofs``.
+        finger_qpos: (2,) qpos addresses of the fingers.
+        robot_actuators: (n,) actuators of the robot joints (same order), finger_actuators (2,).
+        torque_limit: (n,) the robot joints' torque/force limits.
+        grip_site: Site id of the hand's grip frame; hand_body the body it is on.
+        object_body: Body id of the object; object_qpos (7,), object_dofs (6,) its free joint.
+        object_grip_site, object_handle_site: Site ids on the object.
+        weld: Equality id of the grasp weld (hand to object).
+        support_mocap: (K,) mocap ids of the supports.
+        platform_mocap: Mocap id of the mobile base's floor platform (-1 without one).
+    """
+
+    model: mujoco.MjModel
+    design: PhysicsDesign
+    robot_qpos: np.ndarray
+    robot_dofs: np.ndarray
+    arm_dofs: np.ndarray
+    finger_qpos: np.ndarray
+    robot_actuators: np.ndarray
+    finger_actuators: np.ndarray
+    torque_limit: np.ndarray
+    grip_site: int
+    hand_body: int
+    object_body: int
+    object_qpos: np.ndarray
+    object_dofs: np.ndarray
+    object_grip_site: int
+    object_handle_site: int
+    weld: int
+    support_mocap: np.ndarray
+    platform_mocap: int
+
+
+def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
+    """Compile the scene of ``scenario`` with the physical ``design``."""
+    spec = _robot_spec(design)
+    spec.visual.global_.offwidth, spec.visual.global_.offheight = 640, 480
+    spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
+    spec.worldbody.add_light(pos=[0.5, -1.0, 4.0], dir=[0.0, 0.2, -1.0], diffuse=[0.6] * 3)
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[8, 8, 0.1],
+                            rgba=(0.82, 0.8, 0.76, 1.0), contype=0, conaffinity=0)
+    platform = None
+    if design.mobile_base:
+        platform = spec.worldbody.add_body(name="platform", mocap=True, pos=[0, 0, 0.1])
+        _visual(platform, type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.3, 0.25, 0.1], rgba=_DARK)
+    support_names = _support_visuals(spec, scenario)
+
+    obj = spec.worldbody.add_body(name="object", pos=scenario.supports[0].position)
+    obj.add_freejoint(name="object_free")
+    obj.mass, obj.ipos, obj.inertia = design.object_mass, design.object_com, design.object_inertia
+    obj.explicitinertial = True
+    if scenario.name == "hanger":
+        _hanger_visuals(obj)
+    else:
+        _wheel_visuals(obj, scenario.object_radius)
+    obj.add_site(name="object_grip", pos=design.grip_pos, quat=design.grip_quat,
+                 size=[0.012, 0, 0], rgba=(0.2, 0.4, 0.9, 1.0))
+    obj.add_site(name="object_handle", pos=design.handle_pos, size=[0.02, 0, 0],
+                 rgba=(0.9, 0.5, 0.1, 1.0))
+    weld = spec.add_equality(name="grasp", type=mujoco.mjtEq.mjEQ_WELD,
+                             objtype=mujoco.mjtObj.mjOBJ_BODY, name1="object",
+                             name2="panda0_link7", active=False)
+    weld.solref = [0.01, 1.0]
+    model = spec.compile()
+
+    def jid(name: str) -> int:
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+
+    def aid(name: str) -> int:
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
+
+    joints = (BASE_JOINTS if design.mobile_base else ()) + PANDA_ARM_JOINTS
+    ids = [jid(n) for n in joints]
+    acts = [aid(n.split(":")[-1]) for n in joints]
+    limits = (_BASE_FORCE_LIMITS if design.mobile_base else ()) + _TORQUE_LIMITS
+    free = jid("object_free")
+    obj_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "object")
+    n_base = 3 if design.mobile_base else 0
+    return Scene(
+        model=model,
+        design=design,
+        robot_qpos=np.array([model.jnt_qposadr[i] for i in ids]),
+        robot_dofs=np.array([model.jnt_dofadr[i] for i in ids]),
+        arm_dofs=np.arange(n_base, n_base + 7),
+        finger_qpos=np.array([model.jnt_qposadr[jid(n)] for n in PANDA_FINGER_JOINTS]),
+        robot_actuators=np.array(acts),
+        finger_actuators=np.array([aid(n.split(":")[-1]) for n in PANDA_FINGER_JOINTS]),
+        torque_limit=np.array(limits),
+        grip_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, _GRIP_SITE),
+        hand_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "panda0_link7"),
+        object_body=obj_id,
+        object_qpos=np.arange(model.jnt_qposadr[free], model.jnt_qposadr[free] + 7),
+        object_dofs=np.arange(model.jnt_dofadr[free], model.jnt_dofadr[free] + 6),
+        object_grip_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "object_grip"),
+        object_handle_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "object_handle"),
+        weld=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, "grasp"),
+        support_mocap=np.array([
+            model.body_mocapid[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n)]
+            for n in support_names]),
+        platform_mocap=-1 if platform is None else int(
+            model.body_mocapid[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "platform")]),
+    )

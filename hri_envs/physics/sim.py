@@ -1,0 +1,391 @@
+"""The physics backend's core: one abstract step of both agents on the simulated Panda.
+
+:class:`PandaSim` owns the MuJoCo model and data. :meth:`PandaSim.step` takes the observed
+abstract state and both agents' abstract actions and runs them physically:
+
+1. *grasp toggles*: the robot approaches its grip on the object and closes (weld on), or
+   opens (weld off) and retreats; the human's grasp is a flag;
+2. an action that is not valid in the state after the toggles is refused by its agent's
+   skill layer, and a refused action aborts the step's motion for both (the graph's rule);
+3. *motions*: the robot tracks a straight line from the actual grip pose to the target
+   state's pose with the impedance controller; the simulated human pulls the object towards
+   their own target; disagreement makes the robot yield (:class:`Disagreement`);
+4. the step ends when the object has settled (slow for 0.15 s with both agents done), or
+   at a time limit; the observed state is the closest abstract state, and the human's
+   action is inferred from the transition.
+
+Faults (NaN or unstable simulation, IK failure, a time-out far from any abstract state)
+end the step with ``fault`` set instead of raising.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+import mujoco
+import numpy as np
+
+from hri_envs.physics.controller import Disagreement, ImpedanceController
+from hri_envs.physics.design import PhysicsDesign, design_for
+from hri_envs.physics.human import SimulatedHuman
+from hri_envs.physics.ik import IKFailure, ReferenceIK
+from hri_envs.physics.kinematics import Pose, StraightLine, TrajectorySample, compose
+from hri_envs.physics.observer import StateObserver, infer_human_action
+from hri_envs.physics.scene import build_robot_model, build_scene
+from hri_envs.physics.seats import Seats
+from hri_envs.task.geometry import Scenario
+from hri_envs.task.graph import HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT, TaskGraph
+
+__all__ = ["PandaSim", "StepResult"]
+
+_PREGRASP = 0.08  # [m] the idle hand waits this far back along its approach axis
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """3-vector cross product (np.cross is slow for one pair)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
+
+
+class StepResult(NamedTuple):
+    """The outcome of one physical abstract step.
+
+    Attributes:
+        state: The observed (closest) abstract state.
+        human_action: The human's action as the robot infers it.
+        graph_next: The state the graph predicts for the true joint action.
+        graph_agrees: ``state == graph_next``.
+        settled: The object came to rest at a state (else the time limit ended the step).
+        duration: Simulated seconds.
+        linear_impulse: ∫ |F_human| dt [N s].
+        angular_impulse: ∫ |τ_human| dt [N m s].
+        robot_yielded: The robot gave up its action because the human disagreed.
+        position_error, angle_error: Distance of the object from the observed state's pose.
+        fault: None, or why the simulation cannot go on ("unstable", "ik_failure", "timeout").
+    """
+
+    state: int
+    human_action: int
+    graph_next: int
+    graph_agrees: bool
+    settled: bool
+    duration: float
+    linear_impulse: float
+    angular_impulse: float
+    robot_yielded: bool
+    position_error: float
+    angle_error: float
+    fault: str | None
+
+
+class _Fault(Exception):
+    pass
+
+
+class PandaSim:
+    """A simulated Panda and a simulated human carrying the scenario's object.
+
+    Args:
+        graph: The task graph (state and action numbering, transitions).
+        design: Physical design (default: :func:`design_for` the graph's scenario).
+        ik_rate: Rate [Hz] of the IK reference updates.
+    """
+
+    def __init__(self, graph: TaskGraph, design: PhysicsDesign | None = None,
+                 ik_rate: float = 50.0) -> None:
+        self.graph = graph
+        self.design = d = design if design is not None else design_for(graph.name)
+        self.scenario = graph.scenario
+        self.scene = build_scene(self.scenario, d)
+        self.model = self.scene.model
+        self.data = mujoco.MjData(self.model)
+        self.dt = float(self.model.opt.timestep)
+        self.ik_every = max(1, round(1.0 / (ik_rate * self.dt)))
+        self.controller = ImpedanceController(self.scene)
+        self.davi = Disagreement(d)
+        self.human = SimulatedHuman(d, np.random.default_rng(0))
+        self.seats = Seats(self.scenario, d)
+        self.observer = StateObserver(graph, self.scenario, d.lever)
+        n, n_base = len(self.scene.robot_dofs), 3 if d.mobile_base else 0
+        self.n_base = n_base
+        home = np.zeros(n)
+        home[n_base:] = d.home
+        self.ik = ReferenceIK(build_robot_model(d), n, n_base, home)
+        self.home = home
+        self.base_offset = self._base_offset() if n_base else np.zeros(3)
+        m = self.model
+        self._site_pos = m.site_pos[self.scene.grip_site].copy()
+        self._site_quat = m.site_quat[self.scene.grip_site].copy()
+        self.grip_in_object = Pose(d.grip_pos, d.grip_quat)
+        self.on_frame: Callable[[], None] | None = None
+        self.frame_every = 50
+        self.state = 0
+        self.holding = False
+        self.q_ref = home.copy()
+
+    # ------------------------------------------------------------------ poses
+    def object_pose(self) -> Pose:
+        """The object's current pose."""
+        b = self.scene.object_body
+        return Pose(self.data.xpos[b].copy(), self.data.xquat[b].copy())
+
+    def grip_pose(self) -> Pose:
+        """The hand's current grip frame."""
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, self.data.site_xmat[self.scene.grip_site])
+        return Pose(self.data.site_xpos[self.scene.grip_site].copy(), q)
+
+    def state_grip_pose(self, state: int) -> Pose:
+        """The grip frame when the object is at abstract ``state``."""
+        pos, quat = self.observer.pose(state)
+        return compose(Pose(pos, quat), *self.grip_in_object)
+
+    def _base_offset(self) -> np.ndarray:
+        """Mount position relative to the grip in the home posture (mobile base)."""
+        m = self.ik.model
+        data = mujoco.MjData(m)
+        data.qpos[: len(self.home)] = self.home
+        mujoco.mj_kinematics(m, data)
+        site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "grip")
+        return self.design.base_pos - data.site_xpos[site]
+
+    def _pregrasp(self, grip: Pose) -> Pose:
+        return compose(grip, np.array([0.0, 0.0, -_PREGRASP]), np.array([1.0, 0, 0, 0]))
+
+    # ------------------------------------------------------------------ reset
+    def set_scenario(self, scenario: Scenario) -> None:
+        """Move the supports (the wheel's stands) to ``scenario``'s layout."""
+        self.scenario = scenario
+        for k, sup in enumerate(scenario.supports):
+            self.data.mocap_pos[self.scene.support_mocap[k]] = sup.position
+        self.seats.set_scenario(scenario)
+        self.observer.set_scenario(scenario)
+
+    def reset(self, start: int, scenario: Scenario | None = None,
+              rng: np.random.Generator | None = None, state: int | None = None) -> int:
+        """Object on support ``start`` (μ = 0), the robot's hand waiting next to its grip.
+
+        Args:
+            start: The support the episode starts on.
+            scenario: The episode's geometry (default: the graph's).
+            rng: Generator of the human's force noise.
+            state: Place the object in this abstract state instead (for tests and tools):
+                held as its μ says, the robot's hand on its grip when the robot holds.
+
+        Returns:
+            The observed abstract state.
+
+        Raises:
+            IKFailure: The robot cannot reach its pose (a layout it cannot serve).
+        """
+        m, d, sc = self.model, self.data, self.scene
+        mujoco.mj_resetData(m, d)
+        self.set_scenario(scenario if scenario is not None else self.graph.scenario)
+        self.human.reset(rng if rng is not None else np.random.default_rng(0))
+        self.davi.reset()
+        s0 = self.graph.support_state(start, 0) if state is None else int(state)
+        mu = int(self.graph.grasp[s0])
+        pos, quat = self.observer.pose(s0)
+        d.qpos[sc.object_qpos] = np.concatenate([pos, quat])
+        grip = self.state_grip_pose(s0)
+        target = grip if mu & ROBOT_BIT else self._pregrasp(grip)
+        q0 = self.home.copy()
+        if self.n_base:
+            q0[:3] = target.pos + self.base_offset - self.design.base_pos
+        self.ik.reset(q0)
+        # Reach the grip first, then back off to the waiting pose (a hand-held retreat);
+        # the waiting pose only needs to be near (2 cm), the grasp approach starts from it.
+        if self.ik.solve(grip, iterations=300) > 5e-3 or (
+                target is not grip and self.ik.solve(target, iterations=200) > 0.02):
+            raise IKFailure(f"the robot cannot reach its pose in state {s0}")
+        self.q_ref = self.ik.q
+        d.qpos[sc.robot_qpos] = self.q_ref
+        d.qpos[sc.finger_qpos] = 0.04
+        d.eq_active[sc.weld] = 0
+        self._weld(bool(mu & ROBOT_BIT))
+        self.human.holding = bool(mu & HUMAN_BIT)
+        if sc.platform_mocap >= 0:
+            d.mocap_pos[sc.platform_mocap] = [*d.qpos[:2] + self.design.base_pos[:2], 0.1]
+        mujoco.mj_forward(m, d)
+        self.state = s0
+        return s0
+
+    # ------------------------------------------------------------------ grasp
+    def _weld(self, on: bool) -> None:
+        sc, m = self.scene, self.model
+        if on:
+            # Pose of the hand body (link 7) in the object frame: grip ∘ site⁻¹.
+            inv_q = np.array([self._site_quat[0], *-self._site_quat[1:]])
+            rel = compose(self.grip_in_object, -self._rotate(inv_q, self._site_pos), inv_q)
+            m.eq_data[sc.weld, 0:3] = 0.0
+            m.eq_data[sc.weld, 3:6] = rel.pos
+            m.eq_data[sc.weld, 6:10] = rel.quat
+        self.data.eq_active[sc.weld] = int(on)
+        self.data.ctrl[sc.finger_actuators] = 0.012 if on else 0.04
+        self.holding = on
+
+    @staticmethod
+    def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        out = np.empty(3)
+        mujoco.mju_rotVecQuat(out, v, q)
+        return out
+
+    # ------------------------------------------------------------------ step
+    def step(self, s: int, a_r: int, a_h: int) -> StepResult:
+        """Run one abstract step with the robot's action ``a_r`` and the human's ``a_h``.
+
+        Args:
+            s: The abstract state observed before the step (the last step's ``state``).
+            a_r: The robot's abstract action.
+            a_h: The simulated human's true abstract action.
+
+        Returns:
+            The observed next state, the inferred human action, the graph's prediction,
+            impulses, duration and, if the simulation cannot go on, the fault.
+        """
+        g = self.graph
+        t0 = float(self.data.time)
+        acc = np.zeros(3)  # linear impulse, angular impulse, human work
+        fault: str | None = None
+        yielded = settled = False
+        robot_toggle = a_r == TOGGLE and bool(g.valid[s, TOGGLE])
+        human_toggle = a_h == TOGGLE and bool(g.valid[s, TOGGLE])
+        try:
+            if robot_toggle:
+                self._robot_toggle(acc)
+            if human_toggle:
+                self.human.holding = not self.human.holding
+            s1 = int(g.next_state[s, a_r if robot_toggle else WAIT, a_h if human_toggle else WAIT])
+            aborted = not (g.valid[s1, a_r] and g.valid[s1, a_h])
+            robot_moves = a_r > TOGGLE and not aborted
+            human_moves = a_h > TOGGLE and not aborted
+            line = None
+            if robot_moves:
+                goal = self.state_grip_pose(int(g.next_state[s1, a_r, WAIT]))
+                d = self.design
+                line = StraightLine(self.grip_pose(), goal, d.linear_speed, d.angular_speed)
+            if human_moves:
+                pos, quat = self.observer.pose(int(g.next_state[s1, WAIT, a_h]))
+                self.human.reach(self.object_pose(), Pose(pos, quat))
+            else:
+                self.human.stop()
+            # Holding and not moving: passive (the human may move the object); idle: stiff.
+            hold = None if (self.holding or robot_moves) else self.grip_pose()
+            settled, yielded = self._run(line, hold, acc, self.design.step_time_limit)
+        except _Fault as exc:
+            fault = str(exc)
+        except IKFailure as exc:
+            fault = f"ik_failure: {exc}"
+        self.human.stop()
+        pose = self.object_pose()
+        grasp = (ROBOT_BIT if self.holding else 0) | (HUMAN_BIT if self.human.holding else 0)
+        seat = self.seats.engaged(pose.pos, pose.quat)
+        obs = self.observer.observe(pose.pos, pose.quat, seat, grasp)
+        d = self.design
+        far = (obs.position_error > 2.5 * d.position_tolerance
+               or obs.angle_error > 2.5 * d.angle_tolerance)
+        if fault is None and not settled and far:
+            fault = "timeout: the object did not settle near any abstract state"
+        if not np.all(np.isfinite(self.data.qpos)):
+            fault = "unstable: the simulation diverged (NaN)"
+        graph_next = int(g.next_state[s, a_r, a_h])
+        a_h_seen = infer_human_action(g, s, a_r, obs.state, float(acc[2]), 0.05)
+        self.state = obs.state
+        return StepResult(obs.state, a_h_seen, graph_next, obs.state == graph_next, settled,
+                          float(self.data.time) - t0, float(acc[0]), float(acc[1]), yielded,
+                          obs.position_error, obs.angle_error, fault)
+
+    def _robot_toggle(self, acc: np.ndarray) -> None:
+        d = self.design
+        if not self.holding:  # approach the grip where the object actually is, then close
+            site = self.scene.object_grip_site
+            quat = np.empty(4)
+            mujoco.mju_mat2Quat(quat, self.data.site_xmat[site])
+            line = StraightLine(self.grip_pose(), Pose(self.data.site_xpos[site].copy(), quat),
+                                d.linear_speed, d.angular_speed, min_duration=0.8)
+            self._run(line, None, acc, 4.0)
+            self._weld(True)
+            self._run(None, self.grip_pose(), acc, 0.2, min_time=0.2)
+        else:
+            self._weld(False)
+            grip = self.grip_pose()
+            line = StraightLine(grip, self._pregrasp(grip), d.linear_speed, d.angular_speed)
+            self._run(line, None, acc, 3.0)
+
+    def _run(self, line: StraightLine | None, hold: Pose | None, acc: np.ndarray,
+             limit: float, min_time: float = 0.05) -> tuple[bool, bool]:
+        """Simulate until settled or ``limit`` seconds; (settled, robot yielded)."""
+        m, d, sc, des = self.model, self.data, self.scene, self.design
+        dt, body = self.dt, sc.object_body
+        self.davi.reset()
+        hold_ref = None if hold is None else TrajectorySample(hold.pos, hold.quat, np.zeros(3),
+                                                              np.zeros(3))
+        zero = np.zeros(3)
+        t_line = elapsed = calm = ik_bad = 0.0
+        i = 0
+        yielded = False
+        while elapsed < limit:
+            mujoco.mj_step1(m, d)
+            pos, quat = d.xpos[body], d.xquat[body]
+            qv = d.qvel[sc.object_dofs]
+            vel = qv[:3]
+            angvel = self._rotate(quat, qv[3:])
+            f_h, t_h = self.human.wrench(pos, quat, vel, angvel, dt)
+            force, torque = f_h.copy(), t_h + _cross(pos - d.xipos[body], f_h)
+            seat = self.seats.engaged(pos, quat)
+            if seat >= 0:  # the seat acts at the centre of mass: no lever, no stiff coupling
+                f_s, t_s = self.seats.wrench(seat, pos, quat, vel, angvel)
+                force += f_s
+                torque += t_s
+            d.xfrc_applied[body, :3] = force
+            d.xfrc_applied[body, 3:] = torque
+            scale, ref = 1.0, hold_ref
+            moving = line is not None and not yielded and t_line < line.duration
+            if line is not None and not yielded:
+                u = line.direction if moving else zero
+                a = line.axis if moving else zero
+                scale = self.davi.update(self.davi.force(f_h, t_h, u, a), dt)
+                yielded = self.davi.yielded
+                ref = line.sample(t_line)
+                t_line += dt * scale
+            if yielded:
+                ref = None
+            if i % self.ik_every == 0:
+                target = Pose(ref.pos, ref.quat) if ref is not None else self.grip_pose()
+                self.q_ref = self.ik.step(target, dt * self.ik_every).copy()
+                if ref is not None and line is not None:
+                    ik_bad = ik_bad + dt * self.ik_every if self.ik.error() > 0.03 else 0.0
+                    if ik_bad > 0.5:
+                        raise IKFailure("the IK reference cannot follow the trajectory")
+            d.ctrl[sc.robot_actuators] = self.controller.torques(d, ref, self.q_ref, scale,
+                                                                 self.holding)
+            mujoco.mj_step2(m, d)
+            elapsed += dt
+            i += 1
+            acc[0] += np.sqrt(f_h @ f_h) * dt
+            acc[1] += np.sqrt(t_h @ t_h) * dt
+            acc[2] += (f_h @ vel + t_h @ angvel) * dt
+            if sc.platform_mocap >= 0 and i % 25 == 0:
+                d.mocap_pos[sc.platform_mocap, :2] = d.qpos[:2] + des.base_pos[:2]
+            if self.on_frame is not None and i % self.frame_every == 0:
+                self.on_frame()
+            if i % 50 == 0:
+                self._check_stable()
+            slow = vel @ vel < 1e-4 and angvel @ angvel < 2.5e-3
+            robot_done = line is None or yielded or t_line >= line.duration
+            if slow and robot_done and elapsed >= min_time and self.human.at_target(pos, quat):
+                calm += dt
+                if calm >= 0.15:
+                    return True, yielded
+            else:
+                calm = 0.0
+        self._check_stable()
+        return False, yielded
+
+    def _check_stable(self) -> None:
+        d = self.data
+        if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
+            raise _Fault("unstable: MuJoCo reported bad accelerations")
+        if not np.all(np.isfinite(d.qvel)) or np.abs(d.qvel).max() > 50.0:
+            raise _Fault("unstable: the simulation diverged")

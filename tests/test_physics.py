@@ -1,0 +1,180 @@
+"""The MuJoCo physics backend: abstract actions, compliance, grasping, faults, inference."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from hri_envs.envs.config import scenario_graph
+from hri_envs.physics import IKFailure, PandaSim
+from hri_envs.task.graph import PUT_ON, ROTATE, TAKE_OFF, TOGGLE, WAIT
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+
+
+@pytest.fixture(scope="module")
+def hanger():
+    g = scenario_graph("hanger")
+    return g, PandaSim(g)
+
+
+@pytest.fixture(scope="module")
+def wheel():
+    g = scenario_graph("wheel")
+    return g, PandaSim(g)
+
+
+def _named(g, prefix):
+    return next(s for s in range(g.n_states) if g.state_names[s].startswith(prefix))
+
+
+def _motions(g, s):
+    return [a for a in range(TAKE_OFF, g.n_actions) if g.valid[s, a]]
+
+
+def _check_all_motions(g, sim, states, leader):
+    for s in states:
+        for a in _motions(g, s):
+            sim.reset(0, state=s)
+            a_r, a_h = (a, WAIT) if leader == "robot" else (WAIT, a)
+            r = sim.step(s, a_r, a_h)
+            assert r.fault is None, (g.state_names[s], g.action_names[a], r.fault)
+            assert r.state == g.next_state[s, a_r, a_h], (
+                f"{leader} {g.action_names[a]} from {g.state_names[s]} ended in "
+                f"{g.state_names[r.state]}")
+            assert r.graph_agrees and r.settled
+
+
+# Representative states: the two support kinds, both orientations, both heights, every
+# column; each is tried with every valid motion (take off, put on, rotate, move over, height).
+HANGER_STATES = ("on B, held by both", "on A, held by both",
+                 "held at A′ column, 0.585 m, rail-facing",
+                 "held at B′ column, 0.87 m, rail-facing",
+                 "held at C column, 0.585 m, peg-facing",
+                 "held at A column, 0.87 m, peg-facing")
+
+
+def test_hanger_robot_actions_reach_the_graphs_states(hanger):
+    g, sim = hanger
+    _check_all_motions(g, sim, [_named(g, n) for n in HANGER_STATES], "robot")
+
+
+def test_hanger_human_actions_reach_the_graphs_states(hanger):
+    g, sim = hanger
+    _check_all_motions(g, sim, [_named(g, n) for n in HANGER_STATES[2:4]], "human")
+
+
+WHEEL_STATES = ("on A, held by both", "on C, held by both",
+                "held at A′ column, 1.7 m, vertical", "held at B′ column, 1.1 m, horizontal",
+                "held at C column, 0.95 m, horizontal")
+
+
+def test_wheel_robot_actions_reach_the_graphs_states(wheel):
+    g, sim = wheel
+    _check_all_motions(g, sim, [_named(g, n) for n in WHEEL_STATES], "robot")
+
+
+def test_wheel_human_actions_reach_the_graphs_states(wheel):
+    g, sim = wheel
+    _check_all_motions(g, sim, [_named(g, "held at A′ column, 1.7 m, vertical")], "human")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["hanger", "wheel"])
+def test_every_motion_from_every_state(name):
+    """All (state, motion) pairs, robot-led and human-led (108 hanger, 300 wheel; minutes)."""
+    g = scenario_graph(name)
+    sim = PandaSim(g)
+    held = [s for s in range(g.n_states) if g.grasp[s] == 3]
+    _check_all_motions(g, sim, held, "robot")
+    _check_all_motions(g, sim, held, "human")
+
+
+def test_the_human_stays_in_control(hanger):
+    """The robot moves towards X while the human pulls towards Y: the object ends at Y."""
+    g, sim = hanger
+    s = _named(g, "held at B′ column, 0.87 m, rail-facing")
+    sim.reset(0, state=s)
+    x, y = g.move_over(2), g.move_to_height(0)  # robot: over to C; human: down
+    r = sim.step(s, x, y)
+    assert r.fault is None and r.robot_yielded
+    assert r.state == g.next_state[s, WAIT, y] == g.next_state[s, x, y]
+    assert r.human_action == y  # the robot infers what the human did
+    assert r.linear_impulse > 0.0
+
+
+def test_the_human_stays_in_control_of_the_wheel(wheel):
+    g, sim = wheel
+    s = _named(g, "held at A′ column, 1.7 m, vertical")
+    for x, y in ((g.move_over(1), g.move_to_height(2)), (ROTATE, g.move_over(2)),
+                 (g.move_to_height(0), ROTATE)):
+        sim.reset(0, state=s)
+        r = sim.step(s, x, y)
+        assert r.fault is None and r.robot_yielded and r.human_action == y
+        assert r.state == g.next_state[s, WAIT, y]
+
+
+def test_grasp_and_release(hanger):
+    g, sim = hanger
+    s = sim.reset(1)
+    assert s == g.support_state(1, 0) and not sim.data.eq_active[sim.scene.weld]
+    r = sim.step(s, TOGGLE, TOGGLE)
+    assert r.state == g.support_state(1, 3) and sim.data.eq_active[sim.scene.weld]
+    assert r.human_action == TOGGLE
+    grip, obj = sim.grip_pose(), sim.state_grip_pose(r.state)
+    assert np.linalg.norm(grip.pos - obj.pos) < 0.01  # the hand is on the grip
+    r = sim.step(r.state, TOGGLE, WAIT)
+    assert r.state == g.support_state(1, 1) and not sim.data.eq_active[sim.scene.weld]
+    assert r.position_error < 0.01  # the seat holds the object
+    r = sim.step(r.state, WAIT, TOGGLE)
+    assert r.state == g.support_state(1, 0) and r.human_action == TOGGLE
+
+
+def test_invalid_action_aborts_without_motion(hanger):
+    g, sim = hanger
+    s = sim.reset(0, state=_named(g, "held at A′ column, 0.585 m, rail-facing"))
+    r = sim.step(s, PUT_ON, ROTATE)  # put on needs the peg-facing orientation
+    assert r.state == s == g.next_state[s, PUT_ON, ROTATE] and r.human_action == WAIT
+
+
+def test_human_action_inference(hanger):
+    g, sim = hanger
+    s = _named(g, "held at B′ column, 0.87 m, rail-facing")
+    down = g.move_to_height(0)
+    for a_r, a_h, expected in ((down, WAIT, WAIT), (WAIT, down, down), (down, down, down)):
+        sim.reset(0, state=s)
+        r = sim.step(s, a_r, a_h)
+        assert r.human_action == expected, (a_r, a_h, r.human_action)
+
+
+def test_faults_are_reported_not_raised(hanger, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs its NaN warning to MUJOCO_LOG.TXT
+    g, sim = hanger
+    s = sim.reset(0, state=_named(g, "held at B′ column, 0.87 m, rail-facing"))
+    design = sim.design
+    try:
+        sim.design = replace(design, step_time_limit=0.2)  # stopped near the start: no fault
+        r = sim.step(s, WAIT, g.move_over(0))
+        assert r.fault is None and not r.settled and r.state == s
+        s = sim.reset(0, state=s)
+        sim.design = replace(design, step_time_limit=1.6)  # stopped half-way: a time-out
+        r = sim.step(s, WAIT, g.move_over(0))
+        assert r.fault is not None and r.fault.startswith("timeout")
+    finally:
+        sim.design = design
+    s = sim.reset(0, state=s)
+
+    def no_solution(*args):
+        raise IKFailure("no solution (injected)")
+
+    step = sim.ik.step
+    try:
+        sim.ik.step = no_solution
+        r = sim.step(s, g.move_over(0), WAIT)
+        assert r.fault is not None and r.fault.startswith("ik_failure")
+    finally:
+        sim.ik.step = step
+    s = sim.reset(0, state=s)
+    sim.data.qvel[:] = np.nan
+    r = sim.step(s, g.move_over(0), WAIT)
+    assert r.fault is not None and r.fault.startswith("unstable")
