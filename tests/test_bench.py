@@ -77,7 +77,7 @@ def test_table2_schedule_and_turning_back():
         (["study", "wheel", "--out", "x", "--preference", "zigzag"], "--preference"),
         (["study", "wheel", "--out", "x", "--human-passive", "2"], "--human-passive"),
         (["study", "wheel", "--out", "x", "--executor", "slurm"], "choose from"),
-        (["study", "wheel", "--out", "x", "--backend", "mujoco"], "not available yet"),
+        (["study", "wheel", "--out", "x", "--backend", "bullet"], "choose from"),
         (["study", "wheel"], "--out"),
         (["figures", "--out", "x", "--only", "fig99"], "fig99"),
     ],
@@ -87,6 +87,21 @@ def test_bad_arguments_exit_2_naming_the_argument(args, fragment, capsys):
         main(args)
     assert exc.value.code == 2
     assert fragment in capsys.readouterr().err
+
+
+def test_study_on_the_physics_backend(tmp_path):
+    out = tmp_path / "panda"
+    code = main(["study", "hanger", "--backend", "mujoco", "--runs", "1", "--episodes", "1",
+                 "--agents", "passive", "--out", str(out), "--no-progress"])
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["backend"] == "mujoco"
+    passive = summary["agents"]["passive"]
+    assert passive["linear_impulse"]["mean"][0] > 0.0
+    assert passive["graph_agrees"]["mean"][0] == 1.0
+    assert (out / "impulse.png").stat().st_size > 5_000
+    with (out / "episodes.csv").open() as f:
+        assert "linear_impulse" in next(csv.reader(f))
 
 
 def test_user_agent_by_module_path(tmp_path):

@@ -99,7 +99,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="serial, process (default when --jobs > 1) or ray")
     study.add_argument("--ray-address", default=None, help="Ray cluster address (executor ray)")
     study.add_argument("--backend", choices=BACKENDS, default="graph",
-                       help="graph (abstract task graph) or mujoco (not available yet)")
+                       help="graph (abstract task graph) or mujoco (simulated Panda; slow: "
+                            "about 0.2 s per step)")
     study.add_argument("--max-steps", type=_positive, default=100,
                        help="step limit per episode (default 100)")
     study.add_argument("--out", required=True, type=Path, help="output directory")

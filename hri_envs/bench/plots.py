@@ -15,7 +15,7 @@ from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from hri_envs.bench.study import StudyResult  # noqa: E402
 
-__all__ = ["decision_bars", "policy_lines", "reward_bands", "study_plots"]
+__all__ = ["decision_bars", "impulse_bands", "policy_lines", "reward_bands", "study_plots"]
 
 COLORS = {"learner": "#1f5fa8", "imitator": "#7fb2e5", "maxent": "#7a7a7a",
           "passive": "#e0a030", "oracle": "#2a9d55"}
@@ -45,7 +45,7 @@ def reward_bands(ax: Axes, result: StudyResult, agents: Sequence[str] | None = N
     ax.set_xlabel("episode")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("robot cooperation reward per episode")
-    ax.set_xlim(1, episodes[-1])
+    ax.set_xlim(1, max(2, episodes[-1]))
     if title:
         ax.set_title(title)
 
@@ -126,4 +126,25 @@ def study_plots(result: StudyResult, out: Path) -> list[Path]:
     ax.legend(frameon=False, fontsize=7, ncol=len(result.metrics), loc="upper center",
               bbox_to_anchor=(0.5, -0.15))
     paths.append(_save(fig, out / "decisions.png"))
+    if "linear_impulse" in next(iter(result.metrics.values())):
+        fig, ax = plt.subplots(figsize=(6.4, 4.0))
+        impulse_bands(ax, result, title=title)
+        ax.legend(frameon=False, fontsize=8)
+        paths.append(_save(fig, out / "impulse.png"))
     return paths
+
+
+def impulse_bands(ax: Axes, result: StudyResult, title: str | None = None) -> None:
+    """Mean and interquartile band of the linear interaction impulse per episode (Fig. 6)."""
+    episodes = np.arange(1, result.config.n_episodes + 1)
+    for agent, m in result.metrics.items():
+        v = m["linear_impulse"]
+        color = COLORS.get(agent)
+        ax.fill_between(episodes, np.percentile(v, 25, 0), np.percentile(v, 75, 0),
+                        color=color, alpha=0.18, linewidth=0)
+        ax.plot(episodes, v.mean(0), color=color, label=_label(agent), linewidth=1.8)
+    ax.set_xlabel("episode")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_ylabel("linear impulse of the human [N s]")
+    if title:
+        ax.set_title(title)

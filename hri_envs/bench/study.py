@@ -29,6 +29,7 @@ from hri_envs.task.humans import preference_human, preferences_for
 
 __all__ = [
     "METRICS",
+    "PHYSICS_METRICS",
     "Probe",
     "StudyConfig",
     "StudyResult",
@@ -39,6 +40,8 @@ __all__ = [
 ]
 
 METRICS = ("reward", "correct", "passive", "wrong", "steps", "truncated")
+#: Extra per-episode metrics of the physics backend.
+PHYSICS_METRICS = ("linear_impulse", "angular_impulse", "duration_s", "graph_agrees")
 SCENARIOS = ("hanger", "wheel")
 DEFAULT_R0 = {"hanger": -0.33, "wheel": -0.25}
 DEFAULT_EPISODES = {"hanger": 8, "wheel": 20}
@@ -88,7 +91,9 @@ class StudyConfig:
         seed: Base seed; run r depends on (seed, r) only.
         jobs: Worker processes (or Ray tasks in flight).
         executor: "serial", "process" or "ray".
-        backend: "graph" (the physics backend is not available yet).
+        backend: "graph" (the abstract task graph, batched) or "mujoco" (the simulated
+            Panda, one run at a time; adds interaction impulse, duration and graph agreement
+            to the metrics).
         max_steps: Step limit per episode.
         ray_address: Address of a Ray cluster (default: start Ray locally).
         probes: Policy entries to record per episode (for Figs. 8, 11, 12).
@@ -144,9 +149,6 @@ class StudyConfig:
             raise bad("executor", f"one of {', '.join(EXECUTORS)}")
         if self.backend not in BACKENDS:
             raise bad("backend", f"one of {', '.join(BACKENDS)}")
-        if self.backend == "mujoco":
-            raise ValueError("backend 'mujoco' (the simulated Franka Panda) is not available "
-                             "yet; use backend 'graph'")
         if self.max_steps < 1:
             raise bad("max_steps", ">= 1")
 
@@ -232,10 +234,16 @@ def _run_unit(unit: _Unit) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str,
     def record(e: int, a: Any) -> None:
         probes[:, e + 1] = _probe(a, cfg.probes)
 
-    m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
-                 r0=cfg.waiting_reward, max_steps=cfg.max_steps,
-                 after_episode=record if cfg.probes else None)
+    simulator = simulate
+    if cfg.backend == "mujoco":
+        from hri_envs.physics.runner import simulate_physics  # needs the mujoco extra
+
+        simulator = simulate_physics
+    m = simulator(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
+                  r0=cfg.waiting_reward, max_steps=cfg.max_steps,
+                  after_episode=record if cfg.probes else None)
     metrics = {k: np.asarray(getattr(m, k), dtype=float) for k in METRICS}
+    metrics.update({k: np.asarray(v, dtype=float) for k, v in m.extras.items()})
     sched = {"start": schedule.start, "goal": schedule.goal, "turn_back": schedule.turn_back}
     return metrics, probes, sched
 
@@ -297,7 +305,8 @@ def run_study(
     """
     units = _units(cfg)
     n_e, n_p = cfg.n_episodes, len(cfg.probes)
-    metrics = {a: {k: np.zeros((cfg.runs, n_e)) for k in METRICS} for a in cfg.agents}
+    keys = METRICS + (PHYSICS_METRICS if cfg.backend == "mujoco" else ())
+    metrics = {a: {k: np.zeros((cfg.runs, n_e)) for k in keys} for a in cfg.agents}
     probes = {a: np.full((cfg.runs, n_e + 1, n_p), np.nan) for a in cfg.agents}
     schedule = {k: np.zeros((cfg.runs, n_e), dtype=bool if k == "turn_back" else np.int64)
                 for k in ("start", "goal", "turn_back")}
@@ -310,7 +319,7 @@ def run_study(
     for i, (m, p, sched) in _execute(cfg, units):
         u = units[i]
         rows = list(u.runs)
-        for k in METRICS:
+        for k in keys:
             metrics[u.agent][k][rows] = m[k]
         probes[u.agent][rows] = p
         for k in schedule:
@@ -334,6 +343,7 @@ def summarize(result: StudyResult) -> dict[str, Any]:
             "reward": {"mean": r.mean(0).tolist(), "q25": np.percentile(r, 25, 0).tolist(),
                        "q75": np.percentile(r, 75, 0).tolist()},
             **{k: {"mean": m[k].mean(0).tolist()} for k in ("correct", "passive", "wrong")},
+            **{k: {"mean": m[k].mean(0).tolist()} for k in PHYSICS_METRICS if k in m},
         }
     prefs = sorted(set(cfg.preference_of_run()))
     return {
@@ -361,10 +371,11 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
     summary_path.write_text(json.dumps(summarize(result), indent=1) + "\n")
     csv_path = out / "episodes.csv"
     prefs = cfg.preference_of_run()
+    extras = [k for k in PHYSICS_METRICS if k in next(iter(result.metrics.values()))]
     with csv_path.open("w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(["agent", "run", "episode", "preference", "start", "goal", "turn_back",
-                         *METRICS])
+                         *METRICS, *extras])
         names = graph_for(cfg.scenario).support_names
         s = result.schedule
         for agent, m in result.metrics.items():
@@ -375,6 +386,7 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
                         int(s["turn_back"][r, e]), round(m["reward"][r, e], 6),
                         *(round(m[k][r, e], 6) for k in ("correct", "passive", "wrong")),
                         int(m["steps"][r, e]), int(m["truncated"][r, e]),
+                        *(round(m[k][r, e], 6) for k in extras),
                     ])
     paths = [summary_path, csv_path]
     if plots:
