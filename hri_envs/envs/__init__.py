@@ -1,5 +1,7 @@
 """The environments: two-agent PettingZoo, robot-only Gymnasium, and its batched vector form.
 
+The physics backend (``backend="mujoco"``) lives in :mod:`hri_envs.physics`.
+
 =========================  ==========================================================
 module                     contents
 =========================  ==========================================================
@@ -12,6 +14,7 @@ module                     contents
 ``config``                 scenarios, defaults and validation of arguments and options
 ``render``                 ``ansi`` text and the numpy-drawn ``rgb_array`` side view
 ``speed``                  throughput measurements (``hri-bench speed``)
+``rollout``                :func:`run_episode`: any protocol agent in a robot env
 ``errors``                 the exceptions
 =========================  ==========================================================
 """

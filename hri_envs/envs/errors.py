@@ -23,7 +23,7 @@ class ActionError(HriEnvError, ValueError):
 
 
 class BackendUnavailableError(ConfigError, NotImplementedError):
-    """The requested simulation backend exists in the design but is not implemented yet.
+    """The requested simulation backend cannot run here (e.g. the MuJoCo extra is missing).
 
     It is both a :class:`ValueError` (an unusable configuration) and a
     :class:`NotImplementedError`, so either ``except`` clause catches it.
