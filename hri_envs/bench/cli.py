@@ -201,10 +201,10 @@ def _demo(args: argparse.Namespace) -> int:
     from hri_envs.bench.figures import make_figures
 
     t0 = time.perf_counter()
-    print("hri-bench demo: the wheel study (Fig. 10a-c, 100 runs, 12 episodes), the Learner's "
+    print("hri-bench demo: the wheel studies (Fig. 10a-c, 100 runs x 20 episodes), the Learner's "
           "policies (Figs. 11-12) and the hanger studies (Figs. 4 and 8)")
     paths = make_figures(args.out, runs=100, jobs=args.jobs,
-                         executor="process" if args.jobs > 1 else "serial", wheel_episodes=12,
+                         executor="process" if args.jobs > 1 else "serial", wheel_episodes=20,
                          progress=sys.stderr.isatty())
     print(f"done in {time.perf_counter() - t0:.0f} s; plots:")
     for p in paths:
