@@ -261,7 +261,10 @@ class Learner(BatchAgent):
             p = arrays[key]
             if np.abs(p.sum(-1) - 1).max() > 1e-6 or np.any(p[..., ~graph.valid] > 0):
                 raise LearnerStateError(f"{path}: {key} is not a policy over valid actions")
-        config = LearnerConfig(**meta["config"])
+        try:
+            config = LearnerConfig(**meta["config"])
+        except (TypeError, ValueError) as exc:
+            raise LearnerStateError(f"{path}: invalid learner parameters: {exc}") from exc
         learner = cls(graph, n_b, config, seed=seed)
         learner.theta, learner.pi_h, learner.q_r, learner.pi_r = theta, pi_h, q_r, pi_r
         learner.episodes = int(meta.get("episodes", 0))
