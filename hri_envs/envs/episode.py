@@ -164,16 +164,21 @@ class Episode:
         s = self.state
         i = (s * n_a + a_r) * n_a + a_h
         s_next = r.next_list[i]
+        return Transition(r.reward_list[i], r.aborted_list[i],
+                          *self._commit(s_next, a_r, a_h))
+
+    def _commit(self, s_next: int, a_r: int, a_h: int) -> tuple[bool, bool, bool]:
+        """Move to ``s_next`` after the joint action; the bookkeeping every backend shares.
+
+        Returns ``(terminated, robot action invalid, human action invalid)``.
+        """
+        r = self.rules
+        s, n_a = self.state, r.n_actions
         self.previous, self.state = s, s_next
         self.lifted = lifted = self.lifted or r.lifts_list[s_next]
         self.steps += 1
         self.last_human, self.last_robot = a_h, a_r
         if self.turn_back and s_next == self._turn[self.start][self.intention]:
             self.intention, self.turn_back = self.start, False
-        return Transition(
-            r.reward_list[i],
-            r.aborted_list[i],
-            r.ends_list[(s_next * r.n_supports + self.start) * 2 + lifted],
-            not r.valid_list[s * n_a + a_r],
-            not r.valid_list[s * n_a + a_h],
-        )
+        return (r.ends_list[(s_next * r.n_supports + self.start) * 2 + lifted],
+                not r.valid_list[s * n_a + a_r], not r.valid_list[s * n_a + a_h])

@@ -88,20 +88,7 @@ class PhysicsEpisode(Episode):
             s_next = s
             self.observed_human = WAIT
         reward = physical_reward(g, s, a_r, a_h, s_next, r.r0)
-        self.previous, self.state = s, s_next
-        self.lifted = lifted = self.lifted or r.lifts_list[s_next]
-        self.steps += 1
-        self.last_human, self.last_robot = a_h, a_r
-        if self.turn_back and s_next == self._turn[self.start][self.intention]:
-            self.intention, self.turn_back = self.start, False
-        n_a = r.n_actions
-        return Transition(
-            reward,
-            bool(g.aborted[s, a_r, a_h]),
-            r.ends_list[(s_next * r.n_supports + self.start) * 2 + lifted],
-            not r.valid_list[s * n_a + a_r],
-            not r.valid_list[s * n_a + a_h],
-        )
+        return Transition(reward, bool(g.aborted[s, a_r, a_h]), *self._commit(s_next, a_r, a_h))
 
     def step_info(self) -> dict[str, Any]:
         """Per-step physics figures for ``info`` (paper Fig. 6 impulses, agreement, ...)."""
