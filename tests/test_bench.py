@@ -1,6 +1,7 @@
 """hri-bench: the study CLI contract (SPEC §5), figures, play and the speed command."""
 
 import csv
+import importlib.util
 import json
 
 import numpy as np
@@ -141,3 +142,19 @@ def test_learner_update_is_measured():
     from hri_envs.bench.speed import learner_update_ms
 
     assert 0.0 < learner_update_ms(repeats=3) < 1e4
+
+
+@pytest.mark.skipif(importlib.util.find_spec("ray") is None,
+                    reason="Ray is not installed (pyproject's 'ray' extra)")
+def test_ray_executor_gives_the_same_numbers():
+    import ray
+
+    base = {"agents": ("learner", "imitator"), "runs": 4, "episodes": 2, "seed": 5}
+    serial = run_study(StudyConfig("wheel", **base))
+    try:
+        on_ray = run_study(StudyConfig("wheel", **base, jobs=2, executor="ray"))
+    finally:
+        ray.shutdown()
+    for agent, metrics in serial.metrics.items():
+        for key, values in metrics.items():
+            np.testing.assert_array_equal(values, on_ray.metrics[agent][key], err_msg=key)
