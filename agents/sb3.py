@@ -19,15 +19,21 @@ Invalid actions are never chosen:
 one); ``deterministic=False`` samples from the masked distribution with one NumPy generator
 per run, seeded by ``(seed, run)``.
 
-Loading: a path is opened with the algorithm's own ``Model.load``, i.e. SB3's ``.zip``
-format, which deserialises parts of the saved model with (cloud)pickle; load only files
-you trust. This is the one place the suite accepts pickled data. Which algorithm saved the
-file is read from the JSON ``data`` entry of the zip (the policy class's module), never by
-unpickling; pass ``algo=`` to choose it yourself.
+Loading never unpickles (SPEC: nothing is loaded with pickle). SB3's ``.zip`` keeps its
+hyper-parameters in a JSON ``data`` entry (with some objects cloudpickled inside) and the
+network weights as PyTorch state dicts. :func:`load_model` reads only the JSON: which
+algorithm saved the file (the policy class's module), the ``policy_kwargs`` (when they are
+plain JSON, as ``net_arch`` is) and the action-space size (which scenario); it builds a
+fresh model for the robot env's spaces and loads the weights with
+``set_parameters``, i.e. ``torch.load(weights_only=True)``. ``policy_kwargs`` that SB3
+pickled are read from their text form where they are plain literals (the optimizer entries,
+irrelevant for acting, are left to the algorithm's defaults); anything else is refused with
+a message that says so.
 """
 
 from __future__ import annotations
 
+import ast
 import json
 import os
 import zipfile
@@ -71,12 +77,8 @@ def _algorithm_class(name: str) -> type[BaseAlgorithm]:
                           "pip install 'hri-envs[rl]'") from exc
 
 
-def detect_algorithm(path: str | os.PathLike[str]) -> str:
-    """The algorithm that saved an SB3 ``.zip``, from its JSON metadata (no unpickling).
-
-    Raises:
-        ValueError: The file is not an SB3 zip, or its policy class is not one we know.
-    """
+def _read_data(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The JSON ``data`` entry of an SB3 ``.zip`` (parsed as JSON only)."""
     path = Path(path)
     try:
         with zipfile.ZipFile(path) as zf:
@@ -85,6 +87,18 @@ def detect_algorithm(path: str | os.PathLike[str]) -> str:
         raise ValueError(f"SB3 model file not found: {path}") from None
     except (zipfile.BadZipFile, KeyError, json.JSONDecodeError) as exc:
         raise ValueError(f"{path} is not a stable-baselines3 .zip model ({exc})") from exc
+    if not isinstance(data, dict):
+        raise ValueError(f"{path} is not a stable-baselines3 .zip model (bad 'data' entry)")
+    return data
+
+
+def detect_algorithm(path: str | os.PathLike[str]) -> str:
+    """The algorithm that saved an SB3 ``.zip``, from its JSON metadata (no unpickling).
+
+    Raises:
+        ValueError: The file is not an SB3 zip, or its policy class is not one we know.
+    """
+    data = _read_data(path)
     policy = data.get("policy_class", {})
     module = policy.get("__module__", "") if isinstance(policy, dict) else ""
     if module.startswith("sb3_contrib.common.maskable"):
@@ -101,16 +115,71 @@ def detect_algorithm(path: str | os.PathLike[str]) -> str:
                      f"{', '.join(ALGORITHMS)}")
 
 
-def load_model(path: str | os.PathLike[str], algo: str | None = None) -> BaseAlgorithm:
-    """Open a saved SB3 model with ``Model.load`` (SB3's zip format; see the module docs).
+def _policy_kwargs(path: str | os.PathLike[str], saved: Any) -> dict[str, Any]:
+    """The saved ``policy_kwargs`` without unpickling.
+
+    Plain JSON is used as it is. When SB3 pickled the dict (because a value is a class),
+    the JSON still lists every entry as text: the optimizer entries are dropped (the
+    algorithm sets its own again, and inference does not use them) and the others must be
+    Python literals (``net_arch=[64, 64]``), read with :func:`ast.literal_eval`.
+    """
+    if not isinstance(saved, dict):
+        raise ValueError(f"{path}: policy_kwargs in an unknown form")
+    if ":serialized:" not in saved:
+        return saved
+    out: dict[str, Any] = {}
+    for key, text in saved.items():
+        if key.startswith(":") or key in ("optimizer_class", "optimizer_kwargs"):
+            continue
+        try:
+            out[key] = ast.literal_eval(str(text))
+        except (ValueError, SyntaxError):
+            raise ValueError(
+                f"{path}: policy_kwargs[{key!r}] = {text} is not a plain value; the suite "
+                "loads only JSON metadata and weights (never pickle). Pass the model object "
+                "to SB3Agent instead of a path"
+            ) from None
+    return out
+
+
+def load_model(
+    path: str | os.PathLike[str], algo: str | None = None, *, graph: TaskGraph | None = None
+) -> BaseAlgorithm:
+    """Rebuild a saved SB3 model from its JSON metadata and weights, without unpickling.
 
     Args:
         path: The ``.zip`` file.
         algo: One of :data:`ALGORITHMS`; by default read from the file's metadata.
+        graph: The scenario the model acts in; by default recognised from the saved action
+            space's size (10 actions: hanger, 12: wheel).
+
+    Raises:
+        ValueError: Not an SB3 zip, an unknown algorithm or scenario, ``policy_kwargs`` that
+            SB3 pickled, or weights that do not fit the rebuilt network.
     """
+    from hri_envs.envs.config import scenario_graph
+    from hri_envs.envs.robot import RobotEnv
+
     name = detect_algorithm(path) if algo is None else algo
     cls = _algorithm_class(name)
-    return cls.load(str(path), device="cpu")
+    data = _read_data(path)
+    policy_kwargs = _policy_kwargs(path, data.get("policy_kwargs", {}))
+    if graph is None:
+        n = str(data.get("action_space", {}).get("n", ""))
+        by_actions = {"10": "hanger", "12": "wheel"}
+        if n not in by_actions:
+            raise ValueError(f"{path}: cannot tell the scenario from the saved action space "
+                             f"(n = {n or '?'}); pass graph=")
+        graph = scenario_graph(by_actions[n])
+    extra: dict[str, Any] = {"buffer_size": 1} if name in ("DQN", "MaskedDQN") else {}
+    model = cls("MultiInputPolicy", RobotEnv(graph.name), policy_kwargs=policy_kwargs,
+                device="cpu", **extra)
+    try:
+        model.set_parameters(str(path), exact_match=True, device="cpu")
+    except (RuntimeError, ValueError, KeyError) as exc:
+        raise ValueError(f"{path}: the saved weights do not fit a {name} for the "
+                         f"{graph.name} robot env ({exc})") from exc
+    return model
 
 
 class _Policy:
@@ -177,9 +246,10 @@ class _Policy:
         return np.minimum(picked, self.n_actions - 1)  # type: ignore[no-any-return]
 
 
-def _as_model(path_or_model: Any, algo: str | None) -> BaseAlgorithm:
+def _as_model(path_or_model: Any, algo: str | None, graph: TaskGraph | None = None
+              ) -> BaseAlgorithm:
     if isinstance(path_or_model, str | os.PathLike):
-        return load_model(path_or_model, algo)
+        return load_model(path_or_model, algo, graph=graph)
     return path_or_model  # type: ignore[no-any-return]
 
 
@@ -210,7 +280,7 @@ class SB3BatchAgent(BatchAgent):
         algo: str | None = None,
     ) -> None:
         super().__init__(n_runs)
-        self.model = _as_model(path_or_model, algo)
+        self.model = _as_model(path_or_model, algo, graph)
         self.policy = _Policy(self.model, graph)
         self.deterministic = deterministic
         self.rngs = run_streams(seed, range(n_runs) if runs is None else runs)
@@ -240,7 +310,7 @@ class SB3Agent(Agent):
 
     Args:
         path_or_model: A saved ``.zip`` (SB3's format, opened with the algorithm's
-            ``Model.load``; see the module docs on pickle) or a model object.
+            weights only, no pickle; see the module docs) or a model object.
         graph: The scenario's graph, to check that the model fits it (optional).
         deterministic: Most probable valid action, or sample from the masked distribution.
         seed: Seed of the sampling generator.
@@ -264,7 +334,7 @@ class SB3Agent(Agent):
         seed: int = 0,
         algo: str | None = None,
     ) -> None:
-        self.model = _as_model(path_or_model, algo)
+        self.model = _as_model(path_or_model, algo, graph)
         self.policy = _Policy(self.model, graph)
         self.deterministic = deterministic
         self.rng = np.random.default_rng(seed)

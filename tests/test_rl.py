@@ -306,3 +306,27 @@ def test_rllib_example_builds_and_steps_its_algorithm():
     finally:
         algo.stop()
         ray.shutdown()
+
+
+def test_loading_a_saved_model_never_unpickles(ppo_zip, monkeypatch):
+    import pickle
+
+    import cloudpickle
+
+    model, path = ppo_zip
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("something was unpickled")
+
+    for module in (pickle, cloudpickle):
+        monkeypatch.setattr(module, "loads", refuse)
+        monkeypatch.setattr(module, "load", refuse)
+    loaded = load_model(path)
+    env = gym.make("hri_envs/Hanger-v0")
+    obs, _ = env.reset(seed=0)
+    for _ in range(5):
+        masks = env.unwrapped.action_masks()
+        a0, _ = model.predict(obs, action_masks=masks, deterministic=True)
+        a1, _ = loaded.predict(obs, action_masks=masks, deterministic=True)
+        assert int(a0) == int(a1)
+        obs, *_ = env.step(int(a0))

@@ -5,8 +5,8 @@ Built in: ``learner``, ``imitator``, ``maxent``, ``passive``, ``oracle``.
 ``sb3:PATH`` plays a trained stable-baselines3 / sb3-contrib model saved at ``PATH`` (a
 ``.zip``; MaskablePPO, PPO, A2C, DQN or :class:`agents.rl.MaskedDQN`) through
 :class:`agents.sb3.SB3BatchAgent`: deterministic, invalid actions masked, frozen (it does
-not learn between episodes). The file is opened with SB3's own ``Model.load``, which
-unpickles parts of it: use only models you trust.
+not learn between episodes). The file is read without unpickling: its JSON metadata and its
+weights (see :func:`agents.sb3.load_model`).
 
 Any other entry of the form ``module:Class`` imports ``Class`` from ``module``: a
 :class:`~agents.protocol.Agent` subclass is instantiated once per run (with ``graph=`` if its
