@@ -106,12 +106,12 @@ class SB3VectorEnv(VecEnv):
     """A Gymnasium ``VectorEnv`` (such as ``RobotVectorEnv``) as a stable-baselines3 ``VecEnv``.
 
     SB3 expects an env that ends an episode to hand back the next episode's first
-    observation in the same step. With Gymnasium's next-step autoreset (the suite's vector
-    env) that observation only arrives one step later, so each finished episode is followed
-    by one *restart step*: its action is ignored and its reward is 0, and SB3 sees it as
-    a step from the final observation (already marked as an episode start) to the new
-    episode's first one. Returns and lengths in ``info["episode"]`` leave it out; SB3's
-    timestep counter includes it. Same-step autoreset envs need no restart step.
+    observation in the same step, with the final one in ``terminal_observation``: Gymnasium's
+    same-step autoreset (``RobotVectorEnv(autoreset_mode=AutoresetMode.SAME_STEP)``, what
+    :func:`make_sb3_vec_env` uses) is exactly that. A next-step autoreset env also works, but
+    each finished episode is then followed by one *restart step* (action ignored, reward 0)
+    that SB3 records as a transition from the final observation to the new first one;
+    returns and lengths in ``info["episode"]`` leave it out.
 
     Methods reached through ``env_method`` (``action_masks`` for MaskablePPO) are called
     once on the batched env and split along the env axis.
@@ -163,8 +163,11 @@ class SB3VectorEnv(VecEnv):
             for i in np.flatnonzero(info[f"_{key}"]):
                 infos[i][key] = value[i]
         for i in np.flatnonzero(done):
-            infos[i]["terminal_observation"] = (
-                {k: v[i] for k, v in obs.items()} if isinstance(obs, dict) else obs[i])
+            if self._next_step_reset:
+                final = {k: v[i] for k, v in obs.items()} if isinstance(obs, dict) else obs[i]
+            else:
+                final = info["final_obs"][i]
+            infos[i]["terminal_observation"] = final
             infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
             infos[i]["episode"] = {"r": float(self._return[i]), "l": int(self._length[i]),
                                    "t": round(time.perf_counter() - self._t0, 6)}
@@ -241,8 +244,11 @@ def make_sb3_vec_env(
     if n_envs < 1:
         raise ValueError(f"n_envs must be >= 1, got {n_envs}")
     if vec == "vector":
+        # Same-step autoreset: SB3 needs the next episode's first observation in the step
+        # that ends one (no restart step, no transition across the episode boundary).
         venv: VecEnv = SB3VectorEnv(gym.make_vec(env_id, num_envs=n_envs,
                                                  vectorization_mode="vector_entry_point",
+                                                 autoreset_mode=AutoresetMode.SAME_STEP,
                                                  **env_kwargs))
     else:
         cls = SubprocVecEnv if vec == "subproc" else DummyVecEnv

@@ -137,3 +137,30 @@ def test_bad_actions_and_options_raise():
         RobotVectorEnv(0)
     with pytest.raises(ConfigError, match="allowed: None"):
         RobotVectorEnv(2, render_mode="rgb_array")
+
+
+def test_same_step_autoreset_returns_the_next_first_observation():
+    env = gym.make_vec("hri_envs/Hanger-v0", num_envs=8, vectorization_mode="vector_entry_point",
+                       autoreset_mode=AutoresetMode.SAME_STEP)
+    assert env.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
+    graph = env.unwrapped.graph
+    obs, _ = env.reset(seed=1)
+    ended_once = False
+    for _ in range(200):
+        actions = env.unwrapped.action_masks().argmax(axis=1)  # first valid action
+        obs, reward, terminated, truncated, info = env.step(actions)
+        ended = terminated | truncated
+        if ended.any():
+            ended_once = True
+            assert np.array_equal(info["_final_obs"], ended)
+            for i in np.flatnonzero(ended):
+                final = info["final_obs"][i]
+                if terminated[i]:  # resting on a goal, nobody holding it
+                    assert graph.support[final["state"]] >= 0 and graph.grasp[final["state"]] == 0
+                # the returned observation already starts the next episode
+                assert obs["state"][i] == 4 * obs["start"][i]
+                assert obs["last_human_action"][i] == 0
+    assert ended_once
+    with pytest.raises(ValueError, match="autoreset_mode must be"):
+        gym.make_vec("hri_envs/Hanger-v0", num_envs=2, vectorization_mode="vector_entry_point",
+                     autoreset_mode="sometimes")

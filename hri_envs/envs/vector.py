@@ -66,19 +66,24 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
 
     ## Episode End
 
-    As the single env. Autoreset is Gymnasium's next-step mode
+    As the single env. Autoreset is Gymnasium's next-step mode by default
     (``metadata["autoreset_mode"] = AutoresetMode.NEXT_STEP``): the step after an episode
     ends ignores that env's action and returns the first observation of a new episode with
-    reward 0 and ``terminated = truncated = False``. Infos are ``"aborted"`` and
-    ``"invalid_action"``, (N,) bool, with Gymnasium's ``"_aborted"`` and
-    ``"_invalid_action"`` masks.
+    reward 0 and ``terminated = truncated = False``. With
+    ``autoreset_mode=AutoresetMode.SAME_STEP`` (what stable-baselines3 expects) the step
+    that ends an episode already returns the next episode's first observation, and the
+    final one is in ``infos["final_obs"]`` (an object array of per-env dicts, masked by
+    ``infos["_final_obs"]``). Infos are ``"aborted"`` and ``"invalid_action"``, (N,) bool,
+    with Gymnasium's ``"_aborted"`` and ``"_invalid_action"`` masks.
 
     ## Arguments
 
     - ``num_envs``: number of episodes N stepped together;
     - ``scenario``, ``preference``, ``human_passive``, ``turn_back``, ``human``, ``r0``,
       ``max_cycles``, ``backend``: as for :class:`~hri_envs.envs.robot.RobotEnv`;
-    - ``render_mode``: must be None.
+    - ``render_mode``: must be None;
+    - ``autoreset_mode``: ``AutoresetMode.NEXT_STEP`` (default) or ``SAME_STEP`` (or their
+      string values).
 
     ``reset(seed=...)`` takes one int (or None) for the whole batch; the scripted humans
     draw from a generator seeded from it.
@@ -103,7 +108,21 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         max_cycles: int = 100,
         render_mode: str | None = None,
         backend: str = "graph",
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
     ) -> None:
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ConfigError(
+                f"autoreset_mode must be {AutoresetMode.NEXT_STEP.value!r} or "
+                f"{AutoresetMode.SAME_STEP.value!r}, got {autoreset_mode!r}"
+            ) from None
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ConfigError(f"autoreset_mode {mode.value!r} is not supported; use "
+                              f"{AutoresetMode.NEXT_STEP.value!r} or "
+                              f"{AutoresetMode.SAME_STEP.value!r}")
+        self.metadata = {**type(self).metadata, "autoreset_mode": mode}
+        self._same_step = mode == AutoresetMode.SAME_STEP
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
             raise ConfigError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = int(num_envs)
@@ -251,20 +270,36 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             self._intention = np.where(back, self._start, self._intention)
             self._turn &= ~back
 
+        infos: dict[str, Any] = {"aborted": aborted, "_aborted": self._all,
+                                 "invalid_action": invalid, "_invalid_action": self._all}
+        if self._same_step:
+            ended = terminated | truncated
+            if ended.any():
+                which = np.flatnonzero(ended)
+                final = self._observations()
+                final_obs = np.full(self.num_envs, None, dtype=object)
+                for i in which:
+                    final_obs[i] = {k: v[i] for k, v in final.items()}
+                infos["final_obs"], infos["_final_obs"] = final_obs, ended
+                self._restart(which)
+            return self._observations(), reward, terminated, truncated, infos
         done = self._done  # episodes that ended in the previous step start afresh now
         if done.any():
             which = np.flatnonzero(done)
-            start, intention = draw_start_intention(self.np_random, n_k, which.size)
-            self._begin(which, start, intention, self._draw_turn(which.size))
+            self._restart(which)
             reward[which] = 0.0
             terminated[which] = False
             truncated[which] = False
             aborted[which] = False
             invalid[which] = False
         self._done = terminated | truncated
-        infos = {"aborted": aborted, "_aborted": self._all,
-                 "invalid_action": invalid, "_invalid_action": self._all}
         return self._observations(), reward, terminated, truncated, infos
+
+    def _restart(self, which: np.ndarray) -> None:
+        """New random episodes in the envs ``which`` (autoreset)."""
+        start, intention = draw_start_intention(self.np_random, self.graph.n_intentions,
+                                                which.size)
+        self._begin(which, start, intention, self._draw_turn(which.size))
 
     def _check_actions(self, actions: Any) -> np.ndarray:
         a = np.asarray(actions)
