@@ -44,7 +44,7 @@ class LearnerConfig:
             ("robot_temperature", self.robot_temperature > 0, "> 0"),
             ("eta", 0.0 <= self.eta <= 1.0, "in [0, 1]"),
             ("human_temperature", self.human_temperature > 0, "> 0"),
-            ("beta", 0.0 < self.beta <= 1.0, "in (0, 1] (and >= 1/n intentions)"),
+            ("beta", 0.0 < self.beta <= 1.0, "in (0, 1] (the paper uses 0.95)"),
             ("gamma", 0.0 <= self.gamma < 1.0, "in [0, 1)"),
             ("r0", -1.0 < self.r0 < 0.0, "in (-1, 0)"),
             ("irl_temperature", self.irl_temperature > 0, "> 0"),

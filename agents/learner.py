@@ -126,9 +126,14 @@ class Learner(BatchAgent):
         self.pi_r = mdp.softmax(self.q_r, self._valid, c.robot_model_temperature)
 
     def _irl(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
-        """One ME-IRL step per run on its loop-free trace (Alg. 1 l. 17-19)."""
+        """One ME-IRL step per run on its loop-free trace (Alg. 1 l. 17-19).
+
+        Runs whose episode was truncated (intention -1: nothing revealed) keep their θ.
+        """
         g, c = self.graph, self.config
         n_b = self.n_runs
+        revealed = intentions >= 0
+        intentions = np.where(revealed, intentions, 0)
         demo = mdp.demonstrations(g.features, [tr.states for tr in traces], intentions)
         rows = np.arange(n_b)
         terminal = g.terminal[intentions]
@@ -141,7 +146,8 @@ class Learner(BatchAgent):
         policy = mdp.softmax(q, self._valid, c.irl_temperature)
         expected = mdp.expected_feature_counts(t_h, policy, phi, demo.start, terminal,
                                                demo.horizon)
-        self.theta = mdp.irl_step(self.theta, demo.counts, expected, c.learning_rate)
+        new = mdp.irl_step(self.theta, demo.counts, expected, c.learning_rate)
+        self.theta = np.where(revealed[:, None], new, self.theta)
 
     # ------------------------------------------------------------------ protocol
     def begin_episode(self, starts: np.ndarray) -> None:
@@ -237,6 +243,8 @@ class Learner(BatchAgent):
                 pi_h, q_r, pi_r = (np.array(data[k]) for k in ("pi_h", "q_r", "pi_r"))
         except (OSError, ValueError, KeyError, json.JSONDecodeError) as exc:
             raise LearnerStateError(f"{path} is not a readable learner state: {exc}") from exc
+        if not isinstance(meta, dict):
+            raise LearnerStateError(f"{path}: its metadata is not a JSON object")
         if meta.get("format") != _FORMAT:
             raise LearnerStateError(f"{path}: unknown format {meta.get('format')!r}, "
                                     f"expected {_FORMAT!r}")

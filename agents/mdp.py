@@ -165,6 +165,8 @@ def solve_q(
     """
     if not 0.0 <= gamma < 1.0:
         raise ValueError(f"gamma must be in [0, 1), got {gamma}")
+    if max_iter < 1:
+        raise ValueError(f"max_iter must be >= 1, got {max_iter}")
     lead, (n_s, n_a) = transition.shape[:-3], transition.shape[-3:-1]
     flat_t = np.ascontiguousarray(transition).reshape(-1, n_s, n_a, n_s)  # (N, S, A, S)
     flat_r = np.ascontiguousarray(reward).reshape(-1, n_s, n_a)  # (N, S, A)

@@ -8,7 +8,8 @@ plugs into the envs and the benchmark through four calls per episode:
    state, the action mask and the human's last action; never the intention ι;
 3. ``observe(state, robot_action, human_action, next_state)`` — one transition happened;
 4. ``end_episode(trace, intention)`` — learn from the episode, with the intention revealed in
-   hindsight (the support where the episode ended).
+   hindsight (the support where the episode ended; -1 if the episode was cut off by the step
+   limit before the object came to rest, when nothing is revealed).
 
 Two flavours share these names. :class:`Agent` handles one stream of episodes with plain
 ints and is what a user writes. :class:`BatchAgent` advances ``n_runs`` independent
@@ -98,7 +99,7 @@ class Agent(ABC):
 
     @abstractmethod
     def end_episode(self, trace: Trace, intention: int) -> None:
-        """Learn from the finished episode; ``intention`` is where it ended."""
+        """Learn from the finished episode; ``intention`` is where it ended (-1: truncated)."""
 
 
 def run_streams(seed: int, runs: Sequence[int] | np.ndarray) -> list[np.random.Generator]:
@@ -145,7 +146,7 @@ class BatchAgent(ABC):
 
     @abstractmethod
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
-        """Learn from one finished episode per run."""
+        """Learn from one finished episode per run (``intentions`` -1 where truncated)."""
 
     def single(self) -> Agent:
         """The batch of one as a plain :class:`Agent`."""

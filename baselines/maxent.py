@@ -113,10 +113,12 @@ class MaxEntIRL(_Tracking):
         """Count intentions along the trace and take one ME-IRL step (λ = 0.03)."""
         g, c = self.graph, self.config
         n_b = self.n_runs
-        intentions = np.asarray(intentions, dtype=np.int64)
+        revealed = np.asarray(intentions, dtype=np.int64) >= 0  # -1: truncated, no update
+        intentions = np.where(revealed, intentions, 0)
         demo = mdp.demonstrations(g.features, [tr.states for tr in traces], intentions)
         for b, (trace, path) in enumerate(zip(traces, demo.paths, strict=True)):
-            self.counts[b, g.support[trace.states[0]], path, intentions[b]] += 1
+            if revealed[b]:
+                self.counts[b, g.support[trace.states[0]], path, intentions[b]] += 1
         rows = np.arange(n_b)
         t = self._transition[intentions]  # (B, S, A, S)
         phi = g.features[intentions]
@@ -124,5 +126,6 @@ class MaxEntIRL(_Tracking):
         policy = mdp.softmax(q, g.valid, c.irl_temperature)
         expected = mdp.expected_feature_counts(t, policy, phi, demo.start,
                                                g.terminal[intentions], demo.horizon)
-        self.theta = mdp.irl_step(self.theta, demo.counts, expected, c.learning_rate)
+        new = mdp.irl_step(self.theta, demo.counts, expected, c.learning_rate)
+        self.theta = np.where(revealed[:, None], new, self.theta)
         self._solve()

@@ -224,3 +224,14 @@ def test_learner_learns_inside_the_gymnasium_env():
     rewards = [run_episode(env, robot, seed=e).reward for e in range(10)]
     assert np.mean(rewards[-4:]) > np.mean(rewards[:2]) + 0.3
     assert rewards[-1] >= -0.5
+
+
+def test_a_truncated_episode_reveals_nothing(wheel):
+    """Intention -1 (cut off by the step limit): the IRL models keep their parameters."""
+    trace = Trace(np.array([0, 1, 3, wheel.mounting_state[0]]), np.zeros(3, np.int64),
+                  np.array([1, 1, 2]))
+    for agent in (Learner(wheel, 2), MaxEntIRL(wheel, 2)):
+        before = agent.theta.copy()
+        agent.end_episode([trace, trace], np.array([-1, 1]))
+        np.testing.assert_array_equal(agent.theta[0], before[0])
+        assert not np.array_equal(agent.theta[1], before[1])

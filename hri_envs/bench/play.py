@@ -84,7 +84,8 @@ def play(
             lifted |= sup != start
             if sup >= 0 and graph.grasp[s] == 0 and (sup != start or lifted):
                 break
-        ended = int(graph.support[s]) if graph.support[s] >= 0 else start
+        at_rest = graph.support[s] >= 0 and graph.grasp[s] == 0
+        ended = int(graph.support[s]) if at_rest else -1  # -1: cut off, nothing revealed
         write(f"Episode over at {graph.state_names[s]}; robot reward {total:.2f}. "
               "The robot learns from it.")
         trace = Trace(np.array(states), np.array(r_actions, dtype=np.int64),

@@ -193,7 +193,7 @@ def simulate(
         for k in ("correct", "passive", "wrong"):
             out[k][:, e] /= length
         ended = graph.support[states_buf[rows, length]]
-        intentions = np.where(active, goal, ended)
+        intentions = np.where(active, -1, ended)  # a truncated episode reveals nothing
         traces = [Trace(states_buf[i, : length[i] + 1].copy(), robot_buf[i, : length[i]].copy(),
                         human_buf[i, : length[i]].copy()) for i in range(n_b)]
         agent.end_episode(traces, intentions)

@@ -23,9 +23,9 @@ import numpy as np
 
 from hri_envs.bench.agents import BUILTIN_AGENTS, make_agent, validate_agent_name
 from hri_envs.bench.runner import make_schedule, simulate
-from hri_envs.task import build_graph, hanger_scenario, wheel_scenario
+from hri_envs.envs.config import DEFAULT_R0, SCENARIOS, scenario_graph
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import preference_human, preferences_for
+from hri_envs.task.humans import HANGER_DEFAULT_PREFERENCE, preference_human, preferences_for
 
 __all__ = [
     "METRICS",
@@ -42,20 +42,16 @@ __all__ = [
 METRICS = ("reward", "correct", "passive", "wrong", "steps", "truncated")
 #: Extra per-episode metrics of the physics backend.
 PHYSICS_METRICS = ("linear_impulse", "angular_impulse", "duration_s", "graph_agrees")
-SCENARIOS = ("hanger", "wheel")
-DEFAULT_R0 = {"hanger": -0.33, "wheel": -0.25}
 DEFAULT_EPISODES = {"hanger": 8, "wheel": 20}
 EXECUTORS = ("serial", "process", "ray")
 BACKENDS = ("graph", "mujoco")
 
 
 def graph_for(scenario: str) -> TaskGraph:
-    """The task graph of a scenario by name."""
-    if scenario == "hanger":
-        return build_graph(hanger_scenario())
-    if scenario == "wheel":
-        return build_graph(wheel_scenario())
-    raise ValueError(f"unknown scenario {scenario!r}; allowed: {', '.join(SCENARIOS)}")
+    """The task graph of a scenario by name (built once per process)."""
+    if scenario not in SCENARIOS:
+        raise ValueError(f"unknown scenario {scenario!r}; allowed: {', '.join(SCENARIOS)}")
+    return scenario_graph(scenario)
 
 
 @dataclass(frozen=True)
@@ -169,7 +165,7 @@ class StudyConfig:
         prefs = preferences_for(self.scenario)
         if self.preference == "all":
             return [prefs[r % len(prefs)] for r in range(self.runs)]
-        default = "down-over-rotate/over-rotate-up" if self.scenario == "hanger" else "straight"
+        default = HANGER_DEFAULT_PREFERENCE if self.scenario == "hanger" else "straight"
         return [self.preference or default] * self.runs
 
     def to_dict(self) -> dict[str, Any]:

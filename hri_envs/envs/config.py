@@ -57,8 +57,13 @@ def check_scenario(name: str) -> str:
 
 @functools.cache
 def scenario_graph(name: str) -> TaskGraph:
-    """The (read-only, shared) task graph of a scenario."""
+    """The (read-only, shared) task graph of a scenario, built once per process."""
     check_scenario(name)
+    return _graph(name)
+
+
+@functools.cache
+def _graph(name: str) -> TaskGraph:
     return build_graph(hanger_scenario() if name == "hanger" else wheel_scenario())
 
 

@@ -71,7 +71,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
 
     Both agents receive the robot cooperation reward R_R (paper Sect. 4.5): -1 for an
     aborted step or a robot motion the human counteracts, r0 when the robot waits while the
-    human acts, -1 when the human waits and the object's pose does not change, 0
+    human acts, -1 when the human waits and the state (pose and grasp) does not change, 0
     otherwise. The human's own preference reward θᵀφ(s, ι) is what learners infer and is
     not paid out; sharing R_R makes the game fully cooperative.
 

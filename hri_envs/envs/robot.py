@@ -60,7 +60,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
 
     The robot cooperation reward R_R (paper Sect. 4.5): -1 for an aborted step or a robot
     motion the human counteracts, r0 when the robot waits while the human acts, -1 when the
-    human waits and the object's pose does not change, 0 otherwise.
+    human waits and the state (pose and grasp) does not change, 0 otherwise.
 
     ## Starting State
 

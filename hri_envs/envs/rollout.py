@@ -28,8 +28,8 @@ class EpisodeResult(NamedTuple):
     Attributes:
         trace: The states and both agents' actions.
         reward: Summed robot cooperation reward.
-        intention: Where the episode ended (the intention revealed in hindsight); for a
-            truncated episode, the human's intention at the end.
+        intention: Where the episode ended (the intention revealed in hindsight); -1 for a
+            truncated episode, which reveals nothing.
         truncated: The episode hit the step limit.
     """
 
@@ -76,7 +76,7 @@ def run_episode(
         human_actions.append(human)
         total += float(reward)
     support = int(graph.support[states[-1]])
-    intention = support if terminated else int(base.intention)  # type: ignore[attr-defined]
+    intention = support if terminated else -1
     trace = Trace(np.array(states), np.array(robot_actions, dtype=np.int64),
                   np.array(human_actions, dtype=np.int64))
     if learn:

@@ -136,7 +136,7 @@ def simulate_physics(
             for k in ("correct", "passive", "wrong"):
                 out[k][i, e] /= n_steps
             end = int(graph.support[s])
-            intentions[i] = goal if truncated[i, e] or end < 0 else end
+            intentions[i] = -1 if truncated[i, e] or end < 0 else end  # -1: not revealed
             traces.append(Trace(np.array(states), np.array(robot_acts, dtype=np.int64),
                                 np.array(human_seen, dtype=np.int64)))
         agent.end_episode(traces, intentions)

@@ -3,7 +3,7 @@
 Each feature is a product of Gaussian RBFs of distance (σ = 2 cm) and of angle (σ = 10°),
 sometimes with a grasp indicator, measured relative to the intended goal ι, to the nearest
 non-goal support, and to the comfortable carrying height. With O orientations there are
-``4 + 3 (O + 1) + 4 + 5 (O + 1)`` features (26 for two orientations), in this order:
+``8 + 6 (O + 1)`` features (26 for two orientations), in this order:
 
 =====  =========================================================  ========
 group  centred at                                                 count
@@ -20,6 +20,12 @@ group  centred at                                                 count
 
 where φ runs over the scenario's orientations followed by the goal's own orientation.
 A state's feature vector is divided by its sum when the sum exceeds 1.
+
+"Non-goal" distances are taken as in the paper's published code: the horizontal distance to
+the nearest non-goal column and the vertical distance to the nearest non-goal mounting
+height, separately. So group 4 also fires where one non-goal support's column meets
+another's height (for goal B on the hanger: "A column, 0.87 m" as well as C′); this is the
+feature set the paper's results were obtained with, so we keep it.
 """
 
 from __future__ import annotations
@@ -117,5 +123,5 @@ def initial_theta(n_features: int) -> np.ndarray:
     """
     theta = np.zeros(n_features)
     theta[0] = 0.1
-    theta[4 + 2 * ((n_features - 8) // 5)] = -1.0
+    theta[4 + 2 * ((n_features - 8) // 6)] = -1.0  # F = 8 + 6 (O + 1)
     return theta

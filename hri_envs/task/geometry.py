@@ -163,7 +163,7 @@ WHEEL_RADIUS = 0.3
 WHEEL_RACK_CLEARANCE = 0.3  # mounting point distance from the rack, in +y [m]
 WHEEL_STAND_CLEARANCE = 0.1  # mounting point height above a stand's top [m]
 #: Nominal stand positions (x, y) [m]: used for the graph's features, which do not depend on
-#: the layout (see ``tests/test_graph.py::test_wheel_features_do_not_depend_on_layout``).
+#: the layout (see ``tests/test_task.py::test_wheel_features_do_not_depend_on_layout``).
 WHEEL_NOMINAL_STANDS = ((0.0, 2.2), (1.6, 2.2))
 
 
