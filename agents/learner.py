@@ -182,8 +182,7 @@ class Learner(BatchAgent):
         likelihood = self.pi_h[rows, :, states, human_actions]  # (B, I)
         new = mdp.bayes_update(self.belief, likelihood, self.config.beta)
         self.belief = np.where(active[:, None], new, self.belief)
-        left = self.graph.support[next_states] != self.start
-        self.lifted |= active & left
+        self.lifted |= active & self.graph.left_start(next_states, self.start)
 
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Loop removal, one IRL step, then recompute π̂_H and the robot's Q."""

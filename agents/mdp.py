@@ -257,11 +257,11 @@ def passive_actions(graph: TaskGraph, start: np.ndarray, lifted: np.ndarray | No
     """
     start = np.asarray(start)[..., None]
     lifted_ = np.zeros(start.shape, bool) if lifted is None else np.asarray(lifted)[..., None]
-    sup = graph.support[None, :] if start.ndim > 1 else graph.support
+    states = np.arange(graph.n_states)
     holds = (graph.grasp & 2) > 0
-    at_start = sup == start
-    grasp_here = at_start & ~holds & ~lifted_
-    release_here = (sup >= 0) & holds & (~at_start | lifted_)
+    arrived = graph.arrived(states, start, lifted_)  # (..., S) where the robot lets go
+    grasp_here = (graph.support == start) & ~holds & ~lifted_
+    release_here = holds & arrived
     return np.where(grasp_here | release_here, TOGGLE, WAIT)  # type: ignore[no-any-return]
 
 

@@ -87,7 +87,7 @@ class MaxEntIRL(_Tracking):
         total = c.sum(axis=1, keepdims=True)
         belief = np.where(total > 0, c / np.maximum(total, 1e-300), prior)
         sup = self.graph.support[states]
-        arrived = (sup >= 0) & ((sup != self.start) | self.lifted)
+        arrived = self.graph.arrived(states, self.start, self.lifted)
         return np.where(arrived[:, None], (ids == sup[:, None]).astype(float), belief)  # type: ignore[no-any-return]
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:

@@ -34,7 +34,7 @@ class _Tracking(BatchAgent):
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
                 next_states: np.ndarray, active: np.ndarray) -> None:
-        self.lifted |= active & (self.graph.support[next_states] != self.start)
+        self.lifted |= active & self.graph.left_start(next_states, self.start)
 
     def passive(self, states: np.ndarray) -> np.ndarray:
         """(B,) the Passive baseline's action in each run's state."""
@@ -114,7 +114,7 @@ class Oracle(_Tracking):
         preferred = self.human.preferred_action(states, self.start, goal)
         sup, mu = g.support[states], g.grasp[states]
         holds = (mu & ROBOT_BIT) > 0
-        arrived = (sup == goal) & ((sup != self.start) | self.lifted)
+        arrived = (sup == goal) & g.arrived(states, self.start, self.lifted)
         at_support = np.where(
             arrived,
             np.where(holds, TOGGLE, WAIT),

@@ -177,3 +177,20 @@ def test_bad_human_configuration(hanger):
         preference_human(hanger, "straight")
     with pytest.raises(ValueError, match="passive must be a probability"):
         preference_human(hanger, passive=1.5)
+
+
+def test_episode_end_rule_by_hand(hanger):
+    on = hanger.support_state
+    a, b = 0, 1
+    assert hanger.episode_over(on(b, 0), a, False)  # resting on another support, let go
+    assert not hanger.episode_over(on(b, 1), a, False)  # the human still holds it
+    assert not hanger.episode_over(on(a, 0), a, False)  # not lifted yet: the start
+    assert hanger.episode_over(on(a, 0), a, True)  # turned back after lifting it
+    assert not hanger.episode_over(hanger.mounting_state[b], a, True)  # in free space
+    assert hanger.left_start(hanger.mounting_state[a], a) and not hanger.left_start(on(a, 3), a)
+    assert hanger.arrived(on(b, 3), a, False) and not hanger.arrived(on(a, 3), a, False)
+    # Vectorised: one call over every state, start and lifted flag (as EpisodeRules does).
+    ends = hanger.episode_over(np.arange(24)[:, None, None], np.arange(3)[None, :, None],
+                               np.array([False, True])[None, None, :])
+    # unlifted: each resting state ends the episodes of the 2 other starts; lifted: all 3
+    assert ends.shape == (24, 3, 2) and ends[:, :, 0].sum() == 3 * 2 and ends[:, :, 1].sum() == 9

@@ -80,9 +80,8 @@ def play(
             r_actions.append(a_r)
             h_actions.append(a_h)
             s = s_next
-            sup = int(graph.support[s])
-            lifted |= sup != start
-            if sup >= 0 and graph.grasp[s] == 0 and (sup != start or lifted):
+            lifted |= bool(graph.left_start(s, start))
+            if graph.episode_over(s, start, lifted):
                 break
         at_rest = graph.support[s] >= 0 and graph.grasp[s] == 0
         ended = int(graph.support[s]) if at_rest else -1  # -1: cut off, nothing revealed

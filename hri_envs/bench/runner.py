@@ -181,9 +181,8 @@ def simulate(
             s = np.where(active, s_next, s)
             states_buf[:, t + 1] = s
             last_h = a_h
-            sup = graph.support[s]
-            lifted |= sup != start
-            done = active & (sup >= 0) & (graph.grasp[s] == 0) & ((sup != start) | lifted)
+            lifted |= graph.left_start(s, start)
+            done = active & graph.episode_over(s, start, lifted)
             length[done] = t + 1
             active &= ~done
             if not active.any():

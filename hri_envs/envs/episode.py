@@ -58,11 +58,9 @@ class EpisodeRules:
         self.valid = graph.valid.reshape(-1).copy()
         self.action_mask = graph.valid.astype(np.int8)
         self.lifts = ~graph.is_support_state
-        resting_empty = graph.is_support_state & (graph.grasp == 0)  # (S,)
-        elsewhere = graph.support[:, None] != np.arange(n_k)[None, :]  # (S, K)
-        lifted = np.array([False, True])
-        ends = resting_empty[:, None, None] & (elsewhere[:, :, None] | lifted[None, None, :])
-        self.ends = ends.reshape(-1)  # (S K 2,)
+        ends = graph.episode_over(np.arange(n_s)[:, None, None], np.arange(n_k)[None, :, None],
+                                  np.array([False, True])[None, None, :])  # (S, K, 2)
+        self.ends = np.ascontiguousarray(ends).reshape(-1)  # (S K 2,)
         for table in (self.next_state, self.reward, self.aborted, self.valid,
                       self.action_mask, self.lifts, self.ends):
             table.setflags(write=False)

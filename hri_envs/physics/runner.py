@@ -123,9 +123,8 @@ def simulate_physics(
                 human_seen.append(last_h)
                 states.append(s_next)
                 s = s_next
-                sup = int(graph.support[s])
-                lifted |= sup != start
-                done = sup >= 0 and graph.grasp[s] == 0 and (sup != start or lifted)
+                lifted |= bool(graph.left_start(s, start))
+                done = bool(graph.episode_over(s, start, lifted))
                 if res.fault is not None and not done:
                     truncated[i, e] = done = True
             if not done:

@@ -180,6 +180,31 @@ class TaskGraph:
         """(S,) number of valid actions per state."""
         return self.valid.sum(axis=1)
 
+    def left_start(self, state: np.ndarray | int, start: np.ndarray | int) -> np.ndarray:
+        """Whether the object is away from its start support (arrays broadcast).
+
+        Accumulated over an episode this is the *lifted* flag: once lifted, resting on the
+        start again counts as arriving (the human turned back).
+        """
+        return self.support[state] != start  # type: ignore[no-any-return]
+
+    def episode_over(
+        self, state: np.ndarray | int, start: np.ndarray | int, lifted: np.ndarray | bool
+    ) -> np.ndarray:
+        """The episode's end (SPEC §2): resting with μ = 0 on a support other than the start,
+        or on the start after the object was lifted. Arrays broadcast.
+        """
+        sup = self.support[state]
+        resting = (sup >= 0) & (self.grasp[state] == 0)
+        return resting & ((sup != start) | lifted)  # type: ignore[no-any-return]
+
+    def arrived(
+        self, state: np.ndarray | int, start: np.ndarray | int, lifted: np.ndarray | bool
+    ) -> np.ndarray:
+        """Resting on a support that can end the episode (any grasp): a goal candidate."""
+        sup = self.support[state]
+        return (sup >= 0) & ((sup != start) | lifted)  # type: ignore[no-any-return]
+
     def step(self, s: int, a_r: int, a_h: int) -> tuple[int, bool]:
         """The joint transition for one step: ``(next state, aborted)``."""
         return int(self.next_state[s, a_r, a_h]), bool(self.aborted[s, a_r, a_h])
