@@ -24,8 +24,10 @@ __all__ = [
     "PHYSICS_OPTION_KEYS",
     "RESET_OPTION_KEYS",
     "SCENARIOS",
+    "EnvSettings",
     "ResetOptions",
     "check_backend",
+    "check_env_settings",
     "check_max_cycles",
     "check_physics_options",
     "check_r0",
@@ -117,6 +119,30 @@ def check_backend(backend: str) -> str:
                 "(or use backend='graph', the abstract transition graph)"
             )
     return backend
+
+
+class EnvSettings(NamedTuple):
+    """The arguments every environment takes, validated (see :func:`check_env_settings`)."""
+
+    scenario: str
+    r0: float
+    max_cycles: int
+    render_mode: str | None
+    backend: str
+
+
+def check_env_settings(
+    scenario: str,
+    r0: float | None,
+    max_cycles: int,
+    render_mode: str | None,
+    render_modes: list[str],
+    backend: str,
+) -> EnvSettings:
+    """Validate the arguments shared by all envs; r0 None becomes the scenario's default."""
+    scenario = check_scenario(scenario)
+    return EnvSettings(scenario, check_r0(r0, scenario), check_max_cycles(max_cycles),
+                       check_render_mode(render_mode, render_modes), check_backend(backend))
 
 
 #: Keys of the ``physics`` options of ``backend="mujoco"``.

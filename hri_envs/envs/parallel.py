@@ -10,12 +10,8 @@ from gymnasium.utils import seeding
 from pettingzoo.utils.env import ParallelEnv
 
 from hri_envs.envs.config import (
-    check_backend,
-    check_max_cycles,
+    check_env_settings,
     check_physics_options,
-    check_r0,
-    check_render_mode,
-    check_scenario,
     episode_scenario,
     parse_reset_options,
     scenario_graph,
@@ -134,13 +130,11 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         render_intention: bool = False,
         physics: dict[str, Any] | None = None,
     ) -> None:
-        self.scenario_name = check_scenario(scenario)
         self.metadata = {**type(self).metadata, "name": f"{scenario}_v0",
                          "render_modes": list(type(self).metadata["render_modes"])}
-        self.r0 = check_r0(r0, scenario)
-        self.max_cycles = check_max_cycles(max_cycles)
-        self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
-        self.backend = check_backend(backend)
+        (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
+         self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
+                                            self.metadata["render_modes"], backend)
         physics = check_physics_options(physics, self.backend)
         self.render_intention = bool(render_intention)
 

@@ -9,12 +9,8 @@ import numpy as np
 from gymnasium import spaces
 
 from hri_envs.envs.config import (
-    check_backend,
-    check_max_cycles,
+    check_env_settings,
     check_physics_options,
-    check_r0,
-    check_render_mode,
-    check_scenario,
     episode_scenario,
     make_human,
     parse_reset_options,
@@ -129,11 +125,9 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         render_intention: bool = False,
         physics: dict[str, Any] | None = None,
     ) -> None:
-        self.scenario_name = check_scenario(scenario)
-        self.r0 = check_r0(r0, scenario)
-        self.max_cycles = check_max_cycles(max_cycles)
-        self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
-        self.backend = check_backend(backend)
+        (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
+         self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
+                                            self.metadata["render_modes"], backend)
         physics = check_physics_options(physics, self.backend)
         self.render_intention = bool(render_intention)
 

@@ -11,11 +11,7 @@ from gymnasium.vector.utils import batch_space
 
 from hri_envs.envs.config import (
     RESET_OPTION_KEYS,
-    check_backend,
-    check_max_cycles,
-    check_r0,
-    check_render_mode,
-    check_scenario,
+    check_env_settings,
     make_human,
     scenario_graph,
     support_index,
@@ -126,11 +122,9 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
             raise ConfigError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = int(num_envs)
-        self.scenario_name = check_scenario(scenario)
-        self.r0 = check_r0(r0, scenario)
-        self.max_cycles = check_max_cycles(max_cycles)
-        self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
-        self.backend = check_backend(backend)
+        (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
+         self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
+                                            self.metadata["render_modes"], backend)
 
         self.graph = scenario_graph(scenario)
         self.human = make_human(self.graph, preference, human_passive, turn_back, human)
@@ -140,10 +134,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self.single_action_space = spaces.Discrete(n_a)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        turn_state = self.human.turn_state
-        if turn_state is None:  # a human who never turns back
-            turn_state = np.full((n_k, n_k), -1)
-        self._turn_state = np.asarray(turn_state, dtype=np.int64).reshape(-1)  # (K K,)
+        self._turn_state = self.human.turn_state.astype(np.int64).reshape(-1)  # (K K,)
 
         n = self.num_envs
         self._state = np.zeros(n, dtype=np.int64)
