@@ -95,16 +95,19 @@ class Learner(BatchAgent):
         self._reward = graph.reward(self.config.r0)  # (S, A, A)
         self._valid = graph.valid
         n_i, n_s, n_a = graph.n_intentions, graph.n_states, graph.n_actions
-        self.theta = np.tile(initial_theta(graph.n_features), (n_runs, 1))
-        uniform = np.where(self._valid, 1.0, 0.0) / self._valid.sum(1, keepdims=True)
-        self.pi_r = np.broadcast_to(uniform, (n_runs, n_i, n_s, n_a)).copy()
         self.belief = np.full((n_runs, n_i), 1.0 / n_i)
         self.start = np.zeros(n_runs, dtype=np.int64)
         self.lifted = np.zeros(n_runs, dtype=bool)
         self.episodes = 0
+        # Every run starts from the same model: solve it once, then copy it to all runs.
+        self.theta = initial_theta(graph.n_features)[None]  # (1, F)
+        uniform = np.where(self._valid, 1.0, 0.0) / self._valid.sum(1, keepdims=True)
+        self.pi_r = np.broadcast_to(uniform, (1, n_i, n_s, n_a)).copy()
         self._warm_h: np.ndarray | None = None
         self._warm_r: np.ndarray | None = None
         self._update_policies()
+        for name in ("theta", "pi_r", "pi_h", "q_h", "q_r", "_warm_h", "_warm_r"):
+            setattr(self, name, np.repeat(getattr(self, name), n_runs, axis=0))
 
     # ------------------------------------------------------------------ model updates
     def _update_policies(self) -> None:

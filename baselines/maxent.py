@@ -64,13 +64,15 @@ class MaxEntIRL(_Tracking):
         self.theta = np.tile(initial_theta(graph.n_features), (n_runs, 1))
         self.counts = np.zeros((n_runs, n_i, n_s, n_i))
         self.belief = np.full((n_runs, n_i), 1.0 / n_i)
-        self._solve()
+        # Every run starts from the same θ: solve once and copy.
+        self.q = np.repeat(self._solve(self.theta[:1]), n_runs, axis=0)
 
-    def _solve(self) -> None:
-        reward = np.einsum("isf,bf->bis", self.graph.features, self.theta)  # (B, I, S)
+    def _solve(self, theta: np.ndarray) -> np.ndarray:
+        """(B, I, S, A) Q per intention for the rewards θᵀφ, θ (B, F)."""
+        reward = np.einsum("isf,bf->bis", self.graph.features, theta)  # (B, I, S)
         r_sa = np.einsum("isaz,biz->bisa", self._transition, reward)
-        t = np.broadcast_to(self._transition, (self.n_runs, *self._transition.shape))
-        self.q = mdp.solve_q(t, r_sa, self.graph.valid, self.config.gamma)
+        t = np.broadcast_to(self._transition, (len(theta), *self._transition.shape))
+        return mdp.solve_q(t, r_sa, self.graph.valid, self.config.gamma)
 
     def _belief(self, states: np.ndarray) -> np.ndarray:
         """Λ(ι | s_0, s): observed frequencies, uniform over non-start supports before data.
@@ -128,4 +130,4 @@ class MaxEntIRL(_Tracking):
                                                g.terminal[intentions], demo.horizon)
         new = mdp.irl_step(self.theta, demo.counts, expected, c.learning_rate)
         self.theta = np.where(revealed[:, None], new, self.theta)
-        self._solve()
+        self.q = self._solve(self.theta)
