@@ -25,11 +25,11 @@ from typing import ClassVar
 
 import numpy as np
 
-from agents import mdp
 from agents.config import LearnerConfig, default_config
-from agents.protocol import BatchAgent, Trace, run_streams
+from hri_envs.task import mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TaskGraph
+from hri_envs.task.protocol import BatchAgent, Trace, run_streams
 
 __all__ = ["Learner", "LearnerStateError", "graph_fingerprint", "sample_actions"]
 

@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from agents.protocol import Agent, BatchAgent, Trace, run_streams
+from hri_envs.task.protocol import Agent, BatchAgent, Trace, run_streams
 
 if TYPE_CHECKING:
     from stable_baselines3.common.base_class import BaseAlgorithm

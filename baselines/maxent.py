@@ -14,13 +14,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from agents import mdp
 from agents.config import LearnerConfig, default_config
 from agents.learner import sample_actions
-from agents.protocol import Trace, run_streams
 from baselines.simple import _Tracking
+from hri_envs.task import mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
+from hri_envs.task.protocol import Trace, run_streams
 
 __all__ = ["MaxEntIRL"]
 

@@ -11,10 +11,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from agents import mdp
-from agents.protocol import BatchAgent, Trace
+from hri_envs.task import mdp
 from hri_envs.task.graph import BOTH, ROBOT_BIT, TAKE_OFF, TOGGLE, WAIT, TaskGraph
 from hri_envs.task.humans import ScriptedHuman
+from hri_envs.task.protocol import BatchAgent, Trace
 
 __all__ = ["Imitator", "Oracle", "Passive"]
 

@@ -24,10 +24,10 @@ from typing import Any
 
 from agents.config import default_config
 from agents.learner import Learner
-from agents.protocol import Agent, BatchAgent, Batched
 from baselines import Imitator, MaxEntIRL, Oracle, Passive
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman
+from hri_envs.task.protocol import Agent, BatchAgent, Batched
 
 __all__ = ["BUILTIN_AGENTS", "SB3_PREFIX", "make_agent", "validate_agent_name"]
 

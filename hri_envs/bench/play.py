@@ -13,8 +13,8 @@ import numpy as np
 
 from agents.config import default_config
 from agents.learner import Learner
-from agents.protocol import Trace
 from hri_envs.bench.study import graph_for
+from hri_envs.task.protocol import Trace
 
 __all__ = ["play"]
 

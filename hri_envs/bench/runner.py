@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.protocol import BatchAgent, Trace
 from hri_envs.task.graph import WAIT, TaskGraph
 from hri_envs.task.humans import ScriptedHuman
+from hri_envs.task.protocol import BatchAgent, Trace
 
 __all__ = ["TABLE2", "EpisodeMetrics", "Schedule", "make_schedule", "simulate"]
 

@@ -8,9 +8,9 @@ from typing import Any
 import numpy as np
 
 from agents.learner import Learner
-from agents.protocol import Trace
 from hri_envs.bench.study import StudyConfig, graph_for, run_study
 from hri_envs.task.humans import HANGER_PREFERENCES
+from hri_envs.task.protocol import Trace
 
 __all__ = ["HANGER_STUDY_PREFERENCES", "hanger_study_s", "learner_update_ms", "measure"]
 

@@ -15,7 +15,6 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from agents.protocol import BatchAgent, Trace
 from hri_envs.bench.runner import EpisodeMetrics, Schedule
 from hri_envs.physics.ik import IKFailure
 from hri_envs.physics.observer import physical_reward
@@ -23,6 +22,7 @@ from hri_envs.physics.sim import PandaSim
 from hri_envs.task.geometry import sample_wheel_layout, wheel_scenario
 from hri_envs.task.graph import ROBOT_BIT, TOGGLE, WAIT, TaskGraph
 from hri_envs.task.humans import ScriptedHuman
+from hri_envs.task.protocol import BatchAgent, Trace
 
 __all__ = ["robot_correct", "simulate_physics"]
 

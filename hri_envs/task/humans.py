@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hri_envs.task import mdp
 from hri_envs.task.graph import (
     BOTH,
     HUMAN_BIT,
@@ -296,8 +297,6 @@ def boltzmann_human(
 
     It has no preferred route, hence no halfway point, and does not turn back by itself.
     """
-    from agents import mdp  # the learning math lives with the agents
-
     theta = np.asarray(theta, dtype=float)
     if theta.shape != (graph.n_features,):
         raise ValueError(f"theta must have shape ({graph.n_features},), got {theta.shape}")
