@@ -26,6 +26,9 @@ from hri_envs.physics.scene import Scene
 
 __all__ = ["Disagreement", "ImpedanceController"]
 
+# Numerical method: Tikhonov regularisation of J M⁻¹ Jᵀ before it is inverted.
+_LAMBDA_INV_REGULARIZATION = 1e-6
+
 
 class ImpedanceController:
     """Computes the robot's joint torques from the state in ``data``.
@@ -36,7 +39,7 @@ class ImpedanceController:
 
     def __init__(self, scene: Scene) -> None:
         self.scene = scene
-        d: PhysicsDesign = scene.design
+        design: PhysicsDesign = scene.design
         m = scene.model
         self.dofs = scene.robot_dofs
         n = len(self.dofs)
@@ -48,20 +51,20 @@ class ImpedanceController:
         self._minv = np.zeros((7, m.nv))
         self._jac = np.zeros((6, n))
         self._wrench = np.zeros(6)
-        self._reg = 1e-6 * np.eye(6)
+        self._reg = _LAMBDA_INV_REGULARIZATION * np.eye(6)
         # The robot's joints lead the model and are contiguous in qpos and qvel (no ball or
         # free joints): plain slices instead of index arrays.
         if not (np.array_equal(self.dofs, np.arange(n))
                 and np.array_equal(scene.robot_qpos, np.arange(n))):
             raise ValueError("the robot's joints must come first in the model")
         self.sl = slice(0, n)
-        self.kn = np.full(n, d.posture_stiffness)
-        self.dn = np.full(n, d.posture_damping)
-        n_base = n - 7
-        self.kn[:n_base], self.dn[:n_base] = d.base_stiffness, d.base_damping
-        self.weight = d.object_mass * -m.opt.gravity
-        self.grip_pos_in_object = d.grip_pos
-        self.com_in_object = d.object_com
+        self.kn = np.full(n, design.posture_stiffness)
+        self.dn = np.full(n, design.posture_damping)
+        n_base = n - 7  # the Panda arm has 7 joints
+        self.kn[:n_base], self.dn[:n_base] = design.base_stiffness, design.base_damping
+        self.weight = design.object_mass * -m.opt.gravity
+        self.grip_pos_in_object = design.grip_pos
+        self.com_in_object = design.object_com
 
     def torques(self, data: mujoco.MjData, ref: TrajectorySample | None, q_ref: np.ndarray,
                 stiffness_scale: float, payload: bool) -> np.ndarray:
@@ -74,7 +77,7 @@ class ImpedanceController:
             stiffness_scale: DAVI factor in [0, 1] on the Cartesian stiffness.
             payload: Compensate the weight of the held object.
         """
-        sc, d, m, sl = self.scene, self.scene.design, self.scene.model, self.sl
+        sc, design, m, sl = self.scene, self.scene.design, self.scene.model, self.sl
         mujoco.mj_jacSite(m, data, self._jacp, self._jacr, sc.grip_site)
         jac = self._jac  # (6, n)
         jac[:3] = self._jacp[:, sl]
@@ -83,14 +86,14 @@ class ImpedanceController:
         twist = jac @ qd
         wrench = self._wrench
         if ref is None:
-            d_p, d_r = d.passive_damping
+            d_p, d_r = design.passive_damping
             wrench[:3] = -d_p * twist[:3]
             wrench[3:] = -d_r * twist[3:]
         else:
             s = stiffness_scale
-            k_p, k_r = d.stiffness[0] * s, d.stiffness[1] * s
-            d_p = s * d.damping[0] + (1 - s) * d.passive_damping[0]
-            d_r = s * d.damping[1] + (1 - s) * d.passive_damping[1]
+            k_p, k_r = design.stiffness[0] * s, design.stiffness[1] * s
+            d_p = s * design.damping[0] + (1 - s) * design.passive_damping[0]
+            d_r = s * design.damping[1] + (1 - s) * design.passive_damping[1]
             mujoco.mju_mat2Quat(self._quat, data.site_xmat[sc.grip_site])
             wrench[:3] = (k_p * (ref.pos - data.site_xpos[sc.grip_site])
                           + d_p * (s * ref.vel - twist[:3]))
@@ -118,20 +121,26 @@ class Disagreement:
 
     The disagreement force is the part of the human's wrench that does not push along the
     robot's intended motion: its component across the motion plus whatever opposes the
-    motion beyond a slack (so that a partner who is a little slower is not taken for one
-    who disagrees); torques count as force × ``lever``. The stiffness scale ``1 - α``
-    follows the disagreement between ``disagree_force[0]`` (stiff) and ``[1]`` (soft) with
-    a rise time of 0.1 s and a fall time of 0.3 s; when α stays above 0.9 for 0.3 s the
-    robot *yields*: it abandons its action and is passive until the step ends.
+    motion beyond a slack (``disagree_slack_factor`` × ``disagree_force[0]``, so that a
+    partner who is a little slower is not taken for one who disagrees); torques count as
+    force × ``lever``. The stiffness scale ``1 - α`` follows the disagreement between
+    ``disagree_force[0]`` (stiff) and ``[1]`` (soft) with the time constants
+    ``disagree_rise_time_s`` and ``disagree_fall_time_s``; when α stays above
+    ``disagree_yield_alpha`` for ``disagree_yield_time_s`` the robot *yields*: it abandons
+    its action and is passive until the step ends.
 
     Args:
-        design: Thresholds and lever.
+        design: Thresholds, time constants and lever.
     """
 
     def __init__(self, design: PhysicsDesign) -> None:
         self.f0, self.f1 = design.disagree_force
         self.lever = design.lever
-        self.slack = 0.5 * self.f0
+        self.slack = design.disagree_slack_factor * self.f0
+        self.rise_time_s = design.disagree_rise_time_s
+        self.fall_time_s = design.disagree_fall_time_s
+        self.yield_alpha = design.disagree_yield_alpha
+        self.yield_time_s = design.disagree_yield_time_s
         self.alpha = 0.0
         self.yielded = False
         self._high = 0.0
@@ -153,9 +162,9 @@ class Disagreement:
     def update(self, disagreement: float, dt: float) -> float:
         """Advance by ``dt`` [s] with the current disagreement force; the stiffness scale."""
         target = min(max((disagreement - self.f0) / (self.f1 - self.f0), 0.0), 1.0)
-        tau = 0.1 if target > self.alpha else 0.3
+        tau = self.rise_time_s if target > self.alpha else self.fall_time_s
         self.alpha += (target - self.alpha) * min(dt / tau, 1.0)
-        self._high = self._high + dt if self.alpha > 0.9 else 0.0
-        if self._high >= 0.3:
+        self._high = self._high + dt if self.alpha > self.yield_alpha else 0.0
+        if self._high >= self.yield_time_s:
             self.yielded = True
         return 0.0 if self.yielded else 1.0 - self.alpha

@@ -84,6 +84,52 @@ class PhysicsDesign:
         position_tolerance, angle_tolerance: Distance to an abstract state's pose within
             which the object counts as *at* that state.
         step_time_limit: Simulated seconds after which an abstract step ends.
+
+    The remaining fields are thresholds and times of the simulation loop, the same for both
+    scenarios (class defaults); the unit is in the name (``_m``, ``_s``, ``_rad``, ``_j``;
+    ``_steps``: physics time steps) or given here:
+
+        pregrasp_distance_m: The idle hand waits this far back along its approach axis.
+        grip_finger_pos_m: Finger joint position commanded when the hand closes on the grip.
+        motion_min_duration_s: Shortest straight-line motion (robot moves and retreat,
+            the human's reaches).
+        grasp_approach_min_duration_s: Shortest approach of the open hand to its grip.
+        grasp_approach_time_limit_s: Time limit of that approach.
+        grasp_close_time_s: Time the hand holds still while it closes (weld on).
+        release_retreat_time_limit_s: Time limit of the retreat after letting go.
+        reset_grip_ik_error_max_m, reset_pregrasp_ik_error_max_m: Largest IK error
+            (:meth:`ReferenceIK.error`, [m] + 0.1 m/rad x [rad]) at reset on the grip and
+            at the waiting pose; beyond it the layout cannot be served.
+        ik_error_max_m: IK error (same measure) above which the reference lags its target.
+        ik_error_time_max_s: How long the reference may lag before it is an IK failure.
+        settle_vel_sq_max_m2_s2: Squared speed [m²/s²] below which the object is slow.
+        settle_angvel_sq_max_rad2_s2: Squared angular speed [rad²/s²] below which it is
+            slow.
+        settle_calm_time_s: How long the object must stay slow (both agents done) to have
+            settled.
+        settle_min_time_s: Shortest simulated time of a motion phase before it can settle.
+        timeout_fault_factor: A step that times out with the object farther than this
+            multiple of ``position_tolerance`` or ``angle_tolerance`` from the observed
+            state ends with a "timeout" fault (dimensionless).
+        diverged_qvel_max: Largest |qvel| entry [m/s or rad/s] of a stable simulation.
+        stability_check_every_steps: Check the simulation's stability this often.
+        platform_update_every_steps: Move the mobile base's floor platform this often.
+        human_work_min_j: Work of the human along the robot's motion above which the robot
+            infers the human made the same action (else the human followed: wait).
+        disagree_slack_factor: Opposing force tolerated along the motion, as a fraction of
+            ``disagree_force[0]`` (torques: x ``lever``).
+        disagree_rise_time_s, disagree_fall_time_s: Time constants of the softening α
+            when the disagreement rises and when it falls.
+        disagree_yield_alpha: α above which the robot is about to yield (dimensionless).
+        disagree_yield_time_s: How long α must stay above it for the robot to yield.
+        human_speed_factor: The human's reach speeds over the robot's ``linear_speed``
+            and ``angular_speed`` (dimensionless).
+        human_noise_time_s: Time constant of the human's force noise (band ~1 Hz).
+        human_noise_torque_lever_m: The torque noise is the force noise x this lever.
+        seat_capture_m: A seat captures the object within this distance across and along
+            its exit direction.
+        seat_capture_angle_rad: ... and within this angle of the seat's orientation.
+        seat_fade_m: The seat force fades out over this last stretch of the capture region.
     """
 
     scenario: str
@@ -122,6 +168,45 @@ class PhysicsDesign:
     position_tolerance: float
     angle_tolerance: float
     step_time_limit: float
+    # Simulation-loop thresholds and times (see the class docstring), shared by both scenarios.
+    # Grasp toggles and motions (PandaSim.reset, step, _robot_toggle).
+    pregrasp_distance_m: float = 0.08
+    grip_finger_pos_m: float = 0.012
+    motion_min_duration_s: float = 0.6
+    grasp_approach_min_duration_s: float = 0.8
+    grasp_approach_time_limit_s: float = 4.0
+    grasp_close_time_s: float = 0.2
+    release_retreat_time_limit_s: float = 3.0
+    # IK (PandaSim.reset, _run): error = position [m] + 0.1 m/rad x orientation [rad].
+    reset_grip_ik_error_max_m: float = 5e-3
+    reset_pregrasp_ik_error_max_m: float = 0.02
+    ik_error_max_m: float = 0.03
+    ik_error_time_max_s: float = 0.5
+    # Settling, faults and bookkeeping of the physics loop (PandaSim._run, step).
+    settle_vel_sq_max_m2_s2: float = 1e-4  # (1 cm/s)²
+    settle_angvel_sq_max_rad2_s2: float = 2.5e-3  # (0.05 rad/s)²
+    settle_calm_time_s: float = 0.15
+    settle_min_time_s: float = 0.05
+    timeout_fault_factor: float = 2.5  # [-] x position_tolerance, angle_tolerance
+    diverged_qvel_max: float = 50.0  # [m/s or rad/s]
+    stability_check_every_steps: int = 50
+    platform_update_every_steps: int = 25
+    # Human action inference (infer_human_action).
+    human_work_min_j: float = 0.05
+    # Disagreement-aware variable impedance (Disagreement).
+    disagree_slack_factor: float = 0.5  # [-] x disagree_force[0]
+    disagree_rise_time_s: float = 0.1
+    disagree_fall_time_s: float = 0.3
+    disagree_yield_alpha: float = 0.9  # [-]
+    disagree_yield_time_s: float = 0.3
+    # The simulated human (SimulatedHuman).
+    human_speed_factor: float = 1.2  # [-] x linear_speed, angular_speed
+    human_noise_time_s: float = 0.2
+    human_noise_torque_lever_m: float = 0.1
+    # Seats (Seats).
+    seat_capture_m: float = 0.03
+    seat_capture_angle_rad: float = float(np.deg2rad(25.0))
+    seat_fade_m: float = 0.01
 
 
 def hanger_design() -> PhysicsDesign:

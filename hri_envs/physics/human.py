@@ -27,7 +27,7 @@ class SimulatedHuman:
     """Applies the human's wrench to the object.
 
     Args:
-        design: Gains, force limits and noise.
+        design: Gains, force limits, speeds and noise.
         rng: Generator for the force noise.
 
     Attributes:
@@ -36,14 +36,15 @@ class SimulatedHuman:
     """
 
     def __init__(self, design: PhysicsDesign, rng: np.random.Generator) -> None:
-        self.d = design
+        self.design = design
         self.rng = rng
         self.holding = False
         self.plan: StraightLine | None = None
         self.t = 0.0
         self._noise = np.zeros(6)
         # Humans reach a little faster than the robot's planned motions.
-        self.speed = (1.2 * design.linear_speed, 1.2 * design.angular_speed)
+        self.speed = (design.human_speed_factor * design.linear_speed,
+                      design.human_speed_factor * design.angular_speed)
 
     def reset(self, rng: np.random.Generator) -> None:
         """New episode: not holding, no plan, fresh noise generator."""
@@ -55,7 +56,8 @@ class SimulatedHuman:
 
     def reach(self, start: Pose, target: Pose) -> None:
         """Start moving the object from ``start`` to ``target`` (object-frame poses)."""
-        self.plan = StraightLine(start, target, *self.speed)
+        self.plan = StraightLine(start, target, *self.speed,
+                                 min_duration=self.design.motion_min_duration_s)
         self.t = 0.0
 
     def stop(self) -> None:
@@ -67,9 +69,9 @@ class SimulatedHuman:
         if self.plan is None:
             return True
         goal = self.plan.goal
-        return bool(np.linalg.norm(goal.pos - pos) < self.d.position_tolerance
+        return bool(np.linalg.norm(goal.pos - pos) < self.design.position_tolerance
                     and np.linalg.norm(rotation_error(goal.quat, quat))
-                    < self.d.angle_tolerance)
+                    < self.design.angle_tolerance)
 
     def wrench(self, pos: np.ndarray, quat: np.ndarray, vel: np.ndarray, angvel: np.ndarray,
                dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -84,15 +86,17 @@ class SimulatedHuman:
         """
         if not self.holding or self.plan is None:
             return np.zeros(3), np.zeros(3)
-        d = self.d
+        design = self.design
         ref = self.plan.sample(self.t)
         self.t += dt
-        force = d.human_stiffness * (ref.pos - pos) + d.human_damping * (ref.vel - vel)
-        torque = (d.human_rot_stiffness * rotation_error(ref.quat, quat)
-                  + d.human_rot_damping * (ref.angvel - angvel))
-        tau_n = 0.2  # noise bandwidth: ~1 Hz
+        force = (design.human_stiffness * (ref.pos - pos)
+                 + design.human_damping * (ref.vel - vel))
+        torque = (design.human_rot_stiffness * rotation_error(ref.quat, quat)
+                  + design.human_rot_damping * (ref.angvel - angvel))
+        tau_n = design.human_noise_time_s  # noise bandwidth: ~1 Hz
         self._noise += (-self._noise * dt / tau_n
                         + np.sqrt(2.0 * dt / tau_n) * self.rng.standard_normal(6))
-        force = _saturate(force, d.human_force) + d.human_noise * self._noise[:3]
-        torque = _saturate(torque, d.human_torque) + 0.1 * d.human_noise * self._noise[3:]
+        force = _saturate(force, design.human_force) + design.human_noise * self._noise[:3]
+        torque = (_saturate(torque, design.human_torque)
+                  + design.human_noise_torque_lever_m * design.human_noise * self._noise[3:])
         return force, torque

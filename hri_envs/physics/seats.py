@@ -2,8 +2,8 @@
 
 Each support k has a seat pose (the object's resting pose) and an *exit direction*
 ``d_k``, from the seat towards its mounting point (the way the object is taken off). While
-the object is captured (within ``capture`` of the seat across ``d_k`` and along it,
-within 25° of the seat's orientation) the seat applies a stiff
+the object is captured (within ``seat_capture_m`` of the seat across ``d_k`` and along
+it, within ``seat_capture_angle_rad`` of the seat's orientation) the seat applies a stiff
 spring-damper towards its pose, except that along ``d_k`` it can push freely but pull back
 by at most the detent force ``seat_hold``. So a seat carries the object's weight and keeps
 it in place, and the object leaves it only by being pulled out along the exit direction,
@@ -26,14 +26,15 @@ class Seats:
 
     Args:
         scenario: Geometry (supports and their orientations).
-        design: Stiffness, damping, detent force.
-        capture: Capture distance [m].
+        design: Stiffness, damping, detent force, capture region.
+        capture: Capture distance [m] (default: the design's ``seat_capture_m``).
     """
 
-    def __init__(self, scenario: Scenario, design: PhysicsDesign, capture: float = 0.03) -> None:
-        self.d = design
-        self.capture = capture
-        self.max_angle = np.deg2rad(25.0)
+    def __init__(self, scenario: Scenario, design: PhysicsDesign,
+                 capture: float | None = None) -> None:
+        self.design = design
+        self.capture = design.seat_capture_m if capture is None else capture
+        self.max_angle = design.seat_capture_angle_rad
         self.set_scenario(scenario)
 
     def set_scenario(self, scenario: Scenario) -> None:
@@ -57,15 +58,15 @@ class Seats:
     def wrench(self, k: int, pos: np.ndarray, quat: np.ndarray, vel: np.ndarray,
                angvel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Force [N] and torque [N m] at the object's origin from seat ``k``."""
-        d = self.d
+        design = self.design
         e = self.pos[k] - pos
-        force = d.seat_stiffness * e - d.seat_damping * vel
+        force = design.seat_stiffness * e - design.seat_damping * vel
         n = self.exit[k]
         f_out = float(force @ n)
         along = -float(e @ n)
-        # Fade out over the last centimetre of the capture region: no jump on leaving.
-        fade = min(max((self.capture - along) / 0.01, 0.0), 1.0)
-        force = (force + (max(f_out, -d.seat_hold) - f_out) * n) * fade
-        torque = (d.seat_rot_stiffness * rotation_error(self.quat[k], quat)
-                  - d.seat_rot_damping * angvel) * fade
+        # Fade out over the last stretch (1 cm) of the capture region: no jump on leaving.
+        fade = min(max((self.capture - along) / design.seat_fade_m, 0.0), 1.0)
+        force = (force + (max(f_out, -design.seat_hold) - f_out) * n) * fade
+        torque = (design.seat_rot_stiffness * rotation_error(self.quat[k], quat)
+                  - design.seat_rot_damping * angvel) * fade
         return force, torque

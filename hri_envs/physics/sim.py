@@ -10,9 +10,9 @@ abstract state and both agents' abstract actions and runs them physically:
 3. *motions*: the robot tracks a straight line from the actual grip pose to the target
    state's pose with the impedance controller; the simulated human pulls the object towards
    their own target; disagreement makes the robot yield (:class:`Disagreement`);
-4. the step ends when the object has settled (slow for 0.15 s with both agents done), or
-   at a time limit; the observed state is the closest abstract state, and the human's
-   action is inferred from the transition.
+4. the step ends when the object has settled (slow for ``settle_calm_time_s`` with both
+   agents done), or at a time limit; the observed state is the closest abstract state, and
+   the human's action is inferred from the transition.
 
 Faults (NaN or unstable simulation, IK failure, a time-out far from any abstract state)
 end the step with ``fault`` set instead of raising.
@@ -21,6 +21,7 @@ end the step with ``fault`` set instead of raising.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import mujoco
@@ -39,7 +40,12 @@ from hri_envs.task.graph import HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT, TaskGraph
 
 __all__ = ["PandaSim", "StepResult"]
 
-_PREGRASP = 0.08  # [m] the idle hand waits this far back along its approach axis
+# Physical thresholds and times are fields of PhysicsDesign; these are fixed by the model.
+_FINGER_OPEN_M = 0.04  # [m] finger joint position of the open hand (the Panda's maximum)
+_PLATFORM_Z_M = 0.1  # [m] height of the mobile base's floor platform mocap (scene.py)
+# Numerical method: iterations of the reset IK solve onto the grip and the waiting pose.
+_RESET_GRIP_IK_ITERATIONS = 300
+_RESET_PREGRASP_IK_ITERATIONS = 200
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -83,6 +89,15 @@ class _Fault(Exception):
     pass
 
 
+@dataclass(slots=True)
+class _Totals:
+    """What the physics loop accumulates over one abstract step (the human's wrench)."""
+
+    linear_impulse: float = 0.0  # ∫ |F_human| dt [N s]
+    angular_impulse: float = 0.0  # ∫ |τ_human| dt [N m s]
+    human_work: float = 0.0  # ∫ (F_human · v + τ_human · ω) dt [J]
+
+
 class PandaSim:
     """A simulated Panda and a simulated human carrying the scenario's object.
 
@@ -95,29 +110,29 @@ class PandaSim:
     def __init__(self, graph: TaskGraph, design: PhysicsDesign | None = None,
                  ik_rate: float = 50.0) -> None:
         self.graph = graph
-        self.design = d = design if design is not None else design_for(graph.name)
+        self.design = design = design if design is not None else design_for(graph.name)
         self.scenario = graph.scenario
-        self.scene = build_scene(self.scenario, d)
+        self.scene = build_scene(self.scenario, design)
         self.model = self.scene.model
         self.data = mujoco.MjData(self.model)
         self.dt = float(self.model.opt.timestep)
         self.ik_every = max(1, round(1.0 / (ik_rate * self.dt)))
         self.controller = ImpedanceController(self.scene)
-        self.davi = Disagreement(d)
-        self.human = SimulatedHuman(d, np.random.default_rng(0))
-        self.seats = Seats(self.scenario, d)
-        self.observer = StateObserver(graph, self.scenario, d.lever)
-        n, n_base = len(self.scene.robot_dofs), 3 if d.mobile_base else 0
+        self.davi = Disagreement(design)
+        self.human = SimulatedHuman(design, np.random.default_rng(0))
+        self.seats = Seats(self.scenario, design)
+        self.observer = StateObserver(graph, self.scenario, design.lever)
+        n, n_base = len(self.scene.robot_dofs), 3 if design.mobile_base else 0
         self.n_base = n_base
         home = np.zeros(n)
-        home[n_base:] = d.home
-        self.ik = ReferenceIK(build_robot_model(d), n, n_base, home)
+        home[n_base:] = design.home
+        self.ik = ReferenceIK(build_robot_model(design), n, n_base, home)
         self.home = home
         self.base_offset = self._base_offset() if n_base else np.zeros(3)
         m = self.model
         self._site_pos = m.site_pos[self.scene.grip_site].copy()
         self._site_quat = m.site_quat[self.scene.grip_site].copy()
-        self.grip_in_object = Pose(d.grip_pos, d.grip_quat)
+        self.grip_in_object = Pose(design.grip_pos, design.grip_quat)
         self.on_frame: Callable[[], None] | None = None
         self.frame_every = 50
         self.state = 0
@@ -151,7 +166,8 @@ class PandaSim:
         return self.design.base_pos - data.site_xpos[site]
 
     def _pregrasp(self, grip: Pose) -> Pose:
-        return compose(grip, np.array([0.0, 0.0, -_PREGRASP]), np.array([1.0, 0, 0, 0]))
+        return compose(grip, np.array([0.0, 0.0, -self.design.pregrasp_distance_m]),
+                       np.array([1.0, 0, 0, 0]))
 
     # ------------------------------------------------------------------ reset
     def set_scenario(self, scenario: Scenario) -> None:
@@ -179,35 +195,39 @@ class PandaSim:
         Raises:
             IKFailure: The robot cannot reach its pose (a layout it cannot serve).
         """
-        m, d, sc = self.model, self.data, self.scene
-        mujoco.mj_resetData(m, d)
+        model, data, sc, design = self.model, self.data, self.scene, self.design
+        mujoco.mj_resetData(model, data)
         self.set_scenario(scenario if scenario is not None else self.graph.scenario)
         self.human.reset(rng if rng is not None else np.random.default_rng(0))
         self.davi.reset()
         s0 = self.graph.support_state(start, 0) if state is None else int(state)
         mu = int(self.graph.grasp[s0])
         pos, quat = self.observer.pose(s0)
-        d.qpos[sc.object_qpos] = np.concatenate([pos, quat])
+        data.qpos[sc.object_qpos] = np.concatenate([pos, quat])
         grip = self.state_grip_pose(s0)
         target = grip if mu & ROBOT_BIT else self._pregrasp(grip)
         q0 = self.home.copy()
         if self.n_base:
-            q0[:3] = target.pos + self.base_offset - self.design.base_pos
+            q0[:3] = target.pos + self.base_offset - design.base_pos
         self.ik.reset(q0)
         # Reach the grip first, then back off to the waiting pose (a hand-held retreat);
-        # the waiting pose only needs to be near (2 cm), the grasp approach starts from it.
-        if self.ik.solve(grip, iterations=300) > 5e-3 or (
-                target is not grip and self.ik.solve(target, iterations=200) > 0.02):
+        # the waiting pose only needs to be near, the grasp approach starts from it.
+        grip_error_m = self.ik.solve(grip, iterations=_RESET_GRIP_IK_ITERATIONS)
+        if grip_error_m > design.reset_grip_ik_error_max_m or (
+                target is not grip
+                and self.ik.solve(target, iterations=_RESET_PREGRASP_IK_ITERATIONS)
+                > design.reset_pregrasp_ik_error_max_m):
             raise IKFailure(f"the robot cannot reach its pose in state {s0}")
         self.q_ref = self.ik.q
-        d.qpos[sc.robot_qpos] = self.q_ref
-        d.qpos[sc.finger_qpos] = 0.04
-        d.eq_active[sc.weld] = 0
+        data.qpos[sc.robot_qpos] = self.q_ref
+        data.qpos[sc.finger_qpos] = _FINGER_OPEN_M
+        data.eq_active[sc.weld] = 0
         self._weld(bool(mu & ROBOT_BIT))
         self.human.holding = bool(mu & HUMAN_BIT)
         if sc.platform_mocap >= 0:
-            d.mocap_pos[sc.platform_mocap] = [*d.qpos[:2] + self.design.base_pos[:2], 0.1]
-        mujoco.mj_forward(m, d)
+            data.mocap_pos[sc.platform_mocap] = [*data.qpos[:2] + design.base_pos[:2],
+                                                 _PLATFORM_Z_M]
+        mujoco.mj_forward(model, data)
         self.state = s0
         return s0
 
@@ -222,7 +242,8 @@ class PandaSim:
             m.eq_data[sc.weld, 3:6] = rel.pos
             m.eq_data[sc.weld, 6:10] = rel.quat
         self.data.eq_active[sc.weld] = int(on)
-        self.data.ctrl[sc.finger_actuators] = 0.012 if on else 0.04
+        self.data.ctrl[sc.finger_actuators] = (self.design.grip_finger_pos_m if on
+                                               else _FINGER_OPEN_M)
         self.holding = on
 
     @staticmethod
@@ -246,14 +267,14 @@ class PandaSim:
         """
         g = self.graph
         t0 = float(self.data.time)
-        acc = np.zeros(3)  # linear impulse, angular impulse, human work
+        totals = _Totals()
         fault: str | None = None
         yielded = settled = False
         robot_toggle = a_r == TOGGLE and bool(g.valid[s, TOGGLE])
         human_toggle = a_h == TOGGLE and bool(g.valid[s, TOGGLE])
         try:
             if robot_toggle:
-                self._robot_toggle(acc)
+                self._robot_toggle(totals)
             if human_toggle:
                 self.human.holding = not self.human.holding
             s1 = int(g.next_state[s, a_r if robot_toggle else WAIT, a_h if human_toggle else WAIT])
@@ -263,8 +284,9 @@ class PandaSim:
             line = None
             if robot_moves:
                 goal = self.state_grip_pose(int(g.next_state[s1, a_r, WAIT]))
-                d = self.design
-                line = StraightLine(self.grip_pose(), goal, d.linear_speed, d.angular_speed)
+                design = self.design
+                line = StraightLine(self.grip_pose(), goal, design.linear_speed,
+                                    design.angular_speed, design.motion_min_duration_s)
             if human_moves:
                 pos, quat = self.observer.pose(int(g.next_state[s1, WAIT, a_h]))
                 self.human.reach(self.object_pose(), Pose(pos, quat))
@@ -272,7 +294,7 @@ class PandaSim:
                 self.human.stop()
             # Holding and not moving: passive (the human may move the object); idle: stiff.
             hold = None if (self.holding or robot_moves) else self.grip_pose()
-            settled, yielded = self._run(line, hold, acc, self.design.step_time_limit)
+            settled, yielded = self._run(line, hold, totals, self.design.step_time_limit)
         except _Fault as exc:
             fault = str(exc)
         except IKFailure as exc:
@@ -282,42 +304,59 @@ class PandaSim:
         grasp = (ROBOT_BIT if self.holding else 0) | (HUMAN_BIT if self.human.holding else 0)
         seat = self.seats.engaged(pose.pos, pose.quat)
         obs = self.observer.observe(pose.pos, pose.quat, seat, grasp)
-        d = self.design
-        far = (obs.position_error > 2.5 * d.position_tolerance
-               or obs.angle_error > 2.5 * d.angle_tolerance)
+        design = self.design
+        far = (obs.position_error > design.timeout_fault_factor * design.position_tolerance
+               or obs.angle_error > design.timeout_fault_factor * design.angle_tolerance)
         if fault is None and not settled and far:
             fault = "timeout: the object did not settle near any abstract state"
         if not np.all(np.isfinite(self.data.qpos)):
             fault = "unstable: the simulation diverged (NaN)"
         graph_next = int(g.next_state[s, a_r, a_h])
-        a_h_seen = infer_human_action(g, s, a_r, obs.state, float(acc[2]), 0.05)
+        a_h_seen = infer_human_action(g, s, a_r, obs.state, float(totals.human_work),
+                                      design.human_work_min_j)
         self.state = obs.state
         return StepResult(obs.state, a_h_seen, graph_next, obs.state == graph_next, settled,
-                          float(self.data.time) - t0, float(acc[0]), float(acc[1]), yielded,
-                          obs.position_error, obs.angle_error, fault)
+                          float(self.data.time) - t0, float(totals.linear_impulse),
+                          float(totals.angular_impulse), yielded, obs.position_error,
+                          obs.angle_error, fault)
 
-    def _robot_toggle(self, acc: np.ndarray) -> None:
-        d = self.design
+    def _robot_toggle(self, totals: _Totals) -> None:
+        design = self.design
         if not self.holding:  # approach the grip where the object actually is, then close
             site = self.scene.object_grip_site
             quat = np.empty(4)
             mujoco.mju_mat2Quat(quat, self.data.site_xmat[site])
             line = StraightLine(self.grip_pose(), Pose(self.data.site_xpos[site].copy(), quat),
-                                d.linear_speed, d.angular_speed, min_duration=0.8)
-            self._run(line, None, acc, 4.0)
+                                design.linear_speed, design.angular_speed,
+                                min_duration=design.grasp_approach_min_duration_s)
+            self._run(line, None, totals, design.grasp_approach_time_limit_s)
             self._weld(True)
-            self._run(None, self.grip_pose(), acc, 0.2, min_time=0.2)
+            self._run(None, self.grip_pose(), totals, design.grasp_close_time_s,
+                      min_time_s=design.grasp_close_time_s)
         else:
             self._weld(False)
             grip = self.grip_pose()
-            line = StraightLine(grip, self._pregrasp(grip), d.linear_speed, d.angular_speed)
-            self._run(line, None, acc, 3.0)
+            line = StraightLine(grip, self._pregrasp(grip), design.linear_speed,
+                                design.angular_speed, design.motion_min_duration_s)
+            self._run(line, None, totals, design.release_retreat_time_limit_s)
 
-    def _run(self, line: StraightLine | None, hold: Pose | None, acc: np.ndarray,
-             limit: float, min_time: float = 0.05) -> tuple[bool, bool]:
-        """Simulate until settled or ``limit`` seconds; (settled, robot yielded)."""
-        m, d, sc, des = self.model, self.data, self.scene, self.design
+    def _run(self, line: StraightLine | None, hold: Pose | None, totals: _Totals,
+             limit_s: float, min_time_s: float | None = None) -> tuple[bool, bool]:
+        """Simulate until settled or ``limit_s`` seconds; (settled, robot yielded).
+
+        ``min_time_s`` (default: the design's ``settle_min_time_s``) is the shortest time
+        before the motion can settle; ``totals`` accumulates the human's impulses and work.
+        """
+        model, data, sc, design = self.model, self.data, self.scene, self.design
         dt, body = self.dt, sc.object_body
+        if min_time_s is None:
+            min_time_s = design.settle_min_time_s
+        ik_error_max_m, ik_error_time_max_s = design.ik_error_max_m, design.ik_error_time_max_s
+        vel_sq_max, angvel_sq_max = (design.settle_vel_sq_max_m2_s2,
+                                     design.settle_angvel_sq_max_rad2_s2)
+        calm_time_s = design.settle_calm_time_s
+        check_every = design.stability_check_every_steps
+        platform_every = design.platform_update_every_steps
         self.davi.reset()
         hold_ref = None if hold is None else TrajectorySample(hold.pos, hold.quat, np.zeros(3),
                                                               np.zeros(3))
@@ -325,21 +364,21 @@ class PandaSim:
         t_line = elapsed = calm = ik_bad = 0.0
         i = 0
         yielded = False
-        while elapsed < limit:
-            mujoco.mj_step1(m, d)
-            pos, quat = d.xpos[body], d.xquat[body]
-            qv = d.qvel[sc.object_dofs]
+        while elapsed < limit_s:
+            mujoco.mj_step1(model, data)
+            pos, quat = data.xpos[body], data.xquat[body]
+            qv = data.qvel[sc.object_dofs]
             vel = qv[:3]
             angvel = self._rotate(quat, qv[3:])
             f_h, t_h = self.human.wrench(pos, quat, vel, angvel, dt)
-            force, torque = f_h.copy(), t_h + _cross(pos - d.xipos[body], f_h)
+            force, torque = f_h.copy(), t_h + _cross(pos - data.xipos[body], f_h)
             seat = self.seats.engaged(pos, quat)
             if seat >= 0:  # the seat acts at the centre of mass: no lever, no stiff coupling
                 f_s, t_s = self.seats.wrench(seat, pos, quat, vel, angvel)
                 force += f_s
                 torque += t_s
-            d.xfrc_applied[body, :3] = force
-            d.xfrc_applied[body, 3:] = torque
+            data.xfrc_applied[body, :3] = force
+            data.xfrc_applied[body, 3:] = torque
             scale, ref = 1.0, hold_ref
             moving = line is not None and not yielded and t_line < line.duration
             if line is not None and not yielded:
@@ -355,28 +394,30 @@ class PandaSim:
                 target = Pose(ref.pos, ref.quat) if ref is not None else self.grip_pose()
                 self.q_ref = self.ik.step(target, dt * self.ik_every).copy()
                 if ref is not None and line is not None:
-                    ik_bad = ik_bad + dt * self.ik_every if self.ik.error() > 0.03 else 0.0
-                    if ik_bad > 0.5:
+                    ik_bad = (ik_bad + dt * self.ik_every if self.ik.error() > ik_error_max_m
+                              else 0.0)
+                    if ik_bad > ik_error_time_max_s:
                         raise IKFailure("the IK reference cannot follow the trajectory")
-            d.ctrl[sc.robot_actuators] = self.controller.torques(d, ref, self.q_ref, scale,
-                                                                 self.holding)
-            mujoco.mj_step2(m, d)
+            data.ctrl[sc.robot_actuators] = self.controller.torques(data, ref, self.q_ref,
+                                                                    scale, self.holding)
+            mujoco.mj_step2(model, data)
             elapsed += dt
             i += 1
-            acc[0] += np.sqrt(f_h @ f_h) * dt
-            acc[1] += np.sqrt(t_h @ t_h) * dt
-            acc[2] += (f_h @ vel + t_h @ angvel) * dt
-            if sc.platform_mocap >= 0 and i % 25 == 0:
-                d.mocap_pos[sc.platform_mocap, :2] = d.qpos[:2] + des.base_pos[:2]
+            totals.linear_impulse += np.sqrt(f_h @ f_h) * dt
+            totals.angular_impulse += np.sqrt(t_h @ t_h) * dt
+            totals.human_work += (f_h @ vel + t_h @ angvel) * dt
+            if sc.platform_mocap >= 0 and i % platform_every == 0:
+                data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + design.base_pos[:2]
             if self.on_frame is not None and i % self.frame_every == 0:
                 self.on_frame()
-            if i % 50 == 0:
+            if i % check_every == 0:
                 self._check_stable()
-            slow = vel @ vel < 1e-4 and angvel @ angvel < 2.5e-3
+            slow = vel @ vel < vel_sq_max and angvel @ angvel < angvel_sq_max
             robot_done = line is None or yielded or t_line >= line.duration
-            if slow and robot_done and elapsed >= min_time and self.human.at_target(pos, quat):
+            if (slow and robot_done and elapsed >= min_time_s
+                    and self.human.at_target(pos, quat)):
                 calm += dt
-                if calm >= 0.15:
+                if calm >= calm_time_s:
                     return True, yielded
             else:
                 calm = 0.0
@@ -384,8 +425,9 @@ class PandaSim:
         return False, yielded
 
     def _check_stable(self) -> None:
-        d = self.data
-        if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
+        data = self.data
+        if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
             raise _Fault("unstable: MuJoCo reported bad accelerations")
-        if not np.all(np.isfinite(d.qvel)) or np.abs(d.qvel).max() > 50.0:
+        if (not np.all(np.isfinite(data.qvel))
+                or np.abs(data.qvel).max() > self.design.diverged_qvel_max):
             raise _Fault("unstable: the simulation diverged")
