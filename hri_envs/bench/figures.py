@@ -22,10 +22,16 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
-import matplotlib.pyplot as plt
-
-from hri_envs.bench.plots import decision_bars, policy_lines, reward_bands
+from hri_envs.bench.plots import (
+    decision_bars,
+    new_figure,
+    policy_lines,
+    reward_bands,
+    save_figure,
+    styled,
+)
 from hri_envs.bench.study import Probe, StudyConfig, StudyResult, graph_for, run_study
+from hri_envs.errors import ConfigError
 from hri_envs.task.graph import PUT_ON, ROTATE, TOGGLE, TaskGraph
 
 __all__ = ["FIGURES", "fig8_probes", "make_figures", "wheel_probes"]
@@ -98,6 +104,7 @@ def _wheel_study(base: StudyConfig, fig: str, preference: str) -> StudyConfig:
                    probes=wheel_probes(graph, preference))
 
 
+@styled
 def make_figures(
     out: str | Path,
     *,
@@ -113,7 +120,8 @@ def make_figures(
     """Run the studies behind the requested figures and draw them as PNGs into ``out``."""
     unknown = set(only) - set(FIGURES)
     if unknown:
-        raise ValueError(f"unknown figure(s) {sorted(unknown)}; allowed: {', '.join(FIGURES)}")
+        raise ConfigError(f"unknown figure(s) {sorted(unknown)}; allowed: {', '.join(FIGURES)}",
+                          field="only")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     base = StudyConfig("wheel", runs=runs, jobs=jobs, executor=executor, seed=seed,
@@ -130,16 +138,16 @@ def make_figures(
             log(f"{fig} {pref}: {wheel_results[fig, pref].wall_time_s:.1f} s")
     for fig in sorted(set(only) & set(WHEEL_SETTINGS)):
         r0, passive = WHEEL_SETTINGS[fig]
-        f, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+        f, axes = new_figure(1, 2, figsize=(11, 4), sharey=True)
         for ax, pref in zip(axes, ("straight", "detour"), strict=True):
             reward_bands(ax, wheel_results[fig, pref], title=f"preference: {pref}")
         axes[0].legend(frameon=False, fontsize=8)
         f.suptitle(f"Wheel, r0 = {r0:g}, human passive {passive:.0%} ({runs} runs each)")
-        paths.append(_save(f, out / f"{fig}.png"))
+        paths.append(save_figure(f, out / f"{fig}.png"))
     for fig, pref in (("fig11", "straight"), ("fig12", "detour")):
         if fig not in only:
             continue
-        f, axes = plt.subplots(3, 3, figsize=(15, 11), sharex=True, sharey=True)
+        f, axes = new_figure(3, 3, figsize=(15, 11), sharex=True, sharey=True)
         rows = (("learner", "human", "Learner's π̂_H"), ("learner", "robot", "Learner's π_R"),
                 ("maxent", "robot", "plain ME-IRL's π"))
         for col, setting in enumerate(WHEEL_SETTINGS):
@@ -157,35 +165,29 @@ def make_figures(
         f.suptitle(f"{pref.capitalize()} preference: the Learner's human-policy estimate (top), "
                    "its robot policy (middle), plain ME-IRL's policy (bottom); median and "
                    "interquartile band")
-        paths.append(_save(f, out / f"{fig}.png"))
+        paths.append(save_figure(f, out / f"{fig}.png"))
     if "fig8" in only:
         graph = graph_for("hanger")
         cfg = replace(base, scenario="hanger", agents=("learner",), episodes=9, r0=None,
                       schedule="random", preference=None, probes=fig8_probes(graph))
         res = run_study(cfg, progress=progress)
         log(f"fig8: {res.wall_time_s:.1f} s")
-        f, axes = plt.subplots(2, 2, figsize=(10, 7), sharex=True)
+        f, axes = new_figure(2, 2, figsize=(10, 7), sharex=True)
         for ax, j in zip(axes.ravel(), range(4), strict=True):
             policy_lines(ax, res.probes["learner"][:, :, [j]], [cfg.probes[j].label],
                          relative=True, title=cfg.probes[j].label)
         f.suptitle("Hanger, most frequent preference: preferred action vs waiting "
                    f"({runs} random simulations)")
-        paths.append(_save(f, out / "fig8.png"))
+        paths.append(save_figure(f, out / "fig8.png"))
     if "fig4" in only:
         cfg = replace(base, scenario="hanger", agents=("imitator", "learner", "maxent"),
                       schedule="table2", episodes=9, r0=None, preference="all")
         res = run_study(cfg, progress=progress)
         log(f"fig4: {res.wall_time_s:.1f} s")
-        f, ax = plt.subplots(figsize=(11, 4.2))
+        f, ax = new_figure(figsize=(11, 4.2))
         decision_bars(ax, res, title="Hanger, Table 2 schedule, runs cycling over the 36 "
                       "preferences")
         ax.legend(frameon=False, fontsize=7, ncol=3, loc="upper center",
                   bbox_to_anchor=(0.5, -0.15))
-        paths.append(_save(f, out / "fig4.png"))
+        paths.append(save_figure(f, out / "fig4.png"))
     return paths
-
-
-def _save(fig: plt.Figure, path: Path) -> Path:
-    fig.savefig(path)
-    plt.close(fig)
-    return path

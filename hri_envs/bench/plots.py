@@ -1,21 +1,34 @@
-"""Paper-style plots of study results (matplotlib, headless)."""
+"""Paper-style plots of study results (matplotlib, no display needed).
+
+Figures are :class:`matplotlib.figure.Figure` objects made without pyplot, so drawing and
+writing a PNG needs neither a display nor a backend choice, and importing this module
+changes no global matplotlib state. The house style :data:`STYLE` is in effect inside
+:func:`style` (and in functions decorated with :func:`styled`): build and save a figure
+there, e.g. with :func:`new_figure` and :func:`save_figure`.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import functools
+from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
 from pathlib import Path
+from typing import Any, TypeVar, cast
 
 import matplotlib
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.ticker import MaxNLocator  # noqa: E402
+from hri_envs.bench.results import StudyResult, StudySettings
 
-from hri_envs.bench.study import StudyResult  # noqa: E402
+__all__ = ["STYLE", "decision_bars", "impulse_bands", "new_figure", "policy_lines",
+           "reward_bands", "save_figure", "study_plots", "style", "styled"]
 
-__all__ = ["decision_bars", "impulse_bands", "policy_lines", "reward_bands", "study_plots"]
+_F = TypeVar("_F", bound=Callable[..., Any])
+#: A study result as the plots read it (any configuration with the :class:`StudySettings`).
+Result = StudyResult[StudySettings]
 
 COLORS = {"learner": "#1f5fa8", "imitator": "#7fb2e5", "maxent": "#7a7a7a",
           "passive": "#e0a030", "oracle": "#2a9d55"}
@@ -23,15 +36,51 @@ LABELS = {"learner": "Learner", "imitator": "Imitator", "maxent": "plain ME-IRL"
           "passive": "Passive", "oracle": "Oracle"}
 DECISION_COLORS = {"correct": "#1f5fa8", "passive": "#bcd3ea", "wrong": "#c8102e"}
 
-plt.rcParams.update({"font.size": 10, "axes.spines.top": False, "axes.spines.right": False,
-                     "figure.dpi": 110, "savefig.bbox": "tight"})
+#: rcParams of the house style (see :func:`style`).
+STYLE: dict[str, Any] = {"font.size": 10, "axes.spines.top": False,
+                         "axes.spines.right": False, "figure.dpi": 110, "savefig.bbox": "tight"}
+
+
+def style() -> AbstractContextManager[Any]:
+    """A context in which matplotlib uses :data:`STYLE`; build and save figures inside it."""
+    return matplotlib.rc_context(cast(Any, STYLE))  # the stubs want literal rc keys
+
+
+def styled(func: _F) -> _F:
+    """Decorate a function that draws figures so that it runs inside :func:`style`."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with style():
+            return func(*args, **kwargs)
+
+    return cast(_F, wrapper)
+
+
+def new_figure(nrows: int = 1, ncols: int = 1, **kwargs: Any) -> tuple[Figure, Any]:
+    """A figure in the house style and its axes, like ``pyplot.subplots`` but without pyplot.
+
+    ``figsize`` goes to the figure, the other keywords (``sharex``, ...) to
+    :meth:`~matplotlib.figure.Figure.subplots`.
+    """
+    figsize = kwargs.pop("figsize", None)
+    with style():
+        fig = Figure(figsize=figsize)
+        return fig, fig.subplots(nrows, ncols, **kwargs)
+
+
+def save_figure(fig: Figure, path: Path) -> Path:
+    """Write ``fig`` to ``path`` in the house style (the format follows the suffix)."""
+    with style():
+        fig.savefig(path)
+    return path
 
 
 def _label(agent: str) -> str:
     return LABELS.get(agent, agent)
 
 
-def reward_bands(ax: Axes, result: StudyResult, agents: Sequence[str] | None = None,
+def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
                  title: str | None = None) -> None:
     """Mean (line) and interquartile band of the cooperation reward per episode (Fig. 10)."""
     episodes = np.arange(1, result.config.n_episodes + 1)
@@ -50,7 +99,7 @@ def reward_bands(ax: Axes, result: StudyResult, agents: Sequence[str] | None = N
         ax.set_title(title)
 
 
-def decision_bars(ax: Axes, result: StudyResult, agents: Sequence[str] | None = None,
+def decision_bars(ax: Axes, result: Result, agents: Sequence[str] | None = None,
                   title: str | None = None) -> None:
     """Correct / passive / wrong fractions of the robot's decisions per episode (Fig. 4)."""
     agents = list(agents or result.metrics)
@@ -86,7 +135,7 @@ def policy_lines(ax: Axes, values: np.ndarray, labels: Sequence[str], *, relativ
         title: Axes title.
     """
     x = np.arange(values.shape[1])
-    cmap = plt.get_cmap("tab10" if values.shape[2] <= 10 else "tab20")
+    cmap = matplotlib.colormaps["tab10" if values.shape[2] <= 10 else "tab20"]
     for j, label in enumerate(labels):
         v = values[:, :, j]
         color = cmap(j % cmap.N)
@@ -106,35 +155,30 @@ def policy_lines(ax: Axes, values: np.ndarray, labels: Sequence[str], *, relativ
         ax.set_title(title)
 
 
-def _save(fig: plt.Figure, path: Path) -> Path:
-    fig.savefig(path)
-    plt.close(fig)
-    return path
-
-
-def study_plots(result: StudyResult, out: Path) -> list[Path]:
+@styled
+def study_plots(result: Result, out: Path) -> list[Path]:
     """``reward.png`` (Fig. 10 style) and ``decisions.png`` (Fig. 4 style) for a study."""
     cfg = result.config
     title = (f"{cfg.scenario}, {cfg.schedule} schedule, r0 = {cfg.waiting_reward:g}, "
              f"human passive {cfg.human_passive:.0%}, {cfg.runs} runs")
-    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    fig, ax = new_figure(figsize=(6.4, 4.0))
     reward_bands(ax, result, title=title)
     ax.legend(frameon=False, fontsize=8)
-    paths = [_save(fig, out / "reward.png")]
-    fig, ax = plt.subplots(figsize=(max(6.4, 0.55 * cfg.n_episodes * len(result.metrics)), 4.0))
+    paths = [save_figure(fig, out / "reward.png")]
+    fig, ax = new_figure(figsize=(max(6.4, 0.55 * cfg.n_episodes * len(result.metrics)), 4.0))
     decision_bars(ax, result, title=title)
     ax.legend(frameon=False, fontsize=7, ncol=len(result.metrics), loc="upper center",
               bbox_to_anchor=(0.5, -0.15))
-    paths.append(_save(fig, out / "decisions.png"))
+    paths.append(save_figure(fig, out / "decisions.png"))
     if "linear_impulse" in next(iter(result.metrics.values())):
-        fig, ax = plt.subplots(figsize=(6.4, 4.0))
+        fig, ax = new_figure(figsize=(6.4, 4.0))
         impulse_bands(ax, result, title=title)
         ax.legend(frameon=False, fontsize=8)
-        paths.append(_save(fig, out / "impulse.png"))
+        paths.append(save_figure(fig, out / "impulse.png"))
     return paths
 
 
-def impulse_bands(ax: Axes, result: StudyResult, title: str | None = None) -> None:
+def impulse_bands(ax: Axes, result: Result, title: str | None = None) -> None:
     """Mean and interquartile band of the linear interaction impulse per episode (Fig. 6)."""
     episodes = np.arange(1, result.config.n_episodes + 1)
     for agent, m in result.metrics.items():
