@@ -6,6 +6,8 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
+from hri_envs.errors import ConfigError
+
 __all__ = ["LearnerConfig", "default_config"]
 
 
@@ -52,14 +54,16 @@ class LearnerConfig:
         ]
         for name, ok, allowed in checks:
             if not ok:
-                raise ValueError(f"{name} must be {allowed}, got {getattr(self, name)!r}")
+                raise ConfigError(f"{name} must be {allowed}, got {getattr(self, name)!r}",
+                                  field=name)
 
     def replace(self, **changes: Any) -> LearnerConfig:
         """A copy with some fields changed (validated)."""
         names = {f.name for f in dataclasses.fields(self)}
         unknown = set(changes) - names
         if unknown:
-            raise ValueError(f"unknown parameter(s) {sorted(unknown)}; allowed: {sorted(names)}")
+            raise ConfigError(f"unknown parameter(s) {sorted(unknown)}; allowed: {sorted(names)}",
+                              field=sorted(unknown)[0])
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, float]:
@@ -73,5 +77,6 @@ def default_config(scenario: str, **changes: Any) -> LearnerConfig:
     """
     base = {"hanger": LearnerConfig(), "wheel": LearnerConfig(gamma=0.6, r0=-0.25)}
     if scenario not in base:
-        raise ValueError(f"unknown scenario {scenario!r}; expected one of {sorted(base)}")
+        raise ConfigError(f"unknown scenario {scenario!r}; allowed: {', '.join(sorted(base))}",
+                          field="scenario")
     return base[scenario].replace(**changes)

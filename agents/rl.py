@@ -25,6 +25,7 @@ from typing import Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
+from hri_envs.errors import ConfigError
 from hri_envs.task.protocol import BatchAgent, Trace, run_streams
 
 try:
@@ -120,8 +121,8 @@ class SB3VectorEnv(VecEnv):
     def __init__(self, env: gym.vector.VectorEnv) -> None:
         mode = env.metadata.get("autoreset_mode", AutoresetMode.NEXT_STEP)
         if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
-            raise ValueError(f"autoreset mode {mode} is not supported; use next-step or "
-                             "same-step autoreset")
+            raise ConfigError(f"autoreset mode {mode} is not supported; allowed: next-step or "
+                              "same-step autoreset", field="env")
         self.env = env
         self._next_step_reset = mode == AutoresetMode.NEXT_STEP
         super().__init__(env.num_envs, env.single_observation_space, env.single_action_space)
@@ -240,9 +241,9 @@ def make_sb3_vec_env(
     import hri_envs  # noqa: F401  (registers the ids)
 
     if vec not in VEC_KINDS:
-        raise ValueError(f"unknown vec {vec!r}; allowed: {', '.join(VEC_KINDS)}")
+        raise ConfigError(f"unknown vec {vec!r}; allowed: {', '.join(VEC_KINDS)}", field="vec")
     if n_envs < 1:
-        raise ValueError(f"n_envs must be >= 1, got {n_envs}")
+        raise ConfigError(f"n_envs must be >= 1, got {n_envs}", field="n_envs")
     if vec == "vector":
         # Same-step autoreset: SB3 needs the next episode's first observation in the step
         # that ends one (no restart step, no transition across the episode boundary).
@@ -280,8 +281,9 @@ class MaskedDQNPolicy(DQNMultiInputPolicy):
     def __init__(self, observation_space: gym.spaces.Space, *args: Any, **kwargs: Any) -> None:
         if not isinstance(observation_space, gym.spaces.Dict) or \
                 "action_mask" not in observation_space.spaces:
-            raise ValueError("MaskedDQNPolicy needs a Dict observation space with an "
-                             f"'action_mask' entry; got {observation_space}")
+            raise ConfigError("MaskedDQNPolicy needs a Dict observation space with an "
+                              f"'action_mask' entry; got {observation_space}",
+                              field="observation_space")
         super().__init__(observation_space, *args, **kwargs)
 
     def make_q_net(self) -> MaskedQNetwork:

@@ -19,12 +19,12 @@ Invalid actions are never chosen:
 one); ``deterministic=False`` samples from the masked distribution with one NumPy generator
 per run, seeded by ``(seed, run)``.
 
-Loading never unpickles (SPEC: nothing is loaded with pickle). SB3's ``.zip`` keeps its
-hyper-parameters in a JSON ``data`` entry (with some objects cloudpickled inside) and the
-network weights as PyTorch state dicts. :func:`load_model` reads only the JSON: which
-algorithm saved the file (the policy class's module), the ``policy_kwargs`` (when they are
-plain JSON, as ``net_arch`` is) and the action-space size (which scenario); it builds a
-fresh model for the robot env's spaces and loads the weights with
+Loading never unpickles (docs/environments.md, 'Nothing is loaded with pickle'). SB3's
+``.zip`` keeps its hyper-parameters in a JSON ``data`` entry (with some objects
+cloudpickled inside) and the network weights as PyTorch state dicts. :func:`load_model`
+reads only the JSON: which algorithm saved the file (the policy class's module), the
+``policy_kwargs`` (when they are plain JSON, as ``net_arch`` is) and the action-space size
+(which scenario); it builds a fresh model for the robot env's spaces and loads the weights with
 ``set_parameters``, i.e. ``torch.load(weights_only=True)``. ``policy_kwargs`` that SB3
 pickled are read from their text form where they are plain literals (the optimizer entries,
 irrelevant for acting, are left to the algorithm's defaults); anything else is refused with
@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from hri_envs.errors import ConfigError
 from hri_envs.task.protocol import Agent, BatchAgent, Trace, run_streams
 
 if TYPE_CHECKING:
@@ -59,7 +60,8 @@ _OBS_KEYS = ("state", "start", "last_human_action", "action_mask")
 
 def _algorithm_class(name: str) -> type[BaseAlgorithm]:
     if name not in ALGORITHMS:
-        raise ValueError(f"unknown SB3 algorithm {name!r}; allowed: {', '.join(ALGORITHMS)}")
+        raise ConfigError(f"unknown SB3 algorithm {name!r}; allowed: {', '.join(ALGORITHMS)}",
+                          field="algo")
     try:
         if name == "MaskablePPO":
             from sb3_contrib import MaskablePPO
@@ -84,11 +86,14 @@ def _read_data(path: str | os.PathLike[str]) -> dict[str, Any]:
         with zipfile.ZipFile(path) as zf:
             data = json.loads(zf.read("data"))
     except FileNotFoundError:
-        raise ValueError(f"SB3 model file not found: {path}") from None
+        raise ConfigError(f"SB3 model file not found: {path}; give the .zip written by "
+                          "model.save()", field="path") from None
     except (zipfile.BadZipFile, KeyError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{path} is not a stable-baselines3 .zip model ({exc})") from exc
+        raise ConfigError(f"{path} is not a stable-baselines3 .zip model ({exc}); give the "
+                          ".zip written by model.save()", field="path") from exc
     if not isinstance(data, dict):
-        raise ValueError(f"{path} is not a stable-baselines3 .zip model (bad 'data' entry)")
+        raise ConfigError(f"{path} is not a stable-baselines3 .zip model (bad 'data' entry); "
+                          "give the .zip written by model.save()", field="path")
     return data
 
 
@@ -110,9 +115,9 @@ def detect_algorithm(path: str | os.PathLike[str]) -> str:
     if module == "stable_baselines3.common.policies":
         # Shared by PPO and A2C; PPO's saved data has a clip range, A2C's does not.
         return "PPO" if "clip_range" in data else "A2C"
-    raise ValueError(f"cannot tell which algorithm saved {path} (its policy class is from "
-                     f"{module or 'an unknown module'}); pass algo= one of "
-                     f"{', '.join(ALGORITHMS)}")
+    raise ConfigError(f"cannot tell which algorithm saved {path} (its policy class is from "
+                      f"{module or 'an unknown module'}); pass algo= one of "
+                      f"{', '.join(ALGORITHMS)}", field="algo")
 
 
 def _policy_kwargs(path: str | os.PathLike[str], saved: Any) -> dict[str, Any]:
@@ -124,7 +129,8 @@ def _policy_kwargs(path: str | os.PathLike[str], saved: Any) -> dict[str, Any]:
     Python literals (``net_arch=[64, 64]``), read with :func:`ast.literal_eval`.
     """
     if not isinstance(saved, dict):
-        raise ValueError(f"{path}: policy_kwargs in an unknown form")
+        raise ConfigError(f"{path}: policy_kwargs in an unknown form; a dict is allowed",
+                          field="path")
     if ":serialized:" not in saved:
         return saved
     out: dict[str, Any] = {}
@@ -134,10 +140,10 @@ def _policy_kwargs(path: str | os.PathLike[str], saved: Any) -> dict[str, Any]:
         try:
             out[key] = ast.literal_eval(str(text))
         except (ValueError, SyntaxError):
-            raise ValueError(
+            raise ConfigError(
                 f"{path}: policy_kwargs[{key!r}] = {text} is not a plain value; the suite "
                 "loads only JSON metadata and weights (never pickle). Pass the model object "
-                "to SB3Agent instead of a path"
+                "to SB3Agent instead of a path", field="path"
             ) from None
     return out
 
@@ -168,8 +174,9 @@ def load_model(
         n = str(data.get("action_space", {}).get("n", ""))
         by_actions = {"10": "hanger", "12": "wheel"}
         if n not in by_actions:
-            raise ValueError(f"{path}: cannot tell the scenario from the saved action space "
-                             f"(n = {n or '?'}); pass graph=")
+            raise ConfigError(f"{path}: cannot tell the scenario from the saved action space "
+                              f"(n = {n or '?'}, allowed: 10 hanger, 12 wheel); pass graph=",
+                              field="graph")
         graph = scenario_graph(by_actions[n])
     extra: dict[str, Any] = {"buffer_size": 1} if name in ("DQN", "MaskedDQN") else {}
     model = cls("MultiInputPolicy", RobotEnv(graph.name), policy_kwargs=policy_kwargs,
@@ -177,8 +184,9 @@ def load_model(
     try:
         model.set_parameters(str(path), exact_match=True, device="cpu")
     except (RuntimeError, ValueError, KeyError) as exc:
-        raise ValueError(f"{path}: the saved weights do not fit a {name} for the "
-                         f"{graph.name} robot env ({exc})") from exc
+        raise ConfigError(f"{path}: the saved weights do not fit a {name} for the "
+                          f"{graph.name} robot env ({exc}); pass the algo= and graph= it was "
+                          "trained with", field="path") from exc
     return model
 
 
@@ -194,23 +202,23 @@ class _Policy:
         self.is_q = isinstance(model, DQN)
         if not self.is_q and not isinstance(model.policy,
                                             ActorCriticPolicy | MaskableActorCriticPolicy):
-            raise ValueError(f"unsupported SB3 model {type(model).__name__}; supported: "
-                             f"{', '.join(ALGORITHMS)}")
+            raise ConfigError(f"unsupported SB3 model {type(model).__name__}; allowed: "
+                              f"{', '.join(ALGORITHMS)}", field="model")
         self.maskable = isinstance(model.policy, MaskableActorCriticPolicy)
         space = model.observation_space
         keys = tuple(getattr(space, "spaces", {}))
         if set(keys) != set(_OBS_KEYS):
-            raise ValueError(f"the model observes {keys or space}, not the robot's "
-                             f"observation {_OBS_KEYS}; train it on hri_envs/Hanger-v0 or "
-                             "Wheel-v0")
+            raise ConfigError(f"the model observes {keys or space}, not the robot's "
+                              f"observation {_OBS_KEYS}; train it on hri_envs/Hanger-v0 or "
+                              "Wheel-v0", field="model")
         self.n_actions = int(model.action_space.n)  # type: ignore[attr-defined]
         if graph is not None:
             n_s = int(space["state"].n)  # type: ignore[index]
             if (n_s, self.n_actions) != (graph.n_states, graph.n_actions):
-                raise ValueError(
+                raise ConfigError(
                     f"the model was trained with {n_s} states and {self.n_actions} actions; "
                     f"the {graph.name} has {graph.n_states} states and {graph.n_actions} "
-                    "actions"
+                    "actions; pass the graph it was trained on", field="graph"
                 )
 
     def scores(self, obs: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:

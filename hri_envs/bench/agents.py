@@ -25,6 +25,7 @@ from typing import Any
 from agents.config import default_config
 from agents.learner import Learner
 from baselines import Imitator, MaxEntIRL, Oracle, Passive
+from hri_envs.errors import ConfigError
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman
 from hri_envs.task.protocol import Agent, BatchAgent, Batched
@@ -37,7 +38,8 @@ SB3_PREFIX = "sb3:"
 
 
 def validate_agent_name(name: str) -> None:
-    """Raise ``ValueError`` naming the allowed agents when ``name`` is not one.
+    """Raise a :class:`~hri_envs.errors.ConfigError` naming the allowed agents unless
+    ``name`` is one.
 
     For ``sb3:PATH`` the file must exist (its contents are checked when it is loaded).
     """
@@ -46,14 +48,15 @@ def validate_agent_name(name: str) -> None:
     if name.startswith(SB3_PREFIX):
         path = Path(name[len(SB3_PREFIX):])
         if not path.is_file():
-            raise ValueError(f"agent {name!r}: no SB3 model file at {str(path)!r}; give "
-                             "'sb3:PATH' with the .zip written by model.save()")
+            raise ConfigError(f"agent {name!r}: no SB3 model file at {str(path)!r}; give "
+                              "'sb3:PATH' with the .zip written by model.save()", field="agents")
         return
     if ":" in name and all(name.split(":", 1)):
         return
-    raise ValueError(
+    raise ConfigError(
         f"unknown agent {name!r}; allowed: {', '.join(BUILTIN_AGENTS)}, "
-        "'sb3:PATH' for a saved stable-baselines3 model, or 'module:Class' for your own agent"
+        "'sb3:PATH' for a saved stable-baselines3 model, or 'module:Class' for your own agent",
+        field="agents",
     )
 
 
@@ -62,7 +65,8 @@ def _import(spec: str) -> Any:
     try:
         return getattr(importlib.import_module(module), attr)
     except (ImportError, AttributeError) as exc:
-        raise ValueError(f"cannot import agent {spec!r}: {exc}") from exc
+        raise ConfigError(f"cannot import agent {spec!r}: {exc}; give 'module:Class' with an "
+                          "importable module", field="agents") from exc
 
 
 def make_agent(
@@ -109,4 +113,5 @@ def make_agent(
         return Batched.from_factory(
             lambda run: cls(graph=graph) if takes_graph else cls(), runs  # type: ignore[call-arg]
         )
-    raise ValueError(f"{name!r} is neither an agents.Agent nor an agents.BatchAgent subclass")
+    raise ConfigError(f"{name!r} is neither an agents.Agent nor an agents.BatchAgent subclass; "
+                      "only subclasses of those are allowed", field="agents")

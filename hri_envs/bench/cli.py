@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -24,6 +23,7 @@ from typing import Any
 
 from hri_envs.bench.agents import BUILTIN_AGENTS
 from hri_envs.bench.study import BACKENDS, EXECUTORS, SCENARIOS
+from hri_envs.errors import ConfigError
 
 __all__ = ["build_parser", "main"]
 
@@ -37,7 +37,7 @@ def _agents(text: str) -> tuple[str, ...]:
     for n in names:
         try:
             validate_agent_name(n)
-        except ValueError as exc:
+        except ConfigError as exc:
             raise argparse.ArgumentTypeError(str(exc)) from exc
     return names
 
@@ -62,6 +62,26 @@ def _bounded(kind: type, allowed: str, ok: Callable[[Any], bool]) -> Callable[[s
 _positive = _bounded(int, "a whole number >= 1", lambda v: v >= 1)
 _probability = _bounded(float, "a probability in [0, 1]", lambda v: 0.0 <= v <= 1.0)
 _r0 = _bounded(float, "a number in (-1, 0)", lambda v: -1.0 < v < 0.0)
+
+#: The ``study`` argument each :class:`~hri_envs.bench.study.StudyConfig` field comes from
+#: (a :class:`~hri_envs.errors.ConfigError` names the field in its ``field`` attribute).
+_STUDY_ARGUMENTS = {
+    "scenario": "scenario",
+    "agents": "--agents",
+    "runs": "--runs",
+    "episodes": "--episodes",
+    "schedule": "--schedule",
+    "preference": "--preference",
+    "r0": "--r0",
+    "human_passive": "--human-passive",
+    "turn_back": "--turn-back",
+    "seed": "--seed",
+    "jobs": "--jobs",
+    "executor": "--executor",
+    "ray_address": "--ray-address",
+    "backend": "--backend",
+    "max_steps": "--max-steps",
+}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -105,6 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="step limit per episode (default 100)")
     study.add_argument("--out", required=True, type=Path, help="output directory")
     study.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    study.set_defaults(command_parser=study)  # reports errors found after parsing
 
     figs = sub.add_parser("figures", help="reproduce the paper's figures as PNGs",
                           description="Run the studies behind Figs. 4, 8, 10a-c, 11 and 12.")
@@ -137,10 +158,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _config_error(parser: argparse.ArgumentParser, exc: ValueError) -> None:
-    # StudyConfig names its fields ("r0 must be ..."); show them as the options they come from.
-    msg = re.sub(r"^([a-z_0-9]+) ", lambda m: f"--{m.group(1).replace('_', '-')} ", str(exc))
-    parser.error(msg)
+def _config_error(parser: argparse.ArgumentParser, exc: ConfigError,
+                  arguments: dict[str, str]) -> None:
+    """Exit with status 2 like argparse does, naming the argument the bad field came from."""
+    argument = arguments.get(exc.field or "")
+    parser.error(f"argument {argument}: {exc}" if argument else str(exc))
 
 
 def _study(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -155,8 +177,8 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             jobs=args.jobs, executor=executor, backend=args.backend, max_steps=args.max_steps,
             ray_address=args.ray_address,
         )
-    except ValueError as exc:
-        _config_error(parser, exc)
+    except ConfigError as exc:
+        _config_error(parser, exc, _STUDY_ARGUMENTS)
     result = run_study(cfg, progress=not args.no_progress)
     paths = write_outputs(result, args.out)
     print(f"{cfg.scenario} study: {len(cfg.agents)} agents x {cfg.runs} runs x "
@@ -217,7 +239,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command == "study":
-        return _study(args, parser)
+        return _study(args, args.command_parser)
     if args.command == "figures":
         return _figures(args, parser)
     if args.command == "speed":

@@ -1,30 +1,21 @@
-"""Exceptions raised by the environments; every message says what *is* allowed."""
+"""The environments' exceptions: a re-export of :mod:`hri_envs.errors`.
+
+``HriEnvError`` is the old name of the library's root exception
+:class:`~hri_envs.errors.HriEnvsError`, kept as an alias.
+"""
 
 from __future__ import annotations
+
+from hri_envs.errors import ActionError, BackendUnavailableError, ConfigError, HriEnvsError
 
 __all__ = [
     "ActionError",
     "BackendUnavailableError",
     "ConfigError",
     "HriEnvError",
+    "HriEnvsError",
 ]
 
 
-class HriEnvError(Exception):
-    """Base class of the environments' exceptions."""
-
-
-class ConfigError(HriEnvError, ValueError):
-    """Invalid environment configuration or reset options."""
-
-
-class ActionError(HriEnvError, ValueError):
-    """An action outside an agent's action space."""
-
-
-class BackendUnavailableError(ConfigError, NotImplementedError):
-    """The requested simulation backend cannot run here (e.g. the MuJoCo extra is missing).
-
-    It is both a :class:`ValueError` (an unusable configuration) and a
-    :class:`NotImplementedError`, so either ``except`` clause catches it.
-    """
+#: The old name of the root exception.
+HriEnvError = HriEnvsError

@@ -13,13 +13,17 @@ import mink
 import mujoco
 import numpy as np
 
+from hri_envs.errors import PhysicsFault
 from hri_envs.physics.kinematics import Pose, slerp
 
 __all__ = ["IKFailure", "ReferenceIK"]
 
 
-class IKFailure(RuntimeError):
-    """The IK problem has no solution, or the reference cannot follow its target."""
+class IKFailure(PhysicsFault):
+    """The IK problem has no solution, or the reference cannot follow its target.
+
+    A :class:`~hri_envs.errors.PhysicsFault`, hence still a :class:`RuntimeError`.
+    """
 
 
 class ReferenceIK:

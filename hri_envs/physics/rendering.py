@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from hri_envs.errors import ConfigError
+
 __all__ = ["SceneRenderer", "select_gl_backend", "write_video"]
 
 
@@ -77,7 +79,7 @@ def write_video(frames: Sequence[np.ndarray], path: str | os.PathLike[str],
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if not frames:
-        raise ValueError("no frames to write")
+        raise ConfigError("frames must hold at least one frame, got none", field="frames")
     if path.suffix.lower() == ".gif":
         iio.imwrite(path, np.stack(frames), duration=1000.0 / fps, loop=0)
     else:

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hri_envs.errors import ConfigError
+
 __all__ = [
     "Scenario",
     "Support",
@@ -89,7 +91,9 @@ class Scenario:
                 heights.append(float(h))
         object.__setattr__(self, "heights", np.array(heights))
         if len(self.orientation_names) != len(self.orientations):
-            raise ValueError("orientation_names must have one entry per orientation")
+            raise ConfigError(f"orientation_names must have one entry per orientation "
+                              f"({len(self.orientations)}), got {len(self.orientation_names)}",
+                              field="orientation_names")
 
     @property
     def n_supports(self) -> int:
@@ -105,7 +109,8 @@ class Scenario:
         """Index into :attr:`heights` of the height ``z`` (within 1 mm)."""
         idx = int(np.argmin(np.abs(self.heights - z)))
         if abs(self.heights[idx] - z) > 1e-3:
-            raise ValueError(f"{z} m is not one of the waypoint heights {self.heights.tolist()}")
+            raise ConfigError(f"z must be one of the waypoint heights {self.heights.tolist()} m "
+                              f"(within 1 mm), got {z} m", field="z")
         return idx
 
     def waypoint_position(self, column: int, height: int) -> np.ndarray:
@@ -189,7 +194,8 @@ def wheel_scenario(
         stands: (x, y) in [m] of stands B and C; see :func:`sample_wheel_layout`.
     """
     if len(stands) != 2:
-        raise ValueError(f"the wheel scenario has exactly two stands, got {len(stands)}")
+        raise ConfigError(f"stands must hold exactly two (x, y) positions (B and C) for the "
+                          f"wheel scenario, got {len(stands)}", field="stands")
     rack = Support(
         "A",
         np.array([0.0, 0.0, WHEEL_RACK_HEIGHT]),

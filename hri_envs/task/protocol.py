@@ -47,6 +47,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from hri_envs.errors import ConfigError
+
 __all__ = ["Agent", "BatchAgent", "Batched", "Trace", "run_streams"]
 
 
@@ -67,9 +69,10 @@ class Trace:
     def __post_init__(self) -> None:
         n = len(self.robot_actions)
         if len(self.states) != n + 1 or len(self.human_actions) != n:
-            raise ValueError(
+            raise ConfigError(
                 f"a trace needs T+1 states and T actions per agent; got {len(self.states)} "
-                f"states, {n} robot and {len(self.human_actions)} human actions"
+                f"states, {n} robot and {len(self.human_actions)} human actions",
+                field="states",
             )
 
     @property
@@ -122,7 +125,7 @@ class BatchAgent(ABC):
 
     def __init__(self, n_runs: int) -> None:
         if n_runs < 1:
-            raise ValueError(f"n_runs must be >= 1, got {n_runs}")
+            raise ConfigError(f"n_runs must be >= 1, got {n_runs}", field="n_runs")
         self.n_runs = n_runs
 
     @abstractmethod
@@ -151,7 +154,8 @@ class BatchAgent(ABC):
     def single(self) -> Agent:
         """The batch of one as a plain :class:`Agent`."""
         if self.n_runs != 1:
-            raise ValueError(f"single() needs n_runs == 1, this agent has {self.n_runs}")
+            raise ConfigError(f"single() needs n_runs == 1, this agent has {self.n_runs}",
+                              field="n_runs")
         return _Single(self)
 
 
