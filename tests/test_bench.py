@@ -1,4 +1,4 @@
-"""hri-bench: the study CLI contract (SPEC §5), figures, play and the speed command."""
+"""hri-bench: the study CLI contract (docs/benchmark.md), figures, play and the speed command."""
 
 import csv
 import importlib.util
@@ -128,20 +128,123 @@ def test_play_in_the_terminal_with_scripted_answers():
     assert "Robot belief" in text and "robot chooses" in text and "Type a number" in text
 
 
-def test_speed_json_last_line(monkeypatch, capsys):
+SPEED_KEYS = {"parallel_env_steps_per_s", "vector_env_steps_per_s", "learner_update_ms",
+              "hanger_study_s"}
+
+
+def _positive_finite(value):
+    return isinstance(value, float) and bool(np.isfinite(value)) and value > 0
+
+
+def test_speed_json_runs_the_real_measurements_on_a_tiny_size(monkeypatch, capsys):
+    """``hri-bench speed --json`` end to end, with the real measure() and measuring functions.
+
+    measure() has no size parameter (only ``jobs``), so each measuring function it calls is
+    wrapped to run for real with tiny sizes; the wrappers record what measure() asked for.
+    """
     import hri_envs.bench.speed as speed
+    import hri_envs.envs.speed as env_speed
 
-    fake = {"parallel_env_steps_per_s": 1.0, "vector_env_steps_per_s": 2.0,
-            "learner_update_ms": 3.0, "hanger_study_s": 4.0}
-    monkeypatch.setattr(speed, "measure", lambda jobs=1: fake)
-    assert main(["speed", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1]) == fake
+    calls, studies = {}, []
+
+    def tiny(module, name, **size):
+        real = getattr(module, name)
+
+        def run(*args, **kwargs):
+            calls[name] = (args, kwargs)
+            return real(*args, **{**kwargs, **size})
+
+        monkeypatch.setattr(module, name, run)
+
+    tiny(env_speed, "parallel_env_steps_per_s", steps=200, repeats=1)
+    tiny(env_speed, "vector_env_steps_per_s", num_envs=4, steps=25, repeats=1)
+    tiny(speed, "learner_update_ms", repeats=2)
+    tiny(speed, "hanger_study_s", runs=1, episodes=2)
+    real_study = speed.run_study
+    monkeypatch.setattr(speed, "run_study", lambda cfg: studies.append(cfg) or real_study(cfg))
+
+    assert main(["speed", "--json", "--jobs", "1"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    figures = json.loads(lines[-1])
+    assert set(figures) == SPEED_KEYS == set(calls)
+    assert all(_positive_finite(v) for v in figures.values()), figures
+    for key in SPEED_KEYS:  # one readable line per figure before the JSON
+        assert sum(line.startswith(key) for line in lines[:-1]) == 1
+    assert calls["vector_env_steps_per_s"][1] == {"num_envs": 1024}
+    assert calls["learner_update_ms"][0] == ("wheel",)
+    assert calls["hanger_study_s"][1] == {"jobs": 1}
+    # The hanger study: the nine study preferences, Learner only, at the tiny size.
+    assert [c.preference for c in studies] == list(speed.HANGER_STUDY_PREFERENCES)
+    assert len(set(speed.HANGER_STUDY_PREFERENCES)) == 9
+    assert all(c.scenario == "hanger" and c.agents == ("learner",) and c.runs == 1
+               and c.n_episodes == 2 and c.executor == "serial" for c in studies)
 
 
-def test_learner_update_is_measured():
-    from hri_envs.bench.speed import learner_update_ms
+@pytest.mark.parametrize("scenario", ["hanger", "wheel"])
+def test_env_speed_measurements_step_the_envs_with_valid_actions(scenario, monkeypatch):
+    from hri_envs.envs import speed as env_speed
+    from hri_envs.envs.parallel import CooperationParallelEnv
+    from hri_envs.envs.vector import RobotVectorEnv
 
-    assert 0.0 < learner_update_ms(repeats=3) < 1e4
+    seen = {"parallel": 0, "vector": 0, "invalid": 0, "ended": 0}
+
+    def counting(cls, key):
+        real = cls.step
+
+        def step(self, actions):
+            out = real(self, actions)
+            seen[key] += 1
+            infos = out[-1]
+            if key == "parallel":
+                seen["invalid"] += sum(infos[a]["invalid_action"] for a in ("human", "robot"))
+                seen["ended"] += out[2]["robot"] or out[3]["robot"]
+            else:
+                seen["invalid"] += int(infos["invalid_action"].sum())
+            return out
+
+        monkeypatch.setattr(cls, "step", step)
+
+    counting(CooperationParallelEnv, "parallel")
+    counting(RobotVectorEnv, "vector")
+    par = env_speed.parallel_env_steps_per_s(scenario, steps=300, repeats=2)
+    vec = env_speed.vector_env_steps_per_s(num_envs=3, scenario=scenario, steps=40, repeats=2)
+    assert par.steps == 300 and vec.steps == 3 * 40
+    assert seen["parallel"] == 2 * 300 and seen["vector"] == 2 * 40  # every repeat ran in full
+    assert seen["invalid"] == 0  # the precomputed action tables hold valid actions only
+    assert seen["ended"] > 0  # episodes end and the env resets within the measurement
+    for res in (par, vec):
+        assert _positive_finite(res.steps_per_s) and _positive_finite(res.seconds)
+        assert res.steps_per_s == pytest.approx(res.steps / res.seconds)
+
+
+def test_learner_update_ms_is_the_mean_time_of_real_updates(monkeypatch):
+    """The timing arithmetic on a fake clock: each real Learner update "takes" 2.5 ms."""
+    from types import SimpleNamespace
+
+    import hri_envs.bench.speed as speed
+    from agents.learner import Learner
+    from hri_envs.bench.study import graph_for
+
+    clock, updates = [0.0], []
+    real_update = Learner.end_episode
+
+    def update(self, traces, intentions):
+        updates.append((traces, np.asarray(intentions)))
+        real_update(self, traces, intentions)
+        clock[0] += 2.5e-3
+
+    monkeypatch.setattr(Learner, "end_episode", update)
+    monkeypatch.setattr(speed, "time", SimpleNamespace(perf_counter=lambda: clock[0]))
+    assert speed.learner_update_ms("wheel", repeats=4) == pytest.approx(2.5)
+    assert len(updates) == 1 + 4  # one warm-up, not timed, then the timed repeats
+    g = graph_for("wheel")
+    for traces, intentions in updates:
+        (trace,) = traces
+        s = trace.states
+        # A real episode of the graph: from resting on A to resting on B (the intention).
+        assert intentions.tolist() == [1]
+        assert s[0] == g.support_state(0, 0) and s[-1] == g.support_state(1, 0)
+        assert all(np.any(g.next_state[a] == b) for a, b in zip(s[:-1], s[1:], strict=True))
 
 
 @pytest.mark.skipif(importlib.util.find_spec("ray") is None,

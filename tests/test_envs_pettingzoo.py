@@ -21,8 +21,9 @@ WAIT, TOGGLE, TAKE_OFF, PUT_ON, ROTATE = 0, 1, 2, 3, 4
 # hanger action numbering: 5..7 move over to A/B/C, 8 move to 0.585 m, 9 move to 0.87 m
 OVER_B, OVER_C, DOWN, UP = 6, 7, 8, 9
 R0 = -0.33
-# pettingzoo.test's advice for flat observations and "player_0"-style names; the SPEC fixes
-# dict observations (with an action mask, ι for the human only) and the names human/robot.
+# pettingzoo.test's advice for flat observations and "player_0"-style names; the documented
+# contract (docs/environments.md, 'Agents' and 'Observations') fixes dict observations (with
+# an action mask, ι for the human only) and the names human/robot.
 pytestmark = [
     pytest.mark.filterwarnings("ignore:Observation is not a NumPy array"),
     pytest.mark.filterwarnings("ignore:Observation space for each agent probably"),

@@ -33,6 +33,8 @@ def _motions(g, s):
 
 
 def _check_all_motions(g, sim, states, leader):
+    """Checks every valid motion from ``states``; returns how many (state, motion) pairs."""
+    checked = 0
     for s in states:
         for a in _motions(g, s):
             sim.reset(0, state=s)
@@ -43,6 +45,13 @@ def _check_all_motions(g, sim, states, leader):
                 f"{leader} {g.action_names[a]} from {g.state_names[s]} ended in "
                 f"{g.state_names[r.state]}")
             assert r.graph_agrees and r.settled
+            checked += 1
+    return checked
+
+
+def _n_motions(g, states):
+    """Number of (state, motion) pairs, counted from the graph's action mask."""
+    return int(g.valid[np.asarray(states, dtype=int), TAKE_OFF:].sum())
 
 
 # Representative states: the two support kinds, both orientations, both heights, every
@@ -56,12 +65,14 @@ HANGER_STATES = ("on B, held by both", "on A, held by both",
 
 def test_hanger_robot_actions_reach_the_graphs_states(hanger):
     g, sim = hanger
-    _check_all_motions(g, sim, [_named(g, n) for n in HANGER_STATES], "robot")
+    states = [_named(g, n) for n in HANGER_STATES]
+    assert _check_all_motions(g, sim, states, "robot") == _n_motions(g, states) == 19
 
 
 def test_hanger_human_actions_reach_the_graphs_states(hanger):
     g, sim = hanger
-    _check_all_motions(g, sim, [_named(g, n) for n in HANGER_STATES[2:4]], "human")
+    states = [_named(g, n) for n in HANGER_STATES[2:4]]
+    assert _check_all_motions(g, sim, states, "human") == _n_motions(g, states) == 9
 
 
 WHEEL_STATES = ("on A, held by both", "on C, held by both",
@@ -71,12 +82,14 @@ WHEEL_STATES = ("on A, held by both", "on C, held by both",
 
 def test_wheel_robot_actions_reach_the_graphs_states(wheel):
     g, sim = wheel
-    _check_all_motions(g, sim, [_named(g, n) for n in WHEEL_STATES], "robot")
+    states = [_named(g, n) for n in WHEEL_STATES]
+    assert _check_all_motions(g, sim, states, "robot") == _n_motions(g, states) == 22
 
 
 def test_wheel_human_actions_reach_the_graphs_states(wheel):
     g, sim = wheel
-    _check_all_motions(g, sim, [_named(g, "held at A′ column, 1.7 m, vertical")], "human")
+    states = [_named(g, "held at A′ column, 1.7 m, vertical")]
+    assert _check_all_motions(g, sim, states, "human") == _n_motions(g, states) == 7
 
 
 @pytest.mark.slow
@@ -86,8 +99,10 @@ def test_every_motion_from_every_state(name):
     g = scenario_graph(name)
     sim = PandaSim(g)
     held = [s for s in range(g.n_states) if g.grasp[s] == 3]
-    _check_all_motions(g, sim, held, "robot")
-    _check_all_motions(g, sim, held, "human")
+    per_leader = {"hanger": 54, "wheel": 150}[name]
+    assert _n_motions(g, held) == per_leader
+    assert _check_all_motions(g, sim, held, "robot") == per_leader
+    assert _check_all_motions(g, sim, held, "human") == per_leader
 
 
 def test_the_human_stays_in_control(hanger):
@@ -178,3 +193,28 @@ def test_faults_are_reported_not_raised(hanger, tmp_path, monkeypatch):
     sim.data.qvel[:] = np.nan
     r = sim.step(s, g.move_over(0), WAIT)
     assert r.fault is not None and r.fault.startswith("unstable")
+
+
+def test_physics_speed_measurements_on_a_tiny_size():
+    """hri_envs.physics.speed for real (no timing thresholds): structure and counts."""
+    from hri_envs.physics.speed import physics_realtime_factor, seconds_per_abstract_step
+    from hri_envs.task.humans import preference_human
+
+    g = scenario_graph("hanger")
+    line = physics_realtime_factor("hanger", repeats=1)
+    assert line.abstract_steps == 2  # over to B and back over to A, once
+    episode = seconds_per_abstract_step("hanger", episodes=1)
+    # The same episode (B to A, the human leading, the robot only grasping and letting go)
+    # on the graph: the physics must take exactly as many abstract steps.
+    human, s, n = preference_human(g), g.support_state(1, 0), 0
+    while not (g.support[s] == 0 and g.grasp[s] == 0):
+        a_h = int(human.preferred_action(np.array(s), np.array(1), np.array(0)))
+        a_r = TOGGLE if g.support[s] >= 0 and a_h == TOGGLE else WAIT
+        s, n = int(g.next_state[s, a_r, a_h]), n + 1
+        assert n < 40
+    assert episode.abstract_steps == n > 3
+    for res in (line, episode):
+        values = (res.sim_seconds, res.wall_seconds, res.realtime_factor, res.seconds_per_step)
+        assert all(np.isfinite(v) and v > 0 for v in values), res
+        assert res.seconds_per_step == pytest.approx(res.wall_seconds / res.abstract_steps)
+        assert res.sim_seconds > 0.1 * res.abstract_steps  # a motion takes simulated time

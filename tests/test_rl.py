@@ -303,8 +303,25 @@ def test_rllib_example_builds_and_steps_its_algorithm():
         result = algo.train()
         runners = result["env_runners"]
         assert runners["num_env_steps_sampled_lifetime"] >= 64
-        module = algo.get_module("robot")
-        assert module is not None
+        assert list(algo.config.policies_to_train) == ["robot"]
+        from ray.rllib.core.columns import Columns
+
+        env = example.make_env({"scenario": "hanger"})
+        graph = env.par_env.unwrapped.graph
+        obs, _ = env.reset(seed=0)
+        # The trained robot reads the flat observation and scores every action ...
+        flat = obs["robot"]
+        assert flat.shape == (graph.n_states + graph.n_intentions + 2 * graph.n_actions,)
+        out = algo.get_module("robot").forward_inference({Columns.OBS: torch.as_tensor(flat[None])})
+        logits = out[Columns.ACTION_DIST_INPUTS]
+        assert tuple(logits.shape) == (1, graph.n_actions) and bool(torch.isfinite(logits).all())
+        # ... and the fixed human module plays the scripted human's preferred action.
+        o_h = obs["human"]
+        out = algo.get_module("human").forward_inference(
+            {Columns.OBS: {k: np.asarray(v)[None] for k, v in o_h.items()}})
+        want = preference_human(graph).preferred_action(o_h["state"], o_h["start"],
+                                                        o_h["intention"])
+        assert np.asarray(out[Columns.ACTIONS]).tolist() == [int(want)]
     finally:
         algo.stop()
         ray.shutdown()
