@@ -26,6 +26,8 @@ from typing import ClassVar
 import numpy as np
 
 from agents.config import LearnerConfig, default_config
+from hri_envs.errors import ConfigError, LearnerStateError
+from hri_envs.task import episode as rules
 from hri_envs.task import mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TaskGraph
@@ -34,10 +36,6 @@ from hri_envs.task.protocol import BatchAgent, Trace, run_streams
 __all__ = ["Learner", "LearnerStateError", "graph_fingerprint", "sample_actions"]
 
 _FORMAT = "hri-envs/learner/1"
-
-
-class LearnerStateError(ValueError):
-    """A saved learner state cannot be loaded (wrong scenario, corrupted, other format)."""
 
 
 def graph_fingerprint(graph: TaskGraph) -> str:
@@ -89,7 +87,8 @@ class Learner(BatchAgent):
         self.config = config if config is not None else default_config(graph.name)
         runs = range(n_runs) if runs is None else runs
         if len(runs) != n_runs:
-            raise ValueError(f"runs has {len(runs)} entries, expected n_runs={n_runs}")
+            raise ConfigError(f"runs must have n_runs={n_runs} entries, got {len(runs)}",
+                              field="runs")
         self.rngs = run_streams(seed, runs)
         self._next = graph.next_state
         self._reward = graph.reward(self.config.r0)  # (S, A, A)
@@ -185,7 +184,7 @@ class Learner(BatchAgent):
         likelihood = self.pi_h[rows, :, states, human_actions]  # (B, I)
         new = mdp.bayes_update(self.belief, likelihood, self.config.beta)
         self.belief = np.where(active[:, None], new, self.belief)
-        self.lifted |= active & self.graph.left_start(next_states, self.start)
+        self.lifted |= active & rules.left_start(self.graph, next_states, self.start)
 
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Loop removal, one IRL step, then recompute π̂_H and the robot's Q."""

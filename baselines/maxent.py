@@ -17,6 +17,7 @@ import numpy as np
 from agents.config import LearnerConfig, default_config
 from agents.learner import sample_actions
 from baselines.simple import _Tracking
+from hri_envs.task import episode as rules
 from hri_envs.task import mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
@@ -89,7 +90,7 @@ class MaxEntIRL(_Tracking):
         total = c.sum(axis=1, keepdims=True)
         belief = np.where(total > 0, c / np.maximum(total, 1e-300), prior)
         sup = self.graph.support[states]
-        arrived = self.graph.arrived(states, self.start, self.lifted)
+        arrived = rules.arrived(self.graph, states, self.start, self.lifted)
         return np.where(arrived[:, None], (ids == sup[:, None]).astype(float), belief)  # type: ignore[no-any-return]
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:

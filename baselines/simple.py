@@ -11,6 +11,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from hri_envs.task import episode as rules
 from hri_envs.task import mdp
 from hri_envs.task.graph import BOTH, ROBOT_BIT, TAKE_OFF, TOGGLE, WAIT, TaskGraph
 from hri_envs.task.humans import ScriptedHuman
@@ -34,7 +35,7 @@ class _Tracking(BatchAgent):
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
                 next_states: np.ndarray, active: np.ndarray) -> None:
-        self.lifted |= active & self.graph.left_start(next_states, self.start)
+        self.lifted |= active & rules.left_start(self.graph, next_states, self.start)
 
     def passive(self, states: np.ndarray) -> np.ndarray:
         """(B,) the Passive baseline's action in each run's state."""
@@ -114,7 +115,7 @@ class Oracle(_Tracking):
         preferred = self.human.preferred_action(states, self.start, goal)
         sup, mu = g.support[states], g.grasp[states]
         holds = (mu & ROBOT_BIT) > 0
-        arrived = (sup == goal) & g.arrived(states, self.start, self.lifted)
+        arrived = (sup == goal) & rules.arrived(g, states, self.start, self.lifted)
         at_support = np.where(
             arrived,
             np.where(holds, TOGGLE, WAIT),

@@ -20,9 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from hri_envs.bench.agents import make_agent
-from hri_envs.bench.runner import TABLE2, make_schedule
+from hri_envs.bench.runner import TABLE2, make_schedule, simulate
 from hri_envs.envs.config import scenario_graph
-from hri_envs.physics.runner import simulate_physics
 from hri_envs.task.humans import preference_human
 
 
@@ -55,8 +54,8 @@ def main() -> None:
     for name in cfg.agents.split(","):
         t0 = time.perf_counter()
         agent = make_agent(name, graph, human, runs, seed=cfg.seed, r0=-0.33)
-        m = simulate_physics(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
-                             r0=-0.33, max_steps=40)
+        m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed, r0=-0.33,
+                     max_steps=40, backend="mujoco")
         results[name] = {
             "reward": m.reward.mean(0).tolist(),
             "correct": m.correct.mean(0).tolist(),

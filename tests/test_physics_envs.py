@@ -98,18 +98,17 @@ def test_episode_video(tmp_path):
     assert out.is_file() and out.stat().st_size > 1000
 
 
-def test_simulate_physics_matches_the_graph_runners_contract():
+def test_simulate_on_the_physics_backend():
     from baselines import Passive
-    from hri_envs.bench.runner import make_schedule
+    from hri_envs.bench.runner import make_schedule, simulate
     from hri_envs.envs.config import scenario_graph
-    from hri_envs.physics.runner import simulate_physics
     from hri_envs.task.humans import preference_human
 
     g = scenario_graph("hanger")
     human = preference_human(g)
     schedule = make_schedule(g, "table2", [0], 1, seed=0)
-    m = simulate_physics(g, Passive(g, 1), human, schedule, runs=[0], seed=0, r0=-0.33,
-                         max_steps=30)
+    m = simulate(g, Passive(g, 1), human, schedule, runs=[0], seed=0, r0=-0.33,
+                 max_steps=30, backend="mujoco")
     assert m.reward.shape == (1, 1) and not m.truncated.any()
     assert set(m.extras) == {"linear_impulse", "angular_impulse", "duration_s", "graph_agrees"}
     assert m.extras["graph_agrees"][0, 0] == 1.0 and m.extras["linear_impulse"][0, 0] > 0
@@ -121,7 +120,7 @@ def test_simulate_physics_matches_the_graph_runners_contract():
     [
         ({"backend": "mujoco", "physics": {"fps": 3}}, "allowed: video_path, video_fps"),
         ({"backend": "mujoco", "physics": {"video_fps": 0}}, "positive number"),
-        ({"physics": {"video_path": "x.gif"}}, "need backend='mujoco'"),
+        ({"physics": {"video_path": "x.gif"}}, "backend='graph' takes no physics options"),
     ],
 )
 def test_bad_physics_options_raise(kwargs, message):

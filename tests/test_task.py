@@ -11,6 +11,15 @@ from hri_envs.task import (
     state_features,
     wheel_scenario,
 )
+from hri_envs.task.episode import (
+    arrived,
+    classify,
+    episode_over,
+    left_start,
+    start_state,
+    step_reward,
+    turn_back,
+)
 from hri_envs.task.features import feature_groups
 from hri_envs.task.graph import PUT_ON, ROTATE, TAKE_OFF, TOGGLE, WAIT
 from hri_envs.task.humans import (
@@ -182,15 +191,70 @@ def test_bad_human_configuration(hanger):
 def test_episode_end_rule_by_hand(hanger):
     on = hanger.support_state
     a, b = 0, 1
-    assert hanger.episode_over(on(b, 0), a, False)  # resting on another support, let go
-    assert not hanger.episode_over(on(b, 1), a, False)  # the human still holds it
-    assert not hanger.episode_over(on(a, 0), a, False)  # not lifted yet: the start
-    assert hanger.episode_over(on(a, 0), a, True)  # turned back after lifting it
-    assert not hanger.episode_over(hanger.mounting_state[b], a, True)  # in free space
-    assert hanger.left_start(hanger.mounting_state[a], a) and not hanger.left_start(on(a, 3), a)
-    assert hanger.arrived(on(b, 3), a, False) and not hanger.arrived(on(a, 3), a, False)
+    assert episode_over(hanger, on(b, 0), a, False)  # resting on another support, let go
+    assert not episode_over(hanger, on(b, 1), a, False)  # the human still holds it
+    assert not episode_over(hanger, on(a, 0), a, False)  # not lifted yet: the start
+    assert episode_over(hanger, on(a, 0), a, True)  # turned back after lifting it
+    assert not episode_over(hanger, hanger.mounting_state[b], a, True)  # in free space
+    assert left_start(hanger, hanger.mounting_state[a], a) and not left_start(hanger, on(a, 3), a)
+    assert arrived(hanger, on(b, 3), a, False) and not arrived(hanger, on(a, 3), a, False)
     # Vectorised: one call over every state, start and lifted flag (as EpisodeRules does).
-    ends = hanger.episode_over(np.arange(24)[:, None, None], np.arange(3)[None, :, None],
-                               np.array([False, True])[None, None, :])
+    ends = episode_over(hanger, np.arange(24)[:, None, None], np.arange(3)[None, :, None],
+                        np.array([False, True])[None, None, :])
     # unlifted: each resting state ends the episodes of the 2 other starts; lifted: all 3
     assert ends.shape == (24, 3, 2) and ends[:, :, 0].sum() == 3 * 2 and ends[:, :, 1].sum() == 9
+
+
+def test_step_rules_by_hand_on_observed_states(hanger):
+    """Reward and decisions judged on the state reached, as a physics backend reports it."""
+    on, r0 = hanger.support_state, -0.33
+    a = 0
+    held = on(a, 3)  # on A, held by both
+    up = int(hanger.next_state[held, TAKE_OFF, WAIT])
+    # The robot takes off while the human follows: the graph's prediction is reached.
+    assert step_reward(hanger, held, TAKE_OFF, WAIT, up, r0) == 0.0
+    assert classify(hanger, held, TAKE_OFF, WAIT, up) == (True, False, False)
+    # Same actions, but the object did not move (the physics stalled): the human waited and
+    # nothing changed, so r⁻, and the robot's motion was not correct.
+    assert step_reward(hanger, held, TAKE_OFF, WAIT, held, r0) == -1.0
+    assert classify(hanger, held, TAKE_OFF, WAIT, held) == (False, False, True)
+    # The robot waits while the human acts: r0 and passive.
+    assert step_reward(hanger, held, WAIT, TAKE_OFF, up, r0) == r0
+    assert classify(hanger, held, WAIT, TAKE_OFF, up) == (False, True, False)
+    # Grasping is never counteracted: both toggle at once on A (nobody held it) -> both hold.
+    assert step_reward(hanger, on(a, 0), TOGGLE, TOGGLE, on(a, 3), r0) == 0.0
+    assert classify(hanger, on(a, 0), TOGGLE, TOGGLE, on(a, 3)).correct
+
+
+def test_grasp_and_let_go_cost_nothing_on_the_wheel():
+    """The free toggle of docs/task-model.md: grasp + human let go, then let go + wait."""
+    wheel = build_graph(wheel_scenario())
+    reward = wheel.reward(-0.25)
+    assert reward[5, TOGGLE, TOGGLE] == 0.0  # on B held by the human -> on B held by the robot
+    assert int(wheel.next_state[5, TOGGLE, TOGGLE]) == 6
+    assert reward[6, TOGGLE, WAIT] == 0.0  # the robot lets go: on B, nobody holds it
+    assert episode_over(wheel, int(wheel.next_state[6, TOGGLE, WAIT]), 0, True)
+
+
+def test_graph_tables_are_the_rules_on_the_graphs_transitions(hanger):
+    s, a_r, a_h = np.meshgrid(np.arange(hanger.n_states), np.arange(hanger.n_actions),
+                              np.arange(hanger.n_actions), indexing="ij")
+    s_next = hanger.next_state
+    np.testing.assert_array_equal(hanger.reward(-0.4), step_reward(hanger, s, a_r, a_h, s_next,
+                                                                   -0.4))
+    np.testing.assert_array_equal(hanger.robot_effective,
+                                  classify(hanger, s, a_r, a_h, s_next).correct)
+    # the paper's rule as first written: acted, not aborted, not overridden by another motion
+    counteracted = (a_r >= TAKE_OFF) & (a_h >= TAKE_OFF) & (a_r != a_h)
+    np.testing.assert_array_equal(hanger.robot_effective,
+                                  (a_r != WAIT) & ~hanger.aborted & ~counteracted)
+
+
+def test_turn_back_and_start_state_by_hand(hanger):
+    turn_state = np.full((3, 3), -1)
+    turn_state[0, 1] = 17
+    intention, turning = turn_back(turn_state, np.array([16, 17, 17]), np.array([0, 0, 0]),
+                                   np.array([1, 1, 1]), np.array([True, True, False]))
+    np.testing.assert_array_equal(intention, [1, 0, 1])  # only the turning run at 17 turns
+    np.testing.assert_array_equal(turning, [True, False, False])
+    np.testing.assert_array_equal(start_state(hanger, np.array([0, 2])), [0, 8])

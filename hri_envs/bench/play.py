@@ -2,7 +2,9 @@
 
 Each step shows the state, the robot's belief over your intention and the action it chose,
 and lists your valid actions; you type a number (or ``q`` to stop). The robot learns from
-each finished episode, as in the paper's simulator with a user interface.
+each finished episode, as in the paper's simulator with a user interface. The episodes run
+in the benchmark's own loop (:func:`hri_envs.bench.runner.run_episodes`), with you as its
+human.
 """
 
 from __future__ import annotations
@@ -13,10 +15,54 @@ import numpy as np
 
 from agents.config import default_config
 from agents.learner import Learner
-from hri_envs.bench.study import graph_for
-from hri_envs.task.protocol import Trace
+from hri_envs.bench.runner import Schedule, run_episodes
+from hri_envs.envs.backends import GraphBatch
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import scenario_graph
 
 __all__ = ["play"]
+
+
+class _Quit(Exception):
+    """The player typed q."""
+
+
+class _TerminalHuman:
+    """The human of :func:`run_episodes` at a terminal: shows the step, reads the action."""
+
+    def __init__(self, graph: TaskGraph, robot: Learner, read: Callable[[str], str],
+                 write: Callable[[str], None]) -> None:
+        self.graph, self.robot, self.read, self.write = graph, robot, read, write
+        self._last: tuple[int, int, int] | None = None
+
+    def __call__(self, state: np.ndarray, start: np.ndarray, intention: np.ndarray,
+                 robot_action: np.ndarray, active: np.ndarray) -> np.ndarray:
+        g, s, a_r = self.graph, int(state[0]), int(robot_action[0])
+        self.note_aborted()
+        names = g.support_names
+        belief = ", ".join(f"{n} {b:.0%}" for n, b in zip(names, self.robot.belief[0],
+                                                          strict=True))
+        self.write(f"\nState: {g.state_names[s]}\nRobot belief: {belief}; "
+                   f"robot chooses: {g.agent_action_label(s, a_r, robot=True)}")
+        options = np.flatnonzero(g.valid[s])
+        for i, a in enumerate(options):
+            self.write(f"  [{i}] {g.agent_action_label(s, int(a), robot=False)}")
+        while True:
+            answer = self.read("your action> ").strip().lower()
+            if answer in ("q", "quit"):
+                raise _Quit
+            if answer.isdigit() and int(answer) < len(options):
+                a_h = int(options[int(answer)])
+                break
+            self.write(f"Type a number from 0 to {len(options) - 1}, or q.")
+        self._last = (s, a_r, a_h)
+        return np.array([a_h])
+
+    def note_aborted(self) -> None:
+        """Say so if the previous joint action was aborted (nothing moved)."""
+        if self._last is not None and self.graph.aborted[self._last]:
+            self.write("(The joint action was aborted: nothing moved.)")
+        self._last = None
 
 
 def play(
@@ -38,57 +84,34 @@ def play(
         read: Prompt function (``input`` by default; tests pass their own).
         write: Output function.
     """
-    graph = graph_for(scenario)
+    graph = scenario_graph(scenario)
     cfg = default_config(scenario)
     robot = Learner(graph, 1, cfg, seed=seed)
-    reward = graph.reward(cfg.r0)
+    human = _TerminalHuman(graph, robot, read, write)
     names = graph.support_names
     rng = np.random.default_rng(seed)
-    totals: list[float] = []
+    starts = np.array([[int(rng.integers(graph.n_intentions)) for _ in range(episodes)]])
+    # Your goal is yours alone: the loop's intention is only a placeholder (no turning back).
+    schedule = Schedule(starts, (starts + 1) % graph.n_intentions, np.zeros_like(starts, bool))
     write(f"You carry the {graph.scenario.object_name} with the robot. Supports: "
           f"{', '.join(names)}. Choose your actions by number; 'q' quits.")
-    for episode in range(episodes):
-        start = int(rng.integers(graph.n_intentions))
-        write(f"\n=== Episode {episode + 1}: the object rests on {names[start]}. "
-              f"Bring it to another support (or back, after lifting it).")
-        robot.begin_episode(np.array([start]))
-        s, lifted, total = graph.support_state(start), False, 0.0
-        states, r_actions, h_actions = [s], [], []
-        for _ in range(max_steps):
-            a_r = int(robot.act({"state": np.array([s])}, np.ones(1, bool))[0])
-            belief = ", ".join(f"{n} {b:.0%}" for n, b in zip(names, robot.belief[0], strict=True))
-            write(f"\nState: {graph.state_names[s]}\nRobot belief: {belief}; "
-                  f"robot chooses: {graph.agent_action_label(s, a_r, robot=True)}")
-            options = np.flatnonzero(graph.valid[s])
-            for i, a in enumerate(options):
-                write(f"  [{i}] {graph.agent_action_label(s, int(a), robot=False)}")
-            while True:
-                answer = read("your action> ").strip().lower()
-                if answer in ("q", "quit"):
-                    return totals
-                if answer.isdigit() and int(answer) < len(options):
-                    a_h = int(options[int(answer)])
-                    break
-                write(f"Type a number from 0 to {len(options) - 1}, or q.")
-            s_next = int(graph.next_state[s, a_r, a_h])
-            total += float(reward[s, a_r, a_h])
-            if graph.aborted[s, a_r, a_h]:
-                write("(The joint action was aborted: nothing moved.)")
-            robot.observe(np.array([s]), np.array([a_r]), np.array([a_h]), np.array([s_next]),
-                          np.ones(1, bool))
-            states.append(s_next)
-            r_actions.append(a_r)
-            h_actions.append(a_h)
-            s = s_next
-            lifted |= bool(graph.left_start(s, start))
-            if graph.episode_over(s, start, lifted):
-                break
-        at_rest = graph.support[s] >= 0 and graph.grasp[s] == 0
-        ended = int(graph.support[s]) if at_rest else -1  # -1: cut off, nothing revealed
-        write(f"Episode over at {graph.state_names[s]}; robot reward {total:.2f}. "
-              "The robot learns from it.")
-        trace = Trace(np.array(states), np.array(r_actions, dtype=np.int64),
-                      np.array(h_actions, dtype=np.int64))
-        robot.end_episode([trace], np.array([ended]))
-        totals.append(total)
+    write(f"\n=== Episode 1: the object rests on {names[starts[0, 0]]}. "
+          "Bring it to another support (or back, after lifting it).")
+    totals: list[float] = []
+    loop = run_episodes(graph, robot, human, schedule, GraphBatch(graph, [0], seed),
+                        r0=cfg.r0, max_steps=max_steps)
+    try:
+        for result in loop:
+            human.note_aborted()
+            end = int(result.traces[0].states[-1])
+            total = float(result.reward[0])
+            write(f"Episode over at {graph.state_names[end]}; robot reward {total:.2f}. "
+                  "The robot learns from it.")
+            totals.append(total)
+            if result.episode + 1 < episodes:
+                write(f"\n=== Episode {result.episode + 2}: the object rests on "
+                      f"{names[starts[0, result.episode + 1]]}. "
+                      "Bring it to another support (or back, after lifting it).")
+    except _Quit:
+        pass
     return totals

@@ -1,24 +1,43 @@
-"""Batched simulation of many independent runs of (robot agent, scripted human) episodes.
+"""The benchmark's one simulation loop: many independent runs of (robot agent, human).
 
-One *run* is a sequence of episodes between one agent and one scripted human; the agent
-learns across the run's episodes. :func:`simulate` advances a batch of runs in lockstep
-with array operations (the graph backend). Every random draw of run ``r`` comes from
-generators seeded by ``(seed, r)`` alone, so a run's numbers do not depend on which batch,
-process or machine simulated it.
+One *run* is a sequence of episodes between one agent and one human; the agent learns
+across the run's episodes. :func:`run_episodes` advances a batch of runs with array
+operations on any backend (:class:`~hri_envs.envs.backends.BatchBackend`: the graph moves
+every run in lockstep, the physics one run at a time); :func:`simulate` collects its
+metrics, and ``hri-bench play`` drives the same loop with you as the human. The episode's
+rules (start state, lifting, turning back, end, reward, decisions) are those of
+:mod:`hri_envs.task.episode`. Every random draw of run ``r`` comes from generators seeded by
+``(seed, r)`` alone, so a run's numbers do not depend on which batch, process or machine
+simulated it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
-from hri_envs.task.graph import WAIT, TaskGraph
+from hri_envs.envs.backends import BatchBackend, batch_backend
+from hri_envs.errors import ConfigError
+from hri_envs.task.actions import WAIT
+from hri_envs.task.episode import EpisodeBatch, EpisodeRules, classify, step_reward
+from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman
 from hri_envs.task.protocol import BatchAgent, Trace
 
-__all__ = ["TABLE2", "EpisodeMetrics", "Schedule", "make_schedule", "simulate"]
+__all__ = [
+    "TABLE2",
+    "EpisodeMetrics",
+    "EpisodeResult",
+    "HumanPolicy",
+    "Schedule",
+    "ScriptedHumans",
+    "make_schedule",
+    "run_episodes",
+    "simulate",
+]
 
 #: The user study's episodes (paper Table 2): (start, goal, turns back halfway).
 TABLE2: tuple[tuple[str, str, bool], ...] = (
@@ -67,7 +86,8 @@ def make_schedule(
         return Schedule(start.reshape(n_b, episodes), goal.reshape(n_b, episodes),
                         turn.reshape(n_b, episodes))
     if kind != "random":
-        raise ValueError(f"unknown schedule {kind!r}; allowed: 'random', 'table2'")
+        raise ConfigError(f"unknown schedule {kind!r}; allowed: 'random', 'table2'",
+                          field="schedule")
     start = np.zeros((n_b, episodes), dtype=np.int64)
     goal = np.zeros((n_b, episodes), dtype=np.int64)
     turn = np.zeros((n_b, episodes), dtype=bool)
@@ -102,6 +122,159 @@ class EpisodeMetrics:
     extras: dict[str, np.ndarray] = field(default_factory=dict)
 
 
+class HumanPolicy(Protocol):
+    """The human side of :func:`run_episodes`: the human's actions for a batch of runs.
+
+    Called once per step after the robot has chosen (a person at a terminal sees the
+    robot's choice first); only the ``active`` rows matter and only they may consume
+    randomness. Returns (B,) int actions.
+    """
+
+    def __call__(self, state: np.ndarray, start: np.ndarray, intention: np.ndarray,
+                 robot_action: np.ndarray, active: np.ndarray) -> np.ndarray:
+        """(B,) the human's actions in ``state`` given the robot's ``robot_action``."""
+        ...
+
+
+class ScriptedHumans:
+    """A :class:`~hri_envs.task.humans.ScriptedHuman` per run, each with its own stream.
+
+    Run ``r`` draws from a generator seeded by ``(seed, r, 1)``, two uniforms per step it
+    is active in (passivity, then the choice of action).
+    """
+
+    def __init__(self, human: ScriptedHuman, runs: Sequence[int] | np.ndarray,
+                 seed: int) -> None:
+        self.human = human
+        self.rngs = [np.random.default_rng([int(seed), int(r), 1]) for r in runs]
+
+    def __call__(self, state: np.ndarray, start: np.ndarray, intention: np.ndarray,
+                 robot_action: np.ndarray, active: np.ndarray) -> np.ndarray:
+        """The scripted humans' actions (the robot's action does not matter to them)."""
+        u = np.zeros((2, len(state)))
+        for i in np.flatnonzero(active):
+            u[:, i] = self.rngs[i].random(2)
+        return self.human.act_from_uniforms(state, start, intention, u[0], u[1])
+
+
+@dataclass
+class EpisodeResult:
+    """One episode of every run of a batch, each array (B,).
+
+    Attributes:
+        episode: The episode's index in the schedule.
+        reward: Summed robot cooperation reward.
+        correct, passive, wrong: Fractions of the robot's decisions (paper Sect. 6.3).
+        steps: Episode length.
+        truncated: The episode did not end (step limit or a backend fault).
+        traces: What the robot saw, per run.
+        intentions: Where each episode ended, -1 where truncated (nothing revealed).
+        extras: The backend's per-episode figures.
+    """
+
+    episode: int
+    reward: np.ndarray
+    correct: np.ndarray
+    passive: np.ndarray
+    wrong: np.ndarray
+    steps: np.ndarray
+    truncated: np.ndarray
+    traces: list[Trace]
+    intentions: np.ndarray
+    extras: dict[str, np.ndarray]
+
+
+def run_episodes(
+    graph: TaskGraph,
+    agent: BatchAgent,
+    human: HumanPolicy,
+    schedule: Schedule,
+    backend: BatchBackend,
+    *,
+    r0: float,
+    turn_state: np.ndarray | None = None,
+    max_steps: int = 100,
+) -> Iterator[EpisodeResult]:
+    """Play ``schedule`` for a batch of runs; yields each episode after the agent learned.
+
+    Args:
+        graph: The task graph.
+        agent: A batched agent with ``n_runs`` = the schedule's runs.
+        human: The human's actions (e.g. :class:`ScriptedHumans`).
+        schedule: From :func:`make_schedule`; its ``goal`` is the intention at the start.
+        backend: Moves the runs (the graph, or a simulator).
+        r0: Reward for the robot waiting while the human acts.
+        turn_state: (K, K) where a turning-back human turns (see
+            :func:`hri_envs.task.episode.turn_back`); None: nobody turns back.
+        max_steps: Step limit per episode (the episode is truncated there).
+    """
+    n_b, n_e = schedule.start.shape
+    if agent.n_runs != n_b:
+        raise ConfigError(f"the agent has {agent.n_runs} runs, the schedule {n_b}",
+                          field="runs")
+    if turn_state is None:
+        turn_state = np.full((graph.n_intentions,) * 2, -1)
+    eps = EpisodeBatch(EpisodeRules(graph, r0), turn_state, n_b)
+    privileged = bool(getattr(agent, "privileged", False))
+    rows = np.arange(n_b)
+    states = np.zeros((n_b, max_steps + 1), dtype=np.int64)
+    robot_acts = np.zeros((n_b, max_steps), dtype=np.int64)
+    human_seen = np.zeros((n_b, max_steps), dtype=np.int64)
+    for e in range(n_e):
+        eps.begin(rows, schedule.start[:, e], schedule.goal[:, e], schedule.turn_back[:, e])
+        agent.begin_episode(eps.start.copy())
+        totals = {k: np.zeros(n_b) for k in ("reward", "correct", "passive", "wrong",
+                                              *backend.extras)}
+        over = np.zeros(n_b, dtype=bool)
+        faulted = np.zeros(n_b, dtype=bool)
+        states[:, 0] = eps.state
+        for group in backend.groups():
+            faulted[group] = backend.begin(group, eps.start[group])
+            active = np.zeros(n_b, dtype=bool)
+            active[group] = ~faulted[group]
+            for t in range(max_steps):
+                if not active.any():
+                    break
+                s = eps.state
+                obs: dict[str, np.ndarray] = {
+                    "state": s, "start": eps.start, "last_human_action": eps.last_human,
+                    "action_mask": graph.valid[s].astype(np.int8)}
+                if privileged:
+                    obs["intention"] = eps.intention
+                a_r = np.where(active, agent.act(obs, active), WAIT)
+                a_h = np.where(active, human(s, eps.start, eps.intention, a_r, active), WAIT)
+                step = backend.transition(s, a_r, a_h, active)
+                w = active.astype(float)
+                totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, r0)
+                for key, judged in zip(("correct", "passive", "wrong"),
+                                       classify(graph, s, a_r, a_h, step.next_state),
+                                       strict=True):
+                    totals[key] += w * judged
+                for key, value in step.extras.items():
+                    totals[key] += w * value
+                agent.observe(s, a_r, step.human_seen, step.next_state, active)
+                robot_acts[active, t] = a_r[active]
+                human_seen[active, t] = step.human_seen[active]
+                ended = eps.commit(step.next_state, step.human_seen, active)
+                states[active, t + 1] = eps.state[active]
+                over |= ended
+                if step.fault is not None:
+                    faulted |= active & step.fault & ~ended
+                active &= ~(ended | faulted)
+        steps = eps.steps.copy()
+        truncated = ~over
+        per_step = np.maximum(steps, 1)
+        for key in ("correct", "passive", "wrong", *backend.step_means):
+            totals[key] /= per_step
+        intentions = np.where(truncated, -1, graph.support[states[rows, steps]])
+        traces = [Trace(states[i, : steps[i] + 1].copy(), robot_acts[i, : steps[i]].copy(),
+                        human_seen[i, : steps[i]].copy()) for i in range(n_b)]
+        agent.end_episode(traces, intentions)
+        yield EpisodeResult(e, totals["reward"], totals["correct"], totals["passive"],
+                            totals["wrong"], steps.astype(float), truncated, traces, intentions,
+                            {k: totals[k] for k in backend.extras})
+
+
 def simulate(
     graph: TaskGraph,
     agent: BatchAgent,
@@ -113,8 +286,9 @@ def simulate(
     r0: float,
     max_steps: int = 100,
     after_episode: Callable[[int, BatchAgent], None] | None = None,
+    backend: str = "graph",
 ) -> EpisodeMetrics:
-    """Simulate ``schedule`` for a batch of runs with one agent.
+    """Simulate ``schedule`` for a batch of runs with one agent and a scripted human.
 
     Args:
         graph: The task graph.
@@ -126,77 +300,29 @@ def simulate(
         r0: Reward for the robot waiting while the human acts (for the metrics).
         max_steps: Step limit per episode (the episode is truncated there).
         after_episode: Called as ``after_episode(e, agent)`` after each learning update.
+        backend: A registered backend (:mod:`hri_envs.envs.backends`): "graph" or "mujoco".
 
     Returns:
-        The episode metrics.
+        The episode metrics; ``extras`` holds the backend's per-episode figures (the
+        physics: interaction impulses, simulated duration, agreement with the graph).
     """
     n_b, n_e = schedule.start.shape
-    if agent.n_runs != n_b or len(runs) != n_b:
-        raise ValueError(f"agent has {agent.n_runs} runs, schedule {n_b}, runs {len(runs)}")
-    rngs = [np.random.default_rng([int(seed), int(r), 1]) for r in runs]
-    reward_table = graph.reward(r0)
-    privileged = bool(getattr(agent, "privileged", False))
-    rows = np.arange(n_b)
-    out = {k: np.zeros((n_b, n_e)) for k in ("reward", "correct", "passive", "wrong", "steps")}
+    if len(runs) != n_b:
+        raise ConfigError(f"the schedule has {n_b} runs, runs= names {len(runs)}", field="runs")
+    sim = batch_backend(backend)(graph, runs, seed)
+    keys = ("reward", "correct", "passive", "wrong", "steps")
+    out = {k: np.zeros((n_b, n_e)) for k in keys}
+    extras = {k: np.zeros((n_b, n_e)) for k in sim.extras}
     truncated = np.zeros((n_b, n_e), dtype=bool)
-    states_buf = np.zeros((n_b, max_steps + 1), dtype=np.int64)
-    robot_buf = np.zeros((n_b, max_steps), dtype=np.int64)
-    human_buf = np.zeros((n_b, max_steps), dtype=np.int64)
-    for e in range(n_e):
-        start = schedule.start[:, e].copy()
-        goal = schedule.goal[:, e].copy()
-        turn = schedule.turn_back[:, e].copy()
-        turn_state = human.turn_state[start, goal]
-        s = 4 * start  # resting on the start support, nobody holds it
-        lifted = np.zeros(n_b, dtype=bool)
-        active = np.ones(n_b, dtype=bool)
-        length = np.full(n_b, max_steps)
-        last_h = np.full(n_b, WAIT)
-        agent.begin_episode(start)
-        states_buf[:, 0] = s
-        for t in range(max_steps):
-            turning = active & turn & (s == turn_state)
-            goal = np.where(turning, start, goal)
-            turn &= ~turning
-            obs = {"state": s, "start": start, "last_human_action": last_h,
-                   "action_mask": graph.valid[s].astype(np.int8)}
-            if privileged:
-                obs["intention"] = goal
-            a_r = agent.act(obs, active)
-            u = np.zeros((2, n_b))
-            for i in np.flatnonzero(active):
-                u[:, i] = rngs[i].random(2)
-            a_h = human.act_from_uniforms(s, start, goal, u[0], u[1])
-            a_r = np.where(active, a_r, WAIT)
-            a_h = np.where(active, a_h, WAIT)
-            s_next = graph.next_state[s, a_r, a_h]
-            w = active.astype(float)
-            out["reward"][:, e] += w * reward_table[s, a_r, a_h]
-            effective = graph.robot_effective[s, a_r, a_h]
-            out["correct"][:, e] += w * effective
-            out["passive"][:, e] += w * (a_r == WAIT)
-            out["wrong"][:, e] += w * ((a_r != WAIT) & ~effective)
-            agent.observe(s, a_r, a_h, s_next, active)
-            robot_buf[:, t], human_buf[:, t] = a_r, a_h
-            s = np.where(active, s_next, s)
-            states_buf[:, t + 1] = s
-            last_h = a_h
-            lifted |= graph.left_start(s, start)
-            done = active & graph.episode_over(s, start, lifted)
-            length[done] = t + 1
-            active &= ~done
-            if not active.any():
-                break
-        truncated[:, e] = active
-        out["steps"][:, e] = length
-        for k in ("correct", "passive", "wrong"):
-            out[k][:, e] /= length
-        ended = graph.support[states_buf[rows, length]]
-        intentions = np.where(active, -1, ended)  # a truncated episode reveals nothing
-        traces = [Trace(states_buf[i, : length[i] + 1].copy(), robot_buf[i, : length[i]].copy(),
-                        human_buf[i, : length[i]].copy()) for i in range(n_b)]
-        agent.end_episode(traces, intentions)
+    for res in run_episodes(graph, agent, ScriptedHumans(human, runs, seed), schedule, sim,
+                            r0=r0, turn_state=human.turn_state, max_steps=max_steps):
+        e = res.episode
+        for k in keys:
+            out[k][:, e] = getattr(res, k)
+        for k, v in res.extras.items():
+            extras[k][:, e] = v
+        truncated[:, e] = res.truncated
         if after_episode is not None:
             after_episode(e, agent)
     return EpisodeMetrics(out["reward"], out["correct"], out["passive"], out["wrong"],
-                          out["steps"], truncated)
+                          out["steps"], truncated, extras)

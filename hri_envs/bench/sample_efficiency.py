@@ -42,8 +42,10 @@ from typing import Any
 import numpy as np
 
 from hri_envs.bench.runner import make_schedule, simulate
-from hri_envs.bench.study import DEFAULT_R0, StudyConfig, graph_for, run_study
+from hri_envs.bench.study import StudyConfig, graph_for, run_study
+from hri_envs.errors import ConfigError
 from hri_envs.task.humans import preference_human
+from hri_envs.task.scenarios import scenario_spec
 
 __all__ = [
     "RL_ALGORITHMS",
@@ -98,30 +100,33 @@ class SampleEfficiencyConfig:
 
     def __post_init__(self) -> None:
         if self.scenario not in _ENV_IDS:
-            raise ValueError(f"scenario must be one of {', '.join(_ENV_IDS)}, "
-                             f"got {self.scenario!r}")
+            raise ConfigError(f"scenario must be one of {', '.join(_ENV_IDS)}, "
+                              f"got {self.scenario!r}", field="scenario")
         bad = [a for a in self.algorithms if a not in RL_ALGORITHMS]
         if bad:
-            raise ValueError(f"unknown algorithm(s) {bad}; allowed: {', '.join(RL_ALGORITHMS)}")
+            raise ConfigError(f"unknown algorithm(s) {bad}; allowed: {', '.join(RL_ALGORITHMS)}",
+                              field="algorithms")
         for name in ("runs", "episodes", "eval_runs", "eval_episodes", "n_envs"):
             if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+                raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}", field=name)
         if self.eval_runs > self.runs:
-            raise ValueError(f"eval_runs ({self.eval_runs}) must not exceed runs ({self.runs})")
+            raise ConfigError(f"eval_runs must be <= runs ({self.runs}), got {self.eval_runs}",
+                              field="eval_runs")
         for name in ("ppo_checkpoints", "dqn_checkpoints"):
             points = getattr(self, name)
             if not points or list(points) != sorted(set(points)) or points[0] < 1:
-                raise ValueError(f"{name} must be increasing positive episode counts, "
-                                 f"got {points}")
+                raise ConfigError(f"{name} must be increasing positive episode counts, "
+                                  f"got {points}", field=name)
         if not self.rl_seeds:
-            raise ValueError("rl_seeds must name at least one seed")
+            raise ConfigError("rl_seeds must name at least one seed, got none", field="rl_seeds")
         if not 0.0 < self.threshold <= 1.0:
-            raise ValueError(f"threshold must be in (0, 1], got {self.threshold}")
+            raise ConfigError(f"threshold must be in (0, 1], got {self.threshold}",
+                              field="threshold")
 
     @property
     def waiting_reward(self) -> float:
         """r0 after defaults."""
-        return DEFAULT_R0[self.scenario] if self.r0 is None else self.r0
+        return scenario_spec(self.scenario).r0 if self.r0 is None else self.r0
 
 
 @dataclass
@@ -294,14 +299,15 @@ _STYLE = {"learner": ("#1f5fa8", "Learner (paper, Alg. 1)"),
 
 
 def plot(result: SampleEfficiencyResult, path: str | Path) -> Path:
-    """Draw reward against episodes of interaction (log scale) and save it to ``path``."""
-    import matplotlib
+    """Draw reward against episodes of interaction (log scale) and save it to ``path``.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    The figure is made without pyplot, so no display and no backend choice are needed.
+    """
+    from matplotlib.figure import Figure
 
     cfg = result.config
-    fig, ax = plt.subplots(figsize=(7.2, 4.2))
+    fig = Figure(figsize=(7.2, 4.2))
+    ax = fig.subplots()
     color, label = _STYLE["learner"]
     x = result.learner_episodes
     ax.fill_between(x, result.learner_q25, result.learner_q75, color=color, alpha=0.18, lw=0)
@@ -340,7 +346,6 @@ def plot(result: SampleEfficiencyResult, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
     return path
 
 

@@ -51,7 +51,7 @@ def hanger_study_s(runs: int = 100, episodes: int = 8, jobs: int = 1) -> float:
 
 
 def measure(jobs: int = 1) -> dict[str, Any]:
-    """All speed figures as a dict (keys as in SPEC/issue: see ``hri-bench speed --help``)."""
+    """All speed figures as a dict (keys: docs/benchmark.md, 'Other subcommands')."""
     from hri_envs.envs.speed import parallel_env_steps_per_s, vector_env_steps_per_s
 
     return {

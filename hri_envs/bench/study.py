@@ -22,14 +22,16 @@ from typing import Any
 import numpy as np
 
 from hri_envs.bench.agents import BUILTIN_AGENTS, make_agent, validate_agent_name
-from hri_envs.bench.runner import make_schedule, simulate
-from hri_envs.envs.config import DEFAULT_R0, SCENARIOS, scenario_graph
+from hri_envs.bench.results import StudyResult  # re-exported; shared with the plots
+from hri_envs.bench.runner import TABLE2, make_schedule, simulate
+from hri_envs.envs.backends import BACKENDS, batch_backend
+from hri_envs.errors import ConfigError
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import HANGER_DEFAULT_PREFERENCE, preference_human, preferences_for
+from hri_envs.task.humans import preference_human, preferences_for
+from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
 __all__ = [
     "METRICS",
-    "PHYSICS_METRICS",
     "Probe",
     "StudyConfig",
     "StudyResult",
@@ -39,18 +41,13 @@ __all__ = [
     "write_outputs",
 ]
 
+#: Metrics of every backend; a backend adds its own ``extras`` (the physics: impulses, ...).
 METRICS = ("reward", "correct", "passive", "wrong", "steps", "truncated")
-#: Extra per-episode metrics of the physics backend.
-PHYSICS_METRICS = ("linear_impulse", "angular_impulse", "duration_s", "graph_agrees")
-DEFAULT_EPISODES = {"hanger": 8, "wheel": 20}
 EXECUTORS = ("serial", "process", "ray")
-BACKENDS = ("graph", "mujoco")
 
 
 def graph_for(scenario: str) -> TaskGraph:
     """The task graph of a scenario by name (built once per process)."""
-    if scenario not in SCENARIOS:
-        raise ValueError(f"unknown scenario {scenario!r}; allowed: {', '.join(SCENARIOS)}")
     return scenario_graph(scenario)
 
 
@@ -113,8 +110,9 @@ class StudyConfig:
     probes: tuple[Probe, ...] = field(default_factory=tuple)
 
     def __post_init__(self) -> None:
-        def bad(name: str, allowed: str) -> ValueError:
-            return ValueError(f"{name} must be {allowed}, got {getattr(self, name)!r}")
+        def bad(name: str, allowed: str) -> ConfigError:
+            return ConfigError(f"{name} must be {allowed}, got {getattr(self, name)!r}",
+                               field=name)
 
         if self.scenario not in SCENARIOS:
             raise bad("scenario", f"one of {', '.join(SCENARIOS)}")
@@ -129,8 +127,8 @@ class StudyConfig:
         if self.schedule not in ("random", "table2"):
             raise bad("schedule", "'random' or 'table2'")
         if self.schedule == "table2" and self.scenario != "hanger":
-            raise ValueError("schedule 'table2' is the hanger user study's; use 'random' for "
-                             "the wheel")
+            raise ConfigError("schedule 'table2' is the hanger user study's; use 'random' for "
+                              "the wheel", field="schedule")
         prefs = preferences_for(self.scenario)
         if self.preference is not None and self.preference not in (*prefs, "all"):
             raise bad("preference", f"'all' or one of {', '.join(prefs)}")
@@ -153,19 +151,19 @@ class StudyConfig:
         """Episodes per run after defaults."""
         if self.episodes is not None:
             return self.episodes
-        return 9 if self.schedule == "table2" else DEFAULT_EPISODES[self.scenario]
+        return len(TABLE2) if self.schedule == "table2" else scenario_spec(self.scenario).episodes
 
     @property
     def waiting_reward(self) -> float:
         """r0 after defaults."""
-        return DEFAULT_R0[self.scenario] if self.r0 is None else self.r0
+        return scenario_spec(self.scenario).r0 if self.r0 is None else self.r0
 
     def preference_of_run(self) -> list[str]:
         """The human preference of each run."""
         prefs = preferences_for(self.scenario)
         if self.preference == "all":
             return [prefs[r % len(prefs)] for r in range(self.runs)]
-        default = HANGER_DEFAULT_PREFERENCE if self.scenario == "hanger" else "straight"
+        default = scenario_spec(self.scenario).default_preference
         return [self.preference or default] * self.runs
 
     def to_dict(self) -> dict[str, Any]:
@@ -174,26 +172,6 @@ class StudyConfig:
         d["agents"] = list(self.agents)
         d["probes"] = [p.label for p in self.probes]
         return d
-
-
-@dataclass
-class StudyResult:
-    """Per-agent arrays from a study.
-
-    Attributes:
-        config: The study's configuration.
-        metrics: ``metrics[agent][metric]`` is (runs, episodes).
-        probes: ``probes[agent]`` is (runs, episodes + 1, len(config.probes)): the probed
-            probabilities before the first episode and after each update.
-        schedule: ``start``, ``goal`` and ``turn_back``, each (runs, episodes).
-        wall_time_s: Seconds the simulation took.
-    """
-
-    config: StudyConfig
-    metrics: dict[str, dict[str, np.ndarray]]
-    probes: dict[str, np.ndarray]
-    schedule: dict[str, np.ndarray]
-    wall_time_s: float
 
 
 @dataclass(frozen=True)
@@ -230,14 +208,9 @@ def _run_unit(unit: _Unit) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str,
     def record(e: int, a: Any) -> None:
         probes[:, e + 1] = _probe(a, cfg.probes)
 
-    simulator = simulate
-    if cfg.backend == "mujoco":
-        from hri_envs.physics.runner import simulate_physics  # needs the mujoco extra
-
-        simulator = simulate_physics
-    m = simulator(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
-                  r0=cfg.waiting_reward, max_steps=cfg.max_steps,
-                  after_episode=record if cfg.probes else None)
+    m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
+                 r0=cfg.waiting_reward, max_steps=cfg.max_steps,
+                 after_episode=record if cfg.probes else None, backend=cfg.backend)
     metrics = {k: np.asarray(getattr(m, k), dtype=float) for k in METRICS}
     metrics.update({k: np.asarray(v, dtype=float) for k, v in m.extras.items()})
     sched = {"start": schedule.start, "goal": schedule.goal, "turn_back": schedule.turn_back}
@@ -301,7 +274,7 @@ def run_study(
     """
     units = _units(cfg)
     n_e, n_p = cfg.n_episodes, len(cfg.probes)
-    keys = METRICS + (PHYSICS_METRICS if cfg.backend == "mujoco" else ())
+    keys = METRICS + batch_backend(cfg.backend).extras
     metrics = {a: {k: np.zeros((cfg.runs, n_e)) for k in keys} for a in cfg.agents}
     probes = {a: np.full((cfg.runs, n_e + 1, n_p), np.nan) for a in cfg.agents}
     schedule = {k: np.zeros((cfg.runs, n_e), dtype=bool if k == "turn_back" else np.int64)
@@ -330,7 +303,7 @@ def run_study(
 
 
 def summarize(result: StudyResult) -> dict[str, Any]:
-    """The ``summary.json`` document (SPEC §5)."""
+    """The ``summary.json`` document (docs/benchmark.md, 'summary.json')."""
     cfg = result.config
     agents: dict[str, Any] = {}
     for name, m in result.metrics.items():
@@ -339,7 +312,7 @@ def summarize(result: StudyResult) -> dict[str, Any]:
             "reward": {"mean": r.mean(0).tolist(), "q25": np.percentile(r, 25, 0).tolist(),
                        "q75": np.percentile(r, 75, 0).tolist()},
             **{k: {"mean": m[k].mean(0).tolist()} for k in ("correct", "passive", "wrong")},
-            **{k: {"mean": m[k].mean(0).tolist()} for k in PHYSICS_METRICS if k in m},
+            **{k: {"mean": m[k].mean(0).tolist()} for k in m if k not in METRICS},
         }
     prefs = sorted(set(cfg.preference_of_run()))
     return {
@@ -367,7 +340,7 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
     summary_path.write_text(json.dumps(summarize(result), indent=1) + "\n")
     csv_path = out / "episodes.csv"
     prefs = cfg.preference_of_run()
-    extras = [k for k in PHYSICS_METRICS if k in next(iter(result.metrics.values()))]
+    extras = [k for k in next(iter(result.metrics.values())) if k not in METRICS]
     with csv_path.open("w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(["agent", "run", "episode", "preference", "start", "goal", "turn_back",

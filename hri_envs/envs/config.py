@@ -6,24 +6,22 @@ message that lists what is allowed.
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Mapping
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from hri_envs.envs.errors import BackendUnavailableError, ConfigError
-from hri_envs.task.geometry import Scenario, hanger_scenario, wheel_scenario
-from hri_envs.task.graph import TaskGraph, build_graph
+from hri_envs.envs.backends import BACKENDS, backend_spec, check_backend
+from hri_envs.errors import ConfigError
+from hri_envs.task.geometry import Scenario
+from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_for
+from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 
 __all__ = [
     "BACKENDS",
-    "DEFAULT_R0",
-    "PHYSICS_OPTION_KEYS",
     "RESET_OPTION_KEYS",
-    "SCENARIOS",
     "EnvSettings",
     "ResetOptions",
     "check_backend",
@@ -40,10 +38,6 @@ __all__ = [
     "support_index",
 ]
 
-SCENARIOS: tuple[str, ...] = ("hanger", "wheel")
-#: The paper's r0 per scenario (hanger Sect. 6; wheel Sect. 7 also uses -0.5).
-DEFAULT_R0: dict[str, float] = {"hanger": -0.33, "wheel": -0.25}
-BACKENDS: tuple[str, ...] = ("graph", "mujoco")
 #: Keys ``reset(options=...)`` understands ("layout" only for the wheel).
 RESET_OPTION_KEYS: tuple[str, ...] = ("start", "intention", "turn_back", "layout")
 # pettingzoo.test's api tests probe ``reset(options={"options": 1})``; that key is ignored.
@@ -51,28 +45,15 @@ _IGNORED_OPTION_KEYS = frozenset({"options"})
 
 
 def check_scenario(name: str) -> str:
-    """Return ``name`` if it is a known scenario."""
-    if name not in SCENARIOS:
-        raise ConfigError(f"unknown scenario {name!r}; allowed: {', '.join(SCENARIOS)}")
-    return name
-
-
-@functools.cache
-def scenario_graph(name: str) -> TaskGraph:
-    """The (read-only, shared) task graph of a scenario, built once per process."""
-    check_scenario(name)
-    return _graph(name)
-
-
-@functools.cache
-def _graph(name: str) -> TaskGraph:
-    return build_graph(hanger_scenario() if name == "hanger" else wheel_scenario())
+    """Return ``name`` if it is a registered scenario (``hri_envs.task.scenarios``)."""
+    return scenario_spec(name).name
 
 
 def check_r0(r0: float | None, scenario: str) -> float:
     """Validate the robot's passive reward r0 ∈ (-1, 0); None gives the scenario default."""
+    paper = scenario_spec(scenario).r0
     if r0 is None:
-        return DEFAULT_R0[scenario]
+        return paper
     try:
         value = float(r0)
     except (TypeError, ValueError):
@@ -80,7 +61,7 @@ def check_r0(r0: float | None, scenario: str) -> float:
     if not -1.0 < value < 0.0:
         raise ConfigError(
             f"r0 must be a number in the open interval (-1, 0), got {r0!r} "
-            f"(the paper uses {DEFAULT_R0[scenario]} for the {scenario})"
+            f"(the paper uses {paper} for the {scenario})"
         )
     return value
 
@@ -100,25 +81,6 @@ def check_render_mode(render_mode: str | None, allowed: list[str]) -> str | None
         modes = ", ".join([repr(m) for m in allowed] + ["None"])
         raise ConfigError(f"unsupported render_mode {render_mode!r}; allowed: {modes}")
     return render_mode
-
-
-def check_backend(backend: str) -> str:
-    """Validate the simulation backend: "graph" (the abstract transition graph) or "mujoco"
-    (the simulated Franka Panda of :mod:`hri_envs.physics`, which needs the ``mujoco`` extra).
-    """
-    if backend not in BACKENDS:
-        raise ConfigError(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
-    if backend == "mujoco":
-        import importlib.util
-
-        missing = [m for m in ("mujoco", "mink", "gymnasium_robotics")
-                   if importlib.util.find_spec(m) is None]
-        if missing:
-            raise BackendUnavailableError(
-                f"backend='mujoco' needs {', '.join(missing)}: pip install 'hri-envs[mujoco]' "
-                "(or use backend='graph', the abstract transition graph)"
-            )
-    return backend
 
 
 class EnvSettings(NamedTuple):
@@ -145,20 +107,19 @@ def check_env_settings(
                        check_render_mode(render_mode, render_modes), check_backend(backend))
 
 
-#: Keys of the ``physics`` options of ``backend="mujoco"``.
-PHYSICS_OPTION_KEYS: tuple[str, ...] = ("video_path", "video_fps")
-
-
 def check_physics_options(physics: Mapping[str, Any] | None, backend: str) -> dict[str, Any]:
-    """Validate the ``physics`` options (only with ``backend="mujoco"``)."""
+    """Validate the ``physics`` options against what ``backend`` accepts."""
     if not physics:
         return {}
-    if backend != "mujoco":
-        raise ConfigError(f"physics options need backend='mujoco', got backend={backend!r}")
-    unknown = sorted(set(physics) - set(PHYSICS_OPTION_KEYS))
+    allowed = backend_spec(backend).options
+    if not allowed:
+        takes = [name for name, spec in BACKENDS.items() if spec.options]
+        raise ConfigError(f"backend={backend!r} takes no physics options; backends that do: "
+                          f"{', '.join(takes)}")
+    unknown = sorted(set(physics) - set(allowed))
     if unknown:
         raise ConfigError(f"unknown physics option(s) {', '.join(map(repr, unknown))}; "
-                          f"allowed: {', '.join(PHYSICS_OPTION_KEYS)}")
+                          f"allowed: {', '.join(allowed)}")
     fps = physics.get("video_fps", 10.0)
     if isinstance(fps, bool) or not isinstance(fps, int | float) or not fps > 0:
         raise ConfigError(f"physics option 'video_fps' must be a positive number, got {fps!r}")
@@ -214,7 +175,8 @@ class ResetOptions(NamedTuple):
 
 
 def _check_option_keys(options: Mapping[str, Any], scenario: Scenario) -> None:
-    allowed = RESET_OPTION_KEYS if scenario.name == "wheel" else RESET_OPTION_KEYS[:3]
+    has_layout = scenario_spec(scenario.name).layout is not None
+    allowed = RESET_OPTION_KEYS if has_layout else RESET_OPTION_KEYS[:3]
     unknown = sorted(set(options) - set(allowed) - _IGNORED_OPTION_KEYS)
     if unknown:
         raise ConfigError(
@@ -263,12 +225,3 @@ def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -
     if options.get("layout") is not None:
         layout = _check_layout(options["layout"])
     return ResetOptions(start, intention, turn_back, layout)
-
-
-def episode_scenario(
-    name: str, layout: tuple[tuple[float, float], ...] | None
-) -> Scenario:
-    """The geometry of one episode (the wheel's stands move; the hanger's do not)."""
-    if name == "wheel" and layout is not None:
-        return wheel_scenario(layout)
-    return scenario_graph(name).scenario

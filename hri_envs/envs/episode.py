@@ -1,90 +1,34 @@
-"""Episode semantics shared by every environment (SPEC §2), as lookup tables.
+"""One running episode with scalar state: the graph backend, and the base of every backend.
 
-The rules of an episode are written down once, as arrays over the task graph, in
-:class:`EpisodeRules`; the single-episode envs (:class:`Episode`) and the batched vector env
-only look them up, with Python scalars or with ``np.take`` over N episodes.
-
-* Reset: the object rests on the start support k with μ = 0; the intention ι ≠ k.
-* Step: ``s' = next_state[s, a_R, a_H]``, robot reward ``R_R(s, a_R, a_H)``. The object is
-  *lifted* once it has been in free space.
-* The episode terminates when ``s'`` rests on a support with μ = 0 and that support is not
-  the start, or the object was lifted (the human turned back).
-* Turning back: in an episode where the human turns back, on entering the state
-  ``turn_state[start, ι]`` (so before the human acts there) ι becomes the start support.
+The single-episode envs (:class:`~hri_envs.envs.parallel.CooperationParallelEnv`,
+:class:`~hri_envs.envs.robot.RobotEnv`) hold one :class:`Episode` and never ask which
+backend it is: a backend overrides :meth:`Episode.transition` (where the joint action takes
+the object) and, where it has something to add, the do-nothing hooks :meth:`~Episode.place`,
+:meth:`~Episode.step_info`, :attr:`~Episode.observed_human`, :attr:`~Episode.fault`,
+:meth:`~Episode.render` and :meth:`~Episode.close`. The rules themselves (start state,
+lifting, turning back, end, reward) are those of :mod:`hri_envs.task.episode`; backends are
+looked up by name in :mod:`hri_envs.envs.backends`.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
-from hri_envs.task.graph import WAIT, TaskGraph
+from hri_envs.envs.render import render_rgb
+from hri_envs.task.actions import WAIT
+from hri_envs.task.episode import (
+    EpisodeRules,
+    draw_other_support,
+    draw_start_intention,
+    start_state,
+    step_reward,
+)
+from hri_envs.task.scenarios import episode_scenario
 
-__all__ = [
-    "Episode",
-    "EpisodeRules",
-    "Transition",
-    "draw_other_support",
-    "draw_start_intention",
-]
-
-
-class EpisodeRules:
-    """The episode's dynamics, rewards and end condition as flat lookup tables.
-
-    Args:
-        graph: The task graph.
-        r0: Robot reward for waiting while the human acts, in (-1, 0).
-
-    Attributes:
-        next_state: (S A A,) int64, ``next_state[(s A + a_R) A + a_H]``.
-        reward: (S A A,) float64, the robot cooperation reward R_R.
-        aborted: (S A A,) bool, the joint action was aborted.
-        valid: (S A,) bool, ``valid[s A + a]``: the action is allowed in the state.
-        action_mask: (S, A) int8, read-only rows of the observations' ``action_mask``.
-        lifts: (S,) bool, the object is in free space (it has left its support).
-        ends: (S K 2,) bool, ``ends[(s K + start) 2 + lifted]``: the episode terminates.
-    """
-
-    def __init__(self, graph: TaskGraph, r0: float) -> None:
-        self.graph = graph
-        self.r0 = r0
-        n_s, n_a, n_k = graph.n_states, graph.n_actions, graph.n_intentions
-        self.n_states, self.n_actions, self.n_supports = n_s, n_a, n_k
-        self.next_state = graph.next_state.astype(np.int64).reshape(-1)
-        self.reward = graph.reward(r0).astype(np.float64).reshape(-1)
-        self.aborted = graph.aborted.reshape(-1).copy()
-        self.valid = graph.valid.reshape(-1).copy()
-        self.action_mask = graph.valid.astype(np.int8)
-        self.lifts = ~graph.is_support_state
-        ends = graph.episode_over(np.arange(n_s)[:, None, None], np.arange(n_k)[None, :, None],
-                                  np.array([False, True])[None, None, :])  # (S, K, 2)
-        self.ends = np.ascontiguousarray(ends).reshape(-1)  # (S K 2,)
-        for table in (self.next_state, self.reward, self.aborted, self.valid,
-                      self.action_mask, self.lifts, self.ends):
-            table.setflags(write=False)
-        # Python-list mirrors for the scalar path (list indexing beats numpy scalars).
-        self.next_list: list[int] = self.next_state.tolist()
-        self.reward_list: list[float] = self.reward.tolist()
-        self.aborted_list: list[bool] = self.aborted.tolist()
-        self.valid_list: list[bool] = self.valid.tolist()
-        self.lifts_list: list[bool] = self.lifts.tolist()
-        self.ends_list: list[bool] = self.ends.tolist()
-
-
-def draw_start_intention(
-    rng: np.random.Generator, n_supports: int, size: int | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Draw start supports and intentions ι ≠ start, uniformly (scalars when size is None)."""
-    start = rng.integers(n_supports, size=size)
-    intention = (start + 1 + rng.integers(n_supports - 1, size=size)) % n_supports
-    return start, intention
-
-
-def draw_other_support(rng: np.random.Generator, n_supports: int, other: int) -> int:
-    """Draw a support uniformly among those different from ``other``."""
-    return int((other + 1 + rng.integers(n_supports - 1)) % n_supports)
+__all__ = ["Episode", "EpisodeRules", "Transition", "draw_other_support",
+           "draw_start_intention"]
 
 
 class Transition(NamedTuple):
@@ -98,17 +42,25 @@ class Transition(NamedTuple):
 
 
 class Episode:
-    """One running episode with scalar state, for the single-episode envs.
+    """One running episode on the abstract transition graph (the ``"graph"`` backend).
 
     Args:
-        rules: The scenario's :class:`EpisodeRules`.
+        rules: The scenario's :class:`~hri_envs.task.episode.EpisodeRules`.
         turn_state: (K, K) int, where a turning-back human switches ι to the start support
             (-1 = never), see :attr:`hri_envs.task.humans.ScriptedHuman.turn_state`; None
             for a human who never turns back.
+
+    Attributes:
+        state, previous: The current and the previous abstract state.
+        start, intention: The start support and the human's current goal ι.
+        turn_back: The human is still going to turn back in this episode.
+        lifted: The object has left the start support.
+        steps: Steps taken.
+        last_human, last_robot: The agents' last actions (wait after a reset).
     """
 
-    __slots__ = ("_turn", "intention", "last_human", "last_robot", "lifted", "previous",
-                 "rules", "start", "state", "steps", "turn_back")
+    #: The name the backend is registered under.
+    name: ClassVar[str] = "graph"
 
     def __init__(self, rules: EpisodeRules, turn_state: np.ndarray | None) -> None:
         self.rules = rules
@@ -117,10 +69,11 @@ class Episode:
         self._turn: list[list[int]] = np.asarray(turn_state, dtype=np.int64).tolist()
         self.begin(0, 1 % rules.n_supports, False)
 
+    # ----------------------------------------------------------------- the rules
     def begin(self, start: int, intention: int, turn_back: bool) -> None:
         """Start a new episode on support ``start`` with μ = 0."""
         self.start, self.intention, self.turn_back = start, intention, turn_back
-        self.state = self.previous = self.rules.graph.support_state(start, 0)
+        self.state = self.previous = int(start_state(self.rules.graph, start))
         self.lifted = False
         self.steps = 0
         self.last_human = self.last_robot = WAIT
@@ -148,9 +101,9 @@ class Episode:
                 s, i = draw_start_intention(rng, n_k)
                 start, intention = int(s), int(i)
             else:
-                start = draw_other_support(rng, n_k, intention)
+                start = int(draw_other_support(rng, n_k, intention))
         elif intention is None:
-            intention = draw_other_support(rng, n_k, start)
+            intention = int(draw_other_support(rng, n_k, start))
         if turn_back is None:
             turn_back = bool(turn_back_p > 0.0 and rng.random() < turn_back_p)
         self.begin(start, intention, turn_back)
@@ -158,25 +111,54 @@ class Episode:
     def advance(self, a_r: int, a_h: int) -> Transition:
         """Apply the joint action (already checked to lie in the action space)."""
         r = self.rules
-        n_a = r.n_actions
         s = self.state
-        i = (s * n_a + a_r) * n_a + a_h
-        s_next = r.next_list[i]
-        return Transition(r.reward_list[i], r.aborted_list[i],
-                          *self._commit(s_next, a_r, a_h))
-
-    def _commit(self, s_next: int, a_r: int, a_h: int) -> tuple[bool, bool, bool]:
-        """Move to ``s_next`` after the joint action; the bookkeeping every backend shares.
-
-        Returns ``(terminated, robot action invalid, human action invalid)``.
-        """
-        r = self.rules
-        s, n_a = self.state, r.n_actions
+        i = (s * r.n_actions + a_r) * r.n_actions + a_h
+        s_next = self.transition(a_r, a_h)
+        if s_next == r.next_list[i]:
+            reward = r.reward_list[i]
+        else:  # the backend's outcome differs from the graph's prediction
+            reward = float(step_reward(r.graph, s, a_r, a_h, s_next, r.r0))
         self.previous, self.state = s, s_next
-        self.lifted = lifted = self.lifted or r.lifts_list[s_next]
+        self.lifted = lifted = self.lifted or r.left_list[s_next * r.n_supports + self.start]
         self.steps += 1
         self.last_human, self.last_robot = a_h, a_r
         if self.turn_back and s_next == self._turn[self.start][self.intention]:
             self.intention, self.turn_back = self.start, False
-        return (r.ends_list[(s_next * r.n_supports + self.start) * 2 + lifted],
-                not r.valid_list[s * n_a + a_r], not r.valid_list[s * n_a + a_h])
+        return Transition(reward, r.aborted_list[i],
+                          r.ends_list[(s_next * r.n_supports + self.start) * 2 + lifted],
+                          not r.valid_list[s * r.n_actions + a_r],
+                          not r.valid_list[s * r.n_actions + a_h])
+
+    # ----------------------------------------------------------------- backend hooks
+    def transition(self, a_r: int, a_h: int) -> int:
+        """The state the joint action leads to from :attr:`state` (here: the graph's)."""
+        r = self.rules
+        return r.next_list[(self.state * r.n_actions + a_r) * r.n_actions + a_h]
+
+    def place(self, layout: tuple[tuple[float, float], ...] | None,
+              rng: np.random.Generator) -> None:
+        """Set the backend to the episode's start (after :meth:`draw`) with the supports at
+        ``layout`` (None: the nominal geometry); nothing to do on the graph.
+        """
+
+    @property
+    def observed_human(self) -> int:
+        """The human's last action as the robot observes it (here: the true one)."""
+        return self.last_human
+
+    @property
+    def fault(self) -> str | None:
+        """Why the episode cannot go on (the envs then truncate it); never, here."""
+        return None
+
+    def step_info(self) -> dict[str, Any]:
+        """Backend figures for the step's ``info`` (none here)."""
+        return {}
+
+    def render(self, layout: tuple[tuple[float, float], ...] | None) -> np.ndarray:
+        """An RGB picture of the current state, the supports at ``layout``."""
+        graph = self.rules.graph
+        return render_rgb(episode_scenario(graph.name, layout), graph, self.state)
+
+    def close(self) -> None:
+        """Release what the backend holds (nothing here)."""

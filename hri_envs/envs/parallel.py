@@ -9,19 +9,20 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo.utils.env import ParallelEnv
 
+from hri_envs.envs.backends import episode_backend
 from hri_envs.envs.config import (
     check_env_settings,
     check_physics_options,
-    episode_scenario,
     parse_reset_options,
     scenario_graph,
 )
-from hri_envs.envs.episode import Episode, EpisodeRules
-from hri_envs.envs.errors import ActionError
-from hri_envs.envs.render import render_ansi, render_rgb
+from hri_envs.envs.episode import Episode
+from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, human_observation_space, robot_observation_space
-from hri_envs.task.geometry import sample_wheel_layout
+from hri_envs.errors import ActionError
+from hri_envs.task.episode import EpisodeRules
 from hri_envs.task.humans import preference_human
+from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["AGENTS", "CooperationParallelEnv"]
 
@@ -141,13 +142,9 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         self.graph = scenario_graph(scenario)
         self.rules = EpisodeRules(self.graph, self.r0)
         turn_state = preference_human(self.graph).turn_state
-        if self.backend == "mujoco":
-            from hri_envs.physics.episode import PhysicsEpisode
-
-            self._episode: Episode = PhysicsEpisode(
-                self.rules, turn_state, **physics)
-        else:
-            self._episode = Episode(self.rules, turn_state)
+        self._episode: Episode = episode_backend(self.backend)(self.rules, turn_state,
+                                                               **physics)
+        self._sample_layout = scenario_spec(scenario).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self._observation_spaces = {"human": human_observation_space(n_s, n_k, n_a),
                                     "robot": robot_observation_space(n_s, n_k, n_a)}
@@ -195,10 +192,9 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
             self._np_random, self._np_random_seed = seeding.np_random(seed)
         rng = self.np_random
         self._episode.draw(rng, opts.start, opts.intention, opts.turn_back)
-        if self.scenario_name == "wheel":
-            self.layout = opts.layout if opts.layout is not None else sample_wheel_layout(rng)
-        if self.backend == "mujoco":
-            self._episode.place(episode_scenario(self.scenario_name, self.layout), rng)  # type: ignore[attr-defined]
+        if self._sample_layout is not None:
+            self.layout = opts.layout if opts.layout is not None else self._sample_layout(rng)
+        self._episode.place(self.layout, rng)
         self.agents = list(AGENTS)
         self._reward = 0.0
         info = {"aborted": False, "invalid_action": False, "robot_reward": 0.0}
@@ -229,11 +225,8 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         ep = self._episode
         t = ep.advance(a_r, a_h)
         self._reward = r = t.reward
-        truncated = not t.terminated and ep.steps >= self.max_cycles
-        extra: dict[str, Any] = {}
-        if self.backend == "mujoco":
-            extra = ep.step_info()  # type: ignore[attr-defined]
-            truncated = truncated or (not t.terminated and "truncation_reason" in extra)
+        truncated = not t.terminated and (ep.steps >= self.max_cycles or ep.fault is not None)
+        extra = ep.step_info()
         obs = self._observations()
         if t.terminated or truncated:
             self.agents = []
@@ -253,8 +246,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     def _observations(self) -> dict[str, dict[str, Any]]:
         ep = self._episode
         mask = self.rules.action_mask[ep.state]
-        seen = ep.observed_human if self.backend == "mujoco" else ep.last_human  # type: ignore[attr-defined]
-        robot = {"state": ep.state, "start": ep.start, "last_human_action": seen,
+        robot = {"state": ep.state, "start": ep.start, "last_human_action": ep.observed_human,
                  "action_mask": mask.copy()}
         human = {"state": ep.state, "start": ep.start, "last_human_action": ep.last_human,
                  "action_mask": mask.copy(), "intention": ep.intention}
@@ -277,13 +269,9 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
                 steps=ep.steps, max_cycles=self.max_cycles,
             )
         if self.render_mode == "rgb_array":
-            if self.backend == "mujoco":
-                return ep.render()  # type: ignore[attr-defined,no-any-return]
-            scenario = episode_scenario(self.scenario_name, self.layout)
-            return render_rgb(scenario, self.graph, ep.state)
+            return ep.render(self.layout)
         return None
 
     def close(self) -> None:
-        """Release the physics backend's renderer and write a pending video."""
-        if self.backend == "mujoco":
-            self._episode.close()  # type: ignore[attr-defined]
+        """Release what the backend holds (the physics' renderer, a pending video)."""
+        self._episode.close()

@@ -8,19 +8,20 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from hri_envs.envs.backends import episode_backend
 from hri_envs.envs.config import (
     check_env_settings,
     check_physics_options,
-    episode_scenario,
     make_human,
     parse_reset_options,
     scenario_graph,
 )
-from hri_envs.envs.episode import Episode, EpisodeRules
-from hri_envs.envs.render import render_ansi, render_rgb
+from hri_envs.envs.episode import Episode
+from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, robot_observation_space
-from hri_envs.task.geometry import sample_wheel_layout
+from hri_envs.task.episode import EpisodeRules
 from hri_envs.task.humans import ScriptedHuman
+from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["RobotEnv"]
 
@@ -134,13 +135,9 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         self.graph = scenario_graph(scenario)
         self.human = make_human(self.graph, preference, human_passive, turn_back, human)
         self.rules = EpisodeRules(self.graph, self.r0)
-        if self.backend == "mujoco":
-            from hri_envs.physics.episode import PhysicsEpisode
-
-            self._episode: Episode = PhysicsEpisode(
-                self.rules, self.human.turn_state, **physics)
-        else:
-            self._episode = Episode(self.rules, self.human.turn_state)
+        self._episode: Episode = episode_backend(self.backend)(self.rules,
+                                                               self.human.turn_state, **physics)
+        self._sample_layout = scenario_spec(scenario).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self.observation_space = robot_observation_space(n_s, n_k, n_a)
         self.action_space = spaces.Discrete(n_a)
@@ -168,10 +165,9 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         self._human_rng = np.random.default_rng(int(rng.integers(2**63)))
         self._episode.draw(rng, opts.start, opts.intention, opts.turn_back,
                            self.human.turn_back)
-        if self.scenario_name == "wheel":
-            self.layout = opts.layout if opts.layout is not None else sample_wheel_layout(rng)
-        if self.backend == "mujoco":
-            self._episode.place(episode_scenario(self.scenario_name, self.layout), rng)  # type: ignore[attr-defined]
+        if self._sample_layout is not None:
+            self.layout = opts.layout if opts.layout is not None else self._sample_layout(rng)
+        self._episode.place(self.layout, rng)
         self._reward = 0.0
         self._done = False
         return self._observation(), {"aborted": False, "invalid_action": False}
@@ -186,18 +182,15 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
                                  np.array([ep.intention]))[0])
         t = ep.advance(a_r, a_h)
         self._reward = t.reward
-        truncated = not t.terminated and ep.steps >= self.max_cycles
-        info: dict[str, Any] = {"aborted": t.aborted, "invalid_action": t.robot_invalid}
-        if self.backend == "mujoco":
-            info.update(ep.step_info())  # type: ignore[attr-defined]
-            truncated = truncated or (not t.terminated and "truncation_reason" in info)
+        truncated = not t.terminated and (ep.steps >= self.max_cycles or ep.fault is not None)
+        info: dict[str, Any] = {"aborted": t.aborted, "invalid_action": t.robot_invalid,
+                                **ep.step_info()}
         self._done = t.terminated or truncated
         return self._observation(), t.reward, t.terminated, truncated, info
 
     def _observation(self) -> dict[str, Any]:
         ep = self._episode
-        seen = ep.observed_human if self.backend == "mujoco" else ep.last_human  # type: ignore[attr-defined]
-        return {"state": ep.state, "start": ep.start, "last_human_action": seen,
+        return {"state": ep.state, "start": ep.start, "last_human_action": ep.observed_human,
                 "action_mask": self.rules.action_mask[ep.state].copy()}
 
     def render(self) -> str | np.ndarray | None:  # type: ignore[override]
@@ -212,13 +205,9 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
                 steps=ep.steps, max_cycles=self.max_cycles,
             )
         if self.render_mode == "rgb_array":
-            if self.backend == "mujoco":
-                return ep.render()  # type: ignore[attr-defined,no-any-return]
-            return render_rgb(episode_scenario(self.scenario_name, self.layout), self.graph,
-                              ep.state)
+            return ep.render(self.layout)
         return None
 
     def close(self) -> None:
-        """Release the physics backend's renderer and write a pending video."""
-        if self.backend == "mujoco":
-            self._episode.close()  # type: ignore[attr-defined]
+        """Release what the backend holds (the physics' renderer, a pending video)."""
+        self._episode.close()

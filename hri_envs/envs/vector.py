@@ -9,6 +9,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from hri_envs.envs.backends import backend_spec
 from hri_envs.envs.config import (
     RESET_OPTION_KEYS,
     check_env_settings,
@@ -16,10 +17,14 @@ from hri_envs.envs.config import (
     scenario_graph,
     support_index,
 )
-from hri_envs.envs.episode import EpisodeRules, draw_start_intention
-from hri_envs.envs.errors import ActionError, ConfigError
 from hri_envs.envs.spaces import robot_observation_space
-from hri_envs.task.graph import WAIT
+from hri_envs.errors import ActionError, ConfigError
+from hri_envs.task.episode import (
+    EpisodeBatch,
+    EpisodeRules,
+    draw_other_support,
+    draw_start_intention,
+)
 from hri_envs.task.humans import ScriptedHuman
 
 __all__ = ["RobotVectorEnv"]
@@ -34,8 +39,11 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
 
     The robot-vs-scripted-human task of :class:`~hri_envs.envs.robot.RobotEnv`, for N
     episodes at once. Every step is a handful of array look-ups into the same
-    :class:`~hri_envs.envs.episode.EpisodeRules` tables the single env uses, with no
-    Python loop over episodes. Made by
+    :class:`~hri_envs.task.episode.EpisodeRules` tables the single env uses, and the
+    episodes' bookkeeping is the benchmark's :class:`~hri_envs.task.episode.EpisodeBatch`,
+    with no Python loop over episodes. It runs on the graph only: a backend that simulates
+    (``backend="mujoco"``) is refused; vectorise the Panda envs with Gymnasium's
+    ``vectorization_mode="async"`` instead. Made by
     ``gymnasium.make_vec("hri_envs/Hanger-v0", num_envs=N,
     vectorization_mode="vector_entry_point")``.
 
@@ -126,6 +134,11 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
                                             self.metadata["render_modes"], backend)
 
+        if not backend_spec(self.backend).vectorizable:
+            raise ConfigError(
+                f"the numpy vector env runs on the graph only, not backend={self.backend!r}; "
+                "use gymnasium.make_vec(..., vectorization_mode='async') for a simulated backend"
+            )
         self.graph = scenario_graph(scenario)
         self.human = make_human(self.graph, preference, human_passive, turn_back, human)
         self.rules = EpisodeRules(self.graph, self.r0)
@@ -134,16 +147,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self.single_action_space = spaces.Discrete(n_a)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._turn_state = self.human.turn_state.astype(np.int64).reshape(-1)  # (K K,)
-
         n = self.num_envs
-        self._state = np.zeros(n, dtype=np.int64)
-        self._start = np.zeros(n, dtype=np.int64)
-        self._intention = np.ones(n, dtype=np.int64) % n_k
-        self._turn = np.zeros(n, dtype=bool)
-        self._lifted = np.zeros(n, dtype=bool)
-        self._steps = np.zeros(n, dtype=np.int64)
-        self._last_human = np.zeros(n, dtype=np.int64)
+        self._eps = EpisodeBatch(self.rules, self.human.turn_state, n)
         self._done = np.zeros(n, dtype=bool)
         self._all = np.ones(n, dtype=bool)
         self._human_rng = np.random.default_rng(0)
@@ -152,19 +157,20 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     # ----------------------------------------------------------------- helpers
     def action_masks(self) -> np.ndarray:
         """(N, A) bool, each env's valid actions in its current state."""
-        return self.graph.valid[self._state]
+        return self.graph.valid[self._eps.state]
 
     @property
     def intention(self) -> np.ndarray:
         """(N,) int, the humans' current goals ι (hidden from the observations)."""
-        return self._intention.copy()
+        return self._eps.intention.copy()
 
     def _observations(self) -> dict[str, np.ndarray]:
+        eps = self._eps
         return {
-            "state": self._state.copy(),
-            "start": self._start.copy(),
-            "last_human_action": self._last_human.copy(),
-            "action_mask": self.rules.action_mask[self._state],
+            "state": eps.state.copy(),
+            "start": eps.start.copy(),
+            "last_human_action": eps.last_human.copy(),
+            "action_mask": self.rules.action_mask[eps.state],
         }
 
     def _supports(self, value: Any, key: str) -> np.ndarray:
@@ -177,17 +183,6 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             )
         idx = np.array([support_index(v, scenario, key) for v in items], dtype=np.int64)
         return np.broadcast_to(idx, (self.num_envs,)).copy()
-
-    def _begin(self, which: np.ndarray, start: np.ndarray, intention: np.ndarray,
-               turn: np.ndarray) -> None:
-        """Start new episodes in the envs ``which`` (bool (N,) or index array)."""
-        self._start[which] = start
-        self._intention[which] = intention
-        self._turn[which] = turn
-        self._state[which] = 4 * start  # graph.support_state(start, μ = 0)
-        self._lifted[which] = False
-        self._steps[which] = 0
-        self._last_human[which] = WAIT
 
     def _draw_turn(self, n: int) -> np.ndarray:
         return self.human.draw_turn_back(self.np_random, n)
@@ -217,9 +212,9 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             if intention is None:
                 start, intention = draw_start_intention(rng, n_k, n)
             else:
-                start = (intention + 1 + rng.integers(n_k - 1, size=n)) % n_k
+                start = draw_other_support(rng, n_k, intention, size=n)
         elif intention is None:
-            intention = (start + 1 + rng.integers(n_k - 1, size=n)) % n_k
+            intention = draw_other_support(rng, n_k, start, size=n)
         if np.any(start == intention):
             raise ConfigError("the intention must differ from the start support in every env")
         if "turn_back" in options:
@@ -228,7 +223,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 raise ConfigError("reset option 'turn_back' must be a bool or (N,) bools")
         else:
             turn = self._draw_turn(n)
-        self._begin(self._all, start, intention, turn)
+        self._eps.begin(self._all, start, intention, turn)
         self._done[:] = False
         self._needs_reset = False
         return self._observations(), {}
@@ -240,26 +235,16 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         if self._needs_reset:
             raise RuntimeError("call reset() before step()")
         a_r = self._check_actions(actions)
-        r = self.rules
-        n_a, n_k = r.n_actions, r.n_supports
-        s = self._state
-        a_h = self.human.act(self._human_rng, s, self._start, self._intention)
-        s_a = s * n_a
-        i = (s_a + a_r) * n_a + a_h
-        s_next = np.take(r.next_state, i)
-        reward = np.take(r.reward, i)
-        aborted = np.take(r.aborted, i)
-        invalid = ~np.take(r.valid, s_a + a_r)
-        lifted = self._lifted | np.take(r.lifts, s_next)
-        terminated = np.take(r.ends, (s_next * n_k + self._start) * 2 + lifted)
-        self._steps += 1
-        truncated = (self._steps >= self.max_cycles) & ~terminated
-        self._state, self._lifted, self._last_human = s_next, lifted, a_h
-        if self._turn.any():
-            ctx = self._start * n_k + self._intention
-            back = self._turn & (s_next == np.take(self._turn_state, ctx))
-            self._intention = np.where(back, self._start, self._intention)
-            self._turn &= ~back
+        r, eps = self.rules, self._eps
+        s = eps.state
+        a_h = self.human.act(self._human_rng, s, eps.start, eps.intention)
+        joint = r.index(s, a_r, a_h)
+        s_next = np.take(r.next_state, joint)
+        reward = np.take(r.reward, joint)
+        aborted = np.take(r.aborted, joint)
+        invalid = ~np.take(r.valid, s * r.n_actions + a_r)
+        terminated = eps.commit(s_next, a_h)
+        truncated = (eps.steps >= self.max_cycles) & ~terminated
 
         infos: dict[str, Any] = {"aborted": aborted, "_aborted": self._all,
                                  "invalid_action": invalid, "_invalid_action": self._all}
@@ -290,7 +275,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         """New random episodes in the envs ``which`` (autoreset)."""
         start, intention = draw_start_intention(self.np_random, self.graph.n_intentions,
                                                 which.size)
-        self._begin(which, start, intention, self._draw_turn(which.size))
+        self._eps.begin(which, start, intention, self._draw_turn(which.size))
 
     def _check_actions(self, actions: Any) -> np.ndarray:
         a = np.asarray(actions)

@@ -11,10 +11,10 @@ module             contents
 ``controller``     Cartesian impedance + null space + DAVI (disagreement-aware)
 ``human``          the simulated human's saturating spring-damper on the handle
 ``seats``          supports as unilateral seats (hook, peg, plate)
-``observer``       closest abstract state, human-action inference, step reward
+``observer``       closest abstract state, human-action inference
 ``sim``            :class:`PandaSim`: one abstract step of both agents
 ``episode``        the backend inside the envs (``backend="mujoco"``)
-``runner``         :func:`simulate_physics` for ``hri-bench study --backend mujoco``
+``batch``          :class:`PhysicsBatch`, the backend of ``hri-bench study --backend mujoco``
 ``speed``          real-time factor and wall time per abstract step
 ``rendering``      headless ``rgb_array`` (EGL, OSMesa fallback) and videos
 =================  ==============================================================

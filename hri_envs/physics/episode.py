@@ -1,32 +1,52 @@
 """The physics backend inside the environments: an :class:`Episode` whose transitions are
 simulated on the Panda instead of looked up in the graph.
 
-Start, intention, turning back, termination and the step counter follow the shared episode
-rules (:mod:`hri_envs.envs.episode`). The transition is :meth:`PandaSim.step`; the robot's
-reward uses the observed next state (:func:`physical_reward`) and the simulated human's
-true action; the robot observes the *inferred* human action. A simulation fault (unstable
-physics, IK failure, time-out) is reported in ``fault``; the envs then truncate the episode.
+Start, intention, turning back, termination, the reward and the step counter are the
+shared episode rules (:mod:`hri_envs.task.episode`, applied by
+:class:`~hri_envs.envs.episode.Episode`); this class only overrides the backend hooks. The
+transition is :meth:`PandaSim.step`; the reward is judged on the observed next state and
+the simulated human's true action; the robot observes the *inferred* human action. A
+simulation fault (unstable physics, IK failure, time-out) is reported in :attr:`fault`; the
+envs then truncate the episode.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 
-from hri_envs.envs.episode import Episode, EpisodeRules, Transition
+from hri_envs.envs.episode import Episode
 from hri_envs.physics.ik import IKFailure
-from hri_envs.physics.observer import physical_reward
 from hri_envs.physics.rendering import SceneRenderer, write_video
 from hri_envs.physics.sim import PandaSim, StepResult
-from hri_envs.task.geometry import Scenario
-from hri_envs.task.graph import WAIT
+from hri_envs.task.actions import WAIT
+from hri_envs.task.episode import EpisodeRules
+from hri_envs.task.scenarios import episode_scenario
 
-__all__ = ["PhysicsEpisode"]
+__all__ = ["EpisodeTotals", "PhysicsEpisode"]
+
+
+@dataclass
+class EpisodeTotals:
+    """Physical figures summed over the steps of an episode."""
+
+    linear_impulse: float = 0.0  # [N s] ∫ |F_human| dt
+    angular_impulse: float = 0.0  # [N m s] ∫ |τ_human| dt
+    duration_s: float = 0.0  # simulated seconds
+    agreeing_steps: int = 0  # steps whose observed next state is the graph's prediction
+
+    def add(self, res: StepResult) -> None:
+        """Add one step's figures."""
+        self.linear_impulse += res.linear_impulse
+        self.angular_impulse += res.angular_impulse
+        self.duration_s += res.duration
+        self.agreeing_steps += int(res.graph_agrees)
 
 
 class PhysicsEpisode(Episode):
-    """One running episode on the simulated Panda.
+    """One running episode on the simulated Panda (the ``"mujoco"`` backend).
 
     Args:
         rules: The scenario's episode rules.
@@ -38,79 +58,85 @@ class PhysicsEpisode(Episode):
 
     Attributes:
         sim: The simulation.
-        observed_human: The human's last action as the robot inferred it.
         result: The last step's :class:`StepResult` (None after a reset).
-        fault: Why the simulation cannot go on, or None.
+        totals: The episode's :class:`EpisodeTotals`.
     """
+
+    name: ClassVar[str] = "mujoco"
 
     def __init__(self, rules: EpisodeRules, turn_state: np.ndarray | None,
                  video_path: str | None = None, video_fps: float = 10.0) -> None:
         self.sim = PandaSim(rules.graph)
-        self.observed_human = WAIT
+        self._observed_human = WAIT
         self.result: StepResult | None = None
-        self.fault: str | None = None
-        self.totals = np.zeros(4)  # linear impulse, angular impulse, duration, agreeing steps
+        self._fault: str | None = None
+        self.totals = EpisodeTotals()
         self.video_path, self.video_fps = video_path, video_fps
         self.frames: list[np.ndarray] = []
         self.episode_count = 0
         self._renderer: SceneRenderer | None = None
         super().__init__(rules, turn_state)
 
-    def place(self, scenario: Scenario, rng: np.random.Generator) -> None:
+    @property
+    def observed_human(self) -> int:
+        """The human's last action as the robot inferred it from the motion."""
+        return self._observed_human
+
+    @property
+    def fault(self) -> str | None:
+        """Why the simulation cannot go on, or None."""
+        return self._fault
+
+    def place(self, layout: tuple[tuple[float, float], ...] | None,
+              rng: np.random.Generator) -> None:
         """Set the physics to the episode's start (after :meth:`draw`)."""
         self.flush_video()
-        self.observed_human = WAIT
-        self.result, self.fault = None, None
-        self.totals[:] = 0.0
+        self._observed_human = WAIT
+        self.result, self._fault = None, None
+        self.totals = EpisodeTotals()
+        scenario = episode_scenario(self.rules.graph.name, layout)
         try:
             self.sim.reset(self.start, scenario, np.random.default_rng(int(rng.integers(2**63))))
         except IKFailure as exc:
-            self.fault = f"ik_failure: {exc}"
+            self._fault = f"ik_failure: {exc}"
         self.episode_count += 1
         if self.video_path is not None:
             self.sim.frame_every = max(1, round(1.0 / (self.video_fps * self.sim.dt)))
-            self.sim.on_frame = lambda: self.frames.append(self.render())
-            self.frames.append(self.render())
+            self.sim.on_frame = lambda: self.frames.append(self.render(layout))
+            self.frames.append(self.render(layout))
 
-    def advance(self, a_r: int, a_h: int) -> Transition:
-        """Simulate the joint action from the current state."""
-        r, g = self.rules, self.rules.graph
-        s = self.state
-        if self.fault is None:
-            res = self.sim.step(s, a_r, a_h)
-            self.result = res
-            self.fault = res.fault
-            s_next = res.state
-            self.observed_human = res.human_action
-            self.totals += (res.linear_impulse, res.angular_impulse, res.duration,
-                            res.graph_agrees)
-        else:  # nothing can move any more; the env truncates
-            s_next = s
-            self.observed_human = WAIT
-        reward = physical_reward(g, s, a_r, a_h, s_next, r.r0)
-        return Transition(reward, bool(g.aborted[s, a_r, a_h]), *self._commit(s_next, a_r, a_h))
+    def transition(self, a_r: int, a_h: int) -> int:
+        """Simulate the joint action from the current state; the observed next state."""
+        if self._fault is not None:  # nothing can move any more; the env truncates
+            self._observed_human = WAIT
+            return self.state
+        res = self.sim.step(self.state, a_r, a_h)
+        self.result, self._fault = res, res.fault
+        self._observed_human = res.human_action
+        self.totals.add(res)
+        return res.state
 
     def step_info(self) -> dict[str, Any]:
         """Per-step physics figures for ``info`` (paper Fig. 6 impulses, agreement, ...)."""
-        res = self.result
+        res, tot = self.result, self.totals
         info: dict[str, Any] = {
             "linear_impulse": 0.0 if res is None else res.linear_impulse,
             "angular_impulse": 0.0 if res is None else res.angular_impulse,
             "duration_s": 0.0 if res is None else res.duration,
             "graph_agrees": True if res is None else res.graph_agrees,
             "settled": True if res is None else res.settled,
-            "human_action_inferred": self.observed_human,
-            "episode_linear_impulse": float(self.totals[0]),
-            "episode_angular_impulse": float(self.totals[1]),
-            "episode_duration_s": float(self.totals[2]),
-            "episode_graph_agrees": float(self.totals[3]) / max(self.steps, 1),
+            "human_action_inferred": self._observed_human,
+            "episode_linear_impulse": float(tot.linear_impulse),
+            "episode_angular_impulse": float(tot.angular_impulse),
+            "episode_duration_s": float(tot.duration_s),
+            "episode_graph_agrees": float(tot.agreeing_steps) / max(self.steps, 1),
         }
-        if self.fault is not None:
-            info["truncation_reason"] = self.fault
+        if self._fault is not None:
+            info["truncation_reason"] = self._fault
         return info
 
-    def render(self) -> np.ndarray:
-        """An RGB picture of the simulation."""
+    def render(self, layout: tuple[tuple[float, float], ...] | None = None) -> np.ndarray:
+        """An RGB picture of the simulation (the supports are where the physics has them)."""
         if self._renderer is None:
             self._renderer = SceneRenderer(self.sim.model, self.sim.seats.pos)
         self._renderer.aim(self.sim.seats.pos)

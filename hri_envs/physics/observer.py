@@ -17,7 +17,7 @@ from hri_envs.physics.kinematics import rotation_error
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import HUMAN_BIT, TOGGLE, WAIT, TaskGraph
 
-__all__ = ["Observation", "StateObserver", "infer_human_action", "physical_reward"]
+__all__ = ["Observation", "StateObserver", "infer_human_action"]
 
 
 class Observation(NamedTuple):
@@ -83,6 +83,9 @@ def infer_human_action(graph: TaskGraph, s: int, a_r: int, s_next: int,
       ``human_work`` [J]), else wait (the human followed);
     * it moved elsewhere: the motion that leads there (the human overrode the robot);
       wait if no single action explains the move.
+
+    ``work_threshold`` [J] is the least work that counts as the human joining the robot's
+    motion (the simulator passes :attr:`PhysicsDesign.human_work_min_j`).
     """
     if (graph.grasp[s] ^ graph.grasp[s_next]) & HUMAN_BIT:
         return TOGGLE
@@ -97,21 +100,3 @@ def infer_human_action(graph: TaskGraph, s: int, a_r: int, s_next: int,
     hits = np.flatnonzero(graph.next_state[s1, WAIT, :] == s_next)
     hits = hits[hits > TOGGLE]
     return int(hits[0]) if len(hits) else WAIT
-
-
-def physical_reward(graph: TaskGraph, s: int, a_r: int, a_h: int, s_next: int,
-                    r0: float) -> float:
-    """The robot cooperation reward R_R(s, a_R, a_H, s') with the observed next state.
-
-    Same rules as :meth:`TaskGraph.reward` (SPEC §2), but "nothing changed" is judged on the
-    observed ``s_next`` rather than the graph's prediction.
-    """
-    if graph.aborted[s, a_r, a_h]:
-        return -1.0
-    if a_r > TOGGLE and a_h > TOGGLE and a_r != a_h:
-        return -1.0
-    if a_h == WAIT and s_next == s:
-        return -1.0
-    if a_r == WAIT and a_h != WAIT:
-        return r0
-    return 0.0

@@ -1,4 +1,6 @@
-"""Human preference features φ(s, ι) (paper Sect. 4.5, SPEC §2).
+"""Human preference features φ(s, ι) (paper Sect. 4.5).
+
+The contract is in docs/task-model.md, 'Preference features'.
 
 Each feature is a product of Gaussian RBFs of distance (σ = 2 cm) and of angle (σ = 10°),
 sometimes with a grasp indicator, measured relative to the intended goal ι, to the nearest

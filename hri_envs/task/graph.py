@@ -13,9 +13,9 @@ Actions (paper Table 1) share one global numbering for both agents::
     5 .. 5+K-1     move over to column k
     5+K .. 5+K+H-1 move (up or down) to height h
 
-The joint transition is deterministic (SPEC §2): grasp toggles first, then the step is
-*aborted* if either action is invalid in the resulting state, else the object moves by the
-human's motion or, when the human makes none, by the robot's.
+The joint transition is deterministic (docs/task-model.md, "Transition"): grasp toggles
+first, then the step is *aborted* if either action is invalid in the resulting state, else
+the object moves by the human's motion or, when the human makes none, by the robot's.
 
 Every array is built once per scenario; the envs, the scripted humans and the learners all
 read the same :class:`TaskGraph`.
@@ -25,15 +25,33 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
+from hri_envs.task.actions import (
+    BOTH,
+    GRASP_NAMES,
+    HUMAN_BIT,
+    N_FIXED_ACTIONS,
+    PUT_ON,
+    ROBOT_BIT,
+    ROTATE,
+    TAKE_OFF,
+    TOGGLE,
+    WAIT,
+)
+from hri_envs.task.episode import robot_correct, step_penalty, step_reward
 from hri_envs.task.features import state_features
 from hri_envs.task.geometry import Scenario
 
 __all__ = [
+    "BOTH",
     "GRASP_NAMES",
+    "HUMAN_BIT",
+    "N_FIXED_ACTIONS",
     "PUT_ON",
+    "ROBOT_BIT",
     "ROTATE",
     "TAKE_OFF",
     "TOGGLE",
@@ -42,10 +60,6 @@ __all__ = [
     "build_graph",
 ]
 
-WAIT, TOGGLE, TAKE_OFF, PUT_ON, ROTATE = 0, 1, 2, 3, 4
-N_FIXED_ACTIONS = 5
-GRASP_NAMES = ("held by nobody", "held by the human", "held by the robot", "held by both")
-HUMAN_BIT, ROBOT_BIT, BOTH = 1, 2, 3
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,16 +80,14 @@ class TaskGraph:
         valid: (S, A) bool, the actions either agent may take in a state.
         next_state: (S, A, A) int, ``next_state[s, a_R, a_H]``.
         aborted: (S, A, A) bool, the joint action was aborted (no motion).
-        penalty: (S, A, A) bool, steps punished with r⁻ = -1 (aborted, counteracted, or the
-            human waited and nothing changed).
-        robot_passive: (S, A, A) bool, the robot waited while the human acted (rewarded r0).
-        robot_effective: (S, A, A) bool, the robot acted and got the effect it acted towards
-            (not aborted, not overridden by a different human motion): a *correct* decision
-            in the paper's Sect. 6.3 sense; acting otherwise is *wrong*.
         terminal: (K,) int, the state "resting on support k, μ = 0".
         mounting_state: (K,) int, the waypoint from which support k is mounted.
         features: (K, S, F) float, φ(s, ι) for each intention ι.
         state_names, action_names: readable labels.
+
+    The rules of an episode on these transitions (:attr:`penalty`, :attr:`robot_passive`,
+    :attr:`robot_effective`, :meth:`reward`) are evaluated from :mod:`hri_envs.task.episode`,
+    where they are written once.
     """
 
     scenario: Scenario
@@ -89,9 +101,6 @@ class TaskGraph:
     valid: np.ndarray
     next_state: np.ndarray
     aborted: np.ndarray
-    penalty: np.ndarray
-    robot_passive: np.ndarray
-    robot_effective: np.ndarray
     terminal: np.ndarray
     mounting_state: np.ndarray
     features: np.ndarray
@@ -130,8 +139,10 @@ class TaskGraph:
         return self.scenario.name
 
     # ------------------------------------------------------------------ helpers
-    def support_state(self, k: int, grasp: int = 0) -> int:
-        """Index of the state "resting on support ``k`` with grasp code ``grasp``"."""
+    def support_state(self, k: Any, grasp: Any = 0) -> Any:
+        """Index of the state "resting on support ``k`` with grasp code ``grasp``" (ints, or
+        int arrays that broadcast).
+        """
         return 4 * k + grasp
 
     def move_over(self, k: int) -> int:
@@ -148,10 +159,40 @@ class TaskGraph:
         return 4 * self.n_intentions + (column * n_h + height) * n_o + orientation
 
     def reward(self, r0: float) -> np.ndarray:
-        """Robot cooperation reward R_R(s, a_R, a_H) in {-1, r0, 0}, shape (S, A, A)."""
-        out = np.where(self.robot_passive, r0, 0.0)
-        out[self.penalty] = -1.0
-        return out
+        """Robot cooperation reward R_R(s, a_R, a_H) in {-1, r0, 0}, shape (S, A, A).
+
+        :func:`~hri_envs.task.episode.step_reward` of the graph's own transitions.
+        """
+        s, a_r, a_h = self._joint
+        return step_reward(self, s, a_r, a_h, self.next_state, r0)
+
+    @cached_property
+    def _joint(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(s, a_R, a_H) index grids that broadcast to (S, A, A)."""
+        n_s, n_a = self.n_states, self.n_actions
+        return (np.arange(n_s)[:, None, None], np.arange(n_a)[None, :, None],
+                np.arange(n_a)[None, None, :])
+
+    @cached_property
+    def penalty(self) -> np.ndarray:
+        """(S, A, A) bool, steps punished with r⁻ = -1 (see ``episode.step_penalty``)."""
+        s, a_r, a_h = self._joint
+        return _frozen(step_penalty(self, s, a_r, a_h, self.next_state))
+
+    @cached_property
+    def robot_passive(self) -> np.ndarray:
+        """(S, A, A) bool, the robot waited while the human acted (rewarded r0)."""
+        _, a_r, a_h = self._joint
+        return _frozen(~self.penalty & (a_r == WAIT) & (a_h != WAIT))
+
+    @cached_property
+    def robot_effective(self) -> np.ndarray:
+        """(S, A, A) bool, a *correct* decision (paper Sect. 6.3) on the graph's transitions.
+
+        See :func:`~hri_envs.task.episode.robot_correct`; acting otherwise is *wrong*.
+        """
+        s, a_r, a_h = self._joint
+        return _frozen(robot_correct(self, s, a_r, a_h, self.next_state))
 
     def action_label(self, state: int, action: int) -> str:
         """Readable name of ``action`` as taken in ``state`` ("grasp" vs "let go", up vs down)."""
@@ -180,31 +221,6 @@ class TaskGraph:
         """(S,) number of valid actions per state."""
         return self.valid.sum(axis=1)
 
-    def left_start(self, state: np.ndarray | int, start: np.ndarray | int) -> np.ndarray:
-        """Whether the object is away from its start support (arrays broadcast).
-
-        Accumulated over an episode this is the *lifted* flag: once lifted, resting on the
-        start again counts as arriving (the human turned back).
-        """
-        return self.support[state] != start  # type: ignore[no-any-return]
-
-    def episode_over(
-        self, state: np.ndarray | int, start: np.ndarray | int, lifted: np.ndarray | bool
-    ) -> np.ndarray:
-        """The episode's end (SPEC §2): resting with μ = 0 on a support other than the start,
-        or on the start after the object was lifted. Arrays broadcast.
-        """
-        sup = self.support[state]
-        resting = (sup >= 0) & (self.grasp[state] == 0)
-        return resting & ((sup != start) | lifted)  # type: ignore[no-any-return]
-
-    def arrived(
-        self, state: np.ndarray | int, start: np.ndarray | int, lifted: np.ndarray | bool
-    ) -> np.ndarray:
-        """Resting on a support that can end the episode (any grasp): a goal candidate."""
-        sup = self.support[state]
-        return (sup >= 0) & ((sup != start) | lifted)  # type: ignore[no-any-return]
-
     def step(self, s: int, a_r: int, a_h: int) -> tuple[int, bool]:
         """The joint transition for one step: ``(next state, aborted)``."""
         return int(self.next_state[s, a_r, a_h]), bool(self.aborted[s, a_r, a_h])
@@ -213,6 +229,12 @@ class TaskGraph:
 def _freeze(*arrays: np.ndarray) -> None:
     for a in arrays:
         a.setflags(write=False)
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    out = np.ascontiguousarray(a)
+    out.setflags(write=False)
+    return out
 
 
 def build_graph(scenario: Scenario) -> TaskGraph:
@@ -302,11 +324,6 @@ def build_graph(scenario: Scenario) -> TaskGraph:
     moved = motion_target[s1, np.maximum(mover, 0)]
     next_state = np.where(aborted | (mover < 0), s1, moved)
 
-    same = next_state == s_idx
-    counteracted = is_motion_r & is_motion_h & (a_r != a_h)
-    penalty = aborted | ((a_h == WAIT) & same) | (counteracted & ~aborted)
-    robot_passive = ~penalty & (a_r == WAIT) & (a_h != WAIT)
-    robot_effective = (a_r != WAIT) & ~aborted & ~counteracted
 
     action_names = ["wait", "grasp/let go", "take off", "put on", "rotate"]
     action_names += [f"move over to {s.name}" for s in sc.supports]
@@ -317,12 +334,9 @@ def build_graph(scenario: Scenario) -> TaskGraph:
 
     next_state = np.ascontiguousarray(next_state)
     aborted = np.ascontiguousarray(aborted)
-    penalty = np.ascontiguousarray(penalty)
-    robot_passive = np.ascontiguousarray(robot_passive)
-    robot_effective = np.ascontiguousarray(robot_effective)
     quaternion = np.ascontiguousarray(quaternion)
     arrays = (grasp, support, column, height, orientation, position, quaternion, valid,
-              next_state, aborted, penalty, robot_passive, robot_effective, terminal,
+              next_state, aborted, terminal,
               mounting_state, features)
     _freeze(*arrays)
     return TaskGraph(sc, *arrays, state_names=tuple(names), action_names=tuple(action_names))

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hri_envs.errors import ConfigError
 from hri_envs.task import mdp
 from hri_envs.task.graph import (
     BOTH,
@@ -35,6 +36,12 @@ from hri_envs.task.graph import (
     TOGGLE,
     WAIT,
     TaskGraph,
+)
+from hri_envs.task.scenarios import (
+    HANGER_DEFAULT_PREFERENCE,
+    HANGER_PREFERENCES,
+    WHEEL_PREFERENCES,
+    scenario_spec,
 )
 
 __all__ = [
@@ -51,27 +58,11 @@ __all__ = [
 # ("rotate", orientation index).
 Op = tuple[str, int]
 
-_PEG_STEPS = ("down", "over", "rotate")
-_RAIL_STEPS = ("over", "up", "rotate")
-#: The 36 hanger preferences, "to-peg order/to-rail order", e.g. "down-over-rotate/over-rotate-up".
-HANGER_PREFERENCES: tuple[str, ...] = tuple(
-    "-".join(p) + "/" + "-".join(r)
-    for p in itertools.permutations(_PEG_STEPS)
-    for r in itertools.permutations(_RAIL_STEPS)
-)
-#: The user study's most frequent preference (paper Sect. 6.3, Fig. 8).
-HANGER_DEFAULT_PREFERENCE = "down-over-rotate/over-rotate-up"
-#: The wheel's two preferences (paper Fig. 9).
-WHEEL_PREFERENCES: tuple[str, ...] = ("straight", "detour")
 
 
 def preferences_for(scenario: str) -> tuple[str, ...]:
     """The preference names a scenario accepts."""
-    if scenario == "hanger":
-        return HANGER_PREFERENCES
-    if scenario == "wheel":
-        return WHEEL_PREFERENCES
-    raise ValueError(f"unknown scenario {scenario!r}; expected 'hanger' or 'wheel'")
+    return scenario_spec(scenario).preferences
 
 
 def _ops(graph: TaskGraph, preference: str, start: int, goal: int) -> list[Op]:
@@ -145,18 +136,21 @@ class ScriptedHuman:
     def __post_init__(self) -> None:
         k, s, a = self.graph.n_intentions, self.graph.n_states, self.graph.n_actions
         if self.policy.shape != (k, k, s, a):
-            raise ValueError(f"policy must have shape {(k, k, s, a)}, got {self.policy.shape}")
+            raise ConfigError(f"policy must have shape {(k, k, s, a)}, got {self.policy.shape}",
+                              field="policy")
         for label, p in (("passive", self.passive), ("turn_back", self.turn_back)):
             if not 0.0 <= p <= 1.0:
-                raise ValueError(f"{label} must be a probability in [0, 1], got {p}")
+                raise ConfigError(f"{label} must be a probability in [0, 1], got {p}", field=label)
         if np.any(self.policy[..., ~self.graph.valid.astype(bool)] > 0):
-            raise ValueError("policy puts probability on actions that are invalid in the state")
+            raise ConfigError("policy puts probability on actions that are invalid in the state; "
+                              "only the graph's valid actions are allowed", field="policy")
         table = np.argmax(self.policy, axis=-1)
         object.__setattr__(self, "_greedy", table)
         object.__setattr__(self, "_deterministic", bool(np.all(self.policy.max(-1) == 1.0)))
         object.__setattr__(self, "_cumulative", np.cumsum(self.policy, axis=-1))
         if self.turn_state.shape != (k, k):
-            raise ValueError(f"turn_state must have shape {(k, k)}, got {self.turn_state.shape}")
+            raise ConfigError(f"turn_state must have shape {(k, k)}, got {self.turn_state.shape}",
+                              field="turn_state")
 
     @property
     def deterministic(self) -> bool:
@@ -244,10 +238,11 @@ def preference_human(
     """
     allowed = preferences_for(graph.name)
     if preference is None:
-        preference = HANGER_DEFAULT_PREFERENCE if graph.name == "hanger" else "straight"
+        preference = scenario_spec(graph.name).default_preference
     if preference not in allowed:
-        raise ValueError(
-            f"unknown {graph.name} preference {preference!r}; allowed: {', '.join(allowed)}"
+        raise ConfigError(
+            f"unknown {graph.name} preference {preference!r}; allowed: {', '.join(allowed)}",
+            field="preference",
         )
     n_k, n_s = graph.n_intentions, graph.n_states
     table = np.zeros((n_k, n_k, n_s), dtype=np.int64)
@@ -299,9 +294,10 @@ def boltzmann_human(
     """
     theta = np.asarray(theta, dtype=float)
     if theta.shape != (graph.n_features,):
-        raise ValueError(f"theta must have shape ({graph.n_features},), got {theta.shape}")
+        raise ConfigError(f"theta must have shape ({graph.n_features},), got {theta.shape}",
+                          field="theta")
     if temperature <= 0:
-        raise ValueError(f"temperature must be > 0, got {temperature}")
+        raise ConfigError(f"temperature must be > 0, got {temperature}", field="temperature")
     n_k = graph.n_intentions
     policy = np.zeros((n_k, n_k, graph.n_states, graph.n_actions))
     reward = graph.features @ theta  # (K, S)

@@ -19,6 +19,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from hri_envs.errors import ConfigError
+from hri_envs.task.episode import arrived
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
 
 __all__ = [
@@ -164,9 +166,9 @@ def solve_q(
         the callers).
     """
     if not 0.0 <= gamma < 1.0:
-        raise ValueError(f"gamma must be in [0, 1), got {gamma}")
+        raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
     if max_iter < 1:
-        raise ValueError(f"max_iter must be >= 1, got {max_iter}")
+        raise ConfigError(f"max_iter must be >= 1, got {max_iter}", field="max_iter")
     lead, (n_s, n_a) = transition.shape[:-3], transition.shape[-3:-1]
     flat_t = np.ascontiguousarray(transition).reshape(-1, n_s, n_a, n_s)  # (N, S, A, S)
     flat_r = np.ascontiguousarray(reward).reshape(-1, n_s, n_a)  # (N, S, A)
@@ -259,9 +261,9 @@ def passive_actions(graph: TaskGraph, start: np.ndarray, lifted: np.ndarray | No
     lifted_ = np.zeros(start.shape, bool) if lifted is None else np.asarray(lifted)[..., None]
     states = np.arange(graph.n_states)
     holds = (graph.grasp & 2) > 0
-    arrived = graph.arrived(states, start, lifted_)  # (..., S) where the robot lets go
+    can_end = arrived(graph, states, start, lifted_)  # (..., S) where the robot lets go
     grasp_here = (graph.support == start) & ~holds & ~lifted_
-    release_here = holds & arrived
+    release_here = holds & can_end
     return np.where(grasp_here | release_here, TOGGLE, WAIT)  # type: ignore[no-any-return]
 
 

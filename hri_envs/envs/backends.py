@@ -1,0 +1,175 @@
+"""Simulation backends by name: what the envs and the benchmark run an episode on.
+
+A backend has two faces, both looked up here by its name so that no caller compares names:
+
+* an :class:`~hri_envs.envs.episode.Episode` subclass, one running episode with scalar
+  state, for the single-episode envs;
+* a :class:`BatchBackend` subclass, which advances the runs of a study for the benchmark's
+  one simulation loop (:func:`hri_envs.bench.runner.simulate`).
+
+Both are named as ``"module:Class"`` entry points (Gymnasium's convention) and imported only
+when used, so an optional backend costs nothing until it is asked for, and a missing extra
+gives one line with the install command. :func:`register_backend` adds a backend of your own.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar, NamedTuple
+
+import numpy as np
+
+from hri_envs.envs.episode import Episode
+from hri_envs.errors import BackendUnavailableError, ConfigError
+from hri_envs.task.graph import TaskGraph
+
+__all__ = [
+    "BACKENDS",
+    "BackendSpec",
+    "BatchBackend",
+    "BatchStep",
+    "GraphBatch",
+    "backend_spec",
+    "batch_backend",
+    "check_backend",
+    "episode_backend",
+    "register_backend",
+]
+
+
+@dataclass(frozen=True)
+class BackendSpec:
+    """A registered backend.
+
+    Attributes:
+        name: What ``backend=`` says.
+        episode: ``"module:Class"`` of its :class:`~hri_envs.envs.episode.Episode`.
+        batch: ``"module:Class"`` of its :class:`BatchBackend`.
+        requires: Modules it needs (checked before it is loaded).
+        extra: The ``hri-envs`` extra that installs them.
+        vectorizable: The numpy vector env can run it (only table look-ups can).
+        options: Keys its Episode accepts as ``physics={...}`` options.
+    """
+
+    name: str
+    episode: str
+    batch: str
+    requires: tuple[str, ...] = ()
+    extra: str | None = None
+    vectorizable: bool = False
+    options: tuple[str, ...] = ()
+
+
+BACKENDS: dict[str, BackendSpec] = {}
+
+
+def register_backend(spec: BackendSpec) -> None:
+    """Make ``spec.name`` a valid ``backend=`` for the envs and ``hri-bench study``."""
+    BACKENDS[spec.name] = spec
+
+
+register_backend(BackendSpec("graph", "hri_envs.envs.episode:Episode",
+                             "hri_envs.envs.backends:GraphBatch", vectorizable=True))
+register_backend(BackendSpec("mujoco", "hri_envs.physics.episode:PhysicsEpisode",
+                             "hri_envs.physics.batch:PhysicsBatch",
+                             requires=("mujoco", "mink", "gymnasium_robotics"), extra="mujoco",
+                             options=("video_path", "video_fps")))
+
+
+def backend_spec(name: str) -> BackendSpec:
+    """The registered backend ``name``; a clear error for an unknown or unavailable one."""
+    spec = BACKENDS.get(name) if isinstance(name, str) else None
+    if spec is None:
+        raise ConfigError(f"unknown backend {name!r}; allowed: {', '.join(BACKENDS)}")
+    missing = [m for m in spec.requires if importlib.util.find_spec(m) is None]
+    if missing:
+        raise BackendUnavailableError(
+            f"backend={name!r} needs {', '.join(missing)}: pip install 'hri-envs[{spec.extra}]' "
+            "(or use backend='graph', the abstract transition graph)"
+        )
+    return spec
+
+
+def check_backend(backend: str) -> str:
+    """Validate a backend name (registered, and its extra installed)."""
+    return backend_spec(backend).name
+
+
+def _load(entry: str) -> Any:
+    module, _, attr = entry.partition(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def episode_backend(name: str) -> type[Episode]:
+    """The :class:`~hri_envs.envs.episode.Episode` class of backend ``name``."""
+    cls: type[Episode] = _load(backend_spec(name).episode)
+    return cls
+
+
+def batch_backend(name: str) -> type[BatchBackend]:
+    """The :class:`BatchBackend` class of backend ``name``."""
+    cls: type[BatchBackend] = _load(backend_spec(name).batch)
+    return cls
+
+
+class BatchStep(NamedTuple):
+    """One joint step of a batch of runs, as a :class:`BatchBackend` reports it.
+
+    Attributes:
+        next_state: (B,) int, the state each run reached.
+        human_seen: (B,) int, the human's action as the robot observes it.
+        fault: (B,) bool, the run cannot go on (it is truncated), or None for no faults.
+        extras: Per-run figures of this step, (B,) each, keyed as :attr:`BatchBackend.extras`.
+    """
+
+    next_state: np.ndarray
+    human_seen: np.ndarray
+    fault: np.ndarray | None
+    extras: dict[str, np.ndarray]
+
+
+class BatchBackend(ABC):
+    """How the benchmark's simulation loop moves a batch of runs.
+
+    Args:
+        graph: The task graph.
+        runs: The run indices of the batch (a backend's random streams derive from
+            ``(seed, run, ...)`` only, so numbers do not depend on the batching).
+        seed: The study's base seed.
+    """
+
+    #: Per-episode figures the backend adds to the metrics (summed over the steps).
+    extras: ClassVar[tuple[str, ...]] = ()
+    #: Those of :attr:`extras` reported as a mean per step rather than a sum.
+    step_means: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, graph: TaskGraph, runs: Sequence[int] | np.ndarray, seed: int) -> None:
+        self.graph = graph
+        self.runs = np.asarray(runs, dtype=np.int64)
+        self.seed = int(seed)
+
+    def groups(self) -> list[np.ndarray]:
+        """Row indices of the runs simulated together, one group after the other."""
+        return [np.arange(len(self.runs))]
+
+    def begin(self, rows: np.ndarray, start: np.ndarray) -> np.ndarray:
+        """Place the runs ``rows`` at their start supports; (len(rows),) bool: cannot start."""
+        return np.zeros(len(rows), dtype=bool)
+
+    @abstractmethod
+    def transition(self, state: np.ndarray, a_r: np.ndarray, a_h: np.ndarray,
+                   active: np.ndarray) -> BatchStep:
+        """Where the joint actions take the ``active`` runs (other rows are ignored)."""
+
+
+class GraphBatch(BatchBackend):
+    """The ``"graph"`` backend of the benchmark: all runs in lockstep, by table look-up."""
+
+    def transition(self, state: np.ndarray, a_r: np.ndarray, a_h: np.ndarray,
+                   active: np.ndarray) -> BatchStep:
+        """The graph's ``next_state[s, a_R, a_H]``; the robot sees the human's true action."""
+        return BatchStep(self.graph.next_state[state, a_r, a_h], a_h, None, {})

@@ -1,0 +1,78 @@
+"""The physics backend for the benchmark: :class:`PhysicsBatch`, which the one simulation
+loop (:func:`hri_envs.bench.runner.simulate`) drives for ``hri-bench study --backend mujoco``.
+
+The physics is not batched: one :class:`PandaSim` simulates the runs one after the other
+within each episode (the loop then sees one active run at a time, which the batched agent
+protocol allows), and the agent learns from all runs' episodes at once at the end of the
+episode, exactly as on the graph. Every random draw of run ``r`` derives from ``(seed, r)``:
+the human's action draws from ``(seed, r, 1)`` as on the graph (in the loop), the human's
+force noise from ``(seed, r, 3)``, the wheel's stand layouts from ``(seed, r, 4)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import ClassVar
+
+import numpy as np
+
+from hri_envs.envs.backends import BatchBackend, BatchStep
+from hri_envs.physics.ik import IKFailure
+from hri_envs.physics.sim import PandaSim
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import episode_scenario, scenario_spec
+
+__all__ = ["PhysicsBatch"]
+
+
+class PhysicsBatch(BatchBackend):
+    """Runs simulated on the Panda, one run at a time.
+
+    The per-episode extras are ``linear_impulse`` [N s] and ``angular_impulse`` [N m s]
+    (the human's interaction wrench integrated over the episode, paper Fig. 6),
+    ``duration_s`` (simulated seconds) and ``graph_agrees`` (the fraction of the episode's
+    steps whose observed next state is the graph's prediction). A simulation fault, or a
+    start the robot cannot reach, truncates the run's episode.
+    """
+
+    extras: ClassVar[tuple[str, ...]] = ("linear_impulse", "angular_impulse", "duration_s",
+                                         "graph_agrees")
+    step_means: ClassVar[tuple[str, ...]] = ("graph_agrees",)
+
+    def __init__(self, graph: TaskGraph, runs: Sequence[int] | np.ndarray, seed: int) -> None:
+        super().__init__(graph, runs, seed)
+        self.sim = PandaSim(graph)
+        self._noise = [np.random.default_rng([self.seed, int(r), 3]) for r in self.runs]
+        self._layouts = [np.random.default_rng([self.seed, int(r), 4]) for r in self.runs]
+        self._sample_layout = scenario_spec(graph.name).layout
+
+    def groups(self) -> list[np.ndarray]:
+        """One run at a time: the simulator holds one run's state."""
+        return [np.array([i]) for i in range(len(self.runs))]
+
+    def begin(self, rows: np.ndarray, start: np.ndarray) -> np.ndarray:
+        """Reset the simulator to run ``rows[0]``'s start (a new stand layout on the wheel)."""
+        (i,) = rows
+        layout = None if self._sample_layout is None else self._sample_layout(self._layouts[i])
+        scenario = episode_scenario(self.graph.name, layout)
+        try:
+            self.sim.reset(int(start[0]), scenario, self._noise[i])
+        except IKFailure:
+            return np.ones(1, dtype=bool)
+        return np.zeros(1, dtype=bool)
+
+    def transition(self, state: np.ndarray, a_r: np.ndarray, a_h: np.ndarray,
+                   active: np.ndarray) -> BatchStep:
+        """Simulate the joint action of the one active run."""
+        next_state, seen = state.copy(), np.zeros_like(a_h)
+        fault = np.zeros(len(state), dtype=bool)
+        extras = {k: np.zeros(len(state)) for k in self.extras}
+        for i in np.flatnonzero(active):
+            res = self.sim.step(int(state[i]), int(a_r[i]), int(a_h[i]))
+            next_state[i], seen[i], fault[i] = res.state, res.human_action, res.fault is not None
+            for key, value in (("linear_impulse", res.linear_impulse),
+                               ("angular_impulse", res.angular_impulse),
+                               ("duration_s", res.duration),
+                               ("graph_agrees", res.graph_agrees)):
+                extras[key][i] = value
+        return BatchStep(next_state, seen, fault, extras)

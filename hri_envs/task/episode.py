@@ -1,0 +1,316 @@
+"""The rules of an episode, written once for every consumer (docs/task-model.md, "Episode").
+
+Every environment (the single-episode envs, the batched vector env), the benchmark's
+simulation loop, ``hri-bench play`` and the physics backend apply these functions; none of
+them re-derives a rule. The functions take the task graph and numpy arrays (or ints) that
+broadcast, so the same code serves one episode and thousands.
+
+* Start: the object rests on the start support with μ = 0 (:func:`start_state`); the
+  intention ι differs from the start (:func:`draw_start_intention`).
+* Lifted: once the object has left the start support (:func:`left_start`), resting on the
+  start again counts as arriving: the human turned back.
+* Turning back: in an episode where the human turns back, on entering the state
+  ``turn_state[start, ι]`` the intention becomes the start support (:func:`turn_back`).
+* End: the object rests with μ = 0 on a support other than the start, or on the start once
+  lifted (:func:`episode_over`).
+* Reward and decisions: :func:`step_reward` and :func:`classify` judge a step from the state
+  the object actually reached, so a physics backend whose outcome differs from the graph's
+  prediction is judged by the same rules. On the graph's own transitions they give
+  :meth:`TaskGraph.reward` and :attr:`TaskGraph.robot_effective`, which are built from them.
+
+:class:`EpisodeRules` caches the rules on the graph's own transitions as flat lookup tables
+(for the hot loops of the envs); :class:`EpisodeBatch` keeps the bookkeeping of N running
+episodes (state, start, intention, lifted, steps) for the vector env and the benchmark.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+
+from hri_envs.task.actions import ROBOT_BIT, TAKE_OFF, TOGGLE, WAIT
+
+if TYPE_CHECKING:
+    from hri_envs.task.graph import TaskGraph
+
+__all__ = [
+    "Decisions",
+    "EpisodeBatch",
+    "EpisodeRules",
+    "arrived",
+    "classify",
+    "draw_other_support",
+    "draw_start_intention",
+    "episode_over",
+    "left_start",
+    "robot_correct",
+    "start_state",
+    "step_penalty",
+    "step_reward",
+    "turn_back",
+]
+
+IntArray = np.ndarray | int
+
+
+# --------------------------------------------------------------------------- start and end
+def start_state(graph: TaskGraph, start: IntArray) -> np.ndarray:
+    """The state "resting on support ``start``, nobody holds it" (arrays broadcast)."""
+    return np.asarray(graph.support_state(start, 0))
+
+
+def draw_start_intention(
+    rng: np.random.Generator, n_supports: int, size: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Draw start supports and intentions ι ≠ start, uniformly (scalars when size is None)."""
+    start = rng.integers(n_supports, size=size)
+    intention = (start + 1 + rng.integers(n_supports - 1, size=size)) % n_supports
+    return start, intention
+
+
+def draw_other_support(
+    rng: np.random.Generator, n_supports: int, other: IntArray, size: int | None = None
+) -> np.ndarray:
+    """Draw a support uniformly among those different from ``other``."""
+    return (np.asarray(other) + 1 + rng.integers(n_supports - 1, size=size)) % n_supports
+
+
+def left_start(graph: TaskGraph, state: IntArray, start: IntArray) -> np.ndarray:
+    """Whether the object is away from its start support (arrays broadcast).
+
+    Accumulated over an episode this is the *lifted* flag: once lifted, resting on the
+    start again counts as arriving (the human turned back).
+    """
+    return graph.support[state] != start  # type: ignore[no-any-return]
+
+
+def episode_over(
+    graph: TaskGraph, state: IntArray, start: IntArray, lifted: np.ndarray | bool
+) -> np.ndarray:
+    """The episode's end: resting with μ = 0 on a support other than the start, or on the
+    start after the object was lifted. Arrays broadcast.
+    """
+    sup = graph.support[state]
+    resting = (sup >= 0) & (graph.grasp[state] == 0)
+    return resting & ((sup != start) | lifted)  # type: ignore[no-any-return]
+
+
+def arrived(
+    graph: TaskGraph, state: IntArray, start: IntArray, lifted: np.ndarray | bool
+) -> np.ndarray:
+    """Resting on a support that can end the episode (any grasp): a goal candidate."""
+    sup = graph.support[state]
+    return (sup >= 0) & ((sup != start) | lifted)  # type: ignore[no-any-return]
+
+
+def turn_back(
+    turn_state: np.ndarray,
+    state: IntArray,
+    start: IntArray,
+    intention: IntArray,
+    turning: np.ndarray | bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Apply turning back on entering ``state``: ``(new intention, still turning)``.
+
+    Args:
+        turn_state: (K, K) int, ``turn_state[start, ι]``, where a turning-back human switches
+            ι to the start support (-1: never), see
+            :attr:`hri_envs.task.humans.ScriptedHuman.turn_state`.
+        state: The state just entered.
+        start: The episode's start support.
+        intention: The current intention ι.
+        turning: Whether the human is still going to turn back in this episode.
+    """
+    back = turning & (state == turn_state[start, intention])
+    return np.where(back, start, intention), turning & ~back
+
+
+# --------------------------------------------------------------------------- judging a step
+def _motion(action: IntArray) -> np.ndarray:
+    return np.asarray(action) >= TAKE_OFF
+
+
+def step_penalty(
+    graph: TaskGraph, s: IntArray, a_r: IntArray, a_h: IntArray, s_next: IntArray
+) -> np.ndarray:
+    """Steps punished with r⁻ = -1 (docs/task-model.md, "Reward"), arrays broadcast.
+
+    A step is punished when it was aborted, when the human counteracted a robot motion with
+    a different motion, or when the human waited and the object's state did not change (the
+    robot left a passive partner alone). Grasping and letting go are never counteracted.
+    """
+    aborted = graph.aborted[s, a_r, a_h]
+    counteracted = _motion(a_r) & _motion(a_h) & (np.asarray(a_r) != a_h)
+    idle = (np.asarray(a_h) == WAIT) & (np.asarray(s_next) == s)
+    return aborted | counteracted | idle  # type: ignore[no-any-return]
+
+
+def step_reward(
+    graph: TaskGraph,
+    s: IntArray,
+    a_r: IntArray,
+    a_h: IntArray,
+    s_next: IntArray,
+    r0: float,
+) -> np.ndarray:
+    """The robot cooperation reward R_R(s, a_R, a_H, s') in {-1, r0, 0}, arrays broadcast.
+
+    -1 for a :func:`step_penalty`, ``r0`` when the robot waited while the human acted, else
+    0. ``s_next`` is the state the object reached (the graph's prediction on the graph
+    backend, the observed state on the physics backend).
+    """
+    penalty = step_penalty(graph, s, a_r, a_h, s_next)
+    passive = (np.asarray(a_r) == WAIT) & (np.asarray(a_h) != WAIT)
+    return np.where(penalty, -1.0, np.where(passive, r0, 0.0))
+
+
+def robot_correct(
+    graph: TaskGraph, s: IntArray, a_r: IntArray, a_h: IntArray, s_next: IntArray
+) -> np.ndarray:
+    """Whether the robot acted and got the effect it acted towards (paper Sect. 6.3).
+
+    A grasp toggle is correct when the robot's grasp bit changed; a motion when ``s_next``
+    is where the motion leads (after the human's own grasp toggle, if any). Waiting and
+    aborted steps are never correct. Arrays broadcast.
+    """
+    a_r, a_h, s_next = np.asarray(a_r), np.asarray(a_h), np.asarray(s_next)
+    acted = (a_r != WAIT) & ~graph.aborted[s, a_r, a_h]
+    toggled = ((graph.grasp[s] ^ graph.grasp[s_next]) & ROBOT_BIT) > 0
+    s1 = np.where(a_h == TOGGLE, graph.next_state[s, WAIT, a_h], s)
+    reached = graph.next_state[s1, a_r, WAIT] == s_next
+    return acted & np.where(a_r == TOGGLE, toggled, reached)  # type: ignore[no-any-return]
+
+
+class Decisions(NamedTuple):
+    """The robot's decision in a step, classified as in the paper's Sect. 6.3 (bool arrays)."""
+
+    correct: np.ndarray
+    passive: np.ndarray
+    wrong: np.ndarray
+
+
+def classify(
+    graph: TaskGraph, s: IntArray, a_r: IntArray, a_h: IntArray, s_next: IntArray
+) -> Decisions:
+    """Correct (:func:`robot_correct`), passive (the robot waited) or wrong (otherwise)."""
+    correct = robot_correct(graph, s, a_r, a_h, s_next)
+    waited = np.asarray(a_r) == WAIT
+    return Decisions(correct, waited, ~waited & ~correct)
+
+
+# --------------------------------------------------------------------------- lookup tables
+class EpisodeRules:
+    """The rules on the graph's own transitions, as flat lookup tables for the hot loops.
+
+    Args:
+        graph: The task graph.
+        r0: Robot reward for waiting while the human acts, in (-1, 0).
+
+    Attributes:
+        next_state: (S A A,) int64, ``next_state[(s A + a_R) A + a_H]``.
+        reward: (S A A,) float64, :func:`step_reward` of the graph's transition.
+        aborted: (S A A,) bool, the joint action was aborted.
+        valid: (S A,) bool, ``valid[s A + a]``: the action is allowed in the state.
+        action_mask: (S, A) int8, read-only rows of the observations' ``action_mask``.
+        left: (S K,) bool, ``left[s K + start]``: :func:`left_start`.
+        ends: (S K 2,) bool, ``ends[(s K + start) 2 + lifted]``: :func:`episode_over`.
+    """
+
+    def __init__(self, graph: TaskGraph, r0: float) -> None:
+        self.graph = graph
+        self.r0 = r0
+        n_s, n_a, n_k = graph.n_states, graph.n_actions, graph.n_intentions
+        self.n_states, self.n_actions, self.n_supports = n_s, n_a, n_k
+        self.next_state = graph.next_state.astype(np.int64).reshape(-1)
+        self.reward = graph.reward(r0).astype(np.float64).reshape(-1)
+        self.aborted = graph.aborted.reshape(-1).copy()
+        self.valid = graph.valid.reshape(-1).copy()
+        self.action_mask = graph.valid.astype(np.int8)
+        self.left = np.ascontiguousarray(
+            left_start(graph, np.arange(n_s)[:, None], np.arange(n_k)[None, :])).reshape(-1)
+        ends = episode_over(graph, np.arange(n_s)[:, None, None], np.arange(n_k)[None, :, None],
+                            np.array([False, True])[None, None, :])  # (S, K, 2)
+        self.ends = np.ascontiguousarray(ends).reshape(-1)  # (S K 2,)
+        for table in (self.next_state, self.reward, self.aborted, self.valid,
+                      self.action_mask, self.left, self.ends):
+            table.setflags(write=False)
+        # Python-list mirrors for the scalar path (list indexing beats numpy scalars).
+        self.next_list: list[int] = self.next_state.tolist()
+        self.reward_list: list[float] = self.reward.tolist()
+        self.aborted_list: list[bool] = self.aborted.tolist()
+        self.valid_list: list[bool] = self.valid.tolist()
+        self.left_list: list[bool] = self.left.tolist()
+        self.ends_list: list[bool] = self.ends.tolist()
+
+    def index(self, s: IntArray, a_r: IntArray, a_h: IntArray) -> IntArray:
+        """Flat index of ``(s, a_R, a_H)`` into the (S A A,) tables."""
+        n_a = self.n_actions
+        return (s * n_a + a_r) * n_a + a_h
+
+
+class EpisodeBatch:
+    """The bookkeeping of N running episodes, in arrays (the vector env, the benchmark).
+
+    Args:
+        rules: The scenario's :class:`EpisodeRules`.
+        turn_state: (K, K) int, where a turning-back human switches ι to the start
+            (see :func:`turn_back`).
+        n: Number of episodes N.
+
+    Attributes (each (N,)):
+        state, start, intention: int64, current state, start support and ι.
+        turning: bool, the human is still going to turn back in this episode.
+        lifted: bool, the object has left the start support.
+        steps: int64, steps taken in the episode.
+        last_human: int64, the human's last action as the robot sees it (wait at the start).
+    """
+
+    __slots__ = ("intention", "last_human", "lifted", "rules", "start", "state", "steps",
+                 "turn_state", "turning")
+
+    def __init__(self, rules: EpisodeRules, turn_state: np.ndarray, n: int) -> None:
+        self.rules = rules
+        self.turn_state = np.asarray(turn_state, dtype=np.int64)
+        self.state = np.zeros(n, dtype=np.int64)
+        self.start = np.zeros(n, dtype=np.int64)
+        self.intention = np.ones(n, dtype=np.int64) % rules.n_supports
+        self.turning = np.zeros(n, dtype=bool)
+        self.lifted = np.zeros(n, dtype=bool)
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.last_human = np.zeros(n, dtype=np.int64)
+
+    def begin(self, which: np.ndarray | slice, start: IntArray, intention: IntArray,
+              turning: np.ndarray | bool) -> None:
+        """Start new episodes in the rows ``which`` (bool mask, index array or slice)."""
+        self.start[which] = start
+        self.intention[which] = intention
+        self.turning[which] = turning
+        self.state[which] = start_state(self.rules.graph, start)
+        self.lifted[which] = False
+        self.steps[which] = 0
+        self.last_human[which] = WAIT
+
+    def commit(self, s_next: np.ndarray, seen_human: np.ndarray,
+               active: np.ndarray | None = None) -> np.ndarray:
+        """Move the ``active`` episodes (default: all) to ``s_next`` after a joint step.
+
+        Updates lifted, the step count and the human action seen, applies turning back on
+        entering ``s_next``, and returns (N,) bool: the episode is over
+        (:func:`episode_over`; False for inactive rows).
+        """
+        r = self.rules
+        if active is not None:
+            s_next = np.where(active, s_next, self.state)
+            seen_human = np.where(active, seen_human, self.last_human)
+            self.steps += active
+        else:
+            self.steps += 1
+        context = s_next * r.n_supports + self.start
+        lifted = self.lifted | np.take(r.left, context)
+        over = np.take(r.ends, context * 2 + lifted)
+        self.state, self.lifted, self.last_human = s_next, lifted, seen_human
+        if self.turning.any():
+            self.intention, self.turning = turn_back(self.turn_state, s_next, self.start,
+                                                     self.intention, self.turning)
+        return over if active is None else over & active
