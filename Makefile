@@ -23,10 +23,11 @@ $(VENV)/.test-installed: pyproject.toml constraints.txt | $(PY)
 demo: $(VENV)/.demo-installed
 	$(VENV)/bin/hri-bench demo --out $(DEMO_OUT)
 
-# Lint and type checks first, so that pytest's summary is the last line.
+# Lint, type and layer checks first, so that pytest's summary is the last line.
 test: $(VENV)/.test-installed
 	$(VENV)/bin/ruff check hri_envs agents baselines tests examples benchmarks
 	$(VENV)/bin/mypy
+	$(VENV)/bin/lint-imports
 	MUJOCO_GL=egl $(PY) -m pytest -q
 
 speed: $(VENV)/.demo-installed

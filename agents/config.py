@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from hri_envs.errors import ConfigError
+from hri_envs.task.scenarios import SCENARIOS, scenario_spec
 
 __all__ = ["LearnerConfig", "default_config"]
 
@@ -35,8 +36,8 @@ class LearnerConfig:
     eta: float = 0.9
     human_temperature: float = 25.0
     beta: float = 0.95
-    gamma: float = 0.9
-    r0: float = -0.33
+    gamma: float = SCENARIOS["hanger"].gamma  # the class defaults are the hanger's
+    r0: float = SCENARIOS["hanger"].r0
     irl_temperature: float = 1.0
     robot_model_temperature: float = 5.0
 
@@ -72,11 +73,9 @@ class LearnerConfig:
 
 
 def default_config(scenario: str, **changes: Any) -> LearnerConfig:
-    """The paper's parameters for a scenario ("hanger": γ = 0.9, r0 = -0.33;
-    "wheel": γ = 0.6, r0 = -0.25), with optional changes.
+    """The paper's parameters for a scenario (γ and r0 from its
+    :class:`~hri_envs.task.scenarios.ScenarioSpec`: hanger γ = 0.9, r0 = -0.33; wheel
+    γ = 0.6, r0 = -0.25), with optional changes.
     """
-    base = {"hanger": LearnerConfig(), "wheel": LearnerConfig(gamma=0.6, r0=-0.25)}
-    if scenario not in base:
-        raise ConfigError(f"unknown scenario {scenario!r}; allowed: {', '.join(sorted(base))}",
-                          field="scenario")
-    return base[scenario].replace(**changes)
+    spec = scenario_spec(scenario)
+    return LearnerConfig(gamma=spec.gamma, r0=spec.r0).replace(**changes)

@@ -45,6 +45,7 @@ import numpy as np
 
 from hri_envs.errors import ConfigError
 from hri_envs.task.protocol import Agent, BatchAgent, Trace, run_streams
+from hri_envs.task.scenarios import SCENARIOS
 
 if TYPE_CHECKING:
     from stable_baselines3.common.base_class import BaseAlgorithm
@@ -172,10 +173,11 @@ def load_model(
     policy_kwargs = _policy_kwargs(path, data.get("policy_kwargs", {}))
     if graph is None:
         n = str(data.get("action_space", {}).get("n", ""))
-        by_actions = {"10": "hanger", "12": "wheel"}
+        by_actions = {str(spec.n_actions): name for name, spec in SCENARIOS.items()}
         if n not in by_actions:
+            allowed = ", ".join(f"{k} {v}" for k, v in by_actions.items())
             raise ConfigError(f"{path}: cannot tell the scenario from the saved action space "
-                              f"(n = {n or '?'}, allowed: 10 hanger, 12 wheel); pass graph=",
+                              f"(n = {n or '?'}, allowed: {allowed}); pass graph=",
                               field="graph")
         graph = scenario_graph(by_actions[n])
     extra: dict[str, Any] = {"buffer_size": 1} if name in ("DQN", "MaskedDQN") else {}

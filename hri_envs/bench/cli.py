@@ -22,8 +22,11 @@ from pathlib import Path
 from typing import Any
 
 from hri_envs.bench.agents import BUILTIN_AGENTS
-from hri_envs.bench.study import BACKENDS, EXECUTORS, SCENARIOS
+from hri_envs.bench.runner import TABLE2
+from hri_envs.bench.study import EXECUTORS
+from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
+from hri_envs.task.scenarios import SCENARIOS
 
 __all__ = ["build_parser", "main"]
 
@@ -100,15 +103,23 @@ def build_parser() -> argparse.ArgumentParser:
                             "(default: all built-in)")
     study.add_argument("--runs", type=_positive, default=100, help="runs per agent (default 100)")
     study.add_argument("--episodes", type=_positive, default=None,
-                       help="episodes per run (default: hanger 8, wheel 20, table2 9)")
+                       help="episodes per run (default: "
+                            + ", ".join(f"{n} {s.episodes}" for n, s in SCENARIOS.items())
+                            + f", table2 {len(TABLE2)})")
     study.add_argument("--schedule", choices=("random", "table2"), default="random",
                        help="random start/goal per episode, or the user study's Table 2")
     study.add_argument("--preference", default=None,
-                       help="the scripted human's preference (wheel: straight, detour; hanger: "
-                            "e.g. down-over-rotate/over-rotate-up; 'all' cycles over all)")
+                       help="the scripted human's preference ("
+                            + "; ".join(f"{n}: {', '.join(s.preferences[:2])}"
+                                        + (", ..." if len(s.preferences) > 2 else "")
+                                        for n, s in SCENARIOS.items())
+                            + "; 'all' cycles over all; default: "
+                            + ", ".join(f"{n} {s.default_preference}"
+                                        for n, s in SCENARIOS.items()) + ")")
     study.add_argument("--r0", type=_r0, default=None,
                        help="robot reward for waiting while the human acts, in (-1, 0) "
-                            "(default: hanger -0.33, wheel -0.25)")
+                            "(default: "
+                            + ", ".join(f"{n} {s.r0}" for n, s in SCENARIOS.items()) + ")")
     study.add_argument("--human-passive", type=_probability, default=0.0,
                        help="probability that the human waits in a step (default 0)")
     study.add_argument("--turn-back", type=_probability, default=0.0,

@@ -19,7 +19,7 @@ from hri_envs.envs.config import (
 from hri_envs.envs.episode import Episode
 from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, human_observation_space, robot_observation_space
-from hri_envs.errors import ActionError
+from hri_envs.errors import ActionError, ConfigError
 from hri_envs.task.episode import EpisodeRules
 from hri_envs.task.humans import preference_human
 from hri_envs.task.scenarios import scenario_spec
@@ -167,7 +167,8 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
 
     def _known(self, agent: str) -> str:
         if agent not in self._action_spaces:
-            raise ValueError(f"unknown agent {agent!r}; agents: {', '.join(AGENTS)}")
+            raise ConfigError(f"unknown agent {agent!r}; agents: {', '.join(AGENTS)}",
+                              field="agent")
         return agent
 
     @property

@@ -31,10 +31,13 @@ robot to the human) spins the gripper about its own axis.
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+
+from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["PhysicsDesign", "design_for", "hanger_design", "wheel_design"]
 
@@ -298,9 +301,7 @@ def wheel_design() -> PhysicsDesign:
 
 
 def design_for(scenario: str) -> PhysicsDesign:
-    """The design of a scenario by name."""
-    if scenario == "hanger":
-        return hanger_design()
-    if scenario == "wheel":
-        return wheel_design()
-    raise ValueError(f"unknown scenario {scenario!r}; allowed: 'hanger', 'wheel'")
+    """The design of a scenario by name (its registry entry's ``physics_design``)."""
+    module, _, factory = scenario_spec(scenario).physics_design.partition(":")
+    design: PhysicsDesign = getattr(importlib.import_module(module), factory)()
+    return design
