@@ -106,12 +106,13 @@ class ClassicLayout:
             self.space = spaces.Box(0.0, 1.0, (self.size + n_actions,), np.float32)
 
     def encode(self, state: int, start: int, last_human: int, intention: int | None,
-               mask: np.ndarray) -> dict[str, np.ndarray] | np.ndarray:
+               mask: np.ndarray) -> Any:
         """One agent's observation; ``intention=None`` for the robot (ι absent).
 
         Args:
-            state, start, last_human: The abstract state, start support and the human's last
-                action as this agent observes it.
+            state: The abstract state.
+            start: The start support.
+            last_human: The human's last action as this agent observes it.
             intention: ι (the human), or None (the robot).
             mask: (A,) int8, the valid actions; copied.
 

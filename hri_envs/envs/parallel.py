@@ -173,8 +173,9 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
                                                                **physics)
         self._sample_layout = scenario_spec(scenario).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
-        self._observation_spaces = {"human": human_observation_space(n_s, n_k, n_a),
-                                    "robot": robot_observation_space(n_s, n_k, n_a)}
+        self._observation_spaces: dict[str, spaces.Space[Any]] = {
+            "human": human_observation_space(n_s, n_k, n_a),
+            "robot": robot_observation_space(n_s, n_k, n_a)}
         if self.observation_format != "dict":
             self._classic = ClassicLayout(n_s, n_k, n_a, self.observation_format == "flat")
             self._observation_spaces = {agent: self._classic.space for agent in AGENTS}
@@ -192,7 +193,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         self._np_random_seed: int | None = None
 
     # ----------------------------------------------------------------- spaces
-    def observation_space(self, agent: str) -> spaces.Dict:  # noqa: D102
+    def observation_space(self, agent: str) -> spaces.Space[Any]:  # noqa: D102
         return self._observation_spaces[self._known(agent)]
 
     def action_space(self, agent: str) -> spaces.Discrete:  # noqa: D102

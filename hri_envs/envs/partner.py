@@ -11,8 +11,10 @@ agent, so that a single-agent learner (SB3, your own) can train either seat:
   ``human_reward="goal"`` so that the human is paid for reaching its own goal.
 
 A policy is a callable ``policy(observation, rng) -> action`` that receives the partner's
-own observation (in the wrapped env's format) and the wrapper's generator;
-:func:`waiting_policy` and :func:`random_valid_policy` are two simple ones.
+own observation (in the wrapped env's format) and the wrapper's generator. Three come with
+the library: :func:`following_robot` (a robot that mirrors the human's grasp and lets the
+human lead: the default partner of a learning human), :func:`waiting_policy` and
+:func:`random_valid_policy`.
 """
 
 from __future__ import annotations
@@ -23,12 +25,14 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from hri_envs.envs.formats import ClassicLayout
 from hri_envs.envs.parallel import AGENTS, CooperationParallelEnv
 from hri_envs.errors import ConfigError
-from hri_envs.task.actions import WAIT
+from hri_envs.task.actions import HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT
+from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman, preference_human
 
-__all__ = ["PartnerEnv", "Policy", "random_valid_policy", "waiting_policy"]
+__all__ = ["PartnerEnv", "Policy", "following_robot", "random_valid_policy", "waiting_policy"]
 
 #: ``policy(observation, rng) -> action`` of the partner agent.
 Policy = Callable[[Any, np.random.Generator], int]
@@ -46,6 +50,32 @@ def random_valid_policy(observation: Any, rng: np.random.Generator) -> int:
     return int(rng.choice(np.flatnonzero(observation["action_mask"])))
 
 
+def following_robot(graph: TaskGraph) -> Policy:
+    """A scripted robot that follows the human's lead.
+
+    It toggles its grasp whenever its own grasp differs from the human's (it takes hold
+    when the human does and lets go when the human does), and otherwise waits, so that
+    a held object moves by the human's actions. It reads the state from its observation in
+    any format and never uses ι.
+
+    Args:
+        graph: The scenario's task graph.
+    """
+    layout = ClassicLayout(graph.n_states, graph.n_intentions, graph.n_actions)
+    grasp = graph.grasp
+
+    def follow(observation: Any, rng: np.random.Generator) -> int:
+        if isinstance(observation, dict) and "state" in observation:
+            state = int(observation["state"])
+        else:
+            vec = observation["observation"] if isinstance(observation, dict) else observation
+            state = int(layout.decode(vec)["state"])  # type: ignore[arg-type]
+        mu = int(grasp[state])
+        return TOGGLE if bool(mu & HUMAN_BIT) != bool(mu & ROBOT_BIT) else WAIT
+
+    return follow
+
+
 class PartnerEnv(gym.Env[Any, np.int64]):
     """A single-agent view of the two-agent env: ``learner`` acts, a fixed partner answers.
 
@@ -54,7 +84,7 @@ class PartnerEnv(gym.Env[Any, np.int64]):
         learner: The agent the caller controls, "robot" (default) or "human".
         partner: The other agent: a :class:`~hri_envs.task.humans.ScriptedHuman` (only when
             the learner is the robot) or a :data:`Policy`. Default: the scenario's
-            preference human for a learning robot, :func:`waiting_policy` for a learning
+            preference human for a learning robot, :func:`following_robot` for a learning
             human.
 
     The observation and action spaces are the learner's in ``env``; ``step`` returns the
@@ -74,7 +104,8 @@ class PartnerEnv(gym.Env[Any, np.int64]):
         self.partner_agent = "human" if learner == "robot" else "robot"
         graph = env.unwrapped.graph
         if partner is None:
-            partner = preference_human(graph) if learner == "robot" else waiting_policy
+            partner = (preference_human(graph) if learner == "robot"
+                       else following_robot(graph))
         if isinstance(partner, ScriptedHuman):
             if learner != "robot":
                 raise ConfigError("a ScriptedHuman can only play the human; for "
@@ -124,7 +155,8 @@ class PartnerEnv(gym.Env[Any, np.int64]):
         obs = self._obs[self.learner]
         if isinstance(obs, dict):
             return np.asarray(obs["action_mask"], dtype=bool)
-        return np.asarray(obs[-int(self.action_space.n):] > 0.5)  # the "flat" format
+        n_actions = int(self.env.action_space(self.learner).n)
+        return np.asarray(obs[-n_actions:] > 0.5)  # the "flat" format
 
     def render(self) -> Any:
         """The wrapped env's :meth:`render`."""

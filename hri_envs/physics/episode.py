@@ -12,6 +12,7 @@ envs then truncate the episode.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -176,6 +177,10 @@ class PhysicsEpisode(Episode):
         self.flush_video()
         if self._viewer is not None:
             self._viewer.close()
+            for _ in range(100):  # the viewer's thread ends asynchronously; wait up to 2 s
+                if not self._viewer.is_running():
+                    break
+                time.sleep(0.02)
             self._viewer = None
         if self._renderer is not None:
             self._renderer.close()
