@@ -1,14 +1,16 @@
 """Ray RLlib: train the robot with PPO next to a fixed scripted human, in the PettingZoo env.
 
-The two-agent ``hri_envs.hanger_v0.parallel_env()`` goes through RLlib's own
-``ParallelPettingZooEnv`` wrapper. Agent ids map one-to-one to RLlib modules:
+The two-agent ``hri_envs.hanger_v0.parallel_env(observation_format="flat")`` goes through
+RLlib's own ``ParallelPettingZooEnv`` wrapper, with no wrapper of ours: in the "flat" format
+every agent observes one float vector (one-hot state, start support, last human action and
+intention, an "intention absent" flag, then the action mask; docs/environments.md), which
+RLlib's default MLP reads as it is. Agent ids map one-to-one to RLlib modules:
 
 - ``"human"``: :class:`ScriptedHumanModule`, a fixed (not trained) RLModule that plays the
   scripted human's preferred action for the intention in its observation;
-- ``"robot"``: RLlib's default PPO module, trained. It never sees the intention. Its
-  observation is flattened by :class:`FlatRobotObservation` (one-hot state, start support
-  and last human action, plus the action mask) so that the default MLP can read it; actions
-  that are invalid in the state abort the step with reward -1, which PPO learns to avoid.
+- ``"robot"``: RLlib's default PPO module, trained. It never sees the intention (its slot
+  is zero, the "absent" flag set); actions that are invalid in the state abort the step with
+  reward -1, which PPO learns to avoid.
 
 Runs on a local Ray (``ray.init(num_cpus=...)``) with sampling in the driver process, so
 it fits a laptop: ``python examples/rllib_multiagent.py`` takes about 20 s;
@@ -28,10 +30,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from gymnasium import spaces
-from pettingzoo.utils.wrappers import BaseParallelWrapper
 
 from hri_envs import hanger_v0, wheel_v0
+from hri_envs.envs.formats import ClassicLayout
 from hri_envs.task.humans import preference_human
 
 
@@ -55,53 +56,11 @@ class Config:
     """seed of the algorithm and its environments"""
 
 
-def one_hot(index: Any, n: int) -> np.ndarray:
-    out = np.zeros(n, dtype=np.float32)
-    out[int(index)] = 1.0
-    return out
-
-
-class FlatRobotObservation(BaseParallelWrapper):
-    """Gives the robot one flat float vector instead of its Dict observation.
-
-    ``[one_hot(state), one_hot(start), one_hot(last_human_action), action_mask]``; the
-    human's observation (with the intention) is left as it is.
-    """
-
-    def __init__(self, env: Any) -> None:
-        super().__init__(env)
-        g = env.unwrapped.graph
-        self.sizes = (g.n_states, g.n_intentions, g.n_actions)
-        n = sum(self.sizes) + g.n_actions
-        self._robot_space = spaces.Box(0.0, 1.0, (n,), np.float32)
-
-    def observation_space(self, agent: str) -> spaces.Space:
-        return self._robot_space if agent == "robot" else self.env.observation_space(agent)
-
-    def _flat(self, obs: dict[str, Any]) -> dict[str, Any]:
-        if "robot" in obs:
-            o = obs["robot"]
-            n_s, n_k, n_a = self.sizes
-            obs["robot"] = np.concatenate([
-                one_hot(o["state"], n_s), one_hot(o["start"], n_k),
-                one_hot(o["last_human_action"], n_a), o["action_mask"].astype(np.float32),
-            ])
-        return obs
-
-    def reset(self, seed: int | None = None, options: dict | None = None) -> tuple:
-        obs, infos = self.env.reset(seed=seed, options=options)
-        return self._flat(obs), infos
-
-    def step(self, actions: dict[str, Any]) -> tuple:
-        obs, rewards, terminations, truncations, infos = self.env.step(actions)
-        return self._flat(obs), rewards, terminations, truncations, infos
-
-
 def make_env(env_config: dict[str, Any]) -> Any:
     from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
 
     module = hanger_v0 if env_config.get("scenario", "hanger") == "hanger" else wheel_v0
-    return ParallelPettingZooEnv(FlatRobotObservation(module.parallel_env()))
+    return ParallelPettingZooEnv(module.parallel_env(observation_format="flat"))
 
 
 def scripted_human_module() -> Any:
@@ -115,12 +74,13 @@ def scripted_human_module() -> Any:
         def setup(self) -> None:
             config = self.model_config if isinstance(self.model_config, dict) else {}
             scenario = config.get("scenario", "hanger")
-            env = make_env({"scenario": scenario})
-            self.human = preference_human(env.par_env.unwrapped.graph)
+            graph = make_env({"scenario": scenario}).par_env.unwrapped.graph
+            self.human = preference_human(graph)
+            self.layout = ClassicLayout(graph.n_states, graph.n_intentions, graph.n_actions)
 
         def _forward_inference(self, batch: dict[str, Any], **kwargs: Any) -> dict[str, Any]:
-            obs = batch[Columns.OBS]
-            state, start, goal = (np.asarray(obs[k], dtype=np.int64).reshape(-1)
+            rows = [self.layout.decode(o) for o in np.asarray(batch[Columns.OBS])]
+            state, start, goal = (np.array([r[k] for r in rows], dtype=np.int64)
                                   for k in ("state", "start", "intention"))
             return {Columns.ACTIONS: self.human.preferred_action(state, start, goal)}
 

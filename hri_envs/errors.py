@@ -6,7 +6,8 @@ callers caught before this module existed (``ValueError``, ``NotImplementedError
 
     HriEnvsError
     ├── ConfigError (ValueError)
-    │   └── BackendUnavailableError (NotImplementedError)
+    │   ├── BackendUnavailableError (NotImplementedError)
+    │   └── DisplayUnavailableError (RuntimeError)
     ├── ActionError (ValueError)
     ├── LearnerStateError (ValueError)
     └── PhysicsFault (RuntimeError)
@@ -22,6 +23,7 @@ __all__ = [
     "ActionError",
     "BackendUnavailableError",
     "ConfigError",
+    "DisplayUnavailableError",
     "HriEnvsError",
     "LearnerStateError",
     "PhysicsFault",
@@ -55,6 +57,14 @@ class BackendUnavailableError(ConfigError, NotImplementedError):
 
     It is both a :class:`ValueError` (an unusable configuration) and a
     :class:`NotImplementedError`, so either ``except`` clause catches it.
+    """
+
+
+class DisplayUnavailableError(ConfigError, RuntimeError):
+    """``render_mode="human"`` cannot open a window here (no display, or no GUI toolkit).
+
+    A :class:`ConfigError` about ``render_mode`` (the message says what to use instead) and a
+    :class:`RuntimeError`: the same settings work on a machine with a display.
     """
 
 

@@ -4,6 +4,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env, data_equivalence
+from gymnasium.utils.passive_env_checker import env_render_passive_checker
 from pettingzoo.test import parallel_api_test, parallel_seed_test
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
@@ -33,7 +34,12 @@ def test_parallel_seed_on_the_physics_backend():
 @pytest.mark.parametrize("env_id", ["hri_envs/HangerPanda-v0", "hri_envs/WheelPanda-v0"])
 def test_gymnasium_check_env_on_the_panda(env_id):
     env = gym.make(env_id, max_cycles=3)
-    check_env(env.unwrapped)
+    # the "human" mode needs a display: test_render_human.py checks it under Xvfb
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+    env = gym.make(env_id, max_cycles=3, render_mode="rgb_array").unwrapped
+    env.reset(seed=0)
+    env_render_passive_checker(env)
     env.close()
 
 

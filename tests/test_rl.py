@@ -309,18 +309,17 @@ def test_rllib_example_builds_and_steps_its_algorithm():
         env = example.make_env({"scenario": "hanger"})
         graph = env.par_env.unwrapped.graph
         obs, _ = env.reset(seed=0)
-        # The trained robot reads the flat observation and scores every action ...
+        # The trained robot reads the env's "flat" observation and scores every action ...
         flat = obs["robot"]
-        assert flat.shape == (graph.n_states + graph.n_intentions + 2 * graph.n_actions,)
+        assert flat.shape == (graph.n_states + 2 * graph.n_intentions + 2 * graph.n_actions + 1,)
         out = algo.get_module("robot").forward_inference({Columns.OBS: torch.as_tensor(flat[None])})
         logits = out[Columns.ACTION_DIST_INPUTS]
         assert tuple(logits.shape) == (1, graph.n_actions) and bool(torch.isfinite(logits).all())
         # ... and the fixed human module plays the scripted human's preferred action.
         o_h = obs["human"]
-        out = algo.get_module("human").forward_inference(
-            {Columns.OBS: {k: np.asarray(v)[None] for k, v in o_h.items()}})
-        want = preference_human(graph).preferred_action(o_h["state"], o_h["start"],
-                                                        o_h["intention"])
+        out = algo.get_module("human").forward_inference({Columns.OBS: np.asarray(o_h)[None]})
+        state, start, goal = env.par_env.unwrapped.state()[:3]
+        want = preference_human(graph).preferred_action(state, start, goal)
         assert np.asarray(out[Columns.ACTIONS]).tolist() == [int(want)]
     finally:
         algo.stop()

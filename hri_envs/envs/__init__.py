@@ -9,6 +9,9 @@ module                     contents
 ``robot``                  :class:`RobotEnv` (Gymnasium, robot vs a scripted human)
 ``vector``                 :class:`RobotVectorEnv` (N robot envs stepped in numpy)
 ``aec``                    the turn-based (AEC) form of the parallel env
+``partner``                :class:`PartnerEnv` (Gymnasium, one seat, a fixed partner)
+``formats``                the "classic"/"flat" observation formats, human rewards
+``window``                 ``render_mode="human"``: the window and the display check
 ``episode``                the episode rules shared by all of them, as lookup tables
 ``spaces``                 observation/action spaces and the action check
 ``config``                 scenarios, defaults and validation of arguments and options
@@ -19,8 +22,15 @@ module                     contents
 =========================  ==========================================================
 """
 
-from hri_envs.envs.errors import ActionError, BackendUnavailableError, ConfigError, HriEnvError
+from hri_envs.envs.errors import (
+    ActionError,
+    BackendUnavailableError,
+    ConfigError,
+    DisplayUnavailableError,
+    HriEnvError,
+)
 from hri_envs.envs.parallel import CooperationParallelEnv
+from hri_envs.envs.partner import PartnerEnv
 from hri_envs.envs.robot import RobotEnv
 from hri_envs.envs.vector import RobotVectorEnv
 
@@ -29,7 +39,9 @@ __all__ = [
     "BackendUnavailableError",
     "ConfigError",
     "CooperationParallelEnv",
+    "DisplayUnavailableError",
     "HriEnvError",
+    "PartnerEnv",
     "RobotEnv",
     "RobotVectorEnv",
 ]

@@ -17,6 +17,7 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 
 from hri_envs.envs.render import render_rgb
+from hri_envs.envs.window import FrameWindow
 from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import (
     EpisodeRules,
@@ -67,6 +68,7 @@ class Episode:
         if turn_state is None:
             turn_state = np.full((rules.n_supports,) * 2, -1)
         self._turn: list[list[int]] = np.asarray(turn_state, dtype=np.int64).tolist()
+        self._window: FrameWindow | None = None
         self.begin(0, 1 % rules.n_supports, False)
 
     # ----------------------------------------------------------------- the rules
@@ -160,5 +162,21 @@ class Episode:
         graph = self.rules.graph
         return render_rgb(episode_scenario(graph.name, layout), graph, self.state)
 
+    def show(self, layout: tuple[tuple[float, float], ...] | None, title: str,
+             fps: float) -> None:
+        """``render_mode="human"``: show :meth:`render` in a window (opened on first use).
+
+        Args:
+            layout: The supports' layout, as for :meth:`render`.
+            title: The window's title.
+            fps: Frames per second of the window.
+        """
+        if self._window is None:
+            self._window = FrameWindow(title, fps)
+        self._window.show(self.render(layout))
+
     def close(self) -> None:
-        """Release what the backend holds (nothing here)."""
+        """Release what the backend holds (the window of ``render_mode="human"``)."""
+        if self._window is not None:
+            self._window.close()
+            self._window = None

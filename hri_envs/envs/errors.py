@@ -6,12 +6,19 @@
 
 from __future__ import annotations
 
-from hri_envs.errors import ActionError, BackendUnavailableError, ConfigError, HriEnvsError
+from hri_envs.errors import (
+    ActionError,
+    BackendUnavailableError,
+    ConfigError,
+    DisplayUnavailableError,
+    HriEnvsError,
+)
 
 __all__ = [
     "ActionError",
     "BackendUnavailableError",
     "ConfigError",
+    "DisplayUnavailableError",
     "HriEnvError",
     "HriEnvsError",
 ]

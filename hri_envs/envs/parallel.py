@@ -17,10 +17,12 @@ from hri_envs.envs.config import (
     scenario_graph,
 )
 from hri_envs.envs.episode import Episode
+from hri_envs.envs.formats import ClassicLayout, check_human_reward, check_observation_format
 from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, human_observation_space, robot_observation_space
+from hri_envs.envs.window import check_display
 from hri_envs.errors import ActionError, ConfigError
-from hri_envs.task.episode import EpisodeRules
+from hri_envs.task.episode import EpisodeRules, goal_reward, reached_intention
 from hri_envs.task.humans import preference_human
 from hri_envs.task.scenarios import scenario_spec
 
@@ -64,6 +66,12 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
 
     :meth:`state` returns ``[state, start, intention, last_human_action, lifted]``.
 
+    With ``observation_format="classic"`` both agents observe instead
+    ``{"observation": Box(0, 1, (N,), float32), "action_mask": Box(0, 1, (A,), int8)}``, one
+    space for both (the robot's ι slot zero, with an "absent" flag); ``"flat"`` gives one
+    ``Box`` instead (the vector with the mask appended). The layouts are in
+    :mod:`hri_envs.envs.formats`.
+
     ## Rewards
 
     Both agents receive the robot cooperation reward R_R (paper Sect. 4.5): -1 for an
@@ -71,6 +79,11 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     human acts, -1 when the human waits and the state (pose and grasp) does not change, 0
     otherwise. The human's own preference reward θᵀφ(s, ι) is what learners infer and is
     not paid out; sharing R_R makes the game fully cooperative.
+
+    With ``human_reward="goal"`` the human is paid its own task reward instead
+    (:func:`hri_envs.task.episode.goal_reward`): +1 for the step that ends the episode with
+    the object on ι, r⁻ = -1 for an aborted step, 0 otherwise. ``info["robot_reward"]``
+    always carries R_R.
 
     ## Starting State
 
@@ -85,7 +98,9 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     ## Episode End
 
     Terminated when the object rests with μ = 0 on a support other than the start, or on
-    the start after it was lifted. Truncated after ``max_cycles`` steps.
+    the start after it was lifted. Truncated after ``max_cycles`` steps. The last step's
+    ``info["reached_intention"]`` (both agents) says whether the object rests on ι (False in
+    every earlier step, so that the info keys stay the same within an episode).
 
     ## Arguments
 
@@ -97,7 +112,11 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     - ``scenario``: "hanger" or "wheel" (fixed by the versioned modules);
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
     - ``max_cycles``: step limit per episode (default 100);
-    - ``render_mode``: None, "ansi" or "rgb_array";
+    - ``render_mode``: None, "ansi", "rgb_array" or "human" (a window: matplotlib on the
+      graph backend, MuJoCo's viewer on the physics; without a display the env raises
+      :class:`~hri_envs.errors.DisplayUnavailableError` when built);
+    - ``observation_format``: "dict" (default), "classic" or "flat" (see Observation Space);
+    - ``human_reward``: "cooperation" (default) or "goal" (see Rewards);
     - ``backend``: "graph" (the abstract transition graph) or "mujoco" (the same task on a
       simulated Franka Panda, :mod:`hri_envs.physics`: both agents' actions are executed
       physically, the next state is the closest abstract state, and the robot's
@@ -115,7 +134,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
 
     metadata: dict[str, Any] = {
         "name": "hri_cooperation_v0",
-        "render_modes": ["ansi", "rgb_array"],
+        "render_modes": ["ansi", "rgb_array", "human"],
         "is_parallelizable": True,
         "render_fps": 4,
     }
@@ -130,6 +149,8 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         backend: str = "graph",
         render_intention: bool = False,
         physics: dict[str, Any] | None = None,
+        observation_format: str = "dict",
+        human_reward: str = "cooperation",
     ) -> None:
         self.metadata = {**type(self).metadata, "name": f"{scenario}_v0",
                          "render_modes": list(type(self).metadata["render_modes"])}
@@ -138,6 +159,12 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
                                             self.metadata["render_modes"], backend)
         physics = check_physics_options(physics, self.backend)
         self.render_intention = bool(render_intention)
+        self.observation_format = check_observation_format(observation_format)
+        self.human_reward = check_human_reward(human_reward)
+        self._goal_reward = self.human_reward == "goal"
+        self._human_window = self.render_mode == "human"
+        if self._human_window:
+            check_display()
 
         self.graph = scenario_graph(scenario)
         self.rules = EpisodeRules(self.graph, self.r0)
@@ -146,9 +173,16 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
                                                                **physics)
         self._sample_layout = scenario_spec(scenario).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
-        self._observation_spaces = {"human": human_observation_space(n_s, n_k, n_a),
-                                    "robot": robot_observation_space(n_s, n_k, n_a)}
+        self._observation_spaces: dict[str, spaces.Space[Any]] = {
+            "human": human_observation_space(n_s, n_k, n_a),
+            "robot": robot_observation_space(n_s, n_k, n_a)}
+        if self.observation_format != "dict":
+            self._classic = ClassicLayout(n_s, n_k, n_a, self.observation_format == "flat")
+            self._observation_spaces = {agent: self._classic.space for agent in AGENTS}
+            self._observations = self._classic_observations  # type: ignore[method-assign]
         self._action_spaces = {agent: spaces.Discrete(n_a) for agent in AGENTS}
+        self.observation_spaces = self._observation_spaces
+        self.action_spaces = self._action_spaces
         self.state_space = spaces.MultiDiscrete([n_s, n_k, n_k, n_a, 2])
 
         self.possible_agents = list(AGENTS)
@@ -159,7 +193,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         self._np_random_seed: int | None = None
 
     # ----------------------------------------------------------------- spaces
-    def observation_space(self, agent: str) -> spaces.Dict:  # noqa: D102
+    def observation_space(self, agent: str) -> spaces.Space[Any]:  # noqa: D102
         return self._observation_spaces[self._known(agent)]
 
     def action_space(self, agent: str) -> spaces.Discrete:  # noqa: D102
@@ -198,8 +232,11 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         self._episode.place(self.layout, rng)
         self.agents = list(AGENTS)
         self._reward = 0.0
-        info = {"aborted": False, "invalid_action": False, "robot_reward": 0.0}
+        info = {"aborted": False, "invalid_action": False, "robot_reward": 0.0,
+                "reached_intention": False}
         human_info = {**info, "intention": self._episode.intention}
+        if self._human_window:
+            self.render()
         return self._observations(), {"human": human_info, "robot": dict(info)}
 
     def step(
@@ -229,19 +266,28 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         truncated = not t.terminated and (ep.steps >= self.max_cycles or ep.fault is not None)
         extra = ep.step_info()
         obs = self._observations()
+        infos = {
+            "human": {"aborted": t.aborted, "invalid_action": t.human_invalid,
+                      "robot_reward": r, "reached_intention": False, "intention": ep.intention,
+                      **extra},
+            "robot": {"aborted": t.aborted, "invalid_action": t.robot_invalid,
+                      "robot_reward": r, "reached_intention": False, **extra},
+        }
         if t.terminated or truncated:
             self.agents = []
+            reached = t.terminated and bool(reached_intention(self.graph, ep.state,
+                                                              ep.intention))
+            infos["human"]["reached_intention"] = infos["robot"]["reached_intention"] = reached
+        r_h = (float(goal_reward(self.graph, ep.state, ep.intention, t.aborted, t.terminated))
+               if self._goal_reward else r)
+        if self._human_window:
+            self.render()
         return (
             obs,
-            {"human": r, "robot": r},
+            {"human": r_h, "robot": r},
             {"human": t.terminated, "robot": t.terminated},
             {"human": truncated, "robot": truncated},
-            {
-                "human": {"aborted": t.aborted, "invalid_action": t.human_invalid,
-                          "robot_reward": r, "intention": ep.intention, **extra},
-                "robot": {"aborted": t.aborted, "invalid_action": t.robot_invalid,
-                          "robot_reward": r, **extra},
-            },
+            infos,
         )
 
     def _observations(self) -> dict[str, dict[str, Any]]:
@@ -252,6 +298,12 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         human = {"state": ep.state, "start": ep.start, "last_human_action": ep.last_human,
                  "action_mask": mask.copy(), "intention": ep.intention}
         return {"human": human, "robot": robot}
+
+    def _classic_observations(self) -> dict[str, dict[str, Any]]:
+        ep, enc = self._episode, self._classic.encode
+        mask = self.rules.action_mask[ep.state]
+        return {"human": enc(ep.state, ep.start, ep.last_human, ep.intention, mask),
+                "robot": enc(ep.state, ep.start, ep.observed_human, None, mask)}
 
     def state(self) -> np.ndarray:
         """``[state, start, intention, last_human_action, lifted]``, int64, shape (5,)."""
@@ -271,6 +323,8 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
             )
         if self.render_mode == "rgb_array":
             return ep.render(self.layout)
+        if self.render_mode == "human":
+            ep.show(self.layout, self.metadata["name"], self.metadata["render_fps"])
         return None
 
     def close(self) -> None:

@@ -17,9 +17,11 @@ from hri_envs.envs.config import (
     scenario_graph,
 )
 from hri_envs.envs.episode import Episode
+from hri_envs.envs.formats import ClassicLayout, check_observation_format
 from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, robot_observation_space
-from hri_envs.task.episode import EpisodeRules
+from hri_envs.envs.window import check_display
+from hri_envs.task.episode import EpisodeRules, reached_intention
 from hri_envs.task.humans import ScriptedHuman
 from hri_envs.task.scenarios import scenario_spec
 
@@ -51,7 +53,10 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
 
     ``Dict`` with ``"state"`` ``Discrete(S)``, ``"start"`` ``Discrete(K)``,
     ``"last_human_action"`` ``Discrete(A)`` (wait at reset) and ``"action_mask"``
-    ``Box(0, 1, (A,), int8)``. ι is not observed.
+    ``Box(0, 1, (A,), int8)``. ι is not observed. With ``observation_format="classic"``:
+    ``{"observation": Box(0, 1, (N,), float32), "action_mask": Box(0, 1, (A,), int8)}``, the
+    robot's view in the parallel env's classic format; ``"flat"``: one ``Box``, the vector
+    with the mask appended (:mod:`hri_envs.envs.formats`).
 
     ## Rewards
 
@@ -70,7 +75,8 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
     ## Episode End
 
     Terminated when the object rests with μ = 0 on a support other than the start, or on
-    the start after it was lifted. Truncated after ``max_cycles`` steps.
+    the start after it was lifted. Truncated after ``max_cycles`` steps. The last step's
+    ``info["reached_intention"]`` says whether the object rests on ι (False before).
 
     ## Arguments
 
@@ -91,7 +97,10 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
       Boltzmann human); replaces the three arguments above;
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
     - ``max_cycles``: step limit per episode (default 100);
-    - ``render_mode``: None, "ansi" or "rgb_array"; ``render_intention`` shows ι in it;
+    - ``render_mode``: None, "ansi", "rgb_array" or "human" (a window; without a display
+      :class:`~hri_envs.errors.DisplayUnavailableError` when built); ``render_intention``
+      shows ι in it;
+    - ``observation_format``: "dict" (default), "classic" or "flat" (see Observation Space);
     - ``backend``: "graph" (the abstract transition graph) or "mujoco": the same task on a
       simulated Franka Panda (:mod:`hri_envs.physics`, registered as
       ``hri_envs/HangerPanda-v0`` and ``hri_envs/WheelPanda-v0``). Both agents' actions are
@@ -109,7 +118,8 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
     - v0: initial version.
     """
 
-    metadata: dict[str, Any] = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
+    metadata: dict[str, Any] = {"render_modes": ["ansi", "rgb_array", "human"],
+                                "render_fps": 4}
 
     def __init__(
         self,
@@ -125,12 +135,17 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         backend: str = "graph",
         render_intention: bool = False,
         physics: dict[str, Any] | None = None,
+        observation_format: str = "dict",
     ) -> None:
         (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
                                             self.metadata["render_modes"], backend)
         physics = check_physics_options(physics, self.backend)
         self.render_intention = bool(render_intention)
+        self.observation_format = check_observation_format(observation_format)
+        self._human_window = self.render_mode == "human"
+        if self._human_window:
+            check_display()
 
         self.graph = scenario_graph(scenario)
         self.human = make_human(self.graph, preference, human_passive, turn_back, human)
@@ -140,6 +155,10 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         self._sample_layout = scenario_spec(scenario).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self.observation_space = robot_observation_space(n_s, n_k, n_a)
+        if self.observation_format != "dict":
+            self._classic = ClassicLayout(n_s, n_k, n_a, self.observation_format == "flat")
+            self.observation_space = self._classic.space
+            self._observation = self._classic_observation  # type: ignore[method-assign]
         self.action_space = spaces.Discrete(n_a)
         self.layout: tuple[tuple[float, float], ...] | None = None
         self._human_rng = np.random.default_rng(0)
@@ -170,7 +189,10 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         self._episode.place(self.layout, rng)
         self._reward = 0.0
         self._done = False
-        return self._observation(), {"aborted": False, "invalid_action": False}
+        if self._human_window:
+            self.render()
+        return self._observation(), {"aborted": False, "invalid_action": False,
+                                     "reached_intention": False}
 
     def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
         """The robot acts, the scripted human acts, the object moves."""
@@ -184,14 +206,24 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         self._reward = t.reward
         truncated = not t.terminated and (ep.steps >= self.max_cycles or ep.fault is not None)
         info: dict[str, Any] = {"aborted": t.aborted, "invalid_action": t.robot_invalid,
-                                **ep.step_info()}
+                                "reached_intention": False, **ep.step_info()}
         self._done = t.terminated or truncated
+        if self._done:
+            info["reached_intention"] = t.terminated and bool(
+                reached_intention(self.graph, ep.state, ep.intention))
+        if self._human_window:
+            self.render()
         return self._observation(), t.reward, t.terminated, truncated, info
 
     def _observation(self) -> dict[str, Any]:
         ep = self._episode
         return {"state": ep.state, "start": ep.start, "last_human_action": ep.observed_human,
                 "action_mask": self.rules.action_mask[ep.state].copy()}
+
+    def _classic_observation(self) -> dict[str, Any]:
+        ep = self._episode
+        return self._classic.encode(ep.state, ep.start, ep.observed_human, None,
+                                    self.rules.action_mask[ep.state])
 
     def render(self) -> str | np.ndarray | None:  # type: ignore[override]
         """Render according to ``render_mode`` (None: nothing)."""
@@ -206,6 +238,8 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
             )
         if self.render_mode == "rgb_array":
             return ep.render(self.layout)
+        if self.render_mode == "human":
+            ep.show(self.layout, f"{self.scenario_name} (robot)", self.metadata["render_fps"])
         return None
 
     def close(self) -> None:

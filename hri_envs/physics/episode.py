@@ -12,12 +12,15 @@ envs then truncate the episode.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 
 from hri_envs.envs.episode import Episode
+from hri_envs.envs.window import check_display
+from hri_envs.errors import DisplayUnavailableError
 from hri_envs.physics.ik import IKFailure
 from hri_envs.physics.rendering import SceneRenderer, write_video
 from hri_envs.physics.sim import PandaSim, StepResult
@@ -75,6 +78,7 @@ class PhysicsEpisode(Episode):
         self.frames: list[np.ndarray] = []
         self.episode_count = 0
         self._renderer: SceneRenderer | None = None
+        self._viewer: Any = None
         super().__init__(rules, turn_state)
 
     @property
@@ -149,9 +153,35 @@ class PhysicsEpisode(Episode):
             write_video(self.frames, path, self.video_fps)
         self.frames = []
 
+    def show(self, layout: tuple[tuple[float, float], ...] | None, title: str,
+             fps: float) -> None:
+        """``render_mode="human"``: MuJoCo's passive viewer on the simulation (opened on first
+        use; ``layout`` and ``fps`` are the simulation's own, ``title`` is MuJoCo's).
+        """
+        if self._viewer is None:
+            check_display()
+            try:
+                import mujoco.viewer
+
+                self._viewer = mujoco.viewer.launch_passive(
+                    self.sim.model, self.sim.data, show_left_ui=False, show_right_ui=False)
+            except Exception as exc:  # GLFW/OpenGL set-up errors have no common class
+                raise DisplayUnavailableError(
+                    f"render_mode='human' could not open MuJoCo's viewer ({exc}); use "
+                    f"render_mode='rgb_array' instead", field="render_mode") from exc
+        if self._viewer.is_running():
+            self._viewer.sync()
+
     def close(self) -> None:
-        """Write a pending video and release the renderer."""
+        """Write a pending video and release the renderer and the viewer."""
         self.flush_video()
+        if self._viewer is not None:
+            self._viewer.close()
+            for _ in range(100):  # the viewer's thread ends asynchronously; wait up to 2 s
+                if not self._viewer.is_running():
+                    break
+                time.sleep(0.02)
+            self._viewer = None
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None

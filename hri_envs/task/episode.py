@@ -43,7 +43,9 @@ __all__ = [
     "draw_other_support",
     "draw_start_intention",
     "episode_over",
+    "goal_reward",
     "left_start",
+    "reached_intention",
     "robot_correct",
     "start_state",
     "step_penalty",
@@ -197,6 +199,32 @@ def classify(
     correct = robot_correct(graph, s, a_r, a_h, s_next)
     waited = np.asarray(a_r) == WAIT
     return Decisions(correct, waited, ~waited & ~correct)
+
+
+# --------------------------------------------------------------------------- the human's goal
+def reached_intention(graph: TaskGraph, state: IntArray, intention: IntArray) -> np.ndarray:
+    """The object rests on the intended support ι (any grasp), arrays broadcast.
+
+    At the end of an episode (:func:`episode_over`) this says whether the task succeeded.
+    """
+    return graph.support[state] == intention  # type: ignore[no-any-return]
+
+
+def goal_reward(
+    graph: TaskGraph,
+    s_next: IntArray,
+    intention: IntArray,
+    aborted: np.ndarray | bool,
+    terminated: np.ndarray | bool,
+) -> np.ndarray:
+    """The human's task reward (``human_reward="goal"``) in {-1, 0, +1}, arrays broadcast.
+
+    r⁻ = -1 for an aborted step; +1 for the step that ends the episode with the object
+    resting on ι (:func:`reached_intention`; after turning back, ι is the start); 0
+    otherwise, also for an episode that ends on another support or is truncated.
+    """
+    done = np.asarray(terminated) & reached_intention(graph, s_next, intention)
+    return np.where(aborted, -1.0, np.where(done, 1.0, 0.0))
 
 
 # --------------------------------------------------------------------------- lookup tables

@@ -1,0 +1,167 @@
+"""One seat of the two-agent env played by a fixed partner: a single-agent Gymnasium env.
+
+:class:`PartnerEnv` wraps the PettingZoo :class:`~hri_envs.envs.parallel.CooperationParallelEnv`
+(any backend, observation format or human reward) and lets a fixed partner play the other
+agent, so that a single-agent learner (SB3, your own) can train either seat:
+
+- ``learner="robot"``: the partner is a scripted human
+  (:class:`~hri_envs.task.humans.ScriptedHuman`, which acts on the true state and ι, as in
+  the Gymnasium robot env) or any policy;
+- ``learner="human"``: the partner is a robot policy, for a *learning human*; pair it with
+  ``human_reward="goal"`` so that the human is paid for reaching its own goal.
+
+A policy is a callable ``policy(observation, rng) -> action`` that receives the partner's
+own observation (in the wrapped env's format) and the wrapper's generator. Three come with
+the library: :func:`following_robot` (a robot that mirrors the human's grasp and lets the
+human lead: the default partner of a learning human), :func:`waiting_policy` and
+:func:`random_valid_policy`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from hri_envs.envs.formats import ClassicLayout
+from hri_envs.envs.parallel import AGENTS, CooperationParallelEnv
+from hri_envs.errors import ConfigError
+from hri_envs.task.actions import HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.humans import ScriptedHuman, preference_human
+
+__all__ = ["PartnerEnv", "Policy", "following_robot", "random_valid_policy", "waiting_policy"]
+
+#: ``policy(observation, rng) -> action`` of the partner agent.
+Policy = Callable[[Any, np.random.Generator], int]
+
+
+def waiting_policy(observation: Any, rng: np.random.Generator) -> int:
+    """Always wait (a passive partner); the arguments are ignored."""
+    return WAIT
+
+
+def random_valid_policy(observation: Any, rng: np.random.Generator) -> int:
+    """A uniformly drawn action among the valid ones (``observation["action_mask"]``; the
+    "dict" and "classic" formats).
+    """
+    return int(rng.choice(np.flatnonzero(observation["action_mask"])))
+
+
+def following_robot(graph: TaskGraph) -> Policy:
+    """A scripted robot that follows the human's lead.
+
+    It toggles its grasp whenever its own grasp differs from the human's (it takes hold
+    when the human does and lets go when the human does), and otherwise waits, so that
+    a held object moves by the human's actions. It reads the state from its observation in
+    any format and never uses ι.
+
+    Args:
+        graph: The scenario's task graph.
+    """
+    layout = ClassicLayout(graph.n_states, graph.n_intentions, graph.n_actions)
+    grasp = graph.grasp
+
+    def follow(observation: Any, rng: np.random.Generator) -> int:
+        if isinstance(observation, dict) and "state" in observation:
+            state = int(observation["state"])
+        else:
+            vec = observation["observation"] if isinstance(observation, dict) else observation
+            state = int(layout.decode(vec)["state"])  # type: ignore[arg-type]
+        mu = int(grasp[state])
+        return TOGGLE if bool(mu & HUMAN_BIT) != bool(mu & ROBOT_BIT) else WAIT
+
+    return follow
+
+
+class PartnerEnv(gym.Env[Any, np.int64]):
+    """A single-agent view of the two-agent env: ``learner`` acts, a fixed partner answers.
+
+    Args:
+        env: The two-agent parallel env (e.g. ``hanger_v0.parallel_env(human_reward="goal")``).
+        learner: The agent the caller controls, "robot" (default) or "human".
+        partner: The other agent: a :class:`~hri_envs.task.humans.ScriptedHuman` (only when
+            the learner is the robot) or a :data:`Policy`. Default: the scenario's
+            preference human for a learning robot, :func:`following_robot` for a learning
+            human.
+
+    The observation and action spaces are the learner's in ``env``; ``step`` returns the
+    learner's observation, reward, termination, truncation and info. The partner draws from
+    this env's ``np_random`` (seeded by ``reset(seed=...)``), so seeded episodes repeat.
+    """
+
+    def __init__(self, env: CooperationParallelEnv, learner: str = "robot",
+                 partner: ScriptedHuman | Policy | None = None) -> None:
+        if learner not in AGENTS:
+            raise ConfigError(f"unknown learner {learner!r}; allowed: "
+                              f"{', '.join(map(repr, AGENTS))}", field="learner")
+        if list(env.possible_agents) != list(AGENTS):
+            raise ConfigError(f"PartnerEnv wraps a two-agent env with agents {list(AGENTS)}, "
+                              f"got {env.possible_agents}", field="env")
+        self.env, self.learner = env, learner
+        self.partner_agent = "human" if learner == "robot" else "robot"
+        graph = env.unwrapped.graph
+        if partner is None:
+            partner = (preference_human(graph) if learner == "robot"
+                       else following_robot(graph))
+        if isinstance(partner, ScriptedHuman):
+            if learner != "robot":
+                raise ConfigError("a ScriptedHuman can only play the human; for "
+                                  "learner='human' give the robot a policy(observation, rng)",
+                                  field="partner")
+            if partner.graph.name != graph.name:
+                raise ConfigError(f"the scripted human was built for the "
+                                  f"{partner.graph.name}, the env is the {graph.name}",
+                                  field="partner")
+        elif not callable(partner):
+            raise ConfigError(f"partner must be a ScriptedHuman or a callable "
+                              f"policy(observation, rng) -> action, got {partner!r}",
+                              field="partner")
+        self.partner = partner
+        self.observation_space = env.observation_space(learner)
+        self.action_space = env.action_space(learner)
+        self.metadata = dict(env.metadata)
+        self.render_mode = env.render_mode
+        self._obs: dict[str, Any] = {}
+
+    def _partner_action(self) -> int:
+        if isinstance(self.partner, ScriptedHuman):
+            state, start, intention = (int(v) for v in self.env.state()[:3])
+            return int(self.partner.act(self.np_random, np.array([state]), np.array([start]),
+                                        np.array([intention]))[0])
+        return int(self.partner(self._obs[self.partner_agent], self.np_random))
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        """Reset the wrapped env (same ``options``); the learner's observation and info."""
+        super().reset(seed=seed)
+        self._obs, infos = self.env.reset(seed=seed, options=options)
+        return self._obs[self.learner], infos[self.learner]
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        """The learner plays ``action``, the partner its own; one joint step."""
+        if not self.env.agents:
+            raise RuntimeError("the episode has ended (or never started); call reset() first")
+        actions = {self.learner: action, self.partner_agent: self._partner_action()}
+        self._obs, rewards, terms, truncs, infos = self.env.step(actions)
+        me = self.learner
+        return self._obs[me], float(rewards[me]), bool(terms[me]), bool(truncs[me]), infos[me]
+
+    def action_masks(self) -> np.ndarray:
+        """(A,) bool, the learner's valid actions (sb3-contrib's convention)."""
+        obs = self._obs[self.learner]
+        if isinstance(obs, dict):
+            return np.asarray(obs["action_mask"], dtype=bool)
+        n_actions = int(self.env.action_space(self.learner).n)
+        return np.asarray(obs[-n_actions:] > 0.5)  # the "flat" format
+
+    def render(self) -> Any:
+        """The wrapped env's :meth:`render`."""
+        return self.env.render()
+
+    def close(self) -> None:
+        """Close the wrapped env."""
+        self.env.close()
