@@ -211,6 +211,9 @@ def solve_q(
     Returns:
         (..., S, A) Q, with invalid actions holding the value they would have (masked by
         the callers).
+
+    Only the MDPs whose policy changed in a round are evaluated again (the others would
+    give the same Q again), so a warm-started batch costs about one solve per MDP.
     """
     if not 0.0 <= gamma < 1.0:
         raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
@@ -227,22 +230,35 @@ def solve_q(
         act = np.where(valid, flat_r, _NEG).argmax(axis=-1)  # (N, S)
     else:
         act = np.broadcast_to(policy, (*lead, n_s)).reshape(n, n_s)
-    first = np.arange(0, n * n_s * n_a, n_a)  # flat index of (n, s, a=0)
+    act = act.copy()
+    pair = np.arange(n_s) * n_a  # flat index of (s, a=0) within one MDP
     eye = np.eye(n_s)
+    q = np.empty((n, n_s, n_a))
+    todo = np.arange(n)  # the MDPs whose policy still changes; the others are final
     for _ in range(max_iter):
-        chosen = first + act.ravel()  # flat index of (n, s, act[n, s])
-        p = by_state[chosen].reshape(n, n_s, n_s)  # (N, S, S) under the policy
-        r = r_flat[chosen].reshape(n, n_s, 1)
-        v = np.linalg.solve(eye - gamma * p, r)  # (N, S, 1)
-        q = flat_r + gamma * np.matmul(by_pair, v).reshape(n, n_s, n_a)
-        q_masked = np.where(valid, q, _NEG)
+        every = len(todo) == n
+        act_t = act if every else act[todo]
+        chosen = (todo[:, None] * (n_s * n_a) + pair) + act_t  # (K, S): flat (n, s, act)
+        p = by_state[chosen.ravel()].reshape(-1, n_s, n_s)  # (K, S, S) under the policy
+        r = r_flat[chosen].reshape(-1, n_s, 1)
+        v = np.linalg.solve(eye - gamma * p, r)  # (K, S, 1)
+        if every:
+            q_t = flat_r + gamma * np.matmul(by_pair, v).reshape(n, n_s, n_a)
+        else:
+            q_t = flat_r[todo] + gamma * np.matmul(by_pair[todo], v).reshape(-1, n_s, n_a)
+        q[todo] = q_t
+        q_masked = np.where(valid, q_t, _NEG)
         best = q_masked.max(axis=-1)
-        current = q_masked.reshape(-1)[chosen].reshape(n, n_s)
+        local = chosen if every else (np.arange(len(todo))[:, None] * (n_s * n_a) + pair) + act_t
+        current = q_masked.reshape(-1)[local]  # (K, S): Q of the current actions
         # Keep the current action on (numerical) ties so the iteration terminates.
         improve = best - current > 1e-10 * (1.0 + np.abs(best))
-        if not improve.any():
+        changed = improve.any(axis=-1)
+        if not changed.any():
             break
-        act = np.where(improve, q_masked.argmax(axis=-1), act)
+        act[todo] = np.where(improve, q_masked.argmax(axis=-1), act_t)
+        # An MDP whose policy did not change would give the same Q again: it is done.
+        todo = todo[changed]
     return q.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
 
 
