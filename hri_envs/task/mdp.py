@@ -14,8 +14,10 @@ in a handful of solves instead of hundreds of sweeps.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import NamedTuple
+import functools
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -32,6 +34,7 @@ __all__ = [
     "expected_feature_counts",
     "human_transition",
     "irl_step",
+    "one_blas_thread",
     "partner_index",
     "passive_policy",
     "q_iteration",
@@ -43,6 +46,37 @@ __all__ = [
 ]
 
 _NEG = -1e300
+
+
+@functools.cache
+def _blas_controllers() -> tuple[Any, ...]:
+    """The BLAS libraries loaded (numpy's), as threadpoolctl controllers; found once."""
+    from threadpoolctl import ThreadpoolController
+
+    return tuple(ThreadpoolController().select(user_api="blas").lib_controllers)
+
+
+@contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """Run the enclosed block (or decorated function) with BLAS on one thread.
+
+    The learning math makes many small products and solves (36-state matrices, batches of a
+    few hundred): a BLAS that splits each of them over threads spends more time handing work
+    out than computing, and far more so when other jobs load the machine (10x slower
+    measured on 2 busy cores). Threads do not change the numbers, only the time. The
+    setting is process-wide while the block runs and is restored after it.
+    """
+    controllers = _blas_controllers()
+    before = [c.get_num_threads() for c in controllers]
+    for c, n in zip(controllers, before, strict=True):
+        if n != 1:
+            c.set_num_threads(1)
+    try:
+        yield
+    finally:
+        for c, n in zip(controllers, before, strict=True):
+            if n != 1:
+                c.set_num_threads(n)
 
 
 def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
