@@ -79,3 +79,15 @@ def test_partner_transitions_match_a_direct_sum():
     for b, s, a, p in np.ndindex(2, g.n_states, g.n_actions, g.n_actions):
         expected[b, s, a, g.next_state[s, a, p]] += pi[b, s, p]
     np.testing.assert_allclose(mdp.robot_transition(g.next_state, pi), expected, atol=1e-15)
+
+
+def test_one_blas_thread_limits_inside_and_restores_after():
+    controllers = mdp._blas_controllers()
+    assert controllers, "numpy's BLAS should be visible to threadpoolctl"
+    before = [c.get_num_threads() for c in controllers]
+    with mdp.one_blas_thread():
+        assert [c.get_num_threads() for c in controllers] == [1] * len(controllers)
+    assert [c.get_num_threads() for c in controllers] == before
+    with pytest.raises(KeyError), mdp.one_blas_thread():
+        raise KeyError("restored on errors too")
+    assert [c.get_num_threads() for c in controllers] == before
