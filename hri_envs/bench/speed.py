@@ -17,6 +17,7 @@ from agents.learner import Learner
 from hri_envs.bench.study import StudyConfig, graph_for, run_study
 from hri_envs.errors import ConfigError
 from hri_envs.task.humans import HANGER_PREFERENCES
+from hri_envs.task.mdp import one_blas_thread
 from hri_envs.task.protocol import Trace
 
 __all__ = [
@@ -120,27 +121,27 @@ def learner_update_batched_ms_per_run(runs: int = 100, repeats: int = 10) -> flo
 def machine_ms(repeats: int = 5) -> float:
     """Milliseconds for a fixed numpy workload: the machine's speed, to compare figures by.
 
-    The workload (seeded, always the same) is the Learner's kind of arithmetic at the
-    studies' size: 300 linear solves of 36 x 36, a batched (36, 300, 12) @ (36, 12, 432)
-    product, and exp, max and sum over 300 x 36 x 12 values, ten times; the fastest of
-    ``repeats`` counts. Divide a figure by it (or compare ratios of it) to set figures from
-    different machines or loads side by side.
+    The workload (seeded, always the same, BLAS on one thread like the Learner's update) is
+    the update's arithmetic at the studies' batch size, ten times over: 300 linear solves of
+    36 x 36, 300 products (432 x 36) @ (36 x 1), and a soft-max over 300 x 36 x 12 values.
+    The fastest of ``repeats`` counts. Divide a figure by it (or compare ratios of it) to
+    set figures from different machines or loads side by side.
     """
     rng = np.random.default_rng(0)
     a = rng.random((300, 36, 36)) + 36 * np.eye(36)
     b = rng.random((300, 36, 1))
-    x = rng.random((36, 300, 12))
-    y = rng.random((36, 12, 432))
+    t = rng.random((300, 432, 36))
     z = rng.random((300, 36, 12))
     best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        for _ in range(10):
-            np.linalg.solve(a, b)
-            np.matmul(x, y)
-            e = np.exp(z - z.max(axis=-1, keepdims=True))
-            e /= e.sum(axis=-1, keepdims=True)
-        best = min(best, time.perf_counter() - t0)
+    with one_blas_thread():
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            for _ in range(10):
+                v = np.linalg.solve(a, b)
+                np.matmul(t, v)
+                e = np.exp(z - z.max(axis=-1, keepdims=True))
+                e /= e.sum(axis=-1, keepdims=True)
+            best = min(best, time.perf_counter() - t0)
     return float(best * 1e3)
 
 
