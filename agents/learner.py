@@ -104,7 +104,8 @@ class Learner(BatchAgent):
         self.pi_r = np.broadcast_to(uniform, (1, n_i, n_s, n_a)).copy()
         self._warm_h: np.ndarray | None = None
         self._warm_r: np.ndarray | None = None
-        self._update_policies()
+        with mdp.one_blas_thread():
+            self._update_policies()
         for name in ("theta", "pi_r", "pi_h", "q_h", "q_r", "_warm_h", "_warm_r"):
             setattr(self, name, np.repeat(getattr(self, name), n_runs, axis=0))
 
@@ -186,6 +187,7 @@ class Learner(BatchAgent):
         self.belief = np.where(active[:, None], new, self.belief)
         self.lifted |= active & rules.left_start(self.graph, next_states, self.start)
 
+    @mdp.one_blas_thread()
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Loop removal, one IRL step, then recompute π̂_H and the robot's Q."""
         intentions = np.asarray(intentions, dtype=np.int64).reshape(self.n_runs)

@@ -11,6 +11,7 @@ from hri_envs.bench.cli import main
 from hri_envs.bench.figures import make_figures
 from hri_envs.bench.play import play
 from hri_envs.bench.study import StudyConfig, run_study
+from hri_envs.errors import ConfigError
 
 SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive", "runs",
                 "episodes", "seed", "wall_time_s", "agents"}
@@ -129,7 +130,7 @@ def test_play_in_the_terminal_with_scripted_answers():
 
 
 SPEED_KEYS = {"parallel_env_steps_per_s", "vector_env_steps_per_s", "learner_update_ms",
-              "hanger_study_s"}
+              "learner_update_batched_ms_per_run", "hanger_study_s", "machine_ms"}
 
 
 def _positive_finite(value):
@@ -137,47 +138,40 @@ def _positive_finite(value):
 
 
 def test_speed_json_runs_the_real_measurements_on_a_tiny_size(monkeypatch, capsys):
-    """``hri-bench speed --json`` end to end, with the real measure() and measuring functions.
-
-    measure() has no size parameter (only ``jobs``), so each measuring function it calls is
-    wrapped to run for real with tiny sizes; the wrappers record what measure() asked for.
-    """
+    """``hri-bench speed --json --size tiny`` end to end: every figure measured for real."""
     import hri_envs.bench.speed as speed
-    import hri_envs.envs.speed as env_speed
 
-    calls, studies = {}, []
-
-    def tiny(module, name, **size):
-        real = getattr(module, name)
-
-        def run(*args, **kwargs):
-            calls[name] = (args, kwargs)
-            return real(*args, **{**kwargs, **size})
-
-        monkeypatch.setattr(module, name, run)
-
-    tiny(env_speed, "parallel_env_steps_per_s", steps=200, repeats=1)
-    tiny(env_speed, "vector_env_steps_per_s", num_envs=4, steps=25, repeats=1)
-    tiny(speed, "learner_update_ms", repeats=2)
-    tiny(speed, "hanger_study_s", runs=1, episodes=2)
+    studies = []
     real_study = speed.run_study
     monkeypatch.setattr(speed, "run_study", lambda cfg: studies.append(cfg) or real_study(cfg))
 
-    assert main(["speed", "--json", "--jobs", "1"]) == 0
+    assert main(["speed", "--json", "--jobs", "1", "--size", "tiny"]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
     figures = json.loads(lines[-1])
-    assert set(figures) == SPEED_KEYS == set(calls)
+    assert set(figures) == SPEED_KEYS
     assert all(_positive_finite(v) for v in figures.values()), figures
     for key in SPEED_KEYS:  # one readable line per figure before the JSON
-        assert sum(line.startswith(key) for line in lines[:-1]) == 1
-    assert calls["vector_env_steps_per_s"][1] == {"num_envs": 1024}
-    assert calls["learner_update_ms"][0] == ("wheel",)
-    assert calls["hanger_study_s"][1] == {"jobs": 1}
+        assert sum(line.split()[0] == key for line in lines[:-1]) == 1
     # The hanger study: the nine study preferences, Learner only, at the tiny size.
     assert [c.preference for c in studies] == list(speed.HANGER_STUDY_PREFERENCES)
     assert len(set(speed.HANGER_STUDY_PREFERENCES)) == 9
-    assert all(c.scenario == "hanger" and c.agents == ("learner",) and c.runs == 1
-               and c.n_episodes == 2 and c.executor == "serial" for c in studies)
+    tiny = speed.SIZES["tiny"]
+    assert all(c.scenario == "hanger" and c.agents == ("learner",) and c.runs == tiny.study_runs
+               and c.n_episodes == tiny.study_episodes and c.executor == "serial"
+               for c in studies)
+
+
+def test_speed_sizes_are_checked_and_the_full_size_is_the_published_one():
+    import hri_envs.bench.speed as speed
+
+    full = speed.SIZES["full"]
+    assert (full.vector_envs, full.batch_runs, full.study_runs, full.study_episodes) == (
+        1024, 100, 100, 8)
+    with pytest.raises(ConfigError, match="size must be one of") as exc:
+        speed.measure(size="huge")
+    assert exc.value.field == "size"
+    with pytest.raises(ConfigError, match="scenario must be 'wheel'"):
+        speed.learner_update_ms("hanger", repeats=1)
 
 
 @pytest.mark.parametrize("scenario", ["hanger", "wheel"])

@@ -14,8 +14,10 @@ in a handful of solves instead of hundreds of sweeps.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import NamedTuple
+import functools
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -25,12 +27,15 @@ from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
 
 __all__ = [
     "Demonstrations",
+    "PartnerIndex",
     "bayes_update",
     "bounded_softmax",
     "demonstrations",
     "expected_feature_counts",
     "human_transition",
     "irl_step",
+    "one_blas_thread",
+    "partner_index",
     "passive_policy",
     "q_iteration",
     "remove_loops",
@@ -41,6 +46,37 @@ __all__ = [
 ]
 
 _NEG = -1e300
+
+
+@functools.cache
+def _blas_controllers() -> tuple[Any, ...]:
+    """The BLAS libraries loaded (numpy's), as threadpoolctl controllers; found once."""
+    from threadpoolctl import ThreadpoolController
+
+    return tuple(ThreadpoolController().select(user_api="blas").lib_controllers)
+
+
+@contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """Run the enclosed block (or decorated function) with BLAS on one thread.
+
+    The learning math makes many small products and solves (36-state matrices, batches of a
+    few hundred): a BLAS that splits each of them over threads spends more time handing work
+    out than computing, and far more so when other jobs load the machine (10x slower
+    measured on 2 busy cores). Threads do not change the numbers, only the time. The
+    setting is process-wide while the block runs and is restored after it.
+    """
+    controllers = _blas_controllers()
+    before = [c.get_num_threads() for c in controllers]
+    for c, n in zip(controllers, before, strict=True):
+        if n != 1:
+            c.set_num_threads(1)
+    try:
+        yield
+    finally:
+        for c, n in zip(controllers, before, strict=True):
+            if n != 1:
+                c.set_num_threads(n)
 
 
 def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
@@ -85,21 +121,66 @@ def bounded_softmax(
     return kept / kept.sum(axis=-1, keepdims=True)  # type: ignore[no-any-return]
 
 
+class PartnerIndex(NamedTuple):
+    """A joint transition table as one 0/1 matrix per state, for building partner transitions.
+
+    It depends only on the graph, so :func:`partner_index` builds it once per read-only
+    ``next_state`` array and keeps it.
+
+    Attributes:
+        shape: (S, A_self, A_partner) of the table.
+        onehot: (S, A_partner, A_self * S) float, ``onehot[s, p, a * S + s'] = 1`` where
+            ``next_state[s, a, p] = s'``.
+    """
+
+    shape: tuple[int, int, int]
+    onehot: np.ndarray
+
+
+#: (data address, shape, strides) -> (the array owning the memory, its index).
+_INDEX_CACHE: dict[tuple[int, tuple[int, ...], tuple[int, ...]], tuple[object, PartnerIndex]] = {}
+
+
+def partner_index(next_state: np.ndarray) -> PartnerIndex:
+    """The :class:`PartnerIndex` of ``next_state`` (S, A_self, A_partner).
+
+    Cached when the memory's owner is read-only (the task graph's arrays are), keyed by the
+    memory and layout, so each graph pays for it once per process; other arrays are indexed
+    afresh each call.
+    """
+    owner = next_state if next_state.base is None else next_state.base
+    key = (next_state.ctypes.data, next_state.shape, next_state.strides)
+    hit = _INDEX_CACHE.get(key)
+    if hit is not None and hit[0] is owner:
+        return hit[1]
+    n_s, n_a, n_p = next_state.shape
+    s, a, p = np.indices((n_s, n_a, n_p))
+    onehot = np.zeros((n_s, n_p, n_a, n_s))
+    onehot[s, p, a, next_state] = 1.0
+    index = PartnerIndex((n_s, n_a, n_p), onehot.reshape(n_s, n_p, n_a * n_s))
+    if isinstance(owner, np.ndarray) and not owner.flags.writeable:
+        if len(_INDEX_CACHE) >= 16:
+            _INDEX_CACHE.clear()
+        _INDEX_CACHE[key] = (owner, index)
+    return index
+
+
 def _partner_transition(next_state: np.ndarray, partner: np.ndarray) -> np.ndarray:
     """Σ_p π_p(p|s) 1[next_state[s, a, p] = s'] as a dense (..., S, A, S) array.
 
-    ``next_state`` is (S, A_self, A_partner). Built with one ``bincount`` over the
-    (run, s, a, p) combinations: cheaper than a one-hot matrix product.
+    ``next_state`` is (S, A_self, A_partner). One batched product per state of the partner
+    policy with the graph's cached 0/1 matrix (:func:`partner_index`), written straight into
+    the (..., S, A, S) result: one BLAS call instead of index arithmetic and temporaries.
+    Each cell sums the same products in increasing p as the earlier ``bincount``
+    construction (multiplying by 1 and adding 0 are exact), so the result is the same to
+    the bit (tests/test_learner_reference.py).
     """
-    n_s, n_a, n_p = next_state.shape
+    index = partner_index(next_state)
+    n_s, n_a, n_p = index.shape
     lead = partner.shape[:-2]
     flat = partner.reshape(-1, n_s, n_p)
-    n = flat.shape[0]
-    cell = (np.arange(n)[:, None, None] * n_s + np.arange(n_s)[None, :, None]) * n_a
-    cell = cell + np.arange(n_a)[None, None, :]  # (N, S, A): index of (n, s, a)
-    idx = cell[..., None] * n_s + next_state[None]  # (N, S, A, P): index of (n, s, a, s')
-    weights = np.broadcast_to(flat[:, :, None, :], idx.shape)
-    out = np.bincount(idx.ravel(), weights.ravel(), minlength=n * n_s * n_a * n_s)
+    out = np.empty((flat.shape[0], n_s, n_a * n_s))
+    np.matmul(flat.transpose(1, 0, 2), index.onehot, out=out.transpose(1, 0, 2))
     return out.reshape(*lead, n_s, n_a, n_s)
 
 
@@ -164,6 +245,9 @@ def solve_q(
     Returns:
         (..., S, A) Q, with invalid actions holding the value they would have (masked by
         the callers).
+
+    Only the MDPs whose policy changed in a round are evaluated again (the others would
+    give the same Q again), so a warm-started batch costs about one solve per MDP.
     """
     if not 0.0 <= gamma < 1.0:
         raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
@@ -173,27 +257,42 @@ def solve_q(
     flat_t = np.ascontiguousarray(transition).reshape(-1, n_s, n_a, n_s)  # (N, S, A, S)
     flat_r = np.ascontiguousarray(reward).reshape(-1, n_s, n_a)  # (N, S, A)
     n = flat_t.shape[0]
-    by_state = flat_t.reshape(n * n_s, n_a, n_s)
+    by_state = flat_t.reshape(n * n_s * n_a, n_s)  # row (n, s, a): T(.|s, a)
     by_pair = flat_t.reshape(n, n_s * n_a, n_s)
+    r_flat = flat_r.reshape(-1)
     if policy is None:
         act = np.where(valid, flat_r, _NEG).argmax(axis=-1)  # (N, S)
     else:
         act = np.broadcast_to(policy, (*lead, n_s)).reshape(n, n_s)
-    rows = np.arange(n * n_s)
+    act = act.copy()
+    pair = np.arange(n_s) * n_a  # flat index of (s, a=0) within one MDP
     eye = np.eye(n_s)
+    q = np.empty((n, n_s, n_a))
+    todo = np.arange(n)  # the MDPs whose policy still changes; the others are final
     for _ in range(max_iter):
-        p = by_state[rows, act.ravel()].reshape(n, n_s, n_s)  # (N, S, S) under the policy
-        r = np.take_along_axis(flat_r, act[..., None], axis=-1)  # (N, S, 1)
-        v = np.linalg.solve(eye - gamma * p, r)  # (N, S, 1)
-        q = flat_r + gamma * np.matmul(by_pair, v).reshape(n, n_s, n_a)
-        q_masked = np.where(valid, q, _NEG)
+        every = len(todo) == n
+        act_t = act if every else act[todo]
+        chosen = (todo[:, None] * (n_s * n_a) + pair) + act_t  # (K, S): flat (n, s, act)
+        p = by_state[chosen.ravel()].reshape(-1, n_s, n_s)  # (K, S, S) under the policy
+        r = r_flat[chosen].reshape(-1, n_s, 1)
+        v = np.linalg.solve(eye - gamma * p, r)  # (K, S, 1)
+        if every:
+            q_t = flat_r + gamma * np.matmul(by_pair, v).reshape(n, n_s, n_a)
+        else:
+            q_t = flat_r[todo] + gamma * np.matmul(by_pair[todo], v).reshape(-1, n_s, n_a)
+        q[todo] = q_t
+        q_masked = np.where(valid, q_t, _NEG)
         best = q_masked.max(axis=-1)
-        current = np.take_along_axis(q_masked, act[..., None], axis=-1)[..., 0]
+        local = chosen if every else (np.arange(len(todo))[:, None] * (n_s * n_a) + pair) + act_t
+        current = q_masked.reshape(-1)[local]  # (K, S): Q of the current actions
         # Keep the current action on (numerical) ties so the iteration terminates.
         improve = best - current > 1e-10 * (1.0 + np.abs(best))
-        if not improve.any():
+        changed = improve.any(axis=-1)
+        if not changed.any():
             break
-        act = np.where(improve, q_masked.argmax(axis=-1), act)
+        act[todo] = np.where(improve, q_masked.argmax(axis=-1), act_t)
+        # An MDP whose policy did not change would give the same Q again: it is done.
+        todo = todo[changed]
     return q.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
 
 
@@ -311,11 +410,15 @@ def remove_loops(states: np.ndarray) -> np.ndarray:
         Increasing indices into ``states``; the last index is always ``T``.
     """
     kept: list[int] = []  # indices into states, a loop-free path so far
-    for t, s in enumerate(np.asarray(states).tolist()):
-        for i, k in enumerate(kept):
-            if states[k] == s:  # back at an earlier state: drop the loop
-                del kept[i:]
-                break
+    where: dict[int, int] = {}  # state -> its position in kept
+    seq = np.asarray(states).tolist()
+    for t, s in enumerate(seq):
+        i = where.get(s)
+        if i is not None:  # back at an earlier state: drop the loop
+            for k in kept[i:]:
+                del where[seq[k]]
+            del kept[i:]
+        where[s] = len(kept)
         kept.append(t)
     return np.asarray(kept, dtype=np.int64)
 

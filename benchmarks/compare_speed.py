@@ -1,0 +1,114 @@
+"""Pairwise speed comparison of this checkout against another one, robust to a loaded machine.
+
+    python benchmarks/compare_speed.py --vs /path/to/old/checkout [--rounds 5] [--only learner]
+
+Each round times every measure once in the old checkout and once in this one, alternately,
+each in a fresh interpreter with that checkout first on ``PYTHONPATH``; the report gives, per
+measure, the range of both and the range of the per-round ratio old / new (> 1: this checkout
+is faster). Other jobs slow both sides of a round alike, so the ratios vary much less than
+the raw figures. Only public APIs that both checkouts have are used.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+#: name -> (snippet printing one number, unit, True when larger is faster).
+MEASURES: dict[str, tuple[str, str, bool]] = {
+    "learner_update": ("""
+import time, numpy as np
+from agents.learner import Learner
+from hri_envs.bench.study import graph_for
+from hri_envs.task.protocol import Trace
+g = graph_for("wheel"); w = g.waypoint_state
+states = np.array([0, 1, 3, w(0, 3, 1), w(1, 3, 1), w(1, 1, 1), w(1, 1, 0), 7, 4])
+tr = Trace(states, np.zeros(8, np.int64), np.zeros(8, np.int64))
+best = np.inf
+for n_b, reps in ((1, 100),) * 3:
+    lrn = Learner(g, n_b); trs = [tr] * n_b; ints = np.ones(n_b, np.int64)
+    lrn.end_episode(trs, ints)
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        lrn.end_episode(trs, ints)
+    best = min(best, (time.perf_counter() - t0) / reps)
+print(best * 1e3)
+""", "ms", False),
+    "learner_update_batched_per_run": ("""
+import time, numpy as np
+from agents.learner import Learner
+from hri_envs.bench.study import graph_for
+from hri_envs.task.protocol import Trace
+g = graph_for("wheel"); w = g.waypoint_state
+states = np.array([0, 1, 3, w(0, 3, 1), w(1, 3, 1), w(1, 1, 1), w(1, 1, 0), 7, 4])
+tr = Trace(states, np.zeros(8, np.int64), np.zeros(8, np.int64))
+lrn = Learner(g, 100); trs = [tr] * 100; ints = np.ones(100, np.int64)
+lrn.end_episode(trs, ints)
+best = np.inf
+for _ in range(3):
+    t0 = time.perf_counter()
+    for _ in range(5):
+        lrn.end_episode(trs, ints)
+    best = min(best, (time.perf_counter() - t0) / 5 / 100)
+print(best * 1e3)
+""", "ms", False),
+    "hanger_study_20_runs": ("""
+import time
+from hri_envs.bench.speed import HANGER_STUDY_PREFERENCES
+from hri_envs.bench.study import StudyConfig, run_study
+t0 = time.perf_counter()
+for i, pref in enumerate(HANGER_STUDY_PREFERENCES):
+    run_study(StudyConfig("hanger", agents=("learner",), runs=20, episodes=8, preference=pref,
+                          seed=i))
+print(time.perf_counter() - t0)
+""", "s", False),
+    "vector_env": ("""
+from hri_envs.envs.speed import vector_env_steps_per_s
+print(vector_env_steps_per_s(1024, steps=500).steps_per_s)
+""", "steps/s", True),
+    "parallel_env": ("""
+from hri_envs.envs.speed import parallel_env_steps_per_s
+print(parallel_env_steps_per_s(steps=20_000).steps_per_s)
+""", "steps/s", True),
+}
+
+
+def _run(checkout: Path, snippet: str) -> float:
+    env = {**os.environ, "PYTHONPATH": str(checkout)}
+    out = subprocess.run([sys.executable, "-c", snippet], env=env, cwd=checkout, check=True,
+                         capture_output=True, text=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    """Parse the arguments, time both checkouts alternately, print the ranges and ratios."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--vs", type=Path, required=True, help="the other checkout")
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--only", choices=sorted(MEASURES), action="append")
+    parser.add_argument("--json", action="store_true", help="end with one JSON line")
+    args = parser.parse_args()
+    here = Path(__file__).resolve().parents[1]
+    report = {}
+    for name in args.only or MEASURES:
+        snippet, unit, higher = MEASURES[name]
+        old, new = [], []
+        for _ in range(args.rounds):
+            old.append(_run(args.vs.resolve(), snippet))
+            new.append(_run(here, snippet))
+        ratios = [(n / o) if higher else (o / n) for o, n in zip(old, new, strict=True)]
+        report[name] = {"unit": unit, "old": [min(old), max(old)], "new": [min(new), max(new)],
+                        "speedup": [min(ratios), max(ratios)]}
+        print(f"{name:32s} old {min(old):.4g}-{max(old):.4g} {unit}, new {min(new):.4g}-"
+              f"{max(new):.4g} {unit}, speed-up {min(ratios):.2f}-{max(ratios):.2f}x",
+              flush=True)
+    if args.json:
+        print(json.dumps(report))
+
+
+if __name__ == "__main__":
+    main()
