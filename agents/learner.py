@@ -124,14 +124,12 @@ class Learner(BatchAgent):
         routes = []
         for start, goal in pairs:
             s = int(rules.start_state(g, start))
-            states, lifted = [s], False
-            for _ in range(4 * g.n_states):
+            states = [s]
+            for _ in range(4 * g.n_states):  # until it rests on the goal, let go (μ = 0)
                 a = int(human.preferred_action(np.array(s), np.array(start), np.array(goal)))
                 s = int(g.next_state[s, a, a])
                 states.append(s)
-                lifted |= bool(rules.left_start(g, np.array(s), np.array(start)))
-                if g.support[s] == goal and lifted and rules.arrived(g, np.array(s),
-                                                                      np.array(start), lifted):
+                if g.support[s] == goal and g.grasp[s] == 0:
                     break
             routes.append(Trace(np.array(states), np.zeros(len(states) - 1, dtype=np.int64),
                                 np.zeros(len(states) - 1, dtype=np.int64)))
