@@ -165,7 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="the human switches to another preference after K episodes")
     for field_name, (flag, kind, text) in _LEARNER_FLAGS.items():
         study.add_argument(flag, type=kind, default=None, dest=f"learner_{field_name}",
-                           help=text)
+                           metavar="P" if kind is str else "X", help=text)
     study.add_argument("--learner-no-passive-prior", action="store_true",
                        help="the Learner's bounded soft-max without the passive baseline "
                             "(paper Sect. 7)")

@@ -72,18 +72,24 @@ def bootstrap_ci(samples: list[np.ndarray] | np.ndarray, statistic: str,
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
-def per_episode(x: np.ndarray, seed: int) -> dict[str, list[float] | list[list[float]]]:
+def per_episode(x: np.ndarray, seed: int, *, iqm_ci: bool = True
+                ) -> dict[str, list[float] | list[list[float]]]:
     """Per episode of a (runs, episodes) metric: mean, IQM and their 95 % CIs over runs.
 
     Returns:
-        ``{"mean": [E], "iqm": [E], "ci95": [E][2] (of the mean), "iqm_ci95": [E][2]}``;
-        episode ``e`` bootstraps with seed ``(seed, e)``.
+        ``{"mean": [E], "iqm": [E], "ci95": [E][2] (of the mean), "iqm_ci95": [E][2]}``
+        (``iqm_ci95`` only with ``iqm_ci``); episode ``e`` bootstraps with seed
+        ``(seed, e)``.
     """
     x = np.asarray(x, dtype=float)
     cis = [bootstrap_ci(x[:, e], "mean", _seed(seed, e)) for e in range(x.shape[1])]
-    iqm_cis = [bootstrap_ci(x[:, e], "iqm", _seed(seed, e)) for e in range(x.shape[1])]
-    return {"mean": x.mean(0).tolist(), "iqm": iqm(x, axis=0).tolist(),
-            "ci95": [list(c) for c in cis], "iqm_ci95": [list(c) for c in iqm_cis]}
+    out: dict[str, list[float] | list[list[float]]] = {
+        "mean": x.mean(0).tolist(), "iqm": iqm(x, axis=0).tolist(),
+        "ci95": [list(c) for c in cis]}
+    if iqm_ci:
+        out["iqm_ci95"] = [list(bootstrap_ci(x[:, e], "iqm", _seed(seed, e)))
+                           for e in range(x.shape[1])]
+    return out
 
 
 def aggregate(x: np.ndarray, seed: int) -> dict[str, float | list[float]]:

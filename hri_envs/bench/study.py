@@ -400,15 +400,15 @@ def summarize(result: StudyResult) -> dict[str, Any]:
         # Statistics (docs/benchmark.md): per episode and over all episodes, bootstrap
         # seeded by the study seed.
         for k in ("reward", "correct", "passive", "wrong"):
-            pe = stats.per_episode(m[k], cfg.seed)
-            agents[name][k].update(iqm=pe["iqm"], ci95=pe["ci95"], iqm_ci95=pe["iqm_ci95"],
-                                   overall=stats.aggregate(m[k], cfg.seed))
+            pe = stats.per_episode(m[k], cfg.seed, iqm_ci=k == "reward")
+            agents[name][k].update(pe, overall=stats.aggregate(m[k], cfg.seed))
     prefs = sorted(set(cfg.preference_of_run()))
     return {
         "scenario": cfg.scenario,
         "backend": cfg.backend,
         "schedule": cfg.schedule,
-        "preference": prefs[0] if len(prefs) == 1 else "all",
+        # With a population each run has its own human (see episodes.csv).
+        "preference": None if cfg.population else prefs[0] if len(prefs) == 1 else "all",
         "r0": cfg.waiting_reward,
         "human_passive": cfg.human_passive,
         "runs": cfg.runs,

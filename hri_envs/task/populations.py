@@ -199,10 +199,13 @@ class PopulationSpec:
 
     def draw(self, scenario: str, seed: int, run: int) -> HumanDraw:
         """The human of run ``run``: every draw from a generator seeded by ``(seed, run, 7)``."""
+        return self.sample(scenario, np.random.default_rng([int(seed), int(run), 7]))
+
+    def sample(self, scenario: str, rng: np.random.Generator) -> HumanDraw:
+        """A human drawn with ``rng`` (4 uniforms, then F more for a θ human)."""
         if scenario not in self.scenarios:
             raise ConfigError(f"population {self.name!r} is for {', '.join(self.scenarios)}; "
                               f"not {scenario!r}", field="population")
-        rng = np.random.default_rng([int(seed), int(run), 7])
         spec = scenario_spec(scenario)
         prefs = spec.preferences if self.preferences == ("*",) else (
             self.preferences or (spec.default_preference,))
