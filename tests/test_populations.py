@@ -146,6 +146,26 @@ def test_per_run_turning_back_rates_drive_the_schedule() -> None:
     assert not sched.turn_back[0].any() and sched.turn_back[1].all()
 
 
+@pytest.mark.parametrize(("scenario", "kwargs", "learner", "maxent"), [
+    ("hanger", {}, (-12.54, 198.0), (-40.28, 198.0)),
+    ("wheel", {}, (-15.0, 204.0), (-34.0, 204.0)),
+    ("hanger", {"human_passive": 0.2, "turn_back": 0.3}, (-42.55, 250.0), (-62.24, 239.0)),
+    ("wheel", {"human_passive": 0.2, "turn_back": 0.3}, (-54.75, 274.0), (-179.75, 337.0)),
+])
+def test_default_study_numbers_are_those_before_populations(
+        scenario: str, kwargs: dict[str, float], learner: tuple[float, float],
+        maxent: tuple[float, float]) -> None:
+    """Summed reward and steps of 6 runs x 5 episodes, recorded before the human could vary
+    per run: the default path through the runner is unchanged.
+    """
+    res = run_study(StudyConfig(scenario, agents=("learner", "maxent"), runs=6, episodes=5,
+                                **kwargs))  # type: ignore[arg-type]
+    for agent, (reward, steps) in (("learner", learner), ("maxent", maxent)):
+        m = res.metrics[agent]
+        assert m["reward"].sum() == pytest.approx(reward, abs=1e-9)
+        assert m["steps"].sum() == steps
+
+
 def test_default_study_is_unchanged_by_the_new_options() -> None:
     cfg = StudyConfig("hanger", runs=4, episodes=3)
     same = StudyConfig("hanger", runs=4, episodes=3, human_rationality=math.inf,
