@@ -29,6 +29,13 @@ class LearnerConfig:
             |θ| ≤ 1), which we keep as the default.
         robot_model_temperature: Temperature of the robot policy the human model assumes
             (T_H); the paper's code uses the robot's own τ_R.
+        passive_prior: Keep the passive baseline's action in the bounded soft-max (the
+            paper's only prior, Sect. 7); False: the bound is ``η · max_a p(a)`` alone (the
+            paper's "without it" variant).
+        initial_preference: Start from another preference (paper Sect. 7): before the first
+            episode the human model makes :attr:`pretrain_passes` ME-IRL passes over the
+            named preference's demonstrated routes, one per (start, goal) pair; None: θ⁰.
+        pretrain_passes: Passes over those demonstrations, >= 1.
     """
 
     learning_rate: float = 0.1
@@ -40,6 +47,9 @@ class LearnerConfig:
     r0: float = SCENARIOS["hanger"].r0
     irl_temperature: float = 1.0
     robot_model_temperature: float = 5.0
+    passive_prior: bool = True
+    initial_preference: str | None = None
+    pretrain_passes: int = 3
 
     def __post_init__(self) -> None:
         checks = [
@@ -52,6 +62,9 @@ class LearnerConfig:
             ("r0", -1.0 < self.r0 < 0.0, "in (-1, 0)"),
             ("irl_temperature", self.irl_temperature > 0, "> 0"),
             ("robot_model_temperature", self.robot_model_temperature > 0, "> 0"),
+            ("passive_prior", isinstance(self.passive_prior, bool), "True or False"),
+            ("pretrain_passes", isinstance(self.pretrain_passes, int)
+             and self.pretrain_passes >= 1, "a whole number >= 1"),
         ]
         for name, ok, allowed in checks:
             if not ok:
@@ -67,7 +80,7 @@ class LearnerConfig:
                               field=sorted(unknown)[0])
         return dataclasses.replace(self, **changes)
 
-    def to_dict(self) -> dict[str, float]:
+    def to_dict(self) -> dict[str, float | bool | str | None]:
         """Plain dict, for JSON."""
         return dataclasses.asdict(self)
 
@@ -78,4 +91,9 @@ def default_config(scenario: str, **changes: Any) -> LearnerConfig:
     γ = 0.6, r0 = -0.25), with optional changes.
     """
     spec = scenario_spec(scenario)
+    pref = changes.get("initial_preference")
+    if pref is not None and pref not in spec.preferences:
+        raise ConfigError(f"initial_preference must be None or one of the {scenario} "
+                          f"preferences ({', '.join(spec.preferences[:3])}, ...), got {pref!r}",
+                          field="initial_preference")
     return LearnerConfig(gamma=spec.gamma, r0=spec.r0).replace(**changes)

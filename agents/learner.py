@@ -108,6 +108,36 @@ class Learner(BatchAgent):
             self._update_policies()
         for name in ("theta", "pi_r", "pi_h", "q_h", "q_r", "_warm_h", "_warm_r"):
             setattr(self, name, np.repeat(getattr(self, name), n_runs, axis=0))
+        if self.config.initial_preference is not None:
+            self._start_from_preference(self.config.initial_preference)
+
+    def _start_from_preference(self, preference: str) -> None:
+        """Pretrain the human model on a preference's routes (paper Sect. 7 variant).
+
+        Each demonstration is the preference human's route from every start support to
+        every other, the robot taking the same action as the human (a perfect partner).
+        """
+        from hri_envs.task.humans import preference_human
+
+        g = self.graph
+        human = preference_human(g, preference)
+        pairs = [(a, b) for a in range(g.n_intentions) for b in range(g.n_intentions) if a != b]
+        routes = []
+        for start, goal in pairs:
+            s = int(rules.start_state(g, start))
+            states = [s]
+            for _ in range(4 * g.n_states):  # until it rests on the goal, let go (μ = 0)
+                a = int(human.preferred_action(np.array(s), np.array(start), np.array(goal)))
+                s = int(g.next_state[s, a, a])
+                states.append(s)
+                if g.support[s] == goal and g.grasp[s] == 0:
+                    break
+            routes.append(Trace(np.array(states), np.zeros(len(states) - 1, dtype=np.int64),
+                                np.zeros(len(states) - 1, dtype=np.int64)))
+        for _ in range(self.config.pretrain_passes):
+            for (_, goal), trace in zip(pairs, routes, strict=True):
+                self._irl([trace] * self.n_runs, np.full(self.n_runs, goal))
+                self._update_policies()
 
     # ------------------------------------------------------------------ model updates
     def _update_policies(self) -> None:
@@ -167,6 +197,8 @@ class Learner(BatchAgent):
         q = np.einsum("bi,bia->ba", self.belief, self.q_r[rows, :, states])
         baseline = mdp.passive_actions(self.graph, self.start, self.lifted)[rows, states]
         c = self.config
+        if not c.passive_prior:
+            return mdp.bounded_softmax(q, self._valid[states], c.robot_temperature, c.eta, None)
         return mdp.bounded_softmax(q, self._valid[states], c.robot_temperature, c.eta, baseline)
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ import numpy as np
 from hri_envs.task import episode as rules
 from hri_envs.task import mdp
 from hri_envs.task.graph import BOTH, ROBOT_BIT, TAKE_OFF, TOGGLE, WAIT, TaskGraph
-from hri_envs.task.humans import ScriptedHuman
+from hri_envs.task.humans import PreferredActions
 from hri_envs.task.protocol import BatchAgent, Trace
 
 __all__ = ["Imitator", "Oracle", "Passive"]
@@ -101,7 +101,7 @@ class Oracle(_Tracking):
     name: ClassVar[str] = "oracle"
     privileged: ClassVar[bool] = True
 
-    def __init__(self, graph: TaskGraph, human: ScriptedHuman, n_runs: int = 1) -> None:
+    def __init__(self, graph: TaskGraph, human: PreferredActions, n_runs: int = 1) -> None:
         super().__init__(graph, n_runs)
         self.human = human
 

@@ -14,7 +14,8 @@ from hri_envs.bench.study import StudyConfig, run_study
 from hri_envs.errors import ConfigError
 
 SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive", "runs",
-                "episodes", "seed", "wall_time_s", "agents"}
+                "episodes", "seed", "wall_time_s", "agents", "turn_back", "human_rationality",
+                "population", "human_drift", "learner", "probability_of_improvement"}
 
 
 def test_study_writes_the_contracted_files(tmp_path, capsys):
@@ -28,10 +29,11 @@ def test_study_writes_the_contracted_files(tmp_path, capsys):
     assert set(summary["agents"]) == {"learner", "imitator", "oracle"}
     for stats in summary["agents"].values():
         assert set(stats) == {"reward", "correct", "passive", "wrong"}
-        assert set(stats["reward"]) == {"mean", "q25", "q75"}
+        assert set(stats["reward"]) == {"mean", "q25", "q75", "iqm", "ci95", "iqm_ci95",
+                                        "overall"}
         for metric in stats.values():
-            for values in metric.values():
-                assert len(values) == 3
+            for key, values in metric.items():
+                assert len(values) == (4 if key == "overall" else 3)  # overall: mean, iqm, CIs
         fractions = [stats[k]["mean"] for k in ("correct", "passive", "wrong")]
         np.testing.assert_allclose(np.sum(fractions, axis=0), 1.0)
     assert summary["agents"]["oracle"]["reward"]["mean"] == [0.0, 0.0, 0.0]

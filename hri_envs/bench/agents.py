@@ -27,7 +27,7 @@ from agents.learner import Learner
 from baselines import Imitator, MaxEntIRL, Oracle, Passive
 from hri_envs.errors import ConfigError
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import ScriptedHuman
+from hri_envs.task.humans import PreferredActions
 from hri_envs.task.protocol import Agent, BatchAgent, Batched
 
 __all__ = ["BUILTIN_AGENTS", "SB3_PREFIX", "make_agent", "validate_agent_name"]
@@ -72,26 +72,31 @@ def _import(spec: str) -> Any:
 def make_agent(
     name: str,
     graph: TaskGraph,
-    human: ScriptedHuman,
+    human: PreferredActions,
     runs: Sequence[int],
     *,
     seed: int,
     r0: float,
+    learner: dict[str, Any] | None = None,
 ) -> BatchAgent:
     """A batched agent for the given runs.
 
     Args:
         name: See the module docstring.
         graph: The task graph.
-        human: The scripted human (the Oracle copies its preference).
+        human: The scripted human, or the benchmark's humans per run (the Oracle copies
+            their preferred actions).
         runs: Run indices of the batch (randomness derives from ``(seed, run)``).
         seed: Base seed.
         r0: The study's waiting reward, used by the Learner's robot reward.
+        learner: Changes to the Learner's :class:`~agents.config.LearnerConfig` (after the
+            scenario's defaults and ``r0``); other agents ignore them.
     """
     validate_agent_name(name)
     n = len(runs)
     if name == "learner":
-        return Learner(graph, n, default_config(graph.name, r0=r0), seed=seed, runs=runs)
+        params = {"r0": r0, **(learner or {})}
+        return Learner(graph, n, default_config(graph.name, **params), seed=seed, runs=runs)
     if name == "maxent":
         cfg = default_config(graph.name, r0=r0, learning_rate=0.03)
         return MaxEntIRL(graph, n, cfg, seed=seed, runs=runs)

@@ -26,6 +26,7 @@ from hri_envs.bench.runner import TABLE2
 from hri_envs.bench.study import EXECUTORS
 from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
+from hri_envs.task.populations import POPULATIONS
 from hri_envs.task.scenarios import SCENARIOS
 
 __all__ = ["build_parser", "main"]
@@ -65,6 +66,21 @@ def _bounded(kind: type, allowed: str, ok: Callable[[Any], bool]) -> Callable[[s
 _positive = _bounded(int, "a whole number >= 1", lambda v: v >= 1)
 _probability = _bounded(float, "a probability in [0, 1]", lambda v: 0.0 <= v <= 1.0)
 _r0 = _bounded(float, "a number in (-1, 0)", lambda v: -1.0 < v < 0.0)
+_rationality = _bounded(float, "a number > 0 or inf", lambda v: v > 0)
+
+#: ``--learner-*`` options: LearnerConfig field -> (flag, metavar, help). Values are checked
+#: by :class:`agents.config.LearnerConfig`; its errors name the flag.
+_LEARNER_FLAGS: dict[str, tuple[str, type, str]] = {
+    "beta": ("--learner-beta", float, "β, intention bias of the Bayes filter, in (0, 1]"),
+    "robot_temperature": ("--learner-robot-temperature", float, "τ_R of the robot's soft-max"),
+    "human_temperature": ("--learner-human-temperature", float, "τ_H of the human estimate"),
+    "eta": ("--learner-eta", float, "η, the robot's relative probability bound, in [0, 1]"),
+    "learning_rate": ("--learner-learning-rate", float, "λ, the ME-IRL step size"),
+    "gamma": ("--learner-gamma", float, "γ of every Q-iteration, in [0, 1)"),
+    "r0": ("--learner-r0", float, "r0 in the Learner's robot reward (default: --r0)"),
+    "initial_preference": ("--learner-initial-preference", str,
+                           "start the human model from this preference (paper Sect. 7)"),
+}
 
 #: The ``study`` argument each :class:`~hri_envs.bench.study.StudyConfig` field comes from
 #: (a :class:`~hri_envs.errors.ConfigError` names the field in its ``field`` attribute).
@@ -84,6 +100,9 @@ _STUDY_ARGUMENTS = {
     "ray_address": "--ray-address",
     "backend": "--backend",
     "max_steps": "--max-steps",
+    "human_rationality": "--human-rationality",
+    "population": "--population",
+    "human_drift": "--human-drift",
 }
 
 
@@ -134,6 +153,22 @@ def build_parser() -> argparse.ArgumentParser:
                             "about 0.2 s per step)")
     study.add_argument("--max-steps", type=_positive, default=100,
                        help="step limit per episode (default 100)")
+    study.add_argument("--human-rationality", type=_rationality, default=float("inf"),
+                       metavar="BETA",
+                       help="Boltzmann human: samples softmax(BETA * Q_pref) (docs/benchmark.md);"
+                            " inf (default) = the deterministic scripted human")
+    study.add_argument("--population", default=None, metavar="NAME",
+                       help="draw each run's human from a population: "
+                            + ", ".join(f"{n}{' (held out)' if p.held_out else ''}"
+                                        for n, p in POPULATIONS.items()))
+    study.add_argument("--human-drift", type=_positive, default=None, metavar="K",
+                       help="the human switches to another preference after K episodes")
+    for field_name, (flag, kind, text) in _LEARNER_FLAGS.items():
+        study.add_argument(flag, type=kind, default=None, dest=f"learner_{field_name}",
+                           metavar="P" if kind is str else "X", help=text)
+    study.add_argument("--learner-no-passive-prior", action="store_true",
+                       help="the Learner's bounded soft-max without the passive baseline "
+                            "(paper Sect. 7)")
     study.add_argument("--out", required=True, type=Path, help="output directory")
     study.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     study.set_defaults(command_parser=study)  # reports errors found after parsing
@@ -182,16 +217,28 @@ def _config_error(parser: argparse.ArgumentParser, exc: ConfigError,
 
 
 def _study(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from agents.config import default_config
     from hri_envs.bench.study import StudyConfig, run_study, write_outputs
 
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
+    learner: dict[str, Any] = {f: getattr(args, f"learner_{f}") for f in _LEARNER_FLAGS
+                               if getattr(args, f"learner_{f}") is not None}
+    if args.learner_no_passive_prior:
+        learner["passive_prior"] = False
+    try:
+        default_config(args.scenario, **learner)
+    except ConfigError as exc:
+        flags = {f: flag for f, (flag, _, _) in _LEARNER_FLAGS.items()}
+        _config_error(parser, exc, {**flags, "passive_prior": "--learner-no-passive-prior"})
     try:
         cfg = StudyConfig(
             args.scenario, agents=args.agents, runs=args.runs, episodes=args.episodes,
             schedule=args.schedule, preference=args.preference, r0=args.r0,
             human_passive=args.human_passive, turn_back=args.turn_back, seed=args.seed,
             jobs=args.jobs, executor=executor, backend=args.backend, max_steps=args.max_steps,
-            ray_address=args.ray_address,
+            ray_address=args.ray_address, human_rationality=args.human_rationality,
+            population=args.population, human_drift=args.human_drift,
+            learner=tuple(sorted(learner.items())),
         )
     except ConfigError as exc:
         _config_error(parser, exc, _STUDY_ARGUMENTS)

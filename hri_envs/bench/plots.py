@@ -81,8 +81,14 @@ def _label(agent: str) -> str:
 
 
 def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
-                 title: str | None = None) -> None:
-    """Mean (line) and interquartile band of the cooperation reward per episode (Fig. 10)."""
+                 title: str | None = None, *, ci: bool = False) -> None:
+    """Mean (line) and interquartile band of the cooperation reward per episode (Fig. 10).
+
+    With ``ci``, error bars show the mean's 95 % bootstrap confidence interval per episode
+    (:func:`hri_envs.bench.stats.per_episode`, seeded by the study seed).
+    """
+    from hri_envs.bench import stats
+
     episodes = np.arange(1, result.config.n_episodes + 1)
     for agent in agents or list(result.metrics):
         r = result.metrics[agent]["reward"]
@@ -91,6 +97,11 @@ def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
         ax.fill_between(episodes, np.percentile(r, 25, 0), np.percentile(r, 75, 0),
                         color=color, alpha=0.18, linewidth=0)
         ax.plot(episodes, r.mean(0), style, color=color, label=_label(agent), linewidth=1.8)
+        if ci:
+            low, high = np.array(stats.per_episode(r, getattr(result.config, "seed", 0))["ci95"]).T
+            mean = r.mean(0)
+            ax.errorbar(episodes, mean, yerr=np.stack([mean - low, high - mean]), fmt="none",
+                        ecolor=color, elinewidth=1.0, capsize=2)
     ax.set_xlabel("episode")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("robot cooperation reward per episode")
@@ -162,8 +173,9 @@ def study_plots(result: Result, out: Path) -> list[Path]:
     title = (f"{cfg.scenario}, {cfg.schedule} schedule, r0 = {cfg.waiting_reward:g}, "
              f"human passive {cfg.human_passive:.0%}, {cfg.runs} runs")
     fig, ax = new_figure(figsize=(6.4, 4.0))
-    reward_bands(ax, result, title=title)
-    ax.legend(frameon=False, fontsize=8)
+    reward_bands(ax, result, title=title, ci=True)
+    ax.legend(frameon=False, fontsize=8, title="line: mean, bars: 95% CI, band: IQR",
+              title_fontsize=7)
     paths = [save_figure(fig, out / "reward.png")]
     fig, ax = new_figure(figsize=(max(6.4, 0.55 * cfg.n_episodes * len(result.metrics)), 4.0))
     decision_bars(ax, result, title=title)

@@ -9,7 +9,7 @@ It imports nothing from the package. The result's configuration is typed structu
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Generic, Protocol, TypeVar
 
 import numpy as np
@@ -59,6 +59,8 @@ class StudyResult(Generic[ConfigT_co]):
             probabilities before the first episode and after each update.
         schedule: ``start``, ``goal`` and ``turn_back``, each (runs, episodes).
         wall_time_s: Seconds the simulation took.
+        humans: Each run's human as a label (its preference, ``@β`` if Boltzmann, ``a>b``
+            for a drifting human); empty if not recorded.
     """
 
     config: ConfigT_co
@@ -66,3 +68,4 @@ class StudyResult(Generic[ConfigT_co]):
     probes: dict[str, np.ndarray]
     schedule: dict[str, np.ndarray]
     wall_time_s: float
+    humans: list[str] = field(default_factory=list)

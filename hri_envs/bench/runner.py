@@ -68,13 +68,13 @@ def make_schedule(
     runs: Sequence[int] | np.ndarray,
     episodes: int,
     seed: int,
-    human: ScriptedHuman | None = None,
+    human: ScriptedHuman | ScriptedHumans | None = None,
 ) -> Schedule:
     """Episode schedule: ``"random"`` (start and goal ≠ start drawn per episode) or
     ``"table2"`` (paper Table 2, cycled if more episodes are asked for).
 
     Random schedules draw from ``(seed, run, 2)`` only; turning back is drawn with the
-    human's ``turn_back`` probability.
+    human's ``turn_back`` probability (each run's own for :class:`ScriptedHumans`).
     """
     n_b, n_k = len(runs), graph.n_intentions
     if kind == "table2":
@@ -91,12 +91,16 @@ def make_schedule(
     start = np.zeros((n_b, episodes), dtype=np.int64)
     goal = np.zeros((n_b, episodes), dtype=np.int64)
     turn = np.zeros((n_b, episodes), dtype=bool)
-    p_turn = 0.0 if human is None else human.turn_back
+    p_turn = np.zeros(n_b)
+    if isinstance(human, ScriptedHumans):
+        p_turn[:] = human.turn_back_rates()
+    elif human is not None:
+        p_turn[:] = human.turn_back
     for i, r in enumerate(runs):
         rng = np.random.default_rng([int(seed), int(r), 2])
         start[i] = rng.integers(0, n_k, episodes)
         goal[i] = (start[i] + rng.integers(1, n_k, episodes)) % n_k
-        turn[i] = rng.random(episodes) < p_turn
+        turn[i] = rng.random(episodes) < p_turn[i]
     return Schedule(start, goal, turn)
 
 
@@ -137,16 +141,59 @@ class HumanPolicy(Protocol):
 
 
 class ScriptedHumans:
-    """A :class:`~hri_envs.task.humans.ScriptedHuman` per run, each with its own stream.
+    """Scripted humans for a batch of runs, each run with its own random stream.
 
-    Run ``r`` draws from a generator seeded by ``(seed, r, 1)``, two uniforms per step it
-    is active in (passivity, then the choice of action).
+    ``human`` is one :class:`~hri_envs.task.humans.ScriptedHuman` shared by every run (the
+    default), or per run a sequence of humans per episode (a population's draw, a drifting
+    human; a sequence shorter than the episodes repeats its last human). Run ``r`` draws
+    from a generator seeded by ``(seed, r, 1)``, two uniforms per step it is active in
+    (passivity, then the choice of action), whatever its human.
     """
 
-    def __init__(self, human: ScriptedHuman, runs: Sequence[int] | np.ndarray,
-                 seed: int) -> None:
-        self.human = human
+    def __init__(self, human: ScriptedHuman | Sequence[Sequence[ScriptedHuman]],
+                 runs: Sequence[int] | np.ndarray, seed: int) -> None:
         self.rngs = [np.random.default_rng([int(seed), int(r), 1]) for r in runs]
+        self.per_run: list[list[ScriptedHuman]] | None = None
+        if isinstance(human, ScriptedHuman):
+            self.human = human
+            self.current = [human] * len(self.rngs)
+        else:
+            self.per_run = [list(seq) for seq in human]
+            if len(self.per_run) != len(self.rngs) or not all(self.per_run):
+                raise ConfigError(f"give a non-empty sequence of humans for each of the "
+                                  f"{len(self.rngs)} runs, got {len(self.per_run)}",
+                                  field="human")
+            self.human = self.per_run[0][0]
+            self.begin_episode(0)
+
+    def turn_back_rates(self) -> np.ndarray:
+        """(B,) each run's turning-back probability (of its first episode's human)."""
+        return np.array([h.turn_back for h in self.current])
+
+    def begin_episode(self, episode: int) -> np.ndarray | None:
+        """Select each run's human for ``episode``; (B, K, K) turn states, None if shared."""
+        if self.per_run is None:
+            return None
+        self.current = [seq[min(episode, len(seq) - 1)] for seq in self.per_run]
+        self._greedy = np.stack([h.preferred_action(*self._grid) for h in self.current])
+        self._cum = np.stack([np.cumsum(h.policy, axis=-1) for h in self.current])
+        self._stochastic = np.array([not h.deterministic for h in self.current])
+        self._passive = np.array([h.passive for h in self.current])
+        return np.stack([h.turn_state for h in self.current])
+
+    @property
+    def _grid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        g = self.human.graph
+        k = np.arange(g.n_intentions)
+        return np.arange(g.n_states)[None, None, :], k[:, None, None], k[None, :, None]
+
+    def preferred_action(self, state: np.ndarray, start: np.ndarray, goal: np.ndarray
+                         ) -> np.ndarray:
+        """(B,) each run's current human's most likely action (for the Oracle)."""
+        if self.per_run is None:
+            return self.human.preferred_action(state, start, goal)
+        state, start, goal = np.broadcast_arrays(state, start, goal)
+        return self._greedy[np.arange(len(state)), start, goal, state]  # type: ignore[no-any-return]
 
     def __call__(self, state: np.ndarray, start: np.ndarray, intention: np.ndarray,
                  robot_action: np.ndarray, active: np.ndarray) -> np.ndarray:
@@ -154,7 +201,16 @@ class ScriptedHumans:
         u = np.zeros((2, len(state)))
         for i in np.flatnonzero(active):
             u[:, i] = self.rngs[i].random(2)
-        return self.human.act_from_uniforms(state, start, intention, u[0], u[1])
+        if self.per_run is None:
+            return self.human.act_from_uniforms(state, start, intention, u[0], u[1])
+        # Each run's own table, the same inverse-CDF sampling as ScriptedHuman.
+        rows = np.arange(len(state))
+        actions = self._greedy[rows, start, intention, state]
+        if self._stochastic.any():
+            cum = self._cum[rows, start, intention, state]  # (B, A)
+            sampled = np.minimum((u[1][:, None] >= cum).sum(axis=-1), cum.shape[-1] - 1)
+            actions = np.where(self._stochastic, sampled, actions)
+        return np.where(u[0] < self._passive, WAIT, actions)  # type: ignore[no-any-return]
 
 
 @dataclass
@@ -205,7 +261,9 @@ def run_episodes(
         backend: Moves the runs (the graph, or a simulator).
         r0: Reward for the robot waiting while the human acts.
         turn_state: (K, K) where a turning-back human turns (see
-            :func:`hri_envs.task.episode.turn_back`); None: nobody turns back.
+            :func:`hri_envs.task.episode.turn_back`); None: nobody turns back. A human with
+            a ``begin_episode(e)`` method (:class:`ScriptedHumans`) that returns (B, K, K)
+            per-run turn states replaces it at the start of each episode.
         max_steps: Step limit per episode (the episode is truncated there).
     """
     n_b, n_e = schedule.start.shape
@@ -220,7 +278,10 @@ def run_episodes(
     states = np.zeros((n_b, max_steps + 1), dtype=np.int64)
     robot_acts = np.zeros((n_b, max_steps), dtype=np.int64)
     human_seen = np.zeros((n_b, max_steps), dtype=np.int64)
+    begin_humans = getattr(human, "begin_episode", None)
     for e in range(n_e):
+        if begin_humans is not None and (per_run := begin_humans(e)) is not None:
+            eps.turn_state = per_run  # (B, K, K): each run's human turns at its own point
         eps.begin(rows, schedule.start[:, e], schedule.goal[:, e], schedule.turn_back[:, e])
         agent.begin_episode(eps.start.copy())
         totals = {k: np.zeros(n_b) for k in ("reward", "correct", "passive", "wrong",
@@ -278,7 +339,7 @@ def run_episodes(
 def simulate(
     graph: TaskGraph,
     agent: BatchAgent,
-    human: ScriptedHuman,
+    human: ScriptedHuman | ScriptedHumans,
     schedule: Schedule,
     *,
     runs: Sequence[int] | np.ndarray,
@@ -293,7 +354,9 @@ def simulate(
     Args:
         graph: The task graph.
         agent: A batched agent with ``n_runs == len(runs)``.
-        human: The scripted human (one per run, identical behaviour, own random stream).
+        human: The scripted human (one per run, identical behaviour, own random stream), or
+            :class:`ScriptedHumans` built for these ``runs`` and ``seed`` (a human per run
+            and episode).
         schedule: From :func:`make_schedule`.
         runs: Run indices (seed the human's random stream with ``(seed, run, 1)``).
         seed: Base seed.
@@ -314,8 +377,9 @@ def simulate(
     out = {k: np.zeros((n_b, n_e)) for k in keys}
     extras = {k: np.zeros((n_b, n_e)) for k in sim.extras}
     truncated = np.zeros((n_b, n_e), dtype=bool)
-    for res in run_episodes(graph, agent, ScriptedHumans(human, runs, seed), schedule, sim,
-                            r0=r0, turn_state=human.turn_state, max_steps=max_steps):
+    humans = human if isinstance(human, ScriptedHumans) else ScriptedHumans(human, runs, seed)
+    for res in run_episodes(graph, agent, humans, schedule, sim, r0=r0,
+                            turn_state=humans.human.turn_state, max_steps=max_steps):
         e = res.episode
         for k in keys:
             out[k][:, e] = getattr(res, k)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
+import math
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -23,11 +24,20 @@ import numpy as np
 
 from hri_envs.bench.agents import BUILTIN_AGENTS, make_agent, validate_agent_name
 from hri_envs.bench.results import StudyResult  # re-exported; shared with the plots
-from hri_envs.bench.runner import TABLE2, make_schedule, simulate
+from hri_envs.bench.runner import TABLE2, ScriptedHumans, make_schedule, simulate
 from hri_envs.envs.backends import BACKENDS, batch_backend
 from hri_envs.errors import ConfigError
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import preference_human, preferences_for
+from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_for
+from hri_envs.task.populations import (
+    draw_human,
+    human_sequence,
+    humans_of,
+    population_spec,
+    rational_human,
+    validate_drift,
+    validate_rationality,
+)
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
 __all__ = [
@@ -90,6 +100,14 @@ class StudyConfig:
         max_steps: Step limit per episode.
         ray_address: Address of a Ray cluster (default: start Ray locally).
         probes: Policy entries to record per episode (for Figs. 8, 11, 12).
+        human_rationality: β of a Boltzmann human following its preference
+            (:func:`hri_envs.task.populations.rational_human`); ``inf``: deterministic.
+        population: Draw each run's human from this population
+            (:data:`hri_envs.task.populations.POPULATIONS`); None: the fixed human above.
+        human_drift: The human switches to another preference after this many episodes
+            (:func:`hri_envs.task.populations.human_sequence`); None: never.
+        learner: Changes to the Learner's :class:`~agents.config.LearnerConfig` as
+            (name, value) pairs, e.g. ``(("beta", 0.9),)``.
     """
 
     scenario: str
@@ -108,6 +126,10 @@ class StudyConfig:
     max_steps: int = 100
     ray_address: str | None = None
     probes: tuple[Probe, ...] = field(default_factory=tuple)
+    human_rationality: float = math.inf
+    population: str | None = None
+    human_drift: int | None = None
+    learner: tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
         def bad(name: str, allowed: str) -> ConfigError:
@@ -145,6 +167,22 @@ class StudyConfig:
             raise bad("backend", f"one of {', '.join(BACKENDS)}")
         if self.max_steps < 1:
             raise bad("max_steps", ">= 1")
+        validate_rationality(self.human_rationality)
+        if self.population is not None:
+            population_spec(self.population, self.scenario)
+            if self.preference is not None:
+                raise ConfigError("give either a population or a preference, not both",
+                                  field="preference")
+        validate_drift(self.human_drift)
+        if self.learner:
+            from agents.config import default_config
+
+            default_config(self.scenario, **dict(self.learner))
+
+    @property
+    def per_run_humans(self) -> bool:
+        """Whether runs have humans of their own (a population or a drifting human)."""
+        return self.population is not None or self.human_drift is not None
 
     @property
     def n_episodes(self) -> int:
@@ -171,6 +209,8 @@ class StudyConfig:
         d = dataclasses.asdict(self)
         d["agents"] = list(self.agents)
         d["probes"] = [p.label for p in self.probes]
+        d["human_rationality"] = _json_float(self.human_rationality)
+        d["learner"] = dict(self.learner)
         return d
 
 
@@ -193,14 +233,51 @@ def _probe(agent: Any, probes: Sequence[Probe]) -> np.ndarray:
     return out
 
 
-def _run_unit(unit: _Unit) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
+def _json_float(x: float) -> float | str:
+    """A float for JSON: ``inf`` as the string "inf"."""
+    return "inf" if math.isinf(x) else x
+
+
+def _learner_settings(cfg: StudyConfig) -> dict[str, Any]:
+    """The Learner's full parameters as the study used them (the ``--learner-*`` flags)."""
+    from agents.config import default_config
+
+    return default_config(cfg.scenario, **{"r0": cfg.waiting_reward, **dict(cfg.learner)}
+                          ).to_dict()
+
+
+def _humans(cfg: StudyConfig, preference: str, runs: list[int]
+            ) -> tuple[ScriptedHuman | ScriptedHumans, list[str]]:
+    """The unit's human(s) and each run's human label (per episode for drift: "a>b")."""
+    graph = graph_for(cfg.scenario)
+    if not cfg.per_run_humans:
+        human = preference_human(graph, preference, passive=cfg.human_passive,
+                                 turn_back=cfg.turn_back)
+        human = rational_human(human, cfg.human_rationality)
+        return human, [preference] * len(runs)
+    seqs, labels = [], []
+    for r in runs:
+        d = draw_human(cfg.scenario, cfg.seed, r, population=cfg.population,
+                       preference=preference, rationality=cfg.human_rationality,
+                       passive=cfg.human_passive, turn_back=cfg.turn_back)
+        seq = human_sequence(cfg.scenario, d, cfg.seed, r, cfg.n_episodes, cfg.human_drift)
+        seqs.append(seq)
+        labels.append(">".join(dict.fromkeys(x.label() for x in seq)))
+    flat = humans_of(graph, [d for seq in seqs for d in seq])
+    n_e = cfg.n_episodes
+    per_run = [flat[i * n_e:(i + 1) * n_e] for i in range(len(runs))]
+    return ScriptedHumans(per_run, runs, cfg.seed), labels
+
+
+def _run_unit(unit: _Unit
+              ) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray], list[str]]:
     cfg = unit.config
     graph = graph_for(cfg.scenario)
-    human = preference_human(graph, unit.preference, passive=cfg.human_passive,
-                             turn_back=cfg.turn_back)
     runs = list(unit.runs)
+    human, labels = _humans(cfg, unit.preference, runs)
     schedule = make_schedule(graph, cfg.schedule, runs, cfg.n_episodes, cfg.seed, human)
-    agent = make_agent(unit.agent, graph, human, runs, seed=cfg.seed, r0=cfg.waiting_reward)
+    agent = make_agent(unit.agent, graph, human, runs, seed=cfg.seed, r0=cfg.waiting_reward,
+                       learner=dict(cfg.learner))
     probes = np.full((len(runs), cfg.n_episodes + 1, len(cfg.probes)), np.nan)
     if cfg.probes:
         probes[:, 0] = _probe(agent, cfg.probes)
@@ -214,13 +291,14 @@ def _run_unit(unit: _Unit) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str,
     metrics = {k: np.asarray(getattr(m, k), dtype=float) for k in METRICS}
     metrics.update({k: np.asarray(v, dtype=float) for k, v in m.extras.items()})
     sched = {"start": schedule.start, "goal": schedule.goal, "turn_back": schedule.turn_back}
-    return metrics, probes, sched
+    return metrics, probes, sched, labels
 
 
 def _units(cfg: StudyConfig) -> list[_Unit]:
     by_pref: dict[str, list[int]] = {}
     for r, pref in enumerate(cfg.preference_of_run()):
-        by_pref.setdefault(pref, []).append(r)
+        # A population draws each run's own human: one group, split only by --jobs.
+        by_pref.setdefault("" if cfg.population else pref, []).append(r)
     units = []
     for agent in cfg.agents:
         for pref, runs in by_pref.items():
@@ -285,9 +363,12 @@ def run_study(
 
         bar = tqdm(total=len(units), desc=f"{cfg.scenario} study", unit="batch", leave=False)
     t0 = time.perf_counter()
-    for i, (m, p, sched) in _execute(cfg, units):
+    humans = ["" for _ in range(cfg.runs)]
+    for i, (m, p, sched, labels) in _execute(cfg, units):
         u = units[i]
         rows = list(u.runs)
+        for r, label in zip(rows, labels, strict=True):
+            humans[r] = label
         for k in keys:
             metrics[u.agent][k][rows] = m[k]
         probes[u.agent][rows] = p
@@ -299,11 +380,13 @@ def run_study(
             on_unit()
     if bar is not None:
         bar.close()
-    return StudyResult(cfg, metrics, probes, schedule, time.perf_counter() - t0)
+    return StudyResult(cfg, metrics, probes, schedule, time.perf_counter() - t0, humans)
 
 
 def summarize(result: StudyResult) -> dict[str, Any]:
     """The ``summary.json`` document (docs/benchmark.md, 'summary.json')."""
+    from hri_envs.bench import stats
+
     cfg = result.config
     agents: dict[str, Any] = {}
     for name, m in result.metrics.items():
@@ -314,19 +397,34 @@ def summarize(result: StudyResult) -> dict[str, Any]:
             **{k: {"mean": m[k].mean(0).tolist()} for k in ("correct", "passive", "wrong")},
             **{k: {"mean": m[k].mean(0).tolist()} for k in m if k not in METRICS},
         }
+        # Statistics (docs/benchmark.md): per episode and over all episodes, bootstrap
+        # seeded by the study seed.
+        for k in ("reward", "correct", "passive", "wrong"):
+            pe = stats.per_episode(m[k], cfg.seed, iqm_ci=k == "reward")
+            agents[name][k].update(pe, overall=stats.aggregate(m[k], cfg.seed))
     prefs = sorted(set(cfg.preference_of_run()))
     return {
         "scenario": cfg.scenario,
         "backend": cfg.backend,
         "schedule": cfg.schedule,
-        "preference": prefs[0] if len(prefs) == 1 else "all",
+        # With a population each run has its own human (see episodes.csv).
+        "preference": None if cfg.population else prefs[0] if len(prefs) == 1 else "all",
         "r0": cfg.waiting_reward,
         "human_passive": cfg.human_passive,
         "runs": cfg.runs,
         "episodes": cfg.n_episodes,
         "seed": cfg.seed,
         "wall_time_s": round(result.wall_time_s, 3),
+        "turn_back": cfg.turn_back,
+        "human_rationality": _json_float(cfg.human_rationality),
+        "population": cfg.population,
+        "human_drift": cfg.human_drift,
+        "learner": _learner_settings(cfg),
         "agents": agents,
+        "probability_of_improvement": {
+            "metric": "reward",
+            "table": stats.improvement_table({a: m["reward"] for a, m in result.metrics.items()}),
+        },
     }
 
 
@@ -339,7 +437,7 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
     summary_path = out / "summary.json"
     summary_path.write_text(json.dumps(summarize(result), indent=1) + "\n")
     csv_path = out / "episodes.csv"
-    prefs = cfg.preference_of_run()
+    prefs = result.humans if cfg.per_run_humans and result.humans else cfg.preference_of_run()
     extras = [k for k in next(iter(result.metrics.values())) if k not in METRICS]
     with csv_path.open("w", newline="") as f:
         writer = csv.writer(f)

@@ -17,6 +17,7 @@ from hri_envs.errors import ConfigError
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_for
+from hri_envs.task.populations import rational_human, validate_rationality
 from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 
 __all__ = [
@@ -132,8 +133,13 @@ def make_human(
     passive: float = 0.0,
     turn_back: float = 0.0,
     human: ScriptedHuman | None = None,
+    rationality: float = math.inf,
 ) -> ScriptedHuman:
-    """The scripted human of a robot-only env: ``human`` as given, or a preference human."""
+    """The scripted human of a robot-only env: ``human`` as given, or a preference human
+    (Boltzmann with β = ``rationality`` if finite, see
+    :func:`hri_envs.task.populations.rational_human`).
+    """
+    validate_rationality(rationality)
     if human is not None:
         if human.graph.name != graph.name or human.graph.n_states != graph.n_states:
             raise ConfigError(
@@ -149,7 +155,9 @@ def make_human(
     for label, p in (("human_passive", passive), ("turn_back", turn_back)):
         if not isinstance(p, int | float | np.floating) or not 0.0 <= p <= 1.0:
             raise ConfigError(f"{label} must be a probability in [0, 1], got {p!r}")
-    return preference_human(graph, preference, passive=float(passive), turn_back=float(turn_back))
+    return rational_human(
+        preference_human(graph, preference, passive=float(passive), turn_back=float(turn_back)),
+        rationality)
 
 
 def support_index(value: Any, scenario: Scenario, key: str) -> int:

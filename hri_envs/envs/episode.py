@@ -71,6 +71,10 @@ class Episode:
         self._window: FrameWindow | None = None
         self.begin(0, 1 % rules.n_supports, False)
 
+    def set_turn_state(self, turn_state: np.ndarray) -> None:
+        """Change where a turning-back human turns (a new human drawn at reset)."""
+        self._turn = np.asarray(turn_state, dtype=np.int64).tolist()
+
     # ----------------------------------------------------------------- the rules
     def begin(self, start: int, intention: int, turn_back: bool) -> None:
         """Start a new episode on support ``start`` with μ = 0."""

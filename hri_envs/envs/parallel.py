@@ -111,6 +111,9 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
 
     - ``scenario``: "hanger" or "wheel" (fixed by the versioned modules);
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
+    - ``turn_back``: probability per episode that ι turns to the start support halfway (as
+      ``options={"turn_back": True}``, drawn at reset; default 0). The human is an agent
+      here, so its rationality and preference are the policy you give it, not env options;
     - ``max_cycles``: step limit per episode (default 100);
     - ``render_mode``: None, "ansi", "rgb_array" or "human" (a window: matplotlib on the
       graph backend, MuJoCo's viewer on the physics; without a display the env raises
@@ -151,7 +154,13 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         physics: dict[str, Any] | None = None,
         observation_format: str = "dict",
         human_reward: str = "cooperation",
+        turn_back: float = 0.0,
     ) -> None:
+        if isinstance(turn_back, bool) or not isinstance(turn_back, int | float) or not (
+                0.0 <= turn_back <= 1.0):
+            raise ConfigError(f"turn_back must be a probability in [0, 1], got {turn_back!r}",
+                              field="turn_back")
+        self.turn_back = float(turn_back)
         self.metadata = {**type(self).metadata, "name": f"{scenario}_v0",
                          "render_modes": list(type(self).metadata["render_modes"])}
         (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
@@ -226,7 +235,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         if seed is not None:
             self._np_random, self._np_random_seed = seeding.np_random(seed)
         rng = self.np_random
-        self._episode.draw(rng, opts.start, opts.intention, opts.turn_back)
+        self._episode.draw(rng, opts.start, opts.intention, opts.turn_back, self.turn_back)
         if self._sample_layout is not None:
             self.layout = opts.layout if opts.layout is not None else self._sample_layout(rng)
         self._episode.place(self.layout, rng)

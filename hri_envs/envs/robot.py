@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -23,6 +24,7 @@ from hri_envs.envs.spaces import check_action, robot_observation_space
 from hri_envs.envs.window import check_display
 from hri_envs.task.episode import EpisodeRules, reached_intention
 from hri_envs.task.humans import ScriptedHuman
+from hri_envs.task.populations import build_human, population_spec
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["RobotEnv"]
@@ -95,6 +97,12 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
     - ``turn_back``: probability per episode that the human turns back halfway;
     - ``human``: a ready-made :class:`~hri_envs.task.humans.ScriptedHuman` (for example a
       Boltzmann human); replaces the three arguments above;
+    - ``human_rationality``: β of a Boltzmann human that samples its free-space action from
+      ``softmax(β · Q_pref)``, the value of following its preference (docs/environments.md,
+      "Human populations"); ``inf`` (default) is the deterministic scripted human;
+    - ``population``: a name of :data:`hri_envs.task.populations.POPULATIONS`; every
+      ``reset`` draws a new human (preference, β, passive and turning-back rates) from it
+      with the env's ``np_random``, replacing the human arguments above;
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
     - ``max_cycles``: step limit per episode (default 100);
     - ``render_mode``: None, "ansi", "rgb_array" or "human" (a window; without a display
@@ -129,6 +137,8 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         human_passive: float = 0.0,
         turn_back: float = 0.0,
         human: ScriptedHuman | None = None,
+        human_rationality: float = math.inf,
+        population: str | None = None,
         r0: float | None = None,
         max_cycles: int = 100,
         render_mode: str | None = None,
@@ -148,7 +158,9 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
             check_display()
 
         self.graph = scenario_graph(scenario)
-        self.human = make_human(self.graph, preference, human_passive, turn_back, human)
+        self.human = make_human(self.graph, preference, human_passive, turn_back, human,
+                                human_rationality)
+        self.population = None if population is None else population_spec(population, scenario)
         self.rules = EpisodeRules(self.graph, self.r0)
         self._episode: Episode = episode_backend(self.backend)(self.rules,
                                                                self.human.turn_state, **physics)
@@ -181,6 +193,9 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         opts = parse_reset_options(options, self.graph.scenario)
         super().reset(seed=seed)
         rng = self.np_random
+        if self.population is not None:  # a new human from the population, drawn first
+            self.human = build_human(self.graph, self.population.sample(self.scenario_name, rng))
+            self._episode.set_turn_state(self.human.turn_state)
         self._human_rng = np.random.default_rng(int(rng.integers(2**63)))
         self._episode.draw(rng, opts.start, opts.intention, opts.turn_back,
                            self.human.turn_back)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -83,8 +84,10 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     ## Arguments
 
     - ``num_envs``: number of episodes N stepped together;
-    - ``scenario``, ``preference``, ``human_passive``, ``turn_back``, ``human``, ``r0``,
-      ``max_cycles``, ``backend``: as for :class:`~hri_envs.envs.robot.RobotEnv`;
+    - ``scenario``, ``preference``, ``human_passive``, ``turn_back``, ``human``,
+      ``human_rationality``, ``r0``, ``max_cycles``, ``backend``: as for
+      :class:`~hri_envs.envs.robot.RobotEnv` (every env shares one human; the per-reset
+      ``population`` draw of the single env is not offered here);
     - ``render_mode``: must be None;
     - ``autoreset_mode``: ``AutoresetMode.NEXT_STEP`` (default) or ``SAME_STEP`` (or their
       string values).
@@ -108,6 +111,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         human_passive: float = 0.0,
         turn_back: float = 0.0,
         human: ScriptedHuman | None = None,
+        human_rationality: float = math.inf,
         r0: float | None = None,
         max_cycles: int = 100,
         render_mode: str | None = None,
@@ -140,7 +144,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 "use gymnasium.make_vec(..., vectorization_mode='async') for a simulated backend"
             )
         self.graph = scenario_graph(scenario)
-        self.human = make_human(self.graph, preference, human_passive, turn_back, human)
+        self.human = make_human(self.graph, preference, human_passive, turn_back, human,
+                                human_rationality)
         self.rules = EpisodeRules(self.graph, self.r0)
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self.single_observation_space = robot_observation_space(n_s, n_k, n_a)

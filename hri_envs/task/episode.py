@@ -118,13 +118,18 @@ def turn_back(
     Args:
         turn_state: (K, K) int, ``turn_state[start, ι]``, where a turning-back human switches
             ι to the start support (-1: never), see
-            :attr:`hri_envs.task.humans.ScriptedHuman.turn_state`.
+            :attr:`hri_envs.task.humans.ScriptedHuman.turn_state`; or (N, K, K), one table
+            per episode of a batch (a human per run).
         state: The state just entered.
         start: The episode's start support.
         intention: The current intention ι.
         turning: Whether the human is still going to turn back in this episode.
     """
-    back = turning & (state == turn_state[start, intention])
+    if turn_state.ndim == 3:
+        where = turn_state[np.arange(turn_state.shape[0]), start, intention]
+    else:
+        where = turn_state[start, intention]
+    back = turning & (state == where)
     return np.where(back, start, intention), turning & ~back
 
 
@@ -283,7 +288,7 @@ class EpisodeBatch:
     Args:
         rules: The scenario's :class:`EpisodeRules`.
         turn_state: (K, K) int, where a turning-back human switches ι to the start
-            (see :func:`turn_back`).
+            (see :func:`turn_back`), or (N, K, K) one table per row.
         n: Number of episodes N.
 
     Attributes (each (N,)):

@@ -22,6 +22,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -48,6 +49,7 @@ __all__ = [
     "HANGER_DEFAULT_PREFERENCE",
     "HANGER_PREFERENCES",
     "WHEEL_PREFERENCES",
+    "PreferredActions",
     "ScriptedHuman",
     "boltzmann_human",
     "preference_human",
@@ -110,6 +112,18 @@ def _plan(graph: TaskGraph, s: int, ops: Sequence[Op]) -> list[tuple[int, int]]:
             path.append(step)
             s = step[1]
     return path
+
+
+class PreferredActions(Protocol):
+    """Anything that names the human's most likely action per episode (the Oracle's model):
+    a :class:`ScriptedHuman`, or the benchmark's human per run.
+    """
+
+    def preferred_action(
+        self, state: np.ndarray, start: np.ndarray, goal: np.ndarray
+    ) -> np.ndarray:
+        """The most likely action in ``state`` (int arrays of equal shape)."""
+        ...
 
 
 @dataclass(frozen=True, eq=False)

@@ -97,7 +97,8 @@ def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
 
 
 def bounded_softmax(
-    q: np.ndarray, valid: np.ndarray, temperature: float, eta: float, baseline: np.ndarray
+    q: np.ndarray, valid: np.ndarray, temperature: float, eta: float,
+    baseline: np.ndarray | None,
 ) -> np.ndarray:
     """The robot's bounded soft-max (paper Sect. 3.1, Alg. 1 l. 9).
 
@@ -109,14 +110,16 @@ def bounded_softmax(
         valid: (..., A) bool.
         temperature: τ_R.
         eta: η in [0, 1].
-        baseline: (...,) int, the passive baseline action.
+        baseline: (...,) int, the passive baseline action; None: no baseline, the bound is
+            ``η · max_a p(a)`` alone.
 
     Returns:
         (..., A) probabilities.
     """
     p = softmax(q, valid, temperature)
-    p_base = np.take_along_axis(p, baseline[..., None], axis=-1)
-    bound = np.maximum(p_base, eta * p.max(axis=-1, keepdims=True))
+    bound = eta * p.max(axis=-1, keepdims=True)
+    if baseline is not None:
+        bound = np.maximum(np.take_along_axis(p, baseline[..., None], axis=-1), bound)
     kept = np.where(p >= bound * (1 - 1e-12), p, 0.0)
     return kept / kept.sum(axis=-1, keepdims=True)  # type: ignore[no-any-return]
 

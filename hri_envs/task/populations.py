@@ -1,0 +1,359 @@
+"""Human populations: noisy (Boltzmann) preference humans, drifting humans and a registry.
+
+Three ways to make the scripted partner of :mod:`hri_envs.task.humans` harder to cooperate
+with, all opt-in (the defaults give today's deterministic human, bit for bit):
+
+* **Rationality β** (:func:`rational_human`): the human samples its free-space action from
+  ``softmax(β · Q_pref)`` instead of taking the preference's action. ``Q_pref`` is the
+  human's own value of following its preference: for the action ``a`` in free state ``s``
+  (the robot assumed to wait),
+
+      ``Q_pref(s, a) = -(1 + max(D(s'), D(s) - 1)) - 1[a ≠ a_pref(s)]``,
+
+  where ``s'`` is the state ``a`` leads to, ``D(s)`` the number of steps the preference's
+  re-planned route needs from ``s`` to rest on the goal (0 on the goal support, a large
+  cost ``D_MAX`` on a wrong support or when the route does not reach the goal) and
+  ``a_pref(s)`` the preference's action: a step costs 1, leaving the preferred route costs
+  1 more, and a shortcut off the route earns no more than one step of progress. Following
+  the route makes exactly one step of progress, so ``Q_pref(s, a_pref) = -D(s)`` exceeds
+  every other action's value by at least 1: as β → ∞
+  the Boltzmann human *is* the scripted one (``β = inf`` returns it unchanged). At a support
+  the human's grasp behaviour stays the scripted one.
+* **Populations** (:data:`POPULATIONS`): each run draws its human (preference, β, passive
+  and turning-back rates, or random preference weights θ) from a frozen
+  :class:`PopulationSpec`; the draw of run ``r`` uses a generator seeded by
+  ``(seed, r, 7)`` only, so it does not depend on batching or workers.
+* **Drift** (:func:`human_sequence`): after ``drift`` episodes the human switches to
+  another preference (drawn from ``(seed, r, 8)``), so that a learner has to keep adapting.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from hri_envs.errors import ConfigError
+from hri_envs.task import mdp
+from hri_envs.task.features import initial_theta
+from hri_envs.task.graph import WAIT, TaskGraph
+from hri_envs.task.humans import ScriptedHuman, boltzmann_human, preference_human
+from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
+
+__all__ = [
+    "D_MAX",
+    "POPULATIONS",
+    "HumanDraw",
+    "PopulationSpec",
+    "build_human",
+    "draw_human",
+    "drifted",
+    "human_sequence",
+    "humans_of",
+    "population_spec",
+    "preference_q",
+    "rational_human",
+    "validate_drift",
+    "validate_rationality",
+]
+
+#: The cost-to-go of a wrong support or a route that does not reach the goal, in steps.
+D_MAX = 100
+
+
+def validate_rationality(beta: float, field: str = "human_rationality") -> float:
+    """Check a rationality β: a number > 0 (``inf``: the deterministic scripted human)."""
+    try:
+        value = float(beta)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{field} must be a number > 0 or inf, got {beta!r}",
+                          field=field) from None
+    if math.isnan(value) or value <= 0:
+        raise ConfigError(f"{field} must be a number > 0 or inf (the deterministic human), "
+                          f"got {beta!r}", field=field)
+    return value
+
+
+def _cost_to_go(graph: TaskGraph, table: np.ndarray) -> np.ndarray:
+    """(K, K, S) steps the deterministic ``table[start, goal, s]`` needs to rest on the goal.
+
+    The robot is assumed to wait; at a support the count is 0 on the goal support and
+    :data:`D_MAX` elsewhere; routes longer than ``D_MAX`` steps count :data:`D_MAX`.
+    """
+    n_k, n_s = graph.n_intentions, graph.n_states
+    goal = np.arange(n_k)[None, :, None]
+    sup = graph.support[None, None, :]
+    at_support = sup >= 0
+    dist = np.where(at_support, np.where(sup == goal, 0, D_MAX), D_MAX).astype(np.int64)
+    dist = np.broadcast_to(dist, (n_k, n_k, n_s)).copy()
+    free = ~graph.is_support_state
+    nxt = graph.next_state[np.arange(n_s)[None, None, :], WAIT, table]  # (K, K, S)
+    for _ in range(D_MAX):
+        stepped = np.minimum(1 + np.take_along_axis(dist, nxt, axis=-1), D_MAX)
+        new = np.where(free[None, None, :], stepped, dist)
+        if np.array_equal(new, dist):
+            break
+        dist = new
+    return dist
+
+
+def preference_q(human: ScriptedHuman) -> np.ndarray:
+    """(K, K, S, A) ``Q_pref`` of a deterministic preference human (see the module docstring).
+
+    Invalid actions get ``-inf``; support states get 0 for the scripted action and -1 for
+    the others (a support's behaviour is not made noisy by :func:`rational_human`).
+    """
+    if not human.deterministic:
+        raise ConfigError("preference_q needs a deterministic (preference) human; "
+                          f"got {human.name!r}", field="human")
+    g = human.graph
+    table = human.preferred_action(np.arange(g.n_states)[None, None, :],
+                                   np.arange(g.n_intentions)[:, None, None],
+                                   np.arange(g.n_intentions)[None, :, None])  # (K, K, S)
+    dist = _cost_to_go(g, table)
+    nxt = g.next_state[:, WAIT, :]  # (S, A) where the human's action leads, robot waiting
+    d_next = np.maximum(dist[:, :, nxt], dist[..., None] - 1)  # (K, K, S, A)
+    off = np.arange(g.n_actions)[None, None, None, :] != table[..., None]
+    q = -(1.0 + d_next) - off
+    support = g.is_support_state[None, None, :, None]
+    q = np.where(support, -off.astype(float), q)
+    return np.where(g.valid[None, None], q, -np.inf)  # type: ignore[no-any-return]
+
+
+def rational_human(human: ScriptedHuman, beta: float) -> ScriptedHuman:
+    """A Boltzmann version of a deterministic preference human: ``π ∝ exp(β Q_pref)``.
+
+    Args:
+        human: A deterministic human from :func:`~hri_envs.task.humans.preference_human`.
+        beta: Rationality β > 0; ``inf`` returns ``human`` itself.
+
+    Returns:
+        A human with the same name suffix ``@β``, passivity, turning back and halfway points.
+    """
+    beta = validate_rationality(beta)
+    if math.isinf(beta):
+        return human
+    g = human.graph
+    q = preference_q(human)
+    valid = g.valid[None, None]
+    policy = mdp.softmax(np.where(valid, q, 0.0), valid, beta)
+    return ScriptedHuman(g, policy, f"{human.name}@{beta:g}", human.turn_state, human.passive,
+                         human.turn_back)
+
+
+@dataclass(frozen=True)
+class HumanDraw:
+    """One run's human, as drawn from a population (JSON-ready).
+
+    Attributes:
+        preference: A preference name, or None for a θ human.
+        rationality: β (``inf``: deterministic).
+        passive: Probability of waiting in a step.
+        turn_back: Probability per episode of turning back halfway.
+        theta: (F,) preference weights of a θ human (Boltzmann with temperature β), or None.
+    """
+
+    preference: str | None
+    rationality: float = math.inf
+    passive: float = 0.0
+    turn_back: float = 0.0
+    theta: tuple[float, ...] | None = None
+
+    def label(self) -> str:
+        """A short readable description (the preference or "theta", with β if finite)."""
+        base = self.preference if self.preference is not None else "theta"
+        return base if math.isinf(self.rationality) else f"{base}@{self.rationality:.3g}"
+
+
+@dataclass(frozen=True)
+class PopulationSpec:
+    """A frozen recipe for drawing one human per run.
+
+    Attributes:
+        name: Registry key.
+        description: One line for help texts and docs.
+        scenarios: The scenarios it applies to.
+        preferences: Preference names to draw uniformly from; () = the scenario's default;
+            ("*",) = all of the scenario's preferences.
+        rationality: (low, high) β drawn log-uniformly, or None for the deterministic human.
+        passive: (low, high) passive rate drawn uniformly.
+        turn_back: (low, high) turning-back rate drawn uniformly.
+        theta: Draw random preference weights θ (a Boltzmann θ human, :func:`boltzmann_human`)
+            instead of a named preference.
+        held_out: The evaluation set: never used to tune defaults or in tests that do.
+    """
+
+    name: str
+    description: str
+    scenarios: tuple[str, ...] = tuple(SCENARIOS)
+    preferences: tuple[str, ...] = ()
+    rationality: tuple[float, float] | None = None
+    passive: tuple[float, float] = (0.0, 0.0)
+    turn_back: tuple[float, float] = (0.0, 0.0)
+    theta: bool = False
+    held_out: bool = False
+
+    def draw(self, scenario: str, seed: int, run: int) -> HumanDraw:
+        """The human of run ``run``: every draw from a generator seeded by ``(seed, run, 7)``."""
+        return self.sample(scenario, np.random.default_rng([int(seed), int(run), 7]))
+
+    def sample(self, scenario: str, rng: np.random.Generator) -> HumanDraw:
+        """A human drawn with ``rng`` (4 uniforms, then F more for a θ human)."""
+        if scenario not in self.scenarios:
+            raise ConfigError(f"population {self.name!r} is for {', '.join(self.scenarios)}; "
+                              f"not {scenario!r}", field="population")
+        spec = scenario_spec(scenario)
+        prefs = spec.preferences if self.preferences == ("*",) else (
+            self.preferences or (spec.default_preference,))
+        # Always consume the same draws in the same order, whatever the spec uses.
+        u = rng.random(4)
+        pref = prefs[min(int(u[0] * len(prefs)), len(prefs) - 1)]
+        beta = math.inf
+        if self.rationality is not None:
+            lo, hi = np.log(self.rationality[0]), np.log(self.rationality[1])
+            beta = float(np.exp(lo + u[1] * (hi - lo)))
+        passive = self.passive[0] + u[2] * (self.passive[1] - self.passive[0])
+        turn = self.turn_back[0] + u[3] * (self.turn_back[1] - self.turn_back[0])
+        theta = None
+        if self.theta:
+            theta = tuple(float(x) for x in _random_theta(scenario, rng))
+            pref_out: str | None = None
+        else:
+            pref_out = pref
+        return HumanDraw(pref_out, beta, float(passive), float(turn), theta)
+
+
+def _random_theta(scenario: str, rng: np.random.Generator) -> np.ndarray:
+    """θ over the scenario's features: U(-0.5, 0.5) noise on the paper's θ⁰, goal weight 1."""
+    n_f = scenario_graph(scenario).n_features
+    theta = initial_theta(n_f) + rng.uniform(-0.5, 0.5, n_f)
+    theta[0] = 1.0  # resting on the goal support pays: the human gets there
+    return theta
+
+
+_POPULATIONS = (
+    PopulationSpec("hanger-all", "all 36 hanger preferences, one per run, deterministic",
+                   scenarios=("hanger",), preferences=("*",)),
+    PopulationSpec("preferences", "every preference of the scenario, one per run, "
+                   "deterministic", preferences=("*",)),
+    PopulationSpec("theta", "random preference weights θ over the features (θ⁰ plus "
+                   "U(-0.5, 0.5), goal weight 1), Boltzmann with β in [5, 50]",
+                   rationality=(5.0, 50.0), theta=True),
+    PopulationSpec("mixed-rationality", "the default preference with β drawn log-uniformly "
+                   "in [1, 20] per run", rationality=(1.0, 20.0)),
+    PopulationSpec("passive-turnback", "the default preference; passive rate in [0, 0.3] and "
+                   "turning-back rate in [0, 0.5] drawn per run",
+                   passive=(0.0, 0.3), turn_back=(0.0, 0.5)),
+    PopulationSpec("heldout", "HELD OUT evaluation set: any preference, β in [2, 30], "
+                   "passive in [0, 0.2], turning back in [0, 0.3]", preferences=("*",),
+                   rationality=(2.0, 30.0), passive=(0.0, 0.2), turn_back=(0.0, 0.3),
+                   held_out=True),
+)
+#: The population registry, by name.
+POPULATIONS: dict[str, PopulationSpec] = {p.name: p for p in _POPULATIONS}
+
+
+def population_spec(name: str, scenario: str | None = None) -> PopulationSpec:
+    """A population by name; a :class:`ConfigError` lists the allowed names otherwise."""
+    if name not in POPULATIONS:
+        raise ConfigError(f"unknown population {name!r}; allowed: {', '.join(POPULATIONS)}",
+                          field="population")
+    spec = POPULATIONS[name]
+    if scenario is not None and scenario not in spec.scenarios:
+        allowed = [n for n, p in POPULATIONS.items() if scenario in p.scenarios]
+        raise ConfigError(f"population {name!r} is not for {scenario!r}; allowed for "
+                          f"{scenario}: {', '.join(allowed)}", field="population")
+    return spec
+
+
+@functools.lru_cache(maxsize=256)
+def _base_human(scenario: str, preference: str) -> ScriptedHuman:
+    return preference_human(scenario_graph(scenario), preference)
+
+
+def build_human(graph: TaskGraph, draw: HumanDraw) -> ScriptedHuman:
+    """The :class:`ScriptedHuman` a :class:`HumanDraw` describes."""
+    if draw.theta is not None:
+        beta = 25.0 if math.isinf(draw.rationality) else draw.rationality
+        human = boltzmann_human(graph, np.asarray(draw.theta), temperature=beta,
+                                passive=draw.passive)
+        return dataclasses.replace(human, turn_back=draw.turn_back)
+    assert draw.preference is not None
+    if graph.name in SCENARIOS and graph is scenario_graph(graph.name):
+        base = _base_human(graph.name, draw.preference)
+    else:
+        base = preference_human(graph, draw.preference)
+    human = rational_human(base, draw.rationality)
+    if draw.passive == human.passive and draw.turn_back == human.turn_back:
+        return human
+    return dataclasses.replace(human, passive=draw.passive, turn_back=draw.turn_back)
+
+
+def draw_human(
+    scenario: str,
+    seed: int,
+    run: int,
+    *,
+    population: str | None = None,
+    preference: str | None = None,
+    rationality: float = math.inf,
+    passive: float = 0.0,
+    turn_back: float = 0.0,
+) -> HumanDraw:
+    """Run ``run``'s human: from ``population`` if given, else the fixed settings.
+
+    With a population, ``rationality`` (if finite) overrides the population's β, and the
+    passive and turning-back rates are added to the population's (clipped to [0, 1]).
+    """
+    if population is None:
+        pref = preference or scenario_spec(scenario).default_preference
+        return HumanDraw(pref, rationality, passive, turn_back)
+    d = population_spec(population, scenario).draw(scenario, seed, run)
+    beta = rationality if not math.isinf(rationality) else d.rationality
+    return dataclasses.replace(d, rationality=beta,
+                               passive=min(1.0, d.passive + passive),
+                               turn_back=min(1.0, d.turn_back + turn_back))
+
+
+def drifted(scenario: str, draw: HumanDraw, seed: int, run: int) -> HumanDraw:
+    """The human after drifting: another preference (or another θ), from ``(seed, run, 8)``."""
+    rng = np.random.default_rng([int(seed), int(run), 8])
+    if draw.theta is not None:
+        return dataclasses.replace(draw, theta=tuple(float(x)
+                                                     for x in _random_theta(scenario, rng)))
+    prefs = [p for p in scenario_spec(scenario).preferences if p != draw.preference]
+    return dataclasses.replace(draw, preference=prefs[int(rng.integers(len(prefs)))])
+
+
+def human_sequence(scenario: str, draw: HumanDraw, seed: int, run: int, episodes: int,
+                   drift: int | None = None) -> list[HumanDraw]:
+    """The human of each episode of a run: ``draw`` throughout, or ``draw`` for the first
+    ``drift`` episodes and :func:`drifted` after.
+    """
+    if drift is None or drift >= episodes:
+        return [draw] * episodes
+    after = drifted(scenario, draw, seed, run)
+    return [draw] * drift + [after] * (episodes - drift)
+
+
+def validate_drift(drift: int | None, field: str = "human_drift") -> None:
+    """Check a drift: None (no drift) or a whole number of episodes >= 1."""
+    if drift is not None and (not isinstance(drift, int | np.integer) or drift < 1):
+        raise ConfigError(f"{field} must be None or a whole number of episodes >= 1, "
+                          f"got {drift!r}", field=field)
+
+
+def humans_of(graph: TaskGraph, draws: Sequence[HumanDraw]) -> list[ScriptedHuman]:
+    """Build one human per draw, sharing identical ones."""
+    cache: dict[HumanDraw, ScriptedHuman] = {}
+    out = []
+    for d in draws:
+        if d not in cache:
+            cache[d] = build_human(graph, d)
+        out.append(cache[d])
+    return out
+
