@@ -100,7 +100,9 @@ def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
         if ci:
             low, high = np.array(stats.per_episode(r, getattr(result.config, "seed", 0))["ci95"]).T
             mean = r.mean(0)
-            ax.errorbar(episodes, mean, yerr=np.stack([mean - low, high - mean]), fmt="none",
+            # A percentile interval can miss the sample mean by rounding when the runs agree.
+            yerr = np.clip(np.stack([mean - low, high - mean]), 0.0, None)
+            ax.errorbar(episodes, mean, yerr=yerr, fmt="none",
                         ecolor=color, elinewidth=1.0, capsize=2)
     ax.set_xlabel("episode")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
