@@ -12,8 +12,9 @@ from hri_envs.bench.figures import make_figures
 from hri_envs.bench.play import play
 from hri_envs.bench.study import StudyConfig, run_study
 
-SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive", "runs",
-                "episodes", "seed", "wall_time_s", "agents"}
+SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive",
+                "turn_back", "max_steps", "runs", "episodes", "seed", "version", "env_ids",
+                "settings", "agent_configs", "failed_agents", "agents"}
 
 
 def test_study_writes_the_contracted_files(tmp_path, capsys):
@@ -26,11 +27,11 @@ def test_study_writes_the_contracted_files(tmp_path, capsys):
     assert summary["scenario"] == "wheel" and summary["r0"] == -0.25 and summary["seed"] == 7
     assert set(summary["agents"]) == {"learner", "imitator", "oracle"}
     for stats in summary["agents"].values():
-        assert set(stats) == {"reward", "correct", "passive", "wrong"}
-        assert set(stats["reward"]) == {"mean", "q25", "q75"}
-        for metric in stats.values():
+        assert set(stats) == {"reward", "correct", "passive", "wrong", "truncated", "overall"}
+        assert set(stats["reward"]) == {"mean", "median", "q25", "q75"}
+        for key, metric in stats.items():
             for values in metric.values():
-                assert len(values) == 3
+                assert key == "overall" or len(values) == 3
         fractions = [stats[k]["mean"] for k in ("correct", "passive", "wrong")]
         np.testing.assert_allclose(np.sum(fractions, axis=0), 1.0)
     assert summary["agents"]["oracle"]["reward"]["mean"] == [0.0, 0.0, 0.0]

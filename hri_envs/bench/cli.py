@@ -15,11 +15,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from hri_envs.bench.agents import BUILTIN_AGENTS
 from hri_envs.bench.runner import TABLE2
@@ -97,7 +100,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     study = sub.add_parser("study", help="run one study and write summary.json, CSV and plots",
                            description="Run one study: several agents, many independent runs.")
-    study.add_argument("scenario", choices=SCENARIOS)
+    study.add_argument("scenario", choices=SCENARIOS, nargs="?",
+                       help="the task (may be left out with --config)")
     study.add_argument("--agents", type=_agents, default=BUILTIN_AGENTS,
                        help=f"comma-separated, from {','.join(BUILTIN_AGENTS)} or module:Class "
                             "(default: all built-in)")
@@ -134,7 +138,16 @@ def build_parser() -> argparse.ArgumentParser:
                             "about 0.2 s per step)")
     study.add_argument("--max-steps", type=_positive, default=100,
                        help="step limit per episode (default 100)")
-    study.add_argument("--out", required=True, type=Path, help="output directory")
+    study.add_argument("--out", required=True, type=Path,
+                       help="output directory (new or empty, unless --resume or --overwrite)")
+    study.add_argument("--resume", action="store_true",
+                       help="continue the interrupted study in --out (same settings and --jobs)")
+    study.add_argument("--overwrite", action="store_true",
+                       help="start afresh in a non-empty --out (replaces the study's files)")
+    study.add_argument("--config", type=Path, default=None,
+                       help="re-run the study a summary.json describes (its 'settings'); "
+                            "only --out, --jobs, --executor, --ray-address, --resume, "
+                            "--overwrite and --no-progress may be given with it")
     study.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     study.set_defaults(command_parser=study)  # reports errors found after parsing
 
@@ -176,28 +189,79 @@ def _config_error(parser: argparse.ArgumentParser, exc: ConfigError,
     parser.error(f"argument {argument}: {exc}" if argument else str(exc))
 
 
-def _study(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from hri_envs.bench.study import StudyConfig, run_study, write_outputs
+def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
+                  executor: str) -> Any:
+    """The :class:`StudyConfig` from the flags, or from ``--config`` (a summary.json)."""
+    from hri_envs.bench.study import EXECUTION_FIELDS, StudyConfig
 
-    executor = args.executor or ("process" if args.jobs > 1 else "serial")
-    try:
-        cfg = StudyConfig(
+    execution = {"jobs": args.jobs, "executor": executor, "ray_address": args.ray_address}
+    if args.config is None:
+        if args.scenario is None:
+            parser.error("the following arguments are required: scenario (or --config)")
+        return StudyConfig(
             args.scenario, agents=args.agents, runs=args.runs, episodes=args.episodes,
             schedule=args.schedule, preference=args.preference, r0=args.r0,
             human_passive=args.human_passive, turn_back=args.turn_back, seed=args.seed,
-            jobs=args.jobs, executor=executor, backend=args.backend, max_steps=args.max_steps,
-            ray_address=args.ray_address,
+            backend=args.backend, max_steps=args.max_steps, **execution,
         )
+    given = [flag for field, flag in _STUDY_ARGUMENTS.items()
+             if field not in EXECUTION_FIELDS and field != "scenario"
+             and getattr(args, field) != parser.get_default(field)]
+    if given:
+        parser.error(f"argument --config: it replays the recorded settings; drop "
+                     f"{', '.join(given)} (or edit the file's 'settings')")
+    try:
+        settings = json.loads(args.config.read_text())["settings"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        parser.error(f"argument --config: {args.config} is not a summary.json with 'settings' "
+                     f"({exc!r}); give the summary.json of an hri-bench study")
+    if args.scenario is not None and args.scenario != settings.get("scenario"):
+        parser.error(f"argument scenario: {args.config} describes a "
+                     f"{settings.get('scenario')!r} study; leave the scenario out")
+    return StudyConfig.from_settings(settings, **execution)
+
+
+def _resume_hint(argv: Sequence[str]) -> str:
+    words = [w for w in argv if w not in ("--overwrite", "--resume")]
+    return "hri-bench " + " ".join(shlex.quote(w) for w in words) + " --resume"
+
+
+def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
+           argv: Sequence[str]) -> int:
+    from hri_envs.bench.study import write_outputs
+    from hri_envs.bench.studyio import StudyDir, StudyTerminated, run_in, stop_on_signals
+
+    executor = args.executor or ("process" if args.jobs > 1 else "serial")
+    arguments = {**_STUDY_ARGUMENTS, "out": "--out", "resume": "--resume"}
+    try:
+        cfg = _study_config(args, parser, executor)
+        folder = StudyDir(args.out, cfg, resume=args.resume, overwrite=args.overwrite)
     except ConfigError as exc:
-        _config_error(parser, exc, _STUDY_ARGUMENTS)
-    result = run_study(cfg, progress=not args.no_progress)
-    paths = write_outputs(result, args.out)
+        _config_error(parser, exc, arguments)
+    try:
+        with stop_on_signals():
+            result = run_in(folder, progress=not args.no_progress)
+            paths = write_outputs(result, args.out)
+    except KeyboardInterrupt as exc:
+        kept = len(list(folder.units_dir.glob("*.npz")))
+        print(f"\nstopped; {kept} finished unit(s) kept in {folder.units_dir}. Resume with:\n"
+              f"  {_resume_hint(argv)}", file=sys.stderr)
+        return 143 if isinstance(exc, StudyTerminated) else 130
     print(f"{cfg.scenario} study: {len(cfg.agents)} agents x {cfg.runs} runs x "
           f"{cfg.n_episodes} episodes in {result.wall_time_s:.1f} s")
+    print(f"  {'agent':12s} {'first':>7s} {'last':>7s} {'mean':>7s} {'median':>7s} "
+          f"{'truncated':>9s}")
     for name, m in result.metrics.items():
-        print(f"  {name:10s} reward first {m['reward'][:, 0].mean():7.2f}  "
-              f"last {m['reward'][:, -1].mean():7.2f}")
+        r = m["reward"]
+        print(f"  {name:12s} {r[:, 0].mean():7.2f} {r[:, -1].mean():7.2f} {r.mean():7.2f} "
+              f"{np.median(r):7.2f} {m['truncated'].mean():9.1%}")
     print("wrote " + ", ".join(str(p) for p in paths))
+    log = folder.log_failures(result.failures)
+    if log is not None:
+        print(f"agent(s) {', '.join(result.failures)} raised; no results for them; "
+              f"tracebacks in {log}", file=sys.stderr)
+        return 1
+    folder.finish()
     return 0
 
 
@@ -248,9 +312,10 @@ def _demo(args: argparse.Namespace) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hri-bench`` console script."""
     parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     if args.command == "study":
-        return _study(args, args.command_parser)
+        return _study(args, args.command_parser, argv)
     if args.command == "figures":
         return _figures(args, parser)
     if args.command == "speed":

@@ -9,7 +9,7 @@ It imports nothing from the package. The result's configuration is typed structu
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Generic, Protocol, TypeVar
 
 import numpy as np
@@ -58,7 +58,9 @@ class StudyResult(Generic[ConfigT_co]):
         probes: ``probes[agent]`` is (runs, episodes + 1, len(config.probes)): the probed
             probabilities before the first episode and after each update.
         schedule: ``start``, ``goal`` and ``turn_back``, each (runs, episodes).
-        wall_time_s: Seconds the simulation took.
+        wall_time_s: Seconds the simulation took (this process's part, if resumed).
+        failures: Agents that raised (with ``keep_going``), each with its traceback text;
+            they have no entries in ``metrics`` and ``probes``.
     """
 
     config: ConfigT_co
@@ -66,3 +68,4 @@ class StudyResult(Generic[ConfigT_co]):
     probes: dict[str, np.ndarray]
     schedule: dict[str, np.ndarray]
     wall_time_s: float
+    failures: dict[str, str] = field(default_factory=dict)
