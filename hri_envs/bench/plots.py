@@ -81,8 +81,13 @@ def _label(agent: str) -> str:
 
 
 def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
-                 title: str | None = None) -> None:
-    """Mean (line) and interquartile band of the cooperation reward per episode (Fig. 10)."""
+                 title: str | None = None, stalls: bool = False) -> None:
+    """Mean (line) and interquartile band of the cooperation reward per episode (Fig. 10).
+
+    With ``stalls``, also the median (dotted) and, in each label, the share of the agent's
+    episodes cut off at the step limit, so that a few stalled episodes dragging the mean
+    down are visible.
+    """
     episodes = np.arange(1, result.config.n_episodes + 1)
     for agent in agents or list(result.metrics):
         r = result.metrics[agent]["reward"]
@@ -90,7 +95,11 @@ def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
         style = "--" if agent == "oracle" else "-"
         ax.fill_between(episodes, np.percentile(r, 25, 0), np.percentile(r, 75, 0),
                         color=color, alpha=0.18, linewidth=0)
-        ax.plot(episodes, r.mean(0), style, color=color, label=_label(agent), linewidth=1.8)
+        label = _label(agent)
+        if stalls:
+            label += f" ({result.metrics[agent]['truncated'].mean():.1%} truncated)"
+            ax.plot(episodes, np.median(r, 0), ":", color=color, linewidth=1.4)
+        ax.plot(episodes, r.mean(0), style, color=color, label=label, linewidth=1.8)
     ax.set_xlabel("episode")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("robot cooperation reward per episode")
@@ -162,7 +171,8 @@ def study_plots(result: Result, out: Path) -> list[Path]:
     title = (f"{cfg.scenario}, {cfg.schedule} schedule, r0 = {cfg.waiting_reward:g}, "
              f"human passive {cfg.human_passive:.0%}, {cfg.runs} runs")
     fig, ax = new_figure(figsize=(6.4, 4.0))
-    reward_bands(ax, result, title=title)
+    reward_bands(ax, result, title=title, stalls=True)
+    ax.plot([], [], ":", color="0.4", label="median")
     ax.legend(frameon=False, fontsize=8)
     paths = [save_figure(fig, out / "reward.png")]
     fig, ax = new_figure(figsize=(max(6.4, 0.55 * cfg.n_episodes * len(result.metrics)), 4.0))
