@@ -10,6 +10,7 @@ from hri_envs.errors import (
     ConfigError,
     HriEnvsError,
     LearnerStateError,
+    MissingExtraError,
     PhysicsFault,
 )
 from hri_envs.registration import register_envs
@@ -23,6 +24,7 @@ __all__ = [
     "ConfigError",
     "HriEnvsError",
     "LearnerStateError",
+    "MissingExtraError",
     "PhysicsFault",
     "TaskGraph",
     "__version__",

@@ -2,13 +2,14 @@
 
 Every message says what *is* allowed. The classes also derive from the built-in exception
 callers caught before this module existed (``ValueError``, ``NotImplementedError``,
-``RuntimeError``), so existing ``except`` clauses keep working::
+``RuntimeError``, ``ImportError``), so existing ``except`` clauses keep working::
 
     HriEnvsError
     ├── ConfigError (ValueError)
     │   └── BackendUnavailableError (NotImplementedError)
     ├── ActionError (ValueError)
     ├── LearnerStateError (ValueError)
+    ├── MissingExtraError (ImportError)
     └── PhysicsFault (RuntimeError)
         └── hri_envs.physics.ik.IKFailure
 
@@ -24,6 +25,7 @@ __all__ = [
     "ConfigError",
     "HriEnvsError",
     "LearnerStateError",
+    "MissingExtraError",
     "PhysicsFault",
 ]
 
@@ -60,6 +62,12 @@ class BackendUnavailableError(ConfigError, NotImplementedError):
 
 class LearnerStateError(HriEnvsError, ValueError):
     """A saved learner state cannot be loaded (wrong scenario, corrupted, other format)."""
+
+
+class MissingExtraError(HriEnvsError, ImportError):
+    """A feature needs an optional extra that is not installed; the message gives the
+    ``pip install 'hri-envs[EXTRA]'`` command.
+    """
 
 
 class PhysicsFault(HriEnvsError, RuntimeError):

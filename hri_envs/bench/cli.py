@@ -221,6 +221,20 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
     return StudyConfig.from_settings(settings, **execution)
 
 
+def _require_for_study(cfg: Any, *, progress: bool) -> None:
+    """Fail before any simulation if an extra the study will need is missing."""
+    from hri_envs.bench.agents import SB3_PREFIX
+    from hri_envs.bench.extras import require
+    from hri_envs.envs.backends import check_backend
+
+    check_backend(cfg.backend)
+    require(["matplotlib", *(["tqdm"] if progress else [])], "writing a study's plots")
+    if cfg.executor == "ray":
+        require(["ray"], "executor 'ray'")
+    if any(a.startswith(SB3_PREFIX) for a in cfg.agents):
+        require(["stable_baselines3", "sb3_contrib", "torch"], "an 'sb3:' agent")
+
+
 def _resume_hint(argv: Sequence[str]) -> str:
     words = [w for w in argv if w not in ("--overwrite", "--resume")]
     return "hri-bench " + " ".join(shlex.quote(w) for w in words) + " --resume"
@@ -235,6 +249,7 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
     arguments = {**_STUDY_ARGUMENTS, "out": "--out", "resume": "--resume"}
     try:
         cfg = _study_config(args, parser, executor)
+        _require_for_study(cfg, progress=not args.no_progress)
         folder = StudyDir(args.out, cfg, resume=args.resume, overwrite=args.overwrite)
     except ConfigError as exc:
         _config_error(parser, exc, arguments)
@@ -314,6 +329,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
+    from hri_envs.bench.extras import install_hint
+    from hri_envs.errors import BackendUnavailableError, MissingExtraError
+
+    try:
+        return _dispatch(args, parser, argv)
+    except (MissingExtraError, BackendUnavailableError) as exc:
+        print(f"hri-bench: {exc}", file=sys.stderr)
+        return 1
+    except ModuleNotFoundError as exc:
+        hint = install_hint(exc)
+        if hint is None:
+            raise
+        print(f"hri-bench: {hint}", file=sys.stderr)
+        return 1
+
+
+def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
+              argv: Sequence[str]) -> int:
+    if args.command in ("figures", "demo"):
+        from hri_envs.bench.extras import require
+
+        require(["matplotlib", "tqdm"], f"hri-bench {args.command}")
     if args.command == "study":
         return _study(args, args.command_parser, argv)
     if args.command == "figures":

@@ -502,12 +502,9 @@ def summarize(result: StudyResult) -> dict[str, Any]:
 
 
 def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
+    from hri_envs import __version__
 
-    try:
-        return version("hri-envs")
-    except PackageNotFoundError:
-        return "unknown"
+    return __version__
 
 
 def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bool = True
