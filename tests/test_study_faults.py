@@ -61,7 +61,7 @@ def reference(tmp_path_factory):
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
-@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT])
 def test_killed_study_leaves_no_workers_and_resumes_identically(sig, reference, tmp_path):
     out = tmp_path / "study"
     proc = _cli([*STUDY, "--out", str(out)])
@@ -75,8 +75,8 @@ def test_killed_study_leaves_no_workers_and_resumes_identically(sig, reference, 
     proc.send_signal(sig)
     code = proc.wait(timeout=30)
     stderr = proc.stderr.read()
-    if sig == signal.SIGTERM:
-        assert code == 143
+    if sig != signal.SIGKILL:
+        assert code == {signal.SIGTERM: 143, signal.SIGINT: 130}[sig]
         assert "--resume" in stderr and "finished unit(s) kept" in stderr
     deadline = time.monotonic() + 10
     while any(_alive(w) for w in workers) and time.monotonic() < deadline:

@@ -321,7 +321,20 @@ def _demo(args: argparse.Namespace) -> int:
     print(f"done in {time.perf_counter() - t0:.0f} s; plots:")
     for p in paths:
         print(f"  {p}")
+    print(_NEXT_STEPS)
     return 0
+
+
+#: What ``hri-bench demo`` (``make demo``) suggests next; every command runs as printed.
+_NEXT_STEPS = """
+What to try next (after `source .venv/bin/activate`; README.md 'A tour', docs/benchmark.md):
+  hri-bench study wheel --runs 20 --out out/wheel     # one study: summary.json, CSV, plots
+  hri-bench study wheel --human-passive 0.2 --runs 20 --out out/passive
+  hri-bench play hanger                               # you are the human
+  python examples/custom_learner.py                   # your own agent, benchmarked
+  python examples/train_maskable_ppo.py               # needs the rl extra (below)
+  python examples/physics_table2.py --runs 1          # needs the mujoco extra (below)
+Extras: pip install -c constraints.txt -e '.[rl]'  (or '.[mujoco]', '.[ray]')"""
 
 
 def main(argv: Sequence[str] | None = None) -> int:

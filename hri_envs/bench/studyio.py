@@ -64,21 +64,27 @@ class StudyTerminated(KeyboardInterrupt):
 
 @contextlib.contextmanager
 def stop_on_signals() -> Iterator[None]:
-    """Within the block, SIGTERM raises :class:`StudyTerminated` (SIGINT already raises
-    :class:`KeyboardInterrupt`). Only in the main thread; elsewhere a no-op.
+    """Within the block, SIGINT raises :class:`KeyboardInterrupt` and SIGTERM
+    :class:`StudyTerminated` (also when the launching shell had SIGINT ignored, as for a
+    background job). Only in the main thread; elsewhere a no-op.
     """
-    def handler(signum: int, frame: FrameType | None) -> None:
+    def interrupt(signum: int, frame: FrameType | None) -> None:
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    def terminate(signum: int, frame: FrameType | None) -> None:
         raise StudyTerminated(f"signal {signum}")
 
     try:
-        previous = signal.signal(signal.SIGTERM, handler)
+        previous = {signal.SIGINT: signal.signal(signal.SIGINT, interrupt),
+                    signal.SIGTERM: signal.signal(signal.SIGTERM, terminate)}
     except ValueError:  # not the main thread
         yield
         return
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def _manifest(cfg: StudyConfig) -> dict[str, Any]:
