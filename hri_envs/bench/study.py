@@ -325,7 +325,7 @@ def _units(cfg: StudyConfig) -> list[_Unit]:
     return units
 
 
-def _worker_init(parent: int) -> None:
+def _worker_init() -> None:
     """Pool worker set-up: leave Ctrl-C to the parent, die on SIGTERM, exit with the parent.
 
     The parent stops the pool on SIGINT/SIGTERM; if it is killed outright (SIGKILL), a
@@ -334,6 +334,7 @@ def _worker_init(parent: int) -> None:
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler (forked)
+    parent = os.getppid()  # the study's process (or the fork server, which exits with it)
 
     def watch() -> None:
         while os.getppid() == parent:
@@ -353,8 +354,8 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
         # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
         # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
         # every worker at once.
-        with multiprocessing.Pool(min(cfg.jobs, max(1, len(todo))), initializer=_worker_init,
-                                  initargs=(os.getpid(),)) as pool:
+        with multiprocessing.Pool(min(cfg.jobs, max(1, len(todo))),
+                                  initializer=_worker_init) as pool:
             yield from pool.imap_unordered(_run_indexed, [(i, units[i]) for i in todo])
     else:
         yield from _execute_ray(cfg, [units[i] for i in todo], list(todo))
