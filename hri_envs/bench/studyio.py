@@ -55,7 +55,7 @@ RUN_LOG = "run_log.jsonl"
 _FORMAT = "hri-bench-units-1"
 #: Files a study writes into its folder (removed by ``overwrite`` before it starts).
 OUTPUT_FILES = ("summary.json", "episodes.csv", "reward.png", "decisions.png", "impulse.png",
-                ERRORS_LOG)
+                ERRORS_LOG, RUN_LOG)
 
 
 class StudyTerminated(KeyboardInterrupt):
@@ -103,7 +103,8 @@ class StudyDir:
         cfg: The study.
         resume: Continue the study whose finished units are in ``out/.units``.
         overwrite: Start afresh in a non-empty folder (removes the study files
-            :data:`OUTPUT_FILES` and ``.units``; other files are left alone).
+            :data:`OUTPUT_FILES`, ``.units`` and leftover temporary plot folders; other
+            files are left alone).
 
     Raises:
         ConfigError: (``field="out"``) ``out`` is not a writable directory, is not empty and
@@ -158,6 +159,8 @@ class StudyDir:
                     "--jobs, or use --overwrite", field="out")
         if overwrite:
             shutil.rmtree(self.units_dir, ignore_errors=True)
+            for tmp in out.glob(".plots-*"):  # left by a kill while plotting
+                shutil.rmtree(tmp, ignore_errors=True)
             for name in OUTPUT_FILES:
                 with contextlib.suppress(FileNotFoundError):
                     (out / name).unlink()
