@@ -36,6 +36,7 @@ from hri_envs.task.protocol import BatchAgent, Trace, run_streams
 __all__ = ["Learner", "LearnerStateError", "graph_fingerprint", "sample_actions"]
 
 _FORMAT = "hri-envs/learner/1"
+_ARRAYS = ("theta", "pi_h", "q_r", "pi_r")
 
 
 def graph_fingerprint(graph: TaskGraph) -> str:
@@ -257,27 +258,41 @@ class Learner(BatchAgent):
 
     # ------------------------------------------------------------------ persistence
     def save(self, path: str | Path) -> None:
-        """Write the learner's state to an ``.npz`` file (no pickle)."""
+        """Write the learner's state to ``path`` exactly (an ``.npz`` archive, no pickle).
+
+        :meth:`load` reads it back from the same path (numpy's own ``savez`` would append
+        ``.npz`` to a name without it).
+        """
         meta = {"format": _FORMAT, "scenario": self.graph.name, "episodes": self.episodes,
                 "fingerprint": graph_fingerprint(self.graph), "config": self.config.to_dict()}
-        np.savez(path, meta=np.array(json.dumps(meta)), theta=self.theta, pi_h=self.pi_h,
-                 q_r=self.q_r, pi_r=self.pi_r)
+        with open(path, "wb") as f:
+            np.savez(f, meta=np.array(json.dumps(meta)), theta=self.theta, pi_h=self.pi_h,
+                     q_r=self.q_r, pi_r=self.pi_r)
 
     @classmethod
     def load(cls, path: str | Path, graph: TaskGraph, *, seed: int = 0) -> Learner:
         """Restore a learner saved by :meth:`save` for the same scenario.
 
         Raises:
-            LearnerStateError: The file is not a learner state, is from another scenario or
-                graph, or its arrays are damaged.
+            LearnerStateError: The file is missing, truncated or damaged (any failure to
+                read it), lacks an entry, is from another scenario or graph, or holds
+                arrays, counts or parameters that no learner has.
         """
         try:
             with np.load(path, allow_pickle=False) as data:
+                missing = sorted({"meta", *_ARRAYS} - set(data.files))
+                if missing:
+                    raise LearnerStateError(f"{path}: missing entries {', '.join(missing)}; a "
+                                            f"learner state has meta, {', '.join(_ARRAYS)}")
                 meta = json.loads(str(data["meta"]))
                 theta = np.array(data["theta"])
                 pi_h, q_r, pi_r = (np.array(data[k]) for k in ("pi_h", "q_r", "pi_r"))
-        except (OSError, ValueError, KeyError, json.JSONDecodeError) as exc:
-            raise LearnerStateError(f"{path} is not a readable learner state: {exc}") from exc
+        except LearnerStateError:
+            raise
+        except Exception as exc:  # zip, zlib, EOF, JSON, tokenizer, ... errors alike
+            raise LearnerStateError(f"{path} is not a readable learner state "
+                                    f"({type(exc).__name__}: {exc}); give a file written by "
+                                    "Learner.save") from exc
         if not isinstance(meta, dict):
             raise LearnerStateError(f"{path}: its metadata is not a JSON object")
         if meta.get("format") != _FORMAT:
@@ -306,9 +321,13 @@ class Learner(BatchAgent):
                 raise LearnerStateError(f"{path}: {key} is not a policy over valid actions")
         try:
             config = LearnerConfig(**meta["config"])
-        except (TypeError, ValueError) as exc:
-            raise LearnerStateError(f"{path}: invalid learner parameters: {exc}") from exc
+        except (TypeError, ValueError, KeyError) as exc:
+            raise LearnerStateError(f"{path}: invalid learner parameters: {exc!r}") from exc
+        episodes = meta.get("episodes", 0)
+        if type(episodes) is not int or episodes < 0:
+            raise LearnerStateError(f"{path}: episode count {episodes!r}; it must be a whole "
+                                    "number >= 0")
         learner = cls(graph, n_b, config, seed=seed)
         learner.theta, learner.pi_h, learner.q_r, learner.pi_r = theta, pi_h, q_r, pi_r
-        learner.episodes = int(meta.get("episodes", 0))
+        learner.episodes = episodes
         return learner

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from hri_envs.bench.agents import make_agent
 from hri_envs.bench.runner import TABLE2, make_schedule, simulate
@@ -51,11 +52,15 @@ def main() -> None:
     runs = list(range(cfg.runs))
     schedule = make_schedule(graph, "table2", runs, cfg.episodes, cfg.seed)
     results: dict[str, dict[str, list[float]]] = {}
-    for name in cfg.agents.split(","):
+    agents = cfg.agents.split(",")
+    bar = tqdm(total=len(agents) * cfg.episodes, unit="episode", desc="physics, Table 2")
+    for name in agents:
         t0 = time.perf_counter()
         agent = make_agent(name, graph, human, runs, seed=cfg.seed, r0=-0.33)
+        bar.set_postfix_str(name)
         m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed, r0=-0.33,
-                     max_steps=40, backend="mujoco")
+                     max_steps=40, backend="mujoco",
+                     after_episode=lambda e, a: bar.update(1))
         results[name] = {
             "reward": m.reward.mean(0).tolist(),
             "correct": m.correct.mean(0).tolist(),
@@ -69,11 +74,12 @@ def main() -> None:
             "wall_s": [time.perf_counter() - t0],
         }
         r = results[name]
-        print(f"{name:9s} reward/episode {np.mean(r['reward']):6.2f}  correct "
-              f"{np.mean(r['correct']):.2f} passive {np.mean(r['passive']):.2f} wrong "
-              f"{np.mean(r['wrong']):.2f}  linear impulse/episode "
-              f"{np.mean(r['linear_impulse']):6.1f} N s  graph agrees "
-              f"{np.mean(r['graph_agrees']):.3f}  ({r['wall_s'][0]:.0f} s)")
+        tqdm.write(f"{name:9s} reward/episode {np.mean(r['reward']):6.2f}  correct "
+                   f"{np.mean(r['correct']):.2f} passive {np.mean(r['passive']):.2f} wrong "
+                   f"{np.mean(r['wrong']):.2f}  linear impulse/episode "
+                   f"{np.mean(r['linear_impulse']):6.1f} N s  graph agrees "
+                   f"{np.mean(r['graph_agrees']):.3f}  ({r['wall_s'][0]:.0f} s)")
+    bar.close()
     (out / "summary.json").write_text(json.dumps(results, indent=1) + "\n")
     try:
         import matplotlib
@@ -81,7 +87,7 @@ def main() -> None:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        print("matplotlib is not installed: no plots (pip install 'hri-envs[plot]')")
+        print("matplotlib is not installed: no plots (pip install 'hri-envs[bench]')")
         return
     labels = [f"{i + 1}\n{s}{'(' + g + ')' if t else ''}{g if not t else s}"
               for i, (s, g, t) in enumerate(TABLE2[: cfg.episodes])]

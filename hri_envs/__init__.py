@@ -11,6 +11,7 @@ from hri_envs.errors import (
     DisplayUnavailableError,
     HriEnvsError,
     LearnerStateError,
+    MissingExtraError,
     PhysicsFault,
 )
 from hri_envs.registration import register_envs
@@ -25,6 +26,7 @@ __all__ = [
     "DisplayUnavailableError",
     "HriEnvsError",
     "LearnerStateError",
+    "MissingExtraError",
     "PhysicsFault",
     "TaskGraph",
     "__version__",

@@ -2,7 +2,7 @@
 
 Every message says what *is* allowed. The classes also derive from the built-in exception
 callers caught before this module existed (``ValueError``, ``NotImplementedError``,
-``RuntimeError``), so existing ``except`` clauses keep working::
+``RuntimeError``, ``ImportError``), so existing ``except`` clauses keep working::
 
     HriEnvsError
     ├── ConfigError (ValueError)
@@ -10,6 +10,7 @@ callers caught before this module existed (``ValueError``, ``NotImplementedError
     │   └── DisplayUnavailableError (RuntimeError)
     ├── ActionError (ValueError)
     ├── LearnerStateError (ValueError)
+    ├── MissingExtraError (ImportError)
     └── PhysicsFault (RuntimeError)
         └── hri_envs.physics.ik.IKFailure
 
@@ -26,6 +27,7 @@ __all__ = [
     "DisplayUnavailableError",
     "HriEnvsError",
     "LearnerStateError",
+    "MissingExtraError",
     "PhysicsFault",
 ]
 
@@ -70,6 +72,12 @@ class DisplayUnavailableError(ConfigError, RuntimeError):
 
 class LearnerStateError(HriEnvsError, ValueError):
     """A saved learner state cannot be loaded (wrong scenario, corrupted, other format)."""
+
+
+class MissingExtraError(HriEnvsError, ImportError):
+    """A feature needs an optional extra that is not installed; the message gives the
+    ``pip install 'hri-envs[EXTRA]'`` command.
+    """
 
 
 class PhysicsFault(HriEnvsError, RuntimeError):

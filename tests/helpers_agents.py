@@ -17,3 +17,25 @@ class AlwaysWait(Agent):
 
     def end_episode(self, trace, intention):
         pass
+
+
+class RaisesInAct(AlwaysWait):
+    """Fails on its first decision (the benchmark must report it and keep the others)."""
+
+    name = "raises"
+
+    def act(self, observation):
+        raise RuntimeError("deliberate failure in act")
+
+
+class OutOfRange(AlwaysWait):
+    """Waits, then returns an action outside the action space on its third step."""
+
+    name = "out-of-range"
+
+    def begin_episode(self, start):
+        self.t = 0
+
+    def act(self, observation):
+        self.t += 1
+        return 99 if self.t == 3 else 0

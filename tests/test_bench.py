@@ -13,8 +13,9 @@ from hri_envs.bench.play import play
 from hri_envs.bench.study import StudyConfig, run_study
 from hri_envs.errors import ConfigError
 
-SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive", "runs",
-                "episodes", "seed", "wall_time_s", "agents", "turn_back", "human_rationality",
+SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive",
+                "turn_back", "max_steps", "runs", "episodes", "seed", "version", "env_ids",
+                "settings", "agent_configs", "failed_agents", "agents", "human_rationality",
                 "population", "human_drift", "learner", "probability_of_improvement"}
 
 
@@ -28,12 +29,14 @@ def test_study_writes_the_contracted_files(tmp_path, capsys):
     assert summary["scenario"] == "wheel" and summary["r0"] == -0.25 and summary["seed"] == 7
     assert set(summary["agents"]) == {"learner", "imitator", "oracle"}
     for stats in summary["agents"].values():
-        assert set(stats) == {"reward", "correct", "passive", "wrong"}
-        assert set(stats["reward"]) == {"mean", "q25", "q75", "iqm", "ci95", "iqm_ci95",
-                                        "overall"}
-        for metric in stats.values():
-            for key, values in metric.items():
-                assert len(values) == (4 if key == "overall" else 3)  # overall: mean, iqm, CIs
+        assert set(stats) == {"reward", "correct", "passive", "wrong", "truncated", "overall"}
+        assert set(stats["reward"]) == {"mean", "median", "q25", "q75", "iqm", "ci95",
+                                        "iqm_ci95", "overall"}
+        for key, metric in stats.items():
+            if key == "overall":  # totals over all episodes
+                continue
+            for name, values in metric.items():
+                assert len(values) == (4 if name == "overall" else 3)  # overall: mean, iqm, CIs
         fractions = [stats[k]["mean"] for k in ("correct", "passive", "wrong")]
         np.testing.assert_allclose(np.sum(fractions, axis=0), 1.0)
     assert summary["agents"]["oracle"]["reward"]["mean"] == [0.0, 0.0, 0.0]

@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from agents.config import default_config
+from agents.config import LearnerConfig, default_config
 from agents.learner import Learner
 from baselines import Imitator, MaxEntIRL, Oracle, Passive
 from hri_envs.errors import ConfigError
@@ -30,7 +30,7 @@ from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import PreferredActions
 from hri_envs.task.protocol import Agent, BatchAgent, Batched
 
-__all__ = ["BUILTIN_AGENTS", "SB3_PREFIX", "make_agent", "validate_agent_name"]
+__all__ = ["BUILTIN_AGENTS", "SB3_PREFIX", "agent_settings", "make_agent", "validate_agent_name"]
 
 BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
 #: Agent names ``sb3:PATH`` load a saved SB3 model.
@@ -69,6 +69,35 @@ def _import(spec: str) -> Any:
                           "importable module", field="agents") from exc
 
 
+def _learner_config(name: str, scenario: str, r0: float,
+                    learner: dict[str, Any] | None = None) -> LearnerConfig | None:
+    """The :class:`~agents.config.LearnerConfig` a built-in agent is made with (or None);
+    ``learner`` changes the Learner's (after the scenario's defaults and ``r0``).
+    """
+    if name == "learner":
+        return default_config(scenario, **{"r0": r0, **(learner or {})})
+    if name == "maxent":
+        return default_config(scenario, r0=r0, learning_rate=0.03)
+    return None
+
+
+def agent_settings(name: str, scenario: str, r0: float,
+                   learner: dict[str, Any] | None = None) -> dict[str, Any] | None:
+    """The settings :func:`make_agent` gives agent ``name`` (for ``summary.json``).
+
+    The Learner and plain ME-IRL: their :class:`~agents.config.LearnerConfig` as a dict;
+    ``sb3:PATH``: the model file's path and size; the other agents: None (they have none,
+    or, for ``module:Class``, the benchmark does not know them).
+    """
+    cfg = _learner_config(name, scenario, r0, learner)
+    if cfg is not None:
+        return cfg.to_dict()
+    if name.startswith(SB3_PREFIX):
+        path = Path(name[len(SB3_PREFIX):])
+        return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
+    return None
+
+
 def make_agent(
     name: str,
     graph: TaskGraph,
@@ -94,11 +123,10 @@ def make_agent(
     """
     validate_agent_name(name)
     n = len(runs)
-    if name == "learner":
-        params = {"r0": r0, **(learner or {})}
-        return Learner(graph, n, default_config(graph.name, **params), seed=seed, runs=runs)
-    if name == "maxent":
-        cfg = default_config(graph.name, r0=r0, learning_rate=0.03)
+    cfg = _learner_config(name, graph.name, r0, learner)
+    if name == "learner" and cfg is not None:
+        return Learner(graph, n, cfg, seed=seed, runs=runs)
+    if name == "maxent" and cfg is not None:
         return MaxEntIRL(graph, n, cfg, seed=seed, runs=runs)
     if name == "imitator":
         return Imitator(graph, n)

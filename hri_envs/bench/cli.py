@@ -15,11 +15,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from hri_envs.bench.agents import BUILTIN_AGENTS
 from hri_envs.bench.runner import TABLE2
@@ -116,7 +119,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     study = sub.add_parser("study", help="run one study and write summary.json, CSV and plots",
                            description="Run one study: several agents, many independent runs.")
-    study.add_argument("scenario", choices=SCENARIOS)
+    study.add_argument("scenario", choices=SCENARIOS, nargs="?",
+                       help="the task (may be left out with --config)")
     study.add_argument("--agents", type=_agents, default=BUILTIN_AGENTS,
                        help=f"comma-separated, from {','.join(BUILTIN_AGENTS)} or module:Class "
                             "(default: all built-in)")
@@ -169,7 +173,16 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--learner-no-passive-prior", action="store_true",
                        help="the Learner's bounded soft-max without the passive baseline "
                             "(paper Sect. 7)")
-    study.add_argument("--out", required=True, type=Path, help="output directory")
+    study.add_argument("--out", required=True, type=Path,
+                       help="output directory (new or empty, unless --resume or --overwrite)")
+    study.add_argument("--resume", action="store_true",
+                       help="continue the interrupted study in --out (same settings and --jobs)")
+    study.add_argument("--overwrite", action="store_true",
+                       help="start afresh in a non-empty --out (replaces the study's files)")
+    study.add_argument("--config", type=Path, default=None,
+                       help="re-run the study a summary.json describes (its 'settings'); "
+                            "only --out, --jobs, --executor, --ray-address, --resume, "
+                            "--overwrite and --no-progress may be given with it")
     study.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     study.set_defaults(command_parser=study)  # reports errors found after parsing
 
@@ -216,11 +229,11 @@ def _config_error(parser: argparse.ArgumentParser, exc: ConfigError,
     parser.error(f"argument {argument}: {exc}" if argument else str(exc))
 
 
-def _study(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+def _learner_changes(args: argparse.Namespace, parser: argparse.ArgumentParser
+                     ) -> dict[str, Any]:
+    """The ``--learner-*`` flags given, checked against the scenario's LearnerConfig."""
     from agents.config import default_config
-    from hri_envs.bench.study import StudyConfig, run_study, write_outputs
 
-    executor = args.executor or ("process" if args.jobs > 1 else "serial")
     learner: dict[str, Any] = {f: getattr(args, f"learner_{f}") for f in _LEARNER_FLAGS
                                if getattr(args, f"learner_{f}") is not None}
     if args.learner_no_passive_prior:
@@ -230,26 +243,103 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except ConfigError as exc:
         flags = {f: flag for f, (flag, _, _) in _LEARNER_FLAGS.items()}
         _config_error(parser, exc, {**flags, "passive_prior": "--learner-no-passive-prior"})
-    try:
-        cfg = StudyConfig(
+    return learner
+
+
+def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
+                  executor: str) -> Any:
+    """The :class:`StudyConfig` from the flags, or from ``--config`` (a summary.json)."""
+    from hri_envs.bench.study import EXECUTION_FIELDS, StudyConfig
+
+    execution = {"jobs": args.jobs, "executor": executor, "ray_address": args.ray_address}
+    if args.config is None:
+        if args.scenario is None:
+            parser.error("the following arguments are required: scenario (or --config)")
+        learner = _learner_changes(args, parser)
+        return StudyConfig(
             args.scenario, agents=args.agents, runs=args.runs, episodes=args.episodes,
             schedule=args.schedule, preference=args.preference, r0=args.r0,
             human_passive=args.human_passive, turn_back=args.turn_back, seed=args.seed,
-            jobs=args.jobs, executor=executor, backend=args.backend, max_steps=args.max_steps,
-            ray_address=args.ray_address, human_rationality=args.human_rationality,
-            population=args.population, human_drift=args.human_drift,
-            learner=tuple(sorted(learner.items())),
+            backend=args.backend, max_steps=args.max_steps,
+            human_rationality=args.human_rationality, population=args.population,
+            human_drift=args.human_drift, learner=tuple(sorted(learner.items())), **execution,
         )
+    given = [flag for field, flag in _STUDY_ARGUMENTS.items()
+             if field not in EXECUTION_FIELDS and field != "scenario"
+             and getattr(args, field) != parser.get_default(field)]
+    given += [flag for field, (flag, _, _) in _LEARNER_FLAGS.items()
+              if getattr(args, f"learner_{field}") is not None]
+    given += ["--learner-no-passive-prior"] * bool(args.learner_no_passive_prior)
+    if given:
+        parser.error(f"argument --config: it replays the recorded settings; drop "
+                     f"{', '.join(given)} (or edit the file's 'settings')")
+    try:
+        settings = json.loads(args.config.read_text())["settings"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        parser.error(f"argument --config: {args.config} is not a summary.json with 'settings' "
+                     f"({exc!r}); give the summary.json of an hri-bench study")
+    if args.scenario is not None and args.scenario != settings.get("scenario"):
+        parser.error(f"argument scenario: {args.config} describes a "
+                     f"{settings.get('scenario')!r} study; leave the scenario out")
+    return StudyConfig.from_settings(settings, **execution)
+
+
+def _require_for_study(cfg: Any, *, progress: bool) -> None:
+    """Fail before any simulation if an extra the study will need is missing."""
+    from hri_envs.bench.agents import SB3_PREFIX
+    from hri_envs.bench.extras import require
+    from hri_envs.envs.backends import check_backend
+
+    check_backend(cfg.backend)
+    require(["matplotlib", *(["tqdm"] if progress else [])], "writing a study's plots")
+    if cfg.executor == "ray":
+        require(["ray"], "executor 'ray'")
+    if any(a.startswith(SB3_PREFIX) for a in cfg.agents):
+        require(["stable_baselines3", "sb3_contrib", "torch"], "an 'sb3:' agent")
+
+
+def _resume_hint(argv: Sequence[str]) -> str:
+    words = [w for w in argv if w not in ("--overwrite", "--resume")]
+    return "hri-bench " + " ".join(shlex.quote(w) for w in words) + " --resume"
+
+
+def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
+           argv: Sequence[str]) -> int:
+    from hri_envs.bench.study import write_outputs
+    from hri_envs.bench.studyio import StudyDir, StudyTerminated, run_in, stop_on_signals
+
+    executor = args.executor or ("process" if args.jobs > 1 else "serial")
+    arguments = {**_STUDY_ARGUMENTS, "out": "--out", "resume": "--resume"}
+    try:
+        cfg = _study_config(args, parser, executor)
+        _require_for_study(cfg, progress=not args.no_progress)
+        folder = StudyDir(args.out, cfg, resume=args.resume, overwrite=args.overwrite)
     except ConfigError as exc:
-        _config_error(parser, exc, _STUDY_ARGUMENTS)
-    result = run_study(cfg, progress=not args.no_progress)
-    paths = write_outputs(result, args.out)
+        _config_error(parser, exc, arguments)
+    try:
+        with stop_on_signals():
+            result = run_in(folder, progress=not args.no_progress)
+            paths = write_outputs(result, args.out)
+    except KeyboardInterrupt as exc:
+        kept = len(list(folder.units_dir.glob("*.npz")))
+        print(f"\nstopped; {kept} finished unit(s) kept in {folder.units_dir}. Resume with:\n"
+              f"  {_resume_hint(argv)}", file=sys.stderr)
+        return 143 if isinstance(exc, StudyTerminated) else 130
     print(f"{cfg.scenario} study: {len(cfg.agents)} agents x {cfg.runs} runs x "
           f"{cfg.n_episodes} episodes in {result.wall_time_s:.1f} s")
+    print(f"  {'agent':12s} {'first':>7s} {'last':>7s} {'mean':>7s} {'median':>7s} "
+          f"{'truncated':>9s}")
     for name, m in result.metrics.items():
-        print(f"  {name:10s} reward first {m['reward'][:, 0].mean():7.2f}  "
-              f"last {m['reward'][:, -1].mean():7.2f}")
+        r = m["reward"]
+        print(f"  {name:12s} {r[:, 0].mean():7.2f} {r[:, -1].mean():7.2f} {r.mean():7.2f} "
+              f"{np.median(r):7.2f} {m['truncated'].mean():9.1%}")
     print("wrote " + ", ".join(str(p) for p in paths))
+    log = folder.log_failures(result.failures)
+    if log is not None:
+        print(f"agent(s) {', '.join(result.failures)} raised; no results for them; "
+              f"tracebacks in {log}", file=sys.stderr)
+        return 1
+    folder.finish()
     return 0
 
 
@@ -296,15 +386,51 @@ def _demo(args: argparse.Namespace) -> int:
     print(f"done in {time.perf_counter() - t0:.0f} s; plots:")
     for p in paths:
         print(f"  {p}")
+    print(_NEXT_STEPS)
     return 0
+
+
+#: What ``hri-bench demo`` (``make demo``) suggests next; every command runs as printed.
+_NEXT_STEPS = """
+What to try next (after `source .venv/bin/activate`; README.md 'A tour', docs/benchmark.md):
+  hri-bench study wheel --runs 20 --out out/wheel     # one study: summary.json, CSV, plots
+  hri-bench study wheel --human-passive 0.2 --runs 20 --out out/passive
+  hri-bench play hanger                               # you are the human
+  python examples/custom_learner.py                   # your own agent, benchmarked
+  python examples/train_maskable_ppo.py               # needs the rl extra (below)
+  python examples/physics_table2.py --runs 1          # needs the mujoco extra (below)
+Extras: pip install -c constraints.txt -e '.[rl]'  (or '.[mujoco]', '.[ray]')"""
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hri-bench`` console script."""
     parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
+    from hri_envs.bench.extras import install_hint
+    from hri_envs.errors import BackendUnavailableError, MissingExtraError
+
+    try:
+        return _dispatch(args, parser, argv)
+    except (MissingExtraError, BackendUnavailableError) as exc:
+        print(f"hri-bench: {exc}", file=sys.stderr)
+        return 1
+    except ModuleNotFoundError as exc:
+        hint = install_hint(exc)
+        if hint is None:
+            raise
+        print(f"hri-bench: {hint}", file=sys.stderr)
+        return 1
+
+
+def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
+              argv: Sequence[str]) -> int:
+    if args.command in ("figures", "demo"):
+        from hri_envs.bench.extras import require
+
+        require(["matplotlib", "tqdm"], f"hri-bench {args.command}")
     if args.command == "study":
-        return _study(args, args.command_parser)
+        return _study(args, args.command_parser, argv)
     if args.command == "figures":
         return _figures(args, parser)
     if args.command == "speed":

@@ -48,7 +48,11 @@ class _TerminalHuman:
         for i, a in enumerate(options):
             self.write(f"  [{i}] {g.agent_action_label(s, int(a), robot=False)}")
         while True:
-            answer = self.read("your action> ").strip().lower()
+            try:
+                answer = self.read("your action> ").strip().lower()
+            except EOFError:  # end of input (Ctrl-D, a closed pipe): stop like 'q'
+                self.write("")
+                raise _Quit from None
             if answer in ("q", "quit"):
                 raise _Quit
             if answer.isdigit() and int(answer) < len(options):
@@ -81,7 +85,8 @@ def play(
         episodes: Number of episodes (a random start support each).
         seed: Seed of the starts and of the robot.
         max_steps: Step limit per episode.
-        read: Prompt function (``input`` by default; tests pass their own).
+        read: Prompt function (``input`` by default; tests pass their own). End of input
+            (``EOFError``) ends the game like typing ``q``.
         write: Output function.
     """
     graph = scenario_graph(scenario)

@@ -81,11 +81,13 @@ def _label(agent: str) -> str:
 
 
 def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
-                 title: str | None = None, *, ci: bool = False) -> None:
+                 title: str | None = None, *, ci: bool = False, stalls: bool = False) -> None:
     """Mean (line) and interquartile band of the cooperation reward per episode (Fig. 10).
 
     With ``ci``, error bars show the mean's 95 % bootstrap confidence interval per episode
-    (:func:`hri_envs.bench.stats.per_episode`, seeded by the study seed).
+    (:func:`hri_envs.bench.stats.per_episode`, seeded by the study seed). With ``stalls``,
+    also the median (dotted) and, in each label, the share of the agent's episodes cut off
+    at the step limit, so that a few stalled episodes dragging the mean down are visible.
     """
     from hri_envs.bench import stats
 
@@ -96,12 +98,17 @@ def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
         style = "--" if agent == "oracle" else "-"
         ax.fill_between(episodes, np.percentile(r, 25, 0), np.percentile(r, 75, 0),
                         color=color, alpha=0.18, linewidth=0)
-        ax.plot(episodes, r.mean(0), style, color=color, label=_label(agent), linewidth=1.8)
+        label = _label(agent)
+        if stalls:
+            label += f" ({result.metrics[agent]['truncated'].mean():.1%} truncated)"
+            ax.plot(episodes, np.median(r, 0), ":", color=color, linewidth=1.4)
+        ax.plot(episodes, r.mean(0), style, color=color, label=label, linewidth=1.8)
         if ci:
-            low, high = np.array(stats.per_episode(r, getattr(result.config, "seed", 0))["ci95"]).T
+            cis = stats.per_episode(r, getattr(result.config, "seed", 0))["ci95"]
+            low, high = np.array(cis, dtype=float).T  # None (a single run) -> NaN: no bar
             mean = r.mean(0)
             # A percentile interval can miss the sample mean by rounding when the runs agree.
-            yerr = np.clip(np.stack([mean - low, high - mean]), 0.0, None)
+            yerr = np.nan_to_num(np.clip(np.stack([mean - low, high - mean]), 0.0, None))
             ax.errorbar(episodes, mean, yerr=yerr, fmt="none",
                         ecolor=color, elinewidth=1.0, capsize=2)
     ax.set_xlabel("episode")
@@ -175,7 +182,8 @@ def study_plots(result: Result, out: Path) -> list[Path]:
     title = (f"{cfg.scenario}, {cfg.schedule} schedule, r0 = {cfg.waiting_reward:g}, "
              f"human passive {cfg.human_passive:.0%}, {cfg.runs} runs")
     fig, ax = new_figure(figsize=(6.4, 4.0))
-    reward_bands(ax, result, title=title, ci=True)
+    reward_bands(ax, result, title=title, ci=True, stalls=True)
+    ax.plot([], [], ":", color="0.4", label="median")
     ax.legend(frameon=False, fontsize=8, title="line: mean, bars: 95% CI, band: IQR",
               title_fontsize=7)
     paths = [save_figure(fig, out / "reward.png")]

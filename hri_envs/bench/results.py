@@ -58,9 +58,11 @@ class StudyResult(Generic[ConfigT_co]):
         probes: ``probes[agent]`` is (runs, episodes + 1, len(config.probes)): the probed
             probabilities before the first episode and after each update.
         schedule: ``start``, ``goal`` and ``turn_back``, each (runs, episodes).
-        wall_time_s: Seconds the simulation took.
+        wall_time_s: Seconds the simulation took (this process's part, if resumed).
         humans: Each run's human as a label (its preference, ``@β`` if Boltzmann, ``a>b``
             for a drifting human); empty if not recorded.
+        failures: Agents that raised (with ``keep_going``), each with its traceback text;
+            they have no entries in ``metrics`` and ``probes``.
     """
 
     config: ConfigT_co
@@ -69,3 +71,4 @@ class StudyResult(Generic[ConfigT_co]):
     schedule: dict[str, np.ndarray]
     wall_time_s: float
     humans: list[str] = field(default_factory=list)
+    failures: dict[str, str] = field(default_factory=dict)

@@ -20,7 +20,7 @@ from typing import Protocol
 import numpy as np
 
 from hri_envs.envs.backends import BatchBackend, batch_backend
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ActionError, ConfigError
 from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import EpisodeBatch, EpisodeRules, classify, step_reward
 from hri_envs.task.graph import TaskGraph
@@ -250,6 +250,7 @@ def run_episodes(
     r0: float,
     turn_state: np.ndarray | None = None,
     max_steps: int = 100,
+    run_ids: Sequence[int] | np.ndarray | None = None,
 ) -> Iterator[EpisodeResult]:
     """Play ``schedule`` for a batch of runs; yields each episode after the agent learned.
 
@@ -265,6 +266,12 @@ def run_episodes(
             a ``begin_episode(e)`` method (:class:`ScriptedHumans`) that returns (B, K, K)
             per-run turn states replaces it at the start of each episode.
         max_steps: Step limit per episode (the episode is truncated there).
+        run_ids: The runs' indices, for error messages (default 0 .. B-1).
+
+    Raises:
+        ActionError: The agent's ``act`` returned something other than one integer action
+            in [0, A) per run (masked actions are allowed: they abort the step); the message
+            names the run, the episode and the step.
     """
     n_b, n_e = schedule.start.shape
     if agent.n_runs != n_b:
@@ -302,7 +309,8 @@ def run_episodes(
                     "action_mask": graph.valid[s].astype(np.int8)}
                 if privileged:
                     obs["intention"] = eps.intention
-                a_r = np.where(active, agent.act(obs, active), WAIT)
+                a_r = np.where(active, _checked(agent.act(obs, active), active, graph.n_actions,
+                                                run_ids, e, t), WAIT)
                 a_h = np.where(active, human(s, eps.start, eps.intention, a_r, active), WAIT)
                 step = backend.transition(s, a_r, a_h, active)
                 w = active.astype(float)
@@ -334,6 +342,24 @@ def run_episodes(
         yield EpisodeResult(e, totals["reward"], totals["correct"], totals["passive"],
                             totals["wrong"], steps.astype(float), truncated, traces, intentions,
                             {k: totals[k] for k in backend.extras})
+
+
+def _checked(actions: object, active: np.ndarray, n_actions: int,
+             run_ids: Sequence[int] | np.ndarray | None, episode: int, step: int) -> np.ndarray:
+    """The agent's actions as an int array, or an :class:`ActionError` naming where."""
+    arr = np.asarray(actions)
+    n_b = active.shape[0]
+    where = f"episode {episode + 1}, step {step + 1}"
+    if arr.shape != (n_b,) or arr.dtype.kind not in "iu":
+        raise ActionError(f"act() returned {arr.dtype} of shape {arr.shape} in {where}; "
+                          f"expected one integer action per run, shape ({n_b},)")
+    bad = active & ((arr < 0) | (arr >= n_actions))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        run = i if run_ids is None else int(run_ids[i])
+        raise ActionError(f"act() returned action {arr[i]} for run {run} in {where}; "
+                          f"actions are integers in [0, {n_actions})")
+    return arr
 
 
 def simulate(
@@ -379,7 +405,8 @@ def simulate(
     truncated = np.zeros((n_b, n_e), dtype=bool)
     humans = human if isinstance(human, ScriptedHumans) else ScriptedHumans(human, runs, seed)
     for res in run_episodes(graph, agent, humans, schedule, sim, r0=r0,
-                            turn_state=humans.human.turn_state, max_steps=max_steps):
+                            turn_state=humans.human.turn_state, max_steps=max_steps,
+                            run_ids=runs):
         e = res.episode
         for k in keys:
             out[k][:, e] = getattr(res, k)

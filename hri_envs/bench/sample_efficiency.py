@@ -266,7 +266,8 @@ def run_sample_efficiency(cfg: SampleEfficiencyConfig, *, verbose: bool = False
     t0 = time.perf_counter()
     study = run_study(StudyConfig(
         cfg.scenario, agents=("learner",), runs=cfg.runs,
-        episodes=cfg.episodes, preference=cfg.preference, r0=cfg.r0, seed=cfg.seed))
+        episodes=cfg.episodes, preference=cfg.preference, r0=cfg.r0, seed=cfg.seed),
+        progress=verbose)
     learner = study.metrics["learner"]["reward"]
     graph = graph_for(cfg.scenario)
     n = cfg.eval_runs
@@ -281,15 +282,27 @@ def run_sample_efficiency(cfg: SampleEfficiencyConfig, *, verbose: bool = False
     result = SampleEfficiencyResult(
         cfg, np.arange(1, cfg.episodes + 1), learner.mean(0),
         np.percentile(learner, 25, 0), np.percentile(learner, 75, 0), references=references)
+    bar = None
+    if verbose:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(cfg.algorithms) * len(cfg.rl_seeds), unit="training run",
+                   desc="RL training", leave=False)
     for algo in cfg.algorithms:
         t0 = time.perf_counter()
-        curves = [_train_curve(cfg, algo, s) for s in cfg.rl_seeds]
+        curves = []
+        for s in cfg.rl_seeds:
+            curves.append(_train_curve(cfg, algo, s))
+            if bar is not None:
+                bar.update(1)
         result.rl_episodes[algo] = np.mean([c[0] for c in curves], axis=0)
         result.rl_reward[algo] = np.array([c[1] for c in curves])
         result.rl_steps[algo] = np.array([c[2] for c in curves])
         times[algo] = time.perf_counter() - t0
         say(f"{algo}: {len(cfg.rl_seeds)} seeds in {times[algo]:.1f} s; final reward "
             f"{result.rl_reward[algo][:, -1].mean():.2f}")
+    if bar is not None:
+        bar.close()
     result.wall_time_s = {k: round(v, 2) for k, v in times.items()}
     return result
 

@@ -45,7 +45,8 @@ def _pooled_stat(fn: str):  # type: ignore[no-untyped-def]
 
 
 def bootstrap_ci(samples: list[np.ndarray] | np.ndarray, statistic: str,
-                 seed: int | np.random.SeedSequence, *, level: float = 0.95) -> tuple[float, float]:
+                 seed: int | np.random.SeedSequence, *, level: float = 0.95
+                 ) -> tuple[float | None, float | None]:
     """Percentile bootstrap CI of the mean or IQM of the pooled samples.
 
     Args:
@@ -55,16 +56,19 @@ def bootstrap_ci(samples: list[np.ndarray] | np.ndarray, statistic: str,
         level: Confidence level.
 
     Returns:
-        (low, high); both equal the statistic when every value is the same.
+        (low, high); both equal the statistic when every value is the same; (None, None)
+        when a stratum has fewer than two runs (no interval can be estimated; JSON null).
     """
     if statistic not in ("mean", "iqm"):
         raise ConfigError(f"statistic must be 'mean' or 'iqm', got {statistic!r}",
                           field="statistic")
     strata = [np.asarray(samples, dtype=float)] if isinstance(samples, np.ndarray) else [
         np.asarray(s, dtype=float) for s in samples]
+    if min(len(s) for s in strata) < 2:
+        return None, None
     pooled = np.concatenate(strata)
-    if np.ptp(pooled) == 0 or len(pooled) < 2:
-        v = float(pooled[0]) if len(pooled) else float("nan")
+    if np.ptp(pooled) == 0:
+        v = float(pooled[0])
         return v, v
     res = sps.bootstrap(tuple(strata), _pooled_stat(statistic), n_resamples=N_RESAMPLES,
                         confidence_level=level, method="percentile", vectorized=True,
@@ -72,8 +76,11 @@ def bootstrap_ci(samples: list[np.ndarray] | np.ndarray, statistic: str,
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
+Interval = list[float | None]
+
+
 def per_episode(x: np.ndarray, seed: int, *, iqm_ci: bool = True
-                ) -> dict[str, list[float] | list[list[float]]]:
+                ) -> dict[str, list[float] | list[Interval]]:
     """Per episode of a (runs, episodes) metric: mean, IQM and their 95 % CIs over runs.
 
     Returns:
@@ -83,7 +90,7 @@ def per_episode(x: np.ndarray, seed: int, *, iqm_ci: bool = True
     """
     x = np.asarray(x, dtype=float)
     cis = [bootstrap_ci(x[:, e], "mean", _seed(seed, e)) for e in range(x.shape[1])]
-    out: dict[str, list[float] | list[list[float]]] = {
+    out: dict[str, list[float] | list[Interval]] = {
         "mean": x.mean(0).tolist(), "iqm": iqm(x, axis=0).tolist(),
         "ci95": [list(c) for c in cis]}
     if iqm_ci:
@@ -92,7 +99,7 @@ def per_episode(x: np.ndarray, seed: int, *, iqm_ci: bool = True
     return out
 
 
-def aggregate(x: np.ndarray, seed: int) -> dict[str, float | list[float]]:
+def aggregate(x: np.ndarray, seed: int) -> dict[str, float | Interval]:
     """Over all episodes of a (runs, episodes) metric, bootstrap stratified by episode.
 
     Returns:

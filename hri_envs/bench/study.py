@@ -12,21 +12,32 @@ import csv
 import dataclasses
 import json
 import math
+import multiprocessing
 import os
+import pickle
+import signal
+import tempfile
+import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+import traceback
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from hri_envs.bench.agents import BUILTIN_AGENTS, make_agent, validate_agent_name
+from hri_envs.bench.agents import (
+    BUILTIN_AGENTS,
+    agent_settings,
+    make_agent,
+    validate_agent_name,
+)
+from hri_envs.bench.atomic import atomic_writer
 from hri_envs.bench.results import StudyResult  # re-exported; shared with the plots
 from hri_envs.bench.runner import TABLE2, ScriptedHumans, make_schedule, simulate
 from hri_envs.envs.backends import BACKENDS, batch_backend
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ActionError, BackendUnavailableError, ConfigError
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_for
 from hri_envs.task.populations import (
@@ -41,10 +52,13 @@ from hri_envs.task.populations import (
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
 __all__ = [
+    "EXECUTION_FIELDS",
     "METRICS",
     "Probe",
     "StudyConfig",
     "StudyResult",
+    "UnitFailure",
+    "UnitResult",
     "graph_for",
     "run_study",
     "summarize",
@@ -213,6 +227,58 @@ class StudyConfig:
         d["learner"] = dict(self.learner)
         return d
 
+    def settings(self) -> dict[str, Any]:
+        """Every field that can change a number, JSON-ready (``summary.json``'s "settings").
+
+        All dataclass fields but :data:`EXECUTION_FIELDS` (which only decide where and how
+        fast the runs are simulated), so fields added to this class are recorded without
+        further code. :meth:`from_settings` reads it back.
+        """
+        return {f.name: _jsonable(getattr(self, f.name)) for f in dataclasses.fields(self)
+                if f.name not in EXECUTION_FIELDS}
+
+    @classmethod
+    def from_settings(cls, settings: Mapping[str, Any], **execution: Any) -> StudyConfig:
+        """The configuration :meth:`settings` describes (lists become tuples).
+
+        Args:
+            settings: As written by :meth:`settings`; missing fields take their defaults.
+            execution: Values of :data:`EXECUTION_FIELDS` (``jobs``, ``executor``, ...).
+
+        Raises:
+            ConfigError: An unknown or invalid setting (its ``field`` names it).
+        """
+        names = {f.name for f in dataclasses.fields(cls)} - set(EXECUTION_FIELDS)
+        unknown = sorted(set(settings) - names)
+        if unknown:
+            raise ConfigError(f"unknown setting(s) {', '.join(unknown)}; a study's settings "
+                              f"are {', '.join(sorted(names))}", field=unknown[0])
+        kwargs: dict[str, Any] = {}
+        for name, value in settings.items():
+            if name == "probes":
+                value = tuple(Probe(**p) for p in value)
+            elif isinstance(value, list):
+                value = tuple(value)
+            kwargs[name] = value
+        try:
+            return cls(**kwargs, **execution)
+        except TypeError as exc:
+            raise ConfigError(f"invalid study settings: {exc}") from exc
+
+
+#: Fields of :class:`StudyConfig` that never change a study's numbers.
+EXECUTION_FIELDS = ("jobs", "executor", "ray_address")
+
+
+def _jsonable(value: Any) -> Any:
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {k: _jsonable(v) for k, v in dataclasses.asdict(value).items()}
+    if isinstance(value, (tuple, list)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    return value
+
 
 @dataclass(frozen=True)
 class _Unit:
@@ -269,8 +335,21 @@ def _humans(cfg: StudyConfig, preference: str, runs: list[int]
     return ScriptedHumans(per_run, runs, cfg.seed), labels
 
 
-def _run_unit(unit: _Unit
-              ) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray], list[str]]:
+#: What a unit yields: metrics, probes, schedule and each run's human label.
+UnitResult = tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray], list[str]]
+
+
+@dataclass(frozen=True)
+class UnitFailure:
+    """A unit whose agent raised: the agent's name, the exception and its traceback text."""
+
+    agent: str
+    runs: tuple[int, ...]
+    error: BaseException
+    traceback: str
+
+
+def _run_unit(unit: _Unit) -> UnitResult:
     cfg = unit.config
     graph = graph_for(cfg.scenario)
     runs = list(unit.runs)
@@ -285,13 +364,29 @@ def _run_unit(unit: _Unit
     def record(e: int, a: Any) -> None:
         probes[:, e + 1] = _probe(a, cfg.probes)
 
-    m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
-                 r0=cfg.waiting_reward, max_steps=cfg.max_steps,
-                 after_episode=record if cfg.probes else None, backend=cfg.backend)
+    try:
+        m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
+                     r0=cfg.waiting_reward, max_steps=cfg.max_steps,
+                     after_episode=record if cfg.probes else None, backend=cfg.backend)
+    except ActionError as exc:
+        raise ActionError(f"agent {unit.agent!r}: {exc}") from exc
     metrics = {k: np.asarray(getattr(m, k), dtype=float) for k in METRICS}
     metrics.update({k: np.asarray(v, dtype=float) for k, v in m.extras.items()})
     sched = {"start": schedule.start, "goal": schedule.goal, "turn_back": schedule.turn_back}
     return metrics, probes, sched, labels
+
+
+def _run_unit_caught(unit: _Unit) -> UnitResult | UnitFailure:
+    """:func:`_run_unit`, returning an agent's exception instead of raising it."""
+    try:
+        return _run_unit(unit)
+    except Exception as exc:
+        text = traceback.format_exc()
+        try:
+            pickle.dumps(exc)
+        except Exception:
+            exc = RuntimeError(str(exc))
+        return UnitFailure(unit.agent, unit.runs, exc, text)
 
 
 def _units(cfg: StudyConfig) -> list[_Unit]:
@@ -308,32 +403,58 @@ def _units(cfg: StudyConfig) -> list[_Unit]:
     return units
 
 
-def _execute(cfg: StudyConfig, units: list[_Unit]) -> Iterator[tuple[int, Any]]:
-    """Yield (unit index, result) as units finish."""
+def _worker_init() -> None:
+    """Pool worker set-up: leave Ctrl-C to the parent, die on SIGTERM, exit with the parent.
+
+    The parent stops the pool on SIGINT/SIGTERM; if it is killed outright (SIGKILL), a
+    watchdog thread notices that the worker was re-parented and exits, so no worker is
+    left behind.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler (forked)
+    parent = os.getppid()  # the study's process (or the fork server, which exits with it)
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.2)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
+def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
+             ) -> Iterator[tuple[int, UnitResult | UnitFailure]]:
+    """Yield (unit index, result or failure) for the units ``todo`` as they finish."""
     if cfg.executor == "serial" or (cfg.executor == "process" and cfg.jobs == 1):
-        for i, u in enumerate(units):
-            yield i, _run_unit(u)
+        for i in todo:
+            yield i, _run_unit_caught(units[i])
     elif cfg.executor == "process":
-        from concurrent.futures import as_completed
-
-        with ProcessPoolExecutor(max_workers=cfg.jobs) as pool:
-            futures = {pool.submit(_run_unit, u): i for i, u in enumerate(units)}
-            for fut in as_completed(futures):
-                yield futures[fut], fut.result()
+        # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
+        # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
+        # every worker at once.
+        with multiprocessing.Pool(min(cfg.jobs, max(1, len(todo))),
+                                  initializer=_worker_init) as pool:
+            yield from pool.imap_unordered(_run_indexed, [(i, units[i]) for i in todo])
     else:
-        yield from _execute_ray(cfg, units)
+        yield from _execute_ray(cfg, [units[i] for i in todo], list(todo))
 
 
-def _execute_ray(cfg: StudyConfig, units: list[_Unit]) -> Iterator[tuple[int, Any]]:
+def _run_indexed(item: tuple[int, _Unit]) -> tuple[int, UnitResult | UnitFailure]:
+    return item[0], _run_unit_caught(item[1])
+
+
+def _execute_ray(cfg: StudyConfig, units: list[_Unit], index: list[int]
+                 ) -> Iterator[tuple[int, UnitResult | UnitFailure]]:
     try:
         import ray
     except ImportError as exc:
-        raise RuntimeError("executor 'ray' needs Ray: pip install 'hri-envs[ray]'") from exc
+        raise BackendUnavailableError("executor 'ray' needs Ray: pip install 'hri-envs[ray]'",
+                                      field="executor") from exc
     if not ray.is_initialized():
         ray.init(address=cfg.ray_address, num_cpus=None if cfg.ray_address else cfg.jobs,
                  include_dashboard=False, log_to_driver=False)
-    remote = ray.remote(_run_unit)
-    refs = {remote.remote(u): i for i, u in enumerate(units)}
+    remote = ray.remote(_run_unit_caught)
+    refs = {remote.remote(u): i for u, i in zip(units, index, strict=True)}
     pending = list(refs)
     while pending:
         done, pending = ray.wait(pending, num_returns=1)
@@ -341,7 +462,13 @@ def _execute_ray(cfg: StudyConfig, units: list[_Unit]) -> Iterator[tuple[int, An
 
 
 def run_study(
-    cfg: StudyConfig, *, progress: bool = False, on_unit: Callable[[], None] | None = None
+    cfg: StudyConfig,
+    *,
+    progress: bool = False,
+    on_unit: Callable[[], None] | None = None,
+    done: Mapping[int, UnitResult] | None = None,
+    on_result: Callable[[int, UnitResult], None] | None = None,
+    keep_going: bool = False,
 ) -> StudyResult:
     """Simulate a study and gather per-run arrays in run order.
 
@@ -349,22 +476,26 @@ def run_study(
         cfg: What to simulate.
         progress: Show a progress bar (tqdm) over work units.
         on_unit: Called after each finished unit (for callers with their own progress).
+        done: Results of units already simulated, by their index in the study's units
+            (a resumed study, :mod:`hri_envs.bench.studyio`); they are not run again.
+        on_result: Called as ``on_result(index, result)`` when a unit finishes (to save it).
+        keep_going: When an agent raises, record it in :attr:`StudyResult.failures` (its
+            traceback) and drop that agent from the result instead of raising.
     """
     units = _units(cfg)
+    done = dict(done or {})
     n_e, n_p = cfg.n_episodes, len(cfg.probes)
     keys = METRICS + batch_backend(cfg.backend).extras
     metrics = {a: {k: np.zeros((cfg.runs, n_e)) for k in keys} for a in cfg.agents}
     probes = {a: np.full((cfg.runs, n_e + 1, n_p), np.nan) for a in cfg.agents}
     schedule = {k: np.zeros((cfg.runs, n_e), dtype=bool if k == "turn_back" else np.int64)
                 for k in ("start", "goal", "turn_back")}
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
+    failures: dict[str, str] = {}
 
-        bar = tqdm(total=len(units), desc=f"{cfg.scenario} study", unit="batch", leave=False)
-    t0 = time.perf_counter()
     humans = ["" for _ in range(cfg.runs)]
-    for i, (m, p, sched, labels) in _execute(cfg, units):
+
+    def place(i: int, res: UnitResult) -> None:
+        m, p, sched, labels = res
         u = units[i]
         rows = list(u.runs)
         for r, label in zip(rows, labels, strict=True):
@@ -374,17 +505,46 @@ def run_study(
         probes[u.agent][rows] = p
         for k in schedule:
             schedule[k][rows] = sched[k]
+
+    for i, finished in done.items():
+        place(i, finished)
+    todo = [i for i in range(len(units)) if i not in done]
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(units), initial=len(done), desc=f"{cfg.scenario} study",
+                   unit="batch", leave=False)
+    t0 = time.perf_counter()
+    try:
+        for i, res in _execute(cfg, units, todo):
+            if isinstance(res, UnitFailure):
+                if not keep_going:
+                    raise res.error
+                failures.setdefault(res.agent, res.traceback)
+            else:
+                place(i, res)
+                if on_result is not None:
+                    on_result(i, res)
+            if bar is not None:
+                bar.update(1)
+            if on_unit is not None:
+                on_unit()
+    finally:
         if bar is not None:
-            bar.update(1)
-        if on_unit is not None:
-            on_unit()
-    if bar is not None:
-        bar.close()
-    return StudyResult(cfg, metrics, probes, schedule, time.perf_counter() - t0, humans)
+            bar.close()
+    for name in failures:
+        del metrics[name], probes[name]
+    return StudyResult(cfg, metrics, probes, schedule, time.perf_counter() - t0,
+                       humans=humans, failures=failures)
 
 
 def summarize(result: StudyResult) -> dict[str, Any]:
-    """The ``summary.json`` document (docs/benchmark.md, 'summary.json')."""
+    """The ``summary.json`` document (docs/benchmark.md, 'summary.json').
+
+    Identical for identical settings and seed (no wall time: that goes to the run log of
+    :mod:`hri_envs.bench.studyio`), so a resumed or replayed study's file is byte-identical.
+    """
     from hri_envs.bench import stats
 
     cfg = result.config
@@ -392,9 +552,14 @@ def summarize(result: StudyResult) -> dict[str, Any]:
     for name, m in result.metrics.items():
         r = m["reward"]
         agents[name] = {
-            "reward": {"mean": r.mean(0).tolist(), "q25": np.percentile(r, 25, 0).tolist(),
+            "reward": {"mean": r.mean(0).tolist(), "median": np.median(r, 0).tolist(),
+                       "q25": np.percentile(r, 25, 0).tolist(),
                        "q75": np.percentile(r, 75, 0).tolist()},
             **{k: {"mean": m[k].mean(0).tolist()} for k in ("correct", "passive", "wrong")},
+            "truncated": {"mean": m["truncated"].mean(0).tolist()},
+            "overall": {"reward_mean": float(r.mean()), "reward_median": float(np.median(r)),
+                        "truncation_rate": float(m["truncated"].mean()),
+                        "truncated_episodes": int(m["truncated"].sum())},
             **{k: {"mean": m[k].mean(0).tolist()} for k in m if k not in METRICS},
         }
         # Statistics (docs/benchmark.md): per episode and over all episodes, bootstrap
@@ -403,6 +568,7 @@ def summarize(result: StudyResult) -> dict[str, Any]:
             pe = stats.per_episode(m[k], cfg.seed, iqm_ci=k == "reward")
             agents[name][k].update(pe, overall=stats.aggregate(m[k], cfg.seed))
     prefs = sorted(set(cfg.preference_of_run()))
+    spec = scenario_spec(cfg.scenario)
     return {
         "scenario": cfg.scenario,
         "backend": cfg.backend,
@@ -411,15 +577,23 @@ def summarize(result: StudyResult) -> dict[str, Any]:
         "preference": None if cfg.population else prefs[0] if len(prefs) == 1 else "all",
         "r0": cfg.waiting_reward,
         "human_passive": cfg.human_passive,
+        "turn_back": cfg.turn_back,
+        "max_steps": cfg.max_steps,
         "runs": cfg.runs,
         "episodes": cfg.n_episodes,
         "seed": cfg.seed,
-        "wall_time_s": round(result.wall_time_s, 3),
-        "turn_back": cfg.turn_back,
         "human_rationality": _json_float(cfg.human_rationality),
         "population": cfg.population,
         "human_drift": cfg.human_drift,
         "learner": _learner_settings(cfg),
+        "version": _version(),
+        "env_ids": {"gymnasium": spec.panda_id if cfg.backend == "mujoco" else spec.gym_id,
+                    "pettingzoo": spec.pettingzoo_module},
+        "settings": cfg.settings(),
+        "agent_configs": {a: agent_settings(a, cfg.scenario, cfg.waiting_reward,
+                                            dict(cfg.learner))
+                          for a in cfg.agents},
+        "failed_agents": sorted(result.failures),
         "agents": agents,
         "probability_of_improvement": {
             "metric": "reward",
@@ -428,18 +602,34 @@ def summarize(result: StudyResult) -> dict[str, Any]:
     }
 
 
+def _version() -> str:
+    from hri_envs import __version__
+
+    return __version__
+
+
 def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bool = True
                   ) -> list[Path]:
-    """Write ``summary.json``, ``episodes.csv`` and the plots into ``out``; return the paths."""
+    """Write ``summary.json``, ``episodes.csv`` and the plots into ``out``; return the paths.
+
+    Every file is written under a temporary name and renamed into place, plots first and
+    ``summary.json`` last, so an interrupted write never leaves a complete-looking file.
+    """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     cfg = result.config
-    summary_path = out / "summary.json"
-    summary_path.write_text(json.dumps(summarize(result), indent=1) + "\n")
+    paths: list[Path] = []
+    if plots and result.metrics:
+        from hri_envs.bench import plots as plotting
+
+        with tempfile.TemporaryDirectory(dir=out, prefix=".plots-") as tmp:
+            for p in plotting.study_plots(result, Path(tmp)):
+                os.replace(p, out / p.name)
+                paths.append(out / p.name)
     csv_path = out / "episodes.csv"
     prefs = result.humans if cfg.per_run_humans and result.humans else cfg.preference_of_run()
-    extras = [k for k in next(iter(result.metrics.values())) if k not in METRICS]
-    with csv_path.open("w", newline="") as f:
+    extras = [k for k in next(iter(result.metrics.values()), {}) if k not in METRICS]
+    with atomic_writer(csv_path, newline="") as f:
         writer = csv.writer(f)
         writer.writerow(["agent", "run", "episode", "preference", "start", "goal", "turn_back",
                          *METRICS, *extras])
@@ -455,9 +645,7 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
                         int(m["steps"][r, e]), int(m["truncated"][r, e]),
                         *(round(m[k][r, e], 6) for k in extras),
                     ])
-    paths = [summary_path, csv_path]
-    if plots:
-        from hri_envs.bench import plots as plotting
-
-        paths += plotting.study_plots(result, out)
-    return paths
+    summary_path = out / "summary.json"
+    with atomic_writer(summary_path) as f:
+        f.write(json.dumps(summarize(result), indent=1) + "\n")
+    return [summary_path, csv_path, *paths]

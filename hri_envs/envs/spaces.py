@@ -32,7 +32,16 @@ def human_observation_space(n_states: int, n_supports: int, n_actions: int) -> s
 
 
 def check_action(agent: str, action: Any, n_actions: int) -> int:
-    """``action`` as an int in ``0 .. n_actions - 1``, else an :class:`ActionError`."""
+    """``action`` as an int in ``0 .. n_actions - 1``, else an :class:`ActionError`.
+
+    Booleans are refused although Python counts them as integers: ``True`` for "grasp"
+    (action 1) is almost always a bug in the caller.
+    """
+    if isinstance(action, bool | np.bool_):
+        raise ActionError(
+            f"{agent} action {action!r} is a bool; the {agent}'s action space is "
+            f"Discrete({n_actions}): integers 0..{n_actions - 1}"
+        )
     if type(action) is not int:
         try:
             action = operator.index(action)

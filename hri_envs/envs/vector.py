@@ -180,12 +180,13 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
 
     def _supports(self, value: Any, key: str) -> np.ndarray:
         scenario = self.graph.scenario
-        items = np.asarray(value, dtype=object).reshape(-1)
-        if items.shape[0] not in (1, self.num_envs):
+        items = np.asarray(value, dtype=object)
+        if items.ndim > 1 or items.size not in (1, self.num_envs):
             raise ConfigError(
-                f"reset option {key!r} must be one support or {self.num_envs} of them, "
-                f"got {items.shape[0]}"
+                f"reset option {key!r} must be one support or {self.num_envs} of them "
+                f"(shape ({self.num_envs},)), got shape {items.shape}", field=key
             )
+        items = items.reshape(-1)
         idx = np.array([support_index(v, scenario, key) for v in items], dtype=np.int64)
         return np.broadcast_to(idx, (self.num_envs,)).copy()
 
@@ -223,9 +224,12 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         if np.any(start == intention):
             raise ConfigError("the intention must differ from the start support in every env")
         if "turn_back" in options:
-            turn = np.broadcast_to(np.asarray(options["turn_back"]), (n,))
-            if turn.dtype != np.bool_:
-                raise ConfigError("reset option 'turn_back' must be a bool or (N,) bools")
+            turn = np.asarray(options["turn_back"])
+            if turn.dtype != np.bool_ or turn.shape not in ((), (1,), (n,)):
+                raise ConfigError(f"reset option 'turn_back' must be a bool or {n} bools "
+                                  f"(shape ({n},)), got {turn.dtype} of shape {turn.shape}",
+                                  field="turn_back")
+            turn = np.broadcast_to(turn, (n,))
         else:
             turn = self._draw_turn(n)
         self._eps.begin(self._all, start, intention, turn)

@@ -1,0 +1,204 @@
+"""Studies that survive faults (docs/benchmark.md, 'Interrupted studies'): a checked --out,
+finished units on disk, kill and resume with byte-identical files, failing agents reported,
+and summary.json replayed through --config.
+"""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hri_envs.bench.cli import main
+from hri_envs.bench.study import StudyConfig, run_study
+from hri_envs.errors import ActionError
+
+ROOT = Path(__file__).resolve().parents[1]
+# 2 agents x 36 preferences (one run each, so one chunk) = 72 units of about 10 ms each.
+STUDY = ["study", "hanger", "--preference", "all", "--runs", "36", "--episodes", "3",
+         "--agents", "learner,maxent", "--jobs", "2", "--no-progress"]
+
+
+def _cli(args, **kwargs):
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.Popen([sys.executable, "-m", "hri_envs.bench.cli", *args], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=ROOT, **kwargs)
+
+
+def _children(pid):
+    kids = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                kids.append(int(entry.name))
+    return kids
+
+
+def _alive(pid):
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("reference") / "study"
+    assert main([*STUDY, "--out", str(out)]) == 0  # in-process: the uninterrupted run
+    return out
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT])
+def test_killed_study_leaves_no_workers_and_resumes_identically(sig, reference, tmp_path):
+    out = tmp_path / "study"
+    proc = _cli([*STUDY, "--out", str(out)])
+    deadline = time.monotonic() + 60
+    while not list((out / ".units").glob("0*.npz")):
+        assert proc.poll() is None, "the study ended before the first unit was seen"
+        assert time.monotonic() < deadline
+        time.sleep(0.02)
+    workers = _children(proc.pid)
+    assert len(workers) == 2
+    proc.send_signal(sig)
+    code = proc.wait(timeout=30)
+    stderr = proc.stderr.read()
+    if sig != signal.SIGKILL:
+        assert code == {signal.SIGTERM: 143, signal.SIGINT: 130}[sig]
+        assert "--resume" in stderr and "finished unit(s) kept" in stderr
+    deadline = time.monotonic() + 10
+    while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(_alive(w) for w in workers), "orphaned pool workers"
+    # Nothing that looks complete: no final files, every unit file whole.
+    assert not (out / "summary.json").exists() and not (out / "episodes.csv").exists()
+    kept = list((out / ".units").glob("0*.npz"))
+    assert 0 < len(kept) < 72
+    for path in kept:
+        with np.load(path, allow_pickle=False) as data:
+            assert data["m.reward"].shape[1] == 3
+
+    resumed = _cli([*STUDY, "--out", str(out), "--resume"])
+    assert resumed.wait(timeout=120) == 0, resumed.stderr.read()
+    for name in ("summary.json", "episodes.csv"):
+        assert (out / name).read_bytes() == (reference / name).read_bytes()
+    log = [json.loads(line) for line in (out / "run_log.jsonl").read_text().splitlines()]
+    assert log[-1]["status"] == "complete" and log[-1]["resumed"] == len(kept)
+    assert not (out / ".units").exists()
+
+
+def test_out_is_checked_before_any_simulation(tmp_path, capsys):
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    base = ["study", "wheel", "--runs", "1", "--episodes", "1", "--no-progress"]
+    with pytest.raises(SystemExit) as exc:
+        main([*base, "--out", str(a_file)])
+    assert exc.value.code == 2
+    assert "argument --out" in capsys.readouterr().err
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "notes.txt").write_text("mine")
+    with pytest.raises(SystemExit):
+        main([*base, "--out", str(full)])
+    assert "is not empty" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main([*base, "--out", str(full), "--resume"])
+    assert "nothing to resume" in capsys.readouterr().err
+    assert main([*base, "--out", str(full), "--overwrite"]) == 0
+    assert (full / "notes.txt").read_text() == "mine"  # only the study's own files go
+
+
+def test_resume_refuses_a_folder_of_another_study(tmp_path, capsys):
+    out = tmp_path / "study"
+    (out / ".units").mkdir(parents=True)
+    base = ["study", "wheel", "--runs", "2", "--episodes", "1", "--no-progress", "--out",
+            str(out)]
+    from hri_envs.bench.studyio import StudyDir
+
+    StudyDir(out, StudyConfig("wheel", runs=2, episodes=1, seed=5), overwrite=True)
+    with pytest.raises(SystemExit):
+        main([*base, "--resume"])
+    assert "differs in: seed" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(os.name != "posix" or os.getuid() == 0, reason="root may write anywhere")
+def test_unwritable_out(tmp_path, capsys):
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o500)
+    with pytest.raises(SystemExit):
+        main(["study", "wheel", "--runs", "1", "--out", str(locked / "x")])
+    assert "cannot write" in capsys.readouterr().err
+
+
+def test_failing_agent_is_reported_and_the_others_are_written(tmp_path, capsys):
+    out = tmp_path / "study"
+    code = main(["study", "wheel", "--runs", "3", "--episodes", "2", "--no-progress", "--out",
+                 str(out), "--agents", "learner,tests.helpers_agents:RaisesInAct,oracle"])
+    assert code == 1
+    assert "tests.helpers_agents:RaisesInAct" in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary["agents"]) == {"learner", "oracle"}
+    assert summary["failed_agents"] == ["tests.helpers_agents:RaisesInAct"]
+    log = (out / "errors.log").read_text()
+    assert "agent 'tests.helpers_agents:RaisesInAct' raised" in log
+    assert "Traceback" in log and "deliberate failure in act" in log
+
+
+def test_invalid_action_names_agent_run_and_step():
+    cfg = StudyConfig("wheel", agents=("tests.helpers_agents:OutOfRange",), runs=2, episodes=1)
+    with pytest.raises(ActionError, match=r"agent 'tests.helpers_agents:OutOfRange': act\(\) "
+                                          r"returned action 99 for run 0 in episode 1, step 3"):
+        run_study(cfg)
+
+
+def test_config_replays_a_study_byte_for_byte(tmp_path, capsys):
+    first, again = tmp_path / "first", tmp_path / "again"
+    assert main(["study", "wheel", "--runs", "3", "--episodes", "3", "--turn-back", "0.5",
+                 "--max-steps", "30", "--human-passive", "0.1", "--seed", "3", "--agents",
+                 "learner,maxent", "--no-progress", "--out", str(first)]) == 0
+    summary = json.loads((first / "summary.json").read_text())
+    assert summary["turn_back"] == 0.5 and summary["max_steps"] == 30
+    assert summary["settings"]["turn_back"] == 0.5
+    assert summary["agent_configs"]["maxent"]["learning_rate"] == 0.03
+    assert summary["env_ids"]["gymnasium"] == "hri_envs/Wheel-v0"
+    assert main(["study", "--config", str(first / "summary.json"), "--jobs", "2",
+                 "--no-progress", "--out", str(again)]) == 0
+    for name in ("summary.json", "episodes.csv"):
+        assert (again / name).read_bytes() == (first / name).read_bytes()
+    with pytest.raises(SystemExit):
+        main(["study", "--config", str(first / "summary.json"), "--seed", "4", "--out",
+              str(tmp_path / "x")])
+    assert "drop --seed" in capsys.readouterr().err
+
+
+def test_settings_round_trip_and_unknown_settings_are_named():
+    from hri_envs.bench.study import Probe
+    from hri_envs.errors import ConfigError
+
+    cfg = StudyConfig("hanger", agents=("learner",), runs=2, turn_back=0.2,
+                      probes=(Probe("p", "human", 3, 1, 2, True),))
+    assert StudyConfig.from_settings(json.loads(json.dumps(cfg.settings()))) == cfg
+    with pytest.raises(ConfigError, match="unknown setting.*colour.*a study's settings are"):
+        StudyConfig.from_settings({**cfg.settings(), "colour": "red"})
+
+
+def test_truncations_are_counted_in_the_summary(tmp_path):
+    out = tmp_path / "study"
+    assert main(["study", "wheel", "--runs", "2", "--episodes", "2", "--max-steps", "2",
+                 "--agents", "passive", "--no-progress", "--out", str(out)]) == 0
+    passive = json.loads((out / "summary.json").read_text())["agents"]["passive"]
+    # Two steps never finish a wheel episode: every episode is cut off.
+    assert passive["truncated"]["mean"] == [1.0, 1.0]
+    assert passive["overall"]["truncation_rate"] == 1.0
+    assert passive["overall"]["truncated_episodes"] == 4
