@@ -26,6 +26,7 @@ from hri_envs.bench.runner import TABLE2
 from hri_envs.bench.study import EXECUTORS
 from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
+from hri_envs.task.episode import REWARDS
 from hri_envs.task.scenarios import SCENARIOS
 
 __all__ = ["build_parser", "main"]
@@ -84,6 +85,7 @@ _STUDY_ARGUMENTS = {
     "ray_address": "--ray-address",
     "backend": "--backend",
     "max_steps": "--max-steps",
+    "reward": "--reward",
 }
 
 
@@ -134,6 +136,10 @@ def build_parser() -> argparse.ArgumentParser:
                             "about 0.2 s per step)")
     study.add_argument("--max-steps", type=_positive, default=100,
                        help="step limit per episode (default 100)")
+    study.add_argument("--reward", choices=REWARDS, default="paper",
+                       help="reward rule: paper (default; grasping and letting go are free) or "
+                            "no-free-toggle (a robot toggle the next motion does not need "
+                            "costs r0)")
     study.add_argument("--out", required=True, type=Path, help="output directory")
     study.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     study.set_defaults(command_parser=study)  # reports errors found after parsing
@@ -186,17 +192,26 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             schedule=args.schedule, preference=args.preference, r0=args.r0,
             human_passive=args.human_passive, turn_back=args.turn_back, seed=args.seed,
             jobs=args.jobs, executor=executor, backend=args.backend, max_steps=args.max_steps,
-            ray_address=args.ray_address,
+            ray_address=args.ray_address, reward=args.reward,
         )
     except ConfigError as exc:
         _config_error(parser, exc, _STUDY_ARGUMENTS)
+    from hri_envs.bench.regret import REFERENCES
+    from hri_envs.bench.study import regret_reference
+
     result = run_study(cfg, progress=not args.no_progress)
     paths = write_outputs(result, args.out)
     print(f"{cfg.scenario} study: {len(cfg.agents)} agents x {cfg.runs} runs x "
           f"{cfg.n_episodes} episodes in {result.wall_time_s:.1f} s")
+    blind, note = regret_reference(result)
+    print(f"  {'agent':10s} {'reward first':>12s} {'last':>7s} {'mean':>7s} {'regret':>7s}")
     for name, m in result.metrics.items():
-        print(f"  {name:10s} reward first {m['reward'][:, 0].mean():7.2f}  "
-              f"last {m['reward'][:, -1].mean():7.2f}")
+        r = m["reward"]
+        regret = "    n/a" if blind is None else f"{(blind - r).mean():7.3f}"
+        role = f"  ({REFERENCES[name]})" if name in REFERENCES else ""
+        print(f"  {name:10s} {r[:, 0].mean():12.3f} {r[:, -1].mean():7.3f} {r.mean():7.3f} "
+              f"{regret}{role}")
+    print(f"  regret vs blind: {note}")
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 

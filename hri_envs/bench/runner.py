@@ -194,6 +194,7 @@ def run_episodes(
     r0: float,
     turn_state: np.ndarray | None = None,
     max_steps: int = 100,
+    reward: str = "paper",
 ) -> Iterator[EpisodeResult]:
     """Play ``schedule`` for a batch of runs; yields each episode after the agent learned.
 
@@ -207,6 +208,7 @@ def run_episodes(
         turn_state: (K, K) where a turning-back human turns (see
             :func:`hri_envs.task.episode.turn_back`); None: nobody turns back.
         max_steps: Step limit per episode (the episode is truncated there).
+        reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
     """
     n_b, n_e = schedule.start.shape
     if agent.n_runs != n_b:
@@ -245,7 +247,9 @@ def run_episodes(
                 a_h = np.where(active, human(s, eps.start, eps.intention, a_r, active), WAIT)
                 step = backend.transition(s, a_r, a_h, active)
                 w = active.astype(float)
-                totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, r0)
+                totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, r0,
+                                                    reward=reward, start=eps.start,
+                                                    lifted=eps.lifted)
                 for key, judged in zip(("correct", "passive", "wrong"),
                                        classify(graph, s, a_r, a_h, step.next_state),
                                        strict=True):
@@ -287,6 +291,7 @@ def simulate(
     max_steps: int = 100,
     after_episode: Callable[[int, BatchAgent], None] | None = None,
     backend: str = "graph",
+    reward: str = "paper",
 ) -> EpisodeMetrics:
     """Simulate ``schedule`` for a batch of runs with one agent and a scripted human.
 
@@ -301,6 +306,7 @@ def simulate(
         max_steps: Step limit per episode (the episode is truncated there).
         after_episode: Called as ``after_episode(e, agent)`` after each learning update.
         backend: A registered backend (:mod:`hri_envs.envs.backends`): "graph" or "mujoco".
+        reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
 
     Returns:
         The episode metrics; ``extras`` holds the backend's per-episode figures (the
@@ -315,7 +321,8 @@ def simulate(
     extras = {k: np.zeros((n_b, n_e)) for k in sim.extras}
     truncated = np.zeros((n_b, n_e), dtype=bool)
     for res in run_episodes(graph, agent, ScriptedHumans(human, runs, seed), schedule, sim,
-                            r0=r0, turn_state=human.turn_state, max_steps=max_steps):
+                            r0=r0, turn_state=human.turn_state, max_steps=max_steps,
+                            reward=reward):
         e = res.episode
         for k in keys:
             out[k][:, e] = getattr(res, k)

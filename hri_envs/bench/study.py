@@ -22,10 +22,12 @@ from typing import Any
 import numpy as np
 
 from hri_envs.bench.agents import BUILTIN_AGENTS, make_agent, validate_agent_name
+from hri_envs.bench.regret import REFERENCES, blind_values
 from hri_envs.bench.results import StudyResult  # re-exported; shared with the plots
 from hri_envs.bench.runner import TABLE2, make_schedule, simulate
 from hri_envs.envs.backends import BACKENDS, batch_backend
 from hri_envs.errors import ConfigError
+from hri_envs.task.episode import REWARDS
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import preference_human, preferences_for
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
@@ -36,6 +38,7 @@ __all__ = [
     "StudyConfig",
     "StudyResult",
     "graph_for",
+    "regret_reference",
     "run_study",
     "summarize",
     "write_outputs",
@@ -90,6 +93,9 @@ class StudyConfig:
         max_steps: Step limit per episode.
         ray_address: Address of a Ray cluster (default: start Ray locally).
         probes: Policy entries to record per episode (for Figs. 8, 11, 12).
+        reward: The reward variant, "paper" (v0) or "no-free-toggle" (a robot grasp toggle
+            that the object's next motion does not need costs r0; see
+            :func:`hri_envs.task.episode.step_reward`).
     """
 
     scenario: str
@@ -108,6 +114,7 @@ class StudyConfig:
     max_steps: int = 100
     ray_address: str | None = None
     probes: tuple[Probe, ...] = field(default_factory=tuple)
+    reward: str = "paper"
 
     def __post_init__(self) -> None:
         def bad(name: str, allowed: str) -> ConfigError:
@@ -145,6 +152,8 @@ class StudyConfig:
             raise bad("backend", f"one of {', '.join(BACKENDS)}")
         if self.max_steps < 1:
             raise bad("max_steps", ">= 1")
+        if self.reward not in REWARDS:
+            raise bad("reward", f"one of {', '.join(REWARDS)}")
 
     @property
     def n_episodes(self) -> int:
@@ -200,7 +209,8 @@ def _run_unit(unit: _Unit) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str,
                              turn_back=cfg.turn_back)
     runs = list(unit.runs)
     schedule = make_schedule(graph, cfg.schedule, runs, cfg.n_episodes, cfg.seed, human)
-    agent = make_agent(unit.agent, graph, human, runs, seed=cfg.seed, r0=cfg.waiting_reward)
+    agent = make_agent(unit.agent, graph, human, runs, seed=cfg.seed, r0=cfg.waiting_reward,
+                       max_steps=cfg.max_steps, reward=cfg.reward)
     probes = np.full((len(runs), cfg.n_episodes + 1, len(cfg.probes)), np.nan)
     if cfg.probes:
         probes[:, 0] = _probe(agent, cfg.probes)
@@ -210,7 +220,8 @@ def _run_unit(unit: _Unit) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str,
 
     m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
                  r0=cfg.waiting_reward, max_steps=cfg.max_steps,
-                 after_episode=record if cfg.probes else None, backend=cfg.backend)
+                 after_episode=record if cfg.probes else None, backend=cfg.backend,
+                 reward=cfg.reward)
     metrics = {k: np.asarray(getattr(m, k), dtype=float) for k in METRICS}
     metrics.update({k: np.asarray(v, dtype=float) for k, v in m.extras.items()})
     sched = {"start": schedule.start, "goal": schedule.goal, "turn_back": schedule.turn_back}
@@ -302,15 +313,29 @@ def run_study(
     return StudyResult(cfg, metrics, probes, schedule, time.perf_counter() - t0)
 
 
+def regret_reference(result: StudyResult) -> tuple[np.ndarray | None, str]:
+    """Blind's exact expected reward per (run, episode) and how regret is computed; None
+    (with the reason) where the exact blind plan is too large for the study's human.
+    """
+    try:
+        values = blind_values(result)
+    except ConfigError as exc:
+        return None, f"not reported: {exc}"
+    return values, ("blind's exact expected episode reward from the episode's start support "
+                    "minus the agent's reward, mean over runs (hri_envs/bench/regret.py)")
+
+
 def summarize(result: StudyResult) -> dict[str, Any]:
     """The ``summary.json`` document (docs/benchmark.md, 'summary.json')."""
     cfg = result.config
     agents: dict[str, Any] = {}
+    blind, regret_note = regret_reference(result)
     for name, m in result.metrics.items():
         r = m["reward"]
         agents[name] = {
             "reward": {"mean": r.mean(0).tolist(), "q25": np.percentile(r, 25, 0).tolist(),
                        "q75": np.percentile(r, 75, 0).tolist()},
+            **({} if blind is None else {"regret": {"mean": (blind - r).mean(0).tolist()}}),
             **{k: {"mean": m[k].mean(0).tolist()} for k in ("correct", "passive", "wrong")},
             **{k: {"mean": m[k].mean(0).tolist()} for k in m if k not in METRICS},
         }
@@ -325,6 +350,9 @@ def summarize(result: StudyResult) -> dict[str, Any]:
         "runs": cfg.runs,
         "episodes": cfg.n_episodes,
         "seed": cfg.seed,
+        "reward_rule": cfg.reward,
+        "regret": regret_note,
+        "references": {k: v for k, v in REFERENCES.items() if k in result.metrics},
         "wall_time_s": round(result.wall_time_s, 3),
         "agents": agents,
     }
