@@ -66,7 +66,7 @@ _TERMINAL = -1
 #: Hypotheses whose posterior falls below this are dropped (see the module docstring).
 PRUNE = 1e-12
 #: Default cap on the number of planning nodes.
-MAX_NODES = 200_000
+MAX_NODES = 50_000
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,8 @@ from hri_envs.bench.play import play
 from hri_envs.bench.study import StudyConfig, run_study
 
 SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive", "runs",
-                "episodes", "seed", "wall_time_s", "agents"}
+                "episodes", "seed", "wall_time_s", "agents", "reward_rule", "regret",
+                "references"}
 
 
 def test_study_writes_the_contracted_files(tmp_path, capsys):
@@ -26,7 +27,7 @@ def test_study_writes_the_contracted_files(tmp_path, capsys):
     assert summary["scenario"] == "wheel" and summary["r0"] == -0.25 and summary["seed"] == 7
     assert set(summary["agents"]) == {"learner", "imitator", "oracle"}
     for stats in summary["agents"].values():
-        assert set(stats) == {"reward", "correct", "passive", "wrong"}
+        assert set(stats) == {"reward", "regret", "correct", "passive", "wrong"}
         assert set(stats["reward"]) == {"mean", "q25", "q75"}
         for metric in stats.values():
             for values in metric.values():
@@ -34,6 +35,9 @@ def test_study_writes_the_contracted_files(tmp_path, capsys):
         fractions = [stats[k]["mean"] for k in ("correct", "passive", "wrong")]
         np.testing.assert_allclose(np.sum(fractions, axis=0), 1.0)
     assert summary["agents"]["oracle"]["reward"]["mean"] == [0.0, 0.0, 0.0]
+    # Deterministic straight human: blind expects exactly r0 per episode, the Oracle gets 0.
+    assert summary["agents"]["oracle"]["regret"]["mean"] == [-0.25, -0.25, -0.25]
+    assert summary["reward_rule"] == "paper" and set(summary["references"]) == {"oracle"}
     with (out / "episodes.csv").open() as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == 3 * 4 * 3  # agents x runs x episodes
