@@ -146,3 +146,32 @@ def test_bad_inputs(wheel):
         plan(wheel, human, r0=R0, informed=False, max_nodes=50)
     with pytest.raises(ConfigError, match="reward must be one of paper, no-free-toggle"):
         StudyConfig("wheel", reward="free")
+
+
+def test_envs_take_the_reward_variant():
+    import gymnasium as gym
+
+    from hri_envs import wheel_v0
+    from hri_envs.envs.vector import RobotVectorEnv
+
+    a, b = 0, 1  # A -> B; at "on B, held by the human" the robot grasps while the human lets go
+    for rule, expected in (("paper", 0.0), ("no-free-toggle", R0)):
+        par = wheel_v0.parallel_env(reward=rule)
+        par.reset(seed=0, options={"start": "A", "intention": "B"})
+        par.unwrapped._episode.state = 5
+        par.unwrapped._episode.lifted = True
+        _, rewards, *_ = par.step({"robot": TOGGLE, "human": TOGGLE})
+        assert rewards["robot"] == expected, rule
+        env = gym.make("hri_envs/Wheel-v0", reward=rule).unwrapped
+        env.reset(seed=0, options={"start": a, "intention": b})
+        env._episode.state, env._episode.lifted = 5, True
+        env.human = preference_human(env.graph, "straight")  # lets go when arrived
+        _, reward, *_ = env.step(TOGGLE)
+        assert reward == expected, rule
+        vec = RobotVectorEnv(2, "wheel", reward=rule)
+        vec.reset(seed=0, options={"start": a, "intention": b})
+        vec._eps.state[:], vec._eps.lifted[:] = 5, True
+        _, reward_v, *_ = vec.step(np.array([TOGGLE, TOGGLE]))
+        np.testing.assert_array_equal(reward_v, expected)
+    with pytest.raises(ConfigError, match="allowed: paper, no-free-toggle"):
+        wheel_v0.parallel_env(reward="free")

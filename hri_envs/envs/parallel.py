@@ -72,6 +72,19 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     otherwise. The human's own preference reward θᵀφ(s, ι) is what learners infer and is
     not paid out; sharing R_R makes the game fully cooperative.
 
+    Grasping and letting go are never counteracted and cost nothing: a robot can replace a
+    wait (r0) by a pointless grasp-and-release. On the wheel, at "on B, held by the human",
+    robot grasp + human let go pays 0 (``scenario_graph('wheel').reward(-0.25)[5, 1, 1]``)
+    and leads to "on B, held by the robot", where robot let go + human wait pays 0
+    (``[6, 1, 0]``) and ends the episode. With turning back possible, a robot that does not
+    see ι also pays one more r0 at the turning point even when the human does not turn (it
+    cannot rule the turn out earlier; routes without a halfway point escape this).
+    ``reward="no-free-toggle"`` (default ``"paper"``, the rule above) makes a robot grasp
+    toggle that the object's next motion does not need cost r0 like waiting: on a support
+    that is not a goal candidate only grasping is needed (the take-off needs both hands), on
+    a goal candidate only letting go (the object is to rest); see
+    :func:`hri_envs.task.episode.unneeded_toggle` and docs/task-model.md, "Reward".
+
     ## Starting State
 
     The object rests on a start support with μ = 0; start and ι ≠ start are uniform, or set
@@ -96,6 +109,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
 
     - ``scenario``: "hanger" or "wheel" (fixed by the versioned modules);
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
+    - ``reward``: ``"paper"`` (default) or ``"no-free-toggle"`` (see "Rewards");
     - ``max_cycles``: step limit per episode (default 100);
     - ``render_mode``: None, "ansi" or "rgb_array";
     - ``backend``: "graph" (the abstract transition graph) or "mujoco" (the same task on a
@@ -130,6 +144,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         backend: str = "graph",
         render_intention: bool = False,
         physics: dict[str, Any] | None = None,
+        reward: str = "paper",
     ) -> None:
         self.metadata = {**type(self).metadata, "name": f"{scenario}_v0",
                          "render_modes": list(type(self).metadata["render_modes"])}
@@ -140,7 +155,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         self.render_intention = bool(render_intention)
 
         self.graph = scenario_graph(scenario)
-        self.rules = EpisodeRules(self.graph, self.r0)
+        self.rules = EpisodeRules(self.graph, self.r0, reward)
         turn_state = preference_human(self.graph).turn_state
         self._episode: Episode = episode_backend(self.backend)(self.rules, turn_state,
                                                                **physics)

@@ -250,6 +250,7 @@ class EpisodeRules:
     Args:
         graph: The task graph.
         r0: Robot reward for waiting while the human acts, in (-1, 0).
+        reward: The reward variant, one of :data:`REWARDS` (see :func:`step_reward`).
 
     Attributes:
         next_state: (S A A,) int64, ``next_state[(s A + a_R) A + a_H]``.
@@ -259,11 +260,17 @@ class EpisodeRules:
         action_mask: (S, A) int8, read-only rows of the observations' ``action_mask``.
         left: (S K,) bool, ``left[s K + start]``: :func:`left_start`.
         ends: (S K 2,) bool, ``ends[(s K + start) 2 + lifted]``: :func:`episode_over`.
+        unneeded: (S K 2,) bool, ``unneeded[(s K + start) 2 + lifted]``: a robot toggle
+            there is :func:`unneeded_toggle` (used by :meth:`adjust` under "no-free-toggle").
     """
 
-    def __init__(self, graph: TaskGraph, r0: float) -> None:
+    def __init__(self, graph: TaskGraph, r0: float, reward: str = "paper") -> None:
+        if reward not in REWARDS:
+            raise ConfigError(f"unknown reward {reward!r}; allowed: {', '.join(REWARDS)}",
+                              field="reward")
         self.graph = graph
         self.r0 = r0
+        self.reward_rule = reward
         n_s, n_a, n_k = graph.n_states, graph.n_actions, graph.n_intentions
         self.n_states, self.n_actions, self.n_supports = n_s, n_a, n_k
         self.next_state = graph.next_state.astype(np.int64).reshape(-1)
@@ -276,6 +283,10 @@ class EpisodeRules:
         ends = episode_over(graph, np.arange(n_s)[:, None, None], np.arange(n_k)[None, :, None],
                             np.array([False, True])[None, None, :])  # (S, K, 2)
         self.ends = np.ascontiguousarray(ends).reshape(-1)  # (S K 2,)
+        unneeded = unneeded_toggle(graph, np.arange(n_s)[:, None, None], TOGGLE,
+                                   np.arange(n_k)[None, :, None],
+                                   np.array([False, True])[None, None, :])
+        self.unneeded = np.ascontiguousarray(unneeded).reshape(-1)  # (S K 2,)
         for table in (self.next_state, self.reward, self.aborted, self.valid,
                       self.action_mask, self.left, self.ends):
             table.setflags(write=False)
@@ -286,6 +297,20 @@ class EpisodeRules:
         self.valid_list: list[bool] = self.valid.tolist()
         self.left_list: list[bool] = self.left.tolist()
         self.ends_list: list[bool] = self.ends.tolist()
+
+    def adjust(self, reward: np.ndarray | float, s: IntArray, a_r: IntArray, start: IntArray,
+               lifted: np.ndarray | bool) -> np.ndarray:
+        """Apply the reward variant to rewards of the "paper" rule (arrays broadcast).
+
+        Under "no-free-toggle" a robot toggle that scored 0 and is unneeded in the context
+        ``(s, start, lifted before the step)`` scores r0; under "paper" nothing changes.
+        """
+        if self.reward_rule == "paper":
+            return np.asarray(reward)
+        context = (np.asarray(s) * self.n_supports + start) * 2 + np.asarray(lifted, dtype=int)
+        costly = (np.asarray(a_r) == TOGGLE) & (np.asarray(reward) == 0.0) & np.take(
+            self.unneeded, context)
+        return np.where(costly, self.r0, reward)
 
     def index(self, s: IntArray, a_r: IntArray, a_h: IntArray) -> IntArray:
         """Flat index of ``(s, a_R, a_H)`` into the (S A A,) tables."""
