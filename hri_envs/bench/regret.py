@@ -31,7 +31,7 @@ REFERENCES: dict[str, str] = {
     "informed": "information bound: the exact optimum for a robot that sees the intention",
     "blind": "ceiling for any robot that must infer the intention; regret is measured "
              "against it",
-    "oracle": "the paper's heuristic baseline (sees the intention, not optimal)",
+    "oracle": "the paper's heuristic baseline: sees the intention, not optimal",
 }
 
 
