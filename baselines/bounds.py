@@ -25,13 +25,16 @@ one successor: s' = next_state[s, a_R, a_H], the belief is updated by Bayes' rul
 turning rule is applied (h = (ι, 1) becomes (start, 0) on entering its turning state); the
 informed robot additionally observes the new ι, which splits the belief. The planner
 enumerates every node reachable within ``max_steps`` steps (breadth first; beliefs are
-compared after rounding to 12 decimals, so paths that reach the same belief share a node)
-and solves the resulting finite expectimax tree exactly. For a deterministic policy table,
-with or without passivity and turning back, the set of reachable beliefs is small (a
-non-waiting action removes the inconsistent hypotheses; a wait multiplies the weights of
-the hypotheses that would not have waited by ``passive``). For a stochastic (Boltzmann)
-table the informed planner is still exact and small; the blind one is exact too, but its
-belief set can grow with the horizon, so planning stops with a
+compared after rounding to 9 decimals, so paths that reach the same belief share a node)
+and solves the resulting finite expectimax tree by backward induction. Hypotheses whose
+posterior falls below ``prune`` (1e-12) are dropped; a belief's value with t steps left
+changes by at most t per unit of total variation (rewards lie in [-1, 0]), so this moves
+any value by at most 2·2K·prune·T² (< 1e-6 for T = 100). For a deterministic policy table
+that is passive *or* turns back the set of reachable beliefs is small (a non-waiting
+action removes the inconsistent hypotheses; a wait multiplies the weights of the
+hypotheses that would not have waited by ``passive``). Passivity together with turning
+back, or a stochastic (Boltzmann) table, can need many more nodes for ``blind`` (the
+informed plan stays small); planning then stops with a
 :class:`~hri_envs.errors.ConfigError` once ``max_nodes`` nodes are exceeded rather than
 return an approximation.
 
@@ -205,9 +208,10 @@ def _solve(graph: TaskGraph, human: ScriptedHuman, r0: float, horizon: int, info
             if len(nodes) >= max_nodes:
                 raise ConfigError(
                     f"the exact {'informed' if informed else 'blind'} plan needs more than "
-                    f"{max_nodes} belief nodes for this human; exact planning is available for "
-                    "deterministic (optionally passive, turning-back) humans and small "
-                    "stochastic ones, or raise max_nodes", field="human")
+                    f"{max_nodes} belief nodes for this human; it fits deterministic humans "
+                    "that are passive or turn back (passivity together with turning back, or "
+                    "a stochastic policy, can need more); raise max_nodes to try",
+                    field="human")
             keys[key] = len(nodes)
             nodes.append((start, s, lifted, b))
         return keys[key]
