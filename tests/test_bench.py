@@ -16,7 +16,8 @@ from hri_envs.errors import ConfigError
 SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive",
                 "turn_back", "max_steps", "runs", "episodes", "seed", "version", "env_ids",
                 "settings", "agent_configs", "failed_agents", "agents", "human_rationality",
-                "population", "human_drift", "learner", "probability_of_improvement"}
+                "population", "human_drift", "learner", "probability_of_improvement",
+                "reward_rule", "regret", "references"}
 
 
 def test_study_writes_the_contracted_files(tmp_path, capsys):
@@ -29,7 +30,8 @@ def test_study_writes_the_contracted_files(tmp_path, capsys):
     assert summary["scenario"] == "wheel" and summary["r0"] == -0.25 and summary["seed"] == 7
     assert set(summary["agents"]) == {"learner", "imitator", "oracle"}
     for stats in summary["agents"].values():
-        assert set(stats) == {"reward", "correct", "passive", "wrong", "truncated", "overall"}
+        assert set(stats) == {"reward", "regret", "correct", "passive", "wrong", "truncated",
+                              "overall"}
         assert set(stats["reward"]) == {"mean", "median", "q25", "q75", "iqm", "ci95",
                                         "iqm_ci95", "overall"}
         for key, metric in stats.items():
@@ -40,6 +42,9 @@ def test_study_writes_the_contracted_files(tmp_path, capsys):
         fractions = [stats[k]["mean"] for k in ("correct", "passive", "wrong")]
         np.testing.assert_allclose(np.sum(fractions, axis=0), 1.0)
     assert summary["agents"]["oracle"]["reward"]["mean"] == [0.0, 0.0, 0.0]
+    # Deterministic straight human: blind expects exactly r0 per episode, the Oracle gets 0.
+    assert summary["agents"]["oracle"]["regret"]["mean"] == [-0.25, -0.25, -0.25]
+    assert summary["reward_rule"] == "paper" and set(summary["references"]) == {"oracle"}
     with (out / "episodes.csv").open() as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == 3 * 4 * 3  # agents x runs x episodes

@@ -1,6 +1,8 @@
 """Which robot agents the benchmark can run, by name.
 
-Built in: ``learner``, ``imitator``, ``maxent``, ``passive``, ``oracle``.
+Built in: ``learner``, ``imitator``, ``maxent``, ``passive``, ``oracle``, and the exact
+references ``informed`` (the information bound: sees ι) and ``blind`` (the ceiling for any
+robot that must infer ι), see :mod:`baselines.bounds`.
 
 ``sb3:PATH`` plays a trained stable-baselines3 / sb3-contrib model saved at ``PATH`` (a
 ``.zip``; MaskablePPO, PPO, A2C, DQN or :class:`agents.rl.MaskedDQN`) through
@@ -25,14 +27,18 @@ from typing import Any
 from agents.config import LearnerConfig, default_config
 from agents.learner import Learner
 from baselines import Imitator, MaxEntIRL, Oracle, Passive
+from baselines.bounds import Blind, Informed
 from hri_envs.errors import ConfigError
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import PreferredActions
+from hri_envs.task.humans import PreferredActions, ScriptedHuman
 from hri_envs.task.protocol import Agent, BatchAgent, Batched
 
-__all__ = ["BUILTIN_AGENTS", "SB3_PREFIX", "agent_settings", "make_agent", "validate_agent_name"]
+__all__ = ["BUILTIN_AGENTS", "REFERENCE_AGENTS", "SB3_PREFIX", "agent_settings", "make_agent",
+           "validate_agent_name"]
 
 BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
+#: Built-in names that are not in the default agent list (exact references, see baselines.bounds).
+REFERENCE_AGENTS: tuple[str, ...] = ("informed", "blind")
 #: Agent names ``sb3:PATH`` load a saved SB3 model.
 SB3_PREFIX = "sb3:"
 
@@ -43,7 +49,7 @@ def validate_agent_name(name: str) -> None:
 
     For ``sb3:PATH`` the file must exist (its contents are checked when it is loaded).
     """
-    if name in BUILTIN_AGENTS:
+    if name in BUILTIN_AGENTS or name in REFERENCE_AGENTS:
         return
     if name.startswith(SB3_PREFIX):
         path = Path(name[len(SB3_PREFIX):])
@@ -54,7 +60,7 @@ def validate_agent_name(name: str) -> None:
     if ":" in name and all(name.split(":", 1)):
         return
     raise ConfigError(
-        f"unknown agent {name!r}; allowed: {', '.join(BUILTIN_AGENTS)}, "
+        f"unknown agent {name!r}; allowed: {', '.join(BUILTIN_AGENTS + REFERENCE_AGENTS)}, "
         "'sb3:PATH' for a saved stable-baselines3 model, or 'module:Class' for your own agent",
         field="agents",
     )
@@ -107,6 +113,8 @@ def make_agent(
     seed: int,
     r0: float,
     learner: dict[str, Any] | None = None,
+    max_steps: int = 100,
+    reward: str = "paper",
 ) -> BatchAgent:
     """A batched agent for the given runs.
 
@@ -120,6 +128,8 @@ def make_agent(
         r0: The study's waiting reward, used by the Learner's robot reward.
         learner: Changes to the Learner's :class:`~agents.config.LearnerConfig` (after the
             scenario's defaults and ``r0``); other agents ignore them.
+        max_steps: The step limit (the horizon of ``informed`` and ``blind``).
+        reward: The reward variant ``informed`` and ``blind`` optimise.
     """
     validate_agent_name(name)
     n = len(runs)
@@ -134,6 +144,13 @@ def make_agent(
         return Passive(graph, n)
     if name == "oracle":
         return Oracle(graph, human, n)
+    if name in REFERENCE_AGENTS:
+        if not isinstance(human, ScriptedHuman):
+            raise ConfigError(f"agent {name!r} plans for one scripted human shared by every "
+                              "run; studies whose runs have humans of their own (--population, "
+                              "--human-drift) are not supported", field="agents")
+        cls_ref = Informed if name == "informed" else Blind
+        return cls_ref(graph, human, n, r0=r0, max_steps=max_steps, reward=reward)
     if name.startswith(SB3_PREFIX):
         from agents.sb3 import SB3BatchAgent
 

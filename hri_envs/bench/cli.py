@@ -29,6 +29,7 @@ from hri_envs.bench.runner import TABLE2
 from hri_envs.bench.study import EXECUTORS
 from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
+from hri_envs.task.episode import REWARDS
 from hri_envs.task.populations import POPULATIONS
 from hri_envs.task.scenarios import SCENARIOS
 
@@ -106,6 +107,7 @@ _STUDY_ARGUMENTS = {
     "human_rationality": "--human-rationality",
     "population": "--population",
     "human_drift": "--human-drift",
+    "reward": "--reward",
 }
 
 
@@ -157,6 +159,10 @@ def build_parser() -> argparse.ArgumentParser:
                             "about 0.2 s per step)")
     study.add_argument("--max-steps", type=_positive, default=100,
                        help="step limit per episode (default 100)")
+    study.add_argument("--reward", choices=REWARDS, default="paper",
+                       help="reward rule: paper (default; grasping and letting go are free) or "
+                            "no-free-toggle (a robot toggle the next motion does not need "
+                            "costs r0)")
     study.add_argument("--human-rationality", type=_rationality, default=float("inf"),
                        metavar="BETA",
                        help="Boltzmann human: samples softmax(BETA * Q_pref) (docs/benchmark.md);"
@@ -262,7 +268,8 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
             human_passive=args.human_passive, turn_back=args.turn_back, seed=args.seed,
             backend=args.backend, max_steps=args.max_steps,
             human_rationality=args.human_rationality, population=args.population,
-            human_drift=args.human_drift, learner=tuple(sorted(learner.items())), **execution,
+            human_drift=args.human_drift, learner=tuple(sorted(learner.items())),
+            reward=args.reward, **execution,
         )
     given = [flag for field, flag in _STUDY_ARGUMENTS.items()
              if field not in EXECUTION_FIELDS and field != "scenario"
@@ -316,6 +323,9 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
         folder = StudyDir(args.out, cfg, resume=args.resume, overwrite=args.overwrite)
     except ConfigError as exc:
         _config_error(parser, exc, arguments)
+    from hri_envs.bench.regret import REFERENCES
+    from hri_envs.bench.study import regret_reference
+
     try:
         with stop_on_signals():
             result = run_in(folder, progress=not args.no_progress)
@@ -327,12 +337,16 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
         return 143 if isinstance(exc, StudyTerminated) else 130
     print(f"{cfg.scenario} study: {len(cfg.agents)} agents x {cfg.runs} runs x "
           f"{cfg.n_episodes} episodes in {result.wall_time_s:.1f} s")
+    blind, note = regret_reference(result)
     print(f"  {'agent':12s} {'first':>7s} {'last':>7s} {'mean':>7s} {'median':>7s} "
-          f"{'truncated':>9s}")
+          f"{'truncated':>9s} {'regret':>7s}")
     for name, m in result.metrics.items():
         r = m["reward"]
+        regret = "    n/a" if blind is None else f"{(blind - r).mean():7.3f}"
+        role = f"  ({REFERENCES[name]})" if name in REFERENCES else ""
         print(f"  {name:12s} {r[:, 0].mean():7.2f} {r[:, -1].mean():7.2f} {r.mean():7.2f} "
-              f"{np.median(r):7.2f} {m['truncated'].mean():9.1%}")
+              f"{np.median(r):7.2f} {m['truncated'].mean():9.1%} {regret}{role}")
+    print(f"  regret vs blind: {note}")
     print("wrote " + ", ".join(str(p) for p in paths))
     log = folder.log_failures(result.failures)
     if log is not None:

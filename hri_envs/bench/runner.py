@@ -251,6 +251,7 @@ def run_episodes(
     turn_state: np.ndarray | None = None,
     max_steps: int = 100,
     run_ids: Sequence[int] | np.ndarray | None = None,
+    reward: str = "paper",
 ) -> Iterator[EpisodeResult]:
     """Play ``schedule`` for a batch of runs; yields each episode after the agent learned.
 
@@ -266,6 +267,7 @@ def run_episodes(
             a ``begin_episode(e)`` method (:class:`ScriptedHumans`) that returns (B, K, K)
             per-run turn states replaces it at the start of each episode.
         max_steps: Step limit per episode (the episode is truncated there).
+        reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
         run_ids: The runs' indices, for error messages (default 0 .. B-1).
 
     Raises:
@@ -314,7 +316,9 @@ def run_episodes(
                 a_h = np.where(active, human(s, eps.start, eps.intention, a_r, active), WAIT)
                 step = backend.transition(s, a_r, a_h, active)
                 w = active.astype(float)
-                totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, r0)
+                totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, r0,
+                                                    reward=reward, start=eps.start,
+                                                    lifted=eps.lifted)
                 for key, judged in zip(("correct", "passive", "wrong"),
                                        classify(graph, s, a_r, a_h, step.next_state),
                                        strict=True):
@@ -374,6 +378,7 @@ def simulate(
     max_steps: int = 100,
     after_episode: Callable[[int, BatchAgent], None] | None = None,
     backend: str = "graph",
+    reward: str = "paper",
 ) -> EpisodeMetrics:
     """Simulate ``schedule`` for a batch of runs with one agent and a scripted human.
 
@@ -390,6 +395,7 @@ def simulate(
         max_steps: Step limit per episode (the episode is truncated there).
         after_episode: Called as ``after_episode(e, agent)`` after each learning update.
         backend: A registered backend (:mod:`hri_envs.envs.backends`): "graph" or "mujoco".
+        reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
 
     Returns:
         The episode metrics; ``extras`` holds the backend's per-episode figures (the
@@ -406,7 +412,7 @@ def simulate(
     humans = human if isinstance(human, ScriptedHumans) else ScriptedHumans(human, runs, seed)
     for res in run_episodes(graph, agent, humans, schedule, sim, r0=r0,
                             turn_state=humans.human.turn_state, max_steps=max_steps,
-                            run_ids=runs):
+                            run_ids=runs, reward=reward):
         e = res.episode
         for k in keys:
             out[k][:, e] = getattr(res, k)

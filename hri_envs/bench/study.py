@@ -34,10 +34,12 @@ from hri_envs.bench.agents import (
     validate_agent_name,
 )
 from hri_envs.bench.atomic import atomic_writer
+from hri_envs.bench.regret import REFERENCES, blind_values
 from hri_envs.bench.results import StudyResult  # re-exported; shared with the plots
 from hri_envs.bench.runner import TABLE2, ScriptedHumans, make_schedule, simulate
 from hri_envs.envs.backends import BACKENDS, batch_backend
 from hri_envs.errors import ActionError, BackendUnavailableError, ConfigError
+from hri_envs.task.episode import REWARDS
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_for
 from hri_envs.task.populations import (
@@ -60,6 +62,7 @@ __all__ = [
     "UnitFailure",
     "UnitResult",
     "graph_for",
+    "regret_reference",
     "run_study",
     "summarize",
     "write_outputs",
@@ -122,6 +125,9 @@ class StudyConfig:
             (:func:`hri_envs.task.populations.human_sequence`); None: never.
         learner: Changes to the Learner's :class:`~agents.config.LearnerConfig` as
             (name, value) pairs, e.g. ``(("beta", 0.9),)``.
+        reward: The reward variant, "paper" (v0) or "no-free-toggle" (a robot grasp toggle
+            that the object's next motion does not need costs r0; see
+            :func:`hri_envs.task.episode.step_reward`).
     """
 
     scenario: str
@@ -144,6 +150,7 @@ class StudyConfig:
     population: str | None = None
     human_drift: int | None = None
     learner: tuple[tuple[str, Any], ...] = ()
+    reward: str = "paper"
 
     def __post_init__(self) -> None:
         def bad(name: str, allowed: str) -> ConfigError:
@@ -192,6 +199,8 @@ class StudyConfig:
             from agents.config import default_config
 
             default_config(self.scenario, **dict(self.learner))
+        if self.reward not in REWARDS:
+            raise bad("reward", f"one of {', '.join(REWARDS)}")
 
     @property
     def per_run_humans(self) -> bool:
@@ -356,7 +365,7 @@ def _run_unit(unit: _Unit) -> UnitResult:
     human, labels = _humans(cfg, unit.preference, runs)
     schedule = make_schedule(graph, cfg.schedule, runs, cfg.n_episodes, cfg.seed, human)
     agent = make_agent(unit.agent, graph, human, runs, seed=cfg.seed, r0=cfg.waiting_reward,
-                       learner=dict(cfg.learner))
+                       learner=dict(cfg.learner), max_steps=cfg.max_steps, reward=cfg.reward)
     probes = np.full((len(runs), cfg.n_episodes + 1, len(cfg.probes)), np.nan)
     if cfg.probes:
         probes[:, 0] = _probe(agent, cfg.probes)
@@ -367,7 +376,8 @@ def _run_unit(unit: _Unit) -> UnitResult:
     try:
         m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
                      r0=cfg.waiting_reward, max_steps=cfg.max_steps,
-                     after_episode=record if cfg.probes else None, backend=cfg.backend)
+                     after_episode=record if cfg.probes else None, backend=cfg.backend,
+                     reward=cfg.reward)
     except ActionError as exc:
         raise ActionError(f"agent {unit.agent!r}: {exc}") from exc
     metrics = {k: np.asarray(getattr(m, k), dtype=float) for k in METRICS}
@@ -539,6 +549,18 @@ def run_study(
                        humans=humans, failures=failures)
 
 
+def regret_reference(result: StudyResult) -> tuple[np.ndarray | None, str]:
+    """Blind's exact expected reward per (run, episode) and how regret is computed; None
+    (with the reason) where the exact blind plan is too large for the study's human.
+    """
+    try:
+        values = blind_values(result)
+    except ConfigError as exc:
+        return None, f"not reported: {exc}"
+    return values, ("blind's exact expected episode reward from the episode's start support "
+                    "minus the agent's reward, mean over runs (hri_envs/bench/regret.py)")
+
+
 def summarize(result: StudyResult) -> dict[str, Any]:
     """The ``summary.json`` document (docs/benchmark.md, 'summary.json').
 
@@ -549,12 +571,14 @@ def summarize(result: StudyResult) -> dict[str, Any]:
 
     cfg = result.config
     agents: dict[str, Any] = {}
+    blind, regret_note = regret_reference(result)
     for name, m in result.metrics.items():
         r = m["reward"]
         agents[name] = {
             "reward": {"mean": r.mean(0).tolist(), "median": np.median(r, 0).tolist(),
                        "q25": np.percentile(r, 25, 0).tolist(),
                        "q75": np.percentile(r, 75, 0).tolist()},
+            **({} if blind is None else {"regret": {"mean": (blind - r).mean(0).tolist()}}),
             **{k: {"mean": m[k].mean(0).tolist()} for k in ("correct", "passive", "wrong")},
             "truncated": {"mean": m["truncated"].mean(0).tolist()},
             "overall": {"reward_mean": float(r.mean()), "reward_median": float(np.median(r)),
@@ -594,6 +618,9 @@ def summarize(result: StudyResult) -> dict[str, Any]:
                                             dict(cfg.learner))
                           for a in cfg.agents},
         "failed_agents": sorted(result.failures),
+        "reward_rule": cfg.reward,
+        "regret": regret_note,
+        "references": {k: v for k, v in REFERENCES.items() if k in result.metrics},
         "agents": agents,
         "probability_of_improvement": {
             "metric": "reward",

@@ -124,6 +124,8 @@ class Episode:
             reward = r.reward_list[i]
         else:  # the backend's outcome differs from the graph's prediction
             reward = float(step_reward(r.graph, s, a_r, a_h, s_next, r.r0))
+        if r.reward_rule != "paper":
+            reward = float(r.adjust(reward, s, a_r, self.start, self.lifted))
         self.previous, self.state = s, s_next
         self.lifted = lifted = self.lifted or r.left_list[s_next * r.n_supports + self.start]
         self.steps += 1

@@ -85,6 +85,19 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     the object on ι, r⁻ = -1 for an aborted step, 0 otherwise. ``info["robot_reward"]``
     always carries R_R.
 
+    Grasping and letting go are never counteracted and cost nothing: a robot can replace a
+    wait (r0) by a pointless grasp-and-release. On the wheel, at "on B, held by the human",
+    robot grasp + human let go pays 0 (``scenario_graph('wheel').reward(-0.25)[5, 1, 1]``)
+    and leads to "on B, held by the robot", where robot let go + human wait pays 0
+    (``[6, 1, 0]``) and ends the episode. With turning back possible, a robot that does not
+    see ι also pays one more r0 at the turning point even when the human does not turn (it
+    cannot rule the turn out earlier; routes without a halfway point escape this).
+    ``reward="no-free-toggle"`` (default ``"paper"``, the rule above) makes a robot grasp
+    toggle that the object's next motion does not need cost r0 like waiting: on a support
+    that is not a goal candidate only grasping is needed (the take-off needs both hands), on
+    a goal candidate only letting go (the object is to rest); see
+    :func:`hri_envs.task.episode.unneeded_toggle` and docs/task-model.md, "Reward".
+
     ## Starting State
 
     The object rests on a start support with μ = 0; start and ι ≠ start are uniform, or set
@@ -114,6 +127,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     - ``turn_back``: probability per episode that ι turns to the start support halfway (as
       ``options={"turn_back": True}``, drawn at reset; default 0). The human is an agent
       here, so its rationality and preference are the policy you give it, not env options;
+    - ``reward``: ``"paper"`` (default) or ``"no-free-toggle"`` (see "Rewards");
     - ``max_cycles``: step limit per episode (default 100);
     - ``render_mode``: None, "ansi", "rgb_array" or "human" (a window: matplotlib on the
       graph backend, MuJoCo's viewer on the physics; without a display the env raises
@@ -155,6 +169,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         observation_format: str = "dict",
         human_reward: str = "cooperation",
         turn_back: float = 0.0,
+        reward: str = "paper",
     ) -> None:
         if isinstance(turn_back, bool) or not isinstance(turn_back, int | float) or not (
                 0.0 <= turn_back <= 1.0):
@@ -176,7 +191,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
             check_display()
 
         self.graph = scenario_graph(scenario)
-        self.rules = EpisodeRules(self.graph, self.r0)
+        self.rules = EpisodeRules(self.graph, self.r0, reward)
         turn_state = preference_human(self.graph).turn_state
         self._episode: Episode = episode_backend(self.backend)(self.rules, turn_state,
                                                                **physics)

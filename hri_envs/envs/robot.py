@@ -66,6 +66,19 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
     motion the human counteracts, r0 when the robot waits while the human acts, -1 when the
     human waits and the state (pose and grasp) does not change, 0 otherwise.
 
+    Grasping and letting go are never counteracted and cost nothing: a robot can replace a
+    wait (r0) by a pointless grasp-and-release. On the wheel, at "on B, held by the human",
+    robot grasp + human let go pays 0 (``scenario_graph('wheel').reward(-0.25)[5, 1, 1]``)
+    and leads to "on B, held by the robot", where robot let go + human wait pays 0
+    (``[6, 1, 0]``) and ends the episode. With turning back possible, a robot that does not
+    see ι also pays one more r0 at the turning point even when the human does not turn (it
+    cannot rule the turn out earlier; routes without a halfway point escape this).
+    ``reward="no-free-toggle"`` (default ``"paper"``, the rule above) makes a robot grasp
+    toggle that the object's next motion does not need cost r0 like waiting: on a support
+    that is not a goal candidate only grasping is needed (the take-off needs both hands), on
+    a goal candidate only letting go (the object is to rest); see
+    :func:`hri_envs.task.episode.unneeded_toggle` and docs/task-model.md, "Reward".
+
     ## Starting State
 
     The object rests on a uniformly drawn start support with μ = 0, and ι is uniform among
@@ -104,6 +117,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
       ``reset`` draws a new human (preference, β, passive and turning-back rates) from it
       with the env's ``np_random``, replacing the human arguments above;
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
+    - ``reward``: ``"paper"`` (default) or ``"no-free-toggle"`` (see "Rewards");
     - ``max_cycles``: step limit per episode (default 100);
     - ``render_mode``: None, "ansi", "rgb_array" or "human" (a window; without a display
       :class:`~hri_envs.errors.DisplayUnavailableError` when built); ``render_intention``
@@ -146,6 +160,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         render_intention: bool = False,
         physics: dict[str, Any] | None = None,
         observation_format: str = "dict",
+        reward: str = "paper",
     ) -> None:
         (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
@@ -161,7 +176,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         self.human = make_human(self.graph, preference, human_passive, turn_back, human,
                                 human_rationality)
         self.population = None if population is None else population_spec(population, scenario)
-        self.rules = EpisodeRules(self.graph, self.r0)
+        self.rules = EpisodeRules(self.graph, self.r0, reward)
         self._episode: Episode = episode_backend(self.backend)(self.rules,
                                                                self.human.turn_state, **physics)
         self._sample_layout = scenario_spec(scenario).layout

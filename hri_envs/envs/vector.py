@@ -61,6 +61,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     ## Rewards
 
     (N,) float64, the robot cooperation reward R_R; 0 in the step that autoresets an env.
+    The rules, the free grasp/let-go and the ``reward="no-free-toggle"`` variant are the
+    single env's (:class:`~hri_envs.envs.robot.RobotEnv`, "Rewards").
 
     ## Starting State
 
@@ -85,7 +87,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
 
     - ``num_envs``: number of episodes N stepped together;
     - ``scenario``, ``preference``, ``human_passive``, ``turn_back``, ``human``,
-      ``human_rationality``, ``r0``, ``max_cycles``, ``backend``: as for
+      ``human_rationality``, ``r0``, ``max_cycles``, ``backend``, ``reward``: as for
       :class:`~hri_envs.envs.robot.RobotEnv` (every env shares one human; the per-reset
       ``population`` draw of the single env is not offered here);
     - ``render_mode``: must be None;
@@ -117,6 +119,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         render_mode: str | None = None,
         backend: str = "graph",
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        reward: str = "paper",
     ) -> None:
         try:
             mode = AutoresetMode(autoreset_mode)
@@ -146,7 +149,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self.graph = scenario_graph(scenario)
         self.human = make_human(self.graph, preference, human_passive, turn_back, human,
                                 human_rationality)
-        self.rules = EpisodeRules(self.graph, self.r0)
+        self.rules = EpisodeRules(self.graph, self.r0, reward)
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self.single_observation_space = robot_observation_space(n_s, n_k, n_a)
         self.single_action_space = spaces.Discrete(n_a)
@@ -250,6 +253,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         joint = r.index(s, a_r, a_h)
         s_next = np.take(r.next_state, joint)
         reward = np.take(r.reward, joint)
+        if r.reward_rule != "paper":
+            reward = r.adjust(reward, s, a_r, eps.start, eps.lifted)
         aborted = np.take(r.aborted, joint)
         invalid = ~np.take(r.valid, s * r.n_actions + a_r)
         terminated = eps.commit(s_next, a_h)

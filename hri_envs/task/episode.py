@@ -29,12 +29,14 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from hri_envs.errors import ConfigError
 from hri_envs.task.actions import ROBOT_BIT, TAKE_OFF, TOGGLE, WAIT
 
 if TYPE_CHECKING:
     from hri_envs.task.graph import TaskGraph
 
 __all__ = [
+    "REWARDS",
     "Decisions",
     "EpisodeBatch",
     "EpisodeRules",
@@ -51,7 +53,11 @@ __all__ = [
     "step_penalty",
     "step_reward",
     "turn_back",
+    "unneeded_toggle",
 ]
+
+#: The reward variants: "paper" (v0, the default) and "no-free-toggle" (see :func:`step_reward`).
+REWARDS: tuple[str, ...] = ("paper", "no-free-toggle")
 
 IntArray = np.ndarray | int
 
@@ -153,6 +159,24 @@ def step_penalty(
     return aborted | counteracted | idle  # type: ignore[no-any-return]
 
 
+def unneeded_toggle(
+    graph: TaskGraph, s: IntArray, a_r: IntArray, start: IntArray, lifted: np.ndarray | bool
+) -> np.ndarray:
+    """A robot grasp toggle that the object's next motion does not need (arrays broadcast).
+
+    On a support that is not a goal candidate (:func:`arrived` is False: the object must still
+    be taken off, which needs both hands) only *grasping* is needed; on a goal candidate
+    (the object is to rest there) only *letting go* is needed. Every other robot toggle (a
+    grasp at the goal, a let-go before take-off, any toggle in free space) is unneeded.
+    """
+    a_r = np.asarray(a_r)
+    holds = (graph.grasp[s] & ROBOT_BIT) > 0
+    on_support = graph.support[s] >= 0
+    goal = arrived(graph, s, start, lifted)
+    needed = on_support & np.where(goal, holds, ~holds)
+    return (a_r == TOGGLE) & ~needed  # type: ignore[no-any-return]
+
+
 def step_reward(
     graph: TaskGraph,
     s: IntArray,
@@ -160,15 +184,35 @@ def step_reward(
     a_h: IntArray,
     s_next: IntArray,
     r0: float,
+    *,
+    reward: str = "paper",
+    start: IntArray | None = None,
+    lifted: np.ndarray | bool = False,
 ) -> np.ndarray:
     """The robot cooperation reward R_R(s, a_R, a_H, s') in {-1, r0, 0}, arrays broadcast.
 
-    -1 for a :func:`step_penalty`, ``r0`` when the robot waited while the human acted, else
-    0. ``s_next`` is the state the object reached (the graph's prediction on the graph
+    ``reward="paper"`` (v0): -1 for a :func:`step_penalty`, ``r0`` when the robot waited
+    while the human acted, else 0. Grasping and letting go are never counteracted and cost
+    nothing, so a robot can replace a wait by a pointless grasp-and-release (on the wheel,
+    ``scenario_graph('wheel').reward(-0.25)[5, 1, 1]`` and ``[6, 1, 0]`` are both 0).
+
+    ``reward="no-free-toggle"``: as "paper", except that a robot toggle that is
+    :func:`unneeded_toggle` (given the episode's ``start`` and ``lifted`` flag *before* the
+    step) and not punished costs ``r0``, like waiting.
+
+    ``s_next`` is the state the object reached (the graph's prediction on the graph
     backend, the observed state on the physics backend).
     """
     penalty = step_penalty(graph, s, a_r, a_h, s_next)
     passive = (np.asarray(a_r) == WAIT) & (np.asarray(a_h) != WAIT)
+    if reward == "no-free-toggle":
+        if start is None:
+            raise ConfigError("reward 'no-free-toggle' needs the episode's start support",
+                              field="start")
+        passive = passive | unneeded_toggle(graph, s, a_r, start, lifted)
+    elif reward != "paper":
+        raise ConfigError(f"unknown reward {reward!r}; allowed: {', '.join(REWARDS)}",
+                          field="reward")
     return np.where(penalty, -1.0, np.where(passive, r0, 0.0))
 
 
@@ -239,6 +283,7 @@ class EpisodeRules:
     Args:
         graph: The task graph.
         r0: Robot reward for waiting while the human acts, in (-1, 0).
+        reward: The reward variant, one of :data:`REWARDS` (see :func:`step_reward`).
 
     Attributes:
         next_state: (S A A,) int64, ``next_state[(s A + a_R) A + a_H]``.
@@ -248,11 +293,17 @@ class EpisodeRules:
         action_mask: (S, A) int8, read-only rows of the observations' ``action_mask``.
         left: (S K,) bool, ``left[s K + start]``: :func:`left_start`.
         ends: (S K 2,) bool, ``ends[(s K + start) 2 + lifted]``: :func:`episode_over`.
+        unneeded: (S K 2,) bool, ``unneeded[(s K + start) 2 + lifted]``: a robot toggle
+            there is :func:`unneeded_toggle` (used by :meth:`adjust` under "no-free-toggle").
     """
 
-    def __init__(self, graph: TaskGraph, r0: float) -> None:
+    def __init__(self, graph: TaskGraph, r0: float, reward: str = "paper") -> None:
+        if reward not in REWARDS:
+            raise ConfigError(f"unknown reward {reward!r}; allowed: {', '.join(REWARDS)}",
+                              field="reward")
         self.graph = graph
         self.r0 = r0
+        self.reward_rule = reward
         n_s, n_a, n_k = graph.n_states, graph.n_actions, graph.n_intentions
         self.n_states, self.n_actions, self.n_supports = n_s, n_a, n_k
         self.next_state = graph.next_state.astype(np.int64).reshape(-1)
@@ -265,6 +316,10 @@ class EpisodeRules:
         ends = episode_over(graph, np.arange(n_s)[:, None, None], np.arange(n_k)[None, :, None],
                             np.array([False, True])[None, None, :])  # (S, K, 2)
         self.ends = np.ascontiguousarray(ends).reshape(-1)  # (S K 2,)
+        unneeded = unneeded_toggle(graph, np.arange(n_s)[:, None, None], TOGGLE,
+                                   np.arange(n_k)[None, :, None],
+                                   np.array([False, True])[None, None, :])
+        self.unneeded = np.ascontiguousarray(unneeded).reshape(-1)  # (S K 2,)
         for table in (self.next_state, self.reward, self.aborted, self.valid,
                       self.action_mask, self.left, self.ends):
             table.setflags(write=False)
@@ -275,6 +330,20 @@ class EpisodeRules:
         self.valid_list: list[bool] = self.valid.tolist()
         self.left_list: list[bool] = self.left.tolist()
         self.ends_list: list[bool] = self.ends.tolist()
+
+    def adjust(self, reward: np.ndarray | float, s: IntArray, a_r: IntArray, start: IntArray,
+               lifted: np.ndarray | bool) -> np.ndarray:
+        """Apply the reward variant to rewards of the "paper" rule (arrays broadcast).
+
+        Under "no-free-toggle" a robot toggle that scored 0 and is unneeded in the context
+        ``(s, start, lifted before the step)`` scores r0; under "paper" nothing changes.
+        """
+        if self.reward_rule == "paper":
+            return np.asarray(reward)
+        context = (np.asarray(s) * self.n_supports + start) * 2 + np.asarray(lifted, dtype=int)
+        costly = (np.asarray(a_r) == TOGGLE) & (np.asarray(reward) == 0.0) & np.take(
+            self.unneeded, context)
+        return np.where(costly, self.r0, reward)
 
     def index(self, s: IntArray, a_r: IntArray, a_h: IntArray) -> IntArray:
         """Flat index of ``(s, a_R, a_H)`` into the (S A A,) tables."""
