@@ -11,6 +11,7 @@ from hri_envs.bench.cli import main
 from hri_envs.bench.figures import make_figures
 from hri_envs.bench.play import play
 from hri_envs.bench.study import StudyConfig, run_study
+from hri_envs.envs.config import scenario_graph
 
 SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive", "runs",
                 "episodes", "seed", "wall_time_s", "agents"}
@@ -80,6 +81,10 @@ def test_table2_schedule_and_turning_back():
         (["study", "wheel", "--out", "x", "--executor", "slurm"], "choose from"),
         (["study", "wheel", "--out", "x", "--backend", "bullet"], "choose from"),
         (["study", "wheel"], "--out"),
+        (["study", "wheel", "--out", "x", "--physics-preset", "weak-human"],
+         "argument --physics-preset: backend='graph' takes no physics options"),
+        (["study", "wheel", "--out", "x", "--backend", "mujoco", "--physics-preset", "strong"],
+         "unknown physics preset 'strong'; allowed: weak-human, noisy-sensor"),
         (["figures", "--out", "x", "--only", "fig99"], "fig99"),
     ],
 )
@@ -100,9 +105,21 @@ def test_study_on_the_physics_backend(tmp_path):
     passive = summary["agents"]["passive"]
     assert passive["linear_impulse"]["mean"][0] > 0.0
     assert passive["graph_agrees"]["mean"][0] == 1.0
+    assert passive["inference_accuracy"]["mean"][0] > 0.0
+    assert passive["physical_fault"]["mean"][0] == 0.0
+    assert summary["physics_preset"] is None
     assert (out / "impulse.png").stat().st_size > 5_000
     with (out / "episodes.csv").open() as f:
         assert "linear_impulse" in next(csv.reader(f))
+
+
+def test_a_physics_preset_reaches_the_simulator():
+    from hri_envs.envs.backends import batch_backend
+    from hri_envs.physics.options import PRESETS
+
+    cfg = StudyConfig("hanger", backend="mujoco", physics_preset="noisy-sensor", runs=1)
+    batch = batch_backend("mujoco")(scenario_graph("hanger"), [0], 0, physics=cfg.physics)
+    assert batch.sim.params.sensor_noise_n == PRESETS["noisy-sensor"]["hanger"]["sensor_noise_n"]
 
 
 def test_user_agent_by_module_path(tmp_path):

@@ -84,6 +84,7 @@ _STUDY_ARGUMENTS = {
     "ray_address": "--ray-address",
     "backend": "--backend",
     "max_steps": "--max-steps",
+    "physics_preset": "--physics-preset",
 }
 
 
@@ -132,6 +133,9 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--backend", choices=BACKENDS, default="graph",
                        help="graph (abstract task graph) or mujoco (simulated Panda; slow: "
                             "about 0.2 s per step)")
+    study.add_argument("--physics-preset", default=None,
+                       help="named physics options of the backend (mujoco: "
+                            + ", ".join(BACKENDS["mujoco"].presets) + "; docs/physics.md)")
     study.add_argument("--max-steps", type=_positive, default=100,
                        help="step limit per episode (default 100)")
     study.add_argument("--out", required=True, type=Path, help="output directory")
@@ -186,7 +190,7 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             schedule=args.schedule, preference=args.preference, r0=args.r0,
             human_passive=args.human_passive, turn_back=args.turn_back, seed=args.seed,
             jobs=args.jobs, executor=executor, backend=args.backend, max_steps=args.max_steps,
-            ray_address=args.ray_address,
+            ray_address=args.ray_address, physics_preset=args.physics_preset,
         )
     except ConfigError as exc:
         _config_error(parser, exc, _STUDY_ARGUMENTS)

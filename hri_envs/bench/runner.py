@@ -13,9 +13,9 @@ simulated it.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -245,7 +245,10 @@ def run_episodes(
                 a_h = np.where(active, human(s, eps.start, eps.intention, a_r, active), WAIT)
                 step = backend.transition(s, a_r, a_h, active)
                 w = active.astype(float)
-                totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, r0)
+                reward = step_reward(graph, s, a_r, a_h, step.next_state, r0)
+                if step.penalty is not None:  # a physical failure: r⁻ (-1)
+                    reward = np.where(step.penalty, -1.0, reward)
+                totals["reward"] += w * reward
                 for key, judged in zip(("correct", "passive", "wrong"),
                                        classify(graph, s, a_r, a_h, step.next_state),
                                        strict=True):
@@ -287,6 +290,7 @@ def simulate(
     max_steps: int = 100,
     after_episode: Callable[[int, BatchAgent], None] | None = None,
     backend: str = "graph",
+    physics: Mapping[str, Any] | None = None,
 ) -> EpisodeMetrics:
     """Simulate ``schedule`` for a batch of runs with one agent and a scripted human.
 
@@ -301,6 +305,8 @@ def simulate(
         max_steps: Step limit per episode (the episode is truncated there).
         after_episode: Called as ``after_episode(e, agent)`` after each learning update.
         backend: A registered backend (:mod:`hri_envs.envs.backends`): "graph" or "mujoco".
+        physics: Validated ``physics`` options of the backend (e.g. ``{"preset":
+            "weak-human"}``); None or empty for its defaults.
 
     Returns:
         The episode metrics; ``extras`` holds the backend's per-episode figures (the
@@ -309,7 +315,7 @@ def simulate(
     n_b, n_e = schedule.start.shape
     if len(runs) != n_b:
         raise ConfigError(f"the schedule has {n_b} runs, runs= names {len(runs)}", field="runs")
-    sim = batch_backend(backend)(graph, runs, seed)
+    sim = batch_backend(backend)(graph, runs, seed, physics=physics)
     keys = ("reward", "correct", "passive", "wrong", "steps")
     out = {k: np.zeros((n_b, n_e)) for k in keys}
     extras = {k: np.zeros((n_b, n_e)) for k in sim.extras}

@@ -25,6 +25,7 @@ from hri_envs.bench.agents import BUILTIN_AGENTS, make_agent, validate_agent_nam
 from hri_envs.bench.results import StudyResult  # re-exported; shared with the plots
 from hri_envs.bench.runner import TABLE2, make_schedule, simulate
 from hri_envs.envs.backends import BACKENDS, batch_backend
+from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ConfigError
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import preference_human, preferences_for
@@ -90,6 +91,8 @@ class StudyConfig:
         max_steps: Step limit per episode.
         ray_address: Address of a Ray cluster (default: start Ray locally).
         probes: Policy entries to record per episode (for Figs. 8, 11, 12).
+        physics_preset: A named set of physics options of the backend (mujoco:
+            "weak-human", "noisy-sensor"; docs/physics.md); None for its defaults.
     """
 
     scenario: str
@@ -108,6 +111,7 @@ class StudyConfig:
     max_steps: int = 100
     ray_address: str | None = None
     probes: tuple[Probe, ...] = field(default_factory=tuple)
+    physics_preset: str | None = None
 
     def __post_init__(self) -> None:
         def bad(name: str, allowed: str) -> ConfigError:
@@ -145,6 +149,16 @@ class StudyConfig:
             raise bad("backend", f"one of {', '.join(BACKENDS)}")
         if self.max_steps < 1:
             raise bad("max_steps", ">= 1")
+        if self.physics_preset is not None:
+            try:
+                check_physics_options(self.physics, self.backend)
+            except ConfigError as exc:
+                raise ConfigError(str(exc), field="physics_preset") from None
+
+    @property
+    def physics(self) -> dict[str, Any]:
+        """The backend's ``physics`` options this study sets."""
+        return {} if self.physics_preset is None else {"preset": self.physics_preset}
 
     @property
     def n_episodes(self) -> int:
@@ -210,7 +224,8 @@ def _run_unit(unit: _Unit) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str,
 
     m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
                  r0=cfg.waiting_reward, max_steps=cfg.max_steps,
-                 after_episode=record if cfg.probes else None, backend=cfg.backend)
+                 after_episode=record if cfg.probes else None, backend=cfg.backend,
+                 physics=cfg.physics)
     metrics = {k: np.asarray(getattr(m, k), dtype=float) for k in METRICS}
     metrics.update({k: np.asarray(v, dtype=float) for k, v in m.extras.items()})
     sched = {"start": schedule.start, "goal": schedule.goal, "turn_back": schedule.turn_back}
@@ -318,6 +333,7 @@ def summarize(result: StudyResult) -> dict[str, Any]:
     return {
         "scenario": cfg.scenario,
         "backend": cfg.backend,
+        "physics_preset": cfg.physics_preset,
         "schedule": cfg.schedule,
         "preference": prefs[0] if len(prefs) == 1 else "all",
         "r0": cfg.waiting_reward,
