@@ -278,3 +278,48 @@ def test_ray_executor_gives_the_same_numbers():
     for agent, metrics in serial.metrics.items():
         for key, values in metrics.items():
             np.testing.assert_array_equal(values, on_ray.metrics[agent][key], err_msg=key)
+
+
+class _FailsOnSecondStep:
+    """A graph backend whose run 0 fails physically on its second step of every episode."""
+
+    def __new__(cls, graph, runs, seed, physics=None):
+        from hri_envs.envs.backends import BatchStep, GraphBatch
+
+        class Failing(GraphBatch):
+            def begin(self, rows, start):
+                self.t = 0
+                return super().begin(rows, start)
+
+            def transition(self, state, a_r, a_h, active):
+                step = super().transition(state, a_r, a_h, active)
+                self.t += 1
+                fail = np.zeros(len(state), dtype=bool)
+                fail[0] = self.t == 2
+                return BatchStep(step.next_state, step.human_seen, fail, {}, fail)
+
+        return Failing(graph, runs, seed, physics)
+
+
+def test_a_physical_failure_costs_r_minus_and_the_other_runs_go_on(monkeypatch):
+    from hri_envs.bench.agents import make_agent
+    from hri_envs.bench.runner import make_schedule, simulate
+    from hri_envs.envs import backends
+    from hri_envs.task.humans import preference_human
+
+    monkeypatch.setitem(backends.BACKENDS, "failing", backends.BackendSpec(
+        "failing", "hri_envs.envs.episode:Episode", "tests.test_bench:_FailsOnSecondStep"))
+    graph = scenario_graph("hanger")
+    human = preference_human(graph)
+    schedule = make_schedule(graph, "random", [0, 1], 2, 0)
+    kw = {"runs": [0, 1], "seed": 0, "r0": -0.33}
+    ok = simulate(graph, make_agent("passive", graph, human, [0, 1], seed=0, r0=-0.33), human,
+                  schedule, **kw)
+    bad = simulate(graph, make_agent("passive", graph, human, [0, 1], seed=0, r0=-0.33), human,
+                   schedule, backend="failing", **kw)
+    # Run 0 ends after its failed second step, which earns -1 instead of the graph's reward.
+    assert (bad.steps[0] == 2).all() and bad.truncated[0].all()
+    assert (bad.steps[1] == ok.steps[1]).all() and not bad.truncated[1].any()
+    np.testing.assert_allclose(bad.reward[1], ok.reward[1])
+    # Step 1: the human grasps while the robot waits (a grasp costs nothing); step 2: r⁻.
+    np.testing.assert_allclose(bad.reward[0], 0.0 - 1.0)
