@@ -14,7 +14,7 @@ from hri_envs.bench.study import StudyConfig, run_study
 from hri_envs.envs.config import scenario_graph
 
 SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive", "runs",
-                "episodes", "seed", "wall_time_s", "agents"}
+                "episodes", "seed", "wall_time_s", "agents", "physics_preset"}
 
 
 def test_study_writes_the_contracted_files(tmp_path, capsys):
