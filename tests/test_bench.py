@@ -11,13 +11,14 @@ from hri_envs.bench.cli import main
 from hri_envs.bench.figures import make_figures
 from hri_envs.bench.play import play
 from hri_envs.bench.study import StudyConfig, run_study
+from hri_envs.envs.config import scenario_graph
 from hri_envs.errors import ConfigError
 
 SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive",
                 "turn_back", "max_steps", "runs", "episodes", "seed", "version", "env_ids",
                 "settings", "agent_configs", "failed_agents", "agents", "human_rationality",
                 "population", "human_drift", "learner", "probability_of_improvement",
-                "reward_rule", "regret", "references"}
+                "reward_rule", "regret", "references", "physics_preset"}
 
 
 def test_study_writes_the_contracted_files(tmp_path, capsys):
@@ -91,6 +92,10 @@ def test_table2_schedule_and_turning_back():
         (["study", "wheel", "--out", "x", "--executor", "slurm"], "choose from"),
         (["study", "wheel", "--out", "x", "--backend", "bullet"], "choose from"),
         (["study", "wheel"], "--out"),
+        (["study", "wheel", "--out", "x", "--physics-preset", "weak-human"],
+         "argument --physics-preset: backend='graph' takes no physics options"),
+        (["study", "wheel", "--out", "x", "--backend", "mujoco", "--physics-preset", "strong"],
+         "unknown physics preset 'strong'; allowed: weak-human, noisy-sensor"),
         (["figures", "--out", "x", "--only", "fig99"], "fig99"),
     ],
 )
@@ -111,9 +116,21 @@ def test_study_on_the_physics_backend(tmp_path):
     passive = summary["agents"]["passive"]
     assert passive["linear_impulse"]["mean"][0] > 0.0
     assert passive["graph_agrees"]["mean"][0] == 1.0
+    assert passive["inference_accuracy"]["mean"][0] > 0.0
+    assert passive["physical_fault"]["mean"][0] == 0.0
+    assert summary["physics_preset"] is None
     assert (out / "impulse.png").stat().st_size > 5_000
     with (out / "episodes.csv").open() as f:
         assert "linear_impulse" in next(csv.reader(f))
+
+
+def test_a_physics_preset_reaches_the_simulator():
+    from hri_envs.envs.backends import batch_backend
+    from hri_envs.physics.options import PRESETS
+
+    cfg = StudyConfig("hanger", backend="mujoco", physics_preset="noisy-sensor", runs=1)
+    batch = batch_backend("mujoco")(scenario_graph("hanger"), [0], 0, physics=cfg.physics)
+    assert batch.sim.params.sensor_noise_n == PRESETS["noisy-sensor"]["hanger"]["sensor_noise_n"]
 
 
 def test_user_agent_by_module_path(tmp_path):
@@ -265,3 +282,48 @@ def test_ray_executor_gives_the_same_numbers():
     for agent, metrics in serial.metrics.items():
         for key, values in metrics.items():
             np.testing.assert_array_equal(values, on_ray.metrics[agent][key], err_msg=key)
+
+
+class _FailsOnSecondStep:
+    """A graph backend whose run 0 fails physically on its second step of every episode."""
+
+    def __new__(cls, graph, runs, seed, physics=None):
+        from hri_envs.envs.backends import BatchStep, GraphBatch
+
+        class Failing(GraphBatch):
+            def begin(self, rows, start):
+                self.t = 0
+                return super().begin(rows, start)
+
+            def transition(self, state, a_r, a_h, active):
+                step = super().transition(state, a_r, a_h, active)
+                self.t += 1
+                fail = np.zeros(len(state), dtype=bool)
+                fail[0] = self.t == 2
+                return BatchStep(step.next_state, step.human_seen, fail, {}, fail)
+
+        return Failing(graph, runs, seed, physics)
+
+
+def test_a_physical_failure_costs_r_minus_and_the_other_runs_go_on(monkeypatch):
+    from hri_envs.bench.agents import make_agent
+    from hri_envs.bench.runner import make_schedule, simulate
+    from hri_envs.envs import backends
+    from hri_envs.task.humans import preference_human
+
+    monkeypatch.setitem(backends.BACKENDS, "failing", backends.BackendSpec(
+        "failing", "hri_envs.envs.episode:Episode", "tests.test_bench:_FailsOnSecondStep"))
+    graph = scenario_graph("hanger")
+    human = preference_human(graph)
+    schedule = make_schedule(graph, "random", [0, 1], 2, 0)
+    kw = {"runs": [0, 1], "seed": 0, "r0": -0.33}
+    ok = simulate(graph, make_agent("passive", graph, human, [0, 1], seed=0, r0=-0.33), human,
+                  schedule, **kw)
+    bad = simulate(graph, make_agent("passive", graph, human, [0, 1], seed=0, r0=-0.33), human,
+                   schedule, backend="failing", **kw)
+    # Run 0 ends after its failed second step, which earns -1 instead of the graph's reward.
+    assert (bad.steps[0] == 2).all() and bad.truncated[0].all()
+    assert (bad.steps[1] == ok.steps[1]).all() and not bad.truncated[1].any()
+    np.testing.assert_allclose(bad.reward[1], ok.reward[1])
+    # Step 1: the human grasps while the robot waits (a grasp costs nothing); step 2: r⁻.
+    np.testing.assert_allclose(bad.reward[0], 0.0 - 1.0)

@@ -26,7 +26,7 @@ NAMED = {
     "grasp_close_time_s": 0.2,
     "release_retreat_time_limit_s": 3.0,
     "reset_grip_ik_error_max_m": 5e-3,
-    "reset_pregrasp_ik_error_max_m": 0.02,
+    "reset_pregrasp_ik_error_max_m": 0.03,  # 0.02 left the hanger unservable on C
     "ik_error_max_m": 0.03,
     "ik_error_time_max_s": 0.5,
     "settle_vel_sq_max_m2_s2": 1e-4,

@@ -108,6 +108,7 @@ _STUDY_ARGUMENTS = {
     "population": "--population",
     "human_drift": "--human-drift",
     "reward": "--reward",
+    "physics_preset": "--physics-preset",
 }
 
 
@@ -157,6 +158,9 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--backend", choices=BACKENDS, default="graph",
                        help="graph (abstract task graph) or mujoco (simulated Panda; slow: "
                             "about 0.2 s per step)")
+    study.add_argument("--physics-preset", default=None,
+                       help="named physics options of the backend (mujoco: "
+                            + ", ".join(BACKENDS["mujoco"].presets) + "; docs/physics.md)")
     study.add_argument("--max-steps", type=_positive, default=100,
                        help="step limit per episode (default 100)")
     study.add_argument("--reward", choices=REWARDS, default="paper",
@@ -269,7 +273,7 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
             backend=args.backend, max_steps=args.max_steps,
             human_rationality=args.human_rationality, population=args.population,
             human_drift=args.human_drift, learner=tuple(sorted(learner.items())),
-            reward=args.reward, **execution,
+            reward=args.reward, physics_preset=args.physics_preset, **execution,
         )
     given = [flag for field, flag in _STUDY_ARGUMENTS.items()
              if field not in EXECUTION_FIELDS and field != "scenario"

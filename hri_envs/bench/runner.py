@@ -13,9 +13,9 @@ simulated it.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -316,9 +316,11 @@ def run_episodes(
                 a_h = np.where(active, human(s, eps.start, eps.intention, a_r, active), WAIT)
                 step = backend.transition(s, a_r, a_h, active)
                 w = active.astype(float)
-                totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, r0,
-                                                    reward=reward, start=eps.start,
-                                                    lifted=eps.lifted)
+                reward_step = step_reward(graph, s, a_r, a_h, step.next_state, r0,
+                                          reward=reward, start=eps.start, lifted=eps.lifted)
+                if step.penalty is not None:  # a physical failure: r⁻ (-1)
+                    reward_step = np.where(step.penalty, -1.0, reward_step)
+                totals["reward"] += w * reward_step
                 for key, judged in zip(("correct", "passive", "wrong"),
                                        classify(graph, s, a_r, a_h, step.next_state),
                                        strict=True):
@@ -379,6 +381,7 @@ def simulate(
     after_episode: Callable[[int, BatchAgent], None] | None = None,
     backend: str = "graph",
     reward: str = "paper",
+    physics: Mapping[str, Any] | None = None,
 ) -> EpisodeMetrics:
     """Simulate ``schedule`` for a batch of runs with one agent and a scripted human.
 
@@ -396,6 +399,8 @@ def simulate(
         after_episode: Called as ``after_episode(e, agent)`` after each learning update.
         backend: A registered backend (:mod:`hri_envs.envs.backends`): "graph" or "mujoco".
         reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
+        physics: Validated ``physics`` options of the backend (e.g. ``{"preset":
+            "weak-human"}``); None or empty for its defaults.
 
     Returns:
         The episode metrics; ``extras`` holds the backend's per-episode figures (the
@@ -404,7 +409,7 @@ def simulate(
     n_b, n_e = schedule.start.shape
     if len(runs) != n_b:
         raise ConfigError(f"the schedule has {n_b} runs, runs= names {len(runs)}", field="runs")
-    sim = batch_backend(backend)(graph, runs, seed)
+    sim = batch_backend(backend)(graph, runs, seed, physics=physics)
     keys = ("reward", "correct", "passive", "wrong", "steps")
     out = {k: np.zeros((n_b, n_e)) for k in keys}
     extras = {k: np.zeros((n_b, n_e)) for k in sim.extras}

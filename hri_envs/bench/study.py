@@ -38,6 +38,7 @@ from hri_envs.bench.regret import REFERENCES, blind_values
 from hri_envs.bench.results import StudyResult  # re-exported; shared with the plots
 from hri_envs.bench.runner import TABLE2, ScriptedHumans, make_schedule, simulate
 from hri_envs.envs.backends import BACKENDS, batch_backend
+from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ActionError, BackendUnavailableError, ConfigError
 from hri_envs.task.episode import REWARDS
 from hri_envs.task.graph import TaskGraph
@@ -128,6 +129,8 @@ class StudyConfig:
         reward: The reward variant, "paper" (v0) or "no-free-toggle" (a robot grasp toggle
             that the object's next motion does not need costs r0; see
             :func:`hri_envs.task.episode.step_reward`).
+        physics_preset: A named set of physics options of the backend (mujoco:
+            "weak-human", "noisy-sensor"; docs/physics.md); None for its defaults.
     """
 
     scenario: str
@@ -151,6 +154,7 @@ class StudyConfig:
     human_drift: int | None = None
     learner: tuple[tuple[str, Any], ...] = ()
     reward: str = "paper"
+    physics_preset: str | None = None
 
     def __post_init__(self) -> None:
         def bad(name: str, allowed: str) -> ConfigError:
@@ -201,11 +205,21 @@ class StudyConfig:
             default_config(self.scenario, **dict(self.learner))
         if self.reward not in REWARDS:
             raise bad("reward", f"one of {', '.join(REWARDS)}")
+        if self.physics_preset is not None:
+            try:
+                check_physics_options(self.physics, self.backend)
+            except ConfigError as exc:
+                raise ConfigError(str(exc), field="physics_preset") from None
 
     @property
     def per_run_humans(self) -> bool:
         """Whether runs have humans of their own (a population or a drifting human)."""
         return self.population is not None or self.human_drift is not None
+
+    @property
+    def physics(self) -> dict[str, Any]:
+        """The backend's ``physics`` options this study sets."""
+        return {} if self.physics_preset is None else {"preset": self.physics_preset}
 
     @property
     def n_episodes(self) -> int:
@@ -377,7 +391,7 @@ def _run_unit(unit: _Unit) -> UnitResult:
         m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
                      r0=cfg.waiting_reward, max_steps=cfg.max_steps,
                      after_episode=record if cfg.probes else None, backend=cfg.backend,
-                     reward=cfg.reward)
+                     reward=cfg.reward, physics=cfg.physics)
     except ActionError as exc:
         raise ActionError(f"agent {unit.agent!r}: {exc}") from exc
     metrics = {k: np.asarray(getattr(m, k), dtype=float) for k in METRICS}
@@ -596,6 +610,7 @@ def summarize(result: StudyResult) -> dict[str, Any]:
     return {
         "scenario": cfg.scenario,
         "backend": cfg.backend,
+        "physics_preset": cfg.physics_preset,
         "schedule": cfg.schedule,
         # With a population each run has its own human (see episodes.csv).
         "preference": None if cfg.population else prefs[0] if len(prefs) == 1 else "all",

@@ -17,7 +17,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, NamedTuple
 
@@ -29,6 +29,7 @@ from hri_envs.task.graph import TaskGraph
 
 __all__ = [
     "BACKENDS",
+    "PHYSICS_PARAMETERS",
     "BackendSpec",
     "BatchBackend",
     "BatchStep",
@@ -53,6 +54,7 @@ class BackendSpec:
         extra: The ``hri-envs`` extra that installs them.
         vectorizable: The numpy vector env can run it (only table look-ups can).
         options: Keys its Episode accepts as ``physics={...}`` options.
+        presets: Names ``physics={"preset": ...}`` (and ``--physics-preset``) accepts.
     """
 
     name: str
@@ -62,7 +64,22 @@ class BackendSpec:
     extra: str | None = None
     vectorizable: bool = False
     options: tuple[str, ...] = ()
+    presets: tuple[str, ...] = ()
 
+
+#: The mujoco backend's numeric physics options: key -> (unit, must be > 0 rather than
+#: >= 0, meaning). Their defaults are the scenario's design (docs/physics.md).
+PHYSICS_PARAMETERS: dict[str, tuple[str, bool, str]] = {
+    "human_stiffness": ("N/m", True, "the human's arm stiffness"),
+    "human_force": ("N", True, "the most force the human applies"),
+    "human_noise": ("N", False, "std of the human's force noise"),
+    "human_delay_s": ("s", False, "the human's reaction delay"),
+    "sensor_noise_n": ("N", False, "std of the wrist sensor's noise per control step"),
+    "sensor_bias_n": ("N", False, "magnitude of the wrist sensor's bias"),
+    "sensor_delay_s": ("s", False, "delay of the wrist sensor"),
+    "object_mass": ("kg", True, "the object's true mass"),
+    "hold_force": ("N", False, "the supports' detent force"),
+}
 
 BACKENDS: dict[str, BackendSpec] = {}
 
@@ -77,7 +94,9 @@ register_backend(BackendSpec("graph", "hri_envs.envs.episode:Episode",
 register_backend(BackendSpec("mujoco", "hri_envs.physics.episode:PhysicsEpisode",
                              "hri_envs.physics.batch:PhysicsBatch",
                              requires=("mujoco", "mink", "gymnasium_robotics"), extra="mujoco",
-                             options=("video_path", "video_fps")))
+                             options=("video_path", "video_fps", "preset", "randomize",
+                                      *PHYSICS_PARAMETERS),
+                             presets=("weak-human", "noisy-sensor")))
 
 
 def backend_spec(name: str) -> BackendSpec:
@@ -124,12 +143,15 @@ class BatchStep(NamedTuple):
         human_seen: (B,) int, the human's action as the robot observes it.
         fault: (B,) bool, the run cannot go on (it is truncated), or None for no faults.
         extras: Per-run figures of this step, (B,) each, keyed as :attr:`BatchBackend.extras`.
+        penalty: (B,) bool, the step failed physically (the object dropped, ...) and earns
+            r⁻ whatever the graph says; None for never.
     """
 
     next_state: np.ndarray
     human_seen: np.ndarray
     fault: np.ndarray | None
     extras: dict[str, np.ndarray]
+    penalty: np.ndarray | None = None
 
 
 class BatchBackend(ABC):
@@ -140,6 +162,8 @@ class BatchBackend(ABC):
         runs: The run indices of the batch (a backend's random streams derive from
             ``(seed, run, ...)`` only, so numbers do not depend on the batching).
         seed: The study's base seed.
+        physics: Validated ``physics`` options (:func:`hri_envs.envs.config.
+            check_physics_options`); a backend without options gets none.
     """
 
     #: Per-episode figures the backend adds to the metrics (summed over the steps).
@@ -147,8 +171,10 @@ class BatchBackend(ABC):
     #: Those of :attr:`extras` reported as a mean per step rather than a sum.
     step_means: ClassVar[tuple[str, ...]] = ()
 
-    def __init__(self, graph: TaskGraph, runs: Sequence[int] | np.ndarray, seed: int) -> None:
+    def __init__(self, graph: TaskGraph, runs: Sequence[int] | np.ndarray, seed: int,
+                 physics: Mapping[str, Any] | None = None) -> None:
         self.graph = graph
+        self.physics = dict(physics or {})
         self.runs = np.asarray(runs, dtype=np.int64)
         self.seed = int(seed)
 

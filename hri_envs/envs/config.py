@@ -12,7 +12,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from hri_envs.envs.backends import BACKENDS, backend_spec, check_backend
+from hri_envs.envs.backends import BACKENDS, PHYSICS_PARAMETERS, backend_spec, check_backend
 from hri_envs.errors import ConfigError
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
@@ -109,22 +109,67 @@ def check_env_settings(
 
 
 def check_physics_options(physics: Mapping[str, Any] | None, backend: str) -> dict[str, Any]:
-    """Validate the ``physics`` options against what ``backend`` accepts."""
+    """Validate the ``physics`` options against what ``backend`` accepts.
+
+    The keys are the backend's :attr:`~hri_envs.envs.backends.BackendSpec.options`:
+    ``video_path``, ``video_fps``, ``preset`` (one of its ``presets``), ``randomize``
+    (a mapping of numeric keys to ``(low, high)``) and the numeric
+    :data:`~hri_envs.envs.backends.PHYSICS_PARAMETERS` (docs/physics.md).
+    """
     if not physics:
         return {}
     allowed = backend_spec(backend).options
     if not allowed:
         takes = [name for name, spec in BACKENDS.items() if spec.options]
         raise ConfigError(f"backend={backend!r} takes no physics options; backends that do: "
-                          f"{', '.join(takes)}")
+                          f"{', '.join(takes)}", field="physics")
     unknown = sorted(set(physics) - set(allowed))
     if unknown:
         raise ConfigError(f"unknown physics option(s) {', '.join(map(repr, unknown))}; "
-                          f"allowed: {', '.join(allowed)}")
+                          f"allowed: {', '.join(allowed)}", field="physics")
     fps = physics.get("video_fps", 10.0)
     if isinstance(fps, bool) or not isinstance(fps, int | float) or not fps > 0:
-        raise ConfigError(f"physics option 'video_fps' must be a positive number, got {fps!r}")
+        raise ConfigError(f"physics option 'video_fps' must be a positive number, got {fps!r}",
+                          field="physics")
+    presets = backend_spec(backend).presets
+    if physics.get("preset") is not None and physics["preset"] not in presets:
+        raise ConfigError(f"unknown physics preset {physics['preset']!r}; allowed: "
+                          f"{', '.join(presets)}", field="physics")
+    params = [k for k in allowed if k in PHYSICS_PARAMETERS]
+    for key in params:
+        if key in physics:
+            _check_parameter(key, physics[key], f"physics option {key!r}")
+    randomize = physics.get("randomize")
+    if randomize is not None:
+        if not isinstance(randomize, Mapping):
+            raise ConfigError(f"physics option 'randomize' must map option names to (low, "
+                              f"high) ranges, got {randomize!r}", field="physics")
+        bad = sorted(set(randomize) - set(params))
+        if bad:
+            raise ConfigError(f"cannot randomize {', '.join(map(repr, bad))}; allowed: "
+                              f"{', '.join(params)}", field="physics")
+        for key, span in randomize.items():
+            if not isinstance(span, tuple | list) or len(span) != 2:
+                raise ConfigError(f"randomize[{key!r}] must be a (low, high) pair, got "
+                                  f"{span!r}", field="physics")
+            lo = _check_parameter(key, span[0], f"randomize[{key!r}] low")
+            hi = _check_parameter(key, span[1], f"randomize[{key!r}] high")
+            if lo > hi:
+                raise ConfigError(f"randomize[{key!r}] must have low <= high, got {span!r}",
+                                  field="physics")
     return dict(physics)
+
+
+def _check_parameter(key: str, value: Any, label: str) -> float:
+    """A numeric physics parameter: finite and > 0 or >= 0 as its entry says."""
+    unit, positive, _ = PHYSICS_PARAMETERS[key]
+    ok = isinstance(value, int | float | np.floating) and not isinstance(value, bool)
+    number = float(value) if ok else math.nan
+    if not (math.isfinite(number) and (number > 0.0 if positive else number >= 0.0)):
+        bound = "> 0" if positive else ">= 0"
+        raise ConfigError(f"{label} must be a number {bound} [{unit}], got {value!r}",
+                          field="physics")
+    return number
 
 
 def make_human(

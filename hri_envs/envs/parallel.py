@@ -138,10 +138,17 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
       simulated Franka Panda, :mod:`hri_envs.physics`: both agents' actions are executed
       physically, the next state is the closest abstract state, and the robot's
       ``"last_human_action"`` is the action it *infers* from the transition; ``info``
-      carries the step's interaction impulses, duration and whether physics and graph
-      agree; a simulation fault truncates the episode with ``info["truncation_reason"]``);
-    - ``physics``: options of the mujoco backend, e.g. ``{"video_path": "ep{episode}.gif",
-      "video_fps": 10}`` to record every episode;
+      carries the step's interaction impulses (sensed at the wrist, and ``*_true``),
+      duration, ``"graph_agrees"``, ``"human_action_inferred"``/``"human_action_true"``
+      and ``"fault"``; a fault truncates the episode with ``info["truncation_reason"]``,
+      a physical one (``dropped``, ``grasp_failed``, ``pulled_out``, ``off_support``)
+      with reward r⁻);
+    - ``physics``: options of the mujoco backend (docs/physics.md): ``video_path``,
+      ``video_fps``, ``preset`` ("weak-human", "noisy-sensor"), ``randomize``
+      (``{key: (low, high)}`` per episode) and the parameters ``human_stiffness`` [N/m],
+      ``human_force`` [N], ``human_noise`` [N], ``human_delay_s``, ``sensor_noise_n``,
+      ``sensor_bias_n``, ``sensor_delay_s``, ``object_mass`` [kg], ``hold_force`` [N];
+      e.g. ``{"video_path": "ep{episode}.gif", "video_fps": 10}`` records every episode;
     - ``render_intention``: show ι in renderings (default hidden).
 
     ## Version History

@@ -128,9 +128,14 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
       ``hri_envs/HangerPanda-v0`` and ``hri_envs/WheelPanda-v0``). Both agents' actions are
       executed physically; the next state is the closest abstract state; the observed
       ``"last_human_action"`` is the action the robot *infers*; ``info`` carries the step's
-      interaction impulses, duration and whether physics and graph agree; a simulation
-      fault truncates the episode with ``info["truncation_reason"]``;
-    - ``physics``: options of the mujoco backend, e.g. ``{"video_path": "ep{episode}.gif"}``.
+      interaction impulses (sensed, and ``*_true``), duration, ``"graph_agrees"``,
+      ``"human_action_inferred"``/``"human_action_true"`` and ``"fault"``; a fault
+      truncates the episode with ``info["truncation_reason"]``, a physical one with r⁻;
+    - ``physics``: options of the mujoco backend (docs/physics.md): ``video_path``,
+      ``video_fps``, ``preset`` ("weak-human", "noisy-sensor"), ``randomize`` and the
+      parameters ``human_stiffness``, ``human_force``, ``human_noise``, ``human_delay_s``,
+      ``sensor_noise_n``, ``sensor_bias_n``, ``sensor_delay_s``, ``object_mass``,
+      ``hold_force``; e.g. ``{"preset": "weak-human"}``.
 
     The human draws from its own generator, seeded from the env's ``np_random`` at every
     reset, so ``reset(seed=...)`` reproduces the episode.

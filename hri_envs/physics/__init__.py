@@ -9,6 +9,8 @@ module             contents
 ``kinematics``     poses, quaternions, straight-line minimum-jerk trajectories
 ``ik``             mink (daqp) differential IK for the reference configurations
 ``controller``     Cartesian impedance + null space + DAVI (disagreement-aware)
+``sensing``        the wrist force/torque sensor: compensation, noise, bias, delay
+``options``        ``physics={...}`` options, presets and per-episode randomisation
 ``human``          the simulated human's saturating spring-damper on the handle
 ``seats``          supports as unilateral seats (hook, peg, plate)
 ``observer``       closest abstract state, human-action inference

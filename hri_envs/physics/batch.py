@@ -11,14 +11,14 @@ force noise from ``(seed, r, 3)``, the wheel's stand layouts from ``(seed, r, 4)
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import ClassVar
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar
 
 import numpy as np
 
 from hri_envs.envs.backends import BatchBackend, BatchStep
 from hri_envs.physics.ik import IKFailure
-from hri_envs.physics.sim import PandaSim
+from hri_envs.physics.sim import PHYSICAL_FAULTS, PandaSim
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import episode_scenario, scenario_spec
 
@@ -29,19 +29,28 @@ class PhysicsBatch(BatchBackend):
     """Runs simulated on the Panda, one run at a time.
 
     The per-episode extras are ``linear_impulse`` [N s] and ``angular_impulse`` [N m s]
-    (the human's interaction wrench integrated over the episode, paper Fig. 6),
-    ``duration_s`` (simulated seconds) and ``graph_agrees`` (the fraction of the episode's
-    steps whose observed next state is the graph's prediction). A simulation fault, or a
-    start the robot cannot reach, truncates the run's episode.
+    (the human's interaction wrench as the wrist sensor sees it, integrated over the
+    episode, paper Fig. 6), ``linear_impulse_true`` (the same from the true wrench),
+    ``duration_s`` (simulated seconds), ``graph_agrees`` (the fraction of the episode's
+    steps whose observed next state is the graph's prediction), ``inference_accuracy``
+    (the fraction whose inferred human action is the true one) and ``physical_fault``
+    (1 if the episode ended in a physical failure, which earns that step r⁻). Any fault, or
+    a start the robot cannot reach, truncates the run's episode.
+
+    Args:
+        graph, runs, seed: As :class:`BatchBackend`.
+        physics: Validated ``physics`` options (e.g. ``{"preset": "weak-human"}``).
     """
 
-    extras: ClassVar[tuple[str, ...]] = ("linear_impulse", "angular_impulse", "duration_s",
-                                         "graph_agrees")
-    step_means: ClassVar[tuple[str, ...]] = ("graph_agrees",)
+    extras: ClassVar[tuple[str, ...]] = ("linear_impulse", "angular_impulse",
+                                         "linear_impulse_true", "duration_s", "graph_agrees",
+                                         "inference_accuracy", "physical_fault")
+    step_means: ClassVar[tuple[str, ...]] = ("graph_agrees", "inference_accuracy")
 
-    def __init__(self, graph: TaskGraph, runs: Sequence[int] | np.ndarray, seed: int) -> None:
-        super().__init__(graph, runs, seed)
-        self.sim = PandaSim(graph)
+    def __init__(self, graph: TaskGraph, runs: Sequence[int] | np.ndarray, seed: int,
+                 physics: Mapping[str, Any] | None = None) -> None:
+        super().__init__(graph, runs, seed, physics)
+        self.sim = PandaSim(graph, options=self.physics)
         self._noise = [np.random.default_rng([self.seed, int(r), 3]) for r in self.runs]
         self._layouts = [np.random.default_rng([self.seed, int(r), 4]) for r in self.runs]
         self._sample_layout = scenario_spec(graph.name).layout
@@ -66,13 +75,18 @@ class PhysicsBatch(BatchBackend):
         """Simulate the joint action of the one active run."""
         next_state, seen = state.copy(), np.zeros_like(a_h)
         fault = np.zeros(len(state), dtype=bool)
+        penalty = np.zeros(len(state), dtype=bool)
         extras = {k: np.zeros(len(state)) for k in self.extras}
         for i in np.flatnonzero(active):
             res = self.sim.step(int(state[i]), int(a_r[i]), int(a_h[i]))
             next_state[i], seen[i], fault[i] = res.state, res.human_action, res.fault is not None
+            penalty[i] = res.fault_kind in PHYSICAL_FAULTS
             for key, value in (("linear_impulse", res.linear_impulse),
                                ("angular_impulse", res.angular_impulse),
+                               ("linear_impulse_true", res.linear_impulse_true),
                                ("duration_s", res.duration),
-                               ("graph_agrees", res.graph_agrees)):
+                               ("graph_agrees", res.graph_agrees),
+                               ("inference_accuracy", res.human_action == a_h[i]),
+                               ("physical_fault", penalty[i])):
                 extras[key][i] = value
-        return BatchStep(next_state, seen, fault, extras)
+        return BatchStep(next_state, seen, fault, extras, penalty)

@@ -133,6 +133,16 @@ class PhysicsDesign:
             its exit direction.
         seat_capture_angle_rad: ... and within this angle of the seat's orientation.
         seat_fade_m: The seat force fades out over this last stretch of the capture region.
+        sensor_noise_n, sensor_bias_n, sensor_delay_s: The wrist sensor's white noise
+            (std per control step), constant bias and delay (:mod:`~hri_envs.physics.sensing`).
+        sensor_torque_lever_m: Torque noise and bias are the force's times this lever.
+        human_delay_s: The human's reaction delay before a reach starts.
+        grasp_tolerance_m, grasp_tolerance_rad: The hand closes on the grip only within this
+            distance and angle of it; else the grasp fails (fault ``grasp_failed``).
+        grip_hold_force_n: External force on the held object beyond which the grasp slips
+            (fault ``pulled_out``) once it lasts ``grip_overload_time_s``.
+        drop_margin_m: An object this far below the lowest abstract state, or touching the
+            floor, has dropped (fault ``dropped``).
     """
 
     scenario: str
@@ -182,7 +192,7 @@ class PhysicsDesign:
     release_retreat_time_limit_s: float = 3.0
     # IK (PandaSim.reset, _run): error = position [m] + 0.1 m/rad x orientation [rad].
     reset_grip_ik_error_max_m: float = 5e-3
-    reset_pregrasp_ik_error_max_m: float = 0.02
+    reset_pregrasp_ik_error_max_m: float = 0.03
     ik_error_max_m: float = 0.03
     ik_error_time_max_s: float = 0.5
     # Settling, faults and bookkeeping of the physics loop (PandaSim._run, step).
@@ -194,6 +204,19 @@ class PhysicsDesign:
     diverged_qvel_max: float = 50.0  # [m/s or rad/s]
     stability_check_every_steps: int = 50
     platform_update_every_steps: int = 25
+    # The wrist force/torque sensor (sensing.SensorModel) and the human's reaction delay
+    # (defaults of the physics options, hri_envs.physics.options).
+    sensor_noise_n: float = 0.05
+    sensor_bias_n: float = 0.0
+    sensor_delay_s: float = 0.0
+    sensor_torque_lever_m: float = 0.1
+    human_delay_s: float = 0.0
+    # Physical failures (PandaSim.step, _run, _robot_toggle).
+    grasp_tolerance_m: float = 0.015
+    grasp_tolerance_rad: float = 0.25
+    grip_hold_force_n: float = 60.0
+    grip_overload_time_s: float = 0.05
+    drop_margin_m: float = 0.15
     # Human action inference (infer_human_action).
     human_work_min_j: float = 0.05
     # Disagreement-aware variable impedance (Disagreement).

@@ -6,8 +6,9 @@ shared episode rules (:mod:`hri_envs.task.episode`, applied by
 :class:`~hri_envs.envs.episode.Episode`); this class only overrides the backend hooks. The
 transition is :meth:`PandaSim.step`; the reward is judged on the observed next state and
 the simulated human's true action; the robot observes the *inferred* human action. A
-simulation fault (unstable physics, IK failure, time-out) is reported in :attr:`fault`; the
-envs then truncate the episode.
+fault is reported in :attr:`fault`; the envs then truncate the episode. A physical failure
+(:data:`~hri_envs.physics.sim.PHYSICAL_FAULTS`: the object dropped, a grasp failed, it was
+pulled out of the grip or ended off every state) earns that step the graph's penalty r⁻.
 """
 
 from __future__ import annotations
@@ -18,12 +19,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from hri_envs.envs.episode import Episode
+from hri_envs.envs.episode import Episode, Transition
 from hri_envs.envs.window import check_display
 from hri_envs.errors import DisplayUnavailableError
 from hri_envs.physics.ik import IKFailure
 from hri_envs.physics.rendering import SceneRenderer, write_video
-from hri_envs.physics.sim import PandaSim, StepResult
+from hri_envs.physics.sim import PHYSICAL_FAULTS, PandaSim, StepResult
 from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import EpisodeRules
 from hri_envs.task.scenarios import episode_scenario
@@ -35,17 +36,21 @@ __all__ = ["EpisodeTotals", "PhysicsEpisode"]
 class EpisodeTotals:
     """Physical figures summed over the steps of an episode."""
 
-    linear_impulse: float = 0.0  # [N s] ∫ |F_human| dt
-    angular_impulse: float = 0.0  # [N m s] ∫ |τ_human| dt
+    linear_impulse: float = 0.0  # [N s] ∫ |F_sensed| dt
+    angular_impulse: float = 0.0  # [N m s] ∫ |τ_sensed| dt
+    linear_impulse_true: float = 0.0  # [N s] ∫ |F_human| dt
     duration_s: float = 0.0  # simulated seconds
     agreeing_steps: int = 0  # steps whose observed next state is the graph's prediction
+    inferred_steps: int = 0  # steps whose inferred human action is the true one
 
-    def add(self, res: StepResult) -> None:
-        """Add one step's figures."""
+    def add(self, res: StepResult, human_true: int) -> None:
+        """Add one step's figures (``human_true``: the human's true action)."""
         self.linear_impulse += res.linear_impulse
         self.angular_impulse += res.angular_impulse
+        self.linear_impulse_true += res.linear_impulse_true
         self.duration_s += res.duration
         self.agreeing_steps += int(res.graph_agrees)
+        self.inferred_steps += int(res.human_action == human_true)
 
 
 class PhysicsEpisode(Episode):
@@ -58,6 +63,8 @@ class PhysicsEpisode(Episode):
             ``{episode}`` field in the path is filled with the episode count); ``.gif``
             needs nothing more, other suffixes imageio-ffmpeg.
         video_fps: Frames per simulated second in the video.
+        **options: The other ``physics`` options (``preset``, ``randomize`` and the
+            parameters of :mod:`hri_envs.physics.options`), validated by the env.
 
     Attributes:
         sim: The simulation.
@@ -68,8 +75,9 @@ class PhysicsEpisode(Episode):
     name: ClassVar[str] = "mujoco"
 
     def __init__(self, rules: EpisodeRules, turn_state: np.ndarray | None,
-                 video_path: str | None = None, video_fps: float = 10.0) -> None:
-        self.sim = PandaSim(rules.graph)
+                 video_path: str | None = None, video_fps: float = 10.0,
+                 **options: Any) -> None:
+        self.sim = PandaSim(rules.graph, options=options)
         self._observed_human = WAIT
         self.result: StepResult | None = None
         self._fault: str | None = None
@@ -117,8 +125,15 @@ class PhysicsEpisode(Episode):
         res = self.sim.step(self.state, a_r, a_h)
         self.result, self._fault = res, res.fault
         self._observed_human = res.human_action
-        self.totals.add(res)
+        self.totals.add(res, a_h)
         return res.state
+
+    def advance(self, a_r: int, a_h: int) -> Transition:
+        """The shared episode step; a physical failure in it earns r⁻ (the graph's -1)."""
+        t = super().advance(a_r, a_h)
+        if self.result is not None and self.result.fault_kind in PHYSICAL_FAULTS:
+            t = t._replace(reward=-1.0)
+        return t
 
     def step_info(self) -> dict[str, Any]:
         """Per-step physics figures for ``info`` (paper Fig. 6 impulses, agreement, ...)."""
@@ -126,14 +141,20 @@ class PhysicsEpisode(Episode):
         info: dict[str, Any] = {
             "linear_impulse": 0.0 if res is None else res.linear_impulse,
             "angular_impulse": 0.0 if res is None else res.angular_impulse,
+            "linear_impulse_true": 0.0 if res is None else res.linear_impulse_true,
+            "angular_impulse_true": 0.0 if res is None else res.angular_impulse_true,
             "duration_s": 0.0 if res is None else res.duration,
             "graph_agrees": True if res is None else res.graph_agrees,
             "settled": True if res is None else res.settled,
             "human_action_inferred": self._observed_human,
+            "human_action_true": self.last_human if res is not None else WAIT,
+            "fault": None if res is None else res.fault_kind,
             "episode_linear_impulse": float(tot.linear_impulse),
             "episode_angular_impulse": float(tot.angular_impulse),
+            "episode_linear_impulse_true": float(tot.linear_impulse_true),
             "episode_duration_s": float(tot.duration_s),
             "episode_graph_agrees": float(tot.agreeing_steps) / max(self.steps, 1),
+            "episode_inference_accuracy": float(tot.inferred_steps) / max(self.steps, 1),
         }
         if self._fault is not None:
             info["truncation_reason"] = self._fault

@@ -58,7 +58,7 @@ class SimulatedHuman:
         """Start moving the object from ``start`` to ``target`` (object-frame poses)."""
         self.plan = StraightLine(start, target, *self.speed,
                                  min_duration=self.design.motion_min_duration_s)
-        self.t = 0.0
+        self.t = -self.design.human_delay_s  # the reach starts after the reaction delay
 
     def stop(self) -> None:
         """Follow passively."""
@@ -87,6 +87,9 @@ class SimulatedHuman:
         if not self.holding or self.plan is None:
             return np.zeros(3), np.zeros(3)
         design = self.design
+        if self.t < 0.0:  # still reacting: follows passively
+            self.t += dt
+            return np.zeros(3), np.zeros(3)
         ref = self.plan.sample(self.t)
         self.t += dt
         force = (design.human_stiffness * (ref.pos - pos)

@@ -28,7 +28,24 @@ BASE_JOINTS: tuple[str, ...] = ("base_x", "base_y", "base_lift")
 _TORQUE_LIMITS = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
 _BASE_FORCE_LIMITS = (1500.0, 1500.0, 3000.0)
 _GRIP_SITE = "grip"
+_WRIST_SITE = "wrist_ft"
+_FLOOR_BIT, _OBJECT_BIT = 1, 2  # contype/conaffinity bits: only object-floor contacts
 _WIRE, _GREY, _DARK = (0.85, 0.6, 0.2, 1.0), (0.6, 0.6, 0.62, 1.0), (0.3, 0.3, 0.33, 1.0)
+
+
+def _collision_geometry(spec: mujoco.MjSpec, obj: mujoco.MjsBody, scenario: Scenario) -> None:
+    """Invisible collision geoms of the object that touch the floor only."""
+    del spec
+    kw = {"contype": _OBJECT_BIT, "conaffinity": _FLOOR_BIT, "group": 3, "rgba": (0, 0, 0, 0),
+          "mass": 0.0, "condim": 3, "friction": [0.8, 0.005, 0.0001]}
+    if scenario.name == "hanger":
+        cap = mujoco.mjtGeom.mjGEOM_CAPSULE
+        for seg in ((0.0, 0.0, 0.0, -0.08, 0.0, 0.0), (-0.08, 0.0, 0.0, -0.16, -0.2, 0.0),
+                    (-0.08, 0.0, 0.0, -0.16, 0.2, 0.0), (-0.16, -0.2, 0.0, -0.16, 0.2, 0.0)):
+            obj.add_geom(type=cap, fromto=list(seg), size=[0.01, 0, 0], **kw)
+    else:
+        obj.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                     size=[scenario.object_radius, 0.02, 0], **kw)
 
 
 def _visual(body: mujoco.MjsBody, **kwargs: object) -> mujoco.MjsGeom:
@@ -168,6 +185,9 @@ class Scene:
         weld: Equality id of the grasp weld (hand to object).
         support_mocap: (K,) mocap ids of the supports.
         platform_mocap: Mocap id of the mobile base's floor platform (-1 without one).
+        wrist_site: Site id of the wrist force/torque sensor (on link 7, at the flange).
+        force_sensor, torque_sensor: Sensor ids of its ``force`` and ``torque`` sensors.
+        floor_geom: Geom id of the floor (the object's collision geoms touch only it).
     """
 
     model: mujoco.MjModel
@@ -189,6 +209,10 @@ class Scene:
     weld: int
     support_mocap: np.ndarray
     platform_mocap: int
+    wrist_site: int
+    force_sensor: int
+    torque_sensor: int
+    floor_geom: int
 
 
 def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
@@ -197,8 +221,13 @@ def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
     spec.visual.global_.offwidth, spec.visual.global_.offheight = 640, 480
     spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
     spec.worldbody.add_light(pos=[0.5, -1.0, 4.0], dir=[0.0, 0.2, -1.0], diffuse=[0.6] * 3)
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[8, 8, 0.1],
-                            rgba=(0.82, 0.8, 0.76, 1.0), contype=0, conaffinity=0)
+    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[8, 8, 0.1],
+                            rgba=(0.82, 0.8, 0.76, 1.0), contype=_FLOOR_BIT,
+                            conaffinity=_FLOOR_BIT)
+    # Contacts on, between the object's collision geometry and the floor (the robot's and
+    # the supports' geoms do not collide: the supports act through the seat law, the grasp
+    # is a weld).
+    spec.option.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
     platform = None
     if design.mobile_base:
         platform = spec.worldbody.add_body(name="platform", mocap=True, pos=[0, 0, 0.1])
@@ -221,6 +250,15 @@ def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
                              objtype=mujoco.mjtObj.mjOBJ_BODY, name1="object",
                              name2="panda0_link7", active=False)
     weld.solref = [0.01, 1.0]
+    # The wrist force/torque sensor: between link 6 and link 7 (the hand's subtree: link 7,
+    # hand, fingers and, while welded, the object), in the frame of the flange site.
+    spec.body("panda0_link7").add_site(name=_WRIST_SITE, pos=[0.0, 0.0, 0.107],
+                                       size=[0.005, 0, 0], group=4)
+    for name, kind in (("wrist_force", mujoco.mjtSensor.mjSENS_FORCE),
+                       ("wrist_torque", mujoco.mjtSensor.mjSENS_TORQUE)):
+        spec.add_sensor(name=name, type=kind, objtype=mujoco.mjtObj.mjOBJ_SITE,
+                        objname=_WRIST_SITE)
+    _collision_geometry(spec, obj, scenario)
     model = spec.compile()
 
     def jid(name: str) -> int:
@@ -259,4 +297,8 @@ def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
             for n in support_names]),
         platform_mocap=-1 if platform is None else int(
             model.body_mocapid[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "platform")]),
+        wrist_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, _WRIST_SITE),
+        force_sensor=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, "wrist_force"),
+        torque_sensor=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, "wrist_torque"),
+        floor_geom=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "floor"),
     )

@@ -14,15 +14,24 @@ abstract state and both agents' abstract actions and runs them physically:
    agents done), or at a time limit; the observed state is the closest abstract state, and
    the human's action is inferred from the transition.
 
-Faults (NaN or unstable simulation, IK failure, a time-out far from any abstract state)
-end the step with ``fault`` set instead of raising.
+The robot senses the human only through its wrist force/torque sensor
+(:mod:`~hri_envs.physics.sensing`): the disagreement-aware impedance, the human-action
+inference and the reported impulses use the sensed wrench; the true ones are reported beside
+them (``*_true``).
+
+Faults end the step with ``fault`` set (``"<kind>: <detail>"``) instead of raising. Physical
+failures (:data:`PHYSICAL_FAULTS`): ``dropped`` (the object touched the floor, fell below
+every state, or nobody and no support holds it), ``grasp_failed`` (the hand did not reach
+the grip to close on it), ``pulled_out`` (the external force on the held object exceeded
+the grip's hold), ``off_support`` (the object ended far from every abstract state). Faults
+of the simulation itself: ``unstable`` and ``ik_failure``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
@@ -31,14 +40,25 @@ from hri_envs.physics.controller import Disagreement, ImpedanceController
 from hri_envs.physics.design import PhysicsDesign, design_for
 from hri_envs.physics.human import SimulatedHuman
 from hri_envs.physics.ik import IKFailure, ReferenceIK
-from hri_envs.physics.kinematics import Pose, StraightLine, TrajectorySample, compose
+from hri_envs.physics.kinematics import (
+    Pose,
+    StraightLine,
+    TrajectorySample,
+    compose,
+    rotation_error,
+)
 from hri_envs.physics.observer import StateObserver, infer_human_action
+from hri_envs.physics.options import PhysicsParams, PhysicsSettings
 from hri_envs.physics.scene import build_robot_model, build_scene
 from hri_envs.physics.seats import Seats
+from hri_envs.physics.sensing import SensorModel, WristSensor
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT, TaskGraph
 
-__all__ = ["PandaSim", "StepResult"]
+__all__ = ["PHYSICAL_FAULTS", "PandaSim", "StepResult"]
+
+#: Faults that are physical failures of the task (punished with r⁻ by the episode rules).
+PHYSICAL_FAULTS = ("dropped", "grasp_failed", "pulled_out", "off_support")
 
 # Physical thresholds and times are fields of PhysicsDesign; these are fixed by the model.
 _FINGER_OPEN_M = 0.04  # [m] finger joint position of the open hand (the Panda's maximum)
@@ -64,11 +84,13 @@ class StepResult(NamedTuple):
         graph_agrees: ``state == graph_next``.
         settled: The object came to rest at a state (else the time limit ended the step).
         duration: Simulated seconds.
-        linear_impulse: ∫ |F_human| dt [N s].
-        angular_impulse: ∫ |τ_human| dt [N m s].
+        linear_impulse: ∫ |F| dt [N s] of the human's wrench as the wrist sensor sees it.
+        angular_impulse: ∫ |τ| dt [N m s], likewise.
         robot_yielded: The robot gave up its action because the human disagreed.
         position_error, angle_error: Distance of the object from the observed state's pose.
-        fault: None, or why the simulation cannot go on ("unstable", "ik_failure", "timeout").
+        fault: None, or ``"<kind>: <detail>"`` (kinds: :data:`PHYSICAL_FAULTS`,
+            "unstable", "ik_failure").
+        linear_impulse_true, angular_impulse_true: The same from the human's true wrench.
     """
 
     state: int
@@ -83,6 +105,13 @@ class StepResult(NamedTuple):
     position_error: float
     angle_error: float
     fault: str | None
+    linear_impulse_true: float = 0.0
+    angular_impulse_true: float = 0.0
+
+    @property
+    def fault_kind(self) -> str | None:
+        """The fault's kind (``"dropped"``, ...) without the detail, or None."""
+        return None if self.fault is None else self.fault.split(":", 1)[0]
 
 
 class _Fault(Exception):
@@ -93,9 +122,11 @@ class _Fault(Exception):
 class _Totals:
     """What the physics loop accumulates over one abstract step (the human's wrench)."""
 
-    linear_impulse: float = 0.0  # ∫ |F_human| dt [N s]
-    angular_impulse: float = 0.0  # ∫ |τ_human| dt [N m s]
-    human_work: float = 0.0  # ∫ (F_human · v + τ_human · ω) dt [J]
+    linear_impulse: float = 0.0  # ∫ |F_sensed| dt [N s]
+    angular_impulse: float = 0.0  # ∫ |τ_sensed| dt [N m s]
+    human_work: float = 0.0  # ∫ (F_sensed · v + τ_sensed · ω) dt [J]
+    linear_impulse_true: float = 0.0  # ∫ |F_human| dt [N s]
+    angular_impulse_true: float = 0.0  # ∫ |τ_human| dt [N m s]
 
 
 class PandaSim:
@@ -105,10 +136,12 @@ class PandaSim:
         graph: The task graph (state and action numbering, transitions).
         design: Physical design (default: :func:`design_for` the graph's scenario).
         ik_rate: Rate [Hz] of the IK reference updates.
+        options: Validated ``physics`` options (:mod:`~hri_envs.physics.options`; keys
+            listed in docs/physics.md), applied at each :meth:`reset`.
     """
 
     def __init__(self, graph: TaskGraph, design: PhysicsDesign | None = None,
-                 ik_rate: float = 50.0) -> None:
+                 ik_rate: float = 50.0, options: Mapping[str, Any] | None = None) -> None:
         self.graph = graph
         self.design = design = design if design is not None else design_for(graph.name)
         self.scenario = graph.scenario
@@ -122,6 +155,12 @@ class PandaSim:
         self.human = SimulatedHuman(design, np.random.default_rng(0))
         self.seats = Seats(self.scenario, design)
         self.observer = StateObserver(graph, self.scenario, design.lever)
+        self.settings = PhysicsSettings(design, options)
+        self.sensor = WristSensor(self.scene, SensorModel(
+            design.sensor_noise_n, design.sensor_bias_n, design.sensor_delay_s,
+            design.sensor_torque_lever_m, self.dt))
+        self.params = PhysicsParams.of(design)
+        self._apply(self.settings.base)
         n, n_base = len(self.scene.robot_dofs), 3 if design.mobile_base else 0
         self.n_base = n_base
         home = np.zeros(n)
@@ -170,6 +209,19 @@ class PandaSim:
                        np.array([1.0, 0, 0, 0]))
 
     # ------------------------------------------------------------------ reset
+    def _apply(self, params: PhysicsParams) -> None:
+        """Use ``params`` from now on: the true human, seats, mass and the sensor model."""
+        self.params = params
+        true = params.true_design(self.design)
+        self.human.design = true
+        self.seats.design = true
+        b = self.scene.object_body
+        self.model.body_mass[b] = true.object_mass
+        self.model.body_inertia[b] = true.object_inertia
+        self.sensor.model = SensorModel(params.sensor_noise_n, params.sensor_bias_n,
+                                        params.sensor_delay_s,
+                                        self.design.sensor_torque_lever_m, self.dt)
+
     def set_scenario(self, scenario: Scenario) -> None:
         """Move the supports (the wheel's stands) to ``scenario``'s layout."""
         self.scenario = scenario
@@ -177,6 +229,7 @@ class PandaSim:
             self.data.mocap_pos[self.scene.support_mocap[k]] = sup.position
         self.seats.set_scenario(scenario)
         self.observer.set_scenario(scenario)
+        self._lowest_z = float(self.observer.pos[:, 2].min())
 
     def reset(self, start: int, scenario: Scenario | None = None,
               rng: np.random.Generator | None = None, state: int | None = None) -> int:
@@ -185,7 +238,8 @@ class PandaSim:
         Args:
             start: The support the episode starts on.
             scenario: The episode's geometry (default: the graph's).
-            rng: Generator of the human's force noise.
+            rng: Generator of the human's force noise (and, through streams spawned from
+                it, of the sensor's noise and bias and of randomised physics options).
             state: Place the object in this abstract state instead (for tests and tools):
                 held as its μ says, the robot's hand on its grip when the robot holds.
 
@@ -198,7 +252,11 @@ class PandaSim:
         model, data, sc, design = self.model, self.data, self.scene, self.design
         mujoco.mj_resetData(model, data)
         self.set_scenario(scenario if scenario is not None else self.graph.scenario)
-        self.human.reset(rng if rng is not None else np.random.default_rng(0))
+        rng = rng if rng is not None else np.random.default_rng(0)
+        sensor_rng, options_rng = rng.spawn(2)
+        self._apply(self.settings.draw(options_rng))
+        self.human.reset(rng)
+        self.sensor.reset(sensor_rng)
         self.davi.reset()
         s0 = self.graph.support_state(start, 0) if state is None else int(state)
         mu = int(self.graph.grasp[s0])
@@ -307,8 +365,11 @@ class PandaSim:
         design = self.design
         far = (obs.position_error > design.timeout_fault_factor * design.position_tolerance
                or obs.angle_error > design.timeout_fault_factor * design.angle_tolerance)
-        if fault is None and not settled and far:
-            fault = "timeout: the object did not settle near any abstract state"
+        if fault is None and seat < 0 and not grasp:
+            fault = "dropped: nobody holds the object and no support carries it"
+        if fault is None and far:
+            fault = ("off_support: the object " + ("settled" if settled else "stopped")
+                     + " far from every abstract state")
         if not np.all(np.isfinite(self.data.qpos)):
             fault = "unstable: the simulation diverged (NaN)"
         graph_next = int(g.next_state[s, a_r, a_h])
@@ -318,7 +379,8 @@ class PandaSim:
         return StepResult(obs.state, a_h_seen, graph_next, obs.state == graph_next, settled,
                           float(self.data.time) - t0, float(totals.linear_impulse),
                           float(totals.angular_impulse), yielded, obs.position_error,
-                          obs.angle_error, fault)
+                          obs.angle_error, fault, float(totals.linear_impulse_true),
+                          float(totals.angular_impulse_true))
 
     def _robot_toggle(self, totals: _Totals) -> None:
         design = self.design
@@ -330,6 +392,14 @@ class PandaSim:
                                 design.linear_speed, design.angular_speed,
                                 min_duration=design.grasp_approach_min_duration_s)
             self._run(line, None, totals, design.grasp_approach_time_limit_s)
+            quat_now = np.empty(4)
+            mujoco.mju_mat2Quat(quat_now, self.data.site_xmat[site])
+            grip = self.grip_pose()
+            miss_m = float(np.linalg.norm(grip.pos - self.data.site_xpos[site]))
+            miss_rad = float(np.linalg.norm(rotation_error(quat_now, grip.quat)))
+            if miss_m > design.grasp_tolerance_m or miss_rad > design.grasp_tolerance_rad:
+                raise _Fault(f"grasp_failed: the hand stopped {miss_m * 100:.1f} cm, "
+                             f"{np.rad2deg(miss_rad):.0f}° from the grip")
             self._weld(True)
             self._run(None, self.grip_pose(), totals, design.grasp_close_time_s,
                       min_time_s=design.grasp_close_time_s)
@@ -355,6 +425,9 @@ class PandaSim:
         vel_sq_max, angvel_sq_max = (design.settle_vel_sq_max_m2_s2,
                                      design.settle_angvel_sq_max_rad2_s2)
         calm_time_s = design.settle_calm_time_s
+        grip_hold_n, overload_max_s = design.grip_hold_force_n, design.grip_overload_time_s
+        drop_z = self._lowest_z - design.drop_margin_m
+        sensor, overload = self.sensor, 0.0
         check_every = design.stability_check_every_steps
         platform_every = design.platform_update_every_steps
         self.davi.reset()
@@ -371,6 +444,16 @@ class PandaSim:
             vel = qv[:3]
             angvel = self._rotate(quat, qv[3:])
             f_h, t_h = self.human.wrench(pos, quat, vel, angvel, dt)
+            # What the robot senses (the reading of the last physics step): the external
+            # wrench on the held object, compensated, biased, noisy, delayed.
+            sensed = sensor.external(data, self.holding, pos, data.xmat[body].reshape(3, 3))
+            f_s, t_s = sensed[:3], sensed[3:]
+            if self.holding:
+                f_true = sensor.true_wrench[:3]
+                overload = overload + dt if f_true @ f_true > grip_hold_n ** 2 else 0.0
+                if overload > overload_max_s:
+                    self._weld(False)
+                    raise _Fault(f"pulled_out: {np.sqrt(f_true @ f_true):.0f} N on the grip")
             force, torque = f_h.copy(), t_h + _cross(pos - data.xipos[body], f_h)
             seat = self.seats.engaged(pos, quat)
             if seat >= 0:  # the seat acts at the centre of mass: no lever, no stiff coupling
@@ -384,7 +467,7 @@ class PandaSim:
             if line is not None and not yielded:
                 u = line.direction if moving else zero
                 a = line.axis if moving else zero
-                scale = self.davi.update(self.davi.force(f_h, t_h, u, a), dt)
+                scale = self.davi.update(self.davi.force(f_s, t_s, u, a), dt)
                 yielded = self.davi.yielded
                 ref = line.sample(t_line)
                 t_line += dt * scale
@@ -403,15 +486,20 @@ class PandaSim:
             mujoco.mj_step2(model, data)
             elapsed += dt
             i += 1
-            totals.linear_impulse += np.sqrt(f_h @ f_h) * dt
-            totals.angular_impulse += np.sqrt(t_h @ t_h) * dt
-            totals.human_work += (f_h @ vel + t_h @ angvel) * dt
+            totals.linear_impulse += np.sqrt(f_s @ f_s) * dt
+            totals.angular_impulse += np.sqrt(t_s @ t_s) * dt
+            totals.human_work += (f_s @ vel + t_s @ angvel) * dt
+            totals.linear_impulse_true += np.sqrt(f_h @ f_h) * dt
+            totals.angular_impulse_true += np.sqrt(t_h @ t_h) * dt
             if sc.platform_mocap >= 0 and i % platform_every == 0:
                 data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + design.base_pos[:2]
             if self.on_frame is not None and i % self.frame_every == 0:
                 self.on_frame()
             if i % check_every == 0:
                 self._check_stable()
+                if data.ncon > 0 or pos[2] < drop_z:
+                    raise _Fault("dropped: the object " + ("hit the floor" if data.ncon > 0
+                                                           else "fell below every state"))
             slow = vel @ vel < vel_sq_max and angvel @ angvel < angvel_sq_max
             robot_done = line is None or yielded or t_line >= line.duration
             if (slow and robot_done and elapsed >= min_time_s
@@ -426,8 +514,9 @@ class PandaSim:
 
     def _check_stable(self) -> None:
         data = self.data
-        if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
-            raise _Fault("unstable: MuJoCo reported bad accelerations")
+        if (data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
+                or data.warning[mujoco.mjtWarning.mjWARN_BADQVEL].number > 0):
+            raise _Fault("unstable: MuJoCo reported bad accelerations or velocities")
         if (not np.all(np.isfinite(data.qvel))
                 or np.abs(data.qvel).max() > self.design.diverged_qvel_max):
             raise _Fault("unstable: the simulation diverged")

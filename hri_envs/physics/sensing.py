@@ -1,0 +1,149 @@
+"""What the robot senses of the human: the wrist force/torque sensor and its model.
+
+The scene has MuJoCo ``force`` and ``torque`` sensors at the Panda's flange (site
+``wrist_ft`` on link 7): they measure the wrench that link 6 exerts on link 7's subtree
+(link 7, hand, fingers) and, while the grasp weld holds, through it on the object. The robot
+turns the reading into an estimate of the *external* wrench on the object, the way a real
+controller does with a calibrated sensor:
+
+* rotate the reading into the world frame;
+* remove the static load the robot knows of: the weight of its hand (link 7's subtree mass
+  at its centre of mass) and, while it holds the object, the object's *nominal* weight
+  (``PhysicsDesign.object_mass`` at ``object_com``); inertial forces are not compensated;
+* move the torque to the object's origin.
+
+What remains is the human's wrench plus whatever else acts on the object (a support's seat,
+the floor, a mass that differs from the nominal one, the inertia of the hand and object).
+The sensor model then adds a constant bias (a random direction per episode, magnitude
+``sensor_bias_n``), white noise (``sensor_noise_n`` per control step) and a delay of
+``sensor_delay_s``; torques get the same, times ``sensor_torque_lever_m``. Without a grasp
+the robot senses nothing of the object: the estimate is zero.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from hri_envs.physics.scene import Scene
+
+__all__ = ["SensorModel", "WristSensor"]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
+
+
+class SensorModel:
+    """Noise, bias and delay of the wrist sensor.
+
+    Args:
+        noise_n: Standard deviation [N] of the white force noise per control step.
+        bias_n: Magnitude [N] of the constant force bias (random direction per episode).
+        delay_s: Delay [s] of the reading.
+        torque_lever_m: Torque noise and bias are the force's times this lever [m].
+        dt: Control (physics) time step [s].
+    """
+
+    def __init__(self, noise_n: float, bias_n: float, delay_s: float, torque_lever_m: float,
+                 dt: float) -> None:
+        self.noise_n, self.bias_n, self.lever = float(noise_n), float(bias_n), torque_lever_m
+        self.delay_steps = max(0, round(delay_s / dt))
+        self.bias = np.zeros(6)
+        self._queue: deque[np.ndarray] = deque()
+        self._rng = np.random.default_rng(0)
+
+    def reset(self, rng: np.random.Generator) -> None:
+        """New episode: a fresh bias direction, an empty delay line."""
+        self._rng = rng
+        self.bias[:] = 0.0
+        if self.bias_n > 0.0:
+            d = rng.standard_normal(6)
+            self.bias[:3] = self.bias_n * d[:3] / np.linalg.norm(d[:3])
+            self.bias[3:] = self.lever * self.bias_n * d[3:] / np.linalg.norm(d[3:])
+        self._queue.clear()
+
+    def apply(self, wrench: np.ndarray) -> np.ndarray:
+        """The sensed (6,) wrench for the true (6,) one: delayed, biased, noisy."""
+        if self.delay_steps:
+            self._queue.append(wrench.copy())
+            wrench = (self._queue.popleft() if len(self._queue) > self.delay_steps
+                      else self._queue[0])
+        out = wrench + self.bias
+        if self.noise_n > 0.0:
+            noise = self.noise_n * self._rng.standard_normal(6)
+            noise[3:] *= self.lever
+            out += noise
+        return out
+
+
+class WristSensor:
+    """Reads the wrist sensor and estimates the external wrench on the held object.
+
+    Args:
+        scene: The compiled scene (sensor addresses, bodies, nominal design).
+        model: The sensor's noise, bias and delay.
+
+    Attributes:
+        true_wrench: (6,) the last noise-free estimate (compensated, not delayed) [N, N m].
+    """
+
+    def __init__(self, scene: Scene, model: SensorModel) -> None:
+        m = scene.model
+        design = scene.design
+        self.scene = scene
+        self.model = model
+        self.force_adr = int(m.sensor_adr[scene.force_sensor])
+        self.torque_adr = int(m.sensor_adr[scene.torque_sensor])
+        self.site = scene.wrist_site
+        self.hand = scene.hand_body
+        gravity = np.asarray(m.opt.gravity, dtype=float)
+        self.hand_weight = float(m.body_subtreemass[self.hand]) * gravity  # (3,) [N]
+        self.object_weight = design.object_mass * gravity  # the nominal payload [N]
+        self.object_com = np.asarray(design.object_com, dtype=float)
+        self.true_wrench = np.zeros(6)
+        self._zero = np.zeros(6)
+
+    def reset(self, rng: np.random.Generator) -> None:
+        """New episode (see :meth:`SensorModel.reset`)."""
+        self.model.reset(rng)
+        self.true_wrench[:] = 0.0
+
+    def raw(self, data: object) -> tuple[np.ndarray, np.ndarray]:
+        """The reading in the world frame: force [N] and torque [N m] about the flange."""
+        d = data  # mujoco.MjData
+        rot = d.site_xmat[self.site].reshape(3, 3)  # type: ignore[attr-defined]
+        s = d.sensordata  # type: ignore[attr-defined]
+        f = rot @ s[self.force_adr:self.force_adr + 3]
+        t = rot @ s[self.torque_adr:self.torque_adr + 3]
+        return f, t
+
+    def external(self, data: object, holding: bool, obj_pos: np.ndarray,
+                 obj_rot: np.ndarray) -> np.ndarray:
+        """(6,) compensated external wrench on the object: force [N], torque at its origin.
+
+        Args:
+            data: The simulation state after a step (sensors computed).
+            holding: The robot holds the object (else the estimate is zero).
+            obj_pos: (3,) the object's origin as the robot sees it [m].
+            obj_rot: (3, 3) its orientation.
+        """
+        if not holding:
+            self.true_wrench[:] = 0.0
+            return self.model.apply(self._zero)
+        f_s, t_s = self.raw(data)
+        d = data
+        p = d.site_xpos[self.site]  # type: ignore[attr-defined]
+        hand_com = d.subtree_com[self.hand]  # type: ignore[attr-defined]
+        obj_com = obj_pos + obj_rot @ self.object_com
+        # Statics of the subtree (hand + object): F_parent + Σ m g + F_ext = 0, torques about
+        # the flange likewise; the sensor reads the parent's wrench on the subtree.
+        f_ext = -f_s - self.hand_weight - self.object_weight
+        t_ext = (-t_s - _cross(hand_com - p, self.hand_weight)
+                 - _cross(obj_com - p, self.object_weight))
+        t_origin = t_ext - _cross(obj_pos - p, f_ext)
+        w = self.true_wrench
+        w[:3], w[3:] = f_ext, t_origin
+        return self.model.apply(w)

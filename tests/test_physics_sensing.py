@@ -1,0 +1,225 @@
+"""Sensed interaction, physics options and physical failures of the mujoco backend."""
+
+from dataclasses import replace
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+import pytest
+
+import hri_envs  # noqa: F401  (registers the ids)
+from hri_envs.envs.backends import BACKENDS, PHYSICS_PARAMETERS
+from hri_envs.envs.config import check_physics_options, scenario_graph
+from hri_envs.errors import ConfigError
+from hri_envs.physics import PandaSim
+from hri_envs.physics.options import PARAMETER_KEYS, PRESETS
+from hri_envs.physics.sensing import SensorModel
+from hri_envs.task.graph import TAKE_OFF, TOGGLE, WAIT
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+
+
+@pytest.fixture(scope="module")
+def hanger():
+    g = scenario_graph("hanger")
+    return g, PandaSim(g)
+
+
+def _named(g, prefix):
+    return next(s for s in range(g.n_states) if g.state_names[s].startswith(prefix))
+
+
+def test_the_model_has_a_wrist_force_torque_sensor_and_contacts(hanger):
+    _, sim = hanger
+    m, sc = sim.model, sim.scene
+    assert m.sensor_type[sc.force_sensor] == mujoco.mjtSensor.mjSENS_FORCE
+    assert m.sensor_type[sc.torque_sensor] == mujoco.mjtSensor.mjSENS_TORQUE
+    assert m.site_bodyid[sc.wrist_site] == sc.hand_body
+    assert not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT
+    colliding = np.flatnonzero(m.geom_contype != 0)
+    assert sc.floor_geom in colliding
+    assert set(m.geom_bodyid[colliding]) == {0, sc.object_body}  # the floor and the object
+
+
+def test_the_sensed_wrench_tracks_the_humans_true_wrench(hanger):
+    """The human pulls the held hanger down; the compensated wrist reading follows."""
+    g, sim = hanger
+    s = _named(g, "held at B′ column, 0.87 m, rail-facing")
+    sim.reset(0, state=s)
+    true, sensed = [], []
+    wrench = sim.human.wrench
+
+    def logged(*args):
+        f, t = wrench(*args)
+        true.append(f.copy())
+        sensed.append(sim.sensor.true_wrench[:3].copy())
+        return f, t
+
+    sim.human.wrench = logged
+    try:
+        r = sim.step(s, WAIT, g.move_to_height(0))
+    finally:
+        sim.human.wrench = wrench
+    # The reading at a control step is that of the physics step before: compare shifted.
+    f_true, f_seen = np.array(true[:-1]), np.array(sensed[1:])
+    assert r.fault is None and r.graph_agrees
+    assert np.abs(f_true).max() > 5.0  # the human did pull
+    assert np.abs(f_seen - f_true).mean() < 0.5  # [N]: uncompensated inertia
+    assert r.linear_impulse == pytest.approx(r.linear_impulse_true, rel=0.15)
+
+
+def test_a_following_human_is_sensed_as_no_force(hanger):
+    g, sim = hanger
+    s = _named(g, "held at B′ column, 0.87 m, rail-facing")
+    sim.reset(0, state=s)
+    r = sim.step(s, g.move_to_height(0), WAIT)
+    assert r.linear_impulse_true == 0.0 and r.human_action == WAIT
+    assert r.linear_impulse < 1.0 * r.duration  # [N s]: under 1 N on average
+
+
+def test_sensor_model_delay_bias_and_noise():
+    dt = 0.002
+    m = SensorModel(noise_n=0.0, bias_n=2.0, delay_s=3 * dt, torque_lever_m=0.1, dt=dt)
+    m.reset(np.random.default_rng(0))
+    assert np.linalg.norm(m.bias[:3]) == pytest.approx(2.0)
+    assert np.linalg.norm(m.bias[3:]) == pytest.approx(0.2)
+    inputs = [np.full(6, float(k)) for k in range(6)]
+    out = [m.apply(w) for w in inputs]
+    # Delayed by three steps (the first reading is repeated until the line fills).
+    for k in range(3, 6):
+        np.testing.assert_allclose(out[k], inputs[k - 3] + m.bias)
+    noisy = SensorModel(noise_n=1.0, bias_n=0.0, delay_s=0.0, torque_lever_m=0.1, dt=dt)
+    noisy.reset(np.random.default_rng(1))
+    samples = np.array([noisy.apply(np.zeros(6)) for _ in range(4000)])
+    assert samples[:, :3].std() == pytest.approx(1.0, rel=0.05)
+    assert samples[:, 3:].std() == pytest.approx(0.1, rel=0.05)
+
+
+def test_physics_option_keys_are_listed_once():
+    spec = BACKENDS["mujoco"]
+    assert set(PARAMETER_KEYS) == set(PHYSICS_PARAMETERS) <= set(spec.options)
+    assert set(spec.presets) == set(PRESETS)
+    for preset in PRESETS.values():  # every preset covers both scenarios with known keys
+        assert set(preset) == {"hanger", "wheel"}
+        for values in preset.values():
+            check_physics_options(values, "mujoco")
+
+
+@pytest.mark.parametrize(("physics", "message"), [
+    ({"human_strength": 1.0}, "unknown physics option(s) 'human_strength'; allowed: "),
+    ({"preset": "strong"}, "unknown physics preset 'strong'; allowed: weak-human, noisy-sensor"),
+    ({"object_mass": 0.0}, "'object_mass' must be a number > 0 [kg], got 0.0"),
+    ({"sensor_delay_s": -0.1}, "'sensor_delay_s' must be a number >= 0 [s]"),
+    ({"human_force": True}, "'human_force' must be a number > 0 [N], got True"),
+    ({"randomize": {"video_fps": (1, 2)}}, "cannot randomize 'video_fps'; allowed: "),
+    ({"randomize": {"object_mass": (0.5, 0.2)}}, "must have low <= high"),
+    ({"randomize": {"object_mass": 0.5}}, "must be a (low, high) pair"),
+])
+def test_bad_physics_options_are_refused(physics, message):
+    with pytest.raises(ConfigError, match=None) as err:
+        check_physics_options(physics, "mujoco")
+    assert message in str(err.value) and err.value.field == "physics"
+    if "unknown physics option" in message:
+        assert "human_stiffness" in str(err.value) and "randomize" in str(err.value)
+
+
+def test_the_graph_backend_takes_no_physics_options():
+    with pytest.raises(ConfigError, match="backend='graph' takes no physics options"):
+        gym.make("hri_envs/Hanger-v0", physics={"object_mass": 1.0})
+
+
+def test_physics_options_set_the_episode(hanger):
+    g, _ = hanger
+    sim = PandaSim(g, options={"preset": "weak-human", "object_mass": 0.6,
+                               "randomize": {"sensor_bias_n": (1.0, 3.0)}})
+    b = sim.scene.object_body
+    biases = []
+    for seed in range(3):
+        sim.reset(0, rng=np.random.default_rng(seed))
+        assert sim.model.body_mass[b] == 0.6  # the true mass ...
+        assert sim.controller.weight[2] == pytest.approx(0.3 * 9.81)  # ... the nominal payload
+        assert sim.human.design.human_force == PRESETS["weak-human"]["hanger"]["human_force"]
+        assert sim.human.design.human_delay_s == 0.4
+        biases.append(sim.params.sensor_bias_n)
+        assert np.linalg.norm(sim.sensor.model.bias[:3]) == pytest.approx(biases[-1])
+    assert all(1.0 <= x <= 3.0 for x in biases) and len(set(biases)) == 3
+
+
+def test_a_weak_human_cannot_stop_the_robot(hanger):
+    """The robot leads over to C while a weak human pulls down: the physics, not the graph,
+    decides (the graph says the human wins)."""
+    g, _ = hanger
+    sim = PandaSim(g, options={"preset": "weak-human"})
+    s = _named(g, "held at B′ column, 0.87 m, rail-facing")
+    sim.reset(0, state=s)
+    over, down = g.move_over(2), g.move_to_height(0)
+    r = sim.step(s, over, down)
+    assert not r.robot_yielded and not r.graph_agrees
+    assert r.state == g.next_state[s, over, WAIT] != g.next_state[s, over, down]
+    assert r.human_action != down  # the robot did not notice what the human wanted
+
+
+def test_a_grasp_that_misses_fails(hanger):
+    g, sim = hanger
+    design = sim.design
+    try:
+        sim.design = replace(design, grasp_tolerance_m=1e-5)
+        s = sim.reset(1)
+        r = sim.step(s, TOGGLE, WAIT)
+    finally:
+        sim.design = design
+    assert r.fault_kind == "grasp_failed" and not sim.holding
+    assert not sim.data.eq_active[sim.scene.weld]
+
+
+def test_an_object_nobody_holds_drops(hanger):
+    g, sim = hanger
+    s = _named(g, "held at B′ column, 0.87 m, rail-facing")
+    sim.reset(0, state=s)
+    sim._weld(False)
+    sim.human.holding = False
+    r = sim.step(s, WAIT, WAIT)
+    assert r.fault_kind == "dropped" and not r.graph_agrees
+
+
+def test_a_strong_pull_pulls_the_object_out_of_the_grip(hanger):
+    g, sim = hanger
+    design = sim.design
+    s = _named(g, "held at B′ column, 0.87 m, rail-facing")
+    try:
+        sim.design = replace(design, grip_hold_force_n=3.0)
+        sim.reset(0, state=s)
+        r = sim.step(s, g.move_over(2), g.move_to_height(0))
+    finally:
+        sim.design = design
+    assert r.fault_kind == "pulled_out" and not sim.holding
+
+
+def test_a_physical_failure_ends_the_env_episode_with_r_minus():
+    env = gym.make("hri_envs/HangerPanda-v0").unwrapped
+    env.reset(seed=0, options={"start": "B", "intention": "A"})
+    sim = env._episode.sim
+    sim.design = replace(sim.design, grasp_tolerance_m=1e-5)
+    _, reward, terminated, truncated, info = env.step(TOGGLE)
+    assert info["fault"] == "grasp_failed" and info["truncation_reason"].startswith(
+        "grasp_failed")
+    assert reward == -1.0 and truncated and not terminated
+    for key in ("graph_agrees", "human_action_inferred", "human_action_true",
+                "linear_impulse_true"):
+        assert key in info
+    env.close()
+
+
+def test_per_step_info_reports_inferred_and_true_human_actions():
+    env = gym.make("hri_envs/HangerPanda-v0", physics={"preset": "noisy-sensor"}).unwrapped
+    env.reset(seed=0, options={"start": "B", "intention": "A"})
+    seen = []
+    for a in (TOGGLE, TAKE_OFF, WAIT):
+        _, _, term, trunc, info = env.step(a)
+        seen.append((info["human_action_inferred"], info["human_action_true"],
+                     info["graph_agrees"], info["fault"]))
+        assert info["episode_inference_accuracy"] <= 1.0
+        if term or trunc:
+            break
+    assert all(isinstance(x[0], int) and isinstance(x[1], int) for x in seen)
+    env.close()
