@@ -109,7 +109,7 @@ def play(
         for result in loop:
             human.note_aborted()
             end = int(result.traces[0].states[-1])
-            total = float(result.reward[0])
+            total = float(result.metrics.reward[0])
             write(f"Episode over at {graph.state_names[end]}; robot reward {total:.2f}. "
                   "The robot learns from it.")
             totals.append(total)

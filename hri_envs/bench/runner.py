@@ -106,7 +106,7 @@ def make_schedule(
 
 @dataclass
 class EpisodeMetrics:
-    """Per-run, per-episode results, each (B, E).
+    """Per-run, per-episode results, each (B, E) (or (B,) for one episode of a batch).
 
     Attributes:
         reward: Summed robot cooperation reward.
@@ -114,7 +114,8 @@ class EpisodeMetrics:
         passive: Fraction of steps where the robot waited.
         wrong: Fraction of steps where the robot acted otherwise.
         steps: Episode length.
-        truncated: The episode hit the step limit.
+        truncated: The episode did not end (step limit or a backend fault).
+        extras: The backend's per-episode figures (the physics: impulses, duration, ...).
     """
 
     reward: np.ndarray
@@ -215,29 +216,19 @@ class ScriptedHumans:
 
 @dataclass
 class EpisodeResult:
-    """One episode of every run of a batch, each array (B,).
+    """One episode of every run of a batch.
 
     Attributes:
         episode: The episode's index in the schedule.
-        reward: Summed robot cooperation reward.
-        correct, passive, wrong: Fractions of the robot's decisions (paper Sect. 6.3).
-        steps: Episode length.
-        truncated: The episode did not end (step limit or a backend fault).
+        metrics: Its :class:`EpisodeMetrics`, each array (B,).
         traces: What the robot saw, per run.
         intentions: Where each episode ended, -1 where truncated (nothing revealed).
-        extras: The backend's per-episode figures.
     """
 
     episode: int
-    reward: np.ndarray
-    correct: np.ndarray
-    passive: np.ndarray
-    wrong: np.ndarray
-    steps: np.ndarray
-    truncated: np.ndarray
+    metrics: EpisodeMetrics
     traces: list[Trace]
     intentions: np.ndarray
-    extras: dict[str, np.ndarray]
 
 
 def run_episodes(
@@ -345,9 +336,10 @@ def run_episodes(
         traces = [Trace(states[i, : steps[i] + 1].copy(), robot_acts[i, : steps[i]].copy(),
                         human_seen[i, : steps[i]].copy()) for i in range(n_b)]
         agent.end_episode(traces, intentions)
-        yield EpisodeResult(e, totals["reward"], totals["correct"], totals["passive"],
-                            totals["wrong"], steps.astype(float), truncated, traces, intentions,
-                            {k: totals[k] for k in backend.extras})
+        metrics = EpisodeMetrics(totals["reward"], totals["correct"], totals["passive"],
+                                 totals["wrong"], steps.astype(float), truncated,
+                                 {k: totals[k] for k in backend.extras})
+        yield EpisodeResult(e, metrics, traces, intentions)
 
 
 def _checked(actions: object, active: np.ndarray, n_actions: int,
@@ -418,12 +410,12 @@ def simulate(
     for res in run_episodes(graph, agent, humans, schedule, sim, r0=r0,
                             turn_state=humans.human.turn_state, max_steps=max_steps,
                             run_ids=runs, reward=reward):
-        e = res.episode
+        e, m = res.episode, res.metrics
         for k in keys:
-            out[k][:, e] = getattr(res, k)
-        for k, v in res.extras.items():
+            out[k][:, e] = getattr(m, k)
+        for k, v in m.extras.items():
             extras[k][:, e] = v
-        truncated[:, e] = res.truncated
+        truncated[:, e] = m.truncated
         if after_episode is not None:
             after_episode(e, agent)
     return EpisodeMetrics(out["reward"], out["correct"], out["passive"], out["wrong"],
