@@ -93,6 +93,9 @@ def test_leaderboard_sorts_by_regret_and_explains_na(tiny):
     out, doc = tiny
     text = (out / "leaderboard.md").read_text()
     assert "information bound" in text and "ceiling for intention-blind robots" in text
+    overview = text.split("## Overview")[1].split("## ")[0]
+    assert sum(line.startswith(f"| {t} |") for t in TRACKS for line in overview.splitlines()) \
+        == len(TRACKS)
     section = text.split("## wheel-turnback")[1].split("## ")[0]
     rows = [line for line in section.splitlines() if line.startswith("| `")]
     names = [r.split("`")[1] for r in rows]

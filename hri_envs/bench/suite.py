@@ -200,7 +200,7 @@ def track_summary(track: Track, result: StudyResult) -> dict[str, Any]:
 
 
 def _fmt(x: float | None) -> str:
-    return "–" if x is None else f"{x:+.3f}" if x < 0 else f"{x:.3f}"
+    return "–" if x is None else f"{x:.3f}"
 
 
 def _with_ci(entry: dict[str, Any] | None, stat: str = "mean") -> str:
@@ -208,6 +208,29 @@ def _with_ci(entry: dict[str, Any] | None, stat: str = "mean") -> str:
         return "n/a"
     lo, hi = entry[f"{stat}_ci95" if stat == "iqm" else "ci95"]
     return f"{_fmt(entry[stat])} [{_fmt(lo)}, {_fmt(hi)}]"
+
+
+def _overview(doc: dict[str, Any]) -> list[str]:
+    """One table over all tracks: mean regret [95 % CI] (reward, marked "r", where n/a)."""
+    agents = list(doc["agents"]) + [a for a in ("oracle", "blind", "informed")
+                                    if a not in doc["agents"]]
+    agents = [a for a in agents if any(a in tr["agents"] for tr in doc["tracks"].values())]
+    lines = ["## Overview", "", "Mean regret vs blind per episode [95 % CI]; where regret is "
+             "n/a, the mean reward (marked r). — : the agent does not run on the track.", "",
+             "| track | " + " | ".join(f"`{a}`" for a in agents) + " |",
+             "|---|" + "---|" * len(agents)]
+    for name, tr in doc["tracks"].items():
+        cells = []
+        for a in agents:
+            entry = tr["agents"].get(a)
+            if entry is None:
+                cells.append("—")
+            elif tr["regret_reported"]:
+                cells.append(_with_ci(entry["regret"]))
+            else:
+                cells.append("r " + _with_ci(entry["reward"]))
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return [*lines, ""]
 
 
 def leaderboard(doc: dict[str, Any]) -> str:
@@ -223,6 +246,7 @@ def leaderboard(doc: dict[str, Any]) -> str:
              "(sees the intention, not optimal: no bound). Regret is n/a where the human is "
              "Boltzmann (the held-out population): the exact blind plan does not fit it.",
              ""]
+    lines += _overview(doc)
     for name, tr in doc["tracks"].items():
         lines += [f"## {name}", "", f"{tr['description']} ({tr['runs']} runs × "
                   f"{tr['episodes']} episodes).", ""]
@@ -250,6 +274,8 @@ def leaderboard(doc: dict[str, Any]) -> str:
 
 def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
     """Mean regret (or reward) per episode with 95 % CI error bars, one line per agent."""
+    from matplotlib.ticker import MaxNLocator
+
     from hri_envs.bench import plots
 
     metric = "regret" if entry["regret_reported"] else "reward"
@@ -265,6 +291,7 @@ def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
                     label=plots.LABELS.get(agent, agent), linewidth=1.4, elinewidth=0.8,
                     capsize=2, linestyle="--" if agent in REFERENCES else "-")
     ax.set_xlabel("episode")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("regret vs blind per episode" if metric == "regret"
                   else "robot cooperation reward per episode")
     if metric == "regret":
