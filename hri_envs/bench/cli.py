@@ -259,17 +259,14 @@ def _suite_parser(sub: Any) -> None:
 
 
 def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from hri_envs.bench.extras import require
-    from hri_envs.bench.suite import run_suite, select_tracks
+    from hri_envs.bench.suite import run_suite, select_tracks, track_config
 
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     try:
-        select_tracks(args.tracks)
+        first = track_config(select_tracks(args.tracks)[0], args.agents, executor=executor)
     except ConfigError as exc:
-        _config_error(parser, exc, {"tracks": "--tracks"})
-    require(["matplotlib", *([] if args.no_progress else ["tqdm"])], "hri-bench suite")
-    if executor == "ray":
-        require(["ray"], "executor 'ray'")
+        _config_error(parser, exc, {"tracks": "--tracks", "agents": "--agents"})
+    _require_for_study(first, progress=not args.no_progress)  # extras, before simulating
     t0 = time.perf_counter()
     try:
         doc = run_suite(args.out, agents=args.agents, tracks=args.tracks,
