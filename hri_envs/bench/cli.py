@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import shlex
 import sys
 import time
@@ -226,10 +227,62 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--episodes", type=_positive, default=3)
     play.add_argument("--seed", type=int, default=0)
 
+    _suite_parser(sub)
+
     demo = sub.add_parser("demo", help="the main job: a reduced but real set of the figures")
     demo.add_argument("--out", type=Path, default=Path("out/demo"))
     demo.add_argument("--jobs", type=_positive, default=2)
     return parser
+
+
+def _suite_parser(sub: Any) -> None:
+    """The ``suite`` command's flags (docs/benchmark.md, "Suite")."""
+    from hri_envs.bench.suite import DEFAULT_AGENTS
+
+    suite = sub.add_parser("suite", help="run the versioned benchmark suite and a leaderboard",
+                           description="Run every track of the benchmark suite (one study "
+                           "each) and write suite.json, leaderboard.md and one figure per "
+                           "track.")
+    suite.add_argument("--out", required=True, type=Path, help="output directory")
+    suite.add_argument("--jobs", type=_positive, default=1,
+                       help="parallel workers per track (default 1)")
+    suite.add_argument("--agents", type=_agents, default=DEFAULT_AGENTS,
+                       help="agents to rank, comma-separated, e.g. learner,mypkg.mod:MyAgent "
+                            f"(default {','.join(DEFAULT_AGENTS)}; blind and informed are "
+                            "added where they fit)")
+    suite.add_argument("--executor", choices=EXECUTORS, default=None,
+                       help="serial, process (default with --jobs > 1) or ray")
+    suite.add_argument("--runs-scale", type=_bounded(float, "a number > 0",
+                                                     lambda v: math.isfinite(v) and v > 0),
+                       default=1.0, help="multiply every track's runs (default 1)")
+    suite.add_argument("--tracks", default=None,
+                       help="comma-separated track names (default: all)")
+    suite.add_argument("--seed", type=int, default=0, help="base seed (default 0)")
+    suite.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    suite.set_defaults(command_parser=suite)
+
+
+def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from hri_envs.bench.suite import run_suite, select_tracks, track_config
+
+    executor = args.executor or ("process" if args.jobs > 1 else "serial")
+    try:
+        first = track_config(select_tracks(args.tracks)[0], args.agents, executor=executor)
+    except ConfigError as exc:
+        _config_error(parser, exc, {"tracks": "--tracks", "agents": "--agents"})
+    _require_for_study(first, progress=not args.no_progress)  # extras, before simulating
+    t0 = time.perf_counter()
+    try:
+        doc = run_suite(args.out, agents=args.agents, tracks=args.tracks,
+                        runs_scale=args.runs_scale, seed=args.seed, jobs=args.jobs,
+                        executor=executor, progress=not args.no_progress)
+    except ConfigError as exc:
+        _config_error(parser, exc, {"tracks": "--tracks", "agents": "--agents"})
+    print(f"suite v{doc['suite_version']}: {len(doc['tracks'])} tracks in "
+          f"{time.perf_counter() - t0:.1f} s (--jobs {args.jobs}, {executor})")
+    print(f"wrote {args.out / 'suite.json'}, {args.out / 'leaderboard.md'} and one figure "
+          "per track")
+    return 0
 
 
 def _config_error(parser: argparse.ArgumentParser, exc: ConfigError,
@@ -451,6 +504,8 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
         return _study(args, args.command_parser, argv)
     if args.command == "figures":
         return _figures(args, parser)
+    if args.command == "suite":
+        return _suite(args, args.command_parser)
     if args.command == "speed":
         return _speed(args)
     if args.command == "play":
