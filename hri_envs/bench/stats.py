@@ -11,10 +11,11 @@ reproducible.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
+from types import ModuleType
 
 import numpy as np
-from scipy import stats as sps
 
 from hri_envs.errors import ConfigError
 
@@ -27,13 +28,23 @@ __all__ = [
     "improvement_table",
 ]
 
+@functools.cache
+def _scipy_stats() -> ModuleType:
+    """scipy.stats, imported on first use: it takes about a second, and every ``hri-bench``
+    command imports this module to build its argument parser.
+    """
+    from scipy import stats
+
+    return stats
+
+
 #: Bootstrap resamples (scipy's default is 9999; 2000 keeps a study's summary fast).
 N_RESAMPLES = 2000
 
 
 def iqm(x: np.ndarray, axis: int | None = None) -> np.ndarray:
     """Interquartile mean: the mean of the middle 50 % (scipy's 25 %-trimmed mean)."""
-    return np.asarray(sps.trim_mean(x, 0.25, axis=axis))
+    return np.asarray(_scipy_stats().trim_mean(x, 0.25, axis=axis))
 
 
 def _pooled_stat(fn: str):  # type: ignore[no-untyped-def]
@@ -70,7 +81,7 @@ def bootstrap_ci(samples: list[np.ndarray] | np.ndarray, statistic: str,
     if np.ptp(pooled) == 0:
         v = float(pooled[0])
         return v, v
-    res = sps.bootstrap(tuple(strata), _pooled_stat(statistic), n_resamples=N_RESAMPLES,
+    res = _scipy_stats().bootstrap(tuple(strata), _pooled_stat(statistic), n_resamples=N_RESAMPLES,
                         confidence_level=level, method="percentile", vectorized=True,
                         rng=np.random.default_rng(seed))
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
@@ -122,7 +133,7 @@ def probability_of_improvement(x: np.ndarray, y: np.ndarray) -> float:
     if x.shape[1] != y.shape[1]:
         raise ConfigError(f"x and y need the same episodes, got {x.shape} and {y.shape}",
                           field="episodes")
-    per = [sps.mannwhitneyu(x[:, e], y[:, e]).statistic / (len(x) * len(y))
+    per = [_scipy_stats().mannwhitneyu(x[:, e], y[:, e]).statistic / (len(x) * len(y))
            for e in range(x.shape[1])]
     return float(np.mean(per))
 
