@@ -466,6 +466,7 @@ _NEXT_STEPS = """
 What to try next (after `source .venv/bin/activate`; README.md 'A tour', docs/benchmark.md):
   hri-bench study wheel --runs 20 --out out/wheel     # one study: summary.json, CSV, plots
   hri-bench study wheel --human-passive 0.2 --runs 20 --out out/passive
+  hri-bench suite --out out/suite --jobs 2            # the benchmark's leaderboard (~2 min)
   hri-bench play hanger                               # you are the human
   python examples/custom_learner.py                   # your own agent, benchmarked
   python examples/train_maskable_ppo.py               # needs the rl extra (below)
