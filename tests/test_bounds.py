@@ -175,3 +175,13 @@ def test_envs_take_the_reward_variant():
         np.testing.assert_array_equal(reward_v, expected)
     with pytest.raises(ConfigError, match="allowed: paper, no-free-toggle"):
         wheel_v0.parallel_env(reward="free")
+
+
+def test_planners_are_refused_before_simulating_when_runs_have_their_own_humans(tmp_path):
+    from hri_envs.bench.cli import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["study", "hanger", "--agents", "learner,blind", "--population", "theta",
+              "--runs", "2", "--out", str(tmp_path / "out")])
+    assert exit_info.value.code == 2
+    assert not (tmp_path / "out" / "summary.json").exists()

@@ -29,6 +29,7 @@ import numpy as np
 
 from hri_envs.bench.agents import (
     BUILTIN_AGENTS,
+    REFERENCE_AGENTS,
     agent_settings,
     make_agent,
     validate_agent_name,
@@ -199,6 +200,12 @@ class StudyConfig:
                 raise ConfigError("give either a population or a preference, not both",
                                   field="preference")
         validate_drift(self.human_drift)
+        planners = [a for a in self.agents if a in REFERENCE_AGENTS]
+        if planners and self.per_run_humans:
+            raise ConfigError(f"agent(s) {', '.join(planners)} plan for one scripted human "
+                              "shared by every run; leave them out of studies whose runs have "
+                              "humans of their own (--population, --human-drift): regret is "
+                              "still reported where the exact blind plan fits", field="agents")
         if self.learner:
             from agents.config import default_config
 
