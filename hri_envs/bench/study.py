@@ -289,6 +289,8 @@ class StudyConfig:
                 value = tuple(Probe(**p) for p in value)
             elif isinstance(value, list):
                 value = tuple(value)
+            elif value in ("inf", "-inf"):  # written so by settings(): JSON has no infinity
+                value = float(value)
             kwargs[name] = value
         try:
             return cls(**kwargs, **execution)
@@ -307,6 +309,8 @@ def _jsonable(value: Any) -> Any:
         return [_jsonable(v) for v in value]
     if isinstance(value, dict):
         return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, float) and math.isinf(value):
+        return _json_float(value)  # JSON has no infinity
     return value
 
 
@@ -330,8 +334,8 @@ def _probe(agent: Any, probes: Sequence[Probe]) -> np.ndarray:
 
 
 def _json_float(x: float) -> float | str:
-    """A float for JSON: ``inf`` as the string "inf"."""
-    return "inf" if math.isinf(x) else x
+    """A float for JSON: ``inf`` as the string "inf" (``-inf`` as "-inf")."""
+    return str(x) if math.isinf(x) else x
 
 
 def _learner_settings(cfg: StudyConfig) -> dict[str, Any]:
@@ -696,5 +700,5 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
                     ])
     summary_path = out / "summary.json"
     with atomic_writer(summary_path) as f:
-        f.write(json.dumps(summarize(result), indent=1) + "\n")
+        f.write(json.dumps(summarize(result), indent=1, allow_nan=False) + "\n")
     return [summary_path, csv_path, *paths]

@@ -361,7 +361,7 @@ def run_suite(
     with atomic_writer(out / "leaderboard.md") as f:
         f.write(leaderboard(doc) + "\n")
     with atomic_writer(out / "suite.json") as f:
-        f.write(json.dumps(doc, indent=1) + "\n")
+        f.write(json.dumps(doc, indent=1, allow_nan=False) + "\n")
     log = {"suite_version": SUITE_VERSION, "jobs": jobs, "executor": executor,
            "wall_time_s": round(time.perf_counter() - t0, 2), "tracks_wall_time_s": walls,
            "load_average": list(os.getloadavg()), "cpus": os.cpu_count()}

@@ -457,9 +457,9 @@ class PandaSim:
             force, torque = f_h.copy(), t_h + _cross(pos - data.xipos[body], f_h)
             seat = self.seats.engaged(pos, quat)
             if seat >= 0:  # the seat acts at the centre of mass: no lever, no stiff coupling
-                f_s, t_s = self.seats.wrench(seat, pos, quat, vel, angvel)
-                force += f_s
-                torque += t_s
+                f_seat, t_seat = self.seats.wrench(seat, pos, quat, vel, angvel)
+                force += f_seat
+                torque += t_seat
             data.xfrc_applied[body, :3] = force
             data.xfrc_applied[body, 3:] = torque
             scale, ref = 1.0, hold_ref
