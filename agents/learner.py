@@ -105,12 +105,18 @@ class Learner(BatchAgent):
         self.pi_r = np.broadcast_to(uniform, (1, n_i, n_s, n_a)).copy()
         self._warm_h: np.ndarray | None = None
         self._warm_r: np.ndarray | None = None
-        with mdp.one_blas_thread():
-            self._update_policies()
-        for name in ("theta", "pi_r", "pi_h", "q_h", "q_r", "_warm_h", "_warm_r"):
+        names = ("theta", "pi_r", "pi_h", "q_h", "q_r", "_warm_h", "_warm_r")
+        if self.config.initial_preference is not None and n_runs > 1:
+            one = Learner(graph, 1, self.config)  # pretrains once, for every run
+            for name in names:
+                setattr(self, name, getattr(one, name))
+        else:
+            with mdp.one_blas_thread():
+                self._update_policies()
+                if self.config.initial_preference is not None:
+                    self._start_from_preference(self.config.initial_preference)
+        for name in names:
             setattr(self, name, np.repeat(getattr(self, name), n_runs, axis=0))
-        if self.config.initial_preference is not None:
-            self._start_from_preference(self.config.initial_preference)
 
     def _start_from_preference(self, preference: str) -> None:
         """Pretrain the human model on a preference's routes (paper Sect. 7 variant).
@@ -131,8 +137,10 @@ class Learner(BatchAgent):
                 a = int(human.preferred_action(np.array(s), np.array(start), np.array(goal)))
                 s = int(g.next_state[s, a, a])
                 states.append(s)
-                if g.support[s] == goal and g.grasp[s] == 0:
+                if rules.episode_over(g, s, start, True):
                     break
+            else:
+                raise AssertionError(f"the {preference} route from {start} to {goal} never ends")
             routes.append(Trace(np.array(states), np.zeros(len(states) - 1, dtype=np.int64),
                                 np.zeros(len(states) - 1, dtype=np.int64)))
         for _ in range(self.config.pretrain_passes):
@@ -327,7 +335,9 @@ class Learner(BatchAgent):
         if type(episodes) is not int or episodes < 0:
             raise LearnerStateError(f"{path}: episode count {episodes!r}; it must be a whole "
                                     "number >= 0")
-        learner = cls(graph, n_b, config, seed=seed)
+        # The saved model replaces the initial one: do not pretrain it again.
+        learner = cls(graph, n_b, config.replace(initial_preference=None), seed=seed)
+        learner.config = config
         learner.theta, learner.pi_h, learner.q_r, learner.pi_r = theta, pi_h, q_r, pi_r
         learner.episodes = episodes
         return learner

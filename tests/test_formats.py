@@ -188,12 +188,10 @@ def test_truncated_episode_did_not_reach_the_intention():
 
 def test_robot_env_reports_reached_intention():
     env = gym.make("hri_envs/Hanger-v0")
-    env.reset(seed=0, options={"start": "A", "intention": "C"})
-    done, info = False, {}
+    robot, rng = following_robot(env.unwrapped.graph), np.random.default_rng(0)
+    obs, done, info = env.reset(seed=0, options={"start": "A", "intention": "C"})[0], False, {}
     while not done:  # the robot follows; the scripted human leads to its goal
-        mu = int(env.unwrapped.graph.grasp[env.unwrapped._episode.state])
-        a = TOGGLE if bool(mu & 1) != bool(mu & 2) else WAIT
-        _, _, term, trunc, info = env.step(a)
+        obs, _, term, trunc, info = env.step(robot(obs, rng))
         done = term or trunc
     assert term and info["reached_intention"] is True
 
@@ -216,9 +214,9 @@ def test_partner_env_with_scripted_human_is_the_robot_env():
         opts = {"start": start, "intention": goal}
         o1, _ = partner.reset(seed=0, options=opts)
         o2, _ = robot_env.reset(seed=0, options=opts)
+        robot, rng = following_robot(partner.env.graph), np.random.default_rng(0)
         for _ in range(30):
-            mu = int(partner.env.graph.grasp[o1["state"]])
-            a = TOGGLE if bool(mu & 1) != bool(mu & 2) else WAIT
+            a = robot(o1, rng)
             o1, r1, t1, tr1, i1 = partner.step(a)
             o2, r2, t2, tr2, i2 = robot_env.step(a)
             assert o1["state"] == o2["state"] and r1 == r2 and (t1, tr1) == (t2, tr2)
@@ -274,3 +272,23 @@ def test_partner_env_bad_input():
     env = PartnerEnv(par)
     with pytest.raises(RuntimeError, match="call reset"):
         env.step(WAIT)
+
+
+@pytest.mark.parametrize(("turn_back", "expected"), [(1.0, 10), (0.0, 0)])
+def test_partner_env_turns_back_as_its_scripted_human_does(turn_back, expected):
+    """The env applies the partner's own turning-back rate and turning point."""
+    graph = hanger_v0.parallel_env().graph
+    env = PartnerEnv(hanger_v0.parallel_env(),
+                     partner=preference_human(graph, "over-rotate-down/up-over-rotate",
+                                              turn_back=turn_back))
+    robot, rng, turned = following_robot(graph), np.random.default_rng(0), 0
+    for e in range(20):
+        obs, _ = env.reset(seed=e)
+        intention, done = env.env.unwrapped.intention, False
+        while not done:
+            obs, _, term, trunc, _ = env.step(robot(obs, rng))
+            done = term or trunc
+            turned += env.env.unwrapped.intention != intention
+            if env.env.unwrapped.intention != intention:
+                break
+    assert turned == expected  # B<->C routes have no halfway point: half the episodes

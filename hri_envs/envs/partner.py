@@ -115,6 +115,10 @@ class PartnerEnv(gym.Env[Any, np.int64]):
                 raise ConfigError(f"the scripted human was built for the "
                                   f"{partner.graph.name}, the env is the {graph.name}",
                                   field="partner")
+            # The env applies the episode rules: it turns back where and as often as this
+            # human does.
+            env.unwrapped._episode.set_turn_state(partner.turn_state)
+            env.unwrapped.turn_back = partner.turn_back
         elif not callable(partner):
             raise ConfigError(f"partner must be a ScriptedHuman or a callable "
                               f"policy(observation, rng) -> action, got {partner!r}",
@@ -125,13 +129,14 @@ class PartnerEnv(gym.Env[Any, np.int64]):
         self.metadata = dict(env.metadata)
         self.render_mode = env.render_mode
         self._obs: dict[str, Any] = {}
+        self._partner_rng = np.random.default_rng(0)
 
     def _partner_action(self) -> int:
         if isinstance(self.partner, ScriptedHuman):
             state, start, intention = (int(v) for v in self.env.state()[:3])
-            return int(self.partner.act(self.np_random, np.array([state]), np.array([start]),
-                                        np.array([intention]))[0])
-        return int(self.partner(self._obs[self.partner_agent], self.np_random))
+            return int(self.partner.act(self._partner_rng, np.array([state]),
+                                        np.array([start]), np.array([intention]))[0])
+        return int(self.partner(self._obs[self.partner_agent], self._partner_rng))
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -139,6 +144,10 @@ class PartnerEnv(gym.Env[Any, np.int64]):
         """Reset the wrapped env (same ``options``); the learner's observation and info."""
         super().reset(seed=seed)
         self._obs, infos = self.env.reset(seed=seed, options=options)
+        # The partner's own stream, drawn from the env's (as RobotEnv does for its human), so
+        # its draws are not the very bits the env used for start, intention and turning back.
+        self._partner_rng = np.random.default_rng(
+            int(self.env.unwrapped.np_random.integers(2**63)))
         return self._obs[self.learner], infos[self.learner]
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:

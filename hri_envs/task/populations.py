@@ -18,7 +18,8 @@ with, all opt-in (the defaults give today's deterministic human, bit for bit):
   the route makes exactly one step of progress, so ``Q_pref(s, a_pref) = -D(s)`` exceeds
   every other action's value by at least 1: as β → ∞
   the Boltzmann human *is* the scripted one (``β = inf`` returns it unchanged). At a support
-  the human's grasp behaviour stays the scripted one.
+  the scripted grasp action also beats the others by 1, so with a finite β the human may
+  hesitate to grasp or to let go too.
 * **Populations** (:data:`POPULATIONS`): each run draws its human (preference, β, passive
   and turning-back rates, or random preference weights θ) from a frozen
   :class:`PopulationSpec`; the draw of run ``r`` uses a generator seeded by
@@ -105,7 +106,8 @@ def preference_q(human: ScriptedHuman) -> np.ndarray:
     """(K, K, S, A) ``Q_pref`` of a deterministic preference human (see the module docstring).
 
     Invalid actions get ``-inf``; support states get 0 for the scripted action and -1 for
-    the others (a support's behaviour is not made noisy by :func:`rational_human`).
+    the others, so :func:`rational_human` makes the grasp behaviour as noisy as a step in
+    free space.
     """
     if not human.deterministic:
         raise ConfigError("preference_q needs a deterministic (preference) human; "
