@@ -241,14 +241,12 @@ def _solve(graph: TaskGraph, human: ScriptedHuman, r0: float, horizon: int, info
     e_succ: list[int] = []
     successor: dict[tuple[int, int, int], int] = {}
     frontier = sorted(set(roots[roots >= 0].tolist()))
-    expanded = 0
     for _depth in range(horizon):
         if not frontier:
             break
         new: list[int] = []
         for n in frontier:
             start, s, lifted, b = nodes[n]
-            expanded = max(expanded, n + 1)
             lik = law[start, iota, s]  # (H, A)
             joint = b[:, None] * lik  # (H, A)
             p_h = joint.sum(0)

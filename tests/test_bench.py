@@ -39,7 +39,9 @@ def test_study_writes_the_contracted_files(tmp_path, capsys):
             if key == "overall":  # totals over all episodes
                 continue
             for name, values in metric.items():
-                assert len(values) == (4 if name == "overall" else 3)  # overall: mean, iqm, CIs
+                # overall: mean, iqm, the mean's CI and, for the reward, the IQM's CI
+                overall = 4 if key == "reward" else 3
+                assert len(values) == (overall if name == "overall" else 3)
         fractions = [stats[k]["mean"] for k in ("correct", "passive", "wrong")]
         np.testing.assert_allclose(np.sum(fractions, axis=0), 1.0)
     assert summary["agents"]["oracle"]["reward"]["mean"] == [0.0, 0.0, 0.0]

@@ -381,7 +381,6 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
     except ConfigError as exc:
         _config_error(parser, exc, arguments)
     from hri_envs.bench.regret import REFERENCES
-    from hri_envs.bench.study import regret_reference
 
     try:
         with stop_on_signals():
@@ -394,16 +393,17 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
         return 143 if isinstance(exc, StudyTerminated) else 130
     print(f"{cfg.scenario} study: {len(cfg.agents)} agents x {cfg.runs} runs x "
           f"{cfg.n_episodes} episodes in {result.wall_time_s:.1f} s")
-    blind, note = regret_reference(result)
+    summary = json.loads((Path(args.out) / "summary.json").read_text())  # its regret
     print(f"  {'agent':12s} {'first':>7s} {'last':>7s} {'mean':>7s} {'median':>7s} "
           f"{'truncated':>9s} {'regret':>7s}")
     for name, m in result.metrics.items():
         r = m["reward"]
-        regret = "    n/a" if blind is None else f"{(blind - r).mean():7.3f}"
+        per_episode = summary["agents"][name].get("regret", {}).get("mean")
+        regret = "    n/a" if per_episode is None else f"{np.mean(per_episode):7.3f}"
         role = f"  ({REFERENCES[name]})" if name in REFERENCES else ""
         print(f"  {name:12s} {r[:, 0].mean():7.2f} {r[:, -1].mean():7.2f} {r.mean():7.2f} "
               f"{np.median(r):7.2f} {m['truncated'].mean():9.1%} {regret}{role}")
-    print(f"  regret vs blind: {note}")
+    print(f"  regret vs blind: {summary['regret']}")
     print("wrote " + ", ".join(str(p) for p in paths))
     log = folder.log_failures(result.failures)
     if log is not None:

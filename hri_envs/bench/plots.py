@@ -104,7 +104,7 @@ def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
             ax.plot(episodes, np.median(r, 0), ":", color=color, linewidth=1.4)
         ax.plot(episodes, r.mean(0), style, color=color, label=label, linewidth=1.8)
         if ci:
-            cis = stats.per_episode(r, getattr(result.config, "seed", 0))["ci95"]
+            cis = stats.per_episode(r, getattr(result.config, "seed", 0), iqm_ci=False)["ci95"]
             low, high = np.array(cis, dtype=float).T  # None (a single run) -> NaN: no bar
             mean = r.mean(0)
             # A percentile interval can miss the sample mean by rounding when the runs agree.

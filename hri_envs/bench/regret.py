@@ -35,8 +35,6 @@ from hri_envs.task.humans import preference_human
 from hri_envs.task.populations import (
     HumanDraw,
     build_human,
-    draw_human,
-    human_sequence,
     population_spec,
 )
 from hri_envs.task.scenarios import scenario_graph
@@ -101,13 +99,9 @@ def _per_run_values(result: StudyResult) -> np.ndarray:
     graph = scenario_graph(cfg.scenario)
     starts = np.asarray(result.schedule["start"], dtype=np.int64)
     prefs = cfg.preference_of_run()
-    n_e = cfg.n_episodes
     seqs: list[list[HumanDraw]] = []
     for r in range(cfg.runs):  # every draw first: refuse before any planning
-        d = draw_human(cfg.scenario, cfg.seed, r, population=population, preference=prefs[r],
-                       rationality=cfg.human_rationality, passive=cfg.human_passive,
-                       turn_back=cfg.turn_back)
-        seq = human_sequence(cfg.scenario, d, cfg.seed, r, n_e, cfg.human_drift)
+        seq = cfg.human_draws(r, prefs[r])
         for x in seq:
             if x.theta is not None or not math.isinf(x.rationality):
                 raise ConfigError(_TOO_LARGE, field="agents")

@@ -45,6 +45,7 @@ from hri_envs.task.episode import REWARDS
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_for
 from hri_envs.task.populations import (
+    HumanDraw,
     draw_human,
     human_sequence,
     humans_of,
@@ -223,6 +224,16 @@ class StudyConfig:
         """Whether runs have humans of their own (a population or a drifting human)."""
         return self.population is not None or self.human_drift is not None
 
+    def human_draws(self, run: int, preference: str) -> list[HumanDraw]:
+        """Run ``run``'s human in each episode, as its own draw from ``(seed, run)`` (a
+        population, rationality, drift; see :mod:`hri_envs.task.populations`).
+        """
+        draw = draw_human(self.scenario, self.seed, run, population=self.population,
+                          preference=preference, rationality=self.human_rationality,
+                          passive=self.human_passive, turn_back=self.turn_back)
+        return human_sequence(self.scenario, draw, self.seed, run, self.n_episodes,
+                              self.human_drift)
+
     @property
     def physics(self) -> dict[str, Any]:
         """The backend's ``physics`` options this study sets."""
@@ -247,15 +258,6 @@ class StudyConfig:
             return [prefs[r % len(prefs)] for r in range(self.runs)]
         default = scenario_spec(self.scenario).default_preference
         return [self.preference or default] * self.runs
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready description (probes summarised by label)."""
-        d = dataclasses.asdict(self)
-        d["agents"] = list(self.agents)
-        d["probes"] = [p.label for p in self.probes]
-        d["human_rationality"] = _json_float(self.human_rationality)
-        d["learner"] = dict(self.learner)
-        return d
 
     def settings(self) -> dict[str, Any]:
         """Every field that can change a number, JSON-ready (``summary.json``'s "settings").
@@ -338,14 +340,6 @@ def _json_float(x: float) -> float | str:
     return str(x) if math.isinf(x) else x
 
 
-def _learner_settings(cfg: StudyConfig) -> dict[str, Any]:
-    """The Learner's full parameters as the study used them (the ``--learner-*`` flags)."""
-    from agents.config import default_config
-
-    return default_config(cfg.scenario, **{"r0": cfg.waiting_reward, **dict(cfg.learner)}
-                          ).to_dict()
-
-
 def _humans(cfg: StudyConfig, preference: str, runs: list[int]
             ) -> tuple[ScriptedHuman | ScriptedHumans, list[str]]:
     """The unit's human(s) and each run's human label (per episode for drift: "a>b")."""
@@ -355,14 +349,8 @@ def _humans(cfg: StudyConfig, preference: str, runs: list[int]
                                  turn_back=cfg.turn_back)
         human = rational_human(human, cfg.human_rationality)
         return human, [preference] * len(runs)
-    seqs, labels = [], []
-    for r in runs:
-        d = draw_human(cfg.scenario, cfg.seed, r, population=cfg.population,
-                       preference=preference, rationality=cfg.human_rationality,
-                       passive=cfg.human_passive, turn_back=cfg.turn_back)
-        seq = human_sequence(cfg.scenario, d, cfg.seed, r, cfg.n_episodes, cfg.human_drift)
-        seqs.append(seq)
-        labels.append(">".join(dict.fromkeys(x.label() for x in seq)))
+    seqs = [cfg.human_draws(r, preference) for r in runs]
+    labels = [">".join(dict.fromkeys(x.label() for x in seq)) for seq in seqs]
     flat = humans_of(graph, [d for seq in seqs for d in seq])
     n_e = cfg.n_episodes
     per_run = [flat[i * n_e:(i + 1) * n_e] for i in range(len(runs))]
@@ -615,7 +603,8 @@ def summarize(result: StudyResult) -> dict[str, Any]:
         # seeded by the study seed.
         for k in ("reward", "correct", "passive", "wrong"):
             pe = stats.per_episode(m[k], cfg.seed, iqm_ci=k == "reward")
-            agents[name][k].update(pe, overall=stats.aggregate(m[k], cfg.seed))
+            agents[name][k].update(pe, overall=stats.aggregate(m[k], cfg.seed,
+                                                                iqm_ci=k == "reward"))
     prefs = sorted(set(cfg.preference_of_run()))
     spec = scenario_spec(cfg.scenario)
     return {
@@ -635,7 +624,8 @@ def summarize(result: StudyResult) -> dict[str, Any]:
         "human_rationality": _json_float(cfg.human_rationality),
         "population": cfg.population,
         "human_drift": cfg.human_drift,
-        "learner": _learner_settings(cfg),
+        "learner": agent_settings("learner", cfg.scenario, cfg.waiting_reward,
+                                  dict(cfg.learner)),
         "version": _version(),
         "env_ids": {"gymnasium": spec.panda_id if cfg.backend == "mujoco" else spec.gym_id,
                     "pettingzoo": spec.pettingzoo_module},

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from hri_envs.bench import stats
-from hri_envs.bench.agents import REFERENCE_AGENTS
+from hri_envs.bench.agents import BUILTIN_AGENTS, REFERENCE_AGENTS
 from hri_envs.bench.atomic import atomic_writer
 from hri_envs.bench.regret import REFERENCES
 from hri_envs.bench.study import StudyConfig, StudyResult, regret_reference, run_study
@@ -56,7 +56,7 @@ __all__ = [
 #: Version of the track set; changes whenever a track's settings or run count change.
 SUITE_VERSION = "1"
 #: The agents ranked by default (the references are added where they fit).
-DEFAULT_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
+DEFAULT_AGENTS: tuple[str, ...] = BUILTIN_AGENTS
 #: An agent has converged from the first episode after which its mean regret over runs
 #: stays at or below this (reward units per episode).
 CONVERGED = 0.05

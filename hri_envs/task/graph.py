@@ -41,7 +41,7 @@ from hri_envs.task.actions import (
     TOGGLE,
     WAIT,
 )
-from hri_envs.task.episode import robot_correct, step_penalty, step_reward
+from hri_envs.task.episode import robot_correct, step_reward
 from hri_envs.task.features import state_features
 from hri_envs.task.geometry import Scenario
 
@@ -85,9 +85,8 @@ class TaskGraph:
         features: (K, S, F) float, φ(s, ι) for each intention ι.
         state_names, action_names: readable labels.
 
-    The rules of an episode on these transitions (:attr:`penalty`, :attr:`robot_passive`,
-    :attr:`robot_effective`, :meth:`reward`) are evaluated from :mod:`hri_envs.task.episode`,
-    where they are written once.
+    The rules of an episode on these transitions (:attr:`robot_effective`, :meth:`reward`)
+    are evaluated from :mod:`hri_envs.task.episode`, where they are written once.
     """
 
     scenario: Scenario
@@ -172,18 +171,6 @@ class TaskGraph:
         n_s, n_a = self.n_states, self.n_actions
         return (np.arange(n_s)[:, None, None], np.arange(n_a)[None, :, None],
                 np.arange(n_a)[None, None, :])
-
-    @cached_property
-    def penalty(self) -> np.ndarray:
-        """(S, A, A) bool, steps punished with r⁻ = -1 (see ``episode.step_penalty``)."""
-        s, a_r, a_h = self._joint
-        return _frozen(step_penalty(self, s, a_r, a_h, self.next_state))
-
-    @cached_property
-    def robot_passive(self) -> np.ndarray:
-        """(S, A, A) bool, the robot waited while the human acted (rewarded r0)."""
-        _, a_r, a_h = self._joint
-        return _frozen(~self.penalty & (a_r == WAIT) & (a_h != WAIT))
 
     @cached_property
     def robot_effective(self) -> np.ndarray:
