@@ -28,7 +28,7 @@ test: $(VENV)/.test-installed
 	$(VENV)/bin/ruff check hri_envs agents baselines tests examples benchmarks
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
-	MUJOCO_GL=egl $(PY) -m pytest -q -n auto
+	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup
 
 speed: $(VENV)/.demo-installed
 	$(VENV)/bin/hri-bench speed

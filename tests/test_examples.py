@@ -63,6 +63,7 @@ def test_physics_table2(tmp_path):
     assert (tmp_path / "t2" / "summary.json").is_file()
 
 
+@pytest.mark.slow  # tests/test_rl.py builds and trains the same example in-process
 @pytest.mark.skipif(not HAS_RAY, reason="Ray RLlib is not installed (see pyproject's 'ray' extra)")
 def test_rllib_multiagent(tmp_path):
     out = run("rllib_multiagent.py", "--iterations", "1", "--batch-size", "100",

@@ -172,7 +172,7 @@ def test_faults_are_reported_not_raised(hanger, tmp_path, monkeypatch):
         r = sim.step(s, WAIT, g.move_over(0))
         assert r.fault is None and not r.settled and r.state == s
         s = sim.reset(0, state=s)
-        sim.design = replace(design, step_time_limit=1.6)  # stopped half-way: a time-out
+        sim.design = replace(design, step_time_limit=1.6)  # stopped half-way: off_support
         r = sim.step(s, WAIT, g.move_over(0))
         assert r.fault is not None and r.fault.startswith("off_support")
     finally:

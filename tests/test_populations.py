@@ -166,16 +166,6 @@ def test_default_study_numbers_are_those_before_populations(
         assert m["steps"].sum() == steps
 
 
-def test_default_study_is_unchanged_by_the_new_options() -> None:
-    cfg = StudyConfig("hanger", runs=4, episodes=3)
-    same = StudyConfig("hanger", runs=4, episodes=3, human_rationality=math.inf,
-                       population=None, human_drift=None)
-    a, b = run_study(cfg), run_study(same)
-    for agent in a.metrics:
-        for k in a.metrics[agent]:
-            np.testing.assert_array_equal(a.metrics[agent][k], b.metrics[agent][k])
-
-
 def test_population_study_does_not_depend_on_batching(tmp_path) -> None:  # type: ignore[no-untyped-def]
     args = ["study", "hanger", "--runs", "6", "--episodes", "3", "--population", "heldout",
             "--human-drift", "2", "--agents", "learner,oracle", "--no-progress"]

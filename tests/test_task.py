@@ -239,13 +239,14 @@ def test_grasp_and_let_go_cost_nothing_on_the_wheel():
 def test_graph_tables_are_the_rules_on_the_graphs_transitions(hanger):
     s, a_r, a_h = np.meshgrid(np.arange(hanger.n_states), np.arange(hanger.n_actions),
                               np.arange(hanger.n_actions), indexing="ij")
-    s_next = hanger.next_state
-    np.testing.assert_array_equal(hanger.reward(-0.4), step_reward(hanger, s, a_r, a_h, s_next,
-                                                                   -0.4))
-    np.testing.assert_array_equal(hanger.robot_effective,
-                                  classify(hanger, s, a_r, a_h, s_next).correct)
-    # the paper's rule as first written: acted, not aborted, not overridden by another motion
+    # The paper's rules as first written, independently of hri_envs.task.episode: r- for an
+    # aborted step, a robot motion the human counteracts with another, or a human wait with
+    # nothing changed; r0 for the robot waiting while the human acts; correct = acted, not
+    # aborted, not overridden by another motion.
     counteracted = (a_r >= TAKE_OFF) & (a_h >= TAKE_OFF) & (a_r != a_h)
+    penalty = hanger.aborted | counteracted | ((a_h == WAIT) & (hanger.next_state == s))
+    expected = np.where(penalty, -1.0, np.where((a_r == WAIT) & (a_h != WAIT), -0.4, 0.0))
+    np.testing.assert_array_equal(hanger.reward(-0.4), expected)
     np.testing.assert_array_equal(hanger.robot_effective,
                                   (a_r != WAIT) & ~hanger.aborted & ~counteracted)
 

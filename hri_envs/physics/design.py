@@ -111,9 +111,9 @@ class PhysicsDesign:
         settle_calm_time_s: How long the object must stay slow (both agents done) to have
             settled.
         settle_min_time_s: Shortest simulated time of a motion phase before it can settle.
-        timeout_fault_factor: A step that times out with the object farther than this
-            multiple of ``position_tolerance`` or ``angle_tolerance`` from the observed
-            state ends with a "timeout" fault (dimensionless).
+        timeout_fault_factor: A step that ends with the object farther than this multiple
+            of ``position_tolerance`` or ``angle_tolerance`` from the observed state ends
+            with an "off_support" fault (dimensionless).
         diverged_qvel_max: Largest |qvel| entry [m/s or rad/s] of a stable simulation.
         stability_check_every_steps: Check the simulation's stability this often.
         platform_update_every_steps: Move the mobile base's floor platform this often.
