@@ -307,11 +307,10 @@ def run_episodes(
                 a_h = np.where(active, human(s, eps.start, eps.intention, a_r, active), WAIT)
                 step = backend.transition(s, a_r, a_h, active)
                 w = active.astype(float)
-                reward_step = step_reward(graph, s, a_r, a_h, step.next_state, r0,
-                                          reward=reward, start=eps.start, lifted=eps.lifted)
-                if step.penalty is not None:  # a physical failure: r⁻ (-1)
-                    reward_step = np.where(step.penalty, -1.0, reward_step)
-                totals["reward"] += w * reward_step
+                failed = False if step.penalty is None else step.penalty
+                totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, r0,
+                                                    reward=reward, start=eps.start,
+                                                    lifted=eps.lifted, failed=failed)
                 for key, judged in zip(("correct", "passive", "wrong"),
                                        classify(graph, s, a_r, a_h, step.next_state),
                                        strict=True):

@@ -120,12 +120,15 @@ class Episode:
         s = self.state
         i = (s * r.n_actions + a_r) * r.n_actions + a_h
         s_next = self.transition(a_r, a_h)
-        if s_next == r.next_list[i]:
+        failed = self.failed
+        if s_next == r.next_list[i] and not failed:  # the graph's prediction: look it up
             reward = r.reward_list[i]
+            if r.reward_rule != "paper":
+                reward = float(r.adjust(reward, s, a_r, self.start, self.lifted))
         else:  # the backend's outcome differs from the graph's prediction
-            reward = float(step_reward(r.graph, s, a_r, a_h, s_next, r.r0))
-        if r.reward_rule != "paper":
-            reward = float(r.adjust(reward, s, a_r, self.start, self.lifted))
+            reward = float(step_reward(r.graph, s, a_r, a_h, s_next, r.r0,
+                                       reward=r.reward_rule, start=self.start,
+                                       lifted=self.lifted, failed=failed))
         self.previous, self.state = s, s_next
         self.lifted = lifted = self.lifted or r.left_list[s_next * r.n_supports + self.start]
         self.steps += 1
@@ -153,6 +156,11 @@ class Episode:
     def observed_human(self) -> int:
         """The human's last action as the robot observes it (here: the true one)."""
         return self.last_human
+
+    @property
+    def failed(self) -> bool:
+        """The last step was a physical failure, punished with r⁻; never, here."""
+        return False
 
     @property
     def fault(self) -> str | None:

@@ -19,7 +19,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from hri_envs.envs.episode import Episode, Transition
+from hri_envs.envs.episode import Episode
 from hri_envs.envs.window import check_display
 from hri_envs.errors import DisplayUnavailableError
 from hri_envs.physics.ik import IKFailure
@@ -128,12 +128,10 @@ class PhysicsEpisode(Episode):
         self.totals.add(res, a_h)
         return res.state
 
-    def advance(self, a_r: int, a_h: int) -> Transition:
-        """The shared episode step; a physical failure in it earns r⁻ (the graph's -1)."""
-        t = super().advance(a_r, a_h)
-        if self.result is not None and self.result.fault_kind in PHYSICAL_FAULTS:
-            t = t._replace(reward=-1.0)
-        return t
+    @property
+    def failed(self) -> bool:
+        """The last step ended in a physical failure (it earns r⁻, see ``step_reward``)."""
+        return self.result is not None and self.result.fault_kind in PHYSICAL_FAULTS
 
     def step_info(self) -> dict[str, Any]:
         """Per-step physics figures for ``info`` (paper Fig. 6 impulses, agreement, ...)."""

@@ -41,6 +41,7 @@ __all__ = [
     "EpisodeBatch",
     "EpisodeRules",
     "arrived",
+    "charge_unneeded_toggles",
     "classify",
     "draw_other_support",
     "draw_start_intention",
@@ -188,6 +189,7 @@ def step_reward(
     reward: str = "paper",
     start: IntArray | None = None,
     lifted: np.ndarray | bool = False,
+    failed: np.ndarray | bool = False,
 ) -> np.ndarray:
     """The robot cooperation reward R_R(s, a_R, a_H, s') in {-1, r0, 0}, arrays broadcast.
 
@@ -201,19 +203,32 @@ def step_reward(
     step) and not punished costs ``r0``, like waiting.
 
     ``s_next`` is the state the object reached (the graph's prediction on the graph
-    backend, the observed state on the physics backend).
+    backend, the observed state on the physics backend). ``failed`` marks steps in which the
+    backend reports a physical failure (the object dropped, pulled out of the grip, ...):
+    they are punished with r⁻ like an aborted step.
     """
-    penalty = step_penalty(graph, s, a_r, a_h, s_next)
+    penalty = step_penalty(graph, s, a_r, a_h, s_next) | failed
     passive = (np.asarray(a_r) == WAIT) & (np.asarray(a_h) != WAIT)
+    out = np.where(penalty, -1.0, np.where(passive, r0, 0.0))
     if reward == "no-free-toggle":
         if start is None:
             raise ConfigError("reward 'no-free-toggle' needs the episode's start support",
                               field="start")
-        passive = passive | unneeded_toggle(graph, s, a_r, start, lifted)
-    elif reward != "paper":
+        return charge_unneeded_toggles(out, a_r, unneeded_toggle(graph, s, a_r, start, lifted),
+                                       r0)
+    if reward != "paper":
         raise ConfigError(f"unknown reward {reward!r}; allowed: {', '.join(REWARDS)}",
                           field="reward")
-    return np.where(penalty, -1.0, np.where(passive, r0, 0.0))
+    return out
+
+
+def charge_unneeded_toggles(reward: np.ndarray | float, a_r: IntArray,
+                            unneeded: np.ndarray | bool, r0: float) -> np.ndarray:
+    """The "no-free-toggle" rule on rewards of the "paper" rule: an unneeded robot toggle
+    (:func:`unneeded_toggle`) that was not punished (it scored 0) costs ``r0``.
+    """
+    costly = (np.asarray(a_r) == TOGGLE) & (np.asarray(reward) == 0.0) & unneeded
+    return np.where(costly, r0, reward)
 
 
 def robot_correct(
@@ -341,9 +356,7 @@ class EpisodeRules:
         if self.reward_rule == "paper":
             return np.asarray(reward)
         context = (np.asarray(s) * self.n_supports + start) * 2 + np.asarray(lifted, dtype=int)
-        costly = (np.asarray(a_r) == TOGGLE) & (np.asarray(reward) == 0.0) & np.take(
-            self.unneeded, context)
-        return np.where(costly, self.r0, reward)
+        return charge_unneeded_toggles(reward, a_r, np.take(self.unneeded, context), self.r0)
 
     def index(self, s: IntArray, a_r: IntArray, a_h: IntArray) -> IntArray:
         """Flat index of ``(s, a_R, a_H)`` into the (S A A,) tables."""
