@@ -175,12 +175,16 @@ class ScriptedHumans:
         """Select each run's human for ``episode``; (B, K, K) turn states, None if shared."""
         if self.per_run is None:
             return None
-        self.current = [seq[min(episode, len(seq) - 1)] for seq in self.per_run]
+        current = [seq[min(episode, len(seq) - 1)] for seq in self.per_run]
+        if episode > 0 and all(a is b for a, b in zip(current, self.current, strict=True)):
+            return self._turn_states  # nobody's human changed (no drift now): keep the tables
+        self.current = current
         self._greedy = np.stack([h.preferred_action(*self._grid) for h in self.current])
         self._cum = np.stack([np.cumsum(h.policy, axis=-1) for h in self.current])
         self._stochastic = np.array([not h.deterministic for h in self.current])
         self._passive = np.array([h.passive for h in self.current])
-        return np.stack([h.turn_state for h in self.current])
+        self._turn_states: np.ndarray = np.stack([h.turn_state for h in self.current])
+        return self._turn_states
 
     @property
     def _grid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
