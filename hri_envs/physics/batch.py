@@ -17,8 +17,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from hri_envs.envs.backends import BatchBackend, BatchStep
+from hri_envs.physics.episode import STEP_FIGURES, STEP_MEANS, step_figures
 from hri_envs.physics.ik import IKFailure
-from hri_envs.physics.sim import PHYSICAL_FAULTS, PandaSim
+from hri_envs.physics.sim import PandaSim
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import episode_scenario, scenario_spec
 
@@ -30,7 +31,8 @@ class PhysicsBatch(BatchBackend):
 
     The per-episode extras are ``linear_impulse`` [N s] and ``angular_impulse`` [N m s]
     (the human's interaction wrench as the wrist sensor sees it, integrated over the
-    episode, paper Fig. 6), ``linear_impulse_true`` (the same from the true wrench),
+    episode, paper Fig. 6), ``linear_impulse_true`` and ``angular_impulse_true`` (the same
+    from the true wrench),
     ``duration_s`` (simulated seconds), ``graph_agrees`` (the fraction of the episode's
     steps whose observed next state is the graph's prediction), ``inference_accuracy``
     (the fraction whose inferred human action is the true one) and ``physical_fault``
@@ -42,10 +44,8 @@ class PhysicsBatch(BatchBackend):
         physics: Validated ``physics`` options (e.g. ``{"preset": "weak-human"}``).
     """
 
-    extras: ClassVar[tuple[str, ...]] = ("linear_impulse", "angular_impulse",
-                                         "linear_impulse_true", "duration_s", "graph_agrees",
-                                         "inference_accuracy", "physical_fault")
-    step_means: ClassVar[tuple[str, ...]] = ("graph_agrees", "inference_accuracy")
+    extras: ClassVar[tuple[str, ...]] = STEP_FIGURES
+    step_means: ClassVar[tuple[str, ...]] = STEP_MEANS
 
     def __init__(self, graph: TaskGraph, runs: Sequence[int] | np.ndarray, seed: int,
                  physics: Mapping[str, Any] | None = None) -> None:
@@ -80,13 +80,7 @@ class PhysicsBatch(BatchBackend):
         for i in np.flatnonzero(active):
             res = self.sim.step(int(state[i]), int(a_r[i]), int(a_h[i]))
             next_state[i], seen[i], fault[i] = res.state, res.human_action, res.fault is not None
-            penalty[i] = res.fault_kind in PHYSICAL_FAULTS
-            for key, value in (("linear_impulse", res.linear_impulse),
-                               ("angular_impulse", res.angular_impulse),
-                               ("linear_impulse_true", res.linear_impulse_true),
-                               ("duration_s", res.duration),
-                               ("graph_agrees", res.graph_agrees),
-                               ("inference_accuracy", res.human_action == a_h[i]),
-                               ("physical_fault", penalty[i])):
+            for key, value in step_figures(res, int(a_h[i])).items():
                 extras[key][i] = value
+            penalty[i] = extras["physical_fault"][i] > 0
         return BatchStep(next_state, seen, fault, extras, penalty)

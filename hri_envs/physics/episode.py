@@ -14,7 +14,6 @@ pulled out of the grip or ended off every state) earns that step the graph's pen
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -29,28 +28,31 @@ from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import EpisodeRules
 from hri_envs.task.scenarios import episode_scenario
 
-__all__ = ["EpisodeTotals", "PhysicsEpisode"]
+__all__ = ["STEP_FIGURES", "STEP_MEANS", "PhysicsEpisode", "step_figures"]
 
 
-@dataclass
-class EpisodeTotals:
-    """Physical figures summed over the steps of an episode."""
+#: The physical figures of a step, summed over an episode (``step_means``: averaged per
+#: step instead); the physics' ``info`` and the benchmark's extras (PhysicsBatch) share them.
+STEP_FIGURES: tuple[str, ...] = ("linear_impulse", "angular_impulse", "linear_impulse_true",
+                                 "angular_impulse_true", "duration_s", "graph_agrees",
+                                 "inference_accuracy", "physical_fault")
+STEP_MEANS: tuple[str, ...] = ("graph_agrees", "inference_accuracy")
 
-    linear_impulse: float = 0.0  # [N s] ∫ |F_sensed| dt
-    angular_impulse: float = 0.0  # [N m s] ∫ |τ_sensed| dt
-    linear_impulse_true: float = 0.0  # [N s] ∫ |F_human| dt
-    duration_s: float = 0.0  # simulated seconds
-    agreeing_steps: int = 0  # steps whose observed next state is the graph's prediction
-    inferred_steps: int = 0  # steps whose inferred human action is the true one
 
-    def add(self, res: StepResult, human_true: int) -> None:
-        """Add one step's figures (``human_true``: the human's true action)."""
-        self.linear_impulse += res.linear_impulse
-        self.angular_impulse += res.angular_impulse
-        self.linear_impulse_true += res.linear_impulse_true
-        self.duration_s += res.duration
-        self.agreeing_steps += int(res.graph_agrees)
-        self.inferred_steps += int(res.human_action == human_true)
+def step_figures(res: StepResult, human_true: int) -> dict[str, float]:
+    """One step's figures, keyed as :data:`STEP_FIGURES`.
+
+    Impulses [N s, N m s] are the human's wrench integrated over the step, as the wrist
+    sensor sees it and (``_true``) as it was; ``graph_agrees``, ``inference_accuracy`` and
+    ``physical_fault`` are 0/1: the observed next state is the graph's prediction, the
+    inferred human action is ``human_true``, the step ended in a physical failure.
+    """
+    return {"linear_impulse": res.linear_impulse, "angular_impulse": res.angular_impulse,
+            "linear_impulse_true": res.linear_impulse_true,
+            "angular_impulse_true": res.angular_impulse_true, "duration_s": res.duration,
+            "graph_agrees": float(res.graph_agrees),
+            "inference_accuracy": float(res.human_action == human_true),
+            "physical_fault": float(res.fault_kind in PHYSICAL_FAULTS)}
 
 
 class PhysicsEpisode(Episode):
@@ -69,7 +71,7 @@ class PhysicsEpisode(Episode):
     Attributes:
         sim: The simulation.
         result: The last step's :class:`StepResult` (None after a reset).
-        totals: The episode's :class:`EpisodeTotals`.
+        totals: The episode's :func:`step_figures`, summed.
     """
 
     name: ClassVar[str] = "mujoco"
@@ -81,7 +83,7 @@ class PhysicsEpisode(Episode):
         self._observed_human = WAIT
         self.result: StepResult | None = None
         self._fault: str | None = None
-        self.totals = EpisodeTotals()
+        self.totals = dict.fromkeys(STEP_FIGURES, 0.0)
         self.video_path, self.video_fps = video_path, video_fps
         self.frames: list[np.ndarray] = []
         self.episode_count = 0
@@ -105,7 +107,7 @@ class PhysicsEpisode(Episode):
         self.flush_video()
         self._observed_human = WAIT
         self.result, self._fault = None, None
-        self.totals = EpisodeTotals()
+        self.totals = dict.fromkeys(STEP_FIGURES, 0.0)
         scenario = episode_scenario(self.rules.graph.name, layout)
         try:
             self.sim.reset(self.start, scenario, np.random.default_rng(int(rng.integers(2**63))))
@@ -125,7 +127,8 @@ class PhysicsEpisode(Episode):
         res = self.sim.step(self.state, a_r, a_h)
         self.result, self._fault = res, res.fault
         self._observed_human = res.human_action
-        self.totals.add(res, a_h)
+        for key, value in step_figures(res, a_h).items():
+            self.totals[key] += value
         return res.state
 
     @property
@@ -147,12 +150,8 @@ class PhysicsEpisode(Episode):
             "human_action_inferred": self._observed_human,
             "human_action_true": self.last_human if res is not None else WAIT,
             "fault": None if res is None else res.fault_kind,
-            "episode_linear_impulse": float(tot.linear_impulse),
-            "episode_angular_impulse": float(tot.angular_impulse),
-            "episode_linear_impulse_true": float(tot.linear_impulse_true),
-            "episode_duration_s": float(tot.duration_s),
-            "episode_graph_agrees": float(tot.agreeing_steps) / max(self.steps, 1),
-            "episode_inference_accuracy": float(tot.inferred_steps) / max(self.steps, 1),
+            **{f"episode_{key}": (value / max(self.steps, 1) if key in STEP_MEANS else value)
+               for key, value in tot.items()},
         }
         if self._fault is not None:
             info["truncation_reason"] = self._fault
