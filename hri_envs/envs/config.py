@@ -16,7 +16,7 @@ from hri_envs.envs.backends import BACKENDS, PHYSICS_PARAMETERS, backend_spec, c
 from hri_envs.errors import ConfigError
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_for
+from hri_envs.task.humans import ScriptedHuman, check_probability, preference_human
 from hri_envs.task.populations import rational_human, validate_rationality
 from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 
@@ -192,17 +192,10 @@ def make_human(
                 f"not the {graph.name}"
             )
         return human
-    allowed = preferences_for(graph.name)
-    if preference is not None and preference not in allowed:
-        raise ConfigError(
-            f"unknown {graph.name} preference {preference!r}; allowed: {', '.join(allowed)}"
-        )
-    for label, p in (("human_passive", passive), ("turn_back", turn_back)):
-        if not isinstance(p, int | float | np.floating) or not 0.0 <= p <= 1.0:
-            raise ConfigError(f"{label} must be a probability in [0, 1], got {p!r}")
-    return rational_human(
-        preference_human(graph, preference, passive=float(passive), turn_back=float(turn_back)),
-        rationality)
+    passive = check_probability(passive, "human_passive")  # the env's name for it
+    turn_back = check_probability(turn_back, "turn_back")
+    return rational_human(preference_human(graph, preference, passive=passive,
+                                           turn_back=turn_back), rationality)
 
 
 def support_index(value: Any, scenario: Scenario, key: str) -> int:

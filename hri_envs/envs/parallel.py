@@ -23,7 +23,7 @@ from hri_envs.envs.spaces import check_action, human_observation_space, robot_ob
 from hri_envs.envs.window import check_display
 from hri_envs.errors import ActionError, ConfigError
 from hri_envs.task.episode import EpisodeRules, goal_reward, reached_intention
-from hri_envs.task.humans import preference_human
+from hri_envs.task.humans import check_probability, preference_human
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["AGENTS", "CooperationParallelEnv"]
@@ -178,11 +178,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         turn_back: float = 0.0,
         reward: str = "paper",
     ) -> None:
-        if isinstance(turn_back, bool) or not isinstance(turn_back, int | float) or not (
-                0.0 <= turn_back <= 1.0):
-            raise ConfigError(f"turn_back must be a probability in [0, 1], got {turn_back!r}",
-                              field="turn_back")
-        self.turn_back = float(turn_back)
+        self.turn_back = check_probability(turn_back, "turn_back")
         self.metadata = {**type(self).metadata, "name": f"{scenario}_v0",
                          "render_modes": list(type(self).metadata["render_modes"])}
         (self.scenario_name, self.r0, self.max_cycles, self.render_mode,

@@ -52,6 +52,7 @@ __all__ = [
     "PreferredActions",
     "ScriptedHuman",
     "boltzmann_human",
+    "check_probability",
     "preference_human",
     "preferences_for",
 ]
@@ -126,6 +127,17 @@ class PreferredActions(Protocol):
         ...
 
 
+def check_probability(value: object, field: str) -> float:
+    """``value`` as a float if it is a probability in [0, 1], else a :class:`ConfigError`
+    naming ``field``.
+    """
+    if (isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating)
+            or not 0.0 <= value <= 1.0):
+        raise ConfigError(f"{field} must be a probability in [0, 1], got {value!r}",
+                          field=field)
+    return float(value)
+
+
 @dataclass(frozen=True, eq=False)
 class ScriptedHuman:
     """A scripted human partner.
@@ -152,9 +164,8 @@ class ScriptedHuman:
         if self.policy.shape != (k, k, s, a):
             raise ConfigError(f"policy must have shape {(k, k, s, a)}, got {self.policy.shape}",
                               field="policy")
-        for label, p in (("passive", self.passive), ("turn_back", self.turn_back)):
-            if not 0.0 <= p <= 1.0:
-                raise ConfigError(f"{label} must be a probability in [0, 1], got {p}", field=label)
+        check_probability(self.passive, "passive")
+        check_probability(self.turn_back, "turn_back")
         if np.any(self.policy[..., ~self.graph.valid.astype(bool)] > 0):
             raise ConfigError("policy puts probability on actions that are invalid in the state; "
                               "only the graph's valid actions are allowed", field="policy")
