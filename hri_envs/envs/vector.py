@@ -181,6 +181,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._last_human = np.zeros(n, dtype=np.int64)
         self._turning = False  # some env's human may still turn back
         self._t = 0  # steps since reset()
+        self._due = 0  # no env reaches its deadline (of _t) before this step
         self._ended = np.zeros(0, dtype=np.int64)  # envs whose episode ended in the last step
         self._all = np.ones(n, dtype=bool)
         self._human_rng = np.random.default_rng(0)
@@ -282,6 +283,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._turning = False
         self._turn_at[:] = -1
         self._t = 0
+        self._due = self.max_cycles
         self._begin(slice(None), start, intention, turn)
         self._ended = self._ended[:0]
         self._needs_reset = False
@@ -325,8 +327,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         infos: dict[str, Any] = {"aborted": aborted, "_aborted": self._all,
                                  "invalid_action": invalid, "_invalid_action": self._all}
         if self._same_step:
-            truncated = self._deadline == t
-            np.greater(truncated, terminated, out=truncated)  # truncated and not terminated
+            truncated = self._truncated(t, terminated)
             ended = terminated | truncated
             if ended.any():
                 which = ended.nonzero()[0]
@@ -342,12 +343,26 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         which = self._ended
         if which.size:
             self._restart(which)
-        truncated = self._deadline == t
-        np.greater(truncated, terminated, out=truncated)  # truncated and not terminated
+        truncated = self._truncated(t, terminated)
         self._ended = ended = (terminated | truncated).nonzero()[0]
         if ended.size:
             self._key[ended] = table.over
-        return self._observations(), reward, terminated, truncated, infos
+        state = self._state
+        obs = {"state": state.copy(), "start": self._start.copy(),
+               "last_human_action": self._last_human.copy(),
+               "action_mask": self.rules.action_mask.take(state, axis=0)}
+        return obs, reward, terminated, truncated, infos
+
+    def _truncated(self, t: int, terminated: np.ndarray) -> np.ndarray:
+        """(N,) bool: the envs that reach the step limit in step ``t`` without terminating."""
+        if t < self._due:  # no deadline falls in this step
+            return np.zeros(self.num_envs, dtype=bool)
+        deadline = self._deadline
+        truncated = deadline == t
+        np.greater(truncated, terminated, out=truncated)  # truncated and not terminated
+        # Envs at their deadline start again with a later one; the others keep theirs.
+        self._due = int(deadline[deadline > t].min(initial=t + self.max_cycles))
+        return truncated
 
     def _restart(self, which: np.ndarray) -> None:
         """New random episodes in the envs ``which`` (autoreset)."""
