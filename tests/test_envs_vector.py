@@ -164,3 +164,27 @@ def test_same_step_autoreset_returns_the_next_first_observation():
     with pytest.raises(ValueError, match="autoreset_mode must be"):
         gym.make_vec("hri_envs/Hanger-v0", num_envs=2, vectorization_mode="vector_entry_point",
                      autoreset_mode="sometimes")
+
+
+def test_a_replaced_human_acts_from_the_next_step():
+    """The deterministic human's look-up table follows ``env.human`` when it is replaced."""
+    from hri_envs.task.humans import preference_human
+
+    vec = RobotVectorEnv(4, "wheel", preference="straight")
+    obs, _ = vec.reset(seed=0, options={"start": "A", "intention": ["B", "C", "B", "C"]})
+    straight, detour = vec.human, preference_human(vec.graph, "detour")
+    differ = False
+    for _ in range(12):  # the robot follows the straight human until the routes part
+        want_s = straight.preferred_action(obs["state"], obs["start"], vec.intention)
+        want_d = detour.preferred_action(obs["state"], obs["start"], vec.intention)
+        if (want_s != want_d).any():
+            differ = True
+            break
+        obs, *_ = vec.step(want_s)
+    assert differ
+    vec.human = detour
+    obs, *_ = vec.step(np.zeros(4, dtype=np.int64))  # the robot waits: the human acts
+    np.testing.assert_array_equal(obs["last_human_action"], want_d)
+    vec.human = preference_human(vec.graph, "detour", passive=1.0)  # sampled: always waits
+    obs, *_ = vec.step(np.zeros(4, dtype=np.int64))
+    assert (obs["last_human_action"] == 0).all()

@@ -158,26 +158,20 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         n = self.num_envs
         self._table = StepTable(self.rules)
-        # A human that neither samples nor waits at random acts by one table look-up (its
-        # generator's draws would be unused); any other human samples through act().
-        self._greedy: np.ndarray | None = None
-        if self.human.deterministic and self.human.passive == 0.0:
-            grid = np.indices((n_k, n_k, n_s)).reshape(3, -1)  # (start, goal, state) rows
-            self._greedy = np.asarray(self.human.preferred_action(grid[2], grid[0], grid[1]),
-                                      dtype=np.int64)
-        self._greedy_start, self._greedy_goal = n_k * n_s, n_s  # strides of its row index
+        self._turn_state = self.human.turn_state  # where a turning-back human turns
         self._n_supports, self._n_actions = n_k, n_a
+        self._greedy_start, self._greedy_goal = n_k * n_s, n_s  # strides of a human row
         # Per env (N,): the current episode's state, start, ι, the flat index of its context
-        # (StepTable.key: state, start, lifted), the human's table row ((start K + ι) S),
-        # the state where the human turns back (-1: not in this episode), steps and the
-        # human's last action.
+        # (StepTable.key: state, start, lifted), the human's row in the greedy table
+        # ((start K + ι) S), the state where the human turns back (-1: not in this
+        # episode), the step (of _t) that truncates it and the human's last action.
         self._state = np.zeros(n, dtype=np.int64)
         self._start = np.zeros(n, dtype=np.int64)
         self._intention = np.ones(n, dtype=np.int64) % n_k
         self._key = np.zeros(n, dtype=np.int64)
         self._hkey = np.zeros(n, dtype=np.int64)
         self._turn_at = np.full(n, -1, dtype=np.int64)
-        self._deadline = np.zeros(n, dtype=np.int64)  # the step (of _t) that truncates
+        self._deadline = np.zeros(n, dtype=np.int64)
         self._last_human = np.zeros(n, dtype=np.int64)
         self._turning = False  # some env's human may still turn back
         self._t = 0  # steps since reset()
@@ -185,6 +179,9 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._ended = np.zeros(0, dtype=np.int64)  # envs whose episode ended in the last step
         self._all = np.ones(n, dtype=bool)
         self._human_rng = np.random.default_rng(0)
+        self._greedy: np.ndarray | None = None
+        self._greedy_human: ScriptedHuman | None = None
+        self._adopt(self.human)
         self._needs_reset = True
 
     # ----------------------------------------------------------------- helpers
@@ -221,6 +218,22 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     def _draw_turn(self, n: int) -> np.ndarray:
         return self.human.draw_turn_back(self.np_random, n)
 
+    def _adopt(self, human: ScriptedHuman) -> None:
+        """Act with ``human`` from now on (also when :attr:`human` was replaced).
+
+        A human that neither samples nor waits at random acts by one look-up into its
+        (start, ι, state) table of preferred actions: the draws of its generator would be
+        unused. Any other human samples through its ``act``.
+        """
+        self._greedy_human = human
+        self._greedy = None
+        if human.deterministic and human.passive == 0.0:
+            n_k, n_s = self._n_supports, self.graph.n_states
+            grid = np.indices((n_k, n_k, n_s)).reshape(3, -1)  # (start, goal, state) rows
+            self._greedy = np.asarray(human.preferred_action(grid[2], grid[0], grid[1]),
+                                      dtype=np.int64)
+            self._hkey[:] = self._start * self._greedy_start + self._intention * self._greedy_goal
+
     def _begin(self, rows: np.ndarray | slice, start: np.ndarray, intention: np.ndarray,
                turn: np.ndarray | None) -> None:
         """Start new episodes in ``rows`` (the rules' start context, steps 0, human waited);
@@ -237,7 +250,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             self._hkey[rows] = start * self._greedy_start + intention * self._greedy_goal
         if turn is not None and (self._turning or turn.any()):
             self._turning = True
-            self._turn_at[rows] = np.where(turn, self.human.turn_state[start, intention], -1)
+            self._turn_at[rows] = np.where(turn, self._turn_state[start, intention], -1)
         elif self._turning:
             self._turn_at[rows] = -1
 
@@ -303,6 +316,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         a_r = self._check_actions(actions)
         self._t = t = self._t + 1
         table, s = self._table, self._state
+        if self.human is not self._greedy_human:
+            self._adopt(self.human)
         if self._greedy is not None:
             a_h = self._greedy.take(self._hkey + s)
         else:
@@ -348,9 +363,10 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         if ended.size:
             self._key[ended] = table.over
         state = self._state
-        obs = {"state": state.copy(), "start": self._start.copy(),
-               "last_human_action": self._last_human.copy(),
-               "action_mask": self.rules.action_mask.take(state, axis=0)}
+        obs: dict[str, np.ndarray] = {
+            "state": state.copy(), "start": self._start.copy(),
+            "last_human_action": self._last_human.copy(),
+            "action_mask": self.rules.action_mask.take(state, axis=0)}
         return obs, reward, terminated, truncated, infos
 
     def _truncated(self, t: int, terminated: np.ndarray) -> np.ndarray:

@@ -485,7 +485,7 @@ class StepTable:
         next_key = ((start * 2 + lifted_next) * n_s + s_next) * self.stride
 
         def flat(table: np.ndarray, dtype: type, ended: float | int | bool) -> np.ndarray:
-            out = np.full(self.over + self.stride, ended, dtype=dtype)
+            out: np.ndarray = np.full(self.over + self.stride, ended, dtype=dtype)
             out[:self.over] = np.broadcast_to(table, shape).reshape(-1)
             out.setflags(write=False)
             return out
