@@ -40,12 +40,13 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     ## Description
 
     The robot-vs-scripted-human task of :class:`~hri_envs.envs.robot.RobotEnv`, for N
-    episodes at once. Every step is a handful of array look-ups into the same
-    :class:`~hri_envs.task.episode.EpisodeRules` tables the single env uses, and the
-    episodes' bookkeeping is the benchmark's :class:`~hri_envs.task.episode.EpisodeBatch`,
-    with no Python loop over episodes. It runs on the graph only: a backend that simulates
-    (``backend="mujoco"``) is refused; vectorise the Panda envs with Gymnasium's
-    ``vectorization_mode="async"`` instead. Made by
+    episodes at once. Every step is one flat index per env into a
+    :class:`~hri_envs.task.episode.StepTable`, derived from the same
+    :class:`~hri_envs.task.episode.EpisodeRules` the single env uses (next state, reward,
+    end and next context in one look-up each), with no Python loop over episodes; a
+    deterministic human that is never passive acts by one look-up too. It runs on the
+    graph only: a backend that simulates (``backend="mujoco"``) is refused; vectorise the
+    Panda envs with Gymnasium's ``vectorization_mode="async"`` instead. Made by
     ``gymnasium.make_vec("hri_envs/Hanger-v0", num_envs=N,
     vectorization_mode="vector_entry_point")``.
 

@@ -20,7 +20,8 @@ broadcast, so the same code serves one episode and thousands.
 
 :class:`EpisodeRules` caches the rules on the graph's own transitions as flat lookup tables
 (for the hot loops of the envs); :class:`EpisodeBatch` keeps the bookkeeping of N running
-episodes (state, start, intention, lifted, steps) for the vector env and the benchmark.
+episodes (state, start, intention, lifted, steps) for the benchmark; :class:`StepTable`
+fuses the tables of :class:`EpisodeRules` into one look-up per step (the vector env).
 """
 
 from __future__ import annotations
