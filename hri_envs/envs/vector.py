@@ -237,8 +237,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
 
     def _begin(self, rows: np.ndarray | slice, start: np.ndarray, intention: np.ndarray,
                turn: np.ndarray | None) -> None:
-        """Start new episodes in ``rows`` (the rules' start context, steps 0, human waited);
-        ``turn``: whether each one's human turns back (None: none does).
+        """Start new episodes in ``rows``: the rules' start context, a step limit counted from
+        now, the human waited; ``turn`` says whether each one's human turns back (None: none).
         """
         table = self._table
         self._start[rows] = start
