@@ -329,3 +329,18 @@ def test_a_physical_failure_costs_r_minus_and_the_other_runs_go_on(monkeypatch):
     np.testing.assert_allclose(bad.reward[1], ok.reward[1])
     # Step 1: the human grasps while the robot waits (a grasp costs nothing); step 2: r⁻.
     np.testing.assert_allclose(bad.reward[0], 0.0 - 1.0)
+
+
+def test_env_speed_measurements_read_the_given_clock():
+    """``clock=`` (e.g. time.thread_time on a loaded machine) is what the repeats are timed by."""
+    from hri_envs.envs import speed as env_speed
+
+    ticks = iter(range(0, 1000, 2))  # every repeat lasts 2 "seconds" of this clock
+
+    def clock():
+        return float(next(ticks))
+
+    par = env_speed.parallel_env_steps_per_s("hanger", steps=50, repeats=2, clock=clock)
+    vec = env_speed.vector_env_steps_per_s(num_envs=4, steps=10, repeats=3, clock=clock)
+    assert (par.seconds, par.steps_per_s) == (2.0, 25.0)
+    assert (vec.seconds, vec.steps_per_s) == (2.0, 20.0)

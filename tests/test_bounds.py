@@ -170,7 +170,7 @@ def test_envs_take_the_reward_variant():
         assert reward == expected, rule
         vec = RobotVectorEnv(2, "wheel", reward=rule)
         vec.reset(seed=0, options={"start": a, "intention": b})
-        vec._eps.state[:], vec._eps.lifted[:] = 5, True
+        vec._state[:], vec._key[:] = 5, vec._table.key(5, vec._start, True)  # held, lifted
         _, reward_v, *_ = vec.step(np.array([TOGGLE, TOGGLE]))
         np.testing.assert_array_equal(reward_v, expected)
     with pytest.raises(ConfigError, match="allowed: paper, no-free-toggle"):

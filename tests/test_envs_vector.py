@@ -164,3 +164,56 @@ def test_same_step_autoreset_returns_the_next_first_observation():
     with pytest.raises(ValueError, match="autoreset_mode must be"):
         gym.make_vec("hri_envs/Hanger-v0", num_envs=2, vectorization_mode="vector_entry_point",
                      autoreset_mode="sometimes")
+
+
+def test_a_replaced_human_acts_from_the_next_step():
+    """The deterministic human's look-up table follows ``env.human`` when it is replaced."""
+    from hri_envs.task.humans import preference_human
+
+    vec = RobotVectorEnv(4, "wheel", preference="straight")
+    obs, _ = vec.reset(seed=0, options={"start": "A", "intention": ["B", "C", "B", "C"]})
+    straight, detour = vec.human, preference_human(vec.graph, "detour")
+    differ = False
+    for _ in range(12):  # the robot follows the straight human until the routes part
+        want_s = straight.preferred_action(obs["state"], obs["start"], vec.intention)
+        want_d = detour.preferred_action(obs["state"], obs["start"], vec.intention)
+        if (want_s != want_d).any():
+            differ = True
+            break
+        obs, *_ = vec.step(want_s)
+    assert differ
+    vec.human = detour
+    obs, *_ = vec.step(np.zeros(4, dtype=np.int64))  # the robot waits: the human acts
+    np.testing.assert_array_equal(obs["last_human_action"], want_d)
+    vec.human = preference_human(vec.graph, "detour", passive=1.0)  # sampled: always waits
+    obs, *_ = vec.step(np.zeros(4, dtype=np.int64))
+    assert (obs["last_human_action"] == 0).all()
+
+
+# Digests of 60 seeded steps of 16 envs, recorded from the v0 vector env before its step was
+# rewritten around the fused StepTable: the same seed must keep giving the same numbers
+# (random human draws, turning back, autoresets, both autoreset modes, the reward variant).
+FROZEN_V0 = [
+    ("hanger", {}, "NextStep", "65b5c927211f2f35"),
+    ("wheel", {"human_passive": 0.3, "turn_back": 0.5}, "NextStep", "ea176f795ec1dba9"),
+    ("hanger", {"turn_back": 0.4, "reward": "no-free-toggle", "max_cycles": 7}, "SameStep",
+     "212b2ab4e5f4f167"),
+    ("wheel", {"preference": "detour", "max_cycles": 9}, "SameStep", "5233fc35d7bba965"),
+]
+
+
+@pytest.mark.parametrize(("scenario", "kwargs", "mode", "digest"), FROZEN_V0)
+def test_seeded_steps_are_those_of_v0(scenario, kwargs, mode, digest):
+    import hashlib
+
+    env = RobotVectorEnv(16, scenario, autoreset_mode=mode, **kwargs)
+    rng = np.random.default_rng(1)
+    env.reset(seed=7)
+    h = hashlib.sha256()
+    for _ in range(60):
+        mask = env.action_masks()
+        obs, reward, term, trunc, info = env.step(np.argmax(rng.random(mask.shape) * mask, 1))
+        for a in (obs["state"], obs["start"], obs["last_human_action"], env.intention,
+                  reward, term, trunc, info["aborted"], info["invalid_action"]):
+            h.update(np.ascontiguousarray(a, dtype=a.dtype.newbyteorder("<")).tobytes())
+    assert h.hexdigest()[:16] == digest

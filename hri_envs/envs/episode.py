@@ -69,6 +69,13 @@ class Episode:
             turn_state = np.full((rules.n_supports,) * 2, -1)
         self._turn: list[list[int]] = np.asarray(turn_state, dtype=np.int64).tolist()
         self._window: FrameWindow | None = None
+        # On the graph itself (neither transition nor failed overridden) a step's outcome
+        # depends on (start, lifted, state, a_R, a_H) only: each is judged once, on first
+        # use, and looked up afterwards (see advance).
+        cls = type(self)
+        self._memo: list[tuple[Transition, bool, int] | None] | None = None
+        if cls.transition is Episode.transition and cls.failed is Episode.failed:
+            self._memo = [None] * (rules.n_supports * 2 * rules.n_states * rules.n_actions ** 2)
         self.begin(0, 1 % rules.n_supports, False)
 
     def set_turn_state(self, turn_state: np.ndarray) -> None:
@@ -116,11 +123,34 @@ class Episode:
 
     def advance(self, a_r: int, a_h: int) -> Transition:
         """Apply the joint action (already checked to lie in the action space)."""
+        memo = self._memo
+        if memo is None:  # a backend that simulates: judge the outcome it reports
+            s_next = self.transition(a_r, a_h)
+            t, lifted = self._judge(a_r, a_h, s_next, self.failed)
+        else:  # the graph: look the step up, judging it the first time it is taken
+            r = self.rules
+            n_a = r.n_actions
+            j = ((((self.start * 2 + self.lifted) * r.n_states + self.state) * n_a + a_r) * n_a
+                 + a_h)
+            hit = memo[j]
+            if hit is None:
+                s_next = self.transition(a_r, a_h)
+                hit = memo[j] = (*self._judge(a_r, a_h, s_next, False), s_next)
+            t, lifted, s_next = hit
+        self.previous, self.state, self.lifted = self.state, s_next, lifted
+        self.steps += 1
+        self.last_human, self.last_robot = a_h, a_r
+        if self.turn_back and s_next == self._turn[self.start][self.intention]:
+            self.intention, self.turn_back = self.start, False
+        return t
+
+    def _judge(self, a_r: int, a_h: int, s_next: int, failed: bool) -> tuple[Transition, bool]:
+        """The rules' verdict on the joint action taking :attr:`state` to ``s_next`` (with a
+        physical failure or not), and the lifted flag after the step.
+        """
         r = self.rules
         s = self.state
         i = (s * r.n_actions + a_r) * r.n_actions + a_h
-        s_next = self.transition(a_r, a_h)
-        failed = self.failed
         if s_next == r.next_list[i] and not failed:  # the graph's prediction: look it up
             reward = r.reward_list[i]
             if r.reward_rule != "paper":
@@ -129,16 +159,11 @@ class Episode:
             reward = float(step_reward(r.graph, s, a_r, a_h, s_next, r.r0,
                                        reward=r.reward_rule, start=self.start,
                                        lifted=self.lifted, failed=failed))
-        self.previous, self.state = s, s_next
-        self.lifted = lifted = self.lifted or r.left_list[s_next * r.n_supports + self.start]
-        self.steps += 1
-        self.last_human, self.last_robot = a_h, a_r
-        if self.turn_back and s_next == self._turn[self.start][self.intention]:
-            self.intention, self.turn_back = self.start, False
+        lifted = self.lifted or r.left_list[s_next * r.n_supports + self.start]
         return Transition(reward, r.aborted_list[i],
                           r.ends_list[(s_next * r.n_supports + self.start) * 2 + lifted],
                           not r.valid_list[s * r.n_actions + a_r],
-                          not r.valid_list[s * r.n_actions + a_h])
+                          not r.valid_list[s * r.n_actions + a_h]), lifted
 
     # ----------------------------------------------------------------- backend hooks
     def transition(self, a_r: int, a_h: int) -> int:

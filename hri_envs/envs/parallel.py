@@ -198,6 +198,9 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         turn_state = preference_human(self.graph).turn_state
         self._episode: Episode = episode_backend(self.backend)(self.rules, turn_state,
                                                                **physics)
+        # The graph backend itself has no faults and no figures of its own for the infos.
+        self._graph_only = type(self._episode) is Episode
+        self._masks = list(self.rules.action_mask)  # (A,) int8 read-only row per state
         self._sample_layout = scenario_spec(scenario).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self._observation_spaces: dict[str, spaces.Space[Any]] = {
@@ -284,9 +287,13 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
             if unknown:
                 raise ActionError(f"unknown agent(s) {', '.join(unknown)} in the actions; "
                                   f"step() takes one action for each of {self.agents}")
-        try:
-            a_h = check_action("human", actions["human"], n_a)
-            a_r = check_action("robot", actions["robot"], n_a)
+        try:  # a plain int in range needs no further check
+            a_h = actions["human"]
+            if type(a_h) is not int or not 0 <= a_h < n_a:
+                a_h = check_action("human", a_h, n_a)
+            a_r = actions["robot"]
+            if type(a_r) is not int or not 0 <= a_r < n_a:
+                a_r = check_action("robot", a_r, n_a)
         except KeyError as missing:
             raise ActionError(
                 f"missing action for agent {missing}; step() needs one action per agent in "
@@ -295,45 +302,50 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         ep = self._episode
         t = ep.advance(a_r, a_h)
         self._reward = r = t.reward
-        truncated = not t.terminated and (ep.steps >= self.max_cycles or ep.fault is not None)
-        extra = ep.step_info()
+        terminated = t.terminated
+        if self._graph_only:  # no faults, nothing to add to the infos
+            truncated = not terminated and ep.steps >= self.max_cycles
+            extra = None
+        else:
+            truncated = not terminated and (ep.steps >= self.max_cycles or ep.fault is not None)
+            extra = ep.step_info()
         obs = self._observations()
-        infos = {
-            "human": {"aborted": t.aborted, "invalid_action": t.human_invalid,
-                      "robot_reward": r, "reached_intention": False, "intention": ep.intention,
-                      **extra},
-            "robot": {"aborted": t.aborted, "invalid_action": t.robot_invalid,
-                      "robot_reward": r, "reached_intention": False, **extra},
-        }
-        if t.terminated or truncated:
+        human_info = {"aborted": t.aborted, "invalid_action": t.human_invalid,
+                      "robot_reward": r, "reached_intention": False, "intention": ep.intention}
+        robot_info = {"aborted": t.aborted, "invalid_action": t.robot_invalid,
+                      "robot_reward": r, "reached_intention": False}
+        if extra:
+            human_info.update(extra)
+            robot_info.update(extra)
+        if terminated or truncated:
             self.agents = []
-            reached = t.terminated and bool(reached_intention(self.graph, ep.state,
-                                                              ep.intention))
-            infos["human"]["reached_intention"] = infos["robot"]["reached_intention"] = reached
-        r_h = (float(goal_reward(self.graph, ep.state, ep.intention, t.aborted, t.terminated))
+            reached = terminated and bool(reached_intention(self.graph, ep.state, ep.intention))
+            human_info["reached_intention"] = robot_info["reached_intention"] = reached
+        r_h = (float(goal_reward(self.graph, ep.state, ep.intention, t.aborted, terminated))
                if self._goal_reward else r)
         if self._human_window:
             self.render()
         return (
             obs,
             {"human": r_h, "robot": r},
-            {"human": t.terminated, "robot": t.terminated},
+            {"human": terminated, "robot": terminated},
             {"human": truncated, "robot": truncated},
-            infos,
+            {"human": human_info, "robot": robot_info},
         )
 
     def _observations(self) -> dict[str, dict[str, Any]]:
         ep = self._episode
-        mask = self.rules.action_mask[ep.state]
-        robot = {"state": ep.state, "start": ep.start, "last_human_action": ep.observed_human,
+        state, start = ep.state, ep.start
+        mask = self._masks[state]
+        robot = {"state": state, "start": start, "last_human_action": ep.observed_human,
                  "action_mask": mask.copy()}
-        human = {"state": ep.state, "start": ep.start, "last_human_action": ep.last_human,
+        human = {"state": state, "start": start, "last_human_action": ep.last_human,
                  "action_mask": mask.copy(), "intention": ep.intention}
         return {"human": human, "robot": robot}
 
     def _classic_observations(self) -> dict[str, dict[str, Any]]:
         ep, enc = self._episode, self._classic.encode
-        mask = self.rules.action_mask[ep.state]
+        mask = self._masks[ep.state]
         return {"human": enc(ep.state, ep.start, ep.last_human, ep.intention, mask),
                 "robot": enc(ep.state, ep.start, ep.observed_human, None, mask)}
 

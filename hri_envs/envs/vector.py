@@ -20,9 +20,10 @@ from hri_envs.envs.config import (
 )
 from hri_envs.envs.spaces import robot_observation_space
 from hri_envs.errors import ActionError, ConfigError
+from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import (
-    EpisodeBatch,
     EpisodeRules,
+    StepTable,
     draw_other_support,
     draw_start_intention,
 )
@@ -39,12 +40,13 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     ## Description
 
     The robot-vs-scripted-human task of :class:`~hri_envs.envs.robot.RobotEnv`, for N
-    episodes at once. Every step is a handful of array look-ups into the same
-    :class:`~hri_envs.task.episode.EpisodeRules` tables the single env uses, and the
-    episodes' bookkeeping is the benchmark's :class:`~hri_envs.task.episode.EpisodeBatch`,
-    with no Python loop over episodes. It runs on the graph only: a backend that simulates
-    (``backend="mujoco"``) is refused; vectorise the Panda envs with Gymnasium's
-    ``vectorization_mode="async"`` instead. Made by
+    episodes at once. Every step is one flat index per env into a
+    :class:`~hri_envs.task.episode.StepTable`, derived from the same
+    :class:`~hri_envs.task.episode.EpisodeRules` the single env uses (next state, reward,
+    end and next context in one look-up each), with no Python loop over episodes; a
+    deterministic human that is never passive acts by one look-up too. It runs on the
+    graph only: a backend that simulates (``backend="mujoco"``) is refused; vectorise the
+    Panda envs with Gymnasium's ``vectorization_mode="async"`` instead. Made by
     ``gymnasium.make_vec("hri_envs/Hanger-v0", num_envs=N,
     vectorization_mode="vector_entry_point")``.
 
@@ -156,29 +158,50 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         n = self.num_envs
-        self._eps = EpisodeBatch(self.rules, self.human.turn_state, n)
-        self._done = np.zeros(n, dtype=bool)
+        self._table = StepTable(self.rules)
+        self._turn_state = self.human.turn_state  # where a turning-back human turns
+        self._n_supports, self._n_actions = n_k, n_a
+        self._greedy_start, self._greedy_goal = n_k * n_s, n_s  # strides of a human row
+        # Per env (N,): the current episode's state, start, ι, the flat index of its context
+        # (StepTable.key: state, start, lifted), the human's row in the greedy table
+        # ((start K + ι) S), the state where the human turns back (-1: not in this
+        # episode), the step (of _t) that truncates it and the human's last action.
+        self._state = np.zeros(n, dtype=np.int64)
+        self._start = np.zeros(n, dtype=np.int64)
+        self._intention = np.ones(n, dtype=np.int64) % n_k
+        self._key = np.zeros(n, dtype=np.int64)
+        self._hkey = np.zeros(n, dtype=np.int64)
+        self._turn_at = np.full(n, -1, dtype=np.int64)
+        self._deadline = np.zeros(n, dtype=np.int64)
+        self._last_human = np.zeros(n, dtype=np.int64)
+        self._turning = False  # some env's human may still turn back
+        self._t = 0  # steps since reset()
+        self._due = 0  # no env reaches its deadline (of _t) before this step
+        self._ended = np.zeros(0, dtype=np.int64)  # envs whose episode ended in the last step
         self._all = np.ones(n, dtype=bool)
         self._human_rng = np.random.default_rng(0)
+        self._greedy: np.ndarray | None = None
+        self._greedy_human: ScriptedHuman | None = None
+        self._adopt(self.human)
         self._needs_reset = True
 
     # ----------------------------------------------------------------- helpers
     def action_masks(self) -> np.ndarray:
         """(N, A) bool, each env's valid actions in its current state."""
-        return self.graph.valid[self._eps.state]
+        return self.graph.valid.take(self._state, axis=0)
 
     @property
     def intention(self) -> np.ndarray:
         """(N,) int, the humans' current goals ι (hidden from the observations)."""
-        return self._eps.intention.copy()
+        return self._intention.copy()
 
     def _observations(self) -> dict[str, np.ndarray]:
-        eps = self._eps
+        state = self._state
         return {
-            "state": eps.state.copy(),
-            "start": eps.start.copy(),
-            "last_human_action": eps.last_human.copy(),
-            "action_mask": self.rules.action_mask[eps.state],
+            "state": state.copy(),
+            "start": self._start.copy(),
+            "last_human_action": self._last_human.copy(),
+            "action_mask": self.rules.action_mask.take(state, axis=0),
         }
 
     def _supports(self, value: Any, key: str) -> np.ndarray:
@@ -195,6 +218,42 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
 
     def _draw_turn(self, n: int) -> np.ndarray:
         return self.human.draw_turn_back(self.np_random, n)
+
+    def _adopt(self, human: ScriptedHuman) -> None:
+        """Act with ``human`` from now on (also when :attr:`human` was replaced).
+
+        A human that neither samples nor waits at random acts by one look-up into its
+        (start, ι, state) table of preferred actions: the draws of its generator would be
+        unused. Any other human samples through its ``act``.
+        """
+        self._greedy_human = human
+        self._greedy = None
+        if human.deterministic and human.passive == 0.0:
+            n_k, n_s = self._n_supports, self.graph.n_states
+            grid = np.indices((n_k, n_k, n_s)).reshape(3, -1)  # (start, goal, state) rows
+            self._greedy = np.asarray(human.preferred_action(grid[2], grid[0], grid[1]),
+                                      dtype=np.int64)
+            self._hkey[:] = self._start * self._greedy_start + self._intention * self._greedy_goal
+
+    def _begin(self, rows: np.ndarray | slice, start: np.ndarray, intention: np.ndarray,
+               turn: np.ndarray | None) -> None:
+        """Start new episodes in ``rows``: the rules' start context, a step limit counted from
+        now, the human waited; ``turn`` says whether each one's human turns back (None: none).
+        """
+        table = self._table
+        self._start[rows] = start
+        self._intention[rows] = intention
+        self._state[rows] = table.state0.take(start)
+        self._key[rows] = table.key0.take(start)
+        self._deadline[rows] = self._t + self.max_cycles
+        self._last_human[rows] = WAIT
+        if self._greedy is not None:
+            self._hkey[rows] = start * self._greedy_start + intention * self._greedy_goal
+        if turn is not None and (self._turning or turn.any()):
+            self._turning = True
+            self._turn_at[rows] = np.where(turn, self._turn_state[start, intention], -1)
+        elif self._turning:
+            self._turn_at[rows] = -1
 
     # ----------------------------------------------------------------- API
     def reset(
@@ -235,37 +294,59 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             turn = np.broadcast_to(turn, (n,))
         else:
             turn = self._draw_turn(n)
-        self._eps.begin(self._all, start, intention, turn)
-        self._done[:] = False
+        self._turning = False
+        self._turn_at[:] = -1
+        self._t = 0
+        self._due = self.max_cycles
+        self._begin(slice(None), start, intention, turn)
+        self._ended = self._ended[:0]
         self._needs_reset = False
         return self._observations(), {}
 
     def step(
         self, actions: Any
     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Step every env with the robots' actions (N,); the scripted humans act too."""
+        """Step every env with the robots' actions (N,); the scripted humans act too.
+
+        One flat index per env into the :class:`~hri_envs.task.episode.StepTable` gives the
+        next state, the reward, the end and the next context; only the envs that start a new
+        episode (and, with turning back, those whose human turns) are touched one by one.
+        """
         if self._needs_reset:
             raise RuntimeError("call reset() before step()")
         a_r = self._check_actions(actions)
-        r, eps = self.rules, self._eps
-        s = eps.state
-        a_h = self.human.act(self._human_rng, s, eps.start, eps.intention)
-        joint = r.index(s, a_r, a_h)
-        s_next = np.take(r.next_state, joint)
-        reward = np.take(r.reward, joint)
-        if r.reward_rule != "paper":
-            reward = r.adjust(reward, s, a_r, eps.start, eps.lifted)
-        aborted = np.take(r.aborted, joint)
-        invalid = ~np.take(r.valid, s * r.n_actions + a_r)
-        terminated = eps.commit(s_next, a_h)
-        truncated = (eps.steps >= self.max_cycles) & ~terminated
-
+        self._t = t = self._t + 1
+        table, s = self._table, self._state
+        if self.human is not self._greedy_human:
+            self._adopt(self.human)
+        if self._greedy is not None:
+            a_h = self._greedy.take(self._hkey + s)
+        else:
+            a_h = self.human.act(self._human_rng, s, self._start, self._intention)
+        j = a_r * self._n_actions
+        j += self._key  # envs whose episode has ended sit in the table's "over" context
+        j += a_h
+        self._state = s_next = table.next_state.take(j)
+        self._key = table.next_key.take(j)
+        self._last_human = a_h
+        reward = table.reward.take(j)
+        terminated = table.terminated.take(j)
+        aborted = table.aborted.take(j)
+        invalid = table.robot_invalid.take(j)
+        if self._turning:  # ι becomes the start support on entering the turning state
+            back = (s_next == self._turn_at).nonzero()[0]
+            if back.size:
+                self._intention[back] = start = self._start[back]
+                self._turn_at[back] = -1
+                if self._greedy is not None:
+                    self._hkey[back] = start * (self._greedy_start + self._greedy_goal)
         infos: dict[str, Any] = {"aborted": aborted, "_aborted": self._all,
                                  "invalid_action": invalid, "_invalid_action": self._all}
         if self._same_step:
+            truncated = self._truncated(t, terminated)
             ended = terminated | truncated
             if ended.any():
-                which = np.flatnonzero(ended)
+                which = ended.nonzero()[0]
                 final = self._observations()
                 final_obs = np.full(self.num_envs, None, dtype=object)
                 for i in which:
@@ -273,39 +354,55 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 infos["final_obs"], infos["_final_obs"] = final_obs, ended
                 self._restart(which)
             return self._observations(), reward, terminated, truncated, infos
-        done = self._done  # episodes that ended in the previous step start afresh now
-        if done.any():
-            which = np.flatnonzero(done)
+        # Next-step autoreset: the envs that ended in the previous step stepped in the "over"
+        # context (reward 0, nothing ended, aborted or invalid) and start afresh now.
+        which = self._ended
+        if which.size:
             self._restart(which)
-            reward[which] = 0.0
-            terminated[which] = False
-            truncated[which] = False
-            aborted[which] = False
-            invalid[which] = False
-        self._done = terminated | truncated
-        return self._observations(), reward, terminated, truncated, infos
+        truncated = self._truncated(t, terminated)
+        self._ended = ended = (terminated | truncated).nonzero()[0]
+        if ended.size:
+            self._key[ended] = table.over
+        state = self._state
+        obs: dict[str, np.ndarray] = {
+            "state": state.copy(), "start": self._start.copy(),
+            "last_human_action": self._last_human.copy(),
+            "action_mask": self.rules.action_mask.take(state, axis=0)}
+        return obs, reward, terminated, truncated, infos
+
+    def _truncated(self, t: int, terminated: np.ndarray) -> np.ndarray:
+        """(N,) bool: the envs that reach the step limit in step ``t`` without terminating."""
+        if t < self._due:  # no deadline falls in this step
+            return np.zeros(self.num_envs, dtype=bool)
+        deadline = self._deadline
+        truncated = deadline == t
+        np.greater(truncated, terminated, out=truncated)  # truncated and not terminated
+        # Envs at their deadline start again with a later one; the others keep theirs.
+        self._due = int(deadline[deadline > t].min(initial=t + self.max_cycles))
+        return truncated
 
     def _restart(self, which: np.ndarray) -> None:
         """New random episodes in the envs ``which`` (autoreset)."""
-        start, intention = draw_start_intention(self.np_random, self.graph.n_intentions,
-                                                which.size)
-        self._eps.begin(which, start, intention, self._draw_turn(which.size))
+        start, intention = draw_start_intention(self.np_random, self._n_supports, which.size)
+        self._begin(which, start, intention,
+                    self._draw_turn(which.size) if self.human.turn_back > 0.0 else None)
 
     def _check_actions(self, actions: Any) -> np.ndarray:
         a = np.asarray(actions)
-        n, n_a = self.num_envs, self.rules.n_actions
+        n, n_a = self.num_envs, self._n_actions
         if a.shape != (n,) or a.dtype.kind not in "iu":
             raise ActionError(
                 f"robot actions must be an integer array of shape ({n},) in the action space "
                 f"MultiDiscrete([{n_a}] * {n}): integers 0..{n_a - 1}; got {a.dtype} {a.shape}"
             )
-        if a.min() < 0 or a.max() >= n_a:
+        a64 = a.astype(np.int64, copy=False)
+        if a64.view(np.uint64).max() >= n_a:  # negative actions wrap round to huge ones
             bad = a[(a < 0) | (a >= n_a)]
             raise ActionError(
                 f"robot action(s) {bad[:5].tolist()} outside the robot's action space: "
                 f"valid actions are 0..{n_a - 1}"
             )
-        return a.astype(np.int64, copy=False)
+        return a64
 
     def close_extras(self, **kwargs: Any) -> None:
         """Nothing to release."""

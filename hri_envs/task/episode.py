@@ -20,7 +20,8 @@ broadcast, so the same code serves one episode and thousands.
 
 :class:`EpisodeRules` caches the rules on the graph's own transitions as flat lookup tables
 (for the hot loops of the envs); :class:`EpisodeBatch` keeps the bookkeeping of N running
-episodes (state, start, intention, lifted, steps) for the vector env and the benchmark.
+episodes (state, start, intention, lifted, steps) for the benchmark; :class:`StepTable`
+fuses the tables of :class:`EpisodeRules` into one look-up per step (the vector env).
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ __all__ = [
     "Decisions",
     "EpisodeBatch",
     "EpisodeRules",
+    "StepTable",
     "arrived",
     "charge_unneeded_toggles",
     "classify",
@@ -429,3 +431,81 @@ class EpisodeBatch:
             self.intention, self.turning = turn_back(self.turn_state, s_next, self.start,
                                                      self.intention, self.turning)
         return over if active is None else over & active
+
+
+# --------------------------------------------------------------------------- one fused table
+class StepTable:
+    """The rules of :class:`EpisodeRules` fused into one look-up per joint step (hot loops).
+
+    Derived from :class:`EpisodeRules` (no rule is restated here): the step's context
+    ``c = (start 2 + lifted) S + s`` (``lifted`` before the step) together with the joint
+    action gives one flat index ``j = c A A + a_R A + a_H``, and every table below answers
+    for that index what :class:`EpisodeBatch` and :meth:`EpisodeRules.adjust` would compute:
+    the next state, the reward (under the rules' reward variant, which may depend on the
+    start and the lifted flag), whether the step was aborted, whether either agent's action
+    was invalid, whether the episode is over, and the next step's context, ready to index
+    again. Turning back changes ι only, which no rule here depends on, so it stays outside.
+
+    One more context, :attr:`over` (``c = 2 K S``), is an episode that has already ended:
+    nothing happens in it (reward 0, never aborted, invalid or over again, state 0), so a
+    batch can step rows that wait for a new episode with the others and get neutral values.
+
+    Args:
+        rules: The scenario's rules (graph, r0 and reward variant).
+
+    Attributes:
+        stride: A A, the step of the context in the flat index.
+        over: ``c A A`` of the ended-episode context.
+        key0: (K,) int64, ``c A A`` of each support's start context (resting, not lifted).
+        state0: (K,) int64, the start state of each support (:func:`start_state`).
+        next_key: (C A A,) int64 with C = 2 K S + 1, ``c' A A`` of the context after the step.
+        next_state: (C A A,) int64, the state after the step.
+        reward: (C A A,) float64, the robot's reward of the step.
+        aborted: (C A A,) bool, the joint action was aborted.
+        robot_invalid, human_invalid: (C A A,) bool, the agent's action is not valid.
+        lifted: (C A A,) bool, the lifted flag after the step.
+        terminated: (C A A,) bool, the step ends the episode (:func:`episode_over`).
+    """
+
+    def __init__(self, rules: EpisodeRules) -> None:
+        n_s, n_a, n_k = rules.n_states, rules.n_actions, rules.n_supports
+        self.rules = rules
+        self.stride = n_a * n_a
+        self.over = 2 * n_k * n_s * self.stride
+        start = np.arange(n_k)[:, None, None, None, None]
+        lifted = np.array([False, True])[None, :, None, None, None]
+        s = np.arange(n_s)[None, None, :, None, None]
+        a_r = np.arange(n_a)[None, None, None, :, None]
+        a_h = np.arange(n_a)[None, None, None, None, :]
+        shape = (n_k, 2, n_s, n_a, n_a)
+        joint = np.broadcast_to(rules.index(s, a_r, a_h), shape)
+        s_next = rules.next_state[joint]
+        reward = np.broadcast_to(rules.adjust(rules.reward[joint], s, a_r, start, lifted), shape)
+        lifted_next = lifted | rules.left[s_next * n_k + start]
+        terminated = rules.ends[(s_next * n_k + start) * 2 + lifted_next]
+        next_key = ((start * 2 + lifted_next) * n_s + s_next) * self.stride
+
+        def flat(table: np.ndarray, dtype: type, ended: float | int | bool) -> np.ndarray:
+            out: np.ndarray = np.full(self.over + self.stride, ended, dtype=dtype)
+            out[:self.over] = np.broadcast_to(table, shape).reshape(-1)
+            out.setflags(write=False)
+            return out
+
+        self.next_state = flat(s_next, np.int64, 0)
+        self.next_key = flat(next_key, np.int64, self.over)
+        self.reward = flat(reward, np.float64, 0.0)
+        self.aborted = flat(rules.aborted[joint], np.bool_, False)
+        self.robot_invalid = flat(~rules.valid[s * n_a + a_r], np.bool_, False)
+        self.human_invalid = flat(~rules.valid[s * n_a + a_h], np.bool_, False)
+        self.lifted = flat(lifted_next, np.bool_, False)
+        self.terminated = flat(terminated, np.bool_, False)
+        supports = np.arange(n_k)
+        self.state0 = np.asarray(start_state(rules.graph, supports), dtype=np.int64)
+        self.key0 = (supports * 2 * n_s + self.state0) * self.stride
+        self.state0.setflags(write=False)
+        self.key0.setflags(write=False)
+
+    def key(self, state: IntArray, start: IntArray, lifted: np.ndarray | bool) -> np.ndarray:
+        """``c A A``: the flat index of the context ``(state, start, lifted)``, arrays broadcast."""
+        return ((np.asarray(start) * 2 + np.asarray(lifted, dtype=np.int64)) * self.rules.n_states
+                + state) * self.stride
