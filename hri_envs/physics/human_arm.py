@@ -13,7 +13,9 @@ equality (``human_grasp``) joins the hand to the object's handle; letting go tur
 
 At run time (:class:`HumanArm`) the human's reference (:class:`~hri_envs.physics.human.
 SimulatedHuman`) sets the actuators' ``ctrl``: the hand's joint coordinates for the
-reference pose of the object, plus the noise as an offset of noise / stiffness. While the
+reference pose of the object, plus damping / stiffness times the reference's velocity (so
+the actuators' force is ``kp (q_ref - q) + kv (q̇_ref - q̇)``, the human's spring-damper
+towards a moving reference), plus the noise as an offset of noise / stiffness. While the
 human follows, the actuators keep only a small damping (``human_follow_damping``); the
 hand's inertia and that damping are what a following human transmits. A hand that does not
 hold the object stays at the handle (reaching gains, tracking the handle).
@@ -25,7 +27,7 @@ import mujoco
 import numpy as np
 
 from hri_envs.physics.design import PhysicsDesign
-from hri_envs.physics.kinematics import quat_conj, quat_to_mat
+from hri_envs.physics.kinematics import TrajectorySample, quat_conj, quat_to_mat
 
 __all__ = ["HUMAN_JOINTS", "HumanArm", "add_human_arm"]
 
@@ -129,6 +131,8 @@ class HumanArm:
         self._reach_gains = (np.ones(6), np.ones(6))
         self._follow_damping = np.ones(6)
         self._noise_scale = np.zeros(6)
+        self._lead = np.zeros(6)
+        self._rates = np.zeros(6)
         self.following = False
         m = model.eq_data[self.weld]
         m[:] = 0.0
@@ -146,6 +150,7 @@ class HumanArm:
                                         + [design.human_follow_damping[1]] * 3)
         self._noise_scale = design.human_noise * np.array(
             [1.0] * 3 + [design.human_noise_torque_lever_m] * 3) / kp
+        self._lead = kv / kp  # [s]: the velocity feed-forward as a reference offset
         m = self.model
         m.actuator_forcerange[self.actuators, 0] = -limit
         m.actuator_forcerange[self.actuators, 1] = limit
@@ -191,8 +196,7 @@ class HumanArm:
         data.eq_active[self.weld] = int(on)
 
     def drive(self, data: mujoco.MjData, pos: np.ndarray, quat: np.ndarray,
-              holding: bool, ref: tuple[np.ndarray, np.ndarray] | None,
-              noise: np.ndarray) -> None:
+              holding: bool, ref: TrajectorySample | None, noise: np.ndarray) -> None:
         """Set the actuators for the next control period.
 
         Args:
@@ -201,7 +205,7 @@ class HumanArm:
                 object tracks its handle).
             quat: (4,) its current orientation.
             holding: The human holds the object.
-            ref: The object pose (position, quaternion) the human wants now; None: follow.
+            ref: The object pose and velocity the human wants now; None: follow.
             noise: (6,) the human's unit noise (scaled to human_noise [N], torque x lever).
         """
         following = holding and ref is None
@@ -209,10 +213,14 @@ class HumanArm:
             self._set_gains(following)
         if following:
             return
-        target = ref if ref is not None else (pos, quat)
-        ctrl = self.targets(target[0], target[1], self._ctrl)
-        if ref is not None:
-            ctrl += self._noise_scale * noise
+        if ref is None:  # not holding: the open hand tracks the handle
+            data.ctrl[self.actuators] = self.targets(pos, quat, self._ctrl)
+            return
+        ctrl = self.targets(ref.pos, ref.quat, self._ctrl)
+        rates = self._rates  # the hand's velocity: the handle's, and ω on the wrist's axes
+        rates[:3] = ref.vel + np.cross(ref.angvel, quat_to_mat(ref.quat) @ self.handle)
+        rates[3:] = data.xaxis[self.joints[3:]] @ ref.angvel  # exact at zero pitch
+        ctrl += self._lead * rates + self._noise_scale * noise
         data.ctrl[self.actuators] = ctrl
 
     def wrench(self, data: mujoco.MjData, obj_pos: np.ndarray) -> np.ndarray:

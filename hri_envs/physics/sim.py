@@ -461,8 +461,7 @@ class PandaSim:
             angvel = self._rotate(quat, qv[3:])
             # The human: their reference drives the arm's actuators (MuJoCo applies them).
             ref_h = human.advance(dt_c)
-            arm.drive(data, pos, quat, human.holding,
-                      None if ref_h is None else (ref_h.pos, ref_h.quat), human.noise)
+            arm.drive(data, pos, quat, human.holding, ref_h, human.noise)
             w_h = arm.wrench(data, pos)  # the muscles' wrench of the last physics step
             f_h, t_h = w_h[:3], w_h[3:]
             # What the robot senses (the reading of the last physics step): the external
@@ -496,6 +495,8 @@ class PandaSim:
             if yielded:
                 ref = None
             if i % ik_every == 0:
+                if ref is None:  # passive: the posture reference starts from the actual arm
+                    self.ik.reset(data.qpos[sc.robot_qpos])  # (no self-motion runs away)
                 target = Pose(ref.pos, ref.quat) if ref is not None else self.grip_pose()
                 self.q_ref = self.ik.step(target, dt_ik).copy()
                 if ref is not None and line is not None:
