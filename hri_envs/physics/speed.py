@@ -1,8 +1,10 @@
 """Speed of the physics backend: real-time factor and wall seconds per abstract step.
 
-Used by ``benchmarks/physics_speed.py``. Both measurements run the hanger scenario on one
-core: the Panda (7 torque-controlled joints), the object welded to its hand, the Cartesian
-impedance controller at every 2 ms physics step and the mink IK at 50 Hz.
+Used by ``benchmarks/physics_speed.py``. The first two measurements run one scenario on one
+core: the Panda, the object welded to its hand and the human's, the control loop at 125 Hz
+over 2 ms physics steps and the mink IK at 25 Hz. The third runs whole env steps (random
+valid robot actions against the scripted human) in Gymnasium's ``AsyncVectorEnv``, one
+process per env.
 """
 
 from __future__ import annotations
@@ -15,7 +17,8 @@ import numpy as np
 from hri_envs.physics.sim import PandaSim
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
 
-__all__ = ["SpeedResult", "physics_realtime_factor", "seconds_per_abstract_step"]
+__all__ = ["SpeedResult", "async_steps_per_second", "physics_realtime_factor",
+           "seconds_per_abstract_step"]
 
 
 class SpeedResult(NamedTuple):
@@ -93,4 +96,38 @@ def seconds_per_abstract_step(scenario: str = "hanger", episodes: int = 2) -> Sp
             s = res.state
             if g.support[s] == goal and g.grasp[s] == 0:
                 break
+    return SpeedResult(sim_t, wall, steps)
+
+
+def async_steps_per_second(scenario: str = "hanger", num_envs: int = 2, seconds: float = 30.0,
+                           seed: int = 0) -> SpeedResult:
+    """Abstract steps of ``num_envs`` Panda envs in an ``AsyncVectorEnv``, over ``seconds``.
+
+    ``gym.make_vec(<the scenario's Panda id>, num_envs, vectorization_mode="async")``; every
+    env plays random valid robot actions (from the observation's action mask, seeded) and
+    resets itself when its episode ends. The clock starts after the first reset (the
+    workers' start-up and the scene compilation are not counted); ``abstract_steps`` is the
+    sum over the envs, ``sim_seconds`` their simulated time summed.
+    """
+    import gymnasium as gym
+
+    import hri_envs  # noqa: F401  (registers the ids)
+    from hri_envs.task.scenarios import scenario_spec
+
+    envs = gym.make_vec(scenario_spec(scenario).panda_id, num_envs=num_envs,
+                        vectorization_mode="async")
+    try:
+        rng = np.random.default_rng(seed)
+        obs, _ = envs.reset(seed=seed)
+        steps, sim_t = 0, 0.0
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            mask = np.asarray(obs["action_mask"], dtype=bool)
+            actions = np.array([rng.choice(np.flatnonzero(row)) for row in mask])
+            obs, _, _, _, info = envs.step(actions)
+            steps += num_envs
+            sim_t += float(np.sum(info.get("duration_s", 0.0)))
+        wall = time.perf_counter() - t0
+    finally:
+        envs.close()
     return SpeedResult(sim_t, wall, steps)
