@@ -133,6 +133,7 @@ class HumanArm:
         self._noise_scale = np.zeros(6)
         self._lead = np.zeros(6)
         self._rates = np.zeros(6)
+        self._lever = np.zeros(3)
         self.following = False
         m = model.eq_data[self.weld]
         m[:] = 0.0
@@ -173,7 +174,9 @@ class HumanArm:
         roll [rad], written into ``out`` and clipped to the workspace.
         """
         rot = quat_to_mat(quat)
-        out[:3] = pos + rot @ self.handle
+        lever = self._lever
+        np.matmul(rot, self.handle, out=lever)  # the handle from the object's origin
+        out[:3] = pos + lever
         r = rot @ self._rest_t  # the hand's orientation in the world
         out[3] = np.arctan2(r[1, 0], r[0, 0])
         out[4] = np.arcsin(min(max(-r[2, 0], -1.0), 1.0))
@@ -218,7 +221,10 @@ class HumanArm:
             return
         ctrl = self.targets(ref.pos, ref.quat, self._ctrl)
         rates = self._rates  # the hand's velocity: the handle's, and ω on the wrist's axes
-        rates[:3] = ref.vel + np.cross(ref.angvel, quat_to_mat(ref.quat) @ self.handle)
+        w, r = ref.angvel, self._lever  # the handle's velocity: v + ω × r
+        rates[0] = ref.vel[0] + w[1] * r[2] - w[2] * r[1]
+        rates[1] = ref.vel[1] + w[2] * r[0] - w[0] * r[2]
+        rates[2] = ref.vel[2] + w[0] * r[1] - w[1] * r[0]
         rates[3:] = data.xaxis[self.joints[3:]] @ ref.angvel  # exact at zero pitch
         ctrl += self._lead * rates + self._noise_scale * noise
         data.ctrl[self.actuators] = ctrl

@@ -22,16 +22,26 @@ __all__ = ["SpeedResult", "async_steps_per_second", "physics_realtime_factor",
 
 
 class SpeedResult(NamedTuple):
-    """Simulated and wall seconds of a measurement, and how many abstract steps it ran."""
+    """Simulated and wall seconds of a measurement, and how many abstract steps it ran.
+
+    ``cpu_seconds`` is this process's CPU time over the same span (0 where not measured):
+    on a loaded machine it shows what one core would do alone.
+    """
 
     sim_seconds: float
     wall_seconds: float
     abstract_steps: int
+    cpu_seconds: float = 0.0
 
     @property
     def realtime_factor(self) -> float:
         """Simulated seconds per wall second."""
         return self.sim_seconds / self.wall_seconds
+
+    @property
+    def cpu_realtime_factor(self) -> float:
+        """Simulated seconds per CPU second of this process (nan if not measured)."""
+        return self.sim_seconds / self.cpu_seconds if self.cpu_seconds > 0 else float("nan")
 
     @property
     def seconds_per_step(self) -> float:
@@ -56,17 +66,18 @@ def physics_realtime_factor(scenario: str = "hanger", repeats: int = 3) -> Speed
     start = int(g.mounting_state[0])
     s = sim.reset(0, state=start)
     over_b, over_a = g.move_over(1), g.move_over(0)
-    sim_t = wall = 0.0
+    sim_t = wall = cpu = 0.0
     steps = 0
     for _ in range(repeats):
         for action in (over_b, over_a):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             res = sim.step(s, action, WAIT)
             wall += time.perf_counter() - t0
+            cpu += time.process_time() - c0
             sim_t += res.duration
             steps += 1
             s = res.state
-    return SpeedResult(sim_t, wall, steps)
+    return SpeedResult(sim_t, wall, steps, cpu)
 
 
 def seconds_per_abstract_step(scenario: str = "hanger", episodes: int = 2) -> SpeedResult:
@@ -80,7 +91,7 @@ def seconds_per_abstract_step(scenario: str = "hanger", episodes: int = 2) -> Sp
     g = _graph(scenario)
     human = preference_human(g)
     sim = PandaSim(g)
-    sim_t = wall = 0.0
+    sim_t = wall = cpu = 0.0
     steps = 0
     for e in range(episodes):
         start, goal = (1, 0) if e % 2 == 0 else (0, 1)
@@ -88,15 +99,16 @@ def seconds_per_abstract_step(scenario: str = "hanger", episodes: int = 2) -> Sp
         for _ in range(40):
             a_h = int(human.preferred_action(np.array(s), np.array(start), np.array(goal)))
             a_r = TOGGLE if g.support[s] >= 0 and a_h == TOGGLE else WAIT
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             res = sim.step(s, a_r, a_h)
             wall += time.perf_counter() - t0
+            cpu += time.process_time() - c0
             sim_t += res.duration
             steps += 1
             s = res.state
             if g.support[s] == goal and g.grasp[s] == 0:
                 break
-    return SpeedResult(sim_t, wall, steps)
+    return SpeedResult(sim_t, wall, steps, cpu)
 
 
 def async_steps_per_second(scenario: str = "hanger", num_envs: int = 2, seconds: float = 30.0,
