@@ -4,11 +4,11 @@
 abstract state and both agents' abstract actions and runs them physically:
 
 1. *grasp toggles*: the robot approaches its grip on the object and closes (weld on), or
-   opens (weld off) and retreats; the human's grasp is a flag;
+   opens (weld off) and retreats; the human's grasp welds their hand on or off;
 2. an action that is not valid in the state after the toggles is refused by its agent's
    skill layer, and a refused action aborts the step's motion for both (the graph's rule);
 3. *motions*: the robot tracks a straight line from the actual grip pose to the target
-   state's pose with the impedance controller; the simulated human pulls the object towards
+   state's pose with the impedance controller; the simulated human's arm pulls it towards
    their own target; disagreement makes the robot yield (:class:`Disagreement`);
 4. the step ends when the object has settled (slow for ``settle_calm_time_s`` with both
    agents done), or at a time limit; the observed state is the closest abstract state, and
@@ -67,12 +67,6 @@ _PLATFORM_Z_M = 0.1  # [m] height of the mobile base's floor platform mocap (sce
 # Numerical method: iterations of the reset IK solve onto the grip and the waiting pose.
 _RESET_GRIP_IK_ITERATIONS = 300
 _RESET_PREGRASP_IK_ITERATIONS = 200
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """3-vector cross product (np.cross is slow for one pair)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
 
 
 class StepResult(NamedTuple):
@@ -449,6 +443,7 @@ class PandaSim:
                                                               np.zeros(3))
         zero = np.zeros(3)
         xfrc = data.xfrc_applied[body]
+        xfrc[:] = 0.0  # no seat wrench left over from the last run
         seat_on = False
         t_line = elapsed = calm = ik_bad = 0.0
         i = 0
