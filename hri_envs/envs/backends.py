@@ -74,6 +74,7 @@ PHYSICS_PARAMETERS: dict[str, tuple[str, bool, str]] = {
     "human_force": ("N", True, "the most force the human applies"),
     "human_noise": ("N", False, "std of the human's force noise"),
     "human_delay_s": ("s", False, "the human's reaction delay"),
+    "human_mass": ("kg", True, "effective mass of the human's embodied forearm"),
     "sensor_noise_n": ("N", False, "std of the wrist sensor's noise per control step"),
     "sensor_bias_n": ("N", False, "magnitude of the wrist sensor's bias"),
     "sensor_delay_s": ("s", False, "delay of the wrist sensor"),

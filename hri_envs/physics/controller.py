@@ -52,6 +52,8 @@ class ImpedanceController:
         self._jac = np.zeros((6, n))
         self._wrench = np.zeros(6)
         self._reg = _LAMBDA_INV_REGULARIZATION * np.eye(6)
+        self._lam_inv = np.zeros((6, 6))
+        self._lam_x = np.zeros(6)
         # The robot's joints lead the model and are contiguous in qpos and qvel (no ball or
         # free joints): plain slices instead of index arrays.
         if not (np.array_equal(self.dofs, np.arange(n))
@@ -111,8 +113,12 @@ class ImpedanceController:
         rhs[6, sl] = tau0
         mujoco.mj_solveM(m, data, self._minv, rhs)
         minv_jt = self._minv[:6, sl]  # (6, n) = (M⁻¹ Jᵀ)ᵀ
-        lam_inv = minv_jt @ jac.T + self._reg
-        tau += tau0 - jac.T @ np.linalg.solve(lam_inv, jac @ self._minv[6, sl])
+        lam_inv = self._lam_inv  # J M⁻¹ Jᵀ + ε I, symmetric positive definite: Cholesky
+        np.matmul(minv_jt, jac.T, out=lam_inv)
+        lam_inv += self._reg
+        mujoco.mju_cholFactor(lam_inv, 0.0)
+        mujoco.mju_cholSolve(self._lam_x, lam_inv, jac @ self._minv[6, sl])
+        tau += tau0 - jac.T @ self._lam_x
         return np.clip(tau, -sc.torque_limit, sc.torque_limit)
 
 

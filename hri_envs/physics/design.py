@@ -87,6 +87,13 @@ class PhysicsDesign:
         position_tolerance, angle_tolerance: Distance to an abstract state's pose within
             which the object counts as *at* that state.
         step_time_limit: Simulated seconds after which an abstract step ends.
+        human_mass: Effective mass [kg] of the human's embodied forearm (the hand adds
+            0.1 kg); the arm carries its own weight (:mod:`~hri_envs.physics.human_arm`).
+        human_follow_damping: Damping of the human's arm while they follow (translational
+            [N s/m], rotational [N m s/rad]): what a following human resists with, besides
+            the hand's inertia.
+        human_reach_lo, human_reach_hi: (3,) the box [m, world frame] the human's hand can
+            reach (the joint ranges of the arm; the wheel's human walks).
 
     The remaining fields are thresholds and times of the simulation loop, the same for both
     scenarios (class defaults); the unit is in the name (``_m``, ``_s``, ``_rad``, ``_j``;
@@ -143,6 +150,10 @@ class PhysicsDesign:
             (fault ``pulled_out``) once it lasts ``grip_overload_time_s``.
         drop_margin_m: An object this far below the lowest abstract state, or touching the
             floor, has dropped (fault ``dropped``).
+        control_every_steps: The robot's controller, the seat law, the sensor reading and
+            the human's reference update once every this many physics steps (MuJoCo runs
+            the steps in between in C, with the human's actuators and the robot's torques
+            held); the settle and fault checks run at the same rate.
     """
 
     scenario: str
@@ -181,6 +192,10 @@ class PhysicsDesign:
     position_tolerance: float
     angle_tolerance: float
     step_time_limit: float
+    human_mass: float
+    human_follow_damping: tuple[float, float]
+    human_reach_lo: np.ndarray
+    human_reach_hi: np.ndarray
     # Simulation-loop thresholds and times (see the class docstring), shared by both scenarios.
     # Grasp toggles and motions (PandaSim.reset, step, _robot_toggle).
     pregrasp_distance_m: float = 0.08
@@ -233,6 +248,8 @@ class PhysicsDesign:
     seat_capture_m: float = 0.03
     seat_capture_angle_rad: float = float(np.deg2rad(25.0))
     seat_fade_m: float = 0.01
+    # Control rate (PandaSim._run): 4 x 2 ms = 125 Hz.
+    control_every_steps: int = 4
 
 
 def hanger_design() -> PhysicsDesign:
@@ -277,6 +294,10 @@ def hanger_design() -> PhysicsDesign:
         position_tolerance=0.02,
         angle_tolerance=np.deg2rad(8.0),
         step_time_limit=20.0,
+        human_mass=1.0,
+        human_follow_damping=(2.0, 0.05),
+        human_reach_lo=np.array([0.05, -0.9, 0.2]),  # the handle's states' box ± 0.15 m
+        human_reach_hi=np.array([1.05, 0.8, 0.9]),
     )
 
 
@@ -315,11 +336,18 @@ def wheel_design() -> PhysicsDesign:
         seat_hold=10.0,
         seat_rot_stiffness=150.0,
         seat_rot_damping=6.0,
-        disagree_force=(8.0, 18.0),
+        # Fully soft at 22 N (18 N before the human was embodied): pulling the wheel off the
+        # rack against the rack's 10 N detent while the human's hand (1.5 kg) follows must
+        # not look like disagreement.
+        disagree_force=(8.0, 22.0),
         lever=0.3,
         position_tolerance=0.03,
         angle_tolerance=np.deg2rad(8.0),
         step_time_limit=40.0,
+        human_mass=1.5,
+        human_follow_damping=(5.0, 0.3),
+        human_reach_lo=np.array([-4.0, -1.0, 0.5]),  # the room the stands are placed in
+        human_reach_hi=np.array([4.0, 4.5, 2.1]),
     )
 
 

@@ -1,11 +1,12 @@
-"""The simulated human's hand: a saturating spring-damper on the object's handle.
+"""The simulated human's decisions: where their hand goes (the reach and its noise).
 
 The human moves the handle towards their own target (the physical pose of the abstract
-state their action leads to) the way people reach: the equilibrium of their arm impedance
-travels along a minimum-jerk straight line from where the object was when they started to
-the target, and the force (and torque) they apply is a spring-damper towards it, saturated
-at what a person comfortably applies, plus seeded band-limited noise. A human who waits
-follows passively (no force); a human who does not hold the object applies nothing.
+state their action leads to) the way people reach: after their reaction delay, the
+reference of their arm travels along a minimum-jerk straight line from where the object was
+when they started to the target, plus seeded band-limited noise. The arm that turns this
+reference into force is embodied in the scene (:mod:`~hri_envs.physics.human_arm`): its
+position actuators have the human's stiffness, damping and force limit. A human who waits
+(or is still reacting) follows passively: the arm keeps only its damping and inertia.
 """
 
 from __future__ import annotations
@@ -13,26 +14,23 @@ from __future__ import annotations
 import numpy as np
 
 from hri_envs.physics.design import PhysicsDesign
-from hri_envs.physics.kinematics import Pose, StraightLine, rotation_error
+from hri_envs.physics.kinematics import Pose, StraightLine, TrajectorySample, rotation_error
 
 __all__ = ["SimulatedHuman"]
 
 
-def _saturate(v: np.ndarray, limit: float) -> np.ndarray:
-    n = float(np.linalg.norm(v))
-    return v if n <= limit else v * (limit / n)
-
-
 class SimulatedHuman:
-    """Applies the human's wrench to the object.
+    """What the human wants their hand to do.
 
     Args:
-        design: Gains, force limits, speeds and noise.
-        rng: Generator for the force noise.
+        design: Speeds, reaction delay and noise time constant.
+        rng: Generator for the noise.
 
     Attributes:
         holding: Whether the human holds the object (bit 0 of μ).
         plan: The current reach (object-frame target path), None when passive.
+        noise: (6,) the band-limited unit noise (std 1 in steady state, ~1 Hz); the arm
+            scales it to force [N] and torque [N m].
     """
 
     def __init__(self, design: PhysicsDesign, rng: np.random.Generator) -> None:
@@ -41,7 +39,7 @@ class SimulatedHuman:
         self.holding = False
         self.plan: StraightLine | None = None
         self.t = 0.0
-        self._noise = np.zeros(6)
+        self.noise = np.zeros(6)
         # Humans reach a little faster than the robot's planned motions.
         self.speed = (design.human_speed_factor * design.linear_speed,
                       design.human_speed_factor * design.angular_speed)
@@ -52,7 +50,7 @@ class SimulatedHuman:
         self.holding = False
         self.plan = None
         self.t = 0.0
-        self._noise[:] = 0.0
+        self.noise[:] = 0.0
 
     def reach(self, start: Pose, target: Pose) -> None:
         """Start moving the object from ``start`` to ``target`` (object-frame poses)."""
@@ -73,33 +71,20 @@ class SimulatedHuman:
                     and np.linalg.norm(rotation_error(goal.quat, quat))
                     < self.design.angle_tolerance)
 
-    def wrench(self, pos: np.ndarray, quat: np.ndarray, vel: np.ndarray, angvel: np.ndarray,
-               dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """Force [N] and torque [N m] on the object, at its origin, for the next ``dt``.
+    def advance(self, dt: float) -> TrajectorySample | None:
+        """The object-frame reference for the next ``dt`` [s], or None to follow passively.
 
-        Args:
-            pos: Object position [m].
-            quat: Object orientation.
-            vel: Velocity [m/s] of the object's origin.
-            angvel: Angular velocity [rad/s].
-            dt: Time step [s] (advances the reach and the noise).
+        Advances the reach and, while reaching, the noise (an Ornstein-Uhlenbeck process of
+        time constant ``human_noise_time_s``: band ~1 Hz, unit standard deviation).
         """
         if not self.holding or self.plan is None:
-            return np.zeros(3), np.zeros(3)
-        design = self.design
+            return None
         if self.t < 0.0:  # still reacting: follows passively
             self.t += dt
-            return np.zeros(3), np.zeros(3)
+            return None
         ref = self.plan.sample(self.t)
         self.t += dt
-        force = (design.human_stiffness * (ref.pos - pos)
-                 + design.human_damping * (ref.vel - vel))
-        torque = (design.human_rot_stiffness * rotation_error(ref.quat, quat)
-                  + design.human_rot_damping * (ref.angvel - angvel))
-        tau_n = design.human_noise_time_s  # noise bandwidth: ~1 Hz
-        self._noise += (-self._noise * dt / tau_n
-                        + np.sqrt(2.0 * dt / tau_n) * self.rng.standard_normal(6))
-        force = _saturate(force, design.human_force) + design.human_noise * self._noise[:3]
-        torque = (_saturate(torque, design.human_torque)
-                  + design.human_noise_torque_lever_m * design.human_noise * self._noise[3:])
-        return force, torque
+        tau_n = self.design.human_noise_time_s
+        a = min(dt / tau_n, 1.0)
+        self.noise += -self.noise * a + np.sqrt(2.0 * a) * self.rng.standard_normal(6)
+        return ref

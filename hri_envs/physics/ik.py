@@ -1,6 +1,6 @@
 """Reference joint configurations from mink differential IK (QP solver daqp).
 
-At 50 Hz the reference configuration takes one differential-IK step towards the current
+At 25 Hz the reference configuration takes one differential-IK step towards the current
 Cartesian reference of the grip frame, under the joint limits, with a posture task that
 keeps the arm near its nominal configuration (and lets a mobile base do the travelling).
 The controller pulls the arm towards this configuration in the null space of the Cartesian

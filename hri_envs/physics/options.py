@@ -9,9 +9,10 @@ into the parameters of each episode.
 key                    unit     meaning (default: the scenario's design, docs/physics.md)
 =====================  =======  ==========================================================
 ``human_stiffness``    N/m      the human's arm stiffness (rotational one scaled alike)
-``human_force``        N        the most force the human applies (torque scaled alike)
+``human_force``        N        the most force the human applies per axis (torque alike)
 ``human_noise``        N        std of the human's band-limited force noise
 ``human_delay_s``      s        the human's reaction delay before a reach starts
+``human_mass``         kg       effective mass of the human's forearm (the hand: +0.1 kg)
 ``sensor_noise_n``     N        std of the wrist sensor's white noise per control step
 ``sensor_bias_n``      N        magnitude of its constant bias (random direction)
 ``sensor_delay_s``     s        its delay
@@ -61,6 +62,7 @@ class PhysicsParams:
     human_force: float
     human_noise: float
     human_delay_s: float
+    human_mass: float
     sensor_noise_n: float
     sensor_bias_n: float
     sensor_delay_s: float
@@ -71,8 +73,9 @@ class PhysicsParams:
     def of(cls, design: PhysicsDesign) -> PhysicsParams:
         """The defaults of a design."""
         return cls(design.human_stiffness, design.human_force, design.human_noise,
-                   design.human_delay_s, design.sensor_noise_n, design.sensor_bias_n,
-                   design.sensor_delay_s, design.object_mass, design.seat_hold)
+                   design.human_delay_s, design.human_mass, design.sensor_noise_n,
+                   design.sensor_bias_n, design.sensor_delay_s, design.object_mass,
+                   design.seat_hold)
 
     def true_design(self, nominal: PhysicsDesign) -> PhysicsDesign:
         """The nominal design with these parameters (the human's, the seats', the mass)."""
@@ -82,6 +85,7 @@ class PhysicsParams:
                        human_rot_stiffness=nominal.human_rot_stiffness * k,
                        human_force=self.human_force, human_torque=nominal.human_torque * f,
                        human_noise=self.human_noise, human_delay_s=self.human_delay_s,
+                       human_mass=self.human_mass,
                        seat_hold=self.hold_force, object_mass=self.object_mass,
                        object_inertia=nominal.object_inertia * (self.object_mass
                                                                 / nominal.object_mass))

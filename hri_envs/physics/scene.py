@@ -2,10 +2,11 @@
 
 The scene has, in this order of degrees of freedom: the robot (for the wheel three
 prismatic base joints, then) seven arm joints and two fingers, and the object's free
-joint. Supports are mocap bodies, so the wheel's stands move to each episode's layout
-without recompiling. Contacts are disabled: the supports hold the object through seat
-force laws (:mod:`hri_envs.physics.seats`), the robot through a weld constraint
-(activated on grasp), the human through an applied wrench. The arm and the base are driven
+joint, then the human's arm (:mod:`hri_envs.physics.human_arm`: six actuated joints).
+Supports are mocap bodies, so the wheel's stands move to each episode's layout without
+recompiling. Contacts are on between the object and the floor only: the supports hold the
+object through seat force laws (:mod:`hri_envs.physics.seats`), the robot and the human's
+hand through weld constraints (activated on grasp). The arm and the base are driven
 by joint torques (``motor`` actuators with the Panda's torque limits); the fingers by
 position servos, for show.
 """
@@ -19,6 +20,7 @@ import numpy as np
 
 from hri_envs.physics.assets import PANDA_ARM_JOINTS, PANDA_FINGER_JOINTS, panda_xml
 from hri_envs.physics.design import PhysicsDesign
+from hri_envs.physics.human_arm import add_human_arm
 from hri_envs.task.geometry import Scenario
 
 __all__ = ["BASE_JOINTS", "Scene", "build_robot_model", "build_scene"]
@@ -259,6 +261,7 @@ def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
         spec.add_sensor(name=name, type=kind, objtype=mujoco.mjtObj.mjOBJ_SITE,
                         objname=_WRIST_SITE)
     _collision_geometry(spec, obj, scenario)
+    add_human_arm(spec, design)
     model = spec.compile()
 
     def jid(name: str) -> int:

@@ -4,11 +4,11 @@
 abstract state and both agents' abstract actions and runs them physically:
 
 1. *grasp toggles*: the robot approaches its grip on the object and closes (weld on), or
-   opens (weld off) and retreats; the human's grasp is a flag;
+   opens (weld off) and retreats; the human's grasp welds their hand on or off;
 2. an action that is not valid in the state after the toggles is refused by its agent's
    skill layer, and a refused action aborts the step's motion for both (the graph's rule);
 3. *motions*: the robot tracks a straight line from the actual grip pose to the target
-   state's pose with the impedance controller; the simulated human pulls the object towards
+   state's pose with the impedance controller; the simulated human's arm pulls it towards
    their own target; disagreement makes the robot yield (:class:`Disagreement`);
 4. the step ends when the object has settled (slow for ``settle_calm_time_s`` with both
    agents done), or at a time limit; the observed state is the closest abstract state, and
@@ -39,6 +39,7 @@ import numpy as np
 from hri_envs.physics.controller import Disagreement, ImpedanceController
 from hri_envs.physics.design import PhysicsDesign, design_for
 from hri_envs.physics.human import SimulatedHuman
+from hri_envs.physics.human_arm import HumanArm
 from hri_envs.physics.ik import IKFailure, ReferenceIK
 from hri_envs.physics.kinematics import (
     Pose,
@@ -66,12 +67,6 @@ _PLATFORM_Z_M = 0.1  # [m] height of the mobile base's floor platform mocap (sce
 # Numerical method: iterations of the reset IK solve onto the grip and the waiting pose.
 _RESET_GRIP_IK_ITERATIONS = 300
 _RESET_PREGRASP_IK_ITERATIONS = 200
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """3-vector cross product (np.cross is slow for one pair)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
 
 
 class StepResult(NamedTuple):
@@ -141,7 +136,7 @@ class PandaSim:
     """
 
     def __init__(self, graph: TaskGraph, design: PhysicsDesign | None = None,
-                 ik_rate: float = 50.0, options: Mapping[str, Any] | None = None) -> None:
+                 ik_rate: float = 25.0, options: Mapping[str, Any] | None = None) -> None:
         self.graph = graph
         self.design = design = design if design is not None else design_for(graph.name)
         self.scenario = graph.scenario
@@ -149,16 +144,20 @@ class PandaSim:
         self.model = self.scene.model
         self.data = mujoco.MjData(self.model)
         self.dt = float(self.model.opt.timestep)
-        self.ik_every = max(1, round(1.0 / (ik_rate * self.dt)))
+        self.control_every = max(1, int(design.control_every_steps))
+        self.dt_control = self.control_every * self.dt
+        # IK reference updates, in control periods.
+        self.ik_every = max(1, round(1.0 / (ik_rate * self.dt_control)))
         self.controller = ImpedanceController(self.scene)
         self.davi = Disagreement(design)
         self.human = SimulatedHuman(design, np.random.default_rng(0))
+        self.arm = HumanArm(self.model, design, self.scenario.orientations[0])
         self.seats = Seats(self.scenario, design)
         self.observer = StateObserver(graph, self.scenario, design.lever)
         self.settings = PhysicsSettings(design, options)
         self.sensor = WristSensor(self.scene, SensorModel(
             design.sensor_noise_n, design.sensor_bias_n, design.sensor_delay_s,
-            design.sensor_torque_lever_m, self.dt))
+            design.sensor_torque_lever_m, self.dt_control))
         self.params = PhysicsParams.of(design)
         self._apply(self.settings.base)
         n, n_base = len(self.scene.robot_dofs), 3 if design.mobile_base else 0
@@ -214,13 +213,14 @@ class PandaSim:
         self.params = params
         true = params.true_design(self.design)
         self.human.design = true
+        self.arm.apply(true)
         self.seats.design = true
         b = self.scene.object_body
         self.model.body_mass[b] = true.object_mass
         self.model.body_inertia[b] = true.object_inertia
         self.sensor.model = SensorModel(params.sensor_noise_n, params.sensor_bias_n,
                                         params.sensor_delay_s,
-                                        self.design.sensor_torque_lever_m, self.dt)
+                                        self.design.sensor_torque_lever_m, self.dt_control)
 
     def set_scenario(self, scenario: Scenario) -> None:
         """Move the supports (the wheel's stands) to ``scenario``'s layout."""
@@ -282,6 +282,7 @@ class PandaSim:
         data.eq_active[sc.weld] = 0
         self._weld(bool(mu & ROBOT_BIT))
         self.human.holding = bool(mu & HUMAN_BIT)
+        self.arm.place(data, pos, quat, self.human.holding)
         if sc.platform_mocap >= 0:
             data.mocap_pos[sc.platform_mocap] = [*data.qpos[:2] + design.base_pos[:2],
                                                  _PLATFORM_Z_M]
@@ -335,6 +336,7 @@ class PandaSim:
                 self._robot_toggle(totals)
             if human_toggle:
                 self.human.holding = not self.human.holding
+            self.arm.hold(self.data, self.human.holding)  # the hand's weld is the grasp bit
             s1 = int(g.next_state[s, a_r if robot_toggle else WAIT, a_h if human_toggle else WAIT])
             aborted = not (g.valid[s1, a_r] and g.valid[s1, a_h])
             robot_moves = a_r > TOGGLE and not aborted
@@ -416,9 +418,12 @@ class PandaSim:
 
         ``min_time_s`` (default: the design's ``settle_min_time_s``) is the shortest time
         before the motion can settle; ``totals`` accumulates the human's impulses and work.
+        The control loop runs once per control period (``control_every_steps`` physics
+        steps): it reads the state, sets the robot's torques, the seat's wrench and the
+        human's actuator references, and MuJoCo runs the period's physics steps in C.
         """
         model, data, sc, design = self.model, self.data, self.scene, self.design
-        dt, body = self.dt, sc.object_body
+        dt_c, k, body = self.dt_control, self.control_every, sc.object_body
         if min_time_s is None:
             min_time_s = design.settle_min_time_s
         ik_error_max_m, ik_error_time_max_s = design.ik_error_max_m, design.ik_error_time_max_s
@@ -427,13 +432,19 @@ class PandaSim:
         calm_time_s = design.settle_calm_time_s
         grip_hold_n, overload_max_s = design.grip_hold_force_n, design.grip_overload_time_s
         drop_z = self._lowest_z - design.drop_margin_m
-        sensor, overload = self.sensor, 0.0
-        check_every = design.stability_check_every_steps
-        platform_every = design.platform_update_every_steps
+        sensor, overload, human, arm = self.sensor, 0.0, self.human, self.arm
+        # Periodic work, in control periods.
+        check_every = max(1, design.stability_check_every_steps // k)
+        platform_every = max(1, design.platform_update_every_steps // k)
+        frame_every = max(1, round(self.frame_every / k))
+        ik_every, dt_ik = self.ik_every, self.ik_every * dt_c
         self.davi.reset()
         hold_ref = None if hold is None else TrajectorySample(hold.pos, hold.quat, np.zeros(3),
                                                               np.zeros(3))
         zero = np.zeros(3)
+        xfrc = data.xfrc_applied[body]
+        xfrc[:] = 0.0  # no seat wrench left over from the last run
+        seat_on = False
         t_line = elapsed = calm = ik_bad = 0.0
         i = 0
         yielded = False
@@ -443,57 +454,65 @@ class PandaSim:
             qv = data.qvel[sc.object_dofs]
             vel = qv[:3]
             angvel = self._rotate(quat, qv[3:])
-            f_h, t_h = self.human.wrench(pos, quat, vel, angvel, dt)
+            # The human: their reference drives the arm's actuators (MuJoCo applies them).
+            ref_h = human.advance(dt_c)
+            arm.drive(data, pos, quat, human.holding, ref_h, human.noise)
+            w_h = arm.wrench(data, pos)  # the muscles' wrench of the last physics step
+            f_h, t_h = w_h[:3], w_h[3:]
             # What the robot senses (the reading of the last physics step): the external
             # wrench on the held object, compensated, biased, noisy, delayed.
             sensed = sensor.external(data, self.holding, pos, data.xmat[body].reshape(3, 3))
             f_s, t_s = sensed[:3], sensed[3:]
             if self.holding:
                 f_true = sensor.true_wrench[:3]
-                overload = overload + dt if f_true @ f_true > grip_hold_n ** 2 else 0.0
+                overload = overload + dt_c if f_true @ f_true > grip_hold_n ** 2 else 0.0
                 if overload > overload_max_s:
                     self._weld(False)
                     raise _Fault(f"pulled_out: {np.sqrt(f_true @ f_true):.0f} N on the grip")
-            force, torque = f_h.copy(), t_h + _cross(pos - data.xipos[body], f_h)
             seat = self.seats.engaged(pos, quat)
             if seat >= 0:  # the seat acts at the centre of mass: no lever, no stiff coupling
                 f_seat, t_seat = self.seats.wrench(seat, pos, quat, vel, angvel)
-                force += f_seat
-                torque += t_seat
-            data.xfrc_applied[body, :3] = force
-            data.xfrc_applied[body, 3:] = torque
+                xfrc[:3] = f_seat
+                xfrc[3:] = t_seat
+                seat_on = True
+            elif seat_on:
+                xfrc[:] = 0.0
+                seat_on = False
             scale, ref = 1.0, hold_ref
             moving = line is not None and not yielded and t_line < line.duration
             if line is not None and not yielded:
                 u = line.direction if moving else zero
                 a = line.axis if moving else zero
-                scale = self.davi.update(self.davi.force(f_s, t_s, u, a), dt)
+                scale = self.davi.update(self.davi.force(f_s, t_s, u, a), dt_c)
                 yielded = self.davi.yielded
                 ref = line.sample(t_line)
-                t_line += dt * scale
+                t_line += dt_c * scale
             if yielded:
                 ref = None
-            if i % self.ik_every == 0:
+            if i % ik_every == 0:
+                if ref is None:  # passive: the posture reference starts from the actual arm
+                    self.ik.reset(data.qpos[sc.robot_qpos])  # (no self-motion runs away)
                 target = Pose(ref.pos, ref.quat) if ref is not None else self.grip_pose()
-                self.q_ref = self.ik.step(target, dt * self.ik_every).copy()
+                self.q_ref = self.ik.step(target, dt_ik).copy()
                 if ref is not None and line is not None:
-                    ik_bad = (ik_bad + dt * self.ik_every if self.ik.error() > ik_error_max_m
-                              else 0.0)
+                    ik_bad = (ik_bad + dt_ik if self.ik.error() > ik_error_max_m else 0.0)
                     if ik_bad > ik_error_time_max_s:
                         raise IKFailure("the IK reference cannot follow the trajectory")
             data.ctrl[sc.robot_actuators] = self.controller.torques(data, ref, self.q_ref,
                                                                     scale, self.holding)
             mujoco.mj_step2(model, data)
-            elapsed += dt
+            if k > 1:  # the rest of the control period, torques and references held
+                mujoco.mj_step(model, data, nstep=k - 1)
+            elapsed += dt_c
             i += 1
-            totals.linear_impulse += np.sqrt(f_s @ f_s) * dt
-            totals.angular_impulse += np.sqrt(t_s @ t_s) * dt
-            totals.human_work += (f_s @ vel + t_s @ angvel) * dt
-            totals.linear_impulse_true += np.sqrt(f_h @ f_h) * dt
-            totals.angular_impulse_true += np.sqrt(t_h @ t_h) * dt
+            totals.linear_impulse += np.sqrt(f_s @ f_s) * dt_c
+            totals.angular_impulse += np.sqrt(t_s @ t_s) * dt_c
+            totals.human_work += (f_s @ vel + t_s @ angvel) * dt_c
+            totals.linear_impulse_true += np.sqrt(f_h @ f_h) * dt_c
+            totals.angular_impulse_true += np.sqrt(t_h @ t_h) * dt_c
             if sc.platform_mocap >= 0 and i % platform_every == 0:
                 data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + design.base_pos[:2]
-            if self.on_frame is not None and i % self.frame_every == 0:
+            if self.on_frame is not None and i % frame_every == 0:
                 self.on_frame()
             if i % check_every == 0:
                 self._check_stable()
@@ -503,8 +522,8 @@ class PandaSim:
             slow = vel @ vel < vel_sq_max and angvel @ angvel < angvel_sq_max
             robot_done = line is None or yielded or t_line >= line.duration
             if (slow and robot_done and elapsed >= min_time_s
-                    and self.human.at_target(pos, quat)):
-                calm += dt
+                    and human.at_target(pos, quat)):
+                calm += dt_c
                 if calm >= calm_time_s:
                     return True, yielded
             else:

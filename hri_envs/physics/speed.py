@@ -1,8 +1,10 @@
 """Speed of the physics backend: real-time factor and wall seconds per abstract step.
 
-Used by ``benchmarks/physics_speed.py``. Both measurements run the hanger scenario on one
-core: the Panda (7 torque-controlled joints), the object welded to its hand, the Cartesian
-impedance controller at every 2 ms physics step and the mink IK at 50 Hz.
+Used by ``benchmarks/physics_speed.py``. The first two measurements run one scenario on one
+core: the Panda, the object welded to its hand and the human's, the control loop at 125 Hz
+over 2 ms physics steps and the mink IK at 25 Hz. The third runs whole env steps (random
+valid robot actions against the scripted human) in Gymnasium's ``AsyncVectorEnv``, one
+process per env.
 """
 
 from __future__ import annotations
@@ -15,20 +17,31 @@ import numpy as np
 from hri_envs.physics.sim import PandaSim
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
 
-__all__ = ["SpeedResult", "physics_realtime_factor", "seconds_per_abstract_step"]
+__all__ = ["SpeedResult", "async_steps_per_second", "physics_realtime_factor",
+           "seconds_per_abstract_step"]
 
 
 class SpeedResult(NamedTuple):
-    """Simulated and wall seconds of a measurement, and how many abstract steps it ran."""
+    """Simulated and wall seconds of a measurement, and how many abstract steps it ran.
+
+    ``cpu_seconds`` is this process's CPU time over the same span (0 where not measured):
+    on a loaded machine it shows what one core would do alone.
+    """
 
     sim_seconds: float
     wall_seconds: float
     abstract_steps: int
+    cpu_seconds: float = 0.0
 
     @property
     def realtime_factor(self) -> float:
         """Simulated seconds per wall second."""
         return self.sim_seconds / self.wall_seconds
+
+    @property
+    def cpu_realtime_factor(self) -> float:
+        """Simulated seconds per CPU second of this process (nan if not measured)."""
+        return self.sim_seconds / self.cpu_seconds if self.cpu_seconds > 0 else float("nan")
 
     @property
     def seconds_per_step(self) -> float:
@@ -53,17 +66,18 @@ def physics_realtime_factor(scenario: str = "hanger", repeats: int = 3) -> Speed
     start = int(g.mounting_state[0])
     s = sim.reset(0, state=start)
     over_b, over_a = g.move_over(1), g.move_over(0)
-    sim_t = wall = 0.0
+    sim_t = wall = cpu = 0.0
     steps = 0
     for _ in range(repeats):
         for action in (over_b, over_a):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             res = sim.step(s, action, WAIT)
             wall += time.perf_counter() - t0
+            cpu += time.process_time() - c0
             sim_t += res.duration
             steps += 1
             s = res.state
-    return SpeedResult(sim_t, wall, steps)
+    return SpeedResult(sim_t, wall, steps, cpu)
 
 
 def seconds_per_abstract_step(scenario: str = "hanger", episodes: int = 2) -> SpeedResult:
@@ -77,7 +91,7 @@ def seconds_per_abstract_step(scenario: str = "hanger", episodes: int = 2) -> Sp
     g = _graph(scenario)
     human = preference_human(g)
     sim = PandaSim(g)
-    sim_t = wall = 0.0
+    sim_t = wall = cpu = 0.0
     steps = 0
     for e in range(episodes):
         start, goal = (1, 0) if e % 2 == 0 else (0, 1)
@@ -85,12 +99,47 @@ def seconds_per_abstract_step(scenario: str = "hanger", episodes: int = 2) -> Sp
         for _ in range(40):
             a_h = int(human.preferred_action(np.array(s), np.array(start), np.array(goal)))
             a_r = TOGGLE if g.support[s] >= 0 and a_h == TOGGLE else WAIT
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             res = sim.step(s, a_r, a_h)
             wall += time.perf_counter() - t0
+            cpu += time.process_time() - c0
             sim_t += res.duration
             steps += 1
             s = res.state
             if g.support[s] == goal and g.grasp[s] == 0:
                 break
+    return SpeedResult(sim_t, wall, steps, cpu)
+
+
+def async_steps_per_second(scenario: str = "hanger", num_envs: int = 2, seconds: float = 30.0,
+                           seed: int = 0) -> SpeedResult:
+    """Abstract steps of ``num_envs`` Panda envs in an ``AsyncVectorEnv``, over ``seconds``.
+
+    ``gym.make_vec(<the scenario's Panda id>, num_envs, vectorization_mode="async")``; every
+    env plays random valid robot actions (from the observation's action mask, seeded) and
+    resets itself when its episode ends. The clock starts after the first reset (the
+    workers' start-up and the scene compilation are not counted); ``abstract_steps`` is the
+    sum over the envs, ``sim_seconds`` their simulated time summed.
+    """
+    import gymnasium as gym
+
+    import hri_envs  # noqa: F401  (registers the ids)
+    from hri_envs.task.scenarios import scenario_spec
+
+    envs = gym.make_vec(scenario_spec(scenario).panda_id, num_envs=num_envs,
+                        vectorization_mode="async")
+    try:
+        rng = np.random.default_rng(seed)
+        obs, _ = envs.reset(seed=seed)
+        steps, sim_t = 0, 0.0
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            mask = np.asarray(obs["action_mask"], dtype=bool)
+            actions = np.array([rng.choice(np.flatnonzero(row)) for row in mask])
+            obs, _, _, _, info = envs.step(actions)
+            steps += num_envs
+            sim_t += float(np.sum(info.get("duration_s", 0.0)))
+        wall = time.perf_counter() - t0
+    finally:
+        envs.close()
     return SpeedResult(sim_t, wall, steps)
