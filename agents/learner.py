@@ -97,6 +97,9 @@ class Learner(BatchAgent):
         self._next_h = np.ascontiguousarray(np.swapaxes(self._next, 1, 2))  # (S, A_H, A_R)
         self._reward = np.array(graph.reward(self.config.r0), dtype=np.float64)  # (S, A, A)
         self._valid = np.array(graph.valid, dtype=bool)
+        # (K, 2, S) the passive baseline action per start support, lifted or not, and state.
+        self._passive = mdp.passive_actions(graph, np.arange(graph.n_intentions)[:, None],
+                                            np.array([[False, True]]))
         n_i, n_s, n_a = graph.n_intentions, graph.n_states, graph.n_actions
         self.belief = np.full((n_runs, n_i), 1.0 / n_i)
         self.start = np.zeros(n_runs, dtype=np.int64)
@@ -190,8 +193,8 @@ class Learner(BatchAgent):
         phi = g.features[intentions]  # (B, S, F)
         r_state = np.einsum("bsf,bf->bs", phi, self.theta)
         r_h = partner_mdp.partner_backup(self._next_h, pi_r, r_state, terminal)
-        # This is the human MDP of _update_policies for the revealed intention (same θ, same
-        # π_R): start from its greedy policy, so one evaluation usually confirms it.
+        # Nearly the human MDP of the last _update_policies for the revealed intention (same θ,
+        # π_R one update newer): start from its greedy policy, which is mostly still optimal.
         warm = None if self._warm_h is None else self._warm_h[rows, intentions]
         q, _ = partner_mdp.solve_partner_q(self._next_h, pi_r, r_h, self._valid, c.gamma,
                                            terminal=terminal, policy=warm)
@@ -212,13 +215,12 @@ class Learner(BatchAgent):
 
     def policy(self, states: np.ndarray) -> np.ndarray:
         """(B, A) the robot's bounded soft-max policy in ``states`` under the current belief."""
-        rows = np.arange(self.n_runs)
-        q = np.einsum("bi,bia->ba", self.belief, self.q_r[rows, :, states])
-        baseline = mdp.passive_actions(self.graph, self.start, self.lifted)[rows, states]
         c = self.config
-        if not c.passive_prior:
-            return mdp.bounded_softmax(q, self._valid[states], c.robot_temperature, c.eta, None)
-        return mdp.bounded_softmax(q, self._valid[states], c.robot_temperature, c.eta, baseline)
+        baseline = None
+        if c.passive_prior:
+            baseline = self._passive[self.start, self.lifted.astype(np.intp), states]
+        return partner_mdp.belief_policy(self.q_r, self.belief, states, self._valid,
+                                         c.robot_temperature, c.eta, baseline)
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
         """Sample the robot's actions from the bounded soft-max of Σ_ι b(ι) Q_ι (Eq. 5)."""

@@ -140,3 +140,21 @@ def test_no_jit_environment_variable_selects_the_numpy_path():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env={**os.environ, "HRI_ENVS_NO_JIT": "1"}, check=True)
     assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("with_baseline", [True, False])
+def test_belief_policy_is_the_bounded_softmax_of_the_mixed_q(path, with_baseline):
+    g = graph_for("wheel")
+    rng = np.random.default_rng(4)
+    n_b = 50
+    q = rng.normal(size=(n_b, g.n_intentions, g.n_states, g.n_actions))
+    q[:5] = 0.0  # ties everywhere: every valid action is kept
+    belief = rng.dirichlet(np.ones(g.n_intentions), n_b)
+    states = rng.integers(0, g.n_states, n_b)
+    baseline = np.where(g.valid[states, 1], 1, 0) if with_baseline else None
+    got = partner_mdp.belief_policy(q, belief, states, g.valid, 5.0, 0.9, baseline)
+    mixed = np.einsum("bi,bia->ba", belief, q[np.arange(n_b), :, states])
+    expected = mdp.bounded_softmax(mixed, g.valid[states], 5.0, 0.9, baseline)
+    np.testing.assert_allclose(got, expected, atol=1e-14)
+    tied = g.valid[states[:5]]
+    np.testing.assert_allclose(got[:5], tied / tied.sum(-1, keepdims=True), atol=1e-15)

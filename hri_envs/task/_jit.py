@@ -253,3 +253,45 @@ def softmax(q, valid, temperature):
             for a in range(n_a):
                 out[k, s, a] /= total
     return out
+
+
+@njit(cache=True, nogil=True)
+def belief_policy(q, belief, states, baseline, valid, temperature, eta):
+    """(B, A) bounded soft-max of Σ_ι belief[b, ι] q[b, ι, states[b], :] (baseline < 0: none)."""
+    n_b, n_i, _, n_a = q.shape
+    out = np.zeros((n_b, n_a))
+    mixed = np.empty(n_a)
+    for b in range(n_b):
+        s = states[b]
+        top = -np.inf
+        for a in range(n_a):
+            acc = 0.0
+            for i in range(n_i):
+                acc += belief[b, i] * q[b, i, s, a]
+            mixed[a] = temperature * acc
+            if valid[s, a] and mixed[a] > top:
+                top = mixed[a]
+        total = 0.0
+        for a in range(n_a):
+            if valid[s, a]:
+                e = np.exp(mixed[a] - top)
+                out[b, a] = e
+                total += e
+        best = 0.0
+        for a in range(n_a):
+            out[b, a] /= total
+            if out[b, a] > best:
+                best = out[b, a]
+        bound = eta * best
+        if baseline[b] >= 0 and out[b, baseline[b]] > bound:
+            bound = out[b, baseline[b]]
+        bound *= 1 - 1e-12
+        kept = 0.0
+        for a in range(n_a):
+            if out[b, a] >= bound:
+                kept += out[b, a]
+            else:
+                out[b, a] = 0.0
+        for a in range(n_a):
+            out[b, a] /= kept
+    return out

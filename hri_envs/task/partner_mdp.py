@@ -34,6 +34,7 @@ from hri_envs.errors import ConfigError
 from hri_envs.task import mdp
 
 __all__ = [
+    "belief_policy",
     "expected_feature_counts",
     "jit_enabled",
     "kernels",
@@ -179,6 +180,36 @@ def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
     flat = _c(q, dtype=np.float64).reshape(-1, n_s, n_a)
     out = jit.softmax(flat, _c(valid, dtype=np.bool_), float(temperature))
     return out.reshape(q.shape)  # type: ignore[no-any-return]
+
+
+def belief_policy(q: np.ndarray, belief: np.ndarray, states: np.ndarray, valid: np.ndarray,
+                  temperature: float, eta: float, baseline: np.ndarray | None) -> np.ndarray:
+    """The robot's bounded soft-max of the belief-weighted Q in each run's state (Eq. 5).
+
+    :func:`hri_envs.task.mdp.bounded_softmax` of ``Σ_ι belief(ι) q(ι, state, ·)``, in one
+    call per step (the study's inner loop).
+
+    Args:
+        q: (B, I, S, A) Q per intention.
+        belief: (B, I) belief over intentions.
+        states: (B,) int each run's state.
+        valid: (S, A) bool.
+        temperature: τ of the soft-max.
+        eta: η of the bound.
+        baseline: (B,) int the passive baseline action, or None for no baseline.
+
+    Returns:
+        (B, A) probabilities.
+    """
+    jit = kernels()
+    if jit is None:
+        rows = np.arange(len(states))
+        mixed = np.einsum("bi,bia->ba", belief, q[rows, :, states])
+        return mdp.bounded_softmax(mixed, valid[states], temperature, eta, baseline)
+    base = np.full(len(states), -1, np.int64) if baseline is None else _c(baseline, np.int64)
+    return jit.belief_policy(_c(q, np.float64), _c(belief, np.float64),  # type: ignore[no-any-return]
+                             _c(states, np.int64), base, _c(valid, np.bool_),
+                             float(temperature), float(eta))
 
 
 def solve_partner_q(
