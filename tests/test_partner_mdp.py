@@ -158,3 +158,21 @@ def test_belief_policy_is_the_bounded_softmax_of_the_mixed_q(path, with_baseline
     np.testing.assert_allclose(got, expected, atol=1e-14)
     tied = g.valid[states[:5]]
     np.testing.assert_allclose(got[:5], tied / tied.sum(-1, keepdims=True), atol=1e-15)
+
+
+def test_maxent_q_equals_the_dense_solve_of_its_reward(path):
+    """Plain ME-IRL on the sparse table: Q of θᵀφ as the dense Q-iteration gives it."""
+    from baselines.maxent import MaxEntIRL
+
+    graph, trace = _wheel_trace()
+    agent = MaxEntIRL(graph, 2)
+    for _ in range(3):
+        agent.end_episode([trace, trace], np.array([1, -1]))
+    n_s, n_a = graph.n_states, graph.n_actions
+    dense = np.zeros((n_s, n_a, n_s))
+    np.put_along_axis(dense, agent._next, 1.0, axis=-1)
+    reward = np.einsum("isf,bf->bis", graph.features, agent.theta)
+    q = mdp.q_iteration(np.broadcast_to(dense, (2, graph.n_intentions, n_s, n_a, n_s)), reward,
+                        graph.valid, graph.terminal, agent.config.gamma)
+    np.testing.assert_allclose(agent.q, q, atol=1e-10)
+    assert not np.allclose(agent.theta[0], agent.theta[1])  # run 1 never learned
