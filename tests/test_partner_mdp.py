@@ -176,3 +176,9 @@ def test_maxent_q_equals_the_dense_solve_of_its_reward(path):
                         graph.valid, graph.terminal, agent.config.gamma)
     np.testing.assert_allclose(agent.q, q, atol=1e-10)
     assert not np.allclose(agent.theta[0], agent.theta[1])  # run 1 never learned
+
+
+def test_preload_loads_the_compiled_kernels_only_when_they_are_used(monkeypatch):
+    assert partner_mdp.preload() is HAS_JIT
+    monkeypatch.setattr(partner_mdp, "kernels", lambda: None)
+    assert partner_mdp.preload() is False

@@ -41,6 +41,7 @@ from hri_envs.bench.runner import TABLE2, ScriptedHumans, make_schedule, simulat
 from hri_envs.envs.backends import BACKENDS, batch_backend
 from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ActionError, BackendUnavailableError, ConfigError
+from hri_envs.task import partner_mdp
 from hri_envs.task.episode import REWARDS
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_for
@@ -464,6 +465,8 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
         for i in todo:
             yield i, _run_unit_caught(units[i])
     elif cfg.executor == "process":
+        if {"learner", "maxent"} & set(cfg.agents):
+            partner_mdp.preload()  # forked workers inherit the loaded kernels
         # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
         # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
         # every worker at once.
