@@ -52,38 +52,48 @@ def partner_backup(next_state, partner, values, terminal):
 
 
 @njit(cache=True, nogil=True)
-def _solve_in_place(m, b, cols, count):
-    """Solve m x = b into b by Gaussian elimination without pivoting, skipping zeros.
+def _link(pattern, row_cols, row_n, col_rows, col_n, i, j):
+    """Record that entry (i, j) of the matrix may be nonzero (once per entry)."""
+    if not pattern[i, j]:
+        pattern[i, j] = True
+        row_cols[i, row_n[i]] = j
+        row_n[i] += 1
+        col_rows[j, col_n[j]] = i
+        col_n[j] += 1
 
-    ``m`` (S, S) is overwritten; ``cols`` (S, S) int and ``count`` (S,) int are scratch
-    space (the columns right of the diagonal where each row of U is nonzero). The matrices
-    here, I - γ P_π with P_π a (sub-)stochastic matrix and γ < 1, are strictly diagonally
-    dominant by rows, which elimination preserves: no pivot is small and no pivoting is
-    needed. They have a handful of entries per row and little fill-in, so most updates are
-    skipped.
+
+@njit(cache=True, nogil=True)
+def _solve_sparse(m, b, pattern, row_cols, row_n, col_rows, col_n):
+    """Solve m x = b into b by Gaussian elimination without pivoting, on the nonzeros only.
+
+    ``m`` (S, S) is dense but overwritten; ``pattern`` (S, S) bool and the lists
+    ``row_cols[i, :row_n[i]]`` (columns of row i) and ``col_rows[j, :col_n[j]]`` (rows of
+    column j) name its possibly nonzero entries (:func:`_link`); fill-in is added to them.
+    The matrices here, I - γ P_π with P_π a (sub-)stochastic matrix and γ < 1, are strictly
+    diagonally dominant by rows, which elimination preserves: no pivot is small and no
+    pivoting is needed. They have a handful of entries per row and little fill-in, so the
+    work is proportional to the entries rather than to S³.
     """
     n = m.shape[0]
     for k in range(n):
-        nc = 0
-        for j in range(k + 1, n):
-            if m[k, j] != 0.0:
-                cols[k, nc] = j
-                nc += 1
-        count[k] = nc
         d = m[k, k]
-        for i in range(k + 1, n):
-            f = m[i, k]
-            if f != 0.0:
-                f /= d
-                for c in range(nc):
-                    j = cols[k, c]
+        for t in range(col_n[k]):
+            i = col_rows[k, t]
+            if i <= k or m[i, k] == 0.0:
+                continue
+            f = m[i, k] / d
+            for u in range(row_n[k]):
+                j = row_cols[k, u]
+                if j > k:
+                    _link(pattern, row_cols, row_n, col_rows, col_n, i, j)
                     m[i, j] -= f * m[k, j]
-                b[i] -= f * b[k]
+            b[i] -= f * b[k]
     for k in range(n - 1, -1, -1):
         acc = b[k]
-        for c in range(count[k]):
-            j = cols[k, c]
-            acc -= m[k, j] * b[j]
+        for u in range(row_n[k]):
+            j = row_cols[k, u]
+            if j > k:
+                acc -= m[k, j] * b[j]
         b[k] = acc / m[k, k]
 
 
@@ -102,8 +112,11 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
     m = np.empty((n_s, n_s))
     v = np.empty(n_s)
     act = np.empty(n_s, np.int64)
-    cols = np.empty((n_s, n_s), np.int64)
-    count = np.empty(n_s, np.int64)
+    pattern = np.empty((n_s, n_s), np.bool_)
+    row_cols = np.empty((n_s, n_s), np.int64)
+    row_n = np.empty(n_s, np.int64)
+    col_rows = np.empty((n_s, n_s), np.int64)
+    col_n = np.empty(n_s, np.int64)
     idx = np.empty(n_p, np.int64)
     for k in range(n_b):
         term = terminal[k]
@@ -118,9 +131,13 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
                         best, best_a = x, a
                 act[s] = best_a
         for _ in range(max_iter):
-            m[:, :] = 0.0
+            m[:, :] = 0.0  # I - γ P_π, and where it is nonzero
+            pattern[:, :] = False
+            row_n[:] = 0
+            col_n[:] = 0
             for s in range(n_s):
                 m[s, s] = 1.0
+                _link(pattern, row_cols, row_n, col_rows, col_n, s, s)
                 v[s] = reward[k, s, act[s]]
                 if s == term:
                     m[s, s] -= gamma
@@ -129,8 +146,10 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
                 for p in range(n_p):
                     w = partner[k, s, p]
                     if w != 0.0:
-                        m[s, next_state[s, a, p]] -= gamma * w
-            _solve_in_place(m, v, cols, count)
+                        j = next_state[s, a, p]
+                        _link(pattern, row_cols, row_n, col_rows, col_n, s, j)
+                        m[s, j] -= gamma * w
+            _solve_sparse(m, v, pattern, row_cols, row_n, col_rows, col_n)
             changed = False
             for s in range(n_s):
                 if s == term:
