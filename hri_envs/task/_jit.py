@@ -16,24 +16,12 @@ from numba import njit
 _NEG = -1e300
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _support(partner, k, s, idx):
-    """Write the partner actions of nonzero probability in state s of MDP k to idx; count."""
-    n = 0
-    for p in range(partner.shape[2]):
-        if partner[k, s, p] != 0.0:
-            idx[n] = p
-            n += 1
-    return n
-
-
 @njit(cache=True, nogil=True)
 def partner_backup(next_state, partner, values, terminal):
     """(N, S, A): Σ_p partner[n, s, p] values[n, next_state[s, a, p]]; terminal rows values."""
     n_b = partner.shape[0]
     n_s, n_a, n_p = next_state.shape
     out = np.empty((n_b, n_s, n_a))
-    idx = np.empty(n_p, np.int64)
     for k in range(n_b):
         term = terminal[k]
         for s in range(n_s):
@@ -41,13 +29,15 @@ def partner_backup(next_state, partner, values, terminal):
                 for a in range(n_a):
                     out[k, s, a] = values[k, s]
                 continue
-            n_sup = _support(partner, k, s, idx)
+            # The partner's actions outermost: the sums of the A actions are independent, so
+            # they proceed together (each still adds its terms in increasing p).
             for a in range(n_a):
-                acc = 0.0
-                for c in range(n_sup):
-                    p = idx[c]
-                    acc += partner[k, s, p] * values[k, next_state[s, a, p]]
-                out[k, s, a] = acc
+                out[k, s, a] = 0.0
+            for p in range(n_p):
+                w = partner[k, s, p]
+                if w != 0.0:
+                    for a in range(n_a):
+                        out[k, s, a] += w * values[k, next_state[s, a, p]]
     return out
 
 
@@ -117,7 +107,7 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
     row_n = np.empty(n_s, np.int64)
     col_rows = np.empty((n_s, n_s), np.int64)
     col_n = np.empty(n_s, np.int64)
-    idx = np.empty(n_p, np.int64)
+    acc = np.empty(n_a)
     for k in range(n_b):
         term = terminal[k]
         for s in range(n_s):
@@ -156,13 +146,15 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
                     for a in range(n_a):
                         q[k, s, a] = reward[k, s, a] + gamma * v[term]
                 else:
-                    n_sup = _support(partner, k, s, idx)
                     for a in range(n_a):
-                        acc = 0.0
-                        for c in range(n_sup):
-                            p = idx[c]
-                            acc += partner[k, s, p] * v[next_state[s, a, p]]
-                        q[k, s, a] = reward[k, s, a] + gamma * acc
+                        acc[a] = 0.0
+                    for p in range(n_p):  # outermost: see partner_backup
+                        w = partner[k, s, p]
+                        if w != 0.0:
+                            for a in range(n_a):
+                                acc[a] += w * v[next_state[s, a, p]]
+                    for a in range(n_a):
+                        q[k, s, a] = reward[k, s, a] + gamma * acc[a]
                 best, best_a = _NEG - 1.0, 0
                 for a in range(n_a):
                     x = q[k, s, a] if valid[s, a] else _NEG
@@ -240,13 +232,11 @@ def partner_reward(reward, partner, terminal):
         for s in range(n_s):
             if s == terminal[k]:
                 continue
-            for a in range(n_a):
-                acc = 0.0
-                for p in range(n_p):
-                    w = partner[k, s, p]
-                    if w != 0.0:
-                        acc += w * reward[s, a, p]
-                out[k, s, a] = acc
+            for p in range(n_p):  # outermost: see partner_backup
+                w = partner[k, s, p]
+                if w != 0.0:
+                    for a in range(n_a):
+                        out[k, s, a] += w * reward[s, a, p]
     return out
 
 
