@@ -28,7 +28,7 @@ import numpy as np
 from agents.config import LearnerConfig, default_config
 from hri_envs.errors import ConfigError, LearnerStateError
 from hri_envs.task import episode as rules
-from hri_envs.task import mdp
+from hri_envs.task import mdp, partner_mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.protocol import BatchAgent, Trace, run_streams
@@ -91,9 +91,15 @@ class Learner(BatchAgent):
             raise ConfigError(f"runs must have n_runs={n_runs} entries, got {len(runs)}",
                               field="runs")
         self.rngs = run_streams(seed, runs)
-        self._next = graph.next_state
-        self._reward = graph.reward(self.config.r0)  # (S, A, A)
-        self._valid = graph.valid
+        # Own writeable copies of the graph's read-only tables, in the layouts the compiled
+        # kernels take (so they neither copy them per call nor compile a read-only variant).
+        self._next = np.array(graph.next_state, dtype=np.int64)  # (S, A_R, A_H)
+        self._next_h = np.ascontiguousarray(np.swapaxes(self._next, 1, 2))  # (S, A_H, A_R)
+        self._reward = np.array(graph.reward(self.config.r0), dtype=np.float64)  # (S, A, A)
+        self._valid = np.array(graph.valid, dtype=bool)
+        # (K, 2, S) the passive baseline action per start support, lifted or not, and state.
+        self._passive = mdp.passive_actions(graph, np.arange(graph.n_intentions)[:, None],
+                                            np.array([[False, True]]))
         n_i, n_s, n_a = graph.n_intentions, graph.n_states, graph.n_actions
         self.belief = np.full((n_runs, n_i), 1.0 / n_i)
         self.start = np.zeros(n_runs, dtype=np.int64)
@@ -150,22 +156,26 @@ class Learner(BatchAgent):
 
     # ------------------------------------------------------------------ model updates
     def _update_policies(self) -> None:
-        """π̂_H from θ and the current π_R (Alg. 1 l. 20-22), then the robot's Q (l. 3-5)."""
-        g, c = self.graph, self.config
-        t_h = mdp.absorbing(mdp.human_transition(self._next, self.pi_r), g.terminal, copy=False)
-        r_state = np.einsum("isf,bf->bis", g.features, self.theta)  # (B, I, S)
-        r_h = np.einsum("bisaz,biz->bisa", t_h, r_state)
-        q_h = mdp.solve_q(t_h, r_h, self._valid, c.gamma, policy=self._warm_h)
-        self._warm_h = np.where(self._valid, q_h, -np.inf).argmax(-1)
-        self.q_h = q_h
-        self.pi_h = mdp.softmax(q_h, self._valid, c.human_temperature)
+        """π̂_H from θ and the current π_R (Alg. 1 l. 20-22), then the robot's Q (l. 3-5).
 
-        t_r = mdp.absorbing(mdp.robot_transition(self._next, self.pi_h), g.terminal, copy=False)
-        r_r = mdp.robot_reward(self._reward, self.pi_h)
-        r_r[:, np.arange(g.n_intentions), g.terminal, :] = 0.0
-        self.q_r = mdp.solve_q(t_r, r_r, self._valid, c.gamma, policy=self._warm_r)
-        self._warm_r = np.where(self._valid, self.q_r, -np.inf).argmax(-1)
-        self.pi_r = mdp.softmax(self.q_r, self._valid, c.robot_model_temperature)
+        Both Q-iterations run on the sparse joint table (:mod:`hri_envs.task.partner_mdp`):
+        the dense transitions T_H, T_R of the paper are never built.
+        """
+        g, c = self.graph, self.config
+        term = g.terminal[None, :]  # (1, I): intention ι's goal state absorbs
+        r_state = np.einsum("isf,bf->bis", g.features, self.theta)  # (B, I, S)
+        r_h = partner_mdp.partner_backup(self._next_h, self.pi_r, r_state, term)
+        q_h, self._warm_h = partner_mdp.solve_partner_q(
+            self._next_h, self.pi_r, r_h, self._valid, c.gamma, terminal=term,
+            policy=self._warm_h)
+        self.q_h = q_h
+        self.pi_h = partner_mdp.softmax(q_h, self._valid, c.human_temperature)
+
+        r_r = partner_mdp.partner_reward(self._reward, self.pi_h, term)
+        self.q_r, self._warm_r = partner_mdp.solve_partner_q(
+            self._next, self.pi_h, r_r, self._valid, c.gamma, terminal=term,
+            policy=self._warm_r)
+        self.pi_r = partner_mdp.softmax(self.q_r, self._valid, c.robot_model_temperature)
 
     def _irl(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """One ME-IRL step per run on its loop-free trace (Alg. 1 l. 17-19).
@@ -179,15 +189,18 @@ class Learner(BatchAgent):
         demo = mdp.demonstrations(g.features, [tr.states for tr in traces], intentions)
         rows = np.arange(n_b)
         terminal = g.terminal[intentions]
-        t_h = mdp.human_transition(self._next, self.pi_r[rows, intentions])  # (B, S, A, S)
-        t_h[rows, terminal] = 0.0
-        t_h[rows, terminal, :, terminal] = 1.0
+        pi_r = self.pi_r[rows, intentions]  # (B, S, A) the robot's policy the human expects
         phi = g.features[intentions]  # (B, S, F)
-        r_h = np.einsum("bsaz,bz->bsa", t_h, np.einsum("bsf,bf->bs", phi, self.theta))
-        q = mdp.solve_q(t_h, r_h, self._valid, c.gamma)
-        policy = mdp.softmax(q, self._valid, c.irl_temperature)
-        expected = mdp.expected_feature_counts(t_h, policy, phi, demo.start, terminal,
-                                               demo.horizon)
+        r_state = np.einsum("bsf,bf->bs", phi, self.theta)
+        r_h = partner_mdp.partner_backup(self._next_h, pi_r, r_state, terminal)
+        # Nearly the human MDP of the last _update_policies for the revealed intention (same θ,
+        # π_R one update newer): start from its greedy policy, which is mostly still optimal.
+        warm = None if self._warm_h is None else self._warm_h[rows, intentions]
+        q, _ = partner_mdp.solve_partner_q(self._next_h, pi_r, r_h, self._valid, c.gamma,
+                                           terminal=terminal, policy=warm)
+        policy = partner_mdp.softmax(q, self._valid, c.irl_temperature)
+        expected = partner_mdp.expected_feature_counts(self._next_h, pi_r, policy, phi,
+                                                       demo.start, terminal, demo.horizon)
         new = mdp.irl_step(self.theta, demo.counts, expected, c.learning_rate)
         self.theta = np.where(revealed[:, None], new, self.theta)
 
@@ -202,13 +215,12 @@ class Learner(BatchAgent):
 
     def policy(self, states: np.ndarray) -> np.ndarray:
         """(B, A) the robot's bounded soft-max policy in ``states`` under the current belief."""
-        rows = np.arange(self.n_runs)
-        q = np.einsum("bi,bia->ba", self.belief, self.q_r[rows, :, states])
-        baseline = mdp.passive_actions(self.graph, self.start, self.lifted)[rows, states]
         c = self.config
-        if not c.passive_prior:
-            return mdp.bounded_softmax(q, self._valid[states], c.robot_temperature, c.eta, None)
-        return mdp.bounded_softmax(q, self._valid[states], c.robot_temperature, c.eta, baseline)
+        baseline = None
+        if c.passive_prior:
+            baseline = self._passive[self.start, self.lifted.astype(np.intp), states]
+        return partner_mdp.belief_policy(self.q_r, self.belief, states, self._valid,
+                                         c.robot_temperature, c.eta, baseline)
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
         """Sample the robot's actions from the bounded soft-max of Σ_ι b(ι) Q_ι (Eq. 5)."""

@@ -18,7 +18,7 @@ from agents.config import LearnerConfig, default_config
 from agents.learner import sample_actions
 from baselines.simple import _Tracking
 from hri_envs.task import episode as rules
-from hri_envs.task import mdp
+from hri_envs.task import mdp, partner_mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
 from hri_envs.task.protocol import Trace, run_streams
@@ -58,22 +58,36 @@ class MaxEntIRL(_Tracking):
         same_hold = (graph.grasp & 1) == (graph.grasp >> 1)
         matching[:, TOGGLE] = np.where(same_hold, TOGGLE, WAIT)
         diag = graph.next_state[np.arange(n_s)[:, None], np.arange(n_a)[None, :], matching]
-        single = np.zeros((n_s, n_a, n_s))
-        np.put_along_axis(single, diag[..., None], 1.0, axis=-1)
-        self._transition = mdp.absorbing(np.broadcast_to(single, (n_i, n_s, n_a, n_s)),
-                                         graph.terminal)  # (I, S, A, S)
+        # Deterministic: one "partner action" that always happens, for the sparse solvers.
+        self._next = np.ascontiguousarray(diag[..., None], dtype=np.int64)  # (S, A, 1)
+        self._certain = np.ones((1, 1, n_s, 1))  # (B, I, S, 1) its probability
+        self._valid = np.array(graph.valid, dtype=bool)
+        self._terminal = np.asarray(graph.terminal)[None]  # (1, I) goal of each intention
         self.theta = np.tile(initial_theta(graph.n_features), (n_runs, 1))
         self.counts = np.zeros((n_runs, n_i, n_s, n_i))
         self.belief = np.full((n_runs, n_i), 1.0 / n_i)
         # Every run starts from the same θ: solve once and copy.
-        self.q = np.repeat(self._solve(self.theta[:1]), n_runs, axis=0)
+        q, greedy = self._solve(self.theta[:1])
+        self.q = np.repeat(q, n_runs, axis=0)
+        self._greedy = np.repeat(greedy, n_runs, axis=0)  # the last solve's, to start from
 
-    def _solve(self, theta: np.ndarray) -> np.ndarray:
-        """(B, I, S, A) Q per intention for the rewards θᵀφ, θ (B, F)."""
+    def _solve(self, theta: np.ndarray, warm: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """Q per intention for the rewards θᵀφ, θ (B, F), and its greedy policy.
+
+        Each intention's goal absorbs (it loops on itself, collecting its reward). Solved on
+        the sparse table (:mod:`hri_envs.task.partner_mdp`) by policy iteration from
+        ``warm`` (B, I, S) if given.
+
+        Returns:
+            (B, I, S, A) Q and (B, I, S) int greedy actions.
+        """
         reward = np.einsum("isf,bf->bis", self.graph.features, theta)  # (B, I, S)
-        r_sa = np.einsum("isaz,biz->bisa", self._transition, reward)
-        t = np.broadcast_to(self._transition, (len(theta), *self._transition.shape))
-        return mdp.solve_q(t, r_sa, self.graph.valid, self.config.gamma)
+        certain = np.broadcast_to(self._certain, (*reward.shape, 1))
+        r_sa = partner_mdp.partner_backup(self._next, certain, reward, self._terminal)
+        return partner_mdp.solve_partner_q(self._next, certain, r_sa, self._valid,
+                                           self.config.gamma, terminal=self._terminal,
+                                           policy=warm)
 
     def _belief(self, states: np.ndarray) -> np.ndarray:
         """Λ(ι | s_0, s): observed frequencies, uniform over non-start supports before data.
@@ -123,12 +137,13 @@ class MaxEntIRL(_Tracking):
             if revealed[b]:
                 self.counts[b, g.support[trace.states[0]], path, intentions[b]] += 1
         rows = np.arange(n_b)
-        t = self._transition[intentions]  # (B, S, A, S)
         phi = g.features[intentions]
         q = self.q[rows, intentions]
         policy = mdp.softmax(q, g.valid, c.irl_temperature)
-        expected = mdp.expected_feature_counts(t, policy, phi, demo.start,
-                                               g.terminal[intentions], demo.horizon)
+        certain = np.broadcast_to(self._certain[0], (n_b, g.n_states, 1))
+        expected = partner_mdp.expected_feature_counts(self._next, certain, policy, phi,
+                                                       demo.start, g.terminal[intentions],
+                                                       demo.horizon)
         new = mdp.irl_step(self.theta, demo.counts, expected, c.learning_rate)
         self.theta = np.where(revealed[:, None], new, self.theta)
-        self.q = self._solve(self.theta)
+        self.q, self._greedy = self._solve(self.theta, self._greedy)

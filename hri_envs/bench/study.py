@@ -41,6 +41,7 @@ from hri_envs.bench.runner import TABLE2, ScriptedHumans, make_schedule, simulat
 from hri_envs.envs.backends import BACKENDS, batch_backend
 from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ActionError, BackendUnavailableError, ConfigError
+from hri_envs.task import partner_mdp
 from hri_envs.task.episode import REWARDS
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_for
@@ -344,6 +345,12 @@ def _humans(cfg: StudyConfig, preference: str, runs: list[int]
             ) -> tuple[ScriptedHuman | ScriptedHumans, list[str]]:
     """The unit's human(s) and each run's human label (per episode for drift: "a>b")."""
     graph = graph_for(cfg.scenario)
+    if preference == "all" and not cfg.per_run_humans:  # a batch of the runs' preferences
+        prefs = [cfg.preference_of_run()[r] for r in runs]
+        shared = {p: rational_human(preference_human(graph, p, passive=cfg.human_passive,
+                                                     turn_back=cfg.turn_back),
+                                    cfg.human_rationality) for p in dict.fromkeys(prefs)}
+        return ScriptedHumans([[shared[p]] for p in prefs], runs, cfg.seed), prefs
     if not cfg.per_run_humans:
         human = preference_human(graph, preference, passive=cfg.human_passive,
                                  turn_back=cfg.turn_back)
@@ -417,9 +424,15 @@ def _units(cfg: StudyConfig) -> list[_Unit]:
     for r, pref in enumerate(cfg.preference_of_run()):
         # A population draws each run's own human: one group, split only by --jobs.
         by_pref.setdefault("" if cfg.population else pref, []).append(r)
+    # --preference all: the runs' preferences differ, but an agent that does not plan for
+    # one shared human simulates them in one batch (fewer, larger array operations; the
+    # numbers are the same: every draw of run r comes from (seed, r)).
+    mixed = ({"all": list(range(cfg.runs))}
+             if cfg.preference == "all" and not cfg.per_run_humans else None)
     units = []
     for agent in cfg.agents:
-        for pref, runs in by_pref.items():
+        groups = by_pref if mixed is None or agent in REFERENCE_AGENTS else mixed
+        for pref, runs in groups.items():
             n_chunks = max(1, min(cfg.jobs, len(runs)))
             for chunk in np.array_split(np.asarray(runs), n_chunks):
                 units.append(_Unit(cfg, agent, pref, tuple(int(r) for r in chunk)))
@@ -452,6 +465,8 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
         for i in todo:
             yield i, _run_unit_caught(units[i])
     elif cfg.executor == "process":
+        if {"learner", "maxent"} & set(cfg.agents):
+            partner_mdp.preload()  # forked workers inherit the loaded kernels
         # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
         # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
         # every worker at once.

@@ -1,0 +1,306 @@
+"""Compiled kernels of :mod:`hri_envs.task.partner_mdp` (numba, optional).
+
+Imported only by :func:`hri_envs.task.partner_mdp.kernels` when numba is importable and
+``HRI_ENVS_NO_JIT`` is not set. Each kernel is the loop form of a numpy function of
+``partner_mdp`` and takes the same (already flattened, C-contiguous, float64 / int64)
+arrays: ``next_state`` (S, A, P) int, ``partner`` (N, S, P), ``terminal`` (N,) int with -1
+for "no absorbing state". ``cache=True`` compiles once per machine (the compiled code is
+kept beside this file, or in ``NUMBA_CACHE_DIR``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+_NEG = -1e300
+
+
+@njit(cache=True, nogil=True)
+def partner_backup(next_state, partner, values, terminal):
+    """(N, S, A): Σ_p partner[n, s, p] values[n, next_state[s, a, p]]; terminal rows values."""
+    n_b = partner.shape[0]
+    n_s, n_a, n_p = next_state.shape
+    out = np.empty((n_b, n_s, n_a))
+    for k in range(n_b):
+        term = terminal[k]
+        for s in range(n_s):
+            if s == term:
+                for a in range(n_a):
+                    out[k, s, a] = values[k, s]
+                continue
+            # The partner's actions outermost: the sums of the A actions are independent, so
+            # they proceed together (each still adds its terms in increasing p).
+            for a in range(n_a):
+                out[k, s, a] = 0.0
+            for p in range(n_p):
+                w = partner[k, s, p]
+                if w != 0.0:
+                    for a in range(n_a):
+                        out[k, s, a] += w * values[k, next_state[s, a, p]]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _link(pattern, row_cols, row_n, col_rows, col_n, i, j):
+    """Record that entry (i, j) of the matrix may be nonzero (once per entry)."""
+    if not pattern[i, j]:
+        pattern[i, j] = True
+        row_cols[i, row_n[i]] = j
+        row_n[i] += 1
+        col_rows[j, col_n[j]] = i
+        col_n[j] += 1
+
+
+@njit(cache=True, nogil=True)
+def _solve_sparse(m, b, pattern, row_cols, row_n, col_rows, col_n):
+    """Solve m x = b into b by Gaussian elimination without pivoting, on the nonzeros only.
+
+    ``m`` (S, S) is dense but overwritten; ``pattern`` (S, S) bool and the lists
+    ``row_cols[i, :row_n[i]]`` (columns of row i) and ``col_rows[j, :col_n[j]]`` (rows of
+    column j) name its possibly nonzero entries (:func:`_link`); fill-in is added to them.
+    The matrices here, I - γ P_π with P_π a (sub-)stochastic matrix and γ < 1, are strictly
+    diagonally dominant by rows, which elimination preserves: no pivot is small and no
+    pivoting is needed. They have a handful of entries per row and little fill-in, so the
+    work is proportional to the entries rather than to S³.
+    """
+    n = m.shape[0]
+    for k in range(n):
+        d = m[k, k]
+        for t in range(col_n[k]):
+            i = col_rows[k, t]
+            if i <= k or m[i, k] == 0.0:
+                continue
+            f = m[i, k] / d
+            for u in range(row_n[k]):
+                j = row_cols[k, u]
+                if j > k:
+                    _link(pattern, row_cols, row_n, col_rows, col_n, i, j)
+                    m[i, j] -= f * m[k, j]
+            b[i] -= f * b[k]
+    for k in range(n - 1, -1, -1):
+        acc = b[k]
+        for u in range(row_n[k]):
+            j = row_cols[k, u]
+            if j > k:
+                acc -= m[k, j] * b[j]
+        b[k] = acc / m[k, k]
+
+
+@njit(cache=True, nogil=True)
+def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
+                    warm, max_iter):
+    """(Q (N, S, A), greedy (N, S)) by policy iteration, as ``partner_mdp.solve_partner_q``.
+
+    ``warm``: whether ``policy`` (N, S) holds the starting actions; otherwise each MDP
+    starts from the greedy actions of its immediate reward.
+    """
+    n_b = partner.shape[0]
+    n_s, n_a, n_p = next_state.shape
+    q = np.empty((n_b, n_s, n_a))
+    greedy = np.empty((n_b, n_s), np.int64)
+    m = np.empty((n_s, n_s))
+    v = np.empty(n_s)
+    act = np.empty(n_s, np.int64)
+    pattern = np.empty((n_s, n_s), np.bool_)
+    row_cols = np.empty((n_s, n_s), np.int64)
+    row_n = np.empty(n_s, np.int64)
+    col_rows = np.empty((n_s, n_s), np.int64)
+    col_n = np.empty(n_s, np.int64)
+    acc = np.empty(n_a)
+    for k in range(n_b):
+        term = terminal[k]
+        for s in range(n_s):
+            if warm:
+                act[s] = policy[k, s]
+            else:
+                best, best_a = _NEG - 1.0, 0
+                for a in range(n_a):
+                    x = reward[k, s, a] if valid[s, a] else _NEG
+                    if x > best:
+                        best, best_a = x, a
+                act[s] = best_a
+        for _ in range(max_iter):
+            m[:, :] = 0.0  # I - γ P_π, and where it is nonzero
+            pattern[:, :] = False
+            row_n[:] = 0
+            col_n[:] = 0
+            for s in range(n_s):
+                m[s, s] = 1.0
+                _link(pattern, row_cols, row_n, col_rows, col_n, s, s)
+                v[s] = reward[k, s, act[s]]
+                if s == term:
+                    m[s, s] -= gamma
+                    continue
+                a = act[s]
+                for p in range(n_p):
+                    w = partner[k, s, p]
+                    if w != 0.0:
+                        j = next_state[s, a, p]
+                        _link(pattern, row_cols, row_n, col_rows, col_n, s, j)
+                        m[s, j] -= gamma * w
+            _solve_sparse(m, v, pattern, row_cols, row_n, col_rows, col_n)
+            changed = False
+            for s in range(n_s):
+                if s == term:
+                    for a in range(n_a):
+                        q[k, s, a] = reward[k, s, a] + gamma * v[term]
+                else:
+                    for a in range(n_a):
+                        acc[a] = 0.0
+                    for p in range(n_p):  # outermost: see partner_backup
+                        w = partner[k, s, p]
+                        if w != 0.0:
+                            for a in range(n_a):
+                                acc[a] += w * v[next_state[s, a, p]]
+                    for a in range(n_a):
+                        q[k, s, a] = reward[k, s, a] + gamma * acc[a]
+                best, best_a = _NEG - 1.0, 0
+                for a in range(n_a):
+                    x = q[k, s, a] if valid[s, a] else _NEG
+                    if x > best:
+                        best, best_a = x, a
+                current = q[k, s, act[s]] if valid[s, act[s]] else _NEG
+                # Keep the current action on (numerical) ties so the iteration terminates.
+                if best - current > 1e-10 * (1.0 + abs(best)):
+                    act[s] = best_a
+                    changed = True
+            if not changed:
+                break
+        for s in range(n_s):
+            best, best_a = -np.inf, 0
+            for a in range(n_a):
+                if valid[s, a] and q[k, s, a] > best:
+                    best, best_a = q[k, s, a], a
+            greedy[k, s] = best_a
+    return q, greedy
+
+
+@njit(cache=True, nogil=True)
+def expected_feature_counts(next_state, partner, policy, features, start, terminal,
+                            horizon):
+    """(N, F) expected feature counts, as ``partner_mdp.expected_feature_counts``."""
+    n_b = partner.shape[0]
+    n_s, n_a, n_p = next_state.shape
+    n_f = features.shape[-1]
+    out = np.zeros((n_b, n_f))
+    t_pi = np.empty((n_s, n_s))
+    d = np.empty(n_s)
+    nxt = np.empty(n_s)
+    svf = np.empty(n_s)
+    for k in range(n_b):
+        t_pi[:, :] = 0.0
+        for s in range(n_s):
+            if s == terminal[k]:
+                continue
+            for a in range(n_a):
+                wa = policy[k, s, a]
+                if wa == 0.0:
+                    continue
+                for p in range(n_p):
+                    w = partner[k, s, p]
+                    if w != 0.0:
+                        t_pi[s, next_state[s, a, p]] += wa * w
+        d[:] = 0.0
+        d[start[k]] = 1.0
+        svf[:] = d
+        for _ in range(1, horizon[k]):
+            nxt[:] = 0.0
+            for s in range(n_s):
+                x = d[s]
+                if x != 0.0:
+                    for z in range(n_s):
+                        nxt[z] += x * t_pi[s, z]
+            for s in range(n_s):
+                d[s] = nxt[s]
+                svf[s] += nxt[s]
+        for s in range(n_s):
+            x = svf[s]
+            if x != 0.0:
+                for f in range(n_f):
+                    out[k, f] += x * features[k, s, f]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def partner_reward(reward, partner, terminal):
+    """(N, S, A): Σ_p partner[n, s, p] reward[s, a, p]; 0 in each MDP's terminal state."""
+    n_b = partner.shape[0]
+    n_s, n_a, n_p = reward.shape
+    out = np.zeros((n_b, n_s, n_a))
+    for k in range(n_b):
+        for s in range(n_s):
+            if s == terminal[k]:
+                continue
+            for p in range(n_p):  # outermost: see partner_backup
+                w = partner[k, s, p]
+                if w != 0.0:
+                    for a in range(n_a):
+                        out[k, s, a] += w * reward[s, a, p]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def softmax(q, valid, temperature):
+    """(N, S, A) soft-max of ``temperature * q`` over the valid actions of each state."""
+    n_b, n_s, n_a = q.shape
+    out = np.zeros((n_b, n_s, n_a))
+    for k in range(n_b):
+        for s in range(n_s):
+            top = -np.inf
+            for a in range(n_a):
+                if valid[s, a]:
+                    z = temperature * q[k, s, a]
+                    if z > top:
+                        top = z
+            total = 0.0
+            for a in range(n_a):
+                if valid[s, a]:
+                    e = np.exp(temperature * q[k, s, a] - top)
+                    out[k, s, a] = e
+                    total += e
+            for a in range(n_a):
+                out[k, s, a] /= total
+    return out
+
+
+@njit(cache=True, nogil=True)
+def belief_policy(q, belief, states, baseline, valid, temperature, eta):
+    """(B, A) bounded soft-max of Σ_ι belief[b, ι] q[b, ι, states[b], :] (baseline < 0: none)."""
+    n_b, n_i, _, n_a = q.shape
+    out = np.zeros((n_b, n_a))
+    mixed = np.empty(n_a)
+    for b in range(n_b):
+        s = states[b]
+        top = -np.inf
+        for a in range(n_a):
+            acc = 0.0
+            for i in range(n_i):
+                acc += belief[b, i] * q[b, i, s, a]
+            mixed[a] = temperature * acc
+            if valid[s, a] and mixed[a] > top:
+                top = mixed[a]
+        total = 0.0
+        for a in range(n_a):
+            if valid[s, a]:
+                e = np.exp(mixed[a] - top)
+                out[b, a] = e
+                total += e
+        best = 0.0
+        for a in range(n_a):
+            out[b, a] /= total
+            if out[b, a] > best:
+                best = out[b, a]
+        bound = eta * best
+        if baseline[b] >= 0 and out[b, baseline[b]] > bound:
+            bound = out[b, baseline[b]]
+        bound *= 1 - 1e-12
+        kept = 0.0
+        for a in range(n_a):
+            if out[b, a] >= bound:
+                kept += out[b, a]
+            else:
+                out[b, a] = 0.0
+        for a in range(n_a):
+            out[b, a] /= kept
+    return out

@@ -1,0 +1,399 @@
+"""The learning math on the sparse joint transition table, without dense transition tensors.
+
+Every (s, a_self, a_partner) leads to exactly one next state ``next_state[s, a, p]``, so an
+agent's MDP with the partner's policy π_p substituted never needs the dense
+T(s'|s, a) = Σ_p π_p(p|s) 1[next_state[s, a, p] = s'] of :func:`hri_envs.task.mdp.robot_transition`:
+
+* a backup Σ_s' T(s'|s, a) x(s') is the gather Σ_p π_p(p|s) x(next_state[s, a, p]);
+* the policy-evaluation matrix P_π(s, s') of a greedy policy is a scatter of π_p over
+  ``next_state[s, π(s), p]``, and the state-to-state matrix of a soft policy likewise.
+
+These functions give the numbers of the dense functions of :mod:`hri_envs.task.mdp` (to
+rounding: sums are taken in another order, differences are ~1e-15) at a fraction of their
+memory traffic. Shapes: ``S`` states, ``A`` own actions, ``P`` partner actions,
+``...``/``N`` any number of independent MDPs. ``terminal`` gives each MDP's absorbing
+state (it loops on itself whatever the actions, as :func:`hri_envs.task.mdp.absorbing`
+makes it), or -1 for none.
+
+Each function has two implementations with the same results (tests/test_partner_mdp.py
+checks them against each other): vectorised numpy, and compiled loops
+(:mod:`hri_envs.task._jit`) used when numba is importable and the environment variable
+``HRI_ENVS_NO_JIT`` is not set to a non-empty value other than ``0``. The compiled code is
+cached on disk, so a machine compiles it once (:func:`kernels`).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from types import ModuleType
+
+import numpy as np
+
+from hri_envs.errors import ConfigError
+from hri_envs.task import mdp
+
+__all__ = [
+    "belief_policy",
+    "expected_feature_counts",
+    "jit_enabled",
+    "kernels",
+    "partner_backup",
+    "partner_reward",
+    "preload",
+    "softmax",
+    "solve_partner_q",
+]
+
+_NEG = -1e300
+
+
+@functools.cache
+def kernels() -> ModuleType | None:
+    """The compiled kernels (:mod:`hri_envs.task._jit`), or None for the numpy path.
+
+    None when ``HRI_ENVS_NO_JIT`` is set (to anything but "" or "0") or numba cannot be
+    imported. Decided once per process. The first call in a process imports numba and
+    loads the kernels from numba's on-disk cache (compiling them the first time on a
+    machine, a few seconds).
+    """
+    if os.environ.get("HRI_ENVS_NO_JIT", "") not in ("", "0"):
+        return None
+    try:
+        from hri_envs.task import _jit
+    except ImportError:
+        return None
+    return _jit
+
+
+def preload() -> bool:
+    """Load every compiled kernel now; whether the compiled path is on.
+
+    The first compiled call of a process starts numba's code generator (≈ 0.3-0.8 s even
+    with the on-disk cache). Calling this before forking worker processes lets them inherit
+    the loaded kernels instead of each paying that again.
+    """
+    jit = kernels()
+    if jit is None:
+        return False
+    nxt = np.zeros((1, 1, 1), np.int64)
+    one = np.ones((1, 1, 1))
+    none = np.full(1, -1, np.int64)
+    zero = np.zeros(1, np.int64)
+    valid = np.ones((1, 1), np.bool_)
+    jit.partner_backup(nxt, one, np.zeros((1, 1)), none)
+    jit.partner_reward(one, one, none)
+    jit.softmax(one, valid, 1.0)
+    jit.solve_partner_q(nxt, one, one, valid, none, 0.5, np.zeros((1, 1), np.int64), False, 1)
+    jit.expected_feature_counts(nxt, one, one, one, zero, none, np.ones(1, np.int64))
+    jit.belief_policy(np.ones((1, 1, 1, 1)), np.ones((1, 1)), zero, zero, valid, 1.0, 0.5)
+    return True
+
+
+def jit_enabled() -> bool:
+    """Whether the compiled kernels are used in this process (see :func:`kernels`)."""
+    return kernels() is not None
+
+
+def _terminal(terminal: np.ndarray | int | None, lead: tuple[int, ...]) -> np.ndarray:
+    """(N,) int64 absorbing state per MDP (-1: none) from a value broadcastable to ``lead``."""
+    if terminal is None:
+        return np.full(int(np.prod(lead)), -1, np.int64)
+    return _flat(terminal, lead, np.int64).reshape(-1)
+
+
+def _flat(x: np.ndarray | int, shape: tuple[int, ...], dtype: type) -> np.ndarray:
+    """``x`` broadcast to ``shape``, as :func:`_c`."""
+    arr = np.asarray(x)
+    if arr.shape != shape:
+        arr = np.broadcast_to(arr, shape)
+    return _c(arr, dtype)
+
+
+def _c(x: np.ndarray, dtype: type) -> np.ndarray:
+    """``x`` as a C-contiguous, writeable array of ``dtype`` (copied only if it is not).
+
+    The compiled kernels then see one array type per argument: numba compiles (and caches)
+    a separate version for read-only or non-contiguous arrays.
+    """
+    return np.require(x, dtype, ("C", "W"))
+
+
+def partner_backup(next_state: np.ndarray, partner: np.ndarray, values: np.ndarray,
+                   terminal: np.ndarray | int | None = None) -> np.ndarray:
+    """Σ_s' T(s'|s, a) x(s') for the partner-substituted T, as a gather.
+
+    ``= Σ_p partner(p|s) values(next_state[s, a, p])``; in an MDP's terminal state
+    ``values(terminal)`` for every action. With ``values`` a state reward R(s') this is the
+    expected reward of :func:`hri_envs.task.mdp.q_iteration`.
+
+    Args:
+        next_state: (S, A, P) int joint transition table, own action before the partner's.
+        partner: (..., S, P) the partner's policy.
+        values: (..., S) a value per next state.
+        terminal: (...,) int absorbing state per MDP (-1 none), or None for none.
+
+    Returns:
+        (..., S, A).
+    """
+    lead = partner.shape[:-2]
+    n_s, n_a, n_p = next_state.shape
+    nxt = _c(next_state, dtype=np.int64)
+    pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
+    x = _c(values, dtype=np.float64).reshape(-1, n_s)
+    term = _terminal(terminal, lead)
+    jit = kernels()
+    if jit is not None:
+        out = jit.partner_backup(nxt, pi, x, term)
+    else:
+        out = _backup_numpy(nxt, pi, x, term)
+    return out.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
+
+
+def _backup_numpy(nxt: np.ndarray, pi: np.ndarray, x: np.ndarray, term: np.ndarray
+                  ) -> np.ndarray:
+    """:func:`partner_backup` on flat (N, ...) arrays, in numpy."""
+    rows = np.arange(len(pi))[:, None, None, None]
+    out = np.einsum("nsap,nsp->nsa", x[rows, nxt[None]], pi)
+    has = np.flatnonzero(term >= 0)
+    out[has, term[has], :] = x[has, term[has], None]
+    return out  # type: ignore[no-any-return]
+
+
+def partner_reward(reward: np.ndarray, partner: np.ndarray,
+                   terminal: np.ndarray | int | None = None) -> np.ndarray:
+    """Expected immediate reward Σ_p partner(p|s) R(s, a, p) (as :func:`mdp.robot_reward`).
+
+    Args:
+        reward: (S, A, P) reward of (s, own action, partner action).
+        partner: (..., S, P) the partner's policy.
+        terminal: (...,) int state per MDP whose reward is 0 (the absorbing goal; -1 none),
+            or None for none.
+
+    Returns:
+        (..., S, A).
+    """
+    lead = partner.shape[:-2]
+    n_s, n_a, n_p = reward.shape
+    pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
+    term = _terminal(terminal, lead)
+    jit = kernels()
+    if jit is not None:
+        out = jit.partner_reward(_c(reward, dtype=np.float64), pi, term)
+    else:
+        out = np.einsum("sap,nsp->nsa", reward, pi)
+        has = np.flatnonzero(term >= 0)
+        out[has, term[has], :] = 0.0
+    return out.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
+
+
+def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
+    """Soft-max policy ``π(a|s) ∝ exp(τ Q(s,a))`` over valid actions (as :func:`mdp.softmax`).
+
+    Args:
+        q: (..., S, A) action values.
+        valid: (S, A) bool.
+        temperature: τ > 0.
+
+    Returns:
+        (..., S, A) probabilities, zero on invalid actions, summing to 1 over A.
+    """
+    jit = kernels()
+    if jit is None:
+        return mdp.softmax(q, valid, temperature)
+    n_s, n_a = q.shape[-2:]
+    flat = _c(q, dtype=np.float64).reshape(-1, n_s, n_a)
+    out = jit.softmax(flat, _c(valid, dtype=np.bool_), float(temperature))
+    return out.reshape(q.shape)  # type: ignore[no-any-return]
+
+
+def belief_policy(q: np.ndarray, belief: np.ndarray, states: np.ndarray, valid: np.ndarray,
+                  temperature: float, eta: float, baseline: np.ndarray | None) -> np.ndarray:
+    """The robot's bounded soft-max of the belief-weighted Q in each run's state (Eq. 5).
+
+    :func:`hri_envs.task.mdp.bounded_softmax` of ``Σ_ι belief(ι) q(ι, state, ·)``, in one
+    call per step (the study's inner loop).
+
+    Args:
+        q: (B, I, S, A) Q per intention.
+        belief: (B, I) belief over intentions.
+        states: (B,) int each run's state.
+        valid: (S, A) bool.
+        temperature: τ of the soft-max.
+        eta: η of the bound.
+        baseline: (B,) int the passive baseline action, or None for no baseline.
+
+    Returns:
+        (B, A) probabilities.
+    """
+    jit = kernels()
+    if jit is None:
+        rows = np.arange(len(states))
+        mixed = np.einsum("bi,bia->ba", belief, q[rows, :, states])
+        return mdp.bounded_softmax(mixed, valid[states], temperature, eta, baseline)
+    base = np.full(len(states), -1, np.int64) if baseline is None else _c(baseline, np.int64)
+    return jit.belief_policy(_c(q, np.float64), _c(belief, np.float64),  # type: ignore[no-any-return]
+                             _c(states, np.int64), base, _c(valid, np.bool_),
+                             float(temperature), float(eta))
+
+
+def solve_partner_q(
+    next_state: np.ndarray,
+    partner: np.ndarray,
+    reward: np.ndarray,
+    valid: np.ndarray,
+    gamma: float,
+    *,
+    terminal: np.ndarray | int | None = None,
+    policy: np.ndarray | None = None,
+    max_iter: int = 100,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Optimal Q of the partner-substituted MDP by policy iteration (Eq. 1 fixed point).
+
+    The same iteration as :func:`hri_envs.task.mdp.solve_q` on
+    ``absorbing(transition(next_state, partner), terminal)``: evaluate the greedy policy
+    exactly (a linear solve of (I - γ P_π) v = r_π), improve it where an action is better by
+    more than 1e-10 relative, stop when no action changes (each MDP on its own).
+
+    Args:
+        next_state: (S, A, P) int joint transition table, own action before the partner's.
+        partner: (..., S, P) the partner's policy.
+        reward: (..., S, A) expected immediate reward of (s, a).
+        valid: (S, A) bool valid own actions.
+        gamma: Discount in [0, 1).
+        terminal: (...,) int absorbing state per MDP (-1 none), or None for none.
+        policy: (..., S) int greedy actions to start from (a warm start), optional.
+        max_iter: Cap on improvement rounds.
+
+    Returns:
+        ``(q, greedy)``: (..., S, A) Q (invalid actions hold the value they would have) and
+        (..., S) int the first valid action of highest Q in each state.
+
+    Raises:
+        ConfigError: ``gamma`` outside [0, 1) or ``max_iter`` < 1.
+    """
+    if not 0.0 <= gamma < 1.0:
+        raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
+    if max_iter < 1:
+        raise ConfigError(f"max_iter must be >= 1, got {max_iter}", field="max_iter")
+    lead = partner.shape[:-2]
+    n_s, n_a, n_p = next_state.shape
+    nxt = _c(next_state, dtype=np.int64)
+    pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
+    r = _flat(reward, (*lead, n_s, n_a), np.float64).reshape(-1, n_s, n_a)
+    ok = _c(valid, dtype=np.bool_)
+    term = _terminal(terminal, lead)
+    warm = policy is not None
+    act = (_flat(policy, (*lead, n_s), np.int64).reshape(-1, n_s) if policy is not None
+           else np.zeros((len(pi), n_s), np.int64))
+    jit = kernels()
+    if jit is not None:
+        q, greedy = jit.solve_partner_q(nxt, pi, r, ok, term, float(gamma), act, warm,
+                                        int(max_iter))
+    else:
+        q, greedy = _solve_numpy(nxt, pi, r, ok, term, float(gamma), act if warm else None,
+                                 max_iter)
+    return q.reshape(*lead, n_s, n_a), greedy.reshape(*lead, n_s)
+
+
+def _evaluation_matrix(nxt: np.ndarray, pi: np.ndarray, act: np.ndarray, term: np.ndarray,
+                       gamma: float) -> np.ndarray:
+    """(K, S, S) I - γ P_π for greedy actions ``act`` (K, S), by a scatter of π."""
+    n_k, n_s = act.shape
+    succ = nxt[np.arange(n_s), act]  # (K, S, P)
+    weight = pi.copy()
+    has = np.flatnonzero(term >= 0)
+    succ[has, term[has], :] = term[has, None]
+    weight[has, term[has], :] = 0.0
+    weight[has, term[has], 0] = 1.0
+    flat = (np.arange(n_k)[:, None, None] * n_s + np.arange(n_s)[:, None]) * n_s + succ
+    p = np.bincount(flat.ravel(), weight.ravel(), minlength=n_k * n_s * n_s)
+    return np.eye(n_s) - gamma * p.reshape(n_k, n_s, n_s)  # type: ignore[no-any-return]
+
+
+def _solve_numpy(nxt: np.ndarray, pi: np.ndarray, r: np.ndarray, valid: np.ndarray,
+                 term: np.ndarray, gamma: float, policy: np.ndarray | None, max_iter: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`solve_partner_q` on flat (N, ...) arrays, in numpy (batched solves)."""
+    n, n_s, _ = r.shape
+    if policy is None:
+        act = np.where(valid, r, _NEG).argmax(axis=-1)  # (N, S)
+    else:
+        act = policy.copy()
+    q = np.empty_like(r)
+    todo = np.arange(n)  # the MDPs whose policy still changes; the others are final
+    states = np.arange(n_s)
+    for _ in range(max_iter):
+        act_t = act[todo]
+        m = _evaluation_matrix(nxt, pi[todo], act_t, term[todo], gamma)
+        r_t = r[todo]
+        v = np.linalg.solve(m, np.take_along_axis(r_t, act_t[..., None], axis=-1))[..., 0]
+        q_t = r_t + gamma * _backup_numpy(nxt, pi[todo], v, term[todo])
+        q[todo] = q_t
+        q_masked = np.where(valid, q_t, _NEG)
+        best = q_masked.max(axis=-1)
+        current = q_masked[np.arange(len(todo))[:, None], states, act_t]
+        # Keep the current action on (numerical) ties so the iteration terminates.
+        improve = best - current > 1e-10 * (1.0 + np.abs(best))
+        changed = improve.any(axis=-1)
+        if not changed.any():
+            break
+        act[todo] = np.where(improve, q_masked.argmax(axis=-1), act_t)
+        todo = todo[changed]
+    greedy = np.where(valid, q, -np.inf).argmax(axis=-1)
+    return q, greedy
+
+
+def expected_feature_counts(
+    next_state: np.ndarray,
+    partner: np.ndarray,
+    policy: np.ndarray,
+    features: np.ndarray,
+    start: np.ndarray,
+    terminal: np.ndarray,
+    horizon: np.ndarray,
+) -> np.ndarray:
+    """Expected feature counts of a soft policy over a finite horizon (ME-IRL's E[φ]).
+
+    :func:`hri_envs.task.mdp.expected_feature_counts` on the partner-substituted MDP: the
+    state distribution starts at ``start``, is propagated ``horizon - 1`` times by
+    P(s'|s) = Σ_a policy(a|s) Σ_p partner(p|s) 1[next_state[s, a, p] = s'] (built by a
+    scatter), no mass leaves the terminal state, and the counts sum φ over the ``horizon``
+    steps.
+
+    Args:
+        next_state: (S, A, P) int joint transition table, own action before the partner's.
+        partner: (N, S, P) the partner's policy.
+        policy: (N, S, A) the soft policy.
+        features: (N, S, F) φ.
+        start: (N,) int start states.
+        terminal: (N,) int terminal states (absorbing, not propagated).
+        horizon: (N,) int number of states of each demonstration (>= 1).
+
+    Returns:
+        (N, F).
+    """
+    n_s, n_a, n_p = next_state.shape
+    nxt = _c(next_state, dtype=np.int64)
+    pi = _c(partner, dtype=np.float64)
+    own = _c(policy, dtype=np.float64)
+    phi = _c(features, dtype=np.float64)
+    start_, term, hor = (_c(x, dtype=np.int64)
+                         for x in (start, terminal, horizon))
+    jit = kernels()
+    if jit is not None:
+        return jit.expected_feature_counts(nxt, pi, own, phi, start_, term, hor)  # type: ignore[no-any-return]
+    n_b = len(pi)
+    rows = np.arange(n_b)
+    weight = own[:, :, :, None] * pi[:, :, None, :]  # (N, S, A, P)
+    weight[rows, term] = 0.0
+    flat = (rows[:, None, None, None] * n_s + np.arange(n_s)[:, None, None]) * n_s + nxt
+    p = np.bincount(flat.ravel(), weight.ravel(), minlength=n_b * n_s * n_s)
+    p = p.reshape(n_b, n_s, n_s)
+    d = np.zeros((n_b, n_s))
+    d[rows, start_] = 1.0
+    svf = d.copy()
+    for t in range(1, int(hor.max())):
+        d = np.einsum("bs,bsz->bz", d, p)
+        svf += d * (t < hor)[:, None]
+    return np.einsum("bs,bsf->bf", svf, phi)  # type: ignore[no-any-return]

@@ -1,0 +1,184 @@
+"""The sparse partner-MDP math: by hand, against the dense functions, numpy path vs compiled."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from agents.learner import Learner
+from hri_envs.bench.speed import _wheel_trace
+from hri_envs.bench.study import graph_for
+from hri_envs.errors import ConfigError
+from hri_envs.task import mdp, partner_mdp
+from hri_envs.task.protocol import Trace
+
+HAS_JIT = partner_mdp.kernels() is not None
+
+
+@pytest.fixture(params=["numpy", "jit"])
+def path(request, monkeypatch):
+    """Run a test on the numpy path and on the compiled one (skipped without numba)."""
+    if request.param == "numpy":
+        monkeypatch.setattr(partner_mdp, "kernels", lambda: None)
+    elif not HAS_JIT:
+        pytest.skip("numba is not importable (or HRI_ENVS_NO_JIT is set)")
+    return request.param
+
+
+def random_policies(graph, n, seed):
+    """(n, S, A) soft-max policies with random values, zero on invalid actions."""
+    rng = np.random.default_rng(seed)
+    return mdp.softmax(rng.normal(size=(n, graph.n_states, graph.n_actions)), graph.valid, 2.0)
+
+
+def test_two_state_mdp_by_hand(path):
+    """State 0: own action 0 stays, 1 moves to the goal 1 if the partner plays 1 (p = 0.25).
+
+    Reward 1 for action 1 in state 0, goal absorbing with reward 0. With γ = 0.5:
+    V(1) = 0; Q(0, 1) = 1 + γ (0.75 V(0) + 0.25 V(1)); Q(0, 0) = 0 + γ V(0).
+    Greedy is action 1: V(0) = 1 / (1 - 0.375) = 1.6, Q(0, 0) = 0.8.
+    """
+    nxt = np.array([[[0, 0], [0, 1]], [[1, 1], [1, 1]]])
+    partner = np.array([[[0.75, 0.25], [0.5, 0.5]]])
+    reward = np.array([[[0.0, 1.0], [0.0, 0.0]]])
+    valid = np.ones((2, 2), bool)
+    q, greedy = partner_mdp.solve_partner_q(nxt, partner, reward, valid, 0.5, terminal=1)
+    np.testing.assert_allclose(q[0], [[0.8, 1.6], [0.0, 0.0]], atol=1e-15)
+    assert greedy.tolist() == [[1, 0]]
+    backup = partner_mdp.partner_backup(nxt, partner, np.array([[3.0, 7.0]]), terminal=1)
+    np.testing.assert_allclose(backup[0], [[3.0, 4.0], [7.0, 7.0]], atol=1e-15)
+    counts = partner_mdp.expected_feature_counts(
+        nxt, partner, np.array([[[0.0, 1.0], [0.5, 0.5]]]), np.eye(2)[None],
+        np.array([0]), np.array([1]), np.array([3]))
+    # From 0: P(0 -> 1) = 0.25 per step; over 3 states 0 is visited 1 + 0.75 + 0.5625 times,
+    # the goal 0.25 + 0.1875 times: mass counts once on arriving there, then stops.
+    np.testing.assert_allclose(counts, [[2.3125, 0.4375]], atol=1e-15)
+
+
+@pytest.mark.parametrize("scenario", ["wheel", "hanger"])
+def test_sparse_functions_equal_the_dense_ones(path, scenario):
+    g = graph_for(scenario)
+    n_i = g.n_intentions
+    partner = random_policies(g, 2 * n_i, 0).reshape(2, n_i, g.n_states, g.n_actions)
+    own = random_policies(g, 2 * n_i, 1).reshape(2, n_i, g.n_states, g.n_actions)
+    rng = np.random.default_rng(2)
+    values = rng.normal(size=(2, n_i, g.n_states))
+    term = g.terminal[None, :]
+    dense = mdp.absorbing(mdp.robot_transition(g.next_state, partner), g.terminal)
+    backup = partner_mdp.partner_backup(g.next_state, partner, values, term)
+    np.testing.assert_allclose(backup, np.einsum("bisaz,biz->bisa", dense, values), atol=1e-13)
+
+    reward = g.reward(-0.25)
+    r_sa = partner_mdp.partner_reward(reward, partner, term)
+    expected_r = mdp.robot_reward(reward, partner)
+    expected_r[:, np.arange(n_i), g.terminal] = 0.0
+    np.testing.assert_allclose(r_sa, expected_r, atol=1e-13)
+
+    q, greedy = partner_mdp.solve_partner_q(g.next_state, partner, r_sa, g.valid, 0.9,
+                                            terminal=term)
+    q_dense = mdp.solve_q(dense, expected_r, g.valid, 0.9)
+    np.testing.assert_allclose(q, q_dense, atol=1e-10)
+    np.testing.assert_array_equal(greedy, np.where(g.valid, q, -np.inf).argmax(-1))
+    # A warm start from the optimum gives the same Q.
+    again, _ = partner_mdp.solve_partner_q(g.next_state, partner, r_sa, g.valid, 0.9,
+                                           terminal=term, policy=greedy)
+    np.testing.assert_allclose(again, q, atol=1e-12)
+
+    np.testing.assert_allclose(partner_mdp.softmax(q, g.valid, 5.0), mdp.softmax(q, g.valid, 5.0),
+                               atol=1e-15)
+
+    flat_p, flat_own = partner.reshape(-1, *partner.shape[2:]), own.reshape(-1, *own.shape[2:])
+    terminal = np.tile(g.terminal, 2)
+    start = rng.integers(0, g.n_states, len(terminal))
+    horizon = rng.integers(1, 12, len(terminal))
+    phi = g.features[np.tile(np.arange(n_i), 2)]
+    counts = partner_mdp.expected_feature_counts(g.next_state, flat_p, flat_own, phi, start,
+                                                 terminal, horizon)
+    dense_flat = mdp.robot_transition(g.next_state, flat_p)
+    expected = mdp.expected_feature_counts(dense_flat, flat_own, phi, start, terminal, horizon)
+    np.testing.assert_allclose(counts, expected, atol=1e-12)
+
+
+@pytest.mark.skipif(not HAS_JIT, reason="numba is not importable (or HRI_ENVS_NO_JIT is set)")
+def test_compiled_and_numpy_learners_agree(monkeypatch):
+    """Five updates of a 4-run wheel Learner: the two paths give the same model to 1e-12."""
+    graph, trace = _wheel_trace()
+    rng = np.random.default_rng(0)
+    traces = [trace, Trace(trace.states[:5], trace.robot_actions[:4], trace.human_actions[:4])] * 2
+    intentions = [rng.integers(-1, 3, 4) for _ in range(5)]
+
+    def learn():
+        learner = Learner(graph, 4)
+        for ints in intentions:
+            learner.end_episode(traces, ints)
+        return learner
+
+    jit = learn()
+    monkeypatch.setattr(partner_mdp, "kernels", lambda: None)
+    plain = learn()
+    for name in ("theta", "pi_h", "q_h", "q_r", "pi_r"):
+        np.testing.assert_allclose(getattr(jit, name), getattr(plain, name), rtol=0, atol=1e-12,
+                                   err_msg=name)
+
+
+def test_bad_discount_and_iteration_cap_are_refused():
+    g = graph_for("hanger")
+    pi = random_policies(g, 1, 0)
+    r = np.zeros((1, g.n_states, g.n_actions))
+    with pytest.raises(ConfigError, match=r"gamma must be in \[0, 1\), got 1.0") as err:
+        partner_mdp.solve_partner_q(g.next_state, pi, r, g.valid, 1.0)
+    assert err.value.field == "gamma"
+    with pytest.raises(ConfigError, match="max_iter must be >= 1, got 0") as err:
+        partner_mdp.solve_partner_q(g.next_state, pi, r, g.valid, 0.5, max_iter=0)
+    assert err.value.field == "max_iter"
+
+
+def test_no_jit_environment_variable_selects_the_numpy_path():
+    code = "from hri_envs.task import partner_mdp; print(partner_mdp.jit_enabled())"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env={**os.environ, "HRI_ENVS_NO_JIT": "1"}, check=True)
+    assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("with_baseline", [True, False])
+def test_belief_policy_is_the_bounded_softmax_of_the_mixed_q(path, with_baseline):
+    g = graph_for("wheel")
+    rng = np.random.default_rng(4)
+    n_b = 50
+    q = rng.normal(size=(n_b, g.n_intentions, g.n_states, g.n_actions))
+    q[:5] = 0.0  # ties everywhere: every valid action is kept
+    belief = rng.dirichlet(np.ones(g.n_intentions), n_b)
+    states = rng.integers(0, g.n_states, n_b)
+    baseline = np.where(g.valid[states, 1], 1, 0) if with_baseline else None
+    got = partner_mdp.belief_policy(q, belief, states, g.valid, 5.0, 0.9, baseline)
+    mixed = np.einsum("bi,bia->ba", belief, q[np.arange(n_b), :, states])
+    expected = mdp.bounded_softmax(mixed, g.valid[states], 5.0, 0.9, baseline)
+    np.testing.assert_allclose(got, expected, atol=1e-14)
+    tied = g.valid[states[:5]]
+    np.testing.assert_allclose(got[:5], tied / tied.sum(-1, keepdims=True), atol=1e-15)
+
+
+def test_maxent_q_equals_the_dense_solve_of_its_reward(path):
+    """Plain ME-IRL on the sparse table: Q of θᵀφ as the dense Q-iteration gives it."""
+    from baselines.maxent import MaxEntIRL
+
+    graph, trace = _wheel_trace()
+    agent = MaxEntIRL(graph, 2)
+    for _ in range(3):
+        agent.end_episode([trace, trace], np.array([1, -1]))
+    n_s, n_a = graph.n_states, graph.n_actions
+    dense = np.zeros((n_s, n_a, n_s))
+    np.put_along_axis(dense, agent._next, 1.0, axis=-1)
+    reward = np.einsum("isf,bf->bis", graph.features, agent.theta)
+    q = mdp.q_iteration(np.broadcast_to(dense, (2, graph.n_intentions, n_s, n_a, n_s)), reward,
+                        graph.valid, graph.terminal, agent.config.gamma)
+    np.testing.assert_allclose(agent.q, q, atol=1e-10)
+    assert not np.allclose(agent.theta[0], agent.theta[1])  # run 1 never learned
+
+
+def test_preload_loads_the_compiled_kernels_only_when_they_are_used(monkeypatch):
+    assert partner_mdp.preload() is HAS_JIT
+    monkeypatch.setattr(partner_mdp, "kernels", lambda: None)
+    assert partner_mdp.preload() is False
