@@ -58,6 +58,17 @@ def test_study_writes_the_contracted_files(tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out
 
 
+def test_a_study_of_many_agents_writes_its_plots(tmp_path):
+    # Each agent's decision bars are paler than the last; six agents once asked matplotlib
+    # for a negative alpha and the study wrote nothing.
+    out = tmp_path / "six"
+    agents = "learner,imitator,oracle,passive,blind,informed"
+    code = main(["study", "hanger", "--runs", "2", "--episodes", "2", "--out", str(out),
+                 "--agents", agents, "--no-progress"])
+    assert code == 0
+    assert (out / "decisions.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_same_seed_same_numbers_whatever_the_executor():
     base = {"agents": ("learner", "maxent", "imitator"), "runs": 6, "episodes": 3, "seed": 3}
     serial = run_study(StudyConfig("hanger", **base))

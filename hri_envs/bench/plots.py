@@ -125,6 +125,8 @@ def decision_bars(ax: Axes, result: Result, agents: Sequence[str] | None = None,
     agents = list(agents or result.metrics)
     n_e = result.config.n_episodes
     width = 0.8 / len(agents)
+    # Later agents' bars are paler: 0.25 less opaque each, spread wider for many agents.
+    fade = min(0.25, 0.75 / max(1, len(agents) - 1))
     for j, agent in enumerate(agents):
         m = result.metrics[agent]
         x = np.arange(1, n_e + 1) - 0.4 + width * (j + 0.5)
@@ -132,7 +134,7 @@ def decision_bars(ax: Axes, result: Result, agents: Sequence[str] | None = None,
         for kind in ("correct", "passive", "wrong"):
             h = 100 * m[kind].mean(0)
             ax.bar(x, h, width * 0.92, bottom=bottom, color=DECISION_COLORS[kind],
-                   edgecolor="white", linewidth=0.4, alpha=1.0 - 0.25 * j,
+                   edgecolor="white", linewidth=0.4, alpha=1.0 - fade * j,
                    label=f"{_label(agent)}: {kind}")
             bottom += h
     ax.set_xticks(np.arange(1, n_e + 1))
