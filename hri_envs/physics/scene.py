@@ -39,7 +39,7 @@ _WRIST_SITE = "wrist_ft"
 _FLOOR_BIT, _OBJECT_BIT, _SUPPORT_BIT, _FINGER_BIT, _GRIP_BIT = 1, 2, 4, 8, 16
 #: Half sizes [m] of the object's grip geometry in the grip frame (x: across the finger
 #: pads, y: the fingers' closing axis, z: the approach axis). The fingers, commanded to
-#: ``grip_finger_pos_m`` (1.2 cm), meet it at 2 cm and press on it with ≈ 1.5 N each.
+#: ``grip_finger_pos_m`` (1.2 cm), meet it at 2 cm and press on it with ≈ 2 N each.
 GRIP_HALF_SIZE: tuple[float, float, float] = (0.012, 0.02, 0.012)
 _HANGER_BRACKET_M = 0.22  # [m] below a hanger bar, the upper post without collision geometry
 _STAND_POST_BELOW_M = 0.05  # [m] a wheel stand's post ends this far below the lowest rim
