@@ -1,6 +1,6 @@
 """The user study's episodes (paper Table 2) on the simulated Panda: Learner vs baselines.
 
-    python examples/physics_table2.py [--runs 3] [--out out/physics_table2]
+    python examples/physics_table2.py [--runs 3] [--out out/physics_table2] [--physics JSON]
 
 Runs the Learner, the Passive agent and the Imitator on the hanger's Table 2 schedule with
 the physics backend (MuJoCo, mink IK, compliant control; the robot only sees the human
@@ -22,7 +22,7 @@ from tqdm.auto import tqdm
 
 from hri_envs.bench.agents import make_agent
 from hri_envs.bench.runner import TABLE2, make_schedule, simulate
-from hri_envs.envs.config import scenario_graph
+from hri_envs.envs.config import check_physics_options, scenario_graph
 from hri_envs.task.humans import preference_human
 
 
@@ -38,6 +38,8 @@ class Config:
     """base seed (run r depends on (seed, r) only)"""
     out: str = "out/physics_table2"
     """output directory"""
+    physics: str = ""
+    """physics options as a JSON object, e.g. '{"attempt_invalid": true}' (docs/physics.md)"""
 
 
 def main() -> None:
@@ -47,6 +49,7 @@ def main() -> None:
     cfg = Config(**vars(parser.parse_args()))
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
+    physics = check_physics_options(json.loads(cfg.physics) if cfg.physics else None, "mujoco")
     graph = scenario_graph("hanger")
     human = preference_human(graph)
     runs = list(range(cfg.runs))
@@ -59,7 +62,7 @@ def main() -> None:
         agent = make_agent(name, graph, human, runs, seed=cfg.seed, r0=-0.33)
         bar.set_postfix_str(name)
         m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed, r0=-0.33,
-                     max_steps=40, backend="mujoco",
+                     max_steps=40, backend="mujoco", physics=physics,
                      after_episode=lambda e, a: bar.update(1))
         results[name] = {
             "reward": m.reward.mean(0).tolist(),
@@ -70,6 +73,8 @@ def main() -> None:
             "angular_impulse": m.extras["angular_impulse"].mean(0).tolist(),
             "duration_s": m.extras["duration_s"].mean(0).tolist(),
             "graph_agrees": m.extras["graph_agrees"].mean(0).tolist(),
+            "inference_accuracy": m.extras["inference_accuracy"].mean(0).tolist(),
+            "physical_fault": m.extras["physical_fault"].mean(0).tolist(),
             "truncated": m.truncated.mean(0).tolist(),
             "wall_s": [time.perf_counter() - t0],
         }
@@ -78,7 +83,9 @@ def main() -> None:
                    f"{np.mean(r['correct']):.2f} passive {np.mean(r['passive']):.2f} wrong "
                    f"{np.mean(r['wrong']):.2f}  linear impulse/episode "
                    f"{np.mean(r['linear_impulse']):6.1f} N s  graph agrees "
-                   f"{np.mean(r['graph_agrees']):.3f}  ({r['wall_s'][0]:.0f} s)")
+                   f"{np.mean(r['graph_agrees']):.3f}  inferred right "
+                   f"{np.mean(r['inference_accuracy']):.3f}  physical faults/episode "
+                   f"{np.mean(r['physical_fault']):.2f}  ({r['wall_s'][0]:.0f} s)")
     bar.close()
     (out / "summary.json").write_text(json.dumps(results, indent=1) + "\n")
     try:

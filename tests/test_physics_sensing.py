@@ -38,7 +38,9 @@ def test_the_model_has_a_wrist_force_torque_sensor_and_contacts(hanger):
     assert not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT
     colliding = np.flatnonzero(m.geom_contype != 0)
     assert sc.floor_geom in colliding
-    assert set(m.geom_bodyid[colliding]) == {0, sc.object_body}  # the floor and the object
+    bodies = set(m.geom_bodyid[colliding])  # the floor, object, supports and finger pads
+    assert {0, sc.object_body} <= bodies and sc.hand_body not in bodies
+    assert set(m.geom_bodyid[sc.finger_geoms.ravel()]) <= bodies
 
 
 def test_the_sensed_wrench_tracks_the_humans_true_wrench(hanger):
@@ -117,6 +119,7 @@ def test_physics_option_keys_are_listed_once():
     ({"randomize": {"video_fps": (1, 2)}}, "cannot randomize 'video_fps'; allowed: "),
     ({"randomize": {"object_mass": (0.5, 0.2)}}, "must have low <= high"),
     ({"randomize": {"object_mass": 0.5}}, "must be a (low, high) pair"),
+    ({"attempt_invalid": 1}, "'attempt_invalid' must be True or False, got 1"),
 ])
 def test_bad_physics_options_are_refused(physics, message):
     with pytest.raises(ConfigError, match=None) as err:
@@ -166,7 +169,7 @@ def test_a_grasp_that_misses_fails(hanger):
     g, sim = hanger
     design = sim.design
     try:
-        sim.design = replace(design, grasp_tolerance_m=1e-5)
+        sim.design = replace(design, grasp_contact_force_n=100.0)  # more than fingers press
         s = sim.reset(1)
         r = sim.step(s, TOGGLE, WAIT)
     finally:
@@ -202,7 +205,7 @@ def test_a_physical_failure_ends_the_env_episode_with_r_minus():
     env = gym.make("hri_envs/HangerPanda-v0").unwrapped
     env.reset(seed=0, options={"start": "B", "intention": "A"})
     sim = env._episode.sim
-    sim.design = replace(sim.design, grasp_tolerance_m=1e-5)
+    sim.design = replace(sim.design, grasp_contact_force_n=100.0)
     _, reward, terminated, truncated, info = env.step(TOGGLE)
     assert info["fault"] == "grasp_failed" and info["truncation_reason"].startswith(
         "grasp_failed")

@@ -96,7 +96,7 @@ register_backend(BackendSpec("mujoco", "hri_envs.physics.episode:PhysicsEpisode"
                              "hri_envs.physics.batch:PhysicsBatch",
                              requires=("mujoco", "mink", "gymnasium_robotics"), extra="mujoco",
                              options=("video_path", "video_fps", "preset", "randomize",
-                                      *PHYSICS_PARAMETERS),
+                                      "attempt_invalid", *PHYSICS_PARAMETERS),
                              presets=("weak-human", "noisy-sensor")))
 
 

@@ -112,7 +112,8 @@ def check_physics_options(physics: Mapping[str, Any] | None, backend: str) -> di
     """Validate the ``physics`` options against what ``backend`` accepts.
 
     The keys are the backend's :attr:`~hri_envs.envs.backends.BackendSpec.options`:
-    ``video_path``, ``video_fps``, ``preset`` (one of its ``presets``), ``randomize``
+    ``video_path``, ``video_fps``, ``preset`` (one of its ``presets``), ``attempt_invalid``
+    (a bool), ``randomize``
     (a mapping of numeric keys to ``(low, high)``) and the numeric
     :data:`~hri_envs.envs.backends.PHYSICS_PARAMETERS` (docs/physics.md).
     """
@@ -131,6 +132,10 @@ def check_physics_options(physics: Mapping[str, Any] | None, backend: str) -> di
     if isinstance(fps, bool) or not isinstance(fps, int | float) or not fps > 0:
         raise ConfigError(f"physics option 'video_fps' must be a positive number, got {fps!r}",
                           field="physics")
+    attempt = physics.get("attempt_invalid", False)
+    if not isinstance(attempt, bool | np.bool_):
+        raise ConfigError(f"physics option 'attempt_invalid' must be True or False, got "
+                          f"{attempt!r}", field="physics")
     presets = backend_spec(backend).presets
     if physics.get("preset") is not None and physics["preset"] not in presets:
         raise ConfigError(f"unknown physics preset {physics['preset']!r}; allowed: "

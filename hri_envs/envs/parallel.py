@@ -145,7 +145,8 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
       with reward r⁻);
     - ``physics``: options of the mujoco backend (docs/physics.md): ``video_path``,
       ``video_fps``, ``preset`` ("weak-human", "noisy-sensor"), ``randomize``
-      (``{key: (low, high)}`` per episode) and the parameters ``human_stiffness`` [N/m],
+      (``{key: (low, high)}`` per episode), ``attempt_invalid`` (bool: the robot
+      physically tries actions the graph refuses) and the parameters ``human_stiffness`` [N/m],
       ``human_force`` [N], ``human_noise`` [N], ``human_delay_s``, ``sensor_noise_n``,
       ``sensor_bias_n``, ``sensor_delay_s``, ``object_mass`` [kg], ``hold_force`` [N];
       e.g. ``{"video_path": "ep{episode}.gif", "video_fps": 10}`` records every episode;

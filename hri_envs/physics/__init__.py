@@ -10,6 +10,7 @@ module             contents
 ``ik``             mink (daqp) differential IK for the reference configurations
 ``controller``     Cartesian impedance + null space + DAVI (disagreement-aware)
 ``sensing``        the wrist force/torque sensor: compensation, noise, bias, delay
+``contacts``       reading contacts: floor touches, finger forces on the grip
 ``options``        ``physics={...}`` options, presets and per-episode randomisation
 ``human``          the simulated human's saturating spring-damper on the handle
 ``seats``          supports as unilateral seats (hook, peg, plate)

@@ -100,7 +100,8 @@ class PhysicsDesign:
     ``_steps``: physics time steps) or given here:
 
         pregrasp_distance_m: The idle hand waits this far back along its approach axis.
-        grip_finger_pos_m: Finger joint position commanded when the hand closes on the grip.
+        grip_finger_pos_m: Finger joint position commanded when the hand closes on the grip
+            (inside the grip geometry's half width, so the fingers press on it).
         motion_min_duration_s: Shortest straight-line motion (robot moves and retreat,
             the human's reaches).
         grasp_approach_min_duration_s: Shortest approach of the open hand to its grip.
@@ -144,8 +145,9 @@ class PhysicsDesign:
             (std per control step), constant bias and delay (:mod:`~hri_envs.physics.sensing`).
         sensor_torque_lever_m: Torque noise and bias are the force's times this lever.
         human_delay_s: The human's reaction delay before a reach starts.
-        grasp_tolerance_m, grasp_tolerance_rad: The hand closes on the grip only within this
-            distance and angle of it; else the grasp fails (fault ``grasp_failed``).
+        grasp_contact_force_n: After closing, each finger must press on the object's grip
+            geometry with at least this normal force [N] for the grasp to hold (weld on);
+            else the grasp fails (fault ``grasp_failed``).
         grip_hold_force_n: External force on the held object beyond which the grasp slips
             (fault ``pulled_out``) once it lasts ``grip_overload_time_s``.
         drop_margin_m: An object this far below the lowest abstract state, or touching the
@@ -227,8 +229,7 @@ class PhysicsDesign:
     sensor_torque_lever_m: float = 0.1
     human_delay_s: float = 0.0
     # Physical failures (PandaSim.step, _run, _robot_toggle).
-    grasp_tolerance_m: float = 0.015
-    grasp_tolerance_rad: float = 0.25
+    grasp_contact_force_n: float = 0.5
     grip_hold_force_n: float = 60.0
     grip_overload_time_s: float = 0.05
     drop_margin_m: float = 0.15

@@ -20,6 +20,8 @@ key                    unit     meaning (default: the scenario's design, docs/ph
 ``hold_force``         N        the supports' detent force (pull needed to take off)
 =====================  =======  ==========================================================
 
+``attempt_invalid`` (bool, default False): the robot physically tries an action the graph
+calls invalid instead of refusing it (:meth:`hri_envs.physics.sim.PandaSim.step`).
 ``preset`` names a set of values (:data:`PRESETS`, per scenario); explicit keys override it.
 ``randomize`` maps keys to ``(low, high)`` ranges drawn uniformly at each episode's reset
 (domain randomisation).
@@ -111,6 +113,8 @@ class PhysicsSettings:
             values.update(PRESETS[preset][design.scenario])
         values.update({k: float(v) for k, v in options.items() if k in PARAMETER_KEYS})
         self.preset: str | None = preset
+        #: The robot physically tries actions the graph calls invalid (docs/physics.md).
+        self.attempt_invalid = bool(options.get("attempt_invalid", False))
         self.base = replace(PhysicsParams.of(design), **values)
         self.ranges: dict[str, tuple[float, float]] = {
             k: (float(lo), float(hi)) for k, (lo, hi) in dict(options.get("randomize")

@@ -4,11 +4,16 @@ The scene has, in this order of degrees of freedom: the robot (for the wheel thr
 prismatic base joints, then) seven arm joints and two fingers, and the object's free
 joint, then the human's arm (:mod:`hri_envs.physics.human_arm`: six actuated joints).
 Supports are mocap bodies, so the wheel's stands move to each episode's layout without
-recompiling. Contacts are on between the object and the floor only: the supports hold the
-object through seat force laws (:mod:`hri_envs.physics.seats`), the robot and the human's
-hand through weld constraints (activated on grasp). The arm and the base are driven
-by joint torques (``motor`` actuators with the Panda's torque limits); the fingers by
-position servos, for show.
+recompiling. Contacts are on, and only between the intended pairs (the
+``contype``/``conaffinity`` bits below): the object's collision geometry and the floor, the
+object's collision geometry and the supports' (hook, peg and rail of the hanger; plates,
+posts and rack peg of the wheel), and the Panda's finger pads and the object's grip
+geometry. The supports still hold a resting object through seat force laws
+(:mod:`hri_envs.physics.seats`; their geometry only stops an object moved through them),
+the robot through a weld constraint made once both fingers press on the grip geometry, the
+human's hand through a weld constraint while the human holds. The arm and the base are
+driven by joint torques (``motor`` actuators with the Panda's torque limits); the fingers
+by position servos.
 """
 
 from __future__ import annotations
@@ -31,23 +36,120 @@ _TORQUE_LIMITS = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
 _BASE_FORCE_LIMITS = (1500.0, 1500.0, 3000.0)
 _GRIP_SITE = "grip"
 _WRIST_SITE = "wrist_ft"
-_FLOOR_BIT, _OBJECT_BIT = 1, 2  # contype/conaffinity bits: only object-floor contacts
+# contype/conaffinity bits. MuJoCo collides two geoms if either's contype shares a bit with
+# the other's conaffinity; only the object's geoms have a conaffinity, so the pairs are
+# object-floor, object-support and (grip geometry only) fingers-object.
+_FLOOR_BIT, _OBJECT_BIT, _SUPPORT_BIT, _FINGER_BIT, _GRIP_BIT = 1, 2, 4, 8, 16
+#: Half sizes [m] of the object's grip geometry in the grip frame (x: across the finger
+#: pads, y: the fingers' closing axis, z: the approach axis). The fingers, commanded to
+#: ``grip_finger_pos_m`` (1.2 cm), meet it at 2 cm and press on it with ≈ 2 N each.
+GRIP_HALF_SIZE: tuple[float, float, float] = (0.012, 0.02, 0.012)
+_HANGER_BRACKET_M = 0.22  # [m] below a hanger bar, the upper post without collision geometry
+_STAND_POST_BELOW_M = 0.05  # [m] a wheel stand's post ends this far below the lowest rim
+_CONTACT = {"condim": 3, "friction": [0.6, 0.005, 0.0001], "margin": 0.001,
+            "solref": [0.01, 1.0]}
 _WIRE, _GREY, _DARK = (0.85, 0.6, 0.2, 1.0), (0.6, 0.6, 0.62, 1.0), (0.3, 0.3, 0.33, 1.0)
 
 
 def _collision_geometry(spec: mujoco.MjSpec, obj: mujoco.MjsBody, scenario: Scenario) -> None:
-    """Invisible collision geoms of the object that touch the floor only."""
+    """Invisible collision geoms of the object, touching the floor and the supports.
+
+    The hanger: its neck (from 4.5 cm below the hook's seat point, so that a seated hook's
+    bar and the take-off along it stay clear), shoulders and bar; the hook itself is left to
+    the seat law. The wheel: its rim as 16 capsules (the hub is open, so the rack's peg passes
+    through it; a lying wheel's rim is outside a stand's plate).
+    """
     del spec
-    kw = {"contype": _OBJECT_BIT, "conaffinity": _FLOOR_BIT, "group": 3, "rgba": (0, 0, 0, 0),
-          "mass": 0.0, "condim": 3, "friction": [0.8, 0.005, 0.0001]}
+    kw = {"contype": _OBJECT_BIT, "conaffinity": _FLOOR_BIT | _SUPPORT_BIT, "group": 3,
+          "rgba": (0, 0, 0, 0), "mass": 0.0, **_CONTACT}
+    cap = mujoco.mjtGeom.mjGEOM_CAPSULE
     if scenario.name == "hanger":
-        cap = mujoco.mjtGeom.mjGEOM_CAPSULE
-        for seg in ((0.0, 0.0, 0.0, -0.08, 0.0, 0.0), (-0.08, 0.0, 0.0, -0.16, -0.2, 0.0),
+        for seg in ((-0.045, 0.0, 0.0, -0.08, 0.0, 0.0), (-0.08, 0.0, 0.0, -0.16, -0.2, 0.0),
                     (-0.08, 0.0, 0.0, -0.16, 0.2, 0.0), (-0.16, -0.2, 0.0, -0.16, 0.2, 0.0)):
             obj.add_geom(type=cap, fromto=list(seg), size=[0.01, 0, 0], **kw)
     else:
-        obj.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-                     size=[scenario.object_radius, 0.02, 0], **kw)
+        r, n = scenario.object_radius, 16
+        ang = np.linspace(0.0, 2 * np.pi, n + 1)
+        for a0, a1 in zip(ang[:-1], ang[1:], strict=True):
+            obj.add_geom(type=cap, size=[0.02, 0, 0], fromto=[
+                r * np.cos(a0), r * np.sin(a0), 0, r * np.cos(a1), r * np.sin(a1), 0], **kw)
+
+
+def _grip_geometry(obj: mujoco.MjsBody, design: PhysicsDesign) -> mujoco.MjsGeom:
+    """The object's grip (a handle block at the robot's grip frame): the fingers touch only it."""
+    return obj.add_geom(name="object_grip_geom", type=mujoco.mjtGeom.mjGEOM_BOX,
+                        pos=design.grip_pos, quat=design.grip_quat, size=list(GRIP_HALF_SIZE),
+                        contype=_GRIP_BIT, conaffinity=_FINGER_BIT, mass=0.0,
+                        rgba=(0.25, 0.25, 0.28, 1.0), condim=4,
+                        friction=[1.0, 0.005, 0.0001], margin=0.001)
+
+
+def _finger_collision(spec: mujoco.MjSpec) -> None:
+    """Turn on the Panda's finger-pad collision geoms (capsules and box), against the grip."""
+    for name in ("panda0_leftfinger", "panda0_rightfinger"):
+        for geom in spec.body(name).geoms:
+            if geom.type != mujoco.mjtGeom.mjGEOM_MESH:
+                geom.contype, geom.conaffinity = _FINGER_BIT, 0
+
+
+def _support_collision(spec: mujoco.MjSpec, scenario: Scenario) -> None:
+    """Collision geoms of the supports: the parts of their pictures (:func:`_support_visuals`)
+    that the scenario's own waypoints and straight-line motions keep clear of.
+
+    The hanger: each support's bar (hook bar, peg) up to the seat, its post below
+    the hanging hanger, and the rail joining B and C; the wheel: each stand's post below the
+    wheel's reach at every waypoint, the rack's post and the peg behind the hanging wheel. A
+    resting object is held by its seat (:mod:`hri_envs.physics.seats`) and clear of this
+    geometry; an object moved through a support collides with it.
+    """
+    kw = {"contype": _SUPPORT_BIT, "conaffinity": 0, "group": 3, "rgba": (0, 0, 0, 0),
+          "mass": 0.0, **_CONTACT}
+    cyl, box = mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_BOX
+    cap = mujoco.mjtGeom.mjGEOM_CAPSULE
+    for sup in scenario.supports:
+        body = spec.body(f"support_{sup.name}")
+        out = sup.mounting - sup.position
+        out_h = np.array([out[0], out[1], 0.0])
+        z = sup.position[2]
+        if scenario.name == "hanger":
+            d = out_h / max(np.linalg.norm(out_h), 1e-9)
+            a, b = -0.12 * d - [0, 0, 0.012], 0.04 * d - [0, 0, 0.012]
+            # The bar up to the seat (the picture's free tip beyond it is left out: at A the
+            # hanger hangs in the bar's plane, and its wire, turned a little by the human's
+            # hand, caught on a longer bar when moved down its column, which the scenario's
+            # waypoints assume clear).
+            tip = -np.array([0.0, 0.0, 0.012])
+            body.add_geom(name=f"{body.name}_bar", type=cap, fromto=[*a, *tip],
+                          size=[0.01, 0, 0], **kw)
+            # The post's lower part only: at A the hanger hangs in the plane of its peg, and
+            # its shoulders would cross the upper post (the bracket is left out).
+            low = z - _HANGER_BRACKET_M
+            body.add_geom(name=f"{body.name}_post", type=box, pos=list(a - [0, 0, z - low / 2]),
+                          size=[0.02, 0.02, low / 2], **kw)
+        elif sup.blocks_below:
+            # The post below the reach of the wheel at any waypoint only (5 cm under the
+            # lowest rim): the scenario moves waypoints beneath a stand's top just an object
+            # radius + 5 cm aside, joins them to those above by straight lines that sweep the
+            # rim over the stand's top, and moves a vertical wheel over to another column
+            # through the stands between; so the top (plate, hub holder) and the upper post
+            # are left to the seat law.
+            top = (float(np.min(scenario.heights)) - scenario.object_radius
+                   - _STAND_POST_BELOW_M)
+            body.add_geom(name=f"{body.name}_post", type=cyl, pos=[0, 0, top / 2 - z],
+                          size=[0.015, top / 2, 0], **kw)
+        else:
+            # The peg behind the hanging wheel only: its free end passes through the hub,
+            # where the lying wheel at the rack's mounting waypoint also has its rim.
+            body.add_geom(name=f"{body.name}_peg", type=cap,
+                          fromto=[0, -0.15, 0, 0, -0.045, 0], size=[0.02, 0, 0], **kw)
+            body.add_geom(name=f"{body.name}_post", type=box, pos=[0, -0.17, -z / 2 + 0.1],
+                          size=[0.04, 0.02, z / 2 + 0.1], **kw)
+    if scenario.name == "hanger":  # the rail joining B and C (a world geom: it never moves)
+        b, c = scenario.supports[1].position, scenario.supports[2].position
+        ext = (c - b) / np.linalg.norm(c - b) * 0.08
+        spec.worldbody.add_geom(name="rail", type=cap, fromto=[*(b - ext - [0, -0.03, 0.012]),
+                                                  *(c + ext - [0, -0.03, 0.012])],
+                                size=[0.01, 0, 0], **kw)
 
 
 def _visual(body: mujoco.MjsBody, **kwargs: object) -> mujoco.MjsGeom:
@@ -189,7 +291,10 @@ class Scene:
         platform_mocap: Mocap id of the mobile base's floor platform (-1 without one).
         wrist_site: Site id of the wrist force/torque sensor (on link 7, at the flange).
         force_sensor, torque_sensor: Sensor ids of its ``force`` and ``torque`` sensors.
-        floor_geom: Geom id of the floor (the object's collision geoms touch only it).
+        floor_geom: Geom id of the floor.
+        grip_geom: Geom id of the object's grip geometry (the only one the fingers touch).
+        finger_geoms: (2, n) geom ids of the left and right finger pads' collision geoms.
+        support_geoms: Geom ids of the supports' collision geometry (and the hanger's rail).
     """
 
     model: mujoco.MjModel
@@ -215,6 +320,9 @@ class Scene:
     force_sensor: int
     torque_sensor: int
     floor_geom: int
+    grip_geom: int
+    finger_geoms: np.ndarray
+    support_geoms: np.ndarray
 
 
 def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
@@ -225,10 +333,8 @@ def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
     spec.worldbody.add_light(pos=[0.5, -1.0, 4.0], dir=[0.0, 0.2, -1.0], diffuse=[0.6] * 3)
     spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[8, 8, 0.1],
                             rgba=(0.82, 0.8, 0.76, 1.0), contype=_FLOOR_BIT,
-                            conaffinity=_FLOOR_BIT)
-    # Contacts on, between the object's collision geometry and the floor (the robot's and
-    # the supports' geoms do not collide: the supports act through the seat law, the grasp
-    # is a weld).
+                            conaffinity=0)
+    # Contacts on, between the pairs listed in the module docstring.
     spec.option.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
     platform = None
     if design.mobile_base:
@@ -262,6 +368,9 @@ def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
                         objname=_WRIST_SITE)
     _collision_geometry(spec, obj, scenario)
     add_human_arm(spec, design)
+    _grip_geometry(obj, design)
+    _finger_collision(spec)
+    _support_collision(spec, scenario)
     model = spec.compile()
 
     def jid(name: str) -> int:
@@ -304,4 +413,11 @@ def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
         force_sensor=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, "wrist_force"),
         torque_sensor=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, "wrist_torque"),
         floor_geom=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "floor"),
+        grip_geom=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "object_grip_geom"),
+        finger_geoms=np.array([
+            [g for g in range(model.ngeom) if model.geom_bodyid[g] == finger
+             and model.geom_contype[g] == _FINGER_BIT]
+            for finger in (mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n)
+                           for n in ("panda0_leftfinger", "panda0_rightfinger"))]),
+        support_geoms=np.flatnonzero(model.geom_contype == _SUPPORT_BIT),
     )

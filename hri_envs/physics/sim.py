@@ -3,10 +3,15 @@
 :class:`PandaSim` owns the MuJoCo model and data. :meth:`PandaSim.step` takes the observed
 abstract state and both agents' abstract actions and runs them physically:
 
-1. *grasp toggles*: the robot approaches its grip on the object and closes (weld on), or
-   opens (weld off) and retreats; the human's grasp welds their hand on or off;
+1. *grasp toggles*: the robot approaches its grip on the object and closes its fingers; the
+   grasp holds (weld on) only once both fingers press on the object's grip geometry, else
+   it fails; or it opens (weld off) and retreats; the human's grasp welds their hand on or
+   off;
 2. an action that is not valid in the state after the toggles is refused by its agent's
    skill layer, and a refused action aborts the step's motion for both (the graph's rule);
+   with ``physics={"attempt_invalid": True}`` the robot's skill layer refuses nothing: it
+   tries any grasp toggle or motion (:meth:`PandaSim._motion_target`) and the physics
+   decides what happens (the human still refuses what is invalid for them);
 3. *motions*: the robot tracks a straight line from the actual grip pose to the target
    state's pose with the impedance controller; the simulated human's arm pulls it towards
    their own target; disagreement makes the robot yield (:class:`Disagreement`);
@@ -21,10 +26,11 @@ them (``*_true``).
 
 Faults end the step with ``fault`` set (``"<kind>: <detail>"``) instead of raising. Physical
 failures (:data:`PHYSICAL_FAULTS`): ``dropped`` (the object touched the floor, fell below
-every state, or nobody and no support holds it), ``grasp_failed`` (the hand did not reach
-the grip to close on it), ``pulled_out`` (the external force on the held object exceeded
-the grip's hold), ``off_support`` (the object ended far from every abstract state). Faults
-of the simulation itself: ``unstable`` and ``ik_failure``.
+every state, or nobody and no support holds it), ``grasp_failed`` (the closed fingers do
+not both press on the object's grip geometry), ``pulled_out`` (the external force on the
+held object exceeded the grip's hold), ``off_support`` (the object ended far from every
+abstract state, or off every support held by one agent alone). Faults of the simulation
+itself: ``unstable`` and ``ik_failure``.
 """
 
 from __future__ import annotations
@@ -36,6 +42,7 @@ from typing import Any, NamedTuple
 import mujoco
 import numpy as np
 
+from hri_envs.physics.contacts import finger_forces, touches
 from hri_envs.physics.controller import Disagreement, ImpedanceController
 from hri_envs.physics.design import PhysicsDesign, design_for
 from hri_envs.physics.human import SimulatedHuman
@@ -46,7 +53,6 @@ from hri_envs.physics.kinematics import (
     StraightLine,
     TrajectorySample,
     compose,
-    rotation_error,
 )
 from hri_envs.physics.observer import StateObserver, infer_human_action
 from hri_envs.physics.options import PhysicsParams, PhysicsSettings
@@ -54,7 +60,16 @@ from hri_envs.physics.scene import build_robot_model, build_scene
 from hri_envs.physics.seats import Seats
 from hri_envs.physics.sensing import SensorModel, WristSensor
 from hri_envs.task.geometry import Scenario
-from hri_envs.task.graph import HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT, TaskGraph
+from hri_envs.task.graph import (
+    BOTH,
+    HUMAN_BIT,
+    PUT_ON,
+    ROBOT_BIT,
+    TAKE_OFF,
+    TOGGLE,
+    WAIT,
+    TaskGraph,
+)
 
 __all__ = ["PHYSICAL_FAULTS", "PandaSim", "StepResult"]
 
@@ -329,21 +344,28 @@ class PandaSim:
         totals = _Totals()
         fault: str | None = None
         yielded = settled = False
-        robot_toggle = a_r == TOGGLE and bool(g.valid[s, TOGGLE])
-        human_toggle = a_h == TOGGLE and bool(g.valid[s, TOGGLE])
+        toggle_ok = bool(g.valid[s, TOGGLE])
+        attempt = self.settings.attempt_invalid
+        robot_toggle = a_r == TOGGLE and (toggle_ok or attempt)
+        human_toggle = a_h == TOGGLE and toggle_ok
         try:
             if robot_toggle:
                 self._robot_toggle(totals)
             if human_toggle:
                 self.human.holding = not self.human.holding
             self.arm.hold(self.data, self.human.holding)  # the hand's weld is the grasp bit
-            s1 = int(g.next_state[s, a_r if robot_toggle else WAIT, a_h if human_toggle else WAIT])
-            aborted = not (g.valid[s1, a_r] and g.valid[s1, a_h])
-            robot_moves = a_r > TOGGLE and not aborted
-            human_moves = a_h > TOGGLE and not aborted
+            s1 = int(g.next_state[s, a_r if a_r == TOGGLE and toggle_ok else WAIT,
+                                  a_h if human_toggle else WAIT])
+            if attempt:  # the robot tries any motion; the human refuses what is invalid
+                robot_moves = a_r > TOGGLE
+                human_moves = a_h > TOGGLE and bool(g.valid[s1, a_h])
+            else:
+                aborted = not (g.valid[s1, a_r] and g.valid[s1, a_h])
+                robot_moves = a_r > TOGGLE and not aborted
+                human_moves = a_h > TOGGLE and not aborted
             line = None
             if robot_moves:
-                goal = self.state_grip_pose(int(g.next_state[s1, a_r, WAIT]))
+                goal = self.state_grip_pose(self._motion_target(s1, a_r))
                 design = self.design
                 line = StraightLine(self.grip_pose(), goal, design.linear_speed,
                                     design.angular_speed, design.motion_min_duration_s)
@@ -369,6 +391,9 @@ class PandaSim:
                or obs.angle_error > design.timeout_fault_factor * design.angle_tolerance)
         if fault is None and seat < 0 and not grasp:
             fault = "dropped: nobody holds the object and no support carries it"
+        if fault is None and seat < 0 and grasp not in (0, BOTH):  # attempted actions only
+            fault = ("off_support: only the " + ("robot" if grasp == ROBOT_BIT else "human")
+                     + " holds the object away from every support")
         if fault is None and far:
             fault = ("off_support: the object " + ("settled" if settled else "stopped")
                      + " far from every abstract state")
@@ -384,6 +409,26 @@ class PandaSim:
                           obs.angle_error, fault, float(totals.linear_impulse_true),
                           float(totals.angular_impulse_true))
 
+    def _motion_target(self, s: int, a: int) -> int:
+        """The abstract state whose pose the robot's motion ``a`` aims at from ``s``.
+
+        A valid motion aims where the graph leads. An invalid one (tried only with
+        ``physics={"attempt_invalid": True}``) aims where it would lead if it were valid:
+        from a support as if both held the object (take off: to the mounting; the other
+        motions: from the mounting), put on from elsewhere than the mounting: straight onto
+        the column's support; any other: where the object already is (no motion).
+        """
+        g = self.graph
+        if g.valid[s, a]:
+            return int(g.next_state[s, a, WAIT])
+        k = int(g.support[s])
+        if k >= 0:
+            mount = int(g.next_state[g.support_state(k, BOTH), TAKE_OFF, WAIT])
+            return mount if a == TAKE_OFF else int(g.next_state[mount, a, WAIT])
+        if a == PUT_ON:
+            return g.support_state(int(g.column[s]), BOTH)
+        return s
+
     def _robot_toggle(self, totals: _Totals) -> None:
         design = self.design
         if not self.holding:  # approach the grip where the object actually is, then close
@@ -394,23 +439,32 @@ class PandaSim:
                                 design.linear_speed, design.angular_speed,
                                 min_duration=design.grasp_approach_min_duration_s)
             self._run(line, None, totals, design.grasp_approach_time_limit_s)
-            quat_now = np.empty(4)
-            mujoco.mju_mat2Quat(quat_now, self.data.site_xmat[site])
-            grip = self.grip_pose()
-            miss_m = float(np.linalg.norm(grip.pos - self.data.site_xpos[site]))
-            miss_rad = float(np.linalg.norm(rotation_error(quat_now, grip.quat)))
-            if miss_m > design.grasp_tolerance_m or miss_rad > design.grasp_tolerance_rad:
-                raise _Fault(f"grasp_failed: the hand stopped {miss_m * 100:.1f} cm, "
-                             f"{np.rad2deg(miss_rad):.0f}° from the grip")
-            self._weld(True)
-            self._run(None, self.grip_pose(), totals, design.grasp_close_time_s,
-                      min_time_s=design.grasp_close_time_s)
+            self._close_on_grip(totals)
         else:
             self._weld(False)
             grip = self.grip_pose()
             line = StraightLine(grip, self._pregrasp(grip), design.linear_speed,
                                 design.angular_speed, design.motion_min_duration_s)
             self._run(line, None, totals, design.release_retreat_time_limit_s)
+
+    def _close_on_grip(self, totals: _Totals) -> None:
+        """Close the fingers where the hand is; weld only if both press on the grip.
+
+        Raises:
+            _Fault: ``grasp_failed`` when a finger's contact force on the object's grip
+                geometry stays below ``grasp_contact_force_n`` (it closed on nothing).
+        """
+        design, sc = self.design, self.scene
+        self.data.ctrl[sc.finger_actuators] = design.grip_finger_pos_m
+        self._run(None, self.grip_pose(), totals, design.grasp_close_time_s,
+                  min_time_s=design.grasp_close_time_s)
+        forces = finger_forces(self.model, self.data, sc.finger_geoms, sc.grip_geom)
+        if forces.min() < design.grasp_contact_force_n:
+            self.data.ctrl[sc.finger_actuators] = _FINGER_OPEN_M
+            raise _Fault(f"grasp_failed: the fingers press on the grip with {forces[0]:.1f} N "
+                         f"and {forces[1]:.1f} N (a hold needs "
+                         f"{design.grasp_contact_force_n:g} N each)")
+        self._weld(True)
 
     def _run(self, line: StraightLine | None, hold: Pose | None, totals: _Totals,
              limit_s: float, min_time_s: float | None = None) -> tuple[bool, bool]:
@@ -516,8 +570,9 @@ class PandaSim:
                 self.on_frame()
             if i % check_every == 0:
                 self._check_stable()
-                if data.ncon > 0 or pos[2] < drop_z:
-                    raise _Fault("dropped: the object " + ("hit the floor" if data.ncon > 0
+                floor = touches(data, sc.floor_geom)
+                if floor or pos[2] < drop_z:
+                    raise _Fault("dropped: the object " + ("hit the floor" if floor
                                                            else "fell below every state"))
             slow = vel @ vel < vel_sq_max and angvel @ angvel < angvel_sq_max
             robot_done = line is None or yielded or t_line >= line.duration
