@@ -26,7 +26,7 @@ import numpy as np
 from hri_envs.physics.assets import PANDA_ARM_JOINTS, PANDA_FINGER_JOINTS, panda_xml
 from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.human_arm import add_human_arm
-from hri_envs.task.geometry import Scenario
+from hri_envs.task.geometry import Scenario, Support
 
 __all__ = ["BASE_JOINTS", "Scene", "build_robot_model", "build_scene"]
 
@@ -92,6 +92,19 @@ def _finger_collision(spec: mujoco.MjSpec) -> None:
                 geom.contype, geom.conaffinity = _FINGER_BIT, 0
 
 
+def _hanger_bar(sup: Support) -> tuple[np.ndarray, np.ndarray]:
+    """A hanger support's bar in its body frame: (post end, free end) [m].
+
+    The bar points from the post (12 cm behind the seat) out towards the mounting waypoint
+    and ends 4 cm past the seat, 1.2 cm below it (the hook rests on its top).
+    """
+    out = sup.mounting - sup.position
+    d = np.array([out[0], out[1], 0.0])
+    d /= max(float(np.linalg.norm(d)), 1e-9)
+    below = np.array([0.0, 0.0, 0.012])
+    return -0.12 * d - below, 0.04 * d - below
+
+
 def _support_collision(spec: mujoco.MjSpec, scenario: Scenario) -> None:
     """Collision geoms of the supports: the parts of their pictures (:func:`_support_visuals`)
     that the scenario's own waypoints and straight-line motions keep clear of.
@@ -108,12 +121,9 @@ def _support_collision(spec: mujoco.MjSpec, scenario: Scenario) -> None:
     cap = mujoco.mjtGeom.mjGEOM_CAPSULE
     for sup in scenario.supports:
         body = spec.body(f"support_{sup.name}")
-        out = sup.mounting - sup.position
-        out_h = np.array([out[0], out[1], 0.0])
         z = sup.position[2]
         if scenario.name == "hanger":
-            d = out_h / max(np.linalg.norm(out_h), 1e-9)
-            a, b = -0.12 * d - [0, 0, 0.012], 0.04 * d - [0, 0, 0.012]
+            a, _ = _hanger_bar(sup)
             # The bar up to the seat (the picture's free tip beyond it is left out: at A the
             # hanger hangs in the bar's plane, and its wire, turned a little by the human's
             # hand, caught on a longer bar when moved down its column, which the scenario's
@@ -243,12 +253,9 @@ def _support_visuals(spec: mujoco.MjSpec, scenario: Scenario) -> list[str]:
     for sup in scenario.supports:
         body = spec.worldbody.add_body(name=f"support_{sup.name}", mocap=True, pos=sup.position)
         names.append(body.name)
-        out = sup.mounting - sup.position
-        out_h = np.array([out[0], out[1], 0.0])
         z = sup.position[2]
         if scenario.name == "hanger":
-            d = out_h / max(np.linalg.norm(out_h), 1e-9)
-            a, b = -0.12 * d - [0, 0, 0.012], 0.04 * d - [0, 0, 0.012]
+            a, b = _hanger_bar(sup)
             _visual(body, type=cyl, fromto=[*a, *b], size=[0.01, 0, 0], rgba=_GREY)
             _visual(body, type=box, pos=[*(a - [0, 0, z / 2]), ], size=[0.02, 0.02, z / 2],
                     rgba=_DARK)
