@@ -8,24 +8,16 @@ import pytest
 from hri_envs.envs.config import scenario_graph
 from hri_envs.physics import IKFailure, PandaSim
 from hri_envs.task.graph import PUT_ON, ROTATE, TAKE_OFF, TOGGLE, WAIT
+from tests.helpers_physics import named as _named
+from tests.helpers_physics import sim_fixture
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 
-@pytest.fixture(scope="module")
-def hanger():
-    g = scenario_graph("hanger")
-    return g, PandaSim(g)
+hanger = sim_fixture("hanger")
 
 
-@pytest.fixture(scope="module")
-def wheel():
-    g = scenario_graph("wheel")
-    return g, PandaSim(g)
-
-
-def _named(g, prefix):
-    return next(s for s in range(g.n_states) if g.state_names[s].startswith(prefix))
+wheel = sim_fixture("wheel")
 
 
 def _motions(g, s):

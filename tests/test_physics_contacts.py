@@ -14,18 +14,13 @@ from hri_envs.physics.contacts import finger_forces, touches
 from hri_envs.physics.kinematics import Pose, StraightLine, compose
 from hri_envs.physics.sim import _Totals
 from hri_envs.task.graph import PUT_ON, TAKE_OFF, TOGGLE, WAIT
+from tests.helpers_physics import named as _named
+from tests.helpers_physics import sim_fixture
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 
-@pytest.fixture(scope="module")
-def hanger():
-    g = scenario_graph("hanger")
-    return g, PandaSim(g)
-
-
-def _named(g, prefix):
-    return next(s for s in range(g.n_states) if g.state_names[s].startswith(prefix))
+hanger = sim_fixture("hanger")
 
 
 def _kinds(sim):

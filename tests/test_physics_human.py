@@ -4,24 +4,19 @@ import mujoco
 import numpy as np
 import pytest
 
-from hri_envs.envs.config import check_physics_options, scenario_graph
+from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ConfigError
 from hri_envs.physics import PandaSim
 from hri_envs.physics.human_arm import HUMAN_JOINTS
 from hri_envs.physics.kinematics import quat_mul, rotation_error
 from hri_envs.task.graph import HUMAN_BIT, TOGGLE, WAIT
+from tests.helpers_physics import named as _named
+from tests.helpers_physics import sim_fixture
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 
-@pytest.fixture(scope="module")
-def hanger():
-    g = scenario_graph("hanger")
-    return g, PandaSim(g)
-
-
-def _named(g, prefix):
-    return next(s for s in range(g.n_states) if g.state_names[s].startswith(prefix))
+hanger = sim_fixture("hanger")
 
 
 def test_the_arm_is_six_position_actuators_with_the_humans_impedance(hanger):

@@ -9,24 +9,19 @@ import pytest
 
 import hri_envs  # noqa: F401  (registers the ids)
 from hri_envs.envs.backends import BACKENDS, PHYSICS_PARAMETERS
-from hri_envs.envs.config import check_physics_options, scenario_graph
+from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ConfigError
 from hri_envs.physics import PandaSim
 from hri_envs.physics.options import PARAMETER_KEYS, PRESETS
 from hri_envs.physics.sensing import SensorModel
 from hri_envs.task.graph import TAKE_OFF, TOGGLE, WAIT
+from tests.helpers_physics import named as _named
+from tests.helpers_physics import sim_fixture
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 
-@pytest.fixture(scope="module")
-def hanger():
-    g = scenario_graph("hanger")
-    return g, PandaSim(g)
-
-
-def _named(g, prefix):
-    return next(s for s in range(g.n_states) if g.state_names[s].startswith(prefix))
+hanger = sim_fixture("hanger")
 
 
 def test_the_model_has_a_wrist_force_torque_sensor_and_contacts(hanger):
