@@ -33,6 +33,7 @@ __all__ = [
     "demonstrations",
     "expected_feature_counts",
     "human_transition",
+    "improve_policy",
     "irl_step",
     "one_blas_thread",
     "partner_index",
@@ -284,19 +285,33 @@ def solve_q(
         else:
             q_t = flat_r[todo] + gamma * np.matmul(by_pair[todo], v).reshape(-1, n_s, n_a)
         q[todo] = q_t
-        q_masked = np.where(valid, q_t, _NEG)
-        best = q_masked.max(axis=-1)
-        local = chosen if every else (np.arange(len(todo))[:, None] * (n_s * n_a) + pair) + act_t
-        current = q_masked.reshape(-1)[local]  # (K, S): Q of the current actions
-        # Keep the current action on (numerical) ties so the iteration terminates.
-        improve = best - current > 1e-10 * (1.0 + np.abs(best))
-        changed = improve.any(axis=-1)
+        new_act, changed = improve_policy(q_t, valid, act_t)
         if not changed.any():
             break
-        act[todo] = np.where(improve, q_masked.argmax(axis=-1), act_t)
+        act[todo] = new_act
         # An MDP whose policy did not change would give the same Q again: it is done.
         todo = todo[changed]
     return q.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
+
+
+def improve_policy(q: np.ndarray, valid: np.ndarray, act: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """One policy-improvement step of policy iteration.
+
+    Args:
+        q: (K, S, A) Q of the current policies.
+        valid: (S, A) bool.
+        act: (K, S) int, the current policies' actions.
+
+    Returns:
+        (K, S) the improved actions and (K,) bool, whether an MDP's policy changed. The
+        current action is kept on (numerical) ties, so that the iteration terminates.
+    """
+    q_masked = np.where(valid, q, _NEG)
+    best = q_masked.max(axis=-1)
+    current = np.take_along_axis(q_masked, act[..., None], axis=-1)[..., 0]
+    improve = best - current > 1e-10 * (1.0 + np.abs(best))
+    return np.where(improve, q_masked.argmax(axis=-1), act), improve.any(axis=-1)
 
 
 def q_iteration(

@@ -322,7 +322,6 @@ def _solve_numpy(nxt: np.ndarray, pi: np.ndarray, r: np.ndarray, valid: np.ndarr
         act = policy.copy()
     q = np.empty_like(r)
     todo = np.arange(n)  # the MDPs whose policy still changes; the others are final
-    states = np.arange(n_s)
     for _ in range(max_iter):
         act_t = act[todo]
         m = _evaluation_matrix(nxt, pi[todo], act_t, term[todo], gamma)
@@ -330,15 +329,10 @@ def _solve_numpy(nxt: np.ndarray, pi: np.ndarray, r: np.ndarray, valid: np.ndarr
         v = np.linalg.solve(m, np.take_along_axis(r_t, act_t[..., None], axis=-1))[..., 0]
         q_t = r_t + gamma * _backup_numpy(nxt, pi[todo], v, term[todo])
         q[todo] = q_t
-        q_masked = np.where(valid, q_t, _NEG)
-        best = q_masked.max(axis=-1)
-        current = q_masked[np.arange(len(todo))[:, None], states, act_t]
-        # Keep the current action on (numerical) ties so the iteration terminates.
-        improve = best - current > 1e-10 * (1.0 + np.abs(best))
-        changed = improve.any(axis=-1)
+        new_act, changed = mdp.improve_policy(q_t, valid, act_t)
         if not changed.any():
             break
-        act[todo] = np.where(improve, q_masked.argmax(axis=-1), act_t)
+        act[todo] = new_act
         todo = todo[changed]
     greedy = np.where(valid, q, -np.inf).argmax(axis=-1)
     return q, greedy
