@@ -145,6 +145,9 @@ class PhysicsDesign:
             (std per control step), constant bias and delay (:mod:`~hri_envs.physics.sensing`).
         sensor_torque_lever_m: Torque noise and bias are the force's times this lever.
         human_delay_s: The human's reaction delay before a reach starts.
+        grasp_tolerance_m, grasp_tolerance_rad: After closing, the hand's grip frame must lie
+            within this distance and angle of the object's grip (the weld holds the object
+            where the grip is meant to be); else the grasp fails (fault ``grasp_failed``).
         grasp_contact_force_n: After closing, each finger must press on the object's grip
             geometry with at least this normal force [N] for the grasp to hold (weld on);
             else the grasp fails (fault ``grasp_failed``).
@@ -229,6 +232,8 @@ class PhysicsDesign:
     sensor_torque_lever_m: float = 0.1
     human_delay_s: float = 0.0
     # Physical failures (PandaSim.step, _run, _robot_toggle).
+    grasp_tolerance_m: float = 0.015
+    grasp_tolerance_rad: float = 0.25
     grasp_contact_force_n: float = 0.5
     grip_hold_force_n: float = 60.0
     grip_overload_time_s: float = 0.05

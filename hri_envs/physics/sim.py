@@ -53,6 +53,7 @@ from hri_envs.physics.kinematics import (
     StraightLine,
     TrajectorySample,
     compose,
+    rotation_error,
 )
 from hri_envs.physics.observer import StateObserver, infer_human_action
 from hri_envs.physics.options import PhysicsParams, PhysicsSettings
@@ -464,6 +465,19 @@ class PandaSim:
             raise _Fault(f"grasp_failed: the fingers press on the grip with {forces[0]:.1f} N "
                          f"and {forces[1]:.1f} N (a hold needs "
                          f"{design.grasp_contact_force_n:g} N each)")
+        # Fingers on the grip block but the hand off the grip (e.g. beside it along the
+        # block): a weld would snap the object into the hand, so the grasp fails.
+        block, grip = sc.grip_geom, self.grip_pose()  # the grip block is the true grip frame
+        quat = np.empty(4)
+        mujoco.mju_mat2Quat(quat, self.data.geom_xmat[block])
+        miss_m = float(np.linalg.norm(grip.pos - self.data.geom_xpos[block]))
+        miss_rad = float(np.linalg.norm(rotation_error(quat, grip.quat)))
+        if miss_m > design.grasp_tolerance_m or miss_rad > design.grasp_tolerance_rad:
+            self.data.ctrl[sc.finger_actuators] = _FINGER_OPEN_M
+            raise _Fault(f"grasp_failed: the hand closed {miss_m * 100:.1f} cm, "
+                         f"{np.rad2deg(miss_rad):.0f}° from the grip (a hold needs "
+                         f"{design.grasp_tolerance_m * 100:g} cm, "
+                         f"{np.rad2deg(design.grasp_tolerance_rad):.0f}°)")
         self._weld(True)
 
     def _run(self, line: StraightLine | None, hold: Pose | None, totals: _Totals,
