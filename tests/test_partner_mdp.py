@@ -123,6 +123,46 @@ def test_compiled_and_numpy_learners_agree(monkeypatch):
                                    err_msg=name)
 
 
+def test_no_absorbing_state_is_the_same_on_both_paths(path):
+    """terminal = -1 means no absorbing state: the numpy path once took it for the last state."""
+    g = graph_for("hanger")
+    pi, own = random_policies(g, 3, 0), random_policies(g, 3, 1)
+    none = np.full(3, -1)
+    start, horizon = np.array([0, 1, 2]), np.array([8, 8, 8])
+    dense = mdp.robot_transition(g.next_state, pi)  # (3, S, A, S), no state made absorbing
+    # Without an absorbing state every state passes its mass on: Σ_t d_t φ by hand.
+    step = np.einsum("bsa,bsaz->bsz", own, dense)
+    d = np.eye(g.n_states)[start]
+    svf = d.copy()
+    for _ in range(7):
+        d = np.einsum("bs,bsz->bz", d, step)
+        svf += d
+    expected = np.einsum("bs,bsf->bf", svf, g.features[:3])
+    counts = partner_mdp.expected_feature_counts(g.next_state, pi, own, g.features[:3], start,
+                                                 none, horizon)
+    np.testing.assert_allclose(counts, expected, atol=1e-12)
+
+
+@pytest.mark.parametrize("bad", ["policy", "terminal", "next_state", "states"])
+def test_indices_out_of_range_are_refused_before_any_kernel_runs(path, bad):
+    """The compiled kernels do not check bounds: a bad index must not reach them."""
+    g = graph_for("hanger")
+    pi = random_policies(g, 1, 0)
+    r = np.zeros((1, g.n_states, g.n_actions))
+    nxt = g.next_state.copy()
+    kwargs = {"terminal": np.array([g.n_states]) if bad == "terminal" else None,
+              "policy": np.full((1, g.n_states), g.n_actions) if bad == "policy" else None}
+    if bad == "next_state":
+        nxt[0, 0, 0] = -2
+    with pytest.raises(ConfigError, match=f"{bad} must hold indices in") as err:
+        if bad == "states":
+            partner_mdp.belief_policy(np.zeros((1, 1, g.n_states, g.n_actions)), np.ones((1, 1)),
+                                      np.array([g.n_states]), g.valid, 1.0, 0.5, None)
+        else:
+            partner_mdp.solve_partner_q(nxt, pi, r, g.valid, 0.5, **kwargs)
+    assert err.value.field == bad
+
+
 def test_bad_discount_and_iteration_cap_are_refused():
     g = graph_for("hanger")
     pi = random_policies(g, 1, 0)

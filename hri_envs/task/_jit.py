@@ -17,6 +17,15 @@ _NEG = -1e300
 
 
 @njit(cache=True, nogil=True)
+def out_of_range(x, low, high):
+    """Whether an entry of the int array ``x`` lies outside [low, high) (one pass)."""
+    for v in x.ravel():
+        if v < low or v >= high:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
 def partner_backup(next_state, partner, values, terminal):
     """(N, S, A): Σ_p partner[n, s, p] values[n, next_state[s, a, p]]; terminal rows values."""
     n_b = partner.shape[0]

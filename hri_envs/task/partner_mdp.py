@@ -87,12 +87,31 @@ def preload() -> bool:
     jit.solve_partner_q(nxt, one, one, valid, none, 0.5, np.zeros((1, 1), np.int64), False, 1)
     jit.expected_feature_counts(nxt, one, one, one, zero, none, np.ones(1, np.int64))
     jit.belief_policy(np.ones((1, 1, 1, 1)), np.ones((1, 1)), zero, zero, valid, 1.0, 0.5)
+    jit.out_of_range(zero, 0, 1)
     return True
 
 
 def jit_enabled() -> bool:
     """Whether the compiled kernels are used in this process (see :func:`kernels`)."""
     return kernels() is not None
+
+
+def _check_range(name: str, x: np.ndarray, low: int, high: int) -> None:
+    """Raise ConfigError unless every entry of the int array ``x`` is in [low, high).
+
+    The compiled kernels index without bounds checks (an index out of range reads or
+    writes outside the array), so every index array is checked before they run (by a
+    compiled pass where the kernels are on: a numpy reduction costs more than a small
+    kernel call).
+    """
+    jit = kernels()
+    if jit is not None and x.dtype == np.int64 and x.flags.c_contiguous:
+        bad = jit.out_of_range(x, low, high)
+    else:
+        bad = x.size > 0 and (int(x.min()) < low or int(x.max()) >= high)
+    if bad:
+        raise ConfigError(f"{name} must hold indices in [{low}, {high}), got values from "
+                          f"{int(x.min())} to {int(x.max())}", field=name)
 
 
 def _terminal(terminal: np.ndarray | int | None, lead: tuple[int, ...]) -> np.ndarray:
@@ -139,9 +158,11 @@ def partner_backup(next_state: np.ndarray, partner: np.ndarray, values: np.ndarr
     lead = partner.shape[:-2]
     n_s, n_a, n_p = next_state.shape
     nxt = _c(next_state, dtype=np.int64)
+    _check_range("next_state", nxt, 0, n_s)
     pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
     x = _c(values, dtype=np.float64).reshape(-1, n_s)
     term = _terminal(terminal, lead)
+    _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
         out = jit.partner_backup(nxt, pi, x, term)
@@ -177,6 +198,7 @@ def partner_reward(reward: np.ndarray, partner: np.ndarray,
     n_s, n_a, n_p = reward.shape
     pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
     term = _terminal(terminal, lead)
+    _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
         out = jit.partner_reward(_c(reward, dtype=np.float64), pi, term)
@@ -226,15 +248,18 @@ def belief_policy(q: np.ndarray, belief: np.ndarray, states: np.ndarray, valid: 
     Returns:
         (B, A) probabilities.
     """
+    states = _c(states, np.int64)
+    _check_range("states", states, 0, q.shape[-2])
+    base = np.full(len(states), -1, np.int64) if baseline is None else _c(baseline, np.int64)
+    if baseline is not None:
+        _check_range("baseline", base, 0, q.shape[-1])
     jit = kernels()
     if jit is None:
         rows = np.arange(len(states))
         mixed = np.einsum("bi,bia->ba", belief, q[rows, :, states])
         return mdp.bounded_softmax(mixed, valid[states], temperature, eta, baseline)
-    base = np.full(len(states), -1, np.int64) if baseline is None else _c(baseline, np.int64)
     return jit.belief_policy(_c(q, np.float64), _c(belief, np.float64),  # type: ignore[no-any-return]
-                             _c(states, np.int64), base, _c(valid, np.bool_),
-                             float(temperature), float(eta))
+                             states, base, _c(valid, np.bool_), float(temperature), float(eta))
 
 
 def solve_partner_q(
@@ -279,13 +304,16 @@ def solve_partner_q(
     lead = partner.shape[:-2]
     n_s, n_a, n_p = next_state.shape
     nxt = _c(next_state, dtype=np.int64)
+    _check_range("next_state", nxt, 0, n_s)
     pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
     r = _flat(reward, (*lead, n_s, n_a), np.float64).reshape(-1, n_s, n_a)
     ok = _c(valid, dtype=np.bool_)
     term = _terminal(terminal, lead)
+    _check_range("terminal", term, -1, n_s)
     warm = policy is not None
     act = (_flat(policy, (*lead, n_s), np.int64).reshape(-1, n_s) if policy is not None
            else np.zeros((len(pi), n_s), np.int64))
+    _check_range("policy", act, 0, n_a)
     jit = kernels()
     if jit is not None:
         q, greedy = jit.solve_partner_q(nxt, pi, r, ok, term, float(gamma), act, warm,
@@ -369,18 +397,22 @@ def expected_feature_counts(
     """
     n_s, n_a, n_p = next_state.shape
     nxt = _c(next_state, dtype=np.int64)
+    _check_range("next_state", nxt, 0, n_s)
     pi = _c(partner, dtype=np.float64)
     own = _c(policy, dtype=np.float64)
     phi = _c(features, dtype=np.float64)
     start_, term, hor = (_c(x, dtype=np.int64)
                          for x in (start, terminal, horizon))
+    _check_range("start", start_, 0, n_s)
+    _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
         return jit.expected_feature_counts(nxt, pi, own, phi, start_, term, hor)  # type: ignore[no-any-return]
     n_b = len(pi)
     rows = np.arange(n_b)
     weight = own[:, :, :, None] * pi[:, :, None, :]  # (N, S, A, P)
-    weight[rows, term] = 0.0
+    ends = term >= 0  # -1: no absorbing state
+    weight[rows[ends], term[ends]] = 0.0
     flat = (rows[:, None, None, None] * n_s + np.arange(n_s)[:, None, None]) * n_s + nxt
     p = np.bincount(flat.ravel(), weight.ravel(), minlength=n_b * n_s * n_s)
     p = p.reshape(n_b, n_s, n_s)
