@@ -158,7 +158,9 @@ class PhysicsDesign:
         control_every_steps: The robot's controller, the seat law, the sensor reading and
             the human's reference update once every this many physics steps (MuJoCo runs
             the steps in between in C, with the human's actuators and the robot's torques
-            held); the settle and fault checks run at the same rate.
+            held). The settle test runs at the same rate; the stability and floor-contact
+            checks every ``stability_check_every_steps`` physics steps (rounded down to
+            whole control periods), so a touch of the floor shorter than that can be missed.
     """
 
     scenario: str

@@ -64,7 +64,8 @@ class PhysicsEpisode(Episode):
         video_path: If set, each episode is recorded and written there when it ends (a
             ``{episode}`` field in the path is filled with the episode count); ``.gif``
             needs nothing more, other suffixes imageio-ffmpeg.
-        video_fps: Frames per simulated second in the video.
+        video_fps: Frames per simulated second in the video (rounded to a whole number of
+            control periods, and written at that rate so that the video plays in real time).
         **options: The other ``physics`` options (``preset``, ``randomize`` and the
             parameters of :mod:`hri_envs.physics.options`), validated by the env.
 
@@ -85,6 +86,7 @@ class PhysicsEpisode(Episode):
         self._fault: str | None = None
         self.totals = dict.fromkeys(STEP_FIGURES, 0.0)
         self.video_path, self.video_fps = video_path, video_fps
+        self._frame_fps = video_fps  # the rate frames are recorded at (set per episode)
         self.frames: list[np.ndarray] = []
         self.episode_count = 0
         self._renderer: SceneRenderer | None = None
@@ -115,7 +117,11 @@ class PhysicsEpisode(Episode):
             self._fault = f"ik_failure: {exc}"
         self.episode_count += 1
         if self.video_path is not None:
-            self.sim.frame_every = max(1, round(1.0 / (self.video_fps * self.sim.dt)))
+            # A frame every whole number of control periods, written at the rate that
+            # gives (video_fps rounded to it: 10 fps → one frame per 96 ms, 10.4 fps).
+            periods = max(1, round(1.0 / (self.video_fps * self.sim.dt_control)))
+            self.sim.frame_every = periods * self.sim.control_every
+            self._frame_fps = 1.0 / (periods * self.sim.dt_control)
             self.sim.on_frame = lambda: self.frames.append(self.render(layout))
             self.frames.append(self.render(layout))
 
@@ -168,7 +174,7 @@ class PhysicsEpisode(Episode):
         """Write the recorded episode, if any."""
         if self.video_path is not None and len(self.frames) > 1:
             path = self.video_path.format(episode=self.episode_count)
-            write_video(self.frames, path, self.video_fps)
+            write_video(self.frames, path, self._frame_fps)
         self.frames = []
 
     def show(self, layout: tuple[tuple[float, float], ...] | None, title: str,
