@@ -190,6 +190,19 @@ def test_a_replaced_human_acts_from_the_next_step():
     assert (obs["last_human_action"] == 0).all()
 
 
+def test_a_replaced_human_turns_back_where_it_would():
+    """A human replaced before reset turns back at its own turning states, not the old one's."""
+    from hri_envs.task.humans import preference_human
+
+    vec = RobotVectorEnv(4, "wheel", preference="straight")
+    detour = preference_human(vec.graph, "detour", turn_back=1.0)
+    straight = preference_human(vec.graph, "straight", turn_back=1.0)
+    assert (detour.turn_state != straight.turn_state).any()
+    vec.human = detour
+    vec.reset(seed=0)
+    np.testing.assert_array_equal(vec._turn_at, detour.turn_state[vec._start, vec.intention])
+
+
 # Digests of 60 seeded steps of 16 envs, recorded from the v0 vector env before its step was
 # rewritten around the fused StepTable: the same seed must keep giving the same numbers
 # (random human draws, turning back, autoresets, both autoreset modes, the reward variant).

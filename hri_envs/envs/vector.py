@@ -159,7 +159,6 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         n = self.num_envs
         self._table = StepTable(self.rules)
-        self._turn_state = self.human.turn_state  # where a turning-back human turns
         self._n_supports, self._n_actions = n_k, n_a
         self._greedy_start, self._greedy_goal = n_k * n_s, n_s  # strides of a human row
         # Per env (N,): the current episode's state, start, ι, the flat index of its context
@@ -227,6 +226,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         unused. Any other human samples through its ``act``.
         """
         self._greedy_human = human
+        self._turn_state = human.turn_state  # where this human turns back
         self._greedy = None
         if human.deterministic and human.passive == 0.0:
             n_k, n_s = self._n_supports, self.graph.n_states
@@ -270,6 +270,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         if seed is not None and not isinstance(seed, int | np.integer):
             raise ConfigError(f"seed must be an int or None for this batched env, got {seed!r}")
         super().reset(seed=seed)
+        if self.human is not self._greedy_human:  # replaced since the last step
+            self._adopt(self.human)
         rng = self.np_random
         self._human_rng = np.random.default_rng(int(rng.integers(2**63)))
         n, n_k = self.num_envs, self.graph.n_intentions
