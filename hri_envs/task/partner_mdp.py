@@ -15,8 +15,9 @@ memory traffic. Shapes: ``S`` states, ``A`` own actions, ``P`` partner actions,
 state (it loops on itself whatever the actions, as :func:`hri_envs.task.mdp.absorbing`
 makes it), or -1 for none.
 
-Each function has two implementations with the same results (tests/test_partner_mdp.py
-checks them against each other): vectorised numpy, and compiled loops
+Each function has two implementations whose results agree to rounding, ~1e-15
+(tests/test_partner_mdp.py checks them against each other): vectorised numpy, and compiled
+loops
 (:mod:`hri_envs.task._jit`) used when numba is importable and the environment variable
 ``HRI_ENVS_NO_JIT`` is not set to a non-empty value other than ``0``. The compiled code is
 cached on disk, so a machine compiles it once (:func:`kernels`).
