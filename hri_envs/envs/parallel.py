@@ -85,18 +85,11 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     the object on ι, r⁻ = -1 for an aborted step, 0 otherwise. ``info["robot_reward"]``
     always carries R_R.
 
-    Grasping and letting go are never counteracted and cost nothing: a robot can replace a
-    wait (r0) by a pointless grasp-and-release. On the wheel, at "on B, held by the human",
-    robot grasp + human let go pays 0 (``scenario_graph('wheel').reward(-0.25)[5, 1, 1]``)
-    and leads to "on B, held by the robot", where robot let go + human wait pays 0
-    (``[6, 1, 0]``) and ends the episode. With turning back possible, a robot that does not
-    see ι also pays one more r0 at the turning point even when the human does not turn (it
-    cannot rule the turn out earlier; routes without a halfway point escape this).
-    ``reward="no-free-toggle"`` (default ``"paper"``, the rule above) makes a robot grasp
-    toggle that the object's next motion does not need cost r0 like waiting: on a support
-    that is not a goal candidate only grasping is needed (the take-off needs both hands), on
-    a goal candidate only letting go (the object is to rest); see
-    :func:`hri_envs.task.episode.unneeded_toggle` and docs/task-model.md, "Reward".
+    Grasping and letting go are never counteracted and cost nothing, so a robot can replace
+    a wait (r0) by a pointless grasp-and-release; ``reward="no-free-toggle"`` (default
+    ``"paper"``, the rule above) makes a robot toggle that the object's next motion does not
+    need cost r0 like waiting (:func:`hri_envs.task.episode.unneeded_toggle`).
+    docs/task-model.md, "Reward", works both rules through on the wheel and with turning back.
 
     ## Starting State
 
