@@ -26,6 +26,33 @@ def out_of_range(x, low, high):
 
 
 @njit(cache=True, nogil=True)
+def _backup_state(next_state, partner_s, values, s, out):
+    """out[a] = Σ_p partner_s[p] values[next_state[s, a, p]] for one state ``s``.
+
+    The partner's actions outermost: the sums of the A actions are independent, so they
+    proceed together (each still adds its terms in increasing p).
+    """
+    n_a, n_p = next_state.shape[1], next_state.shape[2]
+    for a in range(n_a):
+        out[a] = 0.0
+    for p in range(n_p):
+        w = partner_s[p]
+        if w != 0.0:
+            for a in range(n_a):
+                out[a] += w * values[next_state[s, a, p]]
+
+
+@njit(cache=True, nogil=True)
+def _best_valid(x, valid_s):
+    """(max, first argmax) of ``x`` (A,) over the valid actions ``valid_s`` (A,)."""
+    best, best_a = -np.inf, 0
+    for a in range(x.shape[0]):
+        if valid_s[a] and x[a] > best:
+            best, best_a = x[a], a
+    return best, best_a
+
+
+@njit(cache=True, nogil=True)
 def partner_backup(next_state, partner, values, terminal):
     """(N, S, A): Σ_p partner[n, s, p] values[n, next_state[s, a, p]]; terminal rows values."""
     n_b = partner.shape[0]
@@ -37,16 +64,8 @@ def partner_backup(next_state, partner, values, terminal):
             if s == term:
                 for a in range(n_a):
                     out[k, s, a] = values[k, s]
-                continue
-            # The partner's actions outermost: the sums of the A actions are independent, so
-            # they proceed together (each still adds its terms in increasing p).
-            for a in range(n_a):
-                out[k, s, a] = 0.0
-            for p in range(n_p):
-                w = partner[k, s, p]
-                if w != 0.0:
-                    for a in range(n_a):
-                        out[k, s, a] += w * values[k, next_state[s, a, p]]
+            else:
+                _backup_state(next_state, partner[k, s], values[k], s, out[k, s])
     return out
 
 
@@ -120,15 +139,7 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
     for k in range(n_b):
         term = terminal[k]
         for s in range(n_s):
-            if warm:
-                act[s] = policy[k, s]
-            else:
-                best, best_a = _NEG - 1.0, 0
-                for a in range(n_a):
-                    x = reward[k, s, a] if valid[s, a] else _NEG
-                    if x > best:
-                        best, best_a = x, a
-                act[s] = best_a
+            act[s] = policy[k, s] if warm else _best_valid(reward[k, s], valid[s])[1]
         for _ in range(max_iter):
             m[:, :] = 0.0  # I - γ P_π, and where it is nonzero
             pattern[:, :] = False
@@ -155,20 +166,10 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
                     for a in range(n_a):
                         q[k, s, a] = reward[k, s, a] + gamma * v[term]
                 else:
-                    for a in range(n_a):
-                        acc[a] = 0.0
-                    for p in range(n_p):  # outermost: see partner_backup
-                        w = partner[k, s, p]
-                        if w != 0.0:
-                            for a in range(n_a):
-                                acc[a] += w * v[next_state[s, a, p]]
+                    _backup_state(next_state, partner[k, s], v, s, acc)
                     for a in range(n_a):
                         q[k, s, a] = reward[k, s, a] + gamma * acc[a]
-                best, best_a = _NEG - 1.0, 0
-                for a in range(n_a):
-                    x = q[k, s, a] if valid[s, a] else _NEG
-                    if x > best:
-                        best, best_a = x, a
+                best, best_a = _best_valid(q[k, s], valid[s])
                 current = q[k, s, act[s]] if valid[s, act[s]] else _NEG
                 # Keep the current action on (numerical) ties so the iteration terminates.
                 if best - current > 1e-10 * (1.0 + abs(best)):
@@ -177,11 +178,7 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
             if not changed:
                 break
         for s in range(n_s):
-            best, best_a = -np.inf, 0
-            for a in range(n_a):
-                if valid[s, a] and q[k, s, a] > best:
-                    best, best_a = q[k, s, a], a
-            greedy[k, s] = best_a
+            greedy[k, s] = _best_valid(q[k, s], valid[s])[1]
     return q, greedy
 
 
