@@ -27,7 +27,7 @@ import mujoco
 import numpy as np
 
 from hri_envs.physics.design import PhysicsDesign
-from hri_envs.physics.kinematics import TrajectorySample, quat_conj, quat_to_mat
+from hri_envs.physics.kinematics import TrajectorySample, cross3, quat_conj, quat_to_mat
 
 __all__ = ["HUMAN_JOINTS", "HumanArm", "add_human_arm"]
 
@@ -241,8 +241,5 @@ class HumanArm:
         w[:3] = f[:3]  # the slides are world-aligned
         axes = data.xaxis[self.joints[3:]]  # (3, 3) world axes of the wrist hinges
         w[3:] = f[3:] @ axes
-        lever = data.xpos[self.hand_body] - obj_pos
-        w[3] += lever[1] * f[2] - lever[2] * f[1]
-        w[4] += lever[2] * f[0] - lever[0] * f[2]
-        w[5] += lever[0] * f[1] - lever[1] * f[0]
+        w[3:] += cross3(data.xpos[self.hand_body] - obj_pos, f[:3])
         return w

@@ -17,6 +17,7 @@ __all__ = [
     "StraightLine",
     "TrajectorySample",
     "compose",
+    "cross3",
     "quat_conj",
     "quat_mul",
     "quat_to_mat",
@@ -37,6 +38,12 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     out = np.empty(4)
     mujoco.mju_mulQuat(out, np.ascontiguousarray(a, float), np.ascontiguousarray(b, float))
     return out
+
+
+def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The cross product a × b of two 3-vectors (np.cross costs more for one pair)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
 
 
 def quat_conj(q: np.ndarray) -> np.ndarray:

@@ -26,14 +26,10 @@ from collections import deque
 
 import numpy as np
 
+from hri_envs.physics.kinematics import cross3
 from hri_envs.physics.scene import Scene
 
 __all__ = ["SensorModel", "WristSensor"]
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
 
 
 class SensorModel:
@@ -141,9 +137,9 @@ class WristSensor:
         # Statics of the subtree (hand + object): F_parent + Σ m g + F_ext = 0, torques about
         # the flange likewise; the sensor reads the parent's wrench on the subtree.
         f_ext = -f_s - self.hand_weight - self.object_weight
-        t_ext = (-t_s - _cross(hand_com - p, self.hand_weight)
-                 - _cross(obj_com - p, self.object_weight))
-        t_origin = t_ext - _cross(obj_pos - p, f_ext)
+        t_ext = (-t_s - cross3(hand_com - p, self.hand_weight)
+                 - cross3(obj_com - p, self.object_weight))
+        t_origin = t_ext - cross3(obj_pos - p, f_ext)
         w = self.true_wrench
         w[:3], w[3:] = f_ext, t_origin
         return self.model.apply(w)
