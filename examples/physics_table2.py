@@ -74,6 +74,7 @@ def main() -> None:
             "duration_s": m.extras["duration_s"].mean(0).tolist(),
             "graph_agrees": m.extras["graph_agrees"].mean(0).tolist(),
             "inference_accuracy": m.extras["inference_accuracy"].mean(0).tolist(),
+            "hold_accuracy": m.extras["hold_accuracy"].mean(0).tolist(),
             "physical_fault": m.extras["physical_fault"].mean(0).tolist(),
             "truncated": m.truncated.mean(0).tolist(),
             "wall_s": [time.perf_counter() - t0],
@@ -84,7 +85,8 @@ def main() -> None:
                    f"{np.mean(r['wrong']):.2f}  linear impulse/episode "
                    f"{np.mean(r['linear_impulse']):6.1f} N s  graph agrees "
                    f"{np.mean(r['graph_agrees']):.3f}  inferred right "
-                   f"{np.mean(r['inference_accuracy']):.3f}  physical faults/episode "
+                   f"{np.mean(r['inference_accuracy']):.3f}  hold sensed right "
+                   f"{np.mean(r['hold_accuracy']):.3f}  physical faults/episode "
                    f"{np.mean(r['physical_fault']):.2f}  ({r['wall_s'][0]:.0f} s)")
     bar.close()
     (out / "summary.json").write_text(json.dumps(results, indent=1) + "\n")

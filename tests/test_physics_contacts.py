@@ -13,7 +13,7 @@ from hri_envs.physics import PandaSim
 from hri_envs.physics.contacts import finger_forces, touches
 from hri_envs.physics.kinematics import Pose, StraightLine, compose
 from hri_envs.physics.sim import _Totals
-from hri_envs.task.graph import PUT_ON, TAKE_OFF, TOGGLE, WAIT
+from hri_envs.task.graph import HUMAN_BIT, PUT_ON, TAKE_OFF, TOGGLE, WAIT
 from tests.helpers_physics import named as _named
 from tests.helpers_physics import sim_fixture
 
@@ -24,9 +24,12 @@ hanger = sim_fixture("hanger")
 
 
 def _kinds(sim):
-    """Each colliding geom's kind: floor, object, grip, finger or support."""
+    """Each colliding geom's kind: floor, object, grip, finger, support, thumb or handle."""
     m, sc = sim.model, sim.scene
-    kind = {sc.floor_geom: "floor", sc.grip_geom: "grip"}
+    kind = {sc.floor_geom: "floor", sc.grip_geom: "grip",
+            mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "handle_ball"): "handle"}
+    kind.update({g: "thumb" for g in range(m.ngeom) if m.geom_bodyid[g] == mujoco.mj_name2id(
+        m, mujoco.mjtObj.mjOBJ_BODY, "human_thumb")})
     kind.update({int(g): "finger" for g in sc.finger_geoms.ravel()})
     kind.update({int(g): "support" for g in sc.support_geoms})
     for g in range(m.ngeom):
@@ -51,18 +54,24 @@ def test_only_the_intended_pairs_collide(name, hanger):
         if (m.geom_contype[a] & m.geom_conaffinity[b]) or (m.geom_contype[b]
                                                             & m.geom_conaffinity[a]):
             pairs.add(tuple(sorted((kind[a], kind[b]))))
-    assert pairs == {("floor", "object"), ("object", "support"), ("finger", "grip")}
+    assert pairs == {("floor", "object"), ("object", "support"), ("finger", "grip"),
+                     ("handle", "thumb")}
 
 
 @pytest.mark.parametrize("name", ["hanger", "wheel"])
 def test_an_object_resting_on_a_support_touches_nothing(name, hanger):
-    """The seat law holds a resting object; its geometry is clear of the support's."""
+    """The seat law holds a resting object; its geometry is clear of the support's. Only a
+    holding human's thumb touches the object (on its handle)."""
     g, sim = hanger if name == "hanger" else (scenario_graph(name), None)
     sim = sim or PandaSim(g)
+    kind = _kinds(sim)
     for k in range(len(g.scenario.supports)):
         for mu in range(4):
             sim.reset(k, state=g.support_state(k, mu))
-            assert sim.data.ncon == 0, g.state_names[g.support_state(k, mu)]
+            pairs = sorted({tuple(sorted((kind[int(c.geom1)], kind[int(c.geom2)])))
+                            for c in sim.data.contact[:sim.data.ncon]})
+            assert set(pairs) <= ({("handle", "thumb")} if mu & HUMAN_BIT else set()), (
+                g.state_names[g.support_state(k, mu)])
 
 
 def test_a_grasp_closes_both_fingers_on_the_grip(hanger):

@@ -118,8 +118,9 @@ def test_simulate_on_the_physics_backend():
     assert m.reward.shape == (1, 1) and not m.truncated.any()
     assert set(m.extras) == {"linear_impulse", "angular_impulse", "linear_impulse_true",
                              "angular_impulse_true", "duration_s", "graph_agrees",
-                             "inference_accuracy", "physical_fault"}
+                             "inference_accuracy", "hold_accuracy", "physical_fault"}
     assert m.extras["graph_agrees"][0, 0] == 1.0 and m.extras["linear_impulse"][0, 0] > 0
+    assert m.extras["hold_accuracy"][0, 0] == 1.0  # the handle sensor read every grasp right
     assert m.extras["inference_accuracy"][0, 0] == 1.0 and m.extras["physical_fault"][0, 0] == 0
     assert m.passive[0, 0] > 0.5 and m.correct[0, 0] > 0  # grasp and let go are correct
 

@@ -115,6 +115,8 @@ def test_physics_option_keys_are_listed_once():
     ({"randomize": {"object_mass": (0.5, 0.2)}}, "must have low <= high"),
     ({"randomize": {"object_mass": 0.5}}, "must be a (low, high) pair"),
     ({"attempt_invalid": 1}, "'attempt_invalid' must be True or False, got 1"),
+    ({"human_grip_force": 0.0}, "'human_grip_force' must be a number > 0 [N], got 0.0"),
+    ({"handle_noise_n": -1.0}, "'handle_noise_n' must be a number >= 0 [N]"),
 ])
 def test_bad_physics_options_are_refused(physics, message):
     with pytest.raises(ConfigError, match=None) as err:
@@ -127,6 +129,37 @@ def test_bad_physics_options_are_refused(physics, message):
 def test_the_graph_backend_takes_no_physics_options():
     with pytest.raises(ConfigError, match="backend='graph' takes no physics options"):
         gym.make("hri_envs/Hanger-v0", physics={"object_mass": 1.0})
+
+
+def test_the_robot_reads_the_humans_hold_off_the_handle(hanger):
+    """The human grasps on A's seat, waits, lets go: the thumb's touch on the handle is the
+    grip force while they hold and zero once they let go, and the observed state follows it
+    (the wrist alone cannot tell: docs/physics.md)."""
+    g, sim = hanger
+    s = sim.reset(0)
+    seen = []
+    for a_h in (TOGGLE, WAIT, TOGGLE):
+        r = sim.step(s, WAIT, a_h)
+        seen.append((r.human_holds, r.human_holds_sensed, sim.handle.true_force(sim.data)))
+        assert r.graph_agrees and r.fault is None
+        s = r.state
+    grip = sim.params.human_grip_force
+    assert [x[:2] for x in seen] == [(True, True), (True, True), (False, False)]
+    assert seen[0][2] == pytest.approx(grip, rel=0.1) and seen[2][2] == 0.0
+
+
+def test_a_grip_the_handle_cannot_feel_misleads_the_robot(hanger):
+    """A human whose thumb presses below the robot's 2 N threshold holds the hanger on A's
+    seat, but the robot observes A with nobody holding: the graph's state and the physics'
+    observation part, and the human's grasp is not inferred."""
+    g, _ = hanger
+    sim = PandaSim(g, options={"human_grip_force": 1.0})
+    s = sim.reset(0)
+    r = sim.step(s, WAIT, TOGGLE)
+    assert r.human_holds and not r.human_holds_sensed
+    assert sim.handle.true_force(sim.data) == pytest.approx(1.0, rel=0.1)
+    assert r.state == s != r.graph_next and not r.graph_agrees
+    assert r.human_action == WAIT  # the robot did not see the grasp
 
 
 def test_physics_options_set_the_episode(hanger):

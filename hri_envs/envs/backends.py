@@ -80,6 +80,8 @@ PHYSICS_PARAMETERS: dict[str, tuple[str, bool, str]] = {
     "sensor_delay_s": ("s", False, "delay of the wrist sensor"),
     "object_mass": ("kg", True, "the object's true mass"),
     "hold_force": ("N", False, "the supports' detent force"),
+    "human_grip_force": ("N", True, "how hard the human's thumb squeezes the handle"),
+    "handle_noise_n": ("N", False, "std of the handle's touch sensor reading"),
 }
 
 BACKENDS: dict[str, BackendSpec] = {}

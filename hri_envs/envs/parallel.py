@@ -141,7 +141,8 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
       (``{key: (low, high)}`` per episode), ``attempt_invalid`` (bool: the robot
       physically tries actions the graph refuses) and the parameters ``human_stiffness`` [N/m],
       ``human_force`` [N], ``human_noise`` [N], ``human_delay_s``, ``sensor_noise_n``,
-      ``sensor_bias_n``, ``sensor_delay_s``, ``object_mass`` [kg], ``hold_force`` [N];
+      ``sensor_bias_n``, ``sensor_delay_s``, ``object_mass`` [kg], ``hold_force`` [N],
+      ``human_grip_force`` [N], ``handle_noise_n`` [N];
       e.g. ``{"video_path": "ep{episode}.gif", "video_fps": 10}`` records every episode;
     - ``render_intention``: show ι in renderings (default hidden).
 

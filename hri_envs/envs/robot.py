@@ -129,7 +129,8 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
       ``attempt_invalid`` (the robot physically tries actions the graph refuses) and the
       parameters ``human_stiffness``, ``human_force``, ``human_noise``, ``human_delay_s``,
       ``human_mass``, ``sensor_noise_n``, ``sensor_bias_n``, ``sensor_delay_s``,
-      ``object_mass``, ``hold_force``; e.g. ``{"preset": "weak-human"}``.
+      ``object_mass``, ``hold_force``, ``human_grip_force``, ``handle_noise_n``; e.g.
+      ``{"preset": "weak-human"}``.
 
     The human draws from its own generator, seeded from the env's ``np_random`` at every
     reset, so ``reset(seed=...)`` reproduces the episode.

@@ -35,7 +35,8 @@ class PhysicsBatch(BatchBackend):
     from the true wrench),
     ``duration_s`` (simulated seconds), ``graph_agrees`` (the fraction of the episode's
     steps whose observed next state is the graph's prediction), ``inference_accuracy``
-    (the fraction whose inferred human action is the true one) and ``physical_fault``
+    (the fraction whose inferred human action is the true one), ``hold_accuracy`` (the
+    fraction whose handle sensor told rightly whether the human holds) and ``physical_fault``
     (1 if the episode ended in a physical failure, which earns that step r⁻). Any fault, or
     a start the robot cannot reach, truncates the run's episode.
 

@@ -148,6 +148,11 @@ class PhysicsDesign:
         grasp_tolerance_m, grasp_tolerance_rad: After closing, the hand's grip frame must lie
             within this distance and angle of the object's grip (the weld holds the object
             where the grip is meant to be); else the grasp fails (fault ``grasp_failed``).
+        human_grip_force: How hard [N] the human's thumb squeezes the handle while they hold
+            it (the thumb's position actuator saturates there).
+        handle_noise_n: Standard deviation [N] of the handle's touch sensor reading.
+        hold_touch_min_n: The robot takes the human to hold the object when the handle's
+            touch sensor reads more than this [N] as a step ends.
         grasp_contact_force_n: After closing, each finger must press on the object's grip
             geometry with at least this normal force [N] for the grasp to hold (weld on);
             else the grasp fails (fault ``grasp_failed``).
@@ -233,6 +238,10 @@ class PhysicsDesign:
     sensor_delay_s: float = 0.0
     sensor_torque_lever_m: float = 0.1
     human_delay_s: float = 0.0
+    # The handle's touch sensor: how the robot knows that the human holds (sensing.HandleSensor).
+    human_grip_force: float = 6.0
+    handle_noise_n: float = 0.2
+    hold_touch_min_n: float = 2.0
     # Physical failures (PandaSim.step, _run, _robot_toggle).
     grasp_tolerance_m: float = 0.015
     grasp_tolerance_rad: float = 0.25

@@ -35,23 +35,25 @@ __all__ = ["STEP_FIGURES", "STEP_MEANS", "PhysicsEpisode", "step_figures"]
 #: step instead); the physics' ``info`` and the benchmark's extras (PhysicsBatch) share them.
 STEP_FIGURES: tuple[str, ...] = ("linear_impulse", "angular_impulse", "linear_impulse_true",
                                  "angular_impulse_true", "duration_s", "graph_agrees",
-                                 "inference_accuracy", "physical_fault")
-STEP_MEANS: tuple[str, ...] = ("graph_agrees", "inference_accuracy")
+                                 "inference_accuracy", "hold_accuracy", "physical_fault")
+STEP_MEANS: tuple[str, ...] = ("graph_agrees", "inference_accuracy", "hold_accuracy")
 
 
 def step_figures(res: StepResult, human_true: int) -> dict[str, float]:
     """One step's figures, keyed as :data:`STEP_FIGURES`.
 
     Impulses [N s, N m s] are the human's wrench integrated over the step, as the wrist
-    sensor sees it and (``_true``) as it was; ``graph_agrees``, ``inference_accuracy`` and
-    ``physical_fault`` are 0/1: the observed next state is the graph's prediction, the
-    inferred human action is ``human_true``, the step ended in a physical failure.
+    sensor sees it and (``_true``) as it was; ``graph_agrees``, ``inference_accuracy``,
+    ``hold_accuracy`` and ``physical_fault`` are 0/1: the observed next state is the graph's
+    prediction, the inferred human action is ``human_true``, the handle's touch sensor told
+    the robot rightly whether the human holds, the step ended in a physical failure.
     """
     return {"linear_impulse": res.linear_impulse, "angular_impulse": res.angular_impulse,
             "linear_impulse_true": res.linear_impulse_true,
             "angular_impulse_true": res.angular_impulse_true, "duration_s": res.duration,
             "graph_agrees": float(res.graph_agrees),
             "inference_accuracy": float(res.human_action == human_true),
+            "hold_accuracy": float(res.human_holds_sensed == res.human_holds),
             "physical_fault": float(res.fault_kind in PHYSICAL_FAULTS)}
 
 
@@ -155,6 +157,8 @@ class PhysicsEpisode(Episode):
             "settled": True if res is None else res.settled,
             "human_action_inferred": self._observed_human,
             "human_action_true": self.last_human if res is not None else WAIT,
+            "human_holds_sensed": False if res is None else res.human_holds_sensed,
+            "human_holds_true": False if res is None else res.human_holds,
             "fault": None if res is None else res.fault_kind,
             **{f"episode_{key}": (value / max(self.steps, 1) if key in STEP_MEANS else value)
                for key, value in tot.items()},

@@ -10,6 +10,11 @@ it. Each joint has a MuJoCo *position actuator*: stiffness ``kp``, damping ``kv`
 run in MuJoCo's C code at every physics step. The arm compensates its own weight
 (``gravcomp``), as a person holds up their arm. While the human holds the object a weld
 equality (``human_grasp``) joins the hand to the object's handle; letting go turns it off.
+The hand's thumb, a pad on a slide joint under the handle, squeezes the handle while the
+human holds (its position actuator saturates at the human's grip force) and opens when they
+let go. The object's handle is instrumented: a ball that only the thumb touches, inside a
+MuJoCo ``touch`` sensor's site (``handle_touch``). That sensor, not the grasp bit, tells the
+robot whether the human holds (:class:`~hri_envs.physics.sensing.HandleSensor`).
 
 At run time (:class:`HumanArm`) the human's reference (:class:`~hri_envs.physics.human.
 SimulatedHuman`) sets the actuators' ``ctrl``: the hand's joint coordinates for the
@@ -29,7 +34,8 @@ import numpy as np
 from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.kinematics import TrajectorySample, cross3, quat_conj, quat_to_mat
 
-__all__ = ["HUMAN_JOINTS", "HumanArm", "add_human_arm"]
+__all__ = ["HANDLE_TOUCH_SENSOR", "HAND_CONTACT_BIT", "HUMAN_JOINTS", "HumanArm",
+           "add_human_arm"]
 
 #: The arm's joints, from the world to the hand.
 HUMAN_JOINTS: tuple[str, ...] = ("human_x", "human_y", "human_z", "human_yaw", "human_pitch",
@@ -42,6 +48,19 @@ _HAND_INERTIA = (2e-4, 2e-4, 2e-4)  # [kg m²] of the hand body
 _HINGE_ARMATURE = 5e-3  # [kg m²] reflected inertia of the wrist (numerical robustness too)
 _FOREARM_M = 0.3  # [m] length of the forearm capsule, towards the human (+x, 30° down)
 _FOREARM_TILT_RAD = np.deg2rad(30.0)
+#: The ``contype`` bit of the thumb pad; the handle ball has it as ``conaffinity`` and
+#: nothing else does, so the thumb touches only the handle (the scene's other bits are 1-16).
+HAND_CONTACT_BIT = 32
+#: Name of the handle's touch sensor.
+HANDLE_TOUCH_SENSOR = "handle_touch"
+_HANDLE_BALL_M = 0.01  # [m] radius of the instrumented handle ball at the handle point
+_TOUCH_SITE_M = 0.014  # [m] radius of the touch sensor's site round it
+_THUMB_HALF = (0.012, 0.01, 0.004)  # [m] the thumb pad, under the handle (hand frame -z)
+_THUMB_OPEN_M = 0.025  # [m] the open thumb's pad lies this far below the ball
+_THUMB_PAST_M = 0.01  # [m] the closed thumb aims this far into the ball: it saturates
+_THUMB_KP = 3000.0  # [N/m] so its force is the grip force (≤ 30 N) once it touches
+_THUMB_MASS_KG = 0.05
+_THUMB_DAMPING = 4.0  # [N s/m] joint damping (implicit in MuJoCo's Euler integrator)
 
 
 def _visual(body: mujoco.MjsBody, **kwargs: object) -> None:
@@ -78,7 +97,24 @@ def add_human_arm(spec: mujoco.MjSpec, design: PhysicsDesign) -> None:
                 rgba=_SKIN)
     _visual(hand, type=cap, fromto=[0.03, 0.045, 0.0, 0.0, 0.05, 0.02], size=[0.01, 0, 0],
             rgba=_SKIN)
-    for name in HUMAN_JOINTS:
+    # The thumb: a pad that slides up (hand frame +z) onto the handle ball from below.
+    thumb = hand.add_body(name="human_thumb", gravcomp=1.0,
+                          pos=[0.0, 0.0, -(_HANDLE_BALL_M + _THUMB_HALF[2])])
+    thumb.mass, thumb.inertia, thumb.explicitinertial = _THUMB_MASS_KG, [1e-5] * 3, True
+    thumb.add_joint(name="human_thumb", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
+                    range=[-_THUMB_OPEN_M, _THUMB_PAST_M], limited=True,
+                    damping=_THUMB_DAMPING)
+    thumb.add_geom(type=box, size=list(_THUMB_HALF), rgba=_SKIN, mass=0.0, condim=1,
+                   contype=HAND_CONTACT_BIT, conaffinity=0)
+    obj = spec.body("object")
+    obj.add_geom(name="handle_ball", type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=design.handle_pos,
+                 size=[_HANDLE_BALL_M, 0, 0], mass=0.0, condim=1, contype=0,
+                 conaffinity=HAND_CONTACT_BIT, group=3, rgba=(0, 0, 0, 0))
+    obj.add_site(name=HANDLE_TOUCH_SENSOR, pos=design.handle_pos, size=[_TOUCH_SITE_M, 0, 0],
+                 group=4)
+    spec.add_sensor(name=HANDLE_TOUCH_SENSOR, type=mujoco.mjtSensor.mjSENS_TOUCH,
+                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname=HANDLE_TOUCH_SENSOR)
+    for name in (*HUMAN_JOINTS, "human_thumb"):
         act = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         act.set_to_position(kp=1.0, kv=1.0)  # gains, strength: HumanArm.apply
         act.forcelimited = True
@@ -118,6 +154,12 @@ class HumanArm:
         self.actuators = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, n)
                                    for n in HUMAN_JOINTS])
         self.weld = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, "human_grasp")
+        self.thumb = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "human_thumb")
+        thumb_joint = jid("human_thumb")
+        self.thumb_qpos = int(model.jnt_qposadr[thumb_joint])
+        self.thumb_dof = int(model.jnt_dofadr[thumb_joint])
+        model.actuator_gainprm[self.thumb, 0] = _THUMB_KP
+        model.actuator_biasprm[self.thumb, 1:3] = (-_THUMB_KP, 0.0)
         self.arm_body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "human_arm")
         self.hand_body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "human_hand")
         self.handle = np.asarray(design.handle_pos, dtype=float)
@@ -156,6 +198,7 @@ class HumanArm:
         m.actuator_forcerange[self.actuators, 0] = -limit
         m.actuator_forcerange[self.actuators, 1] = limit
         m.body_mass[self.arm_body] = design.human_mass
+        m.actuator_forcerange[self.thumb] = (-design.human_grip_force, design.human_grip_force)
         self._set_gains(following=False)
 
     def _set_gains(self, following: bool) -> None:
@@ -191,12 +234,15 @@ class HumanArm:
         data.qpos[self.qpos] = q
         data.qvel[self.dofs] = 0.0
         data.ctrl[self.actuators] = q
+        data.qpos[self.thumb_qpos] = 0.0 if holding else -_THUMB_OPEN_M  # on the ball or open
+        data.qvel[self.thumb_dof] = 0.0
         self.hold(data, holding)
         self._set_gains(following=False)
 
     def hold(self, data: mujoco.MjData, on: bool) -> None:
-        """Grasp (weld on) or let go (weld off)."""
+        """Grasp (weld on, the thumb squeezes the handle) or let go (weld off, thumb open)."""
         data.eq_active[self.weld] = int(on)
+        data.ctrl[self.thumb] = _THUMB_PAST_M if on else -_THUMB_OPEN_M
 
     def drive(self, data: mujoco.MjData, pos: np.ndarray, quat: np.ndarray,
               holding: bool, ref: TrajectorySample | None, noise: np.ndarray) -> None:

@@ -18,6 +18,8 @@ key                    unit     meaning (default: the scenario's design, docs/ph
 ``sensor_delay_s``     s        its delay
 ``object_mass``        kg       the object's true mass (the robot compensates the nominal)
 ``hold_force``         N        the supports' detent force (pull needed to take off)
+``human_grip_force``   N        how hard the human's thumb squeezes the handle
+``handle_noise_n``     N        std of the handle's touch sensor reading
 =====================  =======  ==========================================================
 
 ``attempt_invalid`` (bool, default False): the robot physically tries an action the graph
@@ -41,17 +43,21 @@ __all__ = ["PRESETS", "PhysicsParams", "PhysicsSettings"]
 
 #: Named parameter sets per scenario. ``weak-human``: a partner with a third of the default
 #: stiffness and strength (below the robot's disagreement threshold on the hanger), slower
-#: to react and shakier; ``noisy-sensor``: a cheap, uncalibrated, slow wrist sensor.
+#: to react and shakier, whose grip the handle barely feels (2.5 N against the robot's
+#: 2 N threshold); ``noisy-sensor``: a cheap, uncalibrated, slow wrist sensor and a noisy
+#: handle sensor.
 PRESETS: dict[str, dict[str, dict[str, float]]] = {
     "weak-human": {
         "hanger": {"human_stiffness": 70.0, "human_force": 3.5, "human_noise": 0.8,
-                   "human_delay_s": 0.4},
+                   "human_delay_s": 0.4, "human_grip_force": 2.5},
         "wheel": {"human_stiffness": 100.0, "human_force": 8.0, "human_noise": 2.0,
-                  "human_delay_s": 0.4},
+                  "human_delay_s": 0.4, "human_grip_force": 2.5},
     },
     "noisy-sensor": {
-        "hanger": {"sensor_noise_n": 3.0, "sensor_bias_n": 2.5, "sensor_delay_s": 0.05},
-        "wheel": {"sensor_noise_n": 6.0, "sensor_bias_n": 5.0, "sensor_delay_s": 0.05},
+        "hanger": {"sensor_noise_n": 3.0, "sensor_bias_n": 2.5, "sensor_delay_s": 0.05,
+                   "handle_noise_n": 1.0},
+        "wheel": {"sensor_noise_n": 6.0, "sensor_bias_n": 5.0, "sensor_delay_s": 0.05,
+                  "handle_noise_n": 1.0},
     },
 }
 
@@ -70,6 +76,8 @@ class PhysicsParams:
     sensor_delay_s: float
     object_mass: float
     hold_force: float
+    human_grip_force: float
+    handle_noise_n: float
 
     @classmethod
     def of(cls, design: PhysicsDesign) -> PhysicsParams:
@@ -77,7 +85,7 @@ class PhysicsParams:
         return cls(design.human_stiffness, design.human_force, design.human_noise,
                    design.human_delay_s, design.human_mass, design.sensor_noise_n,
                    design.sensor_bias_n, design.sensor_delay_s, design.object_mass,
-                   design.seat_hold)
+                   design.seat_hold, design.human_grip_force, design.handle_noise_n)
 
     def true_design(self, nominal: PhysicsDesign) -> PhysicsDesign:
         """The nominal design with these parameters (the human's, the seats', the mass)."""
@@ -87,7 +95,7 @@ class PhysicsParams:
                        human_rot_stiffness=nominal.human_rot_stiffness * k,
                        human_force=self.human_force, human_torque=nominal.human_torque * f,
                        human_noise=self.human_noise, human_delay_s=self.human_delay_s,
-                       human_mass=self.human_mass,
+                       human_mass=self.human_mass, human_grip_force=self.human_grip_force,
                        seat_hold=self.hold_force, object_mass=self.object_mass,
                        object_inertia=nominal.object_inertia * (self.object_mass
                                                                 / nominal.object_mass))

@@ -2,14 +2,17 @@
 
 The scene has, in this order of degrees of freedom: the robot (for the wheel three
 prismatic base joints, then) seven arm joints and two fingers, and the object's free
-joint, then the human's arm (:mod:`hri_envs.physics.human_arm`: six actuated joints).
+joint, then the human's arm (:mod:`hri_envs.physics.human_arm`: six actuated joints and
+the thumb).
 Supports are mocap bodies, so the wheel's stands move to each episode's layout without
 recompiling. Contacts are on, and only between the intended pairs (the
 ``contype``/``conaffinity`` bits below): the object's collision geometry and the floor, the
 object's collision geometry and the supports' (hook, peg and rail of the hanger; plates,
-posts and rack peg of the wheel), and the Panda's finger pads and the object's grip
-geometry. The supports still hold a resting object through seat force laws
-(:mod:`hri_envs.physics.seats`; their geometry only stops an object moved through them),
+posts and rack peg of the wheel), the Panda's finger pads and the object's grip
+geometry, and the human's thumb and the object's instrumented handle (bit
+:data:`~hri_envs.physics.human_arm.HAND_CONTACT_BIT`). The supports still hold a resting
+object through seat force laws (:mod:`hri_envs.physics.seats`; their geometry only stops an
+object moved through them),
 the robot through a weld constraint made once both fingers press on the grip geometry, the
 human's hand through a weld constraint while the human holds. The arm and the base are
 driven by joint torques (``motor`` actuators with the Panda's torque limits); the fingers

@@ -18,18 +18,26 @@ The sensor model then adds a constant bias (a random direction per episode, magn
 ``sensor_bias_n``), white noise (``sensor_noise_n`` per control step) and a delay of
 ``sensor_delay_s``; torques get the same, times ``sensor_torque_lever_m``. Without a grasp
 the robot senses nothing of the object: the estimate is zero.
+
+Whether the human holds the object the wrist cannot tell: the human grasps and lets go
+only while a support's seat carries the object, and the seat, not the robot, takes up what
+the hand adds (docs/physics.md). The object's handle is therefore instrumented: a MuJoCo
+``touch`` sensor under the human's thumb (:mod:`~hri_envs.physics.human_arm`), which
+:class:`HandleSensor` reads with white noise.
 """
 
 from __future__ import annotations
 
 from collections import deque
 
+import mujoco
 import numpy as np
 
+from hri_envs.physics.human_arm import HANDLE_TOUCH_SENSOR
 from hri_envs.physics.kinematics import cross3
 from hri_envs.physics.scene import Scene
 
-__all__ = ["SensorModel", "WristSensor"]
+__all__ = ["HandleSensor", "SensorModel", "WristSensor"]
 
 
 class SensorModel:
@@ -143,3 +151,40 @@ class WristSensor:
         w = self.true_wrench
         w[:3], w[3:] = f_ext, t_origin
         return self.model.apply(w)
+
+
+class HandleSensor:
+    """The handle's touch sensor: how hard the human's thumb presses on it, and so whether
+    the human holds the object.
+
+    Args:
+        model: The compiled scene (with :func:`~hri_envs.physics.human_arm.add_human_arm`).
+        threshold_n: The reading [N] above which the robot takes the human to hold.
+
+    Attributes:
+        noise_n: Standard deviation [N] of the reading's white noise.
+        last_n: The last noisy reading [N].
+    """
+
+    def __init__(self, model: mujoco.MjModel, threshold_n: float) -> None:
+        sensor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, HANDLE_TOUCH_SENSOR)
+        self.adr = int(model.sensor_adr[sensor])
+        self.threshold_n = float(threshold_n)
+        self.noise_n = 0.0
+        self.last_n = 0.0
+        self._rng = np.random.default_rng(0)
+
+    def reset(self, rng: np.random.Generator, noise_n: float) -> None:
+        """New episode: the noise's generator and its standard deviation [N]."""
+        self._rng, self.noise_n = rng, float(noise_n)
+        self.last_n = 0.0
+
+    def true_force(self, data: mujoco.MjData) -> float:
+        """The noise-free reading [N]: the thumb's normal force on the handle."""
+        return float(data.sensordata[self.adr])
+
+    def human_holds(self, data: mujoco.MjData) -> bool:
+        """Read the sensor once (noisy) and judge whether the human holds the object."""
+        noise = self.noise_n * self._rng.standard_normal() if self.noise_n > 0.0 else 0.0
+        self.last_n = self.true_force(data) + noise
+        return self.last_n > self.threshold_n

@@ -59,7 +59,7 @@ from hri_envs.physics.observer import StateObserver, infer_human_action
 from hri_envs.physics.options import PhysicsParams, PhysicsSettings
 from hri_envs.physics.scene import build_robot_model, build_scene
 from hri_envs.physics.seats import Seats
-from hri_envs.physics.sensing import SensorModel, WristSensor
+from hri_envs.physics.sensing import HandleSensor, SensorModel, WristSensor
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import (
     BOTH,
@@ -102,6 +102,9 @@ class StepResult(NamedTuple):
         fault: None, or ``"<kind>: <detail>"`` (kinds: :data:`PHYSICAL_FAULTS`,
             "unstable", "ik_failure").
         linear_impulse_true, angular_impulse_true: The same from the human's true wrench.
+        human_holds: The human holds the object as the step ends (their grasp bit).
+        human_holds_sensed: What the robot reads off the handle's touch sensor (it observes
+            this; :class:`~hri_envs.physics.sensing.HandleSensor`).
     """
 
     state: int
@@ -118,6 +121,8 @@ class StepResult(NamedTuple):
     fault: str | None
     linear_impulse_true: float = 0.0
     angular_impulse_true: float = 0.0
+    human_holds: bool = False
+    human_holds_sensed: bool = False
 
     @property
     def fault_kind(self) -> str | None:
@@ -174,6 +179,7 @@ class PandaSim:
         self.sensor = WristSensor(self.scene, SensorModel(
             design.sensor_noise_n, design.sensor_bias_n, design.sensor_delay_s,
             design.sensor_torque_lever_m, self.dt_control))
+        self.handle = HandleSensor(self.model, design.hold_touch_min_n)
         self.params = PhysicsParams.of(design)
         self._apply(self.settings.base)
         n, n_base = len(self.scene.robot_dofs), 3 if design.mobile_base else 0
@@ -269,10 +275,11 @@ class PandaSim:
         mujoco.mj_resetData(model, data)
         self.set_scenario(scenario if scenario is not None else self.graph.scenario)
         rng = rng if rng is not None else np.random.default_rng(0)
-        sensor_rng, options_rng = rng.spawn(2)
+        sensor_rng, options_rng, handle_rng = rng.spawn(3)
         self._apply(self.settings.draw(options_rng))
         self.human.reset(rng)
         self.sensor.reset(sensor_rng)
+        self.handle.reset(handle_rng, self.params.handle_noise_n)
         self.davi.reset()
         s0 = self.graph.support_state(start, 0) if state is None else int(state)
         mu = int(self.graph.grasp[s0])
@@ -385,8 +392,11 @@ class PandaSim:
         self.human.stop()
         pose = self.object_pose()
         grasp = (ROBOT_BIT if self.holding else 0) | (HUMAN_BIT if self.human.holding else 0)
+        # The robot knows its own grasp and reads the human's off the handle's touch sensor.
+        human_seen = self.handle.human_holds(self.data)
         seat = self.seats.engaged(pose.pos, pose.quat)
-        obs = self.observer.observe(pose.pos, pose.quat, seat, grasp)
+        obs = self.observer.observe(pose.pos, pose.quat, seat,
+                                    (grasp & ROBOT_BIT) | (HUMAN_BIT if human_seen else 0))
         design = self.design
         far = (obs.position_error > design.timeout_fault_factor * design.position_tolerance
                or obs.angle_error > design.timeout_fault_factor * design.angle_tolerance)
@@ -408,7 +418,7 @@ class PandaSim:
                           float(self.data.time) - t0, float(totals.linear_impulse),
                           float(totals.angular_impulse), yielded, obs.position_error,
                           obs.angle_error, fault, float(totals.linear_impulse_true),
-                          float(totals.angular_impulse_true))
+                          float(totals.angular_impulse_true), self.human.holding, human_seen)
 
     def _motion_target(self, s: int, a: int) -> int:
         """The abstract state whose pose the robot's motion ``a`` aims at from ``s``.
