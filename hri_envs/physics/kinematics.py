@@ -7,6 +7,7 @@ same minimum-jerk time scaling, so the motion starts and ends at rest.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import mujoco
@@ -60,25 +61,35 @@ def quat_to_mat(q: np.ndarray) -> np.ndarray:
 
 def rotation_error(q_target: np.ndarray, q: np.ndarray) -> np.ndarray:
     """World-frame rotation vector [rad] (3,) that turns ``q`` into ``q_target``."""
-    e = quat_mul(q_target, quat_conj(q))
-    if e[0] < 0.0:
-        e = -e
-    s = float(np.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3]))
+    conj = np.empty(4)
+    mujoco.mju_negQuat(conj, np.ascontiguousarray(q, float))
+    e = np.empty(4)
+    mujoco.mju_mulQuat(e, np.ascontiguousarray(q_target, float), conj)
+    w, x, y, z = e.tolist()
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    s = math.sqrt(x * x + y * y + z * z)
     if s < 1e-12:
-        return 2.0 * e[1:]
-    return (2.0 * np.arctan2(s, e[0]) / s) * e[1:]
+        return np.array([2.0 * x, 2.0 * y, 2.0 * z])
+    # numpy's arctan2, not math.atan2: the two differ in the last bit for some arguments.
+    k = 2.0 * float(np.arctan2(s, w)) / s
+    return np.array([k * x, k * y, k * z])
 
 
 def slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
     """Shortest-arc interpolation from ``q0`` (s = 0) to ``q1`` (s = 1)."""
-    dot = float(np.dot(q0, q1))
+    dot = float(q0.dot(q1))
     if dot < 0.0:
         q1, dot = -q1, -dot
     if dot > 0.9995:
         q = q0 + s * (q1 - q0)
-        return q / np.linalg.norm(q)
-    theta = np.arccos(dot)
-    return (np.sin((1 - s) * theta) * q0 + np.sin(s * theta) * q1) / np.sin(theta)
+        return q / math.sqrt(q.dot(q))  # = np.linalg.norm(q), bit for bit
+    theta = float(np.arccos(dot))  # numpy's, like arctan2 above
+    a, b, c = np.sin(np.array([(1 - s) * theta, s * theta, theta])).tolist()
+    w0, x0, y0, z0 = q0.tolist()
+    w1, x1, y1, z1 = q1.tolist()
+    return np.array([(a * w0 + b * w1) / c, (a * x0 + b * x1) / c, (a * y0 + b * y1) / c,
+                     (a * z0 + b * z1) / c])
 
 
 def compose(pose: Pose, pos_local: np.ndarray, quat_local: np.ndarray) -> Pose:
