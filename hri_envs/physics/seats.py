@@ -12,6 +12,8 @@ as off a hook, a peg or a plate; it is captured again when brought back (put on)
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from hri_envs.physics.design import PhysicsDesign
@@ -43,15 +45,35 @@ class Seats:
         self.quat = scenario.orientations[[s.orientation for s in scenario.supports]]  # (K, 4)
         out = np.array([s.mounting - s.position for s in scenario.supports])
         self.exit = out / np.linalg.norm(out, axis=1, keepdims=True)  # (K, 3)
+        self._seat_xyz = self.pos.tolist()  # plain floats for the quick distance test
+
+    def near(self, pos: np.ndarray) -> bool:
+        """Whether the object's origin ``pos`` (3,) is within twice the capture distance
+        of some seat: a cheap necessary condition of :meth:`engaged`.
+
+        Captured means ``|along| < capture`` and ``across² < capture²``, so the squared
+        distance ``along² + across²`` is below ``2 capture²``; the test keeps a margin of
+        2 (``4 capture²``) far beyond any rounding, so it never misses a capture.
+        """
+        x, y, z = pos.tolist()
+        limit = 4.0 * self.capture * self.capture
+        for sx, sy, sz in self._seat_xyz:
+            dx, dy, dz = sx - x, sy - y, sz - z
+            if dx * dx + dy * dy + dz * dz < limit:
+                return True
+        return False
 
     def engaged(self, pos: np.ndarray, quat: np.ndarray) -> int:
         """The support whose seat holds the object, or -1."""
+        if not self.near(pos):
+            return -1
         e = self.pos - pos  # (K, 3)
         along = -(e * self.exit).sum(axis=1)  # > 0: out of the seat
         across2 = (e * e).sum(axis=1) - along * along
         cap = self.capture
         for k in np.flatnonzero((np.abs(along) < cap) & (across2 < cap * cap)):
-            if np.linalg.norm(rotation_error(self.quat[k], quat)) < self.max_angle:
+            r = rotation_error(self.quat[k], quat)
+            if math.sqrt(r.dot(r)) < self.max_angle:  # = np.linalg.norm(r), bit for bit
                 return int(k)
         return -1
 
