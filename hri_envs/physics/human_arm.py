@@ -27,7 +27,7 @@ import mujoco
 import numpy as np
 
 from hri_envs.physics.design import PhysicsDesign
-from hri_envs.physics.kinematics import TrajectorySample, cross3, quat_conj, quat_to_mat
+from hri_envs.physics.kinematics import TrajectorySample, quat_conj, quat_to_mat
 
 __all__ = ["HUMAN_JOINTS", "HumanArm", "add_human_arm"]
 
@@ -238,8 +238,14 @@ class HumanArm:
             w[:] = 0.0
             return w
         f = data.actuator_force[self.actuators]
-        w[:3] = f[:3]  # the slides are world-aligned
         axes = data.xaxis[self.joints[3:]]  # (3, 3) world axes of the wrist hinges
-        w[3:] = f[3:] @ axes
-        w[3:] += cross3(data.xpos[self.hand_body] - obj_pos, f[:3])
+        t0, t1, t2 = f[3:].dot(axes).tolist()
+        # The slides are world-aligned: their forces are the hand's force. The lever's
+        # moment r × f on plain floats, element by element as numpy would.
+        fx, fy, fz = f[:3].tolist()
+        hx, hy, hz = data.xpos[self.hand_body].tolist()
+        ox, oy, oz = obj_pos.tolist()
+        rx, ry, rz = hx - ox, hy - oy, hz - oz
+        w[:] = (fx, fy, fz, t0 + (ry * fz - rz * fy), t1 + (rz * fx - rx * fz),
+                t2 + (rx * fy - ry * fx))
         return w
