@@ -79,15 +79,16 @@ def rotation_error(q_target: np.ndarray, q: np.ndarray) -> np.ndarray:
 def slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
     """Shortest-arc interpolation from ``q0`` (s = 0) to ``q1`` (s = 1)."""
     dot = float(q0.dot(q1))
+    w0, x0, y0, z0 = q0.tolist()
+    w1, x1, y1, z1 = q1.tolist()
     if dot < 0.0:
-        q1, dot = -q1, -dot
+        w1, x1, y1, z1, dot = -w1, -x1, -y1, -z1, -dot
     if dot > 0.9995:
-        q = q0 + s * (q1 - q0)
+        q = np.array([w0 + s * (w1 - w0), x0 + s * (x1 - x0), y0 + s * (y1 - y0),
+                      z0 + s * (z1 - z0)])
         return q / math.sqrt(q.dot(q))  # = np.linalg.norm(q), bit for bit
     theta = float(np.arccos(dot))  # numpy's, like arctan2 above
     a, b, c = np.sin(np.array([(1 - s) * theta, s * theta, theta])).tolist()
-    w0, x0, y0, z0 = q0.tolist()
-    w1, x1, y1, z1 = q1.tolist()
     return np.array([(a * w0 + b * w1) / c, (a * x0 + b * x1) / c, (a * y0 + b * y1) / c,
                      (a * z0 + b * z1) / c])
 
@@ -128,12 +129,16 @@ class StraightLine:
                             min_duration)
         self.direction = self.delta / distance if distance > 1e-9 else np.zeros(3)
         self.axis = self.rotvec / angle if angle > 1e-9 else np.zeros(3)
+        # Plain floats for sample(), which runs every control period.
+        self._start = (*start.pos.tolist(), *self.delta.tolist(), *self.rotvec.tolist())
 
     def sample(self, t: float) -> TrajectorySample:
         """The reference at time ``t`` [s] after the start (clamped to the ends)."""
         tau = min(max(t / self.duration, 0.0), 1.0)
         s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau * tau)
         ds = 30.0 * tau * tau * (1.0 - tau) ** 2 / self.duration
-        return TrajectorySample(self.start.pos + s * self.delta,
+        p0, p1, p2, d0, d1, d2, r0, r1, r2 = self._start
+        return TrajectorySample(np.array([p0 + s * d0, p1 + s * d1, p2 + s * d2]),
                                 slerp(self.start.quat, self.goal.quat, s),
-                                ds * self.delta, ds * self.rotvec)
+                                np.array([ds * d0, ds * d1, ds * d2]),
+                                np.array([ds * r0, ds * r1, ds * r2]))
