@@ -134,6 +134,8 @@ class HumanArm:
         self._lead = np.zeros(6)
         self._rates = np.zeros(6)
         self._lever = np.zeros(3)
+        self._rot_flat = np.zeros(9)
+        self._rot = self._rot_flat.reshape(3, 3)  # a view: mju_quat2Mat fills it
         self.following = False
         m = model.eq_data[self.weld]
         m[:] = 0.0
@@ -173,16 +175,17 @@ class HumanArm:
         (``pos``, ``quat``): the handle's world position [m] and the hand's yaw, pitch,
         roll [rad], written into ``out`` and clipped to the workspace.
         """
-        rot = quat_to_mat(quat)
+        rot = self._rot
+        mujoco.mju_quat2Mat(self._rot_flat, np.ascontiguousarray(quat, float))
         lever = self._lever
-        np.matmul(rot, self.handle, out=lever)  # the handle from the object's origin
+        rot.dot(self.handle, out=lever)  # the handle from the object's origin
         out[:3] = pos + lever
-        r = rot @ self._rest_t  # the hand's orientation in the world
-        out[3] = np.arctan2(r[1, 0], r[0, 0])
-        out[4] = np.arcsin(min(max(-r[2, 0], -1.0), 1.0))
-        out[5] = np.arctan2(r[2, 1], r[2, 2])
-        np.clip(out, self._lo, self._hi, out=out)
-        return out
+        r = rot.dot(self._rest_t).tolist()  # the hand's orientation in the world
+        # One call for both yaw and roll (numpy's arctan2 and arcsin, as before).
+        out[3], out[5] = np.arctan2((r[1][0], r[2][1]), (r[0][0], r[2][2])).tolist()
+        out[4] = np.arcsin(min(max(-r[2][0], -1.0), 1.0))
+        np.maximum(out, self._lo, out=out)  # = np.clip(out, lo, hi)
+        return np.minimum(out, self._hi, out=out)
 
     def place(self, data: mujoco.MjData, pos: np.ndarray, quat: np.ndarray,
               holding: bool) -> None:
@@ -225,7 +228,7 @@ class HumanArm:
         rates[0] = ref.vel[0] + w[1] * r[2] - w[2] * r[1]
         rates[1] = ref.vel[1] + w[2] * r[0] - w[0] * r[2]
         rates[2] = ref.vel[2] + w[0] * r[1] - w[1] * r[0]
-        rates[3:] = data.xaxis[self.joints[3:]] @ ref.angvel  # exact at zero pitch
+        rates[3:] = data.xaxis[self.joints[3:]].dot(ref.angvel)  # exact at zero pitch
         ctrl += self._lead * rates + self._noise_scale * noise
         data.ctrl[self.actuators] = ctrl
 
