@@ -131,14 +131,24 @@ class StraightLine:
         self.axis = self.rotvec / angle if angle > 1e-9 else np.zeros(3)
         # Plain floats for sample(), which runs every control period.
         self._start = (*start.pos.tolist(), *self.delta.tolist(), *self.rotvec.tolist())
+        self._end: TrajectorySample | None = None  # the sample at t >= duration, once made
 
     def sample(self, t: float) -> TrajectorySample:
-        """The reference at time ``t`` [s] after the start (clamped to the ends)."""
+        """The reference at time ``t`` [s] after the start (clamped to the ends).
+
+        From ``duration`` on the sample is the goal at rest, the same arrays each call
+        (read-only: do not modify them).
+        """
+        if t >= self.duration and self._end is not None:
+            return self._end
         tau = min(max(t / self.duration, 0.0), 1.0)
         s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau * tau)
         ds = 30.0 * tau * tau * (1.0 - tau) ** 2 / self.duration
         p0, p1, p2, d0, d1, d2, r0, r1, r2 = self._start
-        return TrajectorySample(np.array([p0 + s * d0, p1 + s * d1, p2 + s * d2]),
-                                slerp(self.start.quat, self.goal.quat, s),
-                                np.array([ds * d0, ds * d1, ds * d2]),
-                                np.array([ds * r0, ds * r1, ds * r2]))
+        sample = TrajectorySample(np.array([p0 + s * d0, p1 + s * d1, p2 + s * d2]),
+                                  slerp(self.start.quat, self.goal.quat, s),
+                                  np.array([ds * d0, ds * d1, ds * d2]),
+                                  np.array([ds * r0, ds * r1, ds * r2]))
+        if t >= self.duration:  # tau = 1 from here on: keep it (t / duration >= 1 exactly)
+            self._end = sample
+        return sample
