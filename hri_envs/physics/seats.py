@@ -45,36 +45,23 @@ class Seats:
         self.quat = scenario.orientations[[s.orientation for s in scenario.supports]]  # (K, 4)
         out = np.array([s.mounting - s.position for s in scenario.supports])
         self.exit = out / np.linalg.norm(out, axis=1, keepdims=True)  # (K, 3)
-        self._seat_xyz = self.pos.tolist()  # plain floats for the quick distance test
-
-    def near(self, pos: np.ndarray) -> bool:
-        """Whether the object's origin ``pos`` (3,) is within twice the capture distance
-        of some seat: a cheap necessary condition of :meth:`engaged`.
-
-        Captured means ``|along| < capture`` and ``across² < capture²``, so the squared
-        distance ``along² + across²`` is below ``2 capture²``; the test keeps a margin of
-        2 (``4 capture²``) far beyond any rounding, so it never misses a capture.
-        """
-        x, y, z = pos.tolist()
-        limit = 4.0 * self.capture * self.capture
-        for sx, sy, sz in self._seat_xyz:
-            dx, dy, dz = sx - x, sy - y, sz - z
-            if dx * dx + dy * dy + dz * dz < limit:
-                return True
-        return False
+        # Plain floats for engaged(), which runs every control period.
+        self._seats = list(zip(self.pos.tolist(), self.exit.tolist(), strict=True))
 
     def engaged(self, pos: np.ndarray, quat: np.ndarray) -> int:
         """The support whose seat holds the object, or -1."""
-        if not self.near(pos):
-            return -1
-        e = self.pos - pos  # (K, 3)
-        along = -(e * self.exit).sum(axis=1)  # > 0: out of the seat
-        across2 = (e * e).sum(axis=1) - along * along
+        # Per seat: e = seat - pos, along = -e·d (> 0: out of the seat), across² = |e|² -
+        # along². Plain floats, summed left to right as numpy's row sums of three are.
+        x, y, z = pos.tolist()
         cap = self.capture
-        for k in np.flatnonzero((np.abs(along) < cap) & (across2 < cap * cap)):
-            r = rotation_error(self.quat[k], quat)
-            if math.sqrt(r.dot(r)) < self.max_angle:  # = np.linalg.norm(r), bit for bit
-                return int(k)
+        cap2 = cap * cap
+        for k, ((sx, sy, sz), (nx, ny, nz)) in enumerate(self._seats):
+            ex, ey, ez = sx - x, sy - y, sz - z
+            along = -(ex * nx + ey * ny + ez * nz)
+            if abs(along) < cap and (ex * ex + ey * ey + ez * ez) - along * along < cap2:
+                r = rotation_error(self.quat[k], quat)
+                if math.sqrt(r.dot(r)) < self.max_angle:  # = np.linalg.norm(r), bit for bit
+                    return k
         return -1
 
     def wrench(self, k: int, pos: np.ndarray, quat: np.ndarray, vel: np.ndarray,
