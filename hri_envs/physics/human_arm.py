@@ -132,7 +132,6 @@ class HumanArm:
         self._follow_damping = np.ones(6)
         self._noise_scale = np.zeros(6)
         self._lead = np.zeros(6)
-        self._rates = np.zeros(6)
         self._lever = np.zeros(3)
         self._rot_flat = np.zeros(9)
         self._rot = self._rot_flat.reshape(3, 3)  # a view: mju_quat2Mat fills it
@@ -223,13 +222,17 @@ class HumanArm:
             data.ctrl[self.actuators] = self.targets(pos, quat, self._ctrl)
             return
         ctrl = self.targets(ref.pos, ref.quat, self._ctrl)
-        rates = self._rates  # the hand's velocity: the handle's, and ω on the wrist's axes
-        w, r = ref.angvel, self._lever  # the handle's velocity: v + ω × r
-        rates[0] = ref.vel[0] + w[1] * r[2] - w[2] * r[1]
-        rates[1] = ref.vel[1] + w[2] * r[0] - w[0] * r[2]
-        rates[2] = ref.vel[2] + w[0] * r[1] - w[1] * r[0]
-        rates[3:] = data.xaxis[self.joints[3:]].dot(ref.angvel)  # exact at zero pitch
-        ctrl += self._lead * rates + self._noise_scale * noise
+        # The hand's velocity: the handle's (v + ω × r), and ω on the wrist's axes (exact at
+        # zero pitch); then ctrl += lead rates + noise scale noise. Plain floats, element by
+        # element as numpy would; the wrist's product stays a BLAS call.
+        v0, v1, v2 = ref.vel.tolist()
+        w0, w1, w2 = ref.angvel.tolist()
+        r0, r1, r2 = self._lever.tolist()
+        rates = [v0 + w1 * r2 - w2 * r1, v1 + w2 * r0 - w0 * r2, v2 + w0 * r1 - w1 * r0,
+                 *data.xaxis[self.joints[3:]].dot(ref.angvel).tolist()]
+        ctrl[:] = [c + (k * q + s * n) for c, k, q, s, n in zip(
+            ctrl.tolist(), self._lead.tolist(), rates, self._noise_scale.tolist(),
+            noise.tolist(), strict=True)]
         data.ctrl[self.actuators] = ctrl
 
     def wrench(self, data: mujoco.MjData, obj_pos: np.ndarray) -> np.ndarray:
