@@ -11,6 +11,8 @@ position actuators have the human's stiffness, damping and force limit. A human 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from hri_envs.physics.design import PhysicsDesign
@@ -67,9 +69,11 @@ class SimulatedHuman:
         if self.plan is None:
             return True
         goal = self.plan.goal
-        return bool(np.linalg.norm(goal.pos - pos) < self.design.position_tolerance
-                    and np.linalg.norm(rotation_error(goal.quat, quat))
-                    < self.design.angle_tolerance)
+        d = goal.pos - pos
+        if math.sqrt(d.dot(d)) >= self.design.position_tolerance:  # = np.linalg.norm(d)
+            return False
+        r = rotation_error(goal.quat, quat)
+        return math.sqrt(r.dot(r)) < self.design.angle_tolerance
 
     def advance(self, dt: float) -> TrajectorySample | None:
         """The object-frame reference for the next ``dt`` [s], or None to follow passively.
@@ -86,5 +90,9 @@ class SimulatedHuman:
         self.t += dt
         tau_n = self.design.human_noise_time_s
         a = min(dt / tau_n, 1.0)
-        self.noise += -self.noise * a + np.sqrt(2.0 * a) * self.rng.standard_normal(6)
+        # n += -n a + √(2a) z, element by element on plain floats (the same numbers).
+        k = math.sqrt(2.0 * a)
+        z = self.rng.standard_normal(6).tolist()
+        self.noise[:] = [n + (-n * a + k * zi) for n, zi in zip(self.noise.tolist(), z,
+                                                                   strict=True)]
         return ref

@@ -32,7 +32,7 @@ import mujoco
 import numpy as np
 
 from hri_envs.physics.design import PhysicsDesign
-from hri_envs.physics.kinematics import TrajectorySample, cross3, quat_conj, quat_to_mat
+from hri_envs.physics.kinematics import TrajectorySample, quat_conj, quat_to_mat
 
 __all__ = ["HANDLE_TOUCH_SENSOR", "HAND_CONTACT_BIT", "HUMAN_JOINTS", "HumanArm",
            "add_human_arm"]
@@ -174,8 +174,9 @@ class HumanArm:
         self._follow_damping = np.ones(6)
         self._noise_scale = np.zeros(6)
         self._lead = np.zeros(6)
-        self._rates = np.zeros(6)
         self._lever = np.zeros(3)
+        self._rot_flat = np.zeros(9)
+        self._rot = self._rot_flat.reshape(3, 3)  # a view: mju_quat2Mat fills it
         self.following = False
         m = model.eq_data[self.weld]
         m[:] = 0.0
@@ -216,16 +217,17 @@ class HumanArm:
         (``pos``, ``quat``): the handle's world position [m] and the hand's yaw, pitch,
         roll [rad], written into ``out`` and clipped to the workspace.
         """
-        rot = quat_to_mat(quat)
+        rot = self._rot
+        mujoco.mju_quat2Mat(self._rot_flat, np.ascontiguousarray(quat, float))
         lever = self._lever
-        np.matmul(rot, self.handle, out=lever)  # the handle from the object's origin
+        rot.dot(self.handle, out=lever)  # the handle from the object's origin
         out[:3] = pos + lever
-        r = rot @ self._rest_t  # the hand's orientation in the world
-        out[3] = np.arctan2(r[1, 0], r[0, 0])
-        out[4] = np.arcsin(min(max(-r[2, 0], -1.0), 1.0))
-        out[5] = np.arctan2(r[2, 1], r[2, 2])
-        np.clip(out, self._lo, self._hi, out=out)
-        return out
+        r = rot.dot(self._rest_t).tolist()  # the hand's orientation in the world
+        # One call for both yaw and roll (numpy's arctan2 and arcsin, as before).
+        out[3], out[5] = np.arctan2((r[1][0], r[2][1]), (r[0][0], r[2][2])).tolist()
+        out[4] = np.arcsin(min(max(-r[2][0], -1.0), 1.0))
+        np.maximum(out, self._lo, out=out)  # = np.clip(out, lo, hi)
+        return np.minimum(out, self._hi, out=out)
 
     def place(self, data: mujoco.MjData, pos: np.ndarray, quat: np.ndarray,
               holding: bool) -> None:
@@ -266,13 +268,17 @@ class HumanArm:
             data.ctrl[self.actuators] = self.targets(pos, quat, self._ctrl)
             return
         ctrl = self.targets(ref.pos, ref.quat, self._ctrl)
-        rates = self._rates  # the hand's velocity: the handle's, and ω on the wrist's axes
-        w, r = ref.angvel, self._lever  # the handle's velocity: v + ω × r
-        rates[0] = ref.vel[0] + w[1] * r[2] - w[2] * r[1]
-        rates[1] = ref.vel[1] + w[2] * r[0] - w[0] * r[2]
-        rates[2] = ref.vel[2] + w[0] * r[1] - w[1] * r[0]
-        rates[3:] = data.xaxis[self.joints[3:]] @ ref.angvel  # exact at zero pitch
-        ctrl += self._lead * rates + self._noise_scale * noise
+        # The hand's velocity: the handle's (v + ω × r), and ω on the wrist's axes (exact at
+        # zero pitch); then ctrl += lead rates + noise scale noise. Plain floats, element by
+        # element as numpy would; the wrist's product stays a BLAS call.
+        v0, v1, v2 = ref.vel.tolist()
+        w0, w1, w2 = ref.angvel.tolist()
+        r0, r1, r2 = self._lever.tolist()
+        rates = [v0 + w1 * r2 - w2 * r1, v1 + w2 * r0 - w0 * r2, v2 + w0 * r1 - w1 * r0,
+                 *data.xaxis[self.joints[3:]].dot(ref.angvel).tolist()]
+        ctrl[:] = [c + (k * q + s * n) for c, k, q, s, n in zip(
+            ctrl.tolist(), self._lead.tolist(), rates, self._noise_scale.tolist(),
+            noise.tolist(), strict=True)]
         data.ctrl[self.actuators] = ctrl
 
     def wrench(self, data: mujoco.MjData, obj_pos: np.ndarray) -> np.ndarray:
@@ -284,8 +290,14 @@ class HumanArm:
             w[:] = 0.0
             return w
         f = data.actuator_force[self.actuators]
-        w[:3] = f[:3]  # the slides are world-aligned
         axes = data.xaxis[self.joints[3:]]  # (3, 3) world axes of the wrist hinges
-        w[3:] = f[3:] @ axes
-        w[3:] += cross3(data.xpos[self.hand_body] - obj_pos, f[:3])
+        t0, t1, t2 = f[3:].dot(axes).tolist()
+        # The slides are world-aligned: their forces are the hand's force. The lever's
+        # moment r × f on plain floats, element by element as numpy would.
+        fx, fy, fz = f[:3].tolist()
+        hx, hy, hz = data.xpos[self.hand_body].tolist()
+        ox, oy, oz = obj_pos.tolist()
+        rx, ry, rz = hx - ox, hy - oy, hz - oz
+        w[:] = (fx, fy, fz, t0 + (ry * fz - rz * fy), t1 + (rz * fx - rx * fz),
+                t2 + (rx * fy - ry * fx))
         return w

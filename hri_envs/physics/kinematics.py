@@ -7,6 +7,7 @@ same minimum-jerk time scaling, so the motion starts and ends at rest.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import mujoco
@@ -60,25 +61,36 @@ def quat_to_mat(q: np.ndarray) -> np.ndarray:
 
 def rotation_error(q_target: np.ndarray, q: np.ndarray) -> np.ndarray:
     """World-frame rotation vector [rad] (3,) that turns ``q`` into ``q_target``."""
-    e = quat_mul(q_target, quat_conj(q))
-    if e[0] < 0.0:
-        e = -e
-    s = float(np.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3]))
+    conj = np.empty(4)
+    mujoco.mju_negQuat(conj, np.ascontiguousarray(q, float))
+    e = np.empty(4)
+    mujoco.mju_mulQuat(e, np.ascontiguousarray(q_target, float), conj)
+    w, x, y, z = e.tolist()
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    s = math.sqrt(x * x + y * y + z * z)
     if s < 1e-12:
-        return 2.0 * e[1:]
-    return (2.0 * np.arctan2(s, e[0]) / s) * e[1:]
+        return np.array([2.0 * x, 2.0 * y, 2.0 * z])
+    # numpy's arctan2, not math.atan2: the two differ in the last bit for some arguments.
+    k = 2.0 * float(np.arctan2(s, w)) / s
+    return np.array([k * x, k * y, k * z])
 
 
 def slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
     """Shortest-arc interpolation from ``q0`` (s = 0) to ``q1`` (s = 1)."""
-    dot = float(np.dot(q0, q1))
+    dot = float(q0.dot(q1))
+    w0, x0, y0, z0 = q0.tolist()
+    w1, x1, y1, z1 = q1.tolist()
     if dot < 0.0:
-        q1, dot = -q1, -dot
+        w1, x1, y1, z1, dot = -w1, -x1, -y1, -z1, -dot
     if dot > 0.9995:
-        q = q0 + s * (q1 - q0)
-        return q / np.linalg.norm(q)
-    theta = np.arccos(dot)
-    return (np.sin((1 - s) * theta) * q0 + np.sin(s * theta) * q1) / np.sin(theta)
+        q = np.array([w0 + s * (w1 - w0), x0 + s * (x1 - x0), y0 + s * (y1 - y0),
+                      z0 + s * (z1 - z0)])
+        return q / math.sqrt(q.dot(q))  # = np.linalg.norm(q), bit for bit
+    theta = float(np.arccos(dot))  # numpy's, like arctan2 above
+    a, b, c = np.sin(np.array([(1 - s) * theta, s * theta, theta])).tolist()
+    return np.array([(a * w0 + b * w1) / c, (a * x0 + b * x1) / c, (a * y0 + b * y1) / c,
+                     (a * z0 + b * z1) / c])
 
 
 def compose(pose: Pose, pos_local: np.ndarray, quat_local: np.ndarray) -> Pose:
@@ -117,12 +129,26 @@ class StraightLine:
                             min_duration)
         self.direction = self.delta / distance if distance > 1e-9 else np.zeros(3)
         self.axis = self.rotvec / angle if angle > 1e-9 else np.zeros(3)
+        # Plain floats for sample(), which runs every control period.
+        self._start = (*start.pos.tolist(), *self.delta.tolist(), *self.rotvec.tolist())
+        self._end: TrajectorySample | None = None  # the sample at t >= duration, once made
 
     def sample(self, t: float) -> TrajectorySample:
-        """The reference at time ``t`` [s] after the start (clamped to the ends)."""
+        """The reference at time ``t`` [s] after the start (clamped to the ends).
+
+        From ``duration`` on the sample is the goal at rest, the same arrays each call
+        (read-only: do not modify them).
+        """
+        if t >= self.duration and self._end is not None:
+            return self._end
         tau = min(max(t / self.duration, 0.0), 1.0)
         s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau * tau)
         ds = 30.0 * tau * tau * (1.0 - tau) ** 2 / self.duration
-        return TrajectorySample(self.start.pos + s * self.delta,
-                                slerp(self.start.quat, self.goal.quat, s),
-                                ds * self.delta, ds * self.rotvec)
+        p0, p1, p2, d0, d1, d2, r0, r1, r2 = self._start
+        sample = TrajectorySample(np.array([p0 + s * d0, p1 + s * d1, p2 + s * d2]),
+                                  slerp(self.start.quat, self.goal.quat, s),
+                                  np.array([ds * d0, ds * d1, ds * d2]),
+                                  np.array([ds * r0, ds * r1, ds * r2]))
+        if t >= self.duration:  # tau = 1 from here on: keep it (t / duration >= 1 exactly)
+            self._end = sample
+        return sample

@@ -12,6 +12,8 @@ as off a hook, a peg or a plate; it is captured again when brought back (put on)
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from hri_envs.physics.design import PhysicsDesign
@@ -43,16 +45,23 @@ class Seats:
         self.quat = scenario.orientations[[s.orientation for s in scenario.supports]]  # (K, 4)
         out = np.array([s.mounting - s.position for s in scenario.supports])
         self.exit = out / np.linalg.norm(out, axis=1, keepdims=True)  # (K, 3)
+        # Plain floats for engaged(), which runs every control period.
+        self._seats = list(zip(self.pos.tolist(), self.exit.tolist(), strict=True))
 
     def engaged(self, pos: np.ndarray, quat: np.ndarray) -> int:
         """The support whose seat holds the object, or -1."""
-        e = self.pos - pos  # (K, 3)
-        along = -(e * self.exit).sum(axis=1)  # > 0: out of the seat
-        across2 = (e * e).sum(axis=1) - along * along
+        # Per seat: e = seat - pos, along = -e·d (> 0: out of the seat), across² = |e|² -
+        # along². Plain floats, summed left to right as numpy's row sums of three are.
+        x, y, z = pos.tolist()
         cap = self.capture
-        for k in np.flatnonzero((np.abs(along) < cap) & (across2 < cap * cap)):
-            if np.linalg.norm(rotation_error(self.quat[k], quat)) < self.max_angle:
-                return int(k)
+        cap2 = cap * cap
+        for k, ((sx, sy, sz), (nx, ny, nz)) in enumerate(self._seats):
+            ex, ey, ez = sx - x, sy - y, sz - z
+            along = -(ex * nx + ey * ny + ez * nz)
+            if abs(along) < cap and (ex * ex + ey * ey + ez * ez) - along * along < cap2:
+                r = rotation_error(self.quat[k], quat)
+                if math.sqrt(r.dot(r)) < self.max_angle:  # = np.linalg.norm(r), bit for bit
+                    return k
         return -1
 
     def wrench(self, k: int, pos: np.ndarray, quat: np.ndarray, vel: np.ndarray,

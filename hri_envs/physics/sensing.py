@@ -34,7 +34,6 @@ import mujoco
 import numpy as np
 
 from hri_envs.physics.human_arm import HANDLE_TOUCH_SENSOR
-from hri_envs.physics.kinematics import cross3
 from hri_envs.physics.scene import Scene
 
 __all__ = ["HandleSensor", "SensorModel", "WristSensor"]
@@ -75,12 +74,15 @@ class SensorModel:
             self._queue.append(wrench.copy())
             wrench = (self._queue.popleft() if len(self._queue) > self.delay_steps
                       else self._queue[0])
-        out = wrench + self.bias
-        if self.noise_n > 0.0:
-            noise = self.noise_n * self._rng.standard_normal(6)
-            noise[3:] *= self.lever
-            out += noise
-        return out
+        if self.noise_n <= 0.0:
+            return wrench + self.bias
+        # Element by element what numpy would compute, on plain floats (6 values).
+        k, lever = self.noise_n, self.lever
+        z = self._rng.standard_normal(6).tolist()
+        w = (wrench + self.bias).tolist()
+        return np.array([w[0] + k * z[0], w[1] + k * z[1], w[2] + k * z[2],
+                         w[3] + k * z[3] * lever, w[4] + k * z[4] * lever,
+                         w[5] + k * z[5] * lever])
 
 
 class WristSensor:
@@ -109,20 +111,31 @@ class WristSensor:
         self.object_com = np.asarray(design.object_com, dtype=float)
         self.true_wrench = np.zeros(6)
         self._zero = np.zeros(6)
+        self._hand_weight = tuple(self.hand_weight.tolist())
+        self._object_weight = tuple(self.object_weight.tolist())
+        self._data: object = None
 
     def reset(self, rng: np.random.Generator) -> None:
         """New episode (see :meth:`SensorModel.reset`)."""
         self.model.reset(rng)
         self.true_wrench[:] = 0.0
 
+    def _bind(self, data: object) -> None:
+        """Views into ``data``'s arrays read each control period (their memory is fixed)."""
+        d = data  # mujoco.MjData
+        self._data = data
+        self._rot = d.site_xmat[self.site].reshape(3, 3)  # type: ignore[attr-defined]
+        s = d.sensordata  # type: ignore[attr-defined]
+        self._force = s[self.force_adr:self.force_adr + 3]
+        self._torque = s[self.torque_adr:self.torque_adr + 3]
+        self._site_pos = d.site_xpos[self.site]  # type: ignore[attr-defined]
+        self._hand_com = d.subtree_com[self.hand]  # type: ignore[attr-defined]
+
     def raw(self, data: object) -> tuple[np.ndarray, np.ndarray]:
         """The reading in the world frame: force [N] and torque [N m] about the flange."""
-        d = data  # mujoco.MjData
-        rot = d.site_xmat[self.site].reshape(3, 3)  # type: ignore[attr-defined]
-        s = d.sensordata  # type: ignore[attr-defined]
-        f = rot @ s[self.force_adr:self.force_adr + 3]
-        t = rot @ s[self.torque_adr:self.torque_adr + 3]
-        return f, t
+        if data is not self._data:
+            self._bind(data)
+        return self._rot.dot(self._force), self._rot.dot(self._torque)
 
     def external(self, data: object, holding: bool, obj_pos: np.ndarray,
                  obj_rot: np.ndarray) -> np.ndarray:
@@ -138,19 +151,40 @@ class WristSensor:
             self.true_wrench[:] = 0.0
             return self.model.apply(self._zero)
         f_s, t_s = self.raw(data)
-        d = data
-        p = d.site_xpos[self.site]  # type: ignore[attr-defined]
-        hand_com = d.subtree_com[self.hand]  # type: ignore[attr-defined]
-        obj_com = obj_pos + obj_rot @ self.object_com
         # Statics of the subtree (hand + object): F_parent + Σ m g + F_ext = 0, torques about
-        # the flange likewise; the sensor reads the parent's wrench on the subtree.
-        f_ext = -f_s - self.hand_weight - self.object_weight
-        t_ext = (-t_s - cross3(hand_com - p, self.hand_weight)
-                 - cross3(obj_com - p, self.object_weight))
-        t_origin = t_ext - cross3(obj_pos - p, f_ext)
+        # the flange likewise; the sensor reads the parent's wrench on the subtree. The
+        # 3-vector arithmetic runs on plain floats, element by element as numpy would.
+        fx, fy, fz = f_s.tolist()
+        tx, ty, tz = t_s.tolist()
+        px, py, pz = self._site_pos.tolist()
+        hx, hy, hz = self._hand_com.tolist()
+        ox, oy, oz = obj_pos.tolist()
+        cx, cy, cz = obj_rot.dot(self.object_com).tolist()
+        cx, cy, cz = ox + cx, oy + cy, oz + cz  # the object's centre of mass
+        gx, gy, gz = self._hand_weight
+        wx, wy, wz = self._object_weight
+        f_ext = (-fx - gx - wx, -fy - gy - wy, -fz - gz - wz)
+        a, b = (hx - px, hy - py, hz - pz), (cx - px, cy - py, cz - pz)
+        t_ext = (-tx - _cross0(a, self._hand_weight) - _cross0(b, self._object_weight),
+                 -ty - _cross1(a, self._hand_weight) - _cross1(b, self._object_weight),
+                 -tz - _cross2(a, self._hand_weight) - _cross2(b, self._object_weight))
+        r = (ox - px, oy - py, oz - pz)
         w = self.true_wrench
-        w[:3], w[3:] = f_ext, t_origin
+        w[:] = (*f_ext, t_ext[0] - _cross0(r, f_ext), t_ext[1] - _cross1(r, f_ext),
+                t_ext[2] - _cross2(r, f_ext))
         return self.model.apply(w)
+
+
+def _cross0(a: tuple[float, ...], b: tuple[float, ...]) -> float:
+    return a[1] * b[2] - a[2] * b[1]
+
+
+def _cross1(a: tuple[float, ...], b: tuple[float, ...]) -> float:
+    return a[2] * b[0] - a[0] * b[2]
+
+
+def _cross2(a: tuple[float, ...], b: tuple[float, ...]) -> float:
+    return a[0] * b[1] - a[1] * b[0]
 
 
 class HandleSensor:
