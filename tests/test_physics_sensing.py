@@ -9,7 +9,7 @@ import pytest
 
 import hri_envs  # noqa: F401  (registers the ids)
 from hri_envs.envs.backends import BACKENDS, PHYSICS_PARAMETERS
-from hri_envs.envs.config import check_physics_options
+from hri_envs.envs.config import check_physics_options, scenario_graph
 from hri_envs.errors import ConfigError
 from hri_envs.physics import PandaSim
 from hri_envs.physics.options import PARAMETER_KEYS, PRESETS
@@ -115,7 +115,9 @@ def test_physics_option_keys_are_listed_once():
     ({"randomize": {"object_mass": (0.5, 0.2)}}, "must have low <= high"),
     ({"randomize": {"object_mass": 0.5}}, "must be a (low, high) pair"),
     ({"attempt_invalid": 1}, "'attempt_invalid' must be True or False, got 1"),
-    ({"human_grip_force": 0.0}, "'human_grip_force' must be a number > 0 [N], got 0.0"),
+    ({"human_grip_force": 0.0}, "'human_grip_force' must be a number > 0 and <= 12 [N], got 0.0"),
+    ({"randomize": {"human_grip_force": (2.0, 13.0)}},
+     "randomize['human_grip_force'] high must be a number > 0 and <= 12 [N], got 13.0"),
     ({"handle_noise_n": -1.0}, "'handle_noise_n' must be a number >= 0 [N]"),
 ])
 def test_bad_physics_options_are_refused(physics, message):
@@ -151,7 +153,8 @@ def test_the_robot_reads_the_humans_hold_off_the_handle(hanger):
 def test_a_grip_the_handle_cannot_feel_misleads_the_robot(hanger):
     """A human whose thumb presses below the robot's 2 N threshold holds the hanger on A's
     seat, but the robot observes A with nobody holding: the graph's state and the physics'
-    observation part, and the human's grasp is not inferred."""
+    observation part, and the human's grasp is not inferred. Seeing that state, the human
+    grasps again, and keeps holding (a grasp is not a let-go)."""
     g, _ = hanger
     sim = PandaSim(g, options={"human_grip_force": 1.0})
     s = sim.reset(0)
@@ -160,6 +163,38 @@ def test_a_grip_the_handle_cannot_feel_misleads_the_robot(hanger):
     assert sim.handle.true_force(sim.data) == pytest.approx(1.0, rel=0.1)
     assert r.state == s != r.graph_next and not r.graph_agrees
     assert r.human_action == WAIT  # the robot did not see the grasp
+    r = sim.step(r.state, WAIT, TOGGLE)
+    assert r.human_holds and not r.human_holds_sensed and r.state == s
+
+
+@pytest.mark.parametrize("name", ["hanger", "wheel"])
+def test_the_handle_reads_the_strongest_allowed_grip(name, hanger):
+    """At the option's 12 N maximum the thumb still stops at the handle: the sensor reads
+    the grip, and nothing once the human lets go."""
+    g = hanger[0] if name == "hanger" else scenario_graph(name)
+    sim = PandaSim(g, options={"human_grip_force": 12.0, "handle_noise_n": 0.0})
+    s = sim.reset(0)
+    r = sim.step(s, WAIT, TOGGLE)
+    assert r.human_holds_sensed and sim.handle.true_force(sim.data) == pytest.approx(12.0, 0.05)
+    r = sim.step(r.state, WAIT, TOGGLE)
+    assert not r.human_holds_sensed and sim.handle.true_force(sim.data) == 0.0
+
+
+def test_only_the_thumb_counts_on_the_handle_sensor(hanger):
+    """The touch sensor counts the contacts of its site's body: the handle body carries only
+    the ball, which only the thumb pad touches, and the thumb pad collides only while the
+    human holds (a wheel the robot carries alone must not run into the idle thumb)."""
+    _, sim = hanger
+    m = sim.model
+    site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "handle_touch")
+    handle = m.site_bodyid[site]
+    assert m.body_parentid[handle] == sim.scene.object_body and m.body_jntnum[handle] == 0
+    assert [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(i))
+            for i in np.flatnonzero(m.geom_bodyid == handle)] == ["handle_ball"]
+    pad = sim.arm.thumb_pad
+    for holding in (True, False, True):
+        sim.arm.hold(sim.data, holding)
+        assert bool(m.geom_contype[pad]) == holding
 
 
 def test_physics_options_set_the_episode(hanger):

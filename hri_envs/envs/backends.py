@@ -29,6 +29,7 @@ from hri_envs.task.graph import TaskGraph
 
 __all__ = [
     "BACKENDS",
+    "PHYSICS_MAXIMA",
     "PHYSICS_PARAMETERS",
     "BackendSpec",
     "BatchBackend",
@@ -83,6 +84,10 @@ PHYSICS_PARAMETERS: dict[str, tuple[str, bool, str]] = {
     "human_grip_force": ("N", True, "how hard the human's thumb squeezes the handle"),
     "handle_noise_n": ("N", False, "std of the handle's touch sensor reading"),
 }
+
+#: Upper bounds of the physics options that have one: a thumb squeezing harder than this
+#: goes through the handle's contact at the 2 ms physics step and misreads.
+PHYSICS_MAXIMA: dict[str, float] = {"human_grip_force": 12.0}
 
 BACKENDS: dict[str, BackendSpec] = {}
 

@@ -12,7 +12,13 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from hri_envs.envs.backends import BACKENDS, PHYSICS_PARAMETERS, backend_spec, check_backend
+from hri_envs.envs.backends import (
+    BACKENDS,
+    PHYSICS_MAXIMA,
+    PHYSICS_PARAMETERS,
+    backend_spec,
+    check_backend,
+)
 from hri_envs.errors import ConfigError
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
@@ -166,12 +172,16 @@ def check_physics_options(physics: Mapping[str, Any] | None, backend: str) -> di
 
 
 def _check_parameter(key: str, value: Any, label: str) -> float:
-    """A numeric physics parameter: finite and > 0 or >= 0 as its entry says."""
+    """A numeric physics parameter: finite, > 0 or >= 0 as its entry says, and at most its
+    maximum (:data:`~hri_envs.envs.backends.PHYSICS_MAXIMA`) if it has one.
+    """
     unit, positive, _ = PHYSICS_PARAMETERS[key]
+    top = PHYSICS_MAXIMA.get(key, math.inf)
     ok = isinstance(value, int | float | np.floating) and not isinstance(value, bool)
     number = float(value) if ok else math.nan
-    if not (math.isfinite(number) and (number > 0.0 if positive else number >= 0.0)):
-        bound = "> 0" if positive else ">= 0"
+    if not (math.isfinite(number) and (number > 0.0 if positive else number >= 0.0)
+            and number <= top):
+        bound = ("> 0" if positive else ">= 0") + (f" and <= {top:g}" if top < math.inf else "")
         raise ConfigError(f"{label} must be a number {bound} [{unit}], got {value!r}",
                           field="physics")
     return number

@@ -12,9 +12,12 @@ run in MuJoCo's C code at every physics step. The arm compensates its own weight
 equality (``human_grasp``) joins the hand to the object's handle; letting go turns it off.
 The hand's thumb, a pad on a slide joint under the handle, squeezes the handle while the
 human holds (its position actuator saturates at the human's grip force) and opens when they
-let go. The object's handle is instrumented: a ball that only the thumb touches, inside a
-MuJoCo ``touch`` sensor's site (``handle_touch``). That sensor, not the grasp bit, tells the
-robot whether the human holds (:class:`~hri_envs.physics.sensing.HandleSensor`).
+let go (its pad collides only while the human holds). The object's handle is instrumented:
+a ball on a jointless child body of the object (``handle``), which only the thumb touches,
+inside a MuJoCo ``touch`` sensor's site (``handle_touch``; a touch sensor counts the contacts
+of its site's body only, so the object's own collision geometry next to the handle does
+not count). That sensor, not the grasp bit, tells the robot whether the human holds
+(:class:`~hri_envs.physics.sensing.HandleSensor`).
 
 At run time (:class:`HumanArm`) the human's reference (:class:`~hri_envs.physics.human.
 SimulatedHuman`) sets the actuators' ``ctrl``: the hand's joint coordinates for the
@@ -58,9 +61,12 @@ _TOUCH_SITE_M = 0.014  # [m] radius of the touch sensor's site round it
 _THUMB_HALF = (0.012, 0.01, 0.004)  # [m] the thumb pad, under the handle (hand frame -z)
 _THUMB_OPEN_M = 0.025  # [m] the open thumb's pad lies this far below the ball
 _THUMB_PAST_M = 0.01  # [m] the closed thumb aims this far into the ball: it saturates
-_THUMB_KP = 3000.0  # [N/m] so its force is the grip force (≤ 30 N) once it touches
+_THUMB_KP = 3000.0  # [N/m] so its force is the grip force (≤ 12 N, the option's maximum)
 _THUMB_MASS_KG = 0.05
 _THUMB_DAMPING = 4.0  # [N s/m] joint damping (implicit in MuJoCo's Euler integrator)
+# Thumb-ball contact: stiff (2 physics steps), so the ball stops the thumb pad at its surface.
+_THUMB_SOLREF = (0.004, 1.0)
+_THUMB_PRELOAD_M = 0.0001  # [m] a holding thumb is placed this far into the ball at a reset
 
 
 def _visual(body: mujoco.MjsBody, **kwargs: object) -> None:
@@ -104,14 +110,15 @@ def add_human_arm(spec: mujoco.MjSpec, design: PhysicsDesign) -> None:
     thumb.add_joint(name="human_thumb", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
                     range=[-_THUMB_OPEN_M, _THUMB_PAST_M], limited=True,
                     damping=_THUMB_DAMPING)
-    thumb.add_geom(type=box, size=list(_THUMB_HALF), rgba=_SKIN, mass=0.0, condim=1,
-                   contype=HAND_CONTACT_BIT, conaffinity=0)
-    obj = spec.body("object")
-    obj.add_geom(name="handle_ball", type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=design.handle_pos,
-                 size=[_HANDLE_BALL_M, 0, 0], mass=0.0, condim=1, contype=0,
-                 conaffinity=HAND_CONTACT_BIT, group=3, rgba=(0, 0, 0, 0))
-    obj.add_site(name=HANDLE_TOUCH_SENSOR, pos=design.handle_pos, size=[_TOUCH_SITE_M, 0, 0],
-                 group=4)
+    thumb.add_geom(name="human_thumb_pad", type=box, size=list(_THUMB_HALF), rgba=_SKIN,
+                   mass=0.0, condim=1, contype=HAND_CONTACT_BIT, conaffinity=0,
+                   solref=list(_THUMB_SOLREF))
+    handle = spec.body("object").add_body(name="handle", pos=design.handle_pos)
+    handle.add_geom(name="handle_ball", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                    size=[_HANDLE_BALL_M, 0, 0], mass=0.0, condim=1, contype=0,
+                    conaffinity=HAND_CONTACT_BIT, group=3, rgba=(0, 0, 0, 0),
+                    solref=list(_THUMB_SOLREF))
+    handle.add_site(name=HANDLE_TOUCH_SENSOR, size=[_TOUCH_SITE_M, 0, 0], group=4)
     spec.add_sensor(name=HANDLE_TOUCH_SENSOR, type=mujoco.mjtSensor.mjSENS_TOUCH,
                     objtype=mujoco.mjtObj.mjOBJ_SITE, objname=HANDLE_TOUCH_SENSOR)
     for name in (*HUMAN_JOINTS, "human_thumb"):
@@ -155,6 +162,7 @@ class HumanArm:
                                    for n in HUMAN_JOINTS])
         self.weld = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, "human_grasp")
         self.thumb = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "human_thumb")
+        self.thumb_pad = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "human_thumb_pad")
         thumb_joint = jid("human_thumb")
         self.thumb_qpos = int(model.jnt_qposadr[thumb_joint])
         self.thumb_dof = int(model.jnt_dofadr[thumb_joint])
@@ -236,15 +244,22 @@ class HumanArm:
         data.qpos[self.qpos] = q
         data.qvel[self.dofs] = 0.0
         data.ctrl[self.actuators] = q
-        data.qpos[self.thumb_qpos] = 0.0 if holding else -_THUMB_OPEN_M  # on the ball or open
+        # Pressing on the ball (the touch sensor reads the grip from the first forward pass)
+        # or open.
+        data.qpos[self.thumb_qpos] = _THUMB_PRELOAD_M if holding else -_THUMB_OPEN_M
         data.qvel[self.thumb_dof] = 0.0
         self.hold(data, holding)
         self._set_gains(following=False)
 
     def hold(self, data: mujoco.MjData, on: bool) -> None:
-        """Grasp (weld on, the thumb squeezes the handle) or let go (weld off, thumb open)."""
+        """Grasp (weld on, the thumb squeezes the handle) or let go (weld off, thumb open).
+
+        The open thumb does not collide: an object the robot carries alone must not run
+        into the idle hand's thumb.
+        """
         data.eq_active[self.weld] = int(on)
         data.ctrl[self.thumb] = _THUMB_PAST_M if on else -_THUMB_OPEN_M
+        self.model.geom_contype[self.thumb_pad] = HAND_CONTACT_BIT if on else 0
 
     def drive(self, data: mujoco.MjData, pos: np.ndarray, quat: np.ndarray,
               holding: bool, ref: TrajectorySample | None, noise: np.ndarray) -> None:

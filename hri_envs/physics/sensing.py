@@ -220,5 +220,5 @@ class HandleSensor:
     def human_holds(self, data: mujoco.MjData) -> bool:
         """Read the sensor once (noisy) and judge whether the human holds the object."""
         noise = self.noise_n * self._rng.standard_normal() if self.noise_n > 0.0 else 0.0
-        self.last_n = self.true_force(data) + noise
+        self.last_n = max(0.0, self.true_force(data) + noise)  # a touch sensor reads >= 0
         return self.last_n > self.threshold_n

@@ -364,8 +364,9 @@ class PandaSim:
         try:
             if robot_toggle:
                 self._robot_toggle(totals)
-            if human_toggle:
-                self.human.holding = not self.human.holding
+            if human_toggle:  # grasp or let go, as the human meant from the state they see
+                self.human.holding = bool(g.grasp[int(g.next_state[s, WAIT, TOGGLE])]
+                                          & HUMAN_BIT)
             self.arm.hold(self.data, self.human.holding)  # the hand's weld is the grasp bit
             s1 = int(g.next_state[s, a_r if a_r == TOGGLE and toggle_ok else WAIT,
                                   a_h if human_toggle else WAIT])
