@@ -97,6 +97,7 @@ class Learner(BatchAgent):
         self._next_h = np.ascontiguousarray(np.swapaxes(self._next, 1, 2))  # (S, A_H, A_R)
         self._reward = np.array(graph.reward(self.config.r0), dtype=np.float64)  # (S, A, A)
         self._valid = np.array(graph.valid, dtype=bool)
+        self._features = np.array(graph.features, dtype=np.float64)  # (I, S, F)
         # (K, 2, S) the passive baseline action per start support, lifted or not, and state.
         self._passive = mdp.passive_actions(graph, np.arange(graph.n_intentions)[:, None],
                                             np.array([[False, True]]))
@@ -186,7 +187,8 @@ class Learner(BatchAgent):
         n_b = self.n_runs
         revealed = intentions >= 0
         intentions = np.where(revealed, intentions, 0)
-        demo = mdp.demonstrations(g.features, [tr.states for tr in traces], intentions)
+        counts, start, horizon = partner_mdp.loop_free_counts(
+            self._features, [tr.states for tr in traces], intentions)
         rows = np.arange(n_b)
         terminal = g.terminal[intentions]
         pi_r = self.pi_r[rows, intentions]  # (B, S, A) the robot's policy the human expects
@@ -200,8 +202,8 @@ class Learner(BatchAgent):
                                            terminal=terminal, policy=warm)
         policy = partner_mdp.softmax(q, self._valid, c.irl_temperature)
         expected = partner_mdp.expected_feature_counts(self._next_h, pi_r, policy, phi,
-                                                       demo.start, terminal, demo.horizon)
-        new = mdp.irl_step(self.theta, demo.counts, expected, c.learning_rate)
+                                                       start, terminal, horizon)
+        new = mdp.irl_step(self.theta, counts, expected, c.learning_rate)
         self.theta = np.where(revealed[:, None], new, self.theta)
 
     # ------------------------------------------------------------------ protocol

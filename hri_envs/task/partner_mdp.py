@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import functools
 import os
+import threading
+from collections.abc import Sequence
 from types import ModuleType
 
 import numpy as np
@@ -39,11 +41,14 @@ __all__ = [
     "expected_feature_counts",
     "jit_enabled",
     "kernels",
+    "loop_free_counts",
     "partner_backup",
     "partner_reward",
     "preload",
+    "set_threads",
     "softmax",
     "solve_partner_q",
+    "threads",
 ]
 
 _NEG = -1e300
@@ -72,7 +77,8 @@ def preload() -> bool:
 
     The first compiled call of a process starts numba's code generator (≈ 0.3-0.8 s even
     with the on-disk cache). Calling this before forking worker processes lets them inherit
-    the loaded kernels instead of each paying that again.
+    the loaded kernels instead of each paying that again. With more than one thread
+    (:func:`set_threads`) the threaded kernels are loaded too.
     """
     jit = kernels()
     if jit is None:
@@ -89,7 +95,68 @@ def preload() -> bool:
     jit.expected_feature_counts(nxt, one, one, one, zero, none, np.ones(1, np.int64))
     jit.belief_policy(np.ones((1, 1, 1, 1)), np.ones((1, 1)), zero, zero, valid, 1.0, 0.5)
     jit.out_of_range(zero, 0, 1)
+    jit.loop_free_counts(np.ones((1, 1, 2)), zero, np.array([0, 1]), zero)
+    if threads() > 1:
+        jit.partner_backup_par(nxt, one, np.zeros((1, 1)), none, 1)
+        jit.partner_reward_par(one, one, none, 1)
+        jit.softmax_par(one, valid, 1.0, 1)
+        jit.solve_partner_q_par(nxt, one, one, valid, none, 0.5, np.zeros((1, 1), np.int64),
+                                False, 1, 1)
+        jit.expected_feature_counts_par(nxt, one, one, one, zero, none, np.ones(1, np.int64), 1)
     return True
+
+
+#: Environment variable: threads the compiled kernels share a batch of MDPs among.
+THREADS_ENV = "HRI_ENVS_THREADS"
+#: Batches smaller than this many MDPs per thread run on one thread (not worth a hand-out).
+_MIN_PER_THREAD = 8
+_threads: tuple[int, int] | None = None  # (threads, the id of the process that chose them)
+
+
+def set_threads(n: int | None) -> None:
+    """Share each batch of MDPs among ``n`` threads in this process (None: the default).
+
+    The default is the environment variable ``HRI_ENVS_THREADS``, or 1. More than one
+    thread uses numba's threading layer; each MDP is still solved by the same code, so the
+    numbers do not depend on the number of threads. The setting belongs to the process
+    that made it: a child forked from it (a study's worker) runs the kernels on one thread
+    unless it calls this itself, so that workers do not oversubscribe the cores; and only
+    the main thread hands work out (numba's default ``workqueue`` layer must not be entered
+    from two threads at once).
+
+    Raises:
+        ConfigError: ``n`` < 1, or ``HRI_ENVS_THREADS`` is not a whole number >= 1.
+    """
+    global _threads
+    if n is None:
+        raw = os.environ.get(THREADS_ENV, "").strip()
+        try:
+            n = int(raw) if raw else 1
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise ConfigError(f"{THREADS_ENV} must be a whole number >= 1, got {raw!r}",
+                              field=THREADS_ENV)
+    elif n < 1:
+        raise ConfigError(f"threads must be >= 1, got {n}", field="threads")
+    _threads = (n, os.getpid())
+
+
+def threads() -> int:
+    """Threads the compiled kernels share a batch among in this process (1: serial)."""
+    if _threads is None:
+        set_threads(None)
+    assert _threads is not None
+    n, pid = _threads
+    return n if pid == os.getpid() else 1
+
+
+def _chunks(n_mdps: int) -> int:
+    """Threads for a batch of ``n_mdps`` MDPs here and now (1: run the serial kernel)."""
+    n = threads()
+    if n == 1 or threading.current_thread() is not threading.main_thread():
+        return 1
+    return max(1, min(n, n_mdps // _MIN_PER_THREAD))
 
 
 def jit_enabled() -> bool:
@@ -134,8 +201,14 @@ def _c(x: np.ndarray, dtype: type) -> np.ndarray:
     """``x`` as a C-contiguous, writeable array of ``dtype`` (copied only if it is not).
 
     The compiled kernels then see one array type per argument: numba compiles (and caches)
-    a separate version for read-only or non-contiguous arrays.
+    a separate version for read-only or non-contiguous arrays. The common case, an array
+    that already is one, is answered without :func:`numpy.require` (whose generality costs
+    more than a small kernel call).
     """
+    if type(x) is np.ndarray and x.dtype == dtype:
+        flags = x.flags
+        if flags.c_contiguous and flags.writeable:
+            return x
     return np.require(x, dtype, ("C", "W"))
 
 
@@ -166,7 +239,9 @@ def partner_backup(next_state: np.ndarray, partner: np.ndarray, values: np.ndarr
     _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
-        out = jit.partner_backup(nxt, pi, x, term)
+        n_c = _chunks(len(pi))
+        out = (jit.partner_backup(nxt, pi, x, term) if n_c == 1
+               else jit.partner_backup_par(nxt, pi, x, term, n_c))
     else:
         out = _backup_numpy(nxt, pi, x, term)
     return out.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
@@ -202,7 +277,10 @@ def partner_reward(reward: np.ndarray, partner: np.ndarray,
     _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
-        out = jit.partner_reward(_c(reward, dtype=np.float64), pi, term)
+        r = _c(reward, dtype=np.float64)
+        n_c = _chunks(len(pi))
+        out = (jit.partner_reward(r, pi, term) if n_c == 1
+               else jit.partner_reward_par(r, pi, term, n_c))
     else:
         out = np.einsum("sap,nsp->nsa", reward, pi)
         has = np.flatnonzero(term >= 0)
@@ -226,7 +304,9 @@ def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
         return mdp.softmax(q, valid, temperature)
     n_s, n_a = q.shape[-2:]
     flat = _c(q, dtype=np.float64).reshape(-1, n_s, n_a)
-    out = jit.softmax(flat, _c(valid, dtype=np.bool_), float(temperature))
+    ok, tau = _c(valid, dtype=np.bool_), float(temperature)
+    n_c = _chunks(len(flat))
+    out = jit.softmax(flat, ok, tau) if n_c == 1 else jit.softmax_par(flat, ok, tau, n_c)
     return out.reshape(q.shape)  # type: ignore[no-any-return]
 
 
@@ -317,8 +397,13 @@ def solve_partner_q(
     _check_range("policy", act, 0, n_a)
     jit = kernels()
     if jit is not None:
-        q, greedy = jit.solve_partner_q(nxt, pi, r, ok, term, float(gamma), act, warm,
-                                        int(max_iter))
+        n_c = _chunks(len(pi))
+        if n_c == 1:
+            q, greedy = jit.solve_partner_q(nxt, pi, r, ok, term, float(gamma), act, warm,
+                                            int(max_iter))
+        else:
+            q, greedy = jit.solve_partner_q_par(nxt, pi, r, ok, term, float(gamma), act, warm,
+                                                int(max_iter), n_c)
     else:
         q, greedy = _solve_numpy(nxt, pi, r, ok, term, float(gamma), act if warm else None,
                                  max_iter)
@@ -408,7 +493,10 @@ def expected_feature_counts(
     _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
-        return jit.expected_feature_counts(nxt, pi, own, phi, start_, term, hor)  # type: ignore[no-any-return]
+        n_c = _chunks(len(pi))
+        if n_c == 1:
+            return jit.expected_feature_counts(nxt, pi, own, phi, start_, term, hor)  # type: ignore[no-any-return]
+        return jit.expected_feature_counts_par(nxt, pi, own, phi, start_, term, hor, n_c)  # type: ignore[no-any-return]
     n_b = len(pi)
     rows = np.arange(n_b)
     weight = own[:, :, :, None] * pi[:, :, None, :]  # (N, S, A, P)
@@ -424,3 +512,44 @@ def expected_feature_counts(
         d = np.einsum("bs,bsz->bz", d, p)
         svf += d * (t < hor)[:, None]
     return np.einsum("bs,bsf->bf", svf, phi)  # type: ignore[no-any-return]
+
+
+def loop_free_counts(features: np.ndarray, state_traces: Sequence[np.ndarray],
+                     intentions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Loop removal and feature counts of each trace, in one call (ME-IRL's demonstrations).
+
+    The numbers of :func:`hri_envs.task.mdp.demonstrations` (bit for bit: the same path,
+    and φ summed along it in the same order) without its per-trace Python work; the paths
+    themselves are not returned.
+
+    Args:
+        features: (I, S, F) φ(s, ι).
+        state_traces: B state sequences (each (T+1,), at least one state, ints in [0, S)).
+        intentions: (B,) int the intention of each trace, in [0, I).
+
+    Returns:
+        ``(counts, start, horizon)``: (B, F) Σ φ along each loop-free path, (B,) its first
+        state, (B,) its number of states.
+
+    Raises:
+        ConfigError: A trace is empty, or a state or intention is out of range.
+    """
+    n_i, n_s, n_f = features.shape
+    intent = _c(np.asarray(intentions).reshape(-1), np.int64)
+    if len(intent) != len(state_traces):
+        raise ConfigError(f"intentions must have one entry per trace ({len(state_traces)}), "
+                          f"got {len(intent)}", field="intentions")
+    _check_range("intentions", intent, 0, n_i)
+    lengths = np.fromiter((len(t) for t in state_traces), np.int64, len(state_traces))
+    if len(lengths) and lengths.min() < 1:
+        raise ConfigError("every state trace must hold at least one state",
+                          field="state_traces")
+    jit = kernels()
+    if jit is None or n_f < 2 or not len(lengths):  # numpy sums one feature pairwise
+        demo = mdp.demonstrations(features, state_traces, intent)
+        return demo.counts, demo.start, demo.horizon
+    states = _c(np.concatenate(state_traces), np.int64)
+    _check_range("state_traces", states, 0, n_s)
+    offsets = np.zeros(len(lengths) + 1, np.int64)
+    np.cumsum(lengths, out=offsets[1:])
+    return jit.loop_free_counts(_c(features, np.float64), states, offsets, intent)  # type: ignore[no-any-return]
