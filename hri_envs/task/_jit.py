@@ -332,25 +332,49 @@ def partner_reward_par(reward, partner, terminal, n_c):
 
 
 @njit(cache=True, nogil=True)
+def valid_lists(valid):
+    """(S, A) each state's valid actions first, in increasing order, and (S,) their count."""
+    n_s, n_a = valid.shape
+    idx = np.zeros((n_s, n_a), np.int64)
+    count = np.zeros(n_s, np.int64)
+    for s in range(n_s):
+        for a in range(n_a):
+            if valid[s, a]:
+                idx[s, count[s]] = a
+                count[s] += 1
+    return idx, count
+
+
+@njit(cache=True, nogil=True)
 def _softmax_range(q, valid, temperature, out, lo, hi):
-    """:func:`softmax` of the MDPs lo..hi-1 into ``out`` (zeros)."""
+    """:func:`softmax` of the MDPs lo..hi-1 into ``out`` (zeros).
+
+    Visits the valid actions only (:func:`valid_lists`), in increasing order: the same
+    maximum, exponentials, sum and quotients as a pass over every action that skips the
+    invalid ones (a state without valid actions divides 0 by 0: ZeroDivisionError, as
+    there).
+    """
     n_s, n_a = q.shape[1], q.shape[2]
+    idx, count = valid_lists(valid)
+    z = np.empty(n_a)
     for k in range(lo, hi):
         for s in range(n_s):
+            c = count[s]
+            if c == 0:
+                raise ZeroDivisionError("float division by zero")
             top = -np.inf
-            for a in range(n_a):
-                if valid[s, a]:
-                    z = temperature * q[k, s, a]
-                    if z > top:
-                        top = z
+            for u in range(c):
+                x = temperature * q[k, s, idx[s, u]]
+                z[u] = x
+                if x > top:
+                    top = x
             total = 0.0
-            for a in range(n_a):
-                if valid[s, a]:
-                    e = np.exp(temperature * q[k, s, a] - top)
-                    out[k, s, a] = e
-                    total += e
-            for a in range(n_a):
-                out[k, s, a] /= total
+            for u in range(c):
+                e = np.exp(z[u] - top)
+                z[u] = e
+                total += e
+            for u in range(c):
+                out[k, s, idx[s, u]] = z[u] / total
 
 
 @njit(cache=True, nogil=True)
