@@ -145,3 +145,37 @@ def test_threads_give_the_same_numbers_bit_for_bit(threads):
         if n == 1:
             first = got
     assert got.tobytes() == first.tobytes()
+
+
+@pytest.mark.parametrize("kind", ["state", "joint"])
+def test_solve_soft_is_the_three_calls_bit_for_bit(path, kind):
+    g = graph_for("wheel")
+    rng = np.random.default_rng(7)
+    pi = mdp.softmax(rng.normal(size=(5, 3, g.n_states, g.n_actions)), g.valid, 2.0)
+    term = g.terminal[None, :]
+    warm = rng.integers(0, 2, (5, 3, g.n_states)) * g.valid.argmax(-1)  # valid actions
+    if kind == "state":
+        values = rng.normal(size=(5, 3, g.n_states))
+        reward = partner_mdp.partner_backup(g.next_state, pi, values, term)
+        got = partner_mdp.solve_soft(g.next_state, pi, g.valid, 0.9, 3.0, state_reward=values,
+                                     terminal=term, policy=warm)
+    else:
+        joint = rng.normal(size=(g.n_states, g.n_actions, g.n_actions))
+        reward = partner_mdp.partner_reward(joint, pi, term)
+        got = partner_mdp.solve_soft(g.next_state, pi, g.valid, 0.9, 3.0, joint_reward=joint,
+                                     terminal=term, policy=warm)
+    q, greedy = partner_mdp.solve_partner_q(g.next_state, pi, reward, g.valid, 0.9,
+                                            terminal=term, policy=warm)
+    soft = partner_mdp.softmax(q, g.valid, 3.0)
+    for a, b in zip(got, (q, greedy, soft), strict=True):
+        assert a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("rewards", [{}, {"state_reward": np.zeros(24),
+                                          "joint_reward": np.zeros((24, 10, 10))}])
+def test_solve_soft_needs_exactly_one_reward(path, rewards):
+    g = graph_for("hanger")
+    pi = mdp.softmax(np.zeros((1, g.n_states, g.n_actions)), g.valid, 1.0)
+    with pytest.raises(ConfigError, match="exactly one of state_reward") as err:
+        partner_mdp.solve_soft(g.next_state, pi, g.valid, 0.9, 1.0, **rewards)
+    assert err.value.field == "state_reward"

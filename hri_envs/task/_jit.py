@@ -481,3 +481,63 @@ def loop_free_counts(features, states, offsets, intentions):
             for f in range(n_f):
                 counts[b, f] += phi[path[u], f]
     return counts, start, horizon
+
+
+#: MDPs per block of :func:`solve_soft`: the reward, Q and policy of a block are made one
+#: after the other while its arrays are in cache.
+_BLOCK = 16
+
+
+@njit(cache=True, nogil=True)
+def _solve_soft_range(next_state, partner, values, joint, use_joint, valid, terminal, gamma,
+                      policy, warm, max_iter, temperature, r, q, greedy, soft, lo, hi):
+    """:func:`solve_soft` of the MDPs lo..hi-1, block by block."""
+    for b in range(lo, hi, _BLOCK):
+        e = min(b + _BLOCK, hi)
+        if use_joint:
+            _partner_reward_range(joint, partner, terminal, r, b, e)
+        else:
+            _partner_backup_range(next_state, partner, values, terminal, r, b, e)
+        _solve_range(next_state, partner, r, valid, terminal, gamma, policy, warm, max_iter,
+                     q, greedy, b, e)
+        _softmax_range(q, valid, temperature, soft, b, e)
+
+
+@njit(cache=True, nogil=True)
+def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, gamma, policy,
+               warm, max_iter, temperature, n_c):
+    """(Q, greedy, soft-max policy) of N MDPs, as ``partner_mdp.solve_soft``.
+
+    The reward is :func:`partner_reward` of ``joint`` (S, A, P) when ``use_joint``, else
+    :func:`partner_backup` of ``values`` (N, S); then :func:`solve_partner_q` and
+    :func:`softmax` of its Q at ``temperature``. Each step is the same code as those
+    kernels, MDP by MDP, so the numbers are theirs bit for bit. ``n_c`` is unused here (see
+    :func:`solve_soft_par`).
+    """
+    n_b = partner.shape[0]
+    n_s, n_a = next_state.shape[0], next_state.shape[1]
+    r = np.zeros((n_b, n_s, n_a))
+    q = np.empty((n_b, n_s, n_a))
+    greedy = np.empty((n_b, n_s), np.int64)
+    soft = np.zeros((n_b, n_s, n_a))
+    _solve_soft_range(next_state, partner, values, joint, use_joint, valid, terminal, gamma,
+                      policy, warm, max_iter, temperature, r, q, greedy, soft, 0, n_b)
+    return q, greedy, soft
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def solve_soft_par(next_state, partner, values, joint, use_joint, valid, terminal, gamma,
+                   policy, warm, max_iter, temperature, n_c):
+    """:func:`solve_soft` with the MDPs shared out among ``n_c`` of numba's threads."""
+    n_b = partner.shape[0]
+    n_s, n_a = next_state.shape[0], next_state.shape[1]
+    r = np.zeros((n_b, n_s, n_a))
+    q = np.empty((n_b, n_s, n_a))
+    greedy = np.empty((n_b, n_s), np.int64)
+    soft = np.zeros((n_b, n_s, n_a))
+    n_c = max(1, min(n_b, n_c))
+    for c in prange(n_c):
+        _solve_soft_range(next_state, partner, values, joint, use_joint, valid, terminal,
+                          gamma, policy, warm, max_iter, temperature, r, q, greedy, soft,
+                          c * n_b // n_c, (c + 1) * n_b // n_c)
+    return q, greedy, soft

@@ -48,6 +48,7 @@ __all__ = [
     "set_threads",
     "softmax",
     "solve_partner_q",
+    "solve_soft",
     "threads",
 ]
 
@@ -96,6 +97,8 @@ def preload() -> bool:
     jit.belief_policy(np.ones((1, 1, 1, 1)), np.ones((1, 1)), zero, zero, valid, 1.0, 0.5)
     jit.out_of_range(zero, 0, 1)
     jit.loop_free_counts(np.ones((1, 1, 2)), zero, np.array([0, 1]), zero)
+    jit.solve_soft(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
+                   np.zeros((1, 1), np.int64), False, 1, 1.0, 1)
     if threads() > 1:
         jit.partner_backup_par(nxt, one, np.zeros((1, 1)), none, 1)
         jit.partner_reward_par(one, one, none, 1)
@@ -103,6 +106,8 @@ def preload() -> bool:
         jit.solve_partner_q_par(nxt, one, one, valid, none, 0.5, np.zeros((1, 1), np.int64),
                                 False, 1, 1)
         jit.expected_feature_counts_par(nxt, one, one, one, zero, none, np.ones(1, np.int64), 1)
+        jit.solve_soft_par(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
+                           np.zeros((1, 1), np.int64), False, 1, 1.0, 1)
     return True
 
 
@@ -408,6 +413,98 @@ def solve_partner_q(
         q, greedy = _solve_numpy(nxt, pi, r, ok, term, float(gamma), act if warm else None,
                                  max_iter)
     return q.reshape(*lead, n_s, n_a), greedy.reshape(*lead, n_s)
+
+
+def solve_soft(
+    next_state: np.ndarray,
+    partner: np.ndarray,
+    valid: np.ndarray,
+    gamma: float,
+    temperature: float,
+    *,
+    state_reward: np.ndarray | None = None,
+    joint_reward: np.ndarray | None = None,
+    terminal: np.ndarray | int | None = None,
+    policy: np.ndarray | None = None,
+    max_iter: int = 100,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Reward, optimal Q and soft-max policy of partner-substituted MDPs, in one call.
+
+    The same numbers, bit for bit, as the three calls it stands for::
+
+        reward = partner_backup(next_state, partner, state_reward, terminal)
+        # or: partner_reward(joint_reward, partner, terminal)
+        q, greedy = solve_partner_q(next_state, partner, reward, valid, gamma,
+                                    terminal=terminal, policy=policy, max_iter=max_iter)
+        soft = softmax(q, valid, temperature)
+
+    made MDP by MDP in one compiled pass where the kernels are on (one set of checks and
+    one call instead of three: the Learner's update makes three of these).
+
+    Args:
+        next_state: (S, A, P) int joint transition table, own action before the partner's.
+        partner: (..., S, P) the partner's policy.
+        valid: (S, A) bool valid own actions.
+        gamma: Discount in [0, 1).
+        temperature: τ > 0 of the soft-max.
+        state_reward: (..., S) a reward per next state (the expected reward of an action is
+            its backup, :func:`partner_backup`); give this or ``joint_reward``.
+        joint_reward: (S, A, P) reward of (s, own action, partner action)
+            (:func:`partner_reward`).
+        terminal: (...,) int absorbing state per MDP (-1 none), or None for none.
+        policy: (..., S) int greedy actions to start from (a warm start), optional.
+        max_iter: Cap on improvement rounds.
+
+    Returns:
+        ``(q, greedy, soft)``: (..., S, A) Q, (..., S) int greedy actions and (..., S, A)
+        the soft-max policy.
+
+    Raises:
+        ConfigError: Not exactly one of ``state_reward`` and ``joint_reward``, or what
+            :func:`solve_partner_q` refuses.
+    """
+    if (state_reward is None) == (joint_reward is None):
+        raise ConfigError("give exactly one of state_reward (..., S) and joint_reward "
+                          "(S, A, P)", field="state_reward")
+    jit = kernels()
+    if jit is None:
+        if joint_reward is not None:
+            reward = partner_reward(joint_reward, partner, terminal)
+        else:
+            assert state_reward is not None
+            reward = partner_backup(next_state, partner, state_reward, terminal)
+        q, greedy = solve_partner_q(next_state, partner, reward, valid, gamma,
+                                    terminal=terminal, policy=policy, max_iter=max_iter)
+        return q, greedy, softmax(q, valid, temperature)
+    if not 0.0 <= gamma < 1.0:
+        raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
+    if max_iter < 1:
+        raise ConfigError(f"max_iter must be >= 1, got {max_iter}", field="max_iter")
+    lead = partner.shape[:-2]
+    n_s, n_a, n_p = next_state.shape
+    nxt = _c(next_state, dtype=np.int64)
+    _check_range("next_state", nxt, 0, n_s)
+    pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
+    term = _terminal(terminal, lead)
+    _check_range("terminal", term, -1, n_s)
+    warm = policy is not None
+    act = (_flat(policy, (*lead, n_s), np.int64).reshape(-1, n_s) if policy is not None
+           else np.zeros((len(pi), n_s), np.int64))
+    _check_range("policy", act, 0, n_a)
+    if joint_reward is not None:
+        joint = _c(joint_reward, dtype=np.float64)
+        values = np.zeros((1, 1))
+    else:
+        assert state_reward is not None
+        joint = np.zeros((1, 1, 1))
+        values = _c(state_reward, dtype=np.float64).reshape(-1, n_s)
+    n_c = _chunks(len(pi))
+    kernel = jit.solve_soft if n_c == 1 else jit.solve_soft_par
+    q, greedy, soft = kernel(nxt, pi, values, joint, joint_reward is not None,
+                             _c(valid, dtype=np.bool_), term, float(gamma), act, warm,
+                             int(max_iter), float(temperature), n_c)
+    return (q.reshape(*lead, n_s, n_a), greedy.reshape(*lead, n_s),
+            soft.reshape(*lead, n_s, n_a))
 
 
 def _evaluation_matrix(nxt: np.ndarray, pi: np.ndarray, act: np.ndarray, term: np.ndarray,
