@@ -491,16 +491,25 @@ _BLOCK = 16
 @njit(cache=True, nogil=True)
 def _solve_soft_range(next_state, partner, values, joint, use_joint, valid, terminal, gamma,
                       policy, warm, max_iter, temperature, r, q, greedy, soft, lo, hi):
-    """:func:`solve_soft` of the MDPs lo..hi-1, block by block."""
+    """:func:`solve_soft` of the MDPs lo..hi-1, block by block.
+
+    The rewards of a block go to the scratch ``r`` (:data:`_BLOCK`, S, A). The callers
+    allocate it before their outputs: freed last, on top of the heap, it made the C library
+    hand memory back to the system and fault it in again on every call.
+    """
     for b in range(lo, hi, _BLOCK):
         e = min(b + _BLOCK, hi)
-        if use_joint:
-            _partner_reward_range(joint, partner, terminal, r, b, e)
+        n = e - b
+        r_b = r[:n]
+        if use_joint:  # partner_reward adds to zeros; partner_backup sets every entry
+            r_b[:] = 0.0
+            _partner_reward_range(joint, partner[b:e], terminal[b:e], r_b, 0, n)
         else:
-            _partner_backup_range(next_state, partner, values, terminal, r, b, e)
-        _solve_range(next_state, partner, r, valid, terminal, gamma, policy, warm, max_iter,
-                     q, greedy, b, e)
-        _softmax_range(q, valid, temperature, soft, b, e)
+            _partner_backup_range(next_state, partner[b:e], values[b:e], terminal[b:e], r_b,
+                                  0, n)
+        _solve_range(next_state, partner[b:e], r_b, valid, terminal[b:e], gamma,
+                     policy[b:e], warm, max_iter, q[b:e], greedy[b:e], 0, n)
+        _softmax_range(q[b:e], valid, temperature, soft[b:e], 0, n)
 
 
 @njit(cache=True, nogil=True)
@@ -516,7 +525,7 @@ def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, g
     """
     n_b = partner.shape[0]
     n_s, n_a = next_state.shape[0], next_state.shape[1]
-    r = np.zeros((n_b, n_s, n_a))
+    r = np.empty((_BLOCK, n_s, n_a))
     q = np.empty((n_b, n_s, n_a))
     greedy = np.empty((n_b, n_s), np.int64)
     soft = np.zeros((n_b, n_s, n_a))
@@ -531,13 +540,13 @@ def solve_soft_par(next_state, partner, values, joint, use_joint, valid, termina
     """:func:`solve_soft` with the MDPs shared out among ``n_c`` of numba's threads."""
     n_b = partner.shape[0]
     n_s, n_a = next_state.shape[0], next_state.shape[1]
-    r = np.zeros((n_b, n_s, n_a))
+    n_c = max(1, min(n_b, n_c))
+    r = np.empty((n_c, _BLOCK, n_s, n_a))
     q = np.empty((n_b, n_s, n_a))
     greedy = np.empty((n_b, n_s), np.int64)
     soft = np.zeros((n_b, n_s, n_a))
-    n_c = max(1, min(n_b, n_c))
     for c in prange(n_c):
         _solve_soft_range(next_state, partner, values, joint, use_joint, valid, terminal,
-                          gamma, policy, warm, max_iter, temperature, r, q, greedy, soft,
+                          gamma, policy, warm, max_iter, temperature, r[c], q, greedy, soft,
                           c * n_b // n_c, (c + 1) * n_b // n_c)
     return q, greedy, soft

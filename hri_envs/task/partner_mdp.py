@@ -126,8 +126,8 @@ def set_threads(n: int | None) -> None:
     numbers do not depend on the number of threads. The setting belongs to the process
     that made it: a child forked from it (a study's worker) runs the kernels on one thread
     unless it calls this itself, so that workers do not oversubscribe the cores; and only
-    the main thread hands work out (numba's default ``workqueue`` layer must not be entered
-    from two threads at once).
+    the main thread hands work out (numba's ``workqueue`` layer, chosen here unless the
+    user chose another, must not be entered from two threads at once).
 
     Raises:
         ConfigError: ``n`` < 1, or ``HRI_ENVS_THREADS`` is not a whole number >= 1.
@@ -145,6 +145,22 @@ def set_threads(n: int | None) -> None:
     elif n < 1:
         raise ConfigError(f"threads must be >= 1, got {n}", field="threads")
     _threads = (n, os.getpid())
+    if n > 1 and kernels() is not None:
+        _prefer_workqueue()
+
+
+def _prefer_workqueue() -> None:
+    """Use numba's ``workqueue`` threading layer unless the user chose one.
+
+    Its threads sleep while they wait. The OpenMP layer that numba otherwise prefers spins
+    instead, which on a loaded machine took the core from the thread being waited for: an
+    update took 2-7 times longer on 2 threads than on one (README, Speed). The layer is
+    fixed by numba's first threaded call in the process; a choice made before stands.
+    """
+    import numba
+
+    if "NUMBA_THREADING_LAYER" not in os.environ and numba.config.THREADING_LAYER == "default":
+        numba.config.THREADING_LAYER = "workqueue"
 
 
 def threads() -> int:
