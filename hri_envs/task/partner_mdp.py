@@ -154,13 +154,14 @@ def _prefer_workqueue() -> None:
 
     Its threads sleep while they wait. The OpenMP layer that numba otherwise prefers spins
     instead, which on a loaded machine took the core from the thread being waited for: an
-    update took 2-7 times longer on 2 threads than on one (README, Speed). The layer is
+    update took 2-7 times longer on 2 threads than on one (docs/agents.md, "Threads"). The layer is
     fixed by numba's first threaded call in the process; a choice made before stands.
     """
-    import numba
+    from numba import config  # its settings are made at run time: untyped
 
-    if "NUMBA_THREADING_LAYER" not in os.environ and numba.config.THREADING_LAYER == "default":
-        numba.config.THREADING_LAYER = "workqueue"
+    layer = config.THREADING_LAYER  # type: ignore[attr-defined]
+    if "NUMBA_THREADING_LAYER" not in os.environ and layer == "default":
+        config.THREADING_LAYER = "workqueue"  # type: ignore[attr-defined]
 
 
 def threads() -> int:
