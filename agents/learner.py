@@ -97,6 +97,7 @@ class Learner(BatchAgent):
         self._next_h = np.ascontiguousarray(np.swapaxes(self._next, 1, 2))  # (S, A_H, A_R)
         self._reward = np.array(graph.reward(self.config.r0), dtype=np.float64)  # (S, A, A)
         self._valid = np.array(graph.valid, dtype=bool)
+        self._features = np.array(graph.features, dtype=np.float64)  # (I, S, F)
         # (K, 2, S) the passive baseline action per start support, lifted or not, and state.
         self._passive = mdp.passive_actions(graph, np.arange(graph.n_intentions)[:, None],
                                             np.array([[False, True]]))
@@ -164,18 +165,13 @@ class Learner(BatchAgent):
         g, c = self.graph, self.config
         term = g.terminal[None, :]  # (1, I): intention ι's goal state absorbs
         r_state = np.einsum("isf,bf->bis", g.features, self.theta)  # (B, I, S)
-        r_h = partner_mdp.partner_backup(self._next_h, self.pi_r, r_state, term)
-        q_h, self._warm_h = partner_mdp.solve_partner_q(
-            self._next_h, self.pi_r, r_h, self._valid, c.gamma, terminal=term,
-            policy=self._warm_h)
-        self.q_h = q_h
-        self.pi_h = partner_mdp.softmax(q_h, self._valid, c.human_temperature)
-
-        r_r = partner_mdp.partner_reward(self._reward, self.pi_h, term)
-        self.q_r, self._warm_r = partner_mdp.solve_partner_q(
-            self._next, self.pi_h, r_r, self._valid, c.gamma, terminal=term,
-            policy=self._warm_r)
-        self.pi_r = partner_mdp.softmax(self.q_r, self._valid, c.robot_model_temperature)
+        # Each call: the expected reward, Q-iteration and the soft-max policy of its Q.
+        self.q_h, self._warm_h, self.pi_h = partner_mdp.solve_soft(
+            self._next_h, self.pi_r, self._valid, c.gamma, c.human_temperature,
+            state_reward=r_state, terminal=term, policy=self._warm_h)
+        self.q_r, self._warm_r, self.pi_r = partner_mdp.solve_soft(
+            self._next, self.pi_h, self._valid, c.gamma, c.robot_model_temperature,
+            joint_reward=self._reward, terminal=term, policy=self._warm_r)
 
     def _irl(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """One ME-IRL step per run on its loop-free trace (Alg. 1 l. 17-19).
@@ -186,22 +182,22 @@ class Learner(BatchAgent):
         n_b = self.n_runs
         revealed = intentions >= 0
         intentions = np.where(revealed, intentions, 0)
-        demo = mdp.demonstrations(g.features, [tr.states for tr in traces], intentions)
+        counts, start, horizon = partner_mdp.loop_free_counts(
+            self._features, [tr.states for tr in traces], intentions)
         rows = np.arange(n_b)
         terminal = g.terminal[intentions]
         pi_r = self.pi_r[rows, intentions]  # (B, S, A) the robot's policy the human expects
         phi = g.features[intentions]  # (B, S, F)
         r_state = np.einsum("bsf,bf->bs", phi, self.theta)
-        r_h = partner_mdp.partner_backup(self._next_h, pi_r, r_state, terminal)
         # Nearly the human MDP of the last _update_policies for the revealed intention (same θ,
         # π_R one update newer): start from its greedy policy, which is mostly still optimal.
         warm = None if self._warm_h is None else self._warm_h[rows, intentions]
-        q, _ = partner_mdp.solve_partner_q(self._next_h, pi_r, r_h, self._valid, c.gamma,
-                                           terminal=terminal, policy=warm)
-        policy = partner_mdp.softmax(q, self._valid, c.irl_temperature)
+        _, _, policy = partner_mdp.solve_soft(self._next_h, pi_r, self._valid, c.gamma,
+                                              c.irl_temperature, state_reward=r_state,
+                                              terminal=terminal, policy=warm)
         expected = partner_mdp.expected_feature_counts(self._next_h, pi_r, policy, phi,
-                                                       demo.start, terminal, demo.horizon)
-        new = mdp.irl_step(self.theta, demo.counts, expected, c.learning_rate)
+                                                       start, terminal, horizon)
+        new = mdp.irl_step(self.theta, counts, expected, c.learning_rate)
         self.theta = np.where(revealed[:, None], new, self.theta)
 
     # ------------------------------------------------------------------ protocol

@@ -11,7 +11,7 @@ kept beside this file, or in ``NUMBA_CACHE_DIR``).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 _NEG = -1e300
 
@@ -53,12 +53,10 @@ def _best_valid(x, valid_s):
 
 
 @njit(cache=True, nogil=True)
-def partner_backup(next_state, partner, values, terminal):
-    """(N, S, A): Σ_p partner[n, s, p] values[n, next_state[s, a, p]]; terminal rows values."""
-    n_b = partner.shape[0]
-    n_s, n_a, n_p = next_state.shape
-    out = np.empty((n_b, n_s, n_a))
-    for k in range(n_b):
+def _partner_backup_range(next_state, partner, values, terminal, out, lo, hi):
+    """:func:`partner_backup` of the MDPs lo..hi-1 into ``out``."""
+    n_s, n_a = next_state.shape[0], next_state.shape[1]
+    for k in range(lo, hi):
         term = terminal[k]
         for s in range(n_s):
             if s == term:
@@ -66,6 +64,26 @@ def partner_backup(next_state, partner, values, terminal):
                     out[k, s, a] = values[k, s]
             else:
                 _backup_state(next_state, partner[k, s], values[k], s, out[k, s])
+
+
+@njit(cache=True, nogil=True)
+def partner_backup(next_state, partner, values, terminal):
+    """(N, S, A): Σ_p partner[n, s, p] values[n, next_state[s, a, p]]; terminal rows values."""
+    n_b = partner.shape[0]
+    out = np.empty((n_b, next_state.shape[0], next_state.shape[1]))
+    _partner_backup_range(next_state, partner, values, terminal, out, 0, n_b)
+    return out
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def partner_backup_par(next_state, partner, values, terminal, n_c):
+    """:func:`partner_backup` with the MDPs shared out among numba's threads."""
+    n_b = partner.shape[0]
+    out = np.empty((n_b, next_state.shape[0], next_state.shape[1]))
+    n_c = max(1, min(n_b, n_c))
+    for c in prange(n_c):
+        _partner_backup_range(next_state, partner, values, terminal, out, c * n_b // n_c,
+                              (c + 1) * n_b // n_c)
     return out
 
 
@@ -116,17 +134,10 @@ def _solve_sparse(m, b, pattern, row_cols, row_n, col_rows, col_n):
 
 
 @njit(cache=True, nogil=True)
-def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
-                    warm, max_iter):
-    """(Q (N, S, A), greedy (N, S)) by policy iteration, as ``partner_mdp.solve_partner_q``.
-
-    ``warm``: whether ``policy`` (N, S) holds the starting actions; otherwise each MDP
-    starts from the greedy actions of its immediate reward.
-    """
-    n_b = partner.shape[0]
+def _solve_range(next_state, partner, reward, valid, terminal, gamma, policy, warm, max_iter,
+                 q, greedy, lo, hi):
+    """:func:`solve_partner_q` of the MDPs lo..hi-1 into ``q``, ``greedy`` (own scratch)."""
     n_s, n_a, n_p = next_state.shape
-    q = np.empty((n_b, n_s, n_a))
-    greedy = np.empty((n_b, n_s), np.int64)
     m = np.empty((n_s, n_s))
     v = np.empty(n_s)
     act = np.empty(n_s, np.int64)
@@ -136,7 +147,7 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
     col_rows = np.empty((n_s, n_s), np.int64)
     col_n = np.empty(n_s, np.int64)
     acc = np.empty(n_a)
-    for k in range(n_b):
+    for k in range(lo, hi):
         term = terminal[k]
         for s in range(n_s):
             act[s] = policy[k, s] if warm else _best_valid(reward[k, s], valid[s])[1]
@@ -179,22 +190,55 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
                 break
         for s in range(n_s):
             greedy[k, s] = _best_valid(q[k, s], valid[s])[1]
+
+
+@njit(cache=True, nogil=True)
+def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
+                    warm, max_iter):
+    """(Q (N, S, A), greedy (N, S)) by policy iteration, as ``partner_mdp.solve_partner_q``.
+
+    ``warm``: whether ``policy`` (N, S) holds the starting actions; otherwise each MDP
+    starts from the greedy actions of its immediate reward.
+    """
+    n_b = partner.shape[0]
+    n_s, n_a = next_state.shape[0], next_state.shape[1]
+    q = np.empty((n_b, n_s, n_a))
+    greedy = np.empty((n_b, n_s), np.int64)
+    _solve_range(next_state, partner, reward, valid, terminal, gamma, policy, warm, max_iter,
+                 q, greedy, 0, n_b)
+    return q, greedy
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def solve_partner_q_par(next_state, partner, reward, valid, terminal, gamma, policy,
+                        warm, max_iter, n_c):
+    """:func:`solve_partner_q` with the MDPs shared out among numba's threads.
+
+    Each MDP is solved by the same code as there, whichever thread takes it: the results
+    are bit for bit those of :func:`solve_partner_q`.
+    """
+    n_b = partner.shape[0]
+    n_s, n_a = next_state.shape[0], next_state.shape[1]
+    q = np.empty((n_b, n_s, n_a))
+    greedy = np.empty((n_b, n_s), np.int64)
+    n_c = max(1, min(n_b, n_c))
+    for c in prange(n_c):
+        _solve_range(next_state, partner, reward, valid, terminal, gamma, policy, warm,
+                     max_iter, q, greedy, c * n_b // n_c, (c + 1) * n_b // n_c)
     return q, greedy
 
 
 @njit(cache=True, nogil=True)
-def expected_feature_counts(next_state, partner, policy, features, start, terminal,
-                            horizon):
-    """(N, F) expected feature counts, as ``partner_mdp.expected_feature_counts``."""
-    n_b = partner.shape[0]
+def _feature_counts_range(next_state, partner, policy, features, start, terminal, horizon,
+                          out, lo, hi):
+    """:func:`expected_feature_counts` of the MDPs lo..hi-1 into ``out`` (zeros)."""
     n_s, n_a, n_p = next_state.shape
     n_f = features.shape[-1]
-    out = np.zeros((n_b, n_f))
     t_pi = np.empty((n_s, n_s))
     d = np.empty(n_s)
     nxt = np.empty(n_s)
     svf = np.empty(n_s)
-    for k in range(n_b):
+    for k in range(lo, hi):
         t_pi[:, :] = 0.0
         for s in range(n_s):
             if s == terminal[k]:
@@ -225,16 +269,37 @@ def expected_feature_counts(next_state, partner, policy, features, start, termin
             if x != 0.0:
                 for f in range(n_f):
                     out[k, f] += x * features[k, s, f]
+
+
+@njit(cache=True, nogil=True)
+def expected_feature_counts(next_state, partner, policy, features, start, terminal,
+                            horizon):
+    """(N, F) expected feature counts, as ``partner_mdp.expected_feature_counts``."""
+    n_b = partner.shape[0]
+    out = np.zeros((n_b, features.shape[-1]))
+    _feature_counts_range(next_state, partner, policy, features, start, terminal, horizon,
+                          out, 0, n_b)
+    return out
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def expected_feature_counts_par(next_state, partner, policy, features, start, terminal,
+                                horizon, n_c):
+    """:func:`expected_feature_counts` with the MDPs shared out among numba's threads."""
+    n_b = partner.shape[0]
+    out = np.zeros((n_b, features.shape[-1]))
+    n_c = max(1, min(n_b, n_c))
+    for c in prange(n_c):
+        _feature_counts_range(next_state, partner, policy, features, start, terminal,
+                              horizon, out, c * n_b // n_c, (c + 1) * n_b // n_c)
     return out
 
 
 @njit(cache=True, nogil=True)
-def partner_reward(reward, partner, terminal):
-    """(N, S, A): Σ_p partner[n, s, p] reward[s, a, p]; 0 in each MDP's terminal state."""
-    n_b = partner.shape[0]
+def _partner_reward_range(reward, partner, terminal, out, lo, hi):
+    """:func:`partner_reward` of the MDPs lo..hi-1 into ``out`` (zeros)."""
     n_s, n_a, n_p = reward.shape
-    out = np.zeros((n_b, n_s, n_a))
-    for k in range(n_b):
+    for k in range(lo, hi):
         for s in range(n_s):
             if s == terminal[k]:
                 continue
@@ -243,30 +308,91 @@ def partner_reward(reward, partner, terminal):
                 if w != 0.0:
                     for a in range(n_a):
                         out[k, s, a] += w * reward[s, a, p]
+
+
+@njit(cache=True, nogil=True)
+def partner_reward(reward, partner, terminal):
+    """(N, S, A): Σ_p partner[n, s, p] reward[s, a, p]; 0 in each MDP's terminal state."""
+    n_b = partner.shape[0]
+    out = np.zeros((n_b, reward.shape[0], reward.shape[1]))
+    _partner_reward_range(reward, partner, terminal, out, 0, n_b)
     return out
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def partner_reward_par(reward, partner, terminal, n_c):
+    """:func:`partner_reward` with the MDPs shared out among numba's threads."""
+    n_b = partner.shape[0]
+    out = np.zeros((n_b, reward.shape[0], reward.shape[1]))
+    n_c = max(1, min(n_b, n_c))
+    for c in prange(n_c):
+        _partner_reward_range(reward, partner, terminal, out, c * n_b // n_c,
+                              (c + 1) * n_b // n_c)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def valid_lists(valid):
+    """(S, A) each state's valid actions first, in increasing order, and (S,) their count."""
+    n_s, n_a = valid.shape
+    idx = np.zeros((n_s, n_a), np.int64)
+    count = np.zeros(n_s, np.int64)
+    for s in range(n_s):
+        for a in range(n_a):
+            if valid[s, a]:
+                idx[s, count[s]] = a
+                count[s] += 1
+    return idx, count
+
+
+@njit(cache=True, nogil=True)
+def _softmax_range(q, valid, temperature, out, lo, hi):
+    """:func:`softmax` of the MDPs lo..hi-1 into ``out`` (zeros).
+
+    Visits the valid actions only (:func:`valid_lists`), in increasing order: the same
+    maximum, exponentials, sum and quotients as a pass over every action that skips the
+    invalid ones (a state without valid actions divides 0 by 0: ZeroDivisionError, as
+    there).
+    """
+    n_s, n_a = q.shape[1], q.shape[2]
+    idx, count = valid_lists(valid)
+    z = np.empty(n_a)
+    for k in range(lo, hi):
+        for s in range(n_s):
+            c = count[s]
+            if c == 0:
+                raise ZeroDivisionError("float division by zero")
+            top = -np.inf
+            for u in range(c):
+                x = temperature * q[k, s, idx[s, u]]
+                z[u] = x
+                if x > top:
+                    top = x
+            total = 0.0
+            for u in range(c):
+                e = np.exp(z[u] - top)
+                z[u] = e
+                total += e
+            for u in range(c):
+                out[k, s, idx[s, u]] = z[u] / total
 
 
 @njit(cache=True, nogil=True)
 def softmax(q, valid, temperature):
     """(N, S, A) soft-max of ``temperature * q`` over the valid actions of each state."""
-    n_b, n_s, n_a = q.shape
-    out = np.zeros((n_b, n_s, n_a))
-    for k in range(n_b):
-        for s in range(n_s):
-            top = -np.inf
-            for a in range(n_a):
-                if valid[s, a]:
-                    z = temperature * q[k, s, a]
-                    if z > top:
-                        top = z
-            total = 0.0
-            for a in range(n_a):
-                if valid[s, a]:
-                    e = np.exp(temperature * q[k, s, a] - top)
-                    out[k, s, a] = e
-                    total += e
-            for a in range(n_a):
-                out[k, s, a] /= total
+    out = np.zeros(q.shape)
+    _softmax_range(q, valid, temperature, out, 0, q.shape[0])
+    return out
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def softmax_par(q, valid, temperature, n_c):
+    """:func:`softmax` with the MDPs shared out among numba's threads."""
+    n_b = q.shape[0]
+    out = np.zeros(q.shape)
+    n_c = max(1, min(n_b, n_c))
+    for c in prange(n_c):
+        _softmax_range(q, valid, temperature, out, c * n_b // n_c, (c + 1) * n_b // n_c)
     return out
 
 
@@ -310,3 +436,117 @@ def belief_policy(q, belief, states, baseline, valid, temperature, eta):
         for a in range(n_a):
             out[b, a] /= kept
     return out
+
+
+@njit(cache=True, nogil=True)
+def loop_free_counts(features, states, offsets, intentions):
+    """Loop removal and feature counts per trace, as ``partner_mdp.loop_free_counts``.
+
+    ``states`` holds the traces one after another, trace b in
+    ``states[offsets[b]:offsets[b + 1]]`` (at least one state each). Whenever a state
+    comes again, the path drops back to its earlier visit (``mdp.remove_loops``); the
+    counts then add φ along the path in order, a row at a time, starting from the first
+    row (as numpy sums a (T, F) array over its first axis when F > 1).
+
+    Returns:
+        ``(counts (B, F), start (B,), horizon (B,))``.
+    """
+    n_b = offsets.shape[0] - 1
+    n_s, n_f = features.shape[1], features.shape[2]
+    counts = np.zeros((n_b, n_f))
+    start = np.empty(n_b, np.int64)
+    horizon = np.empty(n_b, np.int64)
+    where = np.full(n_s, -1, np.int64)  # a state's position on the path so far, or -1
+    path = np.empty(max(1, states.shape[0]), np.int64)
+    for b in range(n_b):
+        n = 0
+        for t in range(offsets[b], offsets[b + 1]):
+            s = states[t]
+            i = where[s]
+            if i >= 0:  # back at an earlier state: drop the loop
+                for u in range(i, n):
+                    where[path[u]] = -1
+                n = i
+            where[s] = n
+            path[n] = s
+            n += 1
+        start[b] = path[0]
+        horizon[b] = n
+        phi = features[intentions[b]]
+        for f in range(n_f):
+            counts[b, f] = phi[path[0], f]
+        where[path[0]] = -1
+        for u in range(1, n):
+            where[path[u]] = -1
+            for f in range(n_f):
+                counts[b, f] += phi[path[u], f]
+    return counts, start, horizon
+
+
+#: MDPs per block of :func:`solve_soft`: the reward, Q and policy of a block are made one
+#: after the other while its arrays are in cache.
+_BLOCK = 16
+
+
+@njit(cache=True, nogil=True)
+def _solve_soft_range(next_state, partner, values, joint, use_joint, valid, terminal, gamma,
+                      policy, warm, max_iter, temperature, r, q, greedy, soft, lo, hi):
+    """:func:`solve_soft` of the MDPs lo..hi-1, block by block.
+
+    The rewards of a block go to the scratch ``r`` (:data:`_BLOCK`, S, A). The callers
+    allocate it before their outputs: freed last, on top of the heap, it made the C library
+    hand memory back to the system and fault it in again on every call.
+    """
+    for b in range(lo, hi, _BLOCK):
+        e = min(b + _BLOCK, hi)
+        n = e - b
+        r_b = r[:n]
+        if use_joint:  # partner_reward adds to zeros; partner_backup sets every entry
+            r_b[:] = 0.0
+            _partner_reward_range(joint, partner[b:e], terminal[b:e], r_b, 0, n)
+        else:
+            _partner_backup_range(next_state, partner[b:e], values[b:e], terminal[b:e], r_b,
+                                  0, n)
+        _solve_range(next_state, partner[b:e], r_b, valid, terminal[b:e], gamma,
+                     policy[b:e], warm, max_iter, q[b:e], greedy[b:e], 0, n)
+        _softmax_range(q[b:e], valid, temperature, soft[b:e], 0, n)
+
+
+@njit(cache=True, nogil=True)
+def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, gamma, policy,
+               warm, max_iter, temperature, n_c):
+    """(Q, greedy, soft-max policy) of N MDPs, as ``partner_mdp.solve_soft``.
+
+    The reward is :func:`partner_reward` of ``joint`` (S, A, P) when ``use_joint``, else
+    :func:`partner_backup` of ``values`` (N, S); then :func:`solve_partner_q` and
+    :func:`softmax` of its Q at ``temperature``. Each step is the same code as those
+    kernels, MDP by MDP, so the numbers are theirs bit for bit. ``n_c`` is unused here (see
+    :func:`solve_soft_par`).
+    """
+    n_b = partner.shape[0]
+    n_s, n_a = next_state.shape[0], next_state.shape[1]
+    r = np.empty((_BLOCK, n_s, n_a))
+    q = np.empty((n_b, n_s, n_a))
+    greedy = np.empty((n_b, n_s), np.int64)
+    soft = np.zeros((n_b, n_s, n_a))
+    _solve_soft_range(next_state, partner, values, joint, use_joint, valid, terminal, gamma,
+                      policy, warm, max_iter, temperature, r, q, greedy, soft, 0, n_b)
+    return q, greedy, soft
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def solve_soft_par(next_state, partner, values, joint, use_joint, valid, terminal, gamma,
+                   policy, warm, max_iter, temperature, n_c):
+    """:func:`solve_soft` with the MDPs shared out among ``n_c`` of numba's threads."""
+    n_b = partner.shape[0]
+    n_s, n_a = next_state.shape[0], next_state.shape[1]
+    n_c = max(1, min(n_b, n_c))
+    r = np.empty((n_c, _BLOCK, n_s, n_a))
+    q = np.empty((n_b, n_s, n_a))
+    greedy = np.empty((n_b, n_s), np.int64)
+    soft = np.zeros((n_b, n_s, n_a))
+    for c in prange(n_c):
+        _solve_soft_range(next_state, partner, values, joint, use_joint, valid, terminal,
+                          gamma, policy, warm, max_iter, temperature, r[c], q, greedy, soft,
+                          c * n_b // n_c, (c + 1) * n_b // n_c)
+    return q, greedy, soft

@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import functools
 import os
+import threading
+from collections.abc import Sequence
 from types import ModuleType
 
 import numpy as np
@@ -39,11 +41,15 @@ __all__ = [
     "expected_feature_counts",
     "jit_enabled",
     "kernels",
+    "loop_free_counts",
     "partner_backup",
     "partner_reward",
     "preload",
+    "set_threads",
     "softmax",
     "solve_partner_q",
+    "solve_soft",
+    "threads",
 ]
 
 _NEG = -1e300
@@ -72,7 +78,8 @@ def preload() -> bool:
 
     The first compiled call of a process starts numba's code generator (≈ 0.3-0.8 s even
     with the on-disk cache). Calling this before forking worker processes lets them inherit
-    the loaded kernels instead of each paying that again.
+    the loaded kernels instead of each paying that again. With more than one thread
+    (:func:`set_threads`) the threaded kernels are loaded too.
     """
     jit = kernels()
     if jit is None:
@@ -89,7 +96,89 @@ def preload() -> bool:
     jit.expected_feature_counts(nxt, one, one, one, zero, none, np.ones(1, np.int64))
     jit.belief_policy(np.ones((1, 1, 1, 1)), np.ones((1, 1)), zero, zero, valid, 1.0, 0.5)
     jit.out_of_range(zero, 0, 1)
+    jit.loop_free_counts(np.ones((1, 1, 2)), zero, np.array([0, 1]), zero)
+    jit.solve_soft(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
+                   np.zeros((1, 1), np.int64), False, 1, 1.0, 1)
+    if threads() > 1:
+        jit.partner_backup_par(nxt, one, np.zeros((1, 1)), none, 1)
+        jit.partner_reward_par(one, one, none, 1)
+        jit.softmax_par(one, valid, 1.0, 1)
+        jit.solve_partner_q_par(nxt, one, one, valid, none, 0.5, np.zeros((1, 1), np.int64),
+                                False, 1, 1)
+        jit.expected_feature_counts_par(nxt, one, one, one, zero, none, np.ones(1, np.int64), 1)
+        jit.solve_soft_par(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
+                           np.zeros((1, 1), np.int64), False, 1, 1.0, 1)
     return True
+
+
+#: Environment variable: threads the compiled kernels share a batch of MDPs among.
+THREADS_ENV = "HRI_ENVS_THREADS"
+#: Batches smaller than this many MDPs per thread run on one thread (not worth a hand-out).
+_MIN_PER_THREAD = 8
+_threads: tuple[int, int] | None = None  # (threads, the id of the process that chose them)
+
+
+def set_threads(n: int | None) -> None:
+    """Share each batch of MDPs among ``n`` threads in this process (None: the default).
+
+    The default is the environment variable ``HRI_ENVS_THREADS``, or 1. More than one
+    thread uses numba's threading layer; each MDP is still solved by the same code, so the
+    numbers do not depend on the number of threads. The setting belongs to the process
+    that made it: a child forked from it (a study's worker) runs the kernels on one thread
+    unless it calls this itself, so that workers do not oversubscribe the cores; and only
+    the main thread hands work out (numba's ``workqueue`` layer, chosen here unless the
+    user chose another, must not be entered from two threads at once).
+
+    Raises:
+        ConfigError: ``n`` < 1, or ``HRI_ENVS_THREADS`` is not a whole number >= 1.
+    """
+    global _threads
+    if n is None:
+        raw = os.environ.get(THREADS_ENV, "").strip()
+        try:
+            n = int(raw) if raw else 1
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise ConfigError(f"{THREADS_ENV} must be a whole number >= 1, got {raw!r}",
+                              field=THREADS_ENV)
+    elif n < 1:
+        raise ConfigError(f"threads must be >= 1, got {n}", field="threads")
+    _threads = (n, os.getpid())
+    if n > 1 and kernels() is not None:
+        _prefer_workqueue()
+
+
+def _prefer_workqueue() -> None:
+    """Use numba's ``workqueue`` threading layer unless the user chose one.
+
+    Its threads sleep while they wait. The OpenMP layer that numba otherwise prefers spins
+    instead, which on a loaded machine took the core from the thread being waited for: an
+    update took 2-7 times longer on 2 threads than on one (docs/agents.md, "Threads"). The layer is
+    fixed by numba's first threaded call in the process; a choice made before stands.
+    """
+    from numba import config  # its settings are made at run time: untyped
+
+    layer = config.THREADING_LAYER  # type: ignore[attr-defined]
+    if "NUMBA_THREADING_LAYER" not in os.environ and layer == "default":
+        config.THREADING_LAYER = "workqueue"  # type: ignore[attr-defined]
+
+
+def threads() -> int:
+    """Threads the compiled kernels share a batch among in this process (1: serial)."""
+    if _threads is None:
+        set_threads(None)
+    assert _threads is not None
+    n, pid = _threads
+    return n if pid == os.getpid() else 1
+
+
+def _chunks(n_mdps: int) -> int:
+    """Threads for a batch of ``n_mdps`` MDPs here and now (1: run the serial kernel)."""
+    n = threads()
+    if n == 1 or threading.current_thread() is not threading.main_thread():
+        return 1
+    return max(1, min(n, n_mdps // _MIN_PER_THREAD))
 
 
 def jit_enabled() -> bool:
@@ -134,8 +223,14 @@ def _c(x: np.ndarray, dtype: type) -> np.ndarray:
     """``x`` as a C-contiguous, writeable array of ``dtype`` (copied only if it is not).
 
     The compiled kernels then see one array type per argument: numba compiles (and caches)
-    a separate version for read-only or non-contiguous arrays.
+    a separate version for read-only or non-contiguous arrays. The common case, an array
+    that already is one, is answered without :func:`numpy.require` (whose generality costs
+    more than a small kernel call).
     """
+    if type(x) is np.ndarray and x.dtype == dtype:
+        flags = x.flags
+        if flags.c_contiguous and flags.writeable:
+            return x
     return np.require(x, dtype, ("C", "W"))
 
 
@@ -166,7 +261,9 @@ def partner_backup(next_state: np.ndarray, partner: np.ndarray, values: np.ndarr
     _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
-        out = jit.partner_backup(nxt, pi, x, term)
+        n_c = _chunks(len(pi))
+        out = (jit.partner_backup(nxt, pi, x, term) if n_c == 1
+               else jit.partner_backup_par(nxt, pi, x, term, n_c))
     else:
         out = _backup_numpy(nxt, pi, x, term)
     return out.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
@@ -202,7 +299,10 @@ def partner_reward(reward: np.ndarray, partner: np.ndarray,
     _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
-        out = jit.partner_reward(_c(reward, dtype=np.float64), pi, term)
+        r = _c(reward, dtype=np.float64)
+        n_c = _chunks(len(pi))
+        out = (jit.partner_reward(r, pi, term) if n_c == 1
+               else jit.partner_reward_par(r, pi, term, n_c))
     else:
         out = np.einsum("sap,nsp->nsa", reward, pi)
         has = np.flatnonzero(term >= 0)
@@ -226,7 +326,9 @@ def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
         return mdp.softmax(q, valid, temperature)
     n_s, n_a = q.shape[-2:]
     flat = _c(q, dtype=np.float64).reshape(-1, n_s, n_a)
-    out = jit.softmax(flat, _c(valid, dtype=np.bool_), float(temperature))
+    ok, tau = _c(valid, dtype=np.bool_), float(temperature)
+    n_c = _chunks(len(flat))
+    out = jit.softmax(flat, ok, tau) if n_c == 1 else jit.softmax_par(flat, ok, tau, n_c)
     return out.reshape(q.shape)  # type: ignore[no-any-return]
 
 
@@ -317,12 +419,109 @@ def solve_partner_q(
     _check_range("policy", act, 0, n_a)
     jit = kernels()
     if jit is not None:
-        q, greedy = jit.solve_partner_q(nxt, pi, r, ok, term, float(gamma), act, warm,
-                                        int(max_iter))
+        n_c = _chunks(len(pi))
+        if n_c == 1:
+            q, greedy = jit.solve_partner_q(nxt, pi, r, ok, term, float(gamma), act, warm,
+                                            int(max_iter))
+        else:
+            q, greedy = jit.solve_partner_q_par(nxt, pi, r, ok, term, float(gamma), act, warm,
+                                                int(max_iter), n_c)
     else:
         q, greedy = _solve_numpy(nxt, pi, r, ok, term, float(gamma), act if warm else None,
                                  max_iter)
     return q.reshape(*lead, n_s, n_a), greedy.reshape(*lead, n_s)
+
+
+def solve_soft(
+    next_state: np.ndarray,
+    partner: np.ndarray,
+    valid: np.ndarray,
+    gamma: float,
+    temperature: float,
+    *,
+    state_reward: np.ndarray | None = None,
+    joint_reward: np.ndarray | None = None,
+    terminal: np.ndarray | int | None = None,
+    policy: np.ndarray | None = None,
+    max_iter: int = 100,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Reward, optimal Q and soft-max policy of partner-substituted MDPs, in one call.
+
+    The same numbers, bit for bit, as the three calls it stands for::
+
+        reward = partner_backup(next_state, partner, state_reward, terminal)
+        # or: partner_reward(joint_reward, partner, terminal)
+        q, greedy = solve_partner_q(next_state, partner, reward, valid, gamma,
+                                    terminal=terminal, policy=policy, max_iter=max_iter)
+        soft = softmax(q, valid, temperature)
+
+    made MDP by MDP in one compiled pass where the kernels are on (one set of checks and
+    one call instead of three: the Learner's update makes three of these).
+
+    Args:
+        next_state: (S, A, P) int joint transition table, own action before the partner's.
+        partner: (..., S, P) the partner's policy.
+        valid: (S, A) bool valid own actions.
+        gamma: Discount in [0, 1).
+        temperature: τ > 0 of the soft-max.
+        state_reward: (..., S) a reward per next state (the expected reward of an action is
+            its backup, :func:`partner_backup`); give this or ``joint_reward``.
+        joint_reward: (S, A, P) reward of (s, own action, partner action)
+            (:func:`partner_reward`).
+        terminal: (...,) int absorbing state per MDP (-1 none), or None for none.
+        policy: (..., S) int greedy actions to start from (a warm start), optional.
+        max_iter: Cap on improvement rounds.
+
+    Returns:
+        ``(q, greedy, soft)``: (..., S, A) Q, (..., S) int greedy actions and (..., S, A)
+        the soft-max policy.
+
+    Raises:
+        ConfigError: Not exactly one of ``state_reward`` and ``joint_reward``, or what
+            :func:`solve_partner_q` refuses.
+    """
+    if (state_reward is None) == (joint_reward is None):
+        raise ConfigError("give exactly one of state_reward (..., S) and joint_reward "
+                          "(S, A, P)", field="state_reward")
+    jit = kernels()
+    if jit is None:
+        if joint_reward is not None:
+            reward = partner_reward(joint_reward, partner, terminal)
+        else:
+            assert state_reward is not None
+            reward = partner_backup(next_state, partner, state_reward, terminal)
+        q, greedy = solve_partner_q(next_state, partner, reward, valid, gamma,
+                                    terminal=terminal, policy=policy, max_iter=max_iter)
+        return q, greedy, softmax(q, valid, temperature)
+    if not 0.0 <= gamma < 1.0:
+        raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
+    if max_iter < 1:
+        raise ConfigError(f"max_iter must be >= 1, got {max_iter}", field="max_iter")
+    lead = partner.shape[:-2]
+    n_s, n_a, n_p = next_state.shape
+    nxt = _c(next_state, dtype=np.int64)
+    _check_range("next_state", nxt, 0, n_s)
+    pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
+    term = _terminal(terminal, lead)
+    _check_range("terminal", term, -1, n_s)
+    warm = policy is not None
+    act = (_flat(policy, (*lead, n_s), np.int64).reshape(-1, n_s) if policy is not None
+           else np.zeros((len(pi), n_s), np.int64))
+    _check_range("policy", act, 0, n_a)
+    if joint_reward is not None:
+        joint = _c(joint_reward, dtype=np.float64)
+        values = np.zeros((1, 1))
+    else:
+        assert state_reward is not None
+        joint = np.zeros((1, 1, 1))
+        values = _c(state_reward, dtype=np.float64).reshape(-1, n_s)
+    n_c = _chunks(len(pi))
+    kernel = jit.solve_soft if n_c == 1 else jit.solve_soft_par
+    q, greedy, soft = kernel(nxt, pi, values, joint, joint_reward is not None,
+                             _c(valid, dtype=np.bool_), term, float(gamma), act, warm,
+                             int(max_iter), float(temperature), n_c)
+    return (q.reshape(*lead, n_s, n_a), greedy.reshape(*lead, n_s),
+            soft.reshape(*lead, n_s, n_a))
 
 
 def _evaluation_matrix(nxt: np.ndarray, pi: np.ndarray, act: np.ndarray, term: np.ndarray,
@@ -408,7 +607,10 @@ def expected_feature_counts(
     _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
-        return jit.expected_feature_counts(nxt, pi, own, phi, start_, term, hor)  # type: ignore[no-any-return]
+        n_c = _chunks(len(pi))
+        if n_c == 1:
+            return jit.expected_feature_counts(nxt, pi, own, phi, start_, term, hor)  # type: ignore[no-any-return]
+        return jit.expected_feature_counts_par(nxt, pi, own, phi, start_, term, hor, n_c)  # type: ignore[no-any-return]
     n_b = len(pi)
     rows = np.arange(n_b)
     weight = own[:, :, :, None] * pi[:, :, None, :]  # (N, S, A, P)
@@ -424,3 +626,44 @@ def expected_feature_counts(
         d = np.einsum("bs,bsz->bz", d, p)
         svf += d * (t < hor)[:, None]
     return np.einsum("bs,bsf->bf", svf, phi)  # type: ignore[no-any-return]
+
+
+def loop_free_counts(features: np.ndarray, state_traces: Sequence[np.ndarray],
+                     intentions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Loop removal and feature counts of each trace, in one call (ME-IRL's demonstrations).
+
+    The numbers of :func:`hri_envs.task.mdp.demonstrations` (bit for bit: the same path,
+    and φ summed along it in the same order) without its per-trace Python work; the paths
+    themselves are not returned.
+
+    Args:
+        features: (I, S, F) φ(s, ι).
+        state_traces: B state sequences (each (T+1,), at least one state, ints in [0, S)).
+        intentions: (B,) int the intention of each trace, in [0, I).
+
+    Returns:
+        ``(counts, start, horizon)``: (B, F) Σ φ along each loop-free path, (B,) its first
+        state, (B,) its number of states.
+
+    Raises:
+        ConfigError: A trace is empty, or a state or intention is out of range.
+    """
+    n_i, n_s, n_f = features.shape
+    intent = _c(np.asarray(intentions).reshape(-1), np.int64)
+    if len(intent) != len(state_traces):
+        raise ConfigError(f"intentions must have one entry per trace ({len(state_traces)}), "
+                          f"got {len(intent)}", field="intentions")
+    _check_range("intentions", intent, 0, n_i)
+    lengths = np.fromiter((len(t) for t in state_traces), np.int64, len(state_traces))
+    if len(lengths) and lengths.min() < 1:
+        raise ConfigError("every state trace must hold at least one state",
+                          field="state_traces")
+    jit = kernels()
+    if jit is None or n_f < 2 or not len(lengths):  # numpy sums one feature pairwise
+        demo = mdp.demonstrations(features, state_traces, intent)
+        return demo.counts, demo.start, demo.horizon
+    states = _c(np.concatenate(state_traces), np.int64)
+    _check_range("state_traces", states, 0, n_s)
+    offsets = np.zeros(len(lengths) + 1, np.int64)
+    np.cumsum(lengths, out=offsets[1:])
+    return jit.loop_free_counts(_c(features, np.float64), states, offsets, intent)  # type: ignore[no-any-return]

@@ -1,0 +1,181 @@
+"""The learning math's batch helpers: loop removal in one call, and batches shared by threads.
+
+Both must give the numbers of the plain code bit for bit (not merely to rounding): the
+studies' outputs are compared byte for byte across versions.
+"""
+
+import multiprocessing
+
+import numpy as np
+import pytest
+
+from agents.learner import Learner
+from hri_envs.bench.speed import _wheel_trace
+from hri_envs.bench.study import graph_for
+from hri_envs.errors import ConfigError
+from hri_envs.task import mdp, partner_mdp
+from hri_envs.task.protocol import Trace
+
+HAS_JIT = partner_mdp.kernels() is not None
+needs_jit = pytest.mark.skipif(not HAS_JIT, reason="numba is not importable")
+
+
+@pytest.fixture(params=["numpy", "jit"])
+def path(request, monkeypatch):
+    """Run a test on the numpy path and on the compiled one (skipped without numba)."""
+    if request.param == "numpy":
+        monkeypatch.setattr(partner_mdp, "kernels", lambda: None)
+    elif not HAS_JIT:
+        pytest.skip("numba is not importable (or HRI_ENVS_NO_JIT is set)")
+    return request.param
+
+
+@pytest.fixture
+def threads():
+    """Restore the process's thread setting after a test changes it."""
+    before = partner_mdp.threads()
+    yield partner_mdp.set_threads
+    partner_mdp.set_threads(before)
+
+
+def looped_traces(n_s, n, seed):
+    """Random walks with many revisits (lengths 1 to 60), as int64 and as int32 arrays."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for b in range(n):
+        length = 1 + int(rng.integers(60))
+        walk = rng.integers(0, min(n_s, 3 + b % 7), length)  # few states: loops everywhere
+        out.append(walk.astype(np.int32) if b % 2 else walk)
+    return out
+
+
+def test_loop_removal_by_hand(path):
+    """0 1 2 1 3 2 4: back at 1 drops 2; 2 then comes as a new state: path 0 1 3 2 4."""
+    features = np.arange(2 * 5 * 3, dtype=float).reshape(2, 5, 3)
+    counts, start, horizon = partner_mdp.loop_free_counts(
+        features, [np.array([0, 1, 2, 1, 3, 2, 4]), np.array([3])], np.array([1, 0]))
+    np.testing.assert_array_equal(start, [0, 3])
+    np.testing.assert_array_equal(horizon, [5, 1])
+    np.testing.assert_array_equal(counts[0], features[1, [0, 1, 3, 2, 4]].sum(axis=0))
+    np.testing.assert_array_equal(counts[1], features[0, 3])
+
+
+@pytest.mark.parametrize("n_f", [1, 2, 26])
+def test_loop_free_counts_are_the_demonstrations_bit_for_bit(path, n_f):
+    rng = np.random.default_rng(n_f)
+    features = rng.normal(size=(3, 36, n_f)) * 10.0 ** rng.uniform(-6, 6, size=(3, 36, n_f))
+    traces = looped_traces(36, 80, n_f)
+    intentions = rng.integers(0, 3, 80)
+    counts, start, horizon = partner_mdp.loop_free_counts(features, traces, intentions)
+    demo = mdp.demonstrations(features, traces, intentions)
+    assert counts.tobytes() == demo.counts.tobytes()
+    np.testing.assert_array_equal(start, demo.start)
+    np.testing.assert_array_equal(horizon, demo.horizon)
+
+
+@pytest.mark.parametrize(("traces", "intentions", "field", "says"), [
+    ([np.array([0, 1]), np.array([], dtype=np.int64)], [0, 1], "state_traces", "at least one"),
+    ([np.array([0, 36])], [0], "state_traces", "[0, 36)"),
+    ([np.array([0, -1])], [0], "state_traces", "[0, 36)"),
+    ([np.array([0, 1])], [3], "intentions", "[0, 3)"),
+    ([np.array([0, 1])], [0, 1], "intentions", "one entry per trace"),
+])
+def test_bad_traces_are_refused(traces, intentions, field, says):
+    if field == "state_traces" and "at least" not in says and not HAS_JIT:
+        pytest.skip("the numpy path indexes φ directly")
+    features = np.ones((3, 36, 4))
+    with pytest.raises(ConfigError, match=says.replace("[", r"\[").replace(")", r"\)")) as err:
+        partner_mdp.loop_free_counts(features, traces, np.array(intentions))
+    assert err.value.field == field
+
+
+def test_thread_setting_is_checked(threads, monkeypatch):
+    with pytest.raises(ConfigError, match=">= 1") as err:
+        threads(0)
+    assert err.value.field == "threads"
+    monkeypatch.setenv(partner_mdp.THREADS_ENV, "two")
+    with pytest.raises(ConfigError, match="whole number >= 1") as err:
+        threads(None)
+    assert err.value.field == partner_mdp.THREADS_ENV
+    monkeypatch.setenv(partner_mdp.THREADS_ENV, "3")
+    threads(None)
+    assert partner_mdp.threads() == 3
+    monkeypatch.delenv(partner_mdp.THREADS_ENV)
+    threads(None)
+    assert partner_mdp.threads() == 1
+
+
+def _child_threads(_):
+    return partner_mdp.threads()
+
+
+def test_a_forked_child_runs_the_kernels_on_one_thread(threads):
+    """A study's workers are forked: they must not each start the parent's threads."""
+    threads(2)
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        assert pool.map(_child_threads, [0]) == [1]
+    assert partner_mdp.threads() == 2
+
+
+@needs_jit
+def test_threads_give_the_same_numbers_bit_for_bit(threads):
+    """Ten updates of a 40-run wheel Learner on 1 and on 2 threads: identical models."""
+    graph, trace = _wheel_trace()
+    rng = np.random.default_rng(1)
+    short = Trace(trace.states[:5], trace.robot_actions[:4], trace.human_actions[:4])
+    traces = [trace, short] * 20
+    intentions = [rng.integers(-1, 3, 40) for _ in range(10)]
+
+    def learn(n):
+        threads(n)
+        learner = Learner(graph, 40)
+        for ints in intentions:
+            learner.end_episode(traces, ints)
+        return learner
+
+    one, two = learn(1), learn(2)
+    for name in ("theta", "pi_h", "q_h", "q_r", "pi_r", "_warm_h", "_warm_r"):
+        assert getattr(one, name).tobytes() == getattr(two, name).tobytes(), name
+    g = graph_for("hanger")
+    pi = mdp.softmax(rng.normal(size=(64, g.n_states, g.n_actions)), g.valid, 2.0)
+    values = rng.normal(size=(64, g.n_states))
+    for n in (1, 2):
+        threads(n)
+        got = partner_mdp.partner_backup(g.next_state, pi, values, g.terminal[np.arange(64) % 3])
+        if n == 1:
+            first = got
+    assert got.tobytes() == first.tobytes()
+
+
+@pytest.mark.parametrize("kind", ["state", "joint"])
+def test_solve_soft_is_the_three_calls_bit_for_bit(path, kind):
+    g = graph_for("wheel")
+    rng = np.random.default_rng(7)
+    pi = mdp.softmax(rng.normal(size=(5, 3, g.n_states, g.n_actions)), g.valid, 2.0)
+    term = g.terminal[None, :]
+    warm = rng.integers(0, 2, (5, 3, g.n_states)) * g.valid.argmax(-1)  # valid actions
+    if kind == "state":
+        values = rng.normal(size=(5, 3, g.n_states))
+        reward = partner_mdp.partner_backup(g.next_state, pi, values, term)
+        got = partner_mdp.solve_soft(g.next_state, pi, g.valid, 0.9, 3.0, state_reward=values,
+                                     terminal=term, policy=warm)
+    else:
+        joint = rng.normal(size=(g.n_states, g.n_actions, g.n_actions))
+        reward = partner_mdp.partner_reward(joint, pi, term)
+        got = partner_mdp.solve_soft(g.next_state, pi, g.valid, 0.9, 3.0, joint_reward=joint,
+                                     terminal=term, policy=warm)
+    q, greedy = partner_mdp.solve_partner_q(g.next_state, pi, reward, g.valid, 0.9,
+                                            terminal=term, policy=warm)
+    soft = partner_mdp.softmax(q, g.valid, 3.0)
+    for a, b in zip(got, (q, greedy, soft), strict=True):
+        assert a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("rewards", [{}, {"state_reward": np.zeros(24),
+                                          "joint_reward": np.zeros((24, 10, 10))}])
+def test_solve_soft_needs_exactly_one_reward(path, rewards):
+    g = graph_for("hanger")
+    pi = mdp.softmax(np.zeros((1, g.n_states, g.n_actions)), g.valid, 1.0)
+    with pytest.raises(ConfigError, match="exactly one of state_reward") as err:
+        partner_mdp.solve_soft(g.next_state, pi, g.valid, 0.9, 1.0, **rewards)
+    assert err.value.field == "state_reward"
