@@ -42,6 +42,7 @@ def _kinds(sim):
 def test_only_the_intended_pairs_collide(name, hanger):
     sim = hanger[1] if name == "hanger" else PandaSim(scenario_graph(name))
     m = sim.model
+    sim.reset(0)  # the robot does not hold: its finger pads collide
     sim.arm.hold(sim.data, True)  # the thumb pad collides only while the human holds
     kind = _kinds(sim)
     colliding = {int(g) for g in np.flatnonzero((m.geom_contype | m.geom_conaffinity) != 0)}
@@ -76,15 +77,37 @@ def test_an_object_resting_on_a_support_touches_nothing(name, hanger):
 
 
 def test_a_grasp_closes_both_fingers_on_the_grip(hanger):
+    """The fingers close on the grip block and press on it before the weld; once it holds,
+    they stay where the block stopped them with their contacts off (the weld carries the
+    object), and a let-go turns the contacts on again."""
     g, sim = hanger
     s = sim.reset(1)
-    r = sim.step(s, TOGGLE, WAIT)
+    pressed = []
+    close = sim._close_on_grip
+
+    def logged(totals):
+        weld = sim._weld
+        sim._weld = lambda on: (pressed.append(finger_forces(
+            sim.model, sim.data, sim.scene.finger_geoms, sim.scene.grip_geom)), weld(on))
+        try:
+            close(totals)
+        finally:
+            del sim._weld
+
+    sim._close_on_grip = logged
+    try:
+        r = sim.step(s, TOGGLE, WAIT)
+    finally:
+        del sim._close_on_grip
     assert r.fault is None and sim.holding and sim.data.eq_active[sim.scene.weld]
-    forces = finger_forces(sim.model, sim.data, sim.scene.finger_geoms, sim.scene.grip_geom)
-    assert np.all(forces >= sim.design.grasp_contact_force_n)
-    # The grip (4 cm wide) stopped the fingers before their commanded 1.2 cm.
+    assert len(pressed) == 1 and np.all(pressed[0] >= sim.design.grasp_contact_force_n)
+    # The grip (4 cm wide) stopped the fingers before their commanded 1.2 cm, and they stay.
     q = sim.data.qpos[sim.scene.finger_qpos]
-    assert np.all(q > sim.design.grip_finger_pos_m + 0.005), q
+    assert np.all(np.abs(q - 0.0219) < 0.001), q
+    fingers = sim.scene.finger_geoms.ravel()
+    assert not sim.model.geom_contype[fingers].any() and sim.data.ncon <= 1  # thumb only
+    r = sim.step(r.state, TOGGLE, WAIT)
+    assert not sim.holding and sim.model.geom_contype[fingers].all()
 
 
 @pytest.mark.parametrize("offset_m, holds", [(0.005, True), (0.025, False), (0.04, False)])

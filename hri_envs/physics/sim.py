@@ -80,6 +80,10 @@ PHYSICAL_FAULTS = ("dropped", "grasp_failed", "pulled_out", "off_support")
 
 # Physical thresholds and times are fields of PhysicsDesign; these are fixed by the model.
 _FINGER_OPEN_M = 0.04  # [m] finger joint position of the open hand (the Panda's maximum)
+#: [m] finger joint position where the closing fingers stop on the grip block (2.18-2.19 cm
+#: measured after grasps on both scenes; a reset into a held state puts them there).
+_FINGER_ON_GRIP_M = 0.0219
+_FINGER_HOLD_STIFFENING = 10.0  # [-] the finger servos' stiffness x this while welded
 _PLATFORM_Z_M = 0.1  # [m] height of the mobile base's floor platform mocap (scene.py)
 # Numerical method: iterations of the reset IK solve onto the grip and the waiting pose.
 _RESET_GRIP_IK_ITERATIONS = 300
@@ -195,6 +199,8 @@ class PandaSim:
         self.home = home
         self.base_offset = self._base_offset() if n_base else np.zeros(3)
         m = self.model
+        self._finger_contype = m.geom_contype[self.scene.finger_geoms.ravel()].copy()
+        self._finger_kp = m.actuator_gainprm[self.scene.finger_actuators, 0].copy()
         self._site_pos = m.site_pos[self.scene.grip_site].copy()
         self._site_quat = m.site_quat[self.scene.grip_site].copy()
         self.grip_in_object = Pose(design.grip_pos, design.grip_quat)
@@ -306,7 +312,7 @@ class PandaSim:
             raise IKFailure(f"the robot cannot reach its pose in state {s0}")
         self.q_ref = self.ik.q
         data.qpos[sc.robot_qpos] = self.q_ref
-        data.qpos[sc.finger_qpos] = _FINGER_OPEN_M
+        data.qpos[sc.finger_qpos] = _FINGER_ON_GRIP_M if mu & ROBOT_BIT else _FINGER_OPEN_M
         data.eq_active[sc.weld] = 0
         self._weld(bool(mu & ROBOT_BIT))
         self.human.holding = bool(mu & HUMAN_BIT)
@@ -328,9 +334,20 @@ class PandaSim:
             m.eq_data[sc.weld, 0:3] = 0.0
             m.eq_data[sc.weld, 3:6] = rel.pos
             m.eq_data[sc.weld, 6:10] = rel.quat
-        self.data.eq_active[sc.weld] = int(on)
-        self.data.ctrl[sc.finger_actuators] = (self.design.grip_finger_pos_m if on
-                                               else _FINGER_OPEN_M)
+        data = self.data
+        data.eq_active[sc.weld] = int(on)
+        # While the weld holds, the fingers stay where they closed on the grip and their
+        # contacts are off: the weld carries the object, and the four finger contacts were
+        # about 40 % of MuJoCo's time per step (docs/physics.md, Speed).
+        # The weld holds the object at the nominal grip, so the fingers are held where they
+        # meet the grip block there; without the block to stop them the finger servos are
+        # stiffened, so that the fingers' weight does not slide them into it.
+        acts = sc.finger_actuators
+        data.ctrl[acts] = _FINGER_ON_GRIP_M if on else _FINGER_OPEN_M
+        kp = self._finger_kp * (_FINGER_HOLD_STIFFENING if on else 1.0)
+        m.actuator_gainprm[acts, 0] = kp
+        m.actuator_biasprm[acts, 1] = -kp
+        m.geom_contype[sc.finger_geoms.ravel()] = 0 if on else self._finger_contype
         self.holding = on
 
     @staticmethod
