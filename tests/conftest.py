@@ -4,3 +4,20 @@ import os
 
 # MuJoCo picks its OpenGL backend at import time: headless EGL unless the user chose one.
 os.environ.setdefault("MUJOCO_GL", "egl")
+
+import pytest  # noqa: E402  (after MUJOCO_GL)
+
+from tests.helpers_partner import HAS_JIT  # noqa: E402
+
+
+@pytest.fixture(params=["numpy", "jit"])
+def path(request, monkeypatch):
+    """Run a test of the learning math on the numpy path and on the compiled one (the
+    compiled one is skipped without numba)."""
+    from hri_envs.task import partner_mdp
+
+    if request.param == "numpy":
+        monkeypatch.setattr(partner_mdp, "kernels", lambda: None)
+    elif not HAS_JIT:
+        pytest.skip("numba is not importable (or HRI_ENVS_NO_JIT is set)")
+    return request.param

@@ -15,19 +15,9 @@ from hri_envs.bench.study import graph_for
 from hri_envs.errors import ConfigError
 from hri_envs.task import mdp, partner_mdp
 from hri_envs.task.protocol import Trace
+from tests.helpers_partner import HAS_JIT
 
-HAS_JIT = partner_mdp.kernels() is not None
 needs_jit = pytest.mark.skipif(not HAS_JIT, reason="numba is not importable")
-
-
-@pytest.fixture(params=["numpy", "jit"])
-def path(request, monkeypatch):
-    """Run a test on the numpy path and on the compiled one (skipped without numba)."""
-    if request.param == "numpy":
-        monkeypatch.setattr(partner_mdp, "kernels", lambda: None)
-    elif not HAS_JIT:
-        pytest.skip("numba is not importable (or HRI_ENVS_NO_JIT is set)")
-    return request.param
 
 
 @pytest.fixture

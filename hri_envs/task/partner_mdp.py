@@ -400,23 +400,12 @@ def solve_partner_q(
     Raises:
         ConfigError: ``gamma`` outside [0, 1) or ``max_iter`` < 1.
     """
-    if not 0.0 <= gamma < 1.0:
-        raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
-    if max_iter < 1:
-        raise ConfigError(f"max_iter must be >= 1, got {max_iter}", field="max_iter")
     lead = partner.shape[:-2]
-    n_s, n_a, n_p = next_state.shape
-    nxt = _c(next_state, dtype=np.int64)
-    _check_range("next_state", nxt, 0, n_s)
-    pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
+    n_s, n_a, _ = next_state.shape
+    nxt, pi, term, act, warm = _iteration_inputs(next_state, partner, gamma, terminal, policy,
+                                                 max_iter)
     r = _flat(reward, (*lead, n_s, n_a), np.float64).reshape(-1, n_s, n_a)
     ok = _c(valid, dtype=np.bool_)
-    term = _terminal(terminal, lead)
-    _check_range("terminal", term, -1, n_s)
-    warm = policy is not None
-    act = (_flat(policy, (*lead, n_s), np.int64).reshape(-1, n_s) if policy is not None
-           else np.zeros((len(pi), n_s), np.int64))
-    _check_range("policy", act, 0, n_a)
     jit = kernels()
     if jit is not None:
         n_c = _chunks(len(pi))
@@ -493,6 +482,37 @@ def solve_soft(
         q, greedy = solve_partner_q(next_state, partner, reward, valid, gamma,
                                     terminal=terminal, policy=policy, max_iter=max_iter)
         return q, greedy, softmax(q, valid, temperature)
+    lead = partner.shape[:-2]
+    n_s, n_a, _ = next_state.shape
+    nxt, pi, term, act, warm = _iteration_inputs(next_state, partner, gamma, terminal, policy,
+                                                 max_iter)
+    if joint_reward is not None:
+        joint = _c(joint_reward, dtype=np.float64)
+        values = np.zeros((1, 1))
+    else:
+        assert state_reward is not None
+        joint = np.zeros((1, 1, 1))
+        values = _c(state_reward, dtype=np.float64).reshape(-1, n_s)
+    n_c = _chunks(len(pi))
+    kernel = jit.solve_soft if n_c == 1 else jit.solve_soft_par
+    q, greedy, soft = kernel(nxt, pi, values, joint, joint_reward is not None,
+                             _c(valid, dtype=np.bool_), term, float(gamma), act, warm,
+                             int(max_iter), float(temperature), n_c)
+    return (q.reshape(*lead, n_s, n_a), greedy.reshape(*lead, n_s),
+            soft.reshape(*lead, n_s, n_a))
+
+
+def _iteration_inputs(next_state: np.ndarray, partner: np.ndarray, gamma: float,
+                      terminal: np.ndarray | int | None, policy: np.ndarray | None,
+                      max_iter: int
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
+    """Checked, flattened inputs of a policy iteration (:func:`solve_partner_q`,
+    :func:`solve_soft`): ``(next_state, partner (N, S, P), terminal (N,), starting actions
+    (N, S), whether they are a warm start)``.
+
+    Raises:
+        ConfigError: ``gamma`` outside [0, 1), ``max_iter`` < 1, or an index out of range.
+    """
     if not 0.0 <= gamma < 1.0:
         raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
     if max_iter < 1:
@@ -508,20 +528,7 @@ def solve_soft(
     act = (_flat(policy, (*lead, n_s), np.int64).reshape(-1, n_s) if policy is not None
            else np.zeros((len(pi), n_s), np.int64))
     _check_range("policy", act, 0, n_a)
-    if joint_reward is not None:
-        joint = _c(joint_reward, dtype=np.float64)
-        values = np.zeros((1, 1))
-    else:
-        assert state_reward is not None
-        joint = np.zeros((1, 1, 1))
-        values = _c(state_reward, dtype=np.float64).reshape(-1, n_s)
-    n_c = _chunks(len(pi))
-    kernel = jit.solve_soft if n_c == 1 else jit.solve_soft_par
-    q, greedy, soft = kernel(nxt, pi, values, joint, joint_reward is not None,
-                             _c(valid, dtype=np.bool_), term, float(gamma), act, warm,
-                             int(max_iter), float(temperature), n_c)
-    return (q.reshape(*lead, n_s, n_a), greedy.reshape(*lead, n_s),
-            soft.reshape(*lead, n_s, n_a))
+    return nxt, pi, term, act, warm
 
 
 def _evaluation_matrix(nxt: np.ndarray, pi: np.ndarray, act: np.ndarray, term: np.ndarray,
