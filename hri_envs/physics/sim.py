@@ -80,8 +80,8 @@ PHYSICAL_FAULTS = ("dropped", "grasp_failed", "pulled_out", "off_support")
 
 # Physical thresholds and times are fields of PhysicsDesign; these are fixed by the model.
 _FINGER_OPEN_M = 0.04  # [m] finger joint position of the open hand (the Panda's maximum)
-#: [m] finger joint position where the closing fingers stop on the grip block (2.18-2.19 cm
-#: measured after grasps on both scenes; a reset into a held state puts them there).
+#: [m] finger joint position where the closing fingers stop on the grip block at the nominal
+#: grip (2.18-2.19 cm measured after grasps on both scenes): held there while welded.
 _FINGER_ON_GRIP_M = 0.0219
 _FINGER_HOLD_STIFFENING = 10.0  # [-] the finger servos' stiffness x this while welded
 _PLATFORM_Z_M = 0.1  # [m] height of the mobile base's floor platform mocap (scene.py)
@@ -336,12 +336,11 @@ class PandaSim:
             m.eq_data[sc.weld, 6:10] = rel.quat
         data = self.data
         data.eq_active[sc.weld] = int(on)
-        # While the weld holds, the fingers stay where they closed on the grip and their
-        # contacts are off: the weld carries the object, and the four finger contacts were
-        # about 40 % of MuJoCo's time per step (docs/physics.md, Speed).
-        # The weld holds the object at the nominal grip, so the fingers are held where they
-        # meet the grip block there; without the block to stop them the finger servos are
-        # stiffened, so that the fingers' weight does not slide them into it.
+        # While the weld holds, the finger contacts are off: the weld carries the object, and
+        # the four finger contacts were about 40 % of MuJoCo's time per step (docs/physics.md,
+        # Robot). The weld holds the object at the nominal grip, so the fingers are servoed
+        # to where they meet the grip block there, 10x stiffer: without the block to stop
+        # them, their weight would slide them into it.
         acts = sc.finger_actuators
         data.ctrl[acts] = _FINGER_ON_GRIP_M if on else _FINGER_OPEN_M
         kp = self._finger_kp * (_FINGER_HOLD_STIFFENING if on else 1.0)
