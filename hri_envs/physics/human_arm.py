@@ -35,7 +35,7 @@ import mujoco
 import numpy as np
 
 from hri_envs.physics.design import PhysicsDesign
-from hri_envs.physics.kinematics import TrajectorySample, quat_conj, quat_to_mat
+from hri_envs.physics.kinematics import TrajectorySample, cross3, quat_conj, quat_to_mat
 
 __all__ = ["HANDLE_TOUCH_SENSOR", "HAND_CONTACT_BIT", "HUMAN_JOINTS", "HumanArm",
            "add_human_arm"]
@@ -309,10 +309,9 @@ class HumanArm:
         t0, t1, t2 = f[3:].dot(axes).tolist()
         # The slides are world-aligned: their forces are the hand's force. The lever's
         # moment r × f on plain floats, element by element as numpy would.
-        fx, fy, fz = f[:3].tolist()
+        force = f[:3].tolist()
         hx, hy, hz = data.xpos[self.hand_body].tolist()
         ox, oy, oz = obj_pos.tolist()
-        rx, ry, rz = hx - ox, hy - oy, hz - oz
-        w[:] = (fx, fy, fz, t0 + (ry * fz - rz * fy), t1 + (rz * fx - rx * fz),
-                t2 + (rx * fy - ry * fx))
+        m0, m1, m2 = cross3((hx - ox, hy - oy, hz - oz), force)
+        w[:] = (*force, t0 + m0, t1 + m1, t2 + m2)
         return w

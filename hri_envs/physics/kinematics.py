@@ -8,6 +8,7 @@ same minimum-jerk time scaling, so the motion starts and ends at rest.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import mujoco
@@ -41,10 +42,12 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The cross product a × b of two 3-vectors (np.cross costs more for one pair)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+def cross3(a: Sequence[float], b: Sequence[float]) -> tuple[float, float, float]:
+    """The cross product a × b of two 3-vectors of plain floats (the control loop's small
+    arithmetic: np.cross costs far more for one pair; element by element the same IEEE
+    arithmetic as numpy's).
+    """
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 def quat_conj(q: np.ndarray) -> np.ndarray:

@@ -34,6 +34,7 @@ import mujoco
 import numpy as np
 
 from hri_envs.physics.human_arm import HANDLE_TOUCH_SENSOR
+from hri_envs.physics.kinematics import cross3
 from hri_envs.physics.scene import Scene
 
 __all__ = ["HandleSensor", "SensorModel", "WristSensor"]
@@ -165,26 +166,12 @@ class WristSensor:
         wx, wy, wz = self._object_weight
         f_ext = (-fx - gx - wx, -fy - gy - wy, -fz - gz - wz)
         a, b = (hx - px, hy - py, hz - pz), (cx - px, cy - py, cz - pz)
-        t_ext = (-tx - _cross0(a, self._hand_weight) - _cross0(b, self._object_weight),
-                 -ty - _cross1(a, self._hand_weight) - _cross1(b, self._object_weight),
-                 -tz - _cross2(a, self._hand_weight) - _cross2(b, self._object_weight))
-        r = (ox - px, oy - py, oz - pz)
+        ah, bo = cross3(a, self._hand_weight), cross3(b, self._object_weight)
+        t_ext = (-tx - ah[0] - bo[0], -ty - ah[1] - bo[1], -tz - ah[2] - bo[2])
+        rf = cross3((ox - px, oy - py, oz - pz), f_ext)
         w = self.true_wrench
-        w[:] = (*f_ext, t_ext[0] - _cross0(r, f_ext), t_ext[1] - _cross1(r, f_ext),
-                t_ext[2] - _cross2(r, f_ext))
+        w[:] = (*f_ext, t_ext[0] - rf[0], t_ext[1] - rf[1], t_ext[2] - rf[2])
         return self.model.apply(w)
-
-
-def _cross0(a: tuple[float, ...], b: tuple[float, ...]) -> float:
-    return a[1] * b[2] - a[2] * b[1]
-
-
-def _cross1(a: tuple[float, ...], b: tuple[float, ...]) -> float:
-    return a[2] * b[0] - a[0] * b[2]
-
-
-def _cross2(a: tuple[float, ...], b: tuple[float, ...]) -> float:
-    return a[0] * b[1] - a[1] * b[0]
 
 
 class HandleSensor:
