@@ -337,7 +337,7 @@ class PandaSim:
         data = self.data
         data.eq_active[sc.weld] = int(on)
         # While the weld holds, the finger contacts are off: the weld carries the object, and
-        # the four finger contacts were about 40 % of MuJoCo's time per step (docs/physics.md,
+        # the four finger contacts were a third to half of MuJoCo's time per step (docs/physics.md,
         # Robot). The weld holds the object at the nominal grip, so the fingers are servoed
         # to where they meet the grip block there, 10x stiffer: without the block to stop
         # them, their weight would slide them into it.
