@@ -57,11 +57,12 @@ def test_straight_line_samples_its_ends_and_midpoint():
     np.testing.assert_allclose(mid.pos, [0.3, 0.0, 0.3], atol=1e-15)
     np.testing.assert_allclose(mid.quat, slerp(start.quat, goal.quat, 0.5), atol=1e-15)
     np.testing.assert_allclose(mid.vel, 1.875 / line.duration * (goal.pos - start.pos))
-    for t in (line.duration, line.duration + 1.0, line.duration + 1.0):  # clamped, at rest
+    for t in (line.duration, line.duration + 1.0):  # clamped, at rest
         end = line.sample(t)
         np.testing.assert_allclose(end.pos, goal.pos, atol=1e-15)
         np.testing.assert_allclose(end.quat, goal.quat, atol=1e-15)
         assert not end.vel.any() and not end.angvel.any()
+    assert line.sample(line.duration + 2.0) is line.sample(line.duration)  # kept once ended
     before = line.sample(np.nextafter(line.duration, 0.0))  # not yet the end sample
     assert before is not line.sample(line.duration)
     start_sample = line.sample(-1.0)

@@ -75,18 +75,6 @@ def partner_backup(next_state, partner, values, terminal):
     return out
 
 
-@njit(cache=True, nogil=True, parallel=True)
-def partner_backup_par(next_state, partner, values, terminal, n_c):
-    """:func:`partner_backup` with the MDPs shared out among numba's threads."""
-    n_b = partner.shape[0]
-    out = np.empty((n_b, next_state.shape[0], next_state.shape[1]))
-    n_c = max(1, min(n_b, n_c))
-    for c in prange(n_c):
-        _partner_backup_range(next_state, partner, values, terminal, out, c * n_b // n_c,
-                              (c + 1) * n_b // n_c)
-    return out
-
-
 @njit(cache=True, nogil=True)
 def _link(pattern, row_cols, row_n, col_rows, col_n, i, j):
     """Record that entry (i, j) of the matrix may be nonzero (once per entry)."""
@@ -209,25 +197,6 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
     return q, greedy
 
 
-@njit(cache=True, nogil=True, parallel=True)
-def solve_partner_q_par(next_state, partner, reward, valid, terminal, gamma, policy,
-                        warm, max_iter, n_c):
-    """:func:`solve_partner_q` with the MDPs shared out among numba's threads.
-
-    Each MDP is solved by the same code as there, whichever thread takes it: the results
-    are bit for bit those of :func:`solve_partner_q`.
-    """
-    n_b = partner.shape[0]
-    n_s, n_a = next_state.shape[0], next_state.shape[1]
-    q = np.empty((n_b, n_s, n_a))
-    greedy = np.empty((n_b, n_s), np.int64)
-    n_c = max(1, min(n_b, n_c))
-    for c in prange(n_c):
-        _solve_range(next_state, partner, reward, valid, terminal, gamma, policy, warm,
-                     max_iter, q, greedy, c * n_b // n_c, (c + 1) * n_b // n_c)
-    return q, greedy
-
-
 @njit(cache=True, nogil=True)
 def _feature_counts_range(next_state, partner, policy, features, start, terminal, horizon,
                           out, lo, hi):
@@ -319,18 +288,6 @@ def partner_reward(reward, partner, terminal):
     return out
 
 
-@njit(cache=True, nogil=True, parallel=True)
-def partner_reward_par(reward, partner, terminal, n_c):
-    """:func:`partner_reward` with the MDPs shared out among numba's threads."""
-    n_b = partner.shape[0]
-    out = np.zeros((n_b, reward.shape[0], reward.shape[1]))
-    n_c = max(1, min(n_b, n_c))
-    for c in prange(n_c):
-        _partner_reward_range(reward, partner, terminal, out, c * n_b // n_c,
-                              (c + 1) * n_b // n_c)
-    return out
-
-
 @njit(cache=True, nogil=True)
 def valid_lists(valid):
     """(S, A) each state's valid actions first, in increasing order, and (S,) their count."""
@@ -382,17 +339,6 @@ def softmax(q, valid, temperature):
     """(N, S, A) soft-max of ``temperature * q`` over the valid actions of each state."""
     out = np.zeros(q.shape)
     _softmax_range(q, valid, temperature, out, 0, q.shape[0])
-    return out
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def softmax_par(q, valid, temperature, n_c):
-    """:func:`softmax` with the MDPs shared out among numba's threads."""
-    n_b = q.shape[0]
-    out = np.zeros(q.shape)
-    n_c = max(1, min(n_b, n_c))
-    for c in prange(n_c):
-        _softmax_range(q, valid, temperature, out, c * n_b // n_c, (c + 1) * n_b // n_c)
     return out
 
 

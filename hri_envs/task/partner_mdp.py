@@ -100,11 +100,6 @@ def preload() -> bool:
     jit.solve_soft(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
                    np.zeros((1, 1), np.int64), False, 1, 1.0, 1)
     if threads() > 1:
-        jit.partner_backup_par(nxt, one, np.zeros((1, 1)), none, 1)
-        jit.partner_reward_par(one, one, none, 1)
-        jit.softmax_par(one, valid, 1.0, 1)
-        jit.solve_partner_q_par(nxt, one, one, valid, none, 0.5, np.zeros((1, 1), np.int64),
-                                False, 1, 1)
         jit.expected_feature_counts_par(nxt, one, one, one, zero, none, np.ones(1, np.int64), 1)
         jit.solve_soft_par(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
                            np.zeros((1, 1), np.int64), False, 1, 1.0, 1)
@@ -261,9 +256,7 @@ def partner_backup(next_state: np.ndarray, partner: np.ndarray, values: np.ndarr
     _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
-        n_c = _chunks(len(pi))
-        out = (jit.partner_backup(nxt, pi, x, term) if n_c == 1
-               else jit.partner_backup_par(nxt, pi, x, term, n_c))
+        out = jit.partner_backup(nxt, pi, x, term)
     else:
         out = _backup_numpy(nxt, pi, x, term)
     return out.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
@@ -300,9 +293,7 @@ def partner_reward(reward: np.ndarray, partner: np.ndarray,
     jit = kernels()
     if jit is not None:
         r = _c(reward, dtype=np.float64)
-        n_c = _chunks(len(pi))
-        out = (jit.partner_reward(r, pi, term) if n_c == 1
-               else jit.partner_reward_par(r, pi, term, n_c))
+        out = jit.partner_reward(r, pi, term)
     else:
         out = np.einsum("sap,nsp->nsa", reward, pi)
         has = np.flatnonzero(term >= 0)
@@ -326,9 +317,7 @@ def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
         return mdp.softmax(q, valid, temperature)
     n_s, n_a = q.shape[-2:]
     flat = _c(q, dtype=np.float64).reshape(-1, n_s, n_a)
-    ok, tau = _c(valid, dtype=np.bool_), float(temperature)
-    n_c = _chunks(len(flat))
-    out = jit.softmax(flat, ok, tau) if n_c == 1 else jit.softmax_par(flat, ok, tau, n_c)
+    out = jit.softmax(flat, _c(valid, dtype=np.bool_), float(temperature))
     return out.reshape(q.shape)  # type: ignore[no-any-return]
 
 
@@ -408,13 +397,8 @@ def solve_partner_q(
     ok = _c(valid, dtype=np.bool_)
     jit = kernels()
     if jit is not None:
-        n_c = _chunks(len(pi))
-        if n_c == 1:
-            q, greedy = jit.solve_partner_q(nxt, pi, r, ok, term, float(gamma), act, warm,
-                                            int(max_iter))
-        else:
-            q, greedy = jit.solve_partner_q_par(nxt, pi, r, ok, term, float(gamma), act, warm,
-                                                int(max_iter), n_c)
+        q, greedy = jit.solve_partner_q(nxt, pi, r, ok, term, float(gamma), act, warm,
+                                        int(max_iter))
     else:
         q, greedy = _solve_numpy(nxt, pi, r, ok, term, float(gamma), act if warm else None,
                                  max_iter)
