@@ -112,6 +112,26 @@ def test_compiled_and_numpy_learners_agree(monkeypatch):
                                    err_msg=name)
 
 
+@pytest.mark.skipif(not HAS_JIT, reason="numba is not importable (or HRI_ENVS_NO_JIT is set)")
+def test_more_states_than_a_bit_set_word_on_both_paths(monkeypatch):
+    """130 states and random transitions: the compiled elimination's column sets span three
+    64-bit words and fill in; it gives the numpy path's solution (a dense solve)."""
+    rng = np.random.default_rng(5)
+    n_s, n_a, n_p, n = 130, 4, 3, 6
+    nxt = rng.integers(0, n_s, (n_s, n_a, n_p))
+    valid, partner_valid = rng.random((n_s, n_a)) < 0.7, rng.random((n_s, n_p)) < 0.7
+    valid[:, 0] = partner_valid[:, 0] = True
+    partner = mdp.softmax(rng.normal(size=(n, n_s, n_p)), partner_valid, 1.0)
+    kwargs = {"state_reward": rng.normal(size=(n, n_s)),
+              "terminal": np.array([-1, 0, 63, 64, 129, -1])}
+    compiled = partner_mdp.solve_soft(nxt, partner, valid, 0.95, 2.0, **kwargs)
+    monkeypatch.setattr(partner_mdp, "kernels", lambda: None)
+    plain = partner_mdp.solve_soft(nxt, partner, valid, 0.95, 2.0, **kwargs)
+    np.testing.assert_allclose(compiled[0], plain[0], rtol=0, atol=1e-10)
+    np.testing.assert_array_equal(compiled[1], plain[1])
+    np.testing.assert_allclose(compiled[2], plain[2], rtol=0, atol=1e-12)
+
+
 def test_no_absorbing_state_is_the_same_on_both_paths(path):
     """terminal = -1 means no absorbing state: the numpy path once took it for the last state."""
     g = graph_for("hanger")

@@ -11,7 +11,7 @@ kept beside this file, or in ``NUMBA_CACHE_DIR``).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 _NEG = -1e300
 
@@ -25,159 +25,290 @@ def out_of_range(x, low, high):
     return False
 
 
-@njit(cache=True, nogil=True)
-def _backup_state(next_state, partner_s, values, s, out):
-    """out[a] = Σ_p partner_s[p] values[next_state[s, a, p]] for one state ``s``.
 
-    The partner's actions outermost: the sums of the A actions are independent, so they
-    proceed together (each still adds its terms in increasing p).
+@njit(cache=True, nogil=True)
+def own_last(table):
+    """(S, A, P) -> (S, P, A) copy of a joint table: the partner's action before one's own.
+
+    A backup's inner loop over one's own actions then reads consecutive entries.
     """
-    n_a, n_p = next_state.shape[1], next_state.shape[2]
-    for a in range(n_a):
-        out[a] = 0.0
-    for p in range(n_p):
-        w = partner_s[p]
-        if w != 0.0:
-            for a in range(n_a):
-                out[a] += w * values[next_state[s, a, p]]
+    n_s, n_a, n_p = table.shape
+    out = np.empty((n_s, n_p, n_a), table.dtype)
+    for s in range(n_s):
+        for a in range(n_a):
+            for p in range(n_p):
+                out[s, p, a] = table[s, a, p]
+    return out
 
 
 @njit(cache=True, nogil=True)
-def _best_valid(x, valid_s):
-    """(max, first argmax) of ``x`` (A,) over the valid actions ``valid_s`` (A,)."""
+def valid_lists(valid):
+    """(S, A) each state's valid actions first, in increasing order, and (S,) their count."""
+    n_s, n_a = valid.shape
+    idx = np.zeros((n_s, n_a), np.int64)
+    count = np.zeros(n_s, np.int64)
+    for s in range(n_s):
+        for a in range(n_a):
+            if valid[s, a]:
+                idx[s, count[s]] = a
+                count[s] += 1
+    return idx, count
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _best(x, k, s, vidx, n_valid):
+    """(max, first argmax) of ``x[k, s, :]`` over the valid actions of ``s``.
+
+    ``vidx``, ``n_valid``: :func:`valid_lists`.
+    """
     best, best_a = -np.inf, 0
-    for a in range(x.shape[0]):
-        if valid_s[a] and x[a] > best:
-            best, best_a = x[a], a
+    for u in range(n_valid[s]):
+        a = vidx[s, u]
+        if x[k, s, a] > best:
+            best, best_a = x[k, s, a], a
     return best, best_a
 
 
 @njit(cache=True, nogil=True)
-def _partner_backup_range(next_state, partner, values, terminal, out, lo, hi):
-    """:func:`partner_backup` of the MDPs lo..hi-1 into ``out``."""
-    n_s, n_a = next_state.shape[0], next_state.shape[1]
-    for k in range(lo, hi):
-        term = terminal[k]
-        for s in range(n_s):
-            if s == term:
-                for a in range(n_a):
-                    out[k, s, a] = values[k, s]
+def _solve_in_place(m, b, bits, cols, n_cols):
+    """Solve m x = b into b by Gaussian elimination without pivoting, on the nonzeros only.
+
+    ``m`` (S, S) is dense and overwritten; ``cols[i, :n_cols[i]]`` are the columns of row i
+    that may be nonzero, in the order they became so, and ``bits[i]`` the same columns as
+    a bit set (64 per word); fill-in is added to both. The matrices here, I - γ P_π with
+    P_π a (sub-)stochastic matrix and γ < 1, are strictly diagonally dominant by rows,
+    which elimination preserves: no pivot is small and no pivoting is needed. They have a
+    handful of entries per row and little fill-in, so the work is proportional to the
+    entries rather than to S³.
+
+    Every value is made by the same operations in the same order whatever the bookkeeping
+    (rows are updated independently; each back-substitution sum adds its terms in the
+    order the row's columns became nonzero), so results do not depend on it bit for bit.
+    """
+    n = m.shape[0]
+    one = np.uint64(1)
+    for k in range(n):
+        # Row k gets no more fill: keep only its columns right of the diagonal, in order.
+        c = 0
+        for u in range(n_cols[k]):
+            j = cols[k, u]
+            if j > k:
+                cols[k, c] = j
+                c += 1
             else:
-                _backup_state(next_state, partner[k, s], values[k], s, out[k, s])
+                bits[k, j >> 6] &= ~(one << np.uint64(j & 63))
+        n_cols[k] = c
+        d = m[k, k]
+        bk = b[k]
+        for i in range(k + 1, n):
+            mik = m[i, k]
+            if mik == 0.0:
+                continue
+            f = mik / d
+            grows = False
+            for w in range(bits.shape[1]):
+                if bits[k, w] & ~bits[i, w]:
+                    grows = True
+                    break
+            if grows:  # row i gets row k's new columns, in row k's order
+                t = n_cols[i]
+                for u in range(c):
+                    j = cols[k, u]
+                    bit = one << np.uint64(j & 63)
+                    if not bits[i, j >> 6] & bit:
+                        bits[i, j >> 6] |= bit
+                        cols[i, t] = j
+                        t += 1
+                n_cols[i] = t
+            for u in range(c):
+                j = cols[k, u]
+                m[i, j] -= f * m[k, j]
+            b[i] -= f * bk
+    for k in range(n - 1, -1, -1):
+        acc = b[k]
+        for u in range(n_cols[k]):
+            j = cols[k, u]
+            acc -= m[k, j] * b[j]
+        b[k] = acc / m[k, k]
+
+
+#: Steps of :func:`_mdps`: the expected reward from a reward per next state
+#: (:func:`partner_backup`) or from a joint reward (:func:`partner_reward`), policy
+#: iteration (:func:`solve_partner_q`), the soft-max of its Q (:func:`softmax`).
+STATE_REWARD, JOINT_REWARD, SOLVE, SOFTMAX = 1, 2, 4, 8
+
+
+@njit(cache=True, nogil=True)
+def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal, gamma,
+          policy, warm, max_iter, temperature, r, q, greedy, soft, lo, hi):
+    """The ``steps`` of the MDPs lo..hi-1, one MDP after the other.
+
+    Args:
+        steps: Sum of the flags :data:`STATE_REWARD`, :data:`JOINT_REWARD`, :data:`SOLVE`,
+            :data:`SOFTMAX`.
+        nxt_t: (S, P, A) int next states, the partner's action first (:func:`own_last`).
+        partner: (N, S, P) the partner's policies.
+        values: (N, S) reward per next state (STATE_REWARD).
+        joint_t: (S, P, A) joint reward, the partner's action first (JOINT_REWARD).
+        valid: (S, A) bool valid own actions.
+        vidx: (S, A) and ``n_valid`` (S,): :func:`valid_lists` of ``valid``.
+        n_valid: See ``vidx``.
+        terminal: (N,) int absorbing state per MDP, -1 for none.
+        gamma: Discount of the policy iteration.
+        policy: (N, S) int starting actions of the policy iteration if ``warm``; otherwise
+            it starts from the greedy actions of the reward.
+        warm: See ``policy``.
+        max_iter: Cap on improvement rounds.
+        temperature: Of the soft-max.
+        r: (N, S, A) the expected rewards, written by a reward step and read by SOLVE; or
+            (1, S, A) scratch that each MDP reuses (its shape gives S and A).
+        q: (N, S, A) Q: written by SOLVE, read by SOFTMAX.
+        greedy: (N, S) int: written by SOLVE.
+        soft: (N, S, A) zeros: the soft-max policies, written by SOFTMAX.
+        lo: First MDP.
+        hi: One past the last MDP.
+
+    Everything is in this one function, and the elimination called from it gets only its
+    own scratch: a compiled function counts references to the arrays it is given (atomic
+    operations, one pair per array and call), and calls of small helpers inside these
+    loops made them a cost of their own.
+    """
+    n_s, n_p, n_a = r.shape[1], partner.shape[2], r.shape[2]
+    m = np.empty((n_s, n_s))
+    v = np.empty(n_s)
+    act = np.empty(n_s, np.int64)
+    bits = np.zeros((n_s, (n_s + 63) // 64), np.uint64)
+    cols = np.empty((n_s, n_s), np.int64)
+    n_cols = np.empty(n_s, np.int64)
+    z = np.empty(n_a)
+    one = np.uint64(1)
+    for k in range(lo, hi):
+        o = k if r.shape[0] > 1 else 0
+        term = terminal[k]
+        if steps & (STATE_REWARD | JOINT_REWARD):
+            for s in range(n_s):
+                if s == term and steps & STATE_REWARD:
+                    for a in range(n_a):
+                        r[o, s, a] = values[k, s]
+                    continue
+                for a in range(n_a):
+                    r[o, s, a] = 0.0
+                if s == term:
+                    continue
+                for p in range(n_p):  # outermost: the A sums proceed together, each in p
+                    w = partner[k, s, p]
+                    if w != 0.0:
+                        if steps & STATE_REWARD:
+                            for a in range(n_a):
+                                r[o, s, a] += w * values[k, nxt_t[s, p, a]]
+                        else:
+                            for a in range(n_a):
+                                r[o, s, a] += w * joint_t[s, p, a]
+        if steps & SOLVE:
+            for s in range(n_s):
+                act[s] = policy[k, s] if warm else _best(r, o, s, vidx, n_valid)[1]
+            for _ in range(max_iter):
+                m[:, :] = 0.0  # I - γ P_π, and where it is nonzero
+                bits[:, :] = 0
+                for s in range(n_s):
+                    m[s, s] = 1.0
+                    bits[s, s >> 6] = one << np.uint64(s & 63)
+                    cols[s, 0] = s
+                    n_cols[s] = 1
+                    v[s] = r[o, s, act[s]]
+                    if s == term:
+                        m[s, s] -= gamma
+                        continue
+                    a = act[s]
+                    for p in range(n_p):
+                        w = partner[k, s, p]
+                        if w != 0.0:
+                            j = nxt_t[s, p, a]
+                            bit = one << np.uint64(j & 63)
+                            if not bits[s, j >> 6] & bit:
+                                bits[s, j >> 6] |= bit
+                                cols[s, n_cols[s]] = j
+                                n_cols[s] += 1
+                            m[s, j] -= gamma * w
+                _solve_in_place(m, v, bits, cols, n_cols)
+                changed = False
+                for s in range(n_s):
+                    if s == term:
+                        for a in range(n_a):
+                            q[k, s, a] = r[o, s, a] + gamma * v[term]
+                    else:
+                        for a in range(n_a):  # Σ_p partner(p|s) v(next) first, as above
+                            z[a] = 0.0
+                        for p in range(n_p):
+                            w = partner[k, s, p]
+                            if w != 0.0:
+                                for a in range(n_a):
+                                    z[a] += w * v[nxt_t[s, p, a]]
+                        for a in range(n_a):
+                            q[k, s, a] = r[o, s, a] + gamma * z[a]
+                    best, best_a = _best(q, k, s, vidx, n_valid)
+                    current = q[k, s, act[s]] if valid[s, act[s]] else _NEG
+                    # Keep the current action on (numerical) ties so the iteration ends.
+                    if best - current > 1e-10 * (1.0 + abs(best)):
+                        act[s] = best_a
+                        changed = True
+                if not changed:
+                    break
+            for s in range(n_s):
+                greedy[k, s] = _best(q, k, s, vidx, n_valid)[1]
+        if steps & SOFTMAX:
+            # Over the valid actions only, in increasing order: the same maximum,
+            # exponentials, sum and quotients as a pass over every action that skips the
+            # invalid ones (a state without valid actions divides 0 by 0 as there).
+            for s in range(n_s):
+                c = n_valid[s]
+                if c == 0:
+                    raise ZeroDivisionError("float division by zero")
+                top = -np.inf
+                for u in range(c):
+                    x = temperature * q[k, s, vidx[s, u]]
+                    z[u] = x
+                    if x > top:
+                        top = x
+                total = 0.0
+                for u in range(c):
+                    e = np.exp(z[u] - top)
+                    z[u] = e
+                    total += e
+                for u in range(c):
+                    soft[k, s, vidx[s, u]] = z[u] / total
+
+
+@njit(cache=True, nogil=True)
+def _unused():
+    """Placeholders for the arrays of :func:`_mdps` that a kernel's steps do not read.
+
+    Int (1, 1, 1), float (1, 1), float (1, 1, 1), bool (1, 1), int (1, 1), int (1,).
+    """
+    return (np.zeros((1, 1, 1), np.int64), np.zeros((1, 1)), np.zeros((1, 1, 1)),
+            np.zeros((1, 1), np.bool_), np.zeros((1, 1), np.int64), np.zeros(1, np.int64))
 
 
 @njit(cache=True, nogil=True)
 def partner_backup(next_state, partner, values, terminal):
     """(N, S, A): Σ_p partner[n, s, p] values[n, next_state[s, a, p]]; terminal rows values."""
-    n_b = partner.shape[0]
-    out = np.empty((n_b, next_state.shape[0], next_state.shape[1]))
-    _partner_backup_range(next_state, partner, values, terminal, out, 0, n_b)
+    n_b, n_s, n_a = partner.shape[0], next_state.shape[0], next_state.shape[1]
+    out = np.empty((n_b, n_s, n_a))
+    _, _, f3, b2, i2, i1 = _unused()
+    _mdps(STATE_REWARD, own_last(next_state), partner, values, f3, b2, i2, i1, terminal, 0.0,
+          i2, False, 0, 1.0, out, f3, i2, f3, 0, n_b)
     return out
 
 
 @njit(cache=True, nogil=True)
-def _link(pattern, row_cols, row_n, col_rows, col_n, i, j):
-    """Record that entry (i, j) of the matrix may be nonzero (once per entry)."""
-    if not pattern[i, j]:
-        pattern[i, j] = True
-        row_cols[i, row_n[i]] = j
-        row_n[i] += 1
-        col_rows[j, col_n[j]] = i
-        col_n[j] += 1
-
-
-@njit(cache=True, nogil=True)
-def _solve_sparse(m, b, pattern, row_cols, row_n, col_rows, col_n):
-    """Solve m x = b into b by Gaussian elimination without pivoting, on the nonzeros only.
-
-    ``m`` (S, S) is dense but overwritten; ``pattern`` (S, S) bool and the lists
-    ``row_cols[i, :row_n[i]]`` (columns of row i) and ``col_rows[j, :col_n[j]]`` (rows of
-    column j) name its possibly nonzero entries (:func:`_link`); fill-in is added to them.
-    The matrices here, I - γ P_π with P_π a (sub-)stochastic matrix and γ < 1, are strictly
-    diagonally dominant by rows, which elimination preserves: no pivot is small and no
-    pivoting is needed. They have a handful of entries per row and little fill-in, so the
-    work is proportional to the entries rather than to S³.
-    """
-    n = m.shape[0]
-    for k in range(n):
-        d = m[k, k]
-        for t in range(col_n[k]):
-            i = col_rows[k, t]
-            if i <= k or m[i, k] == 0.0:
-                continue
-            f = m[i, k] / d
-            for u in range(row_n[k]):
-                j = row_cols[k, u]
-                if j > k:
-                    _link(pattern, row_cols, row_n, col_rows, col_n, i, j)
-                    m[i, j] -= f * m[k, j]
-            b[i] -= f * b[k]
-    for k in range(n - 1, -1, -1):
-        acc = b[k]
-        for u in range(row_n[k]):
-            j = row_cols[k, u]
-            if j > k:
-                acc -= m[k, j] * b[j]
-        b[k] = acc / m[k, k]
-
-
-@njit(cache=True, nogil=True)
-def _solve_range(next_state, partner, reward, valid, terminal, gamma, policy, warm, max_iter,
-                 q, greedy, lo, hi):
-    """:func:`solve_partner_q` of the MDPs lo..hi-1 into ``q``, ``greedy`` (own scratch)."""
-    n_s, n_a, n_p = next_state.shape
-    m = np.empty((n_s, n_s))
-    v = np.empty(n_s)
-    act = np.empty(n_s, np.int64)
-    pattern = np.empty((n_s, n_s), np.bool_)
-    row_cols = np.empty((n_s, n_s), np.int64)
-    row_n = np.empty(n_s, np.int64)
-    col_rows = np.empty((n_s, n_s), np.int64)
-    col_n = np.empty(n_s, np.int64)
-    acc = np.empty(n_a)
-    for k in range(lo, hi):
-        term = terminal[k]
-        for s in range(n_s):
-            act[s] = policy[k, s] if warm else _best_valid(reward[k, s], valid[s])[1]
-        for _ in range(max_iter):
-            m[:, :] = 0.0  # I - γ P_π, and where it is nonzero
-            pattern[:, :] = False
-            row_n[:] = 0
-            col_n[:] = 0
-            for s in range(n_s):
-                m[s, s] = 1.0
-                _link(pattern, row_cols, row_n, col_rows, col_n, s, s)
-                v[s] = reward[k, s, act[s]]
-                if s == term:
-                    m[s, s] -= gamma
-                    continue
-                a = act[s]
-                for p in range(n_p):
-                    w = partner[k, s, p]
-                    if w != 0.0:
-                        j = next_state[s, a, p]
-                        _link(pattern, row_cols, row_n, col_rows, col_n, s, j)
-                        m[s, j] -= gamma * w
-            _solve_sparse(m, v, pattern, row_cols, row_n, col_rows, col_n)
-            changed = False
-            for s in range(n_s):
-                if s == term:
-                    for a in range(n_a):
-                        q[k, s, a] = reward[k, s, a] + gamma * v[term]
-                else:
-                    _backup_state(next_state, partner[k, s], v, s, acc)
-                    for a in range(n_a):
-                        q[k, s, a] = reward[k, s, a] + gamma * acc[a]
-                best, best_a = _best_valid(q[k, s], valid[s])
-                current = q[k, s, act[s]] if valid[s, act[s]] else _NEG
-                # Keep the current action on (numerical) ties so the iteration terminates.
-                if best - current > 1e-10 * (1.0 + abs(best)):
-                    act[s] = best_a
-                    changed = True
-            if not changed:
-                break
-        for s in range(n_s):
-            greedy[k, s] = _best_valid(q[k, s], valid[s])[1]
+def partner_reward(reward, partner, terminal):
+    """(N, S, A): Σ_p partner[n, s, p] reward[s, a, p]; 0 in each MDP's terminal state."""
+    n_b, n_s, n_a = partner.shape[0], reward.shape[0], reward.shape[1]
+    out = np.empty((n_b, n_s, n_a))
+    i3, f2, f3, b2, i2, i1 = _unused()
+    _mdps(JOINT_REWARD, i3, partner, f2, own_last(reward), b2, i2, i1, terminal, 0.0, i2,
+          False, 0, 1.0, out, f3, i2, f3, 0, n_b)
+    return out
 
 
 @njit(cache=True, nogil=True)
@@ -188,12 +319,13 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
     ``warm``: whether ``policy`` (N, S) holds the starting actions; otherwise each MDP
     starts from the greedy actions of its immediate reward.
     """
-    n_b = partner.shape[0]
-    n_s, n_a = next_state.shape[0], next_state.shape[1]
+    n_b, n_s, n_a = partner.shape[0], next_state.shape[0], next_state.shape[1]
+    vidx, n_valid = valid_lists(valid)
     q = np.empty((n_b, n_s, n_a))
     greedy = np.empty((n_b, n_s), np.int64)
-    _solve_range(next_state, partner, reward, valid, terminal, gamma, policy, warm, max_iter,
-                 q, greedy, 0, n_b)
+    _, f2, f3, _, _, _ = _unused()
+    _mdps(SOLVE, own_last(next_state), partner, f2, f3, valid, vidx, n_valid, terminal, gamma,
+          policy, warm, max_iter, 1.0, reward, q, greedy, f3, 0, n_b)
     return q, greedy
 
 
@@ -251,94 +383,15 @@ def expected_feature_counts(next_state, partner, policy, features, start, termin
     return out
 
 
-@njit(cache=True, nogil=True, parallel=True)
-def expected_feature_counts_par(next_state, partner, policy, features, start, terminal,
-                                horizon, n_c):
-    """:func:`expected_feature_counts` with the MDPs shared out among numba's threads."""
-    n_b = partner.shape[0]
-    out = np.zeros((n_b, features.shape[-1]))
-    n_c = max(1, min(n_b, n_c))
-    for c in prange(n_c):
-        _feature_counts_range(next_state, partner, policy, features, start, terminal,
-                              horizon, out, c * n_b // n_c, (c + 1) * n_b // n_c)
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _partner_reward_range(reward, partner, terminal, out, lo, hi):
-    """:func:`partner_reward` of the MDPs lo..hi-1 into ``out`` (zeros)."""
-    n_s, n_a, n_p = reward.shape
-    for k in range(lo, hi):
-        for s in range(n_s):
-            if s == terminal[k]:
-                continue
-            for p in range(n_p):  # outermost: see partner_backup
-                w = partner[k, s, p]
-                if w != 0.0:
-                    for a in range(n_a):
-                        out[k, s, a] += w * reward[s, a, p]
-
-
-@njit(cache=True, nogil=True)
-def partner_reward(reward, partner, terminal):
-    """(N, S, A): Σ_p partner[n, s, p] reward[s, a, p]; 0 in each MDP's terminal state."""
-    n_b = partner.shape[0]
-    out = np.zeros((n_b, reward.shape[0], reward.shape[1]))
-    _partner_reward_range(reward, partner, terminal, out, 0, n_b)
-    return out
-
-
-@njit(cache=True, nogil=True)
-def valid_lists(valid):
-    """(S, A) each state's valid actions first, in increasing order, and (S,) their count."""
-    n_s, n_a = valid.shape
-    idx = np.zeros((n_s, n_a), np.int64)
-    count = np.zeros(n_s, np.int64)
-    for s in range(n_s):
-        for a in range(n_a):
-            if valid[s, a]:
-                idx[s, count[s]] = a
-                count[s] += 1
-    return idx, count
-
-
-@njit(cache=True, nogil=True)
-def _softmax_range(q, valid, temperature, out, lo, hi):
-    """:func:`softmax` of the MDPs lo..hi-1 into ``out`` (zeros).
-
-    Visits the valid actions only (:func:`valid_lists`), in increasing order: the same
-    maximum, exponentials, sum and quotients as a pass over every action that skips the
-    invalid ones (a state without valid actions divides 0 by 0: ZeroDivisionError, as
-    there).
-    """
-    n_s, n_a = q.shape[1], q.shape[2]
-    idx, count = valid_lists(valid)
-    z = np.empty(n_a)
-    for k in range(lo, hi):
-        for s in range(n_s):
-            c = count[s]
-            if c == 0:
-                raise ZeroDivisionError("float division by zero")
-            top = -np.inf
-            for u in range(c):
-                x = temperature * q[k, s, idx[s, u]]
-                z[u] = x
-                if x > top:
-                    top = x
-            total = 0.0
-            for u in range(c):
-                e = np.exp(z[u] - top)
-                z[u] = e
-                total += e
-            for u in range(c):
-                out[k, s, idx[s, u]] = z[u] / total
-
-
 @njit(cache=True, nogil=True)
 def softmax(q, valid, temperature):
     """(N, S, A) soft-max of ``temperature * q`` over the valid actions of each state."""
-    out = np.zeros(q.shape)
-    _softmax_range(q, valid, temperature, out, 0, q.shape[0])
+    vidx, n_valid = valid_lists(valid)
+    n_b, n_s, n_a = q.shape
+    out = np.zeros((n_b, n_s, n_a))
+    i3, f2, f3, _, i2, i1 = _unused()
+    _mdps(SOFTMAX, i3, q, f2, f3, valid, vidx, n_valid, i1, 0.0, i2, False, 0, temperature,
+          np.zeros((1, n_s, n_a)), q, i2, out, 0, n_b)
     return out
 
 
@@ -429,70 +482,24 @@ def loop_free_counts(features, states, offsets, intentions):
     return counts, start, horizon
 
 
-#: MDPs per block of :func:`solve_soft`: the reward, Q and policy of a block are made one
-#: after the other while its arrays are in cache.
-_BLOCK = 16
-
-
-@njit(cache=True, nogil=True)
-def _solve_soft_range(next_state, partner, values, joint, use_joint, valid, terminal, gamma,
-                      policy, warm, max_iter, temperature, r, q, greedy, soft, lo, hi):
-    """:func:`solve_soft` of the MDPs lo..hi-1, block by block.
-
-    The rewards of a block go to the scratch ``r`` (:data:`_BLOCK`, S, A). The callers
-    allocate it before their outputs: freed last, on top of the heap, it made the C library
-    hand memory back to the system and fault it in again on every call.
-    """
-    for b in range(lo, hi, _BLOCK):
-        e = min(b + _BLOCK, hi)
-        n = e - b
-        r_b = r[:n]
-        if use_joint:  # partner_reward adds to zeros; partner_backup sets every entry
-            r_b[:] = 0.0
-            _partner_reward_range(joint, partner[b:e], terminal[b:e], r_b, 0, n)
-        else:
-            _partner_backup_range(next_state, partner[b:e], values[b:e], terminal[b:e], r_b,
-                                  0, n)
-        _solve_range(next_state, partner[b:e], r_b, valid, terminal[b:e], gamma,
-                     policy[b:e], warm, max_iter, q[b:e], greedy[b:e], 0, n)
-        _softmax_range(q[b:e], valid, temperature, soft[b:e], 0, n)
-
 
 @njit(cache=True, nogil=True)
 def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, gamma, policy,
-               warm, max_iter, temperature, n_c):
+               warm, max_iter, temperature):
     """(Q, greedy, soft-max policy) of N MDPs, as ``partner_mdp.solve_soft``.
 
     The reward is :func:`partner_reward` of ``joint`` (S, A, P) when ``use_joint``, else
     :func:`partner_backup` of ``values`` (N, S); then :func:`solve_partner_q` and
-    :func:`softmax` of its Q at ``temperature``. Each step is the same code as those
-    kernels, MDP by MDP, so the numbers are theirs bit for bit. ``n_c`` is unused here (see
-    :func:`solve_soft_par`).
+    :func:`softmax` of its Q at ``temperature``: the steps of :func:`_mdps` that those
+    kernels take, MDP by MDP, so the numbers are theirs bit for bit.
     """
-    n_b = partner.shape[0]
-    n_s, n_a = next_state.shape[0], next_state.shape[1]
-    r = np.empty((_BLOCK, n_s, n_a))
+    n_b, n_s, n_a = partner.shape[0], next_state.shape[0], next_state.shape[1]
+    steps = (JOINT_REWARD if use_joint else STATE_REWARD) | SOLVE | SOFTMAX
+    vidx, n_valid = valid_lists(valid)
     q = np.empty((n_b, n_s, n_a))
     greedy = np.empty((n_b, n_s), np.int64)
     soft = np.zeros((n_b, n_s, n_a))
-    _solve_soft_range(next_state, partner, values, joint, use_joint, valid, terminal, gamma,
-                      policy, warm, max_iter, temperature, r, q, greedy, soft, 0, n_b)
-    return q, greedy, soft
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def solve_soft_par(next_state, partner, values, joint, use_joint, valid, terminal, gamma,
-                   policy, warm, max_iter, temperature, n_c):
-    """:func:`solve_soft` with the MDPs shared out among ``n_c`` of numba's threads."""
-    n_b = partner.shape[0]
-    n_s, n_a = next_state.shape[0], next_state.shape[1]
-    n_c = max(1, min(n_b, n_c))
-    r = np.empty((n_c, _BLOCK, n_s, n_a))
-    q = np.empty((n_b, n_s, n_a))
-    greedy = np.empty((n_b, n_s), np.int64)
-    soft = np.zeros((n_b, n_s, n_a))
-    for c in prange(n_c):
-        _solve_soft_range(next_state, partner, values, joint, use_joint, valid, terminal,
-                          gamma, policy, warm, max_iter, temperature, r[c], q, greedy, soft,
-                          c * n_b // n_c, (c + 1) * n_b // n_c)
+    _mdps(steps, own_last(next_state), partner, values, own_last(joint), valid, vidx, n_valid,
+          terminal, gamma, policy, warm, max_iter, temperature, np.empty((1, n_s, n_a)), q,
+          greedy, soft, 0, n_b)
     return q, greedy, soft

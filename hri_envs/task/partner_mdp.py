@@ -28,7 +28,8 @@ from __future__ import annotations
 import functools
 import os
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from types import ModuleType
 
 import numpy as np
@@ -78,8 +79,7 @@ def preload() -> bool:
 
     The first compiled call of a process starts numba's code generator (≈ 0.3-0.8 s even
     with the on-disk cache). Calling this before forking worker processes lets them inherit
-    the loaded kernels instead of each paying that again. With more than one thread
-    (:func:`set_threads`) the threaded kernels are loaded too.
+    the loaded kernels instead of each paying that again.
     """
     jit = kernels()
     if jit is None:
@@ -98,11 +98,7 @@ def preload() -> bool:
     jit.out_of_range(zero, 0, 1)
     jit.loop_free_counts(np.ones((1, 1, 2)), zero, np.array([0, 1]), zero)
     jit.solve_soft(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
-                   np.zeros((1, 1), np.int64), False, 1, 1.0, 1)
-    if threads() > 1:
-        jit.expected_feature_counts_par(nxt, one, one, one, zero, none, np.ones(1, np.int64), 1)
-        jit.solve_soft_par(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
-                           np.zeros((1, 1), np.int64), False, 1, 1.0, 1)
+                   np.zeros((1, 1), np.int64), False, 1, 1.0)
     return True
 
 
@@ -111,18 +107,19 @@ THREADS_ENV = "HRI_ENVS_THREADS"
 #: Batches smaller than this many MDPs per thread run on one thread (not worth a hand-out).
 _MIN_PER_THREAD = 8
 _threads: tuple[int, int] | None = None  # (threads, the id of the process that chose them)
+_pool: tuple[ThreadPoolExecutor, int, int] | None = None  # (helpers, how many, process id)
 
 
 def set_threads(n: int | None) -> None:
     """Share each batch of MDPs among ``n`` threads in this process (None: the default).
 
-    The default is the environment variable ``HRI_ENVS_THREADS``, or 1. More than one
-    thread uses numba's threading layer; each MDP is still solved by the same code, so the
-    numbers do not depend on the number of threads. The setting belongs to the process
-    that made it: a child forked from it (a study's worker) runs the kernels on one thread
-    unless it calls this itself, so that workers do not oversubscribe the cores; and only
-    the main thread hands work out (numba's ``workqueue`` layer, chosen here unless the
-    user chose another, must not be entered from two threads at once).
+    The default is the environment variable ``HRI_ENVS_THREADS``, or 1. With more than
+    one, a batch is cut into ``n`` consecutive parts: the calling thread solves the first
+    and ``n - 1`` helper threads the others, each with the serial kernel (which releases
+    the GIL), so the numbers do not depend on the number of threads. The setting belongs
+    to the process that made it: a child forked from it (a study's worker) runs the
+    kernels on one thread unless it calls this itself, so that workers do not
+    oversubscribe the cores. Only the main thread hands work out.
 
     Raises:
         ConfigError: ``n`` < 1, or ``HRI_ENVS_THREADS`` is not a whole number >= 1.
@@ -140,23 +137,6 @@ def set_threads(n: int | None) -> None:
     elif n < 1:
         raise ConfigError(f"threads must be >= 1, got {n}", field="threads")
     _threads = (n, os.getpid())
-    if n > 1 and kernels() is not None:
-        _prefer_workqueue()
-
-
-def _prefer_workqueue() -> None:
-    """Use numba's ``workqueue`` threading layer unless the user chose one.
-
-    Its threads sleep while they wait. The OpenMP layer that numba otherwise prefers spins
-    instead, which on a loaded machine took the core from the thread being waited for: an
-    update took 2-7 times longer on 2 threads than on one (docs/agents.md, "Threads"). The layer is
-    fixed by numba's first threaded call in the process; a choice made before stands.
-    """
-    from numba import config  # its settings are made at run time: untyped
-
-    layer = config.THREADING_LAYER  # type: ignore[attr-defined]
-    if "NUMBA_THREADING_LAYER" not in os.environ and layer == "default":
-        config.THREADING_LAYER = "workqueue"  # type: ignore[attr-defined]
 
 
 def threads() -> int:
@@ -168,12 +148,32 @@ def threads() -> int:
     return n if pid == os.getpid() else 1
 
 
-def _chunks(n_mdps: int) -> int:
-    """Threads for a batch of ``n_mdps`` MDPs here and now (1: run the serial kernel)."""
+def _parts(n_mdps: int) -> int:
+    """Parts to cut a batch of ``n_mdps`` MDPs into here and now (1: the calling thread)."""
     n = threads()
     if n == 1 or threading.current_thread() is not threading.main_thread():
         return 1
     return max(1, min(n, n_mdps // _MIN_PER_THREAD))
+
+
+def _in_parts(solve: Callable[[int, int], tuple[np.ndarray, ...]], n_mdps: int
+              ) -> tuple[np.ndarray, ...]:
+    """``solve(0, n_mdps)``, computed as :func:`_parts` consecutive parts on as many threads.
+
+    ``solve(lo, hi)`` returns arrays whose first axis runs over the MDPs lo..hi-1; the
+    parts' arrays are joined along it.
+    """
+    global _pool
+    n_p = _parts(n_mdps)
+    if n_p == 1:
+        return solve(0, n_mdps)
+    if _pool is None or _pool[1] < n_p - 1 or _pool[2] != os.getpid():
+        _pool = (ThreadPoolExecutor(n_p - 1, thread_name_prefix="hri-envs"), n_p - 1,
+                 os.getpid())
+    cuts = [i * n_mdps // n_p for i in range(n_p + 1)]
+    helpers = [_pool[0].submit(solve, lo, hi) for lo, hi in zip(cuts[1:-1], cuts[2:], strict=True)]
+    parts = [solve(0, cuts[1])] + [h.result() for h in helpers]
+    return tuple(np.concatenate(arrays) for arrays in zip(*parts, strict=True))
 
 
 def jit_enabled() -> bool:
@@ -477,11 +477,14 @@ def solve_soft(
         assert state_reward is not None
         joint = np.zeros((1, 1, 1))
         values = _c(state_reward, dtype=np.float64).reshape(-1, n_s)
-    n_c = _chunks(len(pi))
-    kernel = jit.solve_soft if n_c == 1 else jit.solve_soft_par
-    q, greedy, soft = kernel(nxt, pi, values, joint, joint_reward is not None,
-                             _c(valid, dtype=np.bool_), term, float(gamma), act, warm,
-                             int(max_iter), float(temperature), n_c)
+    use_joint, ok = joint_reward is not None, _c(valid, dtype=np.bool_)
+
+    def part(lo: int, hi: int) -> tuple[np.ndarray, ...]:
+        return jit.solve_soft(nxt, pi[lo:hi], values if use_joint else values[lo:hi], joint,  # type: ignore[no-any-return]
+                              use_joint, ok, term[lo:hi], float(gamma), act[lo:hi], warm,
+                              int(max_iter), float(temperature))
+
+    q, greedy, soft = _in_parts(part, len(pi))
     return (q.reshape(*lead, n_s, n_a), greedy.reshape(*lead, n_s),
             soft.reshape(*lead, n_s, n_a))
 
@@ -598,10 +601,12 @@ def expected_feature_counts(
     _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
-        n_c = _chunks(len(pi))
-        if n_c == 1:
-            return jit.expected_feature_counts(nxt, pi, own, phi, start_, term, hor)  # type: ignore[no-any-return]
-        return jit.expected_feature_counts_par(nxt, pi, own, phi, start_, term, hor, n_c)  # type: ignore[no-any-return]
+
+        def part(lo: int, hi: int) -> tuple[np.ndarray, ...]:
+            return (jit.expected_feature_counts(nxt, pi[lo:hi], own[lo:hi], phi[lo:hi],
+                                                start_[lo:hi], term[lo:hi], hor[lo:hi]),)
+
+        return _in_parts(part, len(pi))[0]
     n_b = len(pi)
     rows = np.arange(n_b)
     weight = own[:, :, :, None] * pi[:, :, None, :]  # (N, S, A, P)
