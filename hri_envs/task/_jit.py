@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numba.cpython.unsafe.numbers import trailing_zeros
 
 _NEG = -1e300
 
@@ -34,6 +35,23 @@ def own_last(table):
     """
     n_s, n_a, n_p = table.shape
     out = np.empty((n_s, n_p, n_a), table.dtype)
+    for s in range(n_s):
+        for a in range(n_a):
+            for p in range(n_p):
+                out[s, p, a] = table[s, a, p]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def own_last_index(table):
+    """:func:`own_last` of a table of state indices, as unsigned integers.
+
+    Indexing by an unsigned integer spares the compiled loops numpy's wrap-around of
+    negative indices (a test and an addition per access, and it kept the backups'
+    gathers from being vectorised); callers have checked the indices are in range.
+    """
+    n_s, n_a, n_p = table.shape
+    out = np.empty((n_s, n_p, n_a), np.uint64)
     for s in range(n_s):
         for a in range(n_a):
             for p in range(n_p):
@@ -70,13 +88,14 @@ def _best(x, k, s, vidx, n_valid):
 
 
 @njit(cache=True, nogil=True)
-def _solve_in_place(m, b, bits, cols, n_cols):
+def _solve_in_place(m, b, bits, cols, n_cols, below):
     """Solve m x = b into b by Gaussian elimination without pivoting, on the nonzeros only.
 
-    ``m`` (S, S) is dense and overwritten; ``cols[i, :n_cols[i]]`` are the columns of row i
-    that may be nonzero, in the order they became so, and ``bits[i]`` the same columns as
-    a bit set (64 per word); fill-in is added to both. The matrices here, I - γ P_π with
-    P_π a (sub-)stochastic matrix and γ < 1, are strictly diagonally dominant by rows,
+    ``m`` (S, S) is dense and overwritten. Where it may be nonzero: ``cols[i, :n_cols[i]]``
+    are the columns of row i in the order they became so, ``bits[i]`` the same columns as a
+    bit set (64 per word), and ``below[j]`` the bit set of the rows other than j whose
+    column j may be nonzero; fill-in is added to all three. The matrices here, I - γ P_π
+    with P_π a (sub-)stochastic matrix and γ < 1, are strictly diagonally dominant by rows,
     which elimination preserves: no pivot is small and no pivoting is needed. They have a
     handful of entries per row and little fill-in, so the work is proportional to the
     entries rather than to S³.
@@ -84,47 +103,58 @@ def _solve_in_place(m, b, bits, cols, n_cols):
     Every value is made by the same operations in the same order whatever the bookkeeping
     (rows are updated independently; each back-substitution sum adds its terms in the
     order the row's columns became nonzero), so results do not depend on it bit for bit.
+    Indices are unsigned throughout: a signed one costs numpy's wrap-around of negative
+    indices on every access.
     """
-    n = m.shape[0]
-    one = np.uint64(1)
+    n, n_w = np.uint64(m.shape[0]), np.uint64(bits.shape[1])
+    one, six, low = np.uint64(1), np.uint64(6), np.uint64(63)
     for k in range(n):
         # Row k gets no more fill: keep only its columns right of the diagonal, in order.
-        c = 0
+        c = np.uint64(0)
         for u in range(n_cols[k]):
             j = cols[k, u]
             if j > k:
                 cols[k, c] = j
-                c += 1
+                c += one
             else:
-                bits[k, j >> 6] &= ~(one << np.uint64(j & 63))
+                bits[k, j >> six] &= ~(one << (j & low))
         n_cols[k] = c
         d = m[k, k]
         bk = b[k]
-        for i in range(k + 1, n):
-            mik = m[i, k]
-            if mik == 0.0:
-                continue
-            f = mik / d
-            grows = False
-            for w in range(bits.shape[1]):
-                if bits[k, w] & ~bits[i, w]:
-                    grows = True
-                    break
-            if grows:  # row i gets row k's new columns, in row k's order
-                t = n_cols[i]
+        first = (k + one) >> six
+        for w in range(first, n_w):
+            rows = below[k, w]  # the rows i > k whose column k may be nonzero, in order
+            if w == first:
+                rows &= ~((one << ((k + one) & low)) - one)
+            while rows:
+                i = (w << six) | np.uint64(trailing_zeros(rows))
+                rows &= rows - one
+                mik = m[i, k]
+                if mik == 0.0:
+                    continue
+                f = mik / d
+                grows = False
+                for v in range(n_w):
+                    if bits[k, v] & ~bits[i, v]:
+                        grows = True
+                        break
+                if grows:  # row i gets row k's new columns, in row k's order
+                    t = n_cols[i]
+                    for u in range(c):
+                        j = cols[k, u]
+                        bit = one << (j & low)
+                        if not bits[i, j >> six] & bit:
+                            bits[i, j >> six] |= bit
+                            cols[i, t] = j
+                            t += one
+                            below[j, i >> six] |= one << (i & low)
+                    n_cols[i] = t
                 for u in range(c):
                     j = cols[k, u]
-                    bit = one << np.uint64(j & 63)
-                    if not bits[i, j >> 6] & bit:
-                        bits[i, j >> 6] |= bit
-                        cols[i, t] = j
-                        t += 1
-                n_cols[i] = t
-            for u in range(c):
-                j = cols[k, u]
-                m[i, j] -= f * m[k, j]
-            b[i] -= f * bk
-    for k in range(n - 1, -1, -1):
+                    m[i, j] -= f * m[k, j]
+                b[i] -= f * bk
+    for t in range(n):
+        k = n - one - t
         acc = b[k]
         for u in range(n_cols[k]):
             j = cols[k, u]
@@ -146,7 +176,8 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
     Args:
         steps: Sum of the flags :data:`STATE_REWARD`, :data:`JOINT_REWARD`, :data:`SOLVE`,
             :data:`SOFTMAX`.
-        nxt_t: (S, P, A) int next states, the partner's action first (:func:`own_last`).
+        nxt_t: (S, P, A) unsigned next states, the partner's action first
+            (:func:`own_last_index`).
         partner: (N, S, P) the partner's policies.
         values: (N, S) reward per next state (STATE_REWARD).
         joint_t: (S, P, A) joint reward, the partner's action first (JOINT_REWARD).
@@ -178,10 +209,11 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
     v = np.empty(n_s)
     act = np.empty(n_s, np.int64)
     bits = np.zeros((n_s, (n_s + 63) // 64), np.uint64)
-    cols = np.empty((n_s, n_s), np.int64)
-    n_cols = np.empty(n_s, np.int64)
+    below = np.zeros((n_s, (n_s + 63) // 64), np.uint64)
+    cols = np.empty((n_s, n_s), np.uint64)  # unsigned: see _solve_in_place
+    n_cols = np.empty(n_s, np.uint64)
     z = np.empty(n_a)
-    one = np.uint64(1)
+    one, six, low = np.uint64(1), np.uint64(6), np.uint64(63)
     for k in range(lo, hi):
         o = k if r.shape[0] > 1 else 0
         term = terminal[k]
@@ -210,6 +242,7 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
             for _ in range(max_iter):
                 m[:, :] = 0.0  # I - γ P_π, and where it is nonzero
                 bits[:, :] = 0
+                below[:, :] = 0
                 for s in range(n_s):
                     m[s, s] = 1.0
                     bits[s, s >> 6] = one << np.uint64(s & 63)
@@ -224,13 +257,14 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
                         w = partner[k, s, p]
                         if w != 0.0:
                             j = nxt_t[s, p, a]
-                            bit = one << np.uint64(j & 63)
-                            if not bits[s, j >> 6] & bit:
-                                bits[s, j >> 6] |= bit
+                            bit = one << (j & low)
+                            if not bits[s, j >> six] & bit:
+                                bits[s, j >> six] |= bit
                                 cols[s, n_cols[s]] = j
-                                n_cols[s] += 1
+                                n_cols[s] += one
+                                below[j, s >> 6] |= one << np.uint64(s & 63)
                             m[s, j] -= gamma * w
-                _solve_in_place(m, v, bits, cols, n_cols)
+                _solve_in_place(m, v, bits, cols, n_cols, below)
                 changed = False
                 for s in range(n_s):
                     if s == term:
@@ -295,8 +329,8 @@ def partner_backup(next_state, partner, values, terminal):
     n_b, n_s, n_a = partner.shape[0], next_state.shape[0], next_state.shape[1]
     out = np.empty((n_b, n_s, n_a))
     _, _, f3, b2, i2, i1 = _unused()
-    _mdps(STATE_REWARD, own_last(next_state), partner, values, f3, b2, i2, i1, terminal, 0.0,
-          i2, False, 0, 1.0, out, f3, i2, f3, 0, n_b)
+    _mdps(STATE_REWARD, own_last_index(next_state), partner, values, f3, b2, i2, i1, terminal,
+          0.0, i2, False, 0, 1.0, out, f3, i2, f3, 0, n_b)
     return out
 
 
@@ -306,8 +340,8 @@ def partner_reward(reward, partner, terminal):
     n_b, n_s, n_a = partner.shape[0], reward.shape[0], reward.shape[1]
     out = np.empty((n_b, n_s, n_a))
     i3, f2, f3, b2, i2, i1 = _unused()
-    _mdps(JOINT_REWARD, i3, partner, f2, own_last(reward), b2, i2, i1, terminal, 0.0, i2,
-          False, 0, 1.0, out, f3, i2, f3, 0, n_b)
+    _mdps(JOINT_REWARD, i3.astype(np.uint64), partner, f2, own_last(reward), b2, i2, i1,
+          terminal, 0.0, i2, False, 0, 1.0, out, f3, i2, f3, 0, n_b)
     return out
 
 
@@ -324,8 +358,8 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
     q = np.empty((n_b, n_s, n_a))
     greedy = np.empty((n_b, n_s), np.int64)
     _, f2, f3, _, _, _ = _unused()
-    _mdps(SOLVE, own_last(next_state), partner, f2, f3, valid, vidx, n_valid, terminal, gamma,
-          policy, warm, max_iter, 1.0, reward, q, greedy, f3, 0, n_b)
+    _mdps(SOLVE, own_last_index(next_state), partner, f2, f3, valid, vidx, n_valid, terminal,
+          gamma, policy, warm, max_iter, 1.0, reward, q, greedy, f3, 0, n_b)
     return q, greedy
 
 
@@ -390,8 +424,8 @@ def softmax(q, valid, temperature):
     n_b, n_s, n_a = q.shape
     out = np.zeros((n_b, n_s, n_a))
     i3, f2, f3, _, i2, i1 = _unused()
-    _mdps(SOFTMAX, i3, q, f2, f3, valid, vidx, n_valid, i1, 0.0, i2, False, 0, temperature,
-          np.zeros((1, n_s, n_a)), q, i2, out, 0, n_b)
+    _mdps(SOFTMAX, i3.astype(np.uint64), q, f2, f3, valid, vidx, n_valid, i1, 0.0, i2, False, 0,
+          temperature, np.zeros((1, n_s, n_a)), q, i2, out, 0, n_b)
     return out
 
 
@@ -499,7 +533,7 @@ def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, g
     q = np.empty((n_b, n_s, n_a))
     greedy = np.empty((n_b, n_s), np.int64)
     soft = np.zeros((n_b, n_s, n_a))
-    _mdps(steps, own_last(next_state), partner, values, own_last(joint), valid, vidx, n_valid,
-          terminal, gamma, policy, warm, max_iter, temperature, np.empty((1, n_s, n_a)), q,
+    _mdps(steps, own_last_index(next_state), partner, values, own_last(joint), valid, vidx,
+          n_valid, terminal, gamma, policy, warm, max_iter, temperature, np.empty((1, n_s, n_a)), q,
           greedy, soft, 0, n_b)
     return q, greedy, soft
