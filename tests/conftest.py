@@ -4,6 +4,9 @@ import os
 
 # MuJoCo picks its OpenGL backend at import time: headless EGL unless the user chose one.
 os.environ.setdefault("MUJOCO_GL", "egl")
+# pytest-xdist already runs a worker per core: the Learner's batches stay on one thread
+# (tests/test_partner_threads.py sets threads itself).
+os.environ.setdefault("HRI_ENVS_THREADS", "1")
 
 import pytest  # noqa: E402  (after MUJOCO_GL)
 

@@ -93,7 +93,7 @@ def test_thread_setting_is_checked(threads, monkeypatch):
     assert partner_mdp.threads() == 3
     monkeypatch.delenv(partner_mdp.THREADS_ENV)
     threads(None)
-    assert partner_mdp.threads() == 1
+    assert partner_mdp.threads() == partner_mdp._cores() >= 1  # the default: every core
 
 
 def _child_threads(_):
@@ -106,6 +106,15 @@ def test_a_forked_child_runs_the_kernels_on_one_thread(threads):
     with multiprocessing.get_context("fork").Pool(1) as pool:
         assert pool.map(_child_threads, [0]) == [1]
     assert partner_mdp.threads() == 2
+
+
+def test_a_child_forked_before_the_parent_chose_runs_on_one_thread(threads, monkeypatch):
+    """The default (every core) is the importing process's; its forked workers get one."""
+    monkeypatch.delenv(partner_mdp.THREADS_ENV, raising=False)
+    monkeypatch.setattr(partner_mdp, "_threads", None)
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        assert pool.map(_child_threads, [0]) == [1]
+    assert partner_mdp.threads() == partner_mdp._cores()
 
 
 @needs_jit

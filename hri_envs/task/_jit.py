@@ -408,13 +408,13 @@ def _feature_counts_range(next_state, partner, policy, features, start, terminal
 
 @njit(cache=True, nogil=True)
 def expected_feature_counts(next_state, partner, policy, features, start, terminal,
-                            horizon):
-    """(N, F) expected feature counts, as ``partner_mdp.expected_feature_counts``."""
-    n_b = partner.shape[0]
-    out = np.zeros((n_b, features.shape[-1]))
+                            horizon, out, lo, hi):
+    """Expected feature counts of the MDPs lo..hi-1 into ``out`` (N, F) zeros, as
+    ``partner_mdp.expected_feature_counts`` (the caller makes ``out``: see
+    :func:`solve_soft`).
+    """
     _feature_counts_range(next_state, partner, policy, features, start, terminal, horizon,
-                          out, 0, n_b)
-    return out
+                          out, lo, hi)
 
 
 @njit(cache=True, nogil=True)
@@ -519,21 +519,20 @@ def loop_free_counts(features, states, offsets, intentions):
 
 @njit(cache=True, nogil=True)
 def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, gamma, policy,
-               warm, max_iter, temperature):
-    """(Q, greedy, soft-max policy) of N MDPs, as ``partner_mdp.solve_soft``.
+               warm, max_iter, temperature, q, greedy, soft, lo, hi):
+    """Q, greedy actions and soft-max policy of the MDPs lo..hi-1, as ``partner_mdp.solve_soft``.
 
     The reward is :func:`partner_reward` of ``joint`` (S, A, P) when ``use_joint``, else
     :func:`partner_backup` of ``values`` (N, S); then :func:`solve_partner_q` and
     :func:`softmax` of its Q at ``temperature``: the steps of :func:`_mdps` that those
-    kernels take, MDP by MDP, so the numbers are theirs bit for bit.
+    kernels take, MDP by MDP, so the numbers are theirs bit for bit. Writes into ``q``
+    (N, S, A), ``greedy`` (N, S) and ``soft`` (N, S, A) zeros, which the caller made: the
+    threads that share a batch write into one result (arrays each of them allocated and
+    freed made the C library map and unmap memory, which stalled both cores).
     """
-    n_b, n_s, n_a = partner.shape[0], next_state.shape[0], next_state.shape[1]
+    n_s, n_a = next_state.shape[0], next_state.shape[1]
     steps = (JOINT_REWARD if use_joint else STATE_REWARD) | SOLVE | SOFTMAX
     vidx, n_valid = valid_lists(valid)
-    q = np.empty((n_b, n_s, n_a))
-    greedy = np.empty((n_b, n_s), np.int64)
-    soft = np.zeros((n_b, n_s, n_a))
     _mdps(steps, own_last_index(next_state), partner, values, own_last(joint), valid, vidx,
-          n_valid, terminal, gamma, policy, warm, max_iter, temperature, np.empty((1, n_s, n_a)), q,
-          greedy, soft, 0, n_b)
-    return q, greedy, soft
+          n_valid, terminal, gamma, policy, warm, max_iter, temperature,
+          np.empty((1, n_s, n_a)), q, greedy, soft, lo, hi)

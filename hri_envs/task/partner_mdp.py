@@ -26,6 +26,7 @@ cached on disk, so a machine compiles it once (:func:`kernels`).
 from __future__ import annotations
 
 import functools
+import itertools
 import os
 import threading
 from collections.abc import Callable, Sequence
@@ -93,12 +94,14 @@ def preload() -> bool:
     jit.partner_reward(one, one, none)
     jit.softmax(one, valid, 1.0)
     jit.solve_partner_q(nxt, one, one, valid, none, 0.5, np.zeros((1, 1), np.int64), False, 1)
-    jit.expected_feature_counts(nxt, one, one, one, zero, none, np.ones(1, np.int64))
+    jit.expected_feature_counts(nxt, one, one, one, zero, none, np.ones(1, np.int64),
+                                np.zeros((1, 1)), 0, 1)
     jit.belief_policy(np.ones((1, 1, 1, 1)), np.ones((1, 1)), zero, zero, valid, 1.0, 0.5)
     jit.out_of_range(zero, 0, 1)
     jit.loop_free_counts(np.ones((1, 1, 2)), zero, np.array([0, 1]), zero)
     jit.solve_soft(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
-                   np.zeros((1, 1), np.int64), False, 1, 1.0)
+                   np.zeros((1, 1), np.int64), False, 1, 1.0, np.empty((1, 1, 1)),
+                   np.empty((1, 1), np.int64), np.zeros((1, 1, 1)), 0, 1)
     return True
 
 
@@ -108,18 +111,29 @@ THREADS_ENV = "HRI_ENVS_THREADS"
 _MIN_PER_THREAD = 8
 _threads: tuple[int, int] | None = None  # (threads, the id of the process that chose them)
 _pool: tuple[ThreadPoolExecutor, int, int] | None = None  # (helpers, how many, process id)
+_IMPORTED_BY = os.getpid()  # a process forked after the import has another id
+
+
+def _cores() -> int:
+    """Cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
 
 
 def set_threads(n: int | None) -> None:
     """Share each batch of MDPs among ``n`` threads in this process (None: the default).
 
-    The default is the environment variable ``HRI_ENVS_THREADS``, or 1. With more than
-    one, a batch is cut into ``n`` consecutive parts: the calling thread solves the first
-    and ``n - 1`` helper threads the others, each with the serial kernel (which releases
-    the GIL), so the numbers do not depend on the number of threads. The setting belongs
-    to the process that made it: a child forked from it (a study's worker) runs the
-    kernels on one thread unless it calls this itself, so that workers do not
-    oversubscribe the cores. Only the main thread hands work out.
+    The default is the environment variable ``HRI_ENVS_THREADS``, or else the number of
+    cores this process may run on. With more than one thread, a batch is cut into
+    consecutive parts that the calling thread and ``n - 1`` helper threads take in turn,
+    each solving its part with the serial kernel (which releases the GIL), so the numbers
+    do not depend on the number of threads. The setting belongs to the process that made
+    it: a child forked from it (a study's worker), or forked from the process that
+    imported this module before it chose, runs the kernels on one thread unless it calls
+    this itself, so that workers do not oversubscribe the cores. Only the main thread
+    hands work out.
 
     Raises:
         ConfigError: ``n`` < 1, or ``HRI_ENVS_THREADS`` is not a whole number >= 1.
@@ -128,7 +142,7 @@ def set_threads(n: int | None) -> None:
     if n is None:
         raw = os.environ.get(THREADS_ENV, "").strip()
         try:
-            n = int(raw) if raw else 1
+            n = int(raw) if raw else _cores()
         except ValueError:
             n = 0
         if n < 1:
@@ -142,38 +156,49 @@ def set_threads(n: int | None) -> None:
 def threads() -> int:
     """Threads the compiled kernels share a batch among in this process (1: serial)."""
     if _threads is None:
+        if os.getpid() != _IMPORTED_BY:
+            return 1
         set_threads(None)
     assert _threads is not None
     n, pid = _threads
     return n if pid == os.getpid() else 1
 
 
-def _parts(n_mdps: int) -> int:
-    """Parts to cut a batch of ``n_mdps`` MDPs into here and now (1: the calling thread)."""
+def _threads_here(n_mdps: int) -> int:
+    """Threads to share a batch of ``n_mdps`` MDPs among here and now (1: the caller's)."""
     n = threads()
     if n == 1 or threading.current_thread() is not threading.main_thread():
         return 1
     return max(1, min(n, n_mdps // _MIN_PER_THREAD))
 
 
-def _in_parts(solve: Callable[[int, int], tuple[np.ndarray, ...]], n_mdps: int
-              ) -> tuple[np.ndarray, ...]:
-    """``solve(0, n_mdps)``, computed as :func:`_parts` consecutive parts on as many threads.
+def _in_parts(solve: Callable[[int, int], None], n_mdps: int) -> None:
+    """``solve(0, n_mdps)``, done in consecutive parts on :func:`_threads_here` threads.
 
-    ``solve(lo, hi)`` returns arrays whose first axis runs over the MDPs lo..hi-1; the
-    parts' arrays are joined along it.
+    ``solve(lo, hi)`` does the MDPs lo..hi-1 (writing into results made beforehand). With
+    N threads the batch is cut into 2N parts that the calling thread and N - 1 helpers
+    take in turn, so that a thread slowed down (its core busy with other work) takes fewer.
     """
     global _pool
-    n_p = _parts(n_mdps)
-    if n_p == 1:
-        return solve(0, n_mdps)
-    if _pool is None or _pool[1] < n_p - 1 or _pool[2] != os.getpid():
-        _pool = (ThreadPoolExecutor(n_p - 1, thread_name_prefix="hri-envs"), n_p - 1,
+    n_t = _threads_here(n_mdps)
+    if n_t == 1:
+        solve(0, n_mdps)
+        return
+    if _pool is None or _pool[1] < n_t - 1 or _pool[2] != os.getpid():
+        _pool = (ThreadPoolExecutor(n_t - 1, thread_name_prefix="hri-envs"), n_t - 1,
                  os.getpid())
+    n_p = 2 * n_t
     cuts = [i * n_mdps // n_p for i in range(n_p + 1)]
-    helpers = [_pool[0].submit(solve, lo, hi) for lo, hi in zip(cuts[1:-1], cuts[2:], strict=True)]
-    parts = [solve(0, cuts[1])] + [h.result() for h in helpers]
-    return tuple(np.concatenate(arrays) for arrays in zip(*parts, strict=True))
+    turns = itertools.count()  # next() is atomic under the GIL
+
+    def work() -> None:
+        while (i := next(turns)) < n_p:
+            solve(cuts[i], cuts[i + 1])
+
+    helpers = [_pool[0].submit(work) for _ in range(n_t - 1)]
+    work()
+    for helper in helpers:
+        helper.result()
 
 
 def jit_enabled() -> bool:
@@ -478,13 +503,15 @@ def solve_soft(
         joint = np.zeros((1, 1, 1))
         values = _c(state_reward, dtype=np.float64).reshape(-1, n_s)
     use_joint, ok = joint_reward is not None, _c(valid, dtype=np.bool_)
+    n = len(pi)
+    q, greedy, soft = (np.empty((n, n_s, n_a)), np.empty((n, n_s), np.int64),
+                       np.zeros((n, n_s, n_a)))
 
-    def part(lo: int, hi: int) -> tuple[np.ndarray, ...]:
-        return jit.solve_soft(nxt, pi[lo:hi], values if use_joint else values[lo:hi], joint,  # type: ignore[no-any-return]
-                              use_joint, ok, term[lo:hi], float(gamma), act[lo:hi], warm,
-                              int(max_iter), float(temperature))
+    def part(lo: int, hi: int) -> None:
+        jit.solve_soft(nxt, pi, values, joint, use_joint, ok, term, float(gamma), act, warm,
+                       int(max_iter), float(temperature), q, greedy, soft, lo, hi)
 
-    q, greedy, soft = _in_parts(part, len(pi))
+    _in_parts(part, n)
     return (q.reshape(*lead, n_s, n_a), greedy.reshape(*lead, n_s),
             soft.reshape(*lead, n_s, n_a))
 
@@ -602,11 +629,13 @@ def expected_feature_counts(
     jit = kernels()
     if jit is not None:
 
-        def part(lo: int, hi: int) -> tuple[np.ndarray, ...]:
-            return (jit.expected_feature_counts(nxt, pi[lo:hi], own[lo:hi], phi[lo:hi],
-                                                start_[lo:hi], term[lo:hi], hor[lo:hi]),)
+        out = np.zeros((len(pi), phi.shape[-1]))
 
-        return _in_parts(part, len(pi))[0]
+        def counts(lo: int, hi: int) -> None:
+            jit.expected_feature_counts(nxt, pi, own, phi, start_, term, hor, out, lo, hi)
+
+        _in_parts(counts, len(pi))
+        return out
     n_b = len(pi)
     rows = np.arange(n_b)
     weight = own[:, :, :, None] * pi[:, :, None, :]  # (N, S, A, P)
