@@ -13,6 +13,7 @@ from hri_envs.bench.play import play
 from hri_envs.bench.study import StudyConfig, run_study
 from hri_envs.envs.config import scenario_graph
 from hri_envs.errors import ConfigError
+from hri_envs.task import partner_mdp
 
 SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive",
                 "turn_back", "max_steps", "runs", "episodes", "seed", "version", "env_ids",
@@ -170,7 +171,8 @@ def test_play_in_the_terminal_with_scripted_answers():
 
 
 SPEED_KEYS = {"parallel_env_steps_per_s", "vector_env_steps_per_s", "learner_update_ms",
-              "learner_update_batched_ms_per_run", "hanger_study_s", "machine_ms"}
+              "learner_update_batched_ms_per_run", "hanger_study_s", "machine_ms",
+              "learner_threads"}
 
 
 def _positive_finite(value):
@@ -189,6 +191,8 @@ def test_speed_json_runs_the_real_measurements_on_a_tiny_size(monkeypatch, capsy
     lines = capsys.readouterr().out.strip().splitlines()
     figures = json.loads(lines[-1])
     assert set(figures) == SPEED_KEYS
+    threads = figures.pop("learner_threads")
+    assert threads == partner_mdp.threads() and type(threads) is int and threads >= 1
     assert all(_positive_finite(v) for v in figures.values()), figures
     for key in SPEED_KEYS:  # one readable line per figure before the JSON
         assert sum(line.split()[0] == key for line in lines[:-1]) == 1

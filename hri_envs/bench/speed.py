@@ -16,6 +16,7 @@ import numpy as np
 from agents.learner import Learner
 from hri_envs.bench.study import StudyConfig, graph_for, run_study
 from hri_envs.errors import ConfigError
+from hri_envs.task import partner_mdp
 from hri_envs.task.humans import HANGER_PREFERENCES
 from hri_envs.task.mdp import one_blas_thread
 from hri_envs.task.protocol import Trace
@@ -184,4 +185,5 @@ def measure(jobs: int = 1, size: str = "full") -> dict[str, Any]:
             learner_update_batched_ms_per_run(z.batch_runs, z.batch_repeats), 4),
         "hanger_study_s": round(hanger_study_s(z.study_runs, z.study_episodes, jobs=jobs), 3),
         "machine_ms": round(machine_ms(z.machine_repeats), 3),
+        "learner_threads": partner_mdp.threads(),
     }
