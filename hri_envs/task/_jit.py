@@ -364,9 +364,13 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
 
 
 @njit(cache=True, nogil=True)
-def _feature_counts_range(next_state, partner, policy, features, start, terminal, horizon,
-                          out, lo, hi):
-    """:func:`expected_feature_counts` of the MDPs lo..hi-1 into ``out`` (zeros)."""
+def expected_feature_counts(next_state, partner, policy, features, start, terminal, horizon,
+                            out, lo, hi):
+    """Expected feature counts of the MDPs lo..hi-1 into ``out`` (N, F) zeros.
+
+    As ``partner_mdp.expected_feature_counts``; the caller makes ``out`` (see
+    :func:`solve_soft`).
+    """
     n_s, n_a, n_p = next_state.shape
     n_f = features.shape[-1]
     t_pi = np.empty((n_s, n_s))
@@ -404,17 +408,6 @@ def _feature_counts_range(next_state, partner, policy, features, start, terminal
             if x != 0.0:
                 for f in range(n_f):
                     out[k, f] += x * features[k, s, f]
-
-
-@njit(cache=True, nogil=True)
-def expected_feature_counts(next_state, partner, policy, features, start, terminal,
-                            horizon, out, lo, hi):
-    """Expected feature counts of the MDPs lo..hi-1 into ``out`` (N, F) zeros, as
-    ``partner_mdp.expected_feature_counts`` (the caller makes ``out``: see
-    :func:`solve_soft`).
-    """
-    _feature_counts_range(next_state, partner, policy, features, start, terminal, horizon,
-                          out, lo, hi)
 
 
 @njit(cache=True, nogil=True)

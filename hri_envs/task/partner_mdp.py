@@ -628,7 +628,6 @@ def expected_feature_counts(
     _check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
-
         out = np.zeros((len(pi), phi.shape[-1]))
 
         def counts(lo: int, hi: int) -> None:
