@@ -33,6 +33,7 @@ from hri_envs.task.humans import ScriptedHuman
 __all__ = ["RobotVectorEnv"]
 
 _VECTOR_OPTION_KEYS = RESET_OPTION_KEYS[:3]
+_INT64 = np.dtype(np.int64)
 
 
 class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
@@ -140,6 +141,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
             raise ConfigError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = int(num_envs)
+        self._shape = (self.num_envs,)
         (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
                                             self.metadata["render_modes"], backend)
@@ -333,7 +335,10 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         """
         if self._needs_reset:
             raise RuntimeError("call reset() before step()")
-        a_r = self._check_actions(actions)
+        a_r = actions  # the usual int64 (N,) array needs only the range check
+        if (type(a_r) is not np.ndarray or a_r.dtype is not _INT64 or a_r.shape != self._shape
+                or a_r.view(np.uint64).max() >= self._n_actions):
+            a_r = self._check_actions(a_r)
         self._t = t = self._t + 1
         if self.human is not self._greedy_human:
             self._adopt(self.human)
@@ -417,7 +422,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
 
     def _restart(self, which: np.ndarray, waited: bool = False) -> None:
         """New random episodes in the envs ``which`` (autoreset); ``waited`` as for _begin."""
-        start, intention = draw_start_intention(self.np_random, self._n_supports, which.size)
+        start, intention = draw_start_intention(self.np_random, self._n_supports,
+                                                np.array(which.size))
         self._begin(which, start, intention,
                     self._draw_turn(which.size) if self.human.turn_back > 0.0 else None, waited)
 
