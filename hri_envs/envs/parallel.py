@@ -195,8 +195,10 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
                                                                **physics)
         # The graph backend itself has no faults and no figures of its own for the infos.
         self._graph_only = type(self._episode) is Episode
-        # ... and with dict observations, step() builds them itself (the hot path).
-        self._plain = self._graph_only and self.observation_format == "dict"
+        # ... and with dict observations, R_R for both agents and no window, step() takes a
+        # short path (the hot loop of training and of the speed benchmark).
+        self._plain = (self._graph_only and self.observation_format == "dict"
+                       and not self._goal_reward and not self._human_window)
         self._masks = list(self.rules.action_mask)  # (A,) int8 read-only row per state
         self._sample_layout = scenario_spec(scenario).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
@@ -302,23 +304,35 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         r, aborted, terminated, robot_invalid, human_invalid = ep.advance(a_r, a_h)
         self._reward = r
         state, intention = ep.state, ep.intention
-        extra = None
-        if self._plain:  # the graph: no faults, nothing to add to the infos
+        if self._plain:  # what the general path below gives in this case, built at once
             truncated = not terminated and ep.steps >= self.max_cycles
+            reached = False
+            if terminated or truncated:
+                self.agents = []
+                reached = terminated and bool(reached_intention(self.graph, state, intention))
             # As _observations (the graph's robot observes the human's action itself).
             start, last_human, mask = ep.start, ep.last_human, self._masks[state]
-            obs = {"human": {"state": state, "start": start, "last_human_action": last_human,
-                             "action_mask": mask.copy(), "intention": intention},
-                   "robot": {"state": state, "start": start, "last_human_action": last_human,
-                             "action_mask": mask.copy()}}
+            return (
+                {"human": {"state": state, "start": start, "last_human_action": last_human,
+                           "action_mask": mask.copy(), "intention": intention},
+                 "robot": {"state": state, "start": start, "last_human_action": last_human,
+                           "action_mask": mask.copy()}},
+                {"human": r, "robot": r},
+                {"human": terminated, "robot": terminated},
+                {"human": truncated, "robot": truncated},
+                {"human": {"aborted": aborted, "invalid_action": human_invalid,
+                           "robot_reward": r, "reached_intention": reached,
+                           "intention": intention},
+                 "robot": {"aborted": aborted, "invalid_action": robot_invalid,
+                           "robot_reward": r, "reached_intention": reached}},
+            )
+        extra = None
+        if self._graph_only:  # no faults, nothing to add to the infos
+            truncated = not terminated and ep.steps >= self.max_cycles
         else:
-            if self._graph_only:
-                truncated = not terminated and ep.steps >= self.max_cycles
-            else:
-                truncated = not terminated and (ep.steps >= self.max_cycles
-                                                or ep.fault is not None)
-                extra = ep.step_info()
-            obs = self._observations()
+            truncated = not terminated and (ep.steps >= self.max_cycles or ep.fault is not None)
+            extra = ep.step_info()
+        obs = self._observations()
         human_info = {"aborted": aborted, "invalid_action": human_invalid,
                       "robot_reward": r, "reached_intention": False, "intention": intention}
         robot_info = {"aborted": aborted, "invalid_action": robot_invalid,
