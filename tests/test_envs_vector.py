@@ -230,3 +230,37 @@ def test_seeded_steps_are_those_of_v0(scenario, kwargs, mode, digest):
                   reward, term, trunc, info["aborted"], info["invalid_action"]):
             h.update(np.ascontiguousarray(a, dtype=a.dtype.newbyteorder("<")).tobytes())
     assert h.hexdigest()[:16] == digest
+
+
+@pytest.mark.parametrize("mode", ["NextStep", "SameStep"])
+@pytest.mark.parametrize("kwargs", [{}, {"human_passive": 0.5, "turn_back": 0.5}])
+def test_returned_arrays_are_never_changed_afterwards(mode, kwargs):
+    """Some arrays are handed out without a copy: later steps and resets must not write them."""
+    vec = RobotVectorEnv(8, "hanger", autoreset_mode=mode, max_cycles=6, **kwargs)
+    rng = np.random.default_rng(0)
+    kept = []
+    out = vec.reset(seed=3)
+    for t in range(40):
+        kept.append((out, [np.array(a, copy=True) for a in _arrays(out)]))
+        if t == 20:
+            out = vec.reset()
+            continue
+        mask = vec.action_masks()
+        out = vec.step(np.argmax(rng.random(mask.shape) * mask, 1))
+    restarted = sum(int(o[2].sum() + o[3].sum()) for o, _ in kept if len(o) == 5)
+    assert restarted > 8  # episodes ended (and restarted) in place while arrays were kept
+    for then, copies in kept:
+        for a, b in zip(_arrays(then), copies, strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
+def _arrays(out):
+    """Every array of a reset's or a step's return value."""
+    found = []
+    for x in out:
+        if isinstance(x, dict):
+            found += [v for k, v in sorted(x.items()) if isinstance(v, np.ndarray)
+                      and v.dtype != object]
+        elif isinstance(x, np.ndarray):
+            found.append(x)
+    return found

@@ -69,3 +69,49 @@ def test_the_over_context_is_neutral():
     assert (table.reward[j] == 0.0).all() and (table.next_key[j] == table.over).all()
     assert table.next_key.size == table.over + table.stride
     assert not table.reward.flags.writeable
+
+
+@pytest.mark.parametrize("scenario", ["hanger", "wheel"])
+@pytest.mark.parametrize("reward", ["paper", "no-free-toggle"])
+def test_the_greedy_table_is_the_step_table_at_the_humans_action(scenario, reward):
+    """All (start, lifted, s, ι, a_R) against the step table at a_H = human[start, ι, s]."""
+    from hri_envs.task.greedy_table import GreedyStepTable
+    from hri_envs.task.humans import preference_human
+
+    graph = scenario_graph(scenario)
+    steps = StepTable(EpisodeRules(graph, -0.3, reward))
+    n_s, n_a, n_k = graph.n_states, graph.n_actions, graph.n_intentions
+    start, lifted, s, goal, a_r = (x.reshape(-1) for x in np.meshgrid(
+        np.arange(n_k), [False, True], np.arange(n_s), np.arange(n_k), np.arange(n_a),
+        indexing="ij"))
+    human = preference_human(graph)
+    grid = np.indices((n_k, n_k, n_s))  # (start, goal, state)
+    table = GreedyStepTable(steps, human.preferred_action(grid[2], grid[0], grid[1]))
+    a_h = human.preferred_action(s, start, goal)
+    j = table.key(s, start, lifted) + goal * table.goal_stride + a_r
+    np.testing.assert_array_equal(j, np.arange(2 * n_k * n_s * n_k * n_a))  # dense, in order
+    j0 = steps.key(s, start, lifted) + a_r * n_a + a_h
+    np.testing.assert_array_equal(table.human_action[j], a_h)
+    for name in ("next_state", "reward", "aborted", "robot_invalid", "terminated"):
+        np.testing.assert_array_equal(getattr(table, name)[j], getattr(steps, name)[j0], name)
+    ends = steps.terminated[j0]
+    assert ends.any() and not ends.all()
+    np.testing.assert_array_equal(table.next_key[j][ends], table.over)
+    np.testing.assert_array_equal(  # the next context, ι kept aside
+        table.next_key[j][~ends], table.key(steps.next_state[j0], start, steps.lifted[j0])[~ends])
+    np.testing.assert_array_equal(table.key0, table.key(steps.state0, np.arange(n_k), False))
+    over = table.over + np.arange(table.stride)  # neutral, and the human waits
+    assert (table.human_action[over] == WAIT).all() and (table.next_key[over] == table.over).all()
+    assert not (table.terminated[over] | table.aborted[over] | table.robot_invalid[over]).any()
+    assert (table.reward[over] == 0.0).all() and not table.next_key.flags.writeable
+
+
+def test_the_greedy_table_refuses_a_bad_human_table():
+    from hri_envs.errors import ConfigError
+    from hri_envs.task.greedy_table import GreedyStepTable
+
+    steps = StepTable(EpisodeRules(scenario_graph("hanger"), -0.33))
+    with pytest.raises(ConfigError, match=r"integers of shape \(3, 3, 24\)"):
+        GreedyStepTable(steps, np.zeros((3, 24), dtype=np.int64))
+    with pytest.raises(ConfigError, match=r"must lie in 0\.\.9"):
+        GreedyStepTable(steps, np.full((3, 3, 24), 10))

@@ -235,6 +235,9 @@ class ResetOptions(NamedTuple):
     layout: tuple[tuple[float, float], tuple[float, float]] | None = None
 
 
+_NO_OPTIONS = ResetOptions()  # immutable, so one serves every reset without options
+
+
 def _check_option_keys(options: Mapping[str, Any], scenario: Scenario) -> None:
     has_layout = scenario_spec(scenario.name).layout is not None
     allowed = RESET_OPTION_KEYS if has_layout else RESET_OPTION_KEYS[:3]
@@ -266,7 +269,7 @@ def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -
     :func:`~hri_envs.task.geometry.sample_wheel_layout`).
     """
     if not options:
-        return ResetOptions()
+        return _NO_OPTIONS
     _check_option_keys(options, scenario)
     start = intention = turn_back = layout = None
     if options.get("start") is not None:

@@ -69,6 +69,9 @@ class Episode:
             turn_state = np.full((rules.n_supports,) * 2, -1)
         self._turn: list[list[int]] = np.asarray(turn_state, dtype=np.int64).tolist()
         self._window: FrameWindow | None = None
+        self._dims = (rules.n_states, rules.n_actions)
+        # start_state of each support, as ints (begin is on the reset path of every env).
+        self._state0: list[int] = start_state(rules.graph, np.arange(rules.n_supports)).tolist()
         # On the graph itself (neither transition nor failed overridden) a step's outcome
         # depends on (start, lifted, state, a_R, a_H) only: each is judged once, on first
         # use, and looked up afterwards (see advance).
@@ -86,7 +89,7 @@ class Episode:
     def begin(self, start: int, intention: int, turn_back: bool) -> None:
         """Start a new episode on support ``start`` with μ = 0."""
         self.start, self.intention, self.turn_back = start, intention, turn_back
-        self.state = self.previous = int(start_state(self.rules.graph, start))
+        self.state = self.previous = self._state0[start]
         self.lifted = False
         self.steps = 0
         self.last_human = self.last_robot = WAIT
@@ -128,10 +131,8 @@ class Episode:
             s_next = self.transition(a_r, a_h)
             t, lifted = self._judge(a_r, a_h, s_next, self.failed)
         else:  # the graph: look the step up, judging it the first time it is taken
-            r = self.rules
-            n_a = r.n_actions
-            j = ((((self.start * 2 + self.lifted) * r.n_states + self.state) * n_a + a_r) * n_a
-                 + a_h)
+            n_s, n_a = self._dims
+            j = (((self.start * 2 + self.lifted) * n_s + self.state) * n_a + a_r) * n_a + a_h
             hit = memo[j]
             if hit is None:
                 s_next = self.transition(a_r, a_h)

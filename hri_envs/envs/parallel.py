@@ -195,6 +195,10 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
                                                                **physics)
         # The graph backend itself has no faults and no figures of its own for the infos.
         self._graph_only = type(self._episode) is Episode
+        # ... and with dict observations, R_R for both agents and no window, step() takes a
+        # short path (the hot loop of training and of the speed benchmark).
+        self._plain = (self._graph_only and self.observation_format == "dict"
+                       and not self._goal_reward and not self._human_window)
         self._masks = list(self.rules.action_mask)  # (A,) int8 read-only row per state
         self._sample_layout = scenario_spec(scenario).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
@@ -205,6 +209,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
             self._classic = ClassicLayout(n_s, n_k, n_a, self.observation_format == "flat")
             self._observation_spaces = {agent: self._classic.space for agent in AGENTS}
             self._observations = self._classic_observations  # type: ignore[method-assign]
+        self._n_actions = n_a
         self._action_spaces = {agent: spaces.Discrete(n_a) for agent in AGENTS}
         self.observation_spaces = self._observation_spaces
         self.action_spaces = self._action_spaces
@@ -257,12 +262,13 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         self._episode.place(self.layout, rng)
         self.agents = list(AGENTS)
         self._reward = 0.0
-        info = {"aborted": False, "invalid_action": False, "robot_reward": 0.0,
-                "reached_intention": False}
-        human_info = {**info, "intention": self._episode.intention}
+        human_info = {"aborted": False, "invalid_action": False, "robot_reward": 0.0,
+                      "reached_intention": False, "intention": self._episode.intention}
+        robot_info = {"aborted": False, "invalid_action": False, "robot_reward": 0.0,
+                      "reached_intention": False}
         if self._human_window:
             self.render()
-        return self._observations(), {"human": human_info, "robot": dict(info)}
+        return self._observations(), {"human": human_info, "robot": robot_info}
 
     def step(
         self, actions: dict[str, Any]
@@ -276,7 +282,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         """Apply both agents' actions ``{"human": a_H, "robot": a_R}`` at once."""
         if not self.agents:
             raise RuntimeError("the episode has ended (or never started); call reset() first")
-        n_a = self.rules.n_actions
+        n_a = self._n_actions
         if len(actions) != 2:  # the cheap test on the hot path; names are checked below
             unknown = sorted(map(str, set(actions) - set(self.agents)))
             if unknown:
@@ -295,28 +301,50 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
                 f"{self.agents}"
             ) from None
         ep = self._episode
-        t = ep.advance(a_r, a_h)
-        self._reward = r = t.reward
-        terminated = t.terminated
+        r, aborted, terminated, robot_invalid, human_invalid = ep.advance(a_r, a_h)
+        self._reward = r
+        state, intention = ep.state, ep.intention
+        if self._plain:  # what the general path below gives in this case, built at once
+            truncated = not terminated and ep.steps >= self.max_cycles
+            reached = False
+            if terminated or truncated:
+                self.agents = []
+                reached = terminated and bool(reached_intention(self.graph, state, intention))
+            # As _observations (the graph's robot observes the human's action itself).
+            start, last_human, mask = ep.start, ep.last_human, self._masks[state]
+            return (
+                {"human": {"state": state, "start": start, "last_human_action": last_human,
+                           "action_mask": mask.copy(), "intention": intention},
+                 "robot": {"state": state, "start": start, "last_human_action": last_human,
+                           "action_mask": mask.copy()}},
+                {"human": r, "robot": r},
+                {"human": terminated, "robot": terminated},
+                {"human": truncated, "robot": truncated},
+                {"human": {"aborted": aborted, "invalid_action": human_invalid,
+                           "robot_reward": r, "reached_intention": reached,
+                           "intention": intention},
+                 "robot": {"aborted": aborted, "invalid_action": robot_invalid,
+                           "robot_reward": r, "reached_intention": reached}},
+            )
+        extra = None
         if self._graph_only:  # no faults, nothing to add to the infos
             truncated = not terminated and ep.steps >= self.max_cycles
-            extra = None
         else:
             truncated = not terminated and (ep.steps >= self.max_cycles or ep.fault is not None)
             extra = ep.step_info()
         obs = self._observations()
-        human_info = {"aborted": t.aborted, "invalid_action": t.human_invalid,
-                      "robot_reward": r, "reached_intention": False, "intention": ep.intention}
-        robot_info = {"aborted": t.aborted, "invalid_action": t.robot_invalid,
+        human_info = {"aborted": aborted, "invalid_action": human_invalid,
+                      "robot_reward": r, "reached_intention": False, "intention": intention}
+        robot_info = {"aborted": aborted, "invalid_action": robot_invalid,
                       "robot_reward": r, "reached_intention": False}
         if extra:
             human_info.update(extra)
             robot_info.update(extra)
         if terminated or truncated:
             self.agents = []
-            reached = terminated and bool(reached_intention(self.graph, ep.state, ep.intention))
+            reached = terminated and bool(reached_intention(self.graph, state, intention))
             human_info["reached_intention"] = robot_info["reached_intention"] = reached
-        r_h = (float(goal_reward(self.graph, ep.state, ep.intention, t.aborted, terminated))
+        r_h = (float(goal_reward(self.graph, state, intention, aborted, terminated))
                if self._goal_reward else r)
         if self._human_window:
             self.render()

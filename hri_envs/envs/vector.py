@@ -27,11 +27,13 @@ from hri_envs.task.episode import (
     draw_other_support,
     draw_start_intention,
 )
+from hri_envs.task.greedy_table import GreedyStepTable
 from hri_envs.task.humans import ScriptedHuman
 
 __all__ = ["RobotVectorEnv"]
 
 _VECTOR_OPTION_KEYS = RESET_OPTION_KEYS[:3]
+_INT64 = np.dtype(np.int64)
 
 
 class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
@@ -139,6 +141,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
             raise ConfigError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = int(num_envs)
+        self._shape = (self.num_envs,)
         (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
                                             self.metadata["render_modes"], backend)
@@ -158,18 +161,21 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         n = self.num_envs
-        self._table = StepTable(self.rules)
+        self._steps = StepTable(self.rules)
+        # The table stepped with: the step table, or a GreedyStepTable for a human who acts
+        # by one look-up (see _adopt).
+        self._table: StepTable | GreedyStepTable = self._steps
         self._n_supports, self._n_actions = n_k, n_a
-        self._greedy_start, self._greedy_goal = n_k * n_s, n_s  # strides of a human row
         # Per env (N,): the current episode's state, start, ι, the flat index of its context
-        # (StepTable.key: state, start, lifted), the human's row in the greedy table
-        # ((start K + ι) S), the state where the human turns back (-1: not in this
-        # episode), the step (of _t) that truncates it and the human's last action.
+        # (self._table.key: state, start, lifted), ι's offset in a GreedyStepTable index
+        # (ι A), the state where the human turns back (-1: not in this episode), the step
+        # (of _t) that truncates it and the human's last action. Once handed out in an
+        # observation, the arrays of state and last action are replaced, never written.
         self._state = np.zeros(n, dtype=np.int64)
         self._start = np.zeros(n, dtype=np.int64)
         self._intention = np.ones(n, dtype=np.int64) % n_k
         self._key = np.zeros(n, dtype=np.int64)
-        self._hkey = np.zeros(n, dtype=np.int64)
+        self._goal_key = np.zeros(n, dtype=np.int64)
         self._turn_at = np.full(n, -1, dtype=np.int64)
         self._deadline = np.zeros(n, dtype=np.int64)
         self._last_human = np.zeros(n, dtype=np.int64)
@@ -179,7 +185,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._ended = np.zeros(0, dtype=np.int64)  # envs whose episode ended in the last step
         self._all = np.ones(n, dtype=bool)
         self._human_rng = np.random.default_rng(0)
-        self._greedy: np.ndarray | None = None
+        self._greedy: GreedyStepTable | None = None
         self._greedy_human: ScriptedHuman | None = None
         self._adopt(self.human)
         self._needs_reset = True
@@ -221,24 +227,31 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     def _adopt(self, human: ScriptedHuman) -> None:
         """Act with ``human`` from now on (also when :attr:`human` was replaced).
 
-        A human that neither samples nor waits at random acts by one look-up into its
-        (start, ι, state) table of preferred actions: the draws of its generator would be
-        unused. Any other human samples through its ``act``.
+        A human that neither samples nor waits at random acts by a fixed (start, ι, state)
+        table of preferred actions (the draws of its generator would be unused), which is
+        folded into the step table (:class:`~hri_envs.task.greedy_table.GreedyStepTable`).
+        Any other human samples through its ``act``, and the plain step table is used.
         """
         self._greedy_human = human
         self._turn_state = human.turn_state  # where this human turns back
+        old = self._table
         self._greedy = None
+        self._table = self._steps
         if human.deterministic and human.passive == 0.0:
             n_k, n_s = self._n_supports, self.graph.n_states
-            grid = np.indices((n_k, n_k, n_s)).reshape(3, -1)  # (start, goal, state) rows
-            self._greedy = np.asarray(human.preferred_action(grid[2], grid[0], grid[1]),
-                                      dtype=np.int64)
-            self._hkey[:] = self._start * self._greedy_start + self._intention * self._greedy_goal
+            grid = np.indices((n_k, n_k, n_s))  # (start, goal, state)
+            actions = np.asarray(human.preferred_action(grid[2], grid[0], grid[1]),
+                                 dtype=np.int64)
+            self._greedy = self._table = GreedyStepTable(self._steps, actions)
+            self._goal_key[:] = self._intention * self._greedy.goal_stride
+        if self._table.stride != old.stride:  # the running contexts, in the new table's index
+            self._key = self._key // old.stride * self._table.stride
 
     def _begin(self, rows: np.ndarray | slice, start: np.ndarray, intention: np.ndarray,
-               turn: np.ndarray | None) -> None:
+               turn: np.ndarray | None, waited: bool = False) -> None:
         """Start new episodes in ``rows``: the rules' start context, a step limit counted from
         now, the human waited; ``turn`` says whether each one's human turns back (None: none).
+        ``waited``: the last action recorded for these rows is already a wait.
         """
         table = self._table
         self._start[rows] = start
@@ -246,9 +259,10 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._state[rows] = table.state0.take(start)
         self._key[rows] = table.key0.take(start)
         self._deadline[rows] = self._t + self.max_cycles
-        self._last_human[rows] = WAIT
+        if not waited:
+            self._last_human[rows] = WAIT
         if self._greedy is not None:
-            self._hkey[rows] = start * self._greedy_start + intention * self._greedy_goal
+            self._goal_key[rows] = intention * self._greedy.goal_stride
         if turn is not None and (self._turning or turn.any()):
             self._turning = True
             self._turn_at[rows] = np.where(turn, self._turn_state[start, intention], -1)
@@ -299,6 +313,9 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._turning = False
         self._turn_at[:] = -1
         self._t = 0
+        # Fresh arrays: the last step's observation may hold the old ones (see __init__).
+        self._state = np.empty(n, dtype=np.int64)
+        self._last_human = np.empty(n, dtype=np.int64)
         self._due = self.max_cycles
         self._begin(slice(None), start, intention, turn)
         self._ended = self._ended[:0]
@@ -310,24 +327,34 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every env with the robots' actions (N,); the scripted humans act too.
 
-        One flat index per env into the :class:`~hri_envs.task.episode.StepTable` gives the
-        next state, the reward, the end and the next context; only the envs that start a new
-        episode (and, with turning back, those whose human turns) are touched one by one.
+        One flat index per env into the :class:`~hri_envs.task.episode.StepTable` (or, for a
+        human who acts by a table, the :class:`~hri_envs.task.greedy_table.GreedyStepTable`)
+        gives the next state, the reward, the end and the next context; only the envs that
+        start a new episode (and, with turning back, those whose human turns) are touched
+        one by one.
         """
         if self._needs_reset:
             raise RuntimeError("call reset() before step()")
-        a_r = self._check_actions(actions)
+        a_r = actions  # the usual int64 (N,) array needs only the range check
+        if (type(a_r) is not np.ndarray or a_r.dtype is not _INT64 or a_r.shape != self._shape
+                or a_r.view(np.uint64).max() >= self._n_actions):
+            a_r = self._check_actions(a_r)
         self._t = t = self._t + 1
-        table, s = self._table, self._state
         if self.human is not self._greedy_human:
             self._adopt(self.human)
+        table = self._table
+        # Envs whose episode has ended sit in the table's "over" context.
         if self._greedy is not None:
-            a_h = self._greedy.take(self._hkey + s)
+            j = self._key + self._goal_key
+            j += a_r
+            a_h = self._greedy.human_action.take(j)
+            fresh_human = True  # a_h is this step's own array
         else:
-            a_h = self.human.act(self._human_rng, s, self._start, self._intention)
-        j = a_r * self._n_actions
-        j += self._key  # envs whose episode has ended sit in the table's "over" context
-        j += a_h
+            a_h = self.human.act(self._human_rng, self._state, self._start, self._intention)
+            j = a_r * self._n_actions
+            j += self._key
+            j += a_h
+            fresh_human = False
         self._state = s_next = table.next_state.take(j)
         self._key = table.next_key.take(j)
         self._last_human = a_h
@@ -341,7 +368,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 self._intention[back] = start = self._start[back]
                 self._turn_at[back] = -1
                 if self._greedy is not None:
-                    self._hkey[back] = start * (self._greedy_start + self._greedy_goal)
+                    self._goal_key[back] = start * self._greedy.goal_stride
         infos: dict[str, Any] = {"aborted": aborted, "_aborted": self._all,
                                  "invalid_action": invalid, "_invalid_action": self._all}
         if self._same_step:
@@ -358,18 +385,28 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             return self._observations(), reward, terminated, truncated, infos
         # Next-step autoreset: the envs that ended in the previous step stepped in the "over"
         # context (reward 0, nothing ended, aborted or invalid) and start afresh now.
+        # In that context a GreedyStepTable's human waits, and a step that ends an episode
+        # leads to it; the step table needs both done here.
         which = self._ended
         if which.size:
-            self._restart(which)
-        truncated = self._truncated(t, terminated)
-        self._ended = ended = (terminated | truncated).nonzero()[0]
-        if ended.size:
-            self._key[ended] = table.over
-        state = self._state
+            self._restart(which, waited=fresh_human)
+        if t < self._due:  # no deadline falls in this step
+            truncated = np.zeros(self.num_envs, dtype=bool)
+            self._ended = ended = terminated.nonzero()[0]
+            if ended.size and not fresh_human:
+                self._key[ended] = table.over
+        else:
+            truncated = self._truncated(t, terminated)
+            self._ended = ended = (terminated | truncated).nonzero()[0]
+            if ended.size:
+                self._key[ended] = table.over
+        # The state and (from the table) the human's action are this step's own arrays and
+        # are never written again (see __init__), so they are handed out without a copy.
+        last = self._last_human
         obs: dict[str, np.ndarray] = {
-            "state": state.copy(), "start": self._start.copy(),
-            "last_human_action": self._last_human.copy(),
-            "action_mask": self.rules.action_mask.take(state, axis=0)}
+            "state": s_next, "start": self._start.copy(),
+            "last_human_action": last if fresh_human else last.copy(),
+            "action_mask": self.rules.action_mask.take(s_next, axis=0)}
         return obs, reward, terminated, truncated, infos
 
     def _truncated(self, t: int, terminated: np.ndarray) -> np.ndarray:
@@ -383,11 +420,12 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._due = int(deadline[deadline > t].min(initial=t + self.max_cycles))
         return truncated
 
-    def _restart(self, which: np.ndarray) -> None:
-        """New random episodes in the envs ``which`` (autoreset)."""
-        start, intention = draw_start_intention(self.np_random, self._n_supports, which.size)
+    def _restart(self, which: np.ndarray, waited: bool = False) -> None:
+        """New random episodes in the envs ``which`` (autoreset); ``waited`` as for _begin."""
+        start, intention = draw_start_intention(self.np_random, self._n_supports,
+                                                np.array(which.size))
         self._begin(which, start, intention,
-                    self._draw_turn(which.size) if self.human.turn_back > 0.0 else None)
+                    self._draw_turn(which.size) if self.human.turn_back > 0.0 else None, waited)
 
     def _check_actions(self, actions: Any) -> np.ndarray:
         a = np.asarray(actions)

@@ -72,9 +72,13 @@ def start_state(graph: TaskGraph, start: IntArray) -> np.ndarray:
 
 
 def draw_start_intention(
-    rng: np.random.Generator, n_supports: int, size: int | None = None
+    rng: np.random.Generator, n_supports: int, size: int | np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Draw start supports and intentions ι ≠ start, uniformly (scalars when size is None)."""
+    """Draw start supports and intentions ι ≠ start, uniformly (scalars when size is None).
+
+    ``size`` may also be a 0-d int array: the same numbers, and numpy's generator reads its
+    size a little faster than a Python int's (the vector env's autoresets).
+    """
     start = rng.integers(n_supports, size=size)
     intention = (start + 1 + rng.integers(n_supports - 1, size=size)) % n_supports
     return start, intention
