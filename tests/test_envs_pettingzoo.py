@@ -296,3 +296,35 @@ def test_bad_reset_options_raise(options, message):
 def test_bad_wheel_layout_raises():
     with pytest.raises(ConfigError, match="layout"):
         wheel_v0.parallel_env().reset(options={"layout": (1.0, 2.0)})
+
+
+@pytest.mark.parametrize("mod", [hanger_v0, wheel_v0])
+def test_the_short_step_path_gives_what_the_general_one_gives(mod):
+    """The graph env with dict observations builds step()'s return at once (its hot path):
+    the same values, types and key order as the general path, over random (also invalid)
+    actions, episode ends and truncation."""
+    fast, general = mod.parallel_env(max_cycles=15), mod.parallel_env(max_cycles=15)
+    assert fast._plain
+    general._plain = False
+    rng = np.random.default_rng(0)
+    n_a = fast.action_space("robot").n
+    ends = 0
+    for episode in range(12):
+        outs = [env.reset(seed=episode) for env in (fast, general)]
+        assert data_equivalence(*outs)
+        while fast.agents:
+            actions = {"human": int(rng.integers(n_a)), "robot": int(rng.integers(n_a))}
+            a, b = fast.step(actions), general.step(dict(actions))
+            assert data_equivalence(a, b, exact=True)
+            for x, y in zip(a, b, strict=True):  # the same nesting, key order and types
+                assert repr(_structure(x)) == repr(_structure(y))
+            assert fast.agents == general.agents
+        ends += 1
+    assert ends == 12
+
+
+def _structure(tree):
+    """The keys and value types of a nested dict, in order."""
+    if isinstance(tree, dict):
+        return [(k, _structure(v)) for k, v in tree.items()]
+    return type(tree).__name__
