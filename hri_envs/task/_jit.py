@@ -4,7 +4,10 @@ Imported only by :func:`hri_envs.task.partner_mdp.kernels` when numba is importa
 ``HRI_ENVS_NO_JIT`` is not set. Each kernel is the loop form of a numpy function of
 ``partner_mdp`` and takes the same (already flattened, C-contiguous, float64 / int64)
 arrays: ``next_state`` (S, A, P) int, ``partner`` (N, S, P), ``terminal`` (N,) int with -1
-for "no absorbing state". ``cache=True`` compiles once per machine (the compiled code is
+for "no absorbing state". Every step of the learning math runs in :func:`_mdps`; the
+batch kernels :func:`solve_soft` and :func:`expected_feature_counts` do the MDPs lo..hi-1
+into results the caller made, so that threads can share a batch (``partner_mdp``). All
+kernels release the GIL. ``cache=True`` compiles once per machine (the compiled code is
 kept beside this file, or in ``NUMBA_CACHE_DIR``).
 """
 
@@ -24,7 +27,6 @@ def out_of_range(x, low, high):
         if v < low or v >= high:
             return True
     return False
-
 
 
 @njit(cache=True, nogil=True)
@@ -47,8 +49,8 @@ def own_last_index(table):
     """:func:`own_last` of a table of state indices, as unsigned integers.
 
     Indexing by an unsigned integer spares the compiled loops numpy's wrap-around of
-    negative indices (a test and an addition per access, and it kept the backups'
-    gathers from being vectorised); callers have checked the indices are in range.
+    negative indices (a shift, a mask and an addition per access); callers have checked
+    that the indices are in range.
     """
     n_s, n_a, n_p = table.shape
     out = np.empty((n_s, n_p, n_a), np.uint64)
