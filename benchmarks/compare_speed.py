@@ -4,9 +4,9 @@
 
 Each round times every measure once in the old checkout and once in this one, alternately,
 each in a fresh interpreter with that checkout first on ``PYTHONPATH``; the report gives, per
-measure, the range of both and the range of the per-round ratio old / new (> 1: this checkout
-is faster). Other jobs slow both sides of a round alike, so the ratios vary much less than
-the raw figures. Only public APIs that both checkouts have are used.
+measure, the range and median of both and the range and median of the per-round ratio
+old / new (> 1: this checkout is faster). Other jobs slow both sides of a round alike, so the
+ratios vary much less than the raw figures. Only public APIs that both checkouts have are used.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -101,11 +102,14 @@ def main() -> None:
             old.append(_run(args.vs.resolve(), snippet))
             new.append(_run(here, snippet))
         ratios = [(n / o) if higher else (o / n) for o, n in zip(old, new, strict=True)]
+        mid = {key: statistics.median(v) for key, v in
+               (("old", old), ("new", new), ("speedup", ratios))}
         report[name] = {"unit": unit, "old": [min(old), max(old)], "new": [min(new), max(new)],
-                        "speedup": [min(ratios), max(ratios)]}
-        print(f"{name:32s} old {min(old):.4g}-{max(old):.4g} {unit}, new {min(new):.4g}-"
-              f"{max(new):.4g} {unit}, speed-up {min(ratios):.2f}-{max(ratios):.2f}x",
-              flush=True)
+                        "speedup": [min(ratios), max(ratios)], "median": mid}
+        print(f"{name:32s} old {min(old):.4g}-{max(old):.4g} {unit} (median {mid['old']:.4g}), "
+              f"new {min(new):.4g}-{max(new):.4g} {unit} (median {mid['new']:.4g}), speed-up "
+              f"{min(ratios):.2f}-{max(ratios):.2f}x (median of the rounds' "
+              f"{mid['speedup']:.2f}x)", flush=True)
     if args.json:
         print(json.dumps(report))
 

@@ -119,21 +119,23 @@ def test_a_child_forked_before_the_parent_chose_runs_on_one_thread(threads, monk
 
 @needs_jit
 def test_threads_give_the_same_numbers_bit_for_bit(threads):
-    """Ten updates of a 40-run wheel Learner on 1 and on 2 threads: identical models."""
+    """Ten updates of a 100-run wheel Learner on 1 and on 2 threads: identical models (every
+    batch of the update, the IRL step's 100 MDPs included, is shared by both threads)."""
     graph, trace = _wheel_trace()
     rng = np.random.default_rng(1)
     short = Trace(trace.states[:5], trace.robot_actions[:4], trace.human_actions[:4])
-    traces = [trace, short] * 20
-    intentions = [rng.integers(-1, 3, 40) for _ in range(10)]
+    traces = [trace, short] * 50
+    intentions = [rng.integers(-1, 3, 100) for _ in range(10)]
 
     def learn(n):
         threads(n)
-        learner = Learner(graph, 40)
+        learner = Learner(graph, 100)
         for ints in intentions:
             learner.end_episode(traces, ints)
         return learner
 
     one, two = learn(1), learn(2)
+    assert partner_mdp._threads_here(100) == 2
     for name in ("theta", "pi_h", "q_h", "q_r", "pi_r", "_warm_h", "_warm_r"):
         assert getattr(one, name).tobytes() == getattr(two, name).tobytes(), name
 

@@ -108,7 +108,7 @@ def preload() -> bool:
 #: Environment variable: threads the compiled kernels share a batch of MDPs among.
 THREADS_ENV = "HRI_ENVS_THREADS"
 #: Batches smaller than this many MDPs per thread run on one thread (not worth a hand-out).
-_MIN_PER_THREAD = 8
+_MIN_PER_THREAD = 48
 _threads: tuple[int, int] | None = None  # (threads, the id of the process that chose them)
 _pool: tuple[ThreadPoolExecutor, int, int] | None = None  # (helpers, how many, process id)
 _IMPORTED_BY = os.getpid()  # a process forked after the import has another id
