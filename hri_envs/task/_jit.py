@@ -30,18 +30,27 @@ def out_of_range(x, low, high):
 
 
 @njit(cache=True, nogil=True)
+def _own_last_into(table, out):
+    """``out[s, p, a] = table[s, a, p]`` for an (S, A, P) joint table; returns ``out``.
+
+    ``out`` (S, P, A) holds the table with the partner's action before one's own.
+    """
+    n_s, n_a, n_p = table.shape
+    for s in range(n_s):
+        for a in range(n_a):
+            for p in range(n_p):
+                out[s, p, a] = table[s, a, p]
+    return out
+
+
+@njit(cache=True, nogil=True)
 def own_last(table):
     """(S, A, P) -> (S, P, A) copy of a joint table: the partner's action before one's own.
 
     A backup's inner loop over one's own actions then reads consecutive entries.
     """
     n_s, n_a, n_p = table.shape
-    out = np.empty((n_s, n_p, n_a), table.dtype)
-    for s in range(n_s):
-        for a in range(n_a):
-            for p in range(n_p):
-                out[s, p, a] = table[s, a, p]
-    return out
+    return _own_last_into(table, np.empty((n_s, n_p, n_a), table.dtype))
 
 
 @njit(cache=True, nogil=True)
@@ -53,12 +62,7 @@ def own_last_index(table):
     that the indices are in range.
     """
     n_s, n_a, n_p = table.shape
-    out = np.empty((n_s, n_p, n_a), np.uint64)
-    for s in range(n_s):
-        for a in range(n_a):
-            for p in range(n_p):
-                out[s, p, a] = table[s, a, p]
-    return out
+    return _own_last_into(table, np.empty((n_s, n_p, n_a), np.uint64))
 
 
 @njit(cache=True, nogil=True)
