@@ -231,3 +231,42 @@ def test_preload_loads_the_compiled_kernels_only_when_they_are_used(monkeypatch)
     assert partner_mdp.preload() is HAS_JIT
     monkeypatch.setattr(partner_mdp, "kernels", lambda: None)
     assert partner_mdp.preload() is False
+
+
+def test_a_broadcast_state_reward_is_every_mdps_on_both_paths(path):
+    """One (1, S) state reward for 4 MDPs is each MDP's (the compiled kernel once read past
+    its end for MDPs 1-3): the same as giving it 4 times."""
+    g = graph_for("wheel")
+    pi = random_policies(g, 4, 0)
+    one = np.arange(g.n_states, dtype=float)[None]
+    got = partner_mdp.solve_soft(g.next_state, pi, g.valid, 0.9, 1.0, state_reward=one)
+    full = partner_mdp.solve_soft(g.next_state, pi, g.valid, 0.9, 1.0,
+                                  state_reward=np.repeat(one, 4, axis=0))
+    for a, b in zip(got, full, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("bad", ["state_reward", "joint_reward", "valid", "start", "belief",
+                                 "baseline"])
+def test_arrays_of_the_wrong_size_are_refused_before_any_kernel_runs(path, bad):
+    """The compiled kernels index each array by the batch's and the graph's sizes."""
+    g = graph_for("hanger")
+    pi = random_policies(g, 3, 0)
+    n_s, n_a = g.n_states, g.n_actions
+    with pytest.raises(ConfigError, match="shape") as err:
+        if bad in ("state_reward", "joint_reward", "valid"):
+            kwargs = ({"state_reward": np.zeros((2, n_s))} if bad == "state_reward" else
+                      {"joint_reward": np.zeros((n_s, n_a, n_a - 1))} if bad == "joint_reward"
+                      else {"state_reward": np.zeros((3, n_s))})
+            valid = g.valid[:-1] if bad == "valid" else g.valid
+            partner_mdp.solve_soft(g.next_state, pi, valid, 0.9, 1.0, **kwargs)
+        elif bad == "start":
+            partner_mdp.expected_feature_counts(g.next_state, pi, pi, g.features[:3],
+                                                np.zeros(2, np.int64), np.full(3, -1),
+                                                np.full(3, 4))
+        else:
+            q = np.zeros((3, g.n_intentions, n_s, n_a))
+            belief = np.ones((2 if bad == "belief" else 3, g.n_intentions))
+            base = np.zeros(2, np.int64) if bad == "baseline" else None
+            partner_mdp.belief_policy(q, belief, np.zeros(3, np.int64), g.valid, 1.0, 0.5, base)
+    assert err.value.field == bad

@@ -17,8 +17,7 @@ makes it), or -1 for none.
 
 Each function has two implementations whose results agree to rounding, ~1e-15
 (tests/test_partner_mdp.py checks them against each other): vectorised numpy, and compiled
-loops
-(:mod:`hri_envs.task._jit`) used when numba is importable and the environment variable
+loops (:mod:`hri_envs.task._jit`) used when numba is importable and the environment variable
 ``HRI_ENVS_NO_JIT`` is not set to a non-empty value other than ``0``. The compiled code is
 cached on disk, so a machine compiles it once (:func:`kernels`).
 """
@@ -185,6 +184,8 @@ def _in_parts(solve: Callable[[int, int], None], n_mdps: int) -> None:
         solve(0, n_mdps)
         return
     if _pool is None or _pool[1] < n_t - 1 or _pool[2] != os.getpid():
+        if _pool is not None and _pool[2] == os.getpid():
+            _pool[0].shutdown(wait=False)  # too few helpers for a larger setting
         _pool = (ThreadPoolExecutor(n_t - 1, thread_name_prefix="hri-envs"), n_t - 1,
                  os.getpid())
     n_p = 2 * n_t
@@ -228,15 +229,37 @@ def _terminal(terminal: np.ndarray | int | None, lead: tuple[int, ...]) -> np.nd
     """(N,) int64 absorbing state per MDP (-1: none) from a value broadcastable to ``lead``."""
     if terminal is None:
         return np.full(int(np.prod(lead)), -1, np.int64)
-    return _flat(terminal, lead, np.int64).reshape(-1)
+    return _flat(terminal, lead, np.int64, "terminal").reshape(-1)
 
 
-def _flat(x: np.ndarray | int, shape: tuple[int, ...], dtype: type) -> np.ndarray:
-    """``x`` broadcast to ``shape``, as :func:`_c`."""
+def _flat(x: np.ndarray | int, shape: tuple[int, ...], dtype: type, name: str) -> np.ndarray:
+    """``x`` broadcast to ``shape``, as :func:`_c`.
+
+    Raises:
+        ConfigError: ``x`` does not broadcast to ``shape`` (the compiled kernels would read
+            past its end).
+    """
     arr = np.asarray(x)
     if arr.shape != shape:
-        arr = np.broadcast_to(arr, shape)
+        try:
+            arr = np.broadcast_to(arr, shape)
+        except ValueError:
+            raise ConfigError(f"{name} has shape {arr.shape}, which does not broadcast to "
+                              f"{shape}", field=name) from None
     return _c(arr, dtype)
+
+
+def _check_shape(name: str, x: np.ndarray, shape: tuple[int, ...]) -> None:
+    """Raise ConfigError unless ``x`` has ``shape`` (the kernels index by the others' sizes)."""
+    if x.shape != shape:
+        raise ConfigError(f"{name} must have shape {shape}, got {x.shape}", field=name)
+
+
+def _valid(valid: np.ndarray, n_s: int, n_a: int) -> np.ndarray:
+    """The (S, A) valid-action table as the kernels take it, its shape checked."""
+    ok = _c(np.asarray(valid), dtype=np.bool_)
+    _check_shape("valid", ok, (n_s, n_a))
+    return ok
 
 
 def _c(x: np.ndarray, dtype: type) -> np.ndarray:
@@ -276,7 +299,7 @@ def partner_backup(next_state: np.ndarray, partner: np.ndarray, values: np.ndarr
     nxt = _c(next_state, dtype=np.int64)
     _check_range("next_state", nxt, 0, n_s)
     pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
-    x = _c(values, dtype=np.float64).reshape(-1, n_s)
+    x = _flat(values, (*lead, n_s), np.float64, "values").reshape(-1, n_s)
     term = _terminal(terminal, lead)
     _check_range("terminal", term, -1, n_s)
     jit = kernels()
@@ -342,7 +365,7 @@ def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
         return mdp.softmax(q, valid, temperature)
     n_s, n_a = q.shape[-2:]
     flat = _c(q, dtype=np.float64).reshape(-1, n_s, n_a)
-    out = jit.softmax(flat, _c(valid, dtype=np.bool_), float(temperature))
+    out = jit.softmax(flat, _valid(valid, n_s, n_a), float(temperature))
     return out.reshape(q.shape)  # type: ignore[no-any-return]
 
 
@@ -366,17 +389,22 @@ def belief_policy(q: np.ndarray, belief: np.ndarray, states: np.ndarray, valid: 
         (B, A) probabilities.
     """
     states = _c(states, np.int64)
-    _check_range("states", states, 0, q.shape[-2])
-    base = np.full(len(states), -1, np.int64) if baseline is None else _c(baseline, np.int64)
+    n_b, n_i, n_s, n_a = q.shape
+    _check_shape("states", states, (n_b,))
+    _check_shape("belief", belief, (n_b, n_i))
+    _check_range("states", states, 0, n_s)
+    base = np.full(n_b, -1, np.int64) if baseline is None else _c(baseline, np.int64)
     if baseline is not None:
-        _check_range("baseline", base, 0, q.shape[-1])
+        _check_shape("baseline", base, (n_b,))
+        _check_range("baseline", base, 0, n_a)
     jit = kernels()
     if jit is None:
         rows = np.arange(len(states))
         mixed = np.einsum("bi,bia->ba", belief, q[rows, :, states])
         return mdp.bounded_softmax(mixed, valid[states], temperature, eta, baseline)
     return jit.belief_policy(_c(q, np.float64), _c(belief, np.float64),  # type: ignore[no-any-return]
-                             states, base, _c(valid, np.bool_), float(temperature), float(eta))
+                             states, base, _valid(valid, n_s, n_a), float(temperature),
+                             float(eta))
 
 
 def solve_partner_q(
@@ -418,8 +446,8 @@ def solve_partner_q(
     n_s, n_a, _ = next_state.shape
     nxt, pi, term, act, warm = _iteration_inputs(next_state, partner, gamma, terminal, policy,
                                                  max_iter)
-    r = _flat(reward, (*lead, n_s, n_a), np.float64).reshape(-1, n_s, n_a)
-    ok = _c(valid, dtype=np.bool_)
+    r = _flat(reward, (*lead, n_s, n_a), np.float64, "reward").reshape(-1, n_s, n_a)
+    ok = _valid(valid, n_s, n_a)
     jit = kernels()
     if jit is not None:
         q, greedy = jit.solve_partner_q(nxt, pi, r, ok, term, float(gamma), act, warm,
@@ -481,28 +509,26 @@ def solve_soft(
     if (state_reward is None) == (joint_reward is None):
         raise ConfigError("give exactly one of state_reward (..., S) and joint_reward "
                           "(S, A, P)", field="state_reward")
-    jit = kernels()
-    if jit is None:
-        if joint_reward is not None:
-            reward = partner_reward(joint_reward, partner, terminal)
-        else:
-            assert state_reward is not None
-            reward = partner_backup(next_state, partner, state_reward, terminal)
-        q, greedy = solve_partner_q(next_state, partner, reward, valid, gamma,
-                                    terminal=terminal, policy=policy, max_iter=max_iter)
-        return q, greedy, softmax(q, valid, temperature)
     lead = partner.shape[:-2]
     n_s, n_a, _ = next_state.shape
-    nxt, pi, term, act, warm = _iteration_inputs(next_state, partner, gamma, terminal, policy,
-                                                 max_iter)
     if joint_reward is not None:
-        joint = _c(joint_reward, dtype=np.float64)
+        joint = _c(np.asarray(joint_reward), dtype=np.float64)
+        _check_shape("joint_reward", joint, next_state.shape)
         values = np.zeros((1, 1))
     else:
         assert state_reward is not None
         joint = np.zeros((1, 1, 1))
-        values = _c(state_reward, dtype=np.float64).reshape(-1, n_s)
-    use_joint, ok = joint_reward is not None, _c(valid, dtype=np.bool_)
+        values = _flat(state_reward, (*lead, n_s), np.float64, "state_reward").reshape(-1, n_s)
+    use_joint, ok = joint_reward is not None, _valid(valid, n_s, n_a)
+    jit = kernels()
+    if jit is None:
+        reward = (partner_reward(joint, partner, terminal) if use_joint
+                  else partner_backup(next_state, partner, values.reshape(*lead, n_s), terminal))
+        q, greedy = solve_partner_q(next_state, partner, reward, ok, gamma,
+                                    terminal=terminal, policy=policy, max_iter=max_iter)
+        return q, greedy, softmax(q, ok, temperature)
+    nxt, pi, term, act, warm = _iteration_inputs(next_state, partner, gamma, terminal, policy,
+                                                 max_iter)
     n = len(pi)
     q, greedy, soft = (np.empty((n, n_s, n_a)), np.empty((n, n_s), np.int64),
                        np.zeros((n, n_s, n_a)))
@@ -539,7 +565,7 @@ def _iteration_inputs(next_state: np.ndarray, partner: np.ndarray, gamma: float,
     term = _terminal(terminal, lead)
     _check_range("terminal", term, -1, n_s)
     warm = policy is not None
-    act = (_flat(policy, (*lead, n_s), np.int64).reshape(-1, n_s) if policy is not None
+    act = (_flat(policy, (*lead, n_s), np.int64, "policy").reshape(-1, n_s) if policy is not None
            else np.zeros((len(pi), n_s), np.int64))
     _check_range("policy", act, 0, n_a)
     return nxt, pi, term, act, warm
@@ -622,8 +648,14 @@ def expected_feature_counts(
     pi = _c(partner, dtype=np.float64)
     own = _c(policy, dtype=np.float64)
     phi = _c(features, dtype=np.float64)
-    start_, term, hor = (_c(x, dtype=np.int64)
+    start_, term, hor = (_c(np.asarray(x), dtype=np.int64)
                          for x in (start, terminal, horizon))
+    n = len(pi)
+    for name, arr, shape in (("partner", pi, (n, n_s, n_p)), ("policy", own, (n, n_s, n_a)),
+                             ("features", phi, (n, n_s, phi.shape[-1])),
+                             ("start", start_, (n,)), ("terminal", term, (n,)),
+                             ("horizon", hor, (n,))):
+        _check_shape(name, arr, shape)
     _check_range("start", start_, 0, n_s)
     _check_range("terminal", term, -1, n_s)
     jit = kernels()
