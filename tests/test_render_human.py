@@ -107,9 +107,11 @@ def test_mujoco_passive_viewer_with_a_window():
         "print('render', env.render(), flush=True)\n"
         "env.close()\n"
         "print('closed', env.unwrapped._episode._viewer, flush=True)\n"
+        # On Xvfb's software OpenGL, GLFW's teardown at interpreter exit crashed in about
+        # half of the runs (10 alone: 5 on 108a8d5, 7 now) and once hung past the timeout:
+        # leave without it, once every check above has run.
+        "import os; os._exit(0)\n"
     )
     assert "viewer running True" in out.stdout, out.stderr[-3000:]
     assert "render None" in out.stdout and "closed None" in out.stdout
-    # On Xvfb's software OpenGL the child may still crash while GLFW shuts down at
-    # interpreter exit (after every line above ran); any other failure is a failure.
-    assert out.returncode in (0, -11, 139), out.stderr[-3000:]
+    assert out.returncode == 0, out.stderr[-3000:]
