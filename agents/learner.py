@@ -19,9 +19,10 @@ from __future__ import annotations
 
 import hashlib
 import json
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import ClassVar
+from typing import ClassVar, cast
 
 import numpy as np
 
@@ -53,6 +54,24 @@ def sample_actions(probs: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.minimum((u[:, None] >= cum).sum(axis=-1), probs.shape[-1] - 1)  # type: ignore[no-any-return]
 
 
+def _refs(models: partner_mdp.Models) -> list[int]:
+    """Reference counts of the arrays of ``models`` but θ, as counted from here."""
+    return [sys.getrefcount(a) if a.base is None else -1 for a in models[1:]]
+
+
+#: What :func:`_refs` counts for arrays that only their ``Models`` refers to.
+_ALONE = max(_refs(partner_mdp.Models(*(np.empty(1) for _ in partner_mdp.Models._fields))))
+
+
+def _unshared(models: partner_mdp.Models) -> bool:
+    """Whether only ``models`` refers to its arrays (but θ), each of which owns its data.
+
+    A view of one of them, or any other name for it, adds a reference: they are then not
+    written again. (CPython's reference counts; without ``sys.getrefcount`` nothing is.)
+    """
+    return hasattr(sys, "getrefcount") and all(n == _ALONE for n in _refs(models))
+
+
 class Learner(BatchAgent):
     """Algorithm 1 for ``n_runs`` independent runs.
 
@@ -73,6 +92,9 @@ class Learner(BatchAgent):
     """
 
     name: ClassVar[str] = "learner"
+    q_h: np.ndarray
+    pi_h: np.ndarray
+    q_r: np.ndarray
 
     def __init__(
         self,
@@ -94,7 +116,6 @@ class Learner(BatchAgent):
         # Own writeable copies of the graph's read-only tables, in the layouts the compiled
         # kernels take (so they neither copy them per call nor compile a read-only variant).
         self._next = np.array(graph.next_state, dtype=np.int64)  # (S, A_R, A_H)
-        self._next_h = np.ascontiguousarray(np.swapaxes(self._next, 1, 2))  # (S, A_H, A_R)
         self._reward = np.array(graph.reward(self.config.r0), dtype=np.float64)  # (S, A, A)
         self._valid = np.array(graph.valid, dtype=bool)
         self._features = np.array(graph.features, dtype=np.float64)  # (I, S, F)
@@ -112,6 +133,7 @@ class Learner(BatchAgent):
         self.pi_r = np.broadcast_to(uniform, (1, n_i, n_s, n_a)).copy()
         self._warm_h: np.ndarray | None = None
         self._warm_r: np.ndarray | None = None
+        self._spare: partner_mdp.Models | None = None  # arrays the next update may reuse
         names = ("theta", "pi_r", "pi_h", "q_h", "q_r", "_warm_h", "_warm_r")
         if self.config.initial_preference is not None and n_runs > 1:
             one = Learner(graph, 1, self.config)  # pretrains once, for every run
@@ -119,11 +141,12 @@ class Learner(BatchAgent):
                 setattr(self, name, getattr(one, name))
         else:
             with mdp.one_blas_thread():
-                self._update_policies()
+                self._update()
                 if self.config.initial_preference is not None:
                     self._start_from_preference(self.config.initial_preference)
         for name in names:
             setattr(self, name, np.repeat(getattr(self, name), n_runs, axis=0))
+        self._spare = None  # one run's arrays
 
     def _start_from_preference(self, preference: str) -> None:
         """Pretrain the human model on a preference's routes (paper Sect. 7 variant).
@@ -152,53 +175,40 @@ class Learner(BatchAgent):
                                 np.zeros(len(states) - 1, dtype=np.int64)))
         for _ in range(self.config.pretrain_passes):
             for (_, goal), trace in zip(pairs, routes, strict=True):
-                self._irl([trace] * self.n_runs, np.full(self.n_runs, goal))
-                self._update_policies()
+                self._update([trace] * self.n_runs, np.full(self.n_runs, goal))
 
     # ------------------------------------------------------------------ model updates
-    def _update_policies(self) -> None:
-        """π̂_H from θ and the current π_R (Alg. 1 l. 20-22), then the robot's Q (l. 3-5).
+    def _update(self, traces: Sequence[Trace] | None = None,
+                intentions: np.ndarray | None = None) -> None:
+        """One ME-IRL step per run on its loop-free trace (Alg. 1 l. 17-19), unless
+        ``traces`` is None, then π̂_H from θ and the current π_R (l. 20-22) and the robot's
+        Q (l. 3-5): :func:`hri_envs.task.partner_mdp.update_models`.
 
-        Both Q-iterations run on the sparse joint table (:mod:`hri_envs.task.partner_mdp`):
-        the dense transitions T_H, T_R of the paper are never built.
+        Runs whose episode was truncated (intention -1: nothing revealed) keep their θ. The
+        Q-iterations run on the sparse joint table: the dense transitions T_H, T_R of the
+        paper are never built.
         """
         g, c = self.graph, self.config
-        term = g.terminal[None, :]  # (1, I): intention ι's goal state absorbs
-        r_state = np.einsum("isf,bf->bis", g.features, self.theta)  # (B, I, S)
-        # Each call: the expected reward, Q-iteration and the soft-max policy of its Q.
-        self.q_h, self._warm_h, self.pi_h = partner_mdp.solve_soft(
-            self._next_h, self.pi_r, self._valid, c.gamma, c.human_temperature,
-            state_reward=r_state, terminal=term, policy=self._warm_h)
-        self.q_r, self._warm_r, self.pi_r = partner_mdp.solve_soft(
-            self._next, self.pi_h, self._valid, c.gamma, c.robot_model_temperature,
-            joint_reward=self._reward, terminal=term, policy=self._warm_r)
-
-    def _irl(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
-        """One ME-IRL step per run on its loop-free trace (Alg. 1 l. 17-19).
-
-        Runs whose episode was truncated (intention -1: nothing revealed) keep their θ.
-        """
-        g, c = self.graph, self.config
-        n_b = self.n_runs
-        revealed = intentions >= 0
-        intentions = np.where(revealed, intentions, 0)
-        counts, start, horizon = partner_mdp.loop_free_counts(
-            self._features, [tr.states for tr in traces], intentions)
-        rows = np.arange(n_b)
-        terminal = g.terminal[intentions]
-        pi_r = self.pi_r[rows, intentions]  # (B, S, A) the robot's policy the human expects
-        phi = g.features[intentions]  # (B, S, F)
-        r_state = np.einsum("bsf,bf->bs", phi, self.theta)
-        # Nearly the human MDP of the last _update_policies for the revealed intention (same θ,
-        # π_R one update newer): start from its greedy policy, which is mostly still optimal.
-        warm = None if self._warm_h is None else self._warm_h[rows, intentions]
-        _, _, policy = partner_mdp.solve_soft(self._next_h, pi_r, self._valid, c.gamma,
-                                              c.irl_temperature, state_reward=r_state,
-                                              terminal=terminal, policy=warm)
-        expected = partner_mdp.expected_feature_counts(self._next_h, pi_r, policy, phi,
-                                                       start, terminal, horizon)
-        new = mdp.irl_step(self.theta, counts, expected, c.learning_rate)
-        self.theta = np.where(revealed[:, None], new, self.theta)
+        warm = (None if self._warm_h is None or self._warm_r is None
+                else (self._warm_h, self._warm_r))
+        first = warm is None
+        new = partner_mdp.update_models(
+            self._next, self._valid, self._reward, self._features, g.terminal, self.theta,
+            self.pi_r, warm, gamma=c.gamma, human_temperature=c.human_temperature,
+            robot_temperature=c.robot_model_temperature, irl_temperature=c.irl_temperature,
+            learning_rate=c.learning_rate,
+            state_traces=None if traces is None else [tr.states for tr in traces],
+            intentions=intentions, out=self._spare)
+        del warm
+        if not first:
+            old = partner_mdp.Models(self.theta, self.q_h, cast(np.ndarray, self._warm_h),
+                                     self.pi_h, self.q_r, cast(np.ndarray, self._warm_r),
+                                     self.pi_r)
+        self.theta, self.q_h, self._warm_h, self.pi_h = new.theta, new.q_h, new.greedy_h, new.pi_h
+        self.q_r, self._warm_r, self.pi_r = new.q_r, new.greedy_r, new.pi_r
+        # When nothing outside this learner refers to the replaced arrays, the next update
+        # writes into them (partner_mdp.update_models' ``out``).
+        self._spare = old if not first and _unshared(old) else None
 
     # ------------------------------------------------------------------ protocol
     def begin_episode(self, starts: np.ndarray) -> None:
@@ -240,8 +250,7 @@ class Learner(BatchAgent):
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Loop removal, one IRL step, then recompute π̂_H and the robot's Q."""
         intentions = np.asarray(intentions, dtype=np.int64).reshape(self.n_runs)
-        self._irl(traces, intentions)
-        self._update_policies()
+        self._update(traces, intentions)
         self.episodes += 1
 
     # ------------------------------------------------------------------ inspection

@@ -173,3 +173,94 @@ def test_solve_soft_needs_exactly_one_reward(path, rewards):
     with pytest.raises(ConfigError, match="exactly one of state_reward") as err:
         partner_mdp.solve_soft(g.next_state, pi, g.valid, 0.9, 1.0, **rewards)
     assert err.value.field == "state_reward"
+
+
+def _models_inputs(seed, n_b=30, scenario="wheel"):
+    """Random but valid inputs of update_models: policies, θ, warm starts, looped traces."""
+    g = graph_for(scenario)
+    rng = np.random.default_rng(seed)
+    pi_r = mdp.softmax(rng.normal(size=(n_b, g.n_intentions, g.n_states, g.n_actions)),
+                       g.valid, 2.0)
+    theta = rng.normal(size=(n_b, g.n_features))
+    first_valid = g.valid.argmax(-1)
+    warm = tuple(np.broadcast_to(first_valid, (n_b, g.n_intentions, g.n_states)).copy()
+                 for _ in range(2))
+    traces = [t % g.n_states for t in looped_traces(g.n_states, n_b, seed)]
+    intentions = rng.integers(-1, g.n_intentions, n_b)
+    tables = (g.next_state, g.valid, g.reward(-0.1), g.features, g.terminal)
+    params = dict(gamma=0.9, human_temperature=3.0, robot_temperature=2.0,
+                  irl_temperature=1.5, learning_rate=0.2)
+    return tables, theta, pi_r, warm, traces, intentions, params
+
+
+@needs_jit  # without numba update_models is the calls it stands for
+@pytest.mark.parametrize("n_threads", [1, 2])
+@pytest.mark.parametrize("warm_start", [False, True])
+@pytest.mark.parametrize("irl", [False, True])
+def test_update_models_is_the_calls_it_stands_for_bit_for_bit(threads, n_threads, warm_start,
+                                                              irl):
+    """The per-run kernels (one hand-out to the threads) against solve_soft,
+    expected_feature_counts, loop_free_counts and irl_step called in turn; into new
+    arrays and into reused ones holding garbage."""
+    threads(n_threads)
+    tables, theta, pi_r, warm, traces, intentions, params = _models_inputs(3, n_b=100)
+    args = dict(state_traces=traces if irl else None, intentions=intentions if irl else None,
+                **params)
+    warm_ = warm if warm_start else None
+    fused = partner_mdp.update_models(*tables, theta, pi_r, warm_, **args)
+    garbage = partner_mdp.Models(*(np.full_like(a, 7) for a in fused))
+    reused = partner_mdp.update_models(*tables, theta, pi_r, warm_, out=garbage, **args)
+    nxt, ok, joint, phi, term = (np.asarray(t) for t in tables)
+    plain = partner_mdp._update_models_composed(
+        nxt.astype(np.int64), ok, joint, phi, term.astype(np.int64), theta, pi_r, warm_,
+        params["gamma"], params["human_temperature"], params["robot_temperature"],
+        params["irl_temperature"], params["learning_rate"], traces if irl else None,
+        intentions if irl else None, 100)
+    for name, a, b, c in zip(partner_mdp.Models._fields, fused, reused, plain, strict=True):
+        assert a.shape == c.shape and a.tobytes() == c.tobytes(), name
+        assert b.tobytes() == c.tobytes(), name
+    assert all(x is y for x, y in zip(reused[1:], garbage[1:], strict=True))
+    if irl:  # the runs that revealed nothing keep θ; the others moved
+        kept = intentions < 0
+        assert np.array_equal(fused.theta[kept], theta[kept])
+        assert not np.isclose(fused.theta[~kept], theta[~kept]).all(axis=1).any()
+
+
+@pytest.mark.parametrize(("change", "field"), [
+    ({"intentions": np.full(30, 3)}, "intentions"),
+    ({"intentions": np.zeros(29, np.int64)}, "intentions"),
+    ({"theta": np.zeros((30, 5))}, "theta"),
+    ({"pi_r": np.zeros((30, 2, 36, 12))}, "pi_r"),
+    ({"warm": (np.full((30, 3, 36), 12), np.zeros((30, 3, 36), np.int64))}, "greedy_h"),
+    ({"out": "wrong"}, "out.q_h"),
+    ({"state_traces": [np.array([0, 36])] * 30}, "state_traces"),
+])
+def test_update_models_refuses_bad_inputs_before_any_kernel_runs(path, change, field):
+    tables, theta, pi_r, warm, traces, intentions, params = _models_inputs(4)
+    args = dict(theta=theta, pi_r=pi_r, warm=warm, state_traces=traces,
+                intentions=intentions) | change
+    if field == "out.q_h":
+        good = partner_mdp.update_models(*tables, theta, pi_r, warm, **params)
+        args["out"] = good._replace(q_h=np.zeros((30, 3, 36, 11)))
+    with pytest.raises(ConfigError) as err:
+        partner_mdp.update_models(*tables, args.pop("theta"), args.pop("pi_r"),
+                                  args.pop("warm"), **args, **params)
+    assert err.value.field == field
+
+
+def test_the_learner_reuses_only_arrays_nobody_else_holds():
+    """Its update writes into the arrays of the update before last, unless a caller still
+    holds one of them (by name or through a view): those stay as they were."""
+    graph, trace = _wheel_trace()
+    learner = Learner(graph, 20)
+    traces, ints = [trace] * 20, np.ones(20, np.int64)
+    learner.end_episode(traces, ints)
+    learner.end_episode(traces, ints)
+    assert learner._spare is not None  # nothing holds the replaced arrays: reused
+    held, view = learner.q_r, learner.pi_h[:, 1]
+    q_r, pi_h = held.copy(), learner.pi_h.copy()
+    for _ in range(3):
+        learner.end_episode(traces[:1] * 20, np.full(20, 2))  # another episode: models move
+    assert np.array_equal(held, q_r) and np.array_equal(view, pi_h[:, 1])
+    assert not np.shares_memory(learner.q_r, held) and not np.shares_memory(learner.pi_h, view)
+    assert not np.array_equal(learner.q_r, q_r)

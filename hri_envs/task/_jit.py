@@ -470,15 +470,45 @@ def belief_policy(q, belief, states, baseline, valid, temperature, eta):
     return out
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _loop_free_path(phi, states, t0, t1, where, path, counts, b):
+    """Loop removal and feature counts of the trace ``states[t0:t1]``; its path's length.
+
+    Whenever a state comes again, the path drops back to its earlier visit
+    (``mdp.remove_loops``); ``counts[b]`` then adds ``phi`` (S, F) along the path in order, a
+    row at a time, starting from the first row (as numpy sums a (T, F) array over its first
+    axis when F > 1). The path is left in ``path``; ``where`` (S,), a state's position on
+    the path or -1, is all -1 before and after.
+    """
+    n_f = phi.shape[1]
+    n = 0
+    for t in range(t0, t1):
+        s = states[t]
+        i = where[s]
+        if i >= 0:  # back at an earlier state: drop the loop
+            for u in range(i, n):
+                where[path[u]] = -1
+            n = i
+        where[s] = n
+        path[n] = s
+        n += 1
+    for f in range(n_f):
+        counts[b, f] = phi[path[0], f]
+    where[path[0]] = -1
+    for u in range(1, n):
+        where[path[u]] = -1
+        for f in range(n_f):
+            counts[b, f] += phi[path[u], f]
+    return n
+
+
 @njit(cache=True, nogil=True)
 def loop_free_counts(features, states, offsets, intentions):
     """Loop removal and feature counts per trace, as ``partner_mdp.loop_free_counts``.
 
     ``states`` holds the traces one after another, trace b in
-    ``states[offsets[b]:offsets[b + 1]]`` (at least one state each). Whenever a state
-    comes again, the path drops back to its earlier visit (``mdp.remove_loops``); the
-    counts then add φ along the path in order, a row at a time, starting from the first
-    row (as numpy sums a (T, F) array over its first axis when F > 1).
+    ``states[offsets[b]:offsets[b + 1]]`` (at least one state each); see
+    :func:`_loop_free_path`.
 
     Returns:
         ``(counts (B, F), start (B,), horizon (B,))``.
@@ -488,32 +518,13 @@ def loop_free_counts(features, states, offsets, intentions):
     counts = np.zeros((n_b, n_f))
     start = np.empty(n_b, np.int64)
     horizon = np.empty(n_b, np.int64)
-    where = np.full(n_s, -1, np.int64)  # a state's position on the path so far, or -1
+    where = np.full(n_s, -1, np.int64)
     path = np.empty(max(1, states.shape[0]), np.int64)
     for b in range(n_b):
-        n = 0
-        for t in range(offsets[b], offsets[b + 1]):
-            s = states[t]
-            i = where[s]
-            if i >= 0:  # back at an earlier state: drop the loop
-                for u in range(i, n):
-                    where[path[u]] = -1
-                n = i
-            where[s] = n
-            path[n] = s
-            n += 1
+        horizon[b] = _loop_free_path(features[intentions[b]], states, offsets[b],
+                                     offsets[b + 1], where, path, counts, b)
         start[b] = path[0]
-        horizon[b] = n
-        phi = features[intentions[b]]
-        for f in range(n_f):
-            counts[b, f] = phi[path[0], f]
-        where[path[0]] = -1
-        for u in range(1, n):
-            where[path[u]] = -1
-            for f in range(n_f):
-                counts[b, f] += phi[path[u], f]
     return counts, start, horizon
-
 
 
 @njit(cache=True, nogil=True)
@@ -535,3 +546,133 @@ def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, g
     _mdps(steps, own_last_index(next_state), partner, values, own_last(joint), valid, vidx,
           n_valid, terminal, gamma, policy, warm, max_iter, temperature,
           np.empty((1, n_s, n_a)), q, greedy, soft, lo, hi)
+
+
+@njit(cache=True, nogil=True)
+def irl_steps(next_h, valid, features, terminal, theta, r_irl, pi_r, warm_h, warm, states,
+              offsets, intentions, gamma, temperature, max_iter, learning_rate, theta_out, lo,
+              hi):
+    """One ME-IRL step of each run lo..hi-1 into ``theta_out`` (the Learner's, run by run).
+
+    For run b whose ``intentions[b]`` ι >= 0: the loop-free counts of its trace
+    (:func:`loop_free_counts`), the soft-max policy of the human MDP of ι at
+    ``temperature`` (:func:`solve_soft` with the state reward ``r_irl[b - lo]`` and the
+    partner ``pi_r[b, ι]``, warm-started from ``warm_h[b, ι]`` if ``warm``), its expected
+    feature counts (:func:`expected_feature_counts`), then ``mdp.irl_step``: θ plus
+    ``learning_rate`` times the difference, rescaled to max |θ| = 1. A run with ι < 0 keeps
+    its θ. Each number is made by the same operations as those functions make it.
+
+    Args:
+        next_h: (S, A, P) int the human's joint table (own action first).
+        valid: (S, A) bool.
+        features: (I, S, F) φ.
+        terminal: (I,) int absorbing state of each intention's MDP.
+        theta: (B, F) θ before the step.
+        r_irl: (hi - lo, S) the state reward θ·φ(·, ι) of each run of this range.
+        pi_r: (B, I, S, P) the robot's policies the human model assumes.
+        warm_h: (B, I, S) int starting actions of the human's policy iteration.
+        warm: Whether ``warm_h`` is used.
+        states: The traces one after another; run b's is ``states[offsets[b]:offsets[b+1]]``.
+        offsets: (B + 1,) int.
+        intentions: (B,) int the revealed intention, -1 for none.
+        gamma: Discount.
+        temperature: Of the soft-max (the IRL temperature).
+        max_iter: Cap on improvement rounds.
+        learning_rate: λ.
+        theta_out: (B, F) written for the runs lo..hi-1.
+        lo: First run.
+        hi: One past the last run.
+    """
+    n_s, n_f, n_a = features.shape[1], features.shape[2], valid.shape[1]
+    nxt_t = own_last_index(next_h)
+    vidx, n_valid = valid_lists(valid)
+    r = np.empty((1, n_s, n_a))
+    q = np.empty((1, n_s, n_a))
+    greedy = np.empty((1, n_s), np.int64)
+    soft = np.empty((1, n_s, n_a))
+    expected = np.empty((1, n_f))
+    counts = np.empty((1, n_f))
+    start = np.empty(1, np.int64)
+    horizon = np.empty(1, np.int64)
+    where = np.full(n_s, -1, np.int64)
+    path = np.empty(max(1, states.shape[0]), np.int64)
+    unused = np.zeros((1, 1, 1))
+    for b in range(lo, hi):
+        i = intentions[b]
+        if i < 0:
+            for f in range(n_f):
+                theta_out[b, f] = theta[b, f]
+            continue
+        horizon[0] = _loop_free_path(features[i], states, offsets[b], offsets[b + 1], where,
+                                     path, counts, 0)
+        start[0] = path[0]
+        soft[:, :, :] = 0.0
+        _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_t, pi_r[b, i:i + 1], r_irl[b - lo:b - lo + 1],
+              unused, valid, vidx, n_valid, terminal[i:i + 1], gamma, warm_h[b, i:i + 1], warm,
+              max_iter, temperature, r, q, greedy, soft, 0, 1)
+        expected[:, :] = 0.0
+        expected_feature_counts(next_h, pi_r[b, i:i + 1], soft, features[i:i + 1], start,
+                                terminal[i:i + 1], horizon, expected, 0, 1)
+        scale = 0.0
+        for f in range(n_f):
+            x = theta[b, f] + learning_rate * (counts[0, f] - expected[0, f])
+            theta_out[b, f] = x
+            scale = max(scale, abs(x))
+        if scale > 0:
+            for f in range(n_f):
+                theta_out[b, f] /= scale
+
+
+@njit(cache=True, nogil=True)
+def partner_models(next_r, valid, reward, terminal, r_state, pi_r, warm_h, warm_r, warm, gamma,
+                   human_temperature, robot_temperature, max_iter, q_h, greedy_h, pi_h, q_r,
+                   greedy_r, pi_r_out, lo, hi):
+    """The human model and the robot's Q of each run lo..hi-1 (the Learner's, run by run).
+
+    For each intention ι of run b: :func:`solve_soft` of the human MDP (state reward
+    ``r_state[b, ι]``, the robot's policy ``pi_r[b, ι]`` substituted, soft-max at
+    ``human_temperature``) into ``q_h``, ``greedy_h``, ``pi_h``; then of the robot's MDP
+    (joint ``reward``, that ``pi_h[b, ι]`` substituted, soft-max at ``robot_temperature``)
+    into ``q_r``, ``greedy_r``, ``pi_r_out``. Warm-started from ``warm_h``/``warm_r`` if
+    ``warm``. The numbers are :func:`solve_soft`'s bit for bit (its steps, MDP by MDP).
+
+    Args:
+        next_r: (S, A_R, A_H) int the robot's joint table; the human's is its transpose.
+        valid: (S, A) bool (both partners').
+        reward: (S, A_R, A_H) the robot's joint reward.
+        terminal: (I,) int absorbing state of each intention's MDP.
+        r_state: (B, I, S) the human's state reward θ·φ(·, ι) per run and intention.
+        pi_r: (B, I, S, A) the robot's policies the human model assumes.
+        warm_h: (B, I, S) int starting actions of the human's policy iterations.
+        warm_r: (B, I, S) int those of the robot's.
+        warm: Whether the warm starts are used.
+        gamma: Discount.
+        human_temperature: Of the human model's soft-max.
+        robot_temperature: Of the robot policy the human model assumes.
+        max_iter: Cap on improvement rounds.
+        q_h: Outputs, (B, I, S, A) floats and (B, I, S) ints, written for runs lo..hi-1;
+            the same for ``greedy_h``, ``pi_h``, ``q_r``, ``greedy_r``, ``pi_r_out``.
+        greedy_h: See ``q_h``.
+        pi_h: See ``q_h``.
+        q_r: See ``q_h``.
+        greedy_r: See ``q_h``.
+        pi_r_out: See ``q_h``.
+        lo: First run.
+        hi: One past the last run.
+    """
+    n_i, n_s, n_a = r_state.shape[1], r_state.shape[2], valid.shape[1]
+    nxt_r = own_last_index(next_r)
+    nxt_h = next_r.astype(np.uint64)  # the human's table with the partner (robot) first
+    joint_t = own_last(reward)
+    vidx, n_valid = valid_lists(valid)
+    r = np.empty((1, n_s, n_a))
+    unused_v, unused_j = np.zeros((1, 1)), np.zeros((1, 1, 1))
+    for b in range(lo, hi):
+        pi_h[b, :, :, :] = 0.0
+        pi_r_out[b, :, :, :] = 0.0
+        _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_h, pi_r[b], r_state[b], unused_j, valid,
+              vidx, n_valid, terminal, gamma, warm_h[b], warm, max_iter, human_temperature,
+              r, q_h[b], greedy_h[b], pi_h[b], 0, n_i)
+        _mdps(JOINT_REWARD | SOLVE | SOFTMAX, nxt_r, pi_h[b], unused_v, joint_t, valid, vidx,
+              n_valid, terminal, gamma, warm_r[b], warm, max_iter, robot_temperature, r,
+              q_r[b], greedy_r[b], pi_r_out[b], 0, n_i)

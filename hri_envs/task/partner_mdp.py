@@ -31,6 +31,7 @@ import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from types import ModuleType
+from typing import NamedTuple
 
 import numpy as np
 
@@ -43,6 +44,7 @@ __all__ = [
     "jit_enabled",
     "kernels",
     "loop_free_counts",
+    "Models",
     "partner_backup",
     "partner_reward",
     "preload",
@@ -51,6 +53,7 @@ __all__ = [
     "solve_partner_q",
     "solve_soft",
     "threads",
+    "update_models",
 ]
 
 _NEG = -1e300
@@ -101,6 +104,10 @@ def preload() -> bool:
     jit.solve_soft(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
                    np.zeros((1, 1), np.int64), False, 1, 1.0, np.empty((1, 1, 1)),
                    np.empty((1, 1), np.int64), np.zeros((1, 1, 1)), 0, 1)
+    update_models(nxt, valid, np.zeros((1, 1, 1)), np.zeros((1, 1, 2)), zero, np.zeros((1, 2)),
+                  one.reshape(1, 1, 1, 1), None, gamma=0.5, human_temperature=1.0,
+                  robot_temperature=1.0, irl_temperature=1.0, learning_rate=0.1,
+                  state_traces=[zero], intentions=zero)
     return True
 
 
@@ -171,25 +178,28 @@ def _threads_here(n_mdps: int) -> int:
     return max(1, min(n, n_mdps // _MIN_PER_THREAD))
 
 
-def _in_parts(solve: Callable[[int, int], None], n_mdps: int) -> None:
-    """``solve(0, n_mdps)``, done in consecutive parts on :func:`_threads_here` threads.
+def _in_parts(solve: Callable[[int, int], None], n_items: int, mdps: int | None = None
+              ) -> None:
+    """``solve(0, n_items)``, done in consecutive parts on :func:`_threads_here` threads.
 
-    ``solve(lo, hi)`` does the MDPs lo..hi-1 (writing into results made beforehand). With
-    N threads the batch is cut into 2N parts that the calling thread and N - 1 helpers
-    take in turn, so that a thread slowed down (its core busy with other work) takes fewer.
+    ``solve(lo, hi)`` does the items (MDPs, or runs of ``mdps`` MDPs in all) lo..hi-1,
+    writing into results made beforehand. With N threads the batch is cut into 2N parts
+    that the calling thread and N - 1 helpers take in turn, so that a thread slowed down
+    (its core busy with other work) takes fewer.
     """
     global _pool
-    n_t = _threads_here(n_mdps)
-    if n_t == 1:
-        solve(0, n_mdps)
+    n_t = _threads_here(n_items if mdps is None else mdps)
+    n_t = min(n_t, n_items)
+    if n_t <= 1:
+        solve(0, n_items)
         return
     if _pool is None or _pool[1] < n_t - 1 or _pool[2] != os.getpid():
         if _pool is not None and _pool[2] == os.getpid():
             _pool[0].shutdown(wait=False)  # too few helpers for a larger setting
         _pool = (ThreadPoolExecutor(n_t - 1, thread_name_prefix="hri-envs"), n_t - 1,
                  os.getpid())
-    n_p = 2 * n_t
-    cuts = [i * n_mdps // n_p for i in range(n_p + 1)]
+    n_p = min(2 * n_t, n_items)
+    cuts = [i * n_items // n_p for i in range(n_p + 1)]
     turns = itertools.count()  # next() is atomic under the GIL
 
     def work() -> None:
@@ -710,16 +720,261 @@ def loop_free_counts(features: np.ndarray, state_traces: Sequence[np.ndarray],
         raise ConfigError(f"intentions must have one entry per trace ({len(state_traces)}), "
                           f"got {len(intent)}", field="intentions")
     _check_range("intentions", intent, 0, n_i)
+    jit = kernels()
+    if jit is None or n_f < 2 or not len(state_traces):  # numpy sums one feature pairwise
+        _trace_lengths(state_traces)
+        demo = mdp.demonstrations(features, state_traces, intent)
+        return demo.counts, demo.start, demo.horizon
+    states, offsets = _joined(state_traces, n_s)
+    return jit.loop_free_counts(_c(features, np.float64), states, offsets, intent)  # type: ignore[no-any-return]
+
+
+def _trace_lengths(state_traces: Sequence[np.ndarray]) -> np.ndarray:
+    """(B,) the traces' lengths.
+
+    Raises:
+        ConfigError: A trace is empty.
+    """
     lengths = np.fromiter((len(t) for t in state_traces), np.int64, len(state_traces))
     if len(lengths) and lengths.min() < 1:
         raise ConfigError("every state trace must hold at least one state",
                           field="state_traces")
-    jit = kernels()
-    if jit is None or n_f < 2 or not len(lengths):  # numpy sums one feature pairwise
-        demo = mdp.demonstrations(features, state_traces, intent)
-        return demo.counts, demo.start, demo.horizon
+    return lengths
+
+
+def _joined(state_traces: Sequence[np.ndarray], n_s: int) -> tuple[np.ndarray, np.ndarray]:
+    """The traces one after another, and (B + 1,) where each starts (the kernels' form).
+
+    Raises:
+        ConfigError: A trace is empty, or a state is out of range.
+    """
+    lengths = _trace_lengths(state_traces)
     states = _c(np.concatenate(state_traces), np.int64)
     _check_range("state_traces", states, 0, n_s)
     offsets = np.zeros(len(lengths) + 1, np.int64)
     np.cumsum(lengths, out=offsets[1:])
-    return jit.loop_free_counts(_c(features, np.float64), states, offsets, intent)  # type: ignore[no-any-return]
+    return states, offsets
+
+
+class Models(NamedTuple):
+    """The Learner's model of both partners after :func:`update_models` (B runs, I intentions).
+
+    Attributes:
+        theta: (B, F) feature weights of the human's reward.
+        q_h: (B, I, S, A) the human's Q.
+        greedy_h: (B, I, S) int its greedy actions (the next update's warm start).
+        pi_h: (B, I, S, A) the human policy estimate π̂_H.
+        q_r: (B, I, S, A) the robot's Q.
+        greedy_r: (B, I, S) int its greedy actions.
+        pi_r: (B, I, S, A) the robot's soft-max policy the human model assumes.
+    """
+
+    theta: np.ndarray
+    q_h: np.ndarray
+    greedy_h: np.ndarray
+    pi_h: np.ndarray
+    q_r: np.ndarray
+    greedy_r: np.ndarray
+    pi_r: np.ndarray
+
+
+def update_models(
+    next_state: np.ndarray,
+    valid: np.ndarray,
+    reward: np.ndarray,
+    features: np.ndarray,
+    terminal: np.ndarray,
+    theta: np.ndarray,
+    pi_r: np.ndarray,
+    warm: tuple[np.ndarray, np.ndarray] | None,
+    *,
+    gamma: float,
+    human_temperature: float,
+    robot_temperature: float,
+    irl_temperature: float,
+    learning_rate: float,
+    state_traces: Sequence[np.ndarray] | None = None,
+    intentions: np.ndarray | None = None,
+    max_iter: int = 100,
+    out: Models | None = None,
+) -> Models:
+    """The Learner's update of its models (Alg. 1 l. 17-22 and 3-5) for B runs in one call.
+
+    1. With ``state_traces``: one ME-IRL step on θ per run whose intention was revealed
+       (``intentions[b] >= 0``; -1 keeps θ): the loop-free counts of its trace
+       (:func:`loop_free_counts`) against the expected counts
+       (:func:`expected_feature_counts`) of the soft-max policy, at ``irl_temperature``,
+       of the human MDP of that intention (reward θ·φ, the robot's ``pi_r`` substituted),
+       then :func:`hri_envs.task.mdp.irl_step`.
+    2. The human model: for every intention, :func:`solve_soft` of the human MDP (reward
+       θ·φ with the new θ, ``pi_r`` substituted, soft-max at ``human_temperature``).
+    3. The robot's Q: :func:`solve_soft` of its MDP (joint ``reward``, the new π̂_H
+       substituted, soft-max at ``robot_temperature``).
+
+    Every policy iteration is warm-started from ``warm``'s greedy actions if given.
+
+    Where the kernels are on, each run's three steps are done one after the other by the
+    compiled :func:`hri_envs.task._jit.irl_steps` and :func:`hri_envs.task._jit.partner_models`
+    (with numpy's θ·φ between them), the runs shared among the threads in one hand-out per
+    call: the same numbers, bit for bit, as the calls listed above, which the numpy path
+    makes.
+
+    Args:
+        next_state: (S, A, A) int joint table, the robot's action first; the human's MDP
+            uses its transpose.
+        valid: (S, A) bool valid actions (of both partners).
+        reward: (S, A, A) the robot's joint reward.
+        features: (I, S, F) φ(s, ι).
+        terminal: (I,) int the absorbing goal state of each intention.
+        theta: (B, F) θ before the update.
+        pi_r: (B, I, S, A) the robot's policies the human model assumed so far.
+        warm: ``(greedy_h, greedy_r)`` (B, I, S) int of the last update, or None.
+        gamma: Discount in [0, 1).
+        human_temperature: τ_H of π̂_H.
+        robot_temperature: τ of the robot policy the human model assumes.
+        irl_temperature: τ of the IRL's soft-max policy.
+        learning_rate: λ of the IRL step.
+        state_traces: B state sequences (each at least one state), or None: no IRL step.
+        intentions: (B,) int the intention each trace revealed, -1 for none.
+        max_iter: Cap on improvement rounds.
+        out: Arrays to write the new models into (all but ``theta``, which is always new
+            when θ changes), of the shapes and types of the result and sharing no memory
+            with the inputs; None: new arrays. Reusing the arrays of an earlier update
+            spares the allocator fresh pages (a tenth of the update's time).
+
+    Returns:
+        The new :class:`Models`.
+
+    Raises:
+        ConfigError: An array of the wrong shape, an index out of range, or what
+            :func:`solve_soft` refuses.
+    """
+    n_i, n_s, n_f = features.shape
+    n_a = valid.shape[-1]
+    n_b = len(theta)
+    nxt = _c(next_state, np.int64)
+    _check_shape("next_state", nxt, (n_s, n_a, n_a))
+    _check_range("next_state", nxt, 0, n_s)
+    ok = _valid(valid, n_s, n_a)
+    joint = _c(np.asarray(reward), np.float64)
+    _check_shape("reward", joint, (n_s, n_a, n_a))
+    phi = _c(np.asarray(features), np.float64)
+    term = _c(np.asarray(terminal), np.int64)
+    _check_shape("terminal", term, (n_i,))
+    _check_range("terminal", term, -1, n_s)
+    th = _c(np.asarray(theta), np.float64)
+    _check_shape("theta", th, (n_b, n_f))
+    pi = _c(np.asarray(pi_r), np.float64)
+    _check_shape("pi_r", pi, (n_b, n_i, n_s, n_a))
+    if warm is not None:
+        warm = (_c(np.asarray(warm[0]), np.int64), _c(np.asarray(warm[1]), np.int64))
+        for name, w in zip(("greedy_h", "greedy_r"), warm, strict=True):
+            _check_shape(name, w, (n_b, n_i, n_s))
+            _check_range(name, w, 0, n_a)
+    if not 0.0 <= gamma < 1.0:
+        raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
+    if max_iter < 1:
+        raise ConfigError(f"max_iter must be >= 1, got {max_iter}", field="max_iter")
+    if out is not None:
+        _check_out(out, (n_b, n_i, n_s, n_a))
+    intent = None
+    if state_traces is not None:
+        intent = _c(np.asarray(intentions).reshape(-1), np.int64)
+        if len(intent) != n_b or len(state_traces) != n_b:
+            raise ConfigError(f"give one trace and one intention per run ({n_b}), got "
+                              f"{len(state_traces)} and {len(intent)}", field="intentions")
+        _check_range("intentions", intent, -1, n_i)
+        states, offsets = _joined(state_traces, n_s)
+    jit = kernels()
+    if jit is None or n_f < 2:  # (numpy sums a single feature's counts pairwise)
+        made = _update_models_composed(nxt, ok, joint, phi, term, th, pi, warm, gamma,
+                                       human_temperature, robot_temperature, irl_temperature,
+                                       learning_rate, state_traces, intent, max_iter)
+        if out is None:
+            return made
+        for into, value in zip(out[1:], made[1:], strict=True):
+            np.copyto(into, value)
+        return Models(made.theta, *out[1:])
+    next_h = np.ascontiguousarray(np.swapaxes(nxt, 1, 2))
+    shape = (n_b, n_i, n_s, n_a)
+    theta_new = th if intent is None else np.empty_like(th)
+    if out is None:
+        new = Models(theta_new, np.empty(shape), np.empty(shape[:3], np.int64),
+                     np.empty(shape), np.empty(shape), np.empty(shape[:3], np.int64),
+                     np.empty(shape))
+    else:
+        new = Models(theta_new, *out[1:])
+    r_state = np.empty(shape[:3])
+    w_h, w_r = warm if warm is not None else (np.zeros(shape[:3], np.int64),) * 2
+    if intent is not None:
+        shown = np.maximum(intent, 0)
+
+    def runs(lo: int, hi: int) -> None:
+        if state_traces is not None:
+            r_irl = np.einsum("bsf,bf->bs", phi[shown[lo:hi]], th[lo:hi], order="C")
+            jit.irl_steps(next_h, ok, phi, term, th, r_irl, pi, w_h, warm is not None, states,
+                          offsets, intent, float(gamma), float(irl_temperature), int(max_iter),
+                          float(learning_rate), new.theta, lo, hi)
+        np.einsum("isf,bf->bis", phi, new.theta[lo:hi], out=r_state[lo:hi])
+        jit.partner_models(nxt, ok, joint, term, r_state, pi, w_h, w_r, warm is not None,
+                           float(gamma), float(human_temperature), float(robot_temperature),
+                           int(max_iter), new.q_h, new.greedy_h, new.pi_h, new.q_r,
+                           new.greedy_r, new.pi_r, lo, hi)
+
+    _in_parts(runs, n_b, mdps=n_b * (2 * n_i + (state_traces is not None)))
+    return new
+
+
+def _check_out(out: Models, shape: tuple[int, ...]) -> None:
+    """Raise ConfigError unless ``out`` can take :func:`update_models`' results."""
+    for name in Models._fields[1:]:
+        arr = getattr(out, name)
+        ints = name.startswith("greedy")
+        want = shape[:3] if ints else shape
+        if (type(arr) is not np.ndarray or arr.shape != want
+                or arr.dtype != (np.int64 if ints else np.float64)
+                or not arr.flags.c_contiguous or not arr.flags.writeable):
+            raise ConfigError(f"out.{name} must be a writeable C-contiguous "
+                              f"{'int64' if ints else 'float64'} array of shape {want}",
+                              field=f"out.{name}")
+
+
+def _update_models_composed(nxt: np.ndarray, valid: np.ndarray, reward: np.ndarray,
+                            features: np.ndarray, terminal: np.ndarray, theta: np.ndarray,
+                            pi_r: np.ndarray, warm: tuple[np.ndarray, np.ndarray] | None,
+                            gamma: float, human_temperature: float, robot_temperature: float,
+                            irl_temperature: float, learning_rate: float,
+                            state_traces: Sequence[np.ndarray] | None,
+                            intentions: np.ndarray | None, max_iter: int) -> Models:
+    """:func:`update_models` by the calls its docstring lists (checked inputs)."""
+    next_h = np.ascontiguousarray(np.swapaxes(nxt, 1, 2))
+    if state_traces is not None:
+        assert intentions is not None
+        revealed = intentions >= 0
+        shown = np.where(revealed, intentions, 0)
+        counts, start, horizon = loop_free_counts(features, state_traces, shown)
+        rows = np.arange(len(theta))
+        term = terminal[shown]
+        pi = pi_r[rows, shown]  # (B, S, A) the robot's policy the human expects
+        phi = features[shown]  # (B, S, F)
+        r_state = np.einsum("bsf,bf->bs", phi, theta)
+        # Nearly the human MDP of the last update for the revealed intention (same θ, π_R
+        # one update newer): start from its greedy policy, which is mostly still optimal.
+        start_from = None if warm is None else warm[0][rows, shown]
+        _, _, policy = solve_soft(next_h, pi, valid, gamma, irl_temperature,
+                                  state_reward=r_state, terminal=term, policy=start_from,
+                                  max_iter=max_iter)
+        expected = expected_feature_counts(next_h, pi, policy, phi, start, term, horizon)
+        new = mdp.irl_step(theta, counts, expected, learning_rate)
+        theta = np.where(revealed[:, None], new, theta)
+    r_all = np.einsum("isf,bf->bis", features, theta)  # (B, I, S)
+    goal = terminal[None, :]
+    q_h, greedy_h, pi_h = solve_soft(next_h, pi_r, valid, gamma, human_temperature,
+                                     state_reward=r_all, terminal=goal,
+                                     policy=None if warm is None else warm[0],
+                                     max_iter=max_iter)
+    q_r, greedy_r, pi_r = solve_soft(nxt, pi_h, valid, gamma, robot_temperature,
+                                     joint_reward=reward, terminal=goal,
+                                     policy=None if warm is None else warm[1],
+                                     max_iter=max_iter)
+    return Models(theta, q_h, greedy_h, pi_h, q_r, greedy_r, pi_r)
