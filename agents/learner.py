@@ -119,6 +119,7 @@ class Learner(BatchAgent):
         self._reward = np.array(graph.reward(self.config.r0), dtype=np.float64)  # (S, A, A)
         self._valid = np.array(graph.valid, dtype=bool)
         self._features = np.array(graph.features, dtype=np.float64)  # (I, S, F)
+        self._terminal = np.array(graph.terminal, dtype=np.int64)  # (I,)
         # (K, 2, S) the passive baseline action per start support, lifted or not, and state.
         self._passive = mdp.passive_actions(graph, np.arange(graph.n_intentions)[:, None],
                                             np.array([[False, True]]))
@@ -134,16 +135,18 @@ class Learner(BatchAgent):
         self._warm_h: np.ndarray | None = None
         self._warm_r: np.ndarray | None = None
         self._spare: partner_mdp.Models | None = None  # arrays the next update may reuse
-        names = ("theta", "pi_r", "pi_h", "q_h", "q_r", "_warm_h", "_warm_r")
+        self._reward_of_theta = np.zeros(0)  # θ·φ of _theta_seen, a copy of θ
+        self._theta_seen = np.zeros(0)
+        names = ("theta", "pi_r", "pi_h", "q_h", "q_r", "_warm_h", "_warm_r",
+                 "_reward_of_theta", "_theta_seen")
         if self.config.initial_preference is not None and n_runs > 1:
             one = Learner(graph, 1, self.config)  # pretrains once, for every run
             for name in names:
                 setattr(self, name, getattr(one, name))
         else:
-            with mdp.one_blas_thread():
-                self._update()
-                if self.config.initial_preference is not None:
-                    self._start_from_preference(self.config.initial_preference)
+            self._update()
+            if self.config.initial_preference is not None:
+                self._start_from_preference(self.config.initial_preference)
         for name in names:
             setattr(self, name, np.repeat(getattr(self, name), n_runs, axis=0))
         self._spare = None  # one run's arrays
@@ -188,24 +191,28 @@ class Learner(BatchAgent):
         Q-iterations run on the sparse joint table: the dense transitions T_H, T_R of the
         paper are never built.
         """
-        g, c = self.graph, self.config
+        c = self.config
         warm = (None if self._warm_h is None or self._warm_r is None
                 else (self._warm_h, self._warm_r))
         first = warm is None
         new = partner_mdp.update_models(
-            self._next, self._valid, self._reward, self._features, g.terminal, self.theta,
+            self._next, self._valid, self._reward, self._features, self._terminal, self.theta,
             self.pi_r, warm, gamma=c.gamma, human_temperature=c.human_temperature,
             robot_temperature=c.robot_model_temperature, irl_temperature=c.irl_temperature,
             learning_rate=c.learning_rate,
             state_traces=None if traces is None else [tr.states for tr in traces],
-            intentions=intentions, out=self._spare)
+            intentions=intentions, out=self._spare,
+            state_reward=self._reward_of_theta if np.array_equal(self._theta_seen, self.theta)
+            else None)
         del warm
         if not first:
-            old = partner_mdp.Models(self.theta, self.q_h, cast(np.ndarray, self._warm_h),
-                                     self.pi_h, self.q_r, cast(np.ndarray, self._warm_r),
-                                     self.pi_r)
+            old = partner_mdp.Models(self.theta, self._reward_of_theta, self.q_h,
+                                     cast(np.ndarray, self._warm_h), self.pi_h, self.q_r,
+                                     cast(np.ndarray, self._warm_r), self.pi_r)
         self.theta, self.q_h, self._warm_h, self.pi_h = new.theta, new.q_h, new.greedy_h, new.pi_h
         self.q_r, self._warm_r, self.pi_r = new.q_r, new.greedy_r, new.pi_r
+        # θ·φ of this θ for the next IRL step, unless θ is changed (or replaced) before it.
+        self._reward_of_theta, self._theta_seen = new.state_reward, new.theta.copy()
         # When nothing outside this learner refers to the replaced arrays, the next update
         # writes into them (partner_mdp.update_models' ``out``).
         self._spare = old if not first and _unshared(old) else None
@@ -246,7 +253,6 @@ class Learner(BatchAgent):
         self.belief = np.where(active[:, None], new, self.belief)
         self.lifted |= active & rules.left_start(self.graph, next_states, self.start)
 
-    @mdp.one_blas_thread()
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Loop removal, one IRL step, then recompute π̂_H and the robot's Q."""
         intentions = np.asarray(intentions, dtype=np.int64).reshape(self.n_runs)

@@ -232,6 +232,7 @@ def test_update_models_is_the_calls_it_stands_for_bit_for_bit(threads, n_threads
     ({"theta": np.zeros((30, 5))}, "theta"),
     ({"pi_r": np.zeros((30, 2, 36, 12))}, "pi_r"),
     ({"warm": (np.full((30, 3, 36), 12), np.zeros((30, 3, 36), np.int64))}, "greedy_h"),
+    ({"state_reward": np.zeros((30, 3, 35))}, "state_reward"),
     ({"out": "wrong"}, "out.q_h"),
     ({"state_traces": [np.array([0, 36])] * 30}, "state_traces"),
 ])
@@ -264,3 +265,24 @@ def test_the_learner_reuses_only_arrays_nobody_else_holds():
     assert np.array_equal(held, q_r) and np.array_equal(view, pi_h[:, 1])
     assert not np.shares_memory(learner.q_r, held) and not np.shares_memory(learner.pi_h, view)
     assert not np.array_equal(learner.q_r, q_r)
+
+
+def test_a_theta_changed_in_place_is_the_one_the_next_update_learns_from():
+    """The Learner keeps θ·φ for the next IRL step; a θ written into in place makes it
+    compute θ·φ again: the models of update_models without the kept θ·φ."""
+    graph, trace = _wheel_trace()
+    traces, ints = [trace] * 4, np.array([1, 2, -1, 1])
+    learner = Learner(graph, 4)
+    learner.end_episode(traces, ints)
+    learner.theta[1] = 0.5
+    c = learner.config
+    expected = partner_mdp.update_models(
+        learner._next, learner._valid, learner._reward, learner._features, learner._terminal,
+        learner.theta, learner.pi_r, (learner._warm_h, learner._warm_r), gamma=c.gamma,
+        human_temperature=c.human_temperature, robot_temperature=c.robot_model_temperature,
+        irl_temperature=c.irl_temperature, learning_rate=c.learning_rate,
+        state_traces=[t.states for t in traces], intentions=ints)
+    learner.end_episode(traces, ints)
+    for name, value in (("theta", expected.theta), ("pi_h", expected.pi_h),
+                        ("pi_r", expected.pi_r)):
+        assert getattr(learner, name).tobytes() == value.tobytes(), name

@@ -549,14 +549,14 @@ def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, g
 
 
 @njit(cache=True, nogil=True)
-def irl_steps(next_h, valid, features, terminal, theta, r_irl, pi_r, warm_h, warm, states,
+def irl_steps(next_h, valid, features, terminal, theta, r_state, pi_r, warm_h, warm, states,
               offsets, intentions, gamma, temperature, max_iter, learning_rate, theta_out, lo,
               hi):
     """One ME-IRL step of each run lo..hi-1 into ``theta_out`` (the Learner's, run by run).
 
     For run b whose ``intentions[b]`` ι >= 0: the loop-free counts of its trace
     (:func:`loop_free_counts`), the soft-max policy of the human MDP of ι at
-    ``temperature`` (:func:`solve_soft` with the state reward ``r_irl[b - lo]`` and the
+    ``temperature`` (:func:`solve_soft` with the state reward ``r_state[b, ι]`` and the
     partner ``pi_r[b, ι]``, warm-started from ``warm_h[b, ι]`` if ``warm``), its expected
     feature counts (:func:`expected_feature_counts`), then ``mdp.irl_step``: θ plus
     ``learning_rate`` times the difference, rescaled to max |θ| = 1. A run with ι < 0 keeps
@@ -568,7 +568,7 @@ def irl_steps(next_h, valid, features, terminal, theta, r_irl, pi_r, warm_h, war
         features: (I, S, F) φ.
         terminal: (I,) int absorbing state of each intention's MDP.
         theta: (B, F) θ before the step.
-        r_irl: (hi - lo, S) the state reward θ·φ(·, ι) of each run of this range.
+        r_state: (B, I, S) the state reward θ·φ(s, ι) of ``theta``.
         pi_r: (B, I, S, P) the robot's policies the human model assumes.
         warm_h: (B, I, S) int starting actions of the human's policy iteration.
         warm: Whether ``warm_h`` is used.
@@ -607,7 +607,7 @@ def irl_steps(next_h, valid, features, terminal, theta, r_irl, pi_r, warm_h, war
                                      path, counts, 0)
         start[0] = path[0]
         soft[:, :, :] = 0.0
-        _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_t, pi_r[b, i:i + 1], r_irl[b - lo:b - lo + 1],
+        _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_t, pi_r[b, i:i + 1], r_state[b, i:i + 1],
               unused, valid, vidx, n_valid, terminal[i:i + 1], gamma, warm_h[b, i:i + 1], warm,
               max_iter, temperature, r, q, greedy, soft, 0, 1)
         expected[:, :] = 0.0

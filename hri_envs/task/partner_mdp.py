@@ -735,7 +735,7 @@ def _trace_lengths(state_traces: Sequence[np.ndarray]) -> np.ndarray:
     Raises:
         ConfigError: A trace is empty.
     """
-    lengths = np.fromiter((len(t) for t in state_traces), np.int64, len(state_traces))
+    lengths = np.array([len(t) for t in state_traces], np.int64)
     if len(lengths) and lengths.min() < 1:
         raise ConfigError("every state trace must hold at least one state",
                           field="state_traces")
@@ -749,7 +749,8 @@ def _joined(state_traces: Sequence[np.ndarray], n_s: int) -> tuple[np.ndarray, n
         ConfigError: A trace is empty, or a state is out of range.
     """
     lengths = _trace_lengths(state_traces)
-    states = _c(np.concatenate(state_traces), np.int64)
+    states = _c(np.concatenate(state_traces) if len(state_traces) else np.zeros(0, np.int64),
+                np.int64)
     _check_range("state_traces", states, 0, n_s)
     offsets = np.zeros(len(lengths) + 1, np.int64)
     np.cumsum(lengths, out=offsets[1:])
@@ -761,6 +762,7 @@ class Models(NamedTuple):
 
     Attributes:
         theta: (B, F) feature weights of the human's reward.
+        state_reward: (B, I, S) that reward, θ·φ(s, ι).
         q_h: (B, I, S, A) the human's Q.
         greedy_h: (B, I, S) int its greedy actions (the next update's warm start).
         pi_h: (B, I, S, A) the human policy estimate π̂_H.
@@ -770,6 +772,7 @@ class Models(NamedTuple):
     """
 
     theta: np.ndarray
+    state_reward: np.ndarray
     q_h: np.ndarray
     greedy_h: np.ndarray
     pi_h: np.ndarray
@@ -796,6 +799,7 @@ def update_models(
     state_traces: Sequence[np.ndarray] | None = None,
     intentions: np.ndarray | None = None,
     max_iter: int = 100,
+    state_reward: np.ndarray | None = None,
     out: Models | None = None,
 ) -> Models:
     """The Learner's update of its models (Alg. 1 l. 17-22 and 3-5) for B runs in one call.
@@ -837,6 +841,9 @@ def update_models(
         state_traces: B state sequences (each at least one state), or None: no IRL step.
         intentions: (B,) int the intention each trace revealed, -1 for none.
         max_iter: Cap on improvement rounds.
+        state_reward: (B, I, S) θ·φ of ``theta``, if the caller has it (the
+            ``state_reward`` of the update that made this θ; its values are trusted), to
+            spare the compiled path computing it again; None: computed.
         out: Arrays to write the new models into (all but ``theta``, which is always new
             when θ changes), of the shapes and types of the result and sharing no memory
             with the inputs; None: new arrays. Reusing the arrays of an earlier update
@@ -875,6 +882,9 @@ def update_models(
         raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
     if max_iter < 1:
         raise ConfigError(f"max_iter must be >= 1, got {max_iter}", field="max_iter")
+    if state_reward is not None:
+        state_reward = _c(np.asarray(state_reward), np.float64)
+        _check_shape("state_reward", state_reward, (n_b, n_i, n_s))
     if out is not None:
         _check_out(out, (n_b, n_i, n_s, n_a))
     intent = None
@@ -899,24 +909,24 @@ def update_models(
     shape = (n_b, n_i, n_s, n_a)
     theta_new = th if intent is None else np.empty_like(th)
     if out is None:
-        new = Models(theta_new, np.empty(shape), np.empty(shape[:3], np.int64),
-                     np.empty(shape), np.empty(shape), np.empty(shape[:3], np.int64),
-                     np.empty(shape))
+        new = Models(theta_new, np.empty(shape[:3]), np.empty(shape),
+                     np.empty(shape[:3], np.int64), np.empty(shape), np.empty(shape),
+                     np.empty(shape[:3], np.int64), np.empty(shape))
     else:
         new = Models(theta_new, *out[1:])
-    r_state = np.empty(shape[:3])
     w_h, w_r = warm if warm is not None else (np.zeros(shape[:3], np.int64),) * 2
-    if intent is not None:
-        shown = np.maximum(intent, 0)
+    if intent is not None and state_reward is None:
+        state_reward = np.einsum("isf,bf->bis", phi, th)
 
     def runs(lo: int, hi: int) -> None:
-        if state_traces is not None:
-            r_irl = np.einsum("bsf,bf->bs", phi[shown[lo:hi]], th[lo:hi], order="C")
-            jit.irl_steps(next_h, ok, phi, term, th, r_irl, pi, w_h, warm is not None, states,
-                          offsets, intent, float(gamma), float(irl_temperature), int(max_iter),
-                          float(learning_rate), new.theta, lo, hi)
-        np.einsum("isf,bf->bis", phi, new.theta[lo:hi], out=r_state[lo:hi])
-        jit.partner_models(nxt, ok, joint, term, r_state, pi, w_h, w_r, warm is not None,
+        if intent is not None:
+            jit.irl_steps(next_h, ok, phi, term, th, state_reward, pi, w_h, warm is not None,
+                          states, offsets, intent, float(gamma), float(irl_temperature),
+                          int(max_iter), float(learning_rate), new.theta, lo, hi)
+        # numpy's θ·φ (its sums' order is numpy's), a part at a time: the same numbers
+        np.einsum("isf,bf->bis", phi, new.theta[lo:hi], out=new.state_reward[lo:hi])
+        jit.partner_models(nxt, ok, joint, term, new.state_reward, pi, w_h, w_r,
+                           warm is not None,
                            float(gamma), float(human_temperature), float(robot_temperature),
                            int(max_iter), new.q_h, new.greedy_h, new.pi_h, new.q_r,
                            new.greedy_r, new.pi_r, lo, hi)
@@ -930,7 +940,7 @@ def _check_out(out: Models, shape: tuple[int, ...]) -> None:
     for name in Models._fields[1:]:
         arr = getattr(out, name)
         ints = name.startswith("greedy")
-        want = shape[:3] if ints else shape
+        want = shape[:3] if ints or name == "state_reward" else shape
         if (type(arr) is not np.ndarray or arr.shape != want
                 or arr.dtype != (np.int64 if ints else np.float64)
                 or not arr.flags.c_contiguous or not arr.flags.writeable):
@@ -939,6 +949,7 @@ def _check_out(out: Models, shape: tuple[int, ...]) -> None:
                               field=f"out.{name}")
 
 
+@mdp.one_blas_thread()
 def _update_models_composed(nxt: np.ndarray, valid: np.ndarray, reward: np.ndarray,
                             features: np.ndarray, terminal: np.ndarray, theta: np.ndarray,
                             pi_r: np.ndarray, warm: tuple[np.ndarray, np.ndarray] | None,
@@ -946,7 +957,9 @@ def _update_models_composed(nxt: np.ndarray, valid: np.ndarray, reward: np.ndarr
                             irl_temperature: float, learning_rate: float,
                             state_traces: Sequence[np.ndarray] | None,
                             intentions: np.ndarray | None, max_iter: int) -> Models:
-    """:func:`update_models` by the calls its docstring lists (checked inputs)."""
+    """:func:`update_models` by the calls its docstring lists (checked inputs), with BLAS
+    on one thread (:func:`hri_envs.task.mdp.one_blas_thread`: numpy's solves are small).
+    """
     next_h = np.ascontiguousarray(np.swapaxes(nxt, 1, 2))
     if state_traces is not None:
         assert intentions is not None
@@ -977,4 +990,4 @@ def _update_models_composed(nxt: np.ndarray, valid: np.ndarray, reward: np.ndarr
                                      joint_reward=reward, terminal=goal,
                                      policy=None if warm is None else warm[1],
                                      max_iter=max_iter)
-    return Models(theta, q_h, greedy_h, pi_h, q_r, greedy_r, pi_r)
+    return Models(theta, r_all, q_h, greedy_h, pi_h, q_r, greedy_r, pi_r)
