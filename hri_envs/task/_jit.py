@@ -223,7 +223,11 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
     for k in range(lo, hi):
         o = k if r.shape[0] > 1 else 0
         term = terminal[k]
-        if steps & (STATE_REWARD | JOINT_REWARD):
+        # With a warm start, the expected reward of a state reward is made in the first
+        # round's backup, which reads the same next states (each sum takes the same terms
+        # in the same order); the evaluation before it needs only the current actions'.
+        fill = (steps & STATE_REWARD) != 0 and (steps & SOLVE) != 0 and warm
+        if steps & (STATE_REWARD | JOINT_REWARD) and not fill:
             for s in range(n_s):
                 if s == term and steps & STATE_REWARD:
                     for a in range(n_a):
@@ -254,15 +258,18 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
                     bits[s, s >> 6] = one << np.uint64(s & 63)
                     cols[s, 0] = s
                     n_cols[s] = 1
-                    v[s] = r[o, s, act[s]]
+                    a = act[s]
                     if s == term:
+                        v[s] = values[k, s] if fill else r[o, s, a]
                         m[s, s] -= gamma
                         continue
-                    a = act[s]
+                    v[s] = 0.0 if fill else r[o, s, a]
                     for p in range(n_p):
                         w = partner[k, s, p]
                         if w != 0.0:
                             j = nxt_t[s, p, a]
+                            if fill:
+                                v[s] += w * values[k, j]
                             bit = one << (j & low)
                             if not bits[s, j >> six] & bit:
                                 bits[s, j >> six] |= bit
@@ -275,15 +282,25 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
                 for s in range(n_s):
                     if s == term:
                         for a in range(n_a):
+                            if fill:
+                                r[o, s, a] = values[k, s]
                             q[k, s, a] = r[o, s, a] + gamma * v[term]
                     else:
                         for a in range(n_a):  # Σ_p partner(p|s) v(next) first, as above
                             z[a] = 0.0
+                            if fill:
+                                r[o, s, a] = 0.0
                         for p in range(n_p):
                             w = partner[k, s, p]
                             if w != 0.0:
-                                for a in range(n_a):
-                                    z[a] += w * v[nxt_t[s, p, a]]
+                                if fill:
+                                    for a in range(n_a):
+                                        j = nxt_t[s, p, a]
+                                        r[o, s, a] += w * values[k, j]
+                                        z[a] += w * v[j]
+                                else:
+                                    for a in range(n_a):
+                                        z[a] += w * v[nxt_t[s, p, a]]
                         for a in range(n_a):
                             q[k, s, a] = r[o, s, a] + gamma * z[a]
                     best, best_a = _best(q, k, s, vidx, n_valid)
@@ -292,6 +309,7 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
                     if best - current > 1e-10 * (1.0 + abs(best)):
                         act[s] = best_a
                         changed = True
+                fill = False
                 if not changed:
                     break
             for s in range(n_s):
