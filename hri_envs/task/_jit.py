@@ -80,6 +80,73 @@ def valid_lists(valid):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _popcount(x):
+    """Number of set bits of the uint64 ``x``."""
+    x = x - ((x >> np.uint64(1)) & np.uint64(0x5555555555555555))
+    x = (x & np.uint64(0x3333333333333333)) + ((x >> np.uint64(2)) & np.uint64(0x3333333333333333))
+    x = (x + (x >> np.uint64(4))) & np.uint64(0x0F0F0F0F0F0F0F0F)
+    return (x * np.uint64(0x0101010101010101)) >> np.uint64(56)
+
+
+@njit(cache=True, nogil=True)
+def elimination_rank(nxt_t, valid):
+    """(S,) uint64: each state's place in the order :func:`_solve_in_place` eliminates in.
+
+    Minimum degree (ties: the lowest state) on the graph that links each state to the
+    next state of every pair of valid actions (own and, when both have ``valid``'s
+    actions, the partner's; otherwise any partner action), made symmetric: every
+    evaluation matrix I - γ P_π has its nonzeros within that pattern. In the natural order
+    the wheel's robot matrices take twice the multiply-adds (fill-in); the order does not
+    depend on which of the two partners' tables it is given.
+
+    Args:
+        nxt_t: (S, P, A) unsigned next states, the partner's action first.
+        valid: (S, A) bool valid own actions.
+    """
+    n_s, n_p, n_a = nxt_t.shape
+    one, six, low = np.uint64(1), np.uint64(6), np.uint64(63)
+    n_w = (n_s + 63) // 64
+    adj = np.zeros((n_s, n_w), np.uint64)
+    for s in range(n_s):
+        for p in range(n_p):
+            if n_p == n_a and not valid[s, p]:
+                continue
+            for a in range(n_a):
+                if valid[s, a]:
+                    j = nxt_t[s, p, a]
+                    if j != s:
+                        adj[s, j >> six] |= one << (j & low)
+                        adj[j, s >> 6] |= one << np.uint64(s & 63)
+    left = np.zeros(n_w, np.uint64)
+    for s in range(n_s):
+        left[s >> 6] |= one << np.uint64(s & 63)
+    rank = np.empty(n_s, np.uint64)
+    nb = np.empty(n_w, np.uint64)
+    for t in range(n_s):
+        best, best_d = -1, n_s + 1
+        for v in range(n_s):
+            if left[v >> 6] & (one << np.uint64(v & 63)):
+                d = 0
+                for w in range(n_w):
+                    d += _popcount(adj[v, w] & left[w])
+                if d < best_d:
+                    best, best_d = v, d
+        rank[best] = t
+        left[best >> 6] &= ~(one << np.uint64(best & 63))
+        for w in range(n_w):  # its remaining neighbours become a clique (the fill-in)
+            nb[w] = adj[best, w] & left[w]
+        for w in range(n_w):
+            bits = nb[w]
+            while bits:
+                u = (w << 6) | trailing_zeros(bits)
+                bits &= bits - one
+                for x in range(n_w):
+                    adj[u, x] |= nb[x]
+                adj[u, u >> 6] &= ~(one << np.uint64(u & 63))
+    return rank
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _best(x, k, s, vidx, n_valid):
     """(max, first argmax) of ``x[k, s, :]`` over the valid actions of ``s``.
 
@@ -175,7 +242,7 @@ STATE_REWARD, JOINT_REWARD, SOLVE, SOFTMAX = 1, 2, 4, 8
 
 
 @njit(cache=True, nogil=True)
-def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal, gamma,
+def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, rank, terminal, gamma,
           policy, warm, max_iter, temperature, r, q, greedy, soft, lo, hi):
     """The ``steps`` of the MDPs lo..hi-1, one MDP after the other.
 
@@ -190,6 +257,8 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
         valid: (S, A) bool valid own actions.
         vidx: (S, A) and ``n_valid`` (S,): :func:`valid_lists` of ``valid``.
         n_valid: See ``vidx``.
+        rank: (S,) uint64 each state's place in the elimination order
+            (:func:`elimination_rank`; SOLVE).
         terminal: (N,) int absorbing state per MDP, -1 for none.
         gamma: Discount of the policy iteration.
         policy: (N, S) int starting actions of the policy iteration if ``warm``; otherwise
@@ -213,6 +282,7 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
     n_s, n_p, n_a = r.shape[1], partner.shape[2], r.shape[2]
     m = np.empty((n_s, n_s))
     v = np.empty(n_s)
+    v_ranked = np.empty(n_s)  # v with the states in elimination order
     act = np.empty(n_s, np.int64)
     bits = np.zeros((n_s, (n_s + 63) // 64), np.uint64)
     below = np.zeros((n_s, (n_s + 63) // 64), np.uint64)
@@ -253,31 +323,35 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
                 m[:, :] = 0.0  # I - γ P_π, and where it is nonzero
                 bits[:, :] = 0
                 below[:, :] = 0
-                for s in range(n_s):
-                    m[s, s] = 1.0
-                    bits[s, s >> 6] = one << np.uint64(s & 63)
-                    cols[s, 0] = s
-                    n_cols[s] = 1
+                for s in range(n_s):  # row and column rank[s] are state s's
+                    i = rank[s]
+                    m[i, i] = 1.0
+                    bits[i, i >> six] = one << (i & low)
+                    cols[i, 0] = i
+                    n_cols[i] = 1
                     a = act[s]
                     if s == term:
-                        v[s] = values[k, s] if fill else r[o, s, a]
-                        m[s, s] -= gamma
+                        v_ranked[i] = values[k, s] if fill else r[o, s, a]
+                        m[i, i] -= gamma
                         continue
-                    v[s] = 0.0 if fill else r[o, s, a]
+                    x = 0.0 if fill else r[o, s, a]
                     for p in range(n_p):
                         w = partner[k, s, p]
                         if w != 0.0:
-                            j = nxt_t[s, p, a]
                             if fill:
-                                v[s] += w * values[k, j]
+                                x += w * values[k, nxt_t[s, p, a]]
+                            j = rank[nxt_t[s, p, a]]
                             bit = one << (j & low)
-                            if not bits[s, j >> six] & bit:
-                                bits[s, j >> six] |= bit
-                                cols[s, n_cols[s]] = j
-                                n_cols[s] += one
-                                below[j, s >> 6] |= one << np.uint64(s & 63)
-                            m[s, j] -= gamma * w
-                _solve_in_place(m, v, bits, cols, n_cols, below)
+                            if not bits[i, j >> six] & bit:
+                                bits[i, j >> six] |= bit
+                                cols[i, n_cols[i]] = j
+                                n_cols[i] += one
+                                below[j, i >> six] |= one << (i & low)
+                            m[i, j] -= gamma * w
+                    v_ranked[i] = x
+                _solve_in_place(m, v_ranked, bits, cols, n_cols, below)
+                for s in range(n_s):
+                    v[s] = v_ranked[rank[s]]
                 changed = False
                 for s in range(n_s):
                     if s == term:
@@ -341,10 +415,12 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, terminal
 def _unused():
     """Placeholders for the arrays of :func:`_mdps` that a kernel's steps do not read.
 
-    Int (1, 1, 1), float (1, 1), float (1, 1, 1), bool (1, 1), int (1, 1), int (1,).
+    Int (1, 1, 1), float (1, 1), float (1, 1, 1), bool (1, 1), int (1, 1), int (1,),
+    uint (1,).
     """
     return (np.zeros((1, 1, 1), np.int64), np.zeros((1, 1)), np.zeros((1, 1, 1)),
-            np.zeros((1, 1), np.bool_), np.zeros((1, 1), np.int64), np.zeros(1, np.int64))
+            np.zeros((1, 1), np.bool_), np.zeros((1, 1), np.int64), np.zeros(1, np.int64),
+            np.zeros(1, np.uint64))
 
 
 @njit(cache=True, nogil=True)
@@ -352,8 +428,8 @@ def partner_backup(next_state, partner, values, terminal):
     """(N, S, A): Σ_p partner[n, s, p] values[n, next_state[s, a, p]]; terminal rows values."""
     n_b, n_s, n_a = partner.shape[0], next_state.shape[0], next_state.shape[1]
     out = np.empty((n_b, n_s, n_a))
-    _, _, f3, b2, i2, i1 = _unused()
-    _mdps(STATE_REWARD, own_last_index(next_state), partner, values, f3, b2, i2, i1, terminal,
+    _, _, f3, b2, i2, i1, u1 = _unused()
+    _mdps(STATE_REWARD, own_last_index(next_state), partner, values, f3, b2, i2, i1, u1, terminal,
           0.0, i2, False, 0, 1.0, out, f3, i2, f3, 0, n_b)
     return out
 
@@ -363,8 +439,8 @@ def partner_reward(reward, partner, terminal):
     """(N, S, A): Σ_p partner[n, s, p] reward[s, a, p]; 0 in each MDP's terminal state."""
     n_b, n_s, n_a = partner.shape[0], reward.shape[0], reward.shape[1]
     out = np.empty((n_b, n_s, n_a))
-    i3, f2, f3, b2, i2, i1 = _unused()
-    _mdps(JOINT_REWARD, i3.astype(np.uint64), partner, f2, own_last(reward), b2, i2, i1,
+    i3, f2, f3, b2, i2, i1, u1 = _unused()
+    _mdps(JOINT_REWARD, i3.astype(np.uint64), partner, f2, own_last(reward), b2, i2, i1, u1,
           terminal, 0.0, i2, False, 0, 1.0, out, f3, i2, f3, 0, n_b)
     return out
 
@@ -381,9 +457,10 @@ def solve_partner_q(next_state, partner, reward, valid, terminal, gamma, policy,
     vidx, n_valid = valid_lists(valid)
     q = np.empty((n_b, n_s, n_a))
     greedy = np.empty((n_b, n_s), np.int64)
-    _, f2, f3, _, _, _ = _unused()
-    _mdps(SOLVE, own_last_index(next_state), partner, f2, f3, valid, vidx, n_valid, terminal,
-          gamma, policy, warm, max_iter, 1.0, reward, q, greedy, f3, 0, n_b)
+    _, f2, f3, _, _, _, _ = _unused()
+    nxt_t = own_last_index(next_state)
+    _mdps(SOLVE, nxt_t, partner, f2, f3, valid, vidx, n_valid, elimination_rank(nxt_t, valid),
+          terminal, gamma, policy, warm, max_iter, 1.0, reward, q, greedy, f3, 0, n_b)
     return q, greedy
 
 
@@ -440,9 +517,9 @@ def softmax(q, valid, temperature):
     vidx, n_valid = valid_lists(valid)
     n_b, n_s, n_a = q.shape
     out = np.zeros((n_b, n_s, n_a))
-    i3, f2, f3, _, i2, i1 = _unused()
-    _mdps(SOFTMAX, i3.astype(np.uint64), q, f2, f3, valid, vidx, n_valid, i1, 0.0, i2, False, 0,
-          temperature, np.zeros((1, n_s, n_a)), q, i2, out, 0, n_b)
+    i3, f2, f3, _, i2, i1, u1 = _unused()
+    _mdps(SOFTMAX, i3.astype(np.uint64), q, f2, f3, valid, vidx, n_valid, u1, i1, 0.0, i2, False,
+          0, temperature, np.zeros((1, n_s, n_a)), q, i2, out, 0, n_b)
     return out
 
 
@@ -561,8 +638,9 @@ def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, g
     n_s, n_a = next_state.shape[0], next_state.shape[1]
     steps = (JOINT_REWARD if use_joint else STATE_REWARD) | SOLVE | SOFTMAX
     vidx, n_valid = valid_lists(valid)
-    _mdps(steps, own_last_index(next_state), partner, values, own_last(joint), valid, vidx,
-          n_valid, terminal, gamma, policy, warm, max_iter, temperature,
+    nxt_t = own_last_index(next_state)
+    _mdps(steps, nxt_t, partner, values, own_last(joint), valid, vidx, n_valid,
+          elimination_rank(nxt_t, valid), terminal, gamma, policy, warm, max_iter, temperature,
           np.empty((1, n_s, n_a)), q, greedy, soft, lo, hi)
 
 
@@ -604,6 +682,7 @@ def irl_steps(next_h, valid, features, terminal, theta, r_state, pi_r, warm_h, w
     n_s, n_f, n_a = features.shape[1], features.shape[2], valid.shape[1]
     nxt_t = own_last_index(next_h)
     vidx, n_valid = valid_lists(valid)
+    rank = elimination_rank(nxt_t, valid)
     r = np.empty((1, n_s, n_a))
     q = np.empty((1, n_s, n_a))
     greedy = np.empty((1, n_s), np.int64)
@@ -626,8 +705,8 @@ def irl_steps(next_h, valid, features, terminal, theta, r_state, pi_r, warm_h, w
         start[0] = path[0]
         soft[:, :, :] = 0.0
         _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_t, pi_r[b, i:i + 1], r_state[b, i:i + 1],
-              unused, valid, vidx, n_valid, terminal[i:i + 1], gamma, warm_h[b, i:i + 1], warm,
-              max_iter, temperature, r, q, greedy, soft, 0, 1)
+              unused, valid, vidx, n_valid, rank, terminal[i:i + 1], gamma,
+              warm_h[b, i:i + 1], warm, max_iter, temperature, r, q, greedy, soft, 0, 1)
         expected[:, :] = 0.0
         expected_feature_counts(next_h, pi_r[b, i:i + 1], soft, features[i:i + 1], start,
                                 terminal[i:i + 1], horizon, expected, 0, 1)
@@ -683,14 +762,15 @@ def partner_models(next_r, valid, reward, terminal, r_state, pi_r, warm_h, warm_
     nxt_h = next_r.astype(np.uint64)  # the human's table with the partner (robot) first
     joint_t = own_last(reward)
     vidx, n_valid = valid_lists(valid)
+    rank = elimination_rank(nxt_r, valid)  # the human's too (see elimination_rank)
     r = np.empty((1, n_s, n_a))
     unused_v, unused_j = np.zeros((1, 1)), np.zeros((1, 1, 1))
     for b in range(lo, hi):
         pi_h[b, :, :, :] = 0.0
         pi_r_out[b, :, :, :] = 0.0
         _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_h, pi_r[b], r_state[b], unused_j, valid,
-              vidx, n_valid, terminal, gamma, warm_h[b], warm, max_iter, human_temperature,
+              vidx, n_valid, rank, terminal, gamma, warm_h[b], warm, max_iter, human_temperature,
               r, q_h[b], greedy_h[b], pi_h[b], 0, n_i)
         _mdps(JOINT_REWARD | SOLVE | SOFTMAX, nxt_r, pi_h[b], unused_v, joint_t, valid, vidx,
-              n_valid, terminal, gamma, warm_r[b], warm, max_iter, robot_temperature, r,
+              n_valid, rank, terminal, gamma, warm_r[b], warm, max_iter, robot_temperature, r,
               q_r[b], greedy_r[b], pi_r_out[b], 0, n_i)
