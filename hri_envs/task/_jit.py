@@ -765,12 +765,21 @@ def partner_models(next_r, valid, reward, terminal, r_state, pi_r, warm_h, warm_
     rank = elimination_rank(nxt_r, valid)  # the human's too (see elimination_rank)
     r = np.empty((1, n_s, n_a))
     unused_v, unused_j = np.zeros((1, 1)), np.zeros((1, 1, 1))
-    for b in range(lo, hi):
-        pi_h[b, :, :, :] = 0.0
-        pi_r_out[b, :, :, :] = 0.0
-        _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_h, pi_r[b], r_state[b], unused_j, valid,
-              vidx, n_valid, rank, terminal, gamma, warm_h[b], warm, max_iter, human_temperature,
-              r, q_h[b], greedy_h[b], pi_h[b], 0, n_i)
-        _mdps(JOINT_REWARD | SOLVE | SOFTMAX, nxt_r, pi_h[b], unused_v, joint_t, valid, vidx,
-              n_valid, rank, terminal, gamma, warm_r[b], warm, max_iter, robot_temperature, r,
-              q_r[b], greedy_r[b], pi_r_out[b], 0, n_i)
+    # The runs' MDPs one after another (run b's intention ι is MDP b * I + ι): one call per
+    # model, on views made once (a view per run made the threads count references on the
+    # same arrays).
+    n = r_state.shape[0] * n_i
+    goal = np.empty(n, np.int64)
+    for k in range(lo * n_i, hi * n_i):
+        goal[k] = terminal[k % n_i]
+    flat_h, flat_r = pi_h.reshape(n, n_s, n_a), pi_r_out.reshape(n, n_s, n_a)
+    flat_h[lo * n_i:hi * n_i] = 0.0
+    flat_r[lo * n_i:hi * n_i] = 0.0
+    _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_h, pi_r.reshape(n, n_s, n_a),
+          r_state.reshape(n, n_s), unused_j, valid, vidx, n_valid, rank, goal, gamma,
+          warm_h.reshape(n, n_s), warm, max_iter, human_temperature, r,
+          q_h.reshape(n, n_s, n_a), greedy_h.reshape(n, n_s), flat_h, lo * n_i, hi * n_i)
+    _mdps(JOINT_REWARD | SOLVE | SOFTMAX, nxt_r, flat_h, unused_v, joint_t, valid, vidx,
+          n_valid, rank, goal, gamma, warm_r.reshape(n, n_s), warm, max_iter,
+          robot_temperature, r, q_r.reshape(n, n_s, n_a), greedy_r.reshape(n, n_s), flat_r,
+          lo * n_i, hi * n_i)
