@@ -230,6 +230,7 @@ def test_update_models_is_the_calls_it_stands_for_bit_for_bit(threads, n_threads
     ({"intentions": np.full(30, 3)}, "intentions"),
     ({"intentions": np.zeros(29, np.int64)}, "intentions"),
     ({"theta": np.zeros((30, 5))}, "theta"),
+    ({"theta": np.zeros(26)}, "theta"),
     ({"pi_r": np.zeros((30, 2, 36, 12))}, "pi_r"),
     ({"warm": (np.full((30, 3, 36), 12), np.zeros((30, 3, 36), np.int64))}, "greedy_h"),
     ({"state_reward": np.zeros((30, 3, 35))}, "state_reward"),
@@ -286,3 +287,23 @@ def test_a_theta_changed_in_place_is_the_one_the_next_update_learns_from():
     for name, value in (("theta", expected.theta), ("pi_h", expected.pi_h),
                         ("pi_r", expected.pi_r)):
         assert getattr(learner, name).tobytes() == value.tobytes(), name
+
+
+@needs_jit
+def test_the_elimination_order_takes_leaves_before_their_hub():
+    """A hub every state moves to, and that moves to every other state: eliminated first
+    it would fill its neighbours into a clique; minimum degree takes the leaves first (the
+    lowest state on ties) and the hub once only one leaf is left. The transposed table
+    (the partner's view) gives the same order."""
+    jit = partner_mdp.kernels()
+    nxt = np.zeros((5, 2, 2), np.int64)  # (S, own, partner): states 1-4 go to the hub 0
+    nxt[0] = [[1, 2], [3, 4]]
+    valid = np.ones((5, 2), bool)
+    rank = jit.elimination_rank(jit.own_last_index(nxt), valid)
+    assert rank.tolist() == [3, 0, 1, 2, 4]
+    swapped = np.ascontiguousarray(np.swapaxes(nxt, 1, 2))
+    assert jit.elimination_rank(jit.own_last_index(swapped), valid).tolist() == rank.tolist()
+    wheel = graph_for("wheel")
+    order = jit.elimination_rank(jit.own_last_index(np.array(wheel.next_state)),
+                                 np.array(wheel.valid))
+    assert sorted(order.tolist()) == list(range(wheel.n_states))  # a permutation
