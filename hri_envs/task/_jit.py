@@ -724,7 +724,7 @@ def irl_steps(next_h, valid, features, terminal, theta, r_state, pi_r, warm_h, w
 def partner_models(next_r, valid, reward, terminal, r_state, pi_r, warm_h, warm_r, warm, gamma,
                    human_temperature, robot_temperature, max_iter, q_h, greedy_h, pi_h, q_r,
                    greedy_r, pi_r_out, lo, hi):
-    """The human model and the robot's Q of each run lo..hi-1 (the Learner's, run by run).
+    """The human model and the robot's Q of the runs lo..hi-1 (the Learner's).
 
     For each intention ι of run b: :func:`solve_soft` of the human MDP (state reward
     ``r_state[b, ι]``, the robot's policy ``pi_r[b, ι]`` substituted, soft-max at
