@@ -645,9 +645,31 @@ def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, g
 
 
 @njit(cache=True, nogil=True)
-def irl_steps(next_h, valid, features, terminal, theta, r_state, pi_r, warm_h, warm, states,
-              offsets, intentions, gamma, temperature, max_iter, learning_rate, theta_out, lo,
-              hi):
+def learner_tables(next_r, valid, reward):
+    """The tables :func:`irl_steps` and :func:`partner_models` take, made once per update.
+
+    Args:
+        next_r: (S, A_R, A_H) int the robot's joint table (the human's is its transpose).
+        valid: (S, A) bool valid actions of both partners.
+        reward: (S, A_R, A_H) the robot's joint reward.
+
+    Returns:
+        ``(nxt_r, nxt_h, next_h, joint_t, vidx, n_valid, rank)``: the robot's and the
+        human's tables for :func:`_mdps` (unsigned, the partner's action first), the
+        human's joint table (int, own action first, for :func:`expected_feature_counts`),
+        the reward with the human's action first, :func:`valid_lists` and
+        :func:`elimination_rank` (the same for both partners).
+    """
+    nxt_r = own_last_index(next_r)
+    vidx, n_valid = valid_lists(valid)
+    return (nxt_r, next_r.astype(np.uint64), own_last(next_r), own_last(reward), vidx,
+            n_valid, elimination_rank(nxt_r, valid))
+
+
+@njit(cache=True, nogil=True)
+def irl_steps(nxt_h, next_h, valid, vidx, n_valid, rank, features, terminal, theta, r_state,
+              pi_r, warm_h, warm, states, offsets, intentions, gamma, temperature, max_iter,
+              learning_rate, theta_out, lo, hi):
     """One ME-IRL step of each run lo..hi-1 into ``theta_out`` (the Learner's, run by run).
 
     For run b whose ``intentions[b]`` ι >= 0: the loop-free counts of its trace
@@ -659,8 +681,12 @@ def irl_steps(next_h, valid, features, terminal, theta, r_state, pi_r, warm_h, w
     its θ. Each number is made by the same operations as those functions make it.
 
     Args:
+        nxt_h: (S, P, A) unsigned, the human's table for :func:`_mdps` (the robot first).
         next_h: (S, A, P) int the human's joint table (own action first).
         valid: (S, A) bool.
+        vidx: See :func:`learner_tables`, as ``n_valid`` and ``rank``.
+        n_valid: See ``vidx``.
+        rank: See ``vidx``.
         features: (I, S, F) φ.
         terminal: (I,) int absorbing state of each intention's MDP.
         theta: (B, F) θ before the step.
@@ -680,9 +706,6 @@ def irl_steps(next_h, valid, features, terminal, theta, r_state, pi_r, warm_h, w
         hi: One past the last run.
     """
     n_s, n_f, n_a = features.shape[1], features.shape[2], valid.shape[1]
-    nxt_t = own_last_index(next_h)
-    vidx, n_valid = valid_lists(valid)
-    rank = elimination_rank(nxt_t, valid)
     r = np.empty((1, n_s, n_a))
     q = np.empty((1, n_s, n_a))
     greedy = np.empty((1, n_s), np.int64)
@@ -704,7 +727,7 @@ def irl_steps(next_h, valid, features, terminal, theta, r_state, pi_r, warm_h, w
                                      path, counts, 0)
         start[0] = path[0]
         soft[:, :, :] = 0.0
-        _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_t, pi_r[b, i:i + 1], r_state[b, i:i + 1],
+        _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_h, pi_r[b, i:i + 1], r_state[b, i:i + 1],
               unused, valid, vidx, n_valid, rank, terminal[i:i + 1], gamma,
               warm_h[b, i:i + 1], warm, max_iter, temperature, r, q, greedy, soft, 0, 1)
         expected[:, :] = 0.0
@@ -721,9 +744,9 @@ def irl_steps(next_h, valid, features, terminal, theta, r_state, pi_r, warm_h, w
 
 
 @njit(cache=True, nogil=True)
-def partner_models(next_r, valid, reward, terminal, r_state, pi_r, warm_h, warm_r, warm, gamma,
-                   human_temperature, robot_temperature, max_iter, q_h, greedy_h, pi_h, q_r,
-                   greedy_r, pi_r_out, lo, hi):
+def partner_models(nxt_r, nxt_h, joint_t, valid, vidx, n_valid, rank, terminal, r_state, pi_r,
+                   warm_h, warm_r, warm, gamma, human_temperature, robot_temperature, max_iter,
+                   q_h, greedy_h, pi_h, q_r, greedy_r, pi_r_out, lo, hi):
     """The human model and the robot's Q of the runs lo..hi-1 (the Learner's).
 
     For each intention ι of run b: :func:`solve_soft` of the human MDP (state reward
@@ -734,9 +757,16 @@ def partner_models(next_r, valid, reward, terminal, r_state, pi_r, warm_h, warm_
     ``warm``. The numbers are :func:`solve_soft`'s bit for bit (its steps, MDP by MDP).
 
     Args:
-        next_r: (S, A_R, A_H) int the robot's joint table; the human's is its transpose.
+        nxt_r: The robot's and the human's tables for :func:`_mdps`, the robot's joint
+            reward with the human's action first, and the valid actions' lists and the
+            elimination order of both: :func:`learner_tables`; the same for ``nxt_h``,
+            ``joint_t``, ``vidx``, ``n_valid`` and ``rank``.
+        nxt_h: See ``nxt_r``.
+        joint_t: See ``nxt_r``.
         valid: (S, A) bool (both partners').
-        reward: (S, A_R, A_H) the robot's joint reward.
+        vidx: See ``nxt_r``.
+        n_valid: See ``nxt_r``.
+        rank: See ``nxt_r``.
         terminal: (I,) int absorbing state of each intention's MDP.
         r_state: (B, I, S) the human's state reward θ·φ(·, ι) per run and intention.
         pi_r: (B, I, S, A) the robot's policies the human model assumes.
@@ -758,11 +788,6 @@ def partner_models(next_r, valid, reward, terminal, r_state, pi_r, warm_h, warm_
         hi: One past the last run.
     """
     n_i, n_s, n_a = r_state.shape[1], r_state.shape[2], valid.shape[1]
-    nxt_r = own_last_index(next_r)
-    nxt_h = next_r.astype(np.uint64)  # the human's table with the partner (robot) first
-    joint_t = own_last(reward)
-    vidx, n_valid = valid_lists(valid)
-    rank = elimination_rank(nxt_r, valid)  # the human's too (see elimination_rank)
     r = np.empty((1, n_s, n_a))
     unused_v, unused_j = np.zeros((1, 1)), np.zeros((1, 1, 1))
     # The runs' MDPs one after another (run b's intention ι is MDP b * I + ι): one call per

@@ -909,7 +909,7 @@ def update_models(
         for into, value in zip(out[1:], made[1:], strict=True):
             np.copyto(into, value)
         return Models(made.theta, *out[1:])
-    next_h = np.ascontiguousarray(np.swapaxes(nxt, 1, 2))
+    nxt_r, nxt_h, next_h, joint_t, vidx, n_valid, rank = jit.learner_tables(nxt, ok, joint)
     shape = (n_b, n_i, n_s, n_a)
     theta_new = th if intent is None else np.empty_like(th)
     if out is None:
@@ -924,16 +924,17 @@ def update_models(
 
     def runs(lo: int, hi: int) -> None:
         if intent is not None:
-            jit.irl_steps(next_h, ok, phi, term, th, state_reward, pi, w_h, warm is not None,
-                          states, offsets, intent, float(gamma), float(irl_temperature),
-                          int(max_iter), float(learning_rate), new.theta, lo, hi)
+            jit.irl_steps(nxt_h, next_h, ok, vidx, n_valid, rank, phi, term, th, state_reward,
+                          pi, w_h, warm is not None, states, offsets, intent, float(gamma),
+                          float(irl_temperature), int(max_iter), float(learning_rate),
+                          new.theta, lo, hi)
         # numpy's θ·φ (its sums' order is numpy's), a part at a time: the same numbers
         np.einsum("isf,bf->bis", phi, new.theta[lo:hi], out=new.state_reward[lo:hi])
-        jit.partner_models(nxt, ok, joint, term, new.state_reward, pi, w_h, w_r,
-                           warm is not None,
-                           float(gamma), float(human_temperature), float(robot_temperature),
-                           int(max_iter), new.q_h, new.greedy_h, new.pi_h, new.q_r,
-                           new.greedy_r, new.pi_r, lo, hi)
+        jit.partner_models(nxt_r, nxt_h, joint_t, ok, vidx, n_valid, rank, term,
+                           new.state_reward, pi, w_h, w_r, warm is not None, float(gamma),
+                           float(human_temperature), float(robot_temperature), int(max_iter),
+                           new.q_h, new.greedy_h, new.pi_h, new.q_r, new.greedy_r, new.pi_r,
+                           lo, hi)
 
     _in_parts(runs, n_b, mdps=n_b * (2 * n_i + (state_traces is not None)))
     return new
