@@ -563,10 +563,7 @@ def _iteration_inputs(next_state: np.ndarray, partner: np.ndarray, gamma: float,
     Raises:
         ConfigError: ``gamma`` outside [0, 1), ``max_iter`` < 1, or an index out of range.
     """
-    if not 0.0 <= gamma < 1.0:
-        raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
-    if max_iter < 1:
-        raise ConfigError(f"max_iter must be >= 1, got {max_iter}", field="max_iter")
+    _check_iteration(gamma, max_iter)
     lead = partner.shape[:-2]
     n_s, n_a, n_p = next_state.shape
     nxt = _c(next_state, dtype=np.int64)
@@ -579,6 +576,14 @@ def _iteration_inputs(next_state: np.ndarray, partner: np.ndarray, gamma: float,
            else np.zeros((len(pi), n_s), np.int64))
     _check_range("policy", act, 0, n_a)
     return nxt, pi, term, act, warm
+
+
+def _check_iteration(gamma: float, max_iter: int) -> None:
+    """Raise ConfigError unless ``gamma`` is in [0, 1) and ``max_iter`` >= 1."""
+    if not 0.0 <= gamma < 1.0:
+        raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
+    if max_iter < 1:
+        raise ConfigError(f"max_iter must be >= 1, got {max_iter}", field="max_iter")
 
 
 def _evaluation_matrix(nxt: np.ndarray, pi: np.ndarray, act: np.ndarray, term: np.ndarray,
@@ -882,10 +887,7 @@ def update_models(
         for name, w in zip(("greedy_h", "greedy_r"), warm, strict=True):
             _check_shape(name, w, (n_b, n_i, n_s))
             _check_range(name, w, 0, n_a)
-    if not 0.0 <= gamma < 1.0:
-        raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
-    if max_iter < 1:
-        raise ConfigError(f"max_iter must be >= 1, got {max_iter}", field="max_iter")
+    _check_iteration(gamma, max_iter)
     if state_reward is not None:
         state_reward = _c(np.asarray(state_reward), np.float64)
         _check_shape("state_reward", state_reward, (n_b, n_i, n_s))
