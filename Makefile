@@ -25,7 +25,7 @@ demo: $(VENV)/.demo-installed
 
 # Lint, type and layer checks first, so that pytest's summary is the last line.
 test: $(VENV)/.test-installed
-	$(VENV)/bin/ruff check hri_envs agents baselines tests examples benchmarks
+	$(VENV)/bin/ruff check hri_envs agents baselines hri_bench tests examples benchmarks
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
 	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup

@@ -12,7 +12,7 @@
 
 from agents.config import LearnerConfig, default_config
 from agents.learner import Learner, LearnerStateError
-from hri_envs.task.protocol import Agent, BatchAgent, Batched, Trace
+from agents.protocol import Agent, BatchAgent, Batched, Trace
 
 __all__ = [
     "Agent",

@@ -19,20 +19,20 @@ from __future__ import annotations
 
 import hashlib
 import json
-import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import ClassVar, cast
+from typing import ClassVar
 
 import numpy as np
 
 from agents.config import LearnerConfig, default_config
+from agents.learning import algorithm1, mdp, partner_mdp
+from agents.protocol import BatchAgent, Trace, run_streams
 from hri_envs.errors import ConfigError, LearnerStateError
 from hri_envs.task import episode as rules
-from hri_envs.task import mdp, partner_mdp
+from hri_envs.task import mdp as task_mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.protocol import BatchAgent, Trace, run_streams
 
 __all__ = ["Learner", "LearnerStateError", "graph_fingerprint", "sample_actions"]
 
@@ -54,24 +54,6 @@ def sample_actions(probs: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.minimum((u[:, None] >= cum).sum(axis=-1), probs.shape[-1] - 1)  # type: ignore[no-any-return]
 
 
-def _refs(models: partner_mdp.Models) -> list[int]:
-    """Reference counts of the arrays of ``models`` but θ, as counted from here."""
-    return [sys.getrefcount(a) if a.base is None else -1 for a in models[1:]]
-
-
-#: What :func:`_refs` counts for arrays that only their ``Models`` refers to.
-_ALONE = max(_refs(partner_mdp.Models(*(np.empty(1) for _ in partner_mdp.Models._fields))))
-
-
-def _unshared(models: partner_mdp.Models) -> bool:
-    """Whether only ``models`` refers to its arrays (but θ), each of which owns its data.
-
-    A view of one of them, or any other name for it, adds a reference: they are then not
-    written again. (CPython's reference counts; without ``sys.getrefcount`` nothing is.)
-    """
-    return hasattr(sys, "getrefcount") and all(n == _ALONE for n in _refs(models))
-
-
 class Learner(BatchAgent):
     """Algorithm 1 for ``n_runs`` independent runs.
 
@@ -82,6 +64,10 @@ class Learner(BatchAgent):
         seed: Base seed; run ``r`` draws from a generator seeded by ``(seed, r)``.
         runs: The run indices of this batch (default ``range(n_runs)``), so that a run's
             randomness does not depend on which batch it is in.
+        workspace: Arrays each update may write into (:class:`~agents.learning.algorithm1.
+            Workspace`): faster, but then the arrays below are overwritten by the update
+            after next, so copy what you keep. None (the default): every update makes new
+            arrays.
 
     Attributes:
         theta: (B, F) feature weights of the human model.
@@ -104,6 +90,7 @@ class Learner(BatchAgent):
         *,
         seed: int = 0,
         runs: Sequence[int] | None = None,
+        workspace: algorithm1.Workspace | None = None,
     ) -> None:
         super().__init__(n_runs)
         self.graph = graph
@@ -113,15 +100,14 @@ class Learner(BatchAgent):
             raise ConfigError(f"runs must have n_runs={n_runs} entries, got {len(runs)}",
                               field="runs")
         self.rngs = run_streams(seed, runs)
-        # Own writeable copies of the graph's read-only tables, in the layouts the compiled
-        # kernels take (so they neither copy them per call nor compile a read-only variant).
-        self._next = np.array(graph.next_state, dtype=np.int64)  # (S, A_R, A_H)
-        self._reward = np.array(graph.reward(self.config.r0), dtype=np.float64)  # (S, A, A)
-        self._valid = np.array(graph.valid, dtype=bool)
-        self._features = np.array(graph.features, dtype=np.float64)  # (I, S, F)
-        self._terminal = np.array(graph.terminal, dtype=np.int64)  # (I,)
+        c = self.config
+        self._tables = algorithm1.Tables.of(graph, c.r0)
+        self._params = algorithm1.Params(c.gamma, c.human_temperature,
+                                         c.robot_model_temperature, c.irl_temperature,
+                                         c.learning_rate)
+        self._valid = self._tables.valid
         # (K, 2, S) the passive baseline action per start support, lifted or not, and state.
-        self._passive = mdp.passive_actions(graph, np.arange(graph.n_intentions)[:, None],
+        self._passive = task_mdp.passive_actions(graph, np.arange(graph.n_intentions)[:, None],
                                             np.array([[False, True]]))
         n_i, n_s, n_a = graph.n_intentions, graph.n_states, graph.n_actions
         self.belief = np.full((n_runs, n_i), 1.0 / n_i)
@@ -132,24 +118,19 @@ class Learner(BatchAgent):
         self.theta = initial_theta(graph.n_features)[None]  # (1, F)
         uniform = np.where(self._valid, 1.0, 0.0) / self._valid.sum(1, keepdims=True)
         self.pi_r = np.broadcast_to(uniform, (1, n_i, n_s, n_a)).copy()
-        self._warm_h: np.ndarray | None = None
-        self._warm_r: np.ndarray | None = None
-        self._spare: partner_mdp.Models | None = None  # arrays the next update may reuse
-        self._reward_of_theta = np.zeros(0)  # θ·φ of _theta_seen, a copy of θ
-        self._theta_seen = np.zeros(0)
-        names = ("theta", "pi_r", "pi_h", "q_h", "q_r", "_warm_h", "_warm_r",
-                 "_reward_of_theta", "_theta_seen")
+        self._models: algorithm1.Models | None = None  # the last update's (warm starts)
+        self._theta_seen = np.zeros(0)  # a copy of the θ the last update made
+        self._workspace: algorithm1.Workspace | None = None
         if self.config.initial_preference is not None and n_runs > 1:
             one = Learner(graph, 1, self.config)  # pretrains once, for every run
-            for name in names:
-                setattr(self, name, getattr(one, name))
+            self._models, self._theta_seen = one._models, one._theta_seen
         else:
             self._update()
             if self.config.initial_preference is not None:
                 self._start_from_preference(self.config.initial_preference)
-        for name in names:
-            setattr(self, name, np.repeat(getattr(self, name), n_runs, axis=0))
-        self._spare = None  # one run's arrays
+        assert self._models is not None
+        self._adopt(algorithm1.Models(*(np.repeat(a, n_runs, axis=0) for a in self._models)))
+        self._workspace = workspace
 
     def _start_from_preference(self, preference: str) -> None:
         """Pretrain the human model on a preference's routes (paper Sect. 7 variant).
@@ -157,7 +138,7 @@ class Learner(BatchAgent):
         Each demonstration is the preference human's route from every start support to
         every other, the robot taking the same action as the human (a perfect partner).
         """
-        from hri_envs.task.humans import preference_human
+        from hri_envs.humans.scripted import preference_human
 
         g = self.graph
         human = preference_human(g, preference)
@@ -185,37 +166,30 @@ class Learner(BatchAgent):
                 intentions: np.ndarray | None = None) -> None:
         """One ME-IRL step per run on its loop-free trace (Alg. 1 l. 17-19), unless
         ``traces`` is None, then π̂_H from θ and the current π_R (l. 20-22) and the robot's
-        Q (l. 3-5): :func:`hri_envs.task.partner_mdp.update_models`.
+        Q (l. 3-5): :func:`agents.learning.algorithm1.update`.
 
         Runs whose episode was truncated (intention -1: nothing revealed) keep their θ. The
         Q-iterations run on the sparse joint table: the dense transitions T_H, T_R of the
         paper are never built.
         """
-        c = self.config
-        warm = (None if self._warm_h is None or self._warm_r is None
-                else (self._warm_h, self._warm_r))
-        first = warm is None
-        new = partner_mdp.update_models(
-            self._next, self._valid, self._reward, self._features, self._terminal, self.theta,
-            self.pi_r, warm, gamma=c.gamma, human_temperature=c.human_temperature,
-            robot_temperature=c.robot_model_temperature, irl_temperature=c.irl_temperature,
-            learning_rate=c.learning_rate,
+        last = self._models
+        # θ·φ of the last update's θ serves the IRL step, unless θ was changed since.
+        kept = last is not None and np.array_equal(self._theta_seen, self.theta)
+        new = algorithm1.update(
+            self._tables, self._params, self.theta, self.pi_r, last,
+            state_reward=last.state_reward if kept and last is not None else None,
             state_traces=None if traces is None else [tr.states for tr in traces],
-            intentions=intentions, out=self._spare,
-            state_reward=self._reward_of_theta if np.array_equal(self._theta_seen, self.theta)
-            else None)
-        del warm
-        if not first:
-            old = partner_mdp.Models(self.theta, self._reward_of_theta, self.q_h,
-                                     cast(np.ndarray, self._warm_h), self.pi_h, self.q_r,
-                                     cast(np.ndarray, self._warm_r), self.pi_r)
-        self.theta, self.q_h, self._warm_h, self.pi_h = new.theta, new.q_h, new.greedy_h, new.pi_h
-        self.q_r, self._warm_r, self.pi_r = new.q_r, new.greedy_r, new.pi_r
-        # θ·φ of this θ for the next IRL step, unless θ is changed (or replaced) before it.
-        self._reward_of_theta, self._theta_seen = new.state_reward, new.theta.copy()
-        # When nothing outside this learner refers to the replaced arrays, the next update
-        # writes into them (partner_mdp.update_models' ``out``).
-        self._spare = old if not first and _unshared(old) else None
+            intentions=intentions, workspace=self._workspace)
+        if last is not None and self._workspace is not None:
+            self._workspace.give(last)  # replaced: the next update may write into them
+        self._adopt(new)
+
+    def _adopt(self, models: algorithm1.Models) -> None:
+        """Make ``models`` the learner's current models."""
+        self._models = models
+        self.theta, self.q_h, self.pi_h = models.theta, models.q_h, models.pi_h
+        self.q_r, self.pi_r = models.q_r, models.pi_r
+        self._theta_seen = models.theta.copy()
 
     # ------------------------------------------------------------------ protocol
     def begin_episode(self, starts: np.ndarray) -> None:
@@ -282,7 +256,7 @@ class Learner(BatchAgent):
         if start is None:
             start = next(k for k in range(self.graph.n_intentions) if k != intention)
         q = self.q_r[:, intention, state]
-        baseline = mdp.passive_actions(self.graph, np.full(self.n_runs, start))[:, state]
+        baseline = task_mdp.passive_actions(self.graph, np.full(self.n_runs, start))[:, state]
         c = self.config
         valid = np.broadcast_to(self._valid[state], q.shape)
         return mdp.bounded_softmax(q, valid, c.robot_temperature, c.eta, baseline)

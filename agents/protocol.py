@@ -1,8 +1,218 @@
-"""The agent protocol; it lives in :mod:`hri_envs.task.protocol`, below the envs that drive it.
+"""The agent protocol every robot policy implements.
 
-Kept here so that ``from agents.protocol import Agent`` goes on working.
+A robot policy (the paper's Learner, a baseline, the Oracle, an SB3 model, your own learner)
+plugs into the envs and the benchmark through four calls per episode:
+
+1. ``begin_episode(start)`` — a new episode starts at support ``start``;
+2. ``act(observation)`` — choose the robot's action from what the robot may observe: the
+   state, the action mask and the human's last action; never the intention ι;
+3. ``observe(state, robot_action, human_action, next_state)`` — one transition happened;
+4. ``end_episode(trace, intention)`` — learn from the episode, with the intention revealed in
+   hindsight (the support where the episode ended; -1 if the episode was cut off by the step
+   limit before the object came to rest, when nothing is revealed).
+
+Two flavours share these names. :class:`Agent` handles one stream of episodes with plain
+ints and is what a user writes. :class:`BatchAgent` advances ``n_runs`` independent
+streams at once with arrays (a leading run axis) and is what the benchmark drives; our own
+agents are written this way, and :class:`Batched` turns any list of :class:`Agent` into
+one, while :meth:`BatchAgent.single` gives a batch of one the plain :class:`Agent` API.
+
+A minimal user agent that copies the human's previous action when it can::
+
+    class Copycat(Agent):
+        name = "copycat"
+
+        def begin_episode(self, start):
+            pass
+
+        def act(self, observation):
+            a = int(observation["last_human_action"])
+            return a if observation["action_mask"][a] else 0  # 0 = wait
+
+        def observe(self, state, robot_action, human_action, next_state):
+            pass
+
+        def end_episode(self, trace, intention):
+            pass
+
+Run it with ``hri-bench study hanger --agents learner,mymodule:Copycat``.
 """
 
-from hri_envs.task.protocol import Agent, BatchAgent, Batched, Trace, run_streams
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from hri_envs.errors import ConfigError
 
 __all__ = ["Agent", "BatchAgent", "Batched", "Trace", "run_streams"]
+
+
+@dataclass(frozen=True)
+class Trace:
+    """One episode as the robot saw it.
+
+    Attributes:
+        states: (T+1,) visited states s_0 .. s_T.
+        robot_actions: (T,) the robot's actions.
+        human_actions: (T,) the human's actions.
+    """
+
+    states: np.ndarray
+    robot_actions: np.ndarray
+    human_actions: np.ndarray
+
+    def __post_init__(self) -> None:
+        n = len(self.robot_actions)
+        if len(self.states) != n + 1 or len(self.human_actions) != n:
+            raise ConfigError(
+                f"a trace needs T+1 states and T actions per agent; got {len(self.states)} "
+                f"states, {n} robot and {len(self.human_actions)} human actions",
+                field="states",
+            )
+
+    @property
+    def start_state(self) -> int:
+        """s_0."""
+        return int(self.states[0])
+
+
+class Agent(ABC):
+    """A robot policy for one stream of episodes (see the module docstring)."""
+
+    name: ClassVar[str] = "agent"
+
+    @abstractmethod
+    def begin_episode(self, start: int) -> None:
+        """A new episode starts with the object resting on support ``start``."""
+
+    @abstractmethod
+    def act(self, observation: Mapping[str, Any]) -> int:
+        """The robot's action for the robot's observation (keys ``state``, ``start``,
+        ``last_human_action``, ``action_mask``).
+        """
+
+    @abstractmethod
+    def observe(self, state: int, robot_action: int, human_action: int, next_state: int) -> None:
+        """One transition of the current episode."""
+
+    @abstractmethod
+    def end_episode(self, trace: Trace, intention: int) -> None:
+        """Learn from the finished episode; ``intention`` is where it ended (-1: truncated)."""
+
+
+def run_streams(seed: int, runs: Sequence[int] | np.ndarray) -> list[np.random.Generator]:
+    """One independent generator per run, derived from ``(seed, run)`` only.
+
+    Results therefore do not depend on how runs are grouped into batches or processes.
+    """
+    return [np.random.default_rng([int(seed), int(r)]) for r in runs]
+
+
+class BatchAgent(ABC):
+    """A robot policy advancing ``n_runs`` independent streams of episodes in lockstep.
+
+    Every method takes arrays with a leading run axis; ``active`` (bool, (n_runs,)) marks the
+    runs whose episode is still going, and only those may consume randomness, so that a run's
+    results depend on its own seed only.
+    """
+
+    name: ClassVar[str] = "agent"
+
+    def __init__(self, n_runs: int) -> None:
+        if n_runs < 1:
+            raise ConfigError(f"n_runs must be >= 1, got {n_runs}", field="n_runs")
+        self.n_runs = n_runs
+
+    @abstractmethod
+    def begin_episode(self, starts: np.ndarray) -> None:
+        """New episodes start at supports ``starts`` (n_runs,)."""
+
+    @abstractmethod
+    def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
+        """(n_runs,) robot actions; entries of inactive runs are ignored."""
+
+    @abstractmethod
+    def observe(
+        self,
+        states: np.ndarray,
+        robot_actions: np.ndarray,
+        human_actions: np.ndarray,
+        next_states: np.ndarray,
+        active: np.ndarray,
+    ) -> None:
+        """One transition in every active run."""
+
+    @abstractmethod
+    def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
+        """Learn from one finished episode per run (``intentions`` -1 where truncated)."""
+
+    def single(self) -> Agent:
+        """The batch of one as a plain :class:`Agent`."""
+        if self.n_runs != 1:
+            raise ConfigError(f"single() needs n_runs == 1, this agent has {self.n_runs}",
+                              field="n_runs")
+        return _Single(self)
+
+
+class _Single(Agent):
+    def __init__(self, batch: BatchAgent) -> None:
+        self.batch = batch
+        self.name = batch.name  # type: ignore[misc]
+
+    def begin_episode(self, start: int) -> None:
+        self.batch.begin_episode(np.array([start]))
+
+    def act(self, observation: Mapping[str, Any]) -> int:
+        obs = {k: np.asarray(v)[None] for k, v in observation.items()}
+        return int(self.batch.act(obs, np.ones(1, bool))[0])
+
+    def observe(self, state: int, robot_action: int, human_action: int, next_state: int) -> None:
+        one = np.ones(1, bool)
+        self.batch.observe(np.array([state]), np.array([robot_action]), np.array([human_action]),
+                           np.array([next_state]), one)
+
+    def end_episode(self, trace: Trace, intention: int) -> None:
+        self.batch.end_episode([trace], np.array([intention]))
+
+
+class Batched(BatchAgent):
+    """Runs a list of single-stream :class:`Agent` objects as one :class:`BatchAgent`."""
+
+    def __init__(self, agents: Sequence[Agent]) -> None:
+        super().__init__(len(agents))
+        self.agents = list(agents)
+        self.name = agents[0].name  # type: ignore[misc]
+
+    @classmethod
+    def from_factory(cls, factory: Callable[[int], Agent], runs: Sequence[int]) -> Batched:
+        """One agent per run, ``factory(run)``."""
+        return cls([factory(int(r)) for r in runs])
+
+    def begin_episode(self, starts: np.ndarray) -> None:
+        """Start one episode per agent."""
+        for agent, start in zip(self.agents, starts, strict=True):
+            agent.begin_episode(int(start))
+
+    def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
+        """Ask each active agent for an action."""
+        out = np.zeros(self.n_runs, dtype=np.int64)
+        for i in np.flatnonzero(active):
+            out[i] = self.agents[i].act({k: v[i] for k, v in observations.items()})
+        return out
+
+    def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
+                next_states: np.ndarray, active: np.ndarray) -> None:
+        """Pass the transition to each active agent."""
+        for i in np.flatnonzero(active):
+            self.agents[i].observe(int(states[i]), int(robot_actions[i]), int(human_actions[i]),
+                                   int(next_states[i]))
+
+    def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
+        """Let every agent learn from its episode."""
+        for agent, trace, intention in zip(self.agents, traces, intentions, strict=True):
+            agent.end_episode(trace, int(intention))

@@ -25,8 +25,8 @@ from typing import Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
+from agents.protocol import BatchAgent, Trace, run_streams
 from hri_envs.errors import ConfigError
-from hri_envs.task.protocol import BatchAgent, Trace, run_streams
 
 try:
     import torch as th

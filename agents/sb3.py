@@ -43,8 +43,8 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from agents.protocol import Agent, BatchAgent, Trace, run_streams
 from hri_envs.errors import ConfigError
-from hri_envs.task.protocol import Agent, BatchAgent, Trace, run_streams
 from hri_envs.task.scenarios import SCENARIOS
 
 if TYPE_CHECKING:

@@ -55,13 +55,13 @@ from typing import ClassVar
 
 import numpy as np
 
+from agents.protocol import BatchAgent, Trace
 from hri_envs.errors import ConfigError
+from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.task import episode as rules
 from hri_envs.task import mdp
 from hri_envs.task.actions import WAIT
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import ScriptedHuman
-from hri_envs.task.protocol import BatchAgent, Trace
 
 __all__ = ["Blind", "Informed", "Plan", "plan"]
 

@@ -16,12 +16,13 @@ import numpy as np
 
 from agents.config import LearnerConfig, default_config
 from agents.learner import sample_actions
+from agents.learning import mdp, partner_mdp
+from agents.protocol import Trace, run_streams
 from baselines.simple import _Tracking
 from hri_envs.task import episode as rules
-from hri_envs.task import mdp, partner_mdp
+from hri_envs.task import mdp as task_mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
-from hri_envs.task.protocol import Trace, run_streams
 
 __all__ = ["MaxEntIRL"]
 
@@ -76,7 +77,7 @@ class MaxEntIRL(_Tracking):
         """Q per intention for the rewards θᵀφ, θ (B, F), and its greedy policy.
 
         Each intention's goal absorbs (it loops on itself, collecting its reward). Solved on
-        the sparse table (:mod:`hri_envs.task.partner_mdp`) by policy iteration from
+        the sparse table (:mod:`agents.learning.partner_mdp`) by policy iteration from
         ``warm`` (B, I, S) if given.
 
         Returns:
@@ -124,7 +125,7 @@ class MaxEntIRL(_Tracking):
         """(B, A) ``softmax(τ_R Q_ι(state, ·))``, the agent's policy if sure of ι."""
         q = self.q[:, intention, state]
         valid = np.broadcast_to(self.graph.valid[state], q.shape)
-        return mdp.softmax(q, valid, self.config.robot_temperature)
+        return task_mdp.softmax(q, valid, self.config.robot_temperature)
 
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Count intentions along the trace and take one ME-IRL step (λ = 0.03)."""
@@ -139,7 +140,7 @@ class MaxEntIRL(_Tracking):
         rows = np.arange(n_b)
         phi = g.features[intentions]
         q = self.q[rows, intentions]
-        policy = mdp.softmax(q, g.valid, c.irl_temperature)
+        policy = task_mdp.softmax(q, g.valid, c.irl_temperature)
         certain = np.broadcast_to(self._certain[0], (n_b, g.n_states, 1))
         expected = partner_mdp.expected_feature_counts(self._next, certain, policy, phi,
                                                        demo.start, g.terminal[intentions],

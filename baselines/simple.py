@@ -11,11 +11,12 @@ from typing import ClassVar
 
 import numpy as np
 
+from agents.learning import mdp
+from agents.protocol import BatchAgent, Trace
+from hri_envs.humans.scripted import PreferredActions
 from hri_envs.task import episode as rules
-from hri_envs.task import mdp
+from hri_envs.task import mdp as task_mdp
 from hri_envs.task.graph import BOTH, ROBOT_BIT, TAKE_OFF, TOGGLE, WAIT, TaskGraph
-from hri_envs.task.humans import PreferredActions
-from hri_envs.task.protocol import BatchAgent, Trace
 
 __all__ = ["Imitator", "Oracle", "Passive"]
 
@@ -40,7 +41,7 @@ class _Tracking(BatchAgent):
     def passive(self, states: np.ndarray) -> np.ndarray:
         """(B,) the Passive baseline's action in each run's state."""
         rows = np.arange(self.n_runs)
-        return mdp.passive_actions(self.graph, self.start, self.lifted)[rows, states]
+        return task_mdp.passive_actions(self.graph, self.start, self.lifted)[rows, states]
 
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Nothing to learn by default."""

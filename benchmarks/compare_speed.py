@@ -3,7 +3,7 @@
     python benchmarks/compare_speed.py --vs /path/to/old/checkout [--rounds 5] [--only learner]
 
 Each round times every measure once in the old checkout and once in this one, alternately,
-each in a fresh interpreter with that checkout first on ``PYTHONPATH``; the report gives, per
+each in a fresh interpreter with that checkout first on its path; the report gives, per
 measure, the range and median of both and the range and median of the per-round ratio
 old / new (> 1: this checkout is faster). Other jobs slow both sides of a round alike, so the
 ratios vary much less than the raw figures. Only public APIs that both checkouts have are used.
@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import statistics
 import subprocess
 import sys
@@ -24,14 +23,23 @@ MEASURES: dict[str, tuple[str, str, bool]] = {
     "learner_update": ("""
 import time, numpy as np
 from agents.learner import Learner
-from hri_envs.bench.study import graph_for
-from hri_envs.task.protocol import Trace
+try:  # this layout, then the one before the benchmark became its own package
+    from agents.protocol import Trace
+    from hri_bench.study import graph_for
+except ImportError:
+    from hri_envs.bench.study import graph_for
+    from hri_envs.task.protocol import Trace
+try:  # arrays reused between updates: explicit since the house was rebuilt, before implicit
+    from agents.learning.algorithm1 import Workspace
+    KW = {"workspace": Workspace()}
+except ImportError:
+    KW = {}
 g = graph_for("wheel"); w = g.waypoint_state
 states = np.array([0, 1, 3, w(0, 3, 1), w(1, 3, 1), w(1, 1, 1), w(1, 1, 0), 7, 4])
 tr = Trace(states, np.zeros(8, np.int64), np.zeros(8, np.int64))
 best = np.inf
 for n_b, reps in ((1, 100),) * 3:
-    lrn = Learner(g, n_b); trs = [tr] * n_b; ints = np.ones(n_b, np.int64)
+    lrn = Learner(g, n_b, **KW); trs = [tr] * n_b; ints = np.ones(n_b, np.int64)
     lrn.end_episode(trs, ints)
     t0 = time.perf_counter()
     for _ in range(reps):
@@ -42,12 +50,21 @@ print(best * 1e3)
     "learner_update_batched_per_run": ("""
 import time, numpy as np
 from agents.learner import Learner
-from hri_envs.bench.study import graph_for
-from hri_envs.task.protocol import Trace
+try:  # this layout, then the one before the benchmark became its own package
+    from agents.protocol import Trace
+    from hri_bench.study import graph_for
+except ImportError:
+    from hri_envs.bench.study import graph_for
+    from hri_envs.task.protocol import Trace
+try:  # arrays reused between updates: explicit since the house was rebuilt, before implicit
+    from agents.learning.algorithm1 import Workspace
+    KW = {"workspace": Workspace()}
+except ImportError:
+    KW = {}
 g = graph_for("wheel"); w = g.waypoint_state
 states = np.array([0, 1, 3, w(0, 3, 1), w(1, 3, 1), w(1, 1, 1), w(1, 1, 0), 7, 4])
 tr = Trace(states, np.zeros(8, np.int64), np.zeros(8, np.int64))
-lrn = Learner(g, 100); trs = [tr] * 100; ints = np.ones(100, np.int64)
+lrn = Learner(g, 100, **KW); trs = [tr] * 100; ints = np.ones(100, np.int64)
 lrn.end_episode(trs, ints)
 best = np.inf
 for _ in range(3):
@@ -59,8 +76,12 @@ print(best * 1e3)
 """, "ms", False),
     "hanger_study_20_runs": ("""
 import time
-from hri_envs.bench.speed import HANGER_STUDY_PREFERENCES
-from hri_envs.bench.study import StudyConfig, run_study
+try:
+    from hri_bench.speed import HANGER_STUDY_PREFERENCES
+    from hri_bench.study import StudyConfig, run_study
+except ImportError:
+    from hri_envs.bench.speed import HANGER_STUDY_PREFERENCES
+    from hri_envs.bench.study import StudyConfig, run_study
 t0 = time.perf_counter()
 for i, pref in enumerate(HANGER_STUDY_PREFERENCES):
     run_study(StudyConfig("hanger", agents=("learner",), runs=20, episodes=8, preference=pref,
@@ -78,9 +99,19 @@ print(parallel_env_steps_per_s(steps=20_000).steps_per_s)
 }
 
 
+#: Run first in each interpreter: put the checkout before everything, including the finder
+#: of an editable install (which would otherwise import the installed checkout's code).
+_BOOT = """
+import sys
+sys.meta_path[:] = [f for f in sys.meta_path if "editable" not in repr(f).lower()]
+sys.path[:] = [p for p in sys.path if "__editable__" not in p]
+sys.path.insert(0, {checkout!r})
+"""
+
+
 def _run(checkout: Path, snippet: str) -> float:
-    env = {**os.environ, "PYTHONPATH": str(checkout)}
-    out = subprocess.run([sys.executable, "-c", snippet], env=env, cwd=checkout, check=True,
+    code = _BOOT.format(checkout=str(checkout)) + snippet
+    out = subprocess.run([sys.executable, "-c", code], cwd=checkout, check=True,
                          capture_output=True, text=True)
     return float(out.stdout.strip().splitlines()[-1])
 

@@ -10,7 +10,7 @@ in hindsight). ``GoalMemory`` below is a small learner in that shape:
   did so far, and acts when all of them agree on the human's next action; otherwise it
   behaves like the paper's Passive baseline (grasp at the start, let go at a goal, wait).
 
-It runs in a Gymnasium env with ``hri_envs.envs.rollout.run_episode`` and in the benchmark
+It runs in a Gymnasium env with ``agents.rollout.run_episode`` and in the benchmark
 next to the paper's Learner::
 
     python examples/custom_learner.py
@@ -32,10 +32,10 @@ import gymnasium as gym
 import numpy as np
 
 import hri_envs  # noqa: F401  (registers the Gymnasium ids)
-from agents import mdp
 from agents.protocol import Agent, Trace
-from hri_envs.bench.study import StudyConfig, run_study
-from hri_envs.envs.rollout import run_episode
+from agents.rollout import run_episode
+from hri_bench.study import StudyConfig, run_study
+from hri_envs.task import mdp
 from hri_envs.task.graph import WAIT, TaskGraph
 
 

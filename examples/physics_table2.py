@@ -20,10 +20,11 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from hri_envs.bench.agents import make_agent
-from hri_envs.bench.runner import TABLE2, make_schedule, simulate
+from hri_bench.agents import make_agent
+from hri_bench.runner import make_schedule, simulate
 from hri_envs.envs.config import check_physics_options, scenario_graph
-from hri_envs.task.humans import preference_human
+from hri_envs.humans.scripted import preference_human
+from hri_envs.task.scenarios.hanger import TABLE2
 
 
 @dataclass

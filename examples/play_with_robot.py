@@ -18,9 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hri_envs.bench.play import play
-from hri_envs.bench.study import graph_for
-from hri_envs.task.humans import preference_human
+from hri_bench.play import play
+from hri_bench.study import graph_for
+from hri_envs.humans.scripted import preference_human
 
 
 @dataclass

@@ -33,7 +33,7 @@ import numpy as np
 
 from hri_envs import hanger_v0, wheel_v0
 from hri_envs.envs.formats import ClassicLayout
-from hri_envs.task.humans import preference_human
+from hri_envs.humans.scripted import preference_human
 
 
 @dataclass

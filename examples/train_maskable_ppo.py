@@ -25,9 +25,9 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 
 from agents.rl import RandomMasked, train_dqn, train_maskable_ppo
 from agents.sb3 import SB3BatchAgent
-from hri_envs.bench.runner import make_schedule, simulate
-from hri_envs.bench.study import StudyConfig, graph_for, run_study
-from hri_envs.task.humans import preference_human
+from hri_bench.runner import make_schedule, simulate
+from hri_bench.study import StudyConfig, graph_for, run_study
+from hri_envs.humans.scripted import preference_human
 
 
 @dataclass

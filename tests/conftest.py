@@ -17,7 +17,7 @@ from tests.helpers_partner import HAS_JIT  # noqa: E402
 def path(request, monkeypatch):
     """Run a test of the learning math on the numpy path and on the compiled one (the
     compiled one is skipped without numba)."""
-    from hri_envs.task import partner_mdp
+    from agents.learning import partner_mdp
 
     if request.param == "numpy":
         monkeypatch.setattr(partner_mdp, "kernels", lambda: None)

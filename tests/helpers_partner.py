@@ -1,6 +1,6 @@
 """What the tests of the compiled learning math share (the ``path`` fixture: conftest.py)."""
 
-from hri_envs.task import partner_mdp
+from agents.learning import partner_mdp
 
 #: The compiled kernels are importable in this process.
 HAS_JIT = partner_mdp.kernels() is not None

@@ -9,10 +9,10 @@ import pytest
 from agents import Learner, LearnerStateError, Trace, default_config
 from agents.protocol import Agent, Batched
 from baselines import Imitator, MaxEntIRL, Oracle, Passive
-from hri_envs.bench.runner import make_schedule, simulate
+from hri_bench.runner import make_schedule, simulate
+from hri_envs.humans.scripted import preference_human
 from hri_envs.task import build_graph, hanger_scenario, wheel_scenario
 from hri_envs.task.graph import ROTATE, WAIT
-from hri_envs.task.humans import preference_human
 
 
 @pytest.fixture(scope="module")
@@ -217,7 +217,7 @@ def test_learner_learns_inside_the_gymnasium_env():
     import gymnasium as gym
 
     import hri_envs  # noqa: F401  (registers the ids)
-    from hri_envs.envs.rollout import run_episode
+    from agents.rollout import run_episode
 
     env = gym.make("hri_envs/Wheel-v0", preference="straight", r0=-0.25)
     robot = Learner(env.unwrapped.graph, 1, default_config("wheel"), seed=0).single()

@@ -7,13 +7,13 @@ import json
 import numpy as np
 import pytest
 
-from hri_envs.bench.cli import main
-from hri_envs.bench.figures import make_figures
-from hri_envs.bench.play import play
-from hri_envs.bench.study import StudyConfig, run_study
+from agents.learning import partner_mdp
+from hri_bench.cli import main
+from hri_bench.figures import make_figures
+from hri_bench.play import play
+from hri_bench.study import StudyConfig, run_study
 from hri_envs.envs.config import scenario_graph
 from hri_envs.errors import ConfigError
-from hri_envs.task import partner_mdp
 
 SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_passive",
                 "turn_back", "max_steps", "runs", "episodes", "seed", "version", "env_ids",
@@ -140,11 +140,12 @@ def test_study_on_the_physics_backend(tmp_path):
 
 def test_a_physics_preset_reaches_the_simulator():
     from hri_envs.envs.backends import batch_backend
-    from hri_envs.physics.options import PRESETS
+    from hri_envs.physics.design import hanger_design
 
     cfg = StudyConfig("hanger", backend="mujoco", physics_preset="noisy-sensor", runs=1)
     batch = batch_backend("mujoco")(scenario_graph("hanger"), [0], 0, physics=cfg.physics)
-    assert batch.sim.params.sensor_noise_n == PRESETS["noisy-sensor"]["hanger"]["sensor_noise_n"]
+    noisy = hanger_design().presets["noisy-sensor"]
+    assert batch.sim.params.sensor_noise_n == noisy["sensor_noise_n"]
 
 
 def test_user_agent_by_module_path(tmp_path):
@@ -181,7 +182,7 @@ def _positive_finite(value):
 
 def test_speed_json_runs_the_real_measurements_on_a_tiny_size(monkeypatch, capsys):
     """``hri-bench speed --json --size tiny`` end to end: every figure measured for real."""
-    import hri_envs.bench.speed as speed
+    import hri_bench.speed as speed
 
     studies = []
     real_study = speed.run_study
@@ -206,7 +207,7 @@ def test_speed_json_runs_the_real_measurements_on_a_tiny_size(monkeypatch, capsy
 
 
 def test_speed_sizes_are_checked_and_the_full_size_is_the_published_one():
-    import hri_envs.bench.speed as speed
+    import hri_bench.speed as speed
 
     full = speed.SIZES["full"]
     assert (full.vector_envs, full.batch_runs, full.study_runs, full.study_episodes) == (
@@ -259,9 +260,9 @@ def test_learner_update_ms_is_the_mean_time_of_real_updates(monkeypatch):
     """The timing arithmetic on a fake clock: each real Learner update "takes" 2.5 ms."""
     from types import SimpleNamespace
 
-    import hri_envs.bench.speed as speed
+    import hri_bench.speed as speed
     from agents.learner import Learner
-    from hri_envs.bench.study import graph_for
+    from hri_bench.study import graph_for
 
     clock, updates = [0.0], []
     real_update = Learner.end_episode
@@ -323,10 +324,10 @@ class _FailsOnSecondStep:
 
 
 def test_a_physical_failure_costs_r_minus_and_the_other_runs_go_on(monkeypatch):
-    from hri_envs.bench.agents import make_agent
-    from hri_envs.bench.runner import make_schedule, simulate
+    from hri_bench.agents import make_agent
+    from hri_bench.runner import make_schedule, simulate
     from hri_envs.envs import backends
-    from hri_envs.task.humans import preference_human
+    from hri_envs.humans.scripted import preference_human
 
     monkeypatch.setitem(backends.BACKENDS, "failing", backends.BackendSpec(
         "failing", "hri_envs.envs.episode:Episode", "tests.test_bench:_FailsOnSecondStep"))

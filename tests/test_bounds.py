@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from baselines.bounds import Blind, Informed, plan
-from hri_envs.bench.cli import main
-from hri_envs.bench.runner import make_schedule, simulate
-from hri_envs.bench.study import StudyConfig, run_study
+from hri_bench.cli import main
+from hri_bench.runner import make_schedule, simulate
+from hri_bench.study import StudyConfig, run_study
 from hri_envs.errors import ConfigError
+from hri_envs.humans.scripted import preference_human
 from hri_envs.task.actions import TOGGLE, WAIT
 from hri_envs.task.episode import step_reward, unneeded_toggle
-from hri_envs.task.humans import preference_human
 from hri_envs.task.scenarios import scenario_graph
 
 R0 = -0.25
@@ -178,7 +178,7 @@ def test_envs_take_the_reward_variant():
 
 
 def test_planners_are_refused_before_simulating_when_runs_have_their_own_humans(tmp_path):
-    from hri_envs.bench.cli import main
+    from hri_bench.cli import main
 
     with pytest.raises(SystemExit) as exit_info:
         main(["study", "hanger", "--agents", "learner,blind", "--population", "theta",

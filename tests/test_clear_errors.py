@@ -124,7 +124,7 @@ def test_reset_options_of_the_wrong_type_are_named(options):
 def test_play_ends_cleanly_at_end_of_input(monkeypatch, capsys):
     import io
 
-    from hri_envs.bench.cli import main
+    from hri_bench.cli import main
 
     monkeypatch.setattr("sys.stdin", io.StringIO("0\n0\n"))  # two answers, then EOF
     assert main(["play", "wheel", "--episodes", "2"]) == 0
@@ -138,8 +138,8 @@ def test_play_ends_cleanly_at_end_of_input(monkeypatch, capsys):
 ])
 def test_missing_extras_give_one_line_with_the_install_command(argv, missing, extra,
                                                                monkeypatch, tmp_path, capsys):
-    from hri_envs.bench import extras
-    from hri_envs.bench.cli import main
+    from hri_bench import extras
+    from hri_bench.cli import main
 
     monkeypatch.setattr(extras, "_installed", lambda m: m != missing)
     out = tmp_path / "out"
@@ -150,7 +150,7 @@ def test_missing_extras_give_one_line_with_the_install_command(argv, missing, ex
 
 
 def test_a_missing_package_met_later_is_one_line_too(monkeypatch, capsys):
-    from hri_envs.bench import cli
+    from hri_bench import cli
 
     def fail(*args, **kwargs):
         raise ModuleNotFoundError("No module named 'torch'", name="torch")

@@ -16,11 +16,11 @@ from hypothesis.extra import numpy as hnp
 
 import hri_envs  # noqa: F401  (registers the ids)
 from agents.protocol import BatchAgent
+from hri_bench.runner import Schedule, simulate
 from hri_envs import hanger_v0, wheel_v0
-from hri_envs.bench.runner import Schedule, simulate
 from hri_envs.envs.config import scenario_graph
+from hri_envs.humans.scripted import preference_human, preferences_for
 from hri_envs.task.graph import HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT
-from hri_envs.task.humans import preference_human, preferences_for
 
 ENV_IDS = {"hanger": "hri_envs/Hanger-v0", "wheel": "hri_envs/Wheel-v0"}
 PARALLEL = {"hanger": hanger_v0, "wheel": wheel_v0}

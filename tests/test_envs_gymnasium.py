@@ -11,7 +11,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 import hri_envs  # noqa: F401  (registers the ids)
 from hri_envs.envs import ConfigError, RobotEnv
-from hri_envs.task.humans import preference_human
+from hri_envs.humans.scripted import preference_human
 
 IDS = ["hri_envs/Hanger-v0", "hri_envs/Wheel-v0"]
 

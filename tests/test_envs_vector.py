@@ -168,7 +168,7 @@ def test_same_step_autoreset_returns_the_next_first_observation():
 
 def test_a_replaced_human_acts_from_the_next_step():
     """The deterministic human's look-up table follows ``env.human`` when it is replaced."""
-    from hri_envs.task.humans import preference_human
+    from hri_envs.humans.scripted import preference_human
 
     vec = RobotVectorEnv(4, "wheel", preference="straight")
     obs, _ = vec.reset(seed=0, options={"start": "A", "intention": ["B", "C", "B", "C"]})
@@ -192,7 +192,7 @@ def test_a_replaced_human_acts_from_the_next_step():
 
 def test_a_replaced_human_turns_back_where_it_would():
     """A human replaced before reset turns back at its own turning states, not the old one's."""
-    from hri_envs.task.humans import preference_human
+    from hri_envs.humans.scripted import preference_human
 
     vec = RobotVectorEnv(4, "wheel", preference="straight")
     detour = preference_human(vec.graph, "detour", turn_back=1.0)

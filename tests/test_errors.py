@@ -9,12 +9,12 @@ import pytest
 import hri_envs
 import hri_envs.envs
 from agents import LearnerConfig, LearnerStateError
+from hri_bench.cli import main
+from hri_bench.study import StudyConfig
 from hri_envs import errors
-from hri_envs.bench.cli import main
-from hri_envs.bench.study import StudyConfig
 from hri_envs.errors import ConfigError, HriEnvsError
+from hri_envs.humans.scripted import preference_human
 from hri_envs.task import build_graph, hanger_scenario, wheel_scenario
-from hri_envs.task.humans import preference_human
 
 
 @pytest.mark.parametrize("name", errors.__all__)
@@ -47,7 +47,7 @@ def test_ik_failure_is_a_physics_fault():
 
 
 def test_the_lowest_layer_imports_in_a_fresh_interpreter():
-    code = "import hri_envs.task.humans, hri_envs.errors; print('ok')"
+    code = "import hri_envs.humans.scripted, hri_envs.errors; print('ok')"
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=False)
     assert proc.returncode == 0, proc.stderr

@@ -23,7 +23,7 @@ def run(script, *args, cwd):
 
 
 def test_every_example_is_covered():
-    scripts = {p.name for p in EXAMPLES.glob("*.py")}
+    scripts = {p.name for p in EXAMPLES.glob("*.py") if p.name != "__init__.py"}
     assert scripts == {"train_maskable_ppo.py", "rllib_multiagent.py", "custom_learner.py",
                        "play_with_robot.py", "physics_table2.py"}
 

@@ -17,7 +17,7 @@ from hri_envs.envs.partner import (
     waiting_policy,
 )
 from hri_envs.errors import ConfigError
-from hri_envs.task.humans import preference_human
+from hri_envs.humans.scripted import preference_human
 
 MODULES = [pytest.param(hanger_v0, id="hanger"), pytest.param(wheel_v0, id="wheel")]
 WAIT, TOGGLE = 0, 1
@@ -263,11 +263,11 @@ def test_partner_env_bad_input():
     with pytest.raises(ConfigError, match=re.escape(
             "unknown learner 'dog'; allowed: 'human', 'robot'")):
         PartnerEnv(par, learner="dog")
-    with pytest.raises(ConfigError, match="a ScriptedHuman can only play the human"):
+    with pytest.raises(ConfigError, match="a human partner can only play the human"):
         PartnerEnv(par, learner="human", partner=preference_human(par.graph))
-    with pytest.raises(ConfigError, match="built for the wheel, the env is the hanger"):
+    with pytest.raises(ConfigError, match="built for the wheel scenario, not the hanger"):
         PartnerEnv(par, partner=preference_human(wheel_v0.parallel_env().graph))
-    with pytest.raises(ConfigError, match="partner must be a ScriptedHuman or a callable"):
+    with pytest.raises(ConfigError, match="partner must be a human .* or a callable"):
         PartnerEnv(par, partner=3)
     env = PartnerEnv(par)
     with pytest.raises(RuntimeError, match="call reset"):

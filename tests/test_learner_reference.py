@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from agents.learner import Learner
-from hri_envs.bench.study import graph_for
-from hri_envs.task import mdp
-from hri_envs.task.protocol import Trace
+from agents.learning import mdp
+from agents.protocol import Trace
+from hri_bench.study import graph_for
+from hri_envs.task import mdp as task_mdp
 from tests.data.make_learner_reference import ARRAYS, CASES
 
 DATA = Path(__file__).parent / "data" / "learner_reference.npz"
@@ -39,7 +40,7 @@ def test_replayed_traces_give_the_recorded_models(reference, case):
         for name in ARRAYS:
             np.testing.assert_allclose(getattr(learner, name), reference[f"{case}/{name}"][e],
                                        rtol=0, atol=1e-9, err_msg=f"{name} after episode {e}")
-        pi_r = mdp.softmax(learner.q_r, valid, learner.config.robot_model_temperature)
+        pi_r = task_mdp.softmax(learner.q_r, valid, learner.config.robot_model_temperature)
         np.testing.assert_allclose(learner.pi_r, pi_r, rtol=0, atol=1e-12)
 
 
@@ -57,15 +58,15 @@ def test_the_reference_covers_truncation_and_loops(reference):
 
 def test_partner_index_is_cached_per_read_only_table_only():
     g = graph_for("wheel")
-    assert mdp.partner_index(g.next_state) is mdp.partner_index(g.next_state)
+    assert task_mdp.partner_index(g.next_state) is task_mdp.partner_index(g.next_state)
     swapped = np.swapaxes(g.next_state, 1, 2)
-    assert mdp.partner_index(swapped) is not mdp.partner_index(g.next_state)
+    assert task_mdp.partner_index(swapped) is not task_mdp.partner_index(g.next_state)
     writeable = g.next_state.copy()
     n_s, n_a = g.n_states, g.n_actions
-    first = mdp.partner_index(writeable).onehot[0, 0].reshape(n_a, n_s)
+    first = task_mdp.partner_index(writeable).onehot[0, 0].reshape(n_a, n_s)
     assert first[0].argmax() == g.next_state[0, 0, 0]
     writeable[0, 0, 0] = 1
-    changed = mdp.partner_index(writeable).onehot[0, 0].reshape(n_a, n_s)
+    changed = task_mdp.partner_index(writeable).onehot[0, 0].reshape(n_a, n_s)
     assert changed[0].argmax() == 1 and changed[0].sum() == 1
 
 
@@ -78,16 +79,16 @@ def test_partner_transitions_match_a_direct_sum():
     expected = np.zeros((2, g.n_states, g.n_actions, g.n_states))
     for b, s, a, p in np.ndindex(2, g.n_states, g.n_actions, g.n_actions):
         expected[b, s, a, g.next_state[s, a, p]] += pi[b, s, p]
-    np.testing.assert_allclose(mdp.robot_transition(g.next_state, pi), expected, atol=1e-15)
+    np.testing.assert_allclose(task_mdp.robot_transition(g.next_state, pi), expected, atol=1e-15)
 
 
 def test_one_blas_thread_limits_inside_and_restores_after():
-    controllers = mdp._blas_controllers()
+    controllers = task_mdp._blas_controllers()
     assert controllers, "numpy's BLAS should be visible to threadpoolctl"
     before = [c.get_num_threads() for c in controllers]
-    with mdp.one_blas_thread():
+    with task_mdp.one_blas_thread():
         assert [c.get_num_threads() for c in controllers] == [1] * len(controllers)
     assert [c.get_num_threads() for c in controllers] == before
-    with pytest.raises(KeyError), mdp.one_blas_thread():
+    with pytest.raises(KeyError), task_mdp.one_blas_thread():
         raise KeyError("restored on errors too")
     assert [c.get_num_threads() for c in controllers] == before

@@ -5,8 +5,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from agents import mdp
+from agents.learning import mdp
 from hri_envs.task import build_graph, hanger_scenario
+from hri_envs.task import mdp as task_mdp
 from hri_envs.task.graph import TOGGLE, WAIT
 
 
@@ -21,7 +22,7 @@ def chain(gamma: float = 0.9):
 
 def test_q_iteration_chain_by_hand():
     t, r, valid = chain()
-    q = mdp.q_iteration(t, r, valid, terminal=np.array([2]), gamma=0.9)[0]
+    q = task_mdp.q_iteration(t, r, valid, terminal=np.array([2]), gamma=0.9)[0]
     # The goal loops on itself collecting 1 per step: V(2) = 1 / (1 - 0.9) = 10.
     assert q[2] == pytest.approx([10.0, 10.0])
     assert q[1] == pytest.approx([0.9 * 10.0, 1.0 + 0.9 * 10.0])
@@ -45,7 +46,7 @@ def test_policy_iteration_matches_bellman_sweeps(seed, gamma):
     r = rng.normal(size=(n_s, n_a))
     valid = rng.random((n_s, n_a)) < 0.7
     valid[:, 0] = True
-    q = mdp.solve_q(t, r, valid, gamma)
+    q = task_mdp.solve_q(t, r, valid, gamma)
     expected = bellman_iterate(t, r, valid, gamma)
     np.testing.assert_allclose(np.where(valid, q, 0), np.where(valid, expected, 0), atol=1e-8)
 
@@ -53,7 +54,7 @@ def test_policy_iteration_matches_bellman_sweeps(seed, gamma):
 def test_softmax_sums_to_one_and_ignores_invalid_actions():
     q = np.array([[1.0, 2.0, 50.0], [0.0, 0.0, 0.0]])
     valid = np.array([[True, True, False], [True, False, True]])
-    p = mdp.softmax(q, valid, temperature=2.0)
+    p = task_mdp.softmax(q, valid, temperature=2.0)
     np.testing.assert_allclose(p.sum(-1), 1.0)
     assert p[0, 2] == 0.0 and p[1, 1] == 0.0
     assert p[0, 1] / p[0, 0] == pytest.approx(np.exp(2.0))
@@ -131,7 +132,8 @@ def test_single_agent_transitions_are_distributions():
     rng = np.random.default_rng(0)
     pi = rng.random((2, g.n_states, g.n_actions)) * g.valid
     pi /= pi.sum(-1, keepdims=True)
-    for t in (mdp.robot_transition(g.next_state, pi), mdp.human_transition(g.next_state, pi)):
+    for t in (task_mdp.robot_transition(g.next_state, pi),
+              task_mdp.human_transition(g.next_state, pi)):
         assert t.shape == (2, g.n_states, g.n_actions, g.n_states)
         np.testing.assert_allclose(t.sum(-1), 1.0)
     # By hand: robot moves over to B from A′ while the human waits with probability 0.3 and
@@ -141,17 +143,17 @@ def test_single_agent_transitions_are_distributions():
     pi_h[:, 0] = 1.0
     pi_h[s] = 0.0
     pi_h[s, [0, up]] = [0.3, 0.7]
-    t_r = mdp.robot_transition(g.next_state, pi_h)
+    t_r = task_mdp.robot_transition(g.next_state, pi_h)
     assert t_r[s, over_b, g.waypoint_state(1, 0, 0)] == pytest.approx(0.3)
     assert t_r[s, over_b, g.waypoint_state(0, 1, 0)] == pytest.approx(0.7)
 
 
 def test_passive_policy_grasps_at_start_and_lets_go_elsewhere():
     g = build_graph(hanger_scenario())
-    acts = mdp.passive_actions(g, np.array(0))
+    acts = task_mdp.passive_actions(g, np.array(0))
     assert acts[g.support_state(0, 0)] == TOGGLE
     assert acts[g.support_state(0, 3)] == WAIT  # holding at the start: wait for take-off
     assert acts[g.support_state(1, 3)] == TOGGLE  # holding at another support: let go
     assert acts[g.waypoint_state(0, 0, 0)] == WAIT
-    lifted = mdp.passive_actions(g, np.array([0]), np.array([True]))[0]
+    lifted = task_mdp.passive_actions(g, np.array([0]), np.array([True]))[0]
     assert lifted[g.support_state(0, 3)] == TOGGLE  # turned back: the start is the goal

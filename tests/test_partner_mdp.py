@@ -8,18 +8,19 @@ import numpy as np
 import pytest
 
 from agents.learner import Learner
-from hri_envs.bench.speed import _wheel_trace
-from hri_envs.bench.study import graph_for
+from agents.learning import algorithm1, mdp, partner_mdp
+from agents.protocol import Trace
+from hri_bench.speed import _wheel_trace
+from hri_bench.study import graph_for
 from hri_envs.errors import ConfigError
-from hri_envs.task import mdp, partner_mdp
-from hri_envs.task.protocol import Trace
+from hri_envs.task import mdp as task_mdp
 from tests.helpers_partner import HAS_JIT
 
 
 def random_policies(graph, n, seed):
     """(n, S, A) soft-max policies with random values, zero on invalid actions."""
     rng = np.random.default_rng(seed)
-    return mdp.softmax(rng.normal(size=(n, graph.n_states, graph.n_actions)), graph.valid, 2.0)
+    return task_mdp.softmax(rng.normal(size=(n, graph.n_states, graph.n_actions)), graph.valid, 2.0)
 
 
 def test_two_state_mdp_by_hand(path):
@@ -55,7 +56,7 @@ def test_sparse_functions_equal_the_dense_ones(path, scenario):
     rng = np.random.default_rng(2)
     values = rng.normal(size=(2, n_i, g.n_states))
     term = g.terminal[None, :]
-    dense = mdp.absorbing(mdp.robot_transition(g.next_state, partner), g.terminal)
+    dense = task_mdp.absorbing(task_mdp.robot_transition(g.next_state, partner), g.terminal)
     backup = partner_mdp.partner_backup(g.next_state, partner, values, term)
     np.testing.assert_allclose(backup, np.einsum("bisaz,biz->bisa", dense, values), atol=1e-13)
 
@@ -67,7 +68,7 @@ def test_sparse_functions_equal_the_dense_ones(path, scenario):
 
     q, greedy = partner_mdp.solve_partner_q(g.next_state, partner, r_sa, g.valid, 0.9,
                                             terminal=term)
-    q_dense = mdp.solve_q(dense, expected_r, g.valid, 0.9)
+    q_dense = task_mdp.solve_q(dense, expected_r, g.valid, 0.9)
     np.testing.assert_allclose(q, q_dense, atol=1e-10)
     np.testing.assert_array_equal(greedy, np.where(g.valid, q, -np.inf).argmax(-1))
     # A warm start from the optimum gives the same Q.
@@ -75,8 +76,8 @@ def test_sparse_functions_equal_the_dense_ones(path, scenario):
                                            terminal=term, policy=greedy)
     np.testing.assert_allclose(again, q, atol=1e-12)
 
-    np.testing.assert_allclose(partner_mdp.softmax(q, g.valid, 5.0), mdp.softmax(q, g.valid, 5.0),
-                               atol=1e-15)
+    np.testing.assert_allclose(partner_mdp.softmax(q, g.valid, 5.0),
+                               task_mdp.softmax(q, g.valid, 5.0), atol=1e-15)
 
     flat_p, flat_own = partner.reshape(-1, *partner.shape[2:]), own.reshape(-1, *own.shape[2:])
     terminal = np.tile(g.terminal, 2)
@@ -85,7 +86,7 @@ def test_sparse_functions_equal_the_dense_ones(path, scenario):
     phi = g.features[np.tile(np.arange(n_i), 2)]
     counts = partner_mdp.expected_feature_counts(g.next_state, flat_p, flat_own, phi, start,
                                                  terminal, horizon)
-    dense_flat = mdp.robot_transition(g.next_state, flat_p)
+    dense_flat = task_mdp.robot_transition(g.next_state, flat_p)
     expected = mdp.expected_feature_counts(dense_flat, flat_own, phi, start, terminal, horizon)
     np.testing.assert_allclose(counts, expected, atol=1e-12)
 
@@ -121,7 +122,7 @@ def test_more_states_than_a_bit_set_word_on_both_paths(monkeypatch):
     nxt = rng.integers(0, n_s, (n_s, n_a, n_p))
     valid, partner_valid = rng.random((n_s, n_a)) < 0.7, rng.random((n_s, n_p)) < 0.7
     valid[:, 0] = partner_valid[:, 0] = True
-    partner = mdp.softmax(rng.normal(size=(n, n_s, n_p)), partner_valid, 1.0)
+    partner = task_mdp.softmax(rng.normal(size=(n, n_s, n_p)), partner_valid, 1.0)
     kwargs = {"state_reward": rng.normal(size=(n, n_s)),
               "terminal": np.array([-1, 0, 63, 64, 129, -1])}
     compiled = partner_mdp.solve_soft(nxt, partner, valid, 0.95, 2.0, **kwargs)
@@ -138,7 +139,7 @@ def test_no_absorbing_state_is_the_same_on_both_paths(path):
     pi, own = random_policies(g, 3, 0), random_policies(g, 3, 1)
     none = np.full(3, -1)
     start, horizon = np.array([0, 1, 2]), np.array([8, 8, 8])
-    dense = mdp.robot_transition(g.next_state, pi)  # (3, S, A, S), no state made absorbing
+    dense = task_mdp.robot_transition(g.next_state, pi)  # (3, S, A, S), no state made absorbing
     # Without an absorbing state every state passes its mass on: Σ_t d_t φ by hand.
     step = np.einsum("bsa,bsaz->bsz", own, dense)
     d = np.eye(g.n_states)[start]
@@ -185,7 +186,7 @@ def test_bad_discount_and_iteration_cap_are_refused():
 
 
 def test_no_jit_environment_variable_selects_the_numpy_path():
-    code = "from hri_envs.task import partner_mdp; print(partner_mdp.jit_enabled())"
+    code = "from agents.learning import partner_mdp; print(partner_mdp.jit_enabled())"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env={**os.environ, "HRI_ENVS_NO_JIT": "1"}, check=True)
     assert out.stdout.strip() == "False"
@@ -221,7 +222,7 @@ def test_maxent_q_equals_the_dense_solve_of_its_reward(path):
     dense = np.zeros((n_s, n_a, n_s))
     np.put_along_axis(dense, agent._next, 1.0, axis=-1)
     reward = np.einsum("isf,bf->bis", graph.features, agent.theta)
-    q = mdp.q_iteration(np.broadcast_to(dense, (2, graph.n_intentions, n_s, n_a, n_s)), reward,
+    q = task_mdp.q_iteration(np.broadcast_to(dense, (2, graph.n_intentions, n_s, n_a, n_s)), reward,
                         graph.valid, graph.terminal, agent.config.gamma)
     np.testing.assert_allclose(agent.q, q, atol=1e-10)
     assert not np.allclose(agent.theta[0], agent.theta[1])  # run 1 never learned
@@ -229,8 +230,10 @@ def test_maxent_q_equals_the_dense_solve_of_its_reward(path):
 
 def test_preload_loads_the_compiled_kernels_only_when_they_are_used(monkeypatch):
     assert partner_mdp.preload() is HAS_JIT
+    assert algorithm1.preload() is HAS_JIT
     monkeypatch.setattr(partner_mdp, "kernels", lambda: None)
     assert partner_mdp.preload() is False
+    assert algorithm1.preload() is False
 
 
 def test_a_broadcast_state_reward_is_every_mdps_on_both_paths(path):

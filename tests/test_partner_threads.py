@@ -10,11 +10,12 @@ import numpy as np
 import pytest
 
 from agents.learner import Learner
-from hri_envs.bench.speed import _wheel_trace
-from hri_envs.bench.study import graph_for
+from agents.learning import algorithm1, mdp, partner_mdp
+from agents.protocol import Trace
+from hri_bench.speed import _wheel_trace
+from hri_bench.study import graph_for
 from hri_envs.errors import ConfigError
-from hri_envs.task import mdp, partner_mdp
-from hri_envs.task.protocol import Trace
+from hri_envs.task import mdp as task_mdp
 from tests.helpers_partner import HAS_JIT
 
 needs_jit = pytest.mark.skipif(not HAS_JIT, reason="numba is not importable")
@@ -136,8 +137,8 @@ def test_threads_give_the_same_numbers_bit_for_bit(threads):
 
     one, two = learn(1), learn(2)
     assert partner_mdp._threads_here(100) == 2
-    for name in ("theta", "pi_h", "q_h", "q_r", "pi_r", "_warm_h", "_warm_r"):
-        assert getattr(one, name).tobytes() == getattr(two, name).tobytes(), name
+    for name, a, b in zip(algorithm1.Models._fields, one._models, two._models, strict=True):
+        assert a.tobytes() == b.tobytes(), name
 
 
 @needs_jit  # without numba solve_soft is those three calls
@@ -145,7 +146,7 @@ def test_threads_give_the_same_numbers_bit_for_bit(threads):
 def test_solve_soft_is_the_three_calls_bit_for_bit(kind):
     g = graph_for("wheel")
     rng = np.random.default_rng(7)
-    pi = mdp.softmax(rng.normal(size=(5, 3, g.n_states, g.n_actions)), g.valid, 2.0)
+    pi = task_mdp.softmax(rng.normal(size=(5, 3, g.n_states, g.n_actions)), g.valid, 2.0)
     term = g.terminal[None, :]
     warm = rng.integers(0, 2, (5, 3, g.n_states)) * g.valid.argmax(-1)  # valid actions
     if kind == "state":
@@ -169,7 +170,7 @@ def test_solve_soft_is_the_three_calls_bit_for_bit(kind):
                                           "joint_reward": np.zeros((24, 10, 10))}])
 def test_solve_soft_needs_exactly_one_reward(path, rewards):
     g = graph_for("hanger")
-    pi = mdp.softmax(np.zeros((1, g.n_states, g.n_actions)), g.valid, 1.0)
+    pi = task_mdp.softmax(np.zeros((1, g.n_states, g.n_actions)), g.valid, 1.0)
     with pytest.raises(ConfigError, match="exactly one of state_reward") as err:
         partner_mdp.solve_soft(g.next_state, pi, g.valid, 0.9, 1.0, **rewards)
     assert err.value.field == "state_reward"
@@ -179,7 +180,7 @@ def _models_inputs(seed, n_b=30, scenario="wheel"):
     """Random but valid inputs of update_models: policies, θ, warm starts, looped traces."""
     g = graph_for(scenario)
     rng = np.random.default_rng(seed)
-    pi_r = mdp.softmax(rng.normal(size=(n_b, g.n_intentions, g.n_states, g.n_actions)),
+    pi_r = task_mdp.softmax(rng.normal(size=(n_b, g.n_intentions, g.n_states, g.n_actions)),
                        g.valid, 2.0)
     theta = rng.normal(size=(n_b, g.n_features))
     first_valid = g.valid.argmax(-1)
@@ -207,16 +208,17 @@ def test_update_models_is_the_calls_it_stands_for_bit_for_bit(threads, n_threads
     args = dict(state_traces=traces if irl else None, intentions=intentions if irl else None,
                 **params)
     warm_ = warm if warm_start else None
-    fused = partner_mdp.update_models(*tables, theta, pi_r, warm_, **args)
-    garbage = partner_mdp.Models(*(np.full_like(a, 7) for a in fused))
-    reused = partner_mdp.update_models(*tables, theta, pi_r, warm_, out=garbage, **args)
+    fused = algorithm1.update_models(*tables, theta, pi_r, warm_, **args)
+    garbage = algorithm1.Models(*(np.full_like(a, 7) for a in fused))
+    reused = algorithm1.update_models(*tables, theta, pi_r, warm_, out=garbage, **args)
     nxt, ok, joint, phi, term = (np.asarray(t) for t in tables)
-    plain = partner_mdp._update_models_composed(
-        nxt.astype(np.int64), ok, joint, phi, term.astype(np.int64), theta, pi_r, warm_,
-        params["gamma"], params["human_temperature"], params["robot_temperature"],
-        params["irl_temperature"], params["learning_rate"], traces if irl else None,
-        intentions if irl else None, 100)
-    for name, a, b, c in zip(partner_mdp.Models._fields, fused, reused, plain, strict=True):
+    plain = algorithm1.reference_update(
+        algorithm1.Tables(nxt.astype(np.int64), ok, joint, phi, term.astype(np.int64)),
+        algorithm1.Params(params["gamma"], params["human_temperature"],
+                          params["robot_temperature"], params["irl_temperature"],
+                          params["learning_rate"]),
+        theta, pi_r, warm_, traces if irl else None, intentions if irl else None)
+    for name, a, b, c in zip(algorithm1.Models._fields, fused, reused, plain, strict=True):
         assert a.shape == c.shape and a.tobytes() == c.tobytes(), name
         assert b.tobytes() == c.tobytes(), name
     assert all(x is y for x, y in zip(reused[1:], garbage[1:], strict=True))
@@ -242,30 +244,30 @@ def test_update_models_refuses_bad_inputs_before_any_kernel_runs(path, change, f
     args = dict(theta=theta, pi_r=pi_r, warm=warm, state_traces=traces,
                 intentions=intentions) | change
     if field == "out.q_h":
-        good = partner_mdp.update_models(*tables, theta, pi_r, warm, **params)
+        good = algorithm1.update_models(*tables, theta, pi_r, warm, **params)
         args["out"] = good._replace(q_h=np.zeros((30, 3, 36, 11)))
     with pytest.raises(ConfigError) as err:
-        partner_mdp.update_models(*tables, args.pop("theta"), args.pop("pi_r"),
+        algorithm1.update_models(*tables, args.pop("theta"), args.pop("pi_r"),
                                   args.pop("warm"), **args, **params)
     assert err.value.field == field
 
 
-def test_the_learner_reuses_only_arrays_nobody_else_holds():
-    """Its update writes into the arrays of the update before last, unless a caller still
-    holds one of them (by name or through a view): those stay as they were."""
+def test_a_learner_writes_into_arrays_only_with_a_workspace():
+    """With a workspace, each update writes into the arrays of the update before last (the
+    same numbers as fresh arrays); without one, an array it handed out is never changed."""
     graph, trace = _wheel_trace()
-    learner = Learner(graph, 20)
-    traces, ints = [trace] * 20, np.ones(20, np.int64)
-    learner.end_episode(traces, ints)
-    learner.end_episode(traces, ints)
-    assert learner._spare is not None  # nothing holds the replaced arrays: reused
-    held, view = learner.q_r, learner.pi_h[:, 1]
-    q_r, pi_h = held.copy(), learner.pi_h.copy()
-    for _ in range(3):
-        learner.end_episode(traces[:1] * 20, np.full(20, 2))  # another episode: models move
-    assert np.array_equal(held, q_r) and np.array_equal(view, pi_h[:, 1])
-    assert not np.shares_memory(learner.q_r, held) and not np.shares_memory(learner.pi_h, view)
-    assert not np.array_equal(learner.q_r, q_r)
+    traces = [trace] * 20
+    plain, reusing = Learner(graph, 20), Learner(graph, 20, workspace=algorithm1.Workspace())
+    held = []
+    for e in range(4):
+        for learner in (plain, reusing):
+            learner.end_episode(traces if e % 2 else traces[:1] * 20, np.full(20, 1 + e % 2))
+        held.append((plain.q_r, plain.q_r.copy(), reusing.q_r))
+        for a, b in zip(plain._models, reusing._models, strict=True):
+            assert a.tobytes() == b.tobytes()
+    assert all(np.array_equal(a, copy) for a, copy, _ in held)  # never overwritten
+    assert len({id(a) for a, _, _ in held}) == 4
+    assert held[2][2] is held[0][2] and held[3][2] is held[1][2]  # two sets, alternating
 
 
 def test_a_theta_changed_in_place_is_the_one_the_next_update_learns_from():
@@ -276,13 +278,10 @@ def test_a_theta_changed_in_place_is_the_one_the_next_update_learns_from():
     learner = Learner(graph, 4)
     learner.end_episode(traces, ints)
     learner.theta[1] = 0.5
-    c = learner.config
-    expected = partner_mdp.update_models(
-        learner._next, learner._valid, learner._reward, learner._features, learner._terminal,
-        learner.theta, learner.pi_r, (learner._warm_h, learner._warm_r), gamma=c.gamma,
-        human_temperature=c.human_temperature, robot_temperature=c.robot_model_temperature,
-        irl_temperature=c.irl_temperature, learning_rate=c.learning_rate,
-        state_traces=[t.states for t in traces], intentions=ints)
+    last = learner._models
+    expected = algorithm1.update(learner._tables, learner._params, learner.theta,
+                                 learner.pi_r, last, state_traces=[t.states for t in traces],
+                                 intentions=ints)
     learner.end_episode(traces, ints)
     for name, value in (("theta", expected.theta), ("pi_h", expected.pi_h),
                         ("pi_r", expected.pi_r)):

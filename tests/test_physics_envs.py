@@ -106,9 +106,9 @@ def test_episode_video(tmp_path):
 
 def test_simulate_on_the_physics_backend():
     from baselines import Passive
-    from hri_envs.bench.runner import make_schedule, simulate
+    from hri_bench.runner import make_schedule, simulate
     from hri_envs.envs.config import scenario_graph
-    from hri_envs.task.humans import preference_human
+    from hri_envs.humans.scripted import preference_human
 
     g = scenario_graph("hanger")
     human = preference_human(g)

@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 import hri_envs  # noqa: F401  (registers the ids)
-from hri_envs.envs.backends import BACKENDS, PHYSICS_PARAMETERS
+from hri_envs.envs.backends import BACKENDS
 from hri_envs.envs.config import check_physics_options, scenario_graph
 from hri_envs.errors import ConfigError
 from hri_envs.physics import PandaSim
-from hri_envs.physics.options import PARAMETER_KEYS, PRESETS
+from hri_envs.physics.design import PRESET_NAMES, design_for
+from hri_envs.physics.options import OPTION_KEYS, PARAMETER_KEYS, PHYSICS_PARAMETERS
 from hri_envs.physics.sensing import SensorModel
 from hri_envs.task.graph import TAKE_OFF, TOGGLE, WAIT
 from tests.helpers_physics import named as _named
@@ -97,11 +98,12 @@ def test_sensor_model_delay_bias_and_noise():
 
 def test_physics_option_keys_are_listed_once():
     spec = BACKENDS["mujoco"]
-    assert set(PARAMETER_KEYS) == set(PHYSICS_PARAMETERS) <= set(spec.options)
-    assert set(spec.presets) == set(PRESETS)
-    for preset in PRESETS.values():  # every preset covers both scenarios with known keys
-        assert set(preset) == {"hanger", "wheel"}
-        for values in preset.values():
+    assert set(PARAMETER_KEYS) == set(PHYSICS_PARAMETERS) <= set(OPTION_KEYS)
+    assert set(spec.presets) == set(PRESET_NAMES)
+    for scenario in ("hanger", "wheel"):  # every design sets every preset, with known keys
+        presets = design_for(scenario).presets
+        assert set(presets) == set(PRESET_NAMES)
+        for values in presets.values():
             check_physics_options(values, "mujoco")
 
 
@@ -207,7 +209,8 @@ def test_physics_options_set_the_episode(hanger):
         sim.reset(0, rng=np.random.default_rng(seed))
         assert sim.model.body_mass[b] == 0.6  # the true mass ...
         assert sim.controller.weight[2] == pytest.approx(0.3 * 9.81)  # ... the nominal payload
-        assert sim.human.design.human_force == PRESETS["weak-human"]["hanger"]["human_force"]
+        weak = design_for("hanger").presets["weak-human"]
+        assert sim.human.design.human_force == weak["human_force"]
         assert sim.human.design.human_delay_s == 0.4
         biases.append(sim.params.sensor_bias_n)
         assert np.linalg.norm(sim.sensor.model.bias[:3]) == pytest.approx(biases[-1])

@@ -12,12 +12,11 @@ import pytest
 import hri_envs  # noqa: F401  (registers the envs)
 from agents.config import default_config
 from agents.learner import Learner
-from hri_envs.bench.cli import main
-from hri_envs.bench.runner import ScriptedHumans, make_schedule
-from hri_envs.bench.study import StudyConfig, run_study
+from hri_bench.cli import main
+from hri_bench.runner import human_streams, make_schedule
+from hri_bench.study import StudyConfig, run_study
 from hri_envs.errors import ConfigError
-from hri_envs.task.humans import preference_human, preferences_for
-from hri_envs.task.populations import (
+from hri_envs.humans.populations import (
     POPULATIONS,
     HumanDraw,
     draw_human,
@@ -26,6 +25,8 @@ from hri_envs.task.populations import (
     preference_q,
     rational_human,
 )
+from hri_envs.humans.scripted import preference_human, preferences_for
+from hri_envs.humans.tables import TableHumans
 from hri_envs.task.scenarios import scenario_graph
 
 SCENARIOS = ("hanger", "wheel")
@@ -111,11 +112,11 @@ def test_drifting_human_acts_by_the_new_preference_after_k() -> None:
     """In the runner the human's actions follow the second preference from episode K on."""
     g = scenario_graph("wheel")
     straight, detour = preference_human(g, "straight"), preference_human(g, "detour")
-    humans = ScriptedHumans([[straight, straight, detour]], [0], seed=0)
+    humans = TableHumans([[straight, straight, detour]])
     s = np.array([int(g.mounting_state[1])])
     picks = []
-    for e in range(4):
-        humans.begin_episode(e)
+    for _ in range(4):
+        humans.begin_episode(np.array([0]), np.array([2]))
         picks.append(int(humans.preferred_action(s, np.array([0]), np.array([2]))[0]))
     expect = [straight.preferred_action(s, 0, 2)[0]] * 2 + [detour.preferred_action(s, 0, 2)[0]] * 2
     assert picks == expect
@@ -127,21 +128,22 @@ def test_per_run_humans_match_the_shared_human_when_identical() -> None:
     g = scenario_graph("hanger")
     human = rational_human(preference_human(g, passive=0.2), 3.0)
     runs = [0, 1, 2, 3]
-    shared = ScriptedHumans(human, runs, seed=1)
-    per_run = ScriptedHumans([[human]] * 4, runs, seed=1)
+    shared, per_run = TableHumans(human, 4), TableHumans([[human]] * 4)
+    shared.seed(human_streams(1, runs))
+    per_run.seed(human_streams(1, runs))
     rng = np.random.default_rng(2)
     for _ in range(30):
         s = rng.integers(0, g.n_states, 4)
         start, goal = rng.integers(0, 3, 4), rng.integers(0, 3, 4)
         active = rng.random(4) < 0.8
-        np.testing.assert_array_equal(shared(s, start, goal, s, active),
-                                      per_run(s, start, goal, s, active))
+        seen = {"state": s, "start": start, "intention": goal}
+        np.testing.assert_array_equal(shared.act(seen, active), per_run.act(seen, active))
 
 
 def test_per_run_turning_back_rates_drive_the_schedule() -> None:
     g = scenario_graph("hanger")
     never, always = preference_human(g), preference_human(g, turn_back=1.0)
-    humans = ScriptedHumans([[never], [always]], [0, 1], seed=0)
+    humans = TableHumans([[never], [always]])
     sched = make_schedule(g, "random", [0, 1], 6, 0, humans)
     assert not sched.turn_back[0].any() and sched.turn_back[1].all()
 

@@ -24,19 +24,19 @@ from agents.rl import (
     train_dqn,
     train_maskable_ppo,
 )
+from agents.rollout import run_episode
 from agents.sb3 import SB3Agent, SB3BatchAgent, detect_algorithm, load_model
-from hri_envs.bench.agents import make_agent, validate_agent_name
-from hri_envs.bench.cli import main as bench_main
-from hri_envs.bench.runner import make_schedule, simulate
-from hri_envs.bench.sample_efficiency import (
+from hri_bench.agents import make_agent, validate_agent_name
+from hri_bench.cli import main as bench_main
+from hri_bench.runner import make_schedule, simulate
+from hri_bench.sample_efficiency import (
     SampleEfficiencyConfig,
     episodes_to_reach,
     plot,
     run_sample_efficiency,
 )
-from hri_envs.bench.study import graph_for
-from hri_envs.envs.rollout import run_episode
-from hri_envs.task.humans import preference_human
+from hri_bench.study import graph_for
+from hri_envs.humans.scripted import preference_human
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

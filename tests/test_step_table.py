@@ -75,8 +75,8 @@ def test_the_over_context_is_neutral():
 @pytest.mark.parametrize("reward", ["paper", "no-free-toggle"])
 def test_the_greedy_table_is_the_step_table_at_the_humans_action(scenario, reward):
     """All (start, lifted, s, ι, a_R) against the step table at a_H = human[start, ι, s]."""
+    from hri_envs.humans.scripted import preference_human
     from hri_envs.task.greedy_table import GreedyStepTable
-    from hri_envs.task.humans import preference_human
 
     graph = scenario_graph(scenario)
     steps = StepTable(EpisodeRules(graph, -0.3, reward))

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from hri_envs.bench import study
-from hri_envs.bench.study import StudyConfig, run_study
+from hri_bench import study
+from hri_bench.study import StudyConfig, run_study
 
 
 def test_mixed_preference_batch_equals_one_batch_per_preference(monkeypatch):

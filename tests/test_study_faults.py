@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hri_envs.bench.cli import main
-from hri_envs.bench.study import StudyConfig, run_study
+from hri_bench.cli import main
+from hri_bench.study import StudyConfig, run_study
 from hri_envs.errors import ActionError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -26,7 +26,7 @@ STUDY = ["study", "hanger", "--preference", "all", "--runs", "36", "--episodes",
 
 def _cli(args, **kwargs):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    return subprocess.Popen([sys.executable, "-m", "hri_envs.bench.cli", *args], env=env,
+    return subprocess.Popen([sys.executable, "-m", "hri_bench.cli", *args], env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             cwd=ROOT, **kwargs)
 
@@ -124,7 +124,7 @@ def test_resume_refuses_a_folder_of_another_study(tmp_path, capsys):
     (out / ".units").mkdir(parents=True)
     base = ["study", "wheel", "--runs", "2", "--episodes", "1", "--no-progress", "--out",
             str(out)]
-    from hri_envs.bench.studyio import StudyDir
+    from hri_bench.studyio import StudyDir
 
     StudyDir(out, StudyConfig("wheel", runs=2, episodes=1, seed=5), overwrite=True)
     with pytest.raises(SystemExit):
@@ -134,7 +134,7 @@ def test_resume_refuses_a_folder_of_another_study(tmp_path, capsys):
 
 def test_unwritable_out(tmp_path, capsys, monkeypatch):
     # chmod does not stop root, so the permission check itself is made to say no.
-    monkeypatch.setattr("hri_envs.bench.studyio.os.access", lambda *args, **kwargs: False)
+    monkeypatch.setattr("hri_bench.studyio.os.access", lambda *args, **kwargs: False)
     with pytest.raises(SystemExit):
         main(["study", "wheel", "--runs", "1", "--out", str(tmp_path / "x")])
     assert "cannot write" in capsys.readouterr().err
@@ -182,7 +182,7 @@ def test_config_replays_a_study_byte_for_byte(tmp_path, capsys):
 
 
 def test_settings_round_trip_and_unknown_settings_are_named():
-    from hri_envs.bench.study import Probe
+    from hri_bench.study import Probe
     from hri_envs.errors import ConfigError
 
     cfg = StudyConfig("hanger", agents=("learner",), runs=2, turn_back=0.2,

@@ -5,9 +5,9 @@ import json
 import numpy as np
 import pytest
 
-from hri_envs.bench import suite
-from hri_envs.bench.cli import main
-from hri_envs.bench.suite import (
+from hri_bench import suite
+from hri_bench.cli import main
+from hri_bench.suite import (
     INTENTION_BLIND,
     TRACKS,
     episodes_to_converge,

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from hri_envs.humans.scripted import boltzmann_human, preference_human
 from hri_envs.task import (
     build_graph,
     hanger_scenario,
@@ -22,11 +23,7 @@ from hri_envs.task.episode import (
 )
 from hri_envs.task.features import feature_groups
 from hri_envs.task.graph import PUT_ON, ROTATE, TAKE_OFF, TOGGLE, WAIT
-from hri_envs.task.humans import (
-    HANGER_PREFERENCES,
-    boltzmann_human,
-    preference_human,
-)
+from hri_envs.task.scenarios.hanger import PREFERENCES as HANGER_PREFERENCES
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ A backend has two faces, both looked up here by its name so that no caller compa
 * an :class:`~hri_envs.envs.episode.Episode` subclass, one running episode with scalar
   state, for the single-episode envs;
 * a :class:`BatchBackend` subclass, which advances the runs of a study for the benchmark's
-  one simulation loop (:func:`hri_envs.bench.runner.simulate`).
+  one simulation loop (:func:`hri_bench.runner.simulate`).
 
 Both are named as ``"module:Class"`` entry points (Gymnasium's convention) and imported only
 when used, so an optional backend costs nothing until it is asked for, and a missing extra
@@ -17,7 +17,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 from abc import ABC, abstractmethod
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, NamedTuple
 
@@ -29,8 +29,6 @@ from hri_envs.task.graph import TaskGraph
 
 __all__ = [
     "BACKENDS",
-    "PHYSICS_MAXIMA",
-    "PHYSICS_PARAMETERS",
     "BackendSpec",
     "BatchBackend",
     "BatchStep",
@@ -39,6 +37,7 @@ __all__ = [
     "batch_backend",
     "check_backend",
     "episode_backend",
+    "options_checker",
     "register_backend",
 ]
 
@@ -54,8 +53,11 @@ class BackendSpec:
         requires: Modules it needs (checked before it is loaded).
         extra: The ``hri-envs`` extra that installs them.
         vectorizable: The numpy vector env can run it (only table look-ups can).
-        options: Keys its Episode accepts as ``physics={...}`` options.
-        presets: Names ``physics={"preset": ...}`` (and ``--physics-preset``) accepts.
+        options: ``"module:function"`` checking its ``physics={...}`` options (it returns
+            them checked, or raises a :class:`~hri_envs.errors.ConfigError` naming the key);
+            None: the backend takes no options.
+        presets: Names ``physics={"preset": ...}`` (and ``--physics-preset``) accepts (the
+            checker knows them too; listed here for help texts that must not import it).
     """
 
     name: str
@@ -64,30 +66,9 @@ class BackendSpec:
     requires: tuple[str, ...] = ()
     extra: str | None = None
     vectorizable: bool = False
-    options: tuple[str, ...] = ()
+    options: str | None = None
     presets: tuple[str, ...] = ()
 
-
-#: The mujoco backend's numeric physics options: key -> (unit, must be > 0 rather than
-#: >= 0, meaning). Their defaults are the scenario's design (docs/physics.md).
-PHYSICS_PARAMETERS: dict[str, tuple[str, bool, str]] = {
-    "human_stiffness": ("N/m", True, "the human's arm stiffness"),
-    "human_force": ("N", True, "the most force the human applies"),
-    "human_noise": ("N", False, "std of the human's force noise"),
-    "human_delay_s": ("s", False, "the human's reaction delay"),
-    "human_mass": ("kg", True, "effective mass of the human's embodied forearm"),
-    "sensor_noise_n": ("N", False, "std of the wrist sensor's noise per control step"),
-    "sensor_bias_n": ("N", False, "magnitude of the wrist sensor's bias"),
-    "sensor_delay_s": ("s", False, "delay of the wrist sensor"),
-    "object_mass": ("kg", True, "the object's true mass"),
-    "hold_force": ("N", False, "the supports' detent force"),
-    "human_grip_force": ("N", True, "how hard the human's thumb squeezes the handle"),
-    "handle_noise_n": ("N", False, "std of the handle's touch sensor reading"),
-}
-
-#: Upper bounds of the physics options that have one: a thumb squeezing harder than this
-#: goes through the handle's contact at the 2 ms physics step and misreads.
-PHYSICS_MAXIMA: dict[str, float] = {"human_grip_force": 12.0}
 
 BACKENDS: dict[str, BackendSpec] = {}
 
@@ -102,8 +83,7 @@ register_backend(BackendSpec("graph", "hri_envs.envs.episode:Episode",
 register_backend(BackendSpec("mujoco", "hri_envs.physics.episode:PhysicsEpisode",
                              "hri_envs.physics.batch:PhysicsBatch",
                              requires=("mujoco", "mink", "gymnasium_robotics"), extra="mujoco",
-                             options=("video_path", "video_fps", "preset", "randomize",
-                                      "attempt_invalid", *PHYSICS_PARAMETERS),
+                             options="hri_envs.physics.options:check_options",
                              presets=("weak-human", "noisy-sensor")))
 
 
@@ -129,6 +109,12 @@ def check_backend(backend: str) -> str:
 def _load(entry: str) -> Any:
     module, _, attr = entry.partition(":")
     return getattr(importlib.import_module(module), attr)
+
+
+def options_checker(name: str) -> Callable[[Mapping[str, Any]], dict[str, Any]] | None:
+    """The function checking backend ``name``'s ``physics`` options (None: it takes none)."""
+    entry = backend_spec(name).options
+    return None if entry is None else _load(entry)  # type: ignore[no-any-return]
 
 
 def episode_backend(name: str) -> type[Episode]:

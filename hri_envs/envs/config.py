@@ -12,18 +12,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from hri_envs.envs.backends import (
-    BACKENDS,
-    PHYSICS_MAXIMA,
-    PHYSICS_PARAMETERS,
-    backend_spec,
-    check_backend,
-)
+from hri_envs.envs.backends import BACKENDS, check_backend, options_checker
 from hri_envs.errors import ConfigError
 from hri_envs.task.geometry import Scenario
-from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import ScriptedHuman, check_probability, preference_human
-from hri_envs.task.populations import rational_human, validate_rationality
 from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 
 __all__ = [
@@ -39,7 +30,6 @@ __all__ = [
     "check_render_mode",
     "check_scenario",
     "episode_scenario",
-    "make_human",
     "parse_reset_options",
     "scenario_graph",
     "support_index",
@@ -117,100 +107,21 @@ def check_env_settings(
 def check_physics_options(physics: Mapping[str, Any] | None, backend: str) -> dict[str, Any]:
     """Validate the ``physics`` options against what ``backend`` accepts.
 
-    The keys are the backend's :attr:`~hri_envs.envs.backends.BackendSpec.options`:
-    ``video_path``, ``video_fps``, ``preset`` (one of its ``presets``), ``attempt_invalid``
-    (a bool), ``randomize``
-    (a mapping of numeric keys to ``(low, high)``) and the numeric
-    :data:`~hri_envs.envs.backends.PHYSICS_PARAMETERS` (docs/physics.md).
+    The backend's own checker does it (:attr:`~hri_envs.envs.backends.BackendSpec.options`;
+    the mujoco backend's keys are in :mod:`hri_envs.physics.options` and docs/physics.md);
+    a backend without options refuses any.
     """
+    if physics is not None and not isinstance(physics, Mapping):
+        raise ConfigError(f"physics must be a mapping of option names to values, got "
+                          f"{physics!r}", field="physics")
     if not physics:
         return {}
-    allowed = backend_spec(backend).options
-    if not allowed:
+    check = options_checker(backend)
+    if check is None:
         takes = [name for name, spec in BACKENDS.items() if spec.options]
         raise ConfigError(f"backend={backend!r} takes no physics options; backends that do: "
                           f"{', '.join(takes)}", field="physics")
-    unknown = sorted(set(physics) - set(allowed))
-    if unknown:
-        raise ConfigError(f"unknown physics option(s) {', '.join(map(repr, unknown))}; "
-                          f"allowed: {', '.join(allowed)}", field="physics")
-    fps = physics.get("video_fps", 10.0)
-    if isinstance(fps, bool) or not isinstance(fps, int | float) or not fps > 0:
-        raise ConfigError(f"physics option 'video_fps' must be a positive number, got {fps!r}",
-                          field="physics")
-    attempt = physics.get("attempt_invalid", False)
-    if not isinstance(attempt, bool | np.bool_):
-        raise ConfigError(f"physics option 'attempt_invalid' must be True or False, got "
-                          f"{attempt!r}", field="physics")
-    presets = backend_spec(backend).presets
-    if physics.get("preset") is not None and physics["preset"] not in presets:
-        raise ConfigError(f"unknown physics preset {physics['preset']!r}; allowed: "
-                          f"{', '.join(presets)}", field="physics")
-    params = [k for k in allowed if k in PHYSICS_PARAMETERS]
-    for key in params:
-        if key in physics:
-            _check_parameter(key, physics[key], f"physics option {key!r}")
-    randomize = physics.get("randomize")
-    if randomize is not None:
-        if not isinstance(randomize, Mapping):
-            raise ConfigError(f"physics option 'randomize' must map option names to (low, "
-                              f"high) ranges, got {randomize!r}", field="physics")
-        bad = sorted(set(randomize) - set(params))
-        if bad:
-            raise ConfigError(f"cannot randomize {', '.join(map(repr, bad))}; allowed: "
-                              f"{', '.join(params)}", field="physics")
-        for key, span in randomize.items():
-            if not isinstance(span, tuple | list) or len(span) != 2:
-                raise ConfigError(f"randomize[{key!r}] must be a (low, high) pair, got "
-                                  f"{span!r}", field="physics")
-            lo = _check_parameter(key, span[0], f"randomize[{key!r}] low")
-            hi = _check_parameter(key, span[1], f"randomize[{key!r}] high")
-            if lo > hi:
-                raise ConfigError(f"randomize[{key!r}] must have low <= high, got {span!r}",
-                                  field="physics")
-    return dict(physics)
-
-
-def _check_parameter(key: str, value: Any, label: str) -> float:
-    """A numeric physics parameter: finite, > 0 or >= 0 as its entry says, and at most its
-    maximum (:data:`~hri_envs.envs.backends.PHYSICS_MAXIMA`) if it has one.
-    """
-    unit, positive, _ = PHYSICS_PARAMETERS[key]
-    top = PHYSICS_MAXIMA.get(key, math.inf)
-    ok = isinstance(value, int | float | np.floating) and not isinstance(value, bool)
-    number = float(value) if ok else math.nan
-    if not (math.isfinite(number) and (number > 0.0 if positive else number >= 0.0)
-            and number <= top):
-        bound = ("> 0" if positive else ">= 0") + (f" and <= {top:g}" if top < math.inf else "")
-        raise ConfigError(f"{label} must be a number {bound} [{unit}], got {value!r}",
-                          field="physics")
-    return number
-
-
-def make_human(
-    graph: TaskGraph,
-    preference: str | None = None,
-    passive: float = 0.0,
-    turn_back: float = 0.0,
-    human: ScriptedHuman | None = None,
-    rationality: float = math.inf,
-) -> ScriptedHuman:
-    """The scripted human of a robot-only env: ``human`` as given, or a preference human
-    (Boltzmann with β = ``rationality`` if finite, see
-    :func:`hri_envs.task.populations.rational_human`).
-    """
-    validate_rationality(rationality)
-    if human is not None:
-        if human.graph.name != graph.name or human.graph.n_states != graph.n_states:
-            raise ConfigError(
-                f"the scripted human was built for the {human.graph.name} scenario, "
-                f"not the {graph.name}"
-            )
-        return human
-    passive = check_probability(passive, "human_passive")  # the env's name for it
-    turn_back = check_probability(turn_back, "turn_back")
-    return rational_human(preference_human(graph, preference, passive=passive,
-                                           turn_back=turn_back), rationality)
+    return check(physics)
 
 
 def support_index(value: Any, scenario: Scenario, key: str) -> int:

@@ -48,7 +48,7 @@ class Episode:
     Args:
         rules: The scenario's :class:`~hri_envs.task.episode.EpisodeRules`.
         turn_state: (K, K) int, where a turning-back human switches ι to the start support
-            (-1 = never), see :attr:`hri_envs.task.humans.ScriptedHuman.turn_state`; None
+            (-1 = never), see :attr:`hri_envs.humans.scripted.ScriptedHuman.turn_state`; None
             for a human who never turns back.
 
     Attributes:

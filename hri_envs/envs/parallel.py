@@ -22,8 +22,8 @@ from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, human_observation_space, robot_observation_space
 from hri_envs.envs.window import check_display
 from hri_envs.errors import ActionError, ConfigError
+from hri_envs.humans.scripted import check_probability, preference_human
 from hri_envs.task.episode import EpisodeRules, goal_reward, reached_intention
-from hri_envs.task.humans import check_probability, preference_human
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["AGENTS", "CooperationParallelEnv"]

@@ -4,9 +4,10 @@
 (any backend, observation format or human reward) and lets a fixed partner play the other
 agent, so that a single-agent learner (SB3, your own) can train either seat:
 
-- ``learner="robot"``: the partner is a scripted human
-  (:class:`~hri_envs.task.humans.ScriptedHuman`, which acts on the true state and ι, as in
-  the Gymnasium robot env) or any policy;
+- ``learner="robot"``: the partner is a human of the human protocol (a
+  :class:`~hri_envs.humans.scripted.ScriptedHuman`, a :class:`~hri_envs.humans.protocol.Human`
+  or a one-row :class:`~hri_envs.humans.protocol.BatchHuman`, which act on the true state
+  and ι, as in the Gymnasium robot env) or any policy;
 - ``learner="human"``: the partner is a robot policy, for a *learning human*; pair it with
   ``human_reward="goal"`` so that the human is paid for reaching its own goal.
 
@@ -27,12 +28,18 @@ import numpy as np
 
 from hri_envs.envs.formats import ClassicLayout
 from hri_envs.envs.parallel import AGENTS, CooperationParallelEnv
+from hri_envs.envs.spaces import check_action
 from hri_envs.errors import ConfigError
+from hri_envs.humans.protocol import BatchHuman, Human
+from hri_envs.humans.scripted import ScriptedHuman
+from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task.actions import HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import ScriptedHuman, preference_human
 
 __all__ = ["PartnerEnv", "Policy", "following_robot", "random_valid_policy", "waiting_policy"]
+
+_ONE = np.ones(1, dtype=bool)
+_ONE.setflags(write=False)
 
 #: ``policy(observation, rng) -> action`` of the partner agent.
 Policy = Callable[[Any, np.random.Generator], int]
@@ -82,10 +89,10 @@ class PartnerEnv(gym.Env[Any, np.int64]):
     Args:
         env: The two-agent parallel env (e.g. ``hanger_v0.parallel_env(human_reward="goal")``).
         learner: The agent the caller controls, "robot" (default) or "human".
-        partner: The other agent: a :class:`~hri_envs.task.humans.ScriptedHuman` (only when
-            the learner is the robot) or a :data:`Policy`. Default: the scenario's
-            preference human for a learning robot, :func:`following_robot` for a learning
-            human.
+        partner: The other agent: a human (a ``ScriptedHuman``, ``Human`` or one-row
+            ``BatchHuman``; only when the learner is the robot) or a :data:`Policy`.
+            Default: the scenario's preference human for a learning robot,
+            :func:`following_robot` for a learning human.
 
     The observation and action spaces are the learner's in ``env``; ``step`` returns the
     learner's observation, reward, termination, truncation and info. The partner draws from
@@ -93,7 +100,7 @@ class PartnerEnv(gym.Env[Any, np.int64]):
     """
 
     def __init__(self, env: CooperationParallelEnv, learner: str = "robot",
-                 partner: ScriptedHuman | Policy | None = None) -> None:
+                 partner: HumanLike | Policy | None = None) -> None:
         if learner not in AGENTS:
             raise ConfigError(f"unknown learner {learner!r}; allowed: "
                               f"{', '.join(map(repr, AGENTS))}", field="learner")
@@ -102,41 +109,52 @@ class PartnerEnv(gym.Env[Any, np.int64]):
                               f"got {env.possible_agents}", field="env")
         self.env, self.learner = env, learner
         self.partner_agent = "human" if learner == "robot" else "robot"
-        graph = env.unwrapped.graph
-        if partner is None:
-            partner = (preference_human(graph) if learner == "robot"
-                       else following_robot(graph))
-        if isinstance(partner, ScriptedHuman):
+        self.graph = graph = env.unwrapped.graph
+        self._human: BatchHuman | None = None
+        self._policy: Policy | None = None
+        if isinstance(partner, ScriptedHuman | Human | BatchHuman) or (
+                partner is None and learner == "robot"):
             if learner != "robot":
-                raise ConfigError("a ScriptedHuman can only play the human; for "
+                raise ConfigError("a human partner can only play the human; for "
                                   "learner='human' give the robot a policy(observation, rng)",
                                   field="partner")
-            if partner.graph.name != graph.name:
-                raise ConfigError(f"the scripted human was built for the "
-                                  f"{partner.graph.name}, the env is the {graph.name}",
-                                  field="partner")
+            self._human = seat_human(graph, human=partner)
             # The env applies the episode rules: it turns back where and as often as this
             # human does.
-            env.unwrapped._episode.set_turn_state(partner.turn_state)
-            env.unwrapped.turn_back = partner.turn_back
-        elif not callable(partner):
-            raise ConfigError(f"partner must be a ScriptedHuman or a callable "
-                              f"policy(observation, rng) -> action, got {partner!r}",
+            where = self._human.turn_state
+            if where is not None:
+                env.unwrapped._episode.set_turn_state(where if where.ndim == 2 else where[0])
+            env.unwrapped.turn_back = float(self._human.turn_back[0])
+        elif partner is None:
+            self._policy = following_robot(graph)
+        elif callable(partner):
+            self._policy = partner
+        else:
+            raise ConfigError(f"partner must be a human (ScriptedHuman, Human, BatchHuman) or "
+                              f"a callable policy(observation, rng) -> action, got {partner!r}",
                               field="partner")
-        self.partner = partner
+        #: The partner: the human in the seat, or the policy.
+        self.partner: BatchHuman | Policy = self._human or self._policy  # type: ignore[assignment]
         self.observation_space = env.observation_space(learner)
         self.action_space = env.action_space(learner)
         self.metadata = dict(env.metadata)
         self.render_mode = env.render_mode
         self._obs: dict[str, Any] = {}
         self._partner_rng = np.random.default_rng(0)
+        self._seen: dict[str, np.ndarray] = {}
 
-    def _partner_action(self) -> int:
-        if isinstance(self.partner, ScriptedHuman):
-            state, start, intention = (int(v) for v in self.env.state()[:3])
-            return int(self.partner.act(self._partner_rng, np.array([state]),
-                                        np.array([start]), np.array([intention]))[0])
-        return int(self.partner(self._obs[self.partner_agent], self._partner_rng))
+    def _partner_action(self, action: Any) -> int:
+        """The partner's action in this step (``action``: the learner's)."""
+        if self._policy is not None:
+            return int(self._policy(self._obs[self.partner_agent], self._partner_rng))
+        assert self._human is not None
+        state, start, intention, last_human = (int(v) for v in self.env.state()[:4])
+        self._seen = {"state": np.array([state]), "start": np.array([start]),
+                      "intention": np.array([intention]),
+                      "last_human_action": np.array([last_human]),
+                      "action_mask": self.graph.valid[state].astype(np.int8)[None],
+                      "robot_action": np.array([int(action)])}
+        return int(self._human.act(self._seen, _ONE)[0])
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -148,15 +166,27 @@ class PartnerEnv(gym.Env[Any, np.int64]):
         # its draws are not the very bits the env used for start, intention and turning back.
         self._partner_rng = np.random.default_rng(
             int(self.env.unwrapped.np_random.integers(2**63)))
+        if self._human is not None:
+            self._human.seed(self._partner_rng)
+            state = self.env.state()
+            self._human.begin_episode(state[1:2], state[2:3])
         return self._obs[self.learner], infos[self.learner]
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """The learner plays ``action``, the partner its own; one joint step."""
         if not self.env.agents:
             raise RuntimeError("the episode has ended (or never started); call reset() first")
-        actions = {self.learner: action, self.partner_agent: self._partner_action()}
+        if self._human is not None:  # the human sees the robot's action: check it first
+            action = check_action("robot", action, int(self.env.action_space("robot").n))
+        partner = self._partner_action(action)
+        actions = {self.learner: action, self.partner_agent: partner}
         self._obs, rewards, terms, truncs, infos = self.env.step(actions)
         me = self.learner
+        if self._human is not None:
+            self._human.observe(self._seen["state"], self._seen["robot_action"],
+                                np.array([partner]), self.env.state()[:1], _ONE)
+            if not self.env.agents:
+                self._human.end_episode()
         return self._obs[me], float(rewards[me]), bool(terms[me]), bool(truncs[me]), infos[me]
 
     def action_masks(self) -> np.ndarray:

@@ -13,7 +13,6 @@ from hri_envs.envs.backends import episode_backend
 from hri_envs.envs.config import (
     check_env_settings,
     check_physics_options,
-    make_human,
     parse_reset_options,
     scenario_graph,
 )
@@ -22,12 +21,15 @@ from hri_envs.envs.formats import ClassicLayout, check_observation_format
 from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, robot_observation_space
 from hri_envs.envs.window import check_display
+from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task.episode import EpisodeRules, reached_intention
-from hri_envs.task.humans import ScriptedHuman
-from hri_envs.task.populations import build_human, population_spec
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["RobotEnv"]
+
+_ONE = np.ones(1, dtype=bool)
+_ONE.setflags(write=False)
 
 
 class RobotEnv(gym.Env[dict[str, Any], np.int64]):
@@ -40,7 +42,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
     Spaa, Kober, Gienger, *Simultaneously learning intentions and preferences during
     physical human-robot cooperation*). The dynamics are the abstract transition graph of
     :mod:`hri_envs.task.graph`; in each step the human acts by its preference
-    (:func:`hri_envs.task.humans.preference_human`), optionally passive or turning back.
+    (:func:`hri_envs.humans.scripted.preference_human`), optionally passive or turning back.
     This is the two-agent :class:`~hri_envs.envs.parallel.CooperationParallelEnv` seen from
     the robot.
 
@@ -97,16 +99,18 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
 
     - ``scenario``: "hanger" or "wheel" (set by the registered id);
     - ``preference``: the scripted human's preference, one of
-      :func:`hri_envs.task.humans.preferences_for` (default: the hanger study's most frequent
+      :func:`hri_envs.humans.scripted.preferences_for` (default: the hanger study's most frequent
       one, or the wheel's "straight");
     - ``human_passive``: probability that the human waits in a step (paper Fig. 10c: 0.2);
     - ``turn_back``: probability per episode that the human turns back halfway;
-    - ``human``: a ready-made :class:`~hri_envs.task.humans.ScriptedHuman` (for example a
-      Boltzmann human); replaces the three arguments above;
+    - ``human``: a ready-made human, replacing the three arguments above: a
+      :class:`~hri_envs.humans.scripted.ScriptedHuman` (for example a Boltzmann human), or
+      any :class:`~hri_envs.humans.protocol.Human` or one-row
+      :class:`~hri_envs.humans.protocol.BatchHuman` (a human who keeps state, a person);
     - ``human_rationality``: β of a Boltzmann human that samples its free-space action from
       ``softmax(β · Q_pref)``, the value of following its preference (docs/environments.md,
       "Human populations"); ``inf`` (default) is the deterministic scripted human;
-    - ``population``: a name of :data:`hri_envs.task.populations.POPULATIONS`; every
+    - ``population``: a name of :data:`hri_envs.humans.populations.POPULATIONS`; every
       ``reset`` draws a new human (preference, β, passive and turning-back rates) from it
       with the env's ``np_random``, replacing the human arguments above;
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
@@ -150,7 +154,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         preference: str | None = None,
         human_passive: float = 0.0,
         turn_back: float = 0.0,
-        human: ScriptedHuman | None = None,
+        human: HumanLike | None = None,
         human_rationality: float = math.inf,
         population: str | None = None,
         r0: float | None = None,
@@ -173,12 +177,12 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
             check_display()
 
         self.graph = scenario_graph(scenario)
-        self.human = make_human(self.graph, preference, human_passive, turn_back, human,
-                                human_rationality)
-        self.population = None if population is None else population_spec(population, scenario)
+        self._human: BatchHuman = seat_human(
+            self.graph, human=human, preference=preference, passive=human_passive,
+            turn_back=turn_back, rationality=human_rationality, population=population)
         self.rules = EpisodeRules(self.graph, self.r0, reward)
-        self._episode: Episode = episode_backend(self.backend)(self.rules,
-                                                               self.human.turn_state, **physics)
+        self._episode: Episode = episode_backend(self.backend)(self.rules, None, **physics)
+        self._sync_turn_state()
         self._sample_layout = scenario_spec(scenario).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self.observation_space = robot_observation_space(n_s, n_k, n_a)
@@ -188,9 +192,28 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
             self._observation = self._classic_observation  # type: ignore[method-assign]
         self.action_space = spaces.Discrete(n_a)
         self.layout: tuple[tuple[float, float], ...] | None = None
-        self._human_rng = np.random.default_rng(0)
         self._reward = 0.0
         self._done = True
+
+    @property
+    def human(self) -> BatchHuman:
+        """The human in the seat (a :class:`~hri_envs.humans.protocol.BatchHuman` of one row);
+        assign a ``ScriptedHuman``, ``Human`` or ``BatchHuman`` to replace it (from the next
+        reset on).
+        """
+        return self._human
+
+    @human.setter
+    def human(self, human: HumanLike) -> None:
+        self._human = seat_human(self.graph, human=human)
+        self._sync_turn_state()
+
+    def _sync_turn_state(self) -> None:
+        """Hand the episode where the seat's human turns back."""
+        ts = self._human.turn_state
+        if ts is None:
+            ts = np.full((self.graph.n_intentions,) * 2, -1)
+        self._episode.set_turn_state(ts if ts.ndim == 2 else ts[0])
 
     @property
     def intention(self) -> int:
@@ -208,12 +231,14 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         opts = parse_reset_options(options, self.graph.scenario)
         super().reset(seed=seed)
         rng = self.np_random
-        if self.population is not None:  # a new human from the population, drawn first
-            self.human = build_human(self.graph, self.population.sample(self.scenario_name, rng))
-            self._episode.set_turn_state(self.human.turn_state)
-        self._human_rng = np.random.default_rng(int(rng.integers(2**63)))
+        human = self._human
+        human.draw(rng)  # a population's new member, drawn first
+        self._sync_turn_state()
+        human.seed(np.random.default_rng(int(rng.integers(2**63))))
         self._episode.draw(rng, opts.start, opts.intention, opts.turn_back,
-                           self.human.turn_back)
+                           float(human.turn_back[0]))
+        ep = self._episode
+        human.begin_episode(np.array([ep.start]), np.array([ep.intention]))
         if self._sample_layout is not None:
             self.layout = opts.layout if opts.layout is not None else self._sample_layout(rng)
         self._episode.place(self.layout, rng)
@@ -230,15 +255,22 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         if self._done:
             raise RuntimeError("the episode has ended (or never started); call reset() first")
         ep = self._episode
-        a_h = int(self.human.act(self._human_rng, np.array([ep.state]), np.array([ep.start]),
-                                 np.array([ep.intention]))[0])
+        s, human = ep.state, self._human
+        seen = {"state": np.array([s]), "start": np.array([ep.start]),
+                "intention": np.array([ep.intention]),
+                "last_human_action": np.array([ep.last_human]),
+                "action_mask": self.rules.action_mask[s][None], "robot_action": np.array([a_r])}
+        a_h = int(human.act(seen, _ONE)[0])
         t = ep.advance(a_r, a_h)
+        human.observe(seen["state"], seen["robot_action"], np.array([a_h]),
+                      np.array([ep.state]), _ONE)
         self._reward = t.reward
         truncated = not t.terminated and (ep.steps >= self.max_cycles or ep.fault is not None)
         info: dict[str, Any] = {"aborted": t.aborted, "invalid_action": t.robot_invalid,
                                 "reached_intention": False, **ep.step_info()}
         self._done = t.terminated or truncated
         if self._done:
+            human.end_episode()
             info["reached_intention"] = t.terminated and bool(
                 reached_intention(self.graph, ep.state, ep.intention))
         if self._human_window:

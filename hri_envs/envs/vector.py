@@ -14,12 +14,14 @@ from hri_envs.envs.backends import backend_spec
 from hri_envs.envs.config import (
     RESET_OPTION_KEYS,
     check_env_settings,
-    make_human,
     scenario_graph,
     support_index,
 )
 from hri_envs.envs.spaces import robot_observation_space
 from hri_envs.errors import ActionError, ConfigError
+from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.seat import HumanLike, seat_human
+from hri_envs.humans.tables import TableHumans
 from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import (
     EpisodeRules,
@@ -28,7 +30,6 @@ from hri_envs.task.episode import (
     draw_start_intention,
 )
 from hri_envs.task.greedy_table import GreedyStepTable
-from hri_envs.task.humans import ScriptedHuman
 
 __all__ = ["RobotVectorEnv"]
 
@@ -90,10 +91,15 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     ## Arguments
 
     - ``num_envs``: number of episodes N stepped together;
-    - ``scenario``, ``preference``, ``human_passive``, ``turn_back``, ``human``,
+    - ``scenario``, ``preference``, ``human_passive``, ``turn_back``,
       ``human_rationality``, ``r0``, ``max_cycles``, ``backend``, ``reward``: as for
-      :class:`~hri_envs.envs.robot.RobotEnv` (every env shares one human; the per-reset
-      ``population`` draw of the single env is not offered here);
+      :class:`~hri_envs.envs.robot.RobotEnv` (every env shares one scripted human);
+    - ``human``: a :class:`~hri_envs.humans.scripted.ScriptedHuman` shared by every env, or
+      a :class:`~hri_envs.humans.protocol.BatchHuman` with ``num_envs`` rows (one human per
+      env, which may keep state across steps and episodes: the env calls its
+      ``begin_episode``, ``observe`` and ``end_episode`` for each env's episodes);
+    - ``population``: a name of :data:`hri_envs.humans.populations.POPULATIONS`: each env
+      draws a new human from it at every (auto)reset, with the env's ``np_random``;
     - ``render_mode``: must be None;
     - ``autoreset_mode``: ``AutoresetMode.NEXT_STEP`` (default) or ``SAME_STEP`` (or their
       string values).
@@ -116,8 +122,9 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         preference: str | None = None,
         human_passive: float = 0.0,
         turn_back: float = 0.0,
-        human: ScriptedHuman | None = None,
+        human: HumanLike | None = None,
         human_rationality: float = math.inf,
+        population: str | None = None,
         r0: float | None = None,
         max_cycles: int = 100,
         render_mode: str | None = None,
@@ -152,8 +159,10 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 "use gymnasium.make_vec(..., vectorization_mode='async') for a simulated backend"
             )
         self.graph = scenario_graph(scenario)
-        self.human = make_human(self.graph, preference, human_passive, turn_back, human,
-                                human_rationality)
+        self._human = seat_human(self.graph, human=human, preference=preference,
+                                 passive=human_passive, turn_back=turn_back,
+                                 rationality=human_rationality, population=population,
+                                 n_runs=self.num_envs)
         self.rules = EpisodeRules(self.graph, self.r0, reward)
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self.single_observation_space = robot_observation_space(n_s, n_k, n_a)
@@ -184,13 +193,23 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._due = 0  # no env reaches its deadline (of _t) before this step
         self._ended = np.zeros(0, dtype=np.int64)  # envs whose episode ended in the last step
         self._all = np.ones(n, dtype=bool)
-        self._human_rng = np.random.default_rng(0)
         self._greedy: GreedyStepTable | None = None
-        self._greedy_human: ScriptedHuman | None = None
-        self._adopt(self.human)
+        self._adopted: BatchHuman | None = None
+        self._adopt(self._human)
         self._needs_reset = True
 
     # ----------------------------------------------------------------- helpers
+    @property
+    def human(self) -> BatchHuman:
+        """The humans in the seats (a :class:`~hri_envs.humans.protocol.BatchHuman` with a row
+        per env); assign a ``ScriptedHuman`` or a ``BatchHuman`` to replace them.
+        """
+        return self._human
+
+    @human.setter
+    def human(self, human: HumanLike) -> None:
+        self._human = seat_human(self.graph, human=human, n_runs=self.num_envs)
+
     def action_masks(self) -> np.ndarray:
         """(N, A) bool, each env's valid actions in its current state."""
         return self.graph.valid.take(self._state, axis=0)
@@ -221,26 +240,31 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         idx = np.array([support_index(v, scenario, key) for v in items], dtype=np.int64)
         return np.broadcast_to(idx, (self.num_envs,)).copy()
 
-    def _draw_turn(self, n: int) -> np.ndarray:
-        return self.human.draw_turn_back(self.np_random, n)
+    def _draw_turn(self, rows: np.ndarray | slice) -> np.ndarray | None:
+        """Whether the new episodes of ``rows`` turn back (None: no human of them can)."""
+        p = self._human.turn_back[rows]
+        if not (p > 0.0).any():
+            return None
+        return self.np_random.random(p.size) < p  # type: ignore[no-any-return]
 
-    def _adopt(self, human: ScriptedHuman) -> None:
+    def _adopt(self, human: BatchHuman) -> None:
         """Act with ``human`` from now on (also when :attr:`human` was replaced).
 
-        A human that neither samples nor waits at random acts by a fixed (start, ι, state)
-        table of preferred actions (the draws of its generator would be unused), which is
-        folded into the step table (:class:`~hri_envs.task.greedy_table.GreedyStepTable`).
-        Any other human samples through its ``act``, and the plain step table is used.
+        One scripted human shared by every env that neither samples nor waits at random
+        acts by a fixed (start, ι, state) table of preferred actions (the draws of its
+        generator would be unused), which is folded into the step table
+        (:class:`~hri_envs.task.greedy_table.GreedyStepTable`). Any other human acts through
+        the human protocol, and the plain step table is used.
         """
-        self._greedy_human = human
-        self._turn_state = human.turn_state  # where this human turns back
+        self._adopted = human
         old = self._table
         self._greedy = None
         self._table = self._steps
-        if human.deterministic and human.passive == 0.0:
+        shared = human.shared if isinstance(human, TableHumans) else None
+        if shared is not None and shared.deterministic and shared.passive == 0.0:
             n_k, n_s = self._n_supports, self.graph.n_states
             grid = np.indices((n_k, n_k, n_s))  # (start, goal, state)
-            actions = np.asarray(human.preferred_action(grid[2], grid[0], grid[1]),
+            actions = np.asarray(shared.preferred_action(grid[2], grid[0], grid[1]),
                                  dtype=np.int64)
             self._greedy = self._table = GreedyStepTable(self._steps, actions)
             self._goal_key[:] = self._intention * self._greedy.goal_stride
@@ -265,9 +289,15 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             self._goal_key[rows] = intention * self._greedy.goal_stride
         if turn is not None and (self._turning or turn.any()):
             self._turning = True
-            self._turn_at[rows] = np.where(turn, self._turn_state[start, intention], -1)
+            where = self._human.turn_state
+            if where is None:
+                where = np.full((self._n_supports,) * 2, -1)
+            turn_at = (where[start, intention] if where.ndim == 2
+                       else where[np.arange(self.num_envs)[rows], start, intention])
+            self._turn_at[rows] = np.where(turn, turn_at, -1)
         elif self._turning:
             self._turn_at[rows] = -1
+        self._human.begin_episode(start, intention, None if isinstance(rows, slice) else rows)
 
     # ----------------------------------------------------------------- API
     def reset(
@@ -284,10 +314,12 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         if seed is not None and not isinstance(seed, int | np.integer):
             raise ConfigError(f"seed must be an int or None for this batched env, got {seed!r}")
         super().reset(seed=seed)
-        if self.human is not self._greedy_human:  # replaced since the last step
-            self._adopt(self.human)
+        human = self._human
+        if human is not self._adopted:  # replaced since the last step
+            self._adopt(human)
         rng = self.np_random
-        self._human_rng = np.random.default_rng(int(rng.integers(2**63)))
+        human.draw(rng)  # a population's new members, drawn first
+        human.seed(np.random.default_rng(int(rng.integers(2**63))))
         n, n_k = self.num_envs, self.graph.n_intentions
         start = self._supports(options["start"], "start") if "start" in options else None
         intention = (self._supports(options["intention"], "intention")
@@ -301,6 +333,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             intention = draw_other_support(rng, n_k, start, size=n)
         if np.any(start == intention):
             raise ConfigError("the intention must differ from the start support in every env")
+        turn: np.ndarray | None
         if "turn_back" in options:
             turn = np.asarray(options["turn_back"])
             if turn.dtype != np.bool_ or turn.shape not in ((), (1,), (n,)):
@@ -309,7 +342,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                                   field="turn_back")
             turn = np.broadcast_to(turn, (n,))
         else:
-            turn = self._draw_turn(n)
+            turn = self._draw_turn(slice(None))
         self._turning = False
         self._turn_at[:] = -1
         self._t = 0
@@ -340,8 +373,9 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 or a_r.view(np.uint64).max() >= self._n_actions):
             a_r = self._check_actions(a_r)
         self._t = t = self._t + 1
-        if self.human is not self._greedy_human:
-            self._adopt(self.human)
+        human = self._human
+        if human is not self._adopted:
+            self._adopt(human)
         table = self._table
         # Envs whose episode has ended sit in the table's "over" context.
         if self._greedy is not None:
@@ -350,7 +384,17 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             a_h = self._greedy.human_action.take(j)
             fresh_human = True  # a_h is this step's own array
         else:
-            a_h = self.human.act(self._human_rng, self._state, self._start, self._intention)
+            state = self._state
+            playing = self._key != table.over  # not waiting for a next-step autoreset
+            a_h = np.asarray(human.act({
+                "state": state, "start": self._start, "intention": self._intention,
+                "last_human_action": self._last_human,
+                "action_mask": self.rules.action_mask.take(state, axis=0), "robot_action": a_r},
+                playing), dtype=np.int64)
+            if (a_h.shape != self._shape
+                    or a_h.view(np.uint64).max(initial=0) >= self._n_actions):
+                raise ActionError(f"the human's act() returned {a_h!r}; it must give one "
+                                  f"action in 0..{self._n_actions - 1} per env")
             j = a_r * self._n_actions
             j += self._key
             j += a_h
@@ -369,6 +413,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 self._turn_at[back] = -1
                 if self._greedy is not None:
                     self._goal_key[back] = start * self._greedy.goal_stride
+        if self._greedy is None:
+            human.observe(state, a_r, a_h, s_next, playing)
         infos: dict[str, Any] = {"aborted": aborted, "_aborted": self._all,
                                  "invalid_action": invalid, "_invalid_action": self._all}
         if self._same_step:
@@ -376,6 +422,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             ended = terminated | truncated
             if ended.any():
                 which = ended.nonzero()[0]
+                human.end_episode(which)
                 final = self._observations()
                 final_obs = np.full(self.num_envs, None, dtype=object)
                 for i in which:
@@ -395,11 +442,14 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             self._ended = ended = terminated.nonzero()[0]
             if ended.size and not fresh_human:
                 self._key[ended] = table.over
+                human.end_episode(ended)
         else:
             truncated = self._truncated(t, terminated)
             self._ended = ended = (terminated | truncated).nonzero()[0]
             if ended.size:
                 self._key[ended] = table.over
+                if not fresh_human:
+                    human.end_episode(ended)
         # The state and (from the table) the human's action are this step's own arrays and
         # are never written again (see __init__), so they are handed out without a copy.
         last = self._last_human
@@ -422,10 +472,10 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
 
     def _restart(self, which: np.ndarray, waited: bool = False) -> None:
         """New random episodes in the envs ``which`` (autoreset); ``waited`` as for _begin."""
+        self._human.draw(self.np_random, which)  # a population's new members
         start, intention = draw_start_intention(self.np_random, self._n_supports,
                                                 np.array(which.size))
-        self._begin(which, start, intention,
-                    self._draw_turn(which.size) if self.human.turn_back > 0.0 else None, waited)
+        self._begin(which, start, intention, self._draw_turn(which), waited)
 
     def _check_actions(self, actions: Any) -> np.ndarray:
         a = np.asarray(actions)

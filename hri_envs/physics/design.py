@@ -32,14 +32,24 @@ robot to the human) spins the gripper about its own axis.
 from __future__ import annotations
 
 import importlib
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
+from hri_envs.errors import BackendUnavailableError
+from hri_envs.physics.shapes import HangerShapes, SceneShapes, WheelShapes
 from hri_envs.task.scenarios import scenario_spec
 
-__all__ = ["PhysicsDesign", "design_for", "hanger_design", "wheel_design"]
+__all__ = ["PRESET_NAMES", "PhysicsDesign", "design_for", "hanger_design", "wheel_design"]
+
+#: The named sets of physics options every design defines (``physics={"preset": ...}``):
+#: ``weak-human``, a partner with a third of the default stiffness and strength (below the
+#: robot's disagreement threshold on the hanger), slower to react and shakier, whose grip
+#: the handle barely feels (2.5 N against the robot's 2 N threshold); ``noisy-sensor``, a
+#: cheap, uncalibrated, slow wrist sensor and a noisy handle sensor.
+PRESET_NAMES: tuple[str, ...] = ("weak-human", "noisy-sensor")
 
 
 def _quat_from_axes(x: np.ndarray, z: np.ndarray) -> np.ndarray:
@@ -94,6 +104,9 @@ class PhysicsDesign:
             the hand's inertia.
         human_reach_lo, human_reach_hi: (3,) the box [m, world frame] the human's hand can
             reach (the joint ranges of the arm; the wheel's human walks).
+        shapes: The object's and the supports' geometry in the scene
+            (:class:`~hri_envs.physics.shapes.SceneShapes`).
+        presets: Values of the physics options per preset name (:data:`PRESET_NAMES`).
 
     The remaining fields are thresholds and times of the simulation loop, the same for both
     scenarios (class defaults); the unit is in the name (``_m``, ``_s``, ``_rad``, ``_j``;
@@ -208,6 +221,8 @@ class PhysicsDesign:
     human_follow_damping: tuple[float, float]
     human_reach_lo: np.ndarray
     human_reach_hi: np.ndarray
+    shapes: SceneShapes
+    presets: Mapping[str, Mapping[str, float]]
     # Simulation-loop thresholds and times (see the class docstring), shared by both scenarios.
     # Grasp toggles and motions (PandaSim.reset, step, _robot_toggle).
     pregrasp_distance_m: float = 0.08
@@ -315,6 +330,12 @@ def hanger_design() -> PhysicsDesign:
         human_follow_damping=(2.0, 0.05),
         human_reach_lo=np.array([0.05, -0.9, 0.2]),  # the handle's states' box ± 0.15 m
         human_reach_hi=np.array([1.05, 0.8, 0.9]),
+        shapes=HangerShapes(),
+        presets={"weak-human": {"human_stiffness": 70.0, "human_force": 3.5,
+                                "human_noise": 0.8, "human_delay_s": 0.4,
+                                "human_grip_force": 2.5},
+                 "noisy-sensor": {"sensor_noise_n": 3.0, "sensor_bias_n": 2.5,
+                                  "sensor_delay_s": 0.05, "handle_noise_n": 1.0}},
     )
 
 
@@ -365,11 +386,25 @@ def wheel_design() -> PhysicsDesign:
         human_follow_damping=(5.0, 0.3),
         human_reach_lo=np.array([-4.0, -1.0, 0.5]),  # the room the stands are placed in
         human_reach_hi=np.array([4.0, 4.5, 2.1]),
+        shapes=WheelShapes(),
+        presets={"weak-human": {"human_stiffness": 100.0, "human_force": 8.0,
+                                "human_noise": 2.0, "human_delay_s": 0.4,
+                                "human_grip_force": 2.5},
+                 "noisy-sensor": {"sensor_noise_n": 6.0, "sensor_bias_n": 5.0,
+                                  "sensor_delay_s": 0.05, "handle_noise_n": 1.0}},
     )
 
 
 def design_for(scenario: str) -> PhysicsDesign:
-    """The design of a scenario by name (its registry entry's ``physics_design``)."""
-    module, _, factory = scenario_spec(scenario).physics_design.partition(":")
+    """The design of a scenario by name (its registry entry's ``physics_design``).
+
+    Raises:
+        BackendUnavailableError: The scenario has no physical design.
+    """
+    entry = scenario_spec(scenario).physics_design
+    if entry is None:
+        raise BackendUnavailableError(f"scenario {scenario!r} has no physical design, so no "
+                                      "physics backend; use backend='graph'", field="backend")
+    module, _, factory = entry.partition(":")
     design: PhysicsDesign = getattr(importlib.import_module(module), factory)()
     return design

@@ -1,9 +1,9 @@
 """The physics options of the mujoco backend (``physics={...}``) and their presets.
 
-The keys themselves are listed once, in the backend registry
-(:data:`hri_envs.envs.backends.PHYSICS_PARAMETERS`), and validated there
-(:func:`hri_envs.envs.config.check_physics_options`); this module turns validated options
-into the parameters of each episode.
+The keys are listed once, here (:data:`PHYSICS_PARAMETERS`, :data:`OPTION_KEYS`), and
+checked by :func:`check_options` (which the envs reach through the backend registry,
+:func:`hri_envs.envs.config.check_physics_options`); :class:`PhysicsSettings` turns checked
+options into the parameters of each episode.
 
 =====================  =======  ==========================================================
 key                    unit     meaning (default: the scenario's design, docs/physics.md)
@@ -24,42 +24,114 @@ key                    unit     meaning (default: the scenario's design, docs/ph
 
 ``attempt_invalid`` (bool, default False): the robot physically tries an action the graph
 calls invalid instead of refusing it (:meth:`hri_envs.physics.sim.PandaSim.step`).
-``preset`` names a set of values (:data:`PRESETS`, per scenario); explicit keys override it.
+``preset`` names a set of values (the scenario design's ``presets``); explicit keys override
+it.
 ``randomize`` maps keys to ``(low, high)`` ranges drawn uniformly at each episode's reset
 (domain randomisation).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
 
-from hri_envs.physics.design import PhysicsDesign
+from hri_envs.errors import ConfigError
+from hri_envs.physics.design import PRESET_NAMES, PhysicsDesign
 
-__all__ = ["PRESETS", "PhysicsParams", "PhysicsSettings"]
+__all__ = ["OPTION_KEYS", "PHYSICS_MAXIMA", "PHYSICS_PARAMETERS", "PhysicsParams",
+           "PhysicsSettings", "check_options"]
 
-#: Named parameter sets per scenario. ``weak-human``: a partner with a third of the default
-#: stiffness and strength (below the robot's disagreement threshold on the hanger), slower
-#: to react and shakier, whose grip the handle barely feels (2.5 N against the robot's
-#: 2 N threshold); ``noisy-sensor``: a cheap, uncalibrated, slow wrist sensor and a noisy
-#: handle sensor.
-PRESETS: dict[str, dict[str, dict[str, float]]] = {
-    "weak-human": {
-        "hanger": {"human_stiffness": 70.0, "human_force": 3.5, "human_noise": 0.8,
-                   "human_delay_s": 0.4, "human_grip_force": 2.5},
-        "wheel": {"human_stiffness": 100.0, "human_force": 8.0, "human_noise": 2.0,
-                  "human_delay_s": 0.4, "human_grip_force": 2.5},
-    },
-    "noisy-sensor": {
-        "hanger": {"sensor_noise_n": 3.0, "sensor_bias_n": 2.5, "sensor_delay_s": 0.05,
-                   "handle_noise_n": 1.0},
-        "wheel": {"sensor_noise_n": 6.0, "sensor_bias_n": 5.0, "sensor_delay_s": 0.05,
-                  "handle_noise_n": 1.0},
-    },
+#: The numeric physics options: key -> (unit, must be > 0 rather than >= 0, meaning).
+#: Their defaults are the scenario's design (docs/physics.md).
+PHYSICS_PARAMETERS: dict[str, tuple[str, bool, str]] = {
+    "human_stiffness": ("N/m", True, "the human's arm stiffness"),
+    "human_force": ("N", True, "the most force the human applies"),
+    "human_noise": ("N", False, "std of the human's force noise"),
+    "human_delay_s": ("s", False, "the human's reaction delay"),
+    "human_mass": ("kg", True, "effective mass of the human's embodied forearm"),
+    "sensor_noise_n": ("N", False, "std of the wrist sensor's noise per control step"),
+    "sensor_bias_n": ("N", False, "magnitude of the wrist sensor's bias"),
+    "sensor_delay_s": ("s", False, "delay of the wrist sensor"),
+    "object_mass": ("kg", True, "the object's true mass"),
+    "hold_force": ("N", False, "the supports' detent force"),
+    "human_grip_force": ("N", True, "how hard the human's thumb squeezes the handle"),
+    "handle_noise_n": ("N", False, "std of the handle's touch sensor reading"),
 }
+
+#: Upper bounds of the physics options that have one: a thumb squeezing harder than this
+#: goes through the handle's contact at the 2 ms physics step and misreads.
+PHYSICS_MAXIMA: dict[str, float] = {"human_grip_force": 12.0}
+
+#: Every key ``physics={...}`` accepts.
+OPTION_KEYS: tuple[str, ...] = ("video_path", "video_fps", "preset", "randomize",
+                                "attempt_invalid", *PHYSICS_PARAMETERS)
+
+
+def check_options(physics: Mapping[str, Any]) -> dict[str, Any]:
+    """Validate ``physics`` options; a :class:`ConfigError` naming the key otherwise.
+
+    The keys are :data:`OPTION_KEYS`: ``video_path``, ``video_fps`` (a positive number),
+    ``preset`` (one of the designs' presets), ``attempt_invalid`` (a bool), ``randomize`` (a
+    mapping of numeric keys to ``(low, high)``) and the numeric :data:`PHYSICS_PARAMETERS`.
+    """
+    unknown = sorted(set(physics) - set(OPTION_KEYS))
+    if unknown:
+        raise ConfigError(f"unknown physics option(s) {', '.join(map(repr, unknown))}; "
+                          f"allowed: {', '.join(OPTION_KEYS)}", field="physics")
+    fps = physics.get("video_fps", 10.0)
+    if isinstance(fps, bool) or not isinstance(fps, int | float) or not fps > 0:
+        raise ConfigError(f"physics option 'video_fps' must be a positive number, got {fps!r}",
+                          field="physics")
+    attempt = physics.get("attempt_invalid", False)
+    if not isinstance(attempt, bool | np.bool_):
+        raise ConfigError(f"physics option 'attempt_invalid' must be True or False, got "
+                          f"{attempt!r}", field="physics")
+    if physics.get("preset") is not None and physics["preset"] not in PRESET_NAMES:
+        raise ConfigError(f"unknown physics preset {physics['preset']!r}; allowed: "
+                          f"{', '.join(PRESET_NAMES)}", field="physics")
+    for key in PHYSICS_PARAMETERS:
+        if key in physics:
+            _check_parameter(key, physics[key], f"physics option {key!r}")
+    randomize = physics.get("randomize")
+    if randomize is not None:
+        if not isinstance(randomize, Mapping):
+            raise ConfigError(f"physics option 'randomize' must map option names to (low, "
+                              f"high) ranges, got {randomize!r}", field="physics")
+        bad = sorted(set(randomize) - set(PHYSICS_PARAMETERS))
+        if bad:
+            raise ConfigError(f"cannot randomize {', '.join(map(repr, bad))}; allowed: "
+                              f"{', '.join(PHYSICS_PARAMETERS)}", field="physics")
+        for key, span in randomize.items():
+            if not isinstance(span, tuple | list) or len(span) != 2:
+                raise ConfigError(f"randomize[{key!r}] must be a (low, high) pair, got "
+                                  f"{span!r}", field="physics")
+            lo = _check_parameter(key, span[0], f"randomize[{key!r}] low")
+            hi = _check_parameter(key, span[1], f"randomize[{key!r}] high")
+            if lo > hi:
+                raise ConfigError(f"randomize[{key!r}] must have low <= high, got {span!r}",
+                                  field="physics")
+    return dict(physics)
+
+
+def _check_parameter(key: str, value: Any, label: str) -> float:
+    """A numeric physics parameter: finite, > 0 or >= 0 as its entry says, and at most its
+    maximum (:data:`PHYSICS_MAXIMA`) if it has one.
+    """
+    unit, positive, _ = PHYSICS_PARAMETERS[key]
+    top = PHYSICS_MAXIMA.get(key, math.inf)
+    ok = isinstance(value, int | float | np.floating) and not isinstance(value, bool)
+    number = float(value) if ok else math.nan
+    if not (math.isfinite(number) and (number > 0.0 if positive else number >= 0.0)
+            and number <= top):
+        bound = ("> 0" if positive else ">= 0") + (f" and <= {top:g}" if top < math.inf else "")
+        raise ConfigError(f"{label} must be a number {bound} [{unit}], got {value!r}",
+                          field="physics")
+    return number
+
 
 
 @dataclass(frozen=True)
@@ -109,7 +181,7 @@ class PhysicsSettings:
 
     Args:
         design: The scenario's nominal design.
-        options: Options checked by :func:`hri_envs.envs.config.check_physics_options`
+        options: Options checked by :func:`check_options`
             (``video_*`` keys are ignored here).
     """
 
@@ -118,7 +190,7 @@ class PhysicsSettings:
         values: dict[str, float] = {}
         preset = options.get("preset")
         if preset is not None:
-            values.update(PRESETS[preset][design.scenario])
+            values.update(design.presets[preset])
         values.update({k: float(v) for k, v in options.items() if k in PARAMETER_KEYS})
         self.preset: str | None = preset
         #: The robot physically tries actions the graph calls invalid (docs/physics.md).

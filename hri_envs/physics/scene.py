@@ -29,7 +29,8 @@ import numpy as np
 from hri_envs.physics.assets import PANDA_ARM_JOINTS, PANDA_FINGER_JOINTS, panda_xml
 from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.human_arm import add_human_arm
-from hri_envs.task.geometry import Scenario, Support
+from hri_envs.physics.shapes import DARK, add_visual
+from hri_envs.task.geometry import Scenario
 
 __all__ = ["BASE_JOINTS", "Scene", "build_robot_model", "build_scene"]
 
@@ -47,35 +48,8 @@ _FLOOR_BIT, _OBJECT_BIT, _SUPPORT_BIT, _FINGER_BIT, _GRIP_BIT = 1, 2, 4, 8, 16
 #: pads, y: the fingers' closing axis, z: the approach axis). The fingers, commanded to
 #: ``grip_finger_pos_m`` (1.2 cm), meet it at 2 cm and press on it with ≈ 2 N each.
 GRIP_HALF_SIZE: tuple[float, float, float] = (0.012, 0.02, 0.012)
-_HANGER_BRACKET_M = 0.22  # [m] below a hanger bar, the upper post without collision geometry
-_STAND_POST_BELOW_M = 0.05  # [m] a wheel stand's post ends this far below the lowest rim
 _CONTACT = {"condim": 3, "friction": [0.6, 0.005, 0.0001], "margin": 0.001,
             "solref": [0.01, 1.0]}
-_WIRE, _GREY, _DARK = (0.85, 0.6, 0.2, 1.0), (0.6, 0.6, 0.62, 1.0), (0.3, 0.3, 0.33, 1.0)
-
-
-def _collision_geometry(spec: mujoco.MjSpec, obj: mujoco.MjsBody, scenario: Scenario) -> None:
-    """Invisible collision geoms of the object, touching the floor and the supports.
-
-    The hanger: its neck (from 4.5 cm below the hook's seat point, so that a seated hook's
-    bar and the take-off along it stay clear), shoulders and bar; the hook itself is left to
-    the seat law. The wheel: its rim as 16 capsules (the hub is open, so the rack's peg passes
-    through it; a lying wheel's rim is outside a stand's plate).
-    """
-    del spec
-    kw = {"contype": _OBJECT_BIT, "conaffinity": _FLOOR_BIT | _SUPPORT_BIT, "group": 3,
-          "rgba": (0, 0, 0, 0), "mass": 0.0, **_CONTACT}
-    cap = mujoco.mjtGeom.mjGEOM_CAPSULE
-    if scenario.name == "hanger":
-        for seg in ((-0.045, 0.0, 0.0, -0.08, 0.0, 0.0), (-0.08, 0.0, 0.0, -0.16, -0.2, 0.0),
-                    (-0.08, 0.0, 0.0, -0.16, 0.2, 0.0), (-0.16, -0.2, 0.0, -0.16, 0.2, 0.0)):
-            obj.add_geom(type=cap, fromto=list(seg), size=[0.01, 0, 0], **kw)
-    else:
-        r, n = scenario.object_radius, 16
-        ang = np.linspace(0.0, 2 * np.pi, n + 1)
-        for a0, a1 in zip(ang[:-1], ang[1:], strict=True):
-            obj.add_geom(type=cap, size=[0.02, 0, 0], fromto=[
-                r * np.cos(a0), r * np.sin(a0), 0, r * np.cos(a1), r * np.sin(a1), 0], **kw)
 
 
 def _grip_geometry(obj: mujoco.MjsBody, design: PhysicsDesign) -> mujoco.MjsGeom:
@@ -93,81 +67,6 @@ def _finger_collision(spec: mujoco.MjSpec) -> None:
         for geom in spec.body(name).geoms:
             if geom.type != mujoco.mjtGeom.mjGEOM_MESH:
                 geom.contype, geom.conaffinity = _FINGER_BIT, 0
-
-
-def _hanger_bar(sup: Support) -> tuple[np.ndarray, np.ndarray]:
-    """A hanger support's bar in its body frame: (post end, free end) [m].
-
-    The bar points from the post (12 cm behind the seat) out towards the mounting waypoint
-    and ends 4 cm past the seat, 1.2 cm below it (the hook rests on its top).
-    """
-    out = sup.mounting - sup.position
-    d = np.array([out[0], out[1], 0.0])
-    d /= max(float(np.linalg.norm(d)), 1e-9)
-    below = np.array([0.0, 0.0, 0.012])
-    return -0.12 * d - below, 0.04 * d - below
-
-
-def _support_collision(spec: mujoco.MjSpec, scenario: Scenario) -> None:
-    """Collision geoms of the supports: the parts of their pictures (:func:`_support_visuals`)
-    that the scenario's own waypoints and straight-line motions keep clear of.
-
-    The hanger: each support's bar (hook bar, peg) up to the seat, its post below
-    the hanging hanger, and the rail joining B and C; the wheel: each stand's post below the
-    wheel's reach at every waypoint, the rack's post and the peg behind the hanging wheel. A
-    resting object is held by its seat (:mod:`hri_envs.physics.seats`) and clear of this
-    geometry; an object moved through a support collides with it.
-    """
-    kw = {"contype": _SUPPORT_BIT, "conaffinity": 0, "group": 3, "rgba": (0, 0, 0, 0),
-          "mass": 0.0, **_CONTACT}
-    cyl, box = mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_BOX
-    cap = mujoco.mjtGeom.mjGEOM_CAPSULE
-    for sup in scenario.supports:
-        body = spec.body(f"support_{sup.name}")
-        z = sup.position[2]
-        if scenario.name == "hanger":
-            a, _ = _hanger_bar(sup)
-            # The bar up to the seat (the picture's free tip beyond it is left out: at A the
-            # hanger hangs in the bar's plane, and its wire, turned a little by the human's
-            # hand, caught on a longer bar when moved down its column, which the scenario's
-            # waypoints assume clear).
-            tip = -np.array([0.0, 0.0, 0.012])
-            body.add_geom(name=f"{body.name}_bar", type=cap, fromto=[*a, *tip],
-                          size=[0.01, 0, 0], **kw)
-            # The post's lower part only: at A the hanger hangs in the plane of its peg, and
-            # its shoulders would cross the upper post (the bracket is left out).
-            low = z - _HANGER_BRACKET_M
-            body.add_geom(name=f"{body.name}_post", type=box, pos=list(a - [0, 0, z - low / 2]),
-                          size=[0.02, 0.02, low / 2], **kw)
-        elif sup.blocks_below:
-            # The post below the reach of the wheel at any waypoint only (5 cm under the
-            # lowest rim): the scenario moves waypoints beneath a stand's top just an object
-            # radius + 5 cm aside, joins them to those above by straight lines that sweep the
-            # rim over the stand's top, and moves a vertical wheel over to another column
-            # through the stands between; so the top (plate, hub holder) and the upper post
-            # are left to the seat law.
-            top = (float(np.min(scenario.heights)) - scenario.object_radius
-                   - _STAND_POST_BELOW_M)
-            body.add_geom(name=f"{body.name}_post", type=cyl, pos=[0, 0, top / 2 - z],
-                          size=[0.015, top / 2, 0], **kw)
-        else:
-            # The peg behind the hanging wheel only: its free end passes through the hub,
-            # where the lying wheel at the rack's mounting waypoint also has its rim.
-            body.add_geom(name=f"{body.name}_peg", type=cap,
-                          fromto=[0, -0.15, 0, 0, -0.045, 0], size=[0.02, 0, 0], **kw)
-            body.add_geom(name=f"{body.name}_post", type=box, pos=[0, -0.17, -z / 2 + 0.1],
-                          size=[0.04, 0.02, z / 2 + 0.1], **kw)
-    if scenario.name == "hanger":  # the rail joining B and C (a world geom: it never moves)
-        b, c = scenario.supports[1].position, scenario.supports[2].position
-        ext = (c - b) / np.linalg.norm(c - b) * 0.08
-        spec.worldbody.add_geom(name="rail", type=cap, fromto=[*(b - ext - [0, -0.03, 0.012]),
-                                                  *(c + ext - [0, -0.03, 0.012])],
-                                size=[0.01, 0, 0], **kw)
-
-
-def _visual(body: mujoco.MjsBody, **kwargs: object) -> mujoco.MjsGeom:
-    geom = body.add_geom(contype=0, conaffinity=0, **kwargs)
-    return geom
 
 
 def _robot_spec(design: PhysicsDesign) -> mujoco.MjSpec:
@@ -197,11 +96,11 @@ def _robot_spec(design: PhysicsDesign) -> mujoco.MjSpec:
         for name, axis, rng in zip(BASE_JOINTS, np.eye(3), ranges, strict=True):
             mount.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis,
                             damping=[50.0, 0.0, 0.0], armature=5.0, range=rng, limited=True)
-        _visual(mount, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.06, 1.0, 0],
-                pos=[0, 0, -1.0], rgba=_DARK)
+        add_visual(mount, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.06, 1.0, 0],
+                pos=[0, 0, -1.0], rgba=DARK)
     else:
-        _visual(mount, type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.12, 0.12, design.base_pos[2] / 2],
-                pos=[0, 0, -design.base_pos[2] / 2], rgba=_DARK)
+        add_visual(mount, type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.12, 0.12, design.base_pos[2] / 2],
+                pos=[0, 0, -design.base_pos[2] / 2], rgba=DARK)
     for name, limit in zip(PANDA_ARM_JOINTS, _TORQUE_LIMITS, strict=True):
         act = spec.add_actuator(name=name.split(":")[-1], target=name,
                                 trntype=mujoco.mjtTrn.mjTRN_JOINT)
@@ -225,59 +124,29 @@ def build_robot_model(design: PhysicsDesign) -> mujoco.MjModel:
     return _robot_spec(design).compile()
 
 
-def _hanger_visuals(body: mujoco.MjsBody) -> None:
-    cap = mujoco.mjtGeom.mjGEOM_CAPSULE
-    r = [0.006, 0, 0]
-    wire = [  # in the object frame: x up, the hanger's plane is x-y
-        (0.0, 0.0, 0.0, 0.02, 0.0, 0.03), (0.02, 0.0, 0.03, 0.0, 0.0, 0.05),
-        (0.0, 0.0, 0.0, -0.08, 0.0, 0.0), (-0.08, 0.0, 0.0, -0.16, -0.2, 0.0),
-        (-0.08, 0.0, 0.0, -0.16, 0.2, 0.0), (-0.16, -0.2, 0.0, -0.16, 0.2, 0.0),
-    ]
-    for seg in wire:
-        _visual(body, type=cap, fromto=list(seg), size=r, rgba=_WIRE)
-
-
-def _wheel_visuals(body: mujoco.MjsBody, radius: float) -> None:
-    _visual(body, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[radius, 0.02, 0],
-            rgba=(0.15, 0.15, 0.15, 0.35))
-    _visual(body, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.06, 0.04, 0], rgba=_GREY)
-    n = 16
-    ang = np.linspace(0.0, 2 * np.pi, n + 1)
-    for a0, a1 in zip(ang[:-1], ang[1:], strict=True):
-        seg = [radius * np.cos(a0), radius * np.sin(a0), 0, radius * np.cos(a1),
-               radius * np.sin(a1), 0]
-        _visual(body, type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=seg, size=[0.03, 0, 0],
-                rgba=(0.1, 0.1, 0.1, 1.0))
-
-
-def _support_visuals(spec: mujoco.MjSpec, scenario: Scenario) -> list[str]:
+def _support_bodies(spec: mujoco.MjSpec, scenario: Scenario, design: PhysicsDesign
+                    ) -> list[str]:
+    """A mocap body per support at its seat, with its picture; the bodies' names."""
     names = []
-    cyl, box = mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_BOX
     for sup in scenario.supports:
         body = spec.worldbody.add_body(name=f"support_{sup.name}", mocap=True, pos=sup.position)
         names.append(body.name)
-        z = sup.position[2]
-        if scenario.name == "hanger":
-            a, b = _hanger_bar(sup)
-            _visual(body, type=cyl, fromto=[*a, *b], size=[0.01, 0, 0], rgba=_GREY)
-            _visual(body, type=box, pos=[*(a - [0, 0, z / 2]), ], size=[0.02, 0.02, z / 2],
-                    rgba=_DARK)
-        elif sup.blocks_below:  # wheel stand: plate under the lying wheel, post to the floor
-            _visual(body, type=cyl, pos=[0, 0, -0.035], size=[0.22, 0.01, 0], rgba=_GREY)
-            _visual(body, type=cyl, pos=[0, 0, -(z + 0.035) / 2], size=[0.03, z / 2, 0],
-                    rgba=_DARK)
-        else:  # wheel rack: a peg through the hub from a post behind the wheel
-            _visual(body, type=cyl, fromto=[0, -0.15, 0, 0, 0.12, 0], size=[0.02, 0, 0],
-                    rgba=_GREY)
-            _visual(body, type=box, pos=[0, -0.17, -z / 2 + 0.1], size=[0.04, 0.02, z / 2 + 0.1],
-                    rgba=_DARK)
-    if scenario.name == "hanger":  # the rail joining B and C
-        b, c = scenario.supports[1].position, scenario.supports[2].position
-        ext = (c - b) / np.linalg.norm(c - b) * 0.08
-        _visual(spec.worldbody, type=cyl, fromto=[*(b - ext - [0, -0.03, 0.012]),
-                                                   *(c + ext - [0, -0.03, 0.012])],
-                size=[0.01, 0, 0], rgba=_GREY)
+        design.shapes.support_visuals(body, sup, scenario)
+    design.shapes.world_visuals(spec, scenario)
     return names
+
+
+def _support_collision(spec: mujoco.MjSpec, scenario: Scenario, design: PhysicsDesign) -> None:
+    """Collision geoms of the supports: the parts of their pictures that the scenario's own
+    waypoints and straight-line motions keep clear of (:class:`~hri_envs.physics.shapes.
+    SceneShapes`). A resting object is held by its seat (:mod:`hri_envs.physics.seats`) and
+    clear of this geometry; an object moved through a support collides with it.
+    """
+    kw = {"contype": _SUPPORT_BIT, "conaffinity": 0, "group": 3, "rgba": (0, 0, 0, 0),
+          "mass": 0.0, **_CONTACT}
+    for sup in scenario.supports:
+        design.shapes.support_collision(spec.body(f"support_{sup.name}"), sup, scenario, kw)
+    design.shapes.world_collision(spec, scenario, kw)
 
 
 @dataclass(frozen=True)
@@ -349,17 +218,14 @@ def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
     platform = None
     if design.mobile_base:
         platform = spec.worldbody.add_body(name="platform", mocap=True, pos=[0, 0, 0.1])
-        _visual(platform, type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.3, 0.25, 0.1], rgba=_DARK)
-    support_names = _support_visuals(spec, scenario)
+        add_visual(platform, type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.3, 0.25, 0.1], rgba=DARK)
+    support_names = _support_bodies(spec, scenario, design)
 
     obj = spec.worldbody.add_body(name="object", pos=scenario.supports[0].position)
     obj.add_freejoint(name="object_free")
     obj.mass, obj.ipos, obj.inertia = design.object_mass, design.object_com, design.object_inertia
     obj.explicitinertial = True
-    if scenario.name == "hanger":
-        _hanger_visuals(obj)
-    else:
-        _wheel_visuals(obj, scenario.object_radius)
+    design.shapes.object_visuals(obj, scenario)
     obj.add_site(name="object_grip", pos=design.grip_pos, quat=design.grip_quat,
                  size=[0.012, 0, 0], rgba=(0.2, 0.4, 0.9, 1.0))
     obj.add_site(name="object_handle", pos=design.handle_pos, size=[0.02, 0, 0],
@@ -376,11 +242,13 @@ def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
                        ("wrist_torque", mujoco.mjtSensor.mjSENS_TORQUE)):
         spec.add_sensor(name=name, type=kind, objtype=mujoco.mjtObj.mjOBJ_SITE,
                         objname=_WRIST_SITE)
-    _collision_geometry(spec, obj, scenario)
+    design.shapes.object_collision(obj, scenario, {
+        "contype": _OBJECT_BIT, "conaffinity": _FLOOR_BIT | _SUPPORT_BIT, "group": 3,
+        "rgba": (0, 0, 0, 0), "mass": 0.0, **_CONTACT})
     add_human_arm(spec, design)
     _grip_geometry(obj, design)
     _finger_collision(spec)
-    _support_collision(spec, scenario)
+    _support_collision(spec, scenario, design)
     model = spec.compile()
 
     def jid(name: str) -> int:

@@ -9,6 +9,7 @@ process per env.
 
 from __future__ import annotations
 
+import functools
 import time
 from typing import NamedTuple
 
@@ -86,7 +87,7 @@ def seconds_per_abstract_step(scenario: str = "hanger", episodes: int = 2) -> Sp
     The human follows the user study's most frequent preference and the robot waits
     except for grasping and letting go: the slowest case, since the human alone drives.
     """
-    from hri_envs.task.humans import preference_human
+    from hri_envs.humans.scripted import preference_human
 
     g = _graph(scenario)
     human = preference_human(g)
@@ -115,19 +116,19 @@ def async_steps_per_second(scenario: str = "hanger", num_envs: int = 2, seconds:
                            seed: int = 0) -> SpeedResult:
     """Abstract steps of ``num_envs`` Panda envs in an ``AsyncVectorEnv``, over ``seconds``.
 
-    ``gym.make_vec(<the scenario's Panda id>, num_envs, vectorization_mode="async")``; every
-    env plays random valid robot actions (from the observation's action mask, seeded) and
-    resets itself when its episode ends. The clock starts after the first reset (the
+    Each worker holds a :class:`~hri_envs.envs.robot.RobotEnv` with ``backend="mujoco"``
+    (what ``gym.make_vec(<the scenario's Panda id>, num_envs, vectorization_mode="async")``
+    makes, without Gymnasium's checking wrappers); every env plays random valid robot
+    actions (from the observation's action mask, seeded) and resets itself when its episode
+    ends. The clock starts after the first reset (the
     workers' start-up and the scene compilation are not counted); ``abstract_steps`` is the
     sum over the envs, ``sim_seconds`` their simulated time summed.
     """
-    import gymnasium as gym
+    from gymnasium.vector import AsyncVectorEnv
 
-    import hri_envs  # noqa: F401  (registers the ids)
-    from hri_envs.task.scenarios import scenario_spec
+    from hri_envs.envs.robot import RobotEnv
 
-    envs = gym.make_vec(scenario_spec(scenario).panda_id, num_envs=num_envs,
-                        vectorization_mode="async")
+    envs = AsyncVectorEnv([functools.partial(RobotEnv, scenario, backend="mujoco")] * num_envs)
     try:
         rng = np.random.default_rng(seed)
         obs, _ = envs.reset(seed=seed)

@@ -131,7 +131,7 @@ def turn_back(
     Args:
         turn_state: (K, K) int, ``turn_state[start, ι]``, where a turning-back human switches
             ι to the start support (-1: never), see
-            :attr:`hri_envs.task.humans.ScriptedHuman.turn_state`; or (N, K, K), one table
+            :attr:`hri_envs.humans.scripted.ScriptedHuman.turn_state`; or (N, K, K), one table
             per episode of a batch (a human per run).
         state: The state just entered.
         start: The episode's start support.

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from agents.learner import Learner
-from hri_envs.bench.runner import make_schedule, simulate
-from hri_envs.bench.study import graph_for
-from hri_envs.task.humans import preference_human
+from hri_bench.runner import make_schedule, simulate
+from hri_bench.study import graph_for
+from hri_envs.humans.scripted import preference_human
 
 #: (scenario, preference, human passivity, runs, episodes, step limit): small, but every
 #: branch of the update (loops removed, truncated episodes with intention -1, several

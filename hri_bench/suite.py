@@ -1,11 +1,11 @@
 """The benchmark suite: a fixed, versioned set of tracks, one study each, and a leaderboard.
 
 ``hri-bench suite --out DIR`` runs every track of :data:`TRACKS` with
-:func:`hri_envs.bench.study.run_study` and writes
+:func:`hri_bench.study.run_study` and writes
 
 * ``DIR/suite.json``: per track its settings and, per agent, the mean and IQM of the
   reward and of the regret against ``blind`` with 95 % bootstrap CIs over runs (of each
-  run's mean over its episodes, :mod:`hri_envs.bench.stats`), the per-episode means with
+  run's mean over its episodes, :mod:`hri_bench.stats`), the per-episode means with
   CIs, the wrong and passive decision rates, the truncation rate and the episodes to
   converge (:data:`CONVERGED`). No wall time: the file is identical whatever ``--jobs`` or
   ``--executor``;
@@ -15,7 +15,7 @@
 * ``DIR/suite_log.json``: wall times and how the suite was run.
 
 Regret is reported where the exact ``blind`` plan fits the track's humans (deterministic or
-passive, :mod:`hri_envs.bench.regret`); on tracks with Boltzmann humans it is "n/a". The
+passive, :mod:`hri_bench.regret`); on tracks with Boltzmann humans it is "n/a". The
 references ``blind`` and ``informed`` are added to tracks with one shared human (they
 refuse humans drawn per run); on the drifting-human track regret still uses blind's exact
 value per episode. See docs/benchmark.md, "Suite".
@@ -34,11 +34,11 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.bench import stats
-from hri_envs.bench.agents import BUILTIN_AGENTS, REFERENCE_AGENTS
-from hri_envs.bench.atomic import atomic_writer
-from hri_envs.bench.regret import REFERENCES
-from hri_envs.bench.study import StudyConfig, StudyResult, regret_reference, run_study
+from hri_bench import stats
+from hri_bench.agents import BUILTIN_AGENTS, REFERENCE_AGENTS
+from hri_bench.atomic import atomic_writer
+from hri_bench.regret import REFERENCES
+from hri_bench.study import StudyConfig, StudyResult, regret_reference, run_study
 from hri_envs.errors import ConfigError
 from hri_envs.task.scenarios import SCENARIOS, scenario_spec
 
@@ -73,7 +73,7 @@ class Track:
         scenario: "hanger" or "wheel".
         description: One line for the leaderboard.
         runs: Runs per agent at ``--runs-scale 1``.
-        settings: Keyword arguments of :class:`~hri_envs.bench.study.StudyConfig`.
+        settings: Keyword arguments of :class:`~hri_bench.study.StudyConfig`.
     """
 
     name: str
@@ -276,7 +276,7 @@ def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
     """Mean regret (or reward) per episode with 95 % CI error bars, one line per agent."""
     from matplotlib.ticker import MaxNLocator
 
-    from hri_envs.bench import plots
+    from hri_bench import plots
 
     metric = "regret" if entry["regret_reported"] else "reward"
     fig, ax = plots.new_figure(figsize=(6.0, 3.6))
@@ -319,7 +319,7 @@ def run_suite(
 
     Args:
         out: Output directory (created).
-        agents: Agents to rank (see :mod:`hri_envs.bench.agents`, e.g. "mypkg.mod:MyAgent").
+        agents: Agents to rank (see :mod:`hri_bench.agents`, e.g. "mypkg.mod:MyAgent").
         tracks: Track names (comma-separated or a list); None: all of :data:`TRACKS`.
         runs_scale: Multiplies every track's run count (at least 2 runs), > 0.
         seed: Base seed of every study and bootstrap.

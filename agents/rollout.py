@@ -17,7 +17,7 @@ from typing import Any, NamedTuple
 import gymnasium as gym
 import numpy as np
 
-from hri_envs.task.protocol import Agent, Trace
+from agents.protocol import Agent, Trace
 
 __all__ = ["EpisodeResult", "run_episode"]
 

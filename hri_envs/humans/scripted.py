@@ -22,7 +22,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -38,17 +38,9 @@ from hri_envs.task.graph import (
     WAIT,
     TaskGraph,
 )
-from hri_envs.task.scenarios import (
-    HANGER_DEFAULT_PREFERENCE,
-    HANGER_PREFERENCES,
-    WHEEL_PREFERENCES,
-    scenario_spec,
-)
+from hri_envs.task.scenarios import Op, scenario_spec
 
 __all__ = [
-    "HANGER_DEFAULT_PREFERENCE",
-    "HANGER_PREFERENCES",
-    "WHEEL_PREFERENCES",
     "PreferredActions",
     "ScriptedHuman",
     "boltzmann_human",
@@ -57,37 +49,11 @@ __all__ = [
     "preferences_for",
 ]
 
-# An op moves one waypoint coordinate to a target: ("over", column), ("height", index),
-# ("rotate", orientation index).
-Op = tuple[str, int]
-
 
 
 def preferences_for(scenario: str) -> tuple[str, ...]:
     """The preference names a scenario accepts."""
     return scenario_spec(scenario).preferences
-
-
-def _ops(graph: TaskGraph, preference: str, start: int, goal: int) -> list[Op]:
-    """The preference's ordered waypoint changes from support ``start`` to support ``goal``."""
-    sc = graph.scenario
-    goal_sup = sc.supports[goal]
-    mount_h = sc.height_index(goal_sup.mounting[2])
-    natural: list[Op] = [("over", goal), ("height", mount_h), ("rotate", goal_sup.orientation)]
-    if sc.name == "wheel":
-        if preference == "straight":
-            return natural
-        horizontal = sc.orientation_names.index("horizontal")
-        return [("rotate", horizontal), ("height", sc.height_index(sc.comfort_height)),
-                ("over", goal), ("height", mount_h), ("rotate", goal_sup.orientation)]
-    to_peg, to_rail = (part.split("-") for part in preference.split("/"))
-    peg = [k for k, s in enumerate(sc.supports) if s.orientation != sc.supports[1].orientation]
-    if (goal in peg) == (start in peg):
-        return natural
-    order = to_peg if goal in peg else to_rail
-    table = {"over": ("over", goal), "rotate": ("rotate", goal_sup.orientation),
-             "down": ("height", mount_h), "up": ("height", mount_h)}
-    return [table[step] for step in order]
 
 
 def _apply(graph: TaskGraph, s: int, op: Op) -> tuple[int, int] | None:
@@ -115,6 +81,7 @@ def _plan(graph: TaskGraph, s: int, ops: Sequence[Op]) -> list[tuple[int, int]]:
     return path
 
 
+@runtime_checkable
 class PreferredActions(Protocol):
     """Anything that names the human's most likely action per episode (the Oracle's model):
     a :class:`ScriptedHuman`, or the benchmark's human per run.
@@ -269,13 +236,14 @@ def preference_human(
             f"unknown {graph.name} preference {preference!r}; allowed: {', '.join(allowed)}",
             field="preference",
         )
+    route_of = scenario_spec(graph.name).route
     n_k, n_s = graph.n_intentions, graph.n_states
     table = np.zeros((n_k, n_k, n_s), dtype=np.int64)
     _support_actions(graph, table)
     turn_state = np.full((n_k, n_k), -1, dtype=np.int64)
     free = np.flatnonzero(~graph.is_support_state)
     for start, goal in itertools.product(range(n_k), repeat=2):
-        ops = _ops(graph, preference, start, goal)
+        ops = route_of(graph.scenario, preference, start, goal)
         route = _plan(graph, int(graph.mounting_state[start]), ops)
         on_route = {int(graph.mounting_state[start]): route[0][0]} if route else {}
         for (_, s_prev), (a, _) in zip(route, route[1:], strict=False):

@@ -3,20 +3,21 @@
 Each step shows the state, the robot's belief over your intention and the action it chose,
 and lists your valid actions; you type a number (or ``q`` to stop). The robot learns from
 each finished episode, as in the paper's simulator with a user interface. The episodes run
-in the benchmark's own loop (:func:`hri_envs.bench.runner.run_episodes`), with you as its
+in the benchmark's own loop (:func:`hri_bench.runner.run_episodes`), with you as its
 human.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
 from agents.config import default_config
 from agents.learner import Learner
-from hri_envs.bench.runner import Schedule, run_episodes
+from hri_bench.runner import Schedule, run_episodes
 from hri_envs.envs.backends import GraphBatch
+from hri_envs.humans.protocol import BatchHuman
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import scenario_graph
 
@@ -27,17 +28,21 @@ class _Quit(Exception):
     """The player typed q."""
 
 
-class _TerminalHuman:
-    """The human of :func:`run_episodes` at a terminal: shows the step, reads the action."""
+class _TerminalHuman(BatchHuman):
+    """A person at a terminal in the human's seat: shows the step, reads the action."""
+
+    name = "person"
 
     def __init__(self, graph: TaskGraph, robot: Learner, read: Callable[[str], str],
                  write: Callable[[str], None]) -> None:
-        self.graph, self.robot, self.read, self.write = graph, robot, read, write
+        super().__init__(graph, 1)
+        self.robot, self.read, self.write = robot, read, write
         self._last: tuple[int, int, int] | None = None
 
-    def __call__(self, state: np.ndarray, start: np.ndarray, intention: np.ndarray,
-                 robot_action: np.ndarray, active: np.ndarray) -> np.ndarray:
-        g, s, a_r = self.graph, int(state[0]), int(robot_action[0])
+    def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
+        """Show the state, the robot's belief and choice, and read the person's action."""
+        g = self.graph
+        s, a_r = int(observations["state"][0]), int(observations["robot_action"][0])
         self.note_aborted()
         names = g.support_names
         belief = ", ".join(f"{n} {b:.0%}" for n, b in zip(names, self.robot.belief[0],

@@ -25,20 +25,22 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.bench.agents import BUILTIN_AGENTS
-from hri_envs.bench.runner import TABLE2
-from hri_envs.bench.study import EXECUTORS
+from hri_bench.agents import BUILTIN_AGENTS
+from hri_bench.study import EXECUTORS
 from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
+from hri_envs.humans.populations import POPULATIONS
 from hri_envs.task.episode import REWARDS
-from hri_envs.task.populations import POPULATIONS
 from hri_envs.task.scenarios import SCENARIOS
 
 __all__ = ["build_parser", "main"]
 
+#: Every schedule name: "random" and the scenarios' fixed schedules.
+_SCHEDULES = ("random", *dict.fromkeys(k for s in SCENARIOS.values() for k in s.schedules))
+
 
 def _agents(text: str) -> tuple[str, ...]:
-    from hri_envs.bench.agents import validate_agent_name
+    from hri_bench.agents import validate_agent_name
 
     names = tuple(a.strip() for a in text.split(",") if a.strip())
     if not names:
@@ -87,7 +89,7 @@ _LEARNER_FLAGS: dict[str, tuple[str, type, str]] = {
                            "start the human model from this preference (paper Sect. 7)"),
 }
 
-#: The ``study`` argument each :class:`~hri_envs.bench.study.StudyConfig` field comes from
+#: The ``study`` argument each :class:`~hri_bench.study.StudyConfig` field comes from
 #: (a :class:`~hri_envs.errors.ConfigError` names the field in its ``field`` attribute).
 _STUDY_ARGUMENTS = {
     "scenario": "scenario",
@@ -132,9 +134,12 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--episodes", type=_positive, default=None,
                        help="episodes per run (default: "
                             + ", ".join(f"{n} {s.episodes}" for n, s in SCENARIOS.items())
-                            + f", table2 {len(TABLE2)})")
-    study.add_argument("--schedule", choices=("random", "table2"), default="random",
-                       help="random start/goal per episode, or the user study's Table 2")
+                            + "".join(f", {n} {k} {len(rows)}" for n, s in SCENARIOS.items()
+                                      for k, rows in s.schedules.items()) + ")")
+    study.add_argument("--schedule", choices=_SCHEDULES, default="random",
+                       help="random start/goal per episode, or a fixed one ("
+                            + ", ".join(f"{k}: the {n}'s" for n, s in SCENARIOS.items()
+                                        for k in s.schedules) + ", the user study's Table 2)")
     study.add_argument("--preference", default=None,
                        help="the scripted human's preference ("
                             + "; ".join(f"{n}: {', '.join(s.preferences[:2])}"
@@ -237,7 +242,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _suite_parser(sub: Any) -> None:
     """The ``suite`` command's flags (docs/benchmark.md, "Suite")."""
-    from hri_envs.bench.suite import DEFAULT_AGENTS
+    from hri_bench.suite import DEFAULT_AGENTS
 
     suite = sub.add_parser("suite", help="run the versioned benchmark suite and a leaderboard",
                            description="Run every track of the benchmark suite (one study "
@@ -263,7 +268,7 @@ def _suite_parser(sub: Any) -> None:
 
 
 def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from hri_envs.bench.suite import run_suite, select_tracks, track_config
+    from hri_bench.suite import run_suite, select_tracks, track_config
 
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     try:
@@ -312,7 +317,7 @@ def _learner_changes(args: argparse.Namespace, parser: argparse.ArgumentParser
 def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
                   executor: str) -> Any:
     """The :class:`StudyConfig` from the flags, or from ``--config`` (a summary.json)."""
-    from hri_envs.bench.study import EXECUTION_FIELDS, StudyConfig
+    from hri_bench.study import EXECUTION_FIELDS, StudyConfig
 
     execution = {"jobs": args.jobs, "executor": executor, "ray_address": args.ray_address}
     if args.config is None:
@@ -350,8 +355,8 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
 
 def _require_for_study(cfg: Any, *, progress: bool) -> None:
     """Fail before any simulation if an extra the study will need is missing."""
-    from hri_envs.bench.agents import SB3_PREFIX
-    from hri_envs.bench.extras import require
+    from hri_bench.agents import SB3_PREFIX
+    from hri_bench.extras import require
     from hri_envs.envs.backends import check_backend
 
     check_backend(cfg.backend)
@@ -369,8 +374,8 @@ def _resume_hint(argv: Sequence[str]) -> str:
 
 def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
            argv: Sequence[str]) -> int:
-    from hri_envs.bench.study import write_outputs
-    from hri_envs.bench.studyio import StudyDir, StudyTerminated, run_in, stop_on_signals
+    from hri_bench.study import write_outputs
+    from hri_bench.studyio import StudyDir, StudyTerminated, run_in, stop_on_signals
 
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     arguments = {**_STUDY_ARGUMENTS, "out": "--out", "resume": "--resume"}
@@ -380,7 +385,7 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
         folder = StudyDir(args.out, cfg, resume=args.resume, overwrite=args.overwrite)
     except ConfigError as exc:
         _config_error(parser, exc, arguments)
-    from hri_envs.bench.regret import REFERENCES
+    from hri_bench.regret import REFERENCES
 
     try:
         with stop_on_signals():
@@ -415,7 +420,7 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
 
 
 def _figures(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from hri_envs.bench.figures import FIGURES, make_figures
+    from hri_bench.figures import FIGURES, make_figures
 
     only = FIGURES if args.only is None else tuple(f.strip() for f in args.only.split(","))
     bad = [f for f in only if f not in FIGURES]
@@ -431,7 +436,7 @@ def _figures(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 
 def _speed(args: argparse.Namespace) -> int:
-    from hri_envs.bench.speed import measure
+    from hri_bench.speed import measure
 
     figures = measure(jobs=args.jobs, size=args.size)
     targets = {"parallel_env_steps_per_s": "target >= 300,000",
@@ -449,7 +454,7 @@ def _speed(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from hri_envs.bench.figures import make_figures
+    from hri_bench.figures import make_figures
 
     t0 = time.perf_counter()
     print("hri-bench demo: the wheel studies (Fig. 10a-c, 100 runs x 20 episodes), the Learner's "
@@ -482,7 +487,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
-    from hri_envs.bench.extras import install_hint
+    from hri_bench.extras import install_hint
     from hri_envs.errors import BackendUnavailableError, MissingExtraError
 
     try:
@@ -501,7 +506,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
               argv: Sequence[str]) -> int:
     if args.command in ("figures", "demo"):
-        from hri_envs.bench.extras import require
+        from hri_bench.extras import require
 
         require(["matplotlib", "tqdm"], f"hri-bench {args.command}")
     if args.command == "study":
@@ -513,7 +518,7 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
     if args.command == "speed":
         return _speed(args)
     if args.command == "play":
-        from hri_envs.bench.play import play
+        from hri_bench.play import play
 
         play(args.scenario, episodes=args.episodes, seed=args.seed)
         return 0

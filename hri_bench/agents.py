@@ -26,12 +26,14 @@ from typing import Any
 
 from agents.config import LearnerConfig, default_config
 from agents.learner import Learner
+from agents.learning.algorithm1 import Workspace
+from agents.protocol import Agent, BatchAgent, Batched
 from baselines import Imitator, MaxEntIRL, Oracle, Passive
 from baselines.bounds import Blind, Informed
 from hri_envs.errors import ConfigError
+from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import PreferredActions, ScriptedHuman
-from hri_envs.task.protocol import Agent, BatchAgent, Batched
 
 __all__ = ["BUILTIN_AGENTS", "REFERENCE_AGENTS", "SB3_PREFIX", "agent_settings", "make_agent",
            "validate_agent_name"]
@@ -107,7 +109,7 @@ def agent_settings(name: str, scenario: str, r0: float,
 def make_agent(
     name: str,
     graph: TaskGraph,
-    human: PreferredActions,
+    human: ScriptedHuman | BatchHuman,
     runs: Sequence[int],
     *,
     seed: int,
@@ -135,7 +137,7 @@ def make_agent(
     n = len(runs)
     cfg = _learner_config(name, graph.name, r0, learner)
     if name == "learner" and cfg is not None:
-        return Learner(graph, n, cfg, seed=seed, runs=runs)
+        return Learner(graph, n, cfg, seed=seed, runs=runs, workspace=Workspace())
     if name == "maxent" and cfg is not None:
         return MaxEntIRL(graph, n, cfg, seed=seed, runs=runs)
     if name == "imitator":
@@ -143,6 +145,9 @@ def make_agent(
     if name == "passive":
         return Passive(graph, n)
     if name == "oracle":
+        if not isinstance(human, PreferredActions):
+            raise ConfigError("the oracle copies a scripted human's preferred actions; this "
+                              "study's humans name none", field="agents")
         return Oracle(graph, human, n)
     if name in REFERENCE_AGENTS:
         if not isinstance(human, ScriptedHuman):

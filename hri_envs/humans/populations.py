@@ -1,6 +1,6 @@
 """Human populations: noisy (Boltzmann) preference humans, drifting humans and a registry.
 
-Three ways to make the scripted partner of :mod:`hri_envs.task.humans` harder to cooperate
+Three ways to make the scripted partner of :mod:`hri_envs.humans.scripted` harder to cooperate
 with, all opt-in (the defaults give today's deterministic human, bit for bit):
 
 * **Rationality β** (:func:`rational_human`): the human samples its free-space action from
@@ -39,16 +39,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from hri_envs.errors import ConfigError
+from hri_envs.humans.protocol import Rows, all_rows
+from hri_envs.humans.scripted import ScriptedHuman, boltzmann_human, preference_human
+from hri_envs.humans.tables import TableHumans
 from hri_envs.task import mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import WAIT, TaskGraph
-from hri_envs.task.humans import ScriptedHuman, boltzmann_human, preference_human
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
 __all__ = [
     "D_MAX",
     "POPULATIONS",
     "HumanDraw",
+    "PopulationHumans",
     "PopulationSpec",
     "build_human",
     "draw_human",
@@ -130,7 +133,7 @@ def rational_human(human: ScriptedHuman, beta: float) -> ScriptedHuman:
     """A Boltzmann version of a deterministic preference human: ``π ∝ exp(β Q_pref)``.
 
     Args:
-        human: A deterministic human from :func:`~hri_envs.task.humans.preference_human`.
+        human: A deterministic human from :func:`~hri_envs.humans.scripted.preference_human`.
         beta: Rationality β > 0; ``inf`` returns ``human`` itself.
 
     Returns:
@@ -359,3 +362,27 @@ def humans_of(graph: TaskGraph, draws: Sequence[HumanDraw]) -> list[ScriptedHuma
         out.append(cache[d])
     return out
 
+
+
+class PopulationHumans(TableHumans):
+    """A population in a seat: every episode each row gets a new member, drawn in :meth:`draw`.
+
+    The envs' ``population=`` argument: each reset (each autoreset of the vector env) draws
+    the episode's human from the env's ``np_random`` with :meth:`PopulationSpec.sample`,
+    before the episode's start, intention and turning back are drawn.
+
+    Args:
+        graph: The task graph.
+        population: A population's name (:data:`POPULATIONS`).
+        n_runs: Rows (the vector env's envs; 1 for a single env).
+    """
+
+    def __init__(self, graph: TaskGraph, population: str, n_runs: int = 1) -> None:
+        self.spec = population_spec(population, graph.name)
+        super().__init__(preference_human(graph), n_runs)
+
+    def draw(self, rng: np.random.Generator, rows: Rows = None) -> None:
+        """Draw a new member for each row of ``rows``, in order, from ``rng``."""
+        idx = all_rows(rows, self.n_runs)
+        self.assign(idx, [build_human(self.graph, self.spec.sample(self.graph.name, rng))
+                          for _ in idx])

@@ -3,7 +3,7 @@
 The paper's point is that the Learner adapts to a human within a handful of episodes. This
 study makes it measurable next to standard deep RL trained against the same scripted human:
 
-- **Learner**: :func:`~hri_envs.bench.study.run_study`; its reward in its e-th episode with
+- **Learner**: :func:`~hri_bench.study.run_study`; its reward in its e-th episode with
   the human (mean and interquartile range over runs);
 - **MaskablePPO** and **MaskedDQN** (:mod:`agents.rl`): trained on the Gymnasium env with
   the same human; at increasing numbers n of *training episodes* the frozen policy is
@@ -24,7 +24,7 @@ reported, its ceiling is about ``1 - r0 / R_passive`` (77 % on the hanger).
 
 Run it (under a minute on two cores)::
 
-    python -m hri_envs.bench.sample_efficiency --out docs/figures
+    python -m hri_bench.sample_efficiency --out docs/figures
 
 writes ``sample_efficiency.png`` and ``sample_efficiency.json``.
 """
@@ -41,10 +41,10 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.bench.runner import make_schedule, simulate
-from hri_envs.bench.study import StudyConfig, graph_for, run_study
+from hri_bench.runner import make_schedule, simulate
+from hri_bench.study import StudyConfig, graph_for, run_study
 from hri_envs.errors import ConfigError
-from hri_envs.task.humans import preference_human
+from hri_envs.humans.scripted import preference_human
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = [
@@ -363,9 +363,9 @@ def plot(result: SampleEfficiencyResult, path: str | Path) -> Path:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m hri_envs.bench.sample_efficiency --out DIR``."""
+    """``python -m hri_bench.sample_efficiency --out DIR``."""
     parser = argparse.ArgumentParser(
-        prog="python -m hri_envs.bench.sample_efficiency",
+        prog="python -m hri_bench.sample_efficiency",
         description="Cooperation reward against episodes of interaction: Learner vs "
                     "MaskablePPO and MaskedDQN vs the Oracle.")
     parser.add_argument("--out", type=Path, default=Path("docs/figures"),

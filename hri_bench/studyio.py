@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.bench.atomic import atomic_path, atomic_writer
-from hri_envs.bench.study import (
+from hri_bench.atomic import atomic_path, atomic_writer
+from hri_bench.study import (
     StudyConfig,
     StudyResult,
     UnitResult,

@@ -22,7 +22,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
-from hri_envs.bench.plots import (
+from hri_bench.plots import (
     decision_bars,
     new_figure,
     policy_lines,
@@ -30,7 +30,7 @@ from hri_envs.bench.plots import (
     save_figure,
     styled,
 )
-from hri_envs.bench.study import Probe, StudyConfig, StudyResult, graph_for, run_study
+from hri_bench.study import Probe, StudyConfig, StudyResult, graph_for, run_study
 from hri_envs.errors import ConfigError
 from hri_envs.task.graph import PUT_ON, ROTATE, TOGGLE, TaskGraph
 

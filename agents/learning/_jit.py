@@ -1,6 +1,6 @@
-"""Compiled kernels of :mod:`hri_envs.task.partner_mdp` (numba, optional).
+"""Compiled kernels of :mod:`agents.learning.partner_mdp` (numba, optional).
 
-Imported only by :func:`hri_envs.task.partner_mdp.kernels` when numba is importable and
+Imported only by :func:`agents.learning.partner_mdp.kernels` when numba is importable and
 ``HRI_ENVS_NO_JIT`` is not set. Each kernel is the loop form of a numpy function of
 ``partner_mdp`` and takes the same (already flattened, C-contiguous, float64 / int64)
 arrays: ``next_state`` (S, A, P) int, ``partner`` (N, S, P), ``terminal`` (N,) int with -1

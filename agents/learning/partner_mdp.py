@@ -2,22 +2,24 @@
 
 Every (s, a_self, a_partner) leads to exactly one next state ``next_state[s, a, p]``, so an
 agent's MDP with the partner's policy π_p substituted never needs the dense
-T(s'|s, a) = Σ_p π_p(p|s) 1[next_state[s, a, p] = s'] of :func:`hri_envs.task.mdp.robot_transition`:
+T(s'|s, a) = Σ_p π_p(p|s) 1[next_state[s, a, p] = s'] of
+:func:`hri_envs.task.mdp.robot_transition`:
 
 * a backup Σ_s' T(s'|s, a) x(s') is the gather Σ_p π_p(p|s) x(next_state[s, a, p]);
 * the policy-evaluation matrix P_π(s, s') of a greedy policy is a scatter of π_p over
   ``next_state[s, π(s), p]``, and the state-to-state matrix of a soft policy likewise.
 
-These functions give the numbers of the dense functions of :mod:`hri_envs.task.mdp` (to
-rounding: sums are taken in another order, differences are ~1e-15) at a fraction of their
-memory traffic. Shapes: ``S`` states, ``A`` own actions, ``P`` partner actions,
-``...``/``N`` any number of independent MDPs. ``terminal`` gives each MDP's absorbing
-state (it loops on itself whatever the actions, as :func:`hri_envs.task.mdp.absorbing`
-makes it), or -1 for none.
+These functions give the numbers of the dense functions of :mod:`hri_envs.task.mdp` and
+:mod:`agents.learning.mdp` (to rounding: sums are taken in another order, differences are
+~1e-15) at a fraction of their memory traffic. Shapes: ``S`` states, ``A`` own actions,
+``P`` partner actions, ``...``/``N`` any number of independent MDPs. ``terminal`` gives
+each MDP's absorbing state (it loops on itself whatever the actions, as
+:func:`hri_envs.task.mdp.absorbing` makes it), or -1 for none. The Learner's whole update,
+built from these, is :mod:`agents.learning.algorithm1`.
 
 Each function has two implementations whose results agree to rounding, ~1e-15
 (tests/test_partner_mdp.py checks them against each other): vectorised numpy, and compiled
-loops (:mod:`hri_envs.task._jit`) used when numba is importable and the environment variable
+loops (:mod:`agents.learning._jit`) used when numba is importable and the environment variable
 ``HRI_ENVS_NO_JIT`` is not set to a non-empty value other than ``0``. The compiled code is
 cached on disk, so a machine compiles it once (:func:`kernels`).
 """
@@ -31,12 +33,12 @@ import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from types import ModuleType
-from typing import NamedTuple
 
 import numpy as np
 
+from agents.learning import mdp
 from hri_envs.errors import ConfigError
-from hri_envs.task import mdp
+from hri_envs.task import mdp as task_mdp
 
 __all__ = [
     "belief_policy",
@@ -44,7 +46,6 @@ __all__ = [
     "jit_enabled",
     "kernels",
     "loop_free_counts",
-    "Models",
     "partner_backup",
     "partner_reward",
     "preload",
@@ -53,7 +54,6 @@ __all__ = [
     "solve_partner_q",
     "solve_soft",
     "threads",
-    "update_models",
 ]
 
 _NEG = -1e300
@@ -61,7 +61,7 @@ _NEG = -1e300
 
 @functools.cache
 def kernels() -> ModuleType | None:
-    """The compiled kernels (:mod:`hri_envs.task._jit`), or None for the numpy path.
+    """The compiled kernels (:mod:`agents.learning._jit`), or None for the numpy path.
 
     None when ``HRI_ENVS_NO_JIT`` is set (to anything but "" or "0") or numba cannot be
     imported. Decided once per process. The first call in a process imports numba and
@@ -71,7 +71,7 @@ def kernels() -> ModuleType | None:
     if os.environ.get("HRI_ENVS_NO_JIT", "") not in ("", "0"):
         return None
     try:
-        from hri_envs.task import _jit
+        from agents.learning import _jit
     except ImportError:
         return None
     return _jit
@@ -104,10 +104,6 @@ def preload() -> bool:
     jit.solve_soft(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
                    np.zeros((1, 1), np.int64), False, 1, 1.0, np.empty((1, 1, 1)),
                    np.empty((1, 1), np.int64), np.zeros((1, 1, 1)), 0, 1)
-    update_models(nxt, valid, np.zeros((1, 1, 1)), np.zeros((1, 1, 2)), zero, np.zeros((1, 2)),
-                  one.reshape(1, 1, 1, 1), None, gamma=0.5, human_temperature=1.0,
-                  robot_temperature=1.0, irl_temperature=1.0, learning_rate=0.1,
-                  state_traces=[zero], intentions=zero)
     return True
 
 
@@ -360,7 +356,7 @@ def partner_reward(reward: np.ndarray, partner: np.ndarray,
 
 
 def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
-    """Soft-max policy ``π(a|s) ∝ exp(τ Q(s,a))`` over valid actions (as :func:`mdp.softmax`).
+    """Soft-max policy ``π(a|s) ∝ exp(τ Q(s,a))`` over valid actions (as :func:`task_mdp.softmax`).
 
     Args:
         q: (..., S, A) action values.
@@ -372,7 +368,7 @@ def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
     """
     jit = kernels()
     if jit is None:
-        return mdp.softmax(q, valid, temperature)
+        return task_mdp.softmax(q, valid, temperature)
     n_s, n_a = q.shape[-2:]
     flat = _c(q, dtype=np.float64).reshape(-1, n_s, n_a)
     out = jit.softmax(flat, _valid(valid, n_s, n_a), float(temperature))
@@ -383,7 +379,7 @@ def belief_policy(q: np.ndarray, belief: np.ndarray, states: np.ndarray, valid: 
                   temperature: float, eta: float, baseline: np.ndarray | None) -> np.ndarray:
     """The robot's bounded soft-max of the belief-weighted Q in each run's state (Eq. 5).
 
-    :func:`hri_envs.task.mdp.bounded_softmax` of ``Σ_ι belief(ι) q(ι, state, ·)``, in one
+    :func:`agents.learning.mdp.bounded_softmax` of ``Σ_ι belief(ι) q(ι, state, ·)``, in one
     call per step (the study's inner loop).
 
     Args:
@@ -619,7 +615,7 @@ def _solve_numpy(nxt: np.ndarray, pi: np.ndarray, r: np.ndarray, valid: np.ndarr
         v = np.linalg.solve(m, np.take_along_axis(r_t, act_t[..., None], axis=-1))[..., 0]
         q_t = r_t + gamma * _backup_numpy(nxt, pi[todo], v, term[todo])
         q[todo] = q_t
-        new_act, changed = mdp.improve_policy(q_t, valid, act_t)
+        new_act, changed = task_mdp.improve_policy(q_t, valid, act_t)
         if not changed.any():
             break
         act[todo] = new_act
@@ -639,7 +635,7 @@ def expected_feature_counts(
 ) -> np.ndarray:
     """Expected feature counts of a soft policy over a finite horizon (ME-IRL's E[φ]).
 
-    :func:`hri_envs.task.mdp.expected_feature_counts` on the partner-substituted MDP: the
+    :func:`agents.learning.mdp.expected_feature_counts` on the partner-substituted MDP: the
     state distribution starts at ``start``, is propagated ``horizon - 1`` times by
     P(s'|s) = Σ_a policy(a|s) Σ_p partner(p|s) 1[next_state[s, a, p] = s'] (built by a
     scatter), no mass leaves the terminal state, and the counts sum φ over the ``horizon``
@@ -703,7 +699,7 @@ def loop_free_counts(features: np.ndarray, state_traces: Sequence[np.ndarray],
                      intentions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Loop removal and feature counts of each trace, in one call (ME-IRL's demonstrations).
 
-    The numbers of :func:`hri_envs.task.mdp.demonstrations` (bit for bit: the same path,
+    The numbers of :func:`agents.learning.mdp.demonstrations` (bit for bit: the same path,
     and φ summed along it in the same order) without its per-trace Python work; the paths
     themselves are not returned.
 
@@ -760,241 +756,3 @@ def _joined(state_traces: Sequence[np.ndarray], n_s: int) -> tuple[np.ndarray, n
     offsets = np.zeros(len(lengths) + 1, np.int64)
     np.cumsum(lengths, out=offsets[1:])
     return states, offsets
-
-
-class Models(NamedTuple):
-    """The Learner's model of both partners after :func:`update_models` (B runs, I intentions).
-
-    Attributes:
-        theta: (B, F) feature weights of the human's reward.
-        state_reward: (B, I, S) that reward, θ·φ(s, ι).
-        q_h: (B, I, S, A) the human's Q.
-        greedy_h: (B, I, S) int its greedy actions (the next update's warm start).
-        pi_h: (B, I, S, A) the human policy estimate π̂_H.
-        q_r: (B, I, S, A) the robot's Q.
-        greedy_r: (B, I, S) int its greedy actions.
-        pi_r: (B, I, S, A) the robot's soft-max policy the human model assumes.
-    """
-
-    theta: np.ndarray
-    state_reward: np.ndarray
-    q_h: np.ndarray
-    greedy_h: np.ndarray
-    pi_h: np.ndarray
-    q_r: np.ndarray
-    greedy_r: np.ndarray
-    pi_r: np.ndarray
-
-
-def update_models(
-    next_state: np.ndarray,
-    valid: np.ndarray,
-    reward: np.ndarray,
-    features: np.ndarray,
-    terminal: np.ndarray,
-    theta: np.ndarray,
-    pi_r: np.ndarray,
-    warm: tuple[np.ndarray, np.ndarray] | None,
-    *,
-    gamma: float,
-    human_temperature: float,
-    robot_temperature: float,
-    irl_temperature: float,
-    learning_rate: float,
-    state_traces: Sequence[np.ndarray] | None = None,
-    intentions: np.ndarray | None = None,
-    max_iter: int = 100,
-    state_reward: np.ndarray | None = None,
-    out: Models | None = None,
-) -> Models:
-    """The Learner's update of its models (Alg. 1 l. 17-22 and 3-5) for B runs in one call.
-
-    1. With ``state_traces``: one ME-IRL step on θ per run whose intention was revealed
-       (``intentions[b] >= 0``; -1 keeps θ): the loop-free counts of its trace
-       (:func:`loop_free_counts`) against the expected counts
-       (:func:`expected_feature_counts`) of the soft-max policy, at ``irl_temperature``,
-       of the human MDP of that intention (reward θ·φ, the robot's ``pi_r`` substituted),
-       then :func:`hri_envs.task.mdp.irl_step`.
-    2. The human model: for every intention, :func:`solve_soft` of the human MDP (reward
-       θ·φ with the new θ, ``pi_r`` substituted, soft-max at ``human_temperature``).
-    3. The robot's Q: :func:`solve_soft` of its MDP (joint ``reward``, the new π̂_H
-       substituted, soft-max at ``robot_temperature``).
-
-    Every policy iteration is warm-started from ``warm``'s greedy actions if given.
-
-    Where the kernels are on, the runs are cut into parts that the threads take in one
-    hand-out per call (:func:`set_threads`); each part goes through the compiled
-    :func:`hri_envs.task._jit.irl_steps`, numpy's θ·φ of the new θ, and
-    :func:`hri_envs.task._jit.partner_models`: the same numbers, bit for bit, as the calls
-    listed above, which the numpy path makes.
-
-    Args:
-        next_state: (S, A, A) int joint table, the robot's action first; the human's MDP
-            uses its transpose.
-        valid: (S, A) bool valid actions (of both partners).
-        reward: (S, A, A) the robot's joint reward.
-        features: (I, S, F) φ(s, ι).
-        terminal: (I,) int the absorbing goal state of each intention.
-        theta: (B, F) θ before the update.
-        pi_r: (B, I, S, A) the robot's policies the human model assumed so far.
-        warm: ``(greedy_h, greedy_r)`` (B, I, S) int of the last update, or None.
-        gamma: Discount in [0, 1).
-        human_temperature: τ_H of π̂_H.
-        robot_temperature: τ of the robot policy the human model assumes.
-        irl_temperature: τ of the IRL's soft-max policy.
-        learning_rate: λ of the IRL step.
-        state_traces: B state sequences (each at least one state), or None: no IRL step.
-        intentions: (B,) int the intention each trace revealed, -1 for none.
-        max_iter: Cap on improvement rounds.
-        state_reward: (B, I, S) θ·φ of ``theta``, if the caller has it (the
-            ``state_reward`` of the update that made this θ; its values are trusted), to
-            spare the compiled path computing it again; None: computed.
-        out: Arrays to write the new models into (all but ``theta``, which is always new
-            when θ changes), of the shapes and types of the result and sharing no memory
-            with the inputs; None: new arrays. Reusing the arrays of an earlier update
-            spares the allocator fresh pages (about a sixth of a 100-run update's time).
-
-    Returns:
-        The new :class:`Models`.
-
-    Raises:
-        ConfigError: An array of the wrong shape, an index out of range, or what
-            :func:`solve_soft` refuses.
-    """
-    phi = _c(np.asarray(features), np.float64)
-    th = _c(np.asarray(theta), np.float64)
-    if phi.ndim != 3 or th.ndim != 2:
-        raise ConfigError(f"features must be (I, S, F) and theta (B, F), got shapes "
-                          f"{phi.shape} and {th.shape}",
-                          field="features" if phi.ndim != 3 else "theta")
-    n_i, n_s, n_f = phi.shape
-    n_a = np.shape(valid)[-1]
-    n_b = len(th)
-    nxt = _c(np.asarray(next_state), np.int64)
-    _check_shape("next_state", nxt, (n_s, n_a, n_a))
-    _check_range("next_state", nxt, 0, n_s)
-    ok = _valid(valid, n_s, n_a)
-    joint = _c(np.asarray(reward), np.float64)
-    _check_shape("reward", joint, (n_s, n_a, n_a))
-    term = _c(np.asarray(terminal), np.int64)
-    _check_shape("terminal", term, (n_i,))
-    _check_range("terminal", term, -1, n_s)
-    _check_shape("theta", th, (n_b, n_f))
-    pi = _c(np.asarray(pi_r), np.float64)
-    _check_shape("pi_r", pi, (n_b, n_i, n_s, n_a))
-    if warm is not None:
-        warm = (_c(np.asarray(warm[0]), np.int64), _c(np.asarray(warm[1]), np.int64))
-        for name, w in zip(("greedy_h", "greedy_r"), warm, strict=True):
-            _check_shape(name, w, (n_b, n_i, n_s))
-            _check_range(name, w, 0, n_a)
-    _check_iteration(gamma, max_iter)
-    if state_reward is not None:
-        state_reward = _c(np.asarray(state_reward), np.float64)
-        _check_shape("state_reward", state_reward, (n_b, n_i, n_s))
-    if out is not None:
-        _check_out(out, (n_b, n_i, n_s, n_a))
-    intent = None
-    if state_traces is not None:
-        intent = _c(np.asarray(intentions).reshape(-1), np.int64)
-        if len(intent) != n_b or len(state_traces) != n_b:
-            raise ConfigError(f"give one trace and one intention per run ({n_b}), got "
-                              f"{len(state_traces)} and {len(intent)}", field="intentions")
-        _check_range("intentions", intent, -1, n_i)
-        states, offsets = _joined(state_traces, n_s)
-    jit = kernels()
-    if jit is None or n_f < 2:  # (numpy sums a single feature's counts pairwise)
-        made = _update_models_composed(nxt, ok, joint, phi, term, th, pi, warm, gamma,
-                                       human_temperature, robot_temperature, irl_temperature,
-                                       learning_rate, state_traces, intent, max_iter)
-        if out is None:
-            return made
-        for into, value in zip(out[1:], made[1:], strict=True):
-            np.copyto(into, value)
-        return Models(made.theta, *out[1:])
-    nxt_r, nxt_h, next_h, joint_t, vidx, n_valid, rank = jit.learner_tables(nxt, ok, joint)
-    shape = (n_b, n_i, n_s, n_a)
-    theta_new = th if intent is None else np.empty_like(th)
-    if out is None:
-        new = Models(theta_new, np.empty(shape[:3]), np.empty(shape),
-                     np.empty(shape[:3], np.int64), np.empty(shape), np.empty(shape),
-                     np.empty(shape[:3], np.int64), np.empty(shape))
-    else:
-        new = Models(theta_new, *out[1:])
-    w_h, w_r = warm if warm is not None else (np.zeros(shape[:3], np.int64),) * 2
-    if intent is not None and state_reward is None:
-        state_reward = np.einsum("isf,bf->bis", phi, th)
-
-    def runs(lo: int, hi: int) -> None:
-        if intent is not None:
-            jit.irl_steps(nxt_h, next_h, ok, vidx, n_valid, rank, phi, term, th, state_reward,
-                          pi, w_h, warm is not None, states, offsets, intent, float(gamma),
-                          float(irl_temperature), int(max_iter), float(learning_rate),
-                          new.theta, lo, hi)
-        # numpy's θ·φ (its sums' order is numpy's), a part at a time: the same numbers
-        np.einsum("isf,bf->bis", phi, new.theta[lo:hi], out=new.state_reward[lo:hi])
-        jit.partner_models(nxt_r, nxt_h, joint_t, ok, vidx, n_valid, rank, term,
-                           new.state_reward, pi, w_h, w_r, warm is not None, float(gamma),
-                           float(human_temperature), float(robot_temperature), int(max_iter),
-                           new.q_h, new.greedy_h, new.pi_h, new.q_r, new.greedy_r, new.pi_r,
-                           lo, hi)
-
-    _in_parts(runs, n_b, mdps=n_b * (2 * n_i + (state_traces is not None)))
-    return new
-
-
-def _check_out(out: Models, shape: tuple[int, ...]) -> None:
-    """Raise ConfigError unless ``out`` can take :func:`update_models`' results."""
-    for name in Models._fields[1:]:
-        arr = getattr(out, name)
-        ints = name.startswith("greedy")
-        want = shape[:3] if ints or name == "state_reward" else shape
-        if (type(arr) is not np.ndarray or arr.shape != want
-                or arr.dtype != (np.int64 if ints else np.float64)
-                or not arr.flags.c_contiguous or not arr.flags.writeable):
-            raise ConfigError(f"out.{name} must be a writeable C-contiguous "
-                              f"{'int64' if ints else 'float64'} array of shape {want}",
-                              field=f"out.{name}")
-
-
-@mdp.one_blas_thread()
-def _update_models_composed(nxt: np.ndarray, valid: np.ndarray, reward: np.ndarray,
-                            features: np.ndarray, terminal: np.ndarray, theta: np.ndarray,
-                            pi_r: np.ndarray, warm: tuple[np.ndarray, np.ndarray] | None,
-                            gamma: float, human_temperature: float, robot_temperature: float,
-                            irl_temperature: float, learning_rate: float,
-                            state_traces: Sequence[np.ndarray] | None,
-                            intentions: np.ndarray | None, max_iter: int) -> Models:
-    """:func:`update_models` by the calls its docstring lists (checked inputs), with BLAS
-    on one thread (:func:`hri_envs.task.mdp.one_blas_thread`: numpy's solves are small).
-    """
-    next_h = np.ascontiguousarray(np.swapaxes(nxt, 1, 2))
-    if state_traces is not None:
-        assert intentions is not None
-        revealed = intentions >= 0
-        shown = np.where(revealed, intentions, 0)
-        counts, start, horizon = loop_free_counts(features, state_traces, shown)
-        rows = np.arange(len(theta))
-        term = terminal[shown]
-        pi = pi_r[rows, shown]  # (B, S, A) the robot's policy the human expects
-        phi = features[shown]  # (B, S, F)
-        r_state = np.einsum("bsf,bf->bs", phi, theta)
-        # Nearly the human MDP of the last update for the revealed intention (same θ, π_R
-        # one update newer): start from its greedy policy, which is mostly still optimal.
-        start_from = None if warm is None else warm[0][rows, shown]
-        _, _, policy = solve_soft(next_h, pi, valid, gamma, irl_temperature,
-                                  state_reward=r_state, terminal=term, policy=start_from,
-                                  max_iter=max_iter)
-        expected = expected_feature_counts(next_h, pi, policy, phi, start, term, horizon)
-        new = mdp.irl_step(theta, counts, expected, learning_rate)
-        theta = np.where(revealed[:, None], new, theta)
-    r_all = np.einsum("isf,bf->bis", features, theta)  # (B, I, S)
-    goal = terminal[None, :]
-    q_h, greedy_h, pi_h = solve_soft(next_h, pi_r, valid, gamma, human_temperature,
-                                     state_reward=r_all, terminal=goal,
-                                     policy=None if warm is None else warm[0],
-                                     max_iter=max_iter)
-    q_r, greedy_r, pi_r = solve_soft(nxt, pi_h, valid, gamma, robot_temperature,
-                                     joint_reward=reward, terminal=goal,
-                                     policy=None if warm is None else warm[1],
-                                     max_iter=max_iter)
-    return Models(theta, r_all, q_h, greedy_h, pi_h, q_r, greedy_r, pi_r)

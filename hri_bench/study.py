@@ -27,34 +27,36 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.bench.agents import (
+from agents.learning import algorithm1
+from hri_bench.agents import (
     BUILTIN_AGENTS,
     REFERENCE_AGENTS,
     agent_settings,
     make_agent,
     validate_agent_name,
 )
-from hri_envs.bench.atomic import atomic_writer
-from hri_envs.bench.regret import REFERENCES, blind_values
-from hri_envs.bench.results import StudyResult  # re-exported; shared with the plots
-from hri_envs.bench.runner import TABLE2, ScriptedHumans, make_schedule, simulate
+from hri_bench.atomic import atomic_writer
+from hri_bench.humans import custom_human, is_custom, validate_population
+from hri_bench.regret import REFERENCES, blind_values
+from hri_bench.results import StudyResult  # re-exported; shared with the plots
+from hri_bench.runner import make_schedule, simulate
 from hri_envs.envs.backends import BACKENDS, batch_backend
 from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ActionError, BackendUnavailableError, ConfigError
-from hri_envs.task import partner_mdp
-from hri_envs.task.episode import REWARDS
-from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import ScriptedHuman, preference_human, preferences_for
-from hri_envs.task.populations import (
+from hri_envs.humans.populations import (
     HumanDraw,
     draw_human,
     human_sequence,
     humans_of,
-    population_spec,
     rational_human,
     validate_drift,
     validate_rationality,
 )
+from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.scripted import ScriptedHuman, preference_human, preferences_for
+from hri_envs.humans.tables import TableHumans
+from hri_envs.task.episode import REWARDS
+from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
 __all__ = [
@@ -104,10 +106,12 @@ class StudyConfig:
 
     Attributes:
         scenario: "hanger" or "wheel".
-        agents: Agent names (see :mod:`hri_envs.bench.agents`).
+        agents: Agent names (see :mod:`hri_bench.agents`).
         runs: Independent runs per agent (each learns from scratch).
-        episodes: Episodes per run (default 8 hanger, 20 wheel; 9 for "table2").
-        schedule: "random" start and goal per episode, or the user study's "table2".
+        episodes: Episodes per run (default: the scenario's, or a fixed schedule's length:
+            8 hanger, 20 wheel, 9 for "table2").
+        schedule: "random" start and goal per episode, or one of the scenario's fixed
+            schedules (the hanger's user study, "table2").
         preference: The scripted human's preference, or "all" to cycle runs over all of them.
         r0: Robot reward for waiting while the human acts, in (-1, 0).
         human_passive: Probability that the human waits in a step.
@@ -122,11 +126,12 @@ class StudyConfig:
         ray_address: Address of a Ray cluster (default: start Ray locally).
         probes: Policy entries to record per episode (for Figs. 8, 11, 12).
         human_rationality: β of a Boltzmann human following its preference
-            (:func:`hri_envs.task.populations.rational_human`); ``inf``: deterministic.
+            (:func:`hri_envs.humans.populations.rational_human`); ``inf``: deterministic.
         population: Draw each run's human from this population
-            (:data:`hri_envs.task.populations.POPULATIONS`); None: the fixed human above.
+            (:data:`hri_envs.humans.populations.POPULATIONS`), or ``module:Class``: a human
+            class of your own (:mod:`hri_bench.humans`); None: the fixed human above.
         human_drift: The human switches to another preference after this many episodes
-            (:func:`hri_envs.task.populations.human_sequence`); None: never.
+            (:func:`hri_envs.humans.populations.human_sequence`); None: never.
         learner: Changes to the Learner's :class:`~agents.config.LearnerConfig` as
             (name, value) pairs, e.g. ``(("beta", 0.9),)``.
         reward: The reward variant, "paper" (v0) or "no-free-toggle" (a robot grasp toggle
@@ -174,11 +179,10 @@ class StudyConfig:
             raise bad("runs", ">= 1")
         if self.episodes is not None and self.episodes < 1:
             raise bad("episodes", ">= 1")
-        if self.schedule not in ("random", "table2"):
-            raise bad("schedule", "'random' or 'table2'")
-        if self.schedule == "table2" and self.scenario != "hanger":
-            raise ConfigError("schedule 'table2' is the hanger user study's; use 'random' for "
-                              "the wheel", field="schedule")
+        fixed = scenario_spec(self.scenario).schedules
+        if self.schedule != "random" and self.schedule not in fixed:
+            raise ConfigError(f"schedule {self.schedule!r} is not one of the {self.scenario}'s; "
+                              f"allowed: {', '.join(['random', *fixed])}", field="schedule")
         prefs = preferences_for(self.scenario)
         if self.preference is not None and self.preference not in (*prefs, "all"):
             raise bad("preference", f"'all' or one of {', '.join(prefs)}")
@@ -197,11 +201,19 @@ class StudyConfig:
             raise bad("max_steps", ">= 1")
         validate_rationality(self.human_rationality)
         if self.population is not None:
-            population_spec(self.population, self.scenario)
+            validate_population(self.population, self.scenario)
             if self.preference is not None:
                 raise ConfigError("give either a population or a preference, not both",
                                   field="preference")
         validate_drift(self.human_drift)
+        if is_custom(self.population):
+            if self.human_drift is not None:
+                raise ConfigError("a human of your own (--population module:Class) does not "
+                                  "drift; leave out --human-drift", field="human_drift")
+            if "oracle" in self.agents:
+                raise ConfigError("the oracle copies a scripted human's preferred actions; "
+                                  "leave it out with --population module:Class",
+                                  field="agents")
         planners = [a for a in self.agents if a in REFERENCE_AGENTS]
         if planners and self.per_run_humans:
             raise ConfigError(f"agent(s) {', '.join(planners)} plan for one scripted human "
@@ -227,7 +239,7 @@ class StudyConfig:
 
     def human_draws(self, run: int, preference: str) -> list[HumanDraw]:
         """Run ``run``'s human in each episode, as its own draw from ``(seed, run)`` (a
-        population, rationality, drift; see :mod:`hri_envs.task.populations`).
+        population, rationality, drift; see :mod:`hri_envs.humans.populations`).
         """
         draw = draw_human(self.scenario, self.seed, run, population=self.population,
                           preference=preference, rationality=self.human_rationality,
@@ -245,7 +257,9 @@ class StudyConfig:
         """Episodes per run after defaults."""
         if self.episodes is not None:
             return self.episodes
-        return len(TABLE2) if self.schedule == "table2" else scenario_spec(self.scenario).episodes
+        spec = scenario_spec(self.scenario)
+        fixed = spec.schedules.get(self.schedule)
+        return spec.episodes if fixed is None else len(fixed)
 
     @property
     def waiting_reward(self) -> float:
@@ -342,15 +356,23 @@ def _json_float(x: float) -> float | str:
 
 
 def _humans(cfg: StudyConfig, preference: str, runs: list[int]
-            ) -> tuple[ScriptedHuman | ScriptedHumans, list[str]]:
-    """The unit's human(s) and each run's human label (per episode for drift: "a>b")."""
+            ) -> tuple[ScriptedHuman | BatchHuman, list[str]]:
+    """The unit's human(s) and each run's human label (per episode for drift: "a>b").
+
+    The one place a study's humans are made: a scripted human shared by the runs, each
+    run's own scripted humans (a population's draw, a drift), or a human class of the user's
+    (``--population module:Class``).
+    """
     graph = graph_for(cfg.scenario)
+    if is_custom(cfg.population):
+        assert cfg.population is not None
+        return custom_human(cfg.population, graph, runs), [cfg.population] * len(runs)
     if preference == "all" and not cfg.per_run_humans:  # a batch of the runs' preferences
         prefs = [cfg.preference_of_run()[r] for r in runs]
         shared = {p: rational_human(preference_human(graph, p, passive=cfg.human_passive,
                                                      turn_back=cfg.turn_back),
                                     cfg.human_rationality) for p in dict.fromkeys(prefs)}
-        return ScriptedHumans([[shared[p]] for p in prefs], runs, cfg.seed), prefs
+        return TableHumans([[shared[p]] for p in prefs]), prefs
     if not cfg.per_run_humans:
         human = preference_human(graph, preference, passive=cfg.human_passive,
                                  turn_back=cfg.turn_back)
@@ -361,7 +383,7 @@ def _humans(cfg: StudyConfig, preference: str, runs: list[int]
     flat = humans_of(graph, [d for seq in seqs for d in seq])
     n_e = cfg.n_episodes
     per_run = [flat[i * n_e:(i + 1) * n_e] for i in range(len(runs))]
-    return ScriptedHumans(per_run, runs, cfg.seed), labels
+    return TableHumans(per_run), labels
 
 
 #: What a unit yields: metrics, probes, schedule and each run's human label.
@@ -466,7 +488,7 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
             yield i, _run_unit_caught(units[i])
     elif cfg.executor == "process":
         if {"learner", "maxent"} & set(cfg.agents):
-            partner_mdp.preload()  # forked workers inherit the loaded kernels
+            algorithm1.preload()  # forked workers inherit the loaded kernels
         # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
         # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
         # every worker at once.
@@ -515,7 +537,7 @@ def run_study(
         progress: Show a progress bar (tqdm) over work units.
         on_unit: Called after each finished unit (for callers with their own progress).
         done: Results of units already simulated, by their index in the study's units
-            (a resumed study, :mod:`hri_envs.bench.studyio`); they are not run again.
+            (a resumed study, :mod:`hri_bench.studyio`); they are not run again.
         on_result: Called as ``on_result(index, result)`` when a unit finishes (to save it).
         keep_going: When an agent raises, record it in :attr:`StudyResult.failures` (its
             traceback) and drop that agent from the result instead of raising.
@@ -586,16 +608,16 @@ def regret_reference(result: StudyResult) -> tuple[np.ndarray | None, str]:
     except ConfigError as exc:
         return None, f"not reported: {exc}"
     return values, ("blind's exact expected episode reward from the episode's start support "
-                    "minus the agent's reward, mean over runs (hri_envs/bench/regret.py)")
+                    "minus the agent's reward, mean over runs (hri_bench/regret.py)")
 
 
 def summarize(result: StudyResult) -> dict[str, Any]:
     """The ``summary.json`` document (docs/benchmark.md, 'summary.json').
 
     Identical for identical settings and seed (no wall time: that goes to the run log of
-    :mod:`hri_envs.bench.studyio`), so a resumed or replayed study's file is byte-identical.
+    :mod:`hri_bench.studyio`), so a resumed or replayed study's file is byte-identical.
     """
-    from hri_envs.bench import stats
+    from hri_bench import stats
 
     cfg = result.config
     agents: dict[str, Any] = {}
@@ -678,7 +700,7 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
     cfg = result.config
     paths: list[Path] = []
     if plots and result.metrics:
-        from hri_envs.bench import plots as plotting
+        from hri_bench import plots as plotting
 
         with tempfile.TemporaryDirectory(dir=out, prefix=".plots-") as tmp:
             for p in plotting.study_plots(result, Path(tmp)):

@@ -1,10 +1,10 @@
 """What a study produces: :class:`StudyResult`, per-agent arrays.
 
-This module sits below both the study (:mod:`hri_envs.bench.study`, which fills a result)
-and the plots (:mod:`hri_envs.bench.plots`, which draw one), so neither imports the other.
+This module sits below both the study (:mod:`hri_bench.study`, which fills a result)
+and the plots (:mod:`hri_bench.plots`, which draw one), so neither imports the other.
 It imports nothing from the package. The result's configuration is typed structurally by
-:class:`StudySettings`, which :class:`hri_envs.bench.study.StudyConfig` satisfies;
-``StudyResult[StudyConfig]`` is the result of :func:`hri_envs.bench.study.run_study`.
+:class:`StudySettings`, which :class:`hri_bench.study.StudyConfig` satisfies;
+``StudyResult[StudyConfig]`` is the result of :func:`hri_bench.study.run_study`.
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ class StudyResult(Generic[ConfigT_co]):
     """Per-agent arrays from a study.
 
     Attributes:
-        config: The study's configuration (a :class:`hri_envs.bench.study.StudyConfig`).
+        config: The study's configuration (a :class:`hri_bench.study.StudyConfig`).
         metrics: ``metrics[agent][metric]`` is (runs, episodes).
         probes: ``probes[agent]`` is (runs, episodes + 1, len(config.probes)): the probed
             probabilities before the first episode and after each update.

@@ -14,12 +14,13 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from agents.learner import Learner
-from hri_envs.bench.study import StudyConfig, graph_for, run_study
+from agents.learning import partner_mdp
+from agents.learning.algorithm1 import Workspace
+from agents.protocol import Trace
+from hri_bench.study import StudyConfig, graph_for, run_study
 from hri_envs.errors import ConfigError
-from hri_envs.task import partner_mdp
-from hri_envs.task.humans import HANGER_PREFERENCES
 from hri_envs.task.mdp import one_blas_thread
-from hri_envs.task.protocol import Trace
+from hri_envs.task.scenarios.hanger import PREFERENCES as HANGER_PREFERENCES
 
 __all__ = [
     "HANGER_STUDY_PREFERENCES",
@@ -87,7 +88,7 @@ def _wheel_trace() -> tuple[Any, Trace]:
 def _update_seconds(n_runs: int, repeats: int) -> float:
     """Seconds per Learner update of ``n_runs`` runs on the wheel trace (after a warm-up)."""
     graph, trace = _wheel_trace()
-    learner = Learner(graph, n_runs)
+    learner = Learner(graph, n_runs, workspace=Workspace())
     traces, intentions = [trace] * n_runs, np.ones(n_runs, np.int64)
     learner.end_episode(traces, intentions)  # warm-up
     t0 = time.perf_counter()

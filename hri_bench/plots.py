@@ -21,7 +21,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from hri_envs.bench.results import StudyResult, StudySettings
+from hri_bench.results import StudyResult, StudySettings
 
 __all__ = ["STYLE", "decision_bars", "impulse_bands", "new_figure", "policy_lines",
            "reward_bands", "save_figure", "study_plots", "style", "styled"]
@@ -85,11 +85,11 @@ def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
     """Mean (line) and interquartile band of the cooperation reward per episode (Fig. 10).
 
     With ``ci``, error bars show the mean's 95 % bootstrap confidence interval per episode
-    (:func:`hri_envs.bench.stats.per_episode`, seeded by the study seed). With ``stalls``,
+    (:func:`hri_bench.stats.per_episode`, seeded by the study seed). With ``stalls``,
     also the median (dotted) and, in each label, the share of the agent's episodes cut off
     at the step limit, so that a few stalled episodes dragging the mean down are visible.
     """
-    from hri_envs.bench import stats
+    from hri_bench import stats
 
     episodes = np.arange(1, result.config.n_episodes + 1)
     for agent in agents or list(result.metrics):

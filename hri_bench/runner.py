@@ -15,36 +15,30 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
+from agents.protocol import BatchAgent, Trace
 from hri_envs.envs.backends import BatchBackend, batch_backend
 from hri_envs.errors import ActionError, ConfigError
+from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.scripted import ScriptedHuman
+from hri_envs.humans.tables import TableHumans
 from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import EpisodeBatch, EpisodeRules, classify, step_reward
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.humans import ScriptedHuman
-from hri_envs.task.protocol import BatchAgent, Trace
+from hri_envs.task.scenarios import scenario_spec
 
 __all__ = [
-    "TABLE2",
     "EpisodeMetrics",
     "EpisodeResult",
-    "HumanPolicy",
     "Schedule",
-    "ScriptedHumans",
+    "human_streams",
     "make_schedule",
     "run_episodes",
     "simulate",
 ]
-
-#: The user study's episodes (paper Table 2): (start, goal, turns back halfway).
-TABLE2: tuple[tuple[str, str, bool], ...] = (
-    ("B", "A", False), ("A", "B", False), ("B", "A", False), ("A", "C", False),
-    ("C", "B", False), ("B", "C", False), ("C", "A", False), ("A", "B", True),
-    ("A", "B", False),
-)
 
 
 @dataclass(frozen=True)
@@ -68,33 +62,34 @@ def make_schedule(
     runs: Sequence[int] | np.ndarray,
     episodes: int,
     seed: int,
-    human: ScriptedHuman | ScriptedHumans | None = None,
+    human: ScriptedHuman | BatchHuman | None = None,
 ) -> Schedule:
-    """Episode schedule: ``"random"`` (start and goal ≠ start drawn per episode) or
-    ``"table2"`` (paper Table 2, cycled if more episodes are asked for).
+    """Episode schedule: ``"random"`` (start and goal ≠ start drawn per episode) or one of
+    the scenario's fixed schedules (the hanger's ``"table2"``, paper Table 2), cycled if
+    more episodes are asked for.
 
-    Random schedules draw from ``(seed, run, 2)`` only; turning back is drawn with the
-    human's ``turn_back`` probability (each run's own for :class:`ScriptedHumans`).
+    Random schedules draw from ``(seed, run, 2)`` only; turning back is drawn with each
+    run's human's ``turn_back`` probability.
     """
     n_b, n_k = len(runs), graph.n_intentions
-    if kind == "table2":
+    fixed = scenario_spec(graph.name).schedules
+    if kind in fixed:
         names = graph.support_names
-        rows = [TABLE2[e % len(TABLE2)] for e in range(episodes)]
+        table = fixed[kind]
+        rows = [table[e % len(table)] for e in range(episodes)]
         start = np.array([[names.index(r[0]) for r in rows]] * n_b, dtype=np.int64)
         goal = np.array([[names.index(r[1]) for r in rows]] * n_b, dtype=np.int64)
         turn = np.array([[r[2] for r in rows]] * n_b, dtype=bool)
         return Schedule(start.reshape(n_b, episodes), goal.reshape(n_b, episodes),
                         turn.reshape(n_b, episodes))
     if kind != "random":
-        raise ConfigError(f"unknown schedule {kind!r}; allowed: 'random', 'table2'",
-                          field="schedule")
+        raise ConfigError(f"unknown schedule {kind!r} for the {graph.name}; allowed: "
+                          f"{', '.join(['random', *fixed])}", field="schedule")
     start = np.zeros((n_b, episodes), dtype=np.int64)
     goal = np.zeros((n_b, episodes), dtype=np.int64)
     turn = np.zeros((n_b, episodes), dtype=bool)
     p_turn = np.zeros(n_b)
-    if isinstance(human, ScriptedHumans):
-        p_turn[:] = human.turn_back_rates()
-    elif human is not None:
+    if human is not None:
         p_turn[:] = human.turn_back
     for i, r in enumerate(runs):
         rng = np.random.default_rng([int(seed), int(r), 2])
@@ -127,97 +122,6 @@ class EpisodeMetrics:
     extras: dict[str, np.ndarray] = field(default_factory=dict)
 
 
-class HumanPolicy(Protocol):
-    """The human side of :func:`run_episodes`: the human's actions for a batch of runs.
-
-    Called once per step after the robot has chosen (a person at a terminal sees the
-    robot's choice first); only the ``active`` rows matter and only they may consume
-    randomness. Returns (B,) int actions.
-    """
-
-    def __call__(self, state: np.ndarray, start: np.ndarray, intention: np.ndarray,
-                 robot_action: np.ndarray, active: np.ndarray) -> np.ndarray:
-        """(B,) the human's actions in ``state`` given the robot's ``robot_action``."""
-        ...
-
-
-class ScriptedHumans:
-    """Scripted humans for a batch of runs, each run with its own random stream.
-
-    ``human`` is one :class:`~hri_envs.task.humans.ScriptedHuman` shared by every run (the
-    default), or per run a sequence of humans per episode (a population's draw, a drifting
-    human; a sequence shorter than the episodes repeats its last human). Run ``r`` draws
-    from a generator seeded by ``(seed, r, 1)``, two uniforms per step it is active in
-    (passivity, then the choice of action), whatever its human.
-    """
-
-    def __init__(self, human: ScriptedHuman | Sequence[Sequence[ScriptedHuman]],
-                 runs: Sequence[int] | np.ndarray, seed: int) -> None:
-        self.rngs = [np.random.default_rng([int(seed), int(r), 1]) for r in runs]
-        self.per_run: list[list[ScriptedHuman]] | None = None
-        if isinstance(human, ScriptedHuman):
-            self.human = human
-            self.current = [human] * len(self.rngs)
-        else:
-            self.per_run = [list(seq) for seq in human]
-            if len(self.per_run) != len(self.rngs) or not all(self.per_run):
-                raise ConfigError(f"give a non-empty sequence of humans for each of the "
-                                  f"{len(self.rngs)} runs, got {len(self.per_run)}",
-                                  field="human")
-            self.human = self.per_run[0][0]
-            self.begin_episode(0)
-
-    def turn_back_rates(self) -> np.ndarray:
-        """(B,) each run's turning-back probability (of its first episode's human)."""
-        return np.array([h.turn_back for h in self.current])
-
-    def begin_episode(self, episode: int) -> np.ndarray | None:
-        """Select each run's human for ``episode``; (B, K, K) turn states, None if shared."""
-        if self.per_run is None:
-            return None
-        current = [seq[min(episode, len(seq) - 1)] for seq in self.per_run]
-        if episode > 0 and all(a is b for a, b in zip(current, self.current, strict=True)):
-            return self._turn_states  # nobody's human changed (no drift now): keep the tables
-        self.current = current
-        self._greedy = np.stack([h.preferred_action(*self._grid) for h in self.current])
-        self._cum = np.stack([np.cumsum(h.policy, axis=-1) for h in self.current])
-        self._stochastic = np.array([not h.deterministic for h in self.current])
-        self._passive = np.array([h.passive for h in self.current])
-        self._turn_states: np.ndarray = np.stack([h.turn_state for h in self.current])
-        return self._turn_states
-
-    @property
-    def _grid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        g = self.human.graph
-        k = np.arange(g.n_intentions)
-        return np.arange(g.n_states)[None, None, :], k[:, None, None], k[None, :, None]
-
-    def preferred_action(self, state: np.ndarray, start: np.ndarray, goal: np.ndarray
-                         ) -> np.ndarray:
-        """(B,) each run's current human's most likely action (for the Oracle)."""
-        if self.per_run is None:
-            return self.human.preferred_action(state, start, goal)
-        state, start, goal = np.broadcast_arrays(state, start, goal)
-        return self._greedy[np.arange(len(state)), start, goal, state]  # type: ignore[no-any-return]
-
-    def __call__(self, state: np.ndarray, start: np.ndarray, intention: np.ndarray,
-                 robot_action: np.ndarray, active: np.ndarray) -> np.ndarray:
-        """The scripted humans' actions (the robot's action does not matter to them)."""
-        u = np.zeros((2, len(state)))
-        for i in np.flatnonzero(active):
-            u[:, i] = self.rngs[i].random(2)
-        if self.per_run is None:
-            return self.human.act_from_uniforms(state, start, intention, u[0], u[1])
-        # Each run's own table, the same inverse-CDF sampling as ScriptedHuman.
-        rows = np.arange(len(state))
-        actions = self._greedy[rows, start, intention, state]
-        if self._stochastic.any():
-            cum = self._cum[rows, start, intention, state]  # (B, A)
-            sampled = np.minimum((u[1][:, None] >= cum).sum(axis=-1), cum.shape[-1] - 1)
-            actions = np.where(self._stochastic, sampled, actions)
-        return np.where(u[0] < self._passive, WAIT, actions)  # type: ignore[no-any-return]
-
-
 @dataclass
 class EpisodeResult:
     """One episode of every run of a batch.
@@ -238,12 +142,11 @@ class EpisodeResult:
 def run_episodes(
     graph: TaskGraph,
     agent: BatchAgent,
-    human: HumanPolicy,
+    human: BatchHuman,
     schedule: Schedule,
     backend: BatchBackend,
     *,
     r0: float,
-    turn_state: np.ndarray | None = None,
     max_steps: int = 100,
     run_ids: Sequence[int] | np.ndarray | None = None,
     reward: str = "paper",
@@ -253,41 +156,41 @@ def run_episodes(
     Args:
         graph: The task graph.
         agent: A batched agent with ``n_runs`` = the schedule's runs.
-        human: The human's actions (e.g. :class:`ScriptedHumans`).
+        human: The human, ``n_runs`` = the schedule's runs (the human protocol,
+            :mod:`hri_envs.humans.protocol`; e.g. :class:`~hri_envs.humans.tables.TableHumans`);
+            it acts after the robot has chosen and sees its action. Where it turns back
+            (:attr:`~hri_envs.humans.protocol.BatchHuman.turn_state`) is read after each
+            :meth:`~hri_envs.humans.protocol.BatchHuman.begin_episode`.
         schedule: From :func:`make_schedule`; its ``goal`` is the intention at the start.
         backend: Moves the runs (the graph, or a simulator).
         r0: Reward for the robot waiting while the human acts.
-        turn_state: (K, K) where a turning-back human turns (see
-            :func:`hri_envs.task.episode.turn_back`); None: nobody turns back. A human with
-            a ``begin_episode(e)`` method (:class:`ScriptedHumans`) that returns (B, K, K)
-            per-run turn states replaces it at the start of each episode.
         max_steps: Step limit per episode (the episode is truncated there).
         reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
         run_ids: The runs' indices, for error messages (default 0 .. B-1).
 
     Raises:
-        ActionError: The agent's ``act`` returned something other than one integer action
-            in [0, A) per run (masked actions are allowed: they abort the step); the message
-            names the run, the episode and the step.
+        ActionError: The agent's or the human's ``act`` returned something other than one
+            integer action in [0, A) per run (masked actions are allowed: they abort the
+            step); the message names who, the run, the episode and the step.
     """
     n_b, n_e = schedule.start.shape
-    if agent.n_runs != n_b:
-        raise ConfigError(f"the agent has {agent.n_runs} runs, the schedule {n_b}",
-                          field="runs")
-    if turn_state is None:
-        turn_state = np.full((graph.n_intentions,) * 2, -1)
-    eps = EpisodeBatch(EpisodeRules(graph, r0), turn_state, n_b)
+    for who, n in (("agent", agent.n_runs), ("human", human.n_runs)):
+        if n != n_b:
+            raise ConfigError(f"the {who} has {n} runs, the schedule {n_b}", field="runs")
+    never = np.full((graph.n_intentions,) * 2, -1)
+    eps = EpisodeBatch(EpisodeRules(graph, r0), never, n_b)
     privileged = bool(getattr(agent, "privileged", False))
     rows = np.arange(n_b)
     states = np.zeros((n_b, max_steps + 1), dtype=np.int64)
     robot_acts = np.zeros((n_b, max_steps), dtype=np.int64)
     human_seen = np.zeros((n_b, max_steps), dtype=np.int64)
-    begin_humans = getattr(human, "begin_episode", None)
     for e in range(n_e):
-        if begin_humans is not None and (per_run := begin_humans(e)) is not None:
-            eps.turn_state = per_run  # (B, K, K): each run's human turns at its own point
+        human.begin_episode(schedule.start[:, e], schedule.goal[:, e])
+        where = human.turn_state  # (K, K), or (B, K, K): each run's human turns at its own point
+        eps.turn_state = never if where is None else where
         eps.begin(rows, schedule.start[:, e], schedule.goal[:, e], schedule.turn_back[:, e])
         agent.begin_episode(eps.start.copy())
+        human_last = np.full(n_b, WAIT, dtype=np.int64)
         totals = {k: np.zeros(n_b) for k in ("reward", "correct", "passive", "wrong",
                                               *backend.extras)}
         over = np.zeros(n_b, dtype=bool)
@@ -306,9 +209,13 @@ def run_episodes(
                     "action_mask": graph.valid[s].astype(np.int8)}
                 if privileged:
                     obs["intention"] = eps.intention
-                a_r = np.where(active, _checked(agent.act(obs, active), active, graph.n_actions,
-                                                run_ids, e, t), WAIT)
-                a_h = np.where(active, human(s, eps.start, eps.intention, a_r, active), WAIT)
+                a_r = np.where(active, _checked("act()", agent.act(obs, active), active,
+                                                graph.n_actions, run_ids, e, t), WAIT)
+                seen = {"state": s, "start": eps.start, "intention": eps.intention,
+                        "last_human_action": human_last, "action_mask": obs["action_mask"],
+                        "robot_action": a_r}
+                a_h = np.where(active, _checked("the human's act()", human.act(seen, active),
+                                                active, graph.n_actions, run_ids, e, t), WAIT)
                 step = backend.transition(s, a_r, a_h, active)
                 w = active.astype(float)
                 failed = False if step.penalty is None else step.penalty
@@ -322,6 +229,8 @@ def run_episodes(
                 for key, value in step.extras.items():
                     totals[key] += w * value
                 agent.observe(s, a_r, step.human_seen, step.next_state, active)
+                human.observe(s, a_r, a_h, step.next_state, active)
+                human_last = np.where(active, a_h, human_last)
                 robot_acts[active, t] = a_r[active]
                 human_seen[active, t] = step.human_seen[active]
                 ended = eps.commit(step.next_state, step.human_seen, active)
@@ -339,34 +248,40 @@ def run_episodes(
         traces = [Trace(states[i, : steps[i] + 1].copy(), robot_acts[i, : steps[i]].copy(),
                         human_seen[i, : steps[i]].copy()) for i in range(n_b)]
         agent.end_episode(traces, intentions)
+        human.end_episode()
         metrics = EpisodeMetrics(totals["reward"], totals["correct"], totals["passive"],
                                  totals["wrong"], steps.astype(float), truncated,
                                  {k: totals[k] for k in backend.extras})
         yield EpisodeResult(e, metrics, traces, intentions)
 
 
-def _checked(actions: object, active: np.ndarray, n_actions: int,
+def _checked(who: str, actions: object, active: np.ndarray, n_actions: int,
              run_ids: Sequence[int] | np.ndarray | None, episode: int, step: int) -> np.ndarray:
-    """The agent's actions as an int array, or an :class:`ActionError` naming where."""
+    """The actions ``who`` returned as an int array, or an :class:`ActionError` naming where."""
     arr = np.asarray(actions)
     n_b = active.shape[0]
     where = f"episode {episode + 1}, step {step + 1}"
     if arr.shape != (n_b,) or arr.dtype.kind not in "iu":
-        raise ActionError(f"act() returned {arr.dtype} of shape {arr.shape} in {where}; "
+        raise ActionError(f"{who} returned {arr.dtype} of shape {arr.shape} in {where}; "
                           f"expected one integer action per run, shape ({n_b},)")
     bad = active & ((arr < 0) | (arr >= n_actions))
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         run = i if run_ids is None else int(run_ids[i])
-        raise ActionError(f"act() returned action {arr[i]} for run {run} in {where}; "
+        raise ActionError(f"{who} returned action {arr[i]} for run {run} in {where}; "
                           f"actions are integers in [0, {n_actions})")
     return arr
+
+
+def human_streams(seed: int, runs: Sequence[int] | np.ndarray) -> list[np.random.Generator]:
+    """The human's generator of each run: seeded by ``(seed, run, 1)`` only."""
+    return [np.random.default_rng([int(seed), int(r), 1]) for r in runs]
 
 
 def simulate(
     graph: TaskGraph,
     agent: BatchAgent,
-    human: ScriptedHuman | ScriptedHumans,
+    human: ScriptedHuman | BatchHuman,
     schedule: Schedule,
     *,
     runs: Sequence[int] | np.ndarray,
@@ -378,16 +293,15 @@ def simulate(
     reward: str = "paper",
     physics: Mapping[str, Any] | None = None,
 ) -> EpisodeMetrics:
-    """Simulate ``schedule`` for a batch of runs with one agent and a scripted human.
+    """Simulate ``schedule`` for a batch of runs with one agent and one human per run.
 
     Args:
         graph: The task graph.
         agent: A batched agent with ``n_runs == len(runs)``.
-        human: The scripted human (one per run, identical behaviour, own random stream), or
-            :class:`ScriptedHumans` built for these ``runs`` and ``seed`` (a human per run
-            and episode).
+        human: A scripted human shared by the runs (each with its own random stream), or a
+            :class:`~hri_envs.humans.protocol.BatchHuman` with a row per run.
         schedule: From :func:`make_schedule`.
-        runs: Run indices (seed the human's random stream with ``(seed, run, 1)``).
+        runs: Run indices (the human draws from :func:`human_streams`).
         seed: Base seed.
         r0: Reward for the robot waiting while the human acts (for the metrics).
         max_steps: Step limit per episode (the episode is truncated there).
@@ -409,9 +323,9 @@ def simulate(
     out = {k: np.zeros((n_b, n_e)) for k in keys}
     extras = {k: np.zeros((n_b, n_e)) for k in sim.extras}
     truncated = np.zeros((n_b, n_e), dtype=bool)
-    humans = human if isinstance(human, ScriptedHumans) else ScriptedHumans(human, runs, seed)
-    for res in run_episodes(graph, agent, humans, schedule, sim, r0=r0,
-                            turn_state=humans.human.turn_state, max_steps=max_steps,
+    humans = TableHumans(human, n_b) if isinstance(human, ScriptedHuman) else human
+    humans.seed(human_streams(seed, runs))
+    for res in run_episodes(graph, agent, humans, schedule, sim, r0=r0, max_steps=max_steps,
                             run_ids=runs, reward=reward):
         e, m = res.episode, res.metrics
         for k in keys:

@@ -29,14 +29,14 @@ import math
 import numpy as np
 
 from baselines.bounds import plan
-from hri_envs.bench.results import StudyResult
+from hri_bench.results import StudyResult
 from hri_envs.errors import ConfigError
-from hri_envs.task.humans import preference_human
-from hri_envs.task.populations import (
+from hri_envs.humans.populations import (
     HumanDraw,
     build_human,
     population_spec,
 )
+from hri_envs.humans.scripted import preference_human
 from hri_envs.task.scenarios import scenario_graph
 
 __all__ = ["REFERENCES", "blind_values"]
@@ -92,6 +92,9 @@ def _per_run_values(result: StudyResult) -> np.ndarray:
     """Blind's value per (run, episode) for studies whose runs have their own humans."""
     cfg = result.config
     population = getattr(cfg, "population", None)
+    if population is not None and ":" in population:
+        raise ConfigError("the exact blind plan needs a scripted human; this study's humans "
+                          f"are {population}", field="agents")
     if population is not None:
         spec = population_spec(population, cfg.scenario)
         if spec.rationality is not None or spec.theta:

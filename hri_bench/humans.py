@@ -1,0 +1,65 @@
+"""Which humans a study can put in front of its agents, by population name.
+
+``--population NAME`` names a registered population
+(:data:`hri_envs.humans.populations.POPULATIONS`) or, in the form ``module:Class``, a human
+of your own: a :class:`~hri_envs.humans.protocol.BatchHuman` subclass, made once per batch of
+runs as ``Class(graph, n_runs)``, or a :class:`~hri_envs.humans.protocol.Human` subclass,
+made once per run (with ``graph=`` if its constructor takes it). Each run's human draws
+from the generator the study hands it (``(seed, run, 1)``), so results do not depend on
+``--jobs``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from collections.abc import Sequence
+from typing import Any
+
+from hri_envs.errors import ConfigError
+from hri_envs.humans.populations import population_spec
+from hri_envs.humans.protocol import BatchedHumans, BatchHuman, Human
+from hri_envs.task.graph import TaskGraph
+
+__all__ = ["custom_human", "is_custom", "validate_population"]
+
+
+def is_custom(name: str | None) -> bool:
+    """Whether a population name is a ``module:Class`` of the user's."""
+    return isinstance(name, str) and ":" in name
+
+
+def _load(spec: str) -> type[Human] | type[BatchHuman]:
+    module, _, attr = spec.partition(":")
+    try:
+        cls = getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError) as exc:
+        raise ConfigError(f"cannot import human {spec!r}: {exc}; give 'module:Class' with an "
+                          "importable module", field="population") from exc
+    if not (inspect.isclass(cls) and issubclass(cls, Human | BatchHuman)):
+        raise ConfigError(f"{spec!r} is neither a hri_envs.humans.Human nor a BatchHuman "
+                          "subclass; only subclasses of those are allowed", field="population")
+    return cls
+
+
+def validate_population(name: Any, scenario: str) -> None:
+    """Raise a :class:`ConfigError` (field ``population``) unless ``name`` is a population of
+    ``scenario`` or an importable human class.
+    """
+    if not isinstance(name, str):
+        raise ConfigError(f"population must be a name, got {name!r}", field="population")
+    if is_custom(name):
+        _load(name)
+    else:
+        population_spec(name, scenario)
+
+
+def custom_human(spec: str, graph: TaskGraph, runs: Sequence[int]) -> BatchHuman:
+    """The human ``module:Class`` for a batch of ``runs``."""
+    cls = _load(spec)
+    if issubclass(cls, BatchHuman):
+        return cls(graph, len(runs))
+    single: type[Human] = cls
+    takes_graph = "graph" in inspect.signature(single).parameters
+    return BatchedHumans(graph, [single(graph=graph) if takes_graph  # type: ignore[call-arg]
+                                 else single() for _ in runs])

@@ -1,0 +1,96 @@
+"""The scenario registry: every per-scenario constant of the suite, written once.
+
+A scenario is one module holding a :class:`ScenarioSpec` (its geometry, the paper's
+parameters r0 and γ, the benchmark's default number of episodes, the scripted humans'
+preferences and routes, fixed schedules, the public ids and the physics design):
+:mod:`~hri_envs.task.scenarios.hanger` and :mod:`~hri_envs.task.scenarios.wheel`. They are
+registered here, in one place; :func:`register_scenario` adds one of your own
+(docs/scenarios.md walks through it). The envs, the humans, the agents' configuration,
+``hri-bench`` and its help texts read the specs from :data:`SCENARIOS`; none repeats a number.
+"""
+
+from __future__ import annotations
+
+import functools
+
+from hri_envs.errors import ConfigError
+from hri_envs.task.geometry import Scenario
+from hri_envs.task.graph import TaskGraph, build_graph
+from hri_envs.task.scenarios import hanger, wheel
+from hri_envs.task.scenarios.spec import Layout, Op, Route, ScenarioSpec, natural_route
+
+__all__ = [
+    "SCENARIOS",
+    "Layout",
+    "Op",
+    "Route",
+    "ScenarioSpec",
+    "episode_scenario",
+    "natural_route",
+    "register_scenario",
+    "scenario_graph",
+    "scenario_spec",
+]
+
+#: The registry, by name.
+SCENARIOS: dict[str, ScenarioSpec] = {}
+
+
+def register_scenario(spec: ScenarioSpec) -> None:
+    """Make ``spec`` known to the envs, the humans, the learners and ``hri-bench``.
+
+    Registering a name again replaces the spec (its graph is rebuilt on next use). Its
+    Gymnasium ids, if any, are registered by :func:`hri_envs.registration.register_envs`.
+
+    Raises:
+        ConfigError: ``spec`` is not a :class:`ScenarioSpec`, or its default preference is
+            not one of its preferences.
+    """
+    if not isinstance(spec, ScenarioSpec):
+        raise ConfigError(f"register_scenario takes a ScenarioSpec, got {spec!r}",
+                          field="spec")
+    if spec.default_preference not in spec.preferences:
+        raise ConfigError(f"the default preference {spec.default_preference!r} of scenario "
+                          f"{spec.name!r} is not one of its preferences "
+                          f"{', '.join(spec.preferences)}", field="default_preference")
+    SCENARIOS[spec.name] = spec
+    _graph.cache_clear()
+
+
+def scenario_spec(name: str) -> ScenarioSpec:
+    """The registered scenario ``name``; a :class:`ConfigError` listing them otherwise."""
+    spec = SCENARIOS.get(name) if isinstance(name, str) else None
+    if spec is None:
+        raise ConfigError(f"unknown scenario {name!r}; allowed: {', '.join(SCENARIOS)}",
+                          field="scenario")
+    return spec
+
+
+@functools.cache
+def _graph(name: str) -> TaskGraph:
+    spec = SCENARIOS[name]
+    graph = build_graph(spec.geometry())
+    if graph.n_actions != spec.n_actions:
+        raise AssertionError(f"{name}: the graph has {graph.n_actions} actions, the registry "
+                             f"says {spec.n_actions}")
+    return graph
+
+
+def scenario_graph(name: str) -> TaskGraph:
+    """The (read-only, shared) task graph of a scenario, built once per process."""
+    return _graph(scenario_spec(name).name)
+
+
+def episode_scenario(name: str, layout: Layout | None) -> Scenario:
+    """The geometry of one episode: the scenario's supports moved to ``layout`` if it has
+    random layouts (the wheel's stands), else its fixed geometry.
+    """
+    spec = scenario_spec(name)
+    if layout is not None and spec.layout is not None:
+        return spec.geometry(layout)
+    return scenario_graph(name).scenario
+
+
+# The suite's scenarios, in this order (the one place a scenario is registered).
+for _spec in (hanger.SPEC, wheel.SPEC):
+    register_scenario(_spec)
