@@ -27,15 +27,20 @@ def _specs() -> list[dict[str, object]]:
     """
     out: list[dict[str, object]] = []
     for spec in SCENARIOS.values():
-        out.append({"id": spec.gym_id, "entry_point": _ROBOT_ENV,
-                    "vector_entry_point": _ROBOT_VECTOR_ENV, "kwargs": {"scenario": spec.name}})
-        out.append({"id": spec.panda_id, "entry_point": _ROBOT_ENV,
-                    "kwargs": {"scenario": spec.name, "backend": "mujoco"}})
+        if spec.gym_id is not None:
+            out.append({"id": spec.gym_id, "entry_point": _ROBOT_ENV,
+                        "vector_entry_point": _ROBOT_VECTOR_ENV,
+                        "kwargs": {"scenario": spec.name}})
+        if spec.panda_id is not None:
+            out.append({"id": spec.panda_id, "entry_point": _ROBOT_ENV,
+                        "kwargs": {"scenario": spec.name, "backend": "mujoco"}})
     return out
 
 
 def register_envs() -> None:
-    """Register every id of :data:`~hri_envs.task.scenarios.SCENARIOS` (idempotent)."""
+    """Register every id of :data:`~hri_envs.task.scenarios.SCENARIOS` (idempotent; call it
+    again after registering a scenario of your own).
+    """
     for spec in _specs():
         if spec["id"] not in gymnasium.registry:
             gymnasium.register(**spec)  # type: ignore[arg-type]
