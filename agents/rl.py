@@ -26,7 +26,7 @@ import gymnasium as gym
 import numpy as np
 
 from agents.protocol import BatchAgent, Trace, run_streams
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ConfigError, MissingExtraError
 
 try:
     import torch as th
@@ -40,10 +40,7 @@ try:
     from stable_baselines3.dqn.policies import MultiInputPolicy as DQNMultiInputPolicy
     from stable_baselines3.dqn.policies import QNetwork
 except ImportError as exc:  # pragma: no cover - depends on the installed extras
-    raise ImportError(
-        f"agents.rl needs stable-baselines3, sb3-contrib and torch ({exc}); install them with "
-        "pip install 'hri-envs[rl]'"
-    ) from exc
+    raise MissingExtraError(["stable_baselines3", "sb3_contrib", "torch"], "agents.rl") from exc
 
 __all__ = [
     "DQN_DEFAULTS",

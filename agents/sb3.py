@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from agents.protocol import Agent, BatchAgent, Trace, run_streams
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.task.scenarios import SCENARIOS
 
 if TYPE_CHECKING:
@@ -76,8 +76,8 @@ def _algorithm_class(name: str) -> type[BaseAlgorithm]:
 
         return getattr(stable_baselines3, name)  # type: ignore[no-any-return]
     except ImportError as exc:
-        raise ImportError(f"SB3 models need stable-baselines3 and sb3-contrib ({exc}); "
-                          "pip install 'hri-envs[rl]'") from exc
+        raise MissingExtraError(["stable_baselines3", "sb3_contrib", "torch"],
+                                "SB3 models") from exc
 
 
 def _read_data(path: str | os.PathLike[str]) -> dict[str, Any]:

@@ -356,15 +356,17 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
 def _require_for_study(cfg: Any, *, progress: bool) -> None:
     """Fail before any simulation if an extra the study will need is missing."""
     from hri_bench.agents import SB3_PREFIX
-    from hri_bench.extras import require
     from hri_envs.envs.backends import check_backend
+    from hri_envs.errors import MissingExtraError
 
     check_backend(cfg.backend)
-    require(["matplotlib", *(["tqdm"] if progress else [])], "writing a study's plots")
+    MissingExtraError.require(["matplotlib", *(["tqdm"] if progress else [])],
+                              "writing a study's plots")
     if cfg.executor == "ray":
-        require(["ray"], "executor 'ray'")
+        MissingExtraError.require(["ray"], "executor 'ray'")
     if any(a.startswith(SB3_PREFIX) for a in cfg.agents):
-        require(["stable_baselines3", "sb3_contrib", "torch"], "an 'sb3:' agent")
+        MissingExtraError.require(["stable_baselines3", "sb3_contrib", "torch"],
+                                  "an 'sb3:' agent")
 
 
 def _resume_hint(argv: Sequence[str]) -> str:
@@ -487,7 +489,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
-    from hri_bench.extras import install_hint
     from hri_envs.errors import BackendUnavailableError, MissingExtraError
 
     try:
@@ -496,19 +497,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"hri-bench: {exc}", file=sys.stderr)
         return 1
     except ModuleNotFoundError as exc:
-        hint = install_hint(exc)
-        if hint is None:
+        missing = MissingExtraError.from_import(exc, "this command")
+        if missing is None:
             raise
-        print(f"hri-bench: {hint}", file=sys.stderr)
+        print(f"hri-bench: {missing}", file=sys.stderr)
         return 1
 
 
 def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
               argv: Sequence[str]) -> int:
     if args.command in ("figures", "demo"):
-        from hri_bench.extras import require
+        from hri_envs.errors import MissingExtraError
 
-        require(["matplotlib", "tqdm"], f"hri-bench {args.command}")
+        MissingExtraError.require(["matplotlib", "tqdm"], f"hri-bench {args.command}")
     if args.command == "study":
         return _study(args, args.command_parser, argv)
     if args.command == "figures":

@@ -42,7 +42,7 @@ from hri_bench.results import StudyResult  # re-exported; shared with the plots
 from hri_bench.runner import make_schedule, simulate
 from hri_envs.envs.backends import BACKENDS, batch_backend
 from hri_envs.envs.config import check_physics_options
-from hri_envs.errors import ActionError, BackendUnavailableError, ConfigError
+from hri_envs.errors import ActionError, ConfigError, MissingExtraError
 from hri_envs.humans.populations import (
     HumanDraw,
     draw_human,
@@ -508,8 +508,7 @@ def _execute_ray(cfg: StudyConfig, units: list[_Unit], index: list[int]
     try:
         import ray
     except ImportError as exc:
-        raise BackendUnavailableError("executor 'ray' needs Ray: pip install 'hri-envs[ray]'",
-                                      field="executor") from exc
+        raise MissingExtraError(["ray"], "executor 'ray'") from exc
     if not ray.is_initialized():
         ray.init(address=cfg.ray_address, num_cpus=None if cfg.ray_address else cfg.jobs,
                  include_dashboard=False, log_to_driver=False)

@@ -13,6 +13,7 @@ from hri_envs.errors import (
     LearnerStateError,
     MissingExtraError,
     PhysicsFault,
+    ResetNeeded,
 )
 from hri_envs.registration import register_envs
 from hri_envs.task import TaskGraph, build_graph, hanger_scenario, wheel_scenario
@@ -28,6 +29,7 @@ __all__ = [
     "LearnerStateError",
     "MissingExtraError",
     "PhysicsFault",
+    "ResetNeeded",
     "TaskGraph",
     "__version__",
     "build_graph",

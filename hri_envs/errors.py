@@ -11,6 +11,7 @@ callers caught before this module existed (``ValueError``, ``NotImplementedError
     ├── ActionError (ValueError)
     ├── LearnerStateError (ValueError)
     ├── MissingExtraError (ImportError)
+    ├── ResetNeeded (RuntimeError)
     └── PhysicsFault (RuntimeError)
         └── hri_envs.physics.ik.IKFailure
 
@@ -20,7 +21,11 @@ This module imports nothing from the package, so that every layer (down to
 
 from __future__ import annotations
 
+import importlib.util
+from collections.abc import Iterable
+
 __all__ = [
+    "EXTRA_OF",
     "ActionError",
     "BackendUnavailableError",
     "ConfigError",
@@ -29,7 +34,30 @@ __all__ = [
     "LearnerStateError",
     "MissingExtraError",
     "PhysicsFault",
+    "ResetNeeded",
+    "install_command",
 ]
+
+#: Top-level module -> the hri-envs extra that installs it (pyproject.toml).
+EXTRA_OF: dict[str, str] = {
+    "matplotlib": "bench", "tqdm": "bench", "scipy": "bench", "numba": "bench",
+    "mujoco": "mujoco", "mink": "mujoco", "gymnasium_robotics": "mujoco", "imageio": "mujoco",
+    "imageio_ffmpeg": "mujoco",
+    "stable_baselines3": "rl", "sb3_contrib": "rl", "torch": "rl",
+    "ray": "ray",
+}
+
+
+def _installed(module: str) -> bool:
+    return importlib.util.find_spec(module) is not None
+
+
+def install_command(extras: Iterable[str]) -> str:
+    """The command that installs ``extras`` into the project's environment, run in the
+    hri-envs checkout (the constraints file pins the CPU build of PyTorch).
+    """
+    return (f".venv/bin/pip install -c constraints.txt -e '.[{','.join(sorted(set(extras)))}]' "
+            "(in the hri-envs checkout)")
 
 
 class HriEnvsError(Exception):
@@ -75,9 +103,42 @@ class LearnerStateError(HriEnvsError, ValueError):
 
 
 class MissingExtraError(HriEnvsError, ImportError):
-    """A feature needs an optional extra that is not installed; the message gives the
-    ``pip install 'hri-envs[EXTRA]'`` command.
+    """A feature needs an optional extra that is not installed; the message names the
+    missing packages and gives the command that installs them (:func:`install_command`).
+
+    Args:
+        modules: The missing top-level modules (keys of :data:`EXTRA_OF`).
+        what: The feature that needs them (e.g. "plotting").
     """
+
+    def __init__(self, modules: Iterable[str], what: str) -> None:
+        self.modules = sorted(set(modules))
+        extras = [EXTRA_OF.get(m, m) for m in self.modules]
+        super().__init__(f"{what} needs {', '.join(self.modules)}: {install_command(extras)}",
+                         name=self.modules[0] if self.modules else None)
+
+    @classmethod
+    def require(cls, modules: Iterable[str], what: str) -> None:
+        """Raise one unless every module of ``modules`` can be imported."""
+        missing = [m for m in modules if not _installed(m)]
+        if missing:
+            raise cls(missing, what)
+
+    @classmethod
+    def from_import(cls, exc: ImportError, what: str) -> MissingExtraError | None:
+        """The error for a failed import of a package an extra installs (None: another)."""
+        name = (getattr(exc, "name", None) or "").split(".")[0]
+        return cls([name], what) if name in EXTRA_OF else None
+
+
+class ResetNeeded(HriEnvsError, RuntimeError):
+    """``step()`` was called before ``reset()`` or after the episode ended (Gymnasium's
+    ``error.ResetNeeded``): call ``reset()`` first.
+    """
+
+    def __init__(self, message: str = "the episode has ended (or never started); call "
+                 "reset() before step()") -> None:
+        super().__init__(message)
 
 
 class PhysicsFault(HriEnvsError, RuntimeError):

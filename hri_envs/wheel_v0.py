@@ -1,33 +1,13 @@
 """PettingZoo entry points of the wheel scenario, version 0.
 
 ``parallel_env(**kwargs)`` is the native two-agent env
-(:class:`~hri_envs.envs.parallel.CooperationParallelEnv` with ``scenario="wheel"``; see
-it for the keyword arguments), ``raw_env(**kwargs)`` its unwrapped AEC form and
-``env(**kwargs)`` the AEC form with the order-enforcing wrapper.
+(:class:`~hri_envs.envs.parallel.CooperationParallelEnv` with ``scenario="wheel"``; see it for
+the keyword arguments), ``raw_env(**kwargs)`` its unwrapped AEC form and ``env(**kwargs)``
+the AEC form with the order-enforcing wrapper.
 """
 
-from __future__ import annotations
-
-from typing import Any
-
-from pettingzoo.utils.env import AECEnv
-
-from hri_envs.envs.aec import make_aec_env, make_raw_aec_env
-from hri_envs.envs.parallel import CooperationParallelEnv
+from hri_envs.envs.aec import entry_points
 
 __all__ = ["env", "parallel_env", "raw_env"]
 
-
-def parallel_env(**kwargs: Any) -> CooperationParallelEnv:
-    """The wheel as a PettingZoo ``ParallelEnv`` with agents "human" and "robot"."""
-    return CooperationParallelEnv("wheel", **kwargs)
-
-
-def raw_env(**kwargs: Any) -> AECEnv:
-    """The wheel as an AEC env, without wrappers."""
-    return make_raw_aec_env("wheel", **kwargs)
-
-
-def env(**kwargs: Any) -> AECEnv:
-    """The wheel as an AEC env with the order-enforcing wrapper."""
-    return make_aec_env("wheel", **kwargs)
+env, raw_env, parallel_env = entry_points("wheel")

@@ -138,14 +138,15 @@ def test_play_ends_cleanly_at_end_of_input(monkeypatch, capsys):
 ])
 def test_missing_extras_give_one_line_with_the_install_command(argv, missing, extra,
                                                                monkeypatch, tmp_path, capsys):
-    from hri_bench import extras
     from hri_bench.cli import main
+    from hri_envs import errors
 
-    monkeypatch.setattr(extras, "_installed", lambda m: m != missing)
+    monkeypatch.setattr(errors, "_installed", lambda m: m != missing)
     out = tmp_path / "out"
     assert main([*argv, "--out", str(out)]) == 1
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and f"pip install 'hri-envs[{extra}]'" in err
+    assert err.count("\n") == 1
+    assert f".venv/bin/pip install -c constraints.txt -e '.[{extra}]'" in err
     assert not out.exists()  # nothing was simulated or written
 
 
@@ -157,5 +158,6 @@ def test_a_missing_package_met_later_is_one_line_too(monkeypatch, capsys):
 
     monkeypatch.setattr(cli, "_speed", fail)
     assert cli.main(["speed"]) == 1
-    assert capsys.readouterr().err == ("hri-bench: this command needs torch: "
-                                       "pip install 'hri-envs[rl]'\n")
+    assert capsys.readouterr().err == ("hri-bench: this command needs torch: .venv/bin/pip "
+                                       "install -c constraints.txt -e '.[rl]' (in the "
+                                       "hri-envs checkout)\n")

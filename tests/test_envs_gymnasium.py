@@ -10,7 +10,8 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 import hri_envs  # noqa: F401  (registers the ids)
-from hri_envs.envs import ConfigError, RobotEnv
+from hri_envs.envs import RobotEnv
+from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
 
 IDS = ["hri_envs/Hanger-v0", "hri_envs/Wheel-v0"]

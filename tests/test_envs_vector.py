@@ -8,7 +8,8 @@ import pytest
 from gymnasium.vector import AutoresetMode
 
 import hri_envs  # noqa: F401  (registers the ids)
-from hri_envs.envs import ActionError, ConfigError, RobotEnv, RobotVectorEnv
+from hri_envs.envs import RobotEnv, RobotVectorEnv
+from hri_envs.errors import ActionError, ConfigError
 
 IDS = ["hri_envs/Hanger-v0", "hri_envs/Wheel-v0"]
 

@@ -134,7 +134,7 @@ def test_simulate_on_the_physics_backend():
     ],
 )
 def test_bad_physics_options_raise(kwargs, message):
-    from hri_envs.envs import ConfigError
+    from hri_envs.errors import ConfigError
 
     with pytest.raises(ConfigError, match=message):
         hanger_v0.parallel_env(**kwargs)

@@ -512,18 +512,6 @@ def expected_feature_counts(next_state, partner, policy, features, start, termin
 
 
 @njit(cache=True, nogil=True)
-def softmax(q, valid, temperature):
-    """(N, S, A) soft-max of ``temperature * q`` over the valid actions of each state."""
-    vidx, n_valid = valid_lists(valid)
-    n_b, n_s, n_a = q.shape
-    out = np.zeros((n_b, n_s, n_a))
-    i3, f2, f3, _, i2, i1, u1 = _unused()
-    _mdps(SOFTMAX, i3.astype(np.uint64), q, f2, f3, valid, vidx, n_valid, u1, i1, 0.0, i2, False,
-          0, temperature, np.zeros((1, n_s, n_a)), q, i2, out, 0, n_b)
-    return out
-
-
-@njit(cache=True, nogil=True)
 def belief_policy(q, belief, states, baseline, valid, temperature, eta):
     """(B, A) bounded soft-max of Σ_ι belief[b, ι] q[b, ι, states[b], :] (baseline < 0: none)."""
     n_b, n_i, _, n_a = q.shape

@@ -50,7 +50,6 @@ __all__ = [
     "partner_reward",
     "preload",
     "set_threads",
-    "softmax",
     "solve_partner_q",
     "solve_soft",
     "threads",
@@ -94,7 +93,6 @@ def preload() -> bool:
     valid = np.ones((1, 1), np.bool_)
     jit.partner_backup(nxt, one, np.zeros((1, 1)), none)
     jit.partner_reward(one, one, none)
-    jit.softmax(one, valid, 1.0)
     jit.solve_partner_q(nxt, one, one, valid, none, 0.5, np.zeros((1, 1), np.int64), False, 1)
     jit.expected_feature_counts(nxt, one, one, one, zero, none, np.ones(1, np.int64),
                                 np.zeros((1, 1)), 0, 1)
@@ -355,26 +353,6 @@ def partner_reward(reward: np.ndarray, partner: np.ndarray,
     return out.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
 
 
-def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
-    """Soft-max policy ``π(a|s) ∝ exp(τ Q(s,a))`` over valid actions (as :func:`task_mdp.softmax`).
-
-    Args:
-        q: (..., S, A) action values.
-        valid: (S, A) bool.
-        temperature: τ > 0.
-
-    Returns:
-        (..., S, A) probabilities, zero on invalid actions, summing to 1 over A.
-    """
-    jit = kernels()
-    if jit is None:
-        return task_mdp.softmax(q, valid, temperature)
-    n_s, n_a = q.shape[-2:]
-    flat = _c(q, dtype=np.float64).reshape(-1, n_s, n_a)
-    out = jit.softmax(flat, _valid(valid, n_s, n_a), float(temperature))
-    return out.reshape(q.shape)  # type: ignore[no-any-return]
-
-
 def belief_policy(q: np.ndarray, belief: np.ndarray, states: np.ndarray, valid: np.ndarray,
                   temperature: float, eta: float, baseline: np.ndarray | None) -> np.ndarray:
     """The robot's bounded soft-max of the belief-weighted Q in each run's state (Eq. 5).
@@ -532,7 +510,7 @@ def solve_soft(
                   else partner_backup(next_state, partner, values.reshape(*lead, n_s), terminal))
         q, greedy = solve_partner_q(next_state, partner, reward, ok, gamma,
                                     terminal=terminal, policy=policy, max_iter=max_iter)
-        return q, greedy, softmax(q, ok, temperature)
+        return q, greedy, task_mdp.softmax(q, ok, temperature)
     nxt, pi, term, act, warm = _iteration_inputs(next_state, partner, gamma, terminal, policy,
                                                  max_iter)
     n = len(pi)

@@ -17,30 +17,16 @@ module                     contents
 ``config``                 scenarios, defaults and validation of arguments and options
 ``render``                 ``ansi`` text and the numpy-drawn ``rgb_array`` side view
 ``speed``                  throughput measurements (``hri-bench speed``)
-``rollout``                :func:`run_episode`: any protocol agent in a robot env
-``errors``                 the exceptions
 =========================  ==========================================================
 """
 
-from hri_envs.envs.errors import (
-    ActionError,
-    BackendUnavailableError,
-    ConfigError,
-    DisplayUnavailableError,
-    HriEnvError,
-)
 from hri_envs.envs.parallel import CooperationParallelEnv
 from hri_envs.envs.partner import PartnerEnv
 from hri_envs.envs.robot import RobotEnv
 from hri_envs.envs.vector import RobotVectorEnv
 
 __all__ = [
-    "ActionError",
-    "BackendUnavailableError",
-    "ConfigError",
     "CooperationParallelEnv",
-    "DisplayUnavailableError",
-    "HriEnvError",
     "PartnerEnv",
     "RobotEnv",
     "RobotVectorEnv",

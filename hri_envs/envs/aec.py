@@ -1,7 +1,10 @@
-"""AEC (turn-based) views of the parallel env, as PettingZoo's versioned modules export them."""
+"""The PettingZoo entry points of a scenario: the parallel env and its AEC (turn-based) views,
+as PettingZoo's versioned modules export them (:func:`entry_points`).
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
@@ -10,7 +13,7 @@ from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from hri_envs.envs.parallel import CooperationParallelEnv
 
-__all__ = ["make_aec_env", "make_raw_aec_env"]
+__all__ = ["entry_points", "make_aec_env", "make_raw_aec_env"]
 
 
 def make_raw_aec_env(scenario: str, **kwargs: Any) -> AECEnv:
@@ -26,3 +29,29 @@ def make_aec_env(scenario: str, **kwargs: Any) -> AECEnv:
     and masked actions are legal aborted steps (so no ``TerminateIllegalWrapper``).
     """
     return OrderEnforcingWrapper(make_raw_aec_env(scenario, **kwargs))
+
+
+def entry_points(scenario: str) -> tuple[Callable[..., AECEnv], Callable[..., AECEnv],
+                                         Callable[..., CooperationParallelEnv]]:
+    """``env``, ``raw_env`` and ``parallel_env`` of a versioned module for ``scenario``.
+
+    ``parallel_env(**kwargs)`` is the native two-agent env (see
+    :class:`~hri_envs.envs.parallel.CooperationParallelEnv` for the keyword arguments),
+    ``raw_env(**kwargs)`` its unwrapped AEC form and ``env(**kwargs)`` the AEC form with the
+    order-enforcing wrapper.
+    """
+
+    def parallel_env(**kwargs: Any) -> CooperationParallelEnv:
+        return CooperationParallelEnv(scenario, **kwargs)
+
+    def raw_env(**kwargs: Any) -> AECEnv:
+        return make_raw_aec_env(scenario, **kwargs)
+
+    def env(**kwargs: Any) -> AECEnv:
+        return make_aec_env(scenario, **kwargs)
+
+    parallel_env.__doc__ = (f"The {scenario} as a PettingZoo ``ParallelEnv`` with agents "
+                            "\"human\" and \"robot\".")
+    raw_env.__doc__ = f"The {scenario} as an AEC env, without wrappers."
+    env.__doc__ = f"The {scenario} as an AEC env with the order-enforcing wrapper."
+    return env, raw_env, parallel_env

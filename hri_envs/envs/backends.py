@@ -24,7 +24,7 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 
 from hri_envs.envs.episode import Episode
-from hri_envs.errors import BackendUnavailableError, ConfigError
+from hri_envs.errors import BackendUnavailableError, ConfigError, install_command
 from hri_envs.task.graph import TaskGraph
 
 __all__ = [
@@ -95,9 +95,9 @@ def backend_spec(name: str) -> BackendSpec:
     missing = [m for m in spec.requires if importlib.util.find_spec(m) is None]
     if missing:
         raise BackendUnavailableError(
-            f"backend={name!r} needs {', '.join(missing)}: pip install 'hri-envs[{spec.extra}]' "
-            "(or use backend='graph', the abstract transition graph)"
-        )
+            f"backend={name!r} needs {', '.join(missing)}: "
+            f"{install_command([spec.extra or name])}; or use backend='graph', the abstract "
+            "transition graph", field="backend")
     return spec
 
 

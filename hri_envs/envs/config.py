@@ -1,6 +1,6 @@
 """Configuration shared by the environments: scenarios, defaults and input validation.
 
-Every check raises :class:`~hri_envs.envs.errors.ConfigError` (a ``ValueError``) with a
+Every check raises :class:`~hri_envs.errors.ConfigError` (a ``ValueError``) with a
 message that lists what is allowed.
 """
 

@@ -21,7 +21,7 @@ from hri_envs.envs.formats import ClassicLayout, check_human_reward, check_obser
 from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, human_observation_space, robot_observation_space
 from hri_envs.envs.window import check_display
-from hri_envs.errors import ActionError, ConfigError
+from hri_envs.errors import ActionError, ConfigError, ResetNeeded
 from hri_envs.humans.scripted import check_probability, preference_human
 from hri_envs.task.episode import EpisodeRules, goal_reward, reached_intention
 from hri_envs.task.scenarios import scenario_spec
@@ -195,10 +195,6 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
                                                                **physics)
         # The graph backend itself has no faults and no figures of its own for the infos.
         self._graph_only = type(self._episode) is Episode
-        # ... and with dict observations, R_R for both agents and no window, step() takes a
-        # short path (the hot loop of training and of the speed benchmark).
-        self._plain = (self._graph_only and self.observation_format == "dict"
-                       and not self._goal_reward and not self._human_window)
         self._masks = list(self.rules.action_mask)  # (A,) int8 read-only row per state
         self._sample_layout = scenario_spec(scenario).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
@@ -209,6 +205,8 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
             self._classic = ClassicLayout(n_s, n_k, n_a, self.observation_format == "flat")
             self._observation_spaces = {agent: self._classic.space for agent in AGENTS}
             self._observations = self._classic_observations  # type: ignore[method-assign]
+        else:  # bound once: step() looks it up in the instance's dict
+            self._observations = self._observations  # type: ignore[method-assign]
         self._n_actions = n_a
         self._action_spaces = {agent: spaces.Discrete(n_a) for agent in AGENTS}
         self.observation_spaces = self._observation_spaces
@@ -268,7 +266,10 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
                       "reached_intention": False}
         if self._human_window:
             self.render()
-        return self._observations(), {"human": human_info, "robot": robot_info}
+        ep = self._episode
+        return (self._observations(ep.state, ep.start, ep.intention, ep.last_human,
+                                   ep.observed_human),
+                {"human": human_info, "robot": robot_info})
 
     def step(
         self, actions: dict[str, Any]
@@ -281,7 +282,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     ]:
         """Apply both agents' actions ``{"human": a_H, "robot": a_R}`` at once."""
         if not self.agents:
-            raise RuntimeError("the episode has ended (or never started); call reset() first")
+            raise ResetNeeded()
         n_a = self._n_actions
         if len(actions) != 2:  # the cheap test on the hot path; names are checked below
             unknown = sorted(map(str, set(actions) - set(self.agents)))
@@ -303,74 +304,50 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         ep = self._episode
         r, aborted, terminated, robot_invalid, human_invalid = ep.advance(a_r, a_h)
         self._reward = r
-        state, intention = ep.state, ep.intention
-        if self._plain:  # what the general path below gives in this case, built at once
-            truncated = not terminated and ep.steps >= self.max_cycles
-            reached = False
-            if terminated or truncated:
-                self.agents = []
-                reached = terminated and bool(reached_intention(self.graph, state, intention))
-            # As _observations (the graph's robot observes the human's action itself).
-            start, last_human, mask = ep.start, ep.last_human, self._masks[state]
-            return (
-                {"human": {"state": state, "start": start, "last_human_action": last_human,
-                           "action_mask": mask.copy(), "intention": intention},
-                 "robot": {"state": state, "start": start, "last_human_action": last_human,
-                           "action_mask": mask.copy()}},
-                {"human": r, "robot": r},
-                {"human": terminated, "robot": terminated},
-                {"human": truncated, "robot": truncated},
-                {"human": {"aborted": aborted, "invalid_action": human_invalid,
-                           "robot_reward": r, "reached_intention": reached,
-                           "intention": intention},
-                 "robot": {"aborted": aborted, "invalid_action": robot_invalid,
-                           "robot_reward": r, "reached_intention": reached}},
-            )
-        extra = None
-        if self._graph_only:  # no faults, nothing to add to the infos
-            truncated = not terminated and ep.steps >= self.max_cycles
-        else:
-            truncated = not terminated and (ep.steps >= self.max_cycles or ep.fault is not None)
-            extra = ep.step_info()
-        obs = self._observations()
-        human_info = {"aborted": aborted, "invalid_action": human_invalid,
-                      "robot_reward": r, "reached_intention": False, "intention": intention}
-        robot_info = {"aborted": aborted, "invalid_action": robot_invalid,
-                      "robot_reward": r, "reached_intention": False}
-        if extra:
-            human_info.update(extra)
-            robot_info.update(extra)
+        state, intention, last_human = ep.state, ep.intention, ep.last_human
+        graph_only = self._graph_only  # the graph: no faults, the robot sees a_H itself
+        truncated = not terminated and (ep.steps >= self.max_cycles
+                                        or (not graph_only and ep.fault is not None))
+        reached = False
         if terminated or truncated:
             self.agents = []
             reached = terminated and bool(reached_intention(self.graph, state, intention))
-            human_info["reached_intention"] = robot_info["reached_intention"] = reached
+        human_info = {"aborted": aborted, "invalid_action": human_invalid, "robot_reward": r,
+                      "reached_intention": reached, "intention": intention}
+        robot_info = {"aborted": aborted, "invalid_action": robot_invalid, "robot_reward": r,
+                      "reached_intention": reached}
+        if not graph_only:  # the backend's own figures (the physics)
+            extra = ep.step_info()
+            human_info.update(extra)
+            robot_info.update(extra)
         r_h = (float(goal_reward(self.graph, state, intention, aborted, terminated))
                if self._goal_reward else r)
         if self._human_window:
             self.render()
         return (
-            obs,
+            self._observations(state, ep.start, intention, last_human,
+                               last_human if graph_only else ep.observed_human),
             {"human": r_h, "robot": r},
             {"human": terminated, "robot": terminated},
             {"human": truncated, "robot": truncated},
             {"human": human_info, "robot": robot_info},
         )
 
-    def _observations(self) -> dict[str, dict[str, Any]]:
-        ep = self._episode
-        state, start = ep.state, ep.start
+    def _observations(self, state: int, start: int, intention: int, last_human: int,
+                      seen_human: int) -> dict[str, dict[str, Any]]:
+        """Both agents' observations (the robot sees ``seen_human``, not ι)."""
         mask = self._masks[state]
-        robot = {"state": state, "start": start, "last_human_action": ep.observed_human,
-                 "action_mask": mask.copy()}
-        human = {"state": state, "start": start, "last_human_action": ep.last_human,
-                 "action_mask": mask.copy(), "intention": ep.intention}
-        return {"human": human, "robot": robot}
+        return {"human": {"state": state, "start": start, "last_human_action": last_human,
+                          "action_mask": mask.copy(), "intention": intention},
+                "robot": {"state": state, "start": start, "last_human_action": seen_human,
+                          "action_mask": mask.copy()}}
 
-    def _classic_observations(self) -> dict[str, dict[str, Any]]:
-        ep, enc = self._episode, self._classic.encode
-        mask = self._masks[ep.state]
-        return {"human": enc(ep.state, ep.start, ep.last_human, ep.intention, mask),
-                "robot": enc(ep.state, ep.start, ep.observed_human, None, mask)}
+    def _classic_observations(self, state: int, start: int, intention: int, last_human: int,
+                              seen_human: int) -> dict[str, dict[str, Any]]:
+        """:meth:`_observations` in the "classic"/"flat" format."""
+        enc, mask = self._classic.encode, self._masks[state]
+        return {"human": enc(state, start, last_human, intention, mask),
+                "robot": enc(state, start, seen_human, None, mask)}
 
     def state(self) -> np.ndarray:
         """``[state, start, intention, last_human_action, lifted]``, int64, shape (5,)."""

@@ -29,7 +29,7 @@ import numpy as np
 from hri_envs.envs.formats import ClassicLayout
 from hri_envs.envs.parallel import AGENTS, CooperationParallelEnv
 from hri_envs.envs.spaces import check_action
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ConfigError, ResetNeeded
 from hri_envs.humans.protocol import BatchHuman, Human
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.seat import HumanLike, seat_human
@@ -175,7 +175,7 @@ class PartnerEnv(gym.Env[Any, np.int64]):
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """The learner plays ``action``, the partner its own; one joint step."""
         if not self.env.agents:
-            raise RuntimeError("the episode has ended (or never started); call reset() first")
+            raise ResetNeeded()
         if self._human is not None:  # the human sees the robot's action: check it first
             action = check_action("robot", action, int(self.env.action_space("robot").n))
         partner = self._partner_action(action)

@@ -21,6 +21,7 @@ from hri_envs.envs.formats import ClassicLayout, check_observation_format
 from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, robot_observation_space
 from hri_envs.envs.window import check_display
+from hri_envs.errors import ResetNeeded
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task.episode import EpisodeRules, reached_intention
@@ -253,7 +254,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         """The robot acts, the scripted human acts, the object moves."""
         a_r = check_action("robot", action, self.rules.n_actions)
         if self._done:
-            raise RuntimeError("the episode has ended (or never started); call reset() first")
+            raise ResetNeeded()
         ep = self._episode
         s, human = ep.state, self._human
         seen = {"state": np.array([s]), "start": np.array([ep.start]),

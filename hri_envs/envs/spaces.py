@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from hri_envs.envs.errors import ActionError
+from hri_envs.errors import ActionError
 
 __all__ = ["check_action", "human_observation_space", "robot_observation_space"]
 

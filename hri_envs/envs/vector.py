@@ -18,7 +18,7 @@ from hri_envs.envs.config import (
     support_index,
 )
 from hri_envs.envs.spaces import robot_observation_space
-from hri_envs.errors import ActionError, ConfigError
+from hri_envs.errors import ActionError, ConfigError, ResetNeeded
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.humans.tables import TableHumans
@@ -367,7 +367,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         one by one.
         """
         if self._needs_reset:
-            raise RuntimeError("call reset() before step()")
+            raise ResetNeeded("call reset() before step()")
         a_r = actions  # the usual int64 (N,) array needs only the range check
         if (type(a_r) is not np.ndarray or a_r.dtype is not _INT64 or a_r.shape != self._shape
                 or a_r.view(np.uint64).max() >= self._n_actions):

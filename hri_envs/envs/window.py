@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.errors import DisplayUnavailableError
+from hri_envs.errors import DisplayUnavailableError, MissingExtraError
 
 __all__ = ["FrameWindow", "check_display", "display_available"]
 
@@ -71,9 +71,8 @@ class FrameWindow:
             import matplotlib.pyplot as plt
             from matplotlib.backends import BackendFilter, backend_registry
         except ImportError:
-            raise DisplayUnavailableError(
-                "render_mode='human' on the graph backend draws with matplotlib, which is "
-                "not installed: pip install 'hri-envs[plot]'", field="render_mode") from None
+            raise MissingExtraError(["matplotlib"], "render_mode='human' on the graph "
+                                    "backend") from None
         backend = plt.get_backend()
         if backend.lower() in backend_registry.list_builtin(BackendFilter.NON_INTERACTIVE):
             raise DisplayUnavailableError(

@@ -14,7 +14,7 @@ import importlib.util
 import os
 from pathlib import Path
 
-from hri_envs.envs.errors import BackendUnavailableError
+from hri_envs.errors import BackendUnavailableError, MissingExtraError, install_command
 
 __all__ = ["PANDA_ARM_JOINTS", "PANDA_FINGER_JOINTS", "franka_asset_dir", "panda_xml"]
 
@@ -25,7 +25,6 @@ PANDA_FINGER_JOINTS: tuple[str, ...] = (
     "robot:panda0_finger_joint1",
     "robot:panda0_finger_joint2",
 )
-_INSTALL = "pip install 'hri-envs[mujoco]'"
 
 
 def franka_asset_dir() -> Path:
@@ -37,15 +36,14 @@ def franka_asset_dir() -> Path:
     """
     spec = importlib.util.find_spec("gymnasium_robotics")
     if spec is None or spec.origin is None:
-        raise BackendUnavailableError(
-            "the MuJoCo backend needs the Franka Panda model shipped with gymnasium-robotics: "
-            f"{_INSTALL}"
-        )
+        raise MissingExtraError(["gymnasium_robotics"], "the MuJoCo backend's Franka Panda "
+                                "model")
     path = Path(spec.origin).parent / "envs" / "assets" / "kitchen_franka" / "franka_assets"
     if not (path / "chain.xml").is_file():
         raise BackendUnavailableError(
             f"gymnasium-robotics at {path.parent.parent.parent} has no Franka Panda assets "
-            f"(expected {path / 'chain.xml'}); reinstall it with {_INSTALL}"
+            f"(expected {path / 'chain.xml'}); reinstall it with {install_command(['mujoco'])}",
+            field="backend"
         )
     return path
 

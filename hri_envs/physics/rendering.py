@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ConfigError, MissingExtraError
 
 __all__ = ["SceneRenderer", "select_gl_backend", "write_video"]
 
@@ -75,7 +75,7 @@ def write_video(frames: Sequence[np.ndarray], path: str | os.PathLike[str],
     try:
         import imageio.v3 as iio
     except ImportError as exc:
-        raise RuntimeError("writing videos needs imageio: pip install 'hri-envs[mujoco]'") from exc
+        raise MissingExtraError(["imageio"], "writing videos") from exc
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if not frames:
