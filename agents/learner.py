@@ -51,7 +51,7 @@ def graph_fingerprint(graph: TaskGraph) -> str:
 def sample_actions(probs: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Inverse-CDF sampling: (N, A) probabilities and (N,) uniforms -> (N,) actions."""
     cum = np.cumsum(probs, axis=-1)
-    return np.minimum((u[:, None] >= cum).sum(axis=-1), probs.shape[-1] - 1)  # type: ignore[no-any-return]
+    return np.minimum((u[:, None] >= cum).sum(axis=-1), probs.shape[-1] - 1)
 
 
 class Learner(BatchAgent):

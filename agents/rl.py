@@ -130,7 +130,7 @@ class SB3VectorEnv(VecEnv):
         self._actions = np.zeros(n, dtype=np.int64)
         self._t0 = time.perf_counter()
 
-    def reset(self) -> dict[str, np.ndarray] | np.ndarray:  # type: ignore[override]
+    def reset(self) -> dict[str, np.ndarray] | np.ndarray:
         """Reset every env (seeded by :meth:`seed`'s first seed, if any)."""
         options = self._options[0] or None
         obs, _ = self.env.reset(seed=self._seeds[0], options=options)
@@ -139,7 +139,7 @@ class SB3VectorEnv(VecEnv):
         self._restarting[:] = False
         self._return[:] = 0.0
         self._length[:] = 0
-        return obs  # type: ignore[no-any-return]
+        return obs
 
     def step_async(self, actions: np.ndarray) -> None:
         """Remember the actions (the batched env steps synchronously in :meth:`step_wait`)."""
@@ -206,7 +206,7 @@ class SB3VectorEnv(VecEnv):
         """The batched env has no per-env wrappers."""
         return [False] * self._count(indices)
 
-    def get_images(self) -> list[np.ndarray | None]:  # type: ignore[override]
+    def get_images(self) -> list[np.ndarray | None]:
         """The batched env does not render."""
         return [None] * self.num_envs
 

@@ -67,14 +67,14 @@ def _algorithm_class(name: str) -> type[BaseAlgorithm]:
         if name == "MaskablePPO":
             from sb3_contrib import MaskablePPO
 
-            return MaskablePPO  # type: ignore[no-any-return]
+            return MaskablePPO
         if name == "MaskedDQN":
             from agents.rl import MaskedDQN
 
             return MaskedDQN
         import stable_baselines3
 
-        return getattr(stable_baselines3, name)  # type: ignore[no-any-return]
+        return getattr(stable_baselines3, name)
     except ImportError as exc:
         raise MissingExtraError(["stable_baselines3", "sb3_contrib", "torch"],
                                 "SB3 models") from exc
@@ -253,14 +253,14 @@ class _Policy:
         p = np.where(total > 0, p / np.where(total > 0, total, 1.0), uniform)
         cum = np.cumsum(p, axis=1)
         picked = (uniforms[:, None] >= cum).sum(axis=1)
-        return np.minimum(picked, self.n_actions - 1)  # type: ignore[no-any-return]
+        return np.minimum(picked, self.n_actions - 1)
 
 
 def _as_model(path_or_model: Any, algo: str | None, graph: TaskGraph | None = None
               ) -> BaseAlgorithm:
     if isinstance(path_or_model, str | os.PathLike):
         return load_model(path_or_model, algo, graph=graph)
-    return path_or_model  # type: ignore[no-any-return]
+    return path_or_model
 
 
 class SB3BatchAgent(BatchAgent):

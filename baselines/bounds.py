@@ -110,14 +110,6 @@ class Plan:
             out[start] = float(np.mean(self.value[self.horizon, nodes]))
         return out
 
-    def episode_value(self, start: int, intention: int) -> float:
-        """The exact expected episode reward of an episode (start, ι) for an informed plan;
-        for a blind plan the start's prior-expected value (ι is unknown to it).
-        """
-        if self.informed:
-            return float(self.value[self.horizon, self.roots[start, intention]])
-        return float(self.start_value()[start])
-
 
 def _human_law(human: ScriptedHuman) -> np.ndarray:
     """(K, K, S, A) P(a_H | s; start, ι) with passivity mixed in."""
@@ -367,7 +359,7 @@ class _PlanAgent(BatchAgent):
             n = self.node[i]
             if n >= 0:
                 out[i] = self.plan.policy[min(left[i], self.plan.horizon), n]
-        return out  # type: ignore[no-any-return]
+        return out
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
                 next_states: np.ndarray, active: np.ndarray) -> None:

@@ -106,7 +106,7 @@ class MaxEntIRL(_Tracking):
         belief = np.where(total > 0, c / np.maximum(total, 1e-300), prior)
         sup = self.graph.support[states]
         arrived = rules.arrived(self.graph, states, self.start, self.lifted)
-        return np.where(arrived[:, None], (ids == sup[:, None]).astype(float), belief)  # type: ignore[no-any-return]
+        return np.where(arrived[:, None], (ids == sup[:, None]).astype(float), belief)
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
         """Bounded soft-max of Σ_ι Λ(ι|s_0,s) Q_ι(s, ·)."""

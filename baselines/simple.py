@@ -79,7 +79,7 @@ class Imitator(_Tracking):
         """The remembered action, else the passive one."""
         states = np.asarray(observations["state"], dtype=np.int64)
         seen = self.table[np.arange(self.n_runs), self.start, states]
-        return np.where(seen >= 0, seen, self.passive(states))  # type: ignore[no-any-return]
+        return np.where(seen >= 0, seen, self.passive(states))
 
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Store the human's (non-wait) actions along the loop-free trace."""
@@ -122,4 +122,4 @@ class Oracle(_Tracking):
             np.where(holds, TOGGLE, WAIT),
             np.where(~holds, TOGGLE, np.where(mu == BOTH, TAKE_OFF, WAIT)),
         )
-        return np.where(sup >= 0, at_support, preferred)  # type: ignore[no-any-return]
+        return np.where(sup >= 0, at_support, preferred)

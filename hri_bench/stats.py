@@ -47,7 +47,7 @@ def iqm(x: np.ndarray, axis: int | None = None) -> np.ndarray:
     return np.asarray(_scipy_stats().trim_mean(x, 0.25, axis=axis))
 
 
-def _pooled_stat(fn: str):  # type: ignore[no-untyped-def]
+def _pooled_stat(fn: str):
     def stat(*samples: np.ndarray, axis: int = -1) -> np.ndarray:
         pooled = np.concatenate(samples, axis=axis)
         return np.asarray(iqm(pooled, axis=axis) if fn == "iqm" else pooled.mean(axis=axis))

@@ -53,7 +53,7 @@ def bounded_softmax(
     if baseline is not None:
         bound = np.maximum(np.take_along_axis(p, baseline[..., None], axis=-1), bound)
     kept = np.where(p >= bound * (1 - 1e-12), p, 0.0)
-    return kept / kept.sum(axis=-1, keepdims=True)  # type: ignore[no-any-return]
+    return kept / kept.sum(axis=-1, keepdims=True)
 
 
 def robot_reward(reward: np.ndarray, pi_h: np.ndarray) -> np.ndarray:
@@ -97,7 +97,7 @@ def bayes_update(
     total = post.sum(axis=-1, keepdims=True)
     ok = total > 1e-300
     post = np.where(ok, post / np.where(ok, total, 1.0), prior / prior.sum(-1, keepdims=True))
-    return post  # type: ignore[no-any-return]
+    return post
 
 
 def remove_loops(states: np.ndarray) -> np.ndarray:
@@ -214,4 +214,4 @@ def irl_step(
     """
     new = theta + learning_rate * (demo_counts - expected_counts)
     scale = np.abs(new).max(axis=-1, keepdims=True)
-    return np.where(scale > 0, new / np.where(scale > 0, scale, 1.0), new)  # type: ignore[no-any-return]
+    return np.where(scale > 0, new / np.where(scale > 0, scale, 1.0), new)

@@ -311,7 +311,7 @@ def partner_backup(next_state: np.ndarray, partner: np.ndarray, values: np.ndarr
         out = jit.partner_backup(nxt, pi, x, term)
     else:
         out = _backup_numpy(nxt, pi, x, term)
-    return out.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
+    return out.reshape(*lead, n_s, n_a)
 
 
 def _backup_numpy(nxt: np.ndarray, pi: np.ndarray, x: np.ndarray, term: np.ndarray
@@ -321,7 +321,7 @@ def _backup_numpy(nxt: np.ndarray, pi: np.ndarray, x: np.ndarray, term: np.ndarr
     out = np.einsum("nsap,nsp->nsa", x[rows, nxt[None]], pi)
     has = np.flatnonzero(term >= 0)
     out[has, term[has], :] = x[has, term[has], None]
-    return out  # type: ignore[no-any-return]
+    return out
 
 
 def partner_reward(reward: np.ndarray, partner: np.ndarray,
@@ -350,7 +350,7 @@ def partner_reward(reward: np.ndarray, partner: np.ndarray,
         out = np.einsum("sap,nsp->nsa", reward, pi)
         has = np.flatnonzero(term >= 0)
         out[has, term[has], :] = 0.0
-    return out.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
+    return out.reshape(*lead, n_s, n_a)
 
 
 def belief_policy(q: np.ndarray, belief: np.ndarray, states: np.ndarray, valid: np.ndarray,
@@ -386,7 +386,7 @@ def belief_policy(q: np.ndarray, belief: np.ndarray, states: np.ndarray, valid: 
         rows = np.arange(len(states))
         mixed = np.einsum("bi,bia->ba", belief, q[rows, :, states])
         return mdp.bounded_softmax(mixed, valid[states], temperature, eta, baseline)
-    return jit.belief_policy(_c(q, np.float64), _c(belief, np.float64),  # type: ignore[no-any-return]
+    return jit.belief_policy(_c(q, np.float64), _c(belief, np.float64),
                              states, base, _valid(valid, n_s, n_a), float(temperature),
                              float(eta))
 
@@ -572,7 +572,7 @@ def _evaluation_matrix(nxt: np.ndarray, pi: np.ndarray, act: np.ndarray, term: n
     weight[has, term[has], 0] = 1.0
     flat = (np.arange(n_k)[:, None, None] * n_s + np.arange(n_s)[:, None]) * n_s + succ
     p = np.bincount(flat.ravel(), weight.ravel(), minlength=n_k * n_s * n_s)
-    return np.eye(n_s) - gamma * p.reshape(n_k, n_s, n_s)  # type: ignore[no-any-return]
+    return np.eye(n_s) - gamma * p.reshape(n_k, n_s, n_s)
 
 
 def _solve_numpy(nxt: np.ndarray, pi: np.ndarray, r: np.ndarray, valid: np.ndarray,
@@ -670,7 +670,7 @@ def expected_feature_counts(
     for t in range(1, int(hor.max())):
         d = np.einsum("bs,bsz->bz", d, p)
         svf += d * (t < hor)[:, None]
-    return np.einsum("bs,bsf->bf", svf, phi)  # type: ignore[no-any-return]
+    return np.einsum("bs,bsf->bf", svf, phi)
 
 
 def loop_free_counts(features: np.ndarray, state_traces: Sequence[np.ndarray],
@@ -705,7 +705,7 @@ def loop_free_counts(features: np.ndarray, state_traces: Sequence[np.ndarray],
         demo = mdp.demonstrations(features, state_traces, intent)
         return demo.counts, demo.start, demo.horizon
     states, offsets = _joined(state_traces, n_s)
-    return jit.loop_free_counts(_c(features, np.float64), states, offsets, intent)  # type: ignore[no-any-return]
+    return jit.loop_free_counts(_c(features, np.float64), states, offsets, intent)
 
 
 def _trace_lengths(state_traces: Sequence[np.ndarray]) -> np.ndarray:

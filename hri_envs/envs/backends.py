@@ -114,7 +114,7 @@ def _load(entry: str) -> Any:
 def options_checker(name: str) -> Callable[[Mapping[str, Any]], dict[str, Any]] | None:
     """The function checking backend ``name``'s ``physics`` options (None: it takes none)."""
     entry = backend_spec(name).options
-    return None if entry is None else _load(entry)  # type: ignore[no-any-return]
+    return None if entry is None else _load(entry)
 
 
 def episode_backend(name: str) -> type[Episode]:

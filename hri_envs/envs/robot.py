@@ -288,7 +288,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         return self._classic.encode(ep.state, ep.start, ep.observed_human, None,
                                     self.rules.action_mask[ep.state])
 
-    def render(self) -> str | np.ndarray | None:  # type: ignore[override]
+    def render(self) -> str | np.ndarray | None:
         """Render according to ``render_mode`` (None: nothing)."""
         ep = self._episode
         if self.render_mode == "ansi":

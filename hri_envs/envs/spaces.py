@@ -55,4 +55,4 @@ def check_action(agent: str, action: Any, n_actions: int) -> int:
             f"{agent} action {action} is outside the {agent}'s action space "
             f"Discrete({n_actions}): valid actions are 0..{n_actions - 1}"
         )
-    return action  # type: ignore[no-any-return]
+    return action

@@ -245,7 +245,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         p = self._human.turn_back[rows]
         if not (p > 0.0).any():
             return None
-        return self.np_random.random(p.size) < p  # type: ignore[no-any-return]
+        return self.np_random.random(p.size) < p
 
     def _adopt(self, human: BatchHuman) -> None:
         """Act with ``human`` from now on (also when :attr:`human` was replaced).

@@ -126,7 +126,7 @@ def preference_q(human: ScriptedHuman) -> np.ndarray:
     q = -(1.0 + d_next) - off
     support = g.is_support_state[None, None, :, None]
     q = np.where(support, -off.astype(float), q)
-    return np.where(g.valid[None, None], q, -np.inf)  # type: ignore[no-any-return]
+    return np.where(g.valid[None, None], q, -np.inf)
 
 
 def rational_human(human: ScriptedHuman, beta: float) -> ScriptedHuman:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -125,6 +125,9 @@ class ScriptedHuman:
     turn_state: np.ndarray
     passive: float = 0.0
     turn_back: float = 0.0
+    _greedy: np.ndarray = field(init=False, repr=False)  # (K, K, S) the likeliest action
+    _deterministic: bool = field(init=False, repr=False)
+    _cumulative: np.ndarray = field(init=False, repr=False)  # (K, K, S, A) the policy's CDF
 
     def __post_init__(self) -> None:
         k, s, a = self.graph.n_intentions, self.graph.n_states, self.graph.n_actions
@@ -147,13 +150,13 @@ class ScriptedHuman:
     @property
     def deterministic(self) -> bool:
         """Whether the policy table is deterministic (passivity aside)."""
-        return bool(self._deterministic)  # type: ignore[attr-defined]
+        return self._deterministic
 
     def preferred_action(
         self, state: np.ndarray, start: np.ndarray, goal: np.ndarray
     ) -> np.ndarray:
         """The most likely action of the policy table, ignoring passivity (arrays broadcast)."""
-        return self._greedy[start, goal, state]  # type: ignore[attr-defined,no-any-return]
+        return self._greedy[start, goal, state]
 
     def act(
         self,
@@ -182,20 +185,14 @@ class ScriptedHuman:
         """
         state, start, goal = np.broadcast_arrays(state, start, goal)
         if self.deterministic:
-            actions = self._greedy[start, goal, state].copy()  # type: ignore[attr-defined]
+            actions = self._greedy[start, goal, state].copy()
         else:
-            cum = self._cumulative[start, goal, state]  # type: ignore[attr-defined]
+            cum = self._cumulative[start, goal, state]
             actions = np.minimum((u_choice[..., None] >= cum).sum(axis=-1),
                                  self.graph.n_actions - 1)
         if self.passive > 0.0:
             actions = np.where(u_passive < self.passive, WAIT, actions)
-        return actions  # type: ignore[no-any-return]
-
-    def draw_turn_back(self, rng: np.random.Generator, n: int = 1) -> np.ndarray:
-        """Whether each of ``n`` new episodes has the human turn back halfway."""
-        if self.turn_back <= 0.0:
-            return np.zeros(n, dtype=bool)
-        return rng.random(n) < self.turn_back
+        return actions
 
 
 def _support_actions(graph: TaskGraph, table: np.ndarray) -> None:

@@ -111,7 +111,7 @@ class TableHumans(BatchHuman):
         if self.shared is not None:
             return self.shared.preferred_action(state, start, goal)
         state, start, goal = np.broadcast_arrays(state, start, goal)
-        return self._greedy[np.arange(len(state)), start, goal, state]  # type: ignore[no-any-return]
+        return self._greedy[np.arange(len(state)), start, goal, state]
 
     # ----------------------------------------------------------------- protocol
     def begin_episode(self, starts: np.ndarray, intentions: np.ndarray, rows: Rows = None
@@ -150,4 +150,4 @@ class TableHumans(BatchHuman):
             cum = self._cum[rows, start, intention, state]  # (B, A)
             sampled = np.minimum((u_choice[:, None] >= cum).sum(axis=-1), cum.shape[-1] - 1)
             actions = np.where(self._stochastic, sampled, actions)
-        return np.where(u_passive < self._passive, WAIT, actions)  # type: ignore[no-any-return]
+        return np.where(u_passive < self._passive, WAIT, actions)

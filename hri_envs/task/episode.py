@@ -97,7 +97,7 @@ def left_start(graph: TaskGraph, state: IntArray, start: IntArray) -> np.ndarray
     Accumulated over an episode this is the *lifted* flag: once lifted, resting on the
     start again counts as arriving (the human turned back).
     """
-    return graph.support[state] != start  # type: ignore[no-any-return]
+    return graph.support[state] != start
 
 
 def episode_over(
@@ -108,7 +108,7 @@ def episode_over(
     """
     sup = graph.support[state]
     resting = (sup >= 0) & (graph.grasp[state] == 0)
-    return resting & ((sup != start) | lifted)  # type: ignore[no-any-return]
+    return resting & ((sup != start) | lifted)
 
 
 def arrived(
@@ -116,7 +116,7 @@ def arrived(
 ) -> np.ndarray:
     """Resting on a support that can end the episode (any grasp): a goal candidate."""
     sup = graph.support[state]
-    return (sup >= 0) & ((sup != start) | lifted)  # type: ignore[no-any-return]
+    return (sup >= 0) & ((sup != start) | lifted)
 
 
 def turn_back(
@@ -163,7 +163,7 @@ def step_penalty(
     aborted = graph.aborted[s, a_r, a_h]
     counteracted = _motion(a_r) & _motion(a_h) & (np.asarray(a_r) != a_h)
     idle = (np.asarray(a_h) == WAIT) & (np.asarray(s_next) == s)
-    return aborted | counteracted | idle  # type: ignore[no-any-return]
+    return aborted | counteracted | idle
 
 
 def unneeded_toggle(
@@ -181,7 +181,7 @@ def unneeded_toggle(
     on_support = graph.support[s] >= 0
     goal = arrived(graph, s, start, lifted)
     needed = on_support & np.where(goal, holds, ~holds)
-    return (a_r == TOGGLE) & ~needed  # type: ignore[no-any-return]
+    return (a_r == TOGGLE) & ~needed
 
 
 def step_reward(
@@ -251,7 +251,7 @@ def robot_correct(
     toggled = ((graph.grasp[s] ^ graph.grasp[s_next]) & ROBOT_BIT) > 0
     s1 = np.where(a_h == TOGGLE, graph.next_state[s, WAIT, a_h], s)
     reached = graph.next_state[s1, a_r, WAIT] == s_next
-    return acted & np.where(a_r == TOGGLE, toggled, reached)  # type: ignore[no-any-return]
+    return acted & np.where(a_r == TOGGLE, toggled, reached)
 
 
 class Decisions(NamedTuple):
@@ -277,7 +277,7 @@ def reached_intention(graph: TaskGraph, state: IntArray, intention: IntArray) ->
 
     At the end of an episode (:func:`episode_over`) this says whether the task succeeded.
     """
-    return graph.support[state] == intention  # type: ignore[no-any-return]
+    return graph.support[state] == intention
 
 
 def goal_reward(

@@ -203,11 +203,6 @@ class TaskGraph:
         """(S,) bool, the object rests on a support."""
         return self.support >= 0
 
-    @cached_property
-    def valid_counts(self) -> np.ndarray:
-        """(S,) number of valid actions per state."""
-        return self.valid.sum(axis=1)
-
     def step(self, s: int, a_r: int, a_h: int) -> tuple[int, bool]:
         """The joint transition for one step: ``(next state, aborted)``."""
         return int(self.next_state[s, a_r, a_h]), bool(self.aborted[s, a_r, a_h])

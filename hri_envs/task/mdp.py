@@ -91,7 +91,7 @@ def softmax(q: np.ndarray, valid: np.ndarray, temperature: float) -> np.ndarray:
     z = np.where(valid, temperature * q, -np.inf)
     z = z - z.max(axis=-1, keepdims=True)
     e = np.exp(z)
-    return e / e.sum(axis=-1, keepdims=True)  # type: ignore[no-any-return]
+    return e / e.sum(axis=-1, keepdims=True)
 
 
 class PartnerIndex(NamedTuple):
@@ -247,7 +247,7 @@ def solve_q(
         act[todo] = new_act
         # An MDP whose policy did not change would give the same Q again: it is done.
         todo = todo[changed]
-    return q.reshape(*lead, n_s, n_a)  # type: ignore[no-any-return]
+    return q.reshape(*lead, n_s, n_a)
 
 
 def improve_policy(q: np.ndarray, valid: np.ndarray, act: np.ndarray
@@ -337,5 +337,5 @@ def passive_actions(graph: TaskGraph, start: np.ndarray, lifted: np.ndarray | No
     can_end = arrived(graph, states, start, lifted_)  # (..., S) where the robot lets go
     grasp_here = (graph.support == start) & ~holds & ~lifted_
     release_here = holds & can_end
-    return np.where(grasp_here | release_here, TOGGLE, WAIT)  # type: ignore[no-any-return]
+    return np.where(grasp_here | release_here, TOGGLE, WAIT)
 
