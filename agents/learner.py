@@ -65,9 +65,9 @@ class Learner(BatchAgent):
         runs: The run indices of this batch (default ``range(n_runs)``), so that a run's
             randomness does not depend on which batch it is in.
         workspace: Arrays each update may write into (:class:`~agents.learning.algorithm1.
-            Workspace`): faster, but then the arrays below are overwritten by the update
-            after next, so copy what you keep. None (the default): every update makes new
-            arrays.
+            Workspace`): faster, but then the arrays below (all but ``theta``) are
+            overwritten by the update after next, so copy what you keep. None (the
+            default): every update makes new arrays.
 
     Attributes:
         theta: (B, F) feature weights of the human model.

@@ -19,7 +19,7 @@ from hri_envs.envs.partner import PartnerEnv
 from hri_envs.envs.robot import RobotEnv
 from hri_envs.envs.vector import RobotVectorEnv
 from hri_envs.errors import ConfigError
-from hri_envs.humans import BatchedHumans
+from hri_envs.humans import BatchedHumans, PopulationHumans
 from hri_envs.task.actions import WAIT
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph
 from tests import scenario_box
@@ -142,3 +142,27 @@ def test_the_learner_learns_a_scenario_of_the_tests(box):
 def test_a_scenario_of_the_tests_has_no_physics(box):
     with pytest.raises(ConfigError, match="no physical design"):
         RobotEnv("box", backend="mujoco")
+
+
+# --------------------------------------------------------------------- populations in seats
+def test_a_population_draws_a_human_per_reset_in_the_vector_env_and_partner_env():
+    graph = scenario_graph("hanger")
+    vec = RobotVectorEnv(16, "hanger", population="heldout")
+    vec.reset(seed=5)
+    first = list(vec.human.current)
+    assert len({h.name for h in first}) > 8  # each env its own human
+    obs, *_ = vec.step(np.zeros(16, np.int64))
+    for _ in range(200):  # autoresets draw new humans for the envs that restart
+        obs, _, term, trunc, _ = vec.step(np.array([np.flatnonzero(m)[-1]
+                                                    for m in obs["action_mask"]]))
+    assert [h.name for h in vec.human.current] != [h.name for h in first]
+    again = RobotVectorEnv(16, "hanger", population="heldout")
+    again.reset(seed=5)
+    assert [h.name for h in again.human.current] == [h.name for h in first]
+
+    env = PartnerEnv(hanger_v0.parallel_env(), partner=PopulationHumans(graph, "heldout"))
+    names = []
+    for seed in (0, 1, 2, 0):
+        env.reset(seed=seed)
+        names.append(env.partner.name)  # type: ignore[union-attr]
+    assert len(set(names[:3])) == 3 and names[3] == names[0]

@@ -119,12 +119,7 @@ class PartnerEnv(gym.Env[Any, np.int64]):
                                   "learner='human' give the robot a policy(observation, rng)",
                                   field="partner")
             self._human = seat_human(graph, human=partner)
-            # The env applies the episode rules: it turns back where and as often as this
-            # human does.
-            where = self._human.turn_state
-            if where is not None:
-                env.unwrapped._episode.set_turn_state(where if where.ndim == 2 else where[0])
-            env.unwrapped.turn_back = float(self._human.turn_back[0])
+            self._sync_turning()
         elif partner is None:
             self._policy = following_robot(graph)
         elif callable(partner):
@@ -143,6 +138,16 @@ class PartnerEnv(gym.Env[Any, np.int64]):
         self._partner_rng = np.random.default_rng(0)
         self._seen: dict[str, np.ndarray] = {}
 
+    def _sync_turning(self) -> None:
+        """The env applies the episode rules: it turns back where and as often as the human
+        in the seat does.
+        """
+        assert self._human is not None
+        where = self._human.turn_state
+        if where is not None:
+            self.env.unwrapped._episode.set_turn_state(where if where.ndim == 2 else where[0])
+        self.env.unwrapped.turn_back = float(self._human.turn_back[0])
+
     def _partner_action(self, action: Any) -> int:
         """The partner's action in this step (``action``: the learner's)."""
         if self._policy is not None:
@@ -159,8 +164,15 @@ class PartnerEnv(gym.Env[Any, np.int64]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
-        """Reset the wrapped env (same ``options``); the learner's observation and info."""
+        """Reset the wrapped env (same ``options``); the learner's observation and info.
+
+        A population in the seat draws the episode's human first, from this wrapper's own
+        ``np_random`` (seeded by ``seed``), so the env's draws stay those of any other human.
+        """
         super().reset(seed=seed)
+        if self._human is not None:
+            self._human.draw(self.np_random)
+            self._sync_turning()
         self._obs, infos = self.env.reset(seed=seed, options=options)
         # The partner's own stream, drawn from the env's (as RobotEnv does for its human), so
         # its draws are not the very bits the env used for start, intention and turning back.

@@ -242,10 +242,16 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
 
     def _draw_turn(self, rows: np.ndarray | slice) -> np.ndarray | None:
         """Whether the new episodes of ``rows`` turn back (None: no human of them can)."""
-        p = self._human.turn_back[rows]
-        if not (p > 0.0).any():
+        p: float | np.ndarray | None = self._shared_turn_back
+        if p is None:  # each env's own human
+            p = self._human.turn_back[rows]
+            if not (p > 0.0).any():
+                return None
+            return self.np_random.random(p.size) < p
+        if p <= 0.0:
             return None
-        return self.np_random.random(p.size) < p
+        n = self.num_envs if isinstance(rows, slice) else rows.size
+        return self.np_random.random(n) < p
 
     def _adopt(self, human: BatchHuman) -> None:
         """Act with ``human`` from now on (also when :attr:`human` was replaced).
@@ -261,6 +267,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._greedy = None
         self._table = self._steps
         shared = human.shared if isinstance(human, TableHumans) else None
+        # One model for every env: its turning-back probability, read once.
+        self._shared_turn_back = None if shared is None else shared.turn_back
         if shared is not None and shared.deterministic and shared.passive == 0.0:
             n_k, n_s = self._n_supports, self.graph.n_states
             grid = np.indices((n_k, n_k, n_s))  # (start, goal, state)

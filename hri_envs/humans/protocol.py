@@ -41,7 +41,7 @@ A human who copies the robot's last motion when it can::
         def observe(self, state, robot_action, human_action, next_state):
             self.last = robot_action
 
-Run it in a study with ``hri-bench study hanger --human mymodule:Copycat``.
+Run it in a study with ``hri-bench study hanger --population mymodule:Copycat``.
 """
 
 from __future__ import annotations

@@ -35,7 +35,8 @@ class TableHumans(BatchHuman):
         n_runs: Rows, when ``humans`` is one model (default 1).
 
     Attributes:
-        episode: (n_runs,) int, each row's episode count (-1 before the first).
+        episode: (n_runs,) int, each row's episode count (-1 before the first), counted
+            for rows that have a sequence of models.
     """
 
     def __init__(self, humans: ScriptedHuman | Sequence[Sequence[ScriptedHuman]],
@@ -55,6 +56,9 @@ class TableHumans(BatchHuman):
             super().__init__(per_run[0][0].graph, len(per_run))
             self.current = [seq[0] for seq in per_run]
             self._gather()
+        if self.shared is not None:
+            self._turn_back = np.full(self.n_runs, self.shared.turn_back)
+            self._turn_back.setflags(write=False)
         self.episode = np.full(self.n_runs, -1, dtype=np.int64)
         self.name = self.current[0].name  # type: ignore[misc]
 
@@ -70,6 +74,7 @@ class TableHumans(BatchHuman):
             self._cum = np.zeros((self.n_runs, n_k, n_k, g.n_states, g.n_actions))
             self._stochastic = np.zeros(self.n_runs, dtype=bool)
             self._passive = np.zeros(self.n_runs)
+            self._turn_back = np.zeros(self.n_runs)
             self._turn_states = np.zeros((self.n_runs, n_k, n_k), dtype=np.int64)
         for i in rows:
             h = self.current[i]
@@ -77,6 +82,7 @@ class TableHumans(BatchHuman):
             self._cum[i] = np.cumsum(h.policy, axis=-1)
             self._stochastic[i] = not h.deterministic
             self._passive[i] = h.passive
+            self._turn_back[i] = h.turn_back
             self._turn_states[i] = h.turn_state
 
     def assign(self, rows: Rows, humans: Sequence[ScriptedHuman]) -> None:
@@ -102,8 +108,8 @@ class TableHumans(BatchHuman):
 
     @property
     def turn_back(self) -> np.ndarray:
-        """(n_runs,) each row's current model's turning-back probability."""
-        return np.array([h.turn_back for h in self.current])
+        """(n_runs,) each row's current model's turning-back probability (read-only)."""
+        return self._turn_back
 
     def preferred_action(self, state: np.ndarray, start: np.ndarray, goal: np.ndarray
                          ) -> np.ndarray:
@@ -117,10 +123,10 @@ class TableHumans(BatchHuman):
     def begin_episode(self, starts: np.ndarray, intentions: np.ndarray, rows: Rows = None
                       ) -> None:
         """Count the rows' episodes; a row whose sequence moves on changes model."""
+        if self.per_run is None:  # one model throughout: nothing to count
+            return
         idx = all_rows(rows, self.n_runs)
         self.episode[idx] += 1
-        if self.per_run is None:
-            return
         changed = []
         for i in idx:
             seq = self.per_run[i]

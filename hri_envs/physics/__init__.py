@@ -14,6 +14,7 @@ module             contents
 ``options``        ``physics={...}`` options, presets and per-episode randomisation
 ``human``          the simulated human's saturating spring-damper on the handle
 ``seats``          supports as unilateral seats (hook, peg, plate)
+``shapes``         the object's and the supports' geometry per scenario design
 ``observer``       closest abstract state, human-action inference
 ``sim``            :class:`PandaSim`: one abstract step of both agents
 ``episode``        the backend inside the envs (``backend="mujoco"``)
