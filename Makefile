@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --disable-pip-version-check -q -c constraints.txt
 DEMO_OUT ?= out/demo
 
-.PHONY: demo test speed clean
+.PHONY: demo test speed clean system-deps
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -23,8 +23,16 @@ $(VENV)/.test-installed: pyproject.toml constraints.txt | $(PY)
 demo: $(VENV)/.demo-installed
 	$(VENV)/bin/hri-bench demo --out $(DEMO_OUT)
 
+# What the tests need from the system: xvfb-run for the render_mode="human" window tests.
+# Installed from Debian's packages where missing (as root, or with sudo when it asks nothing).
+system-deps:
+	@command -v xvfb-run >/dev/null || { \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO="sudo -n"; fi; \
+	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq xvfb >/dev/null \
+	  || echo "make test: could not install xvfb (Debian's 'xvfb'); 2 window tests will skip"; }
+
 # Lint, type and layer checks first, so that pytest's summary is the last line.
-test: $(VENV)/.test-installed
+test: $(VENV)/.test-installed system-deps
 	$(VENV)/bin/ruff check hri_envs agents baselines hri_bench tests examples benchmarks
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports

@@ -20,16 +20,15 @@ next to the paper's Learner::
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import gymnasium as gym
 import numpy as np
+import tyro
 
 import hri_envs  # noqa: F401  (registers the Gymnasium ids)
 from agents.protocol import Agent, Trace
@@ -37,6 +36,7 @@ from agents.rollout import run_episode
 from hri_bench.study import StudyConfig, run_study
 from hri_envs.task import mdp
 from hri_envs.task.graph import WAIT, TaskGraph
+from hri_envs.task.scenarios import scenario_spec
 
 
 class GoalMemory(Agent):
@@ -85,8 +85,8 @@ class GoalMemory(Agent):
 
 @dataclass
 class Config:
-    scenario: str = "hanger"
-    """hanger or wheel"""
+    scenario: Literal["hanger", "wheel"] = "hanger"
+    """the task"""
     runs: int = 20
     """benchmark runs per agent"""
     episodes: int = 8
@@ -96,13 +96,10 @@ class Config:
 
 
 def main(argv: list[str] | None = None) -> dict[str, list[float]]:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    for f in dataclasses.fields(Config):
-        parser.add_argument(f"--{f.name}", type=type(f.default), default=f.default)
-    cfg = Config(**vars(parser.parse_args(argv)))
+    cfg = tyro.cli(Config, args=argv, description=__doc__.splitlines()[0])
 
     # 1. In a Gymnasium env, one episode at a time.
-    env_id = {"hanger": "hri_envs/Hanger-v0", "wheel": "hri_envs/Wheel-v0"}[cfg.scenario]
+    env_id = scenario_spec(cfg.scenario).gym_id
     env = gym.make(env_id)
     robot = GoalMemory(env.unwrapped.graph)  # type: ignore[attr-defined]
     rewards = [run_episode(env, robot, seed=cfg.seed + e).reward for e in range(5)]

@@ -11,13 +11,13 @@ reward per episode (``reward.png``). Numbers go to ``summary.json``.
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import tyro
 from tqdm.auto import tqdm
 
 from hri_bench.agents import make_agent
@@ -44,10 +44,7 @@ class Config:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    for name, default in vars(Config()).items():
-        parser.add_argument(f"--{name}", type=type(default), default=default)
-    cfg = Config(**vars(parser.parse_args()))
+    cfg = tyro.cli(Config, description=__doc__.splitlines()[0])
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     physics = check_physics_options(json.loads(cfg.physics) if cfg.physics else None, "mujoco")

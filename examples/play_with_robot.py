@@ -11,12 +11,12 @@ preference), which is how the example runs unattended::
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 import re
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
+import tyro
 
 from hri_bench.play import play
 from hri_bench.study import graph_for
@@ -25,8 +25,8 @@ from hri_envs.humans.scripted import preference_human
 
 @dataclass
 class Config:
-    scenario: str = "hanger"
-    """hanger or wheel"""
+    scenario: Literal["hanger", "wheel"] = "hanger"
+    """the task"""
     episodes: int = 4
     """episodes to play"""
     seed: int = 0
@@ -75,13 +75,7 @@ class ScriptedPlayer:
 
 
 def main(argv: list[str] | None = None) -> list[float]:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    for f in dataclasses.fields(Config):
-        if isinstance(f.default, bool):
-            parser.add_argument(f"--{f.name}", action="store_true")
-        else:
-            parser.add_argument(f"--{f.name}", type=type(f.default), default=f.default)
-    cfg = Config(**vars(parser.parse_args(argv)))
+    cfg = tyro.cli(Config, args=argv, description=__doc__.splitlines()[0])
     if cfg.auto:
         player = ScriptedPlayer(cfg.scenario, cfg.seed, cfg.quiet)
         rewards = play(cfg.scenario, episodes=cfg.episodes, seed=cfg.seed,

@@ -23,13 +23,12 @@ requirements itself, since ``ray[rllib]`` pins an older Gymnasium; see docs/rl.m
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+import tyro
 
 from hri_envs import hanger_v0, wheel_v0
 from hri_envs.envs.formats import ClassicLayout
@@ -38,8 +37,8 @@ from hri_envs.humans.scripted import preference_human
 
 @dataclass
 class Config:
-    scenario: str = "hanger"
-    """hanger or wheel"""
+    scenario: Literal["hanger", "wheel"] = "hanger"
+    """the task"""
     iterations: int = 3
     """PPO training iterations"""
     batch_size: int = 300
@@ -128,11 +127,7 @@ def build(cfg: Config) -> Any:
 
 
 def main(argv: list[str] | None = None) -> list[float]:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    for f in dataclasses.fields(Config):
-        parser.add_argument(f"--{f.name.replace('_', '-')}", type=type(f.default),
-                            default=f.default)
-    cfg = Config(**vars(parser.parse_args(argv)))
+    cfg = tyro.cli(Config, args=argv, description=__doc__.splitlines()[0])
     import ray
 
     t0 = time.perf_counter()

@@ -14,13 +14,13 @@
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
+import tyro
 from stable_baselines3.common.base_class import BaseAlgorithm
 
 from agents.rl import RandomMasked, train_dqn, train_maskable_ppo
@@ -32,16 +32,16 @@ from hri_envs.humans.scripted import preference_human
 
 @dataclass
 class Config:
-    scenario: str = "hanger"
-    """hanger or wheel"""
-    algo: str = "ppo"
+    scenario: Literal["hanger", "wheel"] = "hanger"
+    """the task"""
+    algo: Literal["ppo", "dqn"] = "ppo"
     """ppo (MaskablePPO) or dqn (MaskedDQN)"""
     timesteps: int = 30_000
     """environment steps to train for"""
     n_envs: int = 8
     """environments stepped together"""
-    vec: str = "vector"
-    """vector (numpy-batched env), dummy or subproc"""
+    vec: Literal["vector", "dummy", "subproc"] = "vector"
+    """vector (the numpy-batched env), dummy or subproc (SB3's vector envs)"""
     preference: str = ""
     """the scripted human's preference (empty: the scenario's default)"""
     seed: int = 0
@@ -55,11 +55,8 @@ class Config:
 
 
 def parse(argv: list[str] | None = None) -> Config:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    for f in dataclasses.fields(Config):
-        parser.add_argument(f"--{f.name.replace('_', '-')}", type=type(f.default),
-                            default=f.default, help=f"(default: {f.default!r})")
-    return Config(**vars(parser.parse_args(argv)))
+    """The configuration from the command line (the fields' docstrings are its ``--help``)."""
+    return tyro.cli(Config, args=argv, description=__doc__.splitlines()[0])
 
 
 def main(argv: list[str] | None = None) -> dict[str, float]:

@@ -18,7 +18,6 @@ constructor accepts it), a :class:`~agents.protocol.BatchAgent` subclass once pe
 
 from __future__ import annotations
 
-import importlib
 import inspect
 from collections.abc import Sequence
 from pathlib import Path
@@ -30,6 +29,7 @@ from agents.learning.algorithm1 import Workspace
 from agents.protocol import Agent, BatchAgent, Batched
 from baselines import Imitator, MaxEntIRL, Oracle, Passive
 from baselines.bounds import Blind, Informed
+from hri_bench.imports import import_object
 from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
@@ -69,12 +69,7 @@ def validate_agent_name(name: str) -> None:
 
 
 def _import(spec: str) -> Any:
-    module, _, attr = spec.partition(":")
-    try:
-        return getattr(importlib.import_module(module), attr)
-    except (ImportError, AttributeError) as exc:
-        raise ConfigError(f"cannot import agent {spec!r}: {exc}; give 'module:Class' with an "
-                          "importable module", field="agents") from exc
+    return import_object(spec, "agent", "agents")
 
 
 def _learner_config(name: str, scenario: str, r0: float,

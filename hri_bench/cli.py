@@ -473,15 +473,15 @@ def _demo(args: argparse.Namespace) -> int:
 
 #: What ``hri-bench demo`` (``make demo``) suggests next; every command runs as printed.
 _NEXT_STEPS = """
-What to try next (after `source .venv/bin/activate`; README.md 'A tour', docs/benchmark.md):
-  hri-bench study wheel --runs 20 --out out/wheel     # one study: summary.json, CSV, plots
-  hri-bench study wheel --human-passive 0.2 --runs 20 --out out/passive
-  hri-bench suite --out out/suite --jobs 2            # the benchmark's leaderboard (~2 min)
-  hri-bench play hanger                               # you are the human
-  python examples/custom_learner.py                   # your own agent, benchmarked
-  python examples/train_maskable_ppo.py               # needs the rl extra (below)
-  python examples/physics_table2.py --runs 1          # needs the mujoco extra (below)
-Extras: pip install -c constraints.txt -e '.[rl]'  (or '.[mujoco]', '.[ray]')"""
+What to try next, from this folder (README.md 'A tour', docs/benchmark.md):
+  .venv/bin/hri-bench study wheel --runs 20 --out out/wheel   # one study: summary, CSV, plots
+  .venv/bin/hri-bench study wheel --human-passive 0.2 --runs 20 --out out/passive
+  .venv/bin/hri-bench suite --out out/suite --jobs 2          # the benchmark's leaderboard
+  .venv/bin/hri-bench play hanger                             # you are the human
+  .venv/bin/python examples/custom_learner.py                 # your own agent, benchmarked
+  .venv/bin/python examples/train_maskable_ppo.py             # needs the rl extra (below)
+  .venv/bin/python examples/physics_table2.py --runs 1        # needs the mujoco extra (below)
+Extras: .venv/bin/pip install -c constraints.txt -e '.[rl]'  (or '.[mujoco]', '.[ray]')"""
 
 
 def main(argv: Sequence[str] | None = None) -> int:

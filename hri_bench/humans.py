@@ -11,11 +11,11 @@ from the generator the study hands it (``(seed, run, 1)``), so results do not de
 
 from __future__ import annotations
 
-import importlib
 import inspect
 from collections.abc import Sequence
 from typing import Any
 
+from hri_bench.imports import import_object
 from hri_envs.errors import ConfigError
 from hri_envs.humans.populations import population_spec
 from hri_envs.humans.protocol import BatchedHumans, BatchHuman, Human
@@ -30,12 +30,7 @@ def is_custom(name: str | None) -> bool:
 
 
 def _load(spec: str) -> type[Human] | type[BatchHuman]:
-    module, _, attr = spec.partition(":")
-    try:
-        cls = getattr(importlib.import_module(module), attr)
-    except (ImportError, AttributeError) as exc:
-        raise ConfigError(f"cannot import human {spec!r}: {exc}; give 'module:Class' with an "
-                          "importable module", field="population") from exc
+    cls = import_object(spec, "human", "population")
     if not (inspect.isclass(cls) and issubclass(cls, Human | BatchHuman)):
         raise ConfigError(f"{spec!r} is neither a hri_envs.humans.Human nor a BatchHuman "
                           "subclass; only subclasses of those are allowed", field="population")

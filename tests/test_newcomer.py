@@ -2,6 +2,8 @@
 extra every example needs.
 """
 
+import importlib
+import importlib.util
 import re
 import shlex
 import tomllib
@@ -12,15 +14,54 @@ from hri_bench.cli import _NEXT_STEPS, build_parser
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _check_command(words):
+    """A command as printed works from the checkout: the program exists, hri-bench's
+    arguments parse, a script or module it runs exists, a module:Class it names imports.
+    """
+    assert (ROOT / words[0]).is_file(), words  # .venv/bin/...: run from the checkout
+    if words[0].endswith("hri-bench"):
+        saved = [w for w in words if "sb3:out/train_maskable_ppo/" in w]
+        if saved:  # a model the example writes: it exists once the example ran
+            words = [w.replace(",sb3:out/train_maskable_ppo/ppo_hanger.zip", "") for w in words]
+        args = build_parser().parse_args(words[1:])  # exits (SystemExit) if it does not parse
+        names = [*(getattr(args, "agents", None) or ()), getattr(args, "population", None)]
+        for name in names:
+            if name and ":" in name and not name.startswith("sb3:"):
+                module, _, attr = name.partition(":")
+                assert hasattr(importlib.import_module(module), attr), name
+    elif words[1] == "-m":
+        assert importlib.util.find_spec(words[2]) is not None, words
+    else:
+        assert (ROOT / words[1]).is_file(), words
+
+
+def _commands(text):
+    """The commands in ``text``: lines and inline code starting with .venv/bin/ (a command
+    may continue over lines ending in a backslash)."""
+    text = text.replace("\\\n", " ")
+    found = re.findall(r"^\s*(\.venv/bin/[^\n#`]+)", text, re.M)
+    found += re.findall(r"`(\.venv/bin/[^`]+)`", text)
+    return [shlex.split(c) for c in found if "[" not in c]  # "[--reward ...]": an option shown
+
+
 def test_the_demos_next_steps_are_valid_commands():
-    lines = [line.split("#")[0].strip() for line in _NEXT_STEPS.splitlines()]
-    commands = [shlex.split(line) for line in lines if line.startswith(("hri-bench", "python"))]
-    assert len(commands) >= 5
+    commands = _commands(_NEXT_STEPS)
+    assert len(commands) >= 7
     for words in commands:
-        if words[0] == "hri-bench":
-            build_parser().parse_args(words[1:])  # exits (SystemExit) if it does not parse
-        else:
-            assert (ROOT / words[1]).is_file(), words
+        _check_command(words)
+
+
+def test_every_command_in_the_readme_works_from_a_fresh_shell():
+    """After the two set-up commands nothing is activated: every command the README shows
+    runs as pasted (the tools are called from .venv/bin)."""
+    readme = (ROOT / "README.md").read_text()
+    commands = _commands(readme)
+    assert len(commands) >= 15
+    for words in commands:
+        if words[0] != ".venv/bin/pip":
+            _check_command(words)
+    bare = re.findall(r"^\s*(hri-bench|python) ", readme, re.M)  # not runnable as pasted
+    assert not bare
 
 
 def test_the_readme_names_the_extra_of_every_example():
