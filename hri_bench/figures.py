@@ -23,7 +23,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from hri_bench.plots import (
-    decision_bars,
+    band_legend,
+    decision_panels,
     new_figure,
     policy_lines,
     reward_bands,
@@ -141,7 +142,8 @@ def make_figures(
         f, axes = new_figure(1, 2, figsize=(11, 4), sharey=True)
         for ax, pref in zip(axes, ("straight", "detour"), strict=True):
             reward_bands(ax, wheel_results[fig, pref], title=f"preference: {pref}")
-        axes[0].legend(frameon=False, fontsize=8)
+        band_legend(axes[0])
+        axes[0].legend(frameon=False, fontsize=8, title="line: mean", title_fontsize=7)
         f.suptitle(f"Wheel, r0 = {r0:g}, human passive {passive:.0%} ({runs} runs each)")
         paths.append(save_figure(f, out / f"{fig}.png"))
     for fig, pref in (("fig11", "straight"), ("fig12", "detour")):
@@ -184,10 +186,7 @@ def make_figures(
                       schedule="table2", episodes=9, r0=None, preference="all")
         res = run_study(cfg, progress=progress)
         log(f"fig4: {res.wall_time_s:.1f} s")
-        f, ax = new_figure(figsize=(11, 4.2))
-        decision_bars(ax, res, title="Hanger, Table 2 schedule, runs cycling over the 36 "
-                      "preferences")
-        ax.legend(frameon=False, fontsize=7, ncol=3, loc="upper center",
-                  bbox_to_anchor=(0.5, -0.15))
+        f = decision_panels(res, title="Hanger, Table 2 schedule, runs cycling over the 36 "
+                            "preferences")
         paths.append(save_figure(f, out / "fig4.png"))
     return paths

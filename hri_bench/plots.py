@@ -23,8 +23,8 @@ from matplotlib.ticker import MaxNLocator
 
 from hri_bench.results import StudyResult, StudySettings
 
-__all__ = ["STYLE", "decision_bars", "impulse_bands", "new_figure", "policy_lines",
-           "reward_bands", "save_figure", "study_plots", "style", "styled"]
+__all__ = ["STYLE", "band_legend", "decision_panels", "impulse_bands", "new_figure",
+           "policy_lines", "reward_bands", "save_figure", "study_plots", "style", "styled"]
 
 _F = TypeVar("_F", bound=Callable[..., Any])
 #: A study result as the plots read it (any configuration with the :class:`StudySettings`).
@@ -60,12 +60,12 @@ def styled(func: _F) -> _F:
 def new_figure(nrows: int = 1, ncols: int = 1, **kwargs: Any) -> tuple[Figure, Any]:
     """A figure in the house style and its axes, like ``pyplot.subplots`` but without pyplot.
 
-    ``figsize`` goes to the figure, the other keywords (``sharex``, ...) to
+    ``figsize`` and ``layout`` go to the figure, the other keywords (``sharex``, ...) to
     :meth:`~matplotlib.figure.Figure.subplots`.
     """
-    figsize = kwargs.pop("figsize", None)
+    figsize, layout = kwargs.pop("figsize", None), kwargs.pop("layout", None)
     with style():
-        fig = Figure(figsize=figsize)
+        fig = Figure(figsize=figsize, layout=layout)
         return fig, fig.subplots(nrows, ncols, **kwargs)
 
 
@@ -81,13 +81,16 @@ def _label(agent: str) -> str:
 
 
 def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
-                 title: str | None = None, *, ci: bool = False, stalls: bool = False) -> None:
-    """Mean (line) and interquartile band of the cooperation reward per episode (Fig. 10).
+                 title: str | None = None, *, stalls: bool = False) -> None:
+    """Mean (line), its 95 % CI (dark band) and the interquartile range (light band) of the
+    cooperation reward per episode (Fig. 10).
 
-    With ``ci``, error bars show the mean's 95 % bootstrap confidence interval per episode
-    (:func:`hri_bench.stats.per_episode`, seeded by the study seed). With ``stalls``,
-    also the median (dotted) and, in each label, the share of the agent's episodes cut off
-    at the step limit, so that a few stalled episodes dragging the mean down are visible.
+    The CI is the mean's 95 % bootstrap interval over runs per episode
+    (:func:`hri_bench.stats.per_episode`, seeded by the study seed): it says how well the
+    runs pin the mean down, the interquartile range how much single runs vary. With
+    ``stalls``, also the median (dotted) and, in each label, the share of the agent's
+    episodes cut off at the step limit, so that a few stalled episodes dragging the mean down
+    are visible.
     """
     from hri_bench import stats
 
@@ -97,20 +100,15 @@ def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
         color = COLORS.get(agent)
         style = "--" if agent == "oracle" else "-"
         ax.fill_between(episodes, np.percentile(r, 25, 0), np.percentile(r, 75, 0),
-                        color=color, alpha=0.18, linewidth=0)
+                        color=color, alpha=0.14, linewidth=0)
+        cis = stats.per_episode(r, getattr(result.config, "seed", 0), iqm_ci=False)["ci95"]
+        low, high = np.array(cis, dtype=float).T  # None (a single run) -> NaN: no band
+        ax.fill_between(episodes, low, high, color=color, alpha=0.38, linewidth=0)
         label = _label(agent)
         if stalls:
             label += f" ({result.metrics[agent]['truncated'].mean():.1%} truncated)"
             ax.plot(episodes, np.median(r, 0), ":", color=color, linewidth=1.4)
         ax.plot(episodes, r.mean(0), style, color=color, label=label, linewidth=1.8)
-        if ci:
-            cis = stats.per_episode(r, getattr(result.config, "seed", 0), iqm_ci=False)["ci95"]
-            low, high = np.array(cis, dtype=float).T  # None (a single run) -> NaN: no bar
-            mean = r.mean(0)
-            # A percentile interval can miss the sample mean by rounding when the runs agree.
-            yerr = np.nan_to_num(np.clip(np.stack([mean - low, high - mean]), 0.0, None))
-            ax.errorbar(episodes, mean, yerr=yerr, fmt="none",
-                        ecolor=color, elinewidth=1.0, capsize=2)
     ax.set_xlabel("episode")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("robot cooperation reward per episode")
@@ -119,30 +117,52 @@ def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
         ax.set_title(title)
 
 
-def decision_bars(ax: Axes, result: Result, agents: Sequence[str] | None = None,
-                  title: str | None = None) -> None:
-    """Correct / passive / wrong fractions of the robot's decisions per episode (Fig. 4)."""
+def band_legend(ax: Axes) -> None:
+    """Legend entries saying what the bands of :func:`reward_bands` are."""
+    ax.fill_between([], [], [], color="0.45", alpha=0.38, linewidth=0,
+                    label="95 % CI of the mean")
+    ax.fill_between([], [], [], color="0.45", alpha=0.14, linewidth=0,
+                    label="interquartile range")
+
+
+def decision_panels(result: Result, agents: Sequence[str] | None = None,
+                    title: str | None = None, *, columns: int = 4) -> Figure:
+    """Correct / passive / wrong fractions of the robot's decisions per episode (Fig. 4):
+    one panel per agent, named above it, in rows of at most ``columns`` panels, so that the
+    agents are told apart by name, not by shade, and the figure stays readable however many
+    agents and episodes there are.
+    """
     agents = list(agents or result.metrics)
     n_e = result.config.n_episodes
-    width = 0.8 / len(agents)
-    # Later agents' bars are paler: 0.25 less opaque each, spread wider for many agents.
-    fade = min(0.25, 0.75 / max(1, len(agents) - 1))
-    for j, agent in enumerate(agents):
-        m = result.metrics[agent]
-        x = np.arange(1, n_e + 1) - 0.4 + width * (j + 0.5)
+    cols = min(columns, len(agents))
+    rows = -(-len(agents) // cols)
+    width = max(2.6, min(4.2, 0.22 * n_e + 1.0))
+    fig, axes = new_figure(rows, cols, figsize=(width * cols, 2.6 * rows + 0.8), sharey=True,
+                           squeeze=False, layout="constrained")
+    x = np.arange(1, n_e + 1)
+    for k, ax in enumerate(axes.ravel()):
+        if k >= len(agents):
+            ax.set_visible(False)
+            continue
+        m = result.metrics[agents[k]]
         bottom = np.zeros(n_e)
         for kind in ("correct", "passive", "wrong"):
             h = 100 * m[kind].mean(0)
-            ax.bar(x, h, width * 0.92, bottom=bottom, color=DECISION_COLORS[kind],
-                   edgecolor="white", linewidth=0.4, alpha=1.0 - fade * j,
-                   label=f"{_label(agent)}: {kind}")
+            ax.bar(x, h, 0.85, bottom=bottom, color=DECISION_COLORS[kind], edgecolor="white",
+                   linewidth=0.4, label=kind)
             bottom += h
-    ax.set_xticks(np.arange(1, n_e + 1))
-    ax.set_xlabel("episode")
-    ax.set_ylabel("robot decisions [%]")
-    ax.set_ylim(0, 100)
+        ax.set_title(_label(agents[k]))
+        ax.set_xticks(x if n_e <= 12 else x[::max(1, n_e // 10)])
+        ax.set_ylim(0, 100)
+        if k % cols == 0:
+            ax.set_ylabel("robot decisions [%]")
+        if k // cols == rows - 1:
+            ax.set_xlabel("episode")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, frameon=False, ncol=3, loc="outside lower center")
     if title:
-        ax.set_title(title)
+        fig.suptitle(title)
+    return fig
 
 
 def policy_lines(ax: Axes, values: np.ndarray, labels: Sequence[str], *, relative: bool = False,
@@ -184,16 +204,12 @@ def study_plots(result: Result, out: Path) -> list[Path]:
     title = (f"{cfg.scenario}, {cfg.schedule} schedule, r0 = {cfg.waiting_reward:g}, "
              f"human passive {cfg.human_passive:.0%}, {cfg.runs} runs")
     fig, ax = new_figure(figsize=(6.4, 4.0))
-    reward_bands(ax, result, title=title, ci=True, stalls=True)
+    reward_bands(ax, result, title=title, stalls=True)
     ax.plot([], [], ":", color="0.4", label="median")
-    ax.legend(frameon=False, fontsize=8, title="line: mean, bars: 95% CI, band: IQR",
-              title_fontsize=7)
+    band_legend(ax)
+    ax.legend(frameon=False, fontsize=8, title="line: mean", title_fontsize=7)
     paths = [save_figure(fig, out / "reward.png")]
-    fig, ax = new_figure(figsize=(max(6.4, 0.55 * cfg.n_episodes * len(result.metrics)), 4.0))
-    decision_bars(ax, result, title=title)
-    ax.legend(frameon=False, fontsize=7, ncol=len(result.metrics), loc="upper center",
-              bbox_to_anchor=(0.5, -0.15))
-    paths.append(save_figure(fig, out / "decisions.png"))
+    paths.append(save_figure(decision_panels(result, title=title), out / "decisions.png"))
     if "linear_impulse" in next(iter(result.metrics.values())):
         fig, ax = new_figure(figsize=(6.4, 4.0))
         impulse_bands(ax, result, title=title)
