@@ -105,7 +105,9 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
       string values).
 
     ``reset(seed=...)`` takes one int (or None) for the whole batch; the scripted humans
-    draw from a generator seeded from it.
+    draw from a generator seeded from it. So a seed gives other episodes here than
+    ``gymnasium.make_vec(..., vectorization_mode="sync")``, which seeds env *i* with
+    ``seed + i`` (each mode reproduces itself exactly).
 
     ## Version History
 
