@@ -8,6 +8,7 @@ the executor and the number of jobs.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import dataclasses
 import json
@@ -20,7 +21,7 @@ import tempfile
 import threading
 import time
 import traceback
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Generator, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -461,15 +462,23 @@ def _units(cfg: StudyConfig) -> list[_Unit]:
     return units
 
 
-def _worker_init() -> None:
+#: The signals that stop a study (:func:`hri_bench.studyio.stop_on_signals`).
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def _worker_init(mask: Iterable[int]) -> None:
     """Pool worker set-up: leave Ctrl-C to the parent, die on SIGTERM, exit with the parent.
 
+    The worker is forked with SIGINT and SIGTERM blocked (:func:`_start_pool`), so it never
+    runs the parent's handlers; they are replaced here, and only then is the parent's signal
+    ``mask`` restored (a signal that arrived in between meets the worker's own handling).
     The parent stops the pool on SIGINT/SIGTERM; if it is killed outright (SIGKILL), a
     watchdog thread notices that the worker was re-parented and exits, so no worker is
     left behind.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler (forked)
+    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     parent = os.getppid()  # the study's process (or the fork server, which exits with it)
 
     def watch() -> None:
@@ -480,9 +489,27 @@ def _worker_init() -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
+def _start_pool(processes: int) -> Any:
+    """A :class:`multiprocessing.pool.Pool` whose workers start with the stop signals blocked.
+
+    They stay blocked in the parent only while the pool forks; the pool's own threads, made
+    meanwhile, keep them blocked, so workers it forks later start the same way.
+    """
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    try:
+        return multiprocessing.Pool(processes, initializer=_worker_init, initargs=(mask,))
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
 def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
-             ) -> Iterator[tuple[int, UnitResult | UnitFailure]]:
-    """Yield (unit index, result or failure) for the units ``todo`` as they finish."""
+             ) -> Generator[tuple[int, UnitResult | UnitFailure], None, None]:
+    """Yield (unit index, result or failure) for the units ``todo`` as they finish.
+
+    Nothing is started (no pool, no Ray) when ``todo`` is empty.
+    """
+    if not todo:
+        return
     if cfg.executor == "serial" or (cfg.executor == "process" and cfg.jobs == 1):
         for i in todo:
             yield i, _run_unit_caught(units[i])
@@ -492,8 +519,7 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
         # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
         # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
         # every worker at once.
-        with multiprocessing.Pool(min(cfg.jobs, max(1, len(todo))),
-                                  initializer=_worker_init) as pool:
+        with _start_pool(min(cfg.jobs, len(todo))) as pool:
             yield from pool.imap_unordered(_run_indexed, [(i, units[i]) for i in todo])
     else:
         yield from _execute_ray(cfg, [units[i] for i in todo], list(todo))
@@ -576,19 +602,21 @@ def run_study(
                    unit="batch", leave=False)
     t0 = time.perf_counter()
     try:
-        for i, res in _execute(cfg, units, todo):
-            if isinstance(res, UnitFailure):
-                if not keep_going:
-                    raise res.error
-                failures.setdefault(res.agent, res.traceback)
-            else:
-                place(i, res)
-                if on_result is not None:
-                    on_result(i, res)
-            if bar is not None:
-                bar.update(1)
-            if on_unit is not None:
-                on_unit()
+        # closing(): an exception here stops the pool now, not when the generator is freed.
+        with contextlib.closing(_execute(cfg, units, todo)) as executed:
+            for i, res in executed:
+                if isinstance(res, UnitFailure):
+                    if not keep_going:
+                        raise res.error
+                    failures.setdefault(res.agent, res.traceback)
+                else:
+                    place(i, res)
+                    if on_result is not None:
+                        on_result(i, res)
+                if bar is not None:
+                    bar.update(1)
+                if on_unit is not None:
+                    on_unit()
     finally:
         if bar is not None:
             bar.close()

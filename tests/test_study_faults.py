@@ -98,6 +98,55 @@ def test_killed_study_leaves_no_workers_and_resumes_identically(sig, reference, 
     assert not (out / ".units").exists()
 
 
+def test_nothing_left_to_simulate_starts_no_pool(monkeypatch):
+    # A resumed study whose units are all on disk only writes its files: a pool forked and
+    # terminated for nothing once hung in terminate() (issue 24).
+    cfg = StudyConfig("wheel", agents=("passive", "learner"), runs=4, episodes=1, jobs=2,
+                      executor="process")
+    done = {}
+    first = run_study(cfg, on_result=done.__setitem__)
+
+    def no_pool(*args, **kwargs):
+        raise AssertionError("a pool was started with nothing to simulate")
+
+    monkeypatch.setattr("hri_bench.study._start_pool", no_pool)
+    again = run_study(cfg, done=done)
+    for agent, metrics in first.metrics.items():
+        for key, values in metrics.items():
+            np.testing.assert_array_equal(values, again.metrics[agent][key], err_msg=key)
+
+
+_EARLY_SIGINT = """
+import os, signal
+from hri_bench import study
+from hri_bench.studyio import stop_on_signals
+
+real = study._worker_init
+
+def early(*args):
+    os.kill(os.getpid(), signal.SIGINT)  # before the worker has its own handlers
+    real(*args)
+
+study._worker_init = early
+cfg = study.StudyConfig("wheel", agents=("passive",), runs=4, episodes=1, jobs=2,
+                        executor="process")
+with stop_on_signals():
+    study.run_study(cfg)
+print("finished")
+"""
+
+
+def test_a_signal_at_a_workers_start_never_runs_the_parents_handler():
+    # A worker that ran the parent's Ctrl-C handler during its set-up died, was replaced,
+    # died again...: the pool never finished (issue 24). Workers start with the stop signals
+    # blocked, so the early SIGINT meets the worker's own "ignore".
+    proc = subprocess.run([sys.executable, "-c", _EARLY_SIGINT], capture_output=True,
+                          text=True, timeout=60, cwd=ROOT,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "finished" and "KeyboardInterrupt" not in proc.stderr
+
+
 def test_out_is_checked_before_any_simulation(tmp_path, capsys):
     a_file = tmp_path / "file"
     a_file.write_text("x")
