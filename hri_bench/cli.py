@@ -287,6 +287,11 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
           f"{time.perf_counter() - t0:.1f} s (--jobs {args.jobs}, {executor})")
     print(f"wrote {args.out / 'suite.json'}, {args.out / 'leaderboard.md'} and one figure "
           "per track")
+    failed = sorted({a for tr in doc["tracks"].values() for a in tr["failed_agents"]})
+    if failed:
+        print(f"agent(s) {', '.join(failed)} raised; no results for them on the tracks where "
+              f"they did; tracebacks in {args.out / 'errors.log'}", file=sys.stderr)
+        return 1
     return 0
 
 

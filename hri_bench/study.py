@@ -430,16 +430,25 @@ def _run_unit(unit: _Unit) -> UnitResult:
 
 
 def _run_unit_caught(unit: _Unit) -> UnitResult | UnitFailure:
-    """:func:`_run_unit`, returning an agent's exception instead of raising it."""
+    """:func:`_run_unit`, returning an agent's exception instead of raising it.
+
+    An agent that calls ``sys.exit()`` fails like one that raises (a :class:`RuntimeError`
+    naming it): it must not end the study, nor a pool worker (whose unit would never end).
+    """
     try:
         return _run_unit(unit)
-    except Exception as exc:
+    except (Exception, SystemExit) as exc:
         text = traceback.format_exc()
-        try:
-            pickle.dumps(exc)
-        except Exception:
-            exc = RuntimeError(str(exc))
-        return UnitFailure(unit.agent, unit.runs, exc, text)
+        error: Exception
+        if isinstance(exc, SystemExit):
+            error = RuntimeError(f"agent {unit.agent!r} called sys.exit({exc.code!r})")
+        else:
+            try:
+                pickle.dumps(exc)
+                error = exc
+            except Exception:
+                error = RuntimeError(str(exc))
+        return UnitFailure(unit.agent, unit.runs, error, text)
 
 
 def _units(cfg: StudyConfig) -> list[_Unit]:

@@ -16,7 +16,7 @@ import pytest
 
 from hri_bench.cli import main
 from hri_bench.study import StudyConfig, run_study
-from hri_envs.errors import ActionError
+from hri_envs.errors import ActionError, ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
 # 2 agents x 36 preferences (one run each, so one chunk) = 72 units of about 10 ms each.
@@ -201,6 +201,44 @@ def test_failing_agent_is_reported_and_the_others_are_written(tmp_path, capsys):
     log = (out / "errors.log").read_text()
     assert "agent 'tests.helpers_agents:RaisesInAct' raised" in log
     assert "Traceback" in log and "deliberate failure in act" in log
+
+
+@pytest.mark.parametrize("agent, message", [
+    ("nosuch.mod:Foo", "cannot import agent 'nosuch.mod:Foo': ModuleNotFoundError"),
+    ("tests.helpers_agents:NotAnAgent", "neither an agents.Agent nor an agents.BatchAgent"),
+    ("tests.helpers_agents:Missing", "cannot import agent 'tests.helpers_agents:Missing'"),
+])
+def test_an_agent_that_is_not_one_is_refused_before_any_simulation(agent, message, tmp_path,
+                                                                    capsys):
+    # It once passed parsing; the study simulated the others and exited 1 (issue 24).
+    out = tmp_path / "study"
+    with pytest.raises(SystemExit) as exc:
+        main(["study", "wheel", "--runs", "2", "--episodes", "1", "--no-progress", "--out",
+              str(out), "--agents", f"passive,{agent}"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --agents" in err and message in err and "Traceback" not in err
+    assert not out.exists()
+    with pytest.raises(ConfigError, match="agent") as info:
+        StudyConfig("wheel", agents=("passive", agent))
+    assert info.value.field == "agents"
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_an_agent_calling_sys_exit_fails_alone(jobs, tmp_path, capsys):
+    # sys.exit(3) in act() once ended the whole study with no outputs (issue 24).
+    out = tmp_path / "study"
+    bad = "tests.helpers_agents:ExitsInAct"
+    code = main(["study", "wheel", "--runs", "3", "--episodes", "2", "--no-progress", "--out",
+                 str(out), "--jobs", jobs, "--agents", f"passive,{bad}"])
+    assert code == 1
+    assert bad in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary["agents"]) == {"passive"} and summary["failed_agents"] == [bad]
+    assert "SystemExit: 3" in (out / "errors.log").read_text()
+    with pytest.raises(RuntimeError, match=r"agent 'tests.helpers_agents:ExitsInAct' called "
+                                           r"sys.exit\(3\)"):
+        run_study(StudyConfig("wheel", agents=(bad,), runs=2, episodes=1))
 
 
 def test_invalid_action_names_agent_run_and_step():
