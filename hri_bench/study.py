@@ -36,7 +36,7 @@ from hri_bench.agents import (
     make_agent,
     validate_agent_name,
 )
-from hri_bench.atomic import atomic_writer
+from hri_bench.atomic import atomic_writer, move_into_place
 from hri_bench.humans import custom_human, is_custom, validate_population
 from hri_bench.regret import REFERENCES, blind_values
 from hri_bench.results import StudyResult  # re-exported; shared with the plots
@@ -728,8 +728,13 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
                   ) -> list[Path]:
     """Write ``summary.json``, ``episodes.csv`` and the plots into ``out``; return the paths.
 
-    Every file is written under a temporary name and renamed into place, plots first and
-    ``summary.json`` last, so an interrupted write never leaves a complete-looking file.
+    Every file is written under a temporary name, flushed to disk and renamed into place,
+    plots first and ``summary.json`` last, so an interrupted write never leaves a
+    complete-looking file, and a ``summary.json`` in place means that every file is.
+
+    Raises:
+        OSError: A file cannot be written (its ``filename`` names it; the temporary files
+            are removed).
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -739,8 +744,13 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
         from hri_bench import plots as plotting
 
         with tempfile.TemporaryDirectory(dir=out, prefix=".plots-") as tmp:
-            for p in plotting.study_plots(result, Path(tmp)):
-                os.replace(p, out / p.name)
+            try:
+                made = plotting.study_plots(result, Path(tmp))
+            except OSError as exc:  # a full disk, say: name the folder (atomic_path's way)
+                exc.filename = exc.filename or str(out)
+                raise
+            for p in made:
+                move_into_place(p, out / p.name)
                 paths.append(out / p.name)
     csv_path = out / "episodes.csv"
     prefs = result.humans if cfg.per_run_humans and result.humans else cfg.preference_of_run()
