@@ -451,7 +451,24 @@ def _run_unit_caught(unit: _Unit) -> UnitResult | UnitFailure:
         return UnitFailure(unit.agent, unit.runs, error, text)
 
 
+#: At most this many episodes (runs × episodes per run) in one unit of work on a backend of
+#: table look-ups, so that an interrupted study loses at most about that much (a run, which
+#: learns over its episodes, is never split). Other backends (the MuJoCo simulation, about
+#: 0.2 s a step, one run at a time) get one run per unit. The numbers do not depend on it.
+UNIT_EPISODES = 1000
+
+
+def _runs_per_unit(cfg: StudyConfig) -> int:
+    if not BACKENDS[cfg.backend].vectorizable:
+        return 1
+    return max(1, UNIT_EPISODES // cfg.n_episodes)
+
+
 def _units(cfg: StudyConfig) -> list[_Unit]:
+    """The study's work: per agent and human preference, chunks of runs of at most
+    :func:`_runs_per_unit` runs, and at least ``jobs`` chunks (to keep the workers busy).
+    """
+    per_unit = _runs_per_unit(cfg)
     by_pref: dict[str, list[int]] = {}
     for r, pref in enumerate(cfg.preference_of_run()):
         # A population draws each run's own human: one group, split only by --jobs.
@@ -465,7 +482,7 @@ def _units(cfg: StudyConfig) -> list[_Unit]:
     for agent in cfg.agents:
         groups = by_pref if mixed is None or agent in REFERENCE_AGENTS else mixed
         for pref, runs in groups.items():
-            n_chunks = max(1, min(cfg.jobs, len(runs)))
+            n_chunks = max(min(cfg.jobs, len(runs)), -(-len(runs) // per_unit))
             for chunk in np.array_split(np.asarray(runs), n_chunks):
                 units.append(_Unit(cfg, agent, pref, tuple(int(r) for r in chunk)))
     return units
