@@ -381,24 +381,28 @@ def _resume_hint(argv: Sequence[str]) -> str:
 
 def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
            argv: Sequence[str]) -> int:
-    from hri_bench.studyio import StudyDir, StudyTerminated, run_in, stop_on_signals
+    from hri_bench.studyio import UNITS, StudyDir, StudyTerminated, run_in, stop_on_signals
 
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     arguments = {**_STUDY_ARGUMENTS, "out": "--out", "resume": "--resume"}
     try:
         cfg = _study_config(args, parser, executor)
         _require_for_study(cfg, progress=not args.no_progress)
-        folder = StudyDir(args.out, cfg, resume=args.resume, overwrite=args.overwrite)
     except ConfigError as exc:
         _config_error(parser, exc, arguments)
-    except OSError as exc:
-        return _cannot_write(exc, args.out, argv)
     try:
-        with folder, stop_on_signals():
-            run = run_in(folder, progress=not args.no_progress)
+        # From the lock on: the folder's checks remove a killed study's leftovers.
+        with stop_on_signals():
+            try:
+                folder = StudyDir(args.out, cfg, resume=args.resume, overwrite=args.overwrite)
+            except ConfigError as exc:
+                _config_error(parser, exc, arguments)
+            with folder:
+                run = run_in(folder, progress=not args.no_progress)
     except KeyboardInterrupt as exc:
-        kept = len(list(folder.units_dir.glob("*.npz")))
-        print(f"\nstopped; {kept} finished unit(s) kept in {folder.units_dir}. Resume with:\n"
+        units = Path(args.out) / UNITS
+        kept = len(list(units.glob("*.npz")))
+        print(f"\nstopped; {kept} finished unit(s) kept in {units}. Resume with:\n"
               f"  {_resume_hint(argv)}", file=sys.stderr)
         return 143 if isinstance(exc, StudyTerminated) else 130
     except OSError as exc:

@@ -54,7 +54,7 @@ from hri_bench.study import (
 )
 from hri_envs.errors import ConfigError
 
-__all__ = ["LOCK", "OUTPUT_FILES", "StudyDir", "StudyRun", "StudyTerminated", "run_in",
+__all__ = ["LOCK", "OUTPUT_FILES", "UNITS", "StudyDir", "StudyRun", "StudyTerminated", "run_in",
            "stop_on_signals"]
 
 UNITS = ".units"

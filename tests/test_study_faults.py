@@ -249,6 +249,24 @@ def test_resume_of_a_complete_study_does_nothing(small_reference, tmp_path, caps
     assert "holds a different, complete study (differs in: seed)" in capsys.readouterr().err
 
 
+def test_ctrl_c_while_the_folder_is_cleaned_is_a_stop_not_a_traceback(tmp_path, monkeypatch,
+                                                                     capsys):
+    # Found by the kill tests: the leftovers of a killed study are removed before the
+    # simulation, and a Ctrl-C there was a KeyboardInterrupt traceback.
+    out = tmp_path / "study"
+    _interrupted(out)
+
+    def ctrl_c(self):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("hri_bench.studyio.StudyDir._remove_leftovers", ctrl_c)
+    capsys.readouterr()
+    assert main([*SMALL, "--out", str(out), "--resume"]) == 130
+    err = capsys.readouterr().err
+    assert "stopped; 2 finished unit(s) kept" in err and err.rstrip().endswith("--resume")
+    assert not (out / ".lock").exists()  # released
+
+
 @pytest.mark.skipif(not Path("/proc/self/fd").exists(), reason="needs /proc")
 @pytest.mark.parametrize("victim", [".npz", "episodes.csv", "summary.json"])
 def test_a_full_disk_is_one_line_naming_the_file_and_the_resume(victim, small_reference,
