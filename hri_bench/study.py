@@ -3,7 +3,7 @@
 :func:`run_study` splits the work into units of (agent, human preference, chunk of runs),
 runs them serially, in a process pool or on Ray, and stitches the results together in run
 order. Since every run draws only from ``(seed, run)``, the numbers are identical whatever
-the executor and the number of jobs.
+the executor, the number of jobs and the size of the chunks (:data:`UNIT_EPISODES`).
 """
 
 from __future__ import annotations

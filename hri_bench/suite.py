@@ -309,7 +309,8 @@ def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
     if metric == "regret":
         ax.axhline(0.0, color="black", linewidth=0.6)
     ax.set_title(f"{name}: {entry['description']}", fontsize=8)
-    ax.legend(fontsize=7, ncol=2)
+    if entry["agents"]:  # every agent may have raised on the track
+        ax.legend(fontsize=7, ncol=2)
     plots.save_figure(fig, path)
     return path
 

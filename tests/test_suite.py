@@ -1,6 +1,7 @@
 """hri-bench suite: the versioned tracks, suite.json/leaderboard.md/figures, determinism."""
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -181,6 +182,13 @@ def test_an_agent_that_raises_is_left_out_and_the_others_are_written(tmp_path, c
     board = (out / "leaderboard.md").read_text()
     assert "raised" in board and f"`{bad}`" in board
     assert (out / "wheel-paper.png").exists()
+    # A track on which every agent raised still gets its files, and no warning.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["suite", "--out", str(tmp_path / "all"), "--tracks", "wheel-drift",
+                     "--runs-scale", "0.005", "--agents", bad, "--no-progress"]) == 1
+    assert json.loads((tmp_path / "all" / "suite.json").read_text())["tracks"]["wheel-drift"][
+        "agents"] == {}
     # A later suite in the same folder without failures leaves no stale errors.log.
     assert main(["suite", "--out", str(out), "--tracks", "wheel-paper", "--runs-scale",
                  "0.005", "--agents", "passive", "--no-progress"]) == 0
