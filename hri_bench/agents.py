@@ -49,7 +49,9 @@ def validate_agent_name(name: str) -> None:
     """Raise a :class:`~hri_envs.errors.ConfigError` naming the allowed agents unless
     ``name`` is one.
 
-    For ``sb3:PATH`` the file must exist (its contents are checked when it is loaded).
+    For ``sb3:PATH`` the file must exist (its contents are checked when it is loaded); for
+    ``module:Class`` the class is imported and must subclass :class:`~agents.protocol.Agent`
+    or :class:`~agents.protocol.BatchAgent`, so a study refuses it before simulating.
     """
     if name in BUILTIN_AGENTS or name in REFERENCE_AGENTS:
         return
@@ -60,6 +62,7 @@ def validate_agent_name(name: str) -> None:
                               "'sb3:PATH' with the .zip written by model.save()", field="agents")
         return
     if ":" in name and all(name.split(":", 1)):
+        _agent_class(name)
         return
     raise ConfigError(
         f"unknown agent {name!r}; allowed: {', '.join(BUILTIN_AGENTS + REFERENCE_AGENTS)}, "
@@ -68,8 +71,13 @@ def validate_agent_name(name: str) -> None:
     )
 
 
-def _import(spec: str) -> Any:
-    return import_object(spec, "agent", "agents")
+def _agent_class(spec: str) -> type[Agent] | type[BatchAgent]:
+    """The class ``module:Class`` names, checked to be an agent."""
+    cls = import_object(spec, "agent", "agents")
+    if not (inspect.isclass(cls) and issubclass(cls, Agent | BatchAgent)):
+        raise ConfigError(f"agent {spec!r} is neither an agents.Agent nor an agents.BatchAgent "
+                          "subclass; only subclasses of those are allowed", field="agents")
+    return cls
 
 
 def _learner_config(name: str, scenario: str, r0: float,
@@ -155,13 +163,10 @@ def make_agent(
         from agents.sb3 import SB3BatchAgent
 
         return SB3BatchAgent(name[len(SB3_PREFIX):], n, graph=graph, seed=seed, runs=runs)
-    cls = _import(name)
-    if inspect.isclass(cls) and issubclass(cls, BatchAgent):
+    cls = _agent_class(name)
+    if issubclass(cls, BatchAgent):
         return cls(graph, n)  # type: ignore[call-arg,arg-type]  # user class: documented signature
-    if inspect.isclass(cls) and issubclass(cls, Agent):
-        takes_graph = "graph" in inspect.signature(cls).parameters
-        return Batched.from_factory(
-            lambda run: cls(graph=graph) if takes_graph else cls(), runs  # type: ignore[call-arg]
-        )
-    raise ConfigError(f"{name!r} is neither an agents.Agent nor an agents.BatchAgent subclass; "
-                      "only subclasses of those are allowed", field="agents")
+    takes_graph = "graph" in inspect.signature(cls).parameters
+    return Batched.from_factory(
+        lambda run: cls(graph=graph) if takes_graph else cls(), runs  # type: ignore[call-arg]
+    )

@@ -287,6 +287,11 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
           f"{time.perf_counter() - t0:.1f} s (--jobs {args.jobs}, {executor})")
     print(f"wrote {args.out / 'suite.json'}, {args.out / 'leaderboard.md'} and one figure "
           "per track")
+    failed = sorted({a for tr in doc["tracks"].values() for a in tr["failed_agents"]})
+    if failed:
+        print(f"agent(s) {', '.join(failed)} raised; no results for them on the tracks where "
+              f"they did; tracebacks in {args.out / 'errors.log'}", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -376,31 +381,60 @@ def _resume_hint(argv: Sequence[str]) -> str:
 
 def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
            argv: Sequence[str]) -> int:
-    from hri_bench.study import write_outputs
-    from hri_bench.studyio import StudyDir, StudyTerminated, run_in, stop_on_signals
+    from hri_bench.studyio import UNITS, StudyDir, StudyTerminated, run_in, stop_on_signals
 
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     arguments = {**_STUDY_ARGUMENTS, "out": "--out", "resume": "--resume"}
     try:
         cfg = _study_config(args, parser, executor)
         _require_for_study(cfg, progress=not args.no_progress)
-        folder = StudyDir(args.out, cfg, resume=args.resume, overwrite=args.overwrite)
     except ConfigError as exc:
         _config_error(parser, exc, arguments)
-    from hri_bench.regret import REFERENCES
-
     try:
+        # From the lock on: the folder's checks remove a killed study's leftovers.
         with stop_on_signals():
-            result = run_in(folder, progress=not args.no_progress)
-            paths = write_outputs(result, args.out)
+            try:
+                folder = StudyDir(args.out, cfg, resume=args.resume, overwrite=args.overwrite)
+            except ConfigError as exc:
+                _config_error(parser, exc, arguments)
+            with folder:
+                run = run_in(folder, progress=not args.no_progress)
     except KeyboardInterrupt as exc:
-        kept = len(list(folder.units_dir.glob("*.npz")))
-        print(f"\nstopped; {kept} finished unit(s) kept in {folder.units_dir}. Resume with:\n"
+        units = Path(args.out) / UNITS
+        kept = len(list(units.glob("*.npz")))
+        print(f"\nstopped; {kept} finished unit(s) kept in {units}. Resume with:\n"
               f"  {_resume_hint(argv)}", file=sys.stderr)
         return 143 if isinstance(exc, StudyTerminated) else 130
+    except OSError as exc:
+        return _cannot_write(exc, args.out, argv)
+    if run.result is None:
+        print(f"nothing to do: the study in {args.out} is complete (summary.json, episodes.csv "
+              "and the plots are in place)")
+        return 0
+    _print_study(run.result, Path(args.out), run.paths)
+    if run.errors is not None:
+        print(f"agent(s) {', '.join(run.result.failures)} raised; no results for them; "
+              f"tracebacks in {run.errors}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _cannot_write(exc: OSError, out: Path, argv: Sequence[str]) -> int:
+    """Report a file that cannot be written (a full disk, say) in one line; exit status 1."""
+    reason = exc.strerror or str(exc)
+    print(f"hri-bench: cannot write {exc.filename or out}: {reason}; the finished units are "
+          f"kept; once it can be written, continue with: {_resume_hint(argv)}", file=sys.stderr)
+    return 1
+
+
+def _print_study(result: Any, out: Path, paths: Sequence[Path]) -> None:
+    """The study's table of rewards and regret, and the files written."""
+    from hri_bench.regret import REFERENCES
+
+    cfg = result.config
     print(f"{cfg.scenario} study: {len(cfg.agents)} agents x {cfg.runs} runs x "
           f"{cfg.n_episodes} episodes in {result.wall_time_s:.1f} s")
-    summary = json.loads((Path(args.out) / "summary.json").read_text())  # its regret
+    summary = json.loads((out / "summary.json").read_text())  # its regret
     print(f"  {'agent':12s} {'first':>7s} {'last':>7s} {'mean':>7s} {'median':>7s} "
           f"{'truncated':>9s} {'regret':>7s}")
     for name, m in result.metrics.items():
@@ -412,13 +446,6 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
               f"{np.median(r):7.2f} {m['truncated'].mean():9.1%} {regret}{role}")
     print(f"  regret vs blind: {summary['regret']}")
     print("wrote " + ", ".join(str(p) for p in paths))
-    log = folder.log_failures(result.failures)
-    if log is not None:
-        print(f"agent(s) {', '.join(result.failures)} raised; no results for them; "
-              f"tracebacks in {log}", file=sys.stderr)
-        return 1
-    folder.finish()
-    return 0
 
 
 def _figures(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

@@ -26,7 +26,8 @@ def import_object(spec: str, what: str, field: str) -> Any:
         field: The :class:`ConfigError` field (the option that named it).
 
     Raises:
-        ConfigError: The module cannot be imported or has no such attribute.
+        ConfigError: The module cannot be imported (whatever it raised, a ``SystemExit``
+            included) or has no such attribute.
     """
     module, _, attr = spec.partition(":")
     here = os.getcwd()
@@ -34,7 +35,7 @@ def import_object(spec: str, what: str, field: str) -> Any:
         sys.path.append(here)
     try:
         return getattr(importlib.import_module(module), attr)
-    except (ImportError, AttributeError) as exc:
-        raise ConfigError(f"cannot import {what} {spec!r}: {exc}; give 'module:Class' with a "
-                          "module importable from the current directory or the environment",
-                          field=field) from exc
+    except (Exception, SystemExit) as exc:  # the user's module may raise anything on import
+        raise ConfigError(f"cannot import {what} {spec!r}: {type(exc).__name__}: {exc}; give "
+                          "'module:Class' with a module importable from the current directory "
+                          "or the environment", field=field) from exc

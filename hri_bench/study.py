@@ -3,11 +3,12 @@
 :func:`run_study` splits the work into units of (agent, human preference, chunk of runs),
 runs them serially, in a process pool or on Ray, and stitches the results together in run
 order. Since every run draws only from ``(seed, run)``, the numbers are identical whatever
-the executor and the number of jobs.
+the executor, the number of jobs and the size of the chunks (:data:`UNIT_EPISODES`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import dataclasses
 import json
@@ -20,7 +21,7 @@ import tempfile
 import threading
 import time
 import traceback
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Generator, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,7 +36,7 @@ from hri_bench.agents import (
     make_agent,
     validate_agent_name,
 )
-from hri_bench.atomic import atomic_writer
+from hri_bench.atomic import atomic_writer, move_into_place
 from hri_bench.humans import custom_human, is_custom, validate_population
 from hri_bench.regret import REFERENCES, blind_values
 from hri_bench.results import StudyResult  # re-exported; shared with the plots
@@ -429,19 +430,45 @@ def _run_unit(unit: _Unit) -> UnitResult:
 
 
 def _run_unit_caught(unit: _Unit) -> UnitResult | UnitFailure:
-    """:func:`_run_unit`, returning an agent's exception instead of raising it."""
+    """:func:`_run_unit`, returning an agent's exception instead of raising it.
+
+    An agent that calls ``sys.exit()`` fails like one that raises (a :class:`RuntimeError`
+    naming it): it must not end the study, nor a pool worker (whose unit would never end).
+    """
     try:
         return _run_unit(unit)
-    except Exception as exc:
+    except (Exception, SystemExit) as exc:
         text = traceback.format_exc()
-        try:
-            pickle.dumps(exc)
-        except Exception:
-            exc = RuntimeError(str(exc))
-        return UnitFailure(unit.agent, unit.runs, exc, text)
+        error: Exception
+        if isinstance(exc, SystemExit):
+            error = RuntimeError(f"agent {unit.agent!r} called sys.exit({exc.code!r})")
+        else:
+            try:
+                pickle.dumps(exc)
+                error = exc
+            except Exception:
+                error = RuntimeError(str(exc))
+        return UnitFailure(unit.agent, unit.runs, error, text)
+
+
+#: At most this many episodes (runs × episodes per run) in one unit of work on a backend of
+#: table look-ups, so that an interrupted study loses at most about that much (a run, which
+#: learns over its episodes, is never split). Other backends (the MuJoCo simulation, about
+#: 0.2 s a step, one run at a time) get one run per unit. The numbers do not depend on it.
+UNIT_EPISODES = 1000
+
+
+def _runs_per_unit(cfg: StudyConfig) -> int:
+    if not BACKENDS[cfg.backend].vectorizable:
+        return 1
+    return max(1, UNIT_EPISODES // cfg.n_episodes)
 
 
 def _units(cfg: StudyConfig) -> list[_Unit]:
+    """The study's work: per agent and human preference, chunks of runs of at most
+    :func:`_runs_per_unit` runs, and at least ``jobs`` chunks (to keep the workers busy).
+    """
+    per_unit = _runs_per_unit(cfg)
     by_pref: dict[str, list[int]] = {}
     for r, pref in enumerate(cfg.preference_of_run()):
         # A population draws each run's own human: one group, split only by --jobs.
@@ -455,21 +482,29 @@ def _units(cfg: StudyConfig) -> list[_Unit]:
     for agent in cfg.agents:
         groups = by_pref if mixed is None or agent in REFERENCE_AGENTS else mixed
         for pref, runs in groups.items():
-            n_chunks = max(1, min(cfg.jobs, len(runs)))
+            n_chunks = max(min(cfg.jobs, len(runs)), -(-len(runs) // per_unit))
             for chunk in np.array_split(np.asarray(runs), n_chunks):
                 units.append(_Unit(cfg, agent, pref, tuple(int(r) for r in chunk)))
     return units
 
 
-def _worker_init() -> None:
+#: The signals that stop a study (:func:`hri_bench.studyio.stop_on_signals`).
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def _worker_init(mask: Iterable[int]) -> None:
     """Pool worker set-up: leave Ctrl-C to the parent, die on SIGTERM, exit with the parent.
 
+    The worker is forked with SIGINT and SIGTERM blocked (:func:`_start_pool`), so it never
+    runs the parent's handlers; they are replaced here, and only then is the parent's signal
+    ``mask`` restored (a signal that arrived in between meets the worker's own handling).
     The parent stops the pool on SIGINT/SIGTERM; if it is killed outright (SIGKILL), a
     watchdog thread notices that the worker was re-parented and exits, so no worker is
     left behind.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler (forked)
+    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     parent = os.getppid()  # the study's process (or the fork server, which exits with it)
 
     def watch() -> None:
@@ -480,9 +515,27 @@ def _worker_init() -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
+def _start_pool(processes: int) -> Any:
+    """A :class:`multiprocessing.pool.Pool` whose workers start with the stop signals blocked.
+
+    They stay blocked in the parent only while the pool forks; the pool's own threads, made
+    meanwhile, keep them blocked, so workers it forks later start the same way.
+    """
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    try:
+        return multiprocessing.Pool(processes, initializer=_worker_init, initargs=(mask,))
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
 def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
-             ) -> Iterator[tuple[int, UnitResult | UnitFailure]]:
-    """Yield (unit index, result or failure) for the units ``todo`` as they finish."""
+             ) -> Generator[tuple[int, UnitResult | UnitFailure], None, None]:
+    """Yield (unit index, result or failure) for the units ``todo`` as they finish.
+
+    Nothing is started (no pool, no Ray) when ``todo`` is empty.
+    """
+    if not todo:
+        return
     if cfg.executor == "serial" or (cfg.executor == "process" and cfg.jobs == 1):
         for i in todo:
             yield i, _run_unit_caught(units[i])
@@ -492,8 +545,7 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
         # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
         # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
         # every worker at once.
-        with multiprocessing.Pool(min(cfg.jobs, max(1, len(todo))),
-                                  initializer=_worker_init) as pool:
+        with _start_pool(min(cfg.jobs, len(todo))) as pool:
             yield from pool.imap_unordered(_run_indexed, [(i, units[i]) for i in todo])
     else:
         yield from _execute_ray(cfg, [units[i] for i in todo], list(todo))
@@ -576,19 +628,21 @@ def run_study(
                    unit="batch", leave=False)
     t0 = time.perf_counter()
     try:
-        for i, res in _execute(cfg, units, todo):
-            if isinstance(res, UnitFailure):
-                if not keep_going:
-                    raise res.error
-                failures.setdefault(res.agent, res.traceback)
-            else:
-                place(i, res)
-                if on_result is not None:
-                    on_result(i, res)
-            if bar is not None:
-                bar.update(1)
-            if on_unit is not None:
-                on_unit()
+        # closing(): an exception here stops the pool now, not when the generator is freed.
+        with contextlib.closing(_execute(cfg, units, todo)) as executed:
+            for i, res in executed:
+                if isinstance(res, UnitFailure):
+                    if not keep_going:
+                        raise res.error
+                    failures.setdefault(res.agent, res.traceback)
+                else:
+                    place(i, res)
+                    if on_result is not None:
+                        on_result(i, res)
+                if bar is not None:
+                    bar.update(1)
+                if on_unit is not None:
+                    on_unit()
     finally:
         if bar is not None:
             bar.close()
@@ -691,8 +745,13 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
                   ) -> list[Path]:
     """Write ``summary.json``, ``episodes.csv`` and the plots into ``out``; return the paths.
 
-    Every file is written under a temporary name and renamed into place, plots first and
-    ``summary.json`` last, so an interrupted write never leaves a complete-looking file.
+    Every file is written under a temporary name, flushed to disk and renamed into place,
+    plots first and ``summary.json`` last, so an interrupted write never leaves a
+    complete-looking file, and a ``summary.json`` in place means that every file is.
+
+    Raises:
+        OSError: A file cannot be written (its ``filename`` names it; the temporary files
+            are removed).
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -702,8 +761,13 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
         from hri_bench import plots as plotting
 
         with tempfile.TemporaryDirectory(dir=out, prefix=".plots-") as tmp:
-            for p in plotting.study_plots(result, Path(tmp)):
-                os.replace(p, out / p.name)
+            try:
+                made = plotting.study_plots(result, Path(tmp))
+            except OSError as exc:  # a full disk, say: name the folder (atomic_path's way)
+                exc.filename = exc.filename or str(out)
+                raise
+            for p in made:
+                move_into_place(p, out / p.name)
                 paths.append(out / p.name)
     csv_path = out / "episodes.csv"
     prefs = result.humans if cfg.per_run_humans and result.humans else cfg.preference_of_run()

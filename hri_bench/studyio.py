@@ -9,19 +9,26 @@ studies'):
   as soon as it finishes (numpy arrays, no pickle), under a temporary name then renamed.
 - ``DIR/errors.log``: the traceback of every agent that raised, by name.
 - ``DIR/run_log.jsonl``: one line per invocation (start time, wall time, units simulated
-  and resumed, outcome). Wall time lives here, not in ``summary.json``, so that a resumed
-  or replayed study's ``summary.json`` and ``episodes.csv`` are byte-identical to an
-  uninterrupted run's.
+  and resumed, outcome), appended when it ends: "complete" only once every output is on
+  disk. Wall time lives here, not in ``summary.json``, so that a resumed or replayed
+  study's ``summary.json`` and ``episodes.csv`` are byte-identical to an uninterrupted
+  run's.
+- ``DIR/.lock``: locked (:func:`fcntl.flock`) while a study works in ``DIR``, so that a
+  second one is refused instead of overwriting the first's files. The kernel releases it
+  when the process ends, however it ends, so ``--resume`` works after any kill; the file
+  is removed when the study ends (a killed study leaves it, unlocked).
 
-:class:`StudyDir` checks the folder before any simulation; :func:`run_in` runs a study
-there, saving and reusing units; :func:`stop_on_signals` turns SIGTERM into the same
-:class:`KeyboardInterrupt` as Ctrl-C, so both stop the worker pool and keep the finished
-units.
+:class:`StudyDir` locks and checks the folder before any simulation; :func:`run_in` runs a
+study there, saving and reusing units, and writes its files; :func:`stop_on_signals`
+turns SIGTERM into the same :class:`KeyboardInterrupt` as Ctrl-C, so both stop the worker
+pool and keep the finished units.
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
+import glob
 import json
 import os
 import re
@@ -30,12 +37,12 @@ import signal
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from types import FrameType
-from typing import Any
+from types import FrameType, TracebackType
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from hri_bench.atomic import atomic_path, atomic_writer
+from hri_bench.atomic import atomic_path, atomic_writer, fsync_dir
 from hri_bench.study import (
     StudyConfig,
     StudyResult,
@@ -43,19 +50,39 @@ from hri_bench.study import (
     _Unit,
     _units,
     run_study,
+    write_outputs,
 )
 from hri_envs.errors import ConfigError
 
-__all__ = ["OUTPUT_FILES", "StudyDir", "StudyTerminated", "run_in", "stop_on_signals"]
+__all__ = ["LOCK", "OUTPUT_FILES", "UNITS", "StudyDir", "StudyRun", "StudyTerminated", "run_in",
+           "stop_on_signals"]
 
 UNITS = ".units"
 MANIFEST = "study.json"
 ERRORS_LOG = "errors.log"
 RUN_LOG = "run_log.jsonl"
+SUMMARY = "summary.json"
+#: The lock file in a study's folder (removed when the study ends; one left by a killed
+#: study is not locked, and only the lock counts).
+LOCK = ".lock"
 _FORMAT = "hri-bench-units-1"
 #: Files a study writes into its folder (removed by ``overwrite`` before it starts).
-OUTPUT_FILES = ("summary.json", "episodes.csv", "reward.png", "decisions.png", "impulse.png",
+OUTPUT_FILES = (SUMMARY, "episodes.csv", "reward.png", "decisions.png", "impulse.png",
                 ERRORS_LOG, RUN_LOG)
+
+#: Descriptors of the locks this process holds; a forked child (a pool worker) closes its
+#: copies at once, so that the lock ends with the study's process, not with its last worker.
+_HELD_LOCKS: set[int] = set()
+
+
+def _close_locks_in_child() -> None:
+    for fd in _HELD_LOCKS:
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    _HELD_LOCKS.clear()
+
+
+os.register_at_fork(after_in_child=_close_locks_in_child)
 
 
 class StudyTerminated(KeyboardInterrupt):
@@ -96,20 +123,25 @@ def _slug(text: str) -> str:
 
 
 class StudyDir:
-    """The output folder of one study, checked before any simulation.
+    """The output folder of one study, locked and checked before any simulation.
 
     Args:
         out: The folder (created if missing).
         cfg: The study.
-        resume: Continue the study whose finished units are in ``out/.units``.
+        resume: Continue the study whose finished units are in ``out/.units`` (or do
+            nothing if the study in ``out`` is already complete: :attr:`complete`).
         overwrite: Start afresh in a non-empty folder (removes the study files
-            :data:`OUTPUT_FILES`, ``.units`` and leftover temporary plot folders; other
-            files are left alone).
+            :data:`OUTPUT_FILES` and ``.units``; other files are left alone).
+
+    The folder stays locked (:data:`LOCK`) until :meth:`close` or the process ends (use it
+    as a context manager); another study on the folder meanwhile is refused. With
+    ``resume`` or ``overwrite``, what a killed study left half-written (temporary files,
+    ``.plots-*`` folders) is removed once the lock is held.
 
     Raises:
-        ConfigError: (``field="out"``) ``out`` is not a writable directory, is not empty and
-            neither ``resume`` nor ``overwrite`` is given, or holds a different study than
-            the one to resume.
+        ConfigError: (``field="out"``) ``out`` is not a writable directory, another study
+            is working in it, it is not empty and neither ``resume`` nor ``overwrite`` is
+            given, or it holds a different study than the one to resume.
     """
 
     def __init__(self, out: str | os.PathLike[str], cfg: StudyConfig, *, resume: bool = False,
@@ -117,11 +149,36 @@ class StudyDir:
         self.out = Path(out)
         self.cfg = cfg
         self.units_dir = self.out / UNITS
+        #: The study in ``out`` was already complete (``resume``): nothing to do.
+        self.complete = False
+        self._lock: int | None = None
         if resume and overwrite:
             raise ConfigError("give either resume or overwrite, not both", field="resume")
-        self._check(resume, overwrite)
+        self._check_writable()
+        self._acquire_lock()
+        try:
+            self._check(resume, overwrite)
+        except BaseException:
+            self.close()
+            raise
 
-    def _check(self, resume: bool, overwrite: bool) -> None:
+    def __enter__(self) -> StudyDir:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Release the folder's lock (another study may then work there) and remove its file."""
+        if self._lock is not None:
+            with contextlib.suppress(FileNotFoundError):
+                (self.out / LOCK).unlink()  # while locked: see _acquire_lock
+            _HELD_LOCKS.discard(self._lock)
+            os.close(self._lock)  # closing the descriptor releases the flock
+            self._lock = None
+
+    def _check_writable(self) -> None:
         out = self.out
         if out.exists() and not out.is_dir():
             raise ConfigError(f"{str(out)!r} is a file; give a directory (new or empty)",
@@ -130,24 +187,58 @@ class StudyDir:
         if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
             raise ConfigError(f"cannot write in {str(existing)!r}; give a directory you can "
                               "write to", field="out")
-        nonempty = out.exists() and any(out.iterdir())
+
+    def _acquire_lock(self) -> None:
+        """Lock ``out/.lock`` or say which process holds it.
+
+        The file is removed when the lock is released (:meth:`close`); a study that opened
+        it just before then would hold a lock on a removed file, so the lock counts only if
+        the file it locked is still the one in the folder.
+        """
+        self.out.mkdir(parents=True, exist_ok=True)
+        path = self.out / LOCK
+        while True:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(fd, 32, 0).decode(errors="replace").strip()
+                os.close(fd)
+                raise ConfigError(
+                    f"another study{f' (process {holder})' if holder.isdigit() else ''} is "
+                    f"writing in {str(self.out)!r}; wait for it to end (--resume then "
+                    "continues it if it was stopped), or give another --out",
+                    field="out") from None
+            try:
+                locked, current = os.fstat(fd), os.stat(path)
+                if (locked.st_dev, locked.st_ino) == (current.st_dev, current.st_ino):
+                    break
+            except FileNotFoundError:
+                pass
+            os.close(fd)
+        _HELD_LOCKS.add(fd)
+        self._lock = fd
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+
+    def _check(self, resume: bool, overwrite: bool) -> None:
+        out = self.out
+        nonempty = any(p.name != LOCK for p in out.iterdir())
         manifest = self.units_dir / MANIFEST
         if nonempty and not (resume or overwrite):
             raise ConfigError(
                 f"{str(out)!r} is not empty; give a new or empty directory, --resume to "
                 "continue the study that was interrupted there, or --overwrite to start afresh",
                 field="out")
-        if nonempty and resume:
-            if not manifest.is_file():
-                raise ConfigError(f"nothing to resume in {str(out)!r}: it has no "
-                                  f"{UNITS}/{MANIFEST}; use --overwrite to start afresh",
-                                  field="out")
+        want = json.loads(json.dumps(_manifest(self.cfg)))
+        if nonempty and resume and not manifest.is_file():
+            self._check_complete(want["settings"])
+        elif nonempty and resume:
             try:
                 saved = json.loads(manifest.read_text())
             except (OSError, ValueError) as exc:
                 raise ConfigError(f"cannot read {manifest}: {exc}; use --overwrite",
                                   field="out") from exc
-            want = json.loads(json.dumps(_manifest(self.cfg)))
             if saved != want:
                 differ = sorted(k for k in {**saved.get("settings", {}), **want["settings"]}
                                 if saved.get("settings", {}).get(k) != want["settings"].get(k))
@@ -157,17 +248,54 @@ class StudyDir:
                     f"{str(out)!r} holds a different study (differs in: "
                     f"{', '.join(differ) or 'format'}); resume with the same settings and "
                     "--jobs, or use --overwrite", field="out")
+        if resume or overwrite:
+            self._remove_leftovers()
         if overwrite:
             shutil.rmtree(self.units_dir, ignore_errors=True)
-            for tmp in out.glob(".plots-*"):  # left by a kill while plotting
-                shutil.rmtree(tmp, ignore_errors=True)
             for name in OUTPUT_FILES:
                 with contextlib.suppress(FileNotFoundError):
                     (out / name).unlink()
+        if self.complete:
+            return
         self.units_dir.mkdir(parents=True, exist_ok=True)
         if not manifest.is_file():
             with atomic_writer(manifest) as f:
                 json.dump(_manifest(self.cfg), f, indent=1)
+
+    def _check_complete(self, settings: dict[str, Any]) -> None:
+        """A folder without unit files to resume: complete if its ``summary.json`` (written
+        last, and only once every other file is in place) is this study's.
+        """
+        summary = self.out / SUMMARY
+        try:
+            saved = json.loads(summary.read_text())["settings"]
+        except (OSError, ValueError, KeyError, TypeError):
+            raise ConfigError(f"nothing to resume in {str(self.out)!r}: it has no "
+                              f"{UNITS}/{MANIFEST} and no complete study; use --overwrite to "
+                              "start afresh", field="out") from None
+        if saved != settings:
+            differ = sorted(k for k in {**saved, **settings} if saved.get(k) != settings.get(k))
+            raise ConfigError(f"{str(self.out)!r} holds a different, complete study (differs "
+                              f"in: {', '.join(differ)}); use --overwrite", field="out")
+        self.complete = True
+
+    def _remove_leftovers(self) -> None:
+        """Remove what a killed study left half-done: temporary files of its outputs and
+        units, temporary plot folders, and unit files of a complete study (called with the
+        lock held, so they belong to no live study).
+        """
+        out = self.out
+        for name in OUTPUT_FILES:
+            for tmp in out.glob(f".{glob.escape(name)}.*.tmp"):
+                tmp.unlink(missing_ok=True)
+        for tmp in out.glob(".plots-*"):
+            shutil.rmtree(tmp, ignore_errors=True)
+        if self.complete:
+            shutil.rmtree(self.units_dir, ignore_errors=True)
+        elif self.units_dir.is_dir():
+            for tmp in self.units_dir.glob(".*.tmp*"):
+                tmp.unlink(missing_ok=True)
+        fsync_dir(out)
 
     def unit_path(self, index: int, unit: _Unit) -> Path:
         """Where unit ``index`` of the study is kept once finished."""
@@ -214,27 +342,72 @@ class StudyDir:
         return path
 
     def log_run(self, record: dict[str, Any]) -> None:
-        """Append one line to ``run_log.jsonl``."""
-        with (self.out / RUN_LOG).open("a") as f:
-            f.write(json.dumps(record) + "\n")
+        """Append one line to ``run_log.jsonl`` and flush it to disk.
+
+        One ``write`` of the whole line to a file opened for appending: a kill leaves the
+        line whole or absent, never half of it.
+        """
+        line = (json.dumps(record) + "\n").encode()
+        fd = os.open(self.out / RUN_LOG, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+        try:
+            os.write(fd, line)
+            os.fsync(fd)
+        except OSError as exc:
+            exc.filename = exc.filename or str(self.out / RUN_LOG)
+            raise
+        finally:
+            os.close(fd)
 
     def finish(self) -> None:
-        """Remove the unit files once the final files are written."""
+        """Remove the unit files once the final files are written.
+
+        The manifest goes first: a kill halfway leaves a folder that ``--resume`` sees as
+        complete (and cleans), not one with units missing.
+        """
+        (self.units_dir / MANIFEST).unlink(missing_ok=True)
         shutil.rmtree(self.units_dir, ignore_errors=True)
+        fsync_dir(self.out)
 
 
-def run_in(folder: StudyDir, *, progress: bool = False) -> StudyResult:
-    """Run ``folder``'s study, reusing its finished units and saving each new one.
+class StudyRun(NamedTuple):
+    """What :func:`run_in` did."""
+
+    #: The study's result; None when the folder already held the complete study.
+    result: StudyResult | None
+    #: The files written (``summary.json``, ``episodes.csv``, plots).
+    paths: list[Path]
+    #: ``errors.log`` when an agent raised, else None.
+    errors: Path | None
+
+
+def run_in(folder: StudyDir, *, progress: bool = False, plots: bool = True) -> StudyRun:
+    """Run ``folder``'s study, reusing its finished units and saving each new one, and write
+    its files (:func:`~hri_bench.study.write_outputs`, ``errors.log``).
 
     Agents that raise are recorded (``StudyResult.failures``), not raised; Ctrl-C and
     SIGTERM (within :func:`stop_on_signals`) raise :class:`KeyboardInterrupt` after the pool
-    is stopped, with every finished unit on disk. Appends the run to ``run_log.jsonl``.
+    is stopped, with every finished unit on disk. When every agent ran, the unit files are
+    removed once the final files are in place. Appends the run to ``run_log.jsonl`` last:
+    "complete" means that every file is on disk.
+
+    Raises:
+        OSError: A file cannot be written (its ``filename`` says which); the finished units
+            stay on disk for ``--resume``.
     """
     cfg = folder.cfg
     units = _units(cfg)
-    done = folder.load_done(units)
     started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
     t0 = time.perf_counter()
+
+    def record(status: str, resumed: int, simulated: int) -> dict[str, Any]:
+        return {"started": started, "wall_time_s": round(time.perf_counter() - t0, 3),
+                "units": len(units), "resumed": resumed, "simulated": simulated,
+                "status": status}
+
+    if folder.complete:
+        folder.log_run(record("complete", len(units), 0))
+        return StudyRun(None, [], None)
+    done = folder.load_done(units)
     n_new = 0
 
     def save(i: int, res: UnitResult) -> None:
@@ -245,9 +418,14 @@ def run_in(folder: StudyDir, *, progress: bool = False) -> StudyResult:
     status = "interrupted"
     try:
         result = run_study(cfg, progress=progress, done=done, on_result=save, keep_going=True)
+        paths = write_outputs(result, folder.out, plots=plots)
+        errors = folder.log_failures(result.failures)
+        if errors is None:
+            folder.finish()
         status = "failed" if result.failures else "complete"
-        return result
-    finally:
-        folder.log_run({"started": started, "wall_time_s": round(time.perf_counter() - t0, 3),
-                        "units": len(units), "resumed": len(done), "simulated": n_new,
-                        "status": status})
+    except BaseException:
+        with contextlib.suppress(OSError):  # a full disk must not hide the first error
+            folder.log_run(record(status, len(done), n_new))
+        raise
+    folder.log_run(record(status, len(done), n_new))
+    return StudyRun(result, paths, errors)

@@ -12,7 +12,10 @@
 * ``DIR/leaderboard.md``: per track, the agents sorted by mean regret, with CIs;
 * ``DIR/<track>.png``: mean regret (or reward, where regret is not reported) per episode
   with 95 % CI error bars;
-* ``DIR/suite_log.json``: wall times and how the suite was run.
+* ``DIR/suite_log.json``: wall times and how the suite was run;
+* ``DIR/errors.log`` (only when an agent raised): each failed agent's traceback by track.
+  The agent is left out of that track (its name is in the track's ``failed_agents``) and
+  the other agents' results are written, as in ``hri-bench study``.
 
 Regret is reported where the exact ``blind`` plan fits the track's humans (deterministic or
 passive, :mod:`hri_bench.regret`); on tracks with Boltzmann humans it is "n/a". The
@@ -60,6 +63,8 @@ DEFAULT_AGENTS: tuple[str, ...] = BUILTIN_AGENTS
 #: An agent has converged from the first episode after which its mean regret over runs
 #: stays at or below this (reward units per episode).
 CONVERGED = 0.05
+#: Where the tracebacks of agents that raised go (in the suite's folder).
+ERRORS_LOG = "errors.log"
 #: Agents that must infer the intention (blind is their ceiling).
 INTENTION_BLIND: tuple[str, ...] = ("learner", "imitator", "maxent", "passive")
 
@@ -196,7 +201,8 @@ def track_summary(track: Track, result: StudyResult) -> dict[str, Any]:
     return {"description": track.description, "scenario": track.scenario,
             "runs": cfg.runs, "episodes": cfg.n_episodes,
             "settings": cfg.settings(), "regret": note,
-            "regret_reported": blind is not None, "agents": agents}
+            "regret_reported": blind is not None, "agents": agents,
+            "failed_agents": sorted(result.failures)}
 
 
 def _fmt(x: float | None) -> str:
@@ -216,14 +222,17 @@ def _overview(doc: dict[str, Any]) -> list[str]:
                                     if a not in doc["agents"]]
     agents = [a for a in agents if any(a in tr["agents"] for tr in doc["tracks"].values())]
     lines = ["## Overview", "", "Mean regret vs blind per episode [95 % CI]; where regret is "
-             "n/a, the mean reward (marked r). — : the agent does not run on the track.", "",
+             "n/a, the mean reward (marked r). — : the agent does not run on the track; raised: "
+             "it failed there (errors.log).", "",
              "| track | " + " | ".join(f"`{a}`" for a in agents) + " |",
              "|---|" + "---|" * len(agents)]
     for name, tr in doc["tracks"].items():
         cells = []
         for a in agents:
             entry = tr["agents"].get(a)
-            if entry is None:
+            if a in tr["failed_agents"]:
+                cells.append("raised")
+            elif entry is None:
                 cells.append("—")
             elif tr["regret_reported"]:
                 cells.append(_with_ci(entry["regret"]))
@@ -252,6 +261,9 @@ def leaderboard(doc: dict[str, Any]) -> str:
                   f"{tr['episodes']} episodes).", ""]
         if not tr["regret_reported"]:
             lines += [f"Regret n/a: {tr['regret'].removeprefix('not reported: ')}.", ""]
+        if tr["failed_agents"]:
+            lines += ["Raised, no results (tracebacks in errors.log): "
+                      + ", ".join(f"`{a}`" for a in tr["failed_agents"]) + ".", ""]
         lines += ["| agent | regret mean [95 % CI] | regret IQM [95 % CI] | "
                   "reward mean [95 % CI] | wrong | passive | truncated | converged at |",
                   "|---|---|---|---|---|---|---|---|"]
@@ -297,7 +309,8 @@ def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
     if metric == "regret":
         ax.axhline(0.0, color="black", linewidth=0.6)
     ax.set_title(f"{name}: {entry['description']}", fontsize=8)
-    ax.legend(fontsize=7, ncol=2)
+    if entry["agents"]:  # every agent may have raised on the track
+        ax.legend(fontsize=7, ncol=2)
     plots.save_figure(fig, path)
     return path
 
@@ -315,7 +328,9 @@ def run_suite(
 ) -> dict[str, Any]:
     """Run the suite's tracks and write its files into ``out``; return suite.json's document.
 
-    Every track's configuration is built (and so validated) before any simulation.
+    Every track's configuration is built (and so validated) before any simulation. An
+    agent that raises (or calls ``sys.exit``) is left out of that track and recorded: the
+    track's ``failed_agents`` and ``DIR/errors.log``; the other agents run on.
 
     Args:
         out: Output directory (created).
@@ -351,13 +366,24 @@ def run_suite(
         from tqdm.auto import tqdm
 
         iterator = tqdm(list(iterator), desc="suite", unit="track")
+    failures: dict[str, dict[str, str]] = {}
     for track, cfg in iterator:
         t = time.perf_counter()
-        result = run_study(cfg)
+        result = run_study(cfg, keep_going=True)
+        if result.failures:
+            failures[track.name] = result.failures
         entry = track_summary(track, result)
         doc["tracks"][track.name] = entry
         track_figure(track.name, entry, out / f"{track.name}.png")
         walls[track.name] = round(time.perf_counter() - t, 2)
+    errors = out / ERRORS_LOG
+    if failures:
+        with atomic_writer(errors) as f:
+            for track_name, by_agent in failures.items():
+                for agent, text in by_agent.items():
+                    f.write(f"track {track_name}: agent {agent!r} raised:\n{text}\n")
+    else:
+        errors.unlink(missing_ok=True)  # from an earlier suite in the same folder
     with atomic_writer(out / "leaderboard.md") as f:
         f.write(leaderboard(doc) + "\n")
     with atomic_writer(out / "suite.json") as f:

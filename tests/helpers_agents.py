@@ -39,3 +39,26 @@ class OutOfRange(AlwaysWait):
     def act(self, observation):
         self.t += 1
         return 99 if self.t == 3 else 0
+
+
+class ExitsInAct(AlwaysWait):
+    """Calls ``sys.exit(3)`` on its first decision (a failure of this agent, not the study's)."""
+
+    name = "exits"
+
+    def act(self, observation):
+        import sys
+
+        sys.exit(3)
+
+
+class DividesByZero(AlwaysWait):
+    """Raises ZeroDivisionError on its first decision."""
+
+    name = "divides-by-zero"
+
+    def act(self, observation):
+        return 1 // 0
+
+
+NotAnAgent = dict

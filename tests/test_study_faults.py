@@ -3,6 +3,8 @@ finished units on disk, kill and resume with byte-identical files, failing agent
 and summary.json replayed through --config.
 """
 
+import errno
+import fcntl
 import json
 import os
 import signal
@@ -16,7 +18,7 @@ import pytest
 
 from hri_bench.cli import main
 from hri_bench.study import StudyConfig, run_study
-from hri_envs.errors import ActionError
+from hri_envs.errors import ActionError, ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
 # 2 agents x 36 preferences (one run each, so one chunk) = 72 units of about 10 ms each.
@@ -98,6 +100,201 @@ def test_killed_study_leaves_no_workers_and_resumes_identically(sig, reference, 
     assert not (out / ".units").exists()
 
 
+def test_nothing_left_to_simulate_starts_no_pool(monkeypatch):
+    # A resumed study whose units are all on disk only writes its files: a pool forked and
+    # terminated for nothing once hung in terminate() (issue 24).
+    cfg = StudyConfig("wheel", agents=("passive", "learner"), runs=4, episodes=1, jobs=2,
+                      executor="process")
+    done = {}
+    first = run_study(cfg, on_result=done.__setitem__)
+
+    def no_pool(*args, **kwargs):
+        raise AssertionError("a pool was started with nothing to simulate")
+
+    monkeypatch.setattr("hri_bench.study._start_pool", no_pool)
+    again = run_study(cfg, done=done)
+    for agent, metrics in first.metrics.items():
+        for key, values in metrics.items():
+            np.testing.assert_array_equal(values, again.metrics[agent][key], err_msg=key)
+
+
+_EARLY_SIGINT = """
+import os, signal
+from hri_bench import study
+from hri_bench.studyio import stop_on_signals
+
+real = study._worker_init
+
+def early(*args):
+    os.kill(os.getpid(), signal.SIGINT)  # before the worker has its own handlers
+    real(*args)
+
+study._worker_init = early
+cfg = study.StudyConfig("wheel", agents=("passive",), runs=4, episodes=1, jobs=2,
+                        executor="process")
+with stop_on_signals():
+    study.run_study(cfg)
+print("finished")
+"""
+
+
+def test_a_signal_at_a_workers_start_never_runs_the_parents_handler():
+    # A worker that ran the parent's Ctrl-C handler during its set-up died, was replaced,
+    # died again...: the pool never finished (issue 24). Workers start with the stop signals
+    # blocked, so the early SIGINT meets the worker's own "ignore".
+    proc = subprocess.run([sys.executable, "-c", _EARLY_SIGINT], capture_output=True,
+                          text=True, timeout=60, cwd=ROOT,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "finished" and "KeyboardInterrupt" not in proc.stderr
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+def test_a_second_study_on_the_same_out_is_refused(reference, tmp_path):
+    # --overwrite on the --out of a running study once removed its files (issue 24).
+    out = tmp_path / "study"
+    first = _cli([*STUDY, "--out", str(out)])
+    deadline = time.monotonic() + 60
+    while not list((out / ".units").glob("0*.npz")):
+        assert first.poll() is None and time.monotonic() < deadline
+        time.sleep(0.02)
+    for flag in ("--overwrite", "--resume"):
+        second = _cli([*STUDY, "--out", str(out), flag])
+        assert second.wait(timeout=60) == 2
+        err = second.stderr.read()
+        assert f"argument --out: another study (process {first.pid}) is writing in" in err
+        assert "Traceback" not in err
+    assert list((out / ".units").glob("0*.npz"))  # the first study's work is untouched
+    first.kill()
+    first.wait(timeout=30)
+    # The lock went with the study's process, even if its workers are still exiting.
+    with (out / ".lock").open("a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        fcntl.flock(f, fcntl.LOCK_UN)
+    resumed = _cli([*STUDY, "--out", str(out), "--resume"])
+    assert resumed.wait(timeout=120) == 0, resumed.stderr.read()
+    for name in ("summary.json", "episodes.csv"):
+        assert (out / name).read_bytes() == (reference / name).read_bytes()
+    assert not (out / ".lock").exists()
+
+
+def test_the_lock_is_held_for_the_folders_life(tmp_path, capsys):
+    from hri_bench.studyio import StudyDir
+
+    out = tmp_path / "study"
+    base = ["study", "wheel", "--runs", "2", "--episodes", "1", "--agents", "passive",
+            "--no-progress", "--out", str(out)]
+    with StudyDir(out, StudyConfig("wheel", agents=("passive",), runs=2, episodes=1)):
+        with pytest.raises(SystemExit) as exc:
+            main([*base, "--overwrite"])
+        assert exc.value.code == 2
+        assert f"another study (process {os.getpid()}) is writing in" in capsys.readouterr().err
+    assert main([*base, "--resume"]) == 0
+
+
+SMALL = ["study", "wheel", "--runs", "3", "--episodes", "2", "--agents", "learner,passive",
+         "--no-progress"]
+
+
+@pytest.fixture(scope="module")
+def small_reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("small") / "study"
+    assert main([*SMALL, "--out", str(out)]) == 0
+    return out
+
+
+def _interrupted(out):
+    """A study of SMALL stopped (Ctrl-C) as it was about to write its files."""
+    def stop(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr("hri_bench.studyio.write_outputs", stop)
+        assert main([*SMALL, "--out", str(out)]) == 130
+
+
+def _log(out):
+    return [json.loads(line) for line in (out / "run_log.jsonl").read_text().splitlines()]
+
+
+def test_resume_removes_what_a_killed_write_left(small_reference, tmp_path):
+    out = tmp_path / "study"
+    _interrupted(out)
+    assert [e["status"] for e in _log(out)] == ["interrupted"]
+    # What a SIGKILL in the middle of the final write leaves behind.
+    leftovers = [out / ".summary.json.k2j4_x.tmp", out / ".episodes.csv.a8f_3x.tmp",
+                 out / ".plots-q1w2e3" / "reward.png", out / ".units" / ".0000-x.npz.ab.tmp.npz"]
+    for path in leftovers:
+        path.parent.mkdir(exist_ok=True)
+        path.write_text("half")
+    assert main([*SMALL, "--out", str(out), "--resume"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        ["summary.json", "episodes.csv", "reward.png", "decisions.png", "run_log.jsonl"])
+    for name in ("summary.json", "episodes.csv"):
+        assert (out / name).read_bytes() == (small_reference / name).read_bytes()
+    assert [e["status"] for e in _log(out)] == ["interrupted", "complete"]
+
+
+def test_resume_of_a_complete_study_does_nothing(small_reference, tmp_path, capsys):
+    out = tmp_path / "study"
+    assert main([*SMALL, "--out", str(out)]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.name != "run_log.jsonl"}
+    capsys.readouterr()
+    assert main([*SMALL, "--out", str(out), "--resume"]) == 0
+    assert "nothing to do: the study in" in capsys.readouterr().out
+    assert before == {p.name: p.read_bytes() for p in out.iterdir() if p.name != "run_log.jsonl"}
+    assert [e["status"] for e in _log(out)] == ["complete", "complete"]
+    with pytest.raises(SystemExit):
+        main([*SMALL, "--seed", "1", "--out", str(out), "--resume"])
+    assert "holds a different, complete study (differs in: seed)" in capsys.readouterr().err
+
+
+def test_ctrl_c_while_the_folder_is_cleaned_is_a_stop_not_a_traceback(tmp_path, monkeypatch,
+                                                                     capsys):
+    # Found by the kill tests: the leftovers of a killed study are removed before the
+    # simulation, and a Ctrl-C there was a KeyboardInterrupt traceback.
+    out = tmp_path / "study"
+    _interrupted(out)
+
+    def ctrl_c(self):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("hri_bench.studyio.StudyDir._remove_leftovers", ctrl_c)
+    capsys.readouterr()
+    assert main([*SMALL, "--out", str(out), "--resume"]) == 130
+    err = capsys.readouterr().err
+    assert "stopped; 2 finished unit(s) kept" in err and err.rstrip().endswith("--resume")
+    assert not (out / ".lock").exists()  # released
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").exists(), reason="needs /proc")
+@pytest.mark.parametrize("victim", [".npz", "episodes.csv", "summary.json"])
+def test_a_full_disk_is_one_line_naming_the_file_and_the_resume(victim, small_reference,
+                                                                 tmp_path, monkeypatch, capsys):
+    out = tmp_path / "study"
+    real_fsync = os.fsync
+
+    def full(fd):  # the disk fills up as this file is flushed
+        if victim in os.readlink(f"/proc/self/fd/{fd}"):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        real_fsync(fd)
+
+    monkeypatch.setattr(os, "fsync", full)
+    assert main([*SMALL, "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err
+    assert err.startswith(f"hri-bench: cannot write {out}") and victim in err.split(":")[1]
+    assert "No space left on device" in err
+    assert err.endswith(f"--out {out} --resume")
+    assert not list(out.rglob("*.tmp*")) and not list(out.glob(".plots-*"))
+    assert _log(out)[-1]["status"] == "interrupted"
+    monkeypatch.setattr(os, "fsync", real_fsync)  # space freed
+    assert main([*SMALL, "--out", str(out), "--resume"]) == 0
+    for name in ("summary.json", "episodes.csv"):
+        assert (out / name).read_bytes() == (small_reference / name).read_bytes()
+    assert _log(out)[-1]["status"] == "complete"
+
+
 def test_out_is_checked_before_any_simulation(tmp_path, capsys):
     a_file = tmp_path / "file"
     a_file.write_text("x")
@@ -126,7 +323,7 @@ def test_resume_refuses_a_folder_of_another_study(tmp_path, capsys):
             str(out)]
     from hri_bench.studyio import StudyDir
 
-    StudyDir(out, StudyConfig("wheel", runs=2, episodes=1, seed=5), overwrite=True)
+    StudyDir(out, StudyConfig("wheel", runs=2, episodes=1, seed=5), overwrite=True).close()
     with pytest.raises(SystemExit):
         main([*base, "--resume"])
     assert "differs in: seed" in capsys.readouterr().err
@@ -152,6 +349,44 @@ def test_failing_agent_is_reported_and_the_others_are_written(tmp_path, capsys):
     log = (out / "errors.log").read_text()
     assert "agent 'tests.helpers_agents:RaisesInAct' raised" in log
     assert "Traceback" in log and "deliberate failure in act" in log
+
+
+@pytest.mark.parametrize("agent, message", [
+    ("nosuch.mod:Foo", "cannot import agent 'nosuch.mod:Foo': ModuleNotFoundError"),
+    ("tests.helpers_agents:NotAnAgent", "neither an agents.Agent nor an agents.BatchAgent"),
+    ("tests.helpers_agents:Missing", "cannot import agent 'tests.helpers_agents:Missing'"),
+])
+def test_an_agent_that_is_not_one_is_refused_before_any_simulation(agent, message, tmp_path,
+                                                                    capsys):
+    # It once passed parsing; the study simulated the others and exited 1 (issue 24).
+    out = tmp_path / "study"
+    with pytest.raises(SystemExit) as exc:
+        main(["study", "wheel", "--runs", "2", "--episodes", "1", "--no-progress", "--out",
+              str(out), "--agents", f"passive,{agent}"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --agents" in err and message in err and "Traceback" not in err
+    assert not out.exists()
+    with pytest.raises(ConfigError, match="agent") as info:
+        StudyConfig("wheel", agents=("passive", agent))
+    assert info.value.field == "agents"
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_an_agent_calling_sys_exit_fails_alone(jobs, tmp_path, capsys):
+    # sys.exit(3) in act() once ended the whole study with no outputs (issue 24).
+    out = tmp_path / "study"
+    bad = "tests.helpers_agents:ExitsInAct"
+    code = main(["study", "wheel", "--runs", "3", "--episodes", "2", "--no-progress", "--out",
+                 str(out), "--jobs", jobs, "--agents", f"passive,{bad}"])
+    assert code == 1
+    assert bad in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary["agents"]) == {"passive"} and summary["failed_agents"] == [bad]
+    assert "SystemExit: 3" in (out / "errors.log").read_text()
+    with pytest.raises(RuntimeError, match=r"agent 'tests.helpers_agents:ExitsInAct' called "
+                                           r"sys.exit\(3\)"):
+        run_study(StudyConfig("wheel", agents=(bad,), runs=2, episodes=1))
 
 
 def test_invalid_action_names_agent_run_and_step():

@@ -1,6 +1,7 @@
 """hri-bench suite: the versioned tracks, suite.json/leaderboard.md/figures, determinism."""
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -17,7 +18,7 @@ from hri_bench.suite import (
 from hri_envs.errors import ConfigError
 
 TRACK_KEYS = {"description", "scenario", "runs", "episodes", "settings", "regret",
-              "regret_reported", "agents"}
+              "regret_reported", "agents", "failed_agents"}
 AGENT_KEYS = {"reward", "regret", "episodes_to_converge", "wrong_rate", "passive_rate",
               "truncation_rate"}
 STAT_KEYS = {"mean", "ci95", "iqm", "iqm_ci95", "per_episode"}
@@ -162,3 +163,50 @@ def test_suite_cli_writes_files_and_reports_wall_time(tmp_path, capsys):
     assert set(doc["tracks"]["wheel-paper"]["agents"]) == {"learner", "passive", "informed",
                                                           "blind"}
     assert (out / "leaderboard.md").exists() and (out / "wheel-paper.png").exists()
+
+
+def test_an_agent_that_raises_is_left_out_and_the_others_are_written(tmp_path, capsys):
+    # It once ended the suite with a ZeroDivisionError traceback and no files (issue 24).
+    out = tmp_path / "s"
+    bad = "tests.helpers_agents:DividesByZero"
+    code = main(["suite", "--out", str(out), "--tracks", "wheel-paper", "--runs-scale", "0.005",
+                 "--agents", f"passive,{bad}", "--no-progress"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert bad in err and "errors.log" in err and "Traceback" not in err
+    track = json.loads((out / "suite.json").read_text())["tracks"]["wheel-paper"]
+    assert track["failed_agents"] == [bad]
+    assert set(track["agents"]) == {"passive", "informed", "blind"}
+    log = (out / "errors.log").read_text()
+    assert f"track wheel-paper: agent {bad!r} raised" in log and "ZeroDivisionError" in log
+    board = (out / "leaderboard.md").read_text()
+    assert "raised" in board and f"`{bad}`" in board
+    assert (out / "wheel-paper.png").exists()
+    # A track on which every agent raised still gets its files, and no warning.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["suite", "--out", str(tmp_path / "all"), "--tracks", "wheel-drift",
+                     "--runs-scale", "0.005", "--agents", bad, "--no-progress"]) == 1
+    assert json.loads((tmp_path / "all" / "suite.json").read_text())["tracks"]["wheel-drift"][
+        "agents"] == {}
+    # A later suite in the same folder without failures leaves no stale errors.log.
+    assert main(["suite", "--out", str(out), "--tracks", "wheel-paper", "--runs-scale",
+                 "0.005", "--agents", "passive", "--no-progress"]) == 0
+    assert not (out / "errors.log").exists()
+
+
+@pytest.mark.parametrize("agent, message", [
+    ("nosuch.mod:Foo", "cannot import agent 'nosuch.mod:Foo': ModuleNotFoundError"),
+    ("tests.helpers_agents:NotAnAgent", "neither an agents.Agent nor an agents.BatchAgent"),
+])
+def test_an_agent_that_is_not_one_is_refused_before_any_simulation(agent, message, tmp_path,
+                                                                    monkeypatch, capsys):
+    def boom(*args, **kwargs):
+        raise AssertionError("simulated")
+
+    monkeypatch.setattr(suite, "run_study", boom)
+    with pytest.raises(SystemExit) as exc:
+        main(["suite", "--out", str(tmp_path / "x"), "--agents", f"learner,{agent}"])
+    assert exc.value.code == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
