@@ -9,6 +9,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from hri_envs.checks import check_flag
 from hri_envs.envs.backends import episode_backend
 from hri_envs.envs.config import (
     check_env_settings,
@@ -171,7 +172,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
                                             self.metadata["render_modes"], backend)
         physics = check_physics_options(physics, self.backend)
-        self.render_intention = bool(render_intention)
+        self.render_intention = check_flag(render_intention, "render_intention")
         self.observation_format = check_observation_format(observation_format)
         self._human_window = self.render_mode == "human"
         if self._human_window:
