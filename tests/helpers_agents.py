@@ -39,3 +39,23 @@ class OutOfRange(AlwaysWait):
     def act(self, observation):
         self.t += 1
         return 99 if self.t == 3 else 0
+
+
+class ReturnsHalf(AlwaysWait):
+    """Returns 0.5: once silently played as 0 (the int64 array truncated it)."""
+
+    name = "returns-half"
+    value: object = 0.5
+
+    def act(self, observation):
+        return self.value
+
+
+class ReturnsTrue(ReturnsHalf):
+    name = "returns-true"
+    value = True
+
+
+class ReturnsText(ReturnsHalf):
+    name = "returns-text"
+    value = "3"

@@ -4,16 +4,23 @@ issue lists; tests/test_fuzz_inputs.py throws generated values at the same doors
 """
 
 import math
+import re
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import hri_envs  # noqa: F401  (registers the ids)
+from agents import Learner, LearnerConfig, LearnerStateError
+from agents.protocol import BatchAgent, Batched
+from agents.rollout import run_episode
+from hri_bench.study import StudyConfig, run_study
 from hri_envs import hanger_v0, wheel_v0
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.envs.vector import RobotVectorEnv
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
+from hri_envs.task.scenarios import scenario_graph
+from tests.helpers_agents import AlwaysWait
 
 # ----------------------------------------------------------------- shared checks
 
@@ -124,3 +131,146 @@ def test_a_dead_aec_agent_is_stepped_with_none():
     with pytest.raises(ActionError, match="step it with None"):
         env.step(0)
     env.step(None)
+
+
+# ----------------------------------------------------------------- agents
+
+
+class _Returns(AlwaysWait):
+    def __init__(self, value):
+        self.value = value
+
+    def act(self, observation):
+        return self.value
+
+
+def _observations(n=2, n_actions=10):
+    return {"state": np.zeros(n, np.int64), "start": np.zeros(n, np.int64),
+            "last_human_action": np.zeros(n, np.int64),
+            "action_mask": np.ones((n, n_actions), np.int8)}
+
+
+@pytest.mark.parametrize("value", [0.5, 1.9, True, np.True_, "3", 1.0, None, 2**70, [1]])
+def test_a_batched_agent_refuses_what_is_not_an_integer(value):
+    batch = Batched([AlwaysWait(), _Returns(value)], runs=[4, 7])
+    with pytest.raises(ActionError, match=r"act\(\) of agent 'always-wait' returned .* for "
+                                          r"run 7; an action is an integer") as err:
+        batch.act(_observations(), np.ones(2, bool))
+    assert repr(value)[:10] in str(err.value)
+
+
+def test_a_batched_agent_passes_integers_through():
+    batch = Batched([_Returns(np.int32(3)), _Returns(99)])
+    assert batch.act(_observations(), np.ones(2, bool)).tolist() == [3, 99]  # range: runner's
+
+
+@pytest.mark.parametrize(("agent", "shown"), [("ReturnsHalf", "0.5"), ("ReturnsTrue", "True"),
+                                              ("ReturnsText", "'3'")])
+def test_a_study_refuses_an_agent_that_returns_no_integer(agent, shown):
+    name = f"tests.helpers_agents:{agent}"
+    cfg = StudyConfig("hanger", agents=(name,), runs=2, episodes=1)
+    with pytest.raises(ActionError, match=rf"agent '{name}': act\(\) of agent '.*' returned "
+                                          rf"{re.escape(shown)} \(\w+\) for run 0; .*"
+                                          r"\(episode 1, step 1\)"):
+        run_study(cfg)
+
+
+def test_run_episode_refuses_a_float_action():
+    env = gym.make("hri_envs/Hanger-v0")
+    with pytest.raises(ActionError, match="robot action 0.5 is not an integer"):
+        run_episode(env, _Returns(0.5))
+
+
+def test_a_single_of_a_batch_agent_refuses_float_actions():
+    class Floats(BatchAgent):
+        def begin_episode(self, starts):
+            pass
+
+        def act(self, observations, active):
+            return np.full(self.n_runs, 1.0)
+
+        def observe(self, *args):
+            pass
+
+        def end_episode(self, traces, intentions):
+            pass
+
+    obs = {k: v[0] for k, v in _observations(1).items()}
+    with pytest.raises(ActionError, match="returned float64 of shape"):
+        Floats(1).single().act(obs)
+
+
+@pytest.mark.parametrize(("field", "value"), [
+    ("learning_rate", math.inf), ("learning_rate", "0.1"), ("beta", True), ("gamma", math.nan),
+    ("passive_prior", 1), ("pretrain_passes", 3.0), ("pretrain_passes", 10**6),
+    ("initial_preference", 5),
+])
+def test_learner_config_refuses_values_of_the_wrong_kind(field, value):
+    with pytest.raises(ConfigError) as err:
+        LearnerConfig(**{field: value})
+    assert err.value.field == field
+
+
+@pytest.mark.parametrize("dtype", [np.complex128, np.float32, np.int64])
+def test_a_saved_learner_state_of_another_dtype_is_refused(tmp_path, dtype):
+    graph = scenario_graph("hanger")
+    path = tmp_path / "state"
+    Learner(graph, 1, seed=0).save(path)
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    arrays["theta"] = arrays["theta"].astype(dtype)
+    with open(path, "wb") as f:
+        np.savez(f, **arrays)
+    with pytest.raises(LearnerStateError, match=f"theta holds {np.dtype(dtype)} values; a "
+                                                "learner state holds arrays of real numbers"):
+        Learner.load(path, graph)
+
+
+# ----------------------------------------------------------------- SB3 models
+
+
+class _Payload:
+    def __reduce__(self):  # what a pickle payload does: call something on load
+        return (print, ("the payload ran",))
+
+
+@pytest.fixture(scope="module")
+def sb3_zips(tmp_path_factory):
+    """An untrained MaskablePPO's .zip, and a copy whose weights carry a pickle payload."""
+    import io
+    import zipfile
+
+    import torch
+    from sb3_contrib import MaskablePPO
+
+    folder = tmp_path_factory.mktemp("sb3")
+    good, evil = folder / "model.zip", folder / "payload.zip"
+    MaskablePPO("MultiInputPolicy", gym.make("hri_envs/Hanger-v0"), n_steps=64,
+                batch_size=32, device="cpu").save(good)
+    buf = io.BytesIO()
+    torch.save({"x": _Payload()}, buf)
+    with zipfile.ZipFile(good) as src, zipfile.ZipFile(evil, "w") as dst:
+        for name in src.namelist():
+            dst.writestr(name, buf.getvalue() if name == "policy.pth" else src.read(name))
+    return good, evil
+
+
+def test_a_pickle_payload_in_sb3_weights_is_a_clear_error(sb3_zips, capsys):
+    from agents.sb3 import load_model
+
+    good, evil = sb3_zips
+    load_model(good)
+    with pytest.raises(ConfigError, match="hold Python objects other than tensors") as err:
+        load_model(evil)
+    assert err.value.field == "path"
+    assert err.value.__cause__ is None and err.value.__suppress_context__
+    assert "weights_only" not in str(err.value)
+    assert "the payload ran" not in capsys.readouterr().out
+
+
+def test_an_sb3_path_that_is_a_directory_is_a_clear_error(tmp_path):
+    from agents.sb3 import load_model
+
+    with pytest.raises(ConfigError, match=r"cannot read the SB3 model .* \(Is a directory\)"):
+        load_model(tmp_path)
+
