@@ -107,7 +107,8 @@ class StudyDir:
             files are left alone).
 
     Raises:
-        ConfigError: (``field="out"``) ``out`` is not a writable directory, is not empty and
+        ConfigError: (``field="out"``) ``out`` is not a writable directory (also when
+            creating it or its manifest fails, as under ``/proc``), is not empty and
             neither ``resume`` nor ``overwrite`` is given, or holds a different study than
             the one to resume.
     """
@@ -119,7 +120,12 @@ class StudyDir:
         self.units_dir = self.out / UNITS
         if resume and overwrite:
             raise ConfigError("give either resume or overwrite, not both", field="resume")
-        self._check(resume, overwrite)
+        try:
+            self._check(resume, overwrite)
+        except OSError as exc:  # e.g. /proc/x, a read-only file system, a name too long
+            raise ConfigError(f"cannot use {str(self.out)!r} as the study's folder "
+                              f"({exc.strerror or exc}); give a directory you can write to",
+                              field="out") from None
 
     def _check(self, resume: bool, overwrite: bool) -> None:
         out = self.out

@@ -3,6 +3,7 @@ CLI) before anything is simulated, and nothing is silently changed. One test per
 issue lists; tests/test_fuzz_inputs.py throws generated values at the same doors.
 """
 
+import json
 import math
 import re
 
@@ -14,6 +15,7 @@ import hri_envs  # noqa: F401  (registers the ids)
 from agents import Learner, LearnerConfig, LearnerStateError
 from agents.protocol import BatchAgent, Batched
 from agents.rollout import run_episode
+from hri_bench.cli import main
 from hri_bench.study import StudyConfig, run_study
 from hri_envs import hanger_v0, wheel_v0
 from hri_envs.checks import check_flag, check_real, check_whole
@@ -274,3 +276,144 @@ def test_an_sb3_path_that_is_a_directory_is_a_clear_error(tmp_path):
     with pytest.raises(ConfigError, match=r"cannot read the SB3 model .* \(Is a directory\)"):
         load_model(tmp_path)
 
+
+def test_the_cli_refuses_an_sb3_payload_before_simulating(sb3_zips, tmp_path, capsys):
+    _, evil = sb3_zips
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as stop:
+        main(["study", "hanger", "--agents", f"passive,sb3:{evil}", "--runs", "2",
+              "--episodes", "1", "--no-progress", "--out", str(out)])
+    assert stop.value.code == 2 and not out.exists()
+    err = capsys.readouterr().err
+    assert "argument --agents: agent 'sb3:" in err and "Traceback" not in err
+
+
+# ----------------------------------------------------------------- hri-bench
+
+
+def _exit_2(argv, capsys):
+    """Run hri-bench in-process; it must exit 2 with one error line and no traceback."""
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    err = capsys.readouterr().err
+    assert stop.value.code == 2, err
+    assert "Traceback" not in err
+    return err.strip().splitlines()[-1]
+
+
+TINY = ["--runs", "2", "--episodes", "1", "--agents", "passive", "--no-progress"]
+
+
+@pytest.mark.parametrize(("flags", "message"), [
+    (["--learner-learning-rate", "inf"],
+     "argument --learner-learning-rate: learning_rate must be a finite number > 0, got inf"),
+    (["--learner-beta", "nan"], "argument --learner-beta: beta must be in (0, 1], got nan"),
+    (["--seed", "-1"], "argument --seed: expected a whole number >= 0, got -1"),
+    (["--runs", "1000000"], "argument --runs: runs must be a whole number >= 1 and <= 100,000"),
+    (["--runs", "1e15"], "argument --runs: expected a whole number >= 1, got '1e15'"),
+    (["--episodes", "9999", "--runs", "1000"], "argument --runs: runs x episodes must be at "
+                                               "most 1,000,000"),
+    (["--max-steps", "100000"], "argument --max-steps: max_steps must be a whole number >= 1 "
+                                "and <= 10,000"),
+    (["--agents", "passive,passive"], "argument --agents: agents must name each agent once"),
+])
+def test_bad_flags_exit_2_before_simulating(flags, message, tmp_path, capsys):
+    out = tmp_path / "out"
+    line = _exit_2(["study", "hanger", *TINY, "--out", str(out), *flags], capsys)
+    assert message in line
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("command", [["figures", "--out", "x"], ["play", "hanger"],
+                                     ["suite", "--out", "x"]])
+def test_every_seed_flag_refuses_a_negative_seed(command, capsys):
+    assert "argument --seed: expected a whole number >= 0" in _exit_2(
+        [*command, "--seed", "-1"], capsys)
+
+
+def test_an_out_folder_that_cannot_be_created_exits_2(capsys):
+    line = _exit_2(["study", "hanger", *TINY, "--out", "/proc/hri-envs-x"], capsys)
+    assert "argument --out: cannot use '/proc/hri-envs-x' as the study's folder" in line
+
+
+def test_the_suite_names_runs_scale_for_too_many_runs(tmp_path, capsys):
+    line = _exit_2(["suite", "--out", str(tmp_path / "s"), "--runs-scale", "1e9",
+                    "--no-progress"], capsys)
+    assert "argument --runs-scale: runs must be a whole number" in line
+
+
+@pytest.fixture(scope="module")
+def settings(tmp_path_factory):
+    """The settings of a tiny study, as its summary.json records them."""
+    out = tmp_path_factory.mktemp("study") / "out"
+    assert main(["study", "hanger", *TINY, "--out", str(out)]) == 0
+    return json.loads((out / "summary.json").read_text())["settings"]
+
+
+def _config(tmp_path, settings, **changes):
+    path = tmp_path / "summary.json"
+    doc = {**settings, **changes}
+    for key, value in changes.items():
+        if value is _DROP:
+            del doc[key]
+    path.write_text(json.dumps({"settings": doc}))
+    return path
+
+
+_DROP = object()
+
+
+@pytest.mark.parametrize(("changes", "message"), [
+    ({"runs": True}, "runs must be a whole number >= 1 and <= 100,000, got True"),
+    ({"runs": 10.5}, "runs must be a whole number >= 1 and <= 100,000, got 10.5"),
+    ({"runs": math.nan}, "runs must be a whole number >= 1 and <= 100,000, got nan"),
+    ({"runs": 1e15}, "runs must be a whole number >= 1 and <= 100,000, got 1000000000000000.0"),
+    ({"runs": "5"}, "runs must be a whole number >= 1 and <= 100,000, got '5'"),
+    ({"runs": _DROP}, "missing setting(s) runs"),
+    ({"seed": 1.5}, "seed must be a whole number >= 0, got 1.5"),
+    ({"agents": [1, 2]}, "agents must be a non-empty list of agent names"),
+    ({"agents": "learner"}, "agents must be a non-empty list of agent names"),
+    ({"human_drift": True}, "human_drift (None or episodes) must be a whole number >= 1, "
+                            "got True"),
+    ({"human_rationality": True}, "human_rationality must be a number > 0 or inf"),
+    ({"r0": "-0.3"}, "r0 must be None or a number in (-1, 0), got '-0.3'"),
+    ({"human_passive": "0.1"}, "human_passive must be a probability in [0, 1], got '0.1'"),
+    ({"learner": [["learning_rate", 1e999]]}, "learning_rate must be a finite number > 0"),
+    ({"learner": [[1, 2]]}, "learner must be (name, value) pairs"),
+    ({"probes": [{"label": "p"}]}, "probes: Probe.__init__() missing"),
+    ({"probes": [{"label": "p", "kind": "human", "state": 99, "intention": 0, "action": 0}]},
+     "does not fit the hanger"),
+])
+def test_a_hand_edited_config_exits_2_naming_the_setting(changes, message, settings, tmp_path,
+                                                         capsys):
+    path = _config(tmp_path, settings, **changes)
+    line = _exit_2(["study", "--config", str(path), "--out", str(tmp_path / "o")], capsys)
+    assert line.startswith(f"hri-bench study: error: argument --config: {path}: ")
+    assert message in line
+
+
+def test_the_config_replays_when_nothing_is_wrong(settings, tmp_path):
+    path = _config(tmp_path, settings)
+    assert main(["study", "--config", str(path), "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 0
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    (None, "larger than 64 MiB"),  # /dev/zero: read up to the cap, not until memory runs out
+    ('{"settings": ' + "[" * 100_000 + "]" * 100_000 + "}", "its JSON is nested too deeply"),
+    ("[1, 2]", "no 'settings' object"),
+    ('{"settings": [1]}', "no 'settings' object"),
+    ("\x00\x01", "not JSON"),
+])
+def test_a_config_file_that_is_no_summary_exits_2(content, message, tmp_path, capsys):
+    path = "/dev/zero"
+    if content is not None:
+        path = tmp_path / "summary.json"
+        path.write_text(content)
+    line = _exit_2(["study", "--config", str(path), "--out", str(tmp_path / "o")], capsys)
+    assert message in line
+
+
+def test_a_config_that_is_a_folder_exits_2(tmp_path, capsys):
+    line = _exit_2(["study", "--config", str(tmp_path), "--out", str(tmp_path / "o")], capsys)
+    assert "cannot be read (Is a directory)" in line
