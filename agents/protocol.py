@@ -40,7 +40,6 @@ Run it with ``hri-bench study hanger --agents learner,mymodule:Copycat``.
 
 from __future__ import annotations
 
-import operator
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -48,11 +47,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from hri_envs.checks import integer_or_none
 from hri_envs.errors import ActionError, ConfigError
 
 __all__ = ["Agent", "BatchAgent", "Batched", "Trace", "run_streams"]
-
-_INT64_MIN, _INT64_MAX = int(np.iinfo(np.int64).min), int(np.iinfo(np.int64).max)
 
 
 @dataclass(frozen=True)
@@ -228,25 +226,15 @@ class Batched(BatchAgent):
         out = np.zeros(self.n_runs, dtype=np.int64)
         for i in np.flatnonzero(active):
             action = self.agents[i].act({k: v[i] for k, v in observations.items()})
-            out[i] = action if type(action) is int and _INT64_MIN <= action <= _INT64_MAX else (
-                self._integer(action, int(i)))
+            number = integer_or_none(action)
+            if number is None:
+                raise ActionError(
+                    f"act() of agent {self.name!r} returned {action!r} "
+                    f"({type(action).__name__}) for run {self.runs[i]}; an action is an "
+                    "integer of the action space (int or numpy integer; bool, float and str "
+                    "are refused, not rounded)")
+            out[i] = number
         return out
-
-    def _integer(self, action: Any, i: int) -> int:
-        """``action`` as an int if it is an integer of int64's range, else an ActionError."""
-        number: int | None = None
-        if not isinstance(action, bool | np.bool_):
-            try:
-                number = operator.index(action)
-            except TypeError:
-                pass
-        if number is None or not _INT64_MIN <= number <= _INT64_MAX:
-            raise ActionError(
-                f"act() of agent {self.name!r} returned {action!r} ({type(action).__name__}) "
-                f"for run {self.runs[i]}; an action is an integer of the action space (int or "
-                "numpy integer; bool, float and str are refused, not rounded)"
-            )
-        return number
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
                 next_states: np.ndarray, active: np.ndarray) -> None:

@@ -13,13 +13,16 @@ Accepted as numbers: ``int``, ``float`` and numpy's integer and floating scalars
 from __future__ import annotations
 
 import math
+import operator
 from typing import Any
 
 import numpy as np
 
 from hri_envs.errors import ConfigError
 
-__all__ = ["check_flag", "check_real", "check_whole"]
+__all__ = ["check_flag", "check_real", "check_whole", "integer_or_none"]
+
+_INT64_MIN, _INT64_MAX = int(np.iinfo(np.int64).min), int(np.iinfo(np.int64).max)
 
 
 def _describe(value: Any) -> str:
@@ -112,3 +115,20 @@ def check_flag(value: Any, field: str, *, label: str | None = None) -> bool:
         raise ConfigError(f"{label or field} must be True or False, got {_describe(value)}",
                           field=field)
     return bool(value)
+
+
+def integer_or_none(value: Any) -> int | None:
+    """``value`` as an ``int`` if it is an integer that fits int64 (a Python or numpy
+    integer, not ``bool``), else None: an action of 0.5, ``True`` or ``"3"`` is None, never
+    rounded, read as 1 or parsed (the agents' and humans' action checks build on it).
+    """
+    if type(value) is int:
+        number = value
+    elif isinstance(value, bool | np.bool_):
+        return None
+    else:
+        try:
+            number = operator.index(value)
+        except TypeError:
+            return None
+    return number if _INT64_MIN <= number <= _INT64_MAX else None

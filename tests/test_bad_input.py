@@ -19,8 +19,10 @@ from hri_bench.cli import main
 from hri_bench.study import StudyConfig, run_study
 from hri_envs import hanger_v0, wheel_v0
 from hri_envs.checks import check_flag, check_real, check_whole
+from hri_envs.envs.partner import PartnerEnv
 from hri_envs.envs.vector import RobotVectorEnv
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
+from hri_envs.humans.protocol import Human
 from hri_envs.task.scenarios import scenario_graph
 from tests.helpers_agents import AlwaysWait
 
@@ -417,3 +419,50 @@ def test_a_config_file_that_is_no_summary_exits_2(content, message, tmp_path, ca
 def test_a_config_that_is_a_folder_exits_2(tmp_path, capsys):
     line = _exit_2(["study", "--config", str(tmp_path), "--out", str(tmp_path / "o")], capsys)
     assert "cannot be read (Is a directory)" in line
+
+
+# ----------------------------------------------------------------- humans and partners
+
+
+class _HumanReturns(Human):
+    def __init__(self, value):
+        self.value = value
+
+    def begin_episode(self, start, intention):
+        pass
+
+    def act(self, observation):
+        return self.value
+
+    def observe(self, state, robot_action, human_action, next_state):
+        pass
+
+    def end_episode(self):
+        pass
+
+
+@pytest.mark.parametrize("value", [0.5, True, "3"])
+def test_a_human_that_returns_no_integer_is_refused_in_every_seat(value):
+    env = gym.make("hri_envs/Hanger-v0", human=_HumanReturns(value))
+    env.reset(seed=0)
+    with pytest.raises(ActionError, match="act\\(\\) of the human in row 0 returned"):
+        env.step(0)
+    partner = PartnerEnv(hanger_v0.parallel_env(), partner=_HumanReturns(value))
+    partner.reset(seed=0)
+    with pytest.raises(ActionError, match="act\\(\\) of the human in row 0 returned"):
+        partner.step(0)
+
+
+def test_a_partner_policy_that_returns_no_integer_is_refused():
+    partner = PartnerEnv(hanger_v0.parallel_env(), learner="human",
+                         partner=lambda observation, rng: 0.5)
+    partner.reset(seed=0)
+    with pytest.raises(ActionError, match="robot action 0.5 is not an integer"):
+        partner.step(0)
+
+
+@pytest.mark.parametrize("env", [None, 5, "hanger", gym.make("hri_envs/Hanger-v0")])
+def test_partner_env_names_an_env_that_is_not_the_two_agent_env(env):
+    with pytest.raises(ConfigError, match="PartnerEnv wraps a two-agent env") as err:
+        PartnerEnv(env)
+    assert err.value.field == "env"

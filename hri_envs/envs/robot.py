@@ -23,7 +23,7 @@ from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, robot_observation_space
 from hri_envs.envs.window import check_display
 from hri_envs.errors import ResetNeeded
-from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.protocol import BatchHuman, checked_actions
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task.episode import EpisodeRules, reached_intention
 from hri_envs.task.scenarios import scenario_spec
@@ -262,7 +262,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
                 "intention": np.array([ep.intention]),
                 "last_human_action": np.array([ep.last_human]),
                 "action_mask": self.rules.action_mask[s][None], "robot_action": np.array([a_r])}
-        a_h = int(human.act(seen, _ONE)[0])
+        a_h = int(checked_actions(human.act(seen, _ONE), 1, self.rules.n_actions)[0])
         t = ep.advance(a_r, a_h)
         human.observe(seen["state"], seen["robot_action"], np.array([a_h]),
                       np.array([ep.state]), _ONE)

@@ -21,7 +21,7 @@ from hri_envs.envs.config import (
 )
 from hri_envs.envs.spaces import robot_observation_space
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
-from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.protocol import BatchHuman, checked_actions
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task.actions import WAIT
@@ -401,15 +401,11 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         else:
             state = self._state
             playing = self._key != table.over  # not waiting for a next-step autoreset
-            a_h = np.asarray(human.act({
+            a_h = checked_actions(human.act({
                 "state": state, "start": self._start, "intention": self._intention,
                 "last_human_action": self._last_human,
                 "action_mask": self.rules.action_mask.take(state, axis=0), "robot_action": a_r},
-                playing), dtype=np.int64)
-            if (a_h.shape != self._shape
-                    or a_h.view(np.uint64).max(initial=0) >= self._n_actions):
-                raise ActionError(f"the human's act() returned {a_h!r}; it must give one "
-                                  f"action in 0..{self._n_actions - 1} per env")
+                playing), self.num_envs, self._n_actions, "the humans")
             j = a_r * self._n_actions
             j += self._key
             j += a_h
