@@ -72,7 +72,7 @@ def _import(spec: str) -> Any:
     module, _, attr = spec.partition(":")
     try:
         return getattr(importlib.import_module(module), attr)
-    except (ImportError, AttributeError) as exc:
+    except (ImportError, AttributeError, ValueError, TypeError) as exc:
         raise ConfigError(f"cannot import agent {spec!r}: {exc}; give 'module:Class' with an "
                           "importable module", field="agents") from exc
 

@@ -539,6 +539,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hri-bench`` console script."""
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
+    for word in argv:  # Python 3.11's argparse reads "--jobs=--" as an empty list
+        if word.startswith("--") and word.endswith("=--"):
+            parser.error(f"argument {word[:-3]}: expected one argument, got '--'")
     args = parser.parse_args(argv)
     from hri_envs.errors import BackendUnavailableError, MissingExtraError
 

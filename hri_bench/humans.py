@@ -33,7 +33,7 @@ def _load(spec: str) -> type[Human] | type[BatchHuman]:
     module, _, attr = spec.partition(":")
     try:
         cls = getattr(importlib.import_module(module), attr)
-    except (ImportError, AttributeError) as exc:
+    except (ImportError, AttributeError, ValueError, TypeError) as exc:
         raise ConfigError(f"cannot import human {spec!r}: {exc}; give 'module:Class' with an "
                           "importable module", field="population") from exc
     if not (inspect.isclass(cls) and issubclass(cls, Human | BatchHuman)):

@@ -120,7 +120,7 @@ class Probe:
         """
         try:
             if not isinstance(self.label, str) or self.kind not in ("human", "robot"):
-                raise ConfigError("")
+                raise ConfigError("", field="probes")
             for name, n in (("state", graph.n_states), ("intention", graph.n_intentions),
                             ("action", graph.n_actions)):
                 check_whole(getattr(self, name), "probes", minimum=0, maximum=n - 1)
@@ -381,15 +381,13 @@ class StudyConfig:
         kwargs: dict[str, Any] = {}
         for name, value in settings.items():
             if name == "probes":
-                if not isinstance(value, list) or not all(isinstance(p, dict) for p in value):
-                    raise ConfigError(f"probes must be a list of objects, got {value!r}",
+                keys = {f.name for f in dataclasses.fields(Probe)}
+                if not isinstance(value, list) or not all(isinstance(p, dict) and set(p) == keys
+                                                          for p in value):
+                    raise ConfigError(f"probes must be a list of objects with the fields "
+                                      f"{', '.join(sorted(keys))}, got {value!r}",
                                       field="probes")
-                try:
-                    value = tuple(Probe(**p) for p in value)
-                except TypeError as exc:
-                    raise ConfigError(f"probes: {exc}; a probe has the fields "
-                                      f"{', '.join(f.name for f in dataclasses.fields(Probe))}",
-                                      field="probes") from None
+                value = tuple(Probe(**p) for p in value)
             elif name == "learner" and isinstance(value, list):
                 value = tuple(tuple(p) if isinstance(p, list) else p for p in value)
             elif isinstance(value, list):

@@ -85,12 +85,21 @@ def test_human_rationality_must_be_a_number_not_a_bool(beta):
         assert err.value.field == "human_rationality"
 
 
+def test_a_finite_rationality_is_bounded_where_it_would_overflow():
+    RobotVectorEnv(1, "hanger", human_rationality=1e6)
+    with pytest.raises(ConfigError, match="finite values at most 1e"):
+        RobotVectorEnv(1, "hanger", human_rationality=1e300)  # NaN policies, once
+
+
 @pytest.mark.parametrize(("kwargs", "field"), [
     ({"render_intention": "no"}, "render_intention"),
     ({"max_cycles": 10**12}, "max_cycles"),
     ({"max_cycles": 3.0}, "max_cycles"),
     ({"r0": "-0.3"}, "r0"),
     ({"render_mode": ["ansi"]}, "render_mode"),
+    ({"physics": ["preset"]}, "physics"),
+    ({"reward": np.array([1, 2])}, "reward"),
+    ({"backend": None}, "backend"),
 ])
 def test_env_arguments_of_the_wrong_type_name_the_field(kwargs, field):
     with pytest.raises(ConfigError) as err:
@@ -333,6 +342,20 @@ def test_every_seed_flag_refuses_a_negative_seed(command, capsys):
         [*command, "--seed", "-1"], capsys)
 
 
+def test_an_option_written_as_flag_equals_dashes_exits_2(tmp_path, capsys):
+    # Python 3.11's argparse turns "--jobs=--" into an empty list, which used to reach
+    # "'>' not supported between 'list' and 'int'".
+    line = _exit_2(["study", "hanger", *TINY, "--out", str(tmp_path), "--jobs=--"], capsys)
+    assert "argument --jobs: expected one argument" in line
+
+
+@pytest.mark.parametrize("spec", [":", ".:x", "/:x", ".x:Y"])
+def test_a_module_class_that_cannot_be_imported_exits_2(spec, tmp_path, capsys):
+    line = _exit_2(["study", "hanger", *TINY, "--out", str(tmp_path / "o"), "--population",
+                    spec], capsys)
+    assert f"argument --population: cannot import human {spec!r}" in line
+
+
 def test_an_out_folder_that_cannot_be_created_exits_2(capsys):
     line = _exit_2(["study", "hanger", *TINY, "--out", "/proc/hri-envs-x"], capsys)
     assert "argument --out: cannot use '/proc/hri-envs-x' as the study's folder" in line
@@ -382,9 +405,9 @@ _DROP = object()
     ({"human_passive": "0.1"}, "human_passive must be a probability in [0, 1], got '0.1'"),
     ({"learner": [["learning_rate", 1e999]]}, "learning_rate must be a finite number > 0"),
     ({"learner": [[1, 2]]}, "learner must be (name, value) pairs"),
-    ({"probes": [{"label": "p"}]}, "probes: Probe.__init__() missing"),
-    ({"probes": [{"label": "p", "kind": "human", "state": 99, "intention": 0, "action": 0}]},
-     "does not fit the hanger"),
+    ({"probes": [{"label": "p"}]}, "probes must be a list of objects with the fields action, "),
+    ({"probes": [{"label": "p", "kind": "human", "state": 99, "intention": 0, "action": 0,
+                  "relative_to_wait": False}]}, "does not fit the hanger"),
 ])
 def test_a_hand_edited_config_exits_2_naming_the_setting(changes, message, settings, tmp_path,
                                                          capsys):

@@ -230,7 +230,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         return self._action_spaces[self._known(agent)]
 
     def _known(self, agent: str) -> str:
-        if agent not in self._action_spaces:
+        if not isinstance(agent, str) or agent not in self._action_spaces:
             raise ConfigError(f"unknown agent {agent!r}; agents: {', '.join(AGENTS)}",
                               field="agent")
         return agent

@@ -50,6 +50,7 @@ from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
 __all__ = [
     "D_MAX",
+    "MAX_RATIONALITY",
     "POPULATIONS",
     "HumanDraw",
     "PopulationHumans",
@@ -68,16 +69,24 @@ __all__ = [
 
 #: The cost-to-go of a wrong support or a route that does not reach the goal, in steps.
 D_MAX = 100
+#: The largest finite rationality β (:func:`validate_rationality`); ``inf`` is allowed too.
+MAX_RATIONALITY = 1e6
 
 
 def validate_rationality(beta: float, field: str = "human_rationality") -> float:
-    """Check a rationality β: a number > 0, or ``inf`` (the deterministic scripted human).
+    """Check a rationality β: a number in (0, :data:`MAX_RATIONALITY`], or ``inf`` (the
+    deterministic scripted human).
 
     Only numbers are accepted (``int``, ``float``, numpy scalars): ``True`` is not β = 1 and
-    ``"2"`` is not 2; both raise a :class:`ConfigError` naming ``field``.
+    ``"2"`` is not 2; both raise a :class:`ConfigError` naming ``field``. A finite β above the
+    bound would overflow ``β · Q`` to NaN probabilities; it is the deterministic human to
+    double precision long before (``exp(-β)`` underflows at β ≈ 745), so give ``inf``.
     """
-    return check_real(beta, field, low=0.0, low_open=True, allow_inf=True,
-                      allowed="a number > 0 or inf (the deterministic human)")
+    if isinstance(beta, float | np.floating) and beta == math.inf:
+        return math.inf
+    return check_real(beta, field, low=0.0, low_open=True, high=MAX_RATIONALITY,
+                      allowed=f"a number > 0 or inf (the deterministic human); finite values "
+                              f"at most {MAX_RATIONALITY:g}")
 
 
 def _cost_to_go(graph: TaskGraph, table: np.ndarray) -> np.ndarray:
