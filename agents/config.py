@@ -6,36 +6,46 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
+from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.errors import ConfigError
 from hri_envs.task.scenarios import SCENARIOS, scenario_spec
 
-__all__ = ["LearnerConfig", "default_config"]
+__all__ = ["MAX_PRETRAIN_PASSES", "LearnerConfig", "default_config"]
+
+#: The most ME-IRL passes over the initial preference's demonstrations (each pass is one
+#: update per (start, goal) pair, before the first episode).
+MAX_PRETRAIN_PASSES = 1000
 
 
 @dataclass(frozen=True)
 class LearnerConfig:
     """Parameters of Algorithm 1 (paper Sect. 5 values as defaults, see :func:`default_config`).
 
+    Every number must be a finite ``int`` or ``float`` (numpy scalars too; not ``bool``, not a
+    string), in the range given below; a :class:`~hri_envs.errors.ConfigError` naming the
+    field says what is allowed otherwise.
+
     Attributes:
-        learning_rate: λ, the ME-IRL step size.
-        robot_temperature: τ_R of the robot's soft-max.
-        eta: η, the robot's relative probability bound.
-        human_temperature: τ_H of the human policy estimate.
-        beta: Intention bias β of the Bayes filter, in [1/n, 1].
+        learning_rate: λ, the ME-IRL step size, > 0.
+        robot_temperature: τ_R of the robot's soft-max, > 0.
+        eta: η, the robot's relative probability bound, in [0, 1].
+        human_temperature: τ_H of the human policy estimate, > 0.
+        beta: Intention bias β of the Bayes filter, in (0, 1] (meaningful from 1/n).
         gamma: Discount of every Q-iteration (0.9 hanger, 0.6 wheel).
         r0: Robot reward for waiting while the human acts, in (-1, 0).
         irl_temperature: Demonstrator temperature inside the ME-IRL expectation. The paper
             is silent; its published code uses 1 (a near-uniform demonstrator given
-            |θ| ≤ 1), which we keep as the default.
+            |θ| ≤ 1), which we keep as the default; > 0.
         robot_model_temperature: Temperature of the robot policy the human model assumes
-            (T_H); the paper's code uses the robot's own τ_R.
+            (T_H), > 0; the paper's code uses the robot's own τ_R.
         passive_prior: Keep the passive baseline's action in the bounded soft-max (the
             paper's only prior, Sect. 7); False: the bound is ``η · max_a p(a)`` alone (the
             paper's "without it" variant).
         initial_preference: Start from another preference (paper Sect. 7): before the first
             episode the human model makes :attr:`pretrain_passes` ME-IRL passes over the
             named preference's demonstrated routes, one per (start, goal) pair; None: θ⁰.
-        pretrain_passes: Passes over those demonstrations, >= 1.
+        pretrain_passes: Passes over those demonstrations, a whole number in
+            [1, :data:`MAX_PRETRAIN_PASSES`].
     """
 
     learning_rate: float = 0.1
@@ -52,24 +62,25 @@ class LearnerConfig:
     pretrain_passes: int = 3
 
     def __post_init__(self) -> None:
-        checks = [
-            ("learning_rate", self.learning_rate > 0, "> 0"),
-            ("robot_temperature", self.robot_temperature > 0, "> 0"),
-            ("eta", 0.0 <= self.eta <= 1.0, "in [0, 1]"),
-            ("human_temperature", self.human_temperature > 0, "> 0"),
-            ("beta", 0.0 < self.beta <= 1.0, "in (0, 1] (the paper uses 0.95)"),
-            ("gamma", 0.0 <= self.gamma < 1.0, "in [0, 1)"),
-            ("r0", -1.0 < self.r0 < 0.0, "in (-1, 0)"),
-            ("irl_temperature", self.irl_temperature > 0, "> 0"),
-            ("robot_model_temperature", self.robot_model_temperature > 0, "> 0"),
-            ("passive_prior", isinstance(self.passive_prior, bool), "True or False"),
-            ("pretrain_passes", isinstance(self.pretrain_passes, int)
-             and self.pretrain_passes >= 1, "a whole number >= 1"),
-        ]
-        for name, ok, allowed in checks:
-            if not ok:
-                raise ConfigError(f"{name} must be {allowed}, got {getattr(self, name)!r}",
-                                  field=name)
+        positive = {"low": 0.0, "low_open": True}
+        for name, bounds in (
+            ("learning_rate", positive),
+            ("robot_temperature", positive),
+            ("eta", {"low": 0.0, "high": 1.0}),
+            ("human_temperature", positive),
+            ("beta", {"low": 0.0, "high": 1.0, "low_open": True}),
+            ("gamma", {"low": 0.0, "high": 1.0, "high_open": True}),
+            ("r0", {"low": -1.0, "high": 0.0, "low_open": True, "high_open": True}),
+            ("irl_temperature", positive),
+            ("robot_model_temperature", positive),
+        ):
+            check_real(getattr(self, name), name, **bounds)  # type: ignore[arg-type]
+        check_flag(self.passive_prior, "passive_prior")
+        if self.initial_preference is not None and not isinstance(self.initial_preference, str):
+            raise ConfigError(f"initial_preference must be None or a preference's name, got "
+                              f"{self.initial_preference!r}", field="initial_preference")
+        check_whole(self.pretrain_passes, "pretrain_passes", minimum=1,
+                    maximum=MAX_PRETRAIN_PASSES)
 
     def replace(self, **changes: Any) -> LearnerConfig:
         """A copy with some fields changed (validated)."""

@@ -281,7 +281,8 @@ class Learner(BatchAgent):
         Raises:
             LearnerStateError: The file is missing, truncated or damaged (any failure to
                 read it), lacks an entry, is from another scenario or graph, or holds
-                arrays, counts or parameters that no learner has.
+                arrays (of a shape, of values or of a dtype other than float64, such as
+                complex), counts or parameters that no learner has.
         """
         try:
             with np.load(path, allow_pickle=False) as data:
@@ -315,6 +316,9 @@ class Learner(BatchAgent):
         expected = {"theta": (n_b, graph.n_features), "pi_h": shape_r, "q_r": shape_r,
                     "pi_r": shape_r}
         for key, arr in arrays.items():
+            if arr.dtype != np.float64:  # complex, float32, int, str: never a learner's
+                raise LearnerStateError(f"{path}: {key} holds {arr.dtype} values; a learner "
+                                        "state holds arrays of real numbers, float64")
             if arr.shape != expected[key]:
                 raise LearnerStateError(f"{path}: {key} has shape {arr.shape}, expected "
                                         f"{expected[key]}")

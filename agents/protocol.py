@@ -47,7 +47,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from hri_envs.errors import ConfigError
+from hri_envs.checks import integer_or_none
+from hri_envs.errors import ActionError, ConfigError
 
 __all__ = ["Agent", "BatchAgent", "Batched", "Trace", "run_streams"]
 
@@ -169,7 +170,12 @@ class _Single(Agent):
 
     def act(self, observation: Mapping[str, Any]) -> int:
         obs = {k: np.asarray(v)[None] for k, v in observation.items()}
-        return int(self.batch.act(obs, np.ones(1, bool))[0])
+        actions = np.asarray(self.batch.act(obs, np.ones(1, bool)))
+        if actions.shape != (1,) or actions.dtype.kind not in "iu":
+            raise ActionError(f"act() of agent {self.name!r} returned {actions.dtype} of shape "
+                              f"{actions.shape}; a batch of one gives one integer action, "
+                              "shape (1,)")
+        return int(actions[0])
 
     def observe(self, state: int, robot_action: int, human_action: int, next_state: int) -> None:
         one = np.ones(1, bool)
@@ -181,17 +187,26 @@ class _Single(Agent):
 
 
 class Batched(BatchAgent):
-    """Runs a list of single-stream :class:`Agent` objects as one :class:`BatchAgent`."""
+    """Runs a list of single-stream :class:`Agent` objects as one :class:`BatchAgent`.
 
-    def __init__(self, agents: Sequence[Agent]) -> None:
+    Args:
+        agents: One agent per run.
+        runs: The runs' indices, for error messages (default 0 .. n-1).
+    """
+
+    def __init__(self, agents: Sequence[Agent], runs: Sequence[int] | None = None) -> None:
         super().__init__(len(agents))
         self.agents = list(agents)
         self.name = agents[0].name  # type: ignore[misc]
+        self.runs = list(range(len(agents)) if runs is None else (int(r) for r in runs))
+        if len(self.runs) != self.n_runs:
+            raise ConfigError(f"{self.n_runs} agents but {len(self.runs)} run indices",
+                              field="runs")
 
     @classmethod
     def from_factory(cls, factory: Callable[[int], Agent], runs: Sequence[int]) -> Batched:
         """One agent per run, ``factory(run)``."""
-        return cls([factory(int(r)) for r in runs])
+        return cls([factory(int(r)) for r in runs], runs)
 
     def begin_episode(self, starts: np.ndarray) -> None:
         """Start one episode per agent."""
@@ -199,10 +214,26 @@ class Batched(BatchAgent):
             agent.begin_episode(int(start))
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
-        """Ask each active agent for an action."""
+        """Ask each active agent for an action.
+
+        Raises:
+            ActionError: An agent returned something other than an integer (a Python or
+                numpy integer): ``bool``, floats such as 0.5 or 1.0 and strings are refused
+                rather than rounded or parsed. The message names the agent, the run and the
+                value. Whether the integer is in the action space is checked where the
+                action is used (the benchmark's loop, the envs).
+        """
         out = np.zeros(self.n_runs, dtype=np.int64)
         for i in np.flatnonzero(active):
-            out[i] = self.agents[i].act({k: v[i] for k, v in observations.items()})
+            action = self.agents[i].act({k: v[i] for k, v in observations.items()})
+            number = integer_or_none(action)
+            if number is None:
+                raise ActionError(
+                    f"act() of agent {self.name!r} returned {action!r} "
+                    f"({type(action).__name__}) for run {self.runs[i]}; an action is an "
+                    "integer of the action space (int or numpy integer; bool, float and str "
+                    "are refused, not rounded)")
+            out[i] = number
         return out
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,

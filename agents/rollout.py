@@ -18,6 +18,7 @@ import gymnasium as gym
 import numpy as np
 
 from agents.protocol import Agent, Trace
+from hri_envs.envs.spaces import check_action
 
 __all__ = ["EpisodeResult", "run_episode"]
 
@@ -58,6 +59,10 @@ def run_episode(
         seed: Passed to ``env.reset``.
         options: Passed to ``env.reset`` (``start``, ``intention``, ``turn_back``, ...).
         learn: Call ``agent.end_episode`` with the trace and the revealed intention.
+
+    Raises:
+        ActionError: The agent's ``act`` returned something other than an integer in
+            [0, A) (a float or ``bool`` is refused, not rounded).
     """
     base = env.unwrapped
     graph = base.graph  # type: ignore[attr-defined]
@@ -67,7 +72,7 @@ def run_episode(
     total, terminated, truncated = 0.0, False, False
     while not (terminated or truncated):
         state = int(obs["state"])
-        action = int(agent.act(obs))
+        action = check_action("robot", agent.act(obs), graph.n_actions)
         obs, reward, terminated, truncated, _ = env.step(action)
         human = int(obs["last_human_action"])
         agent.observe(state, action, human, int(obs["state"]))

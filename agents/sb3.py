@@ -36,6 +36,7 @@ from __future__ import annotations
 import ast
 import json
 import os
+import pickle
 import zipfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -89,6 +90,9 @@ def _read_data(path: str | os.PathLike[str]) -> dict[str, Any]:
     except FileNotFoundError:
         raise ConfigError(f"SB3 model file not found: {path}; give the .zip written by "
                           "model.save()", field="path") from None
+    except OSError as exc:  # a directory, no permission, ...
+        raise ConfigError(f"cannot read the SB3 model {path} ({exc.strerror or exc}); give "
+                          "the .zip file written by model.save()", field="path") from None
     except (zipfile.BadZipFile, KeyError, json.JSONDecodeError) as exc:
         raise ConfigError(f"{path} is not a stable-baselines3 .zip model ({exc}); give the "
                           ".zip written by model.save()", field="path") from exc
@@ -161,8 +165,10 @@ def load_model(
             space's size (10 actions: hanger, 12: wheel).
 
     Raises:
-        ValueError: Not an SB3 zip, an unknown algorithm or scenario, ``policy_kwargs`` that
-            SB3 pickled, or weights that do not fit the rebuilt network.
+        ConfigError: (a ``ValueError``) Not a readable SB3 zip (a directory, say), an
+            unknown algorithm or scenario, ``policy_kwargs`` that SB3 pickled, weights that
+            hold Python objects besides tensors (never unpickled), or weights that do not fit
+            the rebuilt network.
     """
     from hri_envs.envs.config import scenario_graph
     from hri_envs.envs.robot import RobotEnv
@@ -185,6 +191,13 @@ def load_model(
                 device="cpu", **extra)
     try:
         model.set_parameters(str(path), exact_match=True, device="cpu")
+    except pickle.UnpicklingError:
+        # torch.load(weights_only=True) met a Python object other than tensors. Its own
+        # message suggests weights_only=False, i.e. running the payload: not passed on.
+        raise ConfigError(f"{path}: the saved weights hold Python objects other than tensors "
+                          "(a pickle payload), which are never loaded; give a .zip written "
+                          "by model.save() with plain PyTorch state dicts", field="path"
+                          ) from None
     except (RuntimeError, ValueError, KeyError) as exc:
         raise ConfigError(f"{path}: the saved weights do not fit a {name} for the "
                           f"{graph.name} robot env ({exc}); pass the algo= and graph= it was "

@@ -21,7 +21,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -71,6 +71,7 @@ def _bounded(kind: type, allowed: str, ok: Callable[[Any], bool]) -> Callable[[s
 
 
 _positive = _bounded(int, "a whole number >= 1", lambda v: v >= 1)
+_seed = _bounded(int, "a whole number >= 0", lambda v: v >= 0)
 _probability = _bounded(float, "a probability in [0, 1]", lambda v: 0.0 <= v <= 1.0)
 _r0 = _bounded(float, "a number in (-1, 0)", lambda v: -1.0 < v < 0.0)
 _rationality = _bounded(float, "a number > 0 or inf", lambda v: v > 0)
@@ -156,7 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="probability that the human waits in a step (default 0)")
     study.add_argument("--turn-back", type=_probability, default=0.0,
                        help="probability per episode that the human turns back halfway")
-    study.add_argument("--seed", type=int, default=0, help="base seed (default 0)")
+    study.add_argument("--seed", type=_seed, default=0, help="base seed, >= 0 (default 0)")
     study.add_argument("--jobs", type=_positive, default=1, help="parallel workers (default 1)")
     study.add_argument("--executor", choices=EXECUTORS, default=None,
                        help="serial, process (default when --jobs > 1) or ray")
@@ -207,7 +208,7 @@ def build_parser() -> argparse.ArgumentParser:
     figs.add_argument("--out", required=True, type=Path, help="output directory")
     figs.add_argument("--runs", type=_positive, default=100, help="runs per study (default 100)")
     figs.add_argument("--jobs", type=_positive, default=1, help="worker processes (default 1)")
-    figs.add_argument("--seed", type=int, default=0, help="base seed (default 0)")
+    figs.add_argument("--seed", type=_seed, default=0, help="base seed, >= 0 (default 0)")
     figs.add_argument("--only", default=None,
                       help="comma-separated subset of fig10a,fig10b,fig10c,fig11,fig12,fig8,fig4")
     figs.add_argument("--wheel-episodes", type=_positive, default=20,
@@ -230,7 +231,7 @@ def build_parser() -> argparse.ArgumentParser:
     play = sub.add_parser("play", help="play the human in the terminal against the Learner")
     play.add_argument("scenario", choices=SCENARIOS)
     play.add_argument("--episodes", type=_positive, default=3)
-    play.add_argument("--seed", type=int, default=0)
+    play.add_argument("--seed", type=_seed, default=0)
 
     _suite_parser(sub)
 
@@ -262,7 +263,7 @@ def _suite_parser(sub: Any) -> None:
                        default=1.0, help="multiply every track's runs (default 1)")
     suite.add_argument("--tracks", default=None,
                        help="comma-separated track names (default: all)")
-    suite.add_argument("--seed", type=int, default=0, help="base seed (default 0)")
+    suite.add_argument("--seed", type=_seed, default=0, help="base seed, >= 0 (default 0)")
     suite.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     suite.set_defaults(command_parser=suite)
 
@@ -273,16 +274,16 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     try:
         first = track_config(select_tracks(args.tracks)[0], args.agents, executor=executor)
+        _require_for_study(first, progress=not args.no_progress)  # before simulating
     except ConfigError as exc:
-        _config_error(parser, exc, {"tracks": "--tracks", "agents": "--agents"})
-    _require_for_study(first, progress=not args.no_progress)  # extras, before simulating
+        _config_error(parser, exc, _SUITE_ARGUMENTS)
     t0 = time.perf_counter()
     try:
         doc = run_suite(args.out, agents=args.agents, tracks=args.tracks,
                         runs_scale=args.runs_scale, seed=args.seed, jobs=args.jobs,
                         executor=executor, progress=not args.no_progress)
     except ConfigError as exc:
-        _config_error(parser, exc, {"tracks": "--tracks", "agents": "--agents"})
+        _config_error(parser, exc, _SUITE_ARGUMENTS)
     print(f"suite v{doc['suite_version']}: {len(doc['tracks'])} tracks in "
           f"{time.perf_counter() - t0:.1f} s (--jobs {args.jobs}, {executor})")
     print(f"wrote {args.out / 'suite.json'}, {args.out / 'leaderboard.md'} and one figure "
@@ -293,6 +294,12 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
               f"they did; tracebacks in {args.out / 'errors.log'}", file=sys.stderr)
         return 1
     return 0
+
+
+#: The ``suite`` argument a :class:`ConfigError`'s field comes from (a track's runs are
+#: its own times ``--runs-scale``).
+_SUITE_ARGUMENTS = {"tracks": "--tracks", "agents": "--agents", "runs": "--runs-scale",
+                    "seed": "--seed", "jobs": "--jobs", "out": "--out"}
 
 
 def _config_error(parser: argparse.ArgumentParser, exc: ConfigError,
@@ -347,19 +354,54 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
     if given:
         parser.error(f"argument --config: it replays the recorded settings; drop "
                      f"{', '.join(given)} (or edit the file's 'settings')")
-    try:
-        settings = json.loads(args.config.read_text())["settings"]
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        parser.error(f"argument --config: {args.config} is not a summary.json with 'settings' "
-                     f"({exc!r}); give the summary.json of an hri-bench study")
+    settings = _read_settings(args.config, parser)
     if args.scenario is not None and args.scenario != settings.get("scenario"):
         parser.error(f"argument scenario: {args.config} describes a "
                      f"{settings.get('scenario')!r} study; leave the scenario out")
-    return StudyConfig.from_settings(settings, **execution)
+    try:
+        return StudyConfig.from_settings(settings, **execution)
+    except ConfigError as exc:
+        if exc.field in EXECUTION_FIELDS:  # from the flags, not from the file
+            raise
+        parser.error(f"argument --config: {args.config}: {exc} (in its 'settings')")
+
+
+#: The largest ``--config`` file read (a summary.json of 10,000 episodes has a few MB).
+MAX_CONFIG_BYTES = 64 * 2**20
+
+
+def _read_settings(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
+    """The ``settings`` object of a summary.json given as ``--config``; exit 2 otherwise.
+
+    At most :data:`MAX_CONFIG_BYTES` are read (``/dev/zero`` is refused, not read until
+    memory runs out); JSON nested too deeply for the parser is refused too.
+    """
+    def refuse(why: str) -> NoReturn:
+        parser.error(f"argument --config: {path}: {why}; give the summary.json of an "
+                     "hri-bench study (it has a 'settings' object)")
+
+    try:
+        with open(path, "rb") as f:
+            data = f.read(MAX_CONFIG_BYTES + 1)
+    except OSError as exc:
+        refuse(f"cannot be read ({exc.strerror or exc})")
+    if len(data) > MAX_CONFIG_BYTES:
+        refuse(f"larger than {MAX_CONFIG_BYTES // 2**20} MiB")
+    try:
+        doc = json.loads(data)
+    except RecursionError:
+        refuse("its JSON is nested too deeply")
+    except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError
+        refuse(f"not JSON ({exc})")
+    if not isinstance(doc, dict) or not isinstance(doc.get("settings"), dict):
+        refuse("no 'settings' object")
+    return dict(doc["settings"])
 
 
 def _require_for_study(cfg: Any, *, progress: bool) -> None:
-    """Fail before any simulation if an extra the study will need is missing."""
+    """Fail before any simulation if an extra the study will need is missing, or an
+    ``sb3:`` model cannot be loaded (a :class:`ConfigError` with ``field="agents"``).
+    """
     from hri_bench.agents import SB3_PREFIX
     from hri_envs.envs.backends import check_backend
     from hri_envs.errors import MissingExtraError
@@ -372,6 +414,15 @@ def _require_for_study(cfg: Any, *, progress: bool) -> None:
     if any(a.startswith(SB3_PREFIX) for a in cfg.agents):
         MissingExtraError.require(["stable_baselines3", "sb3_contrib", "torch"],
                                   "an 'sb3:' agent")
+        from agents.sb3 import SB3BatchAgent
+        from hri_bench.study import graph_for
+
+        for name in cfg.agents:  # a model that cannot be loaded is bad input: exit 2
+            if name.startswith(SB3_PREFIX):
+                try:
+                    SB3BatchAgent(name[len(SB3_PREFIX):], 1, graph=graph_for(cfg.scenario))
+                except ConfigError as exc:
+                    raise ConfigError(f"agent {name!r}: {exc}", field="agents") from None
 
 
 def _resume_hint(argv: Sequence[str]) -> str:
@@ -515,6 +566,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hri-bench`` console script."""
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
+    for word in argv:  # Python 3.11's argparse reads "--jobs=--" as an empty list
+        if word.startswith("--") and word.endswith("=--"):
+            parser.error(f"argument {word[:-3]}: expected one argument, got '--'")
     args = parser.parse_args(argv)
     from hri_envs.errors import BackendUnavailableError, MissingExtraError
 

@@ -209,8 +209,12 @@ def run_episodes(
                     "action_mask": graph.valid[s].astype(np.int8)}
                 if privileged:
                     obs["intention"] = eps.intention
-                a_r = np.where(active, _checked("act()", agent.act(obs, active), active,
-                                                graph.n_actions, run_ids, e, t), WAIT)
+                try:
+                    chosen = agent.act(obs, active)
+                except ActionError as exc:  # a Batched agent's: add where it happened
+                    raise ActionError(f"{exc} (episode {e + 1}, step {t + 1})") from None
+                a_r = np.where(active, _checked("act()", chosen, active, graph.n_actions,
+                                                run_ids, e, t), WAIT)
                 seen = {"state": s, "start": eps.start, "intention": eps.intention,
                         "last_human_action": human_last, "action_mask": obs["action_mask"],
                         "robot_action": a_r}

@@ -41,6 +41,7 @@ from hri_bench.humans import custom_human, is_custom, validate_population
 from hri_bench.regret import REFERENCES, blind_values
 from hri_bench.results import StudyResult  # re-exported; shared with the plots
 from hri_bench.runner import make_schedule, simulate
+from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.envs.backends import BACKENDS, batch_backend
 from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ActionError, ConfigError, MissingExtraError
@@ -62,6 +63,11 @@ from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
 __all__ = [
     "EXECUTION_FIELDS",
+    "MAX_EPISODES",
+    "MAX_RUNS",
+    "MAX_RUN_EPISODES",
+    "MAX_RUN_STEPS",
+    "MAX_STEPS",
     "METRICS",
     "Probe",
     "StudyConfig",
@@ -74,6 +80,15 @@ __all__ = [
     "summarize",
     "write_outputs",
 ]
+
+#: The most runs per agent, episodes per run and steps per episode a study takes, and the
+#: most runs x episodes (each agent's result arrays) and runs x steps (the episode buffers):
+#: bounds that keep a study's memory within a few hundred MB (docs/benchmark.md).
+MAX_RUNS = 100_000
+MAX_EPISODES = 10_000
+MAX_STEPS = 10_000
+MAX_RUN_EPISODES = 1_000_000
+MAX_RUN_STEPS = 10_000_000
 
 #: Metrics of every backend; a backend adds its own ``extras`` (the physics: impulses, ...).
 METRICS = ("reward", "correct", "passive", "wrong", "steps", "truncated")
@@ -99,6 +114,24 @@ class Probe:
     intention: int
     action: int
     relative_to_wait: bool = False
+
+    def check(self, graph: TaskGraph) -> None:
+        """Raise a :class:`ConfigError` (``field="probes"``) unless this probe fits ``graph``:
+        ``kind`` "human" or "robot", indices within its states, intentions and actions.
+        """
+        try:
+            if not isinstance(self.label, str) or self.kind not in ("human", "robot"):
+                raise ConfigError("", field="probes")
+            for name, n in (("state", graph.n_states), ("intention", graph.n_intentions),
+                            ("action", graph.n_actions)):
+                check_whole(getattr(self, name), "probes", minimum=0, maximum=n - 1)
+            check_flag(self.relative_to_wait, "probes")
+        except ConfigError:
+            raise ConfigError(
+                f"probe {self!r} does not fit the {graph.name}: a probe has a label (str), "
+                "kind 'human' or 'robot', state, intention and action indices of the task "
+                f"graph (< {graph.n_states}, {graph.n_intentions}, {graph.n_actions}) and "
+                "relative_to_wait (bool)", field="probes") from None
 
 
 @dataclass(frozen=True)
@@ -166,41 +199,69 @@ class StudyConfig:
     physics_preset: str | None = None
 
     def __post_init__(self) -> None:
-        def bad(name: str, allowed: str) -> ConfigError:
-            return ConfigError(f"{name} must be {allowed}, got {getattr(self, name)!r}",
-                               field=name)
+        def choice(name: str, allowed: Sequence[str], *, optional: bool = False) -> None:
+            value = getattr(self, name)
+            if optional and value is None:
+                return
+            if not isinstance(value, str) or value not in allowed:
+                none = "None or " if optional else ""
+                raise ConfigError(f"{name} must be {none}one of {', '.join(allowed)}, got "
+                                  f"{value!r}", field=name)
 
-        if self.scenario not in SCENARIOS:
-            raise bad("scenario", f"one of {', '.join(SCENARIOS)}")
-        if not self.agents:
-            raise bad("agents", "a non-empty list")
+        def text(name: str, what: str) -> None:
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, str):
+                raise ConfigError(f"{name} must be None or {what}, got {value!r}", field=name)
+
+        choice("scenario", tuple(SCENARIOS))
+        if not isinstance(self.agents, tuple | list) or not self.agents or not all(
+                isinstance(a, str) for a in self.agents):
+            raise ConfigError(f"agents must be a non-empty list of agent names (e.g. "
+                              f"['learner', 'passive']), got {self.agents!r}", field="agents")
+        twice = sorted({a for a in self.agents if self.agents.count(a) > 1})
+        if twice:
+            raise ConfigError(f"agents must name each agent once; {', '.join(twice)} is given "
+                              "more than once", field="agents")
         for name in self.agents:
             validate_agent_name(name)
-        if self.runs < 1:
-            raise bad("runs", ">= 1")
-        if self.episodes is not None and self.episodes < 1:
-            raise bad("episodes", ">= 1")
-        fixed = scenario_spec(self.scenario).schedules
-        if self.schedule != "random" and self.schedule not in fixed:
-            raise ConfigError(f"schedule {self.schedule!r} is not one of the {self.scenario}'s; "
-                              f"allowed: {', '.join(['random', *fixed])}", field="schedule")
+        runs = check_whole(self.runs, "runs", minimum=1, maximum=MAX_RUNS)
+        if self.episodes is not None:
+            check_whole(self.episodes, "episodes", minimum=1, maximum=MAX_EPISODES,
+                        label="episodes (None or a number)")
+        choice("schedule", ("random", *scenario_spec(self.scenario).schedules))
         prefs = preferences_for(self.scenario)
-        if self.preference is not None and self.preference not in (*prefs, "all"):
-            raise bad("preference", f"'all' or one of {', '.join(prefs)}")
-        if self.r0 is not None and not -1.0 < self.r0 < 0.0:
-            raise bad("r0", "in (-1, 0)")
+        if self.preference is not None and (not isinstance(self.preference, str)
+                                            or self.preference not in (*prefs, "all")):
+            raise ConfigError(f"preference must be 'all' or one of {', '.join(prefs)}, got "
+                              f"{self.preference!r}", field="preference")
+        if self.r0 is not None:
+            check_real(self.r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True,
+                       allowed="None or a number in (-1, 0)")
         for name in ("human_passive", "turn_back"):
-            if not 0.0 <= getattr(self, name) <= 1.0:
-                raise bad(name, "a probability in [0, 1]")
-        if self.jobs < 1:
-            raise bad("jobs", ">= 1")
-        if self.executor not in EXECUTORS:
-            raise bad("executor", f"one of {', '.join(EXECUTORS)}")
-        if self.backend not in BACKENDS:
-            raise bad("backend", f"one of {', '.join(BACKENDS)}")
-        if self.max_steps < 1:
-            raise bad("max_steps", ">= 1")
+            check_real(getattr(self, name), name, low=0.0, high=1.0,
+                       allowed="a probability in [0, 1]")
+        check_whole(self.seed, "seed", minimum=0)
+        check_whole(self.jobs, "jobs", minimum=1)
+        choice("executor", EXECUTORS)
+        text("ray_address", "a Ray cluster's address")
+        choice("backend", tuple(BACKENDS))
+        max_steps = check_whole(self.max_steps, "max_steps", minimum=1, maximum=MAX_STEPS)
+        n_episodes = self.n_episodes
+        if runs * n_episodes > MAX_RUN_EPISODES:
+            raise ConfigError(f"runs x episodes must be at most {MAX_RUN_EPISODES:,} (the "
+                              f"study's result arrays), got {runs:,} x {n_episodes:,}",
+                              field="runs")
+        if runs * max_steps > MAX_RUN_STEPS:
+            raise ConfigError(f"runs x max_steps must be at most {MAX_RUN_STEPS:,} (the "
+                              f"episode buffers), got {runs:,} x {max_steps:,}", field="runs")
+        if not isinstance(self.probes, tuple) or not all(isinstance(p, Probe)
+                                                         for p in self.probes):
+            raise ConfigError(f"probes must be a tuple of Probe, got {self.probes!r}",
+                              field="probes")
+        for probe in self.probes:
+            probe.check(graph_for(self.scenario))
         validate_rationality(self.human_rationality)
+        text("population", "a population's name or 'module:Class'")
         if self.population is not None:
             validate_population(self.population, self.scenario)
             if self.preference is not None:
@@ -221,12 +282,17 @@ class StudyConfig:
                               "shared by every run; leave them out of studies whose runs have "
                               "humans of their own (--population, --human-drift): regret is "
                               "still reported where the exact blind plan fits", field="agents")
+        if not isinstance(self.learner, tuple) or not all(
+                isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
+                for pair in self.learner):
+            raise ConfigError(f"learner must be (name, value) pairs of LearnerConfig fields, "
+                              f"e.g. (('beta', 0.9),), got {self.learner!r}", field="learner")
         if self.learner:
             from agents.config import default_config
 
             default_config(self.scenario, **dict(self.learner))
-        if self.reward not in REWARDS:
-            raise bad("reward", f"one of {', '.join(REWARDS)}")
+        choice("reward", REWARDS)
+        text("physics_preset", "a preset's name")
         if self.physics_preset is not None:
             try:
                 check_physics_options(self.physics, self.backend)
@@ -290,30 +356,47 @@ class StudyConfig:
         """The configuration :meth:`settings` describes (lists become tuples).
 
         Args:
-            settings: As written by :meth:`settings`; missing fields take their defaults.
+            settings: As written by :meth:`settings`: every field but
+                :data:`EXECUTION_FIELDS`, with JSON's types (lists for tuples, "inf" for
+                infinity). A missing field is an error rather than a default, so that a
+                hand-edited file never runs another study than it reads as.
             execution: Values of :data:`EXECUTION_FIELDS` (``jobs``, ``executor``, ...).
 
         Raises:
-            ConfigError: An unknown or invalid setting (its ``field`` names it).
+            ConfigError: A missing, unknown or invalid setting (its ``field`` names it).
         """
         names = {f.name for f in dataclasses.fields(cls)} - set(EXECUTION_FIELDS)
-        unknown = sorted(set(settings) - names)
+        if not isinstance(settings, Mapping):
+            raise ConfigError(f"settings must be a JSON object with the fields "
+                              f"{', '.join(sorted(names))}, got {type(settings).__name__}",
+                              field="settings")
+        unknown = sorted(map(str, set(settings) - names))
         if unknown:
             raise ConfigError(f"unknown setting(s) {', '.join(unknown)}; a study's settings "
                               f"are {', '.join(sorted(names))}", field=unknown[0])
+        missing = sorted(names - set(settings))
+        if missing:
+            raise ConfigError(f"missing setting(s) {', '.join(missing)}; a study's settings "
+                              f"name every one of {', '.join(sorted(names))}",
+                              field=missing[0])
         kwargs: dict[str, Any] = {}
         for name, value in settings.items():
             if name == "probes":
+                keys = {f.name for f in dataclasses.fields(Probe)}
+                if not isinstance(value, list) or not all(isinstance(p, dict) and set(p) == keys
+                                                          for p in value):
+                    raise ConfigError(f"probes must be a list of objects with the fields "
+                                      f"{', '.join(sorted(keys))}, got {value!r}",
+                                      field="probes")
                 value = tuple(Probe(**p) for p in value)
+            elif name == "learner" and isinstance(value, list):
+                value = tuple(tuple(p) if isinstance(p, list) else p for p in value)
             elif isinstance(value, list):
                 value = tuple(value)
-            elif value in ("inf", "-inf"):  # written so by settings(): JSON has no infinity
-                value = float(value)
+            elif isinstance(value, str) and value in ("inf", "-inf"):
+                value = float(value)  # written so by settings(): JSON has no infinity
             kwargs[name] = value
-        try:
-            return cls(**kwargs, **execution)
-        except TypeError as exc:
-            raise ConfigError(f"invalid study settings: {exc}") from exc
+        return cls(**kwargs, **execution)
 
 
 #: Fields of :class:`StudyConfig` that never change a study's numbers.

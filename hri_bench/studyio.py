@@ -139,8 +139,9 @@ class StudyDir:
     ``.plots-*`` folders) is removed once the lock is held.
 
     Raises:
-        ConfigError: (``field="out"``) ``out`` is not a writable directory, another study
-            is working in it, it is not empty and neither ``resume`` nor ``overwrite`` is
+        ConfigError: (``field="out"``) ``out`` is not a writable directory (also when
+            creating it or its manifest fails, as under ``/proc``), another study is
+            working in it, it is not empty and neither ``resume`` nor ``overwrite`` is
             given, or it holds a different study than the one to resume.
     """
 
@@ -155,9 +156,14 @@ class StudyDir:
         if resume and overwrite:
             raise ConfigError("give either resume or overwrite, not both", field="resume")
         self._check_writable()
-        self._acquire_lock()
         try:
+            self._acquire_lock()
             self._check(resume, overwrite)
+        except OSError as exc:  # e.g. /proc/x, a read-only file system, a name too long
+            self.close()
+            raise ConfigError(f"cannot use {str(self.out)!r} as the study's folder "
+                              f"({exc.strerror or exc}); give a directory you can write to",
+                              field="out") from None
         except BaseException:
             self.close()
             raise

@@ -62,3 +62,23 @@ class DividesByZero(AlwaysWait):
 
 
 NotAnAgent = dict
+
+
+class ReturnsHalf(AlwaysWait):
+    """Returns 0.5: once silently played as 0 (the int64 array truncated it)."""
+
+    name = "returns-half"
+    value: object = 0.5
+
+    def act(self, observation):
+        return self.value
+
+
+class ReturnsTrue(ReturnsHalf):
+    name = "returns-true"
+    value = True
+
+
+class ReturnsText(ReturnsHalf):
+    name = "returns-text"
+    value = "3"

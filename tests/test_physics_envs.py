@@ -1,5 +1,7 @@
 """The physics backend behind the PettingZoo and Gymnasium interfaces and the runner."""
 
+import re
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -93,15 +95,35 @@ def test_a_fault_truncates_the_episode_with_its_reason(tmp_path, monkeypatch):
     assert truncated and not terminated and info["truncation_reason"].startswith("unstable")
 
 
-def test_episode_video(tmp_path):
-    path = tmp_path / "ep{episode}.gif"
+@pytest.mark.parametrize("suffix", [".gif", ".mp4"])  # .mp4: imageio-ffmpeg, in the extra
+def test_episode_video(tmp_path, suffix):
+    path = tmp_path / f"ep{{episode}}{suffix}"
     env = hanger_v0.parallel_env(backend="mujoco", physics={"video_path": str(path),
                                                              "video_fps": 4})
     env.reset(seed=0, options={"start": "B", "intention": "A"})
     env.step({"human": TOGGLE, "robot": TOGGLE})
     env.close()
-    out = tmp_path / "ep1.gif"
+    out = tmp_path / f"ep1{suffix}"
     assert out.is_file() and out.stat().st_size > 1000
+
+
+@pytest.mark.parametrize(
+    ("video_path", "message"),
+    [
+        (5, "must be a file name"),
+        ("/proc/hri-envs/ep.gif", "cannot write in '/proc/hri-envs'"),
+        ("ep{episode}.txt", "must end in one of .gif, .mp4"),
+        ("ep{0}.gif", "may hold one field, {episode}"),
+    ],
+)
+def test_a_video_that_cannot_be_written_fails_when_the_env_is_built(tmp_path, monkeypatch,
+                                                                     video_path, message):
+    from hri_envs.errors import ConfigError
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ConfigError, match=re.escape(message)) as caught:
+        hanger_v0.parallel_env(backend="mujoco", physics={"video_path": video_path})
+    assert caught.value.field == "physics"
 
 
 def test_simulate_on_the_physics_backend():

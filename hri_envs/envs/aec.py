@@ -12,13 +12,39 @@ from pettingzoo.utils.env import AECEnv
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from hri_envs.envs.parallel import CooperationParallelEnv
+from hri_envs.errors import ActionError, ResetNeeded
 
-__all__ = ["entry_points", "make_aec_env", "make_raw_aec_env"]
+__all__ = ["CooperationAECEnv", "entry_points", "make_aec_env", "make_raw_aec_env"]
+
+
+class CooperationAECEnv(parallel_to_aec_wrapper):
+    """PettingZoo's AEC view of :class:`~hri_envs.envs.parallel.CooperationParallelEnv`
+    (``parallel_to_aec_wrapper``), with the library's errors for a step out of turn.
+
+    Raises (from :meth:`step`):
+        ResetNeeded: ``step()`` before ``reset()`` or after the episode ended (no agent
+            left), where PettingZoo's converter raises ``AttributeError`` or
+            ``KeyError: 'robot'``.
+        ActionError: An action other than None for an agent whose episode has ended
+            (PettingZoo's "dead step" takes None), where the converter asserts.
+    """
+
+    def step(self, action: Any) -> None:
+        """Collect ``action`` for :attr:`agent_selection`; the last agent's steps the env."""
+        if not getattr(self, "agents", None) or not hasattr(self, "terminations"):
+            raise ResetNeeded()
+        agent = self.agent_selection
+        if (self.terminations[agent] or self.truncations[agent]) and action is not None:
+            raise ActionError(f"the episode of {agent!r} has ended: step it with None "
+                              f"(PettingZoo's dead step), got {action!r}")
+        super().step(action)
 
 
 def make_raw_aec_env(scenario: str, **kwargs: Any) -> AECEnv:
-    """The AEC env without wrappers: the human acts first, then the robot, then the step."""
-    return parallel_to_aec_wrapper(CooperationParallelEnv(scenario, **kwargs))
+    """The AEC env without wrappers: the human acts first, then the robot, then the step
+    (:class:`CooperationAECEnv`).
+    """
+    return CooperationAECEnv(CooperationParallelEnv(scenario, **kwargs))
 
 
 def make_aec_env(scenario: str, **kwargs: Any) -> AECEnv:

@@ -91,7 +91,8 @@ def backend_spec(name: str) -> BackendSpec:
     """The registered backend ``name``; a clear error for an unknown or unavailable one."""
     spec = BACKENDS.get(name) if isinstance(name, str) else None
     if spec is None:
-        raise ConfigError(f"unknown backend {name!r}; allowed: {', '.join(BACKENDS)}")
+        raise ConfigError(f"unknown backend {name!r}; allowed: {', '.join(BACKENDS)}",
+                          field="backend")
     missing = [m for m in spec.requires if importlib.util.find_spec(m) is None]
     if missing:
         raise BackendUnavailableError(

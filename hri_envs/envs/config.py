@@ -6,12 +6,12 @@ message that lists what is allowed.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any, NamedTuple
 
 import numpy as np
 
+from hri_envs.checks import check_real, check_whole
 from hri_envs.envs.backends import BACKENDS, check_backend, options_checker
 from hri_envs.errors import ConfigError
 from hri_envs.task.geometry import Scenario
@@ -19,12 +19,14 @@ from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_s
 
 __all__ = [
     "BACKENDS",
+    "MAX_CYCLES",
     "RESET_OPTION_KEYS",
     "EnvSettings",
     "ResetOptions",
     "check_backend",
     "check_env_settings",
     "check_max_cycles",
+    "check_options_mapping",
     "check_physics_options",
     "check_r0",
     "check_render_mode",
@@ -34,6 +36,9 @@ __all__ = [
     "scenario_graph",
     "support_index",
 ]
+
+#: The largest step limit per episode (``max_cycles``) an env takes.
+MAX_CYCLES = 1_000_000_000
 
 #: Keys ``reset(options=...)`` understands ("layout" only for the wheel).
 RESET_OPTION_KEYS: tuple[str, ...] = ("start", "intention", "turn_back", "layout")
@@ -51,32 +56,24 @@ def check_r0(r0: float | None, scenario: str) -> float:
     paper = scenario_spec(scenario).r0
     if r0 is None:
         return paper
-    try:
-        value = float(r0)
-    except (TypeError, ValueError):
-        value = math.nan
-    if not -1.0 < value < 0.0:
-        raise ConfigError(
-            f"r0 must be a number in the open interval (-1, 0), got {r0!r} "
-            f"(the paper uses {paper} for the {scenario})"
-        )
-    return value
+    return check_real(r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True,
+                      allowed=f"a number in the open interval (-1, 0) (the paper uses {paper} "
+                              f"for the {scenario})")
 
 
 def check_max_cycles(max_cycles: int) -> int:
-    """Validate the step limit per episode (a positive integer)."""
-    if isinstance(max_cycles, bool) or not isinstance(max_cycles, int | np.integer):
-        raise ConfigError(f"max_cycles must be a positive integer, got {max_cycles!r}")
-    if max_cycles < 1:
-        raise ConfigError(f"max_cycles must be a positive integer, got {max_cycles}")
-    return int(max_cycles)
+    """Validate the step limit per episode: a whole number in [1, :data:`MAX_CYCLES`]."""
+    return check_whole(max_cycles, "max_cycles", minimum=1, maximum=MAX_CYCLES,
+                       allowed=f"a positive integer, at most {MAX_CYCLES:,}")
 
 
 def check_render_mode(render_mode: str | None, allowed: list[str]) -> str | None:
     """Validate ``render_mode`` against an env's ``metadata["render_modes"]``."""
-    if render_mode is not None and render_mode not in allowed:
+    if render_mode is not None and (not isinstance(render_mode, str)
+                                    or render_mode not in allowed):
         modes = ", ".join([repr(m) for m in allowed] + ["None"])
-        raise ConfigError(f"unsupported render_mode {render_mode!r}; allowed: {modes}")
+        raise ConfigError(f"unsupported render_mode {render_mode!r}; allowed: {modes}",
+                          field="render_mode")
     return render_mode
 
 
@@ -134,7 +131,8 @@ def support_index(value: Any, scenario: Scenario, key: str) -> int:
         if 0 <= value < len(names):
             return int(value)
     allowed = ", ".join(f"{i} or {n!r}" for i, n in enumerate(names))
-    raise ConfigError(f"reset option {key!r} must name a support ({allowed}), got {value!r}")
+    raise ConfigError(f"reset option {key!r} must name a support ({allowed}), got {value!r}",
+                      field=key)
 
 
 class ResetOptions(NamedTuple):
@@ -152,11 +150,11 @@ _NO_OPTIONS = ResetOptions()  # immutable, so one serves every reset without opt
 def _check_option_keys(options: Mapping[str, Any], scenario: Scenario) -> None:
     has_layout = scenario_spec(scenario.name).layout is not None
     allowed = RESET_OPTION_KEYS if has_layout else RESET_OPTION_KEYS[:3]
-    unknown = sorted(set(options) - set(allowed) - _IGNORED_OPTION_KEYS)
+    unknown = sorted(map(repr, set(options) - set(allowed) - _IGNORED_OPTION_KEYS))
     if unknown:
         raise ConfigError(
-            f"unknown reset option(s) {', '.join(map(repr, unknown))} for the {scenario.name}; "
-            f"allowed: {', '.join(allowed)}"
+            f"unknown reset option(s) {', '.join(unknown)} for the {scenario.name}; "
+            f"allowed: {', '.join(allowed)}", field="options"
         )
 
 
@@ -167,9 +165,18 @@ def _check_layout(value: Any) -> tuple[tuple[float, float], tuple[float, float]]
         xy = np.zeros(0)
     if xy.shape != (2, 2) or not np.all(np.isfinite(xy)):
         raise ConfigError(
-            f"reset option 'layout' must be ((xB, yB), (xC, yC)) in [m], got {value!r}"
+            f"reset option 'layout' must be ((xB, yB), (xC, yC)) in [m], got {value!r}",
+            field="layout"
         )
     return (float(xy[0, 0]), float(xy[0, 1])), (float(xy[1, 0]), float(xy[1, 1]))
+
+
+def check_options_mapping(options: Any) -> Mapping[str, Any]:
+    """``reset(options=...)`` must be None or a mapping of option names to values."""
+    if not isinstance(options, Mapping):
+        raise ConfigError(f"reset options must be None or a dict of option names to values "
+                          f"(e.g. {{'start': 'A'}}), got {options!r}", field="options")
+    return options
 
 
 def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -> ResetOptions:
@@ -179,6 +186,9 @@ def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -
     ``turn_back`` (bool) and, for the wheel, ``layout`` (stand positions, see
     :func:`~hri_envs.task.geometry.sample_wheel_layout`).
     """
+    if options is None:
+        return _NO_OPTIONS
+    check_options_mapping(options)
     if not options:
         return _NO_OPTIONS
     _check_option_keys(options, scenario)
@@ -190,12 +200,13 @@ def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -
     if start is not None and start == intention:
         raise ConfigError(
             f"the intention must differ from the start support, both are "
-            f"{scenario.support_names[start]!r}"
+            f"{scenario.support_names[start]!r}", field="intention"
         )
     if options.get("turn_back") is not None:
         value = options["turn_back"]
         if not isinstance(value, bool | np.bool_):
-            raise ConfigError(f"reset option 'turn_back' must be a bool, got {value!r}")
+            raise ConfigError(f"reset option 'turn_back' must be a bool, got {value!r}",
+                              field="turn_back")
         turn_back = bool(value)
     if options.get("layout") is not None:
         layout = _check_layout(options["layout"])

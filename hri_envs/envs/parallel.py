@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -9,6 +10,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo.utils.env import ParallelEnv
 
+from hri_envs.checks import check_flag
 from hri_envs.envs.backends import episode_backend
 from hri_envs.envs.config import (
     check_env_settings,
@@ -180,7 +182,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
                                             self.metadata["render_modes"], backend)
         physics = check_physics_options(physics, self.backend)
-        self.render_intention = bool(render_intention)
+        self.render_intention = check_flag(render_intention, "render_intention")
         self.observation_format = check_observation_format(observation_format)
         self.human_reward = check_human_reward(human_reward)
         self._goal_reward = self.human_reward == "goal"
@@ -228,7 +230,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         return self._action_spaces[self._known(agent)]
 
     def _known(self, agent: str) -> str:
-        if agent not in self._action_spaces:
+        if not isinstance(agent, str) or agent not in self._action_spaces:
             raise ConfigError(f"unknown agent {agent!r}; agents: {', '.join(AGENTS)}",
                               field="agent")
         return agent
@@ -280,10 +282,19 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         dict[str, bool],
         dict[str, dict[str, Any]],
     ]:
-        """Apply both agents' actions ``{"human": a_H, "robot": a_R}`` at once."""
+        """Apply both agents' actions ``{"human": a_H, "robot": a_R}`` at once.
+
+        Raises:
+            ActionError: ``actions`` is not a mapping with exactly the agents "human" and
+                "robot", or an action is not an integer in the action space.
+            ResetNeeded: Before :meth:`reset`, or after the episode ended.
+        """
         if not self.agents:
             raise ResetNeeded()
         n_a = self._n_actions
+        if type(actions) is not dict and not isinstance(actions, Mapping):
+            raise ActionError(f"step() takes a dict of one action per agent, e.g. "
+                              f"{{'human': 0, 'robot': 0}}; got {actions!r}")
         if len(actions) != 2:  # the cheap test on the hot path; names are checked below
             unknown = sorted(map(str, set(actions) - set(self.agents)))
             if unknown:

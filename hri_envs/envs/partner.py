@@ -30,7 +30,7 @@ from hri_envs.envs.formats import ClassicLayout
 from hri_envs.envs.parallel import AGENTS, CooperationParallelEnv
 from hri_envs.envs.spaces import check_action
 from hri_envs.errors import ConfigError, ResetNeeded
-from hri_envs.humans.protocol import BatchHuman, Human
+from hri_envs.humans.protocol import BatchHuman, Human, checked_actions
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task.actions import HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT
@@ -97,16 +97,26 @@ class PartnerEnv(gym.Env[Any, np.int64]):
     The observation and action spaces are the learner's in ``env``; ``step`` returns the
     learner's observation, reward, termination, truncation and info. The partner draws from
     this env's ``np_random`` (seeded by ``reset(seed=...)``), so seeded episodes repeat.
+
+    Raises:
+        ConfigError: (naming ``env``, ``learner`` or ``partner``) An env that is not this
+            library's two-agent env, an unknown learner, or a partner of another kind.
+        ActionError: (from :meth:`step`) The learner's action, or the partner's (a policy
+            returning 0.5 or ``True``, say), is not an integer of the action space.
     """
 
     def __init__(self, env: CooperationParallelEnv, learner: str = "robot",
                  partner: HumanLike | Policy | None = None) -> None:
-        if learner not in AGENTS:
+        if not isinstance(learner, str) or learner not in AGENTS:
             raise ConfigError(f"unknown learner {learner!r}; allowed: "
                               f"{', '.join(map(repr, AGENTS))}", field="learner")
-        if list(env.possible_agents) != list(AGENTS):
-            raise ConfigError(f"PartnerEnv wraps a two-agent env with agents {list(AGENTS)}, "
-                              f"got {env.possible_agents}", field="env")
+        agents = getattr(env, "possible_agents", None)
+        if (not isinstance(agents, list | tuple) or list(agents) != list(AGENTS)
+                or not isinstance(getattr(getattr(env, "unwrapped", None), "graph", None),
+                                  TaskGraph)):
+            raise ConfigError(f"PartnerEnv wraps a two-agent env of this library with agents "
+                              f"{list(AGENTS)} (e.g. hanger_v0.parallel_env()), got {env!r}",
+                              field="env")
         self.env, self.learner = env, learner
         self.partner_agent = "human" if learner == "robot" else "robot"
         self.graph = graph = env.unwrapped.graph
@@ -151,7 +161,9 @@ class PartnerEnv(gym.Env[Any, np.int64]):
     def _partner_action(self, action: Any) -> int:
         """The partner's action in this step (``action``: the learner's)."""
         if self._policy is not None:
-            return int(self._policy(self._obs[self.partner_agent], self._partner_rng))
+            return check_action(self.partner_agent,
+                                self._policy(self._obs[self.partner_agent], self._partner_rng),
+                                int(self.env.action_space(self.partner_agent).n))
         assert self._human is not None
         state, start, intention, last_human = (int(v) for v in self.env.state()[:4])
         self._seen = {"state": np.array([state]), "start": np.array([start]),
@@ -159,7 +171,8 @@ class PartnerEnv(gym.Env[Any, np.int64]):
                       "last_human_action": np.array([last_human]),
                       "action_mask": self.graph.valid[state].astype(np.int8)[None],
                       "robot_action": np.array([int(action)])}
-        return int(self._human.act(self._seen, _ONE)[0])
+        return int(checked_actions(self._human.act(self._seen, _ONE), 1,
+                                   self.graph.n_actions)[0])
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

@@ -9,6 +9,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from hri_envs.checks import check_flag
 from hri_envs.envs.backends import episode_backend
 from hri_envs.envs.config import (
     check_env_settings,
@@ -22,7 +23,7 @@ from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, robot_observation_space
 from hri_envs.envs.window import check_display
 from hri_envs.errors import ResetNeeded
-from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.protocol import BatchHuman, checked_actions
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task.episode import EpisodeRules, reached_intention
 from hri_envs.task.scenarios import scenario_spec
@@ -171,7 +172,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
                                             self.metadata["render_modes"], backend)
         physics = check_physics_options(physics, self.backend)
-        self.render_intention = bool(render_intention)
+        self.render_intention = check_flag(render_intention, "render_intention")
         self.observation_format = check_observation_format(observation_format)
         self._human_window = self.render_mode == "human"
         if self._human_window:
@@ -261,7 +262,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
                 "intention": np.array([ep.intention]),
                 "last_human_action": np.array([ep.last_human]),
                 "action_mask": self.rules.action_mask[s][None], "robot_action": np.array([a_r])}
-        a_h = int(human.act(seen, _ONE)[0])
+        a_h = int(checked_actions(human.act(seen, _ONE), 1, self.rules.n_actions)[0])
         t = ep.advance(a_r, a_h)
         human.observe(seen["state"], seen["robot_action"], np.array([a_h]),
                       np.array([ep.state]), _ONE)

@@ -10,16 +10,18 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from hri_envs.checks import check_whole
 from hri_envs.envs.backends import backend_spec
 from hri_envs.envs.config import (
     RESET_OPTION_KEYS,
     check_env_settings,
+    check_options_mapping,
     scenario_graph,
     support_index,
 )
 from hri_envs.envs.spaces import robot_observation_space
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
-from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.protocol import BatchHuman, checked_actions
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task.actions import WAIT
@@ -34,6 +36,8 @@ from hri_envs.task.greedy_table import GreedyStepTable
 __all__ = ["RobotVectorEnv"]
 
 _VECTOR_OPTION_KEYS = RESET_OPTION_KEYS[:3]
+#: The most envs one vector env holds (its arrays are (num_envs,) and (num_envs, A)).
+MAX_NUM_ENVS = 1_000_000
 _INT64 = np.dtype(np.int64)
 
 
@@ -139,17 +143,16 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         except ValueError:
             raise ConfigError(
                 f"autoreset_mode must be {AutoresetMode.NEXT_STEP.value!r} or "
-                f"{AutoresetMode.SAME_STEP.value!r}, got {autoreset_mode!r}"
+                f"{AutoresetMode.SAME_STEP.value!r}, got {autoreset_mode!r}",
+                field="autoreset_mode"
             ) from None
         if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
             raise ConfigError(f"autoreset_mode {mode.value!r} is not supported; use "
                               f"{AutoresetMode.NEXT_STEP.value!r} or "
-                              f"{AutoresetMode.SAME_STEP.value!r}")
+                              f"{AutoresetMode.SAME_STEP.value!r}", field="autoreset_mode")
         self.metadata = {**type(self).metadata, "autoreset_mode": mode}
         self._same_step = mode == AutoresetMode.SAME_STEP
-        if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
-            raise ConfigError(f"num_envs must be a positive integer, got {num_envs!r}")
-        self.num_envs = int(num_envs)
+        self.num_envs = check_whole(num_envs, "num_envs", minimum=1, maximum=MAX_NUM_ENVS)
         self._shape = (self.num_envs,)
         (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
@@ -158,7 +161,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         if not backend_spec(self.backend).vectorizable:
             raise ConfigError(
                 f"the numpy vector env runs on the graph only, not backend={self.backend!r}; "
-                "use gymnasium.make_vec(..., vectorization_mode='async') for a simulated backend"
+                "use gymnasium.make_vec(..., vectorization_mode='async') for a simulated backend",
+                field="backend"
             )
         self.graph = scenario_graph(scenario)
         self._human = seat_human(self.graph, human=human, preference=preference,
@@ -314,15 +318,17 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Start N new episodes; see the class docstring for ``options``."""
-        options = dict(options or {})
-        unknown = sorted(set(options) - set(_VECTOR_OPTION_KEYS))
+        options = dict(check_options_mapping({} if options is None else options))
+        unknown = sorted(map(repr, set(options) - set(_VECTOR_OPTION_KEYS)))
         if unknown:
             raise ConfigError(
-                f"unknown reset option(s) {', '.join(map(repr, unknown))} for the vector env; "
-                f"allowed: {', '.join(_VECTOR_OPTION_KEYS)}"
+                f"unknown reset option(s) {', '.join(unknown)} for the vector env; "
+                f"allowed: {', '.join(_VECTOR_OPTION_KEYS)}", field="options"
             )
-        if seed is not None and not isinstance(seed, int | np.integer):
-            raise ConfigError(f"seed must be an int or None for this batched env, got {seed!r}")
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
+                                 or seed < 0):
+            raise ConfigError(f"seed must be a whole number >= 0 or None for this batched env, "
+                              f"got {seed!r}", field="seed")
         super().reset(seed=seed)
         human = self._human
         if human is not self._adopted:  # replaced since the last step
@@ -342,7 +348,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         elif intention is None:
             intention = draw_other_support(rng, n_k, start, size=n)
         if np.any(start == intention):
-            raise ConfigError("the intention must differ from the start support in every env")
+            raise ConfigError("the intention must differ from the start support in every env",
+                              field="intention")
         turn: np.ndarray | None
         if "turn_back" in options:
             turn = np.asarray(options["turn_back"])
@@ -396,15 +403,11 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         else:
             state = self._state
             playing = self._key != table.over  # not waiting for a next-step autoreset
-            a_h = np.asarray(human.act({
+            a_h = checked_actions(human.act({
                 "state": state, "start": self._start, "intention": self._intention,
                 "last_human_action": self._last_human,
                 "action_mask": self.rules.action_mask.take(state, axis=0), "robot_action": a_r},
-                playing), dtype=np.int64)
-            if (a_h.shape != self._shape
-                    or a_h.view(np.uint64).max(initial=0) >= self._n_actions):
-                raise ActionError(f"the human's act() returned {a_h!r}; it must give one "
-                                  f"action in 0..{self._n_actions - 1} per env")
+                playing), self.num_envs, self._n_actions, "the humans")
             j = a_r * self._n_actions
             j += self._key
             j += a_h

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hri_envs.checks import check_real, check_whole
 from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import Rows, all_rows
 from hri_envs.humans.scripted import ScriptedHuman, boltzmann_human, preference_human
@@ -49,6 +50,7 @@ from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
 __all__ = [
     "D_MAX",
+    "MAX_RATIONALITY",
     "POPULATIONS",
     "HumanDraw",
     "PopulationHumans",
@@ -67,19 +69,24 @@ __all__ = [
 
 #: The cost-to-go of a wrong support or a route that does not reach the goal, in steps.
 D_MAX = 100
+#: The largest finite rationality β (:func:`validate_rationality`); ``inf`` is allowed too.
+MAX_RATIONALITY = 1e6
 
 
 def validate_rationality(beta: float, field: str = "human_rationality") -> float:
-    """Check a rationality β: a number > 0 (``inf``: the deterministic scripted human)."""
-    try:
-        value = float(beta)
-    except (TypeError, ValueError):
-        raise ConfigError(f"{field} must be a number > 0 or inf, got {beta!r}",
-                          field=field) from None
-    if math.isnan(value) or value <= 0:
-        raise ConfigError(f"{field} must be a number > 0 or inf (the deterministic human), "
-                          f"got {beta!r}", field=field)
-    return value
+    """Check a rationality β: a number in (0, :data:`MAX_RATIONALITY`], or ``inf`` (the
+    deterministic scripted human).
+
+    Only numbers are accepted (``int``, ``float``, numpy scalars): ``True`` is not β = 1 and
+    ``"2"`` is not 2; both raise a :class:`ConfigError` naming ``field``. A finite β above the
+    bound would overflow ``β · Q`` to NaN probabilities; it is the deterministic human to
+    double precision long before (``exp(-β)`` underflows at β ≈ 745), so give ``inf``.
+    """
+    if isinstance(beta, float | np.floating) and beta == math.inf:
+        return math.inf
+    return check_real(beta, field, low=0.0, low_open=True, high=MAX_RATIONALITY,
+                      allowed=f"a number > 0 or inf (the deterministic human); finite values "
+                              f"at most {MAX_RATIONALITY:g}")
 
 
 def _cost_to_go(graph: TaskGraph, table: np.ndarray) -> np.ndarray:
@@ -264,7 +271,7 @@ POPULATIONS: dict[str, PopulationSpec] = {p.name: p for p in _POPULATIONS}
 
 def population_spec(name: str, scenario: str | None = None) -> PopulationSpec:
     """A population by name; a :class:`ConfigError` lists the allowed names otherwise."""
-    if name not in POPULATIONS:
+    if not isinstance(name, str) or name not in POPULATIONS:
         raise ConfigError(f"unknown population {name!r}; allowed: {', '.join(POPULATIONS)}",
                           field="population")
     spec = POPULATIONS[name]
@@ -346,10 +353,9 @@ def human_sequence(scenario: str, draw: HumanDraw, seed: int, run: int, episodes
 
 
 def validate_drift(drift: int | None, field: str = "human_drift") -> None:
-    """Check a drift: None (no drift) or a whole number of episodes >= 1."""
-    if drift is not None and (not isinstance(drift, int | np.integer) or drift < 1):
-        raise ConfigError(f"{field} must be None or a whole number of episodes >= 1, "
-                          f"got {drift!r}", field=field)
+    """Check a drift: None (no drift) or a whole number of episodes >= 1 (not ``True``)."""
+    if drift is not None:
+        check_whole(drift, field, minimum=1, label=f"{field} (None or episodes)")
 
 
 def humans_of(graph: TaskGraph, draws: Sequence[HumanDraw]) -> list[ScriptedHuman]:

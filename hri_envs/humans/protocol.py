@@ -52,10 +52,11 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from hri_envs.errors import ConfigError
+from hri_envs.checks import integer_or_none
+from hri_envs.errors import ActionError, ConfigError
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["BatchHuman", "BatchedHumans", "Human", "Rows", "all_rows"]
+__all__ = ["BatchHuman", "BatchedHumans", "Human", "Rows", "all_rows", "checked_actions"]
 
 #: Which runs a call concerns: an int index array, or None for all of them.
 Rows = np.ndarray | None
@@ -204,10 +205,22 @@ class BatchedHumans(BatchHuman):
             self.humans[i].begin_episode(int(start), int(goal))
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
-        """Ask each active human for an action."""
+        """Ask each active human for an action.
+
+        Raises:
+            ActionError: A human returned something other than an integer (0.5, ``True``,
+                ``"3"``), naming the row and the value.
+        """
         out = np.zeros(self.n_runs, dtype=np.int64)
         for i in np.flatnonzero(active):
-            out[i] = self.humans[i].act({k: v[i] for k, v in observations.items()})
+            action = self.humans[i].act({k: v[i] for k, v in observations.items()})
+            number = integer_or_none(action)
+            if number is None:
+                raise ActionError(f"act() of the human in row {i} returned {action!r} "
+                                  f"({type(action).__name__}); a human's action is an integer "
+                                  "(int or numpy integer; bool, float and str are refused, "
+                                  "not rounded)")
+            out[i] = number
         return out
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
@@ -221,3 +234,20 @@ class BatchedHumans(BatchHuman):
         """Tell each human of ``rows`` that its episode ended."""
         for i in all_rows(rows, self.n_runs):
             self.humans[i].end_episode()
+
+
+def checked_actions(actions: Any, n_runs: int, n_actions: int,
+                    who: str = "the human") -> np.ndarray:
+    """The (n_runs,) int64 actions a :class:`BatchHuman` returned, checked: an integer array
+    of that shape with every entry in [0, n_actions); an :class:`ActionError` naming ``who``
+    otherwise (a float array is refused, not truncated).
+    """
+    arr = np.asarray(actions)
+    if arr.shape != (n_runs,) or arr.dtype.kind not in "iu":
+        raise ActionError(f"act() of {who} returned {arr.dtype} of shape {arr.shape}; it must "
+                          f"give one integer action per row, shape ({n_runs},)")
+    bad = (arr < 0) | (arr >= n_actions)
+    if bad.any():
+        raise ActionError(f"act() of {who} returned action {arr[bad][0]}; actions are "
+                          f"integers in [0, {n_actions})")
+    return arr.astype(np.int64, copy=False)

@@ -228,7 +228,7 @@ def preference_human(
     allowed = preferences_for(graph.name)
     if preference is None:
         preference = scenario_spec(graph.name).default_preference
-    if preference not in allowed:
+    if not isinstance(preference, str) or preference not in allowed:
         raise ConfigError(
             f"unknown {graph.name} preference {preference!r}; allowed: {', '.join(allowed)}",
             field="preference",

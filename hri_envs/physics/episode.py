@@ -22,6 +22,7 @@ from hri_envs.envs.episode import Episode
 from hri_envs.envs.window import check_display
 from hri_envs.errors import DisplayUnavailableError
 from hri_envs.physics.ik import IKFailure
+from hri_envs.physics.options import prepare_video_path
 from hri_envs.physics.rendering import SceneRenderer, write_video
 from hri_envs.physics.sim import PHYSICAL_FAULTS, PandaSim, StepResult
 from hri_envs.task.actions import WAIT
@@ -64,8 +65,10 @@ class PhysicsEpisode(Episode):
         rules: The scenario's episode rules.
         turn_state: Where a turning-back human turns (see :class:`Episode`).
         video_path: If set, each episode is recorded and written there when it ends (a
-            ``{episode}`` field in the path is filled with the episode count); ``.gif``
-            needs nothing more, other suffixes imageio-ffmpeg.
+            ``{episode}`` field in the path is filled with the episode count); ``.gif``,
+            or a video suffix of imageio-ffmpeg (:data:`~hri_envs.physics.options.
+            VIDEO_SUFFIXES`). Its folder is created and checked for writing here, before
+            anything is simulated.
         video_fps: Frames per simulated second in the video (rounded to a whole number of
             control periods, and written at that rate so that the video plays in real time).
         **options: The other ``physics`` options (``preset``, ``randomize`` and the
@@ -82,6 +85,8 @@ class PhysicsEpisode(Episode):
     def __init__(self, rules: EpisodeRules, turn_state: np.ndarray | None,
                  video_path: str | None = None, video_fps: float = 10.0,
                  **options: Any) -> None:
+        if video_path is not None:  # before anything is simulated
+            video_path = prepare_video_path(video_path)
         self.sim = PandaSim(rules.graph, options=options)
         self._observed_human = WAIT
         self.result: StepResult | None = None

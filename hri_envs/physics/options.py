@@ -33,17 +33,20 @@ it.
 from __future__ import annotations
 
 import math
+import os
+import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.physics.design import PRESET_NAMES, PhysicsDesign
 
-__all__ = ["OPTION_KEYS", "PHYSICS_MAXIMA", "PHYSICS_PARAMETERS", "PhysicsParams",
-           "PhysicsSettings", "check_options"]
+__all__ = ["OPTION_KEYS", "PHYSICS_MAXIMA", "PHYSICS_PARAMETERS", "VIDEO_SUFFIXES",
+           "PhysicsParams", "PhysicsSettings", "check_options", "prepare_video_path"]
 
 #: The numeric physics options: key -> (unit, must be > 0 rather than >= 0, meaning).
 #: Their defaults are the scenario's design (docs/physics.md).
@@ -66,6 +69,10 @@ PHYSICS_PARAMETERS: dict[str, tuple[str, bool, str]] = {
 #: goes through the handle's contact at the 2 ms physics step and misreads.
 PHYSICS_MAXIMA: dict[str, float] = {"human_grip_force": 12.0}
 
+#: The suffixes ``video_path`` may end in: ".gif" (written by imageio with Pillow) and the
+#: video containers of imageio-ffmpeg (both installed by the ``mujoco`` extra).
+VIDEO_SUFFIXES: tuple[str, ...] = (".gif", ".mp4", ".mkv", ".avi", ".mov", ".webm")
+
 #: Every key ``physics={...}`` accepts.
 OPTION_KEYS: tuple[str, ...] = ("video_path", "video_fps", "preset", "randomize",
                                 "attempt_invalid", *PHYSICS_PARAMETERS)
@@ -74,23 +81,35 @@ OPTION_KEYS: tuple[str, ...] = ("video_path", "video_fps", "preset", "randomize"
 def check_options(physics: Mapping[str, Any]) -> dict[str, Any]:
     """Validate ``physics`` options; a :class:`ConfigError` naming the key otherwise.
 
-    The keys are :data:`OPTION_KEYS`: ``video_path``, ``video_fps`` (a positive number),
-    ``preset`` (one of the designs' presets), ``attempt_invalid`` (a bool), ``randomize`` (a
-    mapping of numeric keys to ``(low, high)``) and the numeric :data:`PHYSICS_PARAMETERS`.
+    The keys are :data:`OPTION_KEYS`: ``video_path`` (a ``str`` or path ending in one of
+    :data:`VIDEO_SUFFIXES`, with at most an ``{episode}`` field; every suffix but ".gif"
+    needs imageio-ffmpeg), ``video_fps`` (a positive number), ``preset`` (one of the
+    designs' presets), ``attempt_invalid`` (a bool), ``randomize`` (a mapping of numeric keys
+    to ``(low, high)``) and the numeric :data:`PHYSICS_PARAMETERS`. Whether the video's
+    folder can be written is checked when the episode is built
+    (:func:`prepare_video_path`), so no episode is simulated for a video that cannot be
+    saved.
+
+    Raises:
+        ConfigError: (``field="physics"``) An unknown key or a value not allowed.
+        MissingExtraError: A video suffix whose writer is not installed.
     """
-    unknown = sorted(set(physics) - set(OPTION_KEYS))
+    unknown = sorted(map(repr, set(physics) - set(OPTION_KEYS)))
     if unknown:
-        raise ConfigError(f"unknown physics option(s) {', '.join(map(repr, unknown))}; "
+        raise ConfigError(f"unknown physics option(s) {', '.join(unknown)}; "
                           f"allowed: {', '.join(OPTION_KEYS)}", field="physics")
     fps = physics.get("video_fps", 10.0)
     if isinstance(fps, bool) or not isinstance(fps, int | float) or not fps > 0:
         raise ConfigError(f"physics option 'video_fps' must be a positive number, got {fps!r}",
                           field="physics")
+    if physics.get("video_path") is not None:
+        _video_name(physics["video_path"])
     attempt = physics.get("attempt_invalid", False)
     if not isinstance(attempt, bool | np.bool_):
         raise ConfigError(f"physics option 'attempt_invalid' must be True or False, got "
                           f"{attempt!r}", field="physics")
-    if physics.get("preset") is not None and physics["preset"] not in PRESET_NAMES:
+    if physics.get("preset") is not None and (not isinstance(physics["preset"], str)
+                                              or physics["preset"] not in PRESET_NAMES):
         raise ConfigError(f"unknown physics preset {physics['preset']!r}; allowed: "
                           f"{', '.join(PRESET_NAMES)}", field="physics")
     for key in PHYSICS_PARAMETERS:
@@ -115,6 +134,51 @@ def check_options(physics: Mapping[str, Any]) -> dict[str, Any]:
                 raise ConfigError(f"randomize[{key!r}] must have low <= high, got {span!r}",
                                   field="physics")
     return dict(physics)
+
+
+def _video_name(path: Any) -> str:
+    """``video_path`` as a ``str`` if its type, ``{episode}`` field and suffix are allowed."""
+    if not isinstance(path, str | os.PathLike):
+        raise ConfigError(f"physics option 'video_path' must be a file name (str or path), "
+                          f"got {path!r}", field="physics")
+    name = os.fspath(path)
+    if not isinstance(name, str):  # a bytes path
+        raise ConfigError(f"physics option 'video_path' must be a str path, got {path!r}",
+                          field="physics")
+    try:
+        formatted = name.format(episode=1)
+    except (KeyError, IndexError, ValueError, AttributeError, TypeError) as exc:
+        raise ConfigError(f"physics option 'video_path' may hold one field, {{episode}} (write "
+                          f"other braces as {{{{ and }}}}), got {name!r} ({exc!r})",
+                          field="physics") from None
+    suffix = Path(formatted).suffix.lower()
+    if suffix not in VIDEO_SUFFIXES:
+        raise ConfigError(f"physics option 'video_path' must end in one of "
+                          f"{', '.join(VIDEO_SUFFIXES)}, got {name!r}", field="physics")
+    MissingExtraError.require(["imageio"] + (["imageio_ffmpeg"] if suffix != ".gif" else []),
+                              f"writing {suffix} videos")
+    return name
+
+
+def prepare_video_path(path: Any) -> str:
+    """Check ``video_path`` (as :func:`check_options` does) and that its folder can be
+    written, creating the folder (as writing the first video would); return it as a ``str``.
+
+    Raises:
+        ConfigError: (``field="physics"``) The path is not allowed, or its folder cannot be
+            created or written.
+    """
+    name = _video_name(path)
+    folder = Path(name.format(episode=1)).absolute().parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise ConfigError(f"physics option 'video_path' {name!r}: cannot write in "
+                          f"{str(folder)!r} ({exc.strerror or exc}); give a path in a folder "
+                          "you can write to", field="physics") from None
+    return name
 
 
 def _check_parameter(key: str, value: Any, label: str) -> float:

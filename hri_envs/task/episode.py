@@ -319,7 +319,7 @@ class EpisodeRules:
     """
 
     def __init__(self, graph: TaskGraph, r0: float, reward: str = "paper") -> None:
-        if reward not in REWARDS:
+        if not isinstance(reward, str) or reward not in REWARDS:
             raise ConfigError(f"unknown reward {reward!r}; allowed: {', '.join(REWARDS)}",
                               field="reward")
         self.graph = graph
