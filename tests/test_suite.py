@@ -1,4 +1,8 @@
-"""hri-bench suite: the versioned tracks, suite.json/leaderboard.md/figures, determinism."""
+"""hri-bench suite v1: the versioned tracks, suite.json/leaderboard.md/figures, determinism.
+
+Suite v2 (the default) has its own tests in tests/test_suite_v2.py; v1 stays selectable and
+writes what it always wrote.
+"""
 
 import json
 import warnings
@@ -85,11 +89,11 @@ def test_blind_is_never_beaten_beyond_its_ci_by_an_intention_blind_agent(tiny):
     for name, tr in doc["tracks"].items():
         if not tr["regret_reported"]:
             continue
-        for agent in INTENTION_BLIND:
+        for agent in (a for a in INTENTION_BLIND if a in tr["agents"]):
             high = tr["agents"][agent]["regret"]["ci95"][1]
             assert high >= 0.0, (name, agent, tr["agents"][agent]["regret"])
             checked += 1
-    assert checked == 8 * len(INTENTION_BLIND)
+    assert checked == 8 * 4  # learner, imitator, maxent, passive
 
 
 def test_leaderboard_sorts_by_regret_and_explains_na(tiny):
@@ -123,10 +127,11 @@ def test_unknown_track_errors_before_any_simulation(tmp_path, monkeypatch, capsy
 
     monkeypatch.setattr(suite, "run_study", boom)
     with pytest.raises(SystemExit) as exc:
-        main(["suite", "--out", str(tmp_path / "x"), "--tracks", "wheel-paper,wheel-noisy"])
+        main(["suite", "--out", str(tmp_path / "x"), "--suite-version", "1", "--tracks",
+              "wheel-paper,wheel-noisy"])
     assert exc.value.code == 2
     err = capsys.readouterr().err
-    assert "unknown track(s) wheel-noisy; allowed: hanger-paper" in err
+    assert "unknown track(s) wheel-noisy of suite v1; allowed: hanger-paper" in err
     assert not (tmp_path / "x").exists()
     with pytest.raises(ConfigError, match="allowed: hanger-paper") as info:
         run_suite(tmp_path / "y", tracks=["hanger-paper", "nope"])
@@ -153,8 +158,8 @@ def test_episodes_to_converge_by_hand():
 
 def test_suite_cli_writes_files_and_reports_wall_time(tmp_path, capsys):
     out = tmp_path / "s"
-    code = main(["suite", "--out", str(out), "--tracks", "wheel-paper", "--runs-scale", "0.005",
-                 "--agents", "learner,passive", "--no-progress"])
+    code = main(["suite", "--out", str(out), "--suite-version", "1", "--tracks", "wheel-paper",
+                 "--runs-scale", "0.005", "--agents", "learner,passive", "--no-progress"])
     assert code == 0
     printed = capsys.readouterr().out
     assert "suite v1: 1 tracks in" in printed
@@ -169,8 +174,8 @@ def test_an_agent_that_raises_is_left_out_and_the_others_are_written(tmp_path, c
     # It once ended the suite with a ZeroDivisionError traceback and no files (issue 24).
     out = tmp_path / "s"
     bad = "tests.helpers_agents:DividesByZero"
-    code = main(["suite", "--out", str(out), "--tracks", "wheel-paper", "--runs-scale", "0.005",
-                 "--agents", f"passive,{bad}", "--no-progress"])
+    code = main(["suite", "--out", str(out), "--suite-version", "1", "--tracks", "wheel-paper",
+                 "--runs-scale", "0.005", "--agents", f"passive,{bad}", "--no-progress"])
     assert code == 1
     err = capsys.readouterr().err
     assert bad in err and "errors.log" in err and "Traceback" not in err
@@ -185,13 +190,14 @@ def test_an_agent_that_raises_is_left_out_and_the_others_are_written(tmp_path, c
     # A track on which every agent raised still gets its files, and no warning.
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        assert main(["suite", "--out", str(tmp_path / "all"), "--tracks", "wheel-drift",
-                     "--runs-scale", "0.005", "--agents", bad, "--no-progress"]) == 1
+        assert main(["suite", "--out", str(tmp_path / "all"), "--suite-version", "1",
+                     "--tracks", "wheel-drift", "--runs-scale", "0.005", "--agents", bad,
+                     "--no-progress"]) == 1
     assert json.loads((tmp_path / "all" / "suite.json").read_text())["tracks"]["wheel-drift"][
         "agents"] == {}
     # A later suite in the same folder without failures leaves no stale errors.log.
-    assert main(["suite", "--out", str(out), "--tracks", "wheel-paper", "--runs-scale",
-                 "0.005", "--agents", "passive", "--no-progress"]) == 0
+    assert main(["suite", "--out", str(out), "--suite-version", "1", "--tracks", "wheel-paper",
+                 "--runs-scale", "0.005", "--agents", "passive", "--no-progress"]) == 0
     assert not (out / "errors.log").exists()
 
 
