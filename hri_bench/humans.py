@@ -15,7 +15,7 @@ import inspect
 from collections.abc import Sequence
 from typing import Any
 
-from hri_bench.imports import import_object
+from hri_bench.imports import import_class
 from hri_envs.errors import ConfigError
 from hri_envs.humans.populations import population_spec
 from hri_envs.humans.protocol import BatchedHumans, BatchHuman, Human
@@ -30,10 +30,8 @@ def is_custom(name: str | None) -> bool:
 
 
 def _load(spec: str) -> type[Human] | type[BatchHuman]:
-    cls = import_object(spec, "human", "population")
-    if not (inspect.isclass(cls) and issubclass(cls, Human | BatchHuman)):
-        raise ConfigError(f"{spec!r} is neither a hri_envs.humans.Human nor a BatchHuman "
-                          "subclass; only subclasses of those are allowed", field="population")
+    cls: type[Human] | type[BatchHuman] = import_class(spec, "human", "population",
+                                                       (Human, BatchHuman))
     return cls
 
 
