@@ -45,6 +45,7 @@ EXTRA_OF: dict[str, str] = {
     "imageio_ffmpeg": "mujoco",
     "stable_baselines3": "rl", "sb3_contrib": "rl", "torch": "rl",
     "ray": "ray",
+    "jax": "jax", "jaxlib": "jax", "optax": "jax",
 }
 
 
