@@ -1,7 +1,10 @@
 """Which humans a study can put in front of its agents, by population name.
 
-``--population NAME`` names a registered population
-(:data:`hri_envs.humans.populations.POPULATIONS`) or, in the form ``module:Class``, a human
+``--population NAME`` names a registered population (a scripted one of
+:data:`hri_envs.humans.populations.POPULATIONS`, a split such as ``test`` or a mixture of
+:data:`hri_envs.humans.splits.MIXTURES`, or a family of
+:data:`hri_envs.humans.families.FAMILIES`, whose parameters ``--human-param`` sets) or, in
+the form ``module:Class``, a human
 of your own: a :class:`~hri_envs.humans.protocol.BatchHuman` subclass, made once per batch of
 runs as ``Class(graph, n_runs)``, or a :class:`~hri_envs.humans.protocol.Human` subclass,
 made once per run (with ``graph=`` if its constructor takes it). Each run's human draws
@@ -12,13 +15,13 @@ from the generator the study hands it (``(seed, run, 1)``), so results do not de
 from __future__ import annotations
 
 import inspect
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from hri_bench.imports import import_class
 from hri_envs.errors import ConfigError
-from hri_envs.humans.populations import population_spec
 from hri_envs.humans.protocol import BatchedHumans, BatchHuman, Human
+from hri_envs.humans.splits import population
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["custom_human", "is_custom", "validate_population"]
@@ -35,16 +38,20 @@ def _load(spec: str) -> type[Human] | type[BatchHuman]:
     return cls
 
 
-def validate_population(name: Any, scenario: str) -> None:
-    """Raise a :class:`ConfigError` (field ``population``) unless ``name`` is a population of
-    ``scenario`` or an importable human class.
+def validate_population(name: Any, scenario: str, params: Mapping[str, Any] | None = None
+                        ) -> None:
+    """Raise a :class:`ConfigError` (field ``population``, or ``human_params`` for a family's
+    parameters) unless ``name`` is a population of ``scenario`` or an importable human class.
     """
     if not isinstance(name, str):
         raise ConfigError(f"population must be a name, got {name!r}", field="population")
     if is_custom(name):
+        if params:
+            raise ConfigError("--human-param sets a family's parameters; a human of your own "
+                              "takes none", field="human_params")
         _load(name)
     else:
-        population_spec(name, scenario)
+        population(name, scenario, params)
 
 
 def custom_human(spec: str, graph: TaskGraph, runs: Sequence[int]) -> BatchHuman:
