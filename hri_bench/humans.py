@@ -1,7 +1,9 @@
 """Which humans a study can put in front of its agents, by population name.
 
 ``--population NAME`` names a registered population
-(:data:`hri_envs.humans.populations.POPULATIONS`) or, in the form ``module:Class``, a human
+(:data:`hri_envs.humans.populations.POPULATIONS`); ``recorded:DATASET`` or
+``recorded-irl:DATASET``, a human model fitted to a recorded dataset's training
+participants (:mod:`hri_bench.fit`; docs/people.md); or, in the form ``module:Class``, a human
 of your own: a :class:`~hri_envs.humans.protocol.BatchHuman` subclass, made once per batch of
 runs as ``Class(graph, n_runs)``, or a :class:`~hri_envs.humans.protocol.Human` subclass,
 made once per run (with ``graph=`` if its constructor takes it). Each run's human draws
@@ -15,17 +17,22 @@ import inspect
 from collections.abc import Sequence
 from typing import Any
 
+from hri_bench.fit import is_recorded, recorded_human, validate_recorded
 from hri_bench.imports import import_object
 from hri_envs.errors import ConfigError
 from hri_envs.humans.populations import population_spec
 from hri_envs.humans.protocol import BatchedHumans, BatchHuman, Human
+from hri_envs.humans.tables import TableHumans
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["custom_human", "is_custom", "validate_population"]
 
 
 def is_custom(name: str | None) -> bool:
-    """Whether a population name is a ``module:Class`` of the user's."""
+    """Whether a population name is a human of the protocol from outside
+    :data:`~hri_envs.humans.populations.POPULATIONS`: a ``module:Class`` of the user's, or
+    a model fitted to recordings (``recorded:DATASET``).
+    """
     return isinstance(name, str) and ":" in name
 
 
@@ -43,14 +50,18 @@ def validate_population(name: Any, scenario: str) -> None:
     """
     if not isinstance(name, str):
         raise ConfigError(f"population must be a name, got {name!r}", field="population")
-    if is_custom(name):
+    if is_recorded(name):
+        validate_recorded(name, scenario)
+    elif is_custom(name):
         _load(name)
     else:
         population_spec(name, scenario)
 
 
 def custom_human(spec: str, graph: TaskGraph, runs: Sequence[int]) -> BatchHuman:
-    """The human ``module:Class`` for a batch of ``runs``."""
+    """The human ``module:Class`` (or ``recorded:DATASET``) for a batch of ``runs``."""
+    if is_recorded(spec):
+        return TableHumans(recorded_human(spec, graph.name), len(runs))
     cls = _load(spec)
     if issubclass(cls, BatchHuman):
         return cls(graph, len(runs))
