@@ -226,6 +226,7 @@ async function main() {
   const study = await (await fetch("/api/study")).json();
   paragraphs($("consent-text"), study.consent);
   paragraphs($("instructions-text"), study.instructions);
+  paragraphs($("instructions-first"), study.instructions);
   const token = localStorage.getItem(KEY);
   if (token) {
     show("play");
