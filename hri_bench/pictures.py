@@ -1,9 +1,10 @@
 """The task's picture for the page: the graph backend's side view as a PNG.
 
-:func:`hri_envs.envs.render.render_rgb` draws the scenario with the object in a state;
-:func:`png` encodes it (zlib only, no imaging library). A picture depends on the scenario,
-the supports' layout and the state alone, so :func:`picture` caches the encoded pictures:
-after the first visit of a state, a step costs a dictionary look-up.
+:class:`hri_envs.envs.render.SideView` draws the scenario (once per layout) and the object
+in a state (what the envs' ``render_mode="rgb_array"`` shows); :func:`png` encodes it
+(zlib only, no imaging library). A picture depends on the scenario, the supports' layout
+and the state alone, so :func:`picture` caches the encoded pictures: after the first visit
+of a state, a step costs a dictionary look-up, and a first visit about 2 ms.
 """
 
 from __future__ import annotations
@@ -15,13 +16,13 @@ import zlib
 
 import numpy as np
 
-from hri_envs.envs.render import render_rgb
+from hri_envs.envs.render import SideView
 from hri_envs.task.scenarios import Layout, episode_scenario, scenario_graph
 
 __all__ = ["picture", "png"]
 
 
-def png(rgb: np.ndarray, level: int = 6) -> bytes:
+def png(rgb: np.ndarray, level: int = 3) -> bytes:
     """A PNG file of an (H, W, 3) uint8 image (8-bit RGB, no filter)."""
     h, w, _ = rgb.shape
     rows = np.concatenate([np.zeros((h, 1), np.uint8),
@@ -36,9 +37,13 @@ def png(rgb: np.ndarray, level: int = 6) -> bytes:
             + chunk(b"IDAT", zlib.compress(rows.tobytes(), level)) + chunk(b"IEND", b""))
 
 
+@functools.lru_cache(maxsize=256)
+def _view(scenario: str, layout: Layout | None) -> SideView:
+    return SideView(episode_scenario(scenario, layout), scenario_graph(scenario))
+
+
 @functools.lru_cache(maxsize=8192)
 def picture(scenario: str, layout: Layout | None, state: int) -> str:
     """The side view of ``scenario`` (supports at ``layout``) in ``state`` as a PNG data URL."""
-    graph = scenario_graph(scenario)
-    rgb = render_rgb(episode_scenario(scenario, layout), graph, int(state))
+    rgb = _view(scenario, layout).draw(int(state))
     return "data:image/png;base64," + base64.b64encode(png(rgb)).decode("ascii")

@@ -13,6 +13,7 @@ humans, labelled synthetic.
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -53,6 +54,9 @@ class RecordingHumans(BatchHuman):
         layouts: Per row, the supports' layout of each episode (the wheel's stands), or
             None: nominal.
         clock: Unix time in seconds (``time.time``).
+        defer_writes: Keep finished episodes until :meth:`flush` instead of writing them at
+            once (a web session writes while the page shows the outcome, so that the last
+            key press of an episode does not wait for the disk).
 
     The inner human may expose ``client_response_ms`` ((n_runs,) float, NaN when unknown),
     a response time it measured itself, read after each ``act``.
@@ -62,7 +66,7 @@ class RecordingHumans(BatchHuman):
                  agent: BatchAgent | None, r0: float, reward: str = "paper",
                  session_index: Sequence[int] | None = None,
                  layouts: Sequence[Sequence[Layout | None]] | None = None,
-                 clock: Callable[[], float] = time.time) -> None:
+                 clock: Callable[[], float] = time.time, defer_writes: bool = False) -> None:
         super().__init__(inner.graph, inner.n_runs)
         if len(writers) != inner.n_runs:
             raise ValueError(f"give one writer per row ({inner.n_runs}), got {len(writers)}")
@@ -72,6 +76,9 @@ class RecordingHumans(BatchHuman):
         self.session_index = list(range(self.n_runs) if session_index is None
                                   else session_index)
         self.layouts = layouts
+        self.defer_writes = defer_writes
+        self._finished: list[tuple[int, dict[str, list[Any]]]] = []
+        self._flushing = threading.Lock()
         n = self.n_runs
         self.episode = np.full(n, -1, dtype=np.int64)
         self.start = np.zeros(n, dtype=np.int64)
@@ -168,15 +175,32 @@ class RecordingHumans(BatchHuman):
             self._pending[i] = None
 
     def end_episode(self, rows: Rows = None) -> None:
-        """Write each row's finished episode, then end the inner human's."""
+        """Write each row's finished episode (or keep it for :meth:`flush`), then end the
+        inner human's.
+        """
         for i in all_rows(rows, self.n_runs):
-            self._write(int(i))
+            columns = self._columns(int(i))
+            if columns is not None:
+                self._finished.append((int(i), columns))
+        if not self.defer_writes:
+            self.flush()
         self.inner.end_episode(rows)
 
-    def _write(self, i: int) -> None:
+    def flush(self) -> None:
+        """Write the finished episodes not yet written (safe to call from another thread
+        while the loop goes on: one flush at a time, in episode order).
+        """
+        with self._flushing:
+            while self._finished:
+                i, columns = self._finished[0]
+                self.writers[i].write_episode(columns)
+                self._finished.pop(0)
+
+    def _columns(self, i: int) -> dict[str, list[Any]] | None:
+        """Row ``i``'s finished episode as columns (None: it took no step)."""
         steps = self._rows[i]
         if not steps:
-            return
+            return None
         layout = None if self.layouts is None else self.layouts[i][int(self.episode[i])]
         flat = [] if layout is None else [float(v) for xy in layout for v in xy]
         last = len(steps) - 1
@@ -192,8 +216,8 @@ class RecordingHumans(BatchHuman):
             action_mask=[g.valid[s].astype(np.int8).tolist() for s in columns["state"]],
             truncated=[False] * last + [not steps[-1]["terminated"]],
             layout=[flat] * n)
-        self.writers[i].write_episode(columns)
         self._rows[i] = []
+        return columns
 
 
 def record_study(cfg: Any, dataset_id: str, *, root: str | None = None,

@@ -16,6 +16,7 @@ it answers (its ``seq``, an action among the offered ones) and changes nothing o
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import queue
@@ -23,6 +24,7 @@ import secrets
 import threading
 import time
 from collections.abc import Callable, Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -44,6 +46,12 @@ log = logging.getLogger("hri_bench.serve")
 MAX_MESSAGE = 1024
 #: Client response times above this are not believed (recorded as unknown).
 MAX_RT_MS = 24 * 3600 * 1000.0
+
+
+@functools.cache
+def _writer() -> ThreadPoolExecutor:
+    """The thread that writes finished episodes, one at a time, in the order handed in."""
+    return ThreadPoolExecutor(1, thread_name_prefix="hri-bench-writer")
 
 
 class MessageError(ConfigError):
@@ -176,10 +184,12 @@ class Session:
                                              for _ in range(n_e)]
         self.recorder = RecordingHumans(self.person, [writer], agent=self.agent,
                                         r0=config.waiting_reward, reward=config.reward,
-                                        session_index=[design.index], layouts=[self.layouts])
+                                        session_index=[design.index], layouts=[self.layouts],
+                                        defer_writes=True)
         self._episode = 0
         self._step = 0
         self._last: tuple[int, int, int] | None = None
+        self._written: Future[None] | None = None
         self.thread = threading.Thread(target=self._run, name=f"session-{self.participant}",
                                        daemon=True)
 
@@ -324,10 +334,13 @@ class Session:
         return a_h
 
     def _prerender(self, episode: int) -> None:
-        """Encode an episode's pictures ahead (the wheel's layout is new each episode)."""
+        """Encode an episode's first picture ahead, while the page shows the last outcome
+        (the wheel's layout is new each episode; later pictures are drawn when first
+        needed, about 7 ms each, and kept).
+        """
         if 0 <= episode < self.config.episodes:
-            for s in range(self.graph.n_states):
-                picture(self.config.scenario, self.layouts[episode], s)
+            start = int(self.graph.support_state(self.design.pairs[episode][0], 0))
+            picture(self.config.scenario, self.layouts[episode], start)
 
     def _run(self) -> None:
         from hri_bench.runner import run_episodes
@@ -336,6 +349,7 @@ class Session:
         cfg = self.config
         names = self.graph.support_names
         status = "complete"
+
         try:
             self._prerender(0)
             loop = run_episodes(self.graph, self.agent, self.recorder, self.schedule,
@@ -359,6 +373,8 @@ class Session:
                                "picture": picture(cfg.scenario, self.layouts[self._episode],
                                                   end)},
                               None if last else ("continue", frozenset()))
+                # written by the server's writer thread while the page shows the outcome
+                self._written = _writer().submit(self.recorder.flush)
                 if last:
                     break
                 self._prerender(self._episode + 1)
@@ -370,6 +386,12 @@ class Session:
             status = stop.status
         except Exception:  # a failing agent ends this session only; the others go on
             log.exception("session %s failed", self.participant)
+            status = "failed"
+        try:
+            if self._written is not None:
+                self._written.result()
+        except OSError:
+            log.exception("session %s: cannot write an episode", self.participant)
             status = "failed"
         try:
             self.writer.finish(status)
@@ -392,6 +414,8 @@ class SessionManager:
     """
 
     def __init__(self, config: ServeConfig) -> None:
+        import pyarrow.parquet  # noqa: F401  (loaded once, before a session writes)
+
         self.config = config
         self.dataset = create_dataset(config.dataset_id, config.scenario, synthetic=False,
                                       root=config.data,
