@@ -59,7 +59,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from hri_envs.checks import integer_action
+from hri_envs.checks import integer_action, integer_or_none
 from hri_envs.errors import ActionError, ConfigError
 from hri_envs.task.graph import TaskGraph
 
