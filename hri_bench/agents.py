@@ -35,7 +35,7 @@ from agents.protocol import Agent, BatchAgent, Batched
 from baselines import GoalFilter, Imitator, MaxEntIRL, Oracle, Passive
 from baselines.bounds import Blind, Informed
 from baselines.product import QMDP, PerRunInformed
-from hri_bench.imports import import_object
+from hri_bench.imports import import_class
 from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
@@ -85,10 +85,8 @@ def validate_agent_name(name: str) -> None:
 
 def _agent_class(spec: str) -> type[Agent] | type[BatchAgent]:
     """The class ``module:Class`` names, checked to be an agent."""
-    cls = import_object(spec, "agent", "agents")
-    if not (inspect.isclass(cls) and issubclass(cls, Agent | BatchAgent)):
-        raise ConfigError(f"agent {spec!r} is neither an agents.Agent nor an agents.BatchAgent "
-                          "subclass; only subclasses of those are allowed", field="agents")
+    cls: type[Agent] | type[BatchAgent] = import_class(spec, "agent", "agents",
+                                                       (Agent, BatchAgent))
     return cls
 
 

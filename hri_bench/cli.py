@@ -6,6 +6,9 @@ Subcommands::
     hri-bench figures --out DIR [--runs N] [--jobs J]     the paper's figures (Figs. 4, 8, 10-12)
     hri-bench speed [--json]                              env and Learner throughput
     hri-bench play {hanger,wheel}                         you are the human, in the terminal
+    hri-bench serve {hanger,wheel} [--data DIR]           you are the human, in a browser
+    hri-bench dataset list|show|export|record|fit ...     recorded sessions (docs/people.md)
+    hri-bench replay DATASET [--participant P]            a recorded session, step by step
     hri-bench demo --out DIR                              the main job of ``make demo``
 
 Bad arguments exit with code 2 and a message naming the argument and what is allowed.
@@ -194,7 +197,9 @@ def build_parser() -> argparse.ArgumentParser:
                             + "; the splits train, validation, test (held out) and its "
                             "parts test-misspecified, test-adaptive, test-inconsistent, "
                             "test-scripted; a family ("
-                            + ", ".join(FAMILIES) + "); or module:Class")
+                            + ", ".join(FAMILIES) + "); recorded:DATASET or "
+                            "recorded-irl:DATASET (a model fitted to recorded sessions); "
+                            "module:Class (your own)")
     study.add_argument("--human-param", type=_human_param, action="append", default=None,
                        dest="human_params", metavar="NAME=VALUE",
                        help="a parameter of the family given as --population (repeatable), "
@@ -251,6 +256,9 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--seed", type=_seed, default=0)
 
     _suite_parser(sub)
+    from hri_bench import cli_people
+
+    cli_people.add_parsers(sub)
 
     demo = sub.add_parser("demo", help="the main job: a reduced but real set of the figures")
     demo.add_argument("--out", type=Path, default=Path("out/demo"))
@@ -286,6 +294,9 @@ def _suite_parser(sub: Any) -> None:
     suite.add_argument("--tracks", default=None,
                        help="comma-separated track names (default: all)")
     suite.add_argument("--seed", type=_seed, default=0, help="base seed, >= 0 (default 0)")
+    suite.add_argument("--population", action="append", default=[], metavar="NAME",
+                       help="add a track of its own on a recorded population "
+                            "(recorded:DATASET or recorded-irl:DATASET; repeatable)")
     suite.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     suite.set_defaults(command_parser=suite)
 
@@ -294,6 +305,7 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from hri_bench.suite import (
         DEFAULT_AGENTS,
         DEFAULT_AGENTS_V2,
+        population_track,
         run_suite,
         select_tracks,
         track_config,
@@ -306,13 +318,17 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         first = track_config(select_tracks(args.tracks, version)[0], agents, executor=executor,
                              version=version)
         _require_for_study(first, progress=not args.no_progress)  # before simulating
+        for name in args.population:
+            track_config(population_track(name, version), agents, executor=executor,
+                         version=version)
     except ConfigError as exc:
         _config_error(parser, exc, _SUITE_ARGUMENTS)
     t0 = time.perf_counter()
     try:
         doc = run_suite(args.out, agents=agents, tracks=args.tracks, version=version,
                         runs_scale=args.runs_scale, seed=args.seed, jobs=args.jobs,
-                        executor=executor, progress=not args.no_progress)
+                        executor=executor, progress=not args.no_progress,
+                        populations=args.population)
     except ConfigError as exc:
         _config_error(parser, exc, _SUITE_ARGUMENTS)
     print(f"suite v{doc['suite_version']}: {len(doc['tracks'])} tracks in "
@@ -330,6 +346,7 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 #: The ``suite`` argument a :class:`ConfigError`'s field comes from (a track's runs are
 #: its own times ``--runs-scale``).
 _SUITE_ARGUMENTS = {"tracks": "--tracks", "agents": "--agents", "runs": "--runs-scale",
+                    "population": "--population",
                     "seed": "--seed", "jobs": "--jobs", "out": "--out",
                     "suite_version": "--suite-version"}
 
@@ -632,6 +649,10 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
         return _suite(args, args.command_parser)
     if args.command == "speed":
         return _speed(args)
+    if args.command in ("serve", "dataset", "replay"):
+        from hri_bench import cli_people
+
+        return cli_people.run(args)
     if args.command == "play":
         from hri_bench.play import play
 

@@ -37,6 +37,7 @@ from hri_bench.agents import (
     validate_agent_name,
 )
 from hri_bench.atomic import atomic_writer, move_into_place
+from hri_bench.fit import is_recorded
 from hri_bench.humans import custom_human, is_custom, validate_population
 from hri_bench.regret import ALL_REFERENCES, blind_values, reference_summary, refuse_references
 from hri_bench.results import StudyResult  # re-exported; shared with the plots
@@ -298,7 +299,8 @@ class StudyConfig:
             if self.human_drift is not None:
                 raise ConfigError("a human of your own (--population module:Class) does not "
                                   "drift; leave out --human-drift", field="human_drift")
-            if "oracle" in self.agents:
+            if "oracle" in self.agents and not is_recorded(self.population):
+                # a fitted human is a policy table: the oracle copies its likeliest action
                 raise ConfigError("the oracle copies a scripted human's preferred actions; "
                                   "leave it out with --population module:Class",
                                   field="agents")

@@ -255,16 +255,43 @@ def select_tracks(names: str | Sequence[str] | None, version: str = SUITE_VERSIO
     return [t for t in tracks.values() if t.name in wanted]
 
 
+def population_track(population: str, version: str = SUITE_VERSION) -> Track:
+    """A track of one's own on a population (``recorded:DATASET``, a registered name of one
+    scenario, ``module:Class`` is refused: its scenario is unknown); outside the versioned set.
+
+    Raises:
+        ConfigError: A name whose scenario cannot be told (``field="population"``).
+    """
+    from hri_bench.fit import is_recorded
+
+    scenario = None
+    if is_recorded(population):
+        from hri_bench.datasets import open_dataset
+
+        scenario = open_dataset(population.split(":", 1)[1], field="population").scenario
+    if scenario is None:
+        raise ConfigError(f"a suite track of its own takes a recorded population "
+                          f"(recorded:DATASET or recorded-irl:DATASET), got {population!r}",
+                          field="population")
+    name = f"{scenario}-{population.replace(':', '-')}"
+    return Track(name, scenario, f"humans fitted to recorded sessions ({population}); a track "
+                 f"of its own, not part of suite v{version}", 500,
+                 (("population", population),))
+
+
 def _runs(track: Track, scale: float) -> int:
     return max(2, int(round(track.runs * scale)))
 
 
 def track_references(track: Track, version: str = SUITE_VERSION) -> tuple[str, ...]:
     """The reference agents a track adds: v1, blind and informed where the human is shared;
-    v2, informed everywhere, with blind where it is exact and qmdp (the bracket) elsewhere.
+    v2, informed everywhere, with blind where it is exact and qmdp (the bracket) elsewhere;
+    none on a track of its own whose humans have no model (``recorded:``, ``module:Class``).
     """
     if version == "1":
         return () if track.per_run_humans else REFERENCE_AGENTS
+    if ":" in str(dict(track.settings).get("population")):
+        return ()  # recorded or module:Class humans: no model to plan with
     exact = not track.per_run_humans and not dict(track.settings).get("human_rationality")
     return ("informed", "blind") if exact else ("informed", "qmdp")
 
@@ -491,8 +518,8 @@ def leaderboard_v2(doc: dict[str, Any]) -> str:
     lines.append("")
     for name, tr in doc["tracks"].items():
         pop = tr["population"]
-        pop_text = ("" if pop is None else
-                    f" Population `{pop['name']}` v{pop['version']} ({pop['members']} "
+        pop_text = ("" if pop is None else f" Population `{pop['name']}`." if pop["hash"] is None
+                    else f" Population `{pop['name']}` v{pop['version']} ({pop['members']} "
                     f"members), hash `{pop['hash'][:16]}`.")
         power = tr["power"]
         power_text = ("" if power["pilot_sd"] is None else
@@ -563,6 +590,7 @@ def run_suite(
     jobs: int = 1,
     executor: str = "serial",
     progress: bool = False,
+    populations: Sequence[str] = (),
     version: str = SUITE_VERSION,
 ) -> dict[str, Any]:
     """Run the suite's tracks and write its files into ``out``; return suite.json's document.
@@ -580,6 +608,8 @@ def run_suite(
         jobs: Worker processes per study (passed to :func:`run_study`).
         executor: "serial", "process" or "ray".
         progress: Show a tqdm progress bar over tracks.
+        populations: Populations to add a track of their own for, after the chosen tracks
+            (:func:`population_track`, e.g. ``recorded:hanger-people-v0``).
         version: The suite version, "1" or "2" (:data:`SUITE_VERSIONS`).
 
     Raises:
@@ -590,7 +620,8 @@ def run_suite(
         raise ConfigError(f"runs_scale must be a number > 0, got {runs_scale!r}",
                           field="runs_scale")
     version = check_version(version)
-    chosen = select_tracks(tracks, version)
+    chosen = select_tracks(tracks, version) + [population_track(p, version)
+                                               for p in populations]
     configs = [track_config(t, agents, runs_scale=runs_scale, seed=seed, jobs=jobs,
                             executor=executor, version=version) for t in chosen]
     out = Path(out)

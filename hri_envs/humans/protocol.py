@@ -59,7 +59,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from hri_envs.checks import integer_or_none
+from hri_envs.checks import integer_action, integer_or_none
 from hri_envs.errors import ActionError, ConfigError
 from hri_envs.task.graph import TaskGraph
 
@@ -233,14 +233,8 @@ class BatchedHumans(BatchHuman):
         """
         out = np.zeros(self.n_runs, dtype=np.int64)
         for i in np.flatnonzero(active):
-            action = self.humans[i].act({k: v[i] for k, v in observations.items()})
-            number = integer_or_none(action)
-            if number is None:
-                raise ActionError(f"act() of the human in row {i} returned {action!r} "
-                                  f"({type(action).__name__}); a human's action is an integer "
-                                  "(int or numpy integer; bool, float and str are refused, "
-                                  "not rounded)")
-            out[i] = number
+            out[i] = integer_action(self.humans[i].act({k: v[i] for k, v in observations.items()}),
+                                    f"act() of the human in row {i}")
         return out
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
