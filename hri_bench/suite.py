@@ -235,7 +235,7 @@ def check_version(version: Any) -> str:
     return version
 
 
-def select_tracks(names: str | Sequence[str] | None, version: str = SUITE_VERSION
+def select_tracks(names: str | Sequence[str] | None, version: str = LATEST
                   ) -> list[Track]:
     """The tracks named (comma-separated or a list; None: all), in the suite's order.
 
@@ -255,7 +255,7 @@ def select_tracks(names: str | Sequence[str] | None, version: str = SUITE_VERSIO
     return [t for t in tracks.values() if t.name in wanted]
 
 
-def population_track(population: str, version: str = SUITE_VERSION) -> Track:
+def population_track(population: str, version: str = LATEST) -> Track:
     """A track of one's own on a population (``recorded:DATASET``, a registered name of one
     scenario, ``module:Class`` is refused: its scenario is unknown); outside the versioned set.
 
@@ -283,7 +283,7 @@ def _runs(track: Track, scale: float) -> int:
     return max(2, int(round(track.runs * scale)))
 
 
-def track_references(track: Track, version: str = SUITE_VERSION) -> tuple[str, ...]:
+def track_references(track: Track, version: str = LATEST) -> tuple[str, ...]:
     """The reference agents a track adds: v1, blind and informed where the human is shared;
     v2, informed everywhere, with blind where it is exact and qmdp (the bracket) elsewhere;
     none on a track of its own whose humans have no model (``recorded:``, ``module:Class``).
@@ -298,7 +298,7 @@ def track_references(track: Track, version: str = SUITE_VERSION) -> tuple[str, .
 
 def track_config(track: Track, agents: Sequence[str], *, runs_scale: float = 1.0,
                  seed: int = 0, jobs: int = 1, executor: str = "serial",
-                 version: str = SUITE_VERSION) -> StudyConfig:
+                 version: str = LATEST) -> StudyConfig:
     """The study of a track: ``agents`` (references dropped) plus the references that fit
     (:func:`track_references`), ``track.runs × runs_scale`` runs (at least 2).
     """
@@ -583,7 +583,7 @@ def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
 def run_suite(
     out: str | os.PathLike[str],
     *,
-    agents: Sequence[str] = DEFAULT_AGENTS,
+    agents: Sequence[str] | None = None,
     tracks: str | Sequence[str] | None = None,
     runs_scale: float = 1.0,
     seed: int = 0,
@@ -591,7 +591,7 @@ def run_suite(
     executor: str = "serial",
     progress: bool = False,
     populations: Sequence[str] = (),
-    version: str = SUITE_VERSION,
+    version: str = LATEST,
 ) -> dict[str, Any]:
     """Run the suite's tracks and write its files into ``out``; return suite.json's document.
 
@@ -601,8 +601,10 @@ def run_suite(
 
     Args:
         out: Output directory (created).
-        agents: Agents to rank (see :mod:`hri_bench.agents`, e.g. "mypkg.mod:MyAgent").
-        tracks: Track names (comma-separated or a list); None: all of :data:`TRACKS`.
+        agents: Agents to rank (see :mod:`hri_bench.agents`, e.g. "mypkg.mod:MyAgent");
+            None: the version's defaults (:data:`DEFAULT_AGENTS_V2`, v1 :data:`DEFAULT_AGENTS`).
+        tracks: Track names (comma-separated or a list); None: all of the version's tracks
+            (:data:`TRACKS_V2`, v1 :data:`TRACKS`).
         runs_scale: Multiplies every track's run count (at least 2 runs), > 0.
         seed: Base seed of every study and bootstrap.
         jobs: Worker processes per study (passed to :func:`run_study`).
@@ -610,7 +612,8 @@ def run_suite(
         progress: Show a tqdm progress bar over tracks.
         populations: Populations to add a track of their own for, after the chosen tracks
             (:func:`population_track`, e.g. ``recorded:hanger-people-v0``).
-        version: The suite version, "1" or "2" (:data:`SUITE_VERSIONS`).
+        version: The suite version, "1" or "2" (:data:`SUITE_VERSIONS`; default
+            :data:`LATEST`).
 
     Raises:
         ConfigError: Unknown track, bad agents, bad runs_scale (before any simulation).
@@ -620,6 +623,8 @@ def run_suite(
         raise ConfigError(f"runs_scale must be a number > 0, got {runs_scale!r}",
                           field="runs_scale")
     version = check_version(version)
+    if agents is None:
+        agents = DEFAULT_AGENTS if version == "1" else DEFAULT_AGENTS_V2
     chosen = select_tracks(tracks, version) + [population_track(p, version)
                                                for p in populations]
     configs = [track_config(t, agents, runs_scale=runs_scale, seed=seed, jobs=jobs,

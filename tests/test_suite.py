@@ -4,6 +4,7 @@ Suite v2 (the default) has its own tests in tests/test_suite_v2.py; v1 stays sel
 writes what it always wrote.
 """
 
+import hashlib
 import json
 import warnings
 
@@ -37,7 +38,7 @@ pytestmark = pytest.mark.xdist_group("suite")
 def tiny(tmp_path_factory):
     """Every track at 10 runs (scale 0.02), serial."""
     out = tmp_path_factory.mktemp("suite")
-    return out, run_suite(out, runs_scale=0.02)
+    return out, run_suite(out, runs_scale=0.02, version="1")
 
 
 def test_the_suite_has_both_scenarios_times_five_kinds():
@@ -65,6 +66,20 @@ def test_suite_writes_the_documented_files(tiny):
             assert (a["regret"] is None) == (not tr["regret_reported"]), (name, agent)
     log = json.loads((out / "suite_log.json").read_text())
     assert log["wall_time_s"] > 0 and set(log["tracks_wall_time_s"]) == set(TRACKS)
+
+
+#: suite.json and leaderboard.md of the tiny v1 suite above, as the code before suite v2
+#: wrote them (commit 8829a29): v1 stays reproducible byte for byte.
+V1_SHA256 = {
+    "suite.json": "775781b762a5d0110e51fde7004ec1e4e62e15907a330df2e2eceb202ed93832",
+    "leaderboard.md": "fafe075a21729a9b6f1609c5cd7e1ee259590088311ef6554353a183f816b472",
+}
+
+
+def test_v1_writes_what_it_wrote_before_v2_byte_for_byte(tiny):
+    out, _ = tiny
+    assert {name: hashlib.sha256((out / name).read_bytes()).hexdigest()
+            for name in V1_SHA256} == V1_SHA256
 
 
 def test_references_and_regret_where_blind_fits(tiny):
@@ -115,8 +130,8 @@ def test_leaderboard_sorts_by_regret_and_explains_na(tiny):
 def test_serial_and_two_jobs_give_byte_identical_suite_json(tmp_path):
     kw = {"tracks": "wheel-drift,hanger-heldout", "runs_scale": 0.01,
           "agents": ("learner", "passive")}
-    run_suite(tmp_path / "a", **kw)
-    run_suite(tmp_path / "b", jobs=2, executor="process", **kw)
+    run_suite(tmp_path / "a", version="1", **kw)
+    run_suite(tmp_path / "b", jobs=2, executor="process", version="1", **kw)
     assert (tmp_path / "a" / "suite.json").read_bytes() == \
         (tmp_path / "b" / "suite.json").read_bytes()
 
@@ -134,7 +149,7 @@ def test_unknown_track_errors_before_any_simulation(tmp_path, monkeypatch, capsy
     assert "unknown track(s) wheel-noisy of suite v1; allowed: hanger-paper" in err
     assert not (tmp_path / "x").exists()
     with pytest.raises(ConfigError, match="allowed: hanger-paper") as info:
-        run_suite(tmp_path / "y", tracks=["hanger-paper", "nope"])
+        run_suite(tmp_path / "y", tracks=["hanger-paper", "nope"], version="1")
     assert info.value.field == "tracks"
     with pytest.raises(ConfigError, match="runs_scale must be a number > 0"):
         run_suite(tmp_path / "y", runs_scale=0.0)
@@ -144,7 +159,7 @@ def test_unknown_track_errors_before_any_simulation(tmp_path, monkeypatch, capsy
 
 
 def test_select_tracks_keeps_the_suite_order():
-    assert [t.name for t in select_tracks("wheel-paper,hanger-drift")] == \
+    assert [t.name for t in select_tracks("wheel-paper,hanger-drift", "1")] == \
         ["hanger-drift", "wheel-paper"]
 
 
