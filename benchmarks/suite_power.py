@@ -1,6 +1,6 @@
 """The pilot behind suite v2's run counts: how much the agents' run means spread per track.
 
-    python benchmarks/suite_power.py [--runs 100] [--seed 1000] [--jobs 2] [--tracks T1,T2]
+    python benchmarks/suite_power.py [--runs 256] [--seed 1000] [--jobs 2] [--tracks T1,T2]
 
 For each track of suite v2 it runs the track's study with ``--runs`` runs at a seed that is
 not the suite's (the suite's numbers never choose their own sample size) and takes the
@@ -50,7 +50,7 @@ def _within_sd(diff: np.ndarray, labels: np.ndarray) -> float:
 def main() -> None:
     """Run the pilot and print the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", type=int, default=100)
+    parser.add_argument("--runs", type=int, default=256)
     parser.add_argument("--seed", type=int, default=1000)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--tracks", default=None)

@@ -164,10 +164,10 @@ TRACKS: dict[str, Track] = {t.name: t for t in _tracks()}
 #: (learner vs goalfilter, both vs informed); measured by ``benchmarks/suite_power.py``
 #: (seed 1000, never the suite's; 256 runs per track).
 PILOT_SD: dict[str, float] = {
-    "hanger-test": 0.2615, "wheel-test": 0.2214,
+    "hanger-test": 0.2625, "wheel-test": 0.2216,
     "hanger-test-misspecified": 0.2235, "wheel-test-misspecified": 0.0788,
     "hanger-test-adaptive": 0.3797, "wheel-test-adaptive": 0.3572,
-    "hanger-test-inconsistent": 0.1949, "wheel-test-inconsistent": 0.141,
+    "hanger-test-inconsistent": 0.1951, "wheel-test-inconsistent": 0.1407,
     "hanger-paper": 0.0614, "wheel-paper": 0.0429,
 }
 
@@ -645,7 +645,7 @@ def run_suite(
                "intention_blind": list(INTENTION_BLIND),
                "power": {"delta": DELTA, "power": POWER, "alpha": ALPHA,
                          "min_runs": MIN_RUNS, "max_runs": MAX_RUNS,
-                         "pilot": "benchmarks/suite_power.py: seed 1000, 100 runs per track"},
+                         "pilot": "benchmarks/suite_power.py: seed 1000, 256 runs per track"},
                "tracks": {}}
     walls: dict[str, float] = {}
     t0 = time.perf_counter()
