@@ -438,7 +438,8 @@ class QMDP(_ProductRows):
     def begin_episode(self, starts: np.ndarray) -> None:
         """Prior: ι uniform among the other supports, the human's state as the episode starts."""
         super().begin_episode(starts)
-        self._stack = _Stack(self.graph, self.groups, self.n_runs, self.episode)
+        self._stack = _Stack(self.graph, self.groups, self.n_runs, self.episode,
+                             getattr(self, "_stack", None))
         k = self.graph.n_intentions
         n_z = self._stack.z_max
         self.belief = np.zeros((self.n_runs, k, n_z))
@@ -529,8 +530,11 @@ class _Stack:
     """
 
     def __init__(self, graph: TaskGraph, groups: Sequence[tuple[ProductPlan, np.ndarray]],
-                 n_runs: int, episode: int) -> None:
+                 n_runs: int, episode: int, previous: _Stack | None = None) -> None:
         models = [p.human for p, _ in groups]
+        self.models = models  # alive with the key: their ids are not reused meanwhile
+        self.key = tuple((id(m), rows.tobytes()) for m, (_, rows) in zip(models, groups,
+                                                                          strict=True))
         self.z_max = max([m.n_z for m in models], default=1)
         group = np.full(n_runs, -1, dtype=np.int64)
         for g, (_, rows) in enumerate(groups):
@@ -549,6 +553,9 @@ class _Stack:
         self.q = np.concatenate(q) if q else np.zeros((0, graph.n_actions))
         self.q_off = per_row(np.cumsum([0] + [len(x) for x in q])[:-1].tolist(), np.int64)
         self._flat: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        if previous is not None and previous.key == self.key:  # the same humans, same rows
+            self._flat = previous._flat
+            return
         for name in ("law", "next_z", "switch", "switched"):
             arrays = [np.ascontiguousarray(getattr(m, name) if getattr(m, name) is not None
                                            else np.zeros((m.n_z, graph.n_states)) if
