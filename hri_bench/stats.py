@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import math
+import statistics
 from collections.abc import Mapping
 from types import ModuleType
 
@@ -176,17 +177,21 @@ def runs_for_difference(sd: float, delta: float, *, power: float = 0.8, alpha: f
     for name, value in (("power", power), ("alpha", alpha)):
         if not (isinstance(value, int | float) and 0 < value < 1):
             raise ConfigError(f"{name} must be in (0, 1), got {value!r}", field=name)
-    norm = _scipy_stats().norm
-    z = norm.ppf(1 - alpha / 2) + norm.ppf(power)
-    return int(math.ceil((z * sd / delta) ** 2))
+    return int(math.ceil((_z(power, alpha) * sd / delta) ** 2))
 
 
 def detectable_difference(sd: float, runs: int, *, power: float = 0.8, alpha: float = 0.05
                           ) -> float:
     """The smallest difference :func:`runs_for_difference` detects with ``runs`` runs."""
-    norm = _scipy_stats().norm
-    z = norm.ppf(1 - alpha / 2) + norm.ppf(power)
-    return float(z * sd / math.sqrt(runs))
+    return float(_z(power, alpha) * sd / math.sqrt(runs))
+
+
+def _z(power: float, alpha: float) -> float:
+    """``z_(1-α/2) + z_power`` (the standard library's normal quantiles: importing
+    scipy.stats would slow every command that builds the suite's tracks).
+    """
+    norm = statistics.NormalDist()
+    return norm.inv_cdf(1 - alpha / 2) + norm.inv_cdf(power)
 
 
 def _seed(seed: int, e: int) -> np.random.SeedSequence:
