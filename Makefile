@@ -17,7 +17,7 @@ $(VENV)/.demo-installed: pyproject.toml constraints.txt | $(PY)
 	touch $@
 
 $(VENV)/.test-installed: pyproject.toml constraints.txt | $(PY)
-	$(PIP) -e ".[bench,mujoco,rl,ray,clients,web,dev]"
+	$(PIP) -e ".[bench,mujoco,rl,ray,clients,web,jax,dev]"
 	touch $@ $(VENV)/.demo-installed
 
 demo: $(VENV)/.demo-installed

@@ -46,6 +46,7 @@ EXTRA_OF: dict[str, str] = {
     "fastapi": "web", "uvicorn": "web", "pyarrow": "web", "minari": "web", "selenium": "web",
     "stable_baselines3": "rl", "sb3_contrib": "rl", "torch": "rl",
     "ray": "ray",
+    "jax": "jax", "jaxlib": "jax", "optax": "jax",
 }
 
 

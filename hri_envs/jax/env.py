@@ -1,0 +1,569 @@
+"""The robot against a scripted human as pure JAX functions: ``reset`` and ``step``.
+
+:class:`JaxRobotEnv` is :class:`~hri_envs.envs.vector.RobotVectorEnv`'s task written as
+functions of an env state and a PRNG key, for ``jax.jit``, ``jax.vmap`` and ``lax.scan``
+(gymnax's API: ``obs, state = env.reset(key, params)``, ``obs, state, reward, done, info =
+env.step(key, state, action, params)``, autoreset in the same step). Its arrays are the
+numpy env's own tables (:mod:`hri_envs.jax.tables`), so no rule is written twice, and on
+the same draws it equals the numpy env step for step (``tests/test_jax_env.py``).
+
+Randomness is split from the rules: :meth:`JaxRobotEnv.step_given` takes the step's draws
+(:class:`StepDraws`: the human's two uniforms, a new episode's start, intention and
+turning-back uniform, a new human) as inputs; :meth:`~JaxRobotEnv.step` makes them from a
+key. Drawing is what costs on a CPU (docs/environments.md, "JAX"): a key's draws are a
+counter-based hash (lowbias32) of one threefry draw per call, so :meth:`step_batch`, which
+takes one key for a whole batch, draws once per step, not once per env.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from gymnasium import spaces
+
+from hri_envs.envs.config import check_env_settings, scenario_graph
+from hri_envs.envs.spaces import robot_observation_space
+from hri_envs.errors import ConfigError
+from hri_envs.humans.populations import PopulationSpec, rational_human, validate_rationality
+from hri_envs.humans.scripted import (
+    ScriptedHuman,
+    check_probability,
+    preference_human,
+    preferences_for,
+)
+from hri_envs.jax.tables import (
+    HumanBank,
+    PopulationArrays,
+    StepArrays,
+    human_bank,
+    is_plain,
+    population_arrays,
+    step_arrays,
+)
+from hri_envs.task.actions import WAIT
+from hri_envs.task.scenarios import scenario_spec
+
+__all__ = ["EnvParams", "EnvState", "JaxRobotEnv", "Member", "ResetDraws", "StepDraws",
+           "uniforms"]
+
+Array = jax.Array
+#: Draw streams of one env step (see :func:`uniforms`).
+N_STREAMS = 10
+
+
+class Member(NamedTuple):
+    """One env's human: a bank entry with its rates (scalars; a leading axis when batched).
+
+    Attributes:
+        entry: int32, the bank entry (:class:`~hri_envs.jax.tables.HumanBank`).
+        beta: float, rationality β of a Boltzmann member (``inf``: the entry's own policy).
+        passive: float, probability of waiting in a step.
+        turn_back: float, probability per episode of turning back halfway.
+        drift_entry: int32, the entry after the human drifts (the env's ``drift``).
+    """
+
+    entry: Array
+    beta: Array
+    passive: Array
+    turn_back: Array
+    drift_entry: Array
+
+
+class EnvState(NamedTuple):
+    """The state of one env (scalars; a leading axis (N,) when batched).
+
+    Attributes:
+        state: int32, the task state s.
+        start: int32, the episode's start support.
+        intention: int32, the human's current goal ι (the start after turning back).
+        lifted: bool, the object has left the start support.
+        steps: int32, steps taken in the episode.
+        turn_at: int32, the state where the human turns back in this episode (-1: never).
+        last_human: int32, the human's last action (wait at the start).
+        member: The human (:class:`Member`).
+        episode: int32, the episode's index among those with this human (a trial).
+    """
+
+    state: Array
+    start: Array
+    intention: Array
+    lifted: Array
+    steps: Array
+    turn_at: Array
+    last_human: Array
+    member: Member
+    episode: Array
+
+
+class ResetDraws(NamedTuple):
+    """What starting an episode draws (per env).
+
+    Attributes:
+        start: int32, the start support.
+        intention: int32, the intention ι (≠ start).
+        u_turn: float in [0, 1), the episode turns back when ``u_turn < turn_back``.
+        member: The new human, used when the episode begins a new trial.
+    """
+
+    start: Array
+    intention: Array
+    u_turn: Array
+    member: Member
+
+
+class StepDraws(NamedTuple):
+    """What one step of one env draws.
+
+    Attributes:
+        u_passive: float in [0, 1), the human waits when ``u_passive < passive``.
+        u_choice: float in [0, 1), samples a stochastic human's action (inverse CDF).
+        reset: The draws of the episode that starts if this step ends one (autoreset).
+    """
+
+    u_passive: Array
+    u_choice: Array
+    reset: ResetDraws
+
+
+class EnvParams(NamedTuple):
+    """The env's arrays (gymnax's ``params``): the step table, the humans, the step limit.
+
+    Attributes:
+        next_state, reward, terminated, lifted, aborted, robot_invalid: (2 K S A A,) the
+            step table (:class:`~hri_envs.jax.tables.StepArrays`).
+        state0: (K,) int32, the start state of each support.
+        action_mask: (S, A) int8.
+        support: (S,) int32.
+        greedy: (P', K, K, S) int32; cum, q: (P', K, K, S, A) float; stochastic: (P',) bool;
+            turn_state: (P', K, K) int32; valid: (S, A) bool: the human bank.
+        pop_entries: (n,) int32, the entries a population draws from (the fixed entry
+            without a population).
+        pop_log_beta, pop_passive, pop_turn_back: (2,) float, the population's ranges.
+        fixed: The env's fixed human (without a population).
+        max_cycles: int32, the step limit per episode.
+    """
+
+    next_state: Array
+    reward: Array
+    terminated: Array
+    lifted: Array
+    aborted: Array
+    robot_invalid: Array
+    state0: Array
+    action_mask: Array
+    support: Array
+    greedy: Array
+    cum: Array
+    stochastic: Array
+    q: Array
+    turn_state: Array
+    valid: Array
+    pop_entries: Array
+    pop_log_beta: Array
+    pop_passive: Array
+    pop_turn_back: Array
+    fixed: Member
+    max_cycles: Array
+
+
+# --------------------------------------------------------------------------- draws
+def _mix(x: Array) -> Array:
+    """lowbias32 (C. Wellons): a bijective avalanche hash of uint32."""
+    x = x ^ (x >> 16)
+    x = x * jnp.uint32(0x7FEB352D)
+    x = x ^ (x >> 15)
+    x = x * jnp.uint32(0x846CA68B)
+    return x ^ (x >> 16)
+
+
+def uniforms(seed: Array, index: Array, n: int = N_STREAMS) -> Array:
+    """(n,) uniforms in [0, 1) for one env: a hash of ``(seed, index, stream)``.
+
+    Args:
+        seed: (2,) uint32, one threefry draw (``jax.random.bits(key, (2,), jnp.uint32)``).
+        index: uint32, the env's index in its batch (< 2²⁸).
+        n: Streams (< 16).
+
+    Distinct ``(index, stream)`` give distinct hashes for one seed (the hash is a bijection
+    of ``16 index + stream``); 24 bits each, so every value is exact in float32.
+    """
+    x = index.astype(jnp.uint32) * jnp.uint32(16) + jnp.arange(n, dtype=jnp.uint32)
+    h = _mix(_mix(x ^ seed[0]) ^ seed[1])
+    return (h >> 8).astype(jnp.float32) * jnp.float32(2.0 ** -24)
+
+
+# --------------------------------------------------------------------------- the env
+class JaxRobotEnv:
+    """The robot vs a scripted human, as pure functions (gymnax's API, same-step autoreset).
+
+    ## Description
+
+    :class:`~hri_envs.envs.vector.RobotVectorEnv`'s task for ``jax.jit``/``jax.vmap``:
+    ``reset(key, params)`` and ``step(key, state, action, params)`` act on one env
+    (:class:`EnvState`); :meth:`reset_batch` and :meth:`step_batch` on N envs with one key
+    per call. A step is one flat index into the numpy env's
+    :class:`~hri_envs.task.episode.StepTable` (:mod:`hri_envs.jax.tables`); the human acts
+    by its table (a deterministic preference, a stochastic table, or ``softmax(β Q_pref)``
+    for a Boltzmann member of a population), may wait (``passive``) and turn back. Needs the
+    ``jax`` extra (``.venv/bin/pip install -c constraints.txt -e '.[jax]'``).
+
+    ## Action Space
+
+    ``Discrete(A)`` (:meth:`action_space`), as the numpy env. An action outside
+    ``0 .. A - 1`` cannot raise inside ``jit``: it is clipped into range (check actions
+    where they come from; the action masks say which are valid).
+
+    ## Observation Space
+
+    A dict of ``"state"``, ``"start"``, ``"last_human_action"`` (int32) and
+    ``"action_mask"`` (A,) int8, as the numpy env's; ι is not observed.
+
+    ## Rewards
+
+    The robot cooperation reward R_R of the rules' variant (``reward="paper"`` or
+    ``"no-free-toggle"``, :class:`~hri_envs.task.episode.EpisodeRules`), float (float64
+    under ``jax.enable_x64``).
+
+    ## Starting State
+
+    The object rests on a start support drawn uniformly, ι drawn uniformly among the other
+    supports; the episode turns back with the human's ``turn_back`` rate. Every
+    ``episodes_per_human`` episodes (a *trial*; 1: at every reset, as the numpy env) the
+    env draws a new human from ``population`` (or keeps its fixed human).
+
+    ## Episode End
+
+    ``done = terminated | truncated`` (``truncated`` at ``max_cycles`` steps); the step
+    that ends an episode returns the next episode's first observation (gymnax's and
+    Gymnasium's same-step autoreset); ``info["final_state"]`` holds the state the step
+    reached. ``info`` also has ``terminated``, ``truncated``, ``aborted``,
+    ``invalid_action`` (the robot's), ``human_action`` and ``new_trial`` (the returned
+    observation starts a trial with a new human).
+
+    ## Arguments
+
+    - ``scenario``, ``preference``, ``human_passive``, ``turn_back``,
+      ``human_rationality``, ``r0``, ``max_cycles``, ``reward``: as for
+      :class:`~hri_envs.envs.vector.RobotVectorEnv`;
+    - ``human``: a :class:`~hri_envs.humans.scripted.ScriptedHuman` shared by every env
+      (humans of the human protocol with Python state cannot run under ``jit``);
+    - ``population``: a name of
+      :data:`~hri_envs.jax.tables.SUPPORTED_POPULATIONS` (or a
+      :class:`~hri_envs.humans.populations.PopulationSpec`): a human drawn per trial;
+    - ``episodes_per_human``: episodes per trial (default 1);
+    - ``drift``: after this many episodes of a trial the human switches to another
+      preference (None: never), as the suite's drifting human.
+
+    ## Version History
+
+    - v0: initial version (equals ``RobotVectorEnv`` v0 on the same draws).
+    """
+
+    def __init__(
+        self,
+        scenario: str = "hanger",
+        *,
+        preference: str | None = None,
+        human_passive: float = 0.0,
+        turn_back: float = 0.0,
+        human: ScriptedHuman | None = None,
+        human_rationality: float = math.inf,
+        population: str | PopulationSpec | None = None,
+        r0: float | None = None,
+        max_cycles: int = 100,
+        reward: str = "paper",
+        episodes_per_human: int = 1,
+        drift: int | None = None,
+    ) -> None:
+        (self.scenario, self.r0, self.max_cycles, _, _) = check_env_settings(
+            scenario, r0, max_cycles, None, [], "graph")
+        graph = self.graph = scenario_graph(self.scenario)
+        validate_rationality(human_rationality)
+        passive = check_probability(human_passive, "human_passive")
+        turn = check_probability(turn_back, "turn_back")
+        if (isinstance(episodes_per_human, bool) or not isinstance(episodes_per_human, int)
+                or episodes_per_human < 1):
+            raise ConfigError(f"episodes_per_human must be a whole number >= 1, got "
+                              f"{episodes_per_human!r}", field="episodes_per_human")
+        if drift is not None and (isinstance(drift, bool) or not isinstance(drift, int)
+                                  or drift < 1):
+            raise ConfigError(f"drift must be None or a whole number of episodes >= 1, got "
+                              f"{drift!r}", field="drift")
+        if human is not None and population is not None:
+            raise ConfigError("give either a human or a population, not both",
+                              field="population")
+        if human is not None and not isinstance(human, ScriptedHuman):
+            raise ConfigError(f"human must be a ScriptedHuman (a table the JAX env can "
+                              f"hold), got {type(human).__name__}", field="human")
+        if human is not None and (human.graph.name != graph.name
+                                  or human.graph.n_states != graph.n_states):
+            raise ConfigError(f"the human was built for the {human.graph.name} scenario, not "
+                              f"the {graph.name}", field="human")
+        self.reward_rule = reward
+        self.episodes_per_human = episodes_per_human
+        self.drift = drift
+        self.steps: StepArrays = step_arrays(graph, self.r0, reward)
+        n_k = graph.n_intentions
+        self.n_states, self.n_actions, self.n_supports = graph.n_states, graph.n_actions, n_k
+        pop: PopulationArrays | None = None
+        extra: ScriptedHuman | None = None
+        fixed_entry = 0
+        fixed_passive, fixed_turn = 0.0, 0.0
+        if population is not None:
+            pop = population_arrays(graph, population)
+        else:
+            if human is None:
+                human = rational_human(preference_human(graph, preference, passive=passive,
+                                                        turn_back=turn), human_rationality)
+            plain = is_plain(human, graph)
+            if plain is None:  # its own table, after the preference humans
+                extra, fixed_entry = human, len(preferences_for(graph.name))
+            else:
+                fixed_entry = plain
+            fixed_passive, fixed_turn = human.passive, human.turn_back
+        self.bank: HumanBank = human_bank(graph, extra)
+        self.population = pop
+        # What can happen, fixed when the env is built (the step traces only what can).
+        if pop is None:
+            self._rational = False
+            self._passive = fixed_passive > 0.0
+            self._turning = fixed_turn > 0.0
+            self._stochastic = bool(self.bank.stochastic[fixed_entry])
+        else:
+            self._rational = pop.log_beta is not None
+            self._passive = bool(pop.passive[1] > 0.0)
+            self._turning = bool(pop.turn_back[1] > 0.0)
+            self._stochastic = self._rational
+        self._fixed = (fixed_entry, fixed_passive, fixed_turn)
+        self.spec = scenario_spec(self.scenario)
+
+    # ----------------------------------------------------------------- spaces
+    def action_space(self, params: EnvParams | None = None) -> spaces.Discrete:
+        """``Discrete(A)``, the robot's actions."""
+        return spaces.Discrete(self.n_actions)
+
+    def observation_space(self, params: EnvParams | None = None) -> spaces.Dict:
+        """The numpy env's single observation space (``Dict``)."""
+        return robot_observation_space(self.n_states, self.n_supports, self.n_actions)
+
+    @property
+    def num_actions(self) -> int:
+        """A."""
+        return self.n_actions
+
+    @property
+    def name(self) -> str:
+        """The env's name, as gymnax's."""
+        return f"hri_envs/{self.spec.gym_id or self.scenario}-jax"
+
+    # ----------------------------------------------------------------- params
+    @property
+    def default_params(self) -> EnvParams:
+        """The env's arrays as ``jax`` arrays (float64 under ``jax.enable_x64``)."""
+        t, b = self.steps, self.bank
+        ftype = jnp.zeros(()).dtype  # float32, or float64 under jax.enable_x64
+        pop = self.population
+
+        def f(x: Any) -> Array:
+            return jnp.asarray(x, dtype=ftype)
+
+        entry, passive, turn = self._fixed
+        entries = pop.prefs if pop is not None else np.array([entry], np.int32)
+        log_beta = pop.log_beta if pop is not None and pop.log_beta is not None else [0.0, 0.0]
+        return EnvParams(
+            next_state=jnp.asarray(t.next_state), reward=f(t.reward),
+            terminated=jnp.asarray(t.terminated), lifted=jnp.asarray(t.lifted),
+            aborted=jnp.asarray(t.aborted), robot_invalid=jnp.asarray(t.robot_invalid),
+            state0=jnp.asarray(t.state0), action_mask=jnp.asarray(t.action_mask),
+            support=jnp.asarray(t.support),
+            greedy=jnp.asarray(b.greedy), cum=f(b.cum), stochastic=jnp.asarray(b.stochastic),
+            q=f(b.q), turn_state=jnp.asarray(b.turn_state), valid=jnp.asarray(b.valid),
+            pop_entries=jnp.asarray(entries, dtype=jnp.int32), pop_log_beta=f(log_beta),
+            pop_passive=f(pop.passive if pop is not None else [0.0, 0.0]),
+            pop_turn_back=f(pop.turn_back if pop is not None else [0.0, 0.0]),
+            fixed=Member(jnp.int32(entry), f(math.inf), f(passive), f(turn), jnp.int32(entry)),
+            max_cycles=jnp.int32(min(self.max_cycles, 2**31 - 1)),
+        )
+
+    # ----------------------------------------------------------------- draws
+    def member_from_uniforms(self, u: Array, params: EnvParams) -> Member:
+        """A human from five uniforms: the population's recipe (:class:`PopulationArrays`)
+        from ``u[:4]``, the drift's other preference from ``u[4]``; the fixed human
+        without a population.
+        """
+        p = params
+        if self.population is None:
+            m = p.fixed
+        else:
+            n = p.pop_entries.shape[0]
+            entry = p.pop_entries[jnp.minimum((u[0] * n).astype(jnp.int32), n - 1)]
+            dtype = p.pop_passive.dtype
+            uu = u.astype(dtype)
+            if self._rational:
+                lo, hi = p.pop_log_beta[0], p.pop_log_beta[1]
+                beta = jnp.exp(lo + uu[1] * (hi - lo))
+            else:
+                beta = jnp.asarray(jnp.inf, dtype)
+            passive = p.pop_passive[0] + uu[2] * (p.pop_passive[1] - p.pop_passive[0])
+            turn = p.pop_turn_back[0] + uu[3] * (p.pop_turn_back[1] - p.pop_turn_back[0])
+            m = Member(entry, beta, passive, turn, entry)
+        if self.drift is None:
+            return m
+        n_p = self.bank.n_preferences
+        shift = jnp.minimum((u[4] * (n_p - 1)).astype(jnp.int32), n_p - 2)
+        other = jnp.where(m.entry < n_p, (m.entry + 1 + shift) % n_p,
+                          jnp.minimum((u[4] * n_p).astype(jnp.int32), n_p - 1))
+        return m._replace(drift_entry=other.astype(jnp.int32))
+
+    def draws_from_uniforms(self, u: Array, params: EnvParams) -> StepDraws:
+        """One env's :class:`StepDraws` from (10,) uniforms: passive, choice, start,
+        intention, turn, then the five of :meth:`member_from_uniforms`.
+        """
+        k = self.n_supports
+        start = jnp.minimum((u[2] * k).astype(jnp.int32), k - 1)
+        offset = jnp.minimum((u[3] * (k - 1)).astype(jnp.int32), k - 2)
+        reset = ResetDraws(start, (start + 1 + offset) % k, u[4],
+                           self.member_from_uniforms(u[5:10], params))
+        return StepDraws(u[0], u[1], reset)
+
+    def draws(self, key: Array, params: EnvParams, index: Array | int = 0) -> StepDraws:
+        """The draws of env ``index`` of a batch for one step, from ``key`` (:func:`uniforms`)."""
+        seed = jax.random.bits(key, (2,), jnp.uint32)
+        return self.draws_from_uniforms(uniforms(seed, jnp.asarray(index)), params)
+
+    def batch_draws(self, key: Array, n: int, params: EnvParams) -> StepDraws:
+        """(n,) draws, one per env, from one key (one threefry draw, then a hash per env)."""
+        seed = jax.random.bits(key, (2,), jnp.uint32)
+        u = jax.vmap(uniforms, in_axes=(None, 0))(seed, jnp.arange(n, dtype=jnp.uint32))
+        return jax.vmap(self.draws_from_uniforms, in_axes=(0, None))(u, params)
+
+    # ----------------------------------------------------------------- the rules
+    def _entry(self, member: Member, episode: Array) -> Array:
+        """The bank entry acting in episode ``episode`` of a trial (after drift)."""
+        if self.drift is None:
+            return member.entry
+        return jnp.where(episode >= self.drift, member.drift_entry, member.entry)
+
+    def human_action(self, state: EnvState, u_passive: Array, u_choice: Array,
+                     params: EnvParams) -> Array:
+        """The human's action in ``state`` (as :class:`~hri_envs.humans.tables.TableHumans`:
+        the preferred action, or the inverse CDF of a stochastic table at ``u_choice``, or a
+        wait when ``u_passive < passive``).
+        """
+        p, m = params, state.member
+        entry = self._entry(m, state.episode)
+        where = (entry, state.start, state.intention, state.state)
+        a = p.greedy[where]
+        if self._stochastic:
+            if self._rational:
+                finite = jnp.isfinite(m.beta)
+                beta = jnp.where(finite, m.beta, 1.0)
+                valid = p.valid[state.state]
+                z = jnp.where(valid, beta * p.q[where], -jnp.inf)
+                e = jnp.exp(z - z.max())
+                cum = jnp.cumsum(e / e.sum())
+                use = finite
+            else:
+                cum = p.cum[where]
+                use = p.stochastic[entry]
+            sampled = jnp.minimum(jnp.sum(u_choice >= cum), self.n_actions - 1)
+            a = jnp.where(use, sampled.astype(a.dtype), a)
+        if self._passive:
+            a = jnp.where(u_passive < m.passive, WAIT, a)
+        return a
+
+    def _begin(self, draws: ResetDraws, member: Member, episode: Array,
+               params: EnvParams) -> EnvState:
+        """A new episode with ``member`` as the human (the episode ``episode`` of its trial)."""
+        p = params
+        start, goal = draws.start, draws.intention
+        turn_at = jnp.int32(-1)
+        if self._turning:
+            entry = self._entry(member, episode)
+            turn_at = jnp.where(draws.u_turn < member.turn_back,
+                                p.turn_state[entry, start, goal], -1)
+        return EnvState(state=p.state0[start], start=start, intention=goal,
+                        lifted=jnp.bool_(False), steps=jnp.int32(0), turn_at=turn_at,
+                        last_human=jnp.int32(WAIT), member=member, episode=episode)
+
+    def observation(self, state: EnvState, params: EnvParams) -> dict[str, Array]:
+        """The robot's observation of ``state`` (never ι)."""
+        return {"state": state.state, "start": state.start,
+                "last_human_action": state.last_human,
+                "action_mask": params.action_mask[state.state]}
+
+    def reset_given(self, draws: ResetDraws, params: EnvParams | None = None
+                    ) -> tuple[dict[str, Array], EnvState]:
+        """Start a trial (a new human) and its first episode from given draws."""
+        p = self.default_params if params is None else params
+        state = self._begin(draws, draws.member, jnp.int32(0), p)
+        return self.observation(state, p), state
+
+    def step_given(self, state: EnvState, action: Array | int, draws: StepDraws,
+                   params: EnvParams | None = None
+                   ) -> tuple[dict[str, Array], EnvState, Array, Array, dict[str, Array]]:
+        """One step of one env on given draws (pure; ``jit``/``vmap`` it).
+
+        Returns:
+            ``(obs, state, reward, done, info)``; when the step ends the episode, ``obs`` and
+            ``state`` are the next episode's (drawn from ``draws.reset``).
+        """
+        p = self.default_params if params is None else params
+        n_s, n_a = self.n_states, self.n_actions
+        a_r = jnp.clip(jnp.asarray(action, jnp.int32), 0, n_a - 1)
+        a_h = self.human_action(state, draws.u_passive, draws.u_choice, p)
+        j = (((state.start * 2 + state.lifted.astype(jnp.int32)) * n_s + state.state) * n_a
+             + a_r) * n_a + a_h
+        s_next = p.next_state[j]
+        terminated = p.terminated[j]
+        back = s_next == state.turn_at  # ι becomes the start on entering the turning state
+        steps = state.steps + 1
+        truncated = (steps >= p.max_cycles) & ~terminated
+        done = terminated | truncated
+        stepped = state._replace(
+            state=s_next, intention=jnp.where(back, state.start, state.intention),
+            lifted=p.lifted[j], steps=steps, turn_at=jnp.where(back, -1, state.turn_at),
+            last_human=a_h)
+        new_trial = state.episode + 1 >= self.episodes_per_human
+        member = jax.tree.map(lambda new, old: jnp.where(new_trial, new, old),
+                              draws.reset.member, state.member)
+        episode = jnp.where(new_trial, 0, state.episode + 1).astype(jnp.int32)
+        fresh = self._begin(draws.reset, member, episode, p)
+        following = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, stepped)
+        info = {"terminated": terminated, "truncated": truncated, "aborted": p.aborted[j],
+                "invalid_action": p.robot_invalid[j], "human_action": a_h,
+                "final_state": s_next, "new_trial": done & new_trial}
+        return self.observation(following, p), following, p.reward[j], done, info
+
+    # ----------------------------------------------------------------- gymnax API
+    def reset(self, key: Array, params: EnvParams | None = None
+              ) -> tuple[dict[str, Array], EnvState]:
+        """Start one env: a human (the population's draw) and an episode, from ``key``."""
+        p = self.default_params if params is None else params
+        return self.reset_given(self.draws(key, p).reset, p)
+
+    def step(self, key: Array, state: EnvState, action: Array | int,
+             params: EnvParams | None = None
+             ) -> tuple[dict[str, Array], EnvState, Array, Array, dict[str, Array]]:
+        """One step of one env, its draws from ``key`` (see :meth:`step_given`)."""
+        p = self.default_params if params is None else params
+        return self.step_given(state, action, self.draws(key, p), p)
+
+    def reset_batch(self, key: Array, n: int, params: EnvParams | None = None
+                    ) -> tuple[dict[str, Array], EnvState]:
+        """Start ``n`` envs from one key (arrays with a leading (n,) axis)."""
+        p = self.default_params if params is None else params
+        draws = self.batch_draws(key, n, p)
+        return jax.vmap(self.reset_given, in_axes=(0, None))(draws.reset, p)
+
+    def step_batch(self, key: Array, state: EnvState, action: Array,
+                   params: EnvParams | None = None
+                   ) -> tuple[dict[str, Array], EnvState, Array, Array, dict[str, Array]]:
+        """One step of N envs ((N,) actions) with one key: the fast path under ``jit``."""
+        p = self.default_params if params is None else params
+        draws = self.batch_draws(key, action.shape[0], p)
+        return jax.vmap(self.step_given, in_axes=(0, 0, 0, None))(state, action, draws, p)

@@ -1,0 +1,298 @@
+"""The JAX env equals the numpy vector env step for step on the same draws.
+
+The numpy env (same-step autoreset, as the JAX env) is run as it is; the draws it consumed
+are read back and handed to :meth:`JaxRobotEnv.step_given`: the human's two uniforms per
+step (a copy of the human's generator, which draws ``(2, N)`` per step), and for every
+episode that starts its start, intention, whether it turns back and (for a population) the
+member drawn (a :class:`PopulationHumans` that records its draws). Both run in float64
+(``jax.enable_x64``), so a Boltzmann human's inverse CDF compares the same numbers.
+"""
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+jax = pytest.importorskip("jax")
+import jax.numpy as jnp  # noqa: E402
+
+from hri_envs.envs.config import scenario_graph  # noqa: E402
+from hri_envs.envs.vector import RobotVectorEnv  # noqa: E402
+from hri_envs.errors import ConfigError  # noqa: E402
+from hri_envs.humans.populations import (  # noqa: E402
+    POPULATIONS,
+    PopulationHumans,
+    build_human,
+)
+from hri_envs.humans.protocol import all_rows  # noqa: E402
+from hri_envs.humans.scripted import boltzmann_human, preferences_for  # noqa: E402
+from hri_envs.jax import JaxRobotEnv, Member, ResetDraws, StepDraws  # noqa: E402
+from hri_envs.jax.tables import SUPPORTED_POPULATIONS  # noqa: E402
+from hri_envs.task.features import initial_theta  # noqa: E402
+
+SAME = AutoresetMode.SAME_STEP
+
+
+class RecordingPopulation(PopulationHumans):
+    """A population seat that keeps the members it drew (PopulationHumans.draw's recipe)."""
+
+    def draw(self, rng, rows=None):
+        idx = all_rows(rows, self.n_runs)
+        draws = [self.spec.sample(self.graph.name, rng) for _ in idx]
+        self.drawn = dict(zip(idx.tolist(), draws, strict=True))
+        self.assign(idx, [build_human(self.graph, d) for d in draws])
+
+
+def _members(jenv, params, vec, rows, n):
+    """(n,) Member arrays: the recorded draws of ``rows`` (others: the fixed human)."""
+    fixed = params.fixed
+    entry = np.full(n, int(fixed.entry), np.int32)
+    beta = np.full(n, math.inf)
+    passive = np.full(n, float(fixed.passive))
+    turn = np.full(n, float(fixed.turn_back))
+    if isinstance(vec.human, RecordingPopulation):
+        prefs = preferences_for(jenv.scenario)
+        for i in rows:
+            d = vec.human.drawn[int(i)]
+            entry[i], beta[i] = prefs.index(d.preference), d.rationality
+            passive[i], turn[i] = d.passive, d.turn_back
+    return Member(jnp.asarray(entry), jnp.asarray(beta), jnp.asarray(passive),
+                  jnp.asarray(turn), jnp.asarray(entry))
+
+
+def _reset_draws(jenv, params, vec, obs, rows, n):
+    """What the numpy env drew for the episodes of ``rows`` (the others' are unused)."""
+    turning = vec._turn_at != -1
+    return ResetDraws(jnp.asarray(obs["start"], jnp.int32),
+                      jnp.asarray(vec.intention, jnp.int32),
+                      jnp.asarray(np.where(turning, 0.0, 1.0)),
+                      _members(jenv, params, vec, rows, n))
+
+
+def _same(name, got, want):
+    got, want = np.asarray(got), np.asarray(want)
+    bad = np.argwhere(got != want.astype(got.dtype))
+    assert bad.size == 0, f"{name} differs at (step, env) {bad[:5].tolist()}"
+
+
+def _stack(items):
+    return jax.tree.map(lambda *xs: jnp.stack(xs), *items)
+
+
+def run_pair(scenario, n=48, steps=80, seed=0, population=None, human=None, **kwargs):
+    """Step both envs with the same robot actions and draws; compare every output.
+
+    The numpy env runs first and its draws are recorded; the JAX env then replays them in
+    one ``lax.scan`` (one compilation per setting).
+    """
+    graph = scenario_graph(scenario)
+    with jax.enable_x64(True):
+        if population is not None:
+            seat = RecordingPopulation(graph, population, n)
+            vec = RobotVectorEnv(n, scenario, human=seat, autoreset_mode=SAME, **kwargs)
+        else:
+            vec = RobotVectorEnv(n, scenario, human=human, autoreset_mode=SAME, **kwargs)
+        jenv = JaxRobotEnv(scenario, population=population, human=human, **kwargs)
+        params = jenv.default_params
+        obs, _ = vec.reset(seed=seed)
+        mirror = np.random.Generator(type(vec.human.rng.bit_generator)())
+        mirror.bit_generator.state = vec.human.rng.bit_generator.state
+        first = _reset_draws(jenv, params, vec, obs, np.arange(n), n)
+        rng = np.random.default_rng(seed + 1)
+        n_a = graph.n_actions
+        want = {k: [] for k in ("obs", "intention", "reward", "terminated", "truncated",
+                                "aborted", "invalid_action")}
+        actions, draws = [], []
+        for _ in range(steps):
+            want["obs"].append(obs)
+            want["intention"].append(vec.intention)
+            # the robot: a random valid action, sometimes any action (aborted steps)
+            valid = obs["action_mask"].astype(bool)
+            pick = np.argmax(rng.random((n, n_a)) * valid, axis=1)
+            action = np.where(rng.random(n) < 0.15, rng.integers(n_a, size=n), pick)
+            u = mirror.random((2, n))  # what the numpy human draws (unused if greedy)
+            obs, reward, term, trunc, info = vec.step(action)
+            ended = np.flatnonzero(term | trunc)
+            actions.append(jnp.asarray(action))
+            draws.append(StepDraws(jnp.asarray(u[0]), jnp.asarray(u[1]),
+                                   _reset_draws(jenv, params, vec, obs, ended, n)))
+            for key, value in (("reward", reward), ("terminated", term),
+                               ("truncated", trunc), ("aborted", info["aborted"]),
+                               ("invalid_action", info["invalid_action"])):
+                want[key].append(value)
+
+        step = jax.vmap(jenv.step_given, in_axes=(0, 0, 0, None))
+
+        @jax.jit
+        def replay(first, actions, draws):
+            obs0, state0 = jax.vmap(jenv.reset_given, in_axes=(0, None))(first, params)
+
+            def body(carry, x):
+                obs, state = carry
+                out = (obs, state.intention)
+                obs, state, reward, _, info = step(state, x[0], x[1], params)
+                return (obs, state), (out, reward, info)
+
+            _, (seen, reward, info) = jax.lax.scan(body, (obs0, state0), (actions, draws))
+            return seen, reward, info
+
+        (jobs, jintention), jreward, jinfo = replay(first, jnp.stack(actions), _stack(draws))
+        for key in want["obs"][0]:
+            _same(key, jobs[key], np.stack([o[key] for o in want["obs"]]))
+        _same("intention", jintention, np.stack(want["intention"]))
+        np.testing.assert_array_equal(np.asarray(jreward), np.stack(want["reward"]))
+        for key in ("terminated", "truncated", "aborted", "invalid_action"):
+            _same(key, jinfo[key], np.stack(want[key]))
+        return vec
+
+
+CASES = [
+    ("hanger", {}),
+    ("hanger", {"r0": -0.5, "reward": "no-free-toggle", "max_cycles": 7}),
+    ("hanger", {"preference": "over-rotate-down/up-over-rotate", "turn_back": 0.6,
+                "human_passive": 0.3}),
+    ("wheel", {"preference": "straight", "human_passive": 0.2, "turn_back": 0.5}),
+    ("wheel", {"preference": "detour", "human_rationality": 3.0, "max_cycles": 15}),
+    ("wheel", {"reward": "no-free-toggle", "turn_back": 1.0}),
+]
+
+
+@pytest.mark.parametrize(("scenario", "kwargs"), CASES)
+def test_equals_the_numpy_env_with_one_human(scenario, kwargs):
+    run_pair(scenario, seed=3, **kwargs)
+
+
+@pytest.mark.parametrize("population", SUPPORTED_POPULATIONS)
+@pytest.mark.parametrize("scenario", ["hanger", "wheel"])
+def test_equals_the_numpy_env_with_a_population(scenario, population):
+    if scenario not in POPULATIONS[population].scenarios:
+        pytest.skip(f"{population} is not for the {scenario}")
+    run_pair(scenario, seed=11, population=population, max_cycles=25,
+             reward="no-free-toggle" if population == "heldout" else "paper")
+
+
+def test_equals_the_numpy_env_with_a_boltzmann_theta_human():
+    graph = scenario_graph("hanger")
+    theta = initial_theta(graph.n_features) + np.random.default_rng(0).uniform(
+        -0.5, 0.5, graph.n_features)
+    human = boltzmann_human(graph, theta, temperature=8.0, passive=0.1)
+    run_pair("hanger", seed=5, human=human)
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(scenario=st.sampled_from(["hanger", "wheel"]), seed=st.integers(0, 2**31),
+       reward=st.sampled_from(["paper", "no-free-toggle"]),
+       r0=st.sampled_from([-0.1, -0.25, -0.33, -0.9]), max_cycles=st.integers(1, 60),
+       population=st.sampled_from([None, "preferences", "heldout", "mixed-rationality"]),
+       passive=st.sampled_from([0.0, 0.25]), turn=st.sampled_from([0.0, 0.7]))
+def test_equals_the_numpy_env_property(scenario, seed, reward, r0, max_cycles, population,
+                                       passive, turn):
+    """Generated settings and seeds: states, rewards, masks and episode ends agree."""
+    kwargs = {"reward": reward, "r0": r0, "max_cycles": max_cycles}
+    if population is None:
+        kwargs.update(human_passive=passive, turn_back=turn)
+    run_pair(scenario, n=24, steps=60, seed=seed, population=population, **kwargs)
+
+
+# --------------------------------------------------------------------------- key mode
+@pytest.mark.parametrize("scenario", ["hanger", "wheel"])
+def test_keys_jit_and_vmap(scenario):
+    """reset/step from keys under jit + vmap, and the batched path with one key."""
+    env = JaxRobotEnv(scenario, population="heldout", episodes_per_human=3, drift=2)
+    params = env.default_params
+    n = 256
+    keys = jax.random.split(jax.random.key(0), n)
+    obs, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)
+    step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
+    step_batch = jax.jit(env.step_batch)
+    state_b = state
+    valid = np.asarray(env.steps.action_mask, bool)
+    ends = 0
+    for t in range(30):
+        mask = np.asarray(obs["action_mask"]).astype(bool)
+        assert np.array_equal(mask, valid[np.asarray(state.state)])
+        action = jnp.asarray(np.argmax(mask * np.random.default_rng(t).random(mask.shape), 1))
+        obs, state, reward, done, info = step(jax.random.split(jax.random.key(t), n), state,
+                                              action, params)
+        _, state_b, _, _, _ = step_batch(jax.random.key(t), state_b, action, params)
+        ends += int(done.sum())
+        r = np.asarray(reward, dtype=float)[:, None]
+        assert np.isclose(r, [-1.0, env.r0, 0.0], atol=1e-6).any(axis=1).all()
+        assert np.all(np.asarray(state.episode) < 3)
+    assert ends > 0
+    assert np.all(np.asarray(state.intention) != -1)
+
+
+def test_same_key_same_trajectory():
+    env = JaxRobotEnv("wheel", population="heldout")
+    params = env.default_params
+    out = []
+    step = jax.jit(env.step_batch)
+    for _ in range(2):
+        obs, state = env.reset_batch(jax.random.key(7), 64, params)
+        for t in range(20):
+            obs, state, reward, done, _ = step(jax.random.key(t), state,
+                                               jnp.zeros(64, jnp.int32), params)
+        out.append(np.asarray(state.state))
+    assert np.array_equal(out[0], out[1])
+
+
+def test_population_draw_matches_the_recipe():
+    """member_from_uniforms applies PopulationSpec.sample's recipe to the same uniforms."""
+    with jax.enable_x64(True):
+        env = JaxRobotEnv("hanger", population="heldout")
+        params = env.default_params
+        prefs = preferences_for("hanger")
+        for seed in range(20):
+            rng = np.random.default_rng(seed)
+            u = np.random.default_rng(seed).random(4)
+            d = POPULATIONS["heldout"].sample("hanger", rng)
+            m = env.member_from_uniforms(jnp.asarray(np.r_[u, 0.5]), params)
+            assert int(m.entry) == prefs.index(d.preference)
+            np.testing.assert_allclose(float(m.beta), d.rationality, rtol=1e-12)
+            np.testing.assert_allclose(float(m.passive), d.passive, rtol=1e-12)
+            np.testing.assert_allclose(float(m.turn_back), d.turn_back, rtol=1e-12)
+
+
+def test_drift_switches_to_another_preference():
+    env = JaxRobotEnv("hanger", population="preferences", episodes_per_human=6, drift=3)
+    params = env.default_params
+    for i in range(50):
+        u = jax.random.uniform(jax.random.key(i), (5,))
+        m = env.member_from_uniforms(u, params)
+        assert int(m.drift_entry) != int(m.entry)
+        assert int(env._entry(m, jnp.int32(2))) == int(m.entry)
+        assert int(env._entry(m, jnp.int32(3))) == int(m.drift_entry)
+
+
+def test_bad_settings_name_the_field():
+    with pytest.raises(ConfigError) as exc:
+        JaxRobotEnv("hanger", population="theta")
+    assert exc.value.field == "population"
+    with pytest.raises(ConfigError) as exc:
+        JaxRobotEnv("hanger", episodes_per_human=0)
+    assert exc.value.field == "episodes_per_human"
+    with pytest.raises(ConfigError) as exc:
+        JaxRobotEnv("hanger", drift=True)
+    assert exc.value.field == "drift"
+    with pytest.raises(ConfigError) as exc:
+        JaxRobotEnv("hanger", r0=0.5)
+    assert exc.value.field == "r0"
+
+
+def test_hri_envs_does_not_import_jax():
+    code = "import sys, hri_envs, hri_envs.envs; assert 'jax' not in sys.modules"
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_without_jax_one_line_says_how_to_install():
+    code = ("import sys; sys.modules['jax'] = None\n"
+            "try:\n    import hri_envs.jax\nexcept ImportError as e:\n    print(e)")
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
+                         text=True).stdout.strip()
+    assert out.count("\n") == 0 and "pip install" in out and "[jax]" in out, out
