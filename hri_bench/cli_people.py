@@ -75,7 +75,7 @@ def add_parsers(sub: Any) -> None:
     serve.add_argument("scenario", choices=SCENARIOS, nargs="?", default="hanger")
     serve.add_argument("--agent", default="learner",
                        help="the robot: an agent name as for 'study --agents' (default "
-                            "learner; sb3:PATH, module:Class; not oracle, informed, blind)")
+                            "learner; sb3:PATH, module:Class; not oracle, informed, blind, qmdp)")
     serve.add_argument("--episodes", type=_whole(1, 1000), default=8,
                        help="episodes per session (default 8)")
     serve.add_argument("--dataset", default=None,
