@@ -5,8 +5,10 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --disable-pip-version-check -q -c constraints.txt
 DEMO_OUT ?= out/demo
+# `make serve SERVE_ARGS="wheel --episodes 10"`: the arguments of `hri-bench serve`.
+SERVE_ARGS ?= hanger --data out/datasets
 
-.PHONY: demo test speed clean system-deps
+.PHONY: demo test speed serve clean system-deps
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -44,6 +46,10 @@ test: $(VENV)/.test-installed system-deps
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
 	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup
+
+# A person plays the human in a browser (http://127.0.0.1:8000/); sessions are recorded.
+serve: $(VENV)/.serve-installed
+	$(VENV)/bin/hri-bench serve $(SERVE_ARGS)
 
 speed: $(VENV)/.demo-installed
 	$(VENV)/bin/hri-bench speed
