@@ -18,9 +18,13 @@ $(VENV)/.demo-installed: pyproject.toml constraints.txt | $(PY)
 	$(PIP) -e ".[bench]"
 	touch $@
 
+$(VENV)/.serve-installed: pyproject.toml constraints.txt | $(PY)
+	$(PIP) -e ".[bench,web]"
+	touch $@ $(VENV)/.demo-installed
+
 $(VENV)/.test-installed: pyproject.toml constraints.txt | $(PY)
 	$(PIP) -e ".[bench,mujoco,rl,ray,clients,web,jax,dev]"
-	touch $@ $(VENV)/.demo-installed
+	touch $@ $(VENV)/.demo-installed $(VENV)/.serve-installed
 
 demo: $(VENV)/.demo-installed
 	$(VENV)/bin/hri-bench demo --out $(DEMO_OUT)
