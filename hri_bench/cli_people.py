@@ -296,7 +296,10 @@ def _fit(args: argparse.Namespace, dataset: Any) -> int:
     kind = "SYNTHETIC (scripted humans)" if dataset.synthetic else "people"
     print(f"{dataset.dataset_id} ({kind}): fitted to {len(models[0].train)} training "
           f"participants; {len(scores['held_out'])} held out ({scores['steps']} steps)")
-    for name in ("uniform", "bc", "irl"):
+    if not scores["steps"]:
+        print("  no held-out participant to score the models on: a quarter of the "
+              "participants is held out once there are two or more")
+    for name in ("uniform", "bc", "irl") if scores["steps"] else ():
         s = scores[name]
         print(f"  {name:8s} held-out log-likelihood per step {s['log_likelihood']:8.4f}, "
               f"accuracy {s['accuracy']:.3f}")
