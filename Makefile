@@ -44,12 +44,14 @@ system-deps:
 	  || echo "make test: could not install$$missing (Debian's packages); the window and browser tests will skip"; \
 	fi
 
-# Lint, type and layer checks first, so that pytest's summary is the last line.
+# Lint, type and layer checks first, so that pytest's summaries are the last lines.
 test: $(VENV)/.test-installed system-deps
 	$(VENV)/bin/ruff check hri_envs agents baselines hri_bench tests examples benchmarks
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
-	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup
+	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup -m "not slow and not jax"
+	@# JAX starts threads on import; its tests run in a process that never forks a pool.
+	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup -m "jax and not slow"
 
 # A person plays the human in a browser (http://127.0.0.1:8000/); sessions are recorded.
 serve: $(VENV)/.serve-installed
