@@ -166,3 +166,12 @@ def test_bad_humans_and_references_fail_before_simulating(argv, flag, text, tmp_
     err = capsys.readouterr().err
     assert f"argument {flag}:" in err and text in err, err
     assert not (tmp_path / "o").exists()
+
+
+def test_v2_serial_and_two_jobs_give_byte_identical_suite_json(tmp_path):
+    kw = {"tracks": "hanger-test-inconsistent", "runs_scale": 0.2,
+          "agents": ("learner", "goalfilter")}
+    run_suite(tmp_path / "a", **kw)
+    run_suite(tmp_path / "b", jobs=2, executor="process", **kw)
+    assert (tmp_path / "a" / "suite.json").read_bytes() == \
+        (tmp_path / "b" / "suite.json").read_bytes()
