@@ -50,16 +50,14 @@ from hri_envs.humans.finite_state import FiniteStateHumans
 from hri_envs.humans.populations import (
     POPULATIONS,
     HumanDraw,
-    draw_human,
     human_sequence,
     humans_of,
-    rational_human,
     validate_drift,
-    validate_rationality,
 )
 from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.rational import rational_human, validate_rationality
 from hri_envs.humans.scripted import ScriptedHuman, preference_human, preferences_for
-from hri_envs.humans.splits import population, population_hash
+from hri_envs.humans.splits import draw_human, population, population_hash
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task.episode import REWARDS
 from hri_envs.task.graph import TaskGraph
@@ -164,7 +162,7 @@ class StudyConfig:
         ray_address: Address of a Ray cluster (default: start Ray locally).
         probes: Policy entries to record per episode (for Figs. 8, 11, 12).
         human_rationality: β of a Boltzmann human following its preference
-            (:func:`hri_envs.humans.populations.rational_human`); ``inf``: deterministic.
+            (:func:`hri_envs.humans.rational.rational_human`); ``inf``: deterministic.
         population: Draw each run's human from this population
             (:data:`hri_envs.humans.populations.POPULATIONS`), or ``module:Class``: a human
             class of your own (:mod:`hri_bench.humans`); None: the fixed human above.

@@ -28,7 +28,8 @@ from gymnasium import spaces
 from hri_envs.envs.config import check_env_settings, scenario_graph
 from hri_envs.envs.spaces import robot_observation_space
 from hri_envs.errors import ConfigError
-from hri_envs.humans.populations import PopulationSpec, rational_human, validate_rationality
+from hri_envs.humans.populations import PopulationSpec
+from hri_envs.humans.rational import rational_human, validate_rationality
 from hri_envs.humans.scripted import (
     ScriptedHuman,
     check_probability,

@@ -3,7 +3,7 @@
 Nothing here restates a rule: the step is :class:`~hri_envs.task.episode.StepTable`'s
 (itself fused from :class:`~hri_envs.task.episode.EpisodeRules`), the humans are
 :class:`~hri_envs.humans.scripted.ScriptedHuman` tables (:func:`preference_human`,
-:func:`~hri_envs.humans.populations.preference_q`) and a population's draw is
+:func:`~hri_envs.humans.rational.preference_q`) and a population's draw is
 :meth:`~hri_envs.humans.populations.PopulationSpec.sample`'s recipe, read from its spec.
 This module imports numpy only; :mod:`hri_envs.jax.env` turns the arrays into ``jax`` ones.
 
@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.humans.populations import PopulationSpec, population_spec, preference_q
+from hri_envs.humans.populations import PopulationSpec, population_spec
+from hri_envs.humans.rational import preference_q
 from hri_envs.humans.scripted import ScriptedHuman, preference_human, preferences_for
 from hri_envs.task.episode import EpisodeRules, StepTable
 from hri_envs.task.graph import TaskGraph
