@@ -10,6 +10,11 @@ robot that must infer ι), see :mod:`baselines.bounds`.
 not learn between episodes). The file is read without unpickling: its JSON metadata and its
 weights (see :func:`agents.sb3.load_model`).
 
+``jaxppo:PATH`` plays a recurrent PPO policy trained in JAX (:mod:`agents.jax_ppo`, the
+``jax`` extra) through :class:`agents.jax_ppo.agent.JaxPPOAgent`: greedy, invalid actions
+masked, its GRU memory kept across a run's episodes. ``PATH`` is its ``.npz`` checkpoint
+(arrays and a JSON config, no pickle) or a folder with one ``<scenario>.npz`` per scenario.
+
 Any other entry of the form ``module:Class`` imports ``Class`` from ``module``: a
 :class:`~agents.protocol.Agent` subclass is instantiated once per run (with ``graph=`` if its
 constructor accepts it), a :class:`~agents.protocol.BatchAgent` subclass once per batch as
@@ -30,19 +35,21 @@ from agents.protocol import Agent, BatchAgent, Batched
 from baselines import Imitator, MaxEntIRL, Oracle, Passive
 from baselines.bounds import Blind, Informed
 from hri_bench.imports import import_object
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["BUILTIN_AGENTS", "REFERENCE_AGENTS", "SB3_PREFIX", "agent_settings", "make_agent",
-           "validate_agent_name"]
+__all__ = ["BUILTIN_AGENTS", "JAXPPO_PREFIX", "REFERENCE_AGENTS", "SB3_PREFIX",
+           "agent_settings", "make_agent", "validate_agent_name"]
 
 BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
 #: Built-in names that are not in the default agent list (exact references, see baselines.bounds).
 REFERENCE_AGENTS: tuple[str, ...] = ("informed", "blind")
 #: Agent names ``sb3:PATH`` load a saved SB3 model.
 SB3_PREFIX = "sb3:"
+#: Agent names ``jaxppo:PATH`` load a recurrent PPO policy trained in JAX.
+JAXPPO_PREFIX = "jaxppo:"
 
 
 def validate_agent_name(name: str) -> None:
@@ -61,12 +68,21 @@ def validate_agent_name(name: str) -> None:
             raise ConfigError(f"agent {name!r}: no SB3 model file at {str(path)!r}; give "
                               "'sb3:PATH' with the .zip written by model.save()", field="agents")
         return
+    if name.startswith(JAXPPO_PREFIX):
+        path = Path(name[len(JAXPPO_PREFIX):])
+        if not (path.is_file() or path.is_dir()):
+            raise ConfigError(f"agent {name!r}: no JAX PPO checkpoint at {str(path)!r}; give "
+                              "'jaxppo:FILE.npz' or 'jaxppo:FOLDER' holding <scenario>.npz",
+                              field="agents")
+        MissingExtraError.require(["jax", "optax"], f"agent {name!r}")
+        return
     if ":" in name and all(name.split(":", 1)):
         _agent_class(name)
         return
     raise ConfigError(
         f"unknown agent {name!r}; allowed: {', '.join(BUILTIN_AGENTS + REFERENCE_AGENTS)}, "
-        "'sb3:PATH' for a saved stable-baselines3 model, or 'module:Class' for your own agent",
+        "'sb3:PATH' for a saved stable-baselines3 model, 'jaxppo:PATH' for a JAX PPO policy, "
+        "or 'module:Class' for your own agent",
         field="agents",
     )
 
@@ -103,9 +119,11 @@ def agent_settings(name: str, scenario: str, r0: float,
     cfg = _learner_config(name, scenario, r0, learner)
     if cfg is not None:
         return cfg.to_dict()
-    if name.startswith(SB3_PREFIX):
-        path = Path(name[len(SB3_PREFIX):])
-        return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
+    for prefix in (SB3_PREFIX, JAXPPO_PREFIX):
+        if name.startswith(prefix):
+            path = Path(name[len(prefix):])
+            return {"path": str(path),
+                    "bytes": path.stat().st_size if path.is_file() else None}
     return None
 
 
@@ -163,6 +181,10 @@ def make_agent(
         from agents.sb3 import SB3BatchAgent
 
         return SB3BatchAgent(name[len(SB3_PREFIX):], n, graph=graph, seed=seed, runs=runs)
+    if name.startswith(JAXPPO_PREFIX):
+        from agents.jax_ppo.agent import JaxPPOAgent
+
+        return JaxPPOAgent(name[len(JAXPPO_PREFIX):], graph, n)
     cls = _agent_class(name)
     if issubclass(cls, BatchAgent):
         return cls(graph, n)  # type: ignore[call-arg,arg-type]  # user class: documented signature
