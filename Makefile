@@ -17,19 +17,26 @@ $(VENV)/.demo-installed: pyproject.toml constraints.txt | $(PY)
 	touch $@
 
 $(VENV)/.test-installed: pyproject.toml constraints.txt | $(PY)
-	$(PIP) -e ".[bench,mujoco,rl,ray,clients,dev,jax]"
+	$(PIP) -e ".[bench,mujoco,rl,ray,clients,web,jax,dev]"
 	touch $@ $(VENV)/.demo-installed
 
 demo: $(VENV)/.demo-installed
 	$(VENV)/bin/hri-bench demo --out $(DEMO_OUT)
 
-# What the tests need from the system: xvfb-run for the render_mode="human" window tests.
-# Installed from Debian's packages where missing (as root, or with sudo when it asks nothing).
+# What the tests need from the system: xvfb-run for the render_mode="human" window tests, and
+# Debian's chromium and chromium-driver for the browser test of `hri-bench serve` (a browser
+# build that a tool downloads itself cannot be fetched on these machines). Installed from
+# Debian's packages where missing (as root, or with sudo when it asks nothing).
 system-deps:
-	@command -v xvfb-run >/dev/null || { \
+	@missing=; \
+	command -v xvfb-run >/dev/null || missing="$$missing xvfb"; \
+	command -v chromium >/dev/null || missing="$$missing chromium"; \
+	command -v chromedriver >/dev/null || missing="$$missing chromium-driver"; \
+	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO="sudo -n"; fi; \
-	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq xvfb >/dev/null \
-	  || echo "make test: could not install xvfb (Debian's 'xvfb'); 2 window tests will skip"; }
+	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $$missing >/dev/null \
+	  || echo "make test: could not install$$missing (Debian's packages); the window and browser tests will skip"; \
+	fi
 
 # Lint, type and layer checks first, so that pytest's summary is the last line.
 test: $(VENV)/.test-installed system-deps

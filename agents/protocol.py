@@ -47,7 +47,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from hri_envs.checks import integer_or_none
+from hri_envs.checks import integer_action
 from hri_envs.errors import ActionError, ConfigError
 
 __all__ = ["Agent", "BatchAgent", "Batched", "Trace", "run_streams"]
@@ -225,15 +225,8 @@ class Batched(BatchAgent):
         """
         out = np.zeros(self.n_runs, dtype=np.int64)
         for i in np.flatnonzero(active):
-            action = self.agents[i].act({k: v[i] for k, v in observations.items()})
-            number = integer_or_none(action)
-            if number is None:
-                raise ActionError(
-                    f"act() of agent {self.name!r} returned {action!r} "
-                    f"({type(action).__name__}) for run {self.runs[i]}; an action is an "
-                    "integer of the action space (int or numpy integer; bool, float and str "
-                    "are refused, not rounded)")
-            out[i] = number
+            out[i] = integer_action(self.agents[i].act({k: v[i] for k, v in observations.items()}),
+                                    f"act() of agent {self.name!r}", f" for run {self.runs[i]}")
         return out
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,

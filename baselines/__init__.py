@@ -1,6 +1,9 @@
-"""The paper's baselines (Sect. 4.6) and the Oracle upper bound, as batched agents."""
+"""The paper's baselines (Sect. 4.6), the Oracle, the goal filter and the exact references,
+as batched agents (bounds.py and product.py: ``informed``, ``blind``, ``qmdp``).
+"""
 
+from baselines.goalfilter import GoalFilter
 from baselines.maxent import MaxEntIRL
 from baselines.simple import Imitator, Oracle, Passive
 
-__all__ = ["Imitator", "MaxEntIRL", "Oracle", "Passive"]
+__all__ = ["GoalFilter", "Imitator", "MaxEntIRL", "Oracle", "Passive"]

@@ -1,8 +1,13 @@
 """Which robot agents the benchmark can run, by name.
 
-Built in: ``learner``, ``imitator``, ``maxent``, ``passive``, ``oracle``, and the exact
-references ``informed`` (the information bound: sees ι) and ``blind`` (the ceiling for any
-robot that must infer ι), see :mod:`baselines.bounds`.
+Built in: ``learner``, ``imitator``, ``maxent``, ``passive``, ``oracle``, ``goalfilter`` (a
+Bayesian goal filter that learns no preference, :mod:`baselines.goalfilter`), and the
+references ``informed`` (the information bound: sees ι; exact for every scripted or
+finite-state human, shared or drawn per run), ``blind`` (the ceiling for any robot that must
+infer ι, exact for one shared deterministic scripted human), see :mod:`baselines.bounds`,
+and ``qmdp`` (a feasible intention-blind policy that knows the human's model: the lower
+end of the bracket on ``blind`` where the exact plan does not fit), see
+:mod:`baselines.product`.
 
 ``sb3:PATH`` plays a trained stable-baselines3 / sb3-contrib model saved at ``PATH`` (a
 ``.zip``; MaskablePPO, PPO, A2C, DQN or :class:`agents.rl.MaskedDQN`) through
@@ -32,20 +37,28 @@ from agents.config import LearnerConfig, default_config
 from agents.learner import Learner
 from agents.learning.algorithm1 import Workspace
 from agents.protocol import Agent, BatchAgent, Batched
-from baselines import Imitator, MaxEntIRL, Oracle, Passive
+from baselines import GoalFilter, Imitator, MaxEntIRL, Oracle, Passive
 from baselines.bounds import Blind, Informed
-from hri_bench.imports import import_object
+from baselines.product import QMDP, PerRunInformed
+from hri_bench.imports import import_class
 from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["BUILTIN_AGENTS", "JAXPPO_PREFIX", "REFERENCE_AGENTS", "SB3_PREFIX",
-           "agent_settings", "make_agent", "validate_agent_name"]
+__all__ = ["BRACKET_AGENTS", "BUILTIN_AGENTS", "JAXPPO_PREFIX", "KNOWN_AGENTS", "OTHER_AGENTS",
+           "REFERENCE_AGENTS", "SB3_PREFIX", "agent_settings", "make_agent",
+           "validate_agent_name"]
 
 BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
 #: Built-in names that are not in the default agent list (exact references, see baselines.bounds).
 REFERENCE_AGENTS: tuple[str, ...] = ("informed", "blind")
+#: The lower end of a bracket on blind (baselines.product), not in the default agent list.
+BRACKET_AGENTS: tuple[str, ...] = ("qmdp",)
+#: Further built-in agents, not in the default list of suite v1 (the goal filter).
+OTHER_AGENTS: tuple[str, ...] = ("goalfilter",)
+#: Every built-in name.
+KNOWN_AGENTS: tuple[str, ...] = BUILTIN_AGENTS + OTHER_AGENTS + REFERENCE_AGENTS + BRACKET_AGENTS
 #: Agent names ``sb3:PATH`` load a saved SB3 model.
 SB3_PREFIX = "sb3:"
 #: Agent names ``jaxppo:PATH`` load a recurrent PPO policy trained in JAX.
@@ -60,7 +73,7 @@ def validate_agent_name(name: str) -> None:
     ``module:Class`` the class is imported and must subclass :class:`~agents.protocol.Agent`
     or :class:`~agents.protocol.BatchAgent`, so a study refuses it before simulating.
     """
-    if name in BUILTIN_AGENTS or name in REFERENCE_AGENTS:
+    if name in KNOWN_AGENTS:
         return
     if name.startswith(SB3_PREFIX):
         path = Path(name[len(SB3_PREFIX):])
@@ -80,7 +93,7 @@ def validate_agent_name(name: str) -> None:
         _agent_class(name)
         return
     raise ConfigError(
-        f"unknown agent {name!r}; allowed: {', '.join(BUILTIN_AGENTS + REFERENCE_AGENTS)}, "
+        f"unknown agent {name!r}; allowed: {', '.join(KNOWN_AGENTS)}, "
         "'sb3:PATH' for a saved stable-baselines3 model, 'jaxppo:PATH' for a JAX PPO policy, "
         "or 'module:Class' for your own agent",
         field="agents",
@@ -89,10 +102,8 @@ def validate_agent_name(name: str) -> None:
 
 def _agent_class(spec: str) -> type[Agent] | type[BatchAgent]:
     """The class ``module:Class`` names, checked to be an agent."""
-    cls = import_object(spec, "agent", "agents")
-    if not (inspect.isclass(cls) and issubclass(cls, Agent | BatchAgent)):
-        raise ConfigError(f"agent {spec!r} is neither an agents.Agent nor an agents.BatchAgent "
-                          "subclass; only subclasses of those are allowed", field="agents")
+    cls: type[Agent] | type[BatchAgent] = import_class(spec, "agent", "agents",
+                                                       (Agent, BatchAgent))
     return cls
 
 
@@ -138,6 +149,7 @@ def make_agent(
     learner: dict[str, Any] | None = None,
     max_steps: int = 100,
     reward: str = "paper",
+    episodes: int = 1,
 ) -> BatchAgent:
     """A batched agent for the given runs.
 
@@ -153,6 +165,8 @@ def make_agent(
             scenario's defaults and ``r0``); other agents ignore them.
         max_steps: The step limit (the horizon of ``informed`` and ``blind``).
         reward: The reward variant ``informed`` and ``blind`` optimise.
+        episodes: Episodes per run (the horizon of ``informed`` and ``qmdp`` for humans
+            who remember across episodes).
     """
     validate_agent_name(name)
     n = len(runs)
@@ -170,11 +184,20 @@ def make_agent(
             raise ConfigError("the oracle copies a scripted human's preferred actions; this "
                               "study's humans name none", field="agents")
         return Oracle(graph, human, n)
+    if name == "goalfilter":
+        return GoalFilter(graph, n)
+    if name == "informed" and not isinstance(human, ScriptedHuman):
+        return PerRunInformed(graph, human, n, r0=r0, max_steps=max_steps, reward=reward,
+                              episodes=episodes)
+    if name == "qmdp":
+        return QMDP(graph, human, n, r0=r0, max_steps=max_steps, reward=reward,
+                    episodes=episodes)
     if name in REFERENCE_AGENTS:
         if not isinstance(human, ScriptedHuman):
-            raise ConfigError(f"agent {name!r} plans for one scripted human shared by every "
+            raise ConfigError("agent 'blind' plans for one scripted human shared by every "
                               "run; studies whose runs have humans of their own (--population, "
-                              "--human-drift) are not supported", field="agents")
+                              "--human-drift) are not supported: use qmdp and informed for a "
+                              "bracket", field="agents")
         cls_ref = Informed if name == "informed" else Blind
         return cls_ref(graph, human, n, r0=r0, max_steps=max_steps, reward=reward)
     if name.startswith(SB3_PREFIX):

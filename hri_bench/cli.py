@@ -6,6 +6,9 @@ Subcommands::
     hri-bench figures --out DIR [--runs N] [--jobs J]     the paper's figures (Figs. 4, 8, 10-12)
     hri-bench speed [--json]                              env and Learner throughput
     hri-bench play {hanger,wheel}                         you are the human, in the terminal
+    hri-bench serve {hanger,wheel} [--data DIR]           you are the human, in a browser
+    hri-bench dataset list|show|export|record|fit ...     recorded sessions (docs/people.md)
+    hri-bench replay DATASET [--participant P]            a recorded session, step by step
     hri-bench demo --out DIR                              the main job of ``make demo``
 
 Bad arguments exit with code 2 and a message naming the argument and what is allowed.
@@ -181,7 +184,9 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--population", default=None, metavar="NAME",
                        help="draw each run's human from a population: "
                             + ", ".join(f"{n}{' (held out)' if p.held_out else ''}"
-                                        for n, p in POPULATIONS.items()))
+                                        for n, p in POPULATIONS.items())
+                            + "; recorded:DATASET or recorded-irl:DATASET (a model fitted to "
+                              "recorded sessions); module:Class (your own)")
     study.add_argument("--human-drift", type=_positive, default=None, metavar="K",
                        help="the human switches to another preference after K episodes")
     for field_name, (flag, kind, text) in _LEARNER_FLAGS.items():
@@ -237,6 +242,9 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--seed", type=_seed, default=0)
 
     _suite_parser(sub)
+    from hri_bench import cli_people
+
+    cli_people.add_parsers(sub)
 
     demo = sub.add_parser("demo", help="the main job: a reduced but real set of the figures")
     demo.add_argument("--out", type=Path, default=Path("out/demo"))
@@ -267,24 +275,30 @@ def _suite_parser(sub: Any) -> None:
     suite.add_argument("--tracks", default=None,
                        help="comma-separated track names (default: all)")
     suite.add_argument("--seed", type=_seed, default=0, help="base seed, >= 0 (default 0)")
+    suite.add_argument("--population", action="append", default=[], metavar="NAME",
+                       help="add a track of its own on a recorded population "
+                            "(recorded:DATASET or recorded-irl:DATASET; repeatable)")
     suite.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     suite.set_defaults(command_parser=suite)
 
 
 def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from hri_bench.suite import run_suite, select_tracks, track_config
+    from hri_bench.suite import population_track, run_suite, select_tracks, track_config
 
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     try:
         first = track_config(select_tracks(args.tracks)[0], args.agents, executor=executor)
         _require_for_study(first, progress=not args.no_progress)  # before simulating
+        for name in args.population:
+            track_config(population_track(name), args.agents, executor=executor)
     except ConfigError as exc:
         _config_error(parser, exc, _SUITE_ARGUMENTS)
     t0 = time.perf_counter()
     try:
         doc = run_suite(args.out, agents=args.agents, tracks=args.tracks,
                         runs_scale=args.runs_scale, seed=args.seed, jobs=args.jobs,
-                        executor=executor, progress=not args.no_progress)
+                        executor=executor, progress=not args.no_progress,
+                        populations=args.population)
     except ConfigError as exc:
         _config_error(parser, exc, _SUITE_ARGUMENTS)
     print(f"suite v{doc['suite_version']}: {len(doc['tracks'])} tracks in "
@@ -302,6 +316,7 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 #: The ``suite`` argument a :class:`ConfigError`'s field comes from (a track's runs are
 #: its own times ``--runs-scale``).
 _SUITE_ARGUMENTS = {"tracks": "--tracks", "agents": "--agents", "runs": "--runs-scale",
+                    "population": "--population",
                     "seed": "--seed", "jobs": "--jobs", "out": "--out"}
 
 
@@ -620,6 +635,10 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
         return _suite(args, args.command_parser)
     if args.command == "speed":
         return _speed(args)
+    if args.command in ("serve", "dataset", "replay"):
+        from hri_bench import cli_people
+
+        return cli_people.run(args)
     if args.command == "play":
         from hri_bench.play import play
 

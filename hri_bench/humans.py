@@ -1,7 +1,12 @@
 """Which humans a study can put in front of its agents, by population name.
 
-``--population NAME`` names a registered population
-(:data:`hri_envs.humans.populations.POPULATIONS`) or, in the form ``module:Class``, a human
+``--population NAME`` names a registered population (a scripted one of
+:data:`hri_envs.humans.populations.POPULATIONS`, a split such as ``test`` or a mixture of
+:data:`hri_envs.humans.splits.MIXTURES`, or a family of
+:data:`hri_envs.humans.families.FAMILIES`, whose parameters ``--human-param`` sets);
+``recorded:DATASET`` or ``recorded-irl:DATASET``, a human model fitted to a recorded
+dataset's training participants (:mod:`hri_bench.fit`; docs/people.md); or, in the form
+``module:Class``, a human
 of your own: a :class:`~hri_envs.humans.protocol.BatchHuman` subclass, made once per batch of
 runs as ``Class(graph, n_runs)``, or a :class:`~hri_envs.humans.protocol.Human` subclass,
 made once per run (with ``graph=`` if its constructor takes it). Each run's human draws
@@ -12,45 +17,59 @@ from the generator the study hands it (``(seed, run, 1)``), so results do not de
 from __future__ import annotations
 
 import inspect
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
-from hri_bench.imports import import_object
+from hri_bench.fit import is_recorded, recorded_human, validate_recorded
+from hri_bench.imports import import_class
 from hri_envs.errors import ConfigError
-from hri_envs.humans.populations import population_spec
 from hri_envs.humans.protocol import BatchedHumans, BatchHuman, Human
+from hri_envs.humans.splits import population
+from hri_envs.humans.tables import TableHumans
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["custom_human", "is_custom", "validate_population"]
 
 
 def is_custom(name: str | None) -> bool:
-    """Whether a population name is a ``module:Class`` of the user's."""
+    """Whether a population name is a human of the protocol from outside
+    :data:`~hri_envs.humans.populations.POPULATIONS`: a ``module:Class`` of the user's, or
+    a model fitted to recordings (``recorded:DATASET``).
+    """
     return isinstance(name, str) and ":" in name
 
 
 def _load(spec: str) -> type[Human] | type[BatchHuman]:
-    cls = import_object(spec, "human", "population")
-    if not (inspect.isclass(cls) and issubclass(cls, Human | BatchHuman)):
-        raise ConfigError(f"{spec!r} is neither a hri_envs.humans.Human nor a BatchHuman "
-                          "subclass; only subclasses of those are allowed", field="population")
+    cls: type[Human] | type[BatchHuman] = import_class(spec, "human", "population",
+                                                       (Human, BatchHuman))
     return cls
 
 
-def validate_population(name: Any, scenario: str) -> None:
-    """Raise a :class:`ConfigError` (field ``population``) unless ``name`` is a population of
-    ``scenario`` or an importable human class.
+def validate_population(name: Any, scenario: str, params: Mapping[str, Any] | None = None
+                        ) -> None:
+    """Raise a :class:`ConfigError` (field ``population``, or ``human_params`` for a family's
+    parameters) unless ``name`` is a population of ``scenario`` or an importable human class.
     """
     if not isinstance(name, str):
         raise ConfigError(f"population must be a name, got {name!r}", field="population")
-    if is_custom(name):
+    if is_recorded(name):
+        if params:
+            raise ConfigError("--human-param sets a family's parameters; a recorded population "
+                              "takes none", field="human_params")
+        validate_recorded(name, scenario)
+    elif is_custom(name):
+        if params:
+            raise ConfigError("--human-param sets a family's parameters; a human of your own "
+                              "takes none", field="human_params")
         _load(name)
     else:
-        population_spec(name, scenario)
+        population(name, scenario, params)
 
 
 def custom_human(spec: str, graph: TaskGraph, runs: Sequence[int]) -> BatchHuman:
-    """The human ``module:Class`` for a batch of ``runs``."""
+    """The human ``module:Class`` (or ``recorded:DATASET``) for a batch of ``runs``."""
+    if is_recorded(spec):
+        return TableHumans(recorded_human(spec, graph.name), len(runs))
     cls = _load(spec)
     if issubclass(cls, BatchHuman):
         return cls(graph, len(runs))

@@ -8,13 +8,14 @@ that holds ``mypkg`` (the console script's own folder is what Python puts first 
 from __future__ import annotations
 
 import importlib
+import inspect
 import os
 import sys
 from typing import Any
 
 from hri_envs.errors import ConfigError
 
-__all__ = ["import_object"]
+__all__ = ["import_class", "import_object"]
 
 
 def import_object(spec: str, what: str, field: str) -> Any:
@@ -39,3 +40,18 @@ def import_object(spec: str, what: str, field: str) -> Any:
         raise ConfigError(f"cannot import {what} {spec!r}: {type(exc).__name__}: {exc}; give "
                           "'module:Class' with a module importable from the current directory "
                           "or the environment", field=field) from exc
+
+
+def import_class(spec: str, what: str, field: str, bases: tuple[type, ...]) -> type:
+    """The class ``spec`` names (:func:`import_object`), checked to subclass one of ``bases``.
+
+    Raises:
+        ConfigError: It cannot be imported, or is not such a class (the message names the
+            allowed bases).
+    """
+    cls = import_object(spec, what, field)
+    if not (inspect.isclass(cls) and issubclass(cls, bases)):
+        names = " or ".join(f"{b.__module__}.{b.__name__}" for b in bases)
+        raise ConfigError(f"{what} {spec!r} is not a subclass of {names}; only subclasses of "
+                          "those are allowed", field=field)
+    return cls

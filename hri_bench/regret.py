@@ -20,11 +20,21 @@ The three references are: ``informed`` (the information bound: the exact optimum
 robot that sees ι), ``blind`` (the ceiling for any robot that must infer ι; regret is
 measured against it) and ``oracle`` (the paper's heuristic baseline: it sees ι but is not
 optimal, so it is no bound).
+
+Where the exact ``blind`` plan does not fit the humans (Boltzmann, finite-state humans:
+misspecified, adaptive, inconsistent), a study that runs ``informed`` and ``qmdp`` reports a
+**bracket** on ``blind`` instead (:func:`reference_summary`): ``informed`` above it (no robot
+expects more; exact), ``qmdp`` below it (a feasible intention-blind policy that knows the
+human's model, :mod:`baselines.product`; simulated). Each agent's gap to either end is the
+mean over runs of the paired difference of run means (the same runs meet the same humans
+and schedules), with a 95 % bootstrap CI. :func:`refuse_references` refuses a reference that
+cannot run with a study's humans before anything is simulated or planned.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -32,22 +42,31 @@ from baselines.bounds import plan
 from hri_bench.results import StudyResult
 from hri_envs.errors import ConfigError
 from hri_envs.humans.populations import (
+    POPULATIONS,
     HumanDraw,
     build_human,
     population_spec,
 )
-from hri_envs.humans.scripted import preference_human
+from hri_envs.humans.scripted import ScriptedHuman, preference_human
 from hri_envs.task.scenarios import scenario_graph
 
 __all__ = ["REFERENCES", "blind_values"]
 
-#: What each reference agent is, for reports.
+#: What each reference agent is, for reports (suite v1's wording, frozen).
 REFERENCES: dict[str, str] = {
     "informed": "information bound: the exact optimum for a robot that sees the intention",
     "blind": "ceiling for any robot that must infer the intention; regret is measured "
              "against it",
     "oracle": "the paper's heuristic baseline: sees the intention, not optimal",
 }
+#: Every reference, the bracket's lower end included.
+ALL_REFERENCES: dict[str, str] = {
+    **REFERENCES,
+    "qmdp": "lower end of the bracket on blind: a feasible intention-blind policy (QMDP on "
+            "the exact posterior) that knows the human's model; simulated",
+}
+#: The agents that plan with the human's model.
+PLANNING_REFERENCES: tuple[str, ...] = ("informed", "blind", "qmdp")
 
 
 _TOO_LARGE = ("the exact blind plan is made for deterministic (or passive) scripted humans; "
@@ -55,6 +74,111 @@ _TOO_LARGE = ("the exact blind plan is made for deterministic (or passive) scrip
               "draws rationality or preference weights)")
 _BOTH = ("the exact blind plan does not fit a human who is both passive and turns back (too "
          "many beliefs)")
+_MODEL = ("the exact blind plan fits deterministic scripted humans; this population has "
+          "members with a finite state or a stochastic law (misspecified, adaptive, "
+          "inconsistent or Boltzmann): a bracket (qmdp below, informed above) is reported")
+
+
+def blind_refusal(cfg: Any) -> str | None:
+    """Why the agent ``blind`` cannot run in the study ``cfg``, or None; decided from the
+    settings alone, before any planning.
+    """
+    if getattr(cfg, "per_run_humans", False):
+        return ("agent 'blind' plans for one scripted human shared by every run; this "
+                "study's runs have humans of their own (--population, --human-drift): leave "
+                "it out (regret still uses blind's exact values where they fit) or run "
+                "informed and qmdp for a bracket")
+    if not math.isinf(cfg.human_rationality):
+        return (_TOO_LARGE + " (--human-rationality); run informed and qmdp for a bracket "
+                "instead")
+    if cfg.human_passive > 0 and cfg.turn_back > 0:
+        return _BOTH + " (--human-passive with --turn-back)"
+    return None
+
+
+def refuse_references(cfg: Any) -> None:
+    """Raise a :class:`ConfigError` (``field="agents"``) naming the reason when a reference
+    among the study's agents cannot run with its humans (before anything is simulated).
+
+    ``informed`` and ``qmdp`` need a model of the humans (not ``--population module:Class``);
+    ``blind`` needs one shared deterministic (or passive, or turning-back) scripted human
+    (:func:`blind_refusal`); ``qmdp`` needs humans that do not turn back.
+    """
+    refs = [a for a in cfg.agents if a in PLANNING_REFERENCES]
+    if not refs:
+        return
+    population = getattr(cfg, "population", None)
+    if population is not None and ":" in population:
+        raise ConfigError(f"agent(s) {', '.join(refs)} plan with the human's model; the "
+                          f"humans of {population} have none: leave them out",
+                          field="agents")
+    if "blind" in refs:
+        why = blind_refusal(cfg)
+        if why is not None:
+            raise ConfigError(why, field="agents")
+    if "qmdp" in refs:
+        turning = cfg.turn_back > 0 or (population in POPULATIONS
+                                        and POPULATIONS[population].turn_back[1] > 0)
+        if turning:
+            raise ConfigError("agent 'qmdp' keeps a posterior over the human's finite state; "
+                              "humans who turn back halfway (--turn-back, or a population "
+                              "that draws it) are not supported", field="agents")
+
+
+def _paired(upper: np.ndarray, lower: np.ndarray, seed: int) -> dict[str, Any]:
+    """Mean over runs of ``upper - lower`` (run means), with its 95 % bootstrap CI."""
+    from hri_bench import stats
+
+    diff = upper.mean(1) - lower.mean(1)
+    lo, hi = stats.bootstrap_ci(diff, "mean", seed)
+    return {"mean": float(diff.mean()), "ci95": [lo, hi]}
+
+
+def reference_summary(result: StudyResult) -> dict[str, Any]:
+    """How the study's reference is reported, and each agent's gap to it.
+
+    Returns:
+        ``kind``: "exact" (blind's exact values: regret), "bracket" (``qmdp`` below
+        ``informed``), "upper" (``informed`` only) or "none"; ``upper`` and ``lower``: the
+        bounds' names (null where absent) and their mean episode reward; ``gaps``: per
+        agent, ``to_upper`` (upper − agent) and ``to_lower`` (lower − agent), each the mean
+        over runs of the paired difference of run means with a 95 % CI; ``note``: in words.
+    """
+    cfg = result.config
+    metrics = result.metrics
+    try:
+        exact = blind_values(result)
+    except ConfigError:
+        exact = None
+    upper = "informed" if "informed" in metrics else None
+    if exact is not None:
+        kind, lower = "exact", "blind"
+        low_values = exact
+    elif upper is not None and "qmdp" in metrics:
+        kind, lower = "bracket", "qmdp"
+        low_values = metrics["qmdp"]["reward"]
+    else:
+        kind, lower = ("upper" if upper else "none"), None
+        low_values = None
+    gaps: dict[str, Any] = {}
+    for name, m in metrics.items():
+        r = m["reward"]
+        gaps[name] = {
+            "to_upper": None if upper is None else _paired(metrics[upper]["reward"], r,
+                                                           cfg.seed),
+            "to_lower": None if low_values is None else _paired(low_values, r, cfg.seed)}
+    notes = {
+        "exact": "blind exact (regret = blind's exact expected episode reward minus the "
+                 "agent's); informed above it where it ran",
+        "bracket": "blind bracketed: informed (exact optimum that sees the intention) above, "
+                   "qmdp (a feasible intention-blind policy, simulated) below",
+        "upper": "upper bound only (informed); run qmdp for the bracket's lower end",
+        "none": "no reference ran",
+    }
+    return {"kind": kind, "upper": upper, "lower": lower,
+            "upper_reward": None if upper is None else float(metrics[upper]["reward"].mean()),
+            "lower_reward": None if low_values is None else float(np.mean(low_values)),
+            "gaps": gaps, "note": notes[kind]}
 
 
 def blind_values(result: StudyResult) -> np.ndarray:
@@ -95,7 +219,7 @@ def _per_run_values(result: StudyResult) -> np.ndarray:
     if population is not None and ":" in population:
         raise ConfigError("the exact blind plan needs a scripted human; this study's humans "
                           f"are {population}", field="agents")
-    if population is not None:
+    if population is not None and population in POPULATIONS:
         spec = population_spec(population, cfg.scenario)
         if spec.rationality is not None or spec.theta:
             raise ConfigError(_TOO_LARGE, field="agents")
@@ -106,6 +230,13 @@ def _per_run_values(result: StudyResult) -> np.ndarray:
     for r in range(cfg.runs):  # every draw first: refuse before any planning
         seq = cfg.human_draws(r, prefs[r])
         for x in seq:
+            if x.family is not None:  # a family's member: its model decides
+                model = build_human(graph, x)
+                if not isinstance(model, ScriptedHuman) or not model.deterministic:
+                    raise ConfigError(_MODEL, field="agents")
+                if model.passive > 0 and model.turn_back > 0:
+                    raise ConfigError(_BOTH, field="agents")
+                continue
             if x.theta is not None or not math.isinf(x.rationality):
                 raise ConfigError(_TOO_LARGE, field="agents")
             if x.passive > 0 and x.turn_back > 0:

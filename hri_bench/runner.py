@@ -160,7 +160,9 @@ def run_episodes(
             :mod:`hri_envs.humans.protocol`; e.g. :class:`~hri_envs.humans.tables.TableHumans`);
             it acts after the robot has chosen and sees its action. Where it turns back
             (:attr:`~hri_envs.humans.protocol.BatchHuman.turn_state`) is read after each
-            :meth:`~hri_envs.humans.protocol.BatchHuman.begin_episode`.
+            :meth:`~hri_envs.humans.protocol.BatchHuman.begin_episode`; a change of mind it
+            reports after a step (:meth:`~hri_envs.humans.protocol.BatchHuman.
+            revised_intentions`) is ι from the next step on.
         schedule: From :func:`make_schedule`; its ``goal`` is the intention at the start.
         backend: Moves the runs (the graph, or a simulator).
         r0: Reward for the robot waiting while the human acts.
@@ -238,6 +240,9 @@ def run_episodes(
                 robot_acts[active, t] = a_r[active]
                 human_seen[active, t] = step.human_seen[active]
                 ended = eps.commit(step.next_state, step.human_seen, active)
+                revised = human.revised_intentions()  # a human who changed its mind
+                if revised is not None:
+                    eps.revise(np.asarray(revised, dtype=np.int64), active & ~ended)
                 states[active, t + 1] = eps.state[active]
                 over |= ended
                 if step.fault is not None:

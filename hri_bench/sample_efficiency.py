@@ -45,7 +45,7 @@ from hri_bench.runner import make_schedule, simulate
 from hri_bench.study import StudyConfig, graph_for, run_study
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import SCENARIOS, scenario_spec
 
 __all__ = [
     "RL_ALGORITHMS",
@@ -59,9 +59,6 @@ __all__ = [
 
 RL_ALGORITHMS: tuple[str, ...] = ("ppo", "dqn")
 _STEPS_PER_EPISODE = 15
-_ENV_IDS = {"hanger": "hri_envs/Hanger-v0", "wheel": "hri_envs/Wheel-v0"}
-
-
 @dataclass(frozen=True)
 class SampleEfficiencyConfig:
     """What to measure.
@@ -99,9 +96,9 @@ class SampleEfficiencyConfig:
     threshold: float = 0.9
 
     def __post_init__(self) -> None:
-        if self.scenario not in _ENV_IDS:
-            raise ConfigError(f"scenario must be one of {', '.join(_ENV_IDS)}, "
-                              f"got {self.scenario!r}", field="scenario")
+        if scenario_spec(self.scenario).gym_id is None:  # (an unknown one raises there)
+            raise ConfigError(f"scenario {self.scenario!r} registers no Gymnasium id to train "
+                              "RL on", field="scenario")
         bad = [a for a in self.algorithms if a not in RL_ALGORITHMS]
         if bad:
             raise ConfigError(f"unknown algorithm(s) {bad}; allowed: {', '.join(RL_ALGORITHMS)}",
@@ -248,7 +245,8 @@ def _train_curve(cfg: SampleEfficiencyConfig, algo: str, seed: int
     budget = _STEPS_PER_EPISODE * checkpoints[-1]
     train: Callable[..., Any] = train_maskable_ppo if algo == "ppo" else train_dqn
     n_envs = cfg.n_envs if algo == "ppo" else 1
-    model = train(_ENV_IDS[cfg.scenario], budget, n_envs=n_envs, vec="vector", seed=seed,
+    env_id = scenario_spec(cfg.scenario).gym_id
+    model = train(env_id, budget, n_envs=n_envs, vec="vector", seed=seed,
                   callback=callback, **env_kwargs)
     if len(rewards) < len(checkpoints):  # budget spent first: evaluate where training ended
         evaluate(model, max(callback.episodes, checkpoints[-1]))
@@ -370,7 +368,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     "MaskablePPO and MaskedDQN vs the Oracle.")
     parser.add_argument("--out", type=Path, default=Path("docs/figures"),
                         help="output directory (default docs/figures)")
-    parser.add_argument("--scenario", choices=tuple(_ENV_IDS), default="hanger")
+    parser.add_argument("--scenario", choices=tuple(SCENARIOS), default="hanger")
     parser.add_argument("--preference", default=None, help="the scripted human's preference")
     parser.add_argument("--algorithms", default=",".join(RL_ALGORITHMS),
                         help="comma-separated subset of ppo,dqn (default both)")

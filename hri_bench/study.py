@@ -37,15 +37,18 @@ from hri_bench.agents import (
     validate_agent_name,
 )
 from hri_bench.atomic import atomic_writer, move_into_place
+from hri_bench.fit import is_recorded
 from hri_bench.humans import custom_human, is_custom, validate_population
-from hri_bench.regret import REFERENCES, blind_values
+from hri_bench.regret import ALL_REFERENCES, blind_values, reference_summary, refuse_references
 from hri_bench.results import StudyResult  # re-exported; shared with the plots
 from hri_bench.runner import make_schedule, simulate
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.envs.backends import BACKENDS, batch_backend
 from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ActionError, ConfigError, MissingExtraError
+from hri_envs.humans.finite_state import FiniteStateHumans
 from hri_envs.humans.populations import (
+    POPULATIONS,
     HumanDraw,
     draw_human,
     human_sequence,
@@ -56,6 +59,7 @@ from hri_envs.humans.populations import (
 )
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import ScriptedHuman, preference_human, preferences_for
+from hri_envs.humans.splits import population, population_hash
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task.episode import REWARDS
 from hri_envs.task.graph import TaskGraph
@@ -173,6 +177,9 @@ class StudyConfig:
             :func:`hri_envs.task.episode.step_reward`).
         physics_preset: A named set of physics options of the backend (mujoco:
             "weak-human", "noisy-sensor"; docs/physics.md); None for its defaults.
+        human_params: The parameters of a family named as ``population`` (e.g.
+            ``(("k", 3),)`` for ``population="impatient"``; :mod:`hri_envs.humans.families`),
+            as (name, value) pairs; the others take the family's defaults.
     """
 
     scenario: str
@@ -197,6 +204,7 @@ class StudyConfig:
     learner: tuple[tuple[str, Any], ...] = ()
     reward: str = "paper"
     physics_preset: str | None = None
+    human_params: tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
         def choice(name: str, allowed: Sequence[str], *, optional: bool = False) -> None:
@@ -262,26 +270,41 @@ class StudyConfig:
             probe.check(graph_for(self.scenario))
         validate_rationality(self.human_rationality)
         text("population", "a population's name or 'module:Class'")
+        if not isinstance(self.human_params, tuple) or not all(
+                isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
+                for pair in self.human_params):
+            raise ConfigError(f"human_params must be (name, value) pairs of a family's "
+                              f"parameters, e.g. (('k', 3),), got {self.human_params!r}",
+                              field="human_params")
+        if self.human_params and self.population is None:
+            raise ConfigError("human_params sets the parameters of a family named as the "
+                              "population (e.g. --population impatient --human-param k=3); "
+                              "no population is given", field="human_params")
         if self.population is not None:
-            validate_population(self.population, self.scenario)
+            validate_population(self.population, self.scenario, dict(self.human_params))
             if self.preference is not None:
                 raise ConfigError("give either a population or a preference, not both",
                                   field="preference")
         validate_drift(self.human_drift)
+        if self.mixture_population:
+            for name, bad in (("human_rationality", not math.isinf(self.human_rationality)),
+                              ("human_passive", self.human_passive > 0),
+                              ("turn_back", self.turn_back > 0),
+                              ("human_drift", self.human_drift is not None)):
+                if bad:
+                    raise ConfigError(f"population {self.population!r} gives each run a "
+                                      f"frozen member as it is; {name} cannot change it "
+                                      "(leave it at its default)", field=name)
         if is_custom(self.population):
             if self.human_drift is not None:
                 raise ConfigError("a human of your own (--population module:Class) does not "
                                   "drift; leave out --human-drift", field="human_drift")
-            if "oracle" in self.agents:
+            if "oracle" in self.agents and not is_recorded(self.population):
+                # a fitted human is a policy table: the oracle copies its likeliest action
                 raise ConfigError("the oracle copies a scripted human's preferred actions; "
                                   "leave it out with --population module:Class",
                                   field="agents")
-        planners = [a for a in self.agents if a in REFERENCE_AGENTS]
-        if planners and self.per_run_humans:
-            raise ConfigError(f"agent(s) {', '.join(planners)} plan for one scripted human "
-                              "shared by every run; leave them out of studies whose runs have "
-                              "humans of their own (--population, --human-drift): regret is "
-                              "still reported where the exact blind plan fits", field="agents")
+        refuse_references(self)
         if not isinstance(self.learner, tuple) or not all(
                 isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
                 for pair in self.learner):
@@ -304,13 +327,37 @@ class StudyConfig:
         """Whether runs have humans of their own (a population or a drifting human)."""
         return self.population is not None or self.human_drift is not None
 
+    @property
+    def mixture_population(self) -> bool:
+        """Whether the population is a split, mixture or family
+        (:func:`hri_envs.humans.splits.population`), not a scripted population or a class.
+        """
+        return (self.population is not None and not is_custom(self.population)
+                and self.population not in POPULATIONS)
+
+    def population_info(self) -> dict[str, Any] | None:
+        """The population's name, version, content hash and whether it is held out (None:
+        no population; a human class of the user's has no hash).
+        """
+        if self.population is None:
+            return None
+        if is_custom(self.population):
+            return {"name": self.population, "version": None, "hash": None,
+                    "held_out": None, "members": None}
+        spec = population(self.population, self.scenario, dict(self.human_params))
+        members = getattr(spec, "members", None)
+        return {"name": self.population, "version": getattr(spec, "version", "1"),
+                "hash": population_hash(spec), "held_out": bool(spec.held_out),
+                "members": members}
+
     def human_draws(self, run: int, preference: str) -> list[HumanDraw]:
         """Run ``run``'s human in each episode, as its own draw from ``(seed, run)`` (a
         population, rationality, drift; see :mod:`hri_envs.humans.populations`).
         """
         draw = draw_human(self.scenario, self.seed, run, population=self.population,
                           preference=preference, rationality=self.human_rationality,
-                          passive=self.human_passive, turn_back=self.turn_back)
+                          passive=self.human_passive, turn_back=self.turn_back,
+                          params=self.human_params)
         return human_sequence(self.scenario, draw, self.seed, run, self.n_episodes,
                               self.human_drift)
 
@@ -346,10 +393,13 @@ class StudyConfig:
 
         All dataclass fields but :data:`EXECUTION_FIELDS` (which only decide where and how
         fast the runs are simulated), so fields added to this class are recorded without
-        further code. :meth:`from_settings` reads it back.
+        further code; a field added after a file format was published
+        (:data:`LATER_FIELDS`) is left out while at its default, so the files of earlier
+        studies (and suite v1) read the same. :meth:`from_settings` reads it back.
         """
         return {f.name: _jsonable(getattr(self, f.name)) for f in dataclasses.fields(self)
-                if f.name not in EXECUTION_FIELDS}
+                if f.name not in EXECUTION_FIELDS
+                and not (f.name in LATER_FIELDS and getattr(self, f.name) == LATER_FIELDS[f.name])}
 
     @classmethod
     def from_settings(cls, settings: Mapping[str, Any], **execution: Any) -> StudyConfig:
@@ -374,7 +424,7 @@ class StudyConfig:
         if unknown:
             raise ConfigError(f"unknown setting(s) {', '.join(unknown)}; a study's settings "
                               f"are {', '.join(sorted(names))}", field=unknown[0])
-        missing = sorted(names - set(settings))
+        missing = sorted(names - set(settings) - set(LATER_FIELDS))
         if missing:
             raise ConfigError(f"missing setting(s) {', '.join(missing)}; a study's settings "
                               f"name every one of {', '.join(sorted(names))}",
@@ -389,7 +439,7 @@ class StudyConfig:
                                       f"{', '.join(sorted(keys))}, got {value!r}",
                                       field="probes")
                 value = tuple(Probe(**p) for p in value)
-            elif name == "learner" and isinstance(value, list):
+            elif name in ("learner", "human_params") and isinstance(value, list):
                 value = tuple(tuple(p) if isinstance(p, list) else p for p in value)
             elif isinstance(value, list):
                 value = tuple(value)
@@ -401,6 +451,9 @@ class StudyConfig:
 
 #: Fields of :class:`StudyConfig` that never change a study's numbers.
 EXECUTION_FIELDS = ("jobs", "executor", "ray_address")
+#: Fields added after the settings' format was published, with their defaults: left out of
+#: :meth:`StudyConfig.settings` at the default, and taken as the default when missing.
+LATER_FIELDS: dict[str, Any] = {"human_params": ()}
 
 
 def _jsonable(value: Any) -> Any:
@@ -467,7 +520,11 @@ def _humans(cfg: StudyConfig, preference: str, runs: list[int]
     flat = humans_of(graph, [d for seq in seqs for d in seq])
     n_e = cfg.n_episodes
     per_run = [flat[i * n_e:(i + 1) * n_e] for i in range(len(runs))]
-    return TableHumans(per_run), labels
+    if all(isinstance(h, ScriptedHuman) for h in flat):
+        return TableHumans(per_run), labels
+    # A member with a finite state (misspecified, adaptive, inconsistent): one model per run
+    # throughout (such populations do not drift).
+    return FiniteStateHumans([seq[0] for seq in per_run]), labels
 
 
 #: What a unit yields: metrics, probes, schedule and each run's human label.
@@ -491,7 +548,8 @@ def _run_unit(unit: _Unit) -> UnitResult:
     human, labels = _humans(cfg, unit.preference, runs)
     schedule = make_schedule(graph, cfg.schedule, runs, cfg.n_episodes, cfg.seed, human)
     agent = make_agent(unit.agent, graph, human, runs, seed=cfg.seed, r0=cfg.waiting_reward,
-                       learner=dict(cfg.learner), max_steps=cfg.max_steps, reward=cfg.reward)
+                       learner=dict(cfg.learner), max_steps=cfg.max_steps, reward=cfg.reward,
+                       episodes=cfg.n_episodes)
     probes = np.full((len(runs), cfg.n_episodes + 1, len(cfg.probes)), np.nan)
     if cfg.probes:
         probes[:, 0] = _probe(agent, cfg.probes)
@@ -797,6 +855,8 @@ def summarize(result: StudyResult) -> dict[str, Any]:
         "human_rationality": _json_float(cfg.human_rationality),
         "population": cfg.population,
         "human_drift": cfg.human_drift,
+        "human_params": _jsonable(cfg.human_params),
+        "population_info": cfg.population_info(),
         "learner": agent_settings("learner", cfg.scenario, cfg.waiting_reward,
                                   dict(cfg.learner)),
         "version": _version(),
@@ -809,7 +869,8 @@ def summarize(result: StudyResult) -> dict[str, Any]:
         "failed_agents": sorted(result.failures),
         "reward_rule": cfg.reward,
         "regret": regret_note,
-        "references": {k: v for k, v in REFERENCES.items() if k in result.metrics},
+        "references": {k: v for k, v in ALL_REFERENCES.items() if k in result.metrics},
+        "reference": reference_summary(result),
         "agents": agents,
         "probability_of_improvement": {
             "metric": "reward",

@@ -135,6 +135,30 @@ def select_tracks(names: str | Sequence[str] | None) -> list[Track]:
     return [t for t in TRACKS.values() if t.name in wanted]
 
 
+def population_track(population: str) -> Track:
+    """A track of one's own on a population (``recorded:DATASET``, a registered name of one
+    scenario, ``module:Class`` is refused: its scenario is unknown); outside the versioned set.
+
+    Raises:
+        ConfigError: A name whose scenario cannot be told (``field="population"``).
+    """
+    from hri_bench.fit import is_recorded
+
+    scenario = None
+    if is_recorded(population):
+        from hri_bench.datasets import open_dataset
+
+        scenario = open_dataset(population.split(":", 1)[1], field="population").scenario
+    if scenario is None:
+        raise ConfigError(f"a suite track of its own takes a recorded population "
+                          f"(recorded:DATASET or recorded-irl:DATASET), got {population!r}",
+                          field="population")
+    name = f"{scenario}-{population.replace(':', '-')}"
+    return Track(name, scenario, f"humans fitted to recorded sessions ({population}); a track "
+                 f"of its own, not part of suite v{SUITE_VERSION}", 500,
+                 (("population", population),))
+
+
 def _runs(track: Track, scale: float) -> int:
     return max(2, int(round(track.runs * scale)))
 
@@ -325,6 +349,7 @@ def run_suite(
     jobs: int = 1,
     executor: str = "serial",
     progress: bool = False,
+    populations: Sequence[str] = (),
 ) -> dict[str, Any]:
     """Run the suite's tracks and write its files into ``out``; return suite.json's document.
 
@@ -341,6 +366,8 @@ def run_suite(
         jobs: Worker processes per study (passed to :func:`run_study`).
         executor: "serial", "process" or "ray".
         progress: Show a tqdm progress bar over tracks.
+        populations: Populations to add a track of their own for, after the chosen tracks
+            (:func:`population_track`, e.g. ``recorded:hanger-people-v0``).
 
     Raises:
         ConfigError: Unknown track, bad agents, bad runs_scale (before any simulation).
@@ -349,7 +376,7 @@ def run_suite(
             and runs_scale > 0):
         raise ConfigError(f"runs_scale must be a number > 0, got {runs_scale!r}",
                           field="runs_scale")
-    chosen = select_tracks(tracks)
+    chosen = select_tracks(tracks) + [population_track(p) for p in populations]
     configs = [track_config(t, agents, runs_scale=runs_scale, seed=seed, jobs=jobs,
                             executor=executor) for t in chosen]
     out = Path(out)

@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ActionError, ConfigError
 
-__all__ = ["check_flag", "check_real", "check_whole", "integer_or_none"]
+__all__ = ["check_flag", "check_real", "check_whole", "integer_action", "integer_or_none"]
 
 _INT64_MIN, _INT64_MAX = int(np.iinfo(np.int64).min), int(np.iinfo(np.int64).max)
 
@@ -132,3 +132,16 @@ def integer_or_none(value: Any) -> int | None:
         except TypeError:
             return None
     return number if _INT64_MIN <= number <= _INT64_MAX else None
+
+
+def integer_action(value: Any, who: str, where: str = "") -> int:
+    """``value`` as an ``int`` action (:func:`integer_or_none`), or an :class:`ActionError`
+    naming ``who`` (e.g. "act() of agent 'x'"), the value and ``where`` (e.g. " for run 3"):
+    bool, float and str are refused, not rounded.
+    """
+    number = integer_or_none(value)
+    if number is None:
+        raise ActionError(f"{who} returned {_describe(value)} ({type(value).__name__}){where}; "
+                          "an action is an integer (int or numpy integer; bool, float and str "
+                          "are refused, not rounded)")
+    return number

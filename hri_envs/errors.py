@@ -43,6 +43,7 @@ EXTRA_OF: dict[str, str] = {
     "matplotlib": "bench", "tqdm": "bench", "scipy": "bench", "numba": "bench",
     "mujoco": "mujoco", "mink": "mujoco", "gymnasium_robotics": "mujoco", "imageio": "mujoco",
     "imageio_ffmpeg": "mujoco",
+    "fastapi": "web", "uvicorn": "web", "pyarrow": "web", "minari": "web", "selenium": "web",
     "stable_baselines3": "rl", "sb3_contrib": "rl", "torch": "rl",
     "ray": "ray",
     "jax": "jax", "jaxlib": "jax", "optax": "jax",

@@ -19,7 +19,8 @@ SUMMARY_KEYS = {"scenario", "backend", "schedule", "preference", "r0", "human_pa
                 "turn_back", "max_steps", "runs", "episodes", "seed", "version", "env_ids",
                 "settings", "agent_configs", "failed_agents", "agents", "human_rationality",
                 "population", "human_drift", "learner", "probability_of_improvement",
-                "reward_rule", "regret", "references", "physics_preset"}
+                "reward_rule", "regret", "references", "physics_preset", "human_params",
+                "population_info", "reference"}
 
 
 def test_study_writes_the_contracted_files(tmp_path, capsys):

@@ -197,7 +197,8 @@ def test_an_agent_that_raises_is_left_out_and_the_others_are_written(tmp_path, c
 
 @pytest.mark.parametrize("agent, message", [
     ("nosuch.mod:Foo", "cannot import agent 'nosuch.mod:Foo': ModuleNotFoundError"),
-    ("tests.helpers_agents:NotAnAgent", "neither an agents.Agent nor an agents.BatchAgent"),
+    ("tests.helpers_agents:NotAnAgent",
+     "not a subclass of agents.protocol.Agent or agents.protocol.BatchAgent"),
 ])
 def test_an_agent_that_is_not_one_is_refused_before_any_simulation(agent, message, tmp_path,
                                                                     monkeypatch, capsys):

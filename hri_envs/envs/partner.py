@@ -34,6 +34,7 @@ from hri_envs.humans.protocol import BatchHuman, Human, checked_actions
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task.actions import HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT
+from hri_envs.task.episode import revise_intention
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["PartnerEnv", "Policy", "following_robot", "random_valid_policy", "waiting_policy"]
@@ -210,6 +211,10 @@ class PartnerEnv(gym.Env[Any, np.int64]):
         if self._human is not None:
             self._human.observe(self._seen["state"], self._seen["robot_action"],
                                 np.array([partner]), self.env.state()[:1], _ONE)
+            revised = self._human.revised_intentions()  # a human who changed its mind
+            if revised is not None and self.env.agents:
+                episode = self.env.unwrapped._episode
+                episode.intention = int(revise_intention(episode.intention, revised[0]))
             if not self.env.agents:
                 self._human.end_episode()
         return self._obs[me], float(rewards[me]), bool(terms[me]), bool(truncs[me]), infos[me]

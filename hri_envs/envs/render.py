@@ -15,7 +15,7 @@ import numpy as np
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import GRASP_NAMES, TaskGraph
 
-__all__ = ["GRASP_COLOURS", "render_ansi", "render_rgb"]
+__all__ = ["GRASP_COLOURS", "SideView", "render_ansi", "render_rgb"]
 
 #: RGB per grasp code μ: nobody, human, robot, both.
 GRASP_COLOURS = np.array(
@@ -125,54 +125,81 @@ def _text(img: np.ndarray, x: float, y: float, text: str, colour: tuple[int, ...
                     _rect(img, px, py, px + scale - 1, py + scale - 1, colour)
 
 
+class SideView:
+    """The side view of a scenario's supports and waypoints, drawn once; :meth:`draw` adds
+    the object in a state (what :func:`render_rgb` draws, for many states of one layout).
+
+    Args:
+        scenario: The scenario's geometry (with the episode's layout).
+        graph: Its task graph.
+        height, width: The picture's size in pixels.
+    """
+
+    def __init__(self, scenario: Scenario, graph: TaskGraph, *, height: int = 240,
+                 width: int = 360) -> None:
+        self.scenario, self.graph = scenario, graph
+        img = np.empty((height, width, 3), dtype=np.uint8)
+        img[:] = _BACKGROUND
+        u_col, mounts, direction = _unfolding(scenario)
+        n_h = len(scenario.heights)
+        waypoints = np.array([scenario.waypoint_position(c, h)
+                              for c in range(scenario.n_supports) for h in range(n_h)])  # (K H, 3)
+        cols = np.repeat(np.arange(scenario.n_supports), n_h)
+        u_wp = u_col[cols] + np.sum((waypoints[:, :2] - mounts[cols]) * direction[cols], axis=1)
+
+        # world (u, z) -> pixels, one scale for both axes
+        z_top = max(float(waypoints[:, 2].max()), max(s.position[2] for s in scenario.supports))
+        pad = 2.0 * scenario.object_radius
+        u_lo, u_hi = min(u_wp.min(), u_col.min()) - pad, max(u_wp.max(), u_col.max()) + pad
+        margin_bottom, margin = 22, 8
+        scale = min((width - 2 * margin) / (u_hi - u_lo),
+                    (height - margin - margin_bottom) / (z_top + pad))
+        x_off = (width - scale * (u_hi - u_lo)) / 2.0
+        self._u_col, self._mounts, self._direction = u_col, mounts, direction
+        self._scale, self._x_off, self._u_lo = scale, x_off, u_lo
+        self._height, self._margin_bottom = height, margin_bottom
+
+        _, ground_y = self._px(u_lo, 0.0)
+        _rect(img, 0, ground_y, width - 1, ground_y + 2, _GROUND)
+        for k, sup in enumerate(scenario.supports):
+            x, y = self._px(u_col[k], sup.position[2])
+            _rect(img, x - 3, y, x + 3, ground_y, _POST)
+            _rect(img, x - 10, y - 2, x + 10, y + 2, _CAP)
+            _text(img, x - 2, ground_y + 6, sup.name, _INK)
+        mount_xy = {(int(graph.column[s]), int(graph.height[s])) for s in graph.mounting_state}
+        for i, (u, z) in enumerate(zip(u_wp, waypoints[:, 2], strict=True)):
+            x, y = self._px(u, z)
+            mounting = (int(cols[i]), i % n_h) in mount_xy
+            _disc(img, x, y, 3.0 if mounting else 2.0, _MOUNT if mounting else _WAYPOINT)
+        img.setflags(write=False)
+        self.background = img
+
+    def _px(self, u: float, z: float) -> tuple[float, float]:
+        return (self._x_off + (u - self._u_lo) * self._scale,
+                self._height - self._margin_bottom - z * self._scale)
+
+    def draw(self, state: int) -> np.ndarray:
+        """The side view with the object in ``state``; (height, width, 3) uint8."""
+        scenario, graph = self.scenario, self.graph
+        img = self.background.copy()
+        pos = _object_position(scenario, graph, state)
+        k = int(graph.support[state])
+        c = k if k >= 0 else int(graph.column[state])
+        u = (self._u_col[c] if k >= 0
+             else self._u_col[c] + float((pos[:2] - self._mounts[c]) @ self._direction[c]))
+        x, y = self._px(u, pos[2])
+        r = float(np.clip(0.5 * scenario.object_radius * self._scale, 6.0, 18.0))
+        colour = tuple(int(v) for v in GRASP_COLOURS[graph.grasp[state]])
+        _disc(img, x, y, r + 1.5, _INK)
+        _disc(img, x, y, r, colour)
+        vertical = int(graph.orientation[state]) % 2 == 1
+        dx, dy = (0.0, r + 6.0) if vertical else (r + 6.0, 0.0)
+        _line(img, x - dx, y - dy, x + dx, y + dy, _INK, width=2)
+        return img
+
+
 def render_rgb(
     scenario: Scenario, graph: TaskGraph, state: int, *, height: int = 240, width: int = 360
 ) -> np.ndarray:
     """Side view of the scenario with the object in ``state``; (height, width, 3) uint8."""
-    img = np.empty((height, width, 3), dtype=np.uint8)
-    img[:] = _BACKGROUND
-    u_col, mounts, direction = _unfolding(scenario)
-    n_h = len(scenario.heights)
-    waypoints = np.array([scenario.waypoint_position(c, h)
-                          for c in range(scenario.n_supports) for h in range(n_h)])  # (K H, 3)
-    cols = np.repeat(np.arange(scenario.n_supports), n_h)
-    u_wp = u_col[cols] + np.sum((waypoints[:, :2] - mounts[cols]) * direction[cols], axis=1)
-
-    # world (u, z) -> pixels, one scale for both axes
-    z_top = max(float(waypoints[:, 2].max()), max(s.position[2] for s in scenario.supports))
-    pad = 2.0 * scenario.object_radius
-    u_lo, u_hi = min(u_wp.min(), u_col.min()) - pad, max(u_wp.max(), u_col.max()) + pad
-    margin_bottom, margin = 22, 8
-    scale = min((width - 2 * margin) / (u_hi - u_lo),
-                (height - margin - margin_bottom) / (z_top + pad))
-    x_off = (width - scale * (u_hi - u_lo)) / 2.0
-
-    def px(u: float, z: float) -> tuple[float, float]:
-        return x_off + (u - u_lo) * scale, height - margin_bottom - z * scale
-
-    _, ground_y = px(u_lo, 0.0)
-    _rect(img, 0, ground_y, width - 1, ground_y + 2, _GROUND)
-    for k, sup in enumerate(scenario.supports):
-        x, y = px(u_col[k], sup.position[2])
-        _rect(img, x - 3, y, x + 3, ground_y, _POST)
-        _rect(img, x - 10, y - 2, x + 10, y + 2, _CAP)
-        _text(img, x - 2, ground_y + 6, sup.name, _INK)
-    mount_xy = {(int(graph.column[s]), int(graph.height[s])) for s in graph.mounting_state}
-    for i, (u, z) in enumerate(zip(u_wp, waypoints[:, 2], strict=True)):
-        x, y = px(u, z)
-        mounting = (int(cols[i]), i % n_h) in mount_xy
-        _disc(img, x, y, 3.0 if mounting else 2.0, _MOUNT if mounting else _WAYPOINT)
-
-    pos = _object_position(scenario, graph, state)
-    k = int(graph.support[state])
-    c = k if k >= 0 else int(graph.column[state])
-    u = u_col[c] if k >= 0 else u_col[c] + float((pos[:2] - mounts[c]) @ direction[c])
-    x, y = px(u, pos[2])
-    r = float(np.clip(0.5 * scenario.object_radius * scale, 6.0, 18.0))
-    colour = tuple(int(v) for v in GRASP_COLOURS[graph.grasp[state]])
-    _disc(img, x, y, r + 1.5, _INK)
-    _disc(img, x, y, r, colour)
-    vertical = int(graph.orientation[state]) % 2 == 1
-    dx, dy = (0.0, r + 6.0) if vertical else (r + 6.0, 0.0)
-    _line(img, x - dx, y - dy, x + dx, y + dy, _INK, width=2)
-    return img
+    return SideView(scenario, graph, height=height, width=width).draw(state)

@@ -25,7 +25,7 @@ from hri_envs.envs.window import check_display
 from hri_envs.errors import ResetNeeded
 from hri_envs.humans.protocol import BatchHuman, checked_actions
 from hri_envs.humans.seat import HumanLike, seat_human
-from hri_envs.task.episode import EpisodeRules, reached_intention
+from hri_envs.task.episode import EpisodeRules, reached_intention, revise_intention
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["RobotEnv"]
@@ -266,6 +266,9 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         t = ep.advance(a_r, a_h)
         human.observe(seen["state"], seen["robot_action"], np.array([a_h]),
                       np.array([ep.state]), _ONE)
+        revised = human.revised_intentions()  # a human who changed its mind
+        if revised is not None and not t.terminated:
+            ep.intention = int(revise_intention(ep.intention, revised[0]))
         self._reward = t.reward
         truncated = not t.terminated and (ep.steps >= self.max_cycles or ep.fault is not None)
         info: dict[str, Any] = {"aborted": t.aborted, "invalid_action": t.robot_invalid,

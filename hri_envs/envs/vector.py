@@ -437,6 +437,10 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                     self._goal_key[back] = start * self._greedy.goal_stride
         if self._greedy is None:
             human.observe(state, a_r, a_h, s_next, playing)
+            revised = human.revised_intentions()  # humans who changed their minds
+            if revised is not None:
+                changed = ((np.asarray(revised) >= 0) & playing & ~terminated).nonzero()[0]
+                self._intention[changed] = np.asarray(revised)[changed]
         infos: dict[str, Any] = {"aborted": aborted, "_aborted": self._all,
                                  "invalid_action": invalid, "_invalid_action": self._all}
         if self._same_step:

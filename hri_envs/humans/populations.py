@@ -35,6 +35,7 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -167,6 +168,9 @@ class HumanDraw:
         passive: Probability of waiting in a step.
         turn_back: Probability per episode of turning back halfway.
         theta: (F,) preference weights of a θ human (Boltzmann with temperature β), or None.
+        family: A family of :data:`hri_envs.humans.families.FAMILIES` (then only ``params``
+            count), or None for the fields above.
+        params: The family's parameters as (name, value) pairs (the others: defaults).
     """
 
     preference: str | None
@@ -174,9 +178,17 @@ class HumanDraw:
     passive: float = 0.0
     turn_back: float = 0.0
     theta: tuple[float, ...] | None = None
+    family: str | None = None
+    params: tuple[tuple[str, Any], ...] = ()
 
     def label(self) -> str:
-        """A short readable description (the preference or "theta", with β if finite)."""
+        """A short readable description (the preference or "theta", with β if finite; a
+        family's name and parameters, :mod:`hri_envs.humans.families`).
+        """
+        if self.family is not None:
+            inner = ",".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                             for k, v in self.params)
+            return f"{self.family}({inner})"
         base = self.preference if self.preference is not None else "theta"
         return base if math.isinf(self.rationality) else f"{base}@{self.rationality:.3g}"
 
@@ -270,10 +282,14 @@ POPULATIONS: dict[str, PopulationSpec] = {p.name: p for p in _POPULATIONS}
 
 
 def population_spec(name: str, scenario: str | None = None) -> PopulationSpec:
-    """A population by name; a :class:`ConfigError` lists the allowed names otherwise."""
+    """A scripted population (:data:`POPULATIONS`) by name; a :class:`ConfigError` lists the
+    allowed names otherwise. Splits, mixtures and families are found by
+    :func:`hri_envs.humans.splits.population`.
+    """
     if not isinstance(name, str) or name not in POPULATIONS:
-        raise ConfigError(f"unknown population {name!r}; allowed: {', '.join(POPULATIONS)}",
-                          field="population")
+        raise ConfigError(f"unknown scripted population {name!r}; allowed: "
+                          f"{', '.join(POPULATIONS)} (splits, mixtures and families: "
+                          "hri_envs.humans.splits.population)", field="population")
     spec = POPULATIONS[name]
     if scenario is not None and scenario not in spec.scenarios:
         allowed = [n for n, p in POPULATIONS.items() if scenario in p.scenarios]
@@ -287,8 +303,15 @@ def _base_human(scenario: str, preference: str) -> ScriptedHuman:
     return preference_human(scenario_graph(scenario), preference)
 
 
-def build_human(graph: TaskGraph, draw: HumanDraw) -> ScriptedHuman:
-    """The :class:`ScriptedHuman` a :class:`HumanDraw` describes."""
+def build_human(graph: TaskGraph, draw: HumanDraw) -> Any:
+    """The human model a :class:`HumanDraw` describes: a :class:`ScriptedHuman`, or a family's
+    model (:func:`hri_envs.humans.families.build_family`, possibly a
+    :class:`~hri_envs.humans.finite_state.FiniteStateHuman`).
+    """
+    if draw.family is not None:
+        from hri_envs.humans.families import build_family
+
+        return build_family(graph, draw.family, dict(draw.params))
     if draw.theta is not None:
         beta = 25.0 if math.isinf(draw.rationality) else draw.rationality
         human = boltzmann_human(graph, np.asarray(draw.theta), temperature=beta,
@@ -315,15 +338,22 @@ def draw_human(
     rationality: float = math.inf,
     passive: float = 0.0,
     turn_back: float = 0.0,
+    params: Sequence[tuple[str, Any]] = (),
 ) -> HumanDraw:
     """Run ``run``'s human: from ``population`` if given, else the fixed settings.
 
-    With a population, ``rationality`` (if finite) overrides the population's β, and the
-    passive and turning-back rates are added to the population's (clipped to [0, 1]).
+    With a scripted population, ``rationality`` (if finite) overrides the population's β, and
+    the passive and turning-back rates are added to the population's (clipped to [0, 1]). A
+    split, mixture or family (:func:`hri_envs.humans.splits.population`, with the family's
+    ``params``) gives its member as it is.
     """
     if population is None:
         pref = preference or scenario_spec(scenario).default_preference
         return HumanDraw(pref, rationality, passive, turn_back)
+    if population not in POPULATIONS:  # a split, mixture or family: its members as they are
+        from hri_envs.humans.splits import population as mixture
+
+        return mixture(population, scenario, dict(params)).draw(scenario, seed, run)
     d = population_spec(population, scenario).draw(scenario, seed, run)
     beta = rationality if not math.isinf(rationality) else d.rationality
     return dataclasses.replace(d, rationality=beta,
@@ -384,6 +414,10 @@ class PopulationHumans(TableHumans):
     """
 
     def __init__(self, graph: TaskGraph, population: str, n_runs: int = 1) -> None:
+        if isinstance(population, str) and population not in POPULATIONS:
+            raise ConfigError(f"PopulationHumans seats the scripted populations "
+                              f"({', '.join(POPULATIONS)}); seat {population!r} with "
+                              "hri_envs.humans.splits.population_seat", field="population")
         self.spec = population_spec(population, graph.name)
         super().__init__(preference_human(graph), n_runs)
 

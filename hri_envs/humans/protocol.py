@@ -14,13 +14,20 @@ model fitted to recordings). Per episode:
    ``action_mask``, and ``robot_action`` (the robot's action in this very step) where the
    seat knows it before the human acts (the benchmark, the robot envs, ``play``);
 4. ``observe(states, robot_actions, human_actions, next_states, active)`` — one joint step;
+   after it the seat asks ``revised_intentions()`` whether a human changed its mind (an
+   inconsistent human), and applies the new ι (:func:`hri_envs.task.episode.revise_intention`);
 5. ``end_episode(rows)`` — the episodes in ``rows`` ended.
 
 Randomness is the seat's to give, so that seeds reproduce: ``seed(rng)`` hands the human
 one generator shared by its rows (the envs, at every reset, from their ``np_random``) or
 one generator per row (the benchmark: ``(seed, run, 1)``). Turning back halfway is an
 episode rule (:func:`hri_envs.task.episode.turn_back`) that the seat applies where the
-human says: :attr:`BatchHuman.turn_state` and :attr:`BatchHuman.turn_back`.
+human says: :attr:`BatchHuman.turn_state` and :attr:`BatchHuman.turn_back`. Any other
+change of intention is the human's own: it reports the new ι after a step
+(:meth:`BatchHuman.revised_intentions`, :meth:`Human.revised_intention`), the seat applies it,
+and from the next step on the seat's ι (the human's observation, a privileged robot's, the
+reward's ``reached_intention``) is the new one. Humans that never change their mind report
+nothing (the default), so the seats behave exactly as before.
 
 Two flavours share these names, as for the robot: :class:`Human` handles one stream of
 episodes with plain ints and is what a user writes; :class:`BatchHuman` advances
@@ -52,7 +59,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from hri_envs.checks import integer_or_none
+from hri_envs.checks import integer_action, integer_or_none
 from hri_envs.errors import ActionError, ConfigError
 from hri_envs.task.graph import TaskGraph
 
@@ -94,6 +101,12 @@ class Human(ABC):
 
     def observe(self, state: int, robot_action: int, human_action: int, next_state: int) -> None:
         """One joint step of the current episode."""
+
+    def revised_intention(self) -> int | None:
+        """The intention the human holds after the last :meth:`observe` if it changed its mind
+        in that step, else None (the default: ι changes only by the seat's turning back).
+        """
+        return None
 
     def end_episode(self) -> None:
         """The episode ended."""
@@ -172,6 +185,13 @@ class BatchHuman(ABC):
                 next_states: np.ndarray, active: np.ndarray) -> None:
         """One joint step in every active run (``human_actions`` as the human took them)."""
 
+    def revised_intentions(self) -> np.ndarray | None:
+        """(n_runs,) int, the intention each row's human holds after the last :meth:`observe`
+        where it changed its mind in that step, -1 where it did not; None (the default) when
+        no row did. Seats call it after every :meth:`observe` and apply the changes.
+        """
+        return None
+
     def end_episode(self, rows: Rows = None) -> None:
         """The episodes of ``rows`` ended."""
 
@@ -213,14 +233,8 @@ class BatchedHumans(BatchHuman):
         """
         out = np.zeros(self.n_runs, dtype=np.int64)
         for i in np.flatnonzero(active):
-            action = self.humans[i].act({k: v[i] for k, v in observations.items()})
-            number = integer_or_none(action)
-            if number is None:
-                raise ActionError(f"act() of the human in row {i} returned {action!r} "
-                                  f"({type(action).__name__}); a human's action is an integer "
-                                  "(int or numpy integer; bool, float and str are refused, "
-                                  "not rounded)")
-            out[i] = number
+            out[i] = integer_action(self.humans[i].act({k: v[i] for k, v in observations.items()}),
+                                    f"act() of the human in row {i}")
         return out
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
@@ -229,6 +243,20 @@ class BatchedHumans(BatchHuman):
         for i in np.flatnonzero(active):
             self.humans[i].observe(int(states[i]), int(robot_actions[i]),
                                    int(human_actions[i]), int(next_states[i]))
+
+    def revised_intentions(self) -> np.ndarray | None:
+        """Each human's :meth:`Human.revised_intention` (-1 where None); None if none changed."""
+        out = np.full(self.n_runs, -1, dtype=np.int64)
+        for i, human in enumerate(self.humans):
+            new = human.revised_intention()
+            if new is not None:
+                number = integer_or_none(new)
+                if number is None or not 0 <= number < self.graph.n_intentions:
+                    raise ActionError(f"revised_intention() of the human in row {i} returned "
+                                      f"{new!r}; it is None or a support index in "
+                                      f"[0, {self.graph.n_intentions})")
+                out[i] = number
+        return out if (out >= 0).any() else None
 
     def end_episode(self, rows: Rows = None) -> None:
         """Tell each human of ``rows`` that its episode ended."""

@@ -47,6 +47,7 @@ __all__ = [
     "check_probability",
     "preference_human",
     "preferences_for",
+    "support_actions",
 ]
 
 
@@ -152,6 +153,13 @@ class ScriptedHuman:
         """Whether the policy table is deterministic (passivity aside)."""
         return self._deterministic
 
+    @property
+    def route_table(self) -> np.ndarray:
+        """(K, K, S) int, the likeliest action ``table[start, goal, s]`` (read-only)."""
+        table = self._greedy.view()
+        table.setflags(write=False)
+        return table
+
     def preferred_action(
         self, state: np.ndarray, start: np.ndarray, goal: np.ndarray
     ) -> np.ndarray:
@@ -195,7 +203,7 @@ class ScriptedHuman:
         return actions
 
 
-def _support_actions(graph: TaskGraph, table: np.ndarray) -> None:
+def support_actions(graph: TaskGraph, table: np.ndarray) -> None:
     """Fill the human's grasp behaviour at supports into ``table[start, goal, s]``."""
     for s in np.flatnonzero(graph.is_support_state):
         k, mu = int(graph.support[s]), int(graph.grasp[s])
@@ -236,7 +244,7 @@ def preference_human(
     route_of = scenario_spec(graph.name).route
     n_k, n_s = graph.n_intentions, graph.n_states
     table = np.zeros((n_k, n_k, n_s), dtype=np.int64)
-    _support_actions(graph, table)
+    support_actions(graph, table)
     turn_state = np.full((n_k, n_k), -1, dtype=np.int64)
     free = np.flatnonzero(~graph.is_support_state)
     for start, goal in itertools.product(range(n_k), repeat=2):

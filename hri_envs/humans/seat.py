@@ -12,9 +12,10 @@ from __future__ import annotations
 import math
 
 from hri_envs.errors import ConfigError
-from hri_envs.humans.populations import PopulationHumans, rational_human, validate_rationality
+from hri_envs.humans.populations import rational_human, validate_rationality
 from hri_envs.humans.protocol import BatchedHumans, BatchHuman, Human
 from hri_envs.humans.scripted import ScriptedHuman, check_probability, preference_human
+from hri_envs.humans.splits import population_seat
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task.graph import TaskGraph
 
@@ -47,8 +48,9 @@ def seat_human(
         turn_back: Its probability per episode of turning back halfway.
         rationality: β of a Boltzmann version (:func:`~hri_envs.humans.populations.
             rational_human`); ``inf``: the deterministic human.
-        population: A population's name: a new member every episode, replacing the
-            arguments above.
+        population: A population's name (a scripted population, a split such as "test",
+            a mixture or a family; :func:`hri_envs.humans.splits.population`): a new member
+            every episode, replacing the arguments above.
         n_runs: Rows of the seat (the vector env's envs).
 
     Raises:
@@ -61,7 +63,7 @@ def seat_human(
     if human is not None and population is not None:
         raise ConfigError("give either a human or a population, not both", field="population")
     if population is not None:
-        return PopulationHumans(graph, population, n_runs)
+        return population_seat(graph, population, n_runs)
     if human is None:
         return TableHumans(rational_human(preference_human(graph, preference, passive=passive,
                                                            turn_back=turn_back), rationality),

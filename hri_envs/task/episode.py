@@ -11,6 +11,9 @@ broadcast, so the same code serves one episode and thousands.
   start again counts as arriving: the human turned back.
 * Turning back: in an episode where the human turns back, on entering the state
   ``turn_state[start, ι]`` the intention becomes the start support (:func:`turn_back`).
+* A change of mind: a human may report a new intention after any step (an inconsistent
+  human, :meth:`hri_envs.humans.protocol.BatchHuman.revised_intentions`); it holds from the
+  next step on (:func:`revise_intention`).
 * End: the object rests with μ = 0 on a support other than the start, or on the start once
   lifted (:func:`episode_over`).
 * Reward and decisions: :func:`step_reward` and :func:`classify` judge a step from the state
@@ -51,6 +54,7 @@ __all__ = [
     "goal_reward",
     "left_start",
     "reached_intention",
+    "revise_intention",
     "robot_correct",
     "start_state",
     "step_penalty",
@@ -144,6 +148,14 @@ def turn_back(
         where = turn_state[start, intention]
     back = turning & (state == where)
     return np.where(back, start, intention), turning & ~back
+
+
+def revise_intention(intention: IntArray, revised: IntArray) -> np.ndarray:
+    """ι after the human reported a change of mind: ``revised`` where it is >= 0 (a support),
+    ``intention`` where it is -1 (no change). Arrays broadcast.
+    """
+    revised = np.asarray(revised)
+    return np.where(revised >= 0, revised, intention)
 
 
 # --------------------------------------------------------------------------- judging a step
@@ -435,6 +447,14 @@ class EpisodeBatch:
             self.intention, self.turning = turn_back(self.turn_state, s_next, self.start,
                                                      self.intention, self.turning)
         return over if active is None else over & active
+
+    def revise(self, revised: np.ndarray, active: np.ndarray | None = None) -> None:
+        """Apply the humans' changes of mind (:func:`revise_intention`) in the ``active``
+        rows (default: all); ``revised`` is (N,), -1 where a human kept its intention.
+        """
+        if active is not None:
+            revised = np.where(active, revised, -1)
+        self.intention = revise_intention(self.intention, revised)
 
 
 # --------------------------------------------------------------------------- one fused table

@@ -1,0 +1,148 @@
+"""A robot that infers the goal but learns no preference: a Bayesian goal filter.
+
+The yardstick for preference learning: it does what the Learner does about the intention ι
+(a Bayes filter over the supports from the human's actions) but models the human as a
+Boltzmann-rational *shortest-path* mover, the same for every human and never updated. If
+the Learner does not beat it, learning the human's preference bought nothing.
+
+**Human model.** ``D(ι, s)``: the fewest human motions from ``s`` to rest on ι with the robot
+waiting (held by both; :data:`~hri_envs.humans.populations.D_MAX` where it cannot). In free
+space ``π_sp(a | s, ι) ∝ exp(β · Q(s, a; ι))`` over the valid motions, with
+``Q = -(1 + D(ι, s'))`` and ``s'`` where the motion leads, mixed with ``ε`` of a uniform
+choice so that no action is impossible; at a support the human grasps, takes off and lets
+go as every scripted human does (:func:`~hri_envs.humans.scripted.support_actions`).
+
+**Filter.** The belief over ι starts uniform over the supports other than the start; every
+human motion seen in free space multiplies it by ``π_sp(a_H | s, ι)`` (waits and grasp
+toggles carry no information). Nothing is kept from one episode to the next.
+
+**Action.** The human's action predicted by the belief, ``P(a) = Σ_ι b(ι) π(a | s, ι)``: the
+robot joins the likeliest motion when ``P >= eta`` (take-off and put-on included) and waits
+otherwise; it grasps at the start and lets go at the goal as the Passive baseline does. Where
+the shortest routes tie (move over or down first?), ``P`` splits and the robot waits: only a
+preference could tell.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import ClassVar
+
+import numpy as np
+
+from agents.protocol import Trace
+from baselines.simple import _Tracking
+from hri_envs.checks import check_real
+from hri_envs.humans.populations import D_MAX
+from hri_envs.humans.scripted import support_actions
+from hri_envs.task.actions import BOTH, PUT_ON, TAKE_OFF, TOGGLE, WAIT
+from hri_envs.task.graph import TaskGraph
+
+__all__ = ["GoalFilter", "shortest_path_policy"]
+
+
+def shortest_path_policy(graph: TaskGraph, beta: float, epsilon: float) -> np.ndarray:
+    """(K, K, S, A) ``π_sp(a | s; start, ι)`` of the module docstring.
+
+    Args:
+        graph: The task graph.
+        beta: β of the Boltzmann choice among motions (> 0).
+        epsilon: Weight of a uniform choice among the valid actions, in [0, 1).
+    """
+    g = graph
+    n_k, n_s, n_a = g.n_intentions, g.n_states, g.n_actions
+    free = ~g.is_support_state
+    moves = g.valid & (np.arange(n_a) >= PUT_ON)[None]
+    moves[~free] = False  # (S, A) free-space motions
+    nxt = g.next_state[:, WAIT, :]
+    dist = np.full((n_k, n_s), float(D_MAX))
+    goals = np.arange(n_k)
+    dist[goals, g.support_state(goals, BOTH)] = 0.0
+    for _ in range(n_s + 1):
+        cand = np.where(moves[None], 1.0 + dist[:, nxt], np.inf)  # (K, S, A)
+        new = np.where(free[None], np.minimum(cand.min(-1), D_MAX), dist)
+        if np.array_equal(new, dist):
+            break
+        dist = new
+    q = np.where(moves[None], -(1.0 + dist[:, nxt]), -np.inf)  # (K, S, A)
+    top = q.max(-1, keepdims=True)
+    z = beta * (q - np.where(np.isfinite(top), top, 0.0))
+    soft = np.where(moves[None], np.exp(np.where(moves[None], z, 0.0)), 0.0)
+    soft /= np.maximum(soft.sum(-1, keepdims=True), 1e-300)
+    uniform = g.valid / g.valid.sum(-1, keepdims=True)
+    law = np.broadcast_to((1.0 - epsilon) * soft + epsilon * uniform[None], (n_k, n_s, n_a))
+    table = np.zeros((n_k, n_k, n_s), dtype=np.int64)
+    support_actions(g, table)
+    at_support = np.zeros((n_k, n_k, n_s, n_a))
+    np.put_along_axis(at_support, table[..., None], 1.0, axis=-1)
+    return np.where(free[None, None, :, None], law[None], at_support)
+
+
+class GoalFilter(_Tracking):
+    """A Bayes filter over the goal with a fixed shortest-path human model (module docstring).
+
+    Args:
+        graph: The task graph.
+        n_runs: Independent runs.
+        beta: β of the human model (default 3: shortest motions strongly preferred).
+        epsilon: Weight of a uniform choice in the human model (default 0.05).
+        eta: The predicted probability at which the robot joins the human's motion
+            (default 0.8).
+
+    Attributes:
+        belief: (n_runs, K) the posterior over ι in each run's episode.
+    """
+
+    name: ClassVar[str] = "goalfilter"
+
+    def __init__(self, graph: TaskGraph, n_runs: int = 1, *, beta: float = 3.0,
+                 epsilon: float = 0.05, eta: float = 0.8) -> None:
+        super().__init__(graph, n_runs)
+        self.beta = check_real(beta, "beta", low=0.0, low_open=True, high=1e3)
+        self.epsilon = check_real(epsilon, "epsilon", low=0.0, high=1.0, high_open=True)
+        self.eta = check_real(eta, "eta", low=0.0, high=1.0, low_open=True)
+        self.model = shortest_path_policy(graph, self.beta, self.epsilon)  # (K, K, S, A)
+        self.belief = np.full((n_runs, graph.n_intentions), 1.0 / graph.n_intentions)
+
+    def begin_episode(self, starts: np.ndarray) -> None:
+        """Belief uniform over the supports other than the start."""
+        super().begin_episode(starts)
+        k = self.graph.n_intentions
+        self.belief = np.where(np.arange(k)[None] == self.start[:, None], 0.0, 1.0 / (k - 1))
+
+    def predicted(self, states: np.ndarray) -> np.ndarray:
+        """(n_runs, A) the human's action predicted by the belief."""
+        law = self.model[self.start[:, None], np.arange(self.graph.n_intentions)[None],
+                         states[:, None]]  # (B, K, A)
+        return np.einsum("bk,bka->ba", self.belief, law)
+
+    def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
+        """Join the likeliest human motion when it is likely enough; else wait (passive)."""
+        g = self.graph
+        states = np.asarray(observations["state"], dtype=np.int64)
+        p = self.predicted(states)
+        best = np.argmax(p, axis=1)
+        sure = p[np.arange(self.n_runs), best] >= self.eta
+        passive = self.passive(states)
+        join = sure & (best >= TAKE_OFF) & g.valid[states, best]
+        return np.where(passive == TOGGLE, TOGGLE, np.where(join, best, WAIT))
+
+    def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
+                next_states: np.ndarray, active: np.ndarray) -> None:
+        """Bayes' rule on the human's motions in free space."""
+        g = self.graph
+        s = np.asarray(states, dtype=np.int64)
+        a_h = np.asarray(human_actions, dtype=np.int64)
+        informative = active & ~g.is_support_state[s] & (a_h >= TAKE_OFF)
+        if informative.any():
+            rows = np.flatnonzero(informative)
+            lik = self.model[self.start[rows, None], np.arange(g.n_intentions)[None],
+                             s[rows, None], a_h[rows, None]]  # (R, K)
+            post = self.belief[rows] * lik
+            total = post.sum(1, keepdims=True)
+            keep = total[:, 0] > 0
+            self.belief[rows[keep]] = post[keep] / total[keep]
+        super().observe(states, robot_actions, human_actions, next_states, active)
+
+    def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
+        """Nothing is learned."""

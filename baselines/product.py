@@ -1,0 +1,508 @@
+"""Exact plans on the product of the task's and the human's states, and the references on it.
+
+For a :class:`~hri_envs.humans.finite_state.FiniteStateHuman` (every family of
+:mod:`hri_envs.humans.families`, a scripted human without turning back as the case Z = 1)
+the world within an episode is Markov in the node ``(start, ι, lifted, s, z)``: the human's
+law, its state update and its changes of mind depend on nothing else. :func:`plan_product`
+solves the robot's problem on these nodes exactly:
+
+**Objective.** What the benchmark measures: the expected undiscounted sum of the robot's
+reward over the run's episodes, each cut at ``max_steps``. Within an episode, backward
+induction over the steps left ``t`` (``t = 0``: cut) with the chance over the human's action
+and its change of mind. Across episodes, the value of the human's state at the end of an
+episode is ``cont(z) = Σ_z' carry[z, z'] W_{e+1}(z')``, where ``W_e(z)`` is the expected
+value of episodes ``e ..`` when episode ``e`` starts in ``z`` (start and ι drawn as the
+benchmark draws them: start uniform, ι uniform among the others), so the plan of episode
+``e`` maximises the episode's reward plus ``cont`` of where it leaves the human. Where
+``cont`` cannot depend on ``z`` (the human forgets between episodes, or every root's
+episode value is 0, the largest a reward can sum to), one plan serves every episode and the
+passes over episodes are skipped: it is the same optimum. Backward induction stops early
+once the values stop changing (to 1e-12): the policy is then the same for more steps left.
+
+**References on the product.**
+
+* :class:`PerRunInformed` (agent ``informed`` with humans drawn per run): sees ι and the
+  human's state ``z`` every step and follows each run's exact plan, solved once per distinct
+  human (plans are cached by the model's :attr:`fingerprint`); a scripted human that turns
+  back is planned by :func:`baselines.bounds.plan` (which keeps turning back hidden until it
+  happens), per distinct human too. No robot can expect more on the same humans: it is the
+  upper bound of every track's reference.
+* :class:`QMDP` (agent ``qmdp``): a robot that knows each run's human model and its state
+  at the start of each episode, but not ι: it keeps the exact posterior over (ι, z) (Bayes
+  filter on the human's actions, its state updates and changes of mind) and takes the
+  action with the best posterior-weighted value of the informed plan (QMDP). It is a
+  feasible intention-blind policy, so its simulated reward is a lower bound, in
+  expectation, on the intention-blind optimum ``blind`` for the same humans; with
+  ``informed`` above it, it brackets ``blind`` where the exact ``blind`` plan does not fit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from agents.protocol import BatchAgent, Trace
+from baselines.bounds import Plan, plan
+from hri_envs.errors import ConfigError
+from hri_envs.humans.finite_state import FiniteStateHuman, FiniteStateHumans, as_model
+from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.scripted import ScriptedHuman
+from hri_envs.humans.tables import TableHumans
+from hri_envs.task import episode as rules
+from hri_envs.task import mdp
+from hri_envs.task.graph import TaskGraph
+
+__all__ = ["QMDP", "PerRunInformed", "ProductPlan", "model_of_row", "plan_product",
+           "reference_refusal"]
+
+#: Values that change by less than this between two numbers of steps left count as settled.
+SETTLED = 1e-12
+
+
+@dataclass(frozen=True)
+class ProductPlan:
+    """An exact plan for one finite-state human (see the module docstring).
+
+    Nodes are ``n = (((start K + ι) 2 + lifted) S + s) Z + z``.
+
+    Attributes:
+        human: The model planned for.
+        horizon: T = ``max_steps``.
+        policies: Per episode index (one entry when one plan serves every episode),
+            (T_e + 1, N) int8: the optimal robot action with ``min(t, T_e)`` steps left.
+        q: Per episode index, (N, A) the action values with the most steps left planned
+            (``-inf`` on invalid actions).
+        value: Per episode index, (N,) the value with T steps left (at the roots: the
+            expected episode reward plus the continuation).
+        episode_value: (K, K, Z) the expected reward of the *first* planned episode alone
+            (no continuation) from each root ``(start, ι, z)``; NaN where ι = start.
+    """
+
+    human: FiniteStateHuman
+    horizon: int
+    policies: tuple[np.ndarray, ...]
+    q: tuple[np.ndarray, ...]
+    value: tuple[np.ndarray, ...]
+    episode_value: np.ndarray
+
+    def index(self, episode: int) -> int:
+        """The plan entry for the 0-based episode index (the last one beyond)."""
+        return min(int(episode), len(self.policies) - 1)
+
+
+def node_index(graph: TaskGraph, n_z: int, start: Any, intention: Any, lifted: Any, s: Any,
+               z: Any) -> Any:
+    """The product node of ``(start, ι, lifted, s, z)`` (ints or arrays that broadcast)."""
+    k, n_s = graph.n_intentions, graph.n_states
+    return ((((np.asarray(start) * k + intention) * 2 + np.asarray(lifted, dtype=np.int64))
+             * n_s + s) * n_z + z)
+
+
+@dataclass(frozen=True)
+class _Edges:
+    node: np.ndarray  # (E,) source node
+    act: np.ndarray  # (E,) robot action
+    prob: np.ndarray  # (E,)
+    reward: np.ndarray  # (E,)
+    succ: np.ndarray  # (E,) successor node, N for the end of the episode
+    z_end: np.ndarray  # (E,) the human's state where the episode ends (else 0)
+    valid: np.ndarray  # (N, A) the robot's valid actions
+    n_nodes: int
+
+
+def _edges(graph: TaskGraph, human: FiniteStateHuman, r0: float, reward: str) -> _Edges:
+    """Every (node, a_R) -> successor with its probability and reward, vectorised."""
+    g = graph
+    k, n_s, n_a, n_z = g.n_intentions, g.n_states, g.n_actions, human.n_z
+    st, io, lf, s, z, a_r, a_h = np.ix_(np.arange(k), np.arange(k), np.arange(2),
+                                        np.arange(n_s), np.arange(n_z), np.arange(n_a),
+                                        np.arange(n_a))
+    slot = a_r if human.reacts else 0
+    law = human.law[z, st, io, s, slot, a_h]  # (K, K, 2, S, Z, A, A)
+    shape = (k, k, 2, n_s, n_z, n_a, n_a)
+    mask = np.broadcast_to((law > 0) & g.valid[s, a_r], shape)
+    law = np.broadcast_to(law, shape)
+    i_st, i_io, i_lf, i_s, i_z, i_ar, i_ah = np.nonzero(mask)
+    p = law[mask]
+    s2 = g.next_state[i_s, i_ar, i_ah]
+    r_tab = np.stack([np.stack([
+        rules.step_reward(g, np.arange(n_s)[:, None, None], np.arange(n_a)[None, :, None],
+                          np.arange(n_a)[None, None, :], g.next_state, r0, reward=reward,
+                          start=start, lifted=lifted) for lifted in (False, True)])
+        for start in range(k)])  # (K, 2, S, A, A)
+    r = r_tab[i_st, i_lf, i_s, i_ar, i_ah]
+    lf2 = i_lf.astype(bool) | rules.left_start(g, s2, i_st)
+    over = rules.episode_over(g, s2, i_st, lf2)
+    z2 = human.next_z[i_z, i_st, i_io, i_s, i_ar, i_ah].astype(np.int64)
+    node = node_index(g, n_z, i_st, i_io, i_lf, i_s, i_z)
+    n_nodes = k * k * 2 * n_s * n_z
+    parts = []
+    h = np.zeros(len(p)) if human.switch is None else np.where(over, 0.0, human.switch[z2, s2])
+    stay = p * (1.0 - h)
+    succ = np.where(over, n_nodes, node_index(g, n_z, i_st, i_io, lf2, s2, z2))
+    parts.append((node, i_ar, stay, r, succ, np.where(over, z2, 0)))
+    if human.switch is not None and np.any(h > 0):
+        assert human.switched is not None
+        moved = h > 0
+        for shift in range(1, k):
+            new_io = (i_io + shift) % k
+            z3 = human.switched[z2]
+            succ2 = node_index(g, n_z, i_st, new_io, lf2, s2, z3)
+            parts.append((node[moved], i_ar[moved], (p * h / (k - 1))[moved], r[moved],
+                          succ2[moved], np.zeros(int(moved.sum()), dtype=np.int64)))
+    cols = [np.concatenate(c) for c in zip(*parts, strict=True)]
+    keep = cols[2] > 0
+    valid = np.broadcast_to(g.valid[None, None, None, :, None, :],
+                            (k, k, 2, n_s, n_z, n_a)).reshape(n_nodes, n_a)
+    node_, act_, prob_, rew_, succ_, z_end_ = (c[keep] for c in cols)
+    return _Edges(node_, act_, prob_, rew_, succ_, z_end_, valid, n_nodes)
+
+
+def _pass(e: _Edges, n_a: int, n_z: int, horizon: int, cont: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Backward induction of one episode with continuation ``cont`` (Z,): (policy rows,
+    Q with the most steps left, V with T steps left).
+    """
+    n = e.n_nodes
+    z_of = np.arange(n) % n_z
+    flat = e.node * n_a + e.act
+    terminal = e.succ == n
+    term_value = cont[e.z_end]
+    immediate = np.bincount(flat, weights=e.prob * (e.reward + np.where(terminal, term_value,
+                                                                          0.0)),
+                            minlength=n * n_a)
+    w_next = np.where(terminal, 0.0, e.prob)
+    succ = np.where(terminal, 0, e.succ)
+    v = cont[z_of].copy()  # t = 0: cut; the run goes on from the carried state
+    rows = [np.zeros(n, dtype=np.int8)]
+    q: np.ndarray = np.zeros((n, n_a))
+    for _t in range(1, horizon + 1):
+        summed = immediate + np.bincount(flat, weights=w_next * v[succ], minlength=n * n_a)
+        q = np.where(e.valid, summed.reshape(n, n_a), -np.inf)
+        best = np.argmax(q, axis=1)
+        new_v = q[np.arange(n), best]
+        rows.append(best.astype(np.int8))
+        settled = np.max(np.abs(new_v - v)) < SETTLED
+        v = new_v
+        if settled:
+            break
+    return np.stack(rows), q, v
+
+
+_CACHE: dict[tuple[object, ...], ProductPlan] = {}
+
+
+def plan_product(graph: TaskGraph, human: FiniteStateHuman, *, r0: float, max_steps: int = 100,
+                 reward: str = "paper", episodes: int = 1) -> ProductPlan:
+    """The exact plan for ``human`` over ``episodes`` episodes (see the module docstring);
+    cached per (human, r0, max_steps, reward, episodes).
+    """
+    if reward not in rules.REWARDS:
+        raise ConfigError(f"unknown reward {reward!r}; allowed: {', '.join(rules.REWARDS)}",
+                          field="reward")
+    key = (human.fingerprint, float(r0), int(max_steps), reward, int(episodes))
+    if key in _CACHE:
+        return _CACHE[key]
+    e = _edges(graph, human, r0, reward)
+    k, n_z, n_a = graph.n_intentions, human.n_z, graph.n_actions
+    st, io, z = np.meshgrid(np.arange(k), np.arange(k), np.arange(n_z), indexing="ij")
+    roots = node_index(graph, n_z, st, io, 0, rules.start_state(graph, st), z)  # (K, K, Z)
+    others = st != io
+
+    def expected(v: np.ndarray) -> np.ndarray:  # (Z,) mean over start and ι ≠ start
+        vals = np.where(others, v[roots], 0.0).sum((0, 1))
+        return vals / others[:, :, 0].sum()
+
+    zero = np.zeros(n_z)
+    pol, q, v = _pass(e, n_a, n_z, max_steps, zero)
+    first = np.where(others, v[roots], np.nan)
+    plans = [(pol, q, v)]
+    if human.remembers and episodes > 1 and np.any(first[others] < 0.0):
+        plans = []
+        w = zero
+        for _ in range(episodes):  # the last episode first
+            pol, q, v = _pass(e, n_a, n_z, max_steps, human.carry @ w)
+            plans.append((pol, q, v))
+            w = expected(v)
+        plans.reverse()
+    out = ProductPlan(human, int(max_steps), tuple(p[0] for p in plans),
+                      tuple(p[1] for p in plans), tuple(p[2] for p in plans), first)
+    if len(_CACHE) > 256:
+        _CACHE.clear()
+    _CACHE[key] = out
+    return out
+
+
+# --------------------------------------------------------------------------- which human
+def model_of_row(human: ScriptedHuman | BatchHuman, row: int
+                 ) -> ScriptedHuman | FiniteStateHuman | None:
+    """The model of row ``row``'s human in its current episode (None: no model, e.g. a human
+    class of the user's).
+    """
+    if isinstance(human, ScriptedHuman):
+        return human
+    if isinstance(human, FiniteStateHumans):
+        return human.model_of(row)
+    if isinstance(human, TableHumans):
+        return human.current[row]
+    return None
+
+
+def reference_refusal(agent: str, models: Sequence[ScriptedHuman | FiniteStateHuman | None]
+                      ) -> str | None:
+    """Why reference ``agent`` ("informed" or "qmdp") cannot run with these humans, or None.
+
+    ``informed`` needs a model of every human; ``qmdp`` also needs humans without turning
+    back (a finite-state model).
+    """
+    if any(m is None for m in models):
+        return (f"{agent} plans with the human's model; these humans (a class of your own) "
+                "have none")
+    if agent == "qmdp":
+        turning = sorted({m.name for m in models if isinstance(m, ScriptedHuman)
+                          and m.turn_back > 0})
+        if turning:
+            return (f"qmdp keeps a posterior over the human's finite state; humans that turn "
+                    f"back halfway ({', '.join(turning[:3])}) are not supported: leave out "
+                    "--turn-back or use blind where it fits")
+    return None
+
+
+# --------------------------------------------------------------------------- the agents
+class _ProductRows(BatchAgent):
+    """Shared bookkeeping of the agents that follow product plans: rows grouped by plan."""
+
+    def __init__(self, graph: TaskGraph, human: ScriptedHuman | BatchHuman, n_runs: int, *,
+                 r0: float, max_steps: int = 100, reward: str = "paper", episodes: int = 1
+                 ) -> None:
+        super().__init__(n_runs)
+        self.graph, self.human = graph, human
+        self.r0, self.max_steps, self.reward, self.episodes = r0, max_steps, reward, episodes
+        self.start = np.zeros(n_runs, dtype=np.int64)
+        self.lifted = np.zeros(n_runs, dtype=bool)
+        self.steps = np.zeros(n_runs, dtype=np.int64)
+        self.z_start = np.zeros(n_runs, dtype=np.int64)
+        self.episode = -1
+        self.groups: list[tuple[ProductPlan, np.ndarray]] = []
+
+    def _product_model(self, row: int) -> FiniteStateHuman | None:
+        model = model_of_row(self.human, row)
+        if isinstance(model, ScriptedHuman):
+            return None if model.turn_back > 0 else as_model(model)
+        return model
+
+    def _z(self) -> np.ndarray:
+        """(n_runs,) the human's state in each row now (0 for a one-state human)."""
+        h = self.human
+        return h.z.copy() if isinstance(h, FiniteStateHumans) else np.zeros(self.n_runs,
+                                                                            dtype=np.int64)
+
+    def begin_episode(self, starts: np.ndarray) -> None:
+        """Look up each row's human model and its plan; group the rows by plan."""
+        self.start = np.asarray(starts, dtype=np.int64).reshape(self.n_runs).copy()
+        self.lifted[:] = False
+        self.steps[:] = 0
+        self.episode += 1
+        self.z_start = self._z()
+        by_plan: dict[int, tuple[ProductPlan, list[int]]] = {}
+        for i in range(self.n_runs):
+            m = self._product_model(i)
+            if m is None:
+                continue
+            p = plan_product(self.graph, m, r0=self.r0, max_steps=self.max_steps,
+                             reward=self.reward, episodes=self.episodes)
+            by_plan.setdefault(id(p), (p, []))[1].append(i)
+        self.groups = [(p, np.asarray(rows, dtype=np.int64)) for p, rows in by_plan.values()]
+
+    def _passive(self, states: np.ndarray) -> np.ndarray:
+        return mdp.passive_actions(self.graph, self.start, self.lifted)[
+            np.arange(self.n_runs), states]
+
+    def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
+                next_states: np.ndarray, active: np.ndarray) -> None:
+        """Count the steps and the lifted flag."""
+        self.lifted |= active & rules.left_start(self.graph, next_states, self.start)
+        self.steps += active
+
+    def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
+        """Nothing to learn: the plans are exact for the known humans."""
+
+
+class PerRunInformed(_ProductRows):
+    """The information bound for humans of their own per run (see the module docstring).
+
+    Privileged: needs ``observations["intention"]``; reads each row's human model and state
+    ``z`` from the seat (like the Oracle reads the preference).
+    """
+
+    name: ClassVar[str] = "informed"
+    privileged: ClassVar[bool] = True
+
+    def __init__(self, graph: TaskGraph, human: ScriptedHuman | BatchHuman, n_runs: int, *,
+                 r0: float, max_steps: int = 100, reward: str = "paper", episodes: int = 1
+                 ) -> None:
+        super().__init__(graph, human, n_runs, r0=r0, max_steps=max_steps, reward=reward,
+                         episodes=episodes)
+        self._v0: dict[int, _V0Cursor] = {}
+
+    def begin_episode(self, starts: np.ndarray) -> None:
+        """Plans per row: the product plan, or the scripted plan of a turning-back human."""
+        super().begin_episode(starts)
+        self._v0 = {}
+        for i in range(self.n_runs):
+            model = model_of_row(self.human, i)
+            if isinstance(model, ScriptedHuman) and model.turn_back > 0:
+                p = plan(self.graph, model, r0=self.r0, max_steps=self.max_steps,
+                         informed=True, reward=self.reward)
+                self._v0[i] = _V0Cursor(p, int(self.start[i]))
+
+    def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
+        """Each row's plan's action for its node and steps left."""
+        if "intention" not in observations:
+            raise KeyError("the informed agent needs observations['intention'] (privileged)")
+        states = np.asarray(observations["state"], dtype=np.int64)
+        goal = np.asarray(observations["intention"], dtype=np.int64)
+        out = self._passive(states)
+        left = np.maximum(self.max_steps - self.steps, 1)
+        z = self._z()
+        for p, rows in self.groups:
+            pol = p.policies[p.index(self.episode)]
+            n = node_index(self.graph, p.human.n_z, self.start[rows], goal[rows],
+                           self.lifted[rows], states[rows], z[rows])
+            out[rows] = pol[np.minimum(left[rows], len(pol) - 1), n]
+        for i, cursor in self._v0.items():
+            if active[i]:
+                out[i] = cursor.act(int(goal[i]), int(left[i]), int(out[i]))
+        return out
+
+    def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
+                next_states: np.ndarray, active: np.ndarray) -> None:
+        """Advance the scripted cursors; count steps."""
+        for i, cursor in self._v0.items():
+            if active[i]:
+                cursor.observe(self.graph, int(states[i]), int(robot_actions[i]),
+                               int(human_actions[i]), int(next_states[i]))
+        super().observe(states, robot_actions, human_actions, next_states, active)
+
+
+class _V0Cursor:
+    """One row's walk through an informed :class:`~baselines.bounds.Plan` (a scripted human
+    who turns back), as :class:`baselines.bounds.Informed` walks it.
+    """
+
+    def __init__(self, p: Plan, start: int) -> None:
+        self.plan, self.start = p, start
+        self.node = -1
+        self.pending: tuple[int, int, int] | None = None
+        self.fresh = True
+
+    def act(self, intention: int, left: int, passive: int) -> int:
+        k = self.plan.n_supports
+        if self.fresh:
+            self.node = int(self.plan.roots[self.start, intention])
+            self.fresh = False
+        if self.pending is not None:
+            n, a_r, a_h = self.pending
+            self.node = self.plan.successor.get((n, a_r, a_h * k + intention), -1)
+            self.pending = None
+        if self.node < 0:
+            return passive
+        return int(self.plan.policy[min(left, self.plan.horizon), self.node])
+
+    def observe(self, graph: TaskGraph, s: int, a_r: int, a_h: int, s2: int) -> None:
+        if self.node < 0:
+            return
+        if graph.next_state[s, a_r, a_h] != s2:
+            self.node = -1
+            return
+        self.pending = (self.node, a_r, a_h)
+
+
+class QMDP(_ProductRows):
+    """The bracket's lower bound: QMDP on the exact posterior over (ι, z) (module docstring).
+
+    Not privileged: it never reads ι; it reads each row's human model and the human's state
+    at the start of each episode from the seat (what ``blind`` is given), and nothing of the
+    human during the episode but its actions.
+
+    Attributes:
+        belief: (n_runs, K, Z_max) the posterior over (ι, z) of each row (rows of a model
+            with fewer states use the first Z).
+    """
+
+    name: ClassVar[str] = "qmdp"
+
+    def begin_episode(self, starts: np.ndarray) -> None:
+        """Prior: ι uniform among the other supports, the human's state as the episode starts."""
+        super().begin_episode(starts)
+        k = self.graph.n_intentions
+        n_z = max([p.human.n_z for p, _ in self.groups], default=1)
+        self.belief = np.zeros((self.n_runs, k, n_z))
+        rows = np.arange(self.n_runs)
+        self.belief[rows[:, None], np.arange(k)[None, :], self.z_start[:, None]] = 1.0 / (k - 1)
+        self.belief[rows, self.start] = 0.0
+
+    def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
+        """argmax_a Σ_(ι,z) b(ι, z) Q_informed((start, ι, lifted, s, z), a)."""
+        states = np.asarray(observations["state"], dtype=np.int64)
+        out = self._passive(states)
+        k = self.graph.n_intentions
+        for p, rows in self.groups:
+            n_z = p.human.n_z
+            q = p.q[p.index(self.episode)]
+            nodes = node_index(self.graph, n_z, self.start[rows, None, None],
+                               np.arange(k)[None, :, None], self.lifted[rows, None, None],
+                               states[rows, None, None], np.arange(n_z)[None, None, :])
+            vals = q[nodes]  # (R, K, Z, A)
+            b = self.belief[rows, :, :n_z, None]
+            score = (b * np.where(np.isfinite(vals), vals, 0.0)).sum((1, 2))  # (R, A)
+            score = np.where(self.graph.valid[states[rows]], score, -np.inf)
+            out[rows] = np.argmax(score, axis=1)
+        return out
+
+    def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
+                next_states: np.ndarray, active: np.ndarray) -> None:
+        """Bayes' rule on the human's action, then its state update and changes of mind."""
+        g = self.graph
+        k = g.n_intentions
+        s, a_r, a_h, s2 = (np.asarray(x, dtype=np.int64) for x in (states, robot_actions,
+                                                                    human_actions, next_states))
+        for p, group in self.groups:
+            rows = group[active[group]]
+            if rows.size == 0:
+                continue
+            m = p.human
+            n_z, n_r = m.n_z, len(rows)
+            io = np.arange(k)[None, :, None]
+            zz = np.arange(n_z)[None, None, :]
+            st, sr, ar, ah = (x[rows, None, None] for x in (self.start, s, a_r, a_h))
+            slot = ar if m.reacts else 0
+            b = self.belief[rows, :, :n_z]
+            post = b * m.law[zz, st, io, sr, slot, ah]  # (R, K, Z)
+            z2 = m.next_z[zz, st, io, sr, ar, ah].astype(np.int64)  # (R, K, Z)
+            nb = np.zeros((n_r, k, n_z))
+            r_ix = np.broadcast_to(np.arange(n_r)[:, None, None], z2.shape)
+            np.add.at(nb, (r_ix, np.broadcast_to(io, z2.shape), z2), post)
+            if m.switch is not None:
+                assert m.switched is not None
+                moving = nb * m.switch[:, s2[rows]].T[:, None, :]  # (R, K, Z)
+                nb -= moving
+                spread = np.zeros_like(nb)
+                for shift in range(1, k):
+                    spread[:, (np.arange(k) + shift) % k] += moving / (k - 1)
+                for z_from, z_to in enumerate(m.switched.tolist()):
+                    nb[:, :, z_to] += spread[:, :, z_from]
+            total = nb.sum((1, 2))
+            lost = total <= 0.0  # off the model: start over from the prior
+            if lost.any():
+                r_lost = rows[lost]
+                nb[lost] = 0.0
+                nb[np.flatnonzero(lost)[:, None], np.arange(k)[None, :],
+                   self.z_start[r_lost, None]] = 1.0 / (k - 1)
+                nb[np.flatnonzero(lost), self.start[r_lost]] = 0.0
+                total = nb.sum((1, 2))
+            self.belief[rows, :, :n_z] = nb / total[:, None, None]
+        super().observe(states, robot_actions, human_actions, next_states, active)

@@ -1,0 +1,240 @@
+// The participant's page of hri-bench serve: consent, then the task over one websocket.
+// The session's token stays in this browser's localStorage, so a reload resumes the
+// session. Text from the server is only ever set as textContent.
+"use strict";
+
+const KEY = "hri-bench-session";
+const $ = (id) => document.getElementById(id);
+let socket = null;
+let view = null;       // the last view from the server
+let shownAt = 0;       // when the current frame was painted (performance.now())
+let busy = false;      // an answer to the current view is on its way
+let over = false;      // the session is done or ended: do not reconnect
+
+function paragraphs(el, text) {
+  el.replaceChildren();
+  for (const block of String(text).split(/\n\s*\n/)) {
+    const p = document.createElement("p");
+    p.textContent = block.replace(/\s*\n\s*/g, " ").trim();
+    el.appendChild(p);
+  }
+}
+
+function show(section) {
+  for (const id of ["consent", "play", "done"]) $(id).hidden = id !== section;
+}
+
+function error(text) {
+  $("error").textContent = text;
+  $("error").hidden = !text;
+}
+
+function send(message) {
+  if (socket && socket.readyState === WebSocket.OPEN) {
+    socket.send(JSON.stringify(message));
+    return true;
+  }
+  return false;
+}
+
+function choose(action) {
+  if (!view || view.type !== "frame" || busy) return;
+  if (!view.options.some((o) => o.action === action)) return;
+  busy = true;
+  for (const b of $("options").querySelectorAll("button")) b.disabled = true;
+  send({type: "action", seq: view.seq, action: action,
+        rt_ms: Math.max(0, Math.round(performance.now() - shownAt))});
+}
+
+function next() {
+  if (!view || view.type !== "outcome" || view.last || busy) return;
+  busy = true;
+  $("next").disabled = true;
+  send({type: "continue", seq: view.seq});
+}
+
+function header(m) {
+  $("status").textContent = `Episode ${m.episode} of ${m.episodes}` +
+    (m.step ? ` · step ${m.step}` : "");
+  $("goal").textContent = `Your goal: bring it from ${m.start_name} to ${m.goal_name}.`;
+  $("preference").hidden = !m.preference;
+  $("preference").textContent = m.preference || "";
+  $("picture").src = m.picture;
+}
+
+function painted() {
+  requestAnimationFrame(() => { shownAt = performance.now(); });
+}
+
+function onFrame(m) {
+  show("play");
+  header(m);
+  $("outcome").hidden = true;
+  $("where").textContent = `Now: ${m.state_name}.`;
+  $("robot").textContent = `The robot is about to: ${m.robot}.`;
+  $("note").hidden = !m.note;
+  $("note").textContent = m.note || "";
+  $("belief").hidden = !m.belief;
+  if (m.belief) {
+    $("belief").textContent = "The robot thinks your goal is: " + Object.entries(m.belief)
+      .map(([k, v]) => `${k} ${Math.round(100 * v)}%`).join(", ");
+  }
+  const box = $("options");
+  box.replaceChildren();
+  for (const o of m.options) {
+    const b = document.createElement("button");
+    b.dataset.action = String(o.action);
+    b.dataset.key = o.key;
+    const k = document.createElement("kbd");
+    k.textContent = o.key;
+    b.append(k, o.label);
+    b.addEventListener("click", () => choose(o.action));
+    box.appendChild(b);
+  }
+  painted();
+}
+
+function onOutcome(m) {
+  show("play");
+  header(m);
+  $("options").replaceChildren();
+  $("robot").textContent = "";
+  $("note").hidden = true;
+  $("belief").hidden = true;
+  $("where").textContent = "";
+  const where = m.reached_name ? `rests on ${m.reached_name}` : "did not arrive in time";
+  const verdict = m.success ? "You reached your goal." :
+    (m.reached_name ? "That was not your goal." : "");
+  $("outcome-text").textContent =
+    `Episode ${m.episode} is over after ${m.steps} steps: it ${where}. ${verdict} ` +
+    `The robot's score: ${m.reward}. ` + (m.last ? "" : "The robot learns from it.");
+  $("next").hidden = m.last;
+  $("next").disabled = false;
+  $("outcome").hidden = false;
+  painted();
+}
+
+function onDone(m) {
+  over = true;
+  show("done");
+  $("done-text").textContent = `All episodes are done. Your anonymous code is ${m.participant}.`;
+  const list = $("done-list");
+  list.replaceChildren();
+  for (const o of m.outcomes) {
+    const li = document.createElement("li");
+    li.textContent = `Episode ${o.episode}: ${o.reached_name || "no support"}` +
+      ` (goal ${o.goal_name}), robot's score ${o.reward}`;
+    list.appendChild(li);
+  }
+  localStorage.removeItem(KEY);
+}
+
+function onEnded(m) {
+  over = true;
+  show("done");
+  $("done-text").textContent = `The session has ended (${m.reason}). ` +
+    `Your anonymous code is ${m.participant}. Thank you.`;
+  localStorage.removeItem(KEY);
+}
+
+function handle(m) {
+  if (m.type === "error") {
+    error(m.error);
+    busy = false;
+    for (const b of $("options").querySelectorAll("button")) b.disabled = false;
+    $("next").disabled = false;
+    return;
+  }
+  if (m.type === "replaced") {
+    over = true;
+    error("This session was opened in another window or tab; continue there.");
+    return;
+  }
+  error("");
+  view = m;
+  busy = false;
+  document.body.dataset.view = m.type;
+  document.body.dataset.seq = String(m.seq);
+  if (m.type === "frame") {
+    document.body.dataset.state = String(m.state);
+    document.body.dataset.start = String(m.start);
+    document.body.dataset.goal = String(m.goal);
+    onFrame(m);
+  } else if (m.type === "outcome") {
+    onOutcome(m);
+  } else if (m.type === "done") {
+    onDone(m);
+  } else if (m.type === "ended") {
+    onEnded(m);
+  } else {
+    show("play");
+    $("status").textContent = "Preparing the robot...";
+  }
+}
+
+function connect(token) {
+  const scheme = location.protocol === "https:" ? "wss://" : "ws://";
+  socket = new WebSocket(scheme + location.host + "/ws");
+  socket.addEventListener("open", () => send({type: "hello", session: token}));
+  socket.addEventListener("message", (e) => handle(JSON.parse(e.data)));
+  socket.addEventListener("close", (e) => {
+    if (e.code === 4401) {
+      localStorage.removeItem(KEY);
+      error("This session is no longer known to the server. Start a new one.");
+      show("consent");
+    } else if (!over) {
+      setTimeout(() => connect(token), 1000);
+    }
+  });
+}
+
+async function start() {
+  $("start").disabled = true;
+  const response = await fetch("/api/sessions", {
+    method: "POST", headers: {"Content-Type": "application/json"},
+    body: JSON.stringify({consent: true}),
+  });
+  const body = await response.json();
+  if (response.status !== 201) {
+    error(body.error || "Cannot start a session now.");
+    $("start").disabled = false;
+    return;
+  }
+  localStorage.setItem(KEY, body.session);
+  show("play");
+  connect(body.session);
+}
+
+document.addEventListener("keydown", (e) => {
+  if (e.repeat || e.ctrlKey || e.altKey || e.metaKey || !view) return;
+  if (view.type === "frame") {
+    const option = view.options.find((o) => o.key && o.key === e.key);
+    if (option) {
+      e.preventDefault();
+      choose(option.action);
+    }
+  } else if (view.type === "outcome" && (e.key === "Enter" || e.key === " ")) {
+    e.preventDefault();
+    next();
+  }
+});
+
+async function main() {
+  $("agree").addEventListener("change", () => { $("start").disabled = !$("agree").checked; });
+  $("start").addEventListener("click", start);
+  $("next").addEventListener("click", next);
+  const study = await (await fetch("/api/study")).json();
+  paragraphs($("consent-text"), study.consent);
+  paragraphs($("instructions-text"), study.instructions);
+  paragraphs($("instructions-first"), study.instructions);
+  const token = localStorage.getItem(KEY);
+  if (token) {
+    show("play");
+    connect(token);
+  } else {
+    show("consent");
+    document.body.dataset.view = "consent";
+  }
+}
+
+main();

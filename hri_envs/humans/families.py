@@ -1,0 +1,179 @@
+"""The registry of human families: every kind of human a population can draw, by name.
+
+=================  ===============  ==========================================================
+family             group            model (parameters; module)
+=================  ===============  ==========================================================
+``preference``     scripted         a scripted preference, optionally passive or Boltzmann
+                                    (preference, passive, rationality; :mod:`.scripted`,
+                                    :mod:`.populations`)
+``low``            misspecified     keeps the object low (w, preference; :mod:`.misspecified`)
+``avoid``          misspecified     avoids passing near a support (support, w, sigma,
+                                    preference)
+``rotate-low``     misspecified     rotates as low as it can (w, preference)
+``impatient``      misspecified     takes over after the robot waited k times (k, preference)
+``follower``       adaptive         adopts the robot's route after k proposals (k, preference,
+                                    other; :mod:`.adaptive`)
+``trust``          adaptive         a trust level that rises and falls; lets a trusted robot
+                                    lead (levels, start, rise, fall, passive, preference)
+``wary``           adaptive         resists more after wrong robot motions (levels, forgive,
+                                    preference)
+``fickle``         inconsistent     changes its intention mid-episode at random times (hazard,
+                                    changes, preference; :mod:`.inconsistent`)
+``moody``          inconsistent     changes its preference at random episodes (p, preferences)
+=================  ===============  ==========================================================
+
+:func:`build_family` builds one (cached per scenario and parameters); parameters not given
+take the defaults of the model's function. Every parameter is checked: an unknown name or
+an impossible value raises a :class:`~hri_envs.errors.ConfigError` whose ``field`` is
+``human_params`` (``--human-param`` of ``hri-bench study``).
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from hri_envs.errors import ConfigError
+from hri_envs.humans import adaptive, inconsistent, misspecified
+from hri_envs.humans.finite_state import FiniteStateHuman
+from hri_envs.humans.populations import rational_human, validate_rationality
+from hri_envs.humans.scripted import ScriptedHuman, check_probability, preference_human
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import SCENARIOS, scenario_graph
+
+__all__ = ["FAMILIES", "GROUPS", "Family", "HumanModel", "build_family", "check_params",
+           "family_params"]
+
+#: What a family builds.
+HumanModel = ScriptedHuman | FiniteStateHuman
+
+
+def _preference(graph: TaskGraph, *, preference: str | None = None, passive: float = 0.0,
+                rationality: float = math.inf) -> ScriptedHuman:
+    """A scripted preference human, passive with probability ``passive``, Boltzmann with
+    rationality β = ``rationality`` (``inf``: deterministic).
+    """
+    passive = check_probability(passive, "passive")
+    beta = validate_rationality(rationality, "rationality")
+    return rational_human(preference_human(graph, preference, passive=passive), beta)
+
+
+@dataclass(frozen=True)
+class Family:
+    """One family of humans.
+
+    Attributes:
+        name: Registry key.
+        group: "scripted", "misspecified", "adaptive" or "inconsistent".
+        build: ``build(graph, **params)`` -> the human model.
+        description: One line for docs and reports.
+    """
+
+    name: str
+    group: str
+    build: Callable[..., HumanModel]
+    description: str
+
+    @property
+    def defaults(self) -> dict[str, Any]:
+        """The parameters and their defaults (from the model's function)."""
+        sig = inspect.signature(self.build)
+        return {n: p.default for n, p in sig.parameters.items() if p.kind == p.KEYWORD_ONLY}
+
+
+_FAMILIES = (
+    Family("preference", "scripted", _preference,
+           "a scripted preference human, optionally passive or Boltzmann"),
+    Family("low", "misspecified", misspecified.low_human, "keeps the object low"),
+    Family("avoid", "misspecified", misspecified.avoid_human,
+           "avoids passing near a support"),
+    Family("rotate-low", "misspecified", misspecified.rotate_low_human,
+           "rotates the object as low as it can"),
+    Family("impatient", "misspecified", misspecified.impatient_human,
+           "takes over after the robot waited k times in an episode"),
+    Family("follower", "adaptive", adaptive.follower_human,
+           "adopts the robot's route after k proposals in a row"),
+    Family("trust", "adaptive", adaptive.trust_human,
+           "trust rises and falls with the robot's motions; lets a trusted robot lead"),
+    Family("wary", "adaptive", adaptive.wary_human,
+           "yields to the robot at first, resists more after each wrong motion"),
+    Family("fickle", "inconsistent", inconsistent.fickle_human,
+           "changes its intention mid-episode at random times"),
+    Family("moody", "inconsistent", inconsistent.moody_human,
+           "changes its preference at random episodes"),
+)
+#: The families, by name.
+FAMILIES: dict[str, Family] = {f.name: f for f in _FAMILIES}
+#: The family groups, in order.
+GROUPS: tuple[str, ...] = ("scripted", "misspecified", "adaptive", "inconsistent")
+
+
+def family_params(family: str, params: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The family's parameters: its defaults updated with ``params`` (strings from the command
+    line are converted to the default's type).
+
+    Raises:
+        ConfigError: (``field="human_params"``) An unknown family or parameter, or a value
+            that is not of the parameter's kind.
+    """
+    if not isinstance(family, str) or family not in FAMILIES:
+        raise ConfigError(f"unknown human family {family!r}; allowed: {', '.join(FAMILIES)}",
+                          field="human_params")
+    defaults = FAMILIES[family].defaults
+    out = dict(defaults)
+    for name, value in (params or {}).items():
+        if name not in defaults:
+            raise ConfigError(f"family {family!r} has no parameter {name!r}; its parameters: "
+                              f"{', '.join(defaults)}", field="human_params")
+        out[name] = _convert(family, name, value, defaults[name])
+    return out
+
+
+def _convert(family: str, name: str, value: Any, default: Any) -> Any:
+    if not isinstance(value, str) or isinstance(default, str) or default is None:
+        return value
+    kind = type(default)
+    try:
+        return int(value) if kind is int else float(value) if kind is float else value
+    except ValueError:
+        raise ConfigError(f"family {family!r}: {name} must be a {kind.__name__}, got "
+                          f"{value!r}", field="human_params") from None
+
+
+def check_params(graph: TaskGraph, family: str, params: Mapping[str, Any] | None = None) -> None:
+    """Build the family's human once: raises the :class:`ConfigError` of an impossible value
+    (``field="human_params"``, the message naming the parameter).
+    """
+    build_family(graph, family, params)
+
+
+def build_family(graph: TaskGraph, family: str, params: Mapping[str, Any] | None = None
+                 ) -> HumanModel:
+    """The human model of ``family`` with ``params`` on ``graph`` (cached for the registered
+    scenarios' graphs).
+
+    Raises:
+        ConfigError: (``field="human_params"``) See :func:`family_params`; a value the model
+            refuses (the message names the parameter).
+    """
+    full = family_params(family, params)
+    key = tuple(sorted(full.items()))
+    if graph.name in SCENARIOS and graph is scenario_graph(graph.name):
+        return _cached(graph.name, family, key)
+    return _build(graph, family, full)
+
+
+@functools.lru_cache(maxsize=512)
+def _cached(scenario: str, family: str, key: tuple[tuple[str, Any], ...]) -> HumanModel:
+    return _build(scenario_graph(scenario), family, dict(key))
+
+
+def _build(graph: TaskGraph, family: str, params: dict[str, Any]) -> HumanModel:
+    try:
+        return FAMILIES[family].build(graph, **params)
+    except ConfigError as exc:
+        raise ConfigError(f"family {family!r}: {exc}", field="human_params") from None

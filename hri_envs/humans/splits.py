@@ -1,0 +1,356 @@
+"""Frozen population splits: ``train``, ``validation`` and ``test`` per scenario, and mixtures.
+
+A :class:`MixtureSpec` is a frozen, versioned list of humans: ``members`` draws made once,
+with a generator seeded by the spec's ``generator_seed``, from a mixture of family
+components (:mod:`hri_envs.humans.families`), each picked with its weight and its
+parameters drawn uniformly from the component's choices. A study's run ``r`` meets the
+member with index drawn from ``(seed, r, 7)``; an env draws a member at every reset from its
+``np_random``. The spec's :meth:`~MixtureSpec.content_hash` (SHA-256 of its generator's
+parameters, its seeds and the members they give) is recorded in every ``summary.json`` and
+``suite.json``: two results with the same hash met the same humans.
+
+Per scenario (:data:`MIXTURES`):
+
+===================  =================================================================
+name                 humans
+===================  =================================================================
+``train``            scripted families only: any preference, deterministic, passive
+                     (0.1–0.3) or Boltzmann (β 5–20). Tune and train here.
+``validation``       the train families, other members: pick models and defaults here.
+``test``             **the evaluation set**: the train families (a fifth of it) and
+                     families absent from train — misspecified (low, avoid, rotate-low,
+                     impatient), adaptive (follower, trust, wary) and inconsistent
+                     (fickle, moody). Report it; never tune a default on it.
+``misspecified``     the misspecified families only (evaluation).
+``adaptive``         the adaptive families only (evaluation).
+``inconsistent``     the inconsistent families only (evaluation).
+===================  =================================================================
+
+A family's name is a population too (``--population low``): every run meets that family
+with its default parameters, changed by ``--human-param NAME=VALUE``
+(:func:`family_population`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from hri_envs.errors import ConfigError
+from hri_envs.humans.families import FAMILIES, family_params
+from hri_envs.humans.finite_state import FiniteStateHumans
+from hri_envs.humans.populations import (
+    POPULATIONS,
+    HumanDraw,
+    PopulationHumans,
+    PopulationSpec,
+    build_human,
+)
+from hri_envs.humans.protocol import BatchHuman, Rows, all_rows
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import SCENARIOS, scenario_graph
+
+__all__ = [
+    "ALL_PREFERENCES",
+    "ALL_SUPPORTS",
+    "MIXTURES",
+    "SPLITS",
+    "Component",
+    "MixtureHumans",
+    "MixtureSpec",
+    "family_population",
+    "population",
+    "population_hash",
+    "population_names",
+    "population_seat",
+]
+
+#: A choice that stands for every preference of the scenario.
+ALL_PREFERENCES = "<preferences>"
+#: A choice that stands for every support of the scenario (by name).
+ALL_SUPPORTS = "<supports>"
+#: The split names.
+SPLITS: tuple[str, ...] = ("train", "validation", "test")
+#: How a run's member is drawn (part of the content hash).
+SEEDING = "member index uniform from numpy default_rng([seed, run, 7]).integers(members)"
+
+
+@dataclass(frozen=True)
+class Component:
+    """One family in a mixture.
+
+    Attributes:
+        family: A family of :data:`~hri_envs.humans.families.FAMILIES`.
+        weight: Its share of the members (weights are normalised).
+        choices: Per parameter, the values drawn uniformly (``ALL_PREFERENCES``,
+            ``ALL_SUPPORTS`` expand to the scenario's); the others take their defaults.
+    """
+
+    family: str
+    weight: float
+    choices: tuple[tuple[str, tuple[Any, ...]], ...] = ()
+
+
+@dataclass(frozen=True)
+class MixtureSpec:
+    """A frozen, versioned population: a list of members drawn once from a mixture.
+
+    Attributes:
+        name: Registry key (with :attr:`scenario`).
+        scenario: The scenario it is for.
+        version: Bumped whenever anything below changes (the hash changes with it).
+        description: One line for help texts and reports.
+        members: How many humans the list holds.
+        generator_seed: The seed the members are drawn with.
+        components: The mixture.
+        held_out: An evaluation set: never used to tune defaults.
+    """
+
+    name: str
+    scenario: str
+    version: str
+    description: str
+    members: int
+    generator_seed: int
+    components: tuple[Component, ...]
+    held_out: bool = False
+
+    @property
+    def scenarios(self) -> tuple[str, ...]:
+        """The scenarios it applies to (one)."""
+        return (self.scenario,)
+
+    @cached_property
+    def member_draws(self) -> tuple[HumanDraw, ...]:
+        """The members, as draws (a family and its parameters), in list order."""
+        graph = scenario_graph(self.scenario)
+        rng = np.random.default_rng(self.generator_seed)
+        weights = np.array([c.weight for c in self.components], dtype=float)
+        cum = np.cumsum(weights / weights.sum())
+        out = []
+        for _ in range(self.members):
+            comp = self.components[min(int(np.searchsorted(cum, rng.random(), "right")),
+                                       len(self.components) - 1)]
+            params = []
+            for name, values in comp.choices:
+                options = _expand(graph, values)
+                params.append((name, options[int(rng.integers(len(options)))]))
+            out.append(HumanDraw(None, family=comp.family, params=tuple(params)))
+        return tuple(out)
+
+    def draw(self, scenario: str, seed: int, run: int) -> HumanDraw:
+        """Run ``run``'s member: its index drawn from ``(seed, run, 7)`` only."""
+        return self.sample(scenario, np.random.default_rng([int(seed), int(run), 7]))
+
+    def sample(self, scenario: str, rng: np.random.Generator) -> HumanDraw:
+        """A member drawn with ``rng`` (one integer)."""
+        if scenario != self.scenario:
+            raise ConfigError(f"population {self.name!r} is for the {self.scenario}, not "
+                              f"{scenario!r}", field="population")
+        return self.member_draws[int(rng.integers(self.members))]
+
+    def content_hash(self) -> str:
+        """SHA-256 of the generator's parameters, its seeds and the members they give."""
+        doc = {"kind": "mixture", "spec": _jsonable(dataclasses.asdict(self)),
+               "seeding": SEEDING,
+               "members": [[d.family, _jsonable(list(d.params))] for d in self.member_draws]}
+        return _sha256(doc)
+
+
+def _expand(graph: TaskGraph, values: tuple[Any, ...]) -> list[Any]:
+    from hri_envs.humans.scripted import preferences_for
+
+    out: list[Any] = []
+    for v in values:
+        if v == ALL_PREFERENCES:
+            out += list(preferences_for(graph.name))
+        elif v == ALL_SUPPORTS:
+            out += list(graph.support_names)
+        else:
+            out.append(v)
+    return out
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, float) and math.isinf(value):
+        return "inf"
+    return value
+
+
+def _sha256(doc: Any) -> str:
+    text = json.dumps(doc, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+# --------------------------------------------------------------------------- the registry
+_PREFS = ("preference", (ALL_PREFERENCES,))
+_SCRIPTED = (
+    Component("preference", 2.0, (_PREFS,)),
+    Component("preference", 1.0, (_PREFS, ("passive", (0.1, 0.2, 0.3)))),
+    Component("preference", 1.0, (_PREFS, ("rationality", (5.0, 10.0, 20.0)))),
+)
+_MISSPECIFIED = (
+    Component("low", 1.0, (("w", (2.0, 4.0, 8.0)), _PREFS)),
+    Component("avoid", 1.0, (("support", (ALL_SUPPORTS,)), ("w", (2.0, 4.0)),
+                             ("sigma", (0.3, 0.6)), _PREFS)),
+    Component("rotate-low", 0.5, (("w", (4.0, 8.0)), _PREFS)),
+    Component("impatient", 1.0, (("k", (1, 2, 3)), _PREFS)),
+)
+_ADAPTIVE = (
+    Component("follower", 1.0, (("k", (2, 3)), _PREFS)),
+    Component("trust", 1.0, (("passive", (0.4, 0.7)), ("fall", (1, 2)), _PREFS)),
+    Component("wary", 1.0, (("levels", (2, 3)), ("forgive", (0, 1)), _PREFS)),
+)
+_INCONSISTENT = (
+    Component("fickle", 1.0, (("hazard", (0.1, 0.2)), ("changes", (1, 2)), _PREFS)),
+    Component("moody", 1.0, (("p", (0.2, 0.4)),)),
+)
+
+
+def _scaled(components: Sequence[Component], share: float) -> tuple[Component, ...]:
+    total = sum(c.weight for c in components)
+    return tuple(dataclasses.replace(c, weight=share * c.weight / total) for c in components)
+
+
+def _mixtures() -> dict[tuple[str, str], MixtureSpec]:
+    out: dict[tuple[str, str], MixtureSpec] = {}
+    for i, sc in enumerate(sorted(SCENARIOS.keys() & {"hanger", "wheel"})):
+        specs = (
+            MixtureSpec("train", sc, "1", "train split: scripted families (any preference; "
+                        "deterministic, passive 0.1–0.3 or Boltzmann β 5–20)", 40,
+                        1000 + i, _SCRIPTED),
+            MixtureSpec("validation", sc, "1", "validation split: the train families, other "
+                        "members", 20, 2000 + i, _SCRIPTED),
+            MixtureSpec("test", sc, "1", "TEST split (the evaluation set): the train "
+                        "families and misspecified, adaptive and inconsistent ones absent "
+                        "from train", 48, 3000 + i,
+                        _scaled(_SCRIPTED, 0.2) + _scaled(_MISSPECIFIED, 0.3)
+                        + _scaled(_ADAPTIVE, 0.3) + _scaled(_INCONSISTENT, 0.2),
+                        held_out=True),
+            MixtureSpec("misspecified", sc, "1", "misspecified families: low, avoid, "
+                        "rotate-low, impatient (evaluation)", 24, 4000 + i, _MISSPECIFIED,
+                        held_out=True),
+            MixtureSpec("adaptive", sc, "1", "adaptive families: follower, trust, wary "
+                        "(evaluation)", 24, 5000 + i, _ADAPTIVE, held_out=True),
+            MixtureSpec("inconsistent", sc, "1", "inconsistent families: fickle, moody "
+                        "(evaluation)", 24, 6000 + i, _INCONSISTENT, held_out=True),
+        )
+        out.update({(m.name, sc): m for m in specs})
+    return out
+
+
+#: The frozen mixtures, by (name, scenario).
+MIXTURES: dict[tuple[str, str], MixtureSpec] = _mixtures()
+
+
+def population_names(scenario: str | None = None) -> list[str]:
+    """Every population name (for ``scenario`` only, if given): the scripted populations,
+    the splits and mixtures, and the families.
+    """
+    v0 = [n for n, p in POPULATIONS.items() if scenario is None or scenario in p.scenarios]
+    mixed = list(dict.fromkeys(n for (n, sc) in MIXTURES if scenario in (None, sc)))
+    return [*v0, *mixed, *FAMILIES]
+
+
+def family_population(scenario: str, family: str, params: Mapping[str, Any] | None = None
+                      ) -> MixtureSpec:
+    """The population of one family with fixed parameters (defaults changed by ``params``).
+
+    Raises:
+        ConfigError: (``field="human_params"``) An unknown parameter or an impossible value.
+    """
+    full = family_params(family, params)
+    given = tuple(sorted((k, v) for k, v in full.items() if k in (params or {})))
+    spec = MixtureSpec(family, scenario, "1", f"the {family} family "
+                       f"({FAMILIES[family].description})",
+                       1, 0, (Component(family, 1.0, tuple((k, (v,)) for k, v in given)),),
+                       held_out=FAMILIES[family].group != "scripted")
+    build_human(scenario_graph(scenario), spec.member_draws[0])  # impossible values raise
+    return spec
+
+
+def population(name: str, scenario: str, params: Mapping[str, Any] | None = None
+               ) -> PopulationSpec | MixtureSpec:
+    """A population by name for ``scenario``: a scripted population, a split or mixture, or
+    a family (with ``params``).
+
+    Raises:
+        ConfigError: (``field="population"``) An unknown name or one for another scenario,
+            the message listing the allowed names; (``field="human_params"``) parameters
+            given for a population that is not a family, or impossible ones.
+    """
+    if not isinstance(name, str):
+        raise ConfigError(f"population must be a name, got {name!r}", field="population")
+    if params and name not in FAMILIES:
+        raise ConfigError(f"--human-param sets a family's parameters; {name!r} is not a "
+                          f"family (families: {', '.join(FAMILIES)})", field="human_params")
+    if name in POPULATIONS:
+        spec = POPULATIONS[name]
+        if scenario not in spec.scenarios:
+            raise ConfigError(f"population {name!r} is not for {scenario!r}; allowed for "
+                              f"{scenario}: {', '.join(population_names(scenario))}",
+                              field="population")
+        return spec
+    if (name, scenario) in MIXTURES:
+        return MIXTURES[(name, scenario)]
+    if name in FAMILIES:
+        return family_population(scenario, name, params)
+    raise ConfigError(f"unknown population {name!r} for the {scenario}; allowed: "
+                      f"{', '.join(population_names(scenario))} (or module:Class)",
+                      field="population")
+
+
+def population_hash(spec: PopulationSpec | MixtureSpec) -> str:
+    """The content hash of a population (:meth:`MixtureSpec.content_hash`; for a scripted
+    population the hash of its recipe and its seeding).
+    """
+    if isinstance(spec, MixtureSpec):
+        return spec.content_hash()
+    return _sha256({"kind": "recipe", "spec": _jsonable(dataclasses.asdict(spec)),
+                    "seeding": "HumanDraw from numpy default_rng([seed, run, 7]): 4 uniforms "
+                               "(preference, rationality, passive, turn back), then θ"})
+
+
+class MixtureHumans(FiniteStateHumans):
+    """A mixture population in an env's seat: every reset draws each row a new member.
+
+    Args:
+        graph: The task graph.
+        spec: The mixture.
+        n_runs: Rows (the vector env's envs; 1 for a single env).
+    """
+
+    def __init__(self, graph: TaskGraph, spec: MixtureSpec, n_runs: int = 1) -> None:
+        self.spec = spec
+        first = build_human(graph, spec.member_draws[0])
+        super().__init__([first] * n_runs)
+
+    def draw(self, rng: np.random.Generator, rows: Rows = None) -> None:
+        """Draw a new member for each row of ``rows``, in order, from ``rng``."""
+        idx = all_rows(rows, self.n_runs)
+        self.assign(idx, [build_human(self.graph, self.spec.sample(self.graph.name, rng))
+                          for _ in idx])
+
+
+def population_seat(graph: TaskGraph, name: str, n_runs: int = 1,
+                    params: Mapping[str, Any] | None = None) -> BatchHuman:
+    """The seat of a population that draws a member at every reset (the envs'
+    ``population=``): :class:`~hri_envs.humans.populations.PopulationHumans` for a scripted
+    population, :class:`MixtureHumans` for a split, mixture or family.
+    """
+    spec = population(name, graph.name, params)
+    if isinstance(spec, PopulationSpec):
+        return PopulationHumans(graph, name, n_runs)
+    return MixtureHumans(graph, spec, n_runs)

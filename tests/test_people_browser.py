@@ -1,0 +1,173 @@
+"""A person's session in a real browser: ``hri-bench serve`` as a process, Debian's headless
+chromium driven by Selenium through chromium-driver, pressing the keys a person would.
+Then both datasets are loaded and checked against the env's own replay of the same
+actions. Skipped where chromium, chromium-driver or the ``web`` extra are missing
+(``make test`` installs them)."""
+
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pyarrow")
+pytest.importorskip("fastapi")
+webdriver = pytest.importorskip("selenium.webdriver")
+
+from hri_bench.datasets import export_minari, export_parquet, open_dataset  # noqa: E402
+from hri_bench.replay import replay  # noqa: E402
+from hri_envs.humans.scripted import preference_human  # noqa: E402
+from hri_envs.task.scenarios import scenario_graph  # noqa: E402
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+DRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
+pytestmark = [
+    pytest.mark.skipif(not (os.path.exists(CHROMIUM) and os.path.exists(DRIVER)),
+                       reason="needs Debian's chromium and chromium-driver (make test "
+                              "installs them)"),
+    pytest.mark.xdist_group("people-browser"),
+]
+EPISODES = 3
+
+
+@pytest.fixture
+def server(tmp_path):
+    """``hri-bench serve`` on a free port of 127.0.0.1; yields (url, data root)."""
+    data = tmp_path / "data"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "hri_bench.cli", "serve", "hanger", "--port", "0",
+         "--data", str(data), "--episodes", str(EPISODES), "--max-steps", "40"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    assert proc.stdout is not None
+    url, lines = None, []
+    deadline = time.monotonic() + 60
+    while url is None and time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        lines.append(line)
+        found = re.search(r"serving on (http://127\.0\.0\.1:\d+/)", line)
+        url = found.group(1) if found else None
+    assert url, "".join(lines)
+    yield url, data
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+@pytest.fixture
+def browser(tmp_path):
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for flag in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                 "--no-first-run", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync",
+                 "--disable-dev-shm-usage", f"--user-data-dir={tmp_path / 'profile'}",
+                 "--window-size=900,1000"):
+        options.add_argument(flag)
+    driver = webdriver.Chrome(service=Service(DRIVER), options=options)
+    yield driver
+    driver.quit()
+
+
+def _wait(driver, condition, timeout=15.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.01)
+    raise AssertionError(f"timed out at {_view(driver)}; the page shows "
+                         f"{driver.find_element('tag name', 'body').text}")
+
+
+def _view(driver):
+    """The page's view as its body's data attributes, read at once (one script)."""
+    return driver.execute_script(
+        "const d = document.body.dataset; const keys = {};"
+        "for (const b of document.querySelectorAll('#options button'))"
+        "  keys[b.dataset.action] = b.dataset.key;"
+        "return {view: d.view, seq: d.seq, state: d.state, start: d.start, goal: d.goal,"
+        "        keys: keys};")
+
+
+def test_a_person_plays_three_episodes_with_the_keyboard(server, browser, monkeypatch):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+
+    url, data = server
+    graph = scenario_graph("hanger")
+    person = preference_human(graph, None)  # the person's choices: the study's preference
+    browser.get(url)
+    _wait(browser, lambda: _view(browser)["view"] == "consent")
+    assert "anonymous" in browser.find_element("id", "consent-text").text
+    assert not browser.find_element("id", "start").is_enabled()
+    browser.find_element("id", "agree").click()
+    browser.find_element("id", "start").click()
+    pressed, reloaded = 0, False
+
+    def new_view(seen):
+        return lambda: ((v := _view(browser))["seq"] != seen
+                        and v["view"] in ("frame", "outcome", "done") and v)
+
+    seen = None
+    while True:
+        view = _wait(browser, new_view(seen))
+        if view["view"] == "done":
+            break
+        seen = view["seq"]
+        if view["view"] == "outcome":
+            ActionChains(browser).send_keys(Keys.ENTER).perform()
+            continue
+        if pressed == 4 and not reloaded:  # the page is reloaded mid-episode: it resumes
+            browser.refresh()
+            reloaded = True
+            again = _wait(browser, lambda: (v := _view(browser))["view"] == "frame" and v)
+            assert again == view
+        state, start, goal = (int(view[k]) for k in ("state", "start", "goal"))
+        action = int(person.preferred_action(np.array(state), np.array(start), np.array(goal)))
+        ActionChains(browser).send_keys(view["keys"][str(action)]).perform()
+        pressed += 1
+    done_text = browser.find_element("id", "done-text").text
+    participant = re.search(r"code is (p[0-9a-f]{12})", done_text).group(1)
+    items = browser.find_elements("css selector", "#done-list li")
+    assert len(items) == EPISODES and reloaded
+
+    dataset = open_dataset("hanger-people-v0", data)
+    assert dataset.participants() == [participant] and not dataset.synthetic
+    steps = dataset.steps()
+    assert steps.num_rows == pressed
+    assert sorted(set(steps.column("episode").to_pylist())) == list(range(EPISODES))
+    assert all(ms is not None and ms >= 0 for ms in steps.column("client_response_ms")
+               .to_pylist())
+    # the env's own replay of the recorded actions gives the recorded rewards
+    replayed = replay(dataset)
+    assert len(replayed) == EPISODES and all(r.agrees for r in replayed)
+    # the multi-agent view as one Parquet file
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(export_parquet(dataset, data / "all.parquet"))
+    assert table.num_rows == pressed
+    assert table.schema.metadata[b"content_hash"].decode() == dataset.content_hash()
+    # the robot's view as a Minari dataset
+    import minari
+
+    root = export_minari(dataset)
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(Path(root)))
+    md = minari.load_dataset(dataset.minari_id)
+    assert md.total_episodes == EPISODES and md.total_steps == pressed
+    for episode, mine in zip(md.iterate_episodes(), replayed, strict=True):
+        np.testing.assert_array_equal(episode.rewards, mine.replayed)
+        assert len(episode.observations["state"]) == len(episode.actions) + 1

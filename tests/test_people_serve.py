@@ -1,0 +1,340 @@
+"""``hri-bench serve`` without a browser: the app through Starlette's test client. Whole
+sessions, reloads, isolation between participants, and bad or forged messages, each of
+which must get a clear error and change nothing."""
+
+import json
+import time
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fastapi")
+pytest.importorskip("pyarrow")
+
+from fastapi.testclient import TestClient  # noqa: E402
+from starlette.websockets import WebSocketDisconnect  # noqa: E402
+
+from hri_bench.cli import main  # noqa: E402
+from hri_bench.datasets import open_dataset  # noqa: E402
+from hri_bench.replay import replay  # noqa: E402
+from hri_bench.serve.app import create_app  # noqa: E402
+from hri_bench.serve.design import ServeConfig, assignment, pair_circuit  # noqa: E402
+from hri_bench.serve.session import parse_message  # noqa: E402
+from hri_envs.errors import ConfigError  # noqa: E402
+from hri_envs.humans.scripted import preference_human  # noqa: E402
+from hri_envs.task.scenarios import scenario_graph  # noqa: E402
+
+pytestmark = pytest.mark.xdist_group("people-serve")
+
+
+def _client(tmp_path, **kw):
+    cfg = ServeConfig(kw.pop("scenario", "hanger"), data=tmp_path, max_steps=40,
+                      **{"episodes": 2, **kw})
+    return cfg, TestClient(create_app(cfg))
+
+
+def _join(client):
+    r = client.post("/api/sessions", json={"consent": True})
+    assert r.status_code == 201, r.text
+    return r.json()["session"]
+
+
+def _hello(ws, token):
+    ws.send_text(json.dumps({"type": "hello", "session": token}))
+    return _next_view(ws)
+
+
+def _next_view(ws):
+    while True:
+        m = json.loads(ws.receive_text())
+        if m["type"] != "wait":
+            return m
+
+
+def _answer(ws, m, scenario="hanger"):
+    """The scripted human's answer to a view: its preferred action, or continue."""
+    if m["type"] == "frame":
+        human = preference_human(scenario_graph(scenario), None)
+        a = int(human.preferred_action(m["state"], m["start"], m["goal"]))
+        ws.send_text(json.dumps({"type": "action", "seq": m["seq"], "action": a, "rt_ms": 250}))
+    elif m["type"] == "outcome" and not m["last"]:
+        ws.send_text(json.dumps({"type": "continue", "seq": m["seq"]}))
+
+
+def _play(ws, m, scenario="hanger", steps=10_000):
+    while m["type"] not in ("done", "ended") and steps > 0:
+        _answer(ws, m, scenario)
+        m = _next_view(ws)
+        steps -= 1
+    return m
+
+
+@pytest.mark.parametrize("scenario", ["hanger", "wheel"])
+def test_a_whole_session_is_played_recorded_and_replays(tmp_path, scenario):
+    cfg, client = _client(tmp_path, scenario=scenario)
+    with client:
+        token = _join(client)
+        with client.websocket_connect("/ws") as ws:
+            first = _hello(ws, token)
+            assert first["type"] == "frame" and first["picture"].startswith("data:image/png")
+            assert first["episode"] == 1 and first["goal_name"] in ("A", "B", "C")
+            assert [o["key"] for o in first["options"]] == ["1", "2"]
+            done = _play(ws, first, scenario)
+    assert done["type"] == "done" and len(done["outcomes"]) == 2
+    assert all(o["success"] for o in done["outcomes"])
+    dataset = open_dataset(cfg.dataset_id, tmp_path)
+    assert not dataset.synthetic and dataset.participants() == [done["participant"]]
+    meta = dataset.sessions()[0]
+    assert meta["status"] == "complete" and meta["source"] == "web" and meta["agent"] == "learner"
+    assert meta["serve_settings"]["consent_sha256"] == cfg.text_hashes()["consent_sha256"]
+    assert meta["serve_settings"]["episodes"] == 2
+    text = json.dumps(meta)
+    assert token not in text and "127.0.0.1" not in text and "testclient" not in text
+    table = dataset.steps()
+    assert set(table.column("client_response_ms").to_pylist()) == {250.0}
+    assert all(len(b) == 3 for b in table.column("belief").to_pylist())
+    results = replay(dataset)
+    assert len(results) == 2 and all(r.agrees for r in results)
+    assert [float(r.recorded.sum()) for r in results] == pytest.approx(
+        [o["reward"] for o in done["outcomes"]], abs=1e-4)
+    if scenario == "wheel":
+        assert len(table.column("layout").to_pylist()[0]) == 4
+
+
+BAD = [
+    ("not json", "message"),
+    ("[1, 2]", "message"),
+    ('{"type": "fly"}', "type"),
+    ("x" * 5000, "message"),
+    ('{"type": "action", "seq": SEQ, "action": 99, "rt_ms": null}', "action"),
+    ('{"type": "action", "seq": SEQ, "action": 3, "rt_ms": null}', "action"),
+    ('{"type": "action", "seq": SEQ, "action": -1, "rt_ms": null}', "action"),
+    ('{"type": "action", "seq": SEQ, "action": true, "rt_ms": null}', "action"),
+    ('{"type": "action", "seq": SEQ, "action": 1.0, "rt_ms": null}', "action"),
+    ('{"type": "action", "seq": SEQ, "action": "1", "rt_ms": null}', "action"),
+    ('{"type": "action", "seq": SEQ, "action": 1, "rt_ms": -5}', "rt_ms"),
+    ('{"type": "action", "seq": SEQ, "action": 1, "rt_ms": "fast"}', "rt_ms"),
+    ('{"type": "action", "seq": SEQ, "action": 1, "rt_ms": 1, "who": "me"}', "who"),
+    ('{"type": "action", "seq": 99999, "action": 1, "rt_ms": null}', "seq"),
+    ('{"type": "action", "seq": -1, "action": 1, "rt_ms": null}', "seq"),
+    ('{"type": "continue", "seq": SEQ}', "type"),
+    ('{"type": "hello", "session": "OTHER"}', "type"),
+]
+
+
+def test_bad_and_forged_messages_get_an_error_and_change_nothing(tmp_path):
+    cfg, client = _client(tmp_path, episodes=1)
+    with client:
+        other = _join(client)
+        token = _join(client)
+        with client.websocket_connect("/ws") as ws:
+            first = _hello(ws, token)
+            for text, field in BAD:
+                ws.send_text(text.replace("SEQ", str(first["seq"])).replace("OTHER", other))
+                reply = json.loads(ws.receive_text())
+                assert reply["type"] == "error" and reply["field"] == field, (text, reply)
+                assert reply["error"]
+            # nothing changed: the same view answers, and the session plays on from it
+            ws.send_text(json.dumps({"type": "action", "seq": first["seq"], "action": 1,
+                                     "rt_ms": None}))
+            second = _next_view(ws)
+            assert second["type"] == "frame" and second["seq"] == first["seq"] + 1
+            assert second["step"] == 2
+            done = _play(ws, second)
+    assert done["type"] == "done"
+    dataset = open_dataset(cfg.dataset_id, tmp_path)
+    steps = dataset.steps(participants=[done["participant"]])
+    assert steps.column("human_action").to_pylist()[0] == 1  # the first valid answer
+    assert steps.num_rows == done["outcomes"][0]["steps"]
+    # the other participant's session never moved
+    other_dir = [p for p in dataset.participants() if p != done["participant"]]
+    assert len(other_dir) == 1 and not dataset.episode_paths(other_dir)
+
+
+@pytest.mark.parametrize("first, code", [
+    ({"type": "hello", "session": "x" * 43}, 4401),        # a forged token
+    ({"type": "hello", "session": "short"}, 4400),          # not even a token
+    ({"type": "action", "seq": 1, "action": 1, "rt_ms": None}, 4400),  # no hello first
+])
+def test_a_forged_or_missing_session_is_refused(tmp_path, first, code):
+    _, client = _client(tmp_path)
+    with client:
+        _join(client)
+        with client.websocket_connect("/ws") as ws:
+            ws.send_text(json.dumps(first))
+            reply = json.loads(ws.receive_text())
+            assert reply["type"] == "error" and reply["field"] in ("session", "type")
+            with pytest.raises(WebSocketDisconnect) as closed:
+                ws.receive_text()
+            assert closed.value.code == code
+
+
+def test_participants_cannot_reach_each_other(tmp_path):
+    cfg, client = _client(tmp_path, episodes=1)
+    with client:
+        a, b = _join(client), _join(client)
+        assert a != b
+        with client.websocket_connect("/ws") as wa, client.websocket_connect("/ws") as wb:
+            fa, fb = _hello(wa, a), _hello(wb, b)
+            sessions = client.app.state.sessions
+            sa, sb = sessions.get(a), sessions.get(b)
+            assert sa.agent is not sb.agent and sa.participant != sb.participant
+            assert sa.design.index != sb.design.index
+            # b answers with a's sequence number: judged against b's own view only
+            _answer(wb, fb)
+            fb2 = _next_view(wb)
+            assert fb2["seq"] == fb["seq"] + 1
+            assert sa.view()[0] == fa["seq"]  # a did not move
+            _play(wa, fa)
+        for path in ("/api/sessions", f"/api/sessions/{a}", "/data", "/api/datasets"):
+            assert client.get(path).status_code in (404, 405)
+    dataset = open_dataset(cfg.dataset_id, tmp_path)
+    assert len(dataset.episode_paths([sa.participant])) == 1
+    assert len(dataset.episode_paths([sb.participant])) == 0
+
+
+def test_a_reload_resumes_and_a_second_tab_takes_over(tmp_path):
+    _, client = _client(tmp_path, episodes=1)
+    with client:
+        token = _join(client)
+        with client.websocket_connect("/ws") as ws:
+            m = _hello(ws, token)
+            _answer(ws, m)
+            m = _next_view(ws)
+        with client.websocket_connect("/ws") as ws:  # the page reloaded
+            again = _hello(ws, token)
+            assert again == m
+            with client.websocket_connect("/ws") as tab:
+                assert _hello(tab, token) == m
+                assert json.loads(ws.receive_text())["type"] == "replaced"
+                done = _play(tab, m)
+    assert done["type"] == "done"
+
+
+@pytest.mark.parametrize("body", [{}, {"consent": False}, {"consent": "yes"}, {"consent": 1},
+                                  {"consent": True, "name": "Ada"}, [True], "consent"])
+def test_joining_needs_consent_and_takes_nothing_else(tmp_path, body):
+    cfg, client = _client(tmp_path)
+    with client:
+        r = client.post("/api/sessions", json=body)
+        assert r.status_code == 400 and r.json()["field"] == "consent"
+    assert open_dataset(cfg.dataset_id, tmp_path).session_dirs() == []
+
+
+def test_the_server_is_full_at_max_sessions_and_stops_them_on_shutdown(tmp_path):
+    cfg, client = _client(tmp_path, max_sessions=1)
+    with client:
+        _join(client)
+        r = client.post("/api/sessions", json={"consent": True})
+        assert r.status_code == 503 and "full" in r.json()["error"]
+    assert [s["status"] for s in open_dataset(cfg.dataset_id, tmp_path).sessions()] == [
+        "stopped"]
+
+
+def test_an_idle_session_is_abandoned(tmp_path):
+    cfg, client = _client(tmp_path, idle_timeout_s=1.0)
+    with client:
+        token = _join(client)
+        with client.websocket_connect("/ws") as ws:
+            assert _hello(ws, token)["type"] == "frame"
+            ended = _next_view(ws)
+    assert ended["type"] == "ended" and ended["reason"] == "abandoned"
+    assert open_dataset(cfg.dataset_id, tmp_path).sessions()[0]["status"] == "abandoned"
+
+
+def test_headers_origin_and_public_settings(tmp_path):
+    cfg, client = _client(tmp_path)
+    with client:
+        page = client.get("/")
+        assert page.status_code == 200 and "app.js" in page.text
+        assert "default-src 'self'" in page.headers["content-security-policy"]
+        assert page.headers["x-frame-options"] == "DENY"
+        assert client.get("/app.js").status_code == 200
+        study = client.get("/api/study").json()
+        assert set(study) == {"scenario", "object", "supports", "episodes", "consent",
+                              "instructions"}
+        assert "clothes hanger" in study["instructions"] and "{object}" not in study[
+            "instructions"]
+        token = _join(client)
+        with pytest.raises(WebSocketDisconnect) as closed, client.websocket_connect(
+                "/ws", headers={"origin": "http://evil.example"}) as ws:
+            ws.send_text(json.dumps({"type": "hello", "session": token}))
+            ws.receive_text()
+        assert closed.value.code == 4403
+
+
+def test_counterbalanced_design():
+    circuit = pair_circuit(3)
+    assert sorted(circuit) == [(a, b) for a in range(3) for b in range(3) if a != b]
+    assert all(circuit[i][1] == circuit[(i + 1) % 6][0] for i in range(6))
+    cfg = ServeConfig("hanger", episodes=6, preferences=("down-over-rotate/over-rotate-up",
+                                                         "over-down-rotate/up-over-rotate"))
+    designs = [assignment(cfg, i) for i in range(6)]
+    for position in range(6):  # a Latin square: every pair once per position
+        assert sorted(d.pairs[position] for d in designs) == sorted(circuit)
+    assert [d.preference for d in designs[:3]] == [cfg.preferences[0], cfg.preferences[1],
+                                                    cfg.preferences[0]]
+    assert all(d.pairs[e][1] == d.pairs[e + 1][0] for d in designs for e in range(5))
+    assert pair_circuit(4)[0][0] == 0 and len(pair_circuit(4)) == 12
+
+
+@pytest.mark.parametrize("kw, field", [
+    ({"agent": "oracle"}, "agent"), ({"agent": "nobody"}, "agent"),
+    ({"scenario": "kitchen"}, "scenario"), ({"episodes": 0}, "episodes"),
+    ({"preferences": ("sideways",)}, "preferences"), ({"host": ""}, "host"),
+    ({"consent": "  "}, "consent"), ({"dataset": "../x"}, "dataset"),
+    ({"port": 70000}, "port"), ({"idle_timeout_s": 0.0}, "idle_timeout_s"),
+])
+def test_serve_config_errors_name_the_field(kw, field):
+    with pytest.raises(ConfigError) as err:
+        ServeConfig(**kw)
+    assert err.value.field == field
+
+
+@pytest.mark.parametrize("argv, flag", [
+    (["serve", "--agent", "oracle"], "--agent"),
+    (["serve", "--agent", "informed"], "--agent"),
+    (["serve", "wheel", "--preferences", "down-over-rotate/over-rotate-up"], "--preferences"),
+    (["serve", "--dataset", "a/b"], "--dataset"),
+    (["serve", "--consent", "/nonexistent/consent.txt"], "--consent"),
+    (["serve", "--port", "-1"], "--port"),
+    (["serve", "--idle-timeout", "nan"], "--idle-timeout"),
+])
+def test_serve_flags_exit_2(argv, flag, tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main([*argv, "--data", str(tmp_path)])
+    assert exit_.value.code == 2
+    assert f"argument {flag}" in capsys.readouterr().err
+
+
+def test_serve_without_the_web_extra_says_how_to_install_it(monkeypatch, capsys):
+    from hri_envs import errors
+
+    monkeypatch.setattr(errors, "_installed", lambda m: m not in ("fastapi", "uvicorn"))
+    assert main(["serve"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "fastapi" in err and "pip install" in err and ".[web]" in err
+
+
+def test_message_schema():
+    assert parse_message('{"type": "continue", "seq": 3}') == {"type": "continue", "seq": 3}
+    with pytest.raises(ConfigError, match="JSON"):
+        parse_message("{")
+    with pytest.raises(ConfigError):
+        parse_message("[" * 10_000)
+
+
+def test_response_times_are_recorded_per_step(tmp_path):
+    cfg, client = _client(tmp_path, episodes=1)
+    with client:
+        token = _join(client)
+        with client.websocket_connect("/ws") as ws:
+            m = _hello(ws, token)
+            time.sleep(0.05)
+            _answer(ws, m)
+            _play(ws, _next_view(ws))
+    table = open_dataset(cfg.dataset_id, tmp_path).steps()
+    first = table.slice(0, 1).to_pylist()[0]
+    assert first["response_s"] >= 0.05 and first["t_action"] > first["t_shown"] > 1.7e9
+    assert np.all(np.asarray(table.column("response_s")) >= 0)
