@@ -36,12 +36,14 @@ from hri_envs.jax.speed import device_name
 class Config:
     scenario: Literal["hanger", "wheel"] = "hanger"
     """the task"""
-    population: str = "preferences"
-    """the training population (the held-out one is refused)"""
-    passive_max: float = 0.3
-    """each human's passive rate is drawn in [0, passive_max]"""
-    turn_back_max: float = 0.5
-    """each human's turning-back rate is drawn in [0, turn_back_max]"""
+    population: str = "train"
+    """the training population: the frozen train split (default), or a scripted population
+    (the evaluation splits and the held-out population are refused)"""
+    passive_max: float | None = None
+    """a scripted population only: each human's passive rate drawn in [0, passive_max]"""
+    turn_back_max: float | None = None
+    """a scripted population only: each human's turning-back rate drawn in
+    [0, turn_back_max]"""
     total_steps: int = 20_000_000
     """env steps to train for"""
     num_envs: int = 1024
@@ -113,7 +115,9 @@ def draw_curve(curve: dict, random_level: float, path: Path, title: str) -> None
 
 def main(args: Config) -> None:
     cfg = TrainConfig(scenario=args.scenario, population=args.population,
-                      passive=(0.0, args.passive_max), turn_back=(0.0, args.turn_back_max),
+                      passive=None if args.passive_max is None else (0.0, args.passive_max),
+                      turn_back=None if args.turn_back_max is None else (
+                          0.0, args.turn_back_max),
                       total_steps=args.total_steps, num_envs=args.num_envs,
                       rollout=args.rollout, hidden=args.hidden, lr=args.lr, seed=args.seed)
     print(f"training on {device_name()}: {cfg.scenario}, population {cfg.population}, "

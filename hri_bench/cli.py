@@ -421,7 +421,7 @@ def _require_for_study(cfg: Any, *, progress: bool) -> None:
     ``sb3:`` model or ``jaxppo:`` checkpoint cannot be loaded (a :class:`ConfigError` with
     ``field="agents"``).
     """
-    from hri_bench.agents import JAXPPO_PREFIX, SB3_PREFIX
+    from hri_bench.agents import SB3_PREFIX, jaxppo_path
     from hri_envs.envs.backends import check_backend
     from hri_envs.errors import MissingExtraError
 
@@ -442,16 +442,17 @@ def _require_for_study(cfg: Any, *, progress: bool) -> None:
                     SB3BatchAgent(name[len(SB3_PREFIX):], 1, graph=graph_for(cfg.scenario))
                 except ConfigError as exc:
                     raise ConfigError(f"agent {name!r}: {exc}", field="agents") from None
-    if any(a.startswith(JAXPPO_PREFIX) for a in cfg.agents):
-        MissingExtraError.require(["jax", "optax"], "a 'jaxppo:' agent")
-        from agents.jax_ppo.agent import JaxPPOAgent
+    if any(jaxppo_path(a) is not None for a in cfg.agents):
+        MissingExtraError.require(["jax", "optax"], "a 'jaxppo' agent")
+        from agents.jax_ppo.agent import load_checked
         from hri_bench.study import graph_for
         from hri_envs.errors import LearnerStateError
 
         for name in cfg.agents:  # a checkpoint that cannot be loaded is bad input: exit 2
-            if name.startswith(JAXPPO_PREFIX):
+            path = jaxppo_path(name)
+            if path is not None:
                 try:
-                    JaxPPOAgent(name[len(JAXPPO_PREFIX):], graph_for(cfg.scenario), 1)
+                    load_checked(path, graph_for(cfg.scenario))
                 except (ConfigError, LearnerStateError) as exc:
                     raise ConfigError(f"agent {name!r}: {exc}", field="agents") from None
 
@@ -552,7 +553,8 @@ def _speed(args: argparse.Namespace) -> int:
     figures = measure(jobs=args.jobs, size=args.size, jax=not args.no_jax)
     targets = {"jax": "", "jax_device": "the device JAX ran on",
                "jax_env_envs": "envs stepped together (jit + vmap)",
-               "jax_env_steps_per_s": "the numpy workload, JAX env (jit + vmap)",
+               "jax_env_steps_per_s": "the vector env's workload, JAX env (jit + vmap)",
+               "jax_env_steps_per_s_by_envs": "per number of envs",
                "jax_env_vs_vector_env": "target >= 5 (the vector env of this run)",
                "jax_ppo_train_steps_per_s": "target >= 100,000 (recurrent PPO, end to end)",
                "parallel_env_steps_per_s": "target >= 300,000",

@@ -29,7 +29,7 @@ from hri_envs.errors import ConfigError, LearnerStateError
 from hri_envs.task.actions import WAIT
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["JaxPPOAgent", "checkpoint_path"]
+__all__ = ["JaxPPOAgent", "checkpoint_path", "load_checked"]
 
 
 def checkpoint_path(path: str | os.PathLike[str], scenario: str) -> Path:
@@ -44,8 +44,29 @@ def checkpoint_path(path: str | os.PathLike[str], scenario: str) -> Path:
     if not p.is_file():
         raise ConfigError(f"no JAX PPO checkpoint at {str(p)!r}; give 'jaxppo:FILE.npz' or "
                           "'jaxppo:FOLDER' with <scenario>.npz, as written by "
-                          "examples/train_jax_ppo.py", field="agents")
+                          "benchmarks/train_jax_ppo.py", field="agents")
     return p
+
+
+def load_checked(path: str | os.PathLike[str], graph: TaskGraph
+                 ) -> tuple[Path, dict[str, np.ndarray], dict[str, Any]]:
+    """``(file, arrays, config)`` of the checkpoint for ``graph``'s scenario, checked to fit
+    it; numpy only (JAX's runtime is not started, so a process may still fork after it).
+
+    Raises:
+        ConfigError: No checkpoint there (``field="agents"``).
+        LearnerStateError: Not a checkpoint, or one trained on another scenario.
+    """
+    file = checkpoint_path(path, graph.name)
+    arrays, config = checkpoint.load(file)
+    net = config.get("net")
+    if (config.get("scenario") != graph.name or not isinstance(net, dict)
+            or (net.get("n_states"), net.get("n_actions")) != (graph.n_states,
+                                                              graph.n_actions)):
+        raise LearnerStateError(f"{str(file)!r} was trained on the "
+                                f"{config.get('scenario')!r} scenario; this study is the "
+                                f"{graph.name}")
+    return file, arrays, config
 
 
 @jax.jit
@@ -68,14 +89,8 @@ class JaxPPOAgent(BatchAgent):
 
     def __init__(self, path: str | os.PathLike[str], graph: TaskGraph, n_runs: int) -> None:
         super().__init__(n_runs)
-        file = checkpoint_path(path, graph.name)
-        arrays, config = checkpoint.load(file)
-        net = config.get("net", {})
-        if config.get("scenario") != graph.name or (
-                net.get("n_states"), net.get("n_actions")) != (graph.n_states, graph.n_actions):
-            raise LearnerStateError(f"{str(file)!r} was trained on the "
-                                    f"{config.get('scenario')!r} scenario; this study is the "
-                                    f"{graph.name}")
+        file, arrays, config = load_checked(path, graph)
+        net = config["net"]
         self.net = NetConfig(**net)
         self.config: dict[str, Any] = config
         self.path = file

@@ -17,6 +17,7 @@ env's, not a categorical per env (SPEC §6: randomness is the cost on a CPU).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from collections.abc import Callable
@@ -31,7 +32,8 @@ import optax
 from agents.jax_ppo import checkpoint
 from agents.jax_ppo.network import Inputs, NetConfig, Params, apply, init_params, masked_logits
 from hri_envs.errors import ConfigError
-from hri_envs.humans.populations import PopulationSpec, population_spec
+from hri_envs.humans.populations import PopulationSpec
+from hri_envs.humans.splits import MixtureSpec, population
 from hri_envs.jax.env import EnvState, JaxRobotEnv, uniform
 from hri_envs.task.actions import WAIT
 from hri_envs.task.scenarios import scenario_spec
@@ -45,10 +47,13 @@ class TrainConfig:
 
     Attributes:
         scenario: "hanger" or "wheel".
-        population: The training population's name (:data:`hri_envs.humans.populations.
-            POPULATIONS`; the held-out one is for evaluation only).
-        passive: (low, high) passive rate drawn per human, replacing the population's
-            (None: the population's).
+        population: The training population's name: the frozen ``train`` split
+            (:mod:`hri_envs.humans.splits`: 40 scripted preference humans, deterministic,
+            passive or Boltzmann; the default), or a scripted population of
+            :data:`hri_envs.jax.tables.SUPPORTED_POPULATIONS` (the held-out one and the
+            evaluation splits are refused).
+        passive: (low, high) passive rate drawn per human, replacing a scripted
+            population's (None: the population's; not for a split).
         turn_back: (low, high) turning-back rate drawn per human, likewise.
         episodes_per_trial: Episodes with one human (None: the scenario's study length).
         reward: The reward variant ("paper" or "no-free-toggle").
@@ -75,7 +80,7 @@ class TrainConfig:
     """
 
     scenario: str = "hanger"
-    population: str = "preferences"
+    population: str = "train"
     passive: tuple[float, float] | None = None
     turn_back: tuple[float, float] | None = None
     episodes_per_trial: int | None = None
@@ -139,12 +144,28 @@ class TrainConfig:
         return self
 
 
-def training_population(cfg: TrainConfig) -> PopulationSpec:
-    """The population spec trained on: the named one, with the config's rate ranges."""
-    spec = population_spec(cfg.population, cfg.scenario)
+def training_population(cfg: TrainConfig) -> PopulationSpec | MixtureSpec:
+    """The population trained on: the named split, or scripted population with the config's
+    rate ranges.
+
+    Raises:
+        ConfigError: An evaluation split or held-out population (``field="population"``),
+            or rate ranges given for a split (``field="passive"``/``"turn_back"``).
+    """
+    spec = population(cfg.population, cfg.scenario)
+    if isinstance(spec, MixtureSpec):
+        if cfg.population not in ("train", "validation"):
+            raise ConfigError(f"population {cfg.population!r} is for evaluation (or not a "
+                              "scripted population); train on 'train'", field="population")
+        for name in ("passive", "turn_back"):
+            if getattr(cfg, name) is not None:
+                raise ConfigError(f"{name} ranges change a scripted population's draw; the "
+                                  f"split {cfg.population!r} is a frozen list of humans",
+                                  field=name)
+        return spec
     if spec.held_out:
         raise ConfigError(f"population {cfg.population!r} is held out for evaluation; "
-                          "train on another", field="population")
+                          "train on 'train'", field="population")
     changes: dict[str, Any] = {}
     if cfg.passive is not None:
         changes["passive"] = tuple(float(x) for x in cfg.passive)
@@ -348,16 +369,12 @@ def _init(cfg: TrainConfig, env: JaxRobotEnv, net: NetConfig,
                   jnp.zeros((n, net.hidden)), jnp.zeros(n), key, jnp.int32(0))
 
 
-def train(cfg: TrainConfig, *, log: Callable[[str], None] | None = None,
-          save_to: str | None = None) -> TrainResult:
-    """Train a policy; optionally save it (:func:`agents.jax_ppo.checkpoint.save`).
-
-    Args:
-        cfg: What and how long.
-        log: Called with one line after every chunk of updates (e.g. ``print``).
-        save_to: A ``.npz`` path for the trained policy.
+@functools.lru_cache(maxsize=4)
+def _compiled(cfg: TrainConfig) -> tuple[JaxRobotEnv, NetConfig, optax.GradientTransformation,
+                                         Callable[[Runner], tuple[Runner, Any]]]:
+    """The env, network sizes, optimiser and jitted chunk of updates of ``cfg`` (kept, so a
+    second training with the same config does not compile again).
     """
-    cfg.check()
     env = make_env(cfg)
     net = NetConfig(env.n_states, env.n_supports, env.n_actions, cfg.hidden)
     schedule = optax.linear_schedule(cfg.lr, 0.0, cfg.updates * cfg.epochs * cfg.minibatches)
@@ -369,6 +386,20 @@ def train(cfg: TrainConfig, *, log: Callable[[str], None] | None = None,
     def run_chunk(runner: Runner) -> tuple[Runner, dict[str, jax.Array]]:
         return jax.lax.scan(update, runner, None, length=cfg.chunk)
 
+    return env, net, optimizer, run_chunk
+
+
+def train(cfg: TrainConfig, *, log: Callable[[str], None] | None = None,
+          save_to: str | None = None) -> TrainResult:
+    """Train a policy; optionally save it (:func:`agents.jax_ppo.checkpoint.save`).
+
+    Args:
+        cfg: What and how long.
+        log: Called with one line after every chunk of updates (e.g. ``print``).
+        save_to: A ``.npz`` path for the trained policy.
+    """
+    cfg.check()
+    env, net, optimizer, run_chunk = _compiled(cfg)
     t_start = time.perf_counter()
     runner = _init(cfg, env, net, optimizer)
     curve: dict[str, list[Any]] = {k: [] for k in ("steps", "episode_return",

@@ -36,6 +36,7 @@ from hri_envs.humans.scripted import (
     preference_human,
     preferences_for,
 )
+from hri_envs.humans.splits import MixtureSpec
 from hri_envs.jax.tables import (
     HumanBank,
     PopulationArrays,
@@ -145,6 +146,8 @@ class EnvParams(NamedTuple):
         pop_entries: (n,) int32, the entries a population draws from (the fixed entry
             without a population).
         pop_log_beta, pop_passive, pop_turn_back: (2,) float, the population's ranges.
+        pop_members: (M, 3) float, a member list's β, passive and turning-back rates
+            (:attr:`~hri_envs.jax.tables.PopulationArrays.members`; (1, 3) unused otherwise).
         fixed: The env's fixed human (without a population).
         max_cycles: int32, the step limit per episode.
     """
@@ -168,6 +171,7 @@ class EnvParams(NamedTuple):
     pop_log_beta: Array
     pop_passive: Array
     pop_turn_back: Array
+    pop_members: Array
     fixed: Member
     max_cycles: Array
 
@@ -261,7 +265,10 @@ class JaxRobotEnv:
       (humans of the human protocol with Python state cannot run under ``jit``);
     - ``population``: a name of
       :data:`~hri_envs.jax.tables.SUPPORTED_POPULATIONS` (or a
-      :class:`~hri_envs.humans.populations.PopulationSpec`): a human drawn per trial;
+      :class:`~hri_envs.humans.populations.PopulationSpec`), or of a split of
+      :data:`~hri_envs.jax.tables.SUPPORTED_SPLITS` (a frozen member list,
+      :mod:`hri_envs.humans.splits`; ``"train"`` is the one to train on): a human drawn
+      per trial;
     - ``episodes_per_human``: episodes per trial (default 1);
     - ``drift``: after this many episodes of a trial the human switches to another
       preference (None: never), as the suite's drifting human.
@@ -280,7 +287,7 @@ class JaxRobotEnv:
         turn_back: float = 0.0,
         human: ScriptedHuman | None = None,
         human_rationality: float = math.inf,
-        population: str | PopulationSpec | None = None,
+        population: str | PopulationSpec | MixtureSpec | None = None,
         r0: float | None = None,
         max_cycles: int = 100,
         reward: str = "paper",
@@ -341,6 +348,11 @@ class JaxRobotEnv:
             self._passive = fixed_passive > 0.0
             self._turning = fixed_turn > 0.0
             self._stochastic = bool(self.bank.stochastic[fixed_entry])
+        elif pop.members is not None:  # a frozen list of humans (a split)
+            self._rational = bool(np.isfinite(pop.members[:, 0]).any())
+            self._passive = bool((pop.members[:, 1] > 0.0).any())
+            self._turning = bool((pop.members[:, 2] > 0.0).any())
+            self._stochastic = self._rational
         else:
             self._rational = pop.log_beta is not None
             self._passive = bool(pop.passive[1] > 0.0)
@@ -396,6 +408,8 @@ class JaxRobotEnv:
             pop_entries=jnp.asarray(entries, dtype=jnp.int32), pop_log_beta=f(log_beta),
             pop_passive=f(pop.passive if pop is not None else [0.0, 0.0]),
             pop_turn_back=f(pop.turn_back if pop is not None else [0.0, 0.0]),
+            pop_members=f(pop.members if pop is not None and pop.members is not None
+                          else [[math.inf, 0.0, 0.0]]),
             fixed=Member(jnp.int32(entry), f(math.inf), f(passive), f(turn), jnp.int32(entry)),
             max_cycles=jnp.int32(min(self.max_cycles, 2**31 - 1)),
         )
@@ -412,6 +426,11 @@ class JaxRobotEnv:
             u = u.__getitem__
         if self.population is None:
             m = p.fixed
+        elif self.population.members is not None:
+            n = p.pop_entries.shape[0]
+            i = jnp.minimum((u(0) * n).astype(jnp.int32), n - 1)
+            rates = p.pop_members[i]
+            m = Member(p.pop_entries[i], rates[0], rates[1], rates[2], p.pop_entries[i])
         else:
             n = p.pop_entries.shape[0]
             entry = p.pop_entries[jnp.minimum((u(0) * n).astype(jnp.int32), n - 1)]
