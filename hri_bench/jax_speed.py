@@ -46,13 +46,15 @@ JAX_SIZES: dict[str, JaxSpeedSize] = {
 }
 
 
-def measure_jax(size: str = "full", vector_env_steps_per_s: float | None = None
-                ) -> dict[str, Any]:
+def measure_jax(size: str = "full", vector_env_steps_per_s: float | None = None,
+                ppo: Any = None) -> dict[str, Any]:
     """The JAX figures as a dict (``jax_*`` keys), or ``{"jax": "<not installed ...>"}``.
 
     Args:
         size: A key of :data:`JAX_SIZES`.
         vector_env_steps_per_s: The numpy vector env's figure of the same run, for the ratio.
+        ppo: The :class:`~agents.jax_ppo.train.TrainConfig` to time instead of the size's
+            (its last chunk of updates is timed; at least two chunks).
     """
     if size not in JAX_SIZES:
         raise ConfigError(f"size must be one of {sorted(JAX_SIZES)}, got {size!r}",
@@ -66,16 +68,16 @@ def measure_jax(size: str = "full", vector_env_steps_per_s: float | None = None
     runs = [jax_env_steps_per_s(n, steps=z.env_steps, repeats=z.env_repeats)
             for n in z.env_envs]
     env = max(runs, key=lambda r: r.steps_per_s)
-    cfg = TrainConfig(num_envs=z.ppo_envs, rollout=z.ppo_rollout, chunk=z.ppo_updates,
-                      total_steps=2 * z.ppo_updates * z.ppo_envs * z.ppo_rollout)
+    cfg = ppo or TrainConfig(num_envs=z.ppo_envs, rollout=z.ppo_rollout, chunk=z.ppo_updates,
+                             total_steps=2 * z.ppo_updates * z.ppo_envs * z.ppo_rollout)
     result = train(cfg)
-    timed = sum(result.curve["seconds"][-z.ppo_updates:])
+    timed = sum(result.curve["seconds"][-cfg.chunk:])
     out: dict[str, Any] = {
         "jax_device": env.device,
         "jax_env_envs": env.num_envs,
         "jax_env_steps_per_s": round(env.steps_per_s, 1),
         "jax_env_steps_per_s_by_envs": {r.num_envs: round(r.steps_per_s) for r in runs},
-        "jax_ppo_train_steps_per_s": round(z.ppo_updates * cfg.steps_per_update / timed, 1),
+        "jax_ppo_train_steps_per_s": round(cfg.chunk * cfg.steps_per_update / timed, 1),
     }
     if vector_env_steps_per_s:
         out["jax_env_vs_vector_env"] = round(env.steps_per_s / vector_env_steps_per_s, 2)

@@ -17,6 +17,10 @@ from hri_bench.cli import main  # noqa: E402
 from hri_envs.envs.config import scenario_graph  # noqa: E402
 from hri_envs.errors import ConfigError, LearnerStateError  # noqa: E402
 
+# Meant for one worker (--dist loadgroup): the training fixture and its compiled update are
+# shared by the tests.
+pytestmark = pytest.mark.xdist_group("jax-ppo")
+
 SMOKE = TrainConfig(scenario="hanger", total_steps=256 * 32 * 40, num_envs=256, rollout=32,
                     hidden=16, minibatches=2, lr=3e-3, chunk=20, seed=0)
 
@@ -143,10 +147,11 @@ def test_without_jax_the_cli_works_and_the_jax_parts_say_how_to_install(tmp_path
     assert "not installed" in lines["speed"] and "[jax]" in lines["speed"]
 
 
-def test_speed_reports_the_jax_figures_naming_the_device():
+def test_speed_reports_the_jax_figures_naming_the_device(trained):
     from hri_bench.jax_speed import measure_jax
 
-    figures = measure_jax("tiny", vector_env_steps_per_s=1e6)
+    # the smoke config's update is compiled already (the fixture): time it, not a new one
+    figures = measure_jax("tiny", vector_env_steps_per_s=1e6, ppo=SMOKE)
     assert figures["jax_device"].startswith(jax.devices()[0].platform)
     for key in ("jax_env_steps_per_s", "jax_ppo_train_steps_per_s", "jax_env_vs_vector_env"):
         assert isinstance(figures[key], float) and figures[key] > 0, figures
