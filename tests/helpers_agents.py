@@ -82,3 +82,50 @@ class ReturnsTrue(ReturnsHalf):
 class ReturnsText(ReturnsHalf):
     name = "returns-text"
     value = "3"
+
+
+class SecondMadeCrashes(Agent):
+    """The Learner, except that the second instance made (the second session a server
+    starts) raises in its second episode. Reset ``made`` before use."""
+
+    name = "second-made-crashes"
+    made = 0
+
+    def __init__(self, graph):
+        from agents import Learner
+
+        type(self).made += 1
+        self.crashes = type(self).made == 2
+        self.inner = Learner(graph).single()
+        self.episode = -1
+
+    def begin_episode(self, start):
+        self.episode += 1
+        self.inner.begin_episode(start)
+
+    def act(self, observation):
+        if self.crashes and self.episode == 1:
+            raise RuntimeError("deliberate crash of one session")
+        return self.inner.act(observation)
+
+    def observe(self, state, robot_action, human_action, next_state):
+        self.inner.observe(state, robot_action, human_action, next_state)
+
+    def end_episode(self, trace, intention):
+        self.inner.end_episode(trace, intention)
+
+
+class WaitsForGate(AlwaysWait):
+    """Waits in ``act`` until the file named by ``$HRI_TEST_GATE`` exists (at most 120 s), so
+    that a study is still running, deterministically, while a test does something beside it."""
+
+    def act(self, observation):
+        import os
+        import time
+        from pathlib import Path
+
+        gate = Path(os.environ["HRI_TEST_GATE"])
+        deadline = time.monotonic() + 120
+        while not gate.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        return 0
