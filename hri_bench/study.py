@@ -33,6 +33,7 @@ from hri_bench.agents import (
     BUILTIN_AGENTS,
     REFERENCE_AGENTS,
     agent_settings,
+    jaxppo_path,
     make_agent,
     validate_agent_name,
 )
@@ -654,15 +655,17 @@ def _worker_init(mask: Iterable[int]) -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
-def _start_pool(processes: int) -> Any:
+def _start_pool(processes: int, method: str | None = None) -> Any:
     """A :class:`multiprocessing.pool.Pool` whose workers start with the stop signals blocked.
 
     They stay blocked in the parent only while the pool forks; the pool's own threads, made
-    meanwhile, keep them blocked, so workers it forks later start the same way.
+    meanwhile, keep them blocked, so workers it forks later start the same way. ``method``:
+    the start method (None: the platform's default, fork on Linux).
     """
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
     try:
-        return multiprocessing.Pool(processes, initializer=_worker_init, initargs=(mask,))
+        return multiprocessing.get_context(method).Pool(processes, initializer=_worker_init,
+                                                        initargs=(mask,))
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
@@ -684,7 +687,10 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
         # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
         # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
         # every worker at once.
-        with _start_pool(min(cfg.jobs, len(todo))) as pool:
+        # JAX's runtime is multithreaded: a worker forked after it started in this process
+        # can hang for good, so studies with a JAX agent start fresh workers (spawn).
+        uses_jax = any(jaxppo_path(a) is not None for a in cfg.agents)
+        with _start_pool(min(cfg.jobs, len(todo)), "spawn" if uses_jax else None) as pool:
             yield from pool.imap_unordered(_run_indexed, [(i, units[i]) for i in todo])
     else:
         yield from _execute_ray(cfg, [units[i] for i in todo], list(todo))
