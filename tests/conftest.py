@@ -30,8 +30,9 @@ def pytest_collection_modifyitems(config, items):
     """Mark the tests of the JAX modules (``tests/test_jax*.py``) ``jax``.
 
     JAX starts threads when imported, and a process that forks after that may deadlock (JAX
-    warns so). Several tests fork (study pools, kills), so ``make test`` runs the ``jax`` tests
-    in a pytest run of their own (``-m jax``) after the others (``-m "not jax"``).
+    warns so). Several tests fork (study pools, kills), so ``make test`` runs these modules in
+    a pytest run of their own, after a run that does not collect (import) them; ``-m jax``
+    selects them here.
     """
     for item in items:
         if item.path.name.startswith("test_jax"):

@@ -17,9 +17,8 @@ from hri_bench.cli import main  # noqa: E402
 from hri_envs.envs.config import scenario_graph  # noqa: E402
 from hri_envs.errors import ConfigError, LearnerStateError  # noqa: E402
 
-# Meant for one worker (--dist loadgroup): the training fixture and its compiled update are
-# shared by the tests.
-pytestmark = pytest.mark.xdist_group("jax-ppo")
+# make test runs the JAX modules in one process: the training fixture and its compiled
+# update are shared by the tests.
 
 SMOKE = TrainConfig(scenario="hanger", total_steps=256 * 32 * 40, num_envs=256, rollout=32,
                     hidden=16, minibatches=2, lr=3e-3, chunk=20, seed=0)
