@@ -440,10 +440,17 @@ class QMDP(_ProductRows):
         super().begin_episode(starts)
         k = self.graph.n_intentions
         n_z = max([p.human.n_z for p, _ in self.groups], default=1)
-        self.belief = np.zeros((self.n_runs, k, n_z))
+        self.posterior = np.zeros((self.n_runs, k, n_z))
         rows = np.arange(self.n_runs)
-        self.belief[rows[:, None], np.arange(k)[None, :], self.z_start[:, None]] = 1.0 / (k - 1)
-        self.belief[rows, self.start] = 0.0
+        self.posterior[rows[:, None], np.arange(k)[None, :], self.z_start[:, None]] = 1.0 / (k - 1)
+        self.posterior[rows, self.start] = 0.0
+
+    def belief(self) -> np.ndarray | None:
+        """(n_runs, K) the marginal over ι of the posterior over (ι, z) (the agent protocol's);
+        None before the first episode.
+        """
+        posterior = getattr(self, "posterior", None)
+        return None if posterior is None else posterior.sum(-1)
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
         """argmax_a Σ_(ι,z) b(ι, z) Q_informed((start, ι, lifted, s, z), a)."""
@@ -457,7 +464,7 @@ class QMDP(_ProductRows):
                                np.arange(k)[None, :, None], self.lifted[rows, None, None],
                                states[rows, None, None], np.arange(n_z)[None, None, :])
             vals = q[nodes]  # (R, K, Z, A)
-            b = self.belief[rows, :, :n_z, None]
+            b = self.posterior[rows, :, :n_z, None]
             score = (b * np.where(np.isfinite(vals), vals, 0.0)).sum((1, 2))  # (R, A)
             score = np.where(self.graph.valid[states[rows]], score, -np.inf)
             out[rows] = np.argmax(score, axis=1)
@@ -480,7 +487,7 @@ class QMDP(_ProductRows):
             zz = np.arange(n_z)[None, None, :]
             st, sr, ar, ah = (x[rows, None, None] for x in (self.start, s, a_r, a_h))
             slot = ar if m.reacts else 0
-            b = self.belief[rows, :, :n_z]
+            b = self.posterior[rows, :, :n_z]
             post = b * m.law[zz, st, io, sr, slot, ah]  # (R, K, Z)
             z2 = m.next_z[zz, st, io, sr, ar, ah].astype(np.int64)  # (R, K, Z)
             nb = np.zeros((n_r, k, n_z))
@@ -504,5 +511,5 @@ class QMDP(_ProductRows):
                    self.z_start[r_lost, None]] = 1.0 / (k - 1)
                 nb[np.flatnonzero(lost), self.start[r_lost]] = 0.0
                 total = nb.sum((1, 2))
-            self.belief[rows, :, :n_z] = nb / total[:, None, None]
+            self.posterior[rows, :, :n_z] = nb / total[:, None, None]
         super().observe(states, robot_actions, human_actions, next_states, active)

@@ -16,9 +16,11 @@ not learn between episodes). The file is read without unpickling: its JSON metad
 weights (see :func:`agents.sb3.load_model`).
 
 Any other entry of the form ``module:Class`` imports ``Class`` from ``module``: a
-:class:`~agents.protocol.Agent` subclass is instantiated once per run (with ``graph=`` if its
-constructor accepts it), a :class:`~agents.protocol.BatchAgent` subclass once per batch as
-``Class(graph, n_runs)``.
+:class:`~agents.protocol.Agent` subclass is instantiated once per run, a
+:class:`~agents.protocol.BatchAgent` subclass once per batch as ``Class(graph, n_runs)``.
+Either is also given, by keyword, each of :data:`CONTRACT` its constructor names (or all of
+them if it takes ``**kwargs``); a constructor that names none of them is called as before
+(``Class()``, or ``Class(graph=...)`` for an ``Agent``; docs/agents.md, "Your own agent").
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from typing import Any
 from agents.config import LearnerConfig, default_config
 from agents.learner import Learner
 from agents.learning.algorithm1 import Workspace
-from agents.protocol import Agent, BatchAgent, Batched
+from agents.protocol import Agent, BatchAgent, Batched, run_streams
 from baselines import GoalFilter, Imitator, MaxEntIRL, Oracle, Passive
 from baselines.bounds import Blind, Informed
 from baselines.product import QMDP, PerRunInformed
@@ -42,7 +44,8 @@ from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["BRACKET_AGENTS", "BUILTIN_AGENTS", "KNOWN_AGENTS", "OTHER_AGENTS", "REFERENCE_AGENTS",
-           "SB3_PREFIX", "agent_settings", "make_agent", "validate_agent_name"]
+           "CONTRACT", "SB3_PREFIX", "agent_settings", "contract_keywords", "import_agent",
+           "make_agent", "validate_agent_name"]
 
 BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
 #: Built-in names that are not in the default agent list (exact references, see baselines.bounds).
@@ -88,6 +91,48 @@ def _agent_class(spec: str) -> type[Agent] | type[BatchAgent]:
     cls: type[Agent] | type[BatchAgent] = import_class(spec, "agent", "agents",
                                                        (Agent, BatchAgent))
     return cls
+
+
+def import_agent(spec: str) -> type[Agent] | type[BatchAgent]:
+    """The agent class ``module:Class`` names.
+
+    Raises:
+        ConfigError: The module does not import, or the class is not an agent
+            (``field="agents"``).
+    """
+    return _agent_class(spec)
+
+
+#: What a custom agent's constructor may ask for, by keyword (docs/agents.md, "Your own
+#: agent"). ``Agent`` classes (one per run) get ``run`` and ``rng``, ``BatchAgent`` classes
+#: (one per batch) ``runs`` and ``rngs``; both get the rest.
+CONTRACT: dict[str, str] = {
+    "graph": "the task graph (hri_envs.task.graph.TaskGraph)",
+    "seed": "the study's base seed",
+    "run": "Agent: this run's index",
+    "rng": "Agent: this run's generator, numpy default_rng([seed, run]) (run_streams)",
+    "runs": "BatchAgent: the batch's run indices",
+    "rngs": "BatchAgent: one generator per run of the batch, as rng",
+    "r0": "the study's waiting reward r0",
+    "reward": "the reward rule, 'paper' or 'no-free-toggle'",
+    "max_steps": "the step limit per episode",
+    "episodes": "episodes per run",
+}
+
+
+def contract_keywords(cls: type) -> tuple[str, ...]:
+    """The :data:`CONTRACT` keywords ``cls``'s constructor is given: those it names, or
+    all that fit its flavour when it takes ``**kwargs``.
+    """
+    params = inspect.signature(cls).parameters
+    batch = issubclass(cls, BatchAgent)
+    fits = [k for k in CONTRACT if k not in (("run", "rng") if batch else ("runs", "rngs"))]
+    if batch:
+        fits.remove("graph")  # given by position
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return tuple(fits)
+    return tuple(k for k in fits if k in params and params[k].kind in (
+        inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD))
 
 
 def _learner_config(name: str, scenario: str, r0: float,
@@ -186,9 +231,19 @@ def make_agent(
 
         return SB3BatchAgent(name[len(SB3_PREFIX):], n, graph=graph, seed=seed, runs=runs)
     cls = _agent_class(name)
+    keys = contract_keywords(cls)
+    given: dict[str, Any] = {"graph": graph, "seed": seed, "runs": list(runs), "r0": r0,
+                             "reward": reward, "max_steps": max_steps, "episodes": episodes}
     if issubclass(cls, BatchAgent):
-        return cls(graph, n)  # type: ignore[call-arg,arg-type]  # user class: documented signature
-    takes_graph = "graph" in inspect.signature(cls).parameters
-    return Batched.from_factory(
-        lambda run: cls(graph=graph) if takes_graph else cls(), runs  # type: ignore[call-arg]
-    )
+        if "rngs" in keys:
+            given["rngs"] = run_streams(seed, runs)
+        kwargs = {k: given[k] for k in keys}
+        return cls(graph, n, **kwargs)  # type: ignore[call-arg,arg-type]  # documented contract
+
+    def one(run: int) -> Agent:
+        per_run = {**given, "run": run}
+        if "rng" in keys:
+            per_run["rng"] = run_streams(seed, [run])[0]
+        return cls(**{k: per_run[k] for k in keys})
+
+    return Batched.from_factory(one, runs)

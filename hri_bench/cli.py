@@ -239,8 +239,9 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--seed", type=_seed, default=0)
 
     _suite_parser(sub)
-    from hri_bench import cli_people
+    from hri_bench import cli_people, cli_results
 
+    cli_results.add_parsers(sub)
     cli_people.add_parsers(sub)
 
     demo = sub.add_parser("demo", help="the main job: a reduced but real set of the figures")
@@ -276,12 +277,17 @@ def _suite_parser(sub: Any) -> None:
                        help="add a track of its own on a recorded population "
                             "(recorded:DATASET or recorded-irl:DATASET; repeatable)")
     suite.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    from hri_bench import cli_results  # --config, --seeds (docs/results.md)
+
+    cli_results.add_suite_flags(suite)
     suite.set_defaults(command_parser=suite)
 
 
 def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from hri_bench import cli_results
     from hri_bench.suite import population_track, run_suite, select_tracks, track_config
 
+    seeds = cli_results.suite_plan(args, parser)  # --config replays, --seeds
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     try:
         first = track_config(select_tracks(args.tracks)[0], args.agents, executor=executor)
@@ -291,18 +297,23 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except ConfigError as exc:
         _config_error(parser, exc, _SUITE_ARGUMENTS)
     t0 = time.perf_counter()
+    def one(out: Path, seed: int) -> dict[str, Any]:
+        return run_suite(out, agents=args.agents, tracks=args.tracks,
+                         runs_scale=args.runs_scale, seed=seed, jobs=args.jobs,
+                         executor=executor, progress=not args.no_progress,
+                         populations=args.population)
+
     try:
-        doc = run_suite(args.out, agents=args.agents, tracks=args.tracks,
-                        runs_scale=args.runs_scale, seed=args.seed, jobs=args.jobs,
-                        executor=executor, progress=not args.no_progress,
-                        populations=args.population)
+        docs = cli_results.run_suites(args, seeds, one)
     except ConfigError as exc:
         _config_error(parser, exc, _SUITE_ARGUMENTS)
-    print(f"suite v{doc['suite_version']}: {len(doc['tracks'])} tracks in "
+    doc = docs[0]
+    times = f" × {len(docs)} seeds" if len(docs) > 1 else ""
+    print(f"suite v{doc['suite_version']}: {len(doc['tracks'])} tracks{times} in "
           f"{time.perf_counter() - t0:.1f} s (--jobs {args.jobs}, {executor})")
-    print(f"wrote {args.out / 'suite.json'}, {args.out / 'leaderboard.md'} and one figure "
-          "per track")
-    failed = sorted({a for tr in doc["tracks"].values() for a in tr["failed_agents"]})
+    print(f"wrote {args.out / 'suite.json'}, {args.out / 'results.json'}, "
+          f"{args.out / 'leaderboard.md'} and one figure per track")
+    failed = sorted({a for d in docs for tr in d["tracks"].values() for a in tr["failed_agents"]})
     if failed:
         print(f"agent(s) {', '.join(failed)} raised; no results for them on the tracks where "
               f"they did; tracebacks in {args.out / 'errors.log'}", file=sys.stderr)
@@ -614,6 +625,10 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
         return _suite(args, args.command_parser)
     if args.command == "speed":
         return _speed(args)
+    if args.command in ("validate", "leaderboard"):
+        from hri_bench import cli_results
+
+        return cli_results.run(args)
     if args.command in ("serve", "dataset", "replay"):
         from hri_bench import cli_people
 

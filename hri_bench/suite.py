@@ -37,11 +37,12 @@ from typing import Any
 
 import numpy as np
 
-from hri_bench import stats
+from hri_bench import provenance, stats
 from hri_bench.agents import BUILTIN_AGENTS, REFERENCE_AGENTS
 from hri_bench.atomic import atomic_writer
 from hri_bench.regret import REFERENCES
 from hri_bench.study import StudyConfig, StudyResult, regret_reference, run_study
+from hri_bench.submission import SuiteRecorder, lead_section, task_section
 from hri_envs.errors import ConfigError
 from hri_envs.task.scenarios import SCENARIOS, scenario_spec
 
@@ -266,8 +267,10 @@ def _overview(doc: dict[str, Any]) -> list[str]:
     return [*lines, ""]
 
 
-def leaderboard(doc: dict[str, Any]) -> str:
-    """The ``leaderboard.md`` text of a ``suite.json`` document."""
+def leaderboard(doc: dict[str, Any], lead: str = "") -> str:
+    """The ``leaderboard.md`` text of a ``suite.json`` document; ``lead`` (the aggregate
+    across tracks, :func:`hri_bench.submission.lead_section`) comes first, after the title.
+    """
     lines = [f"# hri-envs benchmark suite v{doc['suite_version']}", "",
              f"Seed {doc['seed']}, runs scale {doc['runs_scale']}. Regret = blind's exact "
              "expected episode reward minus the agent's, per episode; mean and IQM over runs "
@@ -279,6 +282,8 @@ def leaderboard(doc: dict[str, Any]) -> str:
              "(sees the intention, not optimal: no bound). Regret is n/a where the human is "
              "Boltzmann (the held-out population): the exact blind plan does not fit it.",
              ""]
+    if lead:
+        lines += [lead]
     lines += _overview(doc)
     for name, tr in doc["tracks"].items():
         lines += [f"## {name}", "", f"{tr['description']} ({tr['runs']} runs × "
@@ -394,12 +399,14 @@ def run_suite(
 
         iterator = tqdm(list(iterator), desc="suite", unit="track")
     failures: dict[str, dict[str, str]] = {}
+    recorder = SuiteRecorder(seed, runs_scale)  # results.json (hri_bench/submission.py)
     for track, cfg in iterator:
         t = time.perf_counter()
         result = run_study(cfg, keep_going=True)
         if result.failures:
             failures[track.name] = result.failures
         entry = track_summary(track, result)
+        recorder.add(track, result)
         doc["tracks"][track.name] = entry
         track_figure(track.name, entry, out / f"{track.name}.png")
         walls[track.name] = round(time.perf_counter() - t, 2)
@@ -411,8 +418,13 @@ def run_suite(
                     f.write(f"track {track_name}: agent {agent!r} raised:\n{text}\n")
     else:
         errors.unlink(missing_ok=True)  # from an earlier suite in the same folder
+    results = recorder.document()
+    doc["provenance"] = {"software": provenance.software(),
+                         "agents": {a: provenance.agent_identity(a) for a in agents}}
+    lead = "" if results is None else lead_section(results) + "\n" + task_section(results)
     with atomic_writer(out / "leaderboard.md") as f:
-        f.write(leaderboard(doc) + "\n")
+        f.write(leaderboard(doc, lead) + "\n")
+    recorder.write(out, results)
     with atomic_writer(out / "suite.json") as f:
         f.write(json.dumps(doc, indent=1, allow_nan=False) + "\n")
     log = {"suite_version": SUITE_VERSION, "jobs": jobs, "executor": executor,

@@ -46,7 +46,7 @@ def test_suite_writes_the_documented_files(tiny):
     on_disk = json.loads((out / "suite.json").read_text())
     assert on_disk == doc
     assert set(doc) == {"suite_version", "seed", "runs_scale", "agents", "converged_threshold",
-                        "references", "tracks"}
+                        "references", "tracks", "provenance"}
     assert list(doc["tracks"]) == list(TRACKS)
     for name, tr in doc["tracks"].items():
         assert set(tr) == TRACK_KEYS
