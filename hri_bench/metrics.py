@@ -10,6 +10,8 @@ per-run data with the same code. See docs/results.md, "Metrics".
   episode is above: it never settled).
 * **Asymptote** (:func:`asymptote`): per run, the mean over the last :func:`last_k`
   episodes (a quarter of them, at least one) of the regret (and of the reward).
+* **Re-adaptation** (a drifting human, after ``drift`` episodes): :func:`learning_episodes`
+  of the episodes after the switch (1: within the threshold from the first one on).
 * **Identification and calibration** (agents exposing a belief,
   :func:`agents.protocol.read_belief`): ``map_steps``, ``log_loss`` and ``brier`` of
   :data:`hri_bench.runner.TASK_METRICS`, per episode, averaged over a run's episodes.
@@ -74,7 +76,7 @@ def summary(per_run: np.ndarray, seed: int) -> dict[str, Any]:
 
 
 def agent_metrics(runs: Mapping[str, np.ndarray], blind: np.ndarray | None, seed: int,
-                  threshold: float = LEARNED) -> dict[str, Any]:
+                  threshold: float = LEARNED, drift: int | None = None) -> dict[str, Any]:
     """The statistics of one agent on one track, from its per-(run, episode) arrays.
 
     Args:
@@ -86,11 +88,14 @@ def agent_metrics(runs: Mapping[str, np.ndarray], blind: np.ndarray | None, seed
             not reported.
         seed: Seeds every bootstrap.
         threshold: :data:`LEARNED`.
+        drift: The episodes after which the human switches (None: no drift).
 
     Returns:
         ``score`` (each run's mean episode reward: the cross-track score), ``asymptote_reward``,
         and where regret is reported ``regret``, ``asymptote_regret``, ``learning_episodes``
-        (with ``learned_rate``, the share of runs that settled); the belief metrics where the
+        (with ``learned_rate``, the share of runs that settled) and, with a drift,
+        ``readapt_episodes`` (episodes after the switch until the regret stays within the
+        threshold; the episodes left + 1: never); the belief metrics where the
         agent has a belief, the effort metrics: each a :func:`summary`; ``truncation_rate``.
         Absent entries are None.
     """
@@ -105,9 +110,12 @@ def agent_metrics(runs: Mapping[str, np.ndarray], blind: np.ndarray | None, seed
                    asymptote_regret=summary(asymptote(regret), seed),
                    learning_episodes=summary(learned, seed),
                    learned_rate=float(np.mean(learned <= regret.shape[1])))
+        after = regret[:, drift:] if drift is not None and 0 < drift < regret.shape[1] else None
+        out["readapt_episodes"] = (None if after is None else
+                                   summary(learning_episodes(after, threshold), seed))
     else:
         out.update(regret=None, asymptote_regret=None, learning_episodes=None,
-                   learned_rate=None)
+                   learned_rate=None, readapt_episodes=None)
     for k in TASK_METRICS:
         x = runs.get(k)
         if x is None or np.all(np.isnan(np.asarray(x, dtype=float))):

@@ -78,6 +78,7 @@ def compute(doc: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
     aggregate` of the run scores over every seed, seeded by the first seed.
     """
     threshold = float(doc["threshold"])
+    tracks = doc.get("tracks", {})
     statistics: dict[str, Any] = {}
     scores: dict[str, dict[str, dict[str, np.ndarray]]] = {}
     for seed, by_track in doc["runs"].items():
@@ -86,10 +87,11 @@ def compute(doc: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
             blind = None if block["blind"] is None else np.asarray(block["blind"], dtype=float)
             statistics[seed][track] = {}
             scores[seed][track] = {}
+            drift = tracks.get(track, {}).get("settings", {}).get("human_drift")
             for agent, entry in block["agents"].items():
                 arrays = _arrays(entry)
                 statistics[seed][track][agent] = metrics.agent_metrics(arrays, blind, int(seed),
-                                                                       threshold)
+                                                                       threshold, drift)
                 scores[seed][track][agent] = arrays["reward"].mean(1)
     agents = list(doc["agents"])
     seed0 = int(next(iter(doc["runs"]), 0))
@@ -346,22 +348,24 @@ def task_section(doc: Mapping[str, Any]) -> str:
     seed = next(iter(doc["statistics"]))
     lines = ["## The task's metrics", "",
              f"Seed {seed}. Learned at: the first episode from which a run's regret stays "
-             f"≤ {doc['threshold']} (episodes + 1: never); asymptote: mean regret (reward "
+             f"≤ {doc['threshold']} (episodes + 1: never); re-adapted after: the same "
+             "counted from the drifting human's switch; asymptote: mean regret (reward "
              "where regret is n/a, marked r) of the last quarter of the episodes; MAP steps: "
              "decisions until the belief's most likely intention is right for good; "
              "log-loss and Brier of the belief (agents exposing one); counteract / idle / "
              "alone: the human's motions against a robot motion, waits with nothing moving, "
              "actions while the robot waited, per episode. Means [95 % CI] over runs.", ""]
     for track, by_agent in doc["statistics"][seed].items():
-        lines += [f"### {track}", "", "| agent | learned at | asymptote | MAP steps | "
-                  "log-loss | Brier | counteract | idle | alone |",
-                  "|---|---|---|---|---|---|---|---|---|"]
+        lines += [f"### {track}", "", "| agent | learned at | re-adapted after | asymptote | "
+                  "MAP steps | log-loss | Brier | counteract | idle | alone |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
         for agent, s in by_agent.items():
             def cell(key: str, s: Mapping[str, Any] = s) -> str:
                 return "–" if s.get(key) is None else _ci(s[key], "mean")
             asym = cell("asymptote_regret") if s["asymptote_regret"] is not None else \
                 "r " + cell("asymptote_reward")
-            lines.append(f"| `{agent}` | {cell('learning_episodes')} | {asym} | "
+            lines.append(f"| `{agent}` | {cell('learning_episodes')} | "
+                         f"{cell('readapt_episodes')} | {asym} | "
                          f"{cell('map_steps')} | {cell('log_loss')} | {cell('brier')} | "
                          f"{cell('counteract')} | {cell('human_idle')} | "
                          f"{cell('human_alone')} |")
@@ -416,7 +420,9 @@ def merge(docs: Mapping[str, Mapping[str, Any]]) -> tuple[dict[str, Any], dict[s
                 for agent, entry in block["agents"].items():
                     slot["agents"].setdefault(rename[agent], entry)
     first = next(iter(docs.values()))
+    tracks = {t: spec for d in docs.values() for t, spec in d["tracks"].items()}
     merged: dict[str, Any] = {"seeds": sorted(int(s) for s in runs), "runs": runs,
+                              "tracks": tracks,
                               "agents": agents, "threshold": first["threshold"]}
     merged["statistics"], merged["aggregate"] = compute(merged)
     return merged, labels

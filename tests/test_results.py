@@ -124,6 +124,13 @@ def test_learning_episodes_and_asymptote_on_hand_made_regret():
     assert metrics.learning_episodes(regret, 0.5).tolist() == [2, 3, 5, 1, 1]
     assert metrics.asymptote(regret).tolist() == [0.0, 0.0, 1.0, 0.0, 0.5]  # last 1 of 4
     assert metrics.last_k(20) == 5 and metrics.last_k(3) == 1
+    # A human who drifts after two episodes: counted again from the switch.
+    drifted = np.array([[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 1.0, 1.0]])
+    out = metrics.agent_metrics({"reward": -drifted, "truncated": np.zeros((2, 4))},
+                                np.zeros((2, 4)), seed=0, threshold=0.5, drift=2)
+    assert out["readapt_episodes"]["mean"] == 2.5  # runs: 2 and 3 (never: 2 left + 1)
+    assert out["learning_episodes"]["mean"] == 4.5  # 4 and 5 (never)
+    assert out["log_loss"] is None and out["score"]["mean"] == -0.25
 
 
 # --------------------------------------------------------------------------- aggregates
