@@ -130,7 +130,7 @@ def test_learning_episodes_and_asymptote_on_hand_made_regret():
                                 np.zeros((2, 4)), seed=0, threshold=0.5, drift=2)
     assert out["readapt_episodes"]["mean"] == 2.5  # runs: 2 and 3 (never: 2 left + 1)
     assert out["learning_episodes"]["mean"] == 4.5  # 4 and 5 (never)
-    assert out["log_loss"] is None and out["score"]["mean"] == -0.25
+    assert out["log_loss"] is None and out["score"]["mean"] == -0.375
 
 
 # --------------------------------------------------------------------------- aggregates
