@@ -152,8 +152,9 @@ def agent_settings(name: str, scenario: str, r0: float,
     """The settings :func:`make_agent` gives agent ``name`` (for ``summary.json``).
 
     The Learner and plain ME-IRL: their :class:`~agents.config.LearnerConfig` as a dict;
-    ``sb3:PATH``: the model file's path and size; the other agents: None (they have none,
-    or, for ``module:Class``, the benchmark does not know them).
+    ``sb3:PATH``: the model file's path and size; ``module:Class``: its code identity
+    (:func:`hri_bench.provenance.agent_identity`: its source files' sha256 and the
+    constructor keywords it is given); the other agents: None (they have none).
     """
     cfg = _learner_config(name, scenario, r0, learner)
     if cfg is not None:
@@ -161,6 +162,10 @@ def agent_settings(name: str, scenario: str, r0: float,
     if name.startswith(SB3_PREFIX):
         path = Path(name[len(SB3_PREFIX):])
         return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
+    if name not in KNOWN_AGENTS and ":" in name:
+        from hri_bench.provenance import agent_identity
+
+        return agent_identity(name)
     return None
 
 

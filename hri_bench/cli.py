@@ -385,7 +385,11 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
         parser.error(f"argument scenario: {args.config} describes a "
                      f"{settings.get('scenario')!r} study; leave the scenario out")
     try:
-        return StudyConfig.from_settings(settings, **execution)
+        cfg = StudyConfig.from_settings(settings, **execution)
+        from hri_bench import cli_results
+
+        cli_results.warn_code_changes(args.config, cfg.agents)  # a custom agent edited since
+        return cfg
     except ConfigError as exc:
         if exc.field in EXECUTION_FIELDS:  # from the flags, not from the file
             raise

@@ -17,6 +17,7 @@ from typing import Any
 from hri_envs.errors import ConfigError
 
 __all__ = ["add_parsers", "add_suite_flags", "leaderboard", "run", "run_suites", "suite_plan",
+           "warn_code_changes",
            "validate"]
 
 #: The suite flags ``--config`` may be combined with (they change no number).
@@ -151,6 +152,20 @@ def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[...
                                 "provenance": docs[0].get("provenance", {})}, indent=1)
                     + "\n")
     return docs
+
+
+def warn_code_changes(path: Path, agents: Any) -> None:
+    """Warn on stderr for each agent of a study's ``--config`` (a summary.json) whose code
+    differs from the identity its ``agent_configs`` records.
+    """
+    from hri_bench.provenance import code_changes
+
+    try:
+        recorded = json.loads(path.read_bytes()).get("agent_configs") or {}
+    except (OSError, ValueError, AttributeError):
+        return
+    for line in code_changes(recorded if isinstance(recorded, dict) else {}, agents):
+        print(f"hri-bench study: warning: {line}", file=sys.stderr)
 
 
 def validate(path: Path) -> int:

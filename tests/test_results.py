@@ -331,3 +331,20 @@ def test_old_signatures_keep_working_and_kwargs_get_everything():
 
     assert contract_keywords(OldBatch) == () and contract_keywords(NewBatch) == ("runs", "rngs")
     assert issubclass(NewBatch, BatchAgent) and not issubclass(NewBatch, Agent)
+
+
+def test_a_study_records_a_custom_agent_s_code_and_its_replay_warns(tmp_path, capsys):
+    spec = "tests.helpers_agents:RandomMover"
+    out = tmp_path / "study"
+    assert main(["study", "hanger", "--runs", "2", "--episodes", "1", "--agents", spec,
+                 "--no-progress", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["agent_configs"][spec]["kind"] == "custom"
+    summary["agent_configs"][spec]["code_sha256"] = "f" * 64
+    (tmp_path / "edited.json").write_text(json.dumps(summary))
+    capsys.readouterr()
+    assert main(["study", "--config", str(tmp_path / "edited.json"), "--no-progress", "--out",
+                 str(tmp_path / "again")]) == 0
+    assert f"warning: agent '{spec}': its source files' hash differs" in capsys.readouterr().err
+    assert (tmp_path / "again" / "episodes.csv").read_bytes() == (
+        out / "episodes.csv").read_bytes()
