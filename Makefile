@@ -5,8 +5,10 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --disable-pip-version-check -q -c constraints.txt
 DEMO_OUT ?= out/demo
+# `make serve SERVE_ARGS="wheel --episodes 10"`: the arguments of `hri-bench serve`.
+SERVE_ARGS ?= hanger --data out/datasets
 
-.PHONY: demo test speed clean system-deps
+.PHONY: demo test speed serve clean system-deps
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -16,9 +18,13 @@ $(VENV)/.demo-installed: pyproject.toml constraints.txt | $(PY)
 	$(PIP) -e ".[bench]"
 	touch $@
 
+$(VENV)/.serve-installed: pyproject.toml constraints.txt | $(PY)
+	$(PIP) -e ".[bench,web]"
+	touch $@ $(VENV)/.demo-installed
+
 $(VENV)/.test-installed: pyproject.toml constraints.txt | $(PY)
 	$(PIP) -e ".[bench,mujoco,rl,ray,clients,web,jax,dev]"
-	touch $@ $(VENV)/.demo-installed
+	touch $@ $(VENV)/.demo-installed $(VENV)/.serve-installed
 
 demo: $(VENV)/.demo-installed
 	$(VENV)/bin/hri-bench demo --out $(DEMO_OUT)
@@ -38,12 +44,18 @@ system-deps:
 	  || echo "make test: could not install$$missing (Debian's packages); the window and browser tests will skip"; \
 	fi
 
-# Lint, type and layer checks first, so that pytest's summary is the last line.
+# Lint, type and layer checks first, so that pytest's summaries are the last lines.
 test: $(VENV)/.test-installed system-deps
 	$(VENV)/bin/ruff check hri_envs agents baselines hri_bench tests examples benchmarks
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
-	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup
+	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup -m "not slow and not jax"
+	@# JAX starts threads on import; its tests run in a process that never forks a pool.
+	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup -m "jax and not slow"
+
+# A person plays the human in a browser (http://127.0.0.1:8000/); sessions are recorded.
+serve: $(VENV)/.serve-installed
+	$(VENV)/bin/hri-bench serve $(SERVE_ARGS)
 
 speed: $(VENV)/.demo-installed
 	$(VENV)/bin/hri-bench speed

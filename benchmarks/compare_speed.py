@@ -18,9 +18,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-#: name -> (snippet printing one number, unit, True when larger is faster).
-MEASURES: dict[str, tuple[str, str, bool]] = {
-    "learner_update": ("""
+#: The start of both Learner measures: a wheel trace of 8 steps, layout-independent imports.
+_LEARNER = """
 import time, numpy as np
 from agents.learner import Learner
 try:  # this layout, then the one before the benchmark became its own package
@@ -37,6 +36,11 @@ except ImportError:
 g = graph_for("wheel"); w = g.waypoint_state
 states = np.array([0, 1, 3, w(0, 3, 1), w(1, 3, 1), w(1, 1, 1), w(1, 1, 0), 7, 4])
 tr = Trace(states, np.zeros(8, np.int64), np.zeros(8, np.int64))
+"""
+
+#: name -> (snippet printing one number, unit, True when larger is faster).
+MEASURES: dict[str, tuple[str, str, bool]] = {
+    "learner_update": (_LEARNER + """
 best = np.inf
 for n_b, reps in ((1, 100),) * 3:
     lrn = Learner(g, n_b, **KW); trs = [tr] * n_b; ints = np.ones(n_b, np.int64)
@@ -47,23 +51,7 @@ for n_b, reps in ((1, 100),) * 3:
     best = min(best, (time.perf_counter() - t0) / reps)
 print(best * 1e3)
 """, "ms", False),
-    "learner_update_batched_per_run": ("""
-import time, numpy as np
-from agents.learner import Learner
-try:  # this layout, then the one before the benchmark became its own package
-    from agents.protocol import Trace
-    from hri_bench.study import graph_for
-except ImportError:
-    from hri_envs.bench.study import graph_for
-    from hri_envs.task.protocol import Trace
-try:  # arrays reused between updates: explicit since the house was rebuilt, before implicit
-    from agents.learning.algorithm1 import Workspace
-    KW = {"workspace": Workspace()}
-except ImportError:
-    KW = {}
-g = graph_for("wheel"); w = g.waypoint_state
-states = np.array([0, 1, 3, w(0, 3, 1), w(1, 3, 1), w(1, 1, 1), w(1, 1, 0), 7, 4])
-tr = Trace(states, np.zeros(8, np.int64), np.zeros(8, np.int64))
+    "learner_update_batched_per_run": (_LEARNER + """
 lrn = Learner(g, 100, **KW); trs = [tr] * 100; ints = np.ones(100, np.int64)
 lrn.end_episode(trs, ints)
 best = np.inf

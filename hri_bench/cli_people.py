@@ -75,7 +75,7 @@ def add_parsers(sub: Any) -> None:
     serve.add_argument("scenario", choices=SCENARIOS, nargs="?", default="hanger")
     serve.add_argument("--agent", default="learner",
                        help="the robot: an agent name as for 'study --agents' (default "
-                            "learner; sb3:PATH, module:Class; not oracle, informed, blind)")
+                            "learner; sb3:PATH, module:Class; not oracle, informed, blind, qmdp)")
     serve.add_argument("--episodes", type=_whole(1, 1000), default=8,
                        help="episodes per session (default 8)")
     serve.add_argument("--dataset", default=None,
@@ -296,7 +296,10 @@ def _fit(args: argparse.Namespace, dataset: Any) -> int:
     kind = "SYNTHETIC (scripted humans)" if dataset.synthetic else "people"
     print(f"{dataset.dataset_id} ({kind}): fitted to {len(models[0].train)} training "
           f"participants; {len(scores['held_out'])} held out ({scores['steps']} steps)")
-    for name in ("uniform", "bc", "irl"):
+    if not scores["steps"]:
+        print("  no held-out participant to score the models on: a quarter of the "
+              "participants is held out once there are two or more")
+    for name in ("uniform", "bc", "irl") if scores["steps"] else ():
         s = scores[name]
         print(f"  {name:8s} held-out log-likelihood per step {s['log_likelihood']:8.4f}, "
               f"accuracy {s['accuracy']:.3f}")

@@ -24,3 +24,15 @@ def path(request, monkeypatch):
     elif not HAS_JIT:
         pytest.skip("numba is not importable (or HRI_ENVS_NO_JIT is set)")
     return request.param
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark the tests of the JAX modules (``tests/test_jax*.py``) ``jax``.
+
+    JAX starts threads when imported, and a process that forks after that may deadlock (JAX
+    warns so). Several tests fork (study pools, kills), so ``make test`` runs the ``jax`` tests
+    in a pytest run of their own (``-m jax``) after the others (``-m "not jax"``).
+    """
+    for item in items:
+        if item.path.name.startswith("test_jax"):
+            item.add_marker(pytest.mark.jax)

@@ -108,3 +108,34 @@ class TakesKeywords(AlwaysWait):
 
     def __init__(self, **kwargs):
         self.kwargs = kwargs
+
+
+class SecondMadeCrashes(Agent):
+    """The Learner, except that the second instance made (the second session a server
+    starts) raises in its second episode. Reset ``made`` before use."""
+
+    name = "second-made-crashes"
+    made = 0
+
+    def __init__(self, graph):
+        from agents import Learner
+
+        type(self).made += 1
+        self.crashes = type(self).made == 2
+        self.inner = Learner(graph).single()
+        self.episode = -1
+
+    def begin_episode(self, start):
+        self.episode += 1
+        self.inner.begin_episode(start)
+
+    def act(self, observation):
+        if self.crashes and self.episode == 1:
+            raise RuntimeError("deliberate crash of one session")
+        return self.inner.act(observation)
+
+    def observe(self, state, robot_action, human_action, next_state):
+        self.inner.observe(state, robot_action, human_action, next_state)
+
+    def end_episode(self, trace, intention):
+        self.inner.end_episode(trace, intention)

@@ -85,3 +85,13 @@ def test_dataset_commands(recorded, tmp_path, capsys):
         assert exit_.value.code == 2, argv
     assert not (recorded[0].parent / "up").exists()
     assert os.listdir(root) == ["synthetic-hanger-v0"]
+
+
+def test_fit_says_when_no_participant_is_held_out(tmp_path, capsys):
+    """One participant: the model is fitted to it and nothing is scored (no NaN table)."""
+    cfg = StudyConfig("hanger", agents=("learner",), runs=1, episodes=2, seed=3)
+    record_study(cfg, "alone", root=tmp_path)
+    assert main(["dataset", "fit", "alone", "--data", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "no held-out participant" in out and "nan" not in out
+    assert "0 held out" in out and "recorded:alone-v0" in out

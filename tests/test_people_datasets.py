@@ -184,3 +184,11 @@ def test_held_out_split_is_fixed_and_models_fit(recorded):
     assert scores["steps"] > 0
     for kind in ("bc", "irl"):
         assert scores[kind]["log_likelihood"] > scores["uniform"]["log_likelihood"]
+
+
+def test_the_schema_is_documented():
+    from pathlib import Path
+
+    doc = (Path(__file__).parent.parent / "docs" / "people.md").read_text()
+    for name, kind, _ in COLUMNS:
+        assert f"| `{name}` | {kind} |" in doc, name

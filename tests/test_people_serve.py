@@ -211,6 +211,44 @@ def test_a_reload_resumes_and_a_second_tab_takes_over(tmp_path):
     assert done["type"] == "done"
 
 
+def test_a_crashed_session_loses_no_step_of_the_others(tmp_path):
+    """Two participants; the second one's robot raises in its second episode. That session
+    ends (``failed``, its first episode kept); the first participant's episode already
+    written stays as it was, and the session plays on to the end."""
+    from tests.helpers_agents import SecondMadeCrashes
+
+    SecondMadeCrashes.made = 0
+    cfg, client = _client(tmp_path, agent="tests.helpers_agents:SecondMadeCrashes")
+    with client:
+        a, b = _join(client), _join(client)
+        with client.websocket_connect("/ws") as wa, client.websocket_connect("/ws") as wb:
+            ma, mb = _hello(wa, a), _hello(wb, b)
+            while ma["type"] == "frame":  # a's first episode
+                _answer(wa, ma)
+                ma = _next_view(wa)
+            assert ma["type"] == "outcome"
+            dataset = open_dataset(cfg.dataset_id, tmp_path)
+            pa_, pb_ = (client.app.state.sessions.get(t).participant for t in (a, b))
+            deadline = time.monotonic() + 10  # a's first episode is written meanwhile
+            while not dataset.episode_paths([pa_]) and time.monotonic() < deadline:
+                time.sleep(0.01)
+            (first,) = dataset.episode_paths([pa_])
+            written = first.read_bytes()
+            ended = _play(wb, mb)  # b's robot crashes as b's second episode starts
+            assert ended["type"] == "ended" and ended["reason"] == "failed"
+            done = _play(wa, ma)
+    assert done["type"] == "done" and SecondMadeCrashes.made == 2
+    assert first.read_bytes() == written
+    assert len(dataset.episode_paths([pa_])) == 2 and len(dataset.episode_paths([pb_])) == 1
+    assert {s["participant"]: s["status"] for s in dataset.sessions()} == {
+        pa_: "complete", pb_: "failed"}
+    assert not [p for p in tmp_path.rglob("*") if ".tmp" in p.name]
+    rows = dataset.steps()
+    assert rows.num_rows == sum(o["steps"] for o in done["outcomes"]) + len(
+        dataset.steps(participants=[pb_]))
+    assert all(r.agrees for r in replay(dataset))
+
+
 @pytest.mark.parametrize("body", [{}, {"consent": False}, {"consent": "yes"}, {"consent": 1},
                                   {"consent": True, "name": "Ada"}, [True], "consent"])
 def test_joining_needs_consent_and_takes_nothing_else(tmp_path, body):
@@ -291,9 +329,22 @@ def test_serve_config_errors_name_the_field(kw, field):
     assert err.value.field == field
 
 
+def test_no_agent_that_plans_for_the_humans_model_faces_a_person():
+    """Every built-in that reads the human's policy (the oracle, the references, the bracket's
+    QMDP) is refused, including ones added to the benchmark later."""
+    from hri_bench.agents import BRACKET_AGENTS, REFERENCE_AGENTS
+    from hri_bench.serve.design import UNSUITED_AGENTS
+
+    for name in ("oracle", *REFERENCE_AGENTS, *BRACKET_AGENTS):
+        assert name in UNSUITED_AGENTS
+        with pytest.raises(ConfigError, match="cannot face a person"):
+            ServeConfig(agent=name)
+
+
 @pytest.mark.parametrize("argv, flag", [
     (["serve", "--agent", "oracle"], "--agent"),
     (["serve", "--agent", "informed"], "--agent"),
+    (["serve", "--agent", "qmdp"], "--agent"),
     (["serve", "wheel", "--preferences", "down-over-rotate/over-rotate-up"], "--preferences"),
     (["serve", "--dataset", "a/b"], "--dataset"),
     (["serve", "--consent", "/nonexistent/consent.txt"], "--consent"),

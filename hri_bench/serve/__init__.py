@@ -51,7 +51,8 @@ def serve(config: ServeConfig, *, announce: Callable[[str], None] | None = None)
 
     Args:
         config: The settings.
-        announce: Told the address once the server listens (default: printed).
+        announce: Told what it is doing (loading the kernels) and the address once the
+            server listens (default: printed).
 
     Raises:
         MissingExtraError: The ``web`` extra is not installed.
@@ -65,8 +66,13 @@ def serve(config: ServeConfig, *, announce: Callable[[str], None] | None = None)
     from hri_bench.serve.app import create_app
     from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
+    say = announce or (lambda text: print(text, flush=True))
     if config.agent in ("learner", "maxent"):
-        algorithm1.preload()  # the first participant does not wait for the kernels
+        # the first participant does not wait for the kernels; compiling them the first
+        # time (numba caches them on disk) takes a minute or more
+        say("hri-bench serve: loading the robot's compiled kernels (the first time after "
+            "installing, they are compiled: a minute or more)")
+        algorithm1.preload()
     app = create_app(config)
     if scenario_spec(config.scenario).layout is None:  # one picture per state for all
         for state in range(scenario_graph(config.scenario).n_states):
@@ -75,7 +81,7 @@ def serve(config: ServeConfig, *, announce: Callable[[str], None] | None = None)
     host, port = sock.getsockname()[:2]
     shown = f"[{host}]" if ":" in host else host
     url = f"http://{shown}:{port}/"
-    (announce or (lambda text: print(text, flush=True)))(
+    say(
         f"hri-bench serve: {config.scenario}, robot {config.agent}, {config.episodes} episodes "
         f"per session; recording to {app.state.sessions.dataset.path}\n"
         f"serving on {url}" + ("" if config.local_only else

@@ -31,8 +31,10 @@ from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 __all__ = ["DEFAULT_CONSENT", "DEFAULT_INSTRUCTIONS", "UNSUITED_AGENTS", "Assignment",
            "ServeConfig", "assignment", "describe_preference", "pair_circuit"]
 
-#: Agents that cannot face a person: they copy or plan for a scripted human's policy.
-UNSUITED_AGENTS = ("oracle", "informed", "blind")
+#: Agents that cannot face a person: they copy or plan for a scripted human's policy (the
+#: oracle, the exact references ``informed`` and ``blind``, and ``qmdp``, which reads each
+#: run's human model).
+UNSUITED_AGENTS = ("oracle", "informed", "blind", "qmdp")
 #: The most sessions at once (each has a thread and a robot).
 MAX_SESSIONS = 1000
 
