@@ -304,6 +304,10 @@ def _ci(entry: Mapping[str, Any], stat: str = "iqm") -> str:
     return f"{_fmt(entry[stat])} [{_fmt(lo)}, {_fmt(hi)}]"
 
 
+#: Agents that see the intention (privileged): marked in the leaderboard's lead.
+SEES = {"oracle": " (sees ι)", "informed": " (ref., sees ι)"}
+
+
 def lead_section(doc: Mapping[str, Any], labels: Mapping[str, str] | None = None) -> str:
     """The leaderboard's lead: cross-track IQM [95 % stratified bootstrap CI], the seed
     spread, and the probability of improvement of every pair of agents.
@@ -322,7 +326,7 @@ def lead_section(doc: Mapping[str, Any], labels: Mapping[str, str] | None = None
              "|---|---|---|---|---|---|"]
     for a in order:
         e = block[a]
-        lines.append(f"| `{labels.get(a, a)}` | {_ci(e)} | {_ci(e, 'mean')} | "
+        lines.append(f"| `{labels.get(a, a)}`{SEES.get(a, '')} | {_ci(e)} | {_ci(e, 'mean')} | "
                      f"{_fmt(e['seed_std'])} ({_fmt(e['seed_min'])}–{_fmt(e['seed_max'])}) | "
                      f"{len(e['tracks'])} | {e['runs']} |")
     partial = aggregate.get("partial") or {}
