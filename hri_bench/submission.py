@@ -199,6 +199,11 @@ def _suite_errors(doc: Mapping[str, Any]) -> list[str]:
         if (tr["runs"], tr["episodes"]) != (cfg.runs, cfg.n_episodes):
             errors.append(f"tracks.{name}: {tr['runs']} runs × {tr['episodes']} episodes; "
                           f"the track has {cfg.runs} × {cfg.n_episodes} at runs scale {scale}")
+        expected = json.loads(json.dumps(cfg.settings()))  # as JSON reads it back
+        for key, value in expected.items():
+            if key not in ("seed", "agents") and tr["settings"].get(key) != value:
+                errors.append(f"tracks.{name}.settings.{key} is {tr['settings'].get(key)!r}; "
+                              f"the track's is {value!r}")
         for seed in doc["runs"]:
             block = doc["runs"][seed].get(name)
             if block is None:

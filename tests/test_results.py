@@ -230,6 +230,12 @@ def test_edited_numbers_a_wrong_hash_and_missing_runs_are_rejected_by_name(suite
     assert any("runs.0.hanger-paper.agents.learner.reward" in p and "missing runs" in p
                for p in _problems(doc, missing_runs))
 
+    def other_settings(d):
+        d["tracks"]["hanger-paper"]["settings"]["turn_back"] = 0.5
+
+    assert _problems(doc, other_settings) == [
+        "tracks.hanger-paper.settings.turn_back is 0.5; the track's is 0.0"]
+
     def no_statistics(d):
         del d["statistics"]
 
