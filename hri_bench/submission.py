@@ -365,7 +365,7 @@ def task_section(doc: Mapping[str, Any]) -> str:
              "alone: the human's motions against a robot motion, waits with nothing moving, "
              "actions while the robot waited, per episode. Means [95 % CI] over runs.", ""]
     for track, by_agent in doc["statistics"][seed].items():
-        lines += [f"### {track}", "", "| agent | learned at | re-adapted after | asymptote | "
+        lines += [f"### The task's metrics on {track}", "", "| agent | learned at | re-adapted after | asymptote | "
                   "MAP steps | log-loss | Brier | counteract | idle | alone |",
                   "|---|---|---|---|---|---|---|---|---|---|"]
         for agent, s in by_agent.items():
@@ -396,7 +396,8 @@ def profile_figure(doc: Mapping[str, Any], path: Path, labels: Mapping[str, str]
     ax.set_xlabel("τ: run score (mean episode reward)")
     ax.set_ylabel("fraction of runs scoring > τ")
     ax.set_ylim(-0.02, 1.02)
-    ax.legend(fontsize=7, loc="lower left")
+    if prof["fraction_above"]:  # every agent may be partial (a failure on a track)
+        ax.legend(fontsize=7, loc="lower left")
     ax.set_title("Performance profiles across tracks")
     return plots.save_figure(fig, path)
 
