@@ -18,9 +18,10 @@ toggles carry no information). Nothing is kept from one episode to the next.
 
 **Action.** The human's action predicted by the belief, ``P(a) = Σ_ι b(ι) π(a | s, ι)``: the
 robot joins the likeliest motion when ``P >= eta`` (take-off and put-on included) and waits
-otherwise; it grasps at the start and lets go at the goal as the Passive baseline does. Where
-the shortest routes tie (move over or down first?), ``P`` splits and the robot waits: only a
-preference could tell.
+otherwise; it grasps at the start and lets go at the goal as the Passive baseline does. The
+default ``eta = 1 + r0`` is where joining pays in one step: a joined motion earns 0 if the
+human makes it and r⁻ = -1 if not, waiting earns r0. Where the shortest routes tie (move over
+or down first?), ``P`` splits and the robot waits: only a preference could tell.
 """
 
 from __future__ import annotations
@@ -87,7 +88,8 @@ class GoalFilter(_Tracking):
         beta: β of the human model (default 3: shortest motions strongly preferred).
         epsilon: Weight of a uniform choice in the human model (default 0.05).
         eta: The predicted probability at which the robot joins the human's motion
-            (default 0.8).
+            (default ``1 + r0``, see the module docstring).
+        r0: The waiting reward that sets the default ``eta`` (default the hanger's -0.33).
 
     Attributes:
         posterior: (n_runs, K) the posterior over ι in each run's episode (:meth:`belief`).
@@ -96,11 +98,13 @@ class GoalFilter(_Tracking):
     name: ClassVar[str] = "goalfilter"
 
     def __init__(self, graph: TaskGraph, n_runs: int = 1, *, beta: float = 3.0,
-                 epsilon: float = 0.05, eta: float = 0.8) -> None:
+                 epsilon: float = 0.05, eta: float | None = None, r0: float = -0.33) -> None:
         super().__init__(graph, n_runs)
         self.beta = check_real(beta, "beta", low=0.0, low_open=True, high=1e3)
         self.epsilon = check_real(epsilon, "epsilon", low=0.0, high=1.0, high_open=True)
-        self.eta = check_real(eta, "eta", low=0.0, high=1.0, low_open=True)
+        r0 = check_real(r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True)
+        self.eta = check_real(1.0 + r0 if eta is None else eta, "eta", low=0.0, high=1.0,
+                              low_open=True)
         self.model = shortest_path_policy(graph, self.beta, self.epsilon)  # (K, K, S, A)
         self.posterior = np.full((n_runs, graph.n_intentions), 1.0 / graph.n_intentions)
 

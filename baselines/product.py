@@ -93,7 +93,7 @@ class ProductPlan:
         return min(int(episode), len(self.policies) - 1)
 
 
-def node_index(graph: TaskGraph, n_z: int, start: Any, intention: Any, lifted: Any, s: Any,
+def node_index(graph: TaskGraph, n_z: Any, start: Any, intention: Any, lifted: Any, s: Any,
                z: Any) -> Any:
     """The product node of ``(start, ι, lifted, s, z)`` (ints or arrays that broadcast)."""
     k, n_s = graph.n_intentions, graph.n_states
@@ -429,7 +429,7 @@ class QMDP(_ProductRows):
     human during the episode but its actions.
 
     Attributes:
-        belief: (n_runs, K, Z_max) the posterior over (ι, z) of each row (rows of a model
+        posterior: (n_runs, K, Z_max) the posterior over (ι, z) of each row (rows of a model
             with fewer states use the first Z).
     """
 
@@ -438,8 +438,10 @@ class QMDP(_ProductRows):
     def begin_episode(self, starts: np.ndarray) -> None:
         """Prior: ι uniform among the other supports, the human's state as the episode starts."""
         super().begin_episode(starts)
+        self._stack = _Stack(self.graph, self.groups, self.n_runs, self.episode,
+                             getattr(self, "_stack", None))
         k = self.graph.n_intentions
-        n_z = max([p.human.n_z for p, _ in self.groups], default=1)
+        n_z = self._stack.z_max
         self.posterior = np.zeros((self.n_runs, k, n_z))
         rows = np.arange(self.n_runs)
         self.posterior[rows[:, None], np.arange(k)[None, :], self.z_start[:, None]] = 1.0 / (k - 1)
@@ -453,63 +455,133 @@ class QMDP(_ProductRows):
         return None if posterior is None else posterior.sum(-1)
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
-        """argmax_a Σ_(ι,z) b(ι, z) Q_informed((start, ι, lifted, s, z), a)."""
+        """argmax_a Σ_(ι,z) b(ι, z) Q_informed((start, ι, lifted, s, z), a), every row at once
+        (the rows' plans stacked, :class:`_Stack`).
+        """
         states = np.asarray(observations["state"], dtype=np.int64)
         out = self._passive(states)
+        st = self._stack
+        rows = st.rows
+        if rows.size == 0:
+            return out
         k = self.graph.n_intentions
-        for p, rows in self.groups:
-            n_z = p.human.n_z
-            q = p.q[p.index(self.episode)]
-            nodes = node_index(self.graph, n_z, self.start[rows, None, None],
-                               np.arange(k)[None, :, None], self.lifted[rows, None, None],
-                               states[rows, None, None], np.arange(n_z)[None, None, :])
-            vals = q[nodes]  # (R, K, Z, A)
-            b = self.posterior[rows, :, :n_z, None]
-            score = (b * np.where(np.isfinite(vals), vals, 0.0)).sum((1, 2))  # (R, A)
-            score = np.where(self.graph.valid[states[rows]], score, -np.inf)
-            out[rows] = np.argmax(score, axis=1)
+        z = np.arange(st.z_max)[None, None, :]
+        n_z = st.n_z[rows, None, None]
+        nodes = node_index(self.graph, n_z, self.start[rows, None, None],
+                           np.arange(k)[None, :, None], self.lifted[rows, None, None],
+                           states[rows, None, None], np.minimum(z, n_z - 1))
+        vals = st.q[st.q_off[rows, None, None] + nodes]  # (R, K, Z, A), 0 where not finite
+        score = np.einsum("rkz,rkza->ra", self.posterior[rows], vals)
+        score = np.where(self.graph.valid[states[rows]], score, -np.inf)
+        out[rows] = np.argmax(score, axis=1)
         return out
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
                 next_states: np.ndarray, active: np.ndarray) -> None:
-        """Bayes' rule on the human's action, then its state update and changes of mind."""
-        g = self.graph
-        k = g.n_intentions
-        s, a_r, a_h, s2 = (np.asarray(x, dtype=np.int64) for x in (states, robot_actions,
-                                                                    human_actions, next_states))
-        for p, group in self.groups:
-            rows = group[active[group]]
-            if rows.size == 0:
-                continue
-            m = p.human
-            n_z, n_r = m.n_z, len(rows)
-            io = np.arange(k)[None, :, None]
-            zz = np.arange(n_z)[None, None, :]
-            st, sr, ar, ah = (x[rows, None, None] for x in (self.start, s, a_r, a_h))
-            slot = ar if m.reacts else 0
-            b = self.posterior[rows, :, :n_z]
-            post = b * m.law[zz, st, io, sr, slot, ah]  # (R, K, Z)
-            z2 = m.next_z[zz, st, io, sr, ar, ah].astype(np.int64)  # (R, K, Z)
-            nb = np.zeros((n_r, k, n_z))
-            r_ix = np.broadcast_to(np.arange(n_r)[:, None, None], z2.shape)
-            np.add.at(nb, (r_ix, np.broadcast_to(io, z2.shape), z2), post)
-            if m.switch is not None:
-                assert m.switched is not None
-                moving = nb * m.switch[:, s2[rows]].T[:, None, :]  # (R, K, Z)
-                nb -= moving
-                spread = np.zeros_like(nb)
-                for shift in range(1, k):
-                    spread[:, (np.arange(k) + shift) % k] += moving / (k - 1)
-                for z_from, z_to in enumerate(m.switched.tolist()):
-                    nb[:, :, z_to] += spread[:, :, z_from]
-            total = nb.sum((1, 2))
-            lost = total <= 0.0  # off the model: start over from the prior
-            if lost.any():
-                r_lost = rows[lost]
-                nb[lost] = 0.0
-                nb[np.flatnonzero(lost)[:, None], np.arange(k)[None, :],
-                   self.z_start[r_lost, None]] = 1.0 / (k - 1)
-                nb[np.flatnonzero(lost), self.start[r_lost]] = 0.0
-                total = nb.sum((1, 2))
-            self.posterior[rows, :, :n_z] = nb / total[:, None, None]
+        """Bayes' rule on the human's action, then its state update and changes of mind (every
+        active row at once).
+        """
+        st = self._stack
+        rows = st.rows[active[st.rows]]
+        if rows.size:
+            self._update(rows, *(np.asarray(x, dtype=np.int64) for x in (
+                states, robot_actions, human_actions, next_states)))
         super().observe(states, robot_actions, human_actions, next_states, active)
+
+    def _update(self, rows: np.ndarray, s: np.ndarray, a_r: np.ndarray, a_h: np.ndarray,
+                s2: np.ndarray) -> None:
+        stack = self._stack
+        k = self.graph.n_intentions
+        n_r, z_max = len(rows), stack.z_max
+        io = np.arange(k)[None, :, None]
+        zz = np.minimum(np.arange(z_max)[None, None, :], stack.n_z[rows, None, None] - 1)
+        st, sr, ar, ah = (x[rows, None, None] for x in (self.start, s, a_r, a_h))
+        slot = np.where(stack.reacts[rows, None, None], ar, 0)
+        b = self.posterior[rows]  # (R, K, Z): 0 beyond each row's Z
+        post = b * stack.gather("law", rows, zz, st, io, sr, slot, ah)
+        z2 = stack.gather("next_z", rows, zz, st, io, sr, ar, ah).astype(np.int64)
+        nb = np.zeros((n_r, k, z_max))
+        r_ix = np.broadcast_to(np.arange(n_r)[:, None, None], z2.shape)
+        np.add.at(nb, (r_ix, np.broadcast_to(io, z2.shape), z2), post)
+        fickle = stack.has_switch[rows]
+        if fickle.any():
+            sw = np.where(fickle[:, None, None], stack.gather(
+                "switch", rows, zz[:, 0], s2[rows, None])[:, None, :], 0.0)  # (R, 1, Z)
+            moving = nb * sw
+            nb -= moving
+            spread = np.zeros_like(nb)
+            for shift in range(1, k):
+                spread[:, (np.arange(k) + shift) % k] += moving / (k - 1)
+            to = np.where(fickle[:, None], stack.gather("switched", rows, zz[:, 0]),
+                          np.arange(z_max)[None, :]).astype(np.int64)  # (R, Z)
+            np.add.at(nb, (r_ix, np.broadcast_to(io, nb.shape),
+                           np.broadcast_to(to[:, None, :], nb.shape)), spread)
+        total = nb.sum((1, 2))
+        lost = total <= 0.0  # off the model: start over from the prior
+        if lost.any():
+            r_lost = rows[lost]
+            nb[lost] = 0.0
+            nb[np.flatnonzero(lost)[:, None], np.arange(k)[None, :],
+               self.z_start[r_lost, None]] = 1.0 / (k - 1)
+            nb[np.flatnonzero(lost), self.start[r_lost]] = 0.0
+            total = nb.sum((1, 2))
+        self.posterior[rows] = nb / total[:, None, None]
+
+
+class _Stack:
+    """The human models and plans of a batch's rows, concatenated so that every row is looked
+    up at once: each table raveled into one flat array, with per-row offsets and strides.
+
+    A row's human has ``n_z[row]`` states; indices beyond it are clamped by the caller (their
+    belief is 0). Rows without a plan are left out of :attr:`rows`.
+    """
+
+    def __init__(self, graph: TaskGraph, groups: Sequence[tuple[ProductPlan, np.ndarray]],
+                 n_runs: int, episode: int, previous: _Stack | None = None) -> None:
+        models = [p.human for p, _ in groups]
+        self.models = models  # alive with the key: their ids are not reused meanwhile
+        self.key = tuple((id(m), rows.tobytes()) for m, (_, rows) in zip(models, groups,
+                                                                          strict=True))
+        self.z_max = max([m.n_z for m in models], default=1)
+        group = np.full(n_runs, -1, dtype=np.int64)
+        for g, (_, rows) in enumerate(groups):
+            group[rows] = g
+        self.rows = np.flatnonzero(group >= 0)
+        safe = np.maximum(group, 0)
+
+        def per_row(values: Sequence[Any], dtype: Any) -> np.ndarray:
+            return np.asarray(values, dtype=dtype)[safe] if values else np.zeros(n_runs, dtype)
+
+        self.n_z = per_row([m.n_z for m in models], np.int64)
+        self.reacts = per_row([m.reacts for m in models], bool)
+        self.has_switch = per_row([m.switch is not None for m in models], bool)
+        q = [np.where(np.isfinite(x), x, 0.0) for x in
+             (p.q[p.index(episode)] for p, _ in groups)]  # (N_g, A)
+        self.q = np.concatenate(q) if q else np.zeros((0, graph.n_actions))
+        self.q_off = per_row(np.cumsum([0] + [len(x) for x in q])[:-1].tolist(), np.int64)
+        self._flat: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        if previous is not None and previous.key == self.key:  # the same humans, same rows
+            self._flat = previous._flat
+            return
+        for name in ("law", "next_z", "switch", "switched"):
+            arrays = [np.ascontiguousarray(getattr(m, name) if getattr(m, name) is not None
+                                           else np.zeros((m.n_z, graph.n_states)) if
+                                           name == "switch" else np.arange(m.n_z))
+                      for m in models]
+            ndim = arrays[0].ndim if arrays else 1
+            flat = np.concatenate([a.ravel() for a in arrays]) if arrays else np.zeros(0)
+            off = per_row(np.cumsum([0] + [a.size for a in arrays])[:-1].tolist(), np.int64)
+            strides = (np.asarray([[st // a.itemsize for st in a.strides] for a in arrays],
+                                  dtype=np.int64)[safe] if arrays
+                       else np.zeros((n_runs, ndim), np.int64))
+            self._flat[name] = (flat, off, strides)
+
+    def gather(self, name: str, rows: np.ndarray, *index: np.ndarray) -> np.ndarray:
+        """``table[index]`` of each row's own model (``index`` broadcast against (R, ...))."""
+        flat, off, strides = self._flat[name]
+        shape = np.broadcast_shapes(*(np.shape(i) for i in index))
+        extra = (slice(None),) + (None,) * (len(shape) - 1)
+        at = np.broadcast_to(off[rows][extra], shape).copy()
+        for d, i in enumerate(index):
+            at += np.asarray(i, dtype=np.int64) * strides[rows, d][extra]
+        return flat[at]

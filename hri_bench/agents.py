@@ -216,7 +216,7 @@ def make_agent(
                               "study's humans name none", field="agents")
         return Oracle(graph, human, n)
     if name == "goalfilter":
-        return GoalFilter(graph, n)
+        return GoalFilter(graph, n, r0=r0)
     if name == "informed" and not isinstance(human, ScriptedHuman):
         return PerRunInformed(graph, human, n, r0=r0, max_steps=max_steps, reward=reward,
                               episodes=episodes)

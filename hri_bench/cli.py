@@ -32,6 +32,7 @@ from hri_bench.agents import BUILTIN_AGENTS
 from hri_bench.study import EXECUTORS
 from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
+from hri_envs.humans.families import FAMILIES
 from hri_envs.humans.populations import POPULATIONS
 from hri_envs.task.episode import REWARDS
 from hri_envs.task.scenarios import SCENARIOS
@@ -40,6 +41,13 @@ __all__ = ["build_parser", "main"]
 
 #: Every schedule name: "random" and the scenarios' fixed schedules.
 _SCHEDULES = ("random", *dict.fromkeys(k for s in SCENARIOS.values() for k in s.schedules))
+
+
+def _human_param(text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip() or not value.strip():
+        raise argparse.ArgumentTypeError(f"give NAME=VALUE (e.g. k=3), got {text!r}")
+    return name.strip(), value.strip()
 
 
 def _agents(text: str) -> tuple[str, ...]:
@@ -116,6 +124,7 @@ _STUDY_ARGUMENTS = {
     "human_drift": "--human-drift",
     "reward": "--reward",
     "physics_preset": "--physics-preset",
+    "human_params": "--human-param",
 }
 
 
@@ -185,8 +194,16 @@ def build_parser() -> argparse.ArgumentParser:
                        help="draw each run's human from a population: "
                             + ", ".join(f"{n}{' (held out)' if p.held_out else ''}"
                                         for n, p in POPULATIONS.items())
-                            + "; recorded:DATASET or recorded-irl:DATASET (a model fitted to "
-                              "recorded sessions); module:Class (your own)")
+                            + "; the splits train, validation, test (held out) and its "
+                            "parts test-misspecified, test-adaptive, test-inconsistent, "
+                            "test-scripted; a family ("
+                            + ", ".join(FAMILIES) + "); recorded:DATASET or "
+                            "recorded-irl:DATASET (a model fitted to recorded sessions); "
+                            "module:Class (your own)")
+    study.add_argument("--human-param", type=_human_param, action="append", default=None,
+                       dest="human_params", metavar="NAME=VALUE",
+                       help="a parameter of the family given as --population (repeatable), "
+                            "e.g. --population impatient --human-param k=3")
     study.add_argument("--human-drift", type=_positive, default=None, metavar="K",
                        help="the human switches to another preference after K episodes")
     for field_name, (flag, kind, text) in _LEARNER_FLAGS.items():
@@ -252,19 +269,24 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _suite_parser(sub: Any) -> None:
     """The ``suite`` command's flags (docs/benchmark.md, "Suite")."""
-    from hri_bench.suite import DEFAULT_AGENTS
+    from hri_bench.suite import DEFAULT_AGENTS, DEFAULT_AGENTS_V2, LATEST, SUITE_VERSIONS
 
     suite = sub.add_parser("suite", help="run the versioned benchmark suite and a leaderboard",
                            description="Run every track of the benchmark suite (one study "
                            "each) and write suite.json, leaderboard.md and one figure per "
                            "track.")
     suite.add_argument("--out", required=True, type=Path, help="output directory")
+    suite.add_argument("--suite-version", choices=SUITE_VERSIONS, default=LATEST,
+                       help=f"the track set (default {LATEST}: the test split as the headline, "
+                            "a reference or bracket on every track; 1: the first ten tracks, "
+                            "as they were)")
     suite.add_argument("--jobs", type=_positive, default=1,
                        help="parallel workers per track (default 1)")
-    suite.add_argument("--agents", type=_agents, default=DEFAULT_AGENTS,
+    suite.add_argument("--agents", type=_agents, default=None,
                        help="agents to rank, comma-separated, e.g. learner,mypkg.mod:MyAgent "
-                            f"(default {','.join(DEFAULT_AGENTS)}; blind and informed are "
-                            "added where they fit)")
+                            f"(default v2: {','.join(DEFAULT_AGENTS_V2)}; v1: "
+                            f"{','.join(DEFAULT_AGENTS)}; the references are added where "
+                            "they fit)")
     suite.add_argument("--executor", choices=EXECUTORS, default=None,
                        help="serial, process (default with --jobs > 1) or ray")
     suite.add_argument("--runs-scale", type=_bounded(float, "a number > 0",
@@ -285,20 +307,32 @@ def _suite_parser(sub: Any) -> None:
 
 def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from hri_bench import cli_results
-    from hri_bench.suite import population_track, run_suite, select_tracks, track_config
+    from hri_bench.suite import (
+        DEFAULT_AGENTS,
+        DEFAULT_AGENTS_V2,
+        population_track,
+        run_suite,
+        select_tracks,
+        track_config,
+    )
 
     seeds = cli_results.suite_plan(args, parser)  # --config replays, --seeds
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
+    version = args.suite_version
+    agents = args.agents or (DEFAULT_AGENTS if version == "1" else DEFAULT_AGENTS_V2)
     try:
-        first = track_config(select_tracks(args.tracks)[0], args.agents, executor=executor)
+        first = track_config(select_tracks(args.tracks, version)[0], agents, executor=executor,
+                             version=version)
         _require_for_study(first, progress=not args.no_progress)  # before simulating
         for name in args.population:
-            track_config(population_track(name), args.agents, executor=executor)
+            track_config(population_track(name, version), agents, executor=executor,
+                         version=version)
     except ConfigError as exc:
         _config_error(parser, exc, _SUITE_ARGUMENTS)
     t0 = time.perf_counter()
+
     def one(out: Path, seed: int) -> dict[str, Any]:
-        return run_suite(out, agents=args.agents, tracks=args.tracks,
+        return run_suite(out, agents=agents, tracks=args.tracks, version=version,
                          runs_scale=args.runs_scale, seed=seed, jobs=args.jobs,
                          executor=executor, progress=not args.no_progress,
                          populations=args.population)
@@ -325,7 +359,8 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 #: its own times ``--runs-scale``).
 _SUITE_ARGUMENTS = {"tracks": "--tracks", "agents": "--agents", "runs": "--runs-scale",
                     "population": "--population",
-                    "seed": "--seed", "jobs": "--jobs", "out": "--out"}
+                    "seed": "--seed", "jobs": "--jobs", "out": "--out",
+                    "suite_version": "--suite-version"}
 
 
 def _config_error(parser: argparse.ArgumentParser, exc: ConfigError,
@@ -369,7 +404,8 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
             backend=args.backend, max_steps=args.max_steps,
             human_rationality=args.human_rationality, population=args.population,
             human_drift=args.human_drift, learner=tuple(sorted(learner.items())),
-            reward=args.reward, physics_preset=args.physics_preset, **execution,
+            reward=args.reward, physics_preset=args.physics_preset,
+            human_params=tuple(args.human_params or ()), **execution,
         )
     given = [flag for field, flag in _STUDY_ARGUMENTS.items()
              if field not in EXECUTION_FIELDS and field != "scenario"

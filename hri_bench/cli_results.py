@@ -65,10 +65,10 @@ def _seeds(text: str, parser: argparse.ArgumentParser) -> list[int]:
 
 
 def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
-    """agents, tracks, populations, runs_scale, seeds and recorded identities of a file."""
+    """version, agents, tracks, populations, runs_scale, seeds and recorded identities."""
     from hri_bench.agents import REFERENCE_AGENTS
     from hri_bench.submission import FORMAT, load
-    from hri_bench.suite import TRACKS
+    from hri_bench.suite import SUITE_VERSIONS, TRACKS_BY_VERSION
 
     try:
         doc = load(path)
@@ -76,23 +76,36 @@ def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
         parser.error(f"argument --config: {exc}")
     if not isinstance(doc, dict):
         parser.error(f"argument --config: {path}: not a suite.json or results.json")
+    not_ranked = (*REFERENCE_AGENTS, "qmdp")
     try:
         if doc.get("format") == FORMAT:
-            agents = [a for a in doc["agents"] if a not in REFERENCE_AGENTS]
+            version = doc["suite"]["version"]
+            agents = [a for a in doc["agents"] if a not in not_ranked]
             tracks = list(doc["suite"]["tracks"])
-            return {"agents": agents, "tracks": tracks, "populations": [],
+            plan = {"agents": agents, "tracks": tracks, "populations": [],
                     "runs_scale": doc["runs_scale"], "seeds": list(doc["seeds"]),
-                    "identities": doc["agents"]}
-        tracks = [t for t in doc["tracks"] if t in TRACKS]
-        populations = [tr["settings"]["population"] for t, tr in doc["tracks"].items()
-                       if t not in TRACKS]
-        seeds = doc["seeds"] if "seeds" in doc else [doc["seed"]]
-        return {"agents": list(doc["agents"]), "tracks": tracks, "populations": populations,
-                "runs_scale": doc["runs_scale"], "seeds": list(seeds),
-                "identities": doc.get("provenance", {}).get("agents", {})}
-    except (KeyError, TypeError, AttributeError) as exc:
+                    "identities": doc["agents"], "version": version}
+        else:
+            version = doc["suite_version"]
+            known = TRACKS_BY_VERSION.get(version, {})
+            identities = doc.get("provenance", {}).get("agents")
+            beside = path.with_name("results.json")
+            if identities is None and beside.is_file():  # v1's suite.json has none
+                identities = load(beside).get("agents")
+            plan = {"agents": list(doc["agents"]),
+                    "tracks": [t for t in doc["tracks"] if t in known],
+                    "populations": [tr["settings"]["population"]
+                                    for t, tr in doc["tracks"].items() if t not in known],
+                    "runs_scale": doc["runs_scale"],
+                    "seeds": list(doc["seeds"] if "seeds" in doc else [doc["seed"]]),
+                    "identities": identities or {}, "version": version}
+    except (KeyError, TypeError, AttributeError, ConfigError) as exc:
         parser.error(f"argument --config: {path}: not a suite.json or results.json (missing "
                      f"{exc})")
+    if plan["version"] not in SUITE_VERSIONS:
+        parser.error(f"argument --config: {path}: suite version {plan['version']!r} is not "
+                     f"one of {', '.join(SUITE_VERSIONS)}")
+    return plan
 
 
 def suite_plan(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list[int]:
@@ -119,6 +132,7 @@ def suite_plan(args: argparse.Namespace, parser: argparse.ArgumentParser) -> lis
     for line in code_changes(plan["identities"], plan["agents"]):
         print(f"hri-bench suite: warning: {line}", file=sys.stderr)
     args.agents, args.tracks = tuple(plan["agents"]), ",".join(plan["tracks"])
+    args.suite_version = plan["version"]
     args.population, args.runs_scale = plan["populations"], plan["runs_scale"]
     args.seed = plan["seeds"][0]
     return [int(s) for s in plan["seeds"]]

@@ -34,6 +34,7 @@ cannot run with a study's humans before anything is simulated or planned.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -125,13 +126,26 @@ def refuse_references(cfg: Any) -> None:
                               "that draws it) are not supported", field="agents")
 
 
-def _paired(upper: np.ndarray, lower: np.ndarray, seed: int) -> dict[str, Any]:
-    """Mean over runs of ``upper - lower`` (run means), with its 95 % bootstrap CI."""
+def _paired(upper: np.ndarray, lower: np.ndarray, seed: int,
+            labels: Sequence[str] | None = None) -> dict[str, Any]:
+    """Mean over runs of ``upper - lower`` (run means), with its 95 % bootstrap CI.
+
+    With ``labels`` (each run's human) and at least two runs per human, the bootstrap is
+    stratified by human: a population's runs meet its members in balanced blocks
+    (:meth:`hri_envs.humans.splits.MixtureSpec.draw`), so its make-up is fixed, not sampled.
+    """
     from hri_bench import stats
 
     diff = upper.mean(1) - lower.mean(1)
-    lo, hi = stats.bootstrap_ci(diff, "mean", seed)
-    return {"mean": float(diff.mean()), "ci95": [lo, hi]}
+    strata: list[np.ndarray] | np.ndarray = diff
+    if labels is not None and len(set(labels)) > 1:
+        groups = [diff[[i for i, x in enumerate(labels) if x == key]]
+                  for key in dict.fromkeys(labels)]
+        if min(len(g) for g in groups) >= 2:
+            strata = groups
+    lo, hi = stats.bootstrap_ci(strata, "mean", seed)
+    return {"mean": float(diff.mean()), "ci95": [lo, hi],
+            "stratified": isinstance(strata, list)}
 
 
 def reference_summary(result: StudyResult) -> dict[str, Any]:
@@ -161,12 +175,14 @@ def reference_summary(result: StudyResult) -> dict[str, Any]:
         kind, lower = ("upper" if upper else "none"), None
         low_values = None
     gaps: dict[str, Any] = {}
+    labels = result.humans if getattr(cfg, "mixture_population", False) else None
     for name, m in metrics.items():
         r = m["reward"]
         gaps[name] = {
             "to_upper": None if upper is None else _paired(metrics[upper]["reward"], r,
-                                                           cfg.seed),
-            "to_lower": None if low_values is None else _paired(low_values, r, cfg.seed)}
+                                                           cfg.seed, labels),
+            "to_lower": None if low_values is None else _paired(low_values, r, cfg.seed,
+                                                                labels)}
     notes = {
         "exact": "blind exact (regret = blind's exact expected episode reward minus the "
                  "agent's); informed above it where it ran",

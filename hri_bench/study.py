@@ -345,7 +345,7 @@ class StudyConfig:
             return {"name": self.population, "version": None, "hash": None,
                     "held_out": None, "members": None}
         spec = population(self.population, self.scenario, dict(self.human_params))
-        members = getattr(spec, "members", None)
+        members = getattr(spec, "size", None)
         return {"name": self.population, "version": getattr(spec, "version", "1"),
                 "hash": population_hash(spec), "held_out": bool(spec.held_out),
                 "members": members}

@@ -169,21 +169,24 @@ def _schema_errors(doc: Any) -> list[str]:
 
 def _suite_errors(doc: Mapping[str, Any]) -> list[str]:
     """The suite's version and hashes, each track's runs and episodes, every array's shape."""
-    from hri_bench.suite import SUITE_VERSION, TRACKS, track_config
+    from hri_bench.suite import SUITE_VERSIONS, TRACKS_BY_VERSION, track_config
 
     errors = []
     suite = doc["suite"]
-    if suite["version"] != SUITE_VERSION:
-        errors.append(f"suite.version is {suite['version']!r}; this hri-bench runs suite "
-                      f"v{SUITE_VERSION}: validate with the hri-envs release of that version")
+    version = suite["version"]
+    if version not in SUITE_VERSIONS:
+        errors.append(f"suite.version is {version!r}; this hri-bench knows suite versions "
+                      f"{', '.join(SUITE_VERSIONS)}: validate with the hri-envs release that "
+                      "ran it")
         return errors
-    expected = provenance.suite_hash(SUITE_VERSION, list(TRACKS.values()))
+    TRACKS = TRACKS_BY_VERSION[version]  # noqa: N806
+    expected = provenance.suite_hash(version, list(TRACKS.values()))
     if suite["hash"] != expected:
-        errors.append(f"suite.hash is {suite['hash'][:16]}…, suite v{SUITE_VERSION}'s is "
+        errors.append(f"suite.hash is {suite['hash'][:16]}…, suite v{version}'s is "
                       f"{expected[:16]}…: the tracks differ from the published suite")
     for name, h in suite["tracks"].items():
         if name not in TRACKS:
-            errors.append(f"suite.tracks: {name!r} is not a track of suite v{SUITE_VERSION}")
+            errors.append(f"suite.tracks: {name!r} is not a track of suite v{version}")
         elif h != provenance.track_hash(TRACKS[name]):
             errors.append(f"suite.tracks.{name}: hash {h[:16]}… is not the track's "
                           f"({provenance.track_hash(TRACKS[name])[:16]}…)")
@@ -194,7 +197,7 @@ def _suite_errors(doc: Mapping[str, Any]) -> list[str]:
         if name not in doc["tracks"]:
             errors.append(f"tracks: {name!r} is missing")
             continue
-        cfg = track_config(TRACKS[name], ("passive",), runs_scale=scale)
+        cfg = track_config(TRACKS[name], ("passive",), runs_scale=scale, version=version)
         tr = doc["tracks"][name]
         if (tr["runs"], tr["episodes"]) != (cfg.runs, cfg.n_episodes):
             errors.append(f"tracks.{name}: {tr['runs']} runs × {tr['episodes']} episodes; "
@@ -365,8 +368,9 @@ def task_section(doc: Mapping[str, Any]) -> str:
              "alone: the human's motions against a robot motion, waits with nothing moving, "
              "actions while the robot waited, per episode. Means [95 % CI] over runs.", ""]
     for track, by_agent in doc["statistics"][seed].items():
-        lines += [f"### The task's metrics on {track}", "", "| agent | learned at | re-adapted after | asymptote | "
-                  "MAP steps | log-loss | Brier | counteract | idle | alone |",
+        lines += [f"### The task's metrics on {track}", "",
+                  "| agent | learned at | re-adapted after | asymptote | MAP steps | log-loss | "
+                  "Brier | counteract | idle | alone |",
                   "|---|---|---|---|---|---|---|---|---|---|"]
         for agent, s in by_agent.items():
             def cell(key: str, s: Mapping[str, Any] = s) -> str:
@@ -485,8 +489,8 @@ class SuiteRecorder:
     left out of the results file (they cannot be validated against the suite).
     """
 
-    def __init__(self, seed: int, runs_scale: float) -> None:
-        self.seed, self.runs_scale = seed, runs_scale
+    def __init__(self, seed: int, runs_scale: float, version: str) -> None:
+        self.seed, self.runs_scale, self.version = seed, runs_scale, version
         self.tracks: dict[str, Any] = {}
         self.runs: dict[str, Any] = {}
         self.hashes: dict[str, str] = {}
@@ -496,10 +500,10 @@ class SuiteRecorder:
         """Record one track's :class:`~hri_bench.results.StudyResult`."""
         from hri_bench.agents import agent_settings
         from hri_bench.study import regret_reference
-        from hri_bench.suite import TRACKS
+        from hri_bench.suite import TRACKS_BY_VERSION
         from hri_envs.task.scenarios import scenario_spec
 
-        if TRACKS.get(track.name) != track:
+        if TRACKS_BY_VERSION[self.version].get(track.name) != track:
             return
         cfg = result.config
         spec = scenario_spec(cfg.scenario)
@@ -519,12 +523,13 @@ class SuiteRecorder:
 
     def document(self) -> dict[str, Any] | None:
         """The results document (None when no track of the suite was run)."""
-        from hri_bench.suite import SUITE_VERSION, TRACKS
+        from hri_bench.suite import TRACKS_BY_VERSION
 
         if not self.runs:
             return None
-        return build(suite_version=SUITE_VERSION,
-                     suite_hash=provenance.suite_hash(SUITE_VERSION, list(TRACKS.values())),
+        tracks = list(TRACKS_BY_VERSION[self.version].values())
+        return build(suite_version=self.version,
+                     suite_hash=provenance.suite_hash(self.version, tracks),
                      track_hashes=self.hashes, seeds=[self.seed], runs_scale=self.runs_scale,
                      agents=self.agents, tracks=self.tracks,
                      runs={str(self.seed): self.runs})

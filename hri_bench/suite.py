@@ -1,6 +1,20 @@
 """The benchmark suite: a fixed, versioned set of tracks, one study each, and a leaderboard.
 
-``hri-bench suite --out DIR`` runs every track of :data:`TRACKS` with
+Two versions, selected with ``--suite-version`` (default :data:`LATEST`):
+
+* **v2** (:data:`TRACKS_V2`): the frozen ``test`` split as the headline (both scenarios) and
+  its parts (``test-misspecified``, ``test-adaptive``, ``test-inconsistent``), beside the
+  paper's settings as the anchor. Every track has a reference: ``blind`` exactly where it
+  fits (the paper tracks), else a labelled **bracket** on it (``qmdp`` below, ``informed``
+  above, :mod:`baselines.product`), and every agent's gap to both ends with 95 % CIs. The
+  ranked agents include ``goalfilter`` (a goal filter that learns no preference). Each
+  track's runs come from a power analysis (:data:`DELTA` per episode at :data:`POWER`,
+  :func:`hri_bench.stats.runs_for_difference`, with the standard deviation a pilot measured:
+  ``benchmarks/suite_power.py``), not a fixed 500.
+* **v1** (:data:`TRACKS`): the ten tracks of the first release, 500 runs each; its files
+  are what v1 always wrote, byte for byte.
+
+``hri-bench suite --out DIR`` runs every track of the version with
 :func:`hri_bench.study.run_study` and writes
 
 * ``DIR/suite.json``: per track its settings and, per agent, the mean and IQM of the
@@ -40,34 +54,53 @@ import numpy as np
 from hri_bench import provenance, stats
 from hri_bench.agents import BUILTIN_AGENTS, REFERENCE_AGENTS
 from hri_bench.atomic import atomic_writer
-from hri_bench.regret import REFERENCES
+from hri_bench.regret import ALL_REFERENCES, REFERENCES, reference_summary
 from hri_bench.study import StudyConfig, StudyResult, regret_reference, run_study
 from hri_bench.submission import SuiteRecorder, lead_section, task_section
 from hri_envs.errors import ConfigError
+from hri_envs.humans.splits import MIXTURES
 from hri_envs.task.scenarios import SCENARIOS, scenario_spec
 
 __all__ = [
     "CONVERGED",
     "DEFAULT_AGENTS",
+    "DEFAULT_AGENTS_V2",
+    "DELTA",
+    "LATEST",
+    "POWER",
     "SUITE_VERSION",
+    "SUITE_VERSIONS",
     "TRACKS",
+    "TRACKS_V2",
     "Track",
     "run_suite",
     "select_tracks",
     "track_config",
 ]
 
-#: Version of the track set; changes whenever a track's settings or run count change.
+#: Version of the first track set (v1; frozen).
 SUITE_VERSION = "1"
-#: The agents ranked by default (the references are added where they fit).
+#: The suite versions, and the default one.
+SUITE_VERSIONS: tuple[str, ...] = ("1", "2")
+LATEST = "2"
+#: The agents ranked by default in v1 (the references are added where they fit).
 DEFAULT_AGENTS: tuple[str, ...] = BUILTIN_AGENTS
+#: The agents ranked by default in v2: v1's and the goal filter.
+DEFAULT_AGENTS_V2: tuple[str, ...] = (*BUILTIN_AGENTS, "goalfilter")
+#: v2's smallest difference worth detecting, reward per episode, at this power and level.
+DELTA = 0.05
+POWER = 0.8
+ALPHA = 0.05
+#: v2's bounds on a track's runs (the 2-minute budget of the whole suite on 2 cores).
+MIN_RUNS, MAX_RUNS = 60, 400
 #: An agent has converged from the first episode after which its mean regret over runs
 #: stays at or below this (reward units per episode).
 CONVERGED = 0.05
 #: Where the tracebacks of agents that raised go (in the suite's folder).
 ERRORS_LOG = "errors.log"
 #: Agents that must infer the intention (blind is their ceiling).
-INTENTION_BLIND: tuple[str, ...] = ("learner", "imitator", "maxent", "passive")
+INTENTION_BLIND: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "goalfilter",
+                                    "qmdp")
 
 
 @dataclass(frozen=True)
@@ -80,6 +113,11 @@ class Track:
         description: One line for the leaderboard.
         runs: Runs per agent at ``--runs-scale 1``.
         settings: Keyword arguments of :class:`~hri_bench.study.StudyConfig`.
+        pilot_sd: v2: the largest standard deviation over runs of a paired difference of
+            two agents' run means that the pilot measured; ``runs`` detects :data:`DELTA`
+            with it at :data:`POWER` (None in v1).
+        headline: v2: a track of the whole test split.
+        stable: v2: its humans keep one preference throughout.
     """
 
     name: str
@@ -87,6 +125,9 @@ class Track:
     description: str
     runs: int
     settings: tuple[tuple[str, Any], ...] = ()
+    pilot_sd: float | None = None
+    headline: bool = False
+    stable: bool = False
 
     @property
     def per_run_humans(self) -> bool:
@@ -118,25 +159,104 @@ def _tracks() -> tuple[Track, ...]:
 #: The suite's tracks, by name (version :data:`SUITE_VERSION`).
 TRACKS: dict[str, Track] = {t.name: t for t in _tracks()}
 
+#: v2's pilot: per track, the standard deviation over runs of the paired difference of two
+#: agents' run means, within each member's runs (balanced blocks of members leave only that
+#: spread; the CIs are stratified alike), the largest over the comparisons the suite is for
+#: (learner vs goalfilter, both vs informed); measured by ``benchmarks/suite_power.py``
+#: (seed 1000, never the suite's; 256 runs per track).
+PILOT_SD: dict[str, float] = {
+    "hanger-test": 0.2625, "wheel-test": 0.2216,
+    "hanger-test-misspecified": 0.2235, "wheel-test-misspecified": 0.0788,
+    "hanger-test-adaptive": 0.3797, "wheel-test-adaptive": 0.3572,
+    "hanger-test-inconsistent": 0.1951, "wheel-test-inconsistent": 0.1407,
+    "hanger-paper": 0.0614, "wheel-paper": 0.0429,
+}
 
-def select_tracks(names: str | Sequence[str] | None) -> list[Track]:
+
+def _power_runs(sd: float, members: int | None = None) -> int:
+    """A v2 track's runs: enough to detect :data:`DELTA` at :data:`POWER` with the pilot's
+    ``sd``, at least :data:`MIN_RUNS`; for a population of ``members``, whole blocks of
+    members (at least two, for the stratified CIs); at most :data:`MAX_RUNS` (whole blocks).
+    """
+    need = stats.runs_for_difference(sd, DELTA, power=POWER, alpha=ALPHA) if sd > 0 else 0
+    n = max(MIN_RUNS, need)
+    if not members:
+        return int(min(n, MAX_RUNS))
+    blocks = max(2, -(-n // members))
+    while blocks > 2 and blocks * members > MAX_RUNS:
+        blocks -= 1
+    return int(blocks * members)
+
+
+def _tracks_v2() -> tuple[Track, ...]:
+    out = []
+    parts = {
+        "misspecified": ("the test split's misspecified humans: low, avoid, rotate-low, "
+                         "impatient (preferences φ does not encode)", True),
+        "adaptive": ("the test split's adaptive humans: follower, trust, wary (they learn "
+                     "from the robot across episodes)", False),
+        "inconsistent": ("the test split's inconsistent humans: fickle (changes its mind "
+                         "mid-episode), moody (changes preference at random episodes)",
+                         False),
+    }
+    for sc in SCENARIOS:
+        if sc not in ("hanger", "wheel"):
+            continue
+        name = f"{sc}-test"
+        out.append(Track(name, sc, "HEADLINE: the frozen test split (the evaluation set): "
+                         "scripted, misspecified, adaptive and inconsistent humans",
+                         _power_runs(PILOT_SD[name], MIXTURES[("test", sc)].size),
+                         (("population", "test"),), PILOT_SD[name], headline=True))
+    for part, (text, stable) in parts.items():
+        for sc in ("hanger", "wheel"):
+            name = f"{sc}-test-{part}"
+            size = MIXTURES[(f"test-{part}", sc)].size
+            out.append(Track(name, sc, text, _power_runs(PILOT_SD[name], size),
+                             (("population", f"test-{part}"),), PILOT_SD[name],
+                             stable=stable))
+    for sc in ("hanger", "wheel"):
+        name = f"{sc}-paper"
+        out.append(Track(name, sc, "anchor: the paper's settings (deterministic human, "
+                         "default preference); blind exact", _power_runs(PILOT_SD[name]),
+                         (), PILOT_SD[name], stable=True))
+    return tuple(out)
+
+
+#: Suite v2's tracks, by name.
+TRACKS_V2: dict[str, Track] = {t.name: t for t in _tracks_v2()}
+#: The tracks of each version.
+TRACKS_BY_VERSION: dict[str, dict[str, Track]] = {"1": TRACKS, "2": TRACKS_V2}
+
+
+def check_version(version: Any) -> str:
+    """``version`` if it is a suite version, else a :class:`ConfigError` (``suite_version``)."""
+    if not isinstance(version, str) or version not in SUITE_VERSIONS:
+        raise ConfigError(f"unknown suite version {version!r}; allowed: "
+                          f"{', '.join(SUITE_VERSIONS)}", field="suite_version")
+    return version
+
+
+def select_tracks(names: str | Sequence[str] | None, version: str = LATEST
+                  ) -> list[Track]:
     """The tracks named (comma-separated or a list; None: all), in the suite's order.
 
     Raises:
-        ConfigError: An unknown track name (the message lists the tracks).
+        ConfigError: An unknown track name (the message lists the version's tracks), or an
+            unknown version.
     """
+    tracks = TRACKS_BY_VERSION[check_version(version)]
     if names is None:
-        return list(TRACKS.values())
+        return list(tracks.values())
     wanted = [n.strip() for n in names.split(",")] if isinstance(names, str) else list(names)
     wanted = [n for n in wanted if n]
-    unknown = [n for n in wanted if n not in TRACKS]
+    unknown = [n for n in wanted if n not in tracks]
     if unknown or not wanted:
-        raise ConfigError(f"unknown track(s) {', '.join(unknown) or '(none given)'}; "
-                          f"allowed: {', '.join(TRACKS)}", field="tracks")
-    return [t for t in TRACKS.values() if t.name in wanted]
+        raise ConfigError(f"unknown track(s) {', '.join(unknown) or '(none given)'} of suite "
+                          f"v{version}; allowed: {', '.join(tracks)}", field="tracks")
+    return [t for t in tracks.values() if t.name in wanted]
 
 
-def population_track(population: str) -> Track:
+def population_track(population: str, version: str = LATEST) -> Track:
     """A track of one's own on a population (``recorded:DATASET``, a registered name of one
     scenario, ``module:Class`` is refused: its scenario is unknown); outside the versioned set.
 
@@ -156,7 +276,7 @@ def population_track(population: str) -> Track:
                           field="population")
     name = f"{scenario}-{population.replace(':', '-')}"
     return Track(name, scenario, f"humans fitted to recorded sessions ({population}); a track "
-                 f"of its own, not part of suite v{SUITE_VERSION}", 500,
+                 f"of its own, not part of suite v{version}", 500,
                  (("population", population),))
 
 
@@ -164,13 +284,27 @@ def _runs(track: Track, scale: float) -> int:
     return max(2, int(round(track.runs * scale)))
 
 
-def track_config(track: Track, agents: Sequence[str], *, runs_scale: float = 1.0,
-                 seed: int = 0, jobs: int = 1, executor: str = "serial") -> StudyConfig:
-    """The study of a track: ``agents`` (references dropped) plus blind and informed where
-    they fit, ``track.runs × runs_scale`` runs (at least 2).
+def track_references(track: Track, version: str = LATEST) -> tuple[str, ...]:
+    """The reference agents a track adds: v1, blind and informed where the human is shared;
+    v2, informed everywhere, with blind where it is exact and qmdp (the bracket) elsewhere;
+    none on a track of its own whose humans have no model (``recorded:``, ``module:Class``).
     """
-    ranked = tuple(a for a in agents if a not in REFERENCE_AGENTS)
-    refs = () if track.per_run_humans else REFERENCE_AGENTS
+    if version == "1":
+        return () if track.per_run_humans else REFERENCE_AGENTS
+    if ":" in str(dict(track.settings).get("population")):
+        return ()  # recorded or module:Class humans: no model to plan with
+    exact = not track.per_run_humans and not dict(track.settings).get("human_rationality")
+    return ("informed", "blind") if exact else ("informed", "qmdp")
+
+
+def track_config(track: Track, agents: Sequence[str], *, runs_scale: float = 1.0,
+                 seed: int = 0, jobs: int = 1, executor: str = "serial",
+                 version: str = LATEST) -> StudyConfig:
+    """The study of a track: ``agents`` (references dropped) plus the references that fit
+    (:func:`track_references`), ``track.runs × runs_scale`` runs (at least 2).
+    """
+    refs = track_references(track, version)
+    ranked = tuple(a for a in agents if a not in (*REFERENCE_AGENTS, "qmdp"))
     return StudyConfig(track.scenario, agents=ranked + tuple(refs),
                        runs=_runs(track, runs_scale), seed=seed, jobs=jobs,
                        executor=executor, **dict(track.settings))
@@ -230,6 +364,31 @@ def track_summary(track: Track, result: StudyResult) -> dict[str, Any]:
             "failed_agents": sorted(result.failures)}
 
 
+def track_summary_v2(track: Track, result: StudyResult) -> dict[str, Any]:
+    """A v2 ``suite.json`` entry: v1's, plus the reference, the gaps, the population and
+    the power analysis.
+    """
+    entry = track_summary(track, result)
+    ref = reference_summary(result)
+    cfg = result.config
+    for name, gaps in ref.pop("gaps").items():
+        entry["agents"][name]["gap_to_upper"] = gaps["to_upper"]
+        entry["agents"][name]["gap_to_lower"] = gaps["to_lower"]
+    entry["reference"] = ref
+    entry["population"] = cfg.population_info()
+    entry["headline"] = track.headline
+    entry["stable_preference"] = track.stable
+    sd = track.pilot_sd
+    entry["power"] = {
+        "delta": DELTA, "power": POWER, "alpha": ALPHA, "pilot_sd": sd,
+        "runs_needed": None if not sd else stats.runs_for_difference(sd, DELTA, power=POWER,
+                                                                     alpha=ALPHA),
+        "runs": cfg.runs,
+        "detectable": None if not sd else round(stats.detectable_difference(
+            sd, cfg.runs, power=POWER, alpha=ALPHA), 4)}
+    return entry
+
+
 def _fmt(x: float | None) -> str:
     return "–" if x is None else f"{x:.3f}"
 
@@ -267,10 +426,8 @@ def _overview(doc: dict[str, Any]) -> list[str]:
     return [*lines, ""]
 
 
-def leaderboard(doc: dict[str, Any], lead: str = "") -> str:
-    """The ``leaderboard.md`` text of a ``suite.json`` document; ``lead`` (the aggregate
-    across tracks, :func:`hri_bench.submission.lead_section`) comes first, after the title.
-    """
+def leaderboard(doc: dict[str, Any]) -> str:
+    """The ``leaderboard.md`` text of a v1 ``suite.json`` document."""
     lines = [f"# hri-envs benchmark suite v{doc['suite_version']}", "",
              f"Seed {doc['seed']}, runs scale {doc['runs_scale']}. Regret = blind's exact "
              "expected episode reward minus the agent's, per episode; mean and IQM over runs "
@@ -282,8 +439,6 @@ def leaderboard(doc: dict[str, Any], lead: str = "") -> str:
              "(sees the intention, not optimal: no bound). Regret is n/a where the human is "
              "Boltzmann (the held-out population): the exact blind plan does not fit it.",
              ""]
-    if lead:
-        lines += [lead]
     lines += _overview(doc)
     for name, tr in doc["tracks"].items():
         lines += [f"## {name}", "", f"{tr['description']} ({tr['runs']} runs × "
@@ -309,6 +464,88 @@ def leaderboard(doc: dict[str, Any], lead: str = "") -> str:
             lines.append(f"| {label} | {_with_ci(a['regret'])} | {_with_ci(a['regret'], 'iqm')}"
                          f" | {_with_ci(a['reward'])} | {a['wrong_rate']:.3f} | "
                          f"{a['passive_rate']:.3f} | {a['truncation_rate']:.1%} | {conv_text} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _gap(entry: dict[str, Any] | None) -> str:
+    if entry is None:
+        return "n/a"
+    lo, hi = entry["ci95"]
+    return f"{_fmt(entry['mean'])} [{_fmt(lo)}, {_fmt(hi)}]"
+
+
+def _reference_cell(tr: dict[str, Any]) -> str:
+    ref = tr["reference"]
+    if ref["kind"] == "exact":
+        return f"exact: blind {_fmt(ref['lower_reward'])}, informed {_fmt(ref['upper_reward'])}"
+    if ref["kind"] == "bracket":
+        return (f"bracket: blind in [{_fmt(ref['lower_reward'])} (qmdp), "
+                f"{_fmt(ref['upper_reward'])} (informed)]")
+    return ref["kind"]
+
+
+def leaderboard_v2(doc: dict[str, Any]) -> str:
+    """The ``leaderboard.md`` text of a v2 ``suite.json`` document."""
+    ranked = [a for a in doc["agents"] if any(a in tr["agents"] for tr in doc["tracks"].values())]
+    lines = [f"# hri-envs benchmark suite v{doc['suite_version']}", "",
+             f"Seed {doc['seed']}, runs scale {doc['runs_scale']}. Headline: the frozen "
+             "**test** split (the evaluation set; population hashes below). Every track has a "
+             "reference: `blind` **exact** where it fits (the paper tracks), else a labelled "
+             "**bracket** on it: `qmdp` below (a feasible intention-blind policy that knows "
+             "the human's model; simulated) and `informed` above (the exact optimum that sees "
+             "the intention; no robot expects more). Cells: an agent's **gap to the upper "
+             "bound** (`informed`): the mean over runs of informed's run-mean reward per "
+             "episode minus the agent's (paired runs: same humans, same schedules), with its "
+             "95 % bootstrap CI; lower is better. Runs per track: enough to detect "
+             f"{doc['power']['delta']} per episode at {doc['power']['power']:.0%} power "
+             f"(α = {doc['power']['alpha']}), from a pilot's spread, within "
+             f"[{doc['power']['min_runs']}, {doc['power']['max_runs']}].", "",
+             "## Overview: gap to the upper bound (informed) per episode [95 % CI]", "",
+             "| track | reference | " + " | ".join(f"`{a}`" for a in ranked) + " |",
+             "|---|---|" + "---|" * len(ranked)]
+    for name, tr in doc["tracks"].items():
+        cells = []
+        for a in ranked:
+            entry = tr["agents"].get(a)
+            if a in tr["failed_agents"]:
+                cells.append("raised")
+            elif entry is None:
+                cells.append("—")
+            else:
+                cells.append(_gap(entry["gap_to_upper"]))
+        label = f"**{name}**" if tr["headline"] else name
+        lines.append(f"| {label} | {_reference_cell(tr)} | " + " | ".join(cells) + " |")
+    lines.append("")
+    for name, tr in doc["tracks"].items():
+        pop = tr["population"]
+        pop_text = ("" if pop is None else f" Population `{pop['name']}`." if pop["hash"] is None
+                    else f" Population `{pop['name']}` v{pop['version']} ({pop['members']} "
+                    f"members), hash `{pop['hash'][:16]}`.")
+        power = tr["power"]
+        power_text = ("" if power["pilot_sd"] is None else
+                      f" Pilot spread {power['pilot_sd']:.3f}: {power['runs_needed']} runs "
+                      f"needed for {power['delta']}; {power['runs']} run, which detect "
+                      f"{power['detectable']}.")
+        ref = tr["reference"]
+        lines += [f"## {name}", "", f"{tr['description']} ({tr['runs']} runs × "
+                  f"{tr['episodes']} episodes).{pop_text}{power_text}", "",
+                  f"Reference: {_reference_cell(tr)}. {ref['note'].capitalize()}.", ""]
+        if tr["failed_agents"]:
+            lines += ["Raised, no results (tracebacks in errors.log): "
+                      + ", ".join(f"`{a}`" for a in tr["failed_agents"]) + ".", ""]
+        lower = "regret vs blind (exact)" if ref["kind"] == "exact" else "gap to qmdp (lower)"
+        lines += [f"| agent | reward mean [95 % CI] | gap to informed (upper) | {lower} | "
+                  "wrong | passive | truncated |", "|---|---|---|---|---|---|---|"]
+
+        def key(item: tuple[str, Any]) -> tuple[float, str]:
+            return (-item[1]["reward"]["mean"], item[0])
+
+        for agent, a in sorted(tr["agents"].items(), key=key):
+            label = f"`{agent}`" + (" (ref.)" if agent in ALL_REFERENCES else "")
+            lines.append(f"| {label} | {_with_ci(a['reward'])} | {_gap(a['gap_to_upper'])} | "
+                         f"{_gap(a['gap_to_lower'])} | {a['wrong_rate']:.3f} | "
+                         f"{a['passive_rate']:.3f} | {a['truncation_rate']:.1%} |")
         lines.append("")
     return "\n".join(lines)
 
@@ -347,7 +584,7 @@ def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
 def run_suite(
     out: str | os.PathLike[str],
     *,
-    agents: Sequence[str] = DEFAULT_AGENTS,
+    agents: Sequence[str] | None = None,
     tracks: str | Sequence[str] | None = None,
     runs_scale: float = 1.0,
     seed: int = 0,
@@ -355,6 +592,7 @@ def run_suite(
     executor: str = "serial",
     progress: bool = False,
     populations: Sequence[str] = (),
+    version: str = LATEST,
 ) -> dict[str, Any]:
     """Run the suite's tracks and write its files into ``out``; return suite.json's document.
 
@@ -364,8 +602,10 @@ def run_suite(
 
     Args:
         out: Output directory (created).
-        agents: Agents to rank (see :mod:`hri_bench.agents`, e.g. "mypkg.mod:MyAgent").
-        tracks: Track names (comma-separated or a list); None: all of :data:`TRACKS`.
+        agents: Agents to rank (see :mod:`hri_bench.agents`, e.g. "mypkg.mod:MyAgent");
+            None: the version's defaults (:data:`DEFAULT_AGENTS_V2`, v1 :data:`DEFAULT_AGENTS`).
+        tracks: Track names (comma-separated or a list); None: all of the version's tracks
+            (:data:`TRACKS_V2`, v1 :data:`TRACKS`).
         runs_scale: Multiplies every track's run count (at least 2 runs), > 0.
         seed: Base seed of every study and bootstrap.
         jobs: Worker processes per study (passed to :func:`run_study`).
@@ -373,6 +613,8 @@ def run_suite(
         progress: Show a tqdm progress bar over tracks.
         populations: Populations to add a track of their own for, after the chosen tracks
             (:func:`population_track`, e.g. ``recorded:hanger-people-v0``).
+        version: The suite version, "1" or "2" (:data:`SUITE_VERSIONS`; default
+            :data:`LATEST`).
 
     Raises:
         ConfigError: Unknown track, bad agents, bad runs_scale (before any simulation).
@@ -381,16 +623,31 @@ def run_suite(
             and runs_scale > 0):
         raise ConfigError(f"runs_scale must be a number > 0, got {runs_scale!r}",
                           field="runs_scale")
-    chosen = select_tracks(tracks) + [population_track(p) for p in populations]
+    version = check_version(version)
+    if agents is None:
+        agents = DEFAULT_AGENTS if version == "1" else DEFAULT_AGENTS_V2
+    chosen = select_tracks(tracks, version) + [population_track(p, version)
+                                               for p in populations]
     configs = [track_config(t, agents, runs_scale=runs_scale, seed=seed, jobs=jobs,
-                            executor=executor) for t in chosen]
+                            executor=executor, version=version) for t in chosen]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    ranked = [a for a in agents if a not in REFERENCE_AGENTS]
-    doc: dict[str, Any] = {"suite_version": SUITE_VERSION, "seed": seed,
-                           "runs_scale": runs_scale, "agents": ranked,
-                           "converged_threshold": CONVERGED,
-                           "references": dict(REFERENCES), "tracks": {}}
+    if version == "1":
+        ranked = [a for a in agents if a not in REFERENCE_AGENTS]
+        doc: dict[str, Any] = {"suite_version": version, "seed": seed,
+                               "runs_scale": runs_scale, "agents": ranked,
+                               "converged_threshold": CONVERGED,
+                               "references": dict(REFERENCES), "tracks": {}}
+    else:
+        ranked = [a for a in agents if a not in (*REFERENCE_AGENTS, "qmdp")]
+        doc = {"suite_version": version, "seed": seed, "runs_scale": runs_scale,
+               "agents": ranked, "converged_threshold": CONVERGED,
+               "references": dict(ALL_REFERENCES),
+               "intention_blind": list(INTENTION_BLIND),
+               "power": {"delta": DELTA, "power": POWER, "alpha": ALPHA,
+                         "min_runs": MIN_RUNS, "max_runs": MAX_RUNS,
+                         "pilot": "benchmarks/suite_power.py: seed 1000, 256 runs per track"},
+               "tracks": {}}
     walls: dict[str, float] = {}
     t0 = time.perf_counter()
     iterator: Any = zip(chosen, configs, strict=True)
@@ -399,13 +656,13 @@ def run_suite(
 
         iterator = tqdm(list(iterator), desc="suite", unit="track")
     failures: dict[str, dict[str, str]] = {}
-    recorder = SuiteRecorder(seed, runs_scale)  # results.json (hri_bench/submission.py)
+    recorder = SuiteRecorder(seed, runs_scale, version)  # results.json (submission.py)
     for track, cfg in iterator:
         t = time.perf_counter()
         result = run_study(cfg, keep_going=True)
         if result.failures:
             failures[track.name] = result.failures
-        entry = track_summary(track, result)
+        entry = (track_summary if version == "1" else track_summary_v2)(track, result)
         recorder.add(track, result)
         doc["tracks"][track.name] = entry
         track_figure(track.name, entry, out / f"{track.name}.png")
@@ -418,16 +675,21 @@ def run_suite(
                     f.write(f"track {track_name}: agent {agent!r} raised:\n{text}\n")
     else:
         errors.unlink(missing_ok=True)  # from an earlier suite in the same folder
-    results = recorder.document()
-    doc["provenance"] = {"software": provenance.software(),
-                         "agents": {a: provenance.agent_identity(a) for a in agents}}
-    lead = "" if results is None else lead_section(results) + "\n" + task_section(results)
+    results = recorder.document()  # v1's suite.json and leaderboard.md stay as they were
+    board = (leaderboard if version == "1" else leaderboard_v2)(doc)
+    if version != "1":
+        doc["provenance"] = {"software": provenance.software(),
+                             "agents": {a: provenance.agent_identity(a) for a in agents}}
+        if results is not None:  # the aggregate across tracks leads (docs/results.md)
+            cut = board.find("\n## ") + 1 or len(board)
+            board = (board[:cut] + lead_section(results) + "\n" + task_section(results) + "\n"
+                     + board[cut:])
     with atomic_writer(out / "leaderboard.md") as f:
-        f.write(leaderboard(doc, lead) + "\n")
+        f.write(board + "\n")
     recorder.write(out, results)
     with atomic_writer(out / "suite.json") as f:
         f.write(json.dumps(doc, indent=1, allow_nan=False) + "\n")
-    log = {"suite_version": SUITE_VERSION, "jobs": jobs, "executor": executor,
+    log = {"suite_version": version, "jobs": jobs, "executor": executor,
            "wall_time_s": round(time.perf_counter() - t0, 2), "tracks_wall_time_s": walls,
            "load_average": list(os.getloadavg()), "cpus": os.cpu_count()}
     with atomic_writer(out / "suite_log.json") as f:

@@ -480,7 +480,10 @@ class FiniteStateHumans(BatchHuman):
     # ----------------------------------------------------------------- for the references
     def preferred_action(self, state: np.ndarray, start: np.ndarray, goal: np.ndarray
                          ) -> np.ndarray:
-        """(n_runs,) each row's most likely action (robot's action unknown), for the Oracle."""
+        """(n_runs,) each row's most likely action other than waiting where it would act at all
+        (the robot's action unknown), for the Oracle: a passive human's action is what it
+        does when it acts, as for :class:`~hri_envs.humans.tables.TableHumans`.
+        """
         st = self._stack.ready()
         n_a = self.graph.n_actions
         state, start, goal = (np.broadcast_to(np.asarray(x, dtype=np.int64), (self.n_runs,))
@@ -489,5 +492,7 @@ class FiniteStateHumans(BatchHuman):
         n_r = st.n_robot[m]
         slot = np.where(n_r == 1, 0, n_a)
         base = st.cum_off[m] + (self._context(state, start, goal) * n_r + slot) * n_a
-        cum = st.cum[base[:, None] + np.arange(n_a)]  # (B, A)
-        return np.argmax(np.diff(cum, axis=1, prepend=0.0), axis=1)
+        pdf = np.diff(st.cum[base[:, None] + np.arange(n_a)], axis=1, prepend=0.0)  # (B, A)
+        moves = pdf[:, WAIT + 1:].sum(1) > 0  # a passive human's action is its motion
+        pdf[:, WAIT] = np.where(moves, -1.0, pdf[:, WAIT])
+        return np.argmax(pdf, axis=1)

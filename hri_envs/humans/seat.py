@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from hri_envs.errors import ConfigError
+from hri_envs.humans.finite_state import FiniteStateHuman, FiniteStateHumans
 from hri_envs.humans.populations import rational_human, validate_rationality
 from hri_envs.humans.protocol import BatchedHumans, BatchHuman, Human
 from hri_envs.humans.scripted import ScriptedHuman, check_probability, preference_human
@@ -22,7 +23,7 @@ from hri_envs.task.graph import TaskGraph
 __all__ = ["HumanLike", "seat_human"]
 
 #: What a seat accepts as its human.
-HumanLike = ScriptedHuman | Human | BatchHuman
+HumanLike = ScriptedHuman | FiniteStateHuman | Human | BatchHuman
 
 
 def seat_human(
@@ -41,7 +42,9 @@ def seat_human(
     Args:
         graph: The env's task graph.
         human: A ready-made human, which replaces the arguments below: a
-            :class:`ScriptedHuman` (seated for every row), a :class:`Human` (one stream:
+            :class:`ScriptedHuman` or a
+            :class:`~hri_envs.humans.finite_state.FiniteStateHuman` (a family's model:
+            seated for every row), a :class:`Human` (one stream:
             ``n_runs`` must be 1) or a :class:`BatchHuman` with ``n_runs`` rows.
         preference: The scripted human's preference (default: the scenario's).
         passive: Its probability of waiting in a step (the env's ``human_passive``).
@@ -68,12 +71,14 @@ def seat_human(
         return TableHumans(rational_human(preference_human(graph, preference, passive=passive,
                                                            turn_back=turn_back), rationality),
                            n_runs)
-    if isinstance(human, ScriptedHuman | BatchHuman):
+    if isinstance(human, ScriptedHuman | FiniteStateHuman | BatchHuman):
         if human.graph.name != graph.name or human.graph.n_states != graph.n_states:
             raise ConfigError(f"the human was built for the {human.graph.name} scenario, not "
                               f"the {graph.name}", field="human")
     if isinstance(human, ScriptedHuman):
         return TableHumans(human, n_runs)
+    if isinstance(human, FiniteStateHuman):
+        return FiniteStateHumans(human, n_runs)
     if isinstance(human, Human):
         if n_runs != 1:
             raise ConfigError(f"a Human plays one stream; this seat has {n_runs}: give a "
@@ -85,5 +90,5 @@ def seat_human(
             raise ConfigError(f"the human has {human.n_runs} rows, the seat {n_runs}",
                               field="human")
         return human
-    raise ConfigError(f"human must be a ScriptedHuman, a Human or a BatchHuman, got {human!r}",
-                      field="human")
+    raise ConfigError(f"human must be a ScriptedHuman, a FiniteStateHuman, a Human or a "
+                      f"BatchHuman, got {human!r}", field="human")

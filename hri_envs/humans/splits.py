@@ -1,13 +1,15 @@
 """Frozen population splits: ``train``, ``validation`` and ``test`` per scenario, and mixtures.
 
-A :class:`MixtureSpec` is a frozen, versioned list of humans: ``members`` draws made once,
+A :class:`MixtureSpec` is a frozen, versioned list of humans: ``members`` humans made once,
 with a generator seeded by the spec's ``generator_seed``, from a mixture of family
-components (:mod:`hri_envs.humans.families`), each picked with its weight and its
-parameters drawn uniformly from the component's choices. A study's run ``r`` meets the
-member with index drawn from ``(seed, r, 7)``; an env draws a member at every reset from its
-``np_random``. The spec's :meth:`~MixtureSpec.content_hash` (SHA-256 of its generator's
-parameters, its seeds and the members they give) is recorded in every ``summary.json`` and
-``suite.json``: two results with the same hash met the same humans.
+components (:mod:`hri_envs.humans.families`): each component gets its share of the list by
+its weight (largest remainders), each member its parameters drawn uniformly from the
+component's choices. A study's runs meet the members in balanced blocks (every member once
+per block of ``size`` runs, in an order drawn from ``(seed, block, 7)``:
+:meth:`MixtureSpec.draw`); an env draws a member at every reset from its ``np_random``.
+The spec's :meth:`~MixtureSpec.content_hash` (SHA-256 of its generator's parameters, its
+seeds and the members they give) is recorded in every ``summary.json`` and ``suite.json``:
+two results with the same hash met the same humans.
 
 Per scenario (:data:`MIXTURES`):
 
@@ -21,9 +23,9 @@ name                 humans
                      families absent from train — misspecified (low, avoid, rotate-low,
                      impatient), adaptive (follower, trust, wary) and inconsistent
                      (fickle, moody). Report it; never tune a default on it.
-``misspecified``     the misspecified families only (evaluation).
-``adaptive``         the adaptive families only (evaluation).
-``inconsistent``     the inconsistent families only (evaluation).
+``test-<group>``     the test split's members of one group: ``test-misspecified``,
+                     ``test-adaptive``, ``test-inconsistent``, ``test-scripted`` (the same
+                     draws, filtered; part of the evaluation set).
 ===================  =================================================================
 
 A family's name is a population too (``--population low``): every run meets that family
@@ -45,7 +47,7 @@ from typing import Any
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.humans.families import FAMILIES, family_params
+from hri_envs.humans.families import FAMILIES, GROUPS, family_params
 from hri_envs.humans.finite_state import FiniteStateHumans
 from hri_envs.humans.populations import (
     POPULATIONS,
@@ -80,7 +82,8 @@ ALL_SUPPORTS = "<supports>"
 #: The split names.
 SPLITS: tuple[str, ...] = ("train", "validation", "test")
 #: How a run's member is drawn (part of the content hash).
-SEEDING = "member index uniform from numpy default_rng([seed, run, 7]).integers(members)"
+SEEDING = ("study: run r meets member default_rng([seed, r // size, 7]).permutation(size)"
+           "[r % size]; env: default_rng(reset).integers(size)")
 
 
 @dataclass(frozen=True)
@@ -112,6 +115,8 @@ class MixtureSpec:
         generator_seed: The seed the members are drawn with.
         components: The mixture.
         held_out: An evaluation set: never used to tune defaults.
+        group: Keep only the members of this family group (a view of a split: the same
+            draws, filtered), or None for all.
     """
 
     name: str
@@ -122,47 +127,79 @@ class MixtureSpec:
     generator_seed: int
     components: tuple[Component, ...]
     held_out: bool = False
+    group: str | None = None
 
     @property
     def scenarios(self) -> tuple[str, ...]:
         """The scenarios it applies to (one)."""
         return (self.scenario,)
 
+    @property
+    def size(self) -> int:
+        """How many humans the list holds (after the group's filter)."""
+        return len(self.member_draws)
+
     @cached_property
     def member_draws(self) -> tuple[HumanDraw, ...]:
         """The members, as draws (a family and its parameters), in list order."""
         graph = scenario_graph(self.scenario)
         rng = np.random.default_rng(self.generator_seed)
-        weights = np.array([c.weight for c in self.components], dtype=float)
-        cum = np.cumsum(weights / weights.sum())
         out = []
-        for _ in range(self.members):
-            comp = self.components[min(int(np.searchsorted(cum, rng.random(), "right")),
-                                       len(self.components) - 1)]
-            params = []
-            for name, values in comp.choices:
-                options = _expand(graph, values)
-                params.append((name, options[int(rng.integers(len(options)))]))
-            out.append(HumanDraw(None, family=comp.family, params=tuple(params)))
+        for comp, count in zip(self.components, _allocate(self.components, self.members),
+                               strict=True):
+            for _ in range(count):
+                params = []
+                for name, values in comp.choices:
+                    options = _expand(graph, values)
+                    params.append((name, options[int(rng.integers(len(options)))]))
+                out.append(HumanDraw(None, family=comp.family, params=tuple(params)))
+        if self.group is not None:
+            out = [d for d in out if d.family is not None
+                   and FAMILIES[d.family].group == self.group]
         return tuple(out)
 
     def draw(self, scenario: str, seed: int, run: int) -> HumanDraw:
-        """Run ``run``'s member: its index drawn from ``(seed, run, 7)`` only."""
-        return self.sample(scenario, np.random.default_rng([int(seed), int(run), 7]))
-
-    def sample(self, scenario: str, rng: np.random.Generator) -> HumanDraw:
-        """A member drawn with ``rng`` (one integer)."""
+        """Run ``run``'s member, balanced: runs ``b·size .. (b+1)·size - 1`` meet every member
+        once, in the order of a permutation drawn from ``(seed, b, 7)`` (``b`` the run's
+        block), so a study's runs depend on ``(seed, run)`` only and a whole number of blocks
+        weighs every member alike (the estimate of the population's mean then carries no
+        sampling error of its make-up).
+        """
         if scenario != self.scenario:
             raise ConfigError(f"population {self.name!r} is for the {self.scenario}, not "
                               f"{scenario!r}", field="population")
-        return self.member_draws[int(rng.integers(self.members))]
+        block, slot = divmod(int(run), self.size)
+        order = np.random.default_rng([int(seed), block, 7]).permutation(self.size)
+        return self.member_draws[int(order[slot])]
+
+    def sample(self, scenario: str, rng: np.random.Generator) -> HumanDraw:
+        """A member drawn uniformly with ``rng`` (one integer; the envs, per reset)."""
+        if scenario != self.scenario:
+            raise ConfigError(f"population {self.name!r} is for the {self.scenario}, not "
+                              f"{scenario!r}", field="population")
+        return self.member_draws[int(rng.integers(self.size))]
 
     def content_hash(self) -> str:
-        """SHA-256 of the generator's parameters, its seeds and the members they give."""
-        doc = {"kind": "mixture", "spec": _jsonable(dataclasses.asdict(self)),
+        """SHA-256 of the generator's parameters, its seeds and the members they give (every
+        field but the description, the seeding of the runs, and the member list).
+        """
+        spec = {k: v for k, v in dataclasses.asdict(self).items() if k != "description"}
+        doc = {"kind": "mixture", "spec": _jsonable(spec),
                "seeding": SEEDING,
                "members": [[d.family, _jsonable(list(d.params))] for d in self.member_draws]}
         return _sha256(doc)
+
+
+def _allocate(components: Sequence[Component], members: int) -> list[int]:
+    """Members per component in proportion to the weights (largest remainders), so that a
+    list's make-up is its mixture's, not a sample of it.
+    """
+    w = np.array([c.weight for c in components], dtype=float)
+    share = members * w / w.sum()
+    count = np.floor(share).astype(np.int64)
+    rest = np.argsort(-(share - count), kind="stable")[:members - int(count.sum())]
+    count[rest] += 1
+    return count.tolist()
 
 
 def _expand(graph: TaskGraph, values: tuple[Any, ...]) -> list[Any]:
@@ -235,19 +272,17 @@ def _mixtures() -> dict[tuple[str, str], MixtureSpec]:
                         "members", 20, 2000 + i, _SCRIPTED),
             MixtureSpec("test", sc, "1", "TEST split (the evaluation set): the train "
                         "families and misspecified, adaptive and inconsistent ones absent "
-                        "from train", 48, 3000 + i,
+                        "from train", 64, 3000 + i,
                         _scaled(_SCRIPTED, 0.2) + _scaled(_MISSPECIFIED, 0.3)
                         + _scaled(_ADAPTIVE, 0.3) + _scaled(_INCONSISTENT, 0.2),
                         held_out=True),
-            MixtureSpec("misspecified", sc, "1", "misspecified families: low, avoid, "
-                        "rotate-low, impatient (evaluation)", 24, 4000 + i, _MISSPECIFIED,
-                        held_out=True),
-            MixtureSpec("adaptive", sc, "1", "adaptive families: follower, trust, wary "
-                        "(evaluation)", 24, 5000 + i, _ADAPTIVE, held_out=True),
-            MixtureSpec("inconsistent", sc, "1", "inconsistent families: fickle, moody "
-                        "(evaluation)", 24, 6000 + i, _INCONSISTENT, held_out=True),
         )
-        out.update({(m.name, sc): m for m in specs})
+        test = specs[-1]
+        views = tuple(dataclasses.replace(
+            test, name=f"test-{group}", description=f"the test split's {group} members "
+            f"({', '.join(f.name for f in FAMILIES.values() if f.group == group)})",
+            group=group) for group in GROUPS)
+        out.update({(m.name, sc): m for m in specs + views})
     return out
 
 

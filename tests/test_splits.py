@@ -1,0 +1,148 @@
+"""Frozen population splits: content hashes, what each split holds, balanced runs, seats."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from hri_bench.study import StudyConfig, run_study, summarize
+from hri_envs.envs.vector import RobotVectorEnv
+from hri_envs.errors import ConfigError
+from hri_envs.humans.families import FAMILIES
+from hri_envs.humans.splits import (
+    MIXTURES,
+    MixtureHumans,
+    population,
+    population_hash,
+    population_seat,
+)
+
+#: The frozen content hashes (version 1 of every split): a change to any split's generator,
+#: seeds or members must come with a new version, and a new hash here.
+FROZEN = {
+    ("train", "hanger"):
+        "34e1d8f3dc658fe130017ffd3f992592e9f98d2ab4ec108facc5bd2d0fa1395a",
+    ("validation", "hanger"):
+        "9c2c98745be66af543fb9e843ba165d0e0170d096d9659f8624f7fadd580c72d",
+    ("test", "hanger"):
+        "bfc2c6d74ecc4b63e04bd2b7d0f3412a2cb0185cf6ca87283d3025a0fb5b17df",
+    ("test-scripted", "hanger"):
+        "6a3296799bfcd04407cfbeff9f6a9533305fb8acad7bdbf5307c7ded236edbf5",
+    ("test-misspecified", "hanger"):
+        "d999c942c12d956425fdbdf526e9b43f18fc41ae4852c7c17590ccc4f2982b83",
+    ("test-adaptive", "hanger"):
+        "9dc4ed920886e4b52d558e89cd983c0af585808f41626b9f204d18c2d54c66a1",
+    ("test-inconsistent", "hanger"):
+        "feb8ff89c56c49cc39c457d9ec4e6faeca5a3e742769e8bf01d35eaa31def2b4",
+    ("train", "wheel"):
+        "75b197c78ec4e41718c5429f0802fb240859b44b7d2a80d27b936cf1bdb7dbba",
+    ("validation", "wheel"):
+        "c2dcf0905b2eaa8c3a3c82019e622145c8a94049feae6d7b0da575d8c8a2293f",
+    ("test", "wheel"):
+        "dd6f96542d79536d5277e3e4945bbaf0c7f30ec000d71d6b22db6990a67caabf",
+    ("test-scripted", "wheel"):
+        "f33d8a1479a73823e4a8762d045fb837675123a877438124148fc324e2278cb3",
+    ("test-misspecified", "wheel"):
+        "ca8b044feb4f0a96c7fc62f4489f207fa33f441482c77da1baa2205e1cdd5409",
+    ("test-adaptive", "wheel"):
+        "39ba199962c709e02acb3fb75519872e8144668d8ca0a170afd4ab90c5d8447b",
+    ("test-inconsistent", "wheel"):
+        "57006b5c244d62d162832067fe6f764c8b30a18707ddbb524e1b7d849fdc00fa",
+}
+
+
+def test_every_split_is_frozen_under_its_hash():
+    assert {key: spec.content_hash() for key, spec in MIXTURES.items()} == FROZEN
+    spec = MIXTURES[("test", "wheel")]
+    for change in ({"generator_seed": 1}, {"members": 63}, {"version": "2"}):
+        assert dataclasses.replace(spec, **change).content_hash() != FROZEN[("test", "wheel")]
+    # The wording of the description is not content.
+    assert dataclasses.replace(spec, description="x").content_hash() == FROZEN[("test", "wheel")]
+
+
+@pytest.mark.parametrize("scenario", ["hanger", "wheel"])
+def test_the_test_split_holds_families_absent_from_train(scenario):
+    def groups(name):
+        return {FAMILIES[d.family].group for d in MIXTURES[(name, scenario)].member_draws}
+
+    assert groups("train") == groups("validation") == {"scripted"}
+    assert groups("test") == {"scripted", "misspecified", "adaptive", "inconsistent"}
+    test = MIXTURES[("test", scenario)]
+    assert test.held_out and not MIXTURES[("train", scenario)].held_out
+    families = {d.family for d in test.member_draws}
+    assert families == set(FAMILIES)  # every family, the rare rotate-low included
+    # The parts are the test split's own members, filtered.
+    parts = [MIXTURES[(f"test-{g}", scenario)] for g in
+             ("scripted", "misspecified", "adaptive", "inconsistent")]
+    assert sum(p.size for p in parts) == test.size == 64
+    assert sorted(d.label() for p in parts for d in p.member_draws) == sorted(
+        d.label() for d in test.member_draws)
+
+
+def test_a_studys_runs_meet_the_members_in_balanced_blocks():
+    spec = MIXTURES[("test-adaptive", "wheel")]
+    n = spec.size
+    first = [spec.draw("wheel", 3, r) for r in range(n)]
+    assert sorted(map(str, first)) == sorted(map(str, spec.member_draws))
+    second = [spec.draw("wheel", 3, r) for r in range(n, 2 * n)]
+    assert sorted(map(str, second)) == sorted(map(str, spec.member_draws))
+    assert first != second  # another order per block
+    assert [spec.draw("wheel", 3, r) for r in reversed(range(n))][::-1] == first
+    assert first != [spec.draw("wheel", 4, r) for r in range(n)]  # the seed orders them
+
+
+def test_unknown_names_and_impossible_parameters_fail_naming_the_field():
+    with pytest.raises(ConfigError, match="unknown population 'tset'.*allowed:.*test") as err:
+        population("tset", "wheel")
+    assert err.value.field == "population"
+    with pytest.raises(ConfigError, match="not for 'wheel'") as err:
+        population("hanger-all", "wheel")
+    assert err.value.field == "population"
+    with pytest.raises(ConfigError, match="k must be") as err:
+        population("impatient", "wheel", {"k": 0})
+    assert err.value.field == "human_params"
+    with pytest.raises(ConfigError, match="has no parameter 'speed'") as err:
+        StudyConfig("wheel", population="trust", human_params=(("speed", 2),))
+    assert err.value.field == "human_params"
+    with pytest.raises(ConfigError) as err:
+        StudyConfig("wheel", population="test", human_passive=0.2)
+    assert err.value.field == "human_passive"
+
+
+def test_a_study_records_the_populations_version_and_hash(tmp_path):
+    result = run_study(StudyConfig("hanger", agents=("passive",), runs=4, episodes=2,
+                                   population="test-inconsistent"))
+    doc = summarize(result)
+    info = doc["population_info"]
+    spec = MIXTURES[("test-inconsistent", "hanger")]
+    assert info == {"name": "test-inconsistent", "version": "1", "hash": spec.content_hash(),
+                    "held_out": True, "members": spec.size}
+    family = summarize(run_study(StudyConfig("hanger", agents=("passive",), runs=2, episodes=1,
+                                             population="impatient",
+                                             human_params=(("k", 3),))))
+    assert family["population_info"]["hash"] == population_hash(
+        population("impatient", "hanger", {"k": 3}))
+    assert family["settings"]["human_params"] == [["k", 3]]
+    replay = StudyConfig.from_settings(json.loads(json.dumps(family["settings"])))
+    assert replay.human_params == (("k", 3),)
+    # A study without the later field reads as before: it is not written at its default.
+    assert "human_params" not in StudyConfig("hanger").settings()
+
+
+def test_a_split_draws_a_member_at_every_reset_in_the_vector_env():
+    vec = RobotVectorEnv(16, "wheel", population="test")
+    assert isinstance(vec.human, MixtureHumans)
+    obs, _ = vec.reset(seed=5)
+    first = [m.name for m in vec.human.models]
+    assert len(set(first)) > 6
+    for _ in range(150):
+        obs, *_ = vec.step(np.array([np.flatnonzero(m)[-1] for m in obs["action_mask"]]))
+    assert [m.name for m in vec.human.models] != first
+    again = RobotVectorEnv(16, "wheel", population="test")
+    again.reset(seed=5)
+    assert [m.name for m in again.human.models] == first
+    single = population_seat(vec.graph, "fickle")
+    assert isinstance(single, MixtureHumans) and single.n_runs == 1
