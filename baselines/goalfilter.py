@@ -6,7 +6,7 @@ Boltzmann-rational *shortest-path* mover, the same for every human and never upd
 the Learner does not beat it, learning the human's preference bought nothing.
 
 **Human model.** ``D(ι, s)``: the fewest human motions from ``s`` to rest on ι with the robot
-waiting (held by both; :data:`~hri_envs.humans.populations.D_MAX` where it cannot). In free
+waiting (held by both; :data:`~hri_envs.humans.rational.D_MAX` where it cannot). In free
 space ``π_sp(a | s, ι) ∝ exp(β · Q(s, a; ι))`` over the valid motions, with
 ``Q = -(1 + D(ι, s'))`` and ``s'`` where the motion leads, mixed with ``ε`` of a uniform
 choice so that no action is impossible; at a support the human grasps, takes off and lets
@@ -34,7 +34,7 @@ import numpy as np
 from agents.protocol import Trace
 from baselines.simple import _Tracking
 from hri_envs.checks import check_real
-from hri_envs.humans.populations import D_MAX
+from hri_envs.humans.rational import D_MAX
 from hri_envs.humans.scripted import support_actions
 from hri_envs.task.actions import BOTH, PUT_ON, TAKE_OFF, TOGGLE, WAIT
 from hri_envs.task.graph import TaskGraph

@@ -15,6 +15,13 @@ end of the bracket on ``blind`` where the exact plan does not fit), see
 not learn between episodes). The file is read without unpickling: its JSON metadata and its
 weights (see :func:`agents.sb3.load_model`).
 
+``jaxppo:PATH`` plays a recurrent PPO policy trained in JAX (:mod:`agents.jax_ppo`, the
+``jax`` extra) through :class:`agents.jax_ppo.agent.JaxPPOAgent`: greedy, invalid actions
+masked, its GRU memory kept across a run's episodes. ``PATH`` is its ``.npz`` checkpoint
+(arrays and a JSON config, no pickle) or a folder with one ``<scenario>.npz`` per scenario.
+``jaxppo`` alone plays the checkpoints shipped with the package (:data:`JAXPPO_CHECKPOINTS`,
+trained by ``benchmarks/train_jax_ppo.py`` on the ``train`` split).
+
 Any other entry of the form ``module:Class`` imports ``Class`` from ``module``: a
 :class:`~agents.protocol.Agent` subclass is instantiated once per run, a
 :class:`~agents.protocol.BatchAgent` subclass once per batch as ``Class(graph, n_runs)``.
@@ -30,6 +37,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import agents as agents_package
 from agents.config import LearnerConfig, default_config
 from agents.learner import Learner
 from agents.learning.algorithm1 import Workspace
@@ -43,9 +51,10 @@ from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["BRACKET_AGENTS", "BUILTIN_AGENTS", "KNOWN_AGENTS", "OTHER_AGENTS", "REFERENCE_AGENTS",
-           "CONTRACT", "SB3_PREFIX", "agent_settings", "contract_keywords", "import_agent",
-           "make_agent", "validate_agent_name"]
+__all__ = ["BRACKET_AGENTS", "BUILTIN_AGENTS", "CONTRACT", "JAXPPO", "JAXPPO_CHECKPOINTS",
+           "JAXPPO_PREFIX", "KNOWN_AGENTS", "OTHER_AGENTS", "REFERENCE_AGENTS", "SB3_PREFIX",
+           "agent_settings", "contract_keywords", "import_agent", "jaxppo_path", "make_agent",
+           "validate_agent_name"]
 
 BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
 #: Built-in names that are not in the default agent list (exact references, see baselines.bounds).
@@ -58,6 +67,23 @@ OTHER_AGENTS: tuple[str, ...] = ("goalfilter",)
 KNOWN_AGENTS: tuple[str, ...] = BUILTIN_AGENTS + OTHER_AGENTS + REFERENCE_AGENTS + BRACKET_AGENTS
 #: Agent names ``sb3:PATH`` load a saved SB3 model.
 SB3_PREFIX = "sb3:"
+#: Agent names ``jaxppo:PATH`` load a recurrent PPO policy trained in JAX.
+JAXPPO_PREFIX = "jaxppo:"
+#: The agent name that plays the shipped JAX PPO checkpoints (:data:`JAXPPO_CHECKPOINTS`).
+JAXPPO = "jaxppo"
+#: The shipped checkpoints, one ``<scenario>.npz`` per scenario (package data).
+JAXPPO_CHECKPOINTS = Path(agents_package.__file__).parent / "jax_ppo" / "checkpoints"
+
+
+def jaxppo_path(name: str) -> Path | None:
+    """The checkpoint (file or folder) a ``jaxppo`` or ``jaxppo:PATH`` name plays; None for
+    other names.
+    """
+    if name == JAXPPO:
+        return JAXPPO_CHECKPOINTS
+    if name.startswith(JAXPPO_PREFIX):
+        return Path(name[len(JAXPPO_PREFIX):])
+    return None
 
 
 def validate_agent_name(name: str) -> None:
@@ -71,17 +97,26 @@ def validate_agent_name(name: str) -> None:
     if name in KNOWN_AGENTS:
         return
     if name.startswith(SB3_PREFIX):
-        path = Path(name[len(SB3_PREFIX):])
-        if not path.is_file():
-            raise ConfigError(f"agent {name!r}: no SB3 model file at {str(path)!r}; give "
+        model = Path(name[len(SB3_PREFIX):])
+        if not model.is_file():
+            raise ConfigError(f"agent {name!r}: no SB3 model file at {str(model)!r}; give "
                               "'sb3:PATH' with the .zip written by model.save()", field="agents")
+        return
+    path = jaxppo_path(name)
+    if path is not None:
+        if not (path.is_file() or path.is_dir()):  # the folder's file: when it is loaded
+            raise ConfigError(f"agent {name!r}: no JAX PPO checkpoint at {str(path)!r}; give "
+                              "'jaxppo:FILE.npz' or 'jaxppo:FOLDER' holding <scenario>.npz",
+                              field="agents")
         return
     if ":" in name and all(name.split(":", 1)):
         _agent_class(name)
         return
     raise ConfigError(
         f"unknown agent {name!r}; allowed: {', '.join(KNOWN_AGENTS)}, "
-        "'sb3:PATH' for a saved stable-baselines3 model, or 'module:Class' for your own agent",
+        "'sb3:PATH' for a saved stable-baselines3 model, 'jaxppo' or 'jaxppo:PATH' for a "
+        "JAX PPO policy, "
+        "or 'module:Class' for your own agent",
         field="agents",
     )
 
@@ -152,15 +187,15 @@ def agent_settings(name: str, scenario: str, r0: float,
     """The settings :func:`make_agent` gives agent ``name`` (for ``summary.json``).
 
     The Learner and plain ME-IRL: their :class:`~agents.config.LearnerConfig` as a dict;
-    ``sb3:PATH``: the model file's path and size; ``module:Class``: its code identity
+    ``sb3:PATH``, ``jaxppo[:PATH]``: the model's path and size; ``module:Class``: its code identity
     (:func:`hri_bench.provenance.agent_identity`: its source files' sha256 and the
     constructor keywords it is given); the other agents: None (they have none).
     """
     cfg = _learner_config(name, scenario, r0, learner)
     if cfg is not None:
         return cfg.to_dict()
-    if name.startswith(SB3_PREFIX):
-        path = Path(name[len(SB3_PREFIX):])
+    path = Path(name[len(SB3_PREFIX):]) if name.startswith(SB3_PREFIX) else jaxppo_path(name)
+    if path is not None:
         return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
     if name not in KNOWN_AGENTS and ":" in name:
         from hri_bench.provenance import agent_identity
@@ -235,6 +270,11 @@ def make_agent(
         from agents.sb3 import SB3BatchAgent
 
         return SB3BatchAgent(name[len(SB3_PREFIX):], n, graph=graph, seed=seed, runs=runs)
+    path = jaxppo_path(name)
+    if path is not None:
+        from agents.jax_ppo.agent import JaxPPOAgent
+
+        return JaxPPOAgent(path, graph, n)
     cls = _agent_class(name)
     keys = contract_keywords(cls)
     given: dict[str, Any] = {"graph": graph, "seed": seed, "runs": list(runs), "r0": r0,

@@ -249,6 +249,9 @@ def build_parser() -> argparse.ArgumentParser:
     speed.add_argument("--size", choices=("full", "tiny"), default="full",
                        help="full: the published figures (default); tiny: a smoke test in "
                             "seconds whose figures are not comparable")
+    speed.add_argument("--no-jax", action="store_true",
+                       help="skip the JAX env and PPO training figures (measured when the "
+                            "jax extra is installed)")
 
     play = sub.add_parser("play", help="play the human in the terminal against the Learner")
     play.add_argument("scenario", choices=SCENARIOS)
@@ -466,9 +469,10 @@ def _read_settings(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any
 
 def _require_for_study(cfg: Any, *, progress: bool) -> None:
     """Fail before any simulation if an extra the study will need is missing, or an
-    ``sb3:`` model cannot be loaded (a :class:`ConfigError` with ``field="agents"``).
+    ``sb3:`` model or ``jaxppo:`` checkpoint cannot be loaded (a :class:`ConfigError` with
+    ``field="agents"``).
     """
-    from hri_bench.agents import SB3_PREFIX
+    from hri_bench.agents import SB3_PREFIX, jaxppo_path
     from hri_envs.envs.backends import check_backend
     from hri_envs.errors import MissingExtraError
 
@@ -488,6 +492,19 @@ def _require_for_study(cfg: Any, *, progress: bool) -> None:
                 try:
                     SB3BatchAgent(name[len(SB3_PREFIX):], 1, graph=graph_for(cfg.scenario))
                 except ConfigError as exc:
+                    raise ConfigError(f"agent {name!r}: {exc}", field="agents") from None
+    if any(jaxppo_path(a) is not None for a in cfg.agents):
+        MissingExtraError.require(["jax", "optax"], "a 'jaxppo' agent")
+        from agents.jax_ppo.agent import load_checked
+        from hri_bench.study import graph_for
+        from hri_envs.errors import LearnerStateError
+
+        for name in cfg.agents:  # a checkpoint that cannot be loaded is bad input: exit 2
+            path = jaxppo_path(name)
+            if path is not None:
+                try:
+                    load_checked(path, graph_for(cfg.scenario))
+                except (ConfigError, LearnerStateError) as exc:
                     raise ConfigError(f"agent {name!r}: {exc}", field="agents") from None
 
 
@@ -584,15 +601,21 @@ def _figures(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 def _speed(args: argparse.Namespace) -> int:
     from hri_bench.speed import measure
 
-    figures = measure(jobs=args.jobs, size=args.size)
-    targets = {"parallel_env_steps_per_s": "target >= 300,000",
+    figures = measure(jobs=args.jobs, size=args.size, jax=not args.no_jax)
+    targets = {"jax": "", "jax_device": "the device JAX ran on",
+               "jax_env_envs": "envs stepped together (jit + vmap)",
+               "jax_env_steps_per_s": "the vector env's workload, JAX env (jit + vmap)",
+               "jax_env_steps_per_s_by_envs": "per number of envs",
+               "jax_env_vs_vector_env": "target >= 5 (the vector env of this run)",
+               "jax_ppo_train_steps_per_s": "target >= 100,000 (recurrent PPO, end to end)",
+               "parallel_env_steps_per_s": "target >= 300,000",
                "vector_env_steps_per_s": "target >= 20,000,000",
                "learner_update_ms": "target <= 0.3",
                "learner_update_batched_ms_per_run": "target <= 0.05",
                "hanger_study_s": "target <= 1", "machine_ms": "the fixed numpy workload",
                "learner_threads": "threads sharing a batched update (HRI_ENVS_THREADS)"}
     for key, value in figures.items():
-        shown = f"{value:>14,.4f}" if isinstance(value, float) else f"{value:>14}"
+        shown = f"{value:>14,.4f}" if isinstance(value, float) else f"{value!s:>14}"
         print(f"{key:34s} {shown}   {targets[key]}".rstrip())
     if args.json:
         print(json.dumps(figures))

@@ -1,10 +1,10 @@
 """What made a number: agents' code identity, package versions, the suite's content hash.
 
 * :func:`agent_identity`: a built-in agent is named by the installed ``hri-envs`` version;
-  ``sb3:PATH`` by the model file's sha256; ``module:Class`` by the sha256 of its module's
-  source file (every ``.py`` file of its top-level package when it is in one), the files'
-  combined hash ``code_sha256``, and the constructor keywords the benchmark passes it
-  (:func:`hri_bench.agents.contract_keywords`).
+  ``sb3:PATH`` by the model file's sha256, ``jaxppo[:PATH]`` by its checkpoint files';
+  ``module:Class`` by the sha256 of its module's source file (every ``.py`` file of its
+  top-level package when it is in one), the files' combined hash ``code_sha256``, and the
+  constructor keywords the benchmark passes it (:func:`hri_bench.agents.contract_keywords`).
 * :func:`software`: Python's and the numerical packages' versions.
 * :func:`suite_hash`: sha256 of the canonical JSON of the suite's version and its tracks'
   definitions, so that a track changed under the same name changes the hash.
@@ -66,14 +66,29 @@ def _source_files(module_name: str) -> tuple[Path, list[Path]]:
 
 def agent_identity(name: str) -> dict[str, Any]:
     """How agent ``name`` of a study is identified (module docstring)."""
-    from hri_bench.agents import KNOWN_AGENTS, SB3_PREFIX, contract_keywords, import_agent
+    from hri_bench.agents import (
+        KNOWN_AGENTS,
+        SB3_PREFIX,
+        contract_keywords,
+        import_agent,
+        jaxppo_path,
+    )
 
-    if name in KNOWN_AGENTS:
+    if name in KNOWN_AGENTS and jaxppo_path(name) is None:
         return {"kind": "builtin", "package": "hri-envs", "version": _version("hri-envs")}
     if name.startswith(SB3_PREFIX):
         path = Path(name[len(SB3_PREFIX):])
         return {"kind": "sb3", "path": str(path),
                 "sha256": _sha256(path) if path.is_file() else None}
+    model = jaxppo_path(name)
+    if model is not None:  # a file, or a folder of <scenario>.npz: their combined hash
+        files = sorted(p for p in model.rglob("*") if p.is_file()) if model.is_dir() else (
+            [model] if model.is_file() else [])
+        hashes = {p.relative_to(model).as_posix() if model.is_dir() else p.name: _sha256(p)
+                  for p in files}
+        return {"kind": "jaxppo", "path": str(model),
+                "sha256": hashlib.sha256(json.dumps(hashes, sort_keys=True).encode()
+                                         ).hexdigest() if hashes else None}
     cls = import_agent(name)
     root, files = _source_files(cls.__module__)
     hashes = {p.relative_to(root).as_posix(): _sha256(p) for p in files}

@@ -160,12 +160,14 @@ def hanger_study_s(runs: int = 100, episodes: int = 8, jobs: int = 1) -> float:
     return time.perf_counter() - t0
 
 
-def measure(jobs: int = 1, size: str = "full") -> dict[str, Any]:
+def measure(jobs: int = 1, size: str = "full", jax: bool = False) -> dict[str, Any]:
     """All speed figures as a dict (keys: docs/benchmark.md, 'Other subcommands').
 
     Args:
         jobs: Worker processes for the hanger study.
         size: A key of :data:`SIZES`: "full" (the published figures) or "tiny".
+        jax: Add the JAX env's and PPO training's figures
+            (:func:`hri_bench.jax_speed.measure_jax`; a note when the extra is missing).
 
     Raises:
         ConfigError: ``size`` is not a key of :data:`SIZES`.
@@ -178,7 +180,7 @@ def measure(jobs: int = 1, size: str = "full") -> dict[str, Any]:
     par = parallel_env_steps_per_s(steps=z.parallel_steps, repeats=z.env_repeats)
     vec = vector_env_steps_per_s(num_envs=z.vector_envs, steps=z.vector_steps,
                                  repeats=z.env_repeats)
-    return {
+    figures = {
         "parallel_env_steps_per_s": round(par.steps_per_s, 1),
         "vector_env_steps_per_s": round(vec.steps_per_s, 1),
         "learner_update_ms": round(learner_update_ms("wheel", z.update_repeats), 4),
@@ -188,3 +190,8 @@ def measure(jobs: int = 1, size: str = "full") -> dict[str, Any]:
         "machine_ms": round(machine_ms(z.machine_repeats), 3),
         "learner_threads": partner_mdp.threads(),
     }
+    if jax:
+        from hri_bench.jax_speed import measure_jax
+
+        figures.update(measure_jax(size, vec.steps_per_s))
+    return figures

@@ -33,6 +33,7 @@ from hri_bench.agents import (
     BUILTIN_AGENTS,
     REFERENCE_AGENTS,
     agent_settings,
+    jaxppo_path,
     make_agent,
     validate_agent_name,
 )
@@ -50,16 +51,14 @@ from hri_envs.humans.finite_state import FiniteStateHumans
 from hri_envs.humans.populations import (
     POPULATIONS,
     HumanDraw,
-    draw_human,
     human_sequence,
     humans_of,
-    rational_human,
     validate_drift,
-    validate_rationality,
 )
 from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.rational import rational_human, validate_rationality
 from hri_envs.humans.scripted import ScriptedHuman, preference_human, preferences_for
-from hri_envs.humans.splits import population, population_hash
+from hri_envs.humans.splits import draw_human, population, population_hash
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task.episode import REWARDS
 from hri_envs.task.graph import TaskGraph
@@ -164,7 +163,7 @@ class StudyConfig:
         ray_address: Address of a Ray cluster (default: start Ray locally).
         probes: Policy entries to record per episode (for Figs. 8, 11, 12).
         human_rationality: β of a Boltzmann human following its preference
-            (:func:`hri_envs.humans.populations.rational_human`); ``inf``: deterministic.
+            (:func:`hri_envs.humans.rational.rational_human`); ``inf``: deterministic.
         population: Draw each run's human from this population
             (:data:`hri_envs.humans.populations.POPULATIONS`), or ``module:Class``: a human
             class of your own (:mod:`hri_bench.humans`); None: the fixed human above.
@@ -657,15 +656,17 @@ def _worker_init(mask: Iterable[int]) -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
-def _start_pool(processes: int) -> Any:
+def _start_pool(processes: int, method: str | None = None) -> Any:
     """A :class:`multiprocessing.pool.Pool` whose workers start with the stop signals blocked.
 
     They stay blocked in the parent only while the pool forks; the pool's own threads, made
-    meanwhile, keep them blocked, so workers it forks later start the same way.
+    meanwhile, keep them blocked, so workers it forks later start the same way. ``method``:
+    the start method (None: the platform's default, fork on Linux).
     """
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
     try:
-        return multiprocessing.Pool(processes, initializer=_worker_init, initargs=(mask,))
+        return multiprocessing.get_context(method).Pool(processes, initializer=_worker_init,
+                                                        initargs=(mask,))
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
@@ -687,7 +688,10 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
         # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
         # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
         # every worker at once.
-        with _start_pool(min(cfg.jobs, len(todo))) as pool:
+        # JAX's runtime is multithreaded: a worker forked after it started in this process
+        # can hang for good, so studies with a JAX agent start fresh workers (spawn).
+        uses_jax = any(jaxppo_path(a) is not None for a in cfg.agents)
+        with _start_pool(min(cfg.jobs, len(todo)), "spawn" if uses_jax else None) as pool:
             yield from pool.imap_unordered(_run_indexed, [(i, units[i]) for i in todo])
     else:
         yield from _execute_ray(cfg, [units[i] for i in todo], list(todo))

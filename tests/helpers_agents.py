@@ -139,3 +139,19 @@ class SecondMadeCrashes(Agent):
 
     def end_episode(self, trace, intention):
         self.inner.end_episode(trace, intention)
+
+
+class WaitsForGate(AlwaysWait):
+    """Waits in ``act`` until the file named by ``$HRI_TEST_GATE`` exists (at most 120 s), so
+    that a study is still running, deterministically, while a test does something beside it."""
+
+    def act(self, observation):
+        import os
+        import time
+        from pathlib import Path
+
+        gate = Path(os.environ["HRI_TEST_GATE"])
+        deadline = time.monotonic() + 120
+        while not gate.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        return 0

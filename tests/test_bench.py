@@ -189,7 +189,7 @@ def test_speed_json_runs_the_real_measurements_on_a_tiny_size(monkeypatch, capsy
     real_study = speed.run_study
     monkeypatch.setattr(speed, "run_study", lambda cfg: studies.append(cfg) or real_study(cfg))
 
-    assert main(["speed", "--json", "--jobs", "1", "--size", "tiny"]) == 0
+    assert main(["speed", "--json", "--jobs", "1", "--size", "tiny", "--no-jax"]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
     figures = json.loads(lines[-1])
     assert set(figures) == SPEED_KEYS

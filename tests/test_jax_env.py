@@ -31,8 +31,9 @@ from hri_envs.humans.populations import (  # noqa: E402
 )
 from hri_envs.humans.protocol import all_rows  # noqa: E402
 from hri_envs.humans.scripted import boltzmann_human, preferences_for  # noqa: E402
+from hri_envs.humans.splits import population as named_population  # noqa: E402
 from hri_envs.jax import JaxRobotEnv, Member, ResetDraws, StepDraws  # noqa: E402
-from hri_envs.jax.tables import SUPPORTED_POPULATIONS  # noqa: E402
+from hri_envs.jax.tables import SUPPORTED_POPULATIONS, SUPPORTED_SPLITS  # noqa: E402
 from hri_envs.task.features import initial_theta  # noqa: E402
 
 SAME = AutoresetMode.SAME_STEP
@@ -48,6 +49,36 @@ class RecordingPopulation(PopulationHumans):
         self.assign(idx, [build_human(self.graph, d) for d in draws])
 
 
+class RecordingMixture(RecordingPopulation):
+    """A split's members (:meth:`MixtureSpec.sample`) as scripted humans in a table seat.
+
+    The numpy envs seat a split as :class:`MixtureHumans`, which draws three uniforms per
+    step from one CDF (passive folded in), the JAX env two (passive, choice), as the
+    scripted seats; so the equality is checked on the members, each built as the split
+    builds it (:func:`build_human`), in the scripted humans' seat.
+    """
+
+    def __init__(self, graph, spec, n_runs):
+        super().__init__(graph, "preferences", n_runs)
+        self.mixture = spec
+
+    def draw(self, rng, rows=None):
+        idx = all_rows(rows, self.n_runs)
+        draws = [self.mixture.sample(self.graph.name, rng) for _ in idx]
+        self.history = [*getattr(self, "history", []), *draws]
+        self.drawn = dict(zip(idx.tolist(), draws, strict=True))
+        self.assign(idx, [build_human(self.graph, d) for d in draws])
+
+
+def _as_plain(draw, scenario):
+    """A split member (family "preference") as the fields of a plain HumanDraw."""
+    if draw.family is None:
+        return draw
+    p = dict(draw.params)
+    return type(draw)(p["preference"], rationality=p.get("rationality", math.inf),
+                      passive=p.get("passive", 0.0))
+
+
 def _members(jenv, params, vec, rows, n):
     """(n,) Member arrays: the recorded draws of ``rows`` (others: the fixed human)."""
     fixed = params.fixed
@@ -55,10 +86,10 @@ def _members(jenv, params, vec, rows, n):
     beta = np.full(n, math.inf)
     passive = np.full(n, float(fixed.passive))
     turn = np.full(n, float(fixed.turn_back))
-    if isinstance(vec.human, RecordingPopulation):
+    if isinstance(vec.human, RecordingPopulation | RecordingMixture):
         prefs = preferences_for(jenv.scenario)
         for i in rows:
-            d = vec.human.drawn[int(i)]
+            d = _as_plain(vec.human.drawn[int(i)], jenv.scenario)
             entry[i], beta[i] = prefs.index(d.preference), d.rationality
             passive[i], turn[i] = d.passive, d.turn_back
     return Member(jnp.asarray(entry), jnp.asarray(beta), jnp.asarray(passive),
@@ -92,7 +123,10 @@ def run_pair(scenario, n=48, steps=80, seed=0, population=None, human=None, **kw
     """
     graph = scenario_graph(scenario)
     with jax.enable_x64(True):
-        if population is not None:
+        if population in SUPPORTED_SPLITS:
+            seat = RecordingMixture(graph, named_population(population, scenario), n)
+            vec = RobotVectorEnv(n, scenario, human=seat, autoreset_mode=SAME, **kwargs)
+        elif population is not None:
             seat = RecordingPopulation(graph, population, n)
             vec = RobotVectorEnv(n, scenario, human=seat, autoreset_mode=SAME, **kwargs)
         else:
@@ -175,6 +209,22 @@ def test_equals_the_numpy_env_with_a_population(scenario, population):
              reward="no-free-toggle" if population == "heldout" else "paper")
 
 
+@pytest.mark.parametrize("split", SUPPORTED_SPLITS)
+@pytest.mark.parametrize("scenario", ["hanger", "wheel"])
+def test_equals_the_numpy_env_with_a_split(scenario, split):
+    """The frozen member lists (passive and Boltzmann members among them) step alike."""
+    vec = run_pair(scenario, seed=13, population=split, max_cycles=25)
+    kinds = {(d.rationality < math.inf, d.passive > 0)
+             for d in (_as_plain(x, scenario) for x in vec.human.history)}
+    assert len(kinds) == 3, kinds  # it met deterministic, passive and Boltzmann members
+
+
+def test_a_split_with_stateful_families_is_refused():
+    with pytest.raises(ConfigError) as exc:
+        JaxRobotEnv("hanger", population="test")
+    assert exc.value.field == "population" and "train" in str(exc.value)
+
+
 def test_equals_the_numpy_env_with_a_boltzmann_theta_human():
     graph = scenario_graph("hanger")
     theta = initial_theta(graph.n_features) + np.random.default_rng(0).uniform(
@@ -187,7 +237,8 @@ def test_equals_the_numpy_env_with_a_boltzmann_theta_human():
 @given(scenario=st.sampled_from(["hanger", "wheel"]), seed=st.integers(0, 2**31),
        reward=st.sampled_from(["paper", "no-free-toggle"]),
        r0=st.sampled_from([-0.1, -0.25, -0.33, -0.9]), max_cycles=st.integers(1, 60),
-       population=st.sampled_from([None, "preferences", "heldout", "mixed-rationality"]),
+       population=st.sampled_from([None, "preferences", "heldout", "mixed-rationality",
+                                   "train"]),
        passive=st.sampled_from([0.0, 0.25]), turn=st.sampled_from([0.0, 0.7]))
 def test_equals_the_numpy_env_property(scenario, seed, reward, r0, max_cycles, population,
                                        passive, turn):

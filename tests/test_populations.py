@@ -19,13 +19,12 @@ from hri_envs.errors import ConfigError
 from hri_envs.humans.populations import (
     POPULATIONS,
     HumanDraw,
-    draw_human,
     human_sequence,
     population_spec,
-    preference_q,
-    rational_human,
 )
+from hri_envs.humans.rational import preference_q, rational_human
 from hri_envs.humans.scripted import preference_human, preferences_for
+from hri_envs.humans.splits import draw_human
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task.scenarios import scenario_graph
 

@@ -11,8 +11,9 @@ module             contents
 =================  ==============================================================
 """
 
-from hri_envs.humans.populations import POPULATIONS, PopulationHumans, rational_human
+from hri_envs.humans.populations import POPULATIONS, PopulationHumans
 from hri_envs.humans.protocol import BatchedHumans, BatchHuman, Human
+from hri_envs.humans.rational import rational_human
 from hri_envs.humans.scripted import ScriptedHuman, boltzmann_human, preference_human
 from hri_envs.humans.seat import seat_human
 from hri_envs.humans.tables import TableHumans

@@ -40,7 +40,7 @@ from typing import Any
 from hri_envs.errors import ConfigError
 from hri_envs.humans import adaptive, inconsistent, misspecified
 from hri_envs.humans.finite_state import FiniteStateHuman
-from hri_envs.humans.populations import rational_human, validate_rationality
+from hri_envs.humans.rational import rational_human, validate_rationality
 from hri_envs.humans.scripted import ScriptedHuman, check_probability, preference_human
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph

@@ -3,23 +3,8 @@
 Three ways to make the scripted partner of :mod:`hri_envs.humans.scripted` harder to cooperate
 with, all opt-in (the defaults give today's deterministic human, bit for bit):
 
-* **Rationality β** (:func:`rational_human`): the human samples its free-space action from
-  ``softmax(β · Q_pref)`` instead of taking the preference's action. ``Q_pref`` is the
-  human's own value of following its preference: for the action ``a`` in free state ``s``
-  (the robot assumed to wait),
-
-      ``Q_pref(s, a) = -(1 + max(D(s'), D(s) - 1)) - 1[a ≠ a_pref(s)]``,
-
-  where ``s'`` is the state ``a`` leads to, ``D(s)`` the number of steps the preference's
-  re-planned route needs from ``s`` to rest on the goal (0 on the goal support, a large
-  cost ``D_MAX`` on a wrong support or when the route does not reach the goal) and
-  ``a_pref(s)`` the preference's action: a step costs 1, leaving the preferred route costs
-  1 more, and a shortcut off the route earns no more than one step of progress. Following
-  the route makes exactly one step of progress, so ``Q_pref(s, a_pref) = -D(s)`` exceeds
-  every other action's value by at least 1: as β → ∞
-  the Boltzmann human *is* the scripted one (``β = inf`` returns it unchanged). At a support
-  the scripted grasp action also beats the others by 1, so with a finite β the human may
-  hesitate to grasp or to let go too.
+* **Rationality β** (:func:`~hri_envs.humans.rational.rational_human`): the human samples
+  its free-space action from ``softmax(β · Q_pref)`` instead of the preference's action.
 * **Populations** (:data:`POPULATIONS`): each run draws its human (preference, β, passive
   and turning-back rates, or random preference weights θ) from a frozen
   :class:`PopulationSpec`; the draw of run ``r`` uses a generator seeded by
@@ -39,123 +24,29 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.checks import check_real, check_whole
+from hri_envs.checks import check_whole
 from hri_envs.errors import ConfigError
+from hri_envs.humans.families import build_family
 from hri_envs.humans.protocol import Rows, all_rows
+from hri_envs.humans.rational import rational_human
 from hri_envs.humans.scripted import ScriptedHuman, boltzmann_human, preference_human
 from hri_envs.humans.tables import TableHumans
-from hri_envs.task import mdp
 from hri_envs.task.features import initial_theta
-from hri_envs.task.graph import WAIT, TaskGraph
+from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
 __all__ = [
-    "D_MAX",
-    "MAX_RATIONALITY",
     "POPULATIONS",
     "HumanDraw",
     "PopulationHumans",
     "PopulationSpec",
     "build_human",
-    "draw_human",
     "drifted",
     "human_sequence",
     "humans_of",
     "population_spec",
-    "preference_q",
-    "rational_human",
     "validate_drift",
-    "validate_rationality",
 ]
-
-#: The cost-to-go of a wrong support or a route that does not reach the goal, in steps.
-D_MAX = 100
-#: The largest finite rationality β (:func:`validate_rationality`); ``inf`` is allowed too.
-MAX_RATIONALITY = 1e6
-
-
-def validate_rationality(beta: float, field: str = "human_rationality") -> float:
-    """Check a rationality β: a number in (0, :data:`MAX_RATIONALITY`], or ``inf`` (the
-    deterministic scripted human).
-
-    Only numbers are accepted (``int``, ``float``, numpy scalars): ``True`` is not β = 1 and
-    ``"2"`` is not 2; both raise a :class:`ConfigError` naming ``field``. A finite β above the
-    bound would overflow ``β · Q`` to NaN probabilities; it is the deterministic human to
-    double precision long before (``exp(-β)`` underflows at β ≈ 745), so give ``inf``.
-    """
-    if isinstance(beta, float | np.floating) and beta == math.inf:
-        return math.inf
-    return check_real(beta, field, low=0.0, low_open=True, high=MAX_RATIONALITY,
-                      allowed=f"a number > 0 or inf (the deterministic human); finite values "
-                              f"at most {MAX_RATIONALITY:g}")
-
-
-def _cost_to_go(graph: TaskGraph, table: np.ndarray) -> np.ndarray:
-    """(K, K, S) steps the deterministic ``table[start, goal, s]`` needs to rest on the goal.
-
-    The robot is assumed to wait; at a support the count is 0 on the goal support and
-    :data:`D_MAX` elsewhere; routes longer than ``D_MAX`` steps count :data:`D_MAX`.
-    """
-    n_k, n_s = graph.n_intentions, graph.n_states
-    goal = np.arange(n_k)[None, :, None]
-    sup = graph.support[None, None, :]
-    at_support = sup >= 0
-    dist = np.where(at_support, np.where(sup == goal, 0, D_MAX), D_MAX).astype(np.int64)
-    dist = np.broadcast_to(dist, (n_k, n_k, n_s)).copy()
-    free = ~graph.is_support_state
-    nxt = graph.next_state[np.arange(n_s)[None, None, :], WAIT, table]  # (K, K, S)
-    for _ in range(D_MAX):
-        stepped = np.minimum(1 + np.take_along_axis(dist, nxt, axis=-1), D_MAX)
-        new = np.where(free[None, None, :], stepped, dist)
-        if np.array_equal(new, dist):
-            break
-        dist = new
-    return dist
-
-
-def preference_q(human: ScriptedHuman) -> np.ndarray:
-    """(K, K, S, A) ``Q_pref`` of a deterministic preference human (see the module docstring).
-
-    Invalid actions get ``-inf``; support states get 0 for the scripted action and -1 for
-    the others, so :func:`rational_human` makes the grasp behaviour as noisy as a step in
-    free space.
-    """
-    if not human.deterministic:
-        raise ConfigError("preference_q needs a deterministic (preference) human; "
-                          f"got {human.name!r}", field="human")
-    g = human.graph
-    table = human.preferred_action(np.arange(g.n_states)[None, None, :],
-                                   np.arange(g.n_intentions)[:, None, None],
-                                   np.arange(g.n_intentions)[None, :, None])  # (K, K, S)
-    dist = _cost_to_go(g, table)
-    nxt = g.next_state[:, WAIT, :]  # (S, A) where the human's action leads, robot waiting
-    d_next = np.maximum(dist[:, :, nxt], dist[..., None] - 1)  # (K, K, S, A)
-    off = np.arange(g.n_actions)[None, None, None, :] != table[..., None]
-    q = -(1.0 + d_next) - off
-    support = g.is_support_state[None, None, :, None]
-    q = np.where(support, -off.astype(float), q)
-    return np.where(g.valid[None, None], q, -np.inf)
-
-
-def rational_human(human: ScriptedHuman, beta: float) -> ScriptedHuman:
-    """A Boltzmann version of a deterministic preference human: ``π ∝ exp(β Q_pref)``.
-
-    Args:
-        human: A deterministic human from :func:`~hri_envs.humans.scripted.preference_human`.
-        beta: Rationality β > 0; ``inf`` returns ``human`` itself.
-
-    Returns:
-        A human with the same name suffix ``@β``, passivity, turning back and halfway points.
-    """
-    beta = validate_rationality(beta)
-    if math.isinf(beta):
-        return human
-    g = human.graph
-    q = preference_q(human)
-    valid = g.valid[None, None]
-    policy = mdp.softmax(np.where(valid, q, 0.0), valid, beta)
-    return ScriptedHuman(g, policy, f"{human.name}@{beta:g}", human.turn_state, human.passive,
-                         human.turn_back)
 
 
 @dataclass(frozen=True)
@@ -309,8 +200,6 @@ def build_human(graph: TaskGraph, draw: HumanDraw) -> Any:
     :class:`~hri_envs.humans.finite_state.FiniteStateHuman`).
     """
     if draw.family is not None:
-        from hri_envs.humans.families import build_family
-
         return build_family(graph, draw.family, dict(draw.params))
     if draw.theta is not None:
         beta = 25.0 if math.isinf(draw.rationality) else draw.rationality
@@ -326,39 +215,6 @@ def build_human(graph: TaskGraph, draw: HumanDraw) -> Any:
     if draw.passive == human.passive and draw.turn_back == human.turn_back:
         return human
     return dataclasses.replace(human, passive=draw.passive, turn_back=draw.turn_back)
-
-
-def draw_human(
-    scenario: str,
-    seed: int,
-    run: int,
-    *,
-    population: str | None = None,
-    preference: str | None = None,
-    rationality: float = math.inf,
-    passive: float = 0.0,
-    turn_back: float = 0.0,
-    params: Sequence[tuple[str, Any]] = (),
-) -> HumanDraw:
-    """Run ``run``'s human: from ``population`` if given, else the fixed settings.
-
-    With a scripted population, ``rationality`` (if finite) overrides the population's β, and
-    the passive and turning-back rates are added to the population's (clipped to [0, 1]). A
-    split, mixture or family (:func:`hri_envs.humans.splits.population`, with the family's
-    ``params``) gives its member as it is.
-    """
-    if population is None:
-        pref = preference or scenario_spec(scenario).default_preference
-        return HumanDraw(pref, rationality, passive, turn_back)
-    if population not in POPULATIONS:  # a split, mixture or family: its members as they are
-        from hri_envs.humans.splits import population as mixture
-
-        return mixture(population, scenario, dict(params)).draw(scenario, seed, run)
-    d = population_spec(population, scenario).draw(scenario, seed, run)
-    beta = rationality if not math.isinf(rationality) else d.rationality
-    return dataclasses.replace(d, rationality=beta,
-                               passive=min(1.0, d.passive + passive),
-                               turn_back=min(1.0, d.turn_back + turn_back))
 
 
 def drifted(scenario: str, draw: HumanDraw, seed: int, run: int) -> HumanDraw:

@@ -13,8 +13,8 @@ import math
 
 from hri_envs.errors import ConfigError
 from hri_envs.humans.finite_state import FiniteStateHuman, FiniteStateHumans
-from hri_envs.humans.populations import rational_human, validate_rationality
 from hri_envs.humans.protocol import BatchedHumans, BatchHuman, Human
+from hri_envs.humans.rational import rational_human, validate_rationality
 from hri_envs.humans.scripted import ScriptedHuman, check_probability, preference_human
 from hri_envs.humans.splits import population_seat
 from hri_envs.humans.tables import TableHumans

@@ -55,10 +55,11 @@ from hri_envs.humans.populations import (
     PopulationHumans,
     PopulationSpec,
     build_human,
+    population_spec,
 )
 from hri_envs.humans.protocol import BatchHuman, Rows, all_rows
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import SCENARIOS, scenario_graph
+from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
 __all__ = [
     "ALL_PREFERENCES",
@@ -69,6 +70,7 @@ __all__ = [
     "MixtureHumans",
     "MixtureSpec",
     "family_population",
+    "draw_human",
     "population",
     "population_hash",
     "population_names",
@@ -389,3 +391,38 @@ def population_seat(graph: TaskGraph, name: str, n_runs: int = 1,
     if isinstance(spec, PopulationSpec):
         return PopulationHumans(graph, name, n_runs)
     return MixtureHumans(graph, spec, n_runs)
+
+
+#: :func:`population`, under a name :func:`draw_human`'s keyword does not hide.
+_population = population
+
+
+def draw_human(
+    scenario: str,
+    seed: int,
+    run: int,
+    *,
+    population: str | None = None,
+    preference: str | None = None,
+    rationality: float = math.inf,
+    passive: float = 0.0,
+    turn_back: float = 0.0,
+    params: Sequence[tuple[str, Any]] = (),
+) -> HumanDraw:
+    """Run ``run``'s human: from ``population`` if given, else the fixed settings.
+
+    With a scripted population, ``rationality`` (if finite) overrides the population's β, and
+    the passive and turning-back rates are added to the population's (clipped to [0, 1]). A
+    split, mixture or family (:func:`population`, with the family's
+    ``params``) gives its member as it is.
+    """
+    if population is None:
+        pref = preference or scenario_spec(scenario).default_preference
+        return HumanDraw(pref, rationality, passive, turn_back)
+    if population not in POPULATIONS:  # a split, mixture or family: its members as they are
+        return _population(population, scenario, dict(params)).draw(scenario, seed, run)
+    d = population_spec(population, scenario).draw(scenario, seed, run)
+    beta = rationality if not math.isinf(rationality) else d.rationality
+    return dataclasses.replace(d, rationality=beta,
+                               passive=min(1.0, d.passive + passive),
+                               turn_back=min(1.0, d.turn_back + turn_back))

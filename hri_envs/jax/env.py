@@ -18,6 +18,7 @@ takes one key for a whole batch, draws once per step, not once per env.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import jax
@@ -28,13 +29,15 @@ from gymnasium import spaces
 from hri_envs.envs.config import check_env_settings, scenario_graph
 from hri_envs.envs.spaces import robot_observation_space
 from hri_envs.errors import ConfigError
-from hri_envs.humans.populations import PopulationSpec, rational_human, validate_rationality
+from hri_envs.humans.populations import PopulationSpec
+from hri_envs.humans.rational import rational_human, validate_rationality
 from hri_envs.humans.scripted import (
     ScriptedHuman,
     check_probability,
     preference_human,
     preferences_for,
 )
+from hri_envs.humans.splits import MixtureSpec
 from hri_envs.jax.tables import (
     HumanBank,
     PopulationArrays,
@@ -48,7 +51,7 @@ from hri_envs.task.actions import WAIT
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["EnvParams", "EnvState", "JaxRobotEnv", "Member", "ResetDraws", "StepDraws",
-           "uniforms"]
+           "uniform", "uniforms"]
 
 Array = jax.Array
 #: Draw streams of one env step (see :func:`uniforms`).
@@ -136,13 +139,16 @@ class EnvParams(NamedTuple):
         next_state, reward, terminated, lifted, aborted, robot_invalid: (2 K S A A,) the
             step table (:class:`~hri_envs.jax.tables.StepArrays`).
         state0: (K,) int32, the start state of each support.
-        action_mask: (S, A) int8.
+        action_mask: (S,) uint32, each state's action mask as bits (bit a: action a is
+            valid; unpacked in :meth:`JaxRobotEnv.observation`, cheaper than a row gather).
         support: (S,) int32.
         greedy: (P', K, K, S) int32; cum, q: (P', K, K, S, A) float; stochastic: (P',) bool;
             turn_state: (P', K, K) int32; valid: (S, A) bool: the human bank.
         pop_entries: (n,) int32, the entries a population draws from (the fixed entry
             without a population).
         pop_log_beta, pop_passive, pop_turn_back: (2,) float, the population's ranges.
+        pop_members: (M, 3) float, a member list's β, passive and turning-back rates
+            (:attr:`~hri_envs.jax.tables.PopulationArrays.members`; (1, 3) unused otherwise).
         fixed: The env's fixed human (without a population).
         max_cycles: int32, the step limit per episode.
     """
@@ -166,6 +172,7 @@ class EnvParams(NamedTuple):
     pop_log_beta: Array
     pop_passive: Array
     pop_turn_back: Array
+    pop_members: Array
     fixed: Member
     max_cycles: Array
 
@@ -180,20 +187,26 @@ def _mix(x: Array) -> Array:
     return x ^ (x >> 16)
 
 
-def uniforms(seed: Array, index: Array, n: int = N_STREAMS) -> Array:
-    """(n,) uniforms in [0, 1) for one env: a hash of ``(seed, index, stream)``.
+def uniform(seed: Array, index: Array, stream: int) -> Array:
+    """A uniform in [0, 1) for one env and stream: a hash of ``(seed, index, stream)``.
 
     Args:
         seed: (2,) uint32, one threefry draw (``jax.random.bits(key, (2,), jnp.uint32)``).
         index: uint32, the env's index in its batch (< 2²⁸).
-        n: Streams (< 16).
+        stream: Which of the step's draws (< 16).
 
     Distinct ``(index, stream)`` give distinct hashes for one seed (the hash is a bijection
-    of ``16 index + stream``); 24 bits each, so every value is exact in float32.
+    of ``16 index + stream``); 24 bits each, so every value is exact in float32. Each
+    stream is its own computation, so the draws a step does not use cost nothing.
     """
-    x = index.astype(jnp.uint32) * jnp.uint32(16) + jnp.arange(n, dtype=jnp.uint32)
+    x = jnp.asarray(index).astype(jnp.uint32) * jnp.uint32(16) + jnp.uint32(stream)
     h = _mix(_mix(x ^ seed[0]) ^ seed[1])
     return (h >> 8).astype(jnp.float32) * jnp.float32(2.0 ** -24)
+
+
+def uniforms(seed: Array, index: Array, n: int = N_STREAMS) -> Array:
+    """(n,) :func:`uniform` draws of one env, streams ``0 .. n - 1``."""
+    return jnp.stack([uniform(seed, index, k) for k in range(n)])
 
 
 # --------------------------------------------------------------------------- the env
@@ -253,7 +266,10 @@ class JaxRobotEnv:
       (humans of the human protocol with Python state cannot run under ``jit``);
     - ``population``: a name of
       :data:`~hri_envs.jax.tables.SUPPORTED_POPULATIONS` (or a
-      :class:`~hri_envs.humans.populations.PopulationSpec`): a human drawn per trial;
+      :class:`~hri_envs.humans.populations.PopulationSpec`), or of a split of
+      :data:`~hri_envs.jax.tables.SUPPORTED_SPLITS` (a frozen member list,
+      :mod:`hri_envs.humans.splits`; ``"train"`` is the one to train on): a human drawn
+      per trial;
     - ``episodes_per_human``: episodes per trial (default 1);
     - ``drift``: after this many episodes of a trial the human switches to another
       preference (None: never), as the suite's drifting human.
@@ -272,7 +288,7 @@ class JaxRobotEnv:
         turn_back: float = 0.0,
         human: ScriptedHuman | None = None,
         human_rationality: float = math.inf,
-        population: str | PopulationSpec | None = None,
+        population: str | PopulationSpec | MixtureSpec | None = None,
         r0: float | None = None,
         max_cycles: int = 100,
         reward: str = "paper",
@@ -333,6 +349,11 @@ class JaxRobotEnv:
             self._passive = fixed_passive > 0.0
             self._turning = fixed_turn > 0.0
             self._stochastic = bool(self.bank.stochastic[fixed_entry])
+        elif pop.members is not None:  # a frozen list of humans (a split)
+            self._rational = bool(np.isfinite(pop.members[:, 0]).any())
+            self._passive = bool((pop.members[:, 1] > 0.0).any())
+            self._turning = bool((pop.members[:, 2] > 0.0).any())
+            self._stochastic = self._rational
         else:
             self._rational = pop.log_beta is not None
             self._passive = bool(pop.passive[1] > 0.0)
@@ -378,68 +399,88 @@ class JaxRobotEnv:
             next_state=jnp.asarray(t.next_state), reward=f(t.reward),
             terminated=jnp.asarray(t.terminated), lifted=jnp.asarray(t.lifted),
             aborted=jnp.asarray(t.aborted), robot_invalid=jnp.asarray(t.robot_invalid),
-            state0=jnp.asarray(t.state0), action_mask=jnp.asarray(t.action_mask),
+            state0=jnp.asarray(t.state0),
+            action_mask=jnp.asarray((t.action_mask.astype(np.uint32)
+                                     << np.arange(self.n_actions, dtype=np.uint32)).sum(1),
+                                    dtype=jnp.uint32),
             support=jnp.asarray(t.support),
             greedy=jnp.asarray(b.greedy), cum=f(b.cum), stochastic=jnp.asarray(b.stochastic),
             q=f(b.q), turn_state=jnp.asarray(b.turn_state), valid=jnp.asarray(b.valid),
             pop_entries=jnp.asarray(entries, dtype=jnp.int32), pop_log_beta=f(log_beta),
             pop_passive=f(pop.passive if pop is not None else [0.0, 0.0]),
             pop_turn_back=f(pop.turn_back if pop is not None else [0.0, 0.0]),
+            pop_members=f(pop.members if pop is not None and pop.members is not None
+                          else [[math.inf, 0.0, 0.0]]),
             fixed=Member(jnp.int32(entry), f(math.inf), f(passive), f(turn), jnp.int32(entry)),
             max_cycles=jnp.int32(min(self.max_cycles, 2**31 - 1)),
         )
 
     # ----------------------------------------------------------------- draws
-    def member_from_uniforms(self, u: Array, params: EnvParams) -> Member:
+    def member_from_uniforms(self, u: Array | Callable[[int], Array],
+                             params: EnvParams) -> Member:
         """A human from five uniforms: the population's recipe (:class:`PopulationArrays`)
         from ``u[:4]``, the drift's other preference from ``u[4]``; the fixed human
-        without a population.
+        without a population. ``u`` is an array, or a function of the index.
         """
         p = params
+        if not callable(u):
+            u = u.__getitem__
         if self.population is None:
             m = p.fixed
+        elif self.population.members is not None:
+            n = p.pop_entries.shape[0]
+            i = jnp.minimum((u(0) * n).astype(jnp.int32), n - 1)
+            rates = p.pop_members[i]
+            m = Member(p.pop_entries[i], rates[0], rates[1], rates[2], p.pop_entries[i])
         else:
             n = p.pop_entries.shape[0]
-            entry = p.pop_entries[jnp.minimum((u[0] * n).astype(jnp.int32), n - 1)]
+            entry = p.pop_entries[jnp.minimum((u(0) * n).astype(jnp.int32), n - 1)]
             dtype = p.pop_passive.dtype
-            uu = u.astype(dtype)
             if self._rational:
                 lo, hi = p.pop_log_beta[0], p.pop_log_beta[1]
-                beta = jnp.exp(lo + uu[1] * (hi - lo))
+                beta = jnp.exp(lo + u(1).astype(dtype) * (hi - lo))
             else:
                 beta = jnp.asarray(jnp.inf, dtype)
-            passive = p.pop_passive[0] + uu[2] * (p.pop_passive[1] - p.pop_passive[0])
-            turn = p.pop_turn_back[0] + uu[3] * (p.pop_turn_back[1] - p.pop_turn_back[0])
+            passive = p.pop_passive[0] + u(2).astype(dtype) * (p.pop_passive[1]
+                                                               - p.pop_passive[0])
+            turn = p.pop_turn_back[0] + u(3).astype(dtype) * (p.pop_turn_back[1]
+                                                              - p.pop_turn_back[0])
             m = Member(entry, beta, passive, turn, entry)
         if self.drift is None:
             return m
         n_p = self.bank.n_preferences
-        shift = jnp.minimum((u[4] * (n_p - 1)).astype(jnp.int32), n_p - 2)
+        shift = jnp.minimum((u(4) * (n_p - 1)).astype(jnp.int32), n_p - 2)
         other = jnp.where(m.entry < n_p, (m.entry + 1 + shift) % n_p,
-                          jnp.minimum((u[4] * n_p).astype(jnp.int32), n_p - 1))
+                          jnp.minimum((u(4) * n_p).astype(jnp.int32), n_p - 1))
         return m._replace(drift_entry=other.astype(jnp.int32))
 
-    def draws_from_uniforms(self, u: Array, params: EnvParams) -> StepDraws:
-        """One env's :class:`StepDraws` from (10,) uniforms: passive, choice, start,
-        intention, turn, then the five of :meth:`member_from_uniforms`.
+    def draws_from_uniforms(self, u: Array | Callable[[int], Array],
+                            params: EnvParams) -> StepDraws:
+        """One env's :class:`StepDraws` from (10,) uniforms (or a function of the index):
+        passive, choice, start, intention, turn, then the five of
+        :meth:`member_from_uniforms`.
         """
+        if not callable(u):
+            u = u.__getitem__
+        get = u
         k = self.n_supports
-        start = jnp.minimum((u[2] * k).astype(jnp.int32), k - 1)
-        offset = jnp.minimum((u[3] * (k - 1)).astype(jnp.int32), k - 2)
-        reset = ResetDraws(start, (start + 1 + offset) % k, u[4],
-                           self.member_from_uniforms(u[5:10], params))
-        return StepDraws(u[0], u[1], reset)
+        start = jnp.minimum((get(2) * k).astype(jnp.int32), k - 1)
+        offset = jnp.minimum((get(3) * (k - 1)).astype(jnp.int32), k - 2)
+        reset = ResetDraws(start, (start + 1 + offset) % k, get(4),
+                           self.member_from_uniforms(lambda i: get(5 + i), params))
+        return StepDraws(get(0), get(1), reset)
 
     def draws(self, key: Array, params: EnvParams, index: Array | int = 0) -> StepDraws:
-        """The draws of env ``index`` of a batch for one step, from ``key`` (:func:`uniforms`)."""
+        """The draws of env ``index`` of a batch for one step, from ``key`` (:func:`uniform`)."""
         seed = jax.random.bits(key, (2,), jnp.uint32)
-        return self.draws_from_uniforms(uniforms(seed, jnp.asarray(index)), params)
+        return self.draws_from_uniforms(lambda k: uniform(seed, jnp.asarray(index), k), params)
 
     def batch_draws(self, key: Array, n: int, params: EnvParams) -> StepDraws:
         """(n,) draws, one per env, from one key (one threefry draw, then a hash per env)."""
         seed = jax.random.bits(key, (2,), jnp.uint32)
-        u = jax.vmap(uniforms, in_axes=(None, 0))(seed, jnp.arange(n, dtype=jnp.uint32))
-        return jax.vmap(self.draws_from_uniforms, in_axes=(0, None))(u, params)
+        return jax.vmap(
+            lambda i: self.draws_from_uniforms(lambda k: uniform(seed, i, k), params))(
+            jnp.arange(n, dtype=jnp.uint32))
 
     # ----------------------------------------------------------------- the rules
     def _entry(self, member: Member, episode: Array) -> Array:
@@ -492,9 +533,10 @@ class JaxRobotEnv:
 
     def observation(self, state: EnvState, params: EnvParams) -> dict[str, Array]:
         """The robot's observation of ``state`` (never ι)."""
+        bits = params.action_mask[state.state] >> jnp.arange(self.n_actions, dtype=jnp.uint32)
         return {"state": state.state, "start": state.start,
                 "last_human_action": state.last_human,
-                "action_mask": params.action_mask[state.state]}
+                "action_mask": (bits & 1).astype(jnp.int8)}
 
     def reset_given(self, draws: ResetDraws, params: EnvParams | None = None
                     ) -> tuple[dict[str, Array], EnvState]:

@@ -3,7 +3,7 @@
 Nothing here restates a rule: the step is :class:`~hri_envs.task.episode.StepTable`'s
 (itself fused from :class:`~hri_envs.task.episode.EpisodeRules`), the humans are
 :class:`~hri_envs.humans.scripted.ScriptedHuman` tables (:func:`preference_human`,
-:func:`~hri_envs.humans.populations.preference_q`) and a population's draw is
+:func:`~hri_envs.humans.rational.preference_q`) and a population's draw is
 :meth:`~hri_envs.humans.populations.PopulationSpec.sample`'s recipe, read from its spec.
 This module imports numpy only; :mod:`hri_envs.jax.env` turns the arrays into ``jax`` ones.
 
@@ -16,19 +16,24 @@ turning-back rate and, for drift, the preference it drifts to.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.humans.populations import PopulationSpec, population_spec, preference_q
+from hri_envs.humans.populations import PopulationSpec
+from hri_envs.humans.rational import preference_q
 from hri_envs.humans.scripted import ScriptedHuman, preference_human, preferences_for
+from hri_envs.humans.splits import MixtureSpec
+from hri_envs.humans.splits import population as named_population
 from hri_envs.task.episode import EpisodeRules, StepTable
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import scenario_spec
 
-__all__ = ["SUPPORTED_POPULATIONS", "HumanBank", "PopulationArrays", "StepArrays",
-           "human_bank", "is_plain", "population_arrays", "step_arrays"]
+__all__ = ["SUPPORTED_POPULATIONS", "SUPPORTED_SPLITS", "HumanBank", "PopulationArrays",
+           "StepArrays", "human_bank", "is_plain", "mixture_arrays", "population_arrays",
+           "step_arrays"]
 
 
 @dataclass(frozen=True)
@@ -129,6 +134,9 @@ def human_bank(graph: TaskGraph, extra: ScriptedHuman | None = None) -> HumanBan
 #: The populations the JAX env draws from (every registered one whose members are tables).
 SUPPORTED_POPULATIONS: tuple[str, ...] = ("hanger-all", "preferences", "mixed-rationality",
                                           "passive-turnback", "heldout")
+#: The frozen splits (:mod:`hri_envs.humans.splits`) the JAX env holds as member lists: their
+#: members are all scripted preference humans (passive, Boltzmann or neither).
+SUPPORTED_SPLITS: tuple[str, ...] = ("train", "validation")
 
 
 @dataclass(frozen=True)
@@ -146,6 +154,10 @@ class PopulationArrays:
         log_beta: (2,) float64, log of β's range, or None (deterministic members).
         passive: (2,) float64, the passive rate's range.
         turn_back: (2,) float64, the turning-back rate's range.
+        members: For a frozen list of humans (a split, :class:`MixtureSpec`), None
+            otherwise: (M, 3) float64, each member's β (``inf``: deterministic), passive and
+            turning-back rate; ``prefs`` is then (M,), each member's bank entry, and the
+            member is ``min(⌊u₀ M⌋, M - 1)`` (the ranges are unused).
     """
 
     name: str
@@ -153,17 +165,55 @@ class PopulationArrays:
     log_beta: np.ndarray | None
     passive: np.ndarray
     turn_back: np.ndarray
+    members: np.ndarray | None = None
 
 
-def population_arrays(graph: TaskGraph, population: str | PopulationSpec) -> PopulationArrays:
-    """The draw of ``population`` (a registered name, or a spec of your own) as arrays.
+def mixture_arrays(graph: TaskGraph, spec: MixtureSpec) -> PopulationArrays:
+    """A frozen list of humans (a split) as member arrays (:class:`PopulationArrays`).
+
+    Raises:
+        ConfigError: A member is not a scripted preference human (a family with a state of
+            its own: misspecified, adaptive, inconsistent), or the list is for another
+            scenario.
+    """
+    if spec.scenario != graph.name:
+        raise ConfigError(f"population {spec.name!r} is for the {spec.scenario}, not the "
+                          f"{graph.name}", field="population")
+    names = preferences_for(graph.name)
+    entries, rates = [], []
+    for draw in spec.member_draws:
+        params = dict(draw.params)
+        if draw.family != "preference" or not set(params) <= {"preference", "passive",
+                                                                "rationality"}:
+            raise ConfigError(
+                f"population {spec.name!r} holds {draw.label()!r}, which is not a scripted "
+                f"preference human; the JAX env holds the splits "
+                f"{', '.join(SUPPORTED_SPLITS)} and the populations "
+                f"{', '.join(SUPPORTED_POPULATIONS)}", field="population")
+        pref = params.get("preference") or scenario_spec(graph.name).default_preference
+        entries.append(names.index(pref))
+        rates.append((float(params.get("rationality", math.inf)),
+                      float(params.get("passive", 0.0)), 0.0))
+    members = np.asarray(rates, dtype=np.float64)
+    return PopulationArrays(spec.name, np.asarray(entries, dtype=np.int32), None,
+                            np.array([members[:, 1].min(), members[:, 1].max()]),
+                            np.zeros(2), members)
+
+
+def population_arrays(graph: TaskGraph, population: str | PopulationSpec | MixtureSpec
+                      ) -> PopulationArrays:
+    """The draw of ``population`` (a registered name or split, or a spec of your own) as
+    arrays.
 
     Raises:
         ConfigError: An unknown population, one for another scenario, or one whose members
-            are not tables (``theta``: each member needs a Q-iteration of its own).
+            are not tables (``theta``: each member needs a Q-iteration of its own; a family
+            with a state of its own).
     """
-    spec = population if isinstance(population, PopulationSpec) else population_spec(
-        population, graph.name)
+    spec = named_population(population, graph.name) if isinstance(population, str) else (
+        population)
+    if isinstance(spec, MixtureSpec):
+        return mixture_arrays(graph, spec)
     if spec.theta:
         raise ConfigError(
             f"population {spec.name!r} draws preference weights θ, whose humans need a "

@@ -1,0 +1,445 @@
+"""PPO with a GRU policy, trained end to end in JAX against a population of scripted humans.
+
+Everything of an update runs under one ``jit``: ``rollout`` steps of ``num_envs``
+:class:`~hri_envs.jax.JaxRobotEnv` envs (``lax.scan``), GAE, and ``epochs`` passes of
+clipped-PPO minibatch updates, each re-running the GRU over its envs' whole rollout from the
+hidden state it started with (truncated back-propagation through time). :func:`train` runs
+``chunk`` updates per compiled call and logs after each.
+
+The envs run in *trials*: ``episodes_per_trial`` episodes with one human drawn from the
+population (the suite's runs: 8 hanger / 20 wheel episodes with one partner); the GRU state
+is kept across a trial's episodes and cleared when a new human comes, and the return (GAE)
+runs over the whole trial, so what the robot learns about its partner in one episode pays
+in the next. Sampling draws one uniform per env and step (inverse CDF), from a hash like the
+env's, not a categorical per env (SPEC §6: randomness is the cost on a CPU).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from agents.jax_ppo import checkpoint
+from agents.jax_ppo.network import Inputs, NetConfig, Params, apply, init_params, masked_logits
+from hri_envs.errors import ConfigError
+from hri_envs.humans.populations import PopulationSpec
+from hri_envs.humans.splits import MixtureSpec, population
+from hri_envs.jax.env import EnvState, JaxRobotEnv, uniform
+from hri_envs.task.actions import WAIT
+from hri_envs.task.scenarios import scenario_spec
+
+__all__ = ["TrainConfig", "TrainResult", "make_env", "sample_actions", "train"]
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """What to train, on what, how long (JSON-ready; stored in the checkpoint).
+
+    Attributes:
+        scenario: "hanger" or "wheel".
+        population: The training population's name: the frozen ``train`` split
+            (:mod:`hri_envs.humans.splits`: 40 scripted preference humans, deterministic,
+            passive or Boltzmann; the default), or a scripted population of
+            :data:`hri_envs.jax.tables.SUPPORTED_POPULATIONS` (the held-out one and the
+            evaluation splits are refused).
+        passive: (low, high) passive rate drawn per human, replacing a scripted
+            population's (None: the population's; not for a split).
+        turn_back: (low, high) turning-back rate drawn per human, likewise.
+        episodes_per_trial: Episodes with one human (None: the scenario's study length).
+        reward: The reward variant ("paper" or "no-free-toggle").
+        r0: The robot's waiting reward (None: the scenario's).
+        max_cycles: Step limit per episode.
+        total_steps: Env steps to train for (rounded up to whole updates).
+        num_envs: Envs stepped together.
+        rollout: Steps per env between updates.
+        epochs: Passes over a rollout.
+        minibatches: Minibatches per pass (split along the envs).
+        lr: Adam's learning rate (annealed linearly to 0).
+        gamma: Discount per step, over the whole trial.
+        gae_lambda: GAE's λ.
+        clip: PPO's ratio clip.
+        ent_coef: Entropy bonus.
+        vf_coef: Value-loss weight.
+        max_grad_norm: Gradient clip.
+        reward_scale: Rewards are multiplied by it for the value function and GAE (a
+            trial's return is tens of rewards; unscaled, the value loss's gradient would
+            dominate the clipped global norm and starve the policy's).
+        hidden: GRU width.
+        seed: Every draw (initial weights, envs, sampling) derives from it.
+        chunk: Updates per compiled call (progress is logged between calls).
+    """
+
+    scenario: str = "hanger"
+    population: str = "train"
+    passive: tuple[float, float] | None = None
+    turn_back: tuple[float, float] | None = None
+    episodes_per_trial: int | None = None
+    reward: str = "paper"
+    r0: float | None = None
+    max_cycles: int = 100
+    total_steps: int = 20_000_000
+    num_envs: int = 1024
+    rollout: int = 32
+    epochs: int = 2
+    minibatches: int = 2
+    lr: float = 2e-3
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    clip: float = 0.2
+    ent_coef: float = 0.01
+    vf_coef: float = 0.5
+    max_grad_norm: float = 1.0
+    reward_scale: float = 0.05
+    hidden: int = 32
+    seed: int = 0
+    chunk: int = 10
+
+    @property
+    def steps_per_update(self) -> int:
+        """num_envs × rollout."""
+        return self.num_envs * self.rollout
+
+    @property
+    def updates(self) -> int:
+        """Updates to reach ``total_steps`` (whole chunks)."""
+        n = math.ceil(self.total_steps / self.steps_per_update)
+        return math.ceil(n / self.chunk) * self.chunk
+
+    def trial_length(self) -> int:
+        """Episodes per trial (the scenario's study length by default)."""
+        return self.episodes_per_trial or scenario_spec(self.scenario).episodes
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready."""
+        return asdict(self)
+
+    def check(self) -> TrainConfig:
+        """Raise a :class:`ConfigError` naming the field of a bad value; return self."""
+        whole = ("total_steps", "num_envs", "rollout", "epochs", "minibatches", "hidden",
+                 "chunk", "max_cycles")
+        for name in whole:
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ConfigError(f"{name} must be a whole number >= 1, got {v!r}", field=name)
+        if self.num_envs % self.minibatches:
+            raise ConfigError(f"minibatches ({self.minibatches}) must divide num_envs "
+                              f"({self.num_envs})", field="minibatches")
+        for name in ("lr", "gamma", "gae_lambda", "clip", "max_grad_norm", "reward_scale"):
+            v = getattr(self, name)
+            if not isinstance(v, int | float) or not 0 < v <= (1 if name != "lr" else 1e3):
+                raise ConfigError(f"{name} must be a number in (0, 1], got {v!r}", field=name)
+        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
+            raise ConfigError(f"seed must be a whole number >= 0, got {self.seed!r}",
+                              field="seed")
+        return self
+
+
+def training_population(cfg: TrainConfig) -> PopulationSpec | MixtureSpec:
+    """The population trained on: the named split, or scripted population with the config's
+    rate ranges.
+
+    Raises:
+        ConfigError: An evaluation split or held-out population (``field="population"``),
+            or rate ranges given for a split (``field="passive"``/``"turn_back"``).
+    """
+    spec = population(cfg.population, cfg.scenario)
+    if isinstance(spec, MixtureSpec):
+        if cfg.population not in ("train", "validation"):
+            raise ConfigError(f"population {cfg.population!r} is for evaluation (or not a "
+                              "scripted population); train on 'train'", field="population")
+        for name in ("passive", "turn_back"):
+            if getattr(cfg, name) is not None:
+                raise ConfigError(f"{name} ranges change a scripted population's draw; the "
+                                  f"split {cfg.population!r} is a frozen list of humans",
+                                  field=name)
+        return spec
+    if spec.held_out:
+        raise ConfigError(f"population {cfg.population!r} is held out for evaluation; "
+                          "train on 'train'", field="population")
+    changes: dict[str, Any] = {}
+    if cfg.passive is not None:
+        changes["passive"] = tuple(float(x) for x in cfg.passive)
+    if cfg.turn_back is not None:
+        changes["turn_back"] = tuple(float(x) for x in cfg.turn_back)
+    return dataclasses.replace(spec, **changes) if changes else spec
+
+
+def make_env(cfg: TrainConfig) -> JaxRobotEnv:
+    """The training env: trials of ``trial_length()`` episodes per human of the population."""
+    return JaxRobotEnv(cfg.scenario, population=training_population(cfg),
+                       episodes_per_human=cfg.trial_length(), reward=cfg.reward, r0=cfg.r0,
+                       max_cycles=cfg.max_cycles)
+
+
+class Memory(NamedTuple):
+    """The robot's bookkeeping besides the observation (each (N,)).
+
+    Attributes:
+        prev_action: int32, its previous action in the episode (wait at the start).
+        last_end: int32, where the previous episode ended (K: none).
+        first: bool, the next step is an episode's first.
+        new_trial: bool, the next step starts a trial (the GRU state is cleared).
+    """
+
+    prev_action: jax.Array
+    last_end: jax.Array
+    first: jax.Array
+    new_trial: jax.Array
+
+
+class Runner(NamedTuple):
+    """What one update hands the next."""
+
+    params: Params
+    opt_state: Any
+    env_state: EnvState
+    obs: dict[str, jax.Array]
+    memory: Memory
+    hidden: jax.Array
+    episode_return: jax.Array
+    key: jax.Array
+    update: jax.Array
+
+
+class TrainResult(NamedTuple):
+    """A finished training run.
+
+    Attributes:
+        params: The trained weights (numpy).
+        config: The training config.
+        net: The network's sizes.
+        curve: Per update: ``steps``, ``episode_return`` (mean over the episodes that ended
+            in the update), ``return_by_episode`` (per episode index in the trial),
+            ``entropy``, ``value_loss``, and ``seconds`` (wall, per chunk's updates).
+        seconds: Training wall time, compilation included.
+        compile_seconds: The first chunk's extra time (compilation), estimated.
+    """
+
+    params: dict[str, np.ndarray]
+    config: TrainConfig
+    net: NetConfig
+    curve: dict[str, list[Any]]
+    seconds: float
+    compile_seconds: float
+
+
+def inputs_of(obs: dict[str, jax.Array], memory: Memory) -> Inputs:
+    """The network's inputs from an observation and the robot's memory."""
+    return Inputs(obs["state"], obs["start"], obs["last_human_action"], obs["action_mask"],
+                  memory.prev_action, memory.last_end, memory.first)
+
+
+def sample_actions(logits: jax.Array, mask: jax.Array, u: jax.Array) -> jax.Array:
+    """(N,) actions from masked logits (N, A) with one uniform each (inverse CDF)."""
+    masked = masked_logits(logits, mask)
+    cum = jnp.cumsum(jax.nn.softmax(masked, axis=-1), axis=-1)
+    a = jnp.minimum(jnp.sum(u[:, None] >= cum, axis=-1), logits.shape[-1] - 1)
+    ok = jnp.take_along_axis(mask, a[:, None], axis=-1)[:, 0].astype(bool)
+    return jnp.where(ok, a, jnp.argmax(masked, axis=-1)).astype(jnp.int32)
+
+
+def _make_update(cfg: TrainConfig, env: JaxRobotEnv, optimizer: optax.GradientTransformation
+                 ) -> Callable[[Runner, Any], tuple[Runner, dict[str, jax.Array]]]:
+    env_params = env.default_params
+    n, t_roll, k = cfg.num_envs, cfg.rollout, env.n_supports
+    n_trial = cfg.trial_length()
+    env_index = jnp.arange(n, dtype=jnp.uint32)
+
+    def rollout_step(carry: tuple, _: Any) -> tuple[tuple, tuple]:
+        params, env_state, obs, memory, hidden, ep_ret, key, sums, counts = carry
+        key, k_act, k_env = jax.random.split(key, 3)
+        x = inputs_of(obs, memory)
+        h_in = jnp.where(memory.new_trial[:, None], 0.0, hidden)
+        hidden, logits, value = apply(params, x, h_in)
+        seed = jax.random.bits(k_act, (2,), jnp.uint32)
+        action = sample_actions(logits, x.mask, uniform(seed, env_index, 0))
+        logp = jax.nn.log_softmax(masked_logits(logits, x.mask))
+        logp_a = jnp.take_along_axis(logp, action[:, None], axis=-1)[:, 0]
+        episode = env_state.episode
+        obs, env_state, reward, done, info = env.step_batch(k_env, env_state, action, env_params)
+        ended_on = jnp.where(info["terminated"], env_params.support[info["final_state"]], k)
+        last_end = jnp.where(info["new_trial"], k, jnp.where(done, ended_on, memory.last_end))
+        memory_next = Memory(jnp.where(done, WAIT, action).astype(jnp.int32),
+                             last_end.astype(jnp.int32), done, info["new_trial"])
+        ep_ret = ep_ret + reward
+        finished = done.astype(reward.dtype)
+        sums = sums.at[episode].add(ep_ret * finished)
+        counts = counts.at[episode].add(finished)
+        ep_ret = ep_ret * (1.0 - finished)
+        out = (x, memory.new_trial, action, logp_a, value, reward, info["new_trial"])
+        return (params, env_state, obs, memory_next, hidden, ep_ret, key, sums, counts), out
+
+    def sequence_loss(params: Params, h0: jax.Array, batch: tuple) -> tuple[jax.Array, tuple]:
+        x, reset, action, logp_old, _, adv, target = batch
+
+        def step(h: jax.Array, xs: tuple) -> tuple[jax.Array, tuple]:
+            xi, ri = xs
+            h = jnp.where(ri[:, None], 0.0, h)
+            h, logits, value = apply(params, xi, h)
+            return h, (logits, value)
+
+        _, (logits, value) = jax.lax.scan(step, h0, (x, reset))
+        masked = masked_logits(logits, x.mask)
+        logp = jax.nn.log_softmax(masked)
+        logp_a = jnp.take_along_axis(logp, action[..., None], axis=-1)[..., 0]
+        ratio = jnp.exp(logp_a - logp_old)
+        adv_n = (adv - adv.mean()) / (adv.std() + 1e-8)
+        pg = -jnp.minimum(ratio * adv_n,
+                          jnp.clip(ratio, 1 - cfg.clip, 1 + cfg.clip) * adv_n).mean()
+        v_loss = 0.5 * ((value - target) ** 2).mean()  # unclipped: trial returns are large
+        probs = jnp.exp(logp)
+        entropy = -jnp.sum(jnp.where(x.mask.astype(bool), probs * logp, 0.0), axis=-1).mean()
+        loss = pg + cfg.vf_coef * v_loss - cfg.ent_coef * entropy
+        return loss, (v_loss, entropy)
+
+    grad_fn = jax.value_and_grad(sequence_loss, has_aux=True)
+
+    def update(runner: Runner, _: Any) -> tuple[Runner, dict[str, jax.Array]]:
+        params = runner.params
+        h0 = jnp.where(runner.memory.new_trial[:, None], 0.0, runner.hidden)
+        zeros = jnp.zeros(n_trial, jnp.float32)
+        carry = (params, runner.env_state, runner.obs, runner.memory, runner.hidden,
+                 runner.episode_return, runner.key, zeros, zeros)
+        carry, traj = jax.lax.scan(rollout_step, carry, None, length=t_roll)
+        _, env_state, obs, memory, hidden, ep_ret, key, sums, counts = carry
+        x, reset, action, logp, value, reward, trial_done = traj
+        h_last = jnp.where(memory.new_trial[:, None], 0.0, hidden)
+        _, _, last_value = apply(params, inputs_of(obs, memory), h_last)
+
+        def gae(next_: tuple, xs: tuple) -> tuple[tuple, jax.Array]:
+            adv_next, v_next = next_
+            r, v, d = xs
+            live = 1.0 - d.astype(r.dtype)
+            delta = r + cfg.gamma * v_next * live - v
+            adv = delta + cfg.gamma * cfg.gae_lambda * live * adv_next
+            return (adv, v), adv
+
+        _, adv = jax.lax.scan(gae, (jnp.zeros(n), last_value),
+                              (reward * cfg.reward_scale, value, trial_done), reverse=True)
+        target = adv + value
+        batch = (x, reset, action, logp, value, adv, target)
+
+        def epoch(state: tuple, key_e: jax.Array) -> tuple[tuple, tuple]:
+            params, opt_state = state
+            order = jax.random.permutation(key_e, n).reshape(cfg.minibatches, -1)
+
+            def minibatch(state: tuple, idx: jax.Array) -> tuple[tuple, tuple]:
+                params, opt_state = state
+                mb = jax.tree.map(lambda a: a[:, idx], batch)
+                (_, aux), grads = grad_fn(params, h0[idx], mb)
+                updates, opt_state = optimizer.update(grads, opt_state, params)
+                return (optax.apply_updates(params, updates), opt_state), aux
+
+            return jax.lax.scan(minibatch, (params, opt_state), order)
+
+        key, k_epochs = jax.random.split(key)
+        (params, opt_state), (v_loss, entropy) = jax.lax.scan(
+            epoch, (params, runner.opt_state), jax.random.split(k_epochs, cfg.epochs))
+        metrics = {"episode_return": sums.sum() / jnp.maximum(counts.sum(), 1.0),
+                   "return_by_episode": sums / jnp.maximum(counts, 1.0),
+                   "episodes": counts.sum(), "reward_per_step": reward.mean(),
+                   "entropy": entropy.mean(), "value_loss": v_loss.mean()}
+        runner = Runner(params, opt_state, env_state, obs, memory, hidden, ep_ret, key,
+                        runner.update + 1)
+        return runner, metrics
+
+    return update
+
+
+def _init(cfg: TrainConfig, env: JaxRobotEnv, net: NetConfig,
+          optimizer: optax.GradientTransformation) -> Runner:
+    key = jax.random.key(cfg.seed)
+    key, k_net, k_env = jax.random.split(key, 3)
+    params = init_params(k_net, net)
+    obs, env_state = env.reset_batch(k_env, cfg.num_envs, env.default_params)
+    n = cfg.num_envs
+    memory = Memory(jnp.full(n, WAIT, jnp.int32), jnp.full(n, env.n_supports, jnp.int32),
+                    jnp.ones(n, bool), jnp.ones(n, bool))
+    return Runner(params, optimizer.init(params), env_state, obs, memory,
+                  jnp.zeros((n, net.hidden)), jnp.zeros(n), key, jnp.int32(0))
+
+
+@functools.lru_cache(maxsize=4)
+def _compiled(cfg: TrainConfig) -> tuple[JaxRobotEnv, NetConfig, optax.GradientTransformation,
+                                         Callable[[Runner], tuple[Runner, Any]]]:
+    """The env, network sizes, optimiser and jitted chunk of updates of ``cfg`` (kept, so a
+    second training with the same config does not compile again).
+    """
+    env = make_env(cfg)
+    net = NetConfig(env.n_states, env.n_supports, env.n_actions, cfg.hidden)
+    schedule = optax.linear_schedule(cfg.lr, 0.0, cfg.updates * cfg.epochs * cfg.minibatches)
+    optimizer = optax.chain(optax.clip_by_global_norm(cfg.max_grad_norm),
+                            optax.adam(schedule, eps=1e-5))
+    update = _make_update(cfg, env, optimizer)
+
+    @jax.jit
+    def run_chunk(runner: Runner) -> tuple[Runner, dict[str, jax.Array]]:
+        return jax.lax.scan(update, runner, None, length=cfg.chunk)
+
+    return env, net, optimizer, run_chunk
+
+
+def train(cfg: TrainConfig, *, log: Callable[[str], None] | None = None,
+          save_to: str | None = None) -> TrainResult:
+    """Train a policy; optionally save it (:func:`agents.jax_ppo.checkpoint.save`).
+
+    Args:
+        cfg: What and how long.
+        log: Called with one line after every chunk of updates (e.g. ``print``).
+        save_to: A ``.npz`` path for the trained policy.
+    """
+    cfg.check()
+    env, net, optimizer, run_chunk = _compiled(cfg)
+    t_start = time.perf_counter()
+    runner = _init(cfg, env, net, optimizer)
+    curve: dict[str, list[Any]] = {k: [] for k in ("steps", "episode_return",
+                                                    "return_by_episode", "entropy",
+                                                    "value_loss", "seconds")}
+    chunk_times = []
+    for c in range(cfg.updates // cfg.chunk):
+        t0 = time.perf_counter()
+        runner, metrics = run_chunk(runner)
+        metrics = jax.device_get(metrics)
+        dt = time.perf_counter() - t0
+        chunk_times.append(dt)
+        for i in range(cfg.chunk):
+            u = c * cfg.chunk + i + 1
+            curve["steps"].append(u * cfg.steps_per_update)
+            curve["episode_return"].append(float(metrics["episode_return"][i]))
+            curve["return_by_episode"].append([float(v) for v in
+                                               metrics["return_by_episode"][i]])
+            curve["entropy"].append(float(metrics["entropy"][i]))
+            curve["value_loss"].append(float(metrics["value_loss"][i]))
+            curve["seconds"].append(dt / cfg.chunk)
+        if log is not None:
+            steps = (c + 1) * cfg.chunk * cfg.steps_per_update
+            log(f"update {(c + 1) * cfg.chunk}/{cfg.updates}  steps {steps:,}  "
+                f"episode return {curve['episode_return'][-1]:.3f}  "
+                f"entropy {curve['entropy'][-1]:.3f}  "
+                f"{cfg.chunk * cfg.steps_per_update / dt:,.0f} steps/s")
+    seconds = time.perf_counter() - t_start
+    steady = float(np.median(chunk_times[1:])) if len(chunk_times) > 1 else chunk_times[0]
+    compile_s = max(0.0, chunk_times[0] - steady)
+    params = {k: np.asarray(v) for k, v in jax.device_get(runner.params).items()}
+    result = TrainResult(params, cfg, net, curve, seconds, compile_s)
+    if save_to is not None:
+        save(save_to, result)
+    return result
+
+
+def save(path: str, result: TrainResult) -> None:
+    """Write a trained policy as a checkpoint (the network, the scenario, the config)."""
+    checkpoint.save(path, result.params, {
+        "scenario": result.config.scenario, "net": result.net.to_dict(),
+        "train": result.config.to_dict(), "train_seconds": round(result.seconds, 2),
+        "final_episode_return": result.curve["episode_return"][-1]})
