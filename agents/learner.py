@@ -74,7 +74,7 @@ class Learner(BatchAgent):
         pi_h: (B, I, S, A) human policy estimate π̂_H(a | s, ι).
         q_r: (B, I, S, A) robot Q per intention.
         pi_r: (B, I, S, A) robot policy per intention assumed by the human model.
-        belief: (B, I) current belief over intentions.
+        posterior: (B, I) current belief over intentions (:meth:`belief` gives a copy).
     """
 
     name: ClassVar[str] = "learner"
@@ -110,7 +110,7 @@ class Learner(BatchAgent):
         self._passive = task_mdp.passive_actions(graph, np.arange(graph.n_intentions)[:, None],
                                             np.array([[False, True]]))
         n_i, n_s, n_a = graph.n_intentions, graph.n_states, graph.n_actions
-        self.belief = np.full((n_runs, n_i), 1.0 / n_i)
+        self.posterior = np.full((n_runs, n_i), 1.0 / n_i)
         self.start = np.zeros(n_runs, dtype=np.int64)
         self.lifted = np.zeros(n_runs, dtype=bool)
         self.episodes = 0
@@ -198,7 +198,11 @@ class Learner(BatchAgent):
         n_i = self.graph.n_intentions
         self.start = starts
         self.lifted = np.zeros(self.n_runs, dtype=bool)
-        self.belief = np.where(np.arange(n_i)[None, :] == starts[:, None], 0.0, 1.0 / (n_i - 1))
+        self.posterior = np.where(np.arange(n_i)[None, :] == starts[:, None], 0.0, 1.0 / (n_i - 1))
+
+    def belief(self) -> np.ndarray:
+        """(B, I) the current belief over intentions (a copy; the agent protocol's)."""
+        return self.posterior.copy()
 
     def policy(self, states: np.ndarray) -> np.ndarray:
         """(B, A) the robot's bounded soft-max policy in ``states`` under the current belief."""
@@ -206,7 +210,7 @@ class Learner(BatchAgent):
         baseline = None
         if c.passive_prior:
             baseline = self._passive[self.start, self.lifted.astype(np.intp), states]
-        return partner_mdp.belief_policy(self.q_r, self.belief, states, self._valid,
+        return partner_mdp.belief_policy(self.q_r, self.posterior, states, self._valid,
                                          c.robot_temperature, c.eta, baseline)
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
@@ -223,8 +227,8 @@ class Learner(BatchAgent):
         """Bayes update of the belief from the human's action (Eqs. 3-4)."""
         rows = np.arange(self.n_runs)
         likelihood = self.pi_h[rows, :, states, human_actions]  # (B, I)
-        new = mdp.bayes_update(self.belief, likelihood, self.config.beta)
-        self.belief = np.where(active[:, None], new, self.belief)
+        new = mdp.bayes_update(self.posterior, likelihood, self.config.beta)
+        self.posterior = np.where(active[:, None], new, self.posterior)
         self.lifted |= active & rules.left_start(self.graph, next_states, self.start)
 
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:

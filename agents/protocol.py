@@ -36,6 +36,14 @@ A minimal user agent that copies the human's previous action when it can::
             pass
 
 Run it with ``hri-bench study hanger --agents learner,mymodule:Copycat``.
+
+**An optional belief.** An agent that keeps a belief over the intentions may expose it, and
+the benchmark then scores how soon its most likely intention is right and how calibrated it
+is (docs/results.md, "Metrics"). :meth:`Agent.belief` returns a (K,) array of probabilities
+over the K intentions (supports) or None; :meth:`BatchAgent.belief` a (n_runs, K) array or
+None. The default is None (no belief). The benchmark reads it with :func:`read_belief`
+before every ``act``: it is the belief the action is chosen on. The Learner, the goal filter
+and ``qmdp`` expose theirs (so do the recordings and the browser view).
 """
 
 from __future__ import annotations
@@ -50,7 +58,7 @@ import numpy as np
 from hri_envs.checks import integer_action
 from hri_envs.errors import ActionError, ConfigError
 
-__all__ = ["Agent", "BatchAgent", "Batched", "Trace", "run_streams"]
+__all__ = ["Agent", "BatchAgent", "Batched", "Trace", "read_belief", "run_streams"]
 
 
 @dataclass(frozen=True)
@@ -105,6 +113,42 @@ class Agent(ABC):
     def end_episode(self, trace: Trace, intention: int) -> None:
         """Learn from the finished episode; ``intention`` is where it ended (-1: truncated)."""
 
+    def belief(self) -> np.ndarray | None:
+        """Optional: (K,) probabilities over the intentions before the next ``act``, or None
+        (the default: the agent exposes no belief).
+        """
+        return None
+
+
+def read_belief(agent: Agent | BatchAgent, n_runs: int | None = None) -> np.ndarray | None:
+    """The belief an agent exposes, as a float array, or None when it exposes none.
+
+    Calls the agent's ``belief()`` (:meth:`Agent.belief`, :meth:`BatchAgent.belief`); an
+    object without one, or whose ``belief`` is not callable, has none.
+
+    Args:
+        agent: Any agent.
+        n_runs: When given, the belief must be (n_runs, K).
+
+    Raises:
+        ConfigError: The belief is not a finite array of non-negative numbers summing to 1
+            per run, or not (n_runs, K).
+    """
+    held = getattr(agent, "belief", None)
+    value = held() if callable(held) else None
+    if value is None:
+        return None
+    b = np.asarray(value, dtype=float)
+    name = getattr(agent, "name", type(agent).__name__)
+    if n_runs is not None and (b.ndim != 2 or b.shape[0] != n_runs):
+        raise ConfigError(f"belief() of agent {name!r} returned shape {b.shape}; expected "
+                          f"({n_runs}, K)", field="belief")
+    if (not np.all(np.isfinite(b)) or np.any(b < 0)
+            or not np.allclose(b.sum(-1), 1.0, atol=1e-6)):
+        raise ConfigError(f"belief() of agent {name!r} is not a probability vector per run "
+                          f"(finite, >= 0, summing to 1)", field="belief")
+    return b
+
 
 def run_streams(seed: int, runs: Sequence[int] | np.ndarray) -> list[np.random.Generator]:
     """One independent generator per run, derived from ``(seed, run)`` only.
@@ -152,6 +196,12 @@ class BatchAgent(ABC):
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Learn from one finished episode per run (``intentions`` -1 where truncated)."""
 
+    def belief(self) -> np.ndarray | None:
+        """Optional: (n_runs, K) probabilities over the intentions before the next ``act``,
+        or None (the default: the agent exposes no belief).
+        """
+        return None
+
     def single(self) -> Agent:
         """The batch of one as a plain :class:`Agent`."""
         if self.n_runs != 1:
@@ -184,6 +234,10 @@ class _Single(Agent):
 
     def end_episode(self, trace: Trace, intention: int) -> None:
         self.batch.end_episode([trace], np.array([intention]))
+
+    def belief(self) -> np.ndarray | None:
+        b = read_belief(self.batch)
+        return None if b is None else b[0]
 
 
 class Batched(BatchAgent):
@@ -235,6 +289,13 @@ class Batched(BatchAgent):
         for i in np.flatnonzero(active):
             self.agents[i].observe(int(states[i]), int(robot_actions[i]), int(human_actions[i]),
                                    int(next_states[i]))
+
+    def belief(self) -> np.ndarray | None:
+        """The agents' beliefs stacked, (n_runs, K); None unless every agent exposes one."""
+        beliefs = [read_belief(a) for a in self.agents]
+        if any(b is None for b in beliefs):
+            return None
+        return np.stack([np.asarray(b, dtype=float).reshape(-1) for b in beliefs])
 
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Let every agent learn from its episode."""

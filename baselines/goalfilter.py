@@ -92,7 +92,7 @@ class GoalFilter(_Tracking):
         r0: The waiting reward that sets the default ``eta`` (default the hanger's -0.33).
 
     Attributes:
-        belief: (n_runs, K) the posterior over ι in each run's episode.
+        posterior: (n_runs, K) the posterior over ι in each run's episode (:meth:`belief`).
     """
 
     name: ClassVar[str] = "goalfilter"
@@ -106,19 +106,23 @@ class GoalFilter(_Tracking):
         self.eta = check_real(1.0 + r0 if eta is None else eta, "eta", low=0.0, high=1.0,
                               low_open=True)
         self.model = shortest_path_policy(graph, self.beta, self.epsilon)  # (K, K, S, A)
-        self.belief = np.full((n_runs, graph.n_intentions), 1.0 / graph.n_intentions)
+        self.posterior = np.full((n_runs, graph.n_intentions), 1.0 / graph.n_intentions)
 
     def begin_episode(self, starts: np.ndarray) -> None:
         """Belief uniform over the supports other than the start."""
         super().begin_episode(starts)
         k = self.graph.n_intentions
-        self.belief = np.where(np.arange(k)[None] == self.start[:, None], 0.0, 1.0 / (k - 1))
+        self.posterior = np.where(np.arange(k)[None] == self.start[:, None], 0.0, 1.0 / (k - 1))
+
+    def belief(self) -> np.ndarray:
+        """(n_runs, K) the posterior over ι (a copy; the agent protocol's)."""
+        return self.posterior.copy()
 
     def predicted(self, states: np.ndarray) -> np.ndarray:
         """(n_runs, A) the human's action predicted by the belief."""
         law = self.model[self.start[:, None], np.arange(self.graph.n_intentions)[None],
                          states[:, None]]  # (B, K, A)
-        return np.einsum("bk,bka->ba", self.belief, law)
+        return np.einsum("bk,bka->ba", self.posterior, law)
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
         """Join the likeliest human motion when it is likely enough; else wait (passive)."""
@@ -142,10 +146,10 @@ class GoalFilter(_Tracking):
             rows = np.flatnonzero(informative)
             lik = self.model[self.start[rows, None], np.arange(g.n_intentions)[None],
                              s[rows, None], a_h[rows, None]]  # (R, K)
-            post = self.belief[rows] * lik
+            post = self.posterior[rows] * lik
             total = post.sum(1, keepdims=True)
             keep = total[:, 0] > 0
-            self.belief[rows[keep]] = post[keep] / total[keep]
+            self.posterior[rows[keep]] = post[keep] / total[keep]
         super().observe(states, robot_actions, human_actions, next_states, active)
 
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:

@@ -66,7 +66,7 @@ class MaxEntIRL(_Tracking):
         self._terminal = np.asarray(graph.terminal)[None]  # (1, I) goal of each intention
         self.theta = np.tile(initial_theta(graph.n_features), (n_runs, 1))
         self.counts = np.zeros((n_runs, n_i, n_s, n_i))
-        self.belief = np.full((n_runs, n_i), 1.0 / n_i)
+        self.goal_belief = np.full((n_runs, n_i), 1.0 / n_i)
         # Every run starts from the same θ: solve once and copy.
         q, greedy = self._solve(self.theta[:1])
         self.q = np.repeat(q, n_runs, axis=0)
@@ -111,8 +111,8 @@ class MaxEntIRL(_Tracking):
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
         """Bounded soft-max of Σ_ι Λ(ι|s_0,s) Q_ι(s, ·)."""
         states = np.asarray(observations["state"], dtype=np.int64)
-        self.belief = self._belief(states)
-        q = np.einsum("bi,bia->ba", self.belief, self.q[np.arange(self.n_runs), :, states])
+        self.goal_belief = self._belief(states)
+        q = np.einsum("bi,bia->ba", self.goal_belief, self.q[np.arange(self.n_runs), :, states])
         c = self.config
         probs = mdp.bounded_softmax(q, self.graph.valid[states], c.robot_temperature, c.eta,
                                     self.passive(states))

@@ -429,7 +429,7 @@ class QMDP(_ProductRows):
     human during the episode but its actions.
 
     Attributes:
-        belief: (n_runs, K, Z_max) the posterior over (ι, z) of each row (rows of a model
+        posterior: (n_runs, K, Z_max) the posterior over (ι, z) of each row (rows of a model
             with fewer states use the first Z).
     """
 
@@ -442,10 +442,17 @@ class QMDP(_ProductRows):
                              getattr(self, "_stack", None))
         k = self.graph.n_intentions
         n_z = self._stack.z_max
-        self.belief = np.zeros((self.n_runs, k, n_z))
+        self.posterior = np.zeros((self.n_runs, k, n_z))
         rows = np.arange(self.n_runs)
-        self.belief[rows[:, None], np.arange(k)[None, :], self.z_start[:, None]] = 1.0 / (k - 1)
-        self.belief[rows, self.start] = 0.0
+        self.posterior[rows[:, None], np.arange(k)[None, :], self.z_start[:, None]] = 1.0 / (k - 1)
+        self.posterior[rows, self.start] = 0.0
+
+    def belief(self) -> np.ndarray | None:
+        """(n_runs, K) the marginal over ι of the posterior over (ι, z) (the agent protocol's);
+        None before the first episode.
+        """
+        posterior = getattr(self, "posterior", None)
+        return None if posterior is None else posterior.sum(-1)
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
         """argmax_a Σ_(ι,z) b(ι, z) Q_informed((start, ι, lifted, s, z), a), every row at once
@@ -464,7 +471,7 @@ class QMDP(_ProductRows):
                            np.arange(k)[None, :, None], self.lifted[rows, None, None],
                            states[rows, None, None], np.minimum(z, n_z - 1))
         vals = st.q[st.q_off[rows, None, None] + nodes]  # (R, K, Z, A), 0 where not finite
-        score = np.einsum("rkz,rkza->ra", self.belief[rows], vals)
+        score = np.einsum("rkz,rkza->ra", self.posterior[rows], vals)
         score = np.where(self.graph.valid[states[rows]], score, -np.inf)
         out[rows] = np.argmax(score, axis=1)
         return out
@@ -490,7 +497,7 @@ class QMDP(_ProductRows):
         zz = np.minimum(np.arange(z_max)[None, None, :], stack.n_z[rows, None, None] - 1)
         st, sr, ar, ah = (x[rows, None, None] for x in (self.start, s, a_r, a_h))
         slot = np.where(stack.reacts[rows, None, None], ar, 0)
-        b = self.belief[rows]  # (R, K, Z): 0 beyond each row's Z
+        b = self.posterior[rows]  # (R, K, Z): 0 beyond each row's Z
         post = b * stack.gather("law", rows, zz, st, io, sr, slot, ah)
         z2 = stack.gather("next_z", rows, zz, st, io, sr, ar, ah).astype(np.int64)
         nb = np.zeros((n_r, k, z_max))
@@ -518,7 +525,7 @@ class QMDP(_ProductRows):
                self.z_start[r_lost, None]] = 1.0 / (k - 1)
             nb[np.flatnonzero(lost), self.start[r_lost]] = 0.0
             total = nb.sum((1, 2))
-        self.belief[rows] = nb / total[:, None, None]
+        self.posterior[rows] = nb / total[:, None, None]
 
 
 class _Stack:

@@ -23,9 +23,11 @@ masked, its GRU memory kept across a run's episodes. ``PATH`` is its ``.npz`` ch
 trained by ``benchmarks/train_jax_ppo.py`` on the ``train`` split).
 
 Any other entry of the form ``module:Class`` imports ``Class`` from ``module``: a
-:class:`~agents.protocol.Agent` subclass is instantiated once per run (with ``graph=`` if its
-constructor accepts it), a :class:`~agents.protocol.BatchAgent` subclass once per batch as
-``Class(graph, n_runs)``.
+:class:`~agents.protocol.Agent` subclass is instantiated once per run, a
+:class:`~agents.protocol.BatchAgent` subclass once per batch as ``Class(graph, n_runs)``.
+Either is also given, by keyword, each of :data:`CONTRACT` its constructor names (or all of
+them if it takes ``**kwargs``); a constructor that names none of them is called as before
+(``Class()``, or ``Class(graph=...)`` for an ``Agent``; docs/agents.md, "Your own agent").
 """
 
 from __future__ import annotations
@@ -39,7 +41,7 @@ import agents as agents_package
 from agents.config import LearnerConfig, default_config
 from agents.learner import Learner
 from agents.learning.algorithm1 import Workspace
-from agents.protocol import Agent, BatchAgent, Batched
+from agents.protocol import Agent, BatchAgent, Batched, run_streams
 from baselines import GoalFilter, Imitator, MaxEntIRL, Oracle, Passive
 from baselines.bounds import Blind, Informed
 from baselines.product import QMDP, PerRunInformed
@@ -49,9 +51,10 @@ from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["BRACKET_AGENTS", "BUILTIN_AGENTS", "JAXPPO", "JAXPPO_CHECKPOINTS", "JAXPPO_PREFIX",
-           "KNOWN_AGENTS", "OTHER_AGENTS", "REFERENCE_AGENTS", "SB3_PREFIX", "agent_settings",
-           "jaxppo_path", "make_agent", "validate_agent_name"]
+__all__ = ["BRACKET_AGENTS", "BUILTIN_AGENTS", "CONTRACT", "JAXPPO", "JAXPPO_CHECKPOINTS",
+           "JAXPPO_PREFIX", "KNOWN_AGENTS", "OTHER_AGENTS", "REFERENCE_AGENTS", "SB3_PREFIX",
+           "agent_settings", "contract_keywords", "import_agent", "jaxppo_path", "make_agent",
+           "validate_agent_name"]
 
 BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
 #: Built-in names that are not in the default agent list (exact references, see baselines.bounds).
@@ -125,6 +128,48 @@ def _agent_class(spec: str) -> type[Agent] | type[BatchAgent]:
     return cls
 
 
+def import_agent(spec: str) -> type[Agent] | type[BatchAgent]:
+    """The agent class ``module:Class`` names.
+
+    Raises:
+        ConfigError: The module does not import, or the class is not an agent
+            (``field="agents"``).
+    """
+    return _agent_class(spec)
+
+
+#: What a custom agent's constructor may ask for, by keyword (docs/agents.md, "Your own
+#: agent"). ``Agent`` classes (one per run) get ``run`` and ``rng``, ``BatchAgent`` classes
+#: (one per batch) ``runs`` and ``rngs``; both get the rest.
+CONTRACT: dict[str, str] = {
+    "graph": "the task graph (hri_envs.task.graph.TaskGraph)",
+    "seed": "the study's base seed",
+    "run": "Agent: this run's index",
+    "rng": "Agent: this run's generator, numpy default_rng([seed, run]) (run_streams)",
+    "runs": "BatchAgent: the batch's run indices",
+    "rngs": "BatchAgent: one generator per run of the batch, as rng",
+    "r0": "the study's waiting reward r0",
+    "reward": "the reward rule, 'paper' or 'no-free-toggle'",
+    "max_steps": "the step limit per episode",
+    "episodes": "episodes per run",
+}
+
+
+def contract_keywords(cls: type) -> tuple[str, ...]:
+    """The :data:`CONTRACT` keywords ``cls``'s constructor is given: those it names, or
+    all that fit its flavour when it takes ``**kwargs``.
+    """
+    params = inspect.signature(cls).parameters
+    batch = issubclass(cls, BatchAgent)
+    fits = [k for k in CONTRACT if k not in (("run", "rng") if batch else ("runs", "rngs"))]
+    if batch:
+        fits.remove("graph")  # given by position
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return tuple(fits)
+    return tuple(k for k in fits if k in params and params[k].kind in (
+        inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD))
+
+
 def _learner_config(name: str, scenario: str, r0: float,
                     learner: dict[str, Any] | None = None) -> LearnerConfig | None:
     """The :class:`~agents.config.LearnerConfig` a built-in agent is made with (or None);
@@ -142,8 +187,9 @@ def agent_settings(name: str, scenario: str, r0: float,
     """The settings :func:`make_agent` gives agent ``name`` (for ``summary.json``).
 
     The Learner and plain ME-IRL: their :class:`~agents.config.LearnerConfig` as a dict;
-    ``sb3:PATH``: the model file's path and size; the other agents: None (they have none,
-    or, for ``module:Class``, the benchmark does not know them).
+    ``sb3:PATH``, ``jaxppo[:PATH]``: the model's path and size; ``module:Class``: its code identity
+    (:func:`hri_bench.provenance.agent_identity`: its source files' sha256 and the
+    constructor keywords it is given); the other agents: None (they have none).
     """
     cfg = _learner_config(name, scenario, r0, learner)
     if cfg is not None:
@@ -151,6 +197,10 @@ def agent_settings(name: str, scenario: str, r0: float,
     path = Path(name[len(SB3_PREFIX):]) if name.startswith(SB3_PREFIX) else jaxppo_path(name)
     if path is not None:
         return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
+    if name not in KNOWN_AGENTS and ":" in name:
+        from hri_bench.provenance import agent_identity
+
+        return agent_identity(name)
     return None
 
 
@@ -226,9 +276,19 @@ def make_agent(
 
         return JaxPPOAgent(path, graph, n)
     cls = _agent_class(name)
+    keys = contract_keywords(cls)
+    given: dict[str, Any] = {"graph": graph, "seed": seed, "runs": list(runs), "r0": r0,
+                             "reward": reward, "max_steps": max_steps, "episodes": episodes}
     if issubclass(cls, BatchAgent):
-        return cls(graph, n)  # type: ignore[call-arg,arg-type]  # user class: documented signature
-    takes_graph = "graph" in inspect.signature(cls).parameters
-    return Batched.from_factory(
-        lambda run: cls(graph=graph) if takes_graph else cls(), runs  # type: ignore[call-arg]
-    )
+        if "rngs" in keys:
+            given["rngs"] = run_streams(seed, runs)
+        kwargs = {k: given[k] for k in keys}
+        return cls(graph, n, **kwargs)  # type: ignore[call-arg,arg-type]  # documented contract
+
+    def one(run: int) -> Agent:
+        per_run = {**given, "run": run}
+        if "rng" in keys:
+            per_run["rng"] = run_streams(seed, [run])[0]
+        return cls(**{k: per_run[k] for k in keys})
+
+    return Batched.from_factory(one, runs)

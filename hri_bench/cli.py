@@ -259,8 +259,9 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--seed", type=_seed, default=0)
 
     _suite_parser(sub)
-    from hri_bench import cli_people
+    from hri_bench import cli_people, cli_results
 
+    cli_results.add_parsers(sub)
     cli_people.add_parsers(sub)
 
     demo = sub.add_parser("demo", help="the main job: a reduced but real set of the figures")
@@ -301,10 +302,14 @@ def _suite_parser(sub: Any) -> None:
                        help="add a track of its own on a recorded population "
                             "(recorded:DATASET or recorded-irl:DATASET; repeatable)")
     suite.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    from hri_bench import cli_results  # --config, --seeds (docs/results.md)
+
+    cli_results.add_suite_flags(suite)
     suite.set_defaults(command_parser=suite)
 
 
 def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from hri_bench import cli_results
     from hri_bench.suite import (
         DEFAULT_AGENTS,
         DEFAULT_AGENTS_V2,
@@ -314,6 +319,7 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         track_config,
     )
 
+    seeds = cli_results.suite_plan(args, parser)  # --config replays, --seeds
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     version = args.suite_version
     agents = args.agents or (DEFAULT_AGENTS if version == "1" else DEFAULT_AGENTS_V2)
@@ -327,18 +333,24 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except ConfigError as exc:
         _config_error(parser, exc, _SUITE_ARGUMENTS)
     t0 = time.perf_counter()
+
+    def one(out: Path, seed: int) -> dict[str, Any]:
+        return run_suite(out, agents=agents, tracks=args.tracks, version=version,
+                         runs_scale=args.runs_scale, seed=seed, jobs=args.jobs,
+                         executor=executor, progress=not args.no_progress,
+                         populations=args.population)
+
     try:
-        doc = run_suite(args.out, agents=agents, tracks=args.tracks, version=version,
-                        runs_scale=args.runs_scale, seed=args.seed, jobs=args.jobs,
-                        executor=executor, progress=not args.no_progress,
-                        populations=args.population)
+        docs = cli_results.run_suites(args, seeds, one)
     except ConfigError as exc:
         _config_error(parser, exc, _SUITE_ARGUMENTS)
-    print(f"suite v{doc['suite_version']}: {len(doc['tracks'])} tracks in "
+    doc = docs[0]
+    times = f" × {len(docs)} seeds" if len(docs) > 1 else ""
+    print(f"suite v{doc['suite_version']}: {len(doc['tracks'])} tracks{times} in "
           f"{time.perf_counter() - t0:.1f} s (--jobs {args.jobs}, {executor})")
-    print(f"wrote {args.out / 'suite.json'}, {args.out / 'leaderboard.md'} and one figure "
-          "per track")
-    failed = sorted({a for tr in doc["tracks"].values() for a in tr["failed_agents"]})
+    print(f"wrote {args.out / 'suite.json'}, {args.out / 'results.json'}, "
+          f"{args.out / 'leaderboard.md'} and one figure per track")
+    failed = sorted({a for d in docs for tr in d["tracks"].values() for a in tr["failed_agents"]})
     if failed:
         print(f"agent(s) {', '.join(failed)} raised; no results for them on the tracks where "
               f"they did; tracebacks in {args.out / 'errors.log'}", file=sys.stderr)
@@ -412,7 +424,11 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
         parser.error(f"argument scenario: {args.config} describes a "
                      f"{settings.get('scenario')!r} study; leave the scenario out")
     try:
-        return StudyConfig.from_settings(settings, **execution)
+        cfg = StudyConfig.from_settings(settings, **execution)
+        from hri_bench import cli_results
+
+        cli_results.warn_code_changes(args.config, cfg.agents)  # a custom agent edited since
+        return cfg
     except ConfigError as exc:
         if exc.field in EXECUTION_FIELDS:  # from the flags, not from the file
             raise
@@ -672,6 +688,10 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
         return _suite(args, args.command_parser)
     if args.command == "speed":
         return _speed(args)
+    if args.command in ("validate", "leaderboard"):
+        from hri_bench import cli_results
+
+        return cli_results.run(args)
     if args.command in ("serve", "dataset", "replay"):
         from hri_bench import cli_people
 

@@ -45,7 +45,7 @@ class _TerminalHuman(BatchHuman):
         s, a_r = int(observations["state"][0]), int(observations["robot_action"][0])
         self.note_aborted()
         names = g.support_names
-        belief = ", ".join(f"{n} {b:.0%}" for n, b in zip(names, self.robot.belief[0],
+        belief = ", ".join(f"{n} {b:.0%}" for n, b in zip(names, self.robot.belief()[0],
                                                           strict=True))
         self.write(f"\nState: {g.state_names[s]}\nRobot belief: {belief}; "
                    f"robot chooses: {g.agent_action_label(s, a_r, robot=True)}")

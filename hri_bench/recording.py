@@ -5,9 +5,9 @@
 ``hri-bench serve``, or scripted humans) and writes what happens through
 :class:`hri_bench.datasets.SessionWriter`: the observations both agents saw, both actions,
 the rewards by the episode rules (:mod:`hri_envs.task.episode`), the intention, the robot's
-belief where the agent has one (``agent.belief``, the Learner's), timestamps and response
-times. People and scripted humans take the same path; :func:`record_study` records scripted
-humans, labelled synthetic.
+belief where the agent has one (``agent.belief()``, :func:`agents.protocol.read_belief`),
+timestamps and response times. People and scripted humans take the same path;
+:func:`record_study` records scripted humans, labelled synthetic.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.protocol import BatchAgent
+from agents.protocol import BatchAgent, read_belief
 from hri_bench.datasets import Dataset, SessionWriter, create_dataset
 from hri_envs.humans.protocol import BatchHuman, Rows, all_rows
 from hri_envs.task import episode as rules
@@ -46,7 +46,7 @@ class RecordingHumans(BatchHuman):
     Args:
         inner: The human who acts (a person, scripted humans), ``n_runs`` rows.
         writers: One :class:`SessionWriter` per row (a row is a participant's session).
-        agent: The robot agent of the same loop; its ``belief`` ((B, I) array) is recorded
+        agent: The robot agent of the same loop; its ``belief()`` ((B, I) array) is recorded
             when it has one.
         r0: The waiting reward of the robot's cooperation reward.
         reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
@@ -124,8 +124,7 @@ class RecordingHumans(BatchHuman):
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
         """The inner human's actions, with what it saw, when and how fast."""
         t_shown = self.clock()
-        belief = getattr(self.agent, "belief", None)
-        belief = None if belief is None else np.array(belief, dtype=float)
+        belief = None if self.agent is None else read_belief(self.agent)
         actions = self.inner.act(observations, active)
         t_action = self.clock()
         client = getattr(self.inner, "client_response_ms", None)

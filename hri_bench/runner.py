@@ -19,18 +19,19 @@ from typing import Any
 
 import numpy as np
 
-from agents.protocol import BatchAgent, Trace
+from agents.protocol import BatchAgent, Trace, read_belief
 from hri_envs.envs.backends import BatchBackend, batch_backend
 from hri_envs.errors import ActionError, ConfigError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.tables import TableHumans
-from hri_envs.task.actions import WAIT
+from hri_envs.task.actions import TAKE_OFF, WAIT
 from hri_envs.task.episode import EpisodeBatch, EpisodeRules, classify, step_reward
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = [
+    "TASK_METRICS",
     "EpisodeMetrics",
     "EpisodeResult",
     "Schedule",
@@ -99,6 +100,20 @@ def make_schedule(
     return Schedule(start, goal, turn)
 
 
+#: Per-episode metrics of the task itself (docs/results.md, "Metrics"): ``map_steps`` the
+#: robot's decisions before its most likely intention is right for good (its belief's
+#: unique maximum on the current ι at every later decision; the episode's length when it
+#: is wrong at the last one), ``log_loss`` and ``brier`` the mean over its decisions of
+#: -ln b(ι) and Σ_k (b(k) - [k = ι])² (these three NaN for agents exposing no belief,
+#: :func:`agents.protocol.read_belief`); human effort: ``counteract`` the human's motions
+#: against a different robot motion, ``human_idle`` the human's waits in which nothing
+#: moved, ``human_alone`` the human's actions while the robot waited (counts per episode).
+TASK_METRICS: tuple[str, ...] = ("map_steps", "log_loss", "brier", "counteract", "human_idle",
+                                 "human_alone")
+#: Probabilities are clipped here in the log-loss, which stays finite (≤ 34.5).
+LOG_LOSS_FLOOR = 1e-15
+
+
 @dataclass
 class EpisodeMetrics:
     """Per-run, per-episode results, each (B, E) (or (B,) for one episode of a batch).
@@ -111,6 +126,7 @@ class EpisodeMetrics:
         steps: Episode length.
         truncated: The episode did not end (step limit or a backend fault).
         extras: The backend's per-episode figures (the physics: impulses, duration, ...).
+        task: The :data:`TASK_METRICS`.
     """
 
     reward: np.ndarray
@@ -120,6 +136,7 @@ class EpisodeMetrics:
     steps: np.ndarray
     truncated: np.ndarray
     extras: dict[str, np.ndarray] = field(default_factory=dict)
+    task: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass
@@ -194,7 +211,8 @@ def run_episodes(
         agent.begin_episode(eps.start.copy())
         human_last = np.full(n_b, WAIT, dtype=np.int64)
         totals = {k: np.zeros(n_b) for k in ("reward", "correct", "passive", "wrong",
-                                              *backend.extras)}
+                                              *backend.extras, *TASK_METRICS)}
+        has_belief = True
         over = np.zeros(n_b, dtype=bool)
         faulted = np.zeros(n_b, dtype=bool)
         states[:, 0] = eps.state
@@ -211,6 +229,9 @@ def run_episodes(
                     "action_mask": graph.valid[s].astype(np.int8)}
                 if privileged:
                     obs["intention"] = eps.intention
+                if has_belief:
+                    has_belief = _score_belief(read_belief(agent, n_b), eps.intention, active,
+                                               t, totals)
                 try:
                     chosen = agent.act(obs, active)
                 except ActionError as exc:  # a Batched agent's: add where it happened
@@ -234,6 +255,10 @@ def run_episodes(
                     totals[key] += w * judged
                 for key, value in step.extras.items():
                     totals[key] += w * value
+                motion_r, motion_h = a_r >= TAKE_OFF, a_h >= TAKE_OFF
+                totals["counteract"] += w * (motion_r & motion_h & (a_r != a_h))
+                totals["human_idle"] += w * ((a_h == WAIT) & (step.next_state == s))
+                totals["human_alone"] += w * ((a_r == WAIT) & (a_h != WAIT))
                 agent.observe(s, a_r, step.human_seen, step.next_state, active)
                 human.observe(s, a_r, a_h, step.next_state, active)
                 human_last = np.where(active, a_h, human_last)
@@ -251,8 +276,11 @@ def run_episodes(
         steps = eps.steps.copy()
         truncated = ~over
         per_step = np.maximum(steps, 1)
-        for key in ("correct", "passive", "wrong", *backend.step_means):
+        for key in ("correct", "passive", "wrong", "log_loss", "brier", *backend.step_means):
             totals[key] /= per_step
+        if not has_belief:
+            for key in ("map_steps", "log_loss", "brier"):
+                totals[key][:] = np.nan
         intentions = np.where(truncated, -1, graph.support[states[rows, steps]])
         traces = [Trace(states[i, : steps[i] + 1].copy(), robot_acts[i, : steps[i]].copy(),
                         human_seen[i, : steps[i]].copy()) for i in range(n_b)]
@@ -260,8 +288,30 @@ def run_episodes(
         human.end_episode()
         metrics = EpisodeMetrics(totals["reward"], totals["correct"], totals["passive"],
                                  totals["wrong"], steps.astype(float), truncated,
-                                 {k: totals[k] for k in backend.extras})
+                                 {k: totals[k] for k in backend.extras},
+                                 {k: totals[k] for k in TASK_METRICS})
         yield EpisodeResult(e, metrics, traces, intentions)
+
+
+def _score_belief(belief: np.ndarray | None, intention: np.ndarray, active: np.ndarray,
+                  t: int, totals: dict[str, np.ndarray]) -> bool:
+    """Add decision ``t``'s belief scores to ``totals``; False when there is no belief.
+
+    ``map_steps`` becomes t + 1 wherever the belief's unique maximum is not the current
+    intention, so at the end it counts the decisions up to the last wrong one.
+    """
+    if belief is None:
+        return False
+    rows = np.arange(len(intention))
+    truth = np.zeros_like(belief)
+    truth[rows, intention] = 1.0
+    p_true = belief[rows, intention]
+    others = np.where(truth > 0, -np.inf, belief).max(1)
+    w = active.astype(float)
+    totals["map_steps"] = np.where(active & ~(p_true > others), t + 1, totals["map_steps"])
+    totals["log_loss"] += w * -np.log(np.maximum(p_true, LOG_LOSS_FLOOR))
+    totals["brier"] += w * ((belief - truth) ** 2).sum(1)
+    return True
 
 
 def _checked(who: str, actions: object, active: np.ndarray, n_actions: int,
@@ -322,7 +372,8 @@ def simulate(
 
     Returns:
         The episode metrics; ``extras`` holds the backend's per-episode figures (the
-        physics: interaction impulses, simulated duration, agreement with the graph).
+        physics: interaction impulses, simulated duration, agreement with the graph),
+        ``task`` the :data:`TASK_METRICS`.
     """
     n_b, n_e = schedule.start.shape
     if len(runs) != n_b:
@@ -331,6 +382,7 @@ def simulate(
     keys = ("reward", "correct", "passive", "wrong", "steps")
     out = {k: np.zeros((n_b, n_e)) for k in keys}
     extras = {k: np.zeros((n_b, n_e)) for k in sim.extras}
+    task = {k: np.zeros((n_b, n_e)) for k in TASK_METRICS}
     truncated = np.zeros((n_b, n_e), dtype=bool)
     humans = TableHumans(human, n_b) if isinstance(human, ScriptedHuman) else human
     humans.seed(human_streams(seed, runs))
@@ -341,8 +393,10 @@ def simulate(
             out[k][:, e] = getattr(m, k)
         for k, v in m.extras.items():
             extras[k][:, e] = v
+        for k, v in m.task.items():
+            task[k][:, e] = v
         truncated[:, e] = m.truncated
         if after_episode is not None:
             after_episode(e, agent)
     return EpisodeMetrics(out["reward"], out["correct"], out["passive"], out["wrong"],
-                          out["steps"], truncated, extras)
+                          out["steps"], truncated, extras, task)

@@ -42,7 +42,7 @@ from hri_bench.fit import is_recorded
 from hri_bench.humans import custom_human, is_custom, validate_population
 from hri_bench.regret import ALL_REFERENCES, blind_values, reference_summary, refuse_references
 from hri_bench.results import StudyResult  # re-exported; shared with the plots
-from hri_bench.runner import make_schedule, simulate
+from hri_bench.runner import TASK_METRICS, make_schedule, simulate
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.envs.backends import BACKENDS, batch_backend
 from hri_envs.envs.config import check_physics_options
@@ -565,6 +565,7 @@ def _run_unit(unit: _Unit) -> UnitResult:
         raise ActionError(f"agent {unit.agent!r}: {exc}") from exc
     metrics = {k: np.asarray(getattr(m, k), dtype=float) for k in METRICS}
     metrics.update({k: np.asarray(v, dtype=float) for k, v in m.extras.items()})
+    metrics.update({k: np.asarray(v, dtype=float) for k, v in m.task.items()})  # results file
     sched = {"start": schedule.start, "goal": schedule.goal, "turn_back": schedule.turn_back}
     return metrics, probes, sched, labels
 
@@ -741,7 +742,7 @@ def run_study(
     units = _units(cfg)
     done = dict(done or {})
     n_e, n_p = cfg.n_episodes, len(cfg.probes)
-    keys = METRICS + batch_backend(cfg.backend).extras
+    keys = METRICS + batch_backend(cfg.backend).extras + TASK_METRICS
     metrics = {a: {k: np.zeros((cfg.runs, n_e)) for k in keys} for a in cfg.agents}
     probes = {a: np.full((cfg.runs, n_e + 1, n_p), np.nan) for a in cfg.agents}
     schedule = {k: np.zeros((cfg.runs, n_e), dtype=bool if k == "turn_back" else np.int64)
@@ -832,7 +833,8 @@ def summarize(result: StudyResult) -> dict[str, Any]:
             "overall": {"reward_mean": float(r.mean()), "reward_median": float(np.median(r)),
                         "truncation_rate": float(m["truncated"].mean()),
                         "truncated_episodes": int(m["truncated"].sum())},
-            **{k: {"mean": m[k].mean(0).tolist()} for k in m if k not in METRICS},
+            **{k: {"mean": m[k].mean(0).tolist()} for k in m
+               if k not in METRICS and k not in TASK_METRICS},
         }
         # Statistics (docs/benchmark.md): per episode and over all episodes, bootstrap
         # seeded by the study seed.
@@ -919,7 +921,8 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
                 paths.append(out / p.name)
     csv_path = out / "episodes.csv"
     prefs = result.humans if cfg.per_run_humans and result.humans else cfg.preference_of_run()
-    extras = [k for k in next(iter(result.metrics.values()), {}) if k not in METRICS]
+    extras = [k for k in next(iter(result.metrics.values()), {})
+              if k not in METRICS and k not in TASK_METRICS]  # the task's: in the suite's
     with atomic_writer(csv_path, newline="") as f:
         writer = csv.writer(f)
         writer.writerow(["agent", "run", "episode", "preference", "start", "goal", "turn_back",

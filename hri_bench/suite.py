@@ -51,11 +51,12 @@ from typing import Any
 
 import numpy as np
 
-from hri_bench import stats
+from hri_bench import provenance, stats
 from hri_bench.agents import BUILTIN_AGENTS, REFERENCE_AGENTS
 from hri_bench.atomic import atomic_writer
 from hri_bench.regret import ALL_REFERENCES, REFERENCES, reference_summary
 from hri_bench.study import StudyConfig, StudyResult, regret_reference, run_study
+from hri_bench.submission import SuiteRecorder, lead_section, task_section
 from hri_envs.errors import ConfigError
 from hri_envs.humans.splits import MIXTURES
 from hri_envs.task.scenarios import SCENARIOS, scenario_spec
@@ -426,7 +427,7 @@ def _overview(doc: dict[str, Any]) -> list[str]:
 
 
 def leaderboard(doc: dict[str, Any]) -> str:
-    """The ``leaderboard.md`` text of a ``suite.json`` document."""
+    """The ``leaderboard.md`` text of a v1 ``suite.json`` document."""
     lines = [f"# hri-envs benchmark suite v{doc['suite_version']}", "",
              f"Seed {doc['seed']}, runs scale {doc['runs_scale']}. Regret = blind's exact "
              "expected episode reward minus the agent's, per episode; mean and IQM over runs "
@@ -655,12 +656,14 @@ def run_suite(
 
         iterator = tqdm(list(iterator), desc="suite", unit="track")
     failures: dict[str, dict[str, str]] = {}
+    recorder = SuiteRecorder(seed, runs_scale, version)  # results.json (submission.py)
     for track, cfg in iterator:
         t = time.perf_counter()
         result = run_study(cfg, keep_going=True)
         if result.failures:
             failures[track.name] = result.failures
         entry = (track_summary if version == "1" else track_summary_v2)(track, result)
+        recorder.add(track, result)
         doc["tracks"][track.name] = entry
         track_figure(track.name, entry, out / f"{track.name}.png")
         walls[track.name] = round(time.perf_counter() - t, 2)
@@ -672,8 +675,18 @@ def run_suite(
                     f.write(f"track {track_name}: agent {agent!r} raised:\n{text}\n")
     else:
         errors.unlink(missing_ok=True)  # from an earlier suite in the same folder
+    results = recorder.document()  # v1's suite.json and leaderboard.md stay as they were
+    board = (leaderboard if version == "1" else leaderboard_v2)(doc)
+    if version != "1":
+        doc["provenance"] = {"software": provenance.software(),
+                             "agents": {a: provenance.agent_identity(a) for a in agents}}
+        if results is not None:  # the aggregate across tracks leads (docs/results.md)
+            cut = board.find("\n## ") + 1 or len(board)
+            board = (board[:cut] + lead_section(results) + "\n" + task_section(results) + "\n"
+                     + board[cut:])
     with atomic_writer(out / "leaderboard.md") as f:
-        f.write((leaderboard if version == "1" else leaderboard_v2)(doc) + "\n")
+        f.write(board + "\n")
+    recorder.write(out, results)
     with atomic_writer(out / "suite.json") as f:
         f.write(json.dumps(doc, indent=1, allow_nan=False) + "\n")
     log = {"suite_version": version, "jobs": jobs, "executor": executor,

@@ -84,6 +84,32 @@ class ReturnsText(ReturnsHalf):
     value = "3"
 
 
+class RandomMover(AlwaysWait):
+    """Draws every action from the per-run generator the benchmark hands it (the constructor
+    contract: ``rng``), so its numbers depend on ``(seed, run)`` only.
+    """
+
+    name = "random-mover"
+
+    def __init__(self, graph, rng, run, seed, max_steps, r0, reward, episodes):
+        self.graph, self.rng = graph, rng
+        self.given = {"run": run, "seed": seed, "max_steps": max_steps, "r0": r0,
+                      "reward": reward, "episodes": episodes}
+
+    def act(self, observation):
+        valid = [a for a, ok in enumerate(observation["action_mask"]) if ok]
+        return int(self.rng.choice(valid)) if self.rng.random() < 0.5 else 0
+
+
+class TakesKeywords(AlwaysWait):
+    """Takes every contract keyword through ``**kwargs``."""
+
+    name = "takes-keywords"
+
+    def __init__(self, **kwargs):
+        self.kwargs = kwargs
+
+
 class SecondMadeCrashes(Agent):
     """The Learner, except that the second instance made (the second session a server
     starts) raises in its second episode. Reset ``made`` before use."""

@@ -124,7 +124,7 @@ def test_belief_never_breaks_and_follows_a_change_of_mind(hanger):
     s = np.array([hanger.waypoint_state(0, 0, 0)])
     learner.pi_h[:] = 0.0
     learner.observe(s, np.array([0]), np.array([9]), s, np.ones(1, bool))
-    assert np.all(np.isfinite(learner.belief)) and learner.belief.sum() == pytest.approx(1.0)
+    assert np.all(np.isfinite(learner.belief())) and learner.belief().sum() == pytest.approx(1.0)
     # Restore a model and show evidence for going back to A (the start): belief recovers.
     fresh = Learner(hanger, 1)
     fresh.begin_episode(np.array([0]))
@@ -133,7 +133,7 @@ def test_belief_never_breaks_and_follows_a_change_of_mind(hanger):
     fresh.pi_h[0, 1:, s[0], 0] = 1.0
     for _ in range(3):
         fresh.observe(s, np.array([0]), np.array([3]), s, np.ones(1, bool))
-    assert fresh.belief[0].argmax() == 0
+    assert fresh.belief()[0].argmax() == 0
 
 
 def test_save_load_round_trip_gives_the_same_actions(tmp_path, hanger):

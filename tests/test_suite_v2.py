@@ -153,11 +153,13 @@ def test_an_unknown_version_or_a_track_of_another_version_fails_naming_the_flag(
 ])
 def test_bad_humans_and_references_fail_before_simulating(argv, flag, text, tmp_path,
                                                           monkeypatch, capsys):
-    from hri_bench import study
+    from hri_bench import study, studyio  # noqa: F401  (imported first: it binds run_study)
 
     def boom(*args, **kwargs):
         raise AssertionError("simulated")
 
+    # studyio imports run_study by name: had it been imported first here, every later
+    # study of this worker would run ``boom`` (test_bench failed so under xdist).
     monkeypatch.setattr(study, "run_study", boom)
     with pytest.raises(SystemExit) as exc:
         main(["study", "wheel", "--runs", "2", "--out", str(tmp_path / "o"), "--no-progress",

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.protocol import read_belief
 from hri_bench.datasets import SessionWriter, create_dataset, new_participant_id
 from hri_bench.pictures import picture
 from hri_bench.recording import RecordingHumans, agent_identity
@@ -322,7 +323,7 @@ class Session:
                             for i, a in enumerate(options)],
                 "picture": picture(self.config.scenario, self.layouts[self._episode], s)}
         if self.config.show_belief:
-            belief = getattr(self.agent, "belief", None)
+            belief = read_belief(self.agent)
             if belief is not None:
                 view["belief"] = {n: round(float(b), 3) for n, b in
                                   zip(g.support_names, np.asarray(belief)[0], strict=True)}
