@@ -43,6 +43,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from hri_bench.atomic import atomic_path, atomic_writer, fsync_dir
+from hri_bench.runner import TASK_METRICS
 from hri_bench.study import (
     StudyConfig,
     StudyResult,
@@ -318,7 +319,9 @@ class StudyDir:
             np.savez(tmp, allow_pickle=False, **arrays)
 
     def load_done(self, units: list[_Unit]) -> dict[int, UnitResult]:
-        """The finished units found on disk, by index (unreadable files are run again)."""
+        """The finished units found on disk, by index (unreadable files, and units an earlier
+        version wrote without today's metrics, are run again).
+        """
         done: dict[int, UnitResult] = {}
         for i, u in enumerate(units):
             path = self.unit_path(i, u)
@@ -327,6 +330,8 @@ class StudyDir:
             try:
                 with np.load(path, allow_pickle=False) as data:
                     metrics = {k[2:]: np.array(data[k]) for k in data.files if k.startswith("m.")}
+                    if not set(TASK_METRICS) <= set(metrics):
+                        continue  # written before the task's metrics: simulated again
                     schedule = {k[2:]: np.array(data[k]) for k in data.files
                                 if k.startswith("s.")}
                     done[i] = (metrics, np.array(data["probes"]), schedule,

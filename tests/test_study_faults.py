@@ -443,3 +443,21 @@ def test_truncations_are_counted_in_the_summary(tmp_path):
     assert passive["truncated"]["mean"] == [1.0, 1.0]
     assert passive["overall"]["truncation_rate"] == 1.0
     assert passive["overall"]["truncated_episodes"] == 4
+
+
+def test_a_unit_an_earlier_version_wrote_without_the_task_metrics_is_simulated_again(tmp_path):
+    # --resume of a study begun before the task's metrics existed: its units lack them.
+    from hri_bench.runner import TASK_METRICS
+    from hri_bench.study import _units
+    from hri_bench.studyio import StudyDir
+
+    cfg = StudyConfig("wheel", agents=("passive",), runs=2, episodes=1)
+    units = _units(cfg)
+    with StudyDir(tmp_path / "study", cfg) as folder:
+        run_study(cfg, on_result=lambda i, res: folder.save_unit(i, units[i], res))
+        assert sorted(folder.load_done(units)) == list(range(len(units)))
+        path = folder.unit_path(0, units[0])
+        with np.load(path) as data:
+            old = {k: data[k] for k in data.files if k != f"m.{TASK_METRICS[0]}"}
+        np.savez(path, **old)
+        assert 0 not in folder.load_done(units)
