@@ -303,14 +303,16 @@ def _score_belief(belief: np.ndarray | None, intention: np.ndarray, active: np.n
     if belief is None:
         return False
     rows = np.arange(len(intention))
-    truth = np.zeros_like(belief)
-    truth[rows, intention] = 1.0
     p_true = belief[rows, intention]
-    others = np.where(truth > 0, -np.inf, belief).max(1)
+    off = belief.copy()  # belief minus the one-hot truth
+    off[rows, intention] = p_true - 1.0
+    others = belief.copy()  # the other intentions' beliefs
+    others[rows, intention] = -np.inf
     w = active.astype(float)
-    totals["map_steps"] = np.where(active & ~(p_true > others), t + 1, totals["map_steps"])
+    totals["map_steps"] = np.where(active & ~(p_true > others.max(1)), t + 1,
+                                   totals["map_steps"])
     totals["log_loss"] += w * -np.log(np.maximum(p_true, LOG_LOSS_FLOOR))
-    totals["brier"] += w * ((belief - truth) ** 2).sum(1)
+    totals["brier"] += w * (off * off).sum(1)
     return True
 
 

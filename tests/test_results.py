@@ -96,12 +96,14 @@ def test_the_learner_goal_filter_and_qmdp_expose_a_belief_others_do_not(hanger_c
         assert read_belief(make_agent(name, graph, human, runs, seed=0, r0=-0.33)) is None
 
 
-def test_a_bad_belief_is_refused_naming_the_agent():
+@pytest.mark.parametrize("row", [[0.7, 0.7], [np.nan, 1.0], [-0.5, 1.5], [np.inf, -np.inf],
+                                 [0.0, np.inf], [0.5, 0.4999]])
+def test_a_bad_belief_is_refused_naming_the_agent(row):
     class Bad(Passive):
         name = "bad-belief"
 
         def belief(self):
-            return np.array([[0.7, 0.7]])
+            return np.array([row])
 
     with pytest.raises(ConfigError, match="bad-belief.*probability") as info:
         read_belief(Bad(graph_for("hanger"), 1), 1)
