@@ -393,6 +393,14 @@ def _fmt(x: float | None) -> str:
     return "–" if x is None else f"{x:.3f}"
 
 
+def _cells(tr: dict[str, Any], agents: list[str], value: Any) -> list[str]:
+    """A leaderboard row's cells: ``value(entry)`` per agent, "raised" where it failed on the
+    track, "—" where it does not run there.
+    """
+    return ["raised" if a in tr["failed_agents"] else "—" if tr["agents"].get(a) is None
+            else value(tr["agents"][a]) for a in agents]
+
+
 def _with_ci(entry: dict[str, Any] | None, stat: str = "mean") -> str:
     if entry is None:
         return "n/a"
@@ -411,17 +419,8 @@ def _overview(doc: dict[str, Any]) -> list[str]:
              "| track | " + " | ".join(f"`{a}`" for a in agents) + " |",
              "|---|" + "---|" * len(agents)]
     for name, tr in doc["tracks"].items():
-        cells = []
-        for a in agents:
-            entry = tr["agents"].get(a)
-            if a in tr["failed_agents"]:
-                cells.append("raised")
-            elif entry is None:
-                cells.append("—")
-            elif tr["regret_reported"]:
-                cells.append(_with_ci(entry["regret"]))
-            else:
-                cells.append("r " + _with_ci(entry["reward"]))
+        cells = _cells(tr, agents, (lambda e: _with_ci(e["regret"])) if tr["regret_reported"]
+                       else (lambda e: "r " + _with_ci(e["reward"])))
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return [*lines, ""]
 
@@ -505,15 +504,7 @@ def leaderboard_v2(doc: dict[str, Any]) -> str:
              "| track | reference | " + " | ".join(f"`{a}`" for a in ranked) + " |",
              "|---|---|" + "---|" * len(ranked)]
     for name, tr in doc["tracks"].items():
-        cells = []
-        for a in ranked:
-            entry = tr["agents"].get(a)
-            if a in tr["failed_agents"]:
-                cells.append("raised")
-            elif entry is None:
-                cells.append("—")
-            else:
-                cells.append(_gap(entry["gap_to_upper"]))
+        cells = _cells(tr, ranked, lambda e: _gap(e["gap_to_upper"]))
         label = f"**{name}**" if tr["headline"] else name
         lines.append(f"| {label} | {_reference_cell(tr)} | " + " | ".join(cells) + " |")
     lines.append("")
