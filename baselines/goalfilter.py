@@ -36,7 +36,8 @@ from baselines.simple import _Tracking
 from hri_envs.checks import check_real
 from hri_envs.humans.rational import D_MAX
 from hri_envs.humans.scripted import support_actions
-from hri_envs.task.actions import BOTH, PUT_ON, TAKE_OFF, TOGGLE, WAIT
+from hri_envs.task import mdp
+from hri_envs.task.actions import PUT_ON, TAKE_OFF, TOGGLE, WAIT
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["GoalFilter", "shortest_path_policy"]
@@ -56,15 +57,7 @@ def shortest_path_policy(graph: TaskGraph, beta: float, epsilon: float) -> np.nd
     moves = g.valid & (np.arange(n_a) >= PUT_ON)[None]
     moves[~free] = False  # (S, A) free-space motions
     nxt = g.next_state[:, WAIT, :]
-    dist = np.full((n_k, n_s), float(D_MAX))
-    goals = np.arange(n_k)
-    dist[goals, g.support_state(goals, BOTH)] = 0.0
-    for _ in range(n_s + 1):
-        cand = np.where(moves[None], 1.0 + dist[:, nxt], np.inf)  # (K, S, A)
-        new = np.where(free[None], np.minimum(cand.min(-1), D_MAX), dist)
-        if np.array_equal(new, dist):
-            break
-        dist = new
+    dist = np.minimum(mdp.cost_to_goal(g, np.where(moves, 1.0, np.inf)), D_MAX)  # (K, S)
     q = np.where(moves[None], -(1.0 + dist[:, nxt]), -np.inf)  # (K, S, A)
     top = q.max(-1, keepdims=True)
     z = beta * (q - np.where(np.isfinite(top), top, 0.0))

@@ -298,3 +298,22 @@ def test_a_seats_draws_do_not_depend_on_the_rows_beside_it(wheel):
     assert actions(5, 2) == actions(3, 2)  # the same row, beside two or four others
     assert actions(5, 2) != actions(5, 1)  # its own stream
     assert 0.3 < np.mean(np.array(actions(5, 2)) == WAIT) < 0.7
+
+
+def test_cost_to_goal_is_the_fixed_point_of_one_step():
+    # The shared distance of the misspecified humans and the goal filter: 0 on the goal held
+    # by both, and everywhere else in free space one motion plus the best next state's cost.
+    from hri_envs.task import mdp
+    from hri_envs.task.actions import BOTH, PUT_ON, WAIT
+    from hri_envs.task.scenarios import scenario_graph
+
+    g = scenario_graph("wheel")
+    free = ~g.is_support_state
+    moves = g.valid & (np.arange(g.n_actions) >= PUT_ON)[None] & free[:, None]
+    dist = mdp.cost_to_goal(g, np.where(moves, 1.0, np.inf))
+    goals = np.arange(g.n_intentions)
+    assert np.all(dist[goals, g.support_state(goals, BOTH)] == 0)
+    nxt = g.next_state[:, WAIT, :]
+    one_step = np.where(moves[None], 1.0 + dist[:, nxt], np.inf).min(-1)
+    assert np.array_equal(dist[:, free], one_step[:, free])
+    assert np.isfinite(dist[:, free]).all()  # every free state reaches every goal

@@ -38,7 +38,8 @@ from hri_envs.checks import check_real, check_whole
 from hri_envs.errors import ConfigError
 from hri_envs.humans.finite_state import FiniteStateHuman, carry_to, one_hot
 from hri_envs.humans.scripted import ScriptedHuman, preference_human, support_actions
-from hri_envs.task.actions import BOTH, PUT_ON, ROTATE, TAKE_OFF, WAIT
+from hri_envs.task import mdp
+from hri_envs.task.actions import PUT_ON, ROTATE, TAKE_OFF, WAIT
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["avoid_human", "cost_route", "impatient_human", "low_human", "rotate_low_human"]
@@ -61,23 +62,13 @@ def cost_route(graph: TaskGraph, cost: np.ndarray, prefer: np.ndarray) -> np.nda
     (:func:`~hri_envs.humans.scripted.support_actions`).
     """
     g = graph
-    n_k, n_s = g.n_intentions, g.n_states
     free = ~g.is_support_state
     moves = g.valid.copy()
     moves[:, :PUT_ON] = False
     moves[~free] = False  # (S, A) the free-space motions
-    nxt = g.next_state[:, WAIT, :]  # (S, A) where the human's motion leads
-    dist = np.full((n_k, n_k, n_s), np.inf)
-    goals = np.arange(n_k)
-    dist[:, goals, g.support_state(goals, BOTH)] = 0.0
-    step = np.where(moves[None], 1.0 + cost, np.inf)[:, None]  # (K, 1, S, A)
-    for _ in range(n_s + 1):
-        cand = step + dist[:, :, nxt]  # (K, K, S, A)
-        new = np.where(free[None, None], cand.min(-1), dist)
-        if np.array_equal(new, dist):
-            break
-        dist = new
-    cand = step + dist[:, :, nxt]
+    step = np.where(moves[None], 1.0 + cost, np.inf)  # (K, S, A)
+    dist = mdp.cost_to_goal(g, step)  # (K start, K goal, S)
+    cand = step[:, None] + dist[:, :, g.next_state[:, WAIT, :]]  # (K, K, S, A)
     best = cand.min(-1, keepdims=True)
     ties = cand <= best + _TIE
     preferred = np.take_along_axis(ties, np.asarray(prefer, dtype=np.int64)[..., None], -1)[..., 0]

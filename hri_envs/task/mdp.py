@@ -26,12 +26,14 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from hri_envs.errors import ConfigError
+from hri_envs.task.actions import BOTH
 from hri_envs.task.episode import arrived
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
 
 __all__ = [
     "PartnerIndex",
     "absorbing",
+    "cost_to_goal",
     "human_transition",
     "improve_policy",
     "one_blas_thread",
@@ -339,3 +341,30 @@ def passive_actions(graph: TaskGraph, start: np.ndarray, lifted: np.ndarray | No
     release_here = holds & can_end
     return np.where(grasp_here | release_here, TOGGLE, WAIT)
 
+
+def cost_to_goal(graph: TaskGraph, step: np.ndarray) -> np.ndarray:
+    """(..., K, S) the cheapest cost of the human's motions from free state ``s`` until the
+    object rests on goal support ``k``, held by both, while the robot waits.
+
+    Args:
+        graph: The task graph.
+        step: (..., S, A) the cost of taking motion ``a`` in state ``s`` (``inf``: never
+            taken), for each of any leading cases (e.g. the episode's start support).
+
+    Support states other than the goal held by both are never entered (``inf``); so is a
+    free state with no route to the goal. The iteration (Bellman–Ford on the deterministic
+    graph) stops when nothing changes, within S + 1 rounds.
+    """
+    n_k, n_s = graph.n_intentions, graph.n_states
+    free = ~graph.is_support_state
+    nxt = graph.next_state[:, WAIT, :]  # (S, A) where the human's motion leads
+    dist = np.full((*step.shape[:-2], n_k, n_s), np.inf)
+    goals = np.arange(n_k)
+    dist[..., goals, graph.support_state(goals, BOTH)] = 0.0
+    step = step[..., None, :, :]  # one row per goal
+    for _ in range(n_s + 1):
+        new = np.where(free, (step + dist[..., nxt]).min(-1), dist)
+        if np.array_equal(new, dist):
+            break
+        dist = new
+    return dist
