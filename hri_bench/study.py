@@ -17,6 +17,7 @@ import multiprocessing
 import os
 import pickle
 import signal
+import sys
 import tempfile
 import threading
 import time
@@ -33,7 +34,6 @@ from hri_bench.agents import (
     BUILTIN_AGENTS,
     REFERENCE_AGENTS,
     agent_settings,
-    jaxppo_path,
     make_agent,
     validate_agent_name,
 )
@@ -689,9 +689,10 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
         # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
         # every worker at once.
         # JAX's runtime is multithreaded: a worker forked after it started in this process
-        # can hang for good, so studies with a JAX agent start fresh workers (spawn).
-        uses_jax = any(jaxppo_path(a) is not None for a in cfg.agents)
-        with _start_pool(min(cfg.jobs, len(todo)), "spawn" if uses_jax else None) as pool:
+        # can hang for good, so once anything here imported JAX (the jaxppo agents, a custom
+        # agent, the caller) the workers start fresh (spawn).
+        method = "spawn" if "jax" in sys.modules else None
+        with _start_pool(min(cfg.jobs, len(todo)), method) as pool:
             yield from pool.imap_unordered(_run_indexed, [(i, units[i]) for i in todo])
     else:
         yield from _execute_ray(cfg, [units[i] for i in todo], list(todo))
