@@ -38,6 +38,11 @@ def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+def _combined(hashes: dict[str, str]) -> str:
+    """One sha256 for several files, from their names and hashes."""
+    return hashlib.sha256(json.dumps(hashes, sort_keys=True).encode()).hexdigest()
+
+
 def _version(package: str) -> str | None:
     try:
         return importlib.metadata.version(package)
@@ -87,14 +92,12 @@ def agent_identity(name: str) -> dict[str, Any]:
         hashes = {p.relative_to(model).as_posix() if model.is_dir() else p.name: _sha256(p)
                   for p in files}
         return {"kind": "jaxppo", "path": str(model),
-                "sha256": hashlib.sha256(json.dumps(hashes, sort_keys=True).encode()
-                                         ).hexdigest() if hashes else None}
+                "sha256": _combined(hashes) if hashes else None}
     cls = import_agent(name)
     root, files = _source_files(cls.__module__)
     hashes = {p.relative_to(root).as_posix(): _sha256(p) for p in files}
-    combined = hashlib.sha256(json.dumps(hashes, sort_keys=True).encode()).hexdigest()
     return {"kind": "custom", "module": cls.__module__, "class": cls.__qualname__,
-            "files": hashes, "code_sha256": combined,
+            "files": hashes, "code_sha256": _combined(hashes),
             "constructor": list(contract_keywords(cls))}
 
 
