@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 jax = pytest.importorskip("jax")
 import jax.numpy as jnp  # noqa: E402
 
-from hri_envs.envs.config import scenario_graph  # noqa: E402
+from hri_envs.envs.config import check_r0, scenario_graph  # noqa: E402
 from hri_envs.envs.vector import RobotVectorEnv  # noqa: E402
 from hri_envs.errors import ConfigError  # noqa: E402
 from hri_envs.humans.populations import (  # noqa: E402
@@ -33,7 +33,13 @@ from hri_envs.humans.protocol import all_rows  # noqa: E402
 from hri_envs.humans.scripted import boltzmann_human, preferences_for  # noqa: E402
 from hri_envs.humans.splits import population as named_population  # noqa: E402
 from hri_envs.jax import JaxRobotEnv, Member, ResetDraws, StepDraws  # noqa: E402
-from hri_envs.jax.tables import SUPPORTED_POPULATIONS, SUPPORTED_SPLITS  # noqa: E402
+from hri_envs.jax.tables import (  # noqa: E402
+    OUTCOME_BITS,
+    SUPPORTED_POPULATIONS,
+    SUPPORTED_SPLITS,
+    outcome_words,
+    step_arrays,
+)
 from hri_envs.task.features import initial_theta  # noqa: E402
 
 SAME = AutoresetMode.SAME_STEP
@@ -346,3 +352,19 @@ def test_without_jax_one_line_says_how_to_install():
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
                          text=True).stdout.strip()
     assert out.count("\n") == 0 and "pip install" in out and "[jax]" in out, out
+
+
+@pytest.mark.parametrize(("scenario", "reward", "r0"), [("hanger", "paper", None),
+                                                        ("wheel", "no-free-toggle", -0.4)])
+def test_outcome_words_unpack_to_the_step_table(scenario, reward, r0):
+    """One word per joint step holds every field of the step table, bit for bit."""
+    graph = scenario_graph(scenario)
+    steps = step_arrays(graph, check_r0(r0, scenario), reward)
+    words, rewards = outcome_words(steps)
+    b = OUTCOME_BITS
+    assert words.dtype == np.int32 and words.shape == steps.next_state.shape
+    assert np.array_equal(words >> b["next_state"] & 255, steps.next_state)
+    for flag in ("terminated", "lifted", "aborted", "robot_invalid"):
+        assert np.array_equal((words >> b[flag] & 1).astype(bool), getattr(steps, flag)), flag
+    assert np.array_equal(rewards[words >> b["reward"]], steps.reward)
+    assert len(rewards) == len(np.unique(steps.reward)) <= 8  # the step reads it as selects

@@ -3,7 +3,7 @@
 ``from hri_envs.jax import JaxRobotEnv`` needs ``jax``; without it the import raises
 :class:`~hri_envs.errors.MissingExtraError` with the one command that installs it.
 ``import hri_envs`` never imports this package. See :mod:`hri_envs.jax.env` and
-docs/environments.md, "JAX".
+docs/rl.md, "Recurrent PPO in JAX".
 """
 
 from hri_envs.errors import MissingExtraError

@@ -10,9 +10,10 @@ the same draws it equals the numpy env step for step (``tests/test_jax_env.py``)
 Randomness is split from the rules: :meth:`JaxRobotEnv.step_given` takes the step's draws
 (:class:`StepDraws`: the human's two uniforms, a new episode's start, intention and
 turning-back uniform, a new human) as inputs; :meth:`~JaxRobotEnv.step` makes them from a
-key. Drawing is what costs on a CPU (docs/environments.md, "JAX"): a key's draws are a
-counter-based hash (lowbias32) of one threefry draw per call, so :meth:`step_batch`, which
-takes one key for a whole batch, draws once per step, not once per env.
+key. A key's draws are a counter-based hash (lowbias32) of one threefry draw per call, so
+:meth:`step_batch`, which takes one key for a whole batch, draws once per step, not once
+per env. What a step costs on a CPU, and why it is written as it is (one gather for the
+whole outcome, short tables as selects): docs/rl.md, "What a step of the JAX env costs".
 """
 
 from __future__ import annotations
@@ -39,19 +40,21 @@ from hri_envs.humans.scripted import (
 )
 from hri_envs.humans.splits import MixtureSpec
 from hri_envs.jax.tables import (
+    OUTCOME_BITS,
     HumanBank,
     PopulationArrays,
     StepArrays,
     human_bank,
     is_plain,
+    outcome_words,
     population_arrays,
     step_arrays,
 )
 from hri_envs.task.actions import WAIT
 from hri_envs.task.scenarios import scenario_spec
 
-__all__ = ["EnvParams", "EnvState", "JaxRobotEnv", "Member", "ResetDraws", "StepDraws",
-           "uniform", "uniforms"]
+__all__ = ["OUTCOME_BITS", "EnvParams", "EnvState", "JaxRobotEnv", "Member", "ResetDraws",
+           "StepDraws", "uniform", "uniforms"]
 
 Array = jax.Array
 #: Draw streams of one env step (see :func:`uniforms`).
@@ -136,8 +139,10 @@ class EnvParams(NamedTuple):
     """The env's arrays (gymnax's ``params``): the step table, the humans, the step limit.
 
     Attributes:
-        next_state, reward, terminated, lifted, aborted, robot_invalid: (2 K S A A,) the
-            step table (:class:`~hri_envs.jax.tables.StepArrays`).
+        outcome: (2 K S A A,) int32, the step table, one word per joint step: the next
+            state, the terminated, lifted, aborted and robot-invalid flags and the reward's
+            index (:func:`~hri_envs.jax.tables.outcome_words`, :data:`OUTCOME_BITS`).
+        reward_values: (R,) float, the distinct rewards the words index.
         state0: (K,) int32, the start state of each support.
         action_mask: (S,) uint32, each state's action mask as bits (bit a: action a is
             valid; unpacked in :meth:`JaxRobotEnv.observation`, cheaper than a row gather).
@@ -153,12 +158,8 @@ class EnvParams(NamedTuple):
         max_cycles: int32, the step limit per episode.
     """
 
-    next_state: Array
-    reward: Array
-    terminated: Array
-    lifted: Array
-    aborted: Array
-    robot_invalid: Array
+    outcome: Array
+    reward_values: Array
     state0: Array
     action_mask: Array
     support: Array
@@ -209,6 +210,25 @@ def uniforms(seed: Array, index: Array, n: int = N_STREAMS) -> Array:
     return jnp.stack([uniform(seed, index, k) for k in range(n)])
 
 
+def _take(table: Array, index: Array) -> Array:
+    """``table[index]`` for an index the env's rules keep in range: no clamping, no
+    wrapping of negative indices (each costs a pass on a CPU).
+    """
+    return table.at[index].get(mode="promise_in_bounds", wrap_negative_indices=False)
+
+
+def _select(values: Array, index: Array) -> Array:
+    """``values[index]`` of a short table (a few starts, a few rewards) as a chain of
+    selects, which XLA fuses and vectorises where a gather would be a scalar loop.
+    """
+    if values.shape[0] > 8:
+        return _take(values, index)
+    out = jnp.broadcast_to(values[0], jnp.shape(index))
+    for i in range(1, values.shape[0]):
+        out = jnp.where(index == i, values[i], out)
+    return out
+
+
 # --------------------------------------------------------------------------- the env
 class JaxRobotEnv:
     """The robot vs a scripted human, as pure functions (gymnax's API, same-step autoreset).
@@ -246,7 +266,8 @@ class JaxRobotEnv:
     The object rests on a start support drawn uniformly, ι drawn uniformly among the other
     supports; the episode turns back with the human's ``turn_back`` rate. Every
     ``episodes_per_human`` episodes (a *trial*; 1: at every reset, as the numpy env) the
-    env draws a new human from ``population`` (or keeps its fixed human).
+    env draws a new human from ``population``; without a population the human a trial
+    starts with stays (the fixed human, for states from :meth:`reset`).
 
     ## Episode End
 
@@ -395,10 +416,9 @@ class JaxRobotEnv:
         entry, passive, turn = self._fixed
         entries = pop.prefs if pop is not None else np.array([entry], np.int32)
         log_beta = pop.log_beta if pop is not None and pop.log_beta is not None else [0.0, 0.0]
+        words, rewards = outcome_words(t)
         return EnvParams(
-            next_state=jnp.asarray(t.next_state), reward=f(t.reward),
-            terminated=jnp.asarray(t.terminated), lifted=jnp.asarray(t.lifted),
-            aborted=jnp.asarray(t.aborted), robot_invalid=jnp.asarray(t.robot_invalid),
+            outcome=jnp.asarray(words), reward_values=f(rewards),
             state0=jnp.asarray(t.state0),
             action_mask=jnp.asarray((t.action_mask.astype(np.uint32)
                                      << np.arange(self.n_actions, dtype=np.uint32)).sum(1),
@@ -497,21 +517,28 @@ class JaxRobotEnv:
         """
         p, m = params, state.member
         entry = self._entry(m, state.episode)
-        where = (entry, state.start, state.intention, state.state)
-        a = p.greedy[where]
+        k, n_s = self.n_supports, self.n_states
+        a = _take(p.greedy.reshape(-1),
+                  ((entry * k + state.start) * k + state.intention) * n_s + state.state)
         if self._stochastic:
+            where = (entry, state.start, state.intention, state.state)
             if self._rational:
                 finite = jnp.isfinite(m.beta)
                 beta = jnp.where(finite, m.beta, 1.0)
                 valid = p.valid[state.state]
                 z = jnp.where(valid, beta * p.q[where], -jnp.inf)
                 e = jnp.exp(z - z.max())
-                cum = jnp.cumsum(e / e.sum())
+                pi = e / e.sum()
+                below = jnp.zeros((), jnp.int32)  # actions whose CDF is <= u_choice
+                run = jnp.zeros((), pi.dtype)
+                for i in range(self.n_actions):  # the CDF by sequential adds, as np.cumsum
+                    run = run + pi[i]  # (jnp.cumsum is a reduce-window, slower than the step)
+                    below = below + (u_choice >= run)
                 use = finite
             else:
-                cum = p.cum[where]
+                below = jnp.sum(u_choice >= p.cum[where])
                 use = p.stochastic[entry]
-            sampled = jnp.minimum(jnp.sum(u_choice >= cum), self.n_actions - 1)
+            sampled = jnp.minimum(below, self.n_actions - 1)
             a = jnp.where(use, sampled.astype(a.dtype), a)
         if self._passive:
             a = jnp.where(u_passive < m.passive, WAIT, a)
@@ -527,7 +554,7 @@ class JaxRobotEnv:
             entry = self._entry(member, episode)
             turn_at = jnp.where(draws.u_turn < member.turn_back,
                                 p.turn_state[entry, start, goal], -1)
-        return EnvState(state=p.state0[start], start=start, intention=goal,
+        return EnvState(state=_select(p.state0, start), start=start, intention=goal,
                         lifted=jnp.bool_(False), steps=jnp.int32(0), turn_at=turn_at,
                         last_human=jnp.int32(WAIT), member=member, episode=episode)
 
@@ -560,26 +587,35 @@ class JaxRobotEnv:
         a_h = self.human_action(state, draws.u_passive, draws.u_choice, p)
         j = (((state.start * 2 + state.lifted.astype(jnp.int32)) * n_s + state.state) * n_a
              + a_r) * n_a + a_h
-        s_next = p.next_state[j]
-        terminated = p.terminated[j]
-        back = s_next == state.turn_at  # ι becomes the start on entering the turning state
+        word = _take(p.outcome, j)  # the whole outcome in one gather (OUTCOME_BITS)
+        bit = OUTCOME_BITS
+        s_next = (word >> bit["next_state"]) & 255
+        terminated = ((word >> bit["terminated"]) & 1).astype(bool)
         steps = state.steps + 1
         truncated = (steps >= p.max_cycles) & ~terminated
         done = terminated | truncated
+        intention, turn_at = state.intention, state.turn_at
+        if self._turning:  # ι becomes the start on entering the turning state
+            back = s_next == state.turn_at
+            intention = jnp.where(back, state.start, state.intention)
+            turn_at = jnp.where(back, -1, state.turn_at)
         stepped = state._replace(
-            state=s_next, intention=jnp.where(back, state.start, state.intention),
-            lifted=p.lifted[j], steps=steps, turn_at=jnp.where(back, -1, state.turn_at),
-            last_human=a_h)
+            state=s_next, intention=intention, lifted=((word >> bit["lifted"]) & 1).astype(bool),
+            steps=steps, turn_at=turn_at, last_human=a_h)
         new_trial = state.episode + 1 >= self.episodes_per_human
-        member = jax.tree.map(lambda new, old: jnp.where(new_trial, new, old),
-                              draws.reset.member, state.member)
+        member = state.member  # without a population a trial's human stays (the fixed one)
+        if self.population is not None:
+            member = jax.tree.map(lambda new, old: jnp.where(new_trial, new, old),
+                                  draws.reset.member, state.member)
         episode = jnp.where(new_trial, 0, state.episode + 1).astype(jnp.int32)
         fresh = self._begin(draws.reset, member, episode, p)
         following = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, stepped)
-        info = {"terminated": terminated, "truncated": truncated, "aborted": p.aborted[j],
-                "invalid_action": p.robot_invalid[j], "human_action": a_h,
-                "final_state": s_next, "new_trial": done & new_trial}
-        return self.observation(following, p), following, p.reward[j], done, info
+        info = {"terminated": terminated, "truncated": truncated,
+                "aborted": ((word >> bit["aborted"]) & 1).astype(bool),
+                "invalid_action": ((word >> bit["robot_invalid"]) & 1).astype(bool),
+                "human_action": a_h, "final_state": s_next, "new_trial": done & new_trial}
+        reward = _select(p.reward_values, word >> bit["reward"])
+        return self.observation(following, p), following, reward, done, info
 
     # ----------------------------------------------------------------- gymnax API
     def reset(self, key: Array, params: EnvParams | None = None

@@ -31,9 +31,9 @@ from hri_envs.task.episode import EpisodeRules, StepTable
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import scenario_spec
 
-__all__ = ["SUPPORTED_POPULATIONS", "SUPPORTED_SPLITS", "HumanBank", "PopulationArrays",
-           "StepArrays", "human_bank", "is_plain", "mixture_arrays", "population_arrays",
-           "step_arrays"]
+__all__ = ["OUTCOME_BITS", "SUPPORTED_POPULATIONS", "SUPPORTED_SPLITS", "HumanBank",
+           "PopulationArrays", "StepArrays", "human_bank", "is_plain", "mixture_arrays",
+           "outcome_words", "population_arrays", "step_arrays"]
 
 
 @dataclass(frozen=True)
@@ -81,6 +81,40 @@ def step_arrays(graph: TaskGraph, r0: float, reward: str = "paper") -> StepArray
         action_mask=table.rules.action_mask.copy(),
         support=graph.support.astype(np.int32),
     )
+
+
+#: Where :func:`outcome_words` puts each field of a step's outcome: the next state in bits
+#: 0-7, then one bit per flag, the reward's index into the reward values from bit 12.
+OUTCOME_BITS: dict[str, int] = {"next_state": 0, "terminated": 8, "lifted": 9, "aborted": 10,
+                                "robot_invalid": 11, "reward": 12}
+
+
+def outcome_words(steps: StepArrays) -> tuple[np.ndarray, np.ndarray]:
+    """The step table as one int32 word per joint step, and the reward values it indexes.
+
+    A step of the JAX env reads its whole outcome with one gather: on a CPU a gather is a
+    scalar loop and costs more than the arithmetic that unpacks the word
+    (docs/rl.md, "What a step of the JAX env costs"). The layout is :data:`OUTCOME_BITS`.
+
+    Returns:
+        ``(words, rewards)``: (2 K S A A,) int32 and (R,) float64, the distinct rewards
+        (sorted), so that ``rewards[words >> 12]`` is ``steps.reward``.
+
+    Raises:
+        ConfigError: More than 256 states (the word holds the next state in 8 bits).
+    """
+    if steps.action_mask.shape[0] > 256:
+        raise ConfigError(f"the JAX env holds at most 256 states, the graph has "
+                          f"{steps.action_mask.shape[0]}", field="scenario")
+    rewards, code = np.unique(steps.reward, return_inverse=True)
+    b = OUTCOME_BITS
+    words = (steps.next_state.astype(np.int64) << b["next_state"]
+             | steps.terminated.astype(np.int64) << b["terminated"]
+             | steps.lifted.astype(np.int64) << b["lifted"]
+             | steps.aborted.astype(np.int64) << b["aborted"]
+             | steps.robot_invalid.astype(np.int64) << b["robot_invalid"]
+             | code.astype(np.int64).reshape(-1) << b["reward"])
+    return words.astype(np.int32), rewards
 
 
 @dataclass(frozen=True)
