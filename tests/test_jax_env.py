@@ -368,3 +368,21 @@ def test_outcome_words_unpack_to_the_step_table(scenario, reward, r0):
         assert np.array_equal((words >> b[flag] & 1).astype(bool), getattr(steps, flag)), flag
     assert np.array_equal(rewards[words >> b["reward"]], steps.reward)
     assert len(rewards) == len(np.unique(steps.reward)) <= 8  # the step reads it as selects
+
+
+def test_a_fixed_human_draws_a_new_drift_each_trial():
+    """Without a population the human is fixed, but each trial drifts to a new draw."""
+    env = JaxRobotEnv("hanger", episodes_per_human=2, drift=1)
+    params = env.default_params
+    n = 64
+    obs, state = env.reset_batch(jax.random.key(0), n, params)
+    step = jax.jit(env.step_batch)
+    seen = [set() for _ in range(n)]
+    for t in range(300):
+        mask = np.asarray(obs["action_mask"]).astype(bool)
+        action = jnp.asarray(np.argmax(mask * np.random.default_rng(t).random(mask.shape), 1))
+        obs, state, _, _, _ = step(jax.random.key(t), state, action, params)
+        for i, d in enumerate(np.asarray(state.member.drift_entry)):
+            seen[i].add(int(d))
+        assert np.all(np.asarray(state.member.entry) == int(params.fixed.entry))
+    assert np.mean([len(s) > 1 for s in seen]) > 0.5

@@ -266,8 +266,9 @@ class JaxRobotEnv:
     The object rests on a start support drawn uniformly, ι drawn uniformly among the other
     supports; the episode turns back with the human's ``turn_back`` rate. Every
     ``episodes_per_human`` episodes (a *trial*; 1: at every reset, as the numpy env) the
-    env draws a new human from ``population``; without a population the human a trial
-    starts with stays (the fixed human, for states from :meth:`reset`).
+    env draws a new human from ``population`` (without one, the fixed human with a new
+    preference to drift to; without drift either, the trial's human stays: the fixed
+    human, for states from :meth:`reset`).
 
     ## Episode End
 
@@ -603,8 +604,8 @@ class JaxRobotEnv:
             state=s_next, intention=intention, lifted=((word >> bit["lifted"]) & 1).astype(bool),
             steps=steps, turn_at=turn_at, last_human=a_h)
         new_trial = state.episode + 1 >= self.episodes_per_human
-        member = state.member  # without a population a trial's human stays (the fixed one)
-        if self.population is not None:
+        member = state.member  # a fixed human that does not drift stays the same
+        if self.population is not None or self.drift is not None:
             member = jax.tree.map(lambda new, old: jnp.where(new_trial, new, old),
                                   draws.reset.member, state.member)
         episode = jnp.where(new_trial, 0, state.episode + 1).astype(jnp.int32)
