@@ -134,7 +134,8 @@ def main(args: Config) -> None:
            "compile_seconds": round(result.compile_seconds, 1), "steps": steps,
            "train_steps_per_s": round(steady), "random_policy_return": level,
            "load_average": list(__import__("os").getloadavg()), "curve": result.curve}
-    (args.out / f"{args.scenario}_curve.json").write_text(json.dumps(doc, indent=1) + "\n")
+    (args.out / f"{args.scenario}_curve.json").write_text(  # compact: it is shipped in docs/
+        json.dumps(doc, separators=(",", ":")) + "\n")
     draw_curve(result.curve, level, args.out / f"{args.scenario}_curve.png",
                f"{args.scenario}: recurrent PPO in JAX, population {cfg.population} "
                f"(seed {cfg.seed})")
