@@ -113,6 +113,17 @@ def draw_curve(curve: dict, random_level: float, path: Path, title: str) -> None
     plt.close(fig)
 
 
+def _rounded(x: object, digits: int = 4) -> object:
+    """``x`` with every float rounded to ``digits`` decimals (the curve JSON is shipped)."""
+    if isinstance(x, float):
+        return round(x, digits)
+    if isinstance(x, dict):
+        return {k: _rounded(v, digits) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_rounded(v, digits) for v in x]
+    return x
+
+
 def main(args: Config) -> None:
     cfg = TrainConfig(scenario=args.scenario, population=args.population,
                       passive=None if args.passive_max is None else (0.0, args.passive_max),
@@ -133,7 +144,7 @@ def main(args: Config) -> None:
     doc = {"config": cfg.to_dict(), "device": device_name(), "wall_seconds": round(wall, 1),
            "compile_seconds": round(result.compile_seconds, 1), "steps": steps,
            "train_steps_per_s": round(steady), "random_policy_return": level,
-           "load_average": list(__import__("os").getloadavg()), "curve": result.curve}
+           "load_average": list(__import__("os").getloadavg()), "curve": _rounded(result.curve)}
     (args.out / f"{args.scenario}_curve.json").write_text(  # compact: it is shipped in docs/
         json.dumps(doc, separators=(",", ":")) + "\n")
     draw_curve(result.curve, level, args.out / f"{args.scenario}_curve.png",
