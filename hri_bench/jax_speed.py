@@ -11,10 +11,9 @@ after the compiled one.
 
 from __future__ import annotations
 
-import importlib.util
 from typing import Any, NamedTuple
 
-from hri_envs.errors import ConfigError, install_command
+from hri_envs.errors import ConfigError, MissingExtraError
 
 __all__ = ["JAX_SIZES", "JaxSpeedSize", "measure_jax"]
 
@@ -59,8 +58,10 @@ def measure_jax(size: str = "full", vector_env_steps_per_s: float | None = None,
     if size not in JAX_SIZES:
         raise ConfigError(f"size must be one of {sorted(JAX_SIZES)}, got {size!r}",
                           field="size")
-    if any(importlib.util.find_spec(m) is None for m in ("jax", "optax")):
-        return {"jax": f"not installed: {install_command(['jax'])}"}
+    try:
+        MissingExtraError.require(["jax", "optax"], "the JAX figures")
+    except MissingExtraError as exc:
+        return {"jax": f"not installed: {exc}"}
     from agents.jax_ppo.train import TrainConfig, train
     from hri_envs.jax.speed import jax_env_steps_per_s
 

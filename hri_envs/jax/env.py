@@ -27,10 +27,11 @@ import jax.numpy as jnp
 import numpy as np
 from gymnasium import spaces
 
+from hri_envs.checks import check_whole
 from hri_envs.envs.config import check_env_settings, scenario_graph
 from hri_envs.envs.spaces import robot_observation_space
 from hri_envs.errors import ConfigError
-from hri_envs.humans.populations import PopulationSpec
+from hri_envs.humans.populations import PopulationSpec, validate_drift
 from hri_envs.humans.rational import rational_human, validate_rationality
 from hri_envs.humans.scripted import (
     ScriptedHuman,
@@ -148,7 +149,7 @@ class EnvParams(NamedTuple):
             valid; unpacked in :meth:`JaxRobotEnv.observation`, cheaper than a row gather).
         support: (S,) int32.
         greedy: (P', K, K, S) int32; cum, q: (P', K, K, S, A) float; stochastic: (P',) bool;
-            turn_state: (P', K, K) int32; valid: (S, A) bool: the human bank.
+            turn_state: (P', K, K) int32: the human bank.
         pop_entries: (n,) int32, the entries a population draws from (the fixed entry
             without a population).
         pop_log_beta, pop_passive, pop_turn_back: (2,) float, the population's ranges.
@@ -168,7 +169,6 @@ class EnvParams(NamedTuple):
     stochastic: Array
     q: Array
     turn_state: Array
-    valid: Array
     pop_entries: Array
     pop_log_beta: Array
     pop_passive: Array
@@ -323,14 +323,8 @@ class JaxRobotEnv:
         validate_rationality(human_rationality)
         passive = check_probability(human_passive, "human_passive")
         turn = check_probability(turn_back, "turn_back")
-        if (isinstance(episodes_per_human, bool) or not isinstance(episodes_per_human, int)
-                or episodes_per_human < 1):
-            raise ConfigError(f"episodes_per_human must be a whole number >= 1, got "
-                              f"{episodes_per_human!r}", field="episodes_per_human")
-        if drift is not None and (isinstance(drift, bool) or not isinstance(drift, int)
-                                  or drift < 1):
-            raise ConfigError(f"drift must be None or a whole number of episodes >= 1, got "
-                              f"{drift!r}", field="drift")
+        episodes_per_human = check_whole(episodes_per_human, "episodes_per_human", minimum=1)
+        validate_drift(drift, "drift")
         if human is not None and population is not None:
             raise ConfigError("give either a human or a population, not both",
                               field="population")
@@ -382,6 +376,7 @@ class JaxRobotEnv:
             self._turning = bool(pop.turn_back[1] > 0.0)
             self._stochastic = self._rational
         self._fixed = (fixed_entry, fixed_passive, fixed_turn)
+        self._params: dict[Any, EnvParams] = {}
         self.spec = scenario_spec(self.scenario)
 
     # ----------------------------------------------------------------- spaces
@@ -406,9 +401,16 @@ class JaxRobotEnv:
     # ----------------------------------------------------------------- params
     @property
     def default_params(self) -> EnvParams:
-        """The env's arrays as ``jax`` arrays (float64 under ``jax.enable_x64``)."""
-        t, b = self.steps, self.bank
+        """The env's arrays as ``jax`` arrays (float64 under ``jax.enable_x64``), built once
+        per float type (``reset`` and ``step`` without ``params`` read them every call).
+        """
         ftype = jnp.zeros(()).dtype  # float32, or float64 under jax.enable_x64
+        if ftype not in self._params:
+            self._params[ftype] = self._build_params(ftype)
+        return self._params[ftype]
+
+    def _build_params(self, ftype: Any) -> EnvParams:
+        t, b = self.steps, self.bank
         pop = self.population
 
         def f(x: Any) -> Array:
@@ -426,7 +428,7 @@ class JaxRobotEnv:
                                     dtype=jnp.uint32),
             support=jnp.asarray(t.support),
             greedy=jnp.asarray(b.greedy), cum=f(b.cum), stochastic=jnp.asarray(b.stochastic),
-            q=f(b.q), turn_state=jnp.asarray(b.turn_state), valid=jnp.asarray(b.valid),
+            q=f(b.q), turn_state=jnp.asarray(b.turn_state),
             pop_entries=jnp.asarray(entries, dtype=jnp.int32), pop_log_beta=f(log_beta),
             pop_passive=f(pop.passive if pop is not None else [0.0, 0.0]),
             pop_turn_back=f(pop.turn_back if pop is not None else [0.0, 0.0]),
@@ -481,9 +483,7 @@ class JaxRobotEnv:
         passive, choice, start, intention, turn, then the five of
         :meth:`member_from_uniforms`.
         """
-        if not callable(u):
-            u = u.__getitem__
-        get = u
+        get = u if callable(u) else u.__getitem__
         k = self.n_supports
         start = jnp.minimum((get(2) * k).astype(jnp.int32), k - 1)
         offset = jnp.minimum((get(3) * (k - 1)).astype(jnp.int32), k - 2)
@@ -498,10 +498,8 @@ class JaxRobotEnv:
 
     def batch_draws(self, key: Array, n: int, params: EnvParams) -> StepDraws:
         """(n,) draws, one per env, from one key (one threefry draw, then a hash per env)."""
-        seed = jax.random.bits(key, (2,), jnp.uint32)
-        return jax.vmap(
-            lambda i: self.draws_from_uniforms(lambda k: uniform(seed, i, k), params))(
-            jnp.arange(n, dtype=jnp.uint32))
+        return jax.vmap(self.draws, in_axes=(None, None, 0))(
+            key, params, jnp.arange(n, dtype=jnp.uint32))
 
     # ----------------------------------------------------------------- the rules
     def _entry(self, member: Member, episode: Array) -> Array:
@@ -526,8 +524,7 @@ class JaxRobotEnv:
             if self._rational:
                 finite = jnp.isfinite(m.beta)
                 beta = jnp.where(finite, m.beta, 1.0)
-                valid = p.valid[state.state]
-                z = jnp.where(valid, beta * p.q[where], -jnp.inf)
+                z = beta * p.q[where]  # -inf on invalid actions (β > 0)
                 e = jnp.exp(z - z.max())
                 pi = e / e.sum()
                 below = jnp.zeros((), jnp.int32)  # actions whose CDF is <= u_choice

@@ -17,6 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from hri_envs.envs.config import scenario_graph
+from hri_envs.envs.speed import valid_choices
 from hri_envs.jax.env import JaxRobotEnv
 
 __all__ = ["JaxSpeedResult", "device_name", "jax_env_steps_per_s"]
@@ -52,10 +53,8 @@ def jax_env_steps_per_s(num_envs: int = 65_536, scenario: str = "hanger", steps:
     env = JaxRobotEnv(scenario)
     params = env.default_params
     rng = np.random.default_rng(seed)
-    valid = scenario_graph(scenario).valid
-    n_s = valid.shape[0]
-    table = jnp.asarray(np.argmax(rng.random((64, *valid.shape)) * valid, axis=-1)
-                        .reshape(-1), dtype=jnp.int32)  # (64 S,) a valid action per state
+    n_s = scenario_graph(scenario).n_states
+    table = jnp.asarray(valid_choices(scenario, rng, 64).reshape(-1), dtype=jnp.int32)  # (64 S,)
     offsets = jnp.asarray(rng.integers(64, size=(64, num_envs)) * n_s, dtype=jnp.int32)
 
     @jax.jit

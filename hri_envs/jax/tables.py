@@ -127,10 +127,10 @@ class HumanBank:
         greedy: (P', K, K, S) int32, each entry's likeliest action ``[start, ι, s]``.
         cum: (P', K, K, S, A) float64, the CDF of each entry's own policy.
         stochastic: (P',) bool, the entry's own policy is not deterministic.
-        q: (P', K, K, S, A) float64, ``Q_pref`` of the preference humans (0 on invalid
-            actions and for a last entry that is not one), for Boltzmann members.
+        q: (P', K, K, S, A) float64, ``Q_pref`` of the preference humans, for Boltzmann
+            members (``-inf`` on invalid actions, so ``softmax(β q)`` needs no mask; 0 on
+            the valid actions of a last entry that is not a preference human).
         turn_state: (P', K, K) int32, where each entry turns back (-1: never).
-        valid: (S, A) bool, the graph's valid actions.
     """
 
     names: tuple[str, ...]
@@ -140,28 +140,24 @@ class HumanBank:
     stochastic: np.ndarray
     q: np.ndarray
     turn_state: np.ndarray
-    valid: np.ndarray
 
 
 def human_bank(graph: TaskGraph, extra: ScriptedHuman | None = None) -> HumanBank:
     """The scenario's preference humans (deterministic, never passive), and ``extra`` last."""
     prefs = preferences_for(graph.name)
     humans = [preference_human(graph, p) for p in prefs]
-    qs = [np.where(graph.valid[None, None], preference_q(h), 0.0) for h in humans]
+    qs = [preference_q(h) for h in humans]  # -inf on invalid actions
     if extra is not None:
         humans.append(extra)
-        qs.append(np.zeros_like(qs[0]))
-    k, s = graph.n_intentions, graph.n_states
-    grid = np.arange(s)[None, None, :], np.arange(k)[:, None, None], np.arange(k)[None, :, None]
+        qs.append(np.where(graph.valid, 0.0, -np.inf) + np.zeros_like(qs[0]))
     return HumanBank(
         names=tuple(h.name for h in humans),
         n_preferences=len(prefs),
-        greedy=np.stack([h.preferred_action(*grid) for h in humans]).astype(np.int32),
+        greedy=np.stack([h.route_table for h in humans]).astype(np.int32),
         cum=np.stack([np.cumsum(h.policy, axis=-1) for h in humans]),
         stochastic=np.array([not h.deterministic for h in humans]),
         q=np.stack(qs),
         turn_state=np.stack([h.turn_state for h in humans]).astype(np.int32),
-        valid=graph.valid.astype(bool),
     )
 
 
