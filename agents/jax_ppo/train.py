@@ -31,6 +31,7 @@ import optax
 
 from agents.jax_ppo import checkpoint
 from agents.jax_ppo.network import Inputs, NetConfig, Params, apply, init_params, masked_logits
+from hri_envs.checks import check_real, check_whole
 from hri_envs.errors import ConfigError
 from hri_envs.humans.populations import PopulationSpec
 from hri_envs.humans.splits import MixtureSpec, population
@@ -125,22 +126,16 @@ class TrainConfig:
 
     def check(self) -> TrainConfig:
         """Raise a :class:`ConfigError` naming the field of a bad value; return self."""
-        whole = ("total_steps", "num_envs", "rollout", "epochs", "minibatches", "hidden",
-                 "chunk", "max_cycles")
-        for name in whole:
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ConfigError(f"{name} must be a whole number >= 1, got {v!r}", field=name)
+        for name in ("total_steps", "num_envs", "rollout", "epochs", "minibatches", "hidden",
+                     "chunk", "max_cycles"):
+            check_whole(getattr(self, name), name, minimum=1)
         if self.num_envs % self.minibatches:
             raise ConfigError(f"minibatches ({self.minibatches}) must divide num_envs "
                               f"({self.num_envs})", field="minibatches")
-        for name in ("lr", "gamma", "gae_lambda", "clip", "max_grad_norm", "reward_scale"):
-            v = getattr(self, name)
-            if not isinstance(v, int | float) or not 0 < v <= (1 if name != "lr" else 1e3):
-                raise ConfigError(f"{name} must be a number in (0, 1], got {v!r}", field=name)
-        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
-            raise ConfigError(f"seed must be a whole number >= 0, got {self.seed!r}",
-                              field="seed")
+        for name in ("gamma", "gae_lambda", "clip", "max_grad_norm", "reward_scale"):
+            check_real(getattr(self, name), name, low=0.0, high=1.0, low_open=True)
+        check_real(self.lr, "lr", low=0.0, high=1e3, low_open=True)
+        check_whole(self.seed, "seed", minimum=0)
         return self
 
 
@@ -208,7 +203,6 @@ class Runner(NamedTuple):
     hidden: jax.Array
     episode_return: jax.Array
     key: jax.Array
-    update: jax.Array
 
 
 class TrainResult(NamedTuple):
@@ -248,6 +242,37 @@ def sample_actions(logits: jax.Array, mask: jax.Array, u: jax.Array) -> jax.Arra
     return jnp.where(ok, a, jnp.argmax(masked, axis=-1)).astype(jnp.int32)
 
 
+def random_policy_return(cfg: TrainConfig, steps: int = 400, n: int = 2048) -> float:
+    """Mean episode return of a robot acting uniformly at random over the valid actions, in
+    ``cfg``'s training env (the level a trained policy must beat; seeded by ``cfg.seed``).
+    """
+    env = make_env(cfg)
+    params = env.default_params
+
+    @jax.jit
+    def run(key: jax.Array) -> jax.Array:
+        obs, state = env.reset_batch(key, n, params)
+        zeros = jnp.zeros(obs["action_mask"].shape)
+
+        def body(carry: tuple, t: jax.Array) -> tuple:
+            obs, state, ret, total, count = carry
+            seed = jax.random.bits(jax.random.fold_in(key, 2 * t), (2,), jnp.uint32)
+            action = sample_actions(zeros, obs["action_mask"],
+                                    uniform(seed, jnp.arange(n, dtype=jnp.uint32), 0))
+            obs, state, r, done, _ = env.step_batch(jax.random.fold_in(key, 2 * t + 1), state,
+                                                    action, params)
+            ret = ret + r
+            total, count = total + jnp.sum(ret * done), count + jnp.sum(done)
+            return (obs, state, ret * ~done, total, count), None
+
+        zero = jnp.zeros(())
+        (_, _, _, total, count), _ = jax.lax.scan(body, (obs, state, jnp.zeros(n), zero, zero),
+                                                  jnp.arange(steps))
+        return total / count
+
+    return float(run(jax.random.key(cfg.seed + 1)))
+
+
 def _make_update(cfg: TrainConfig, env: JaxRobotEnv, optimizer: optax.GradientTransformation
                  ) -> Callable[[Runner, Any], tuple[Runner, dict[str, jax.Array]]]:
     env_params = env.default_params
@@ -280,7 +305,7 @@ def _make_update(cfg: TrainConfig, env: JaxRobotEnv, optimizer: optax.GradientTr
         return (params, env_state, obs, memory_next, hidden, ep_ret, key, sums, counts), out
 
     def sequence_loss(params: Params, h0: jax.Array, batch: tuple) -> tuple[jax.Array, tuple]:
-        x, reset, action, logp_old, _, adv, target = batch
+        x, reset, action, logp_old, adv, target = batch
 
         def step(h: jax.Array, xs: tuple) -> tuple[jax.Array, tuple]:
             xi, ri = xs
@@ -327,7 +352,7 @@ def _make_update(cfg: TrainConfig, env: JaxRobotEnv, optimizer: optax.GradientTr
         _, adv = jax.lax.scan(gae, (jnp.zeros(n), last_value),
                               (reward * cfg.reward_scale, value, trial_done), reverse=True)
         target = adv + value
-        batch = (x, reset, action, logp, value, adv, target)
+        batch = (x, reset, action, logp, adv, target)
 
         def epoch(state: tuple, key_e: jax.Array) -> tuple[tuple, tuple]:
             params, opt_state = state
@@ -347,10 +372,8 @@ def _make_update(cfg: TrainConfig, env: JaxRobotEnv, optimizer: optax.GradientTr
             epoch, (params, runner.opt_state), jax.random.split(k_epochs, cfg.epochs))
         metrics = {"episode_return": sums.sum() / jnp.maximum(counts.sum(), 1.0),
                    "return_by_episode": sums / jnp.maximum(counts, 1.0),
-                   "episodes": counts.sum(), "reward_per_step": reward.mean(),
                    "entropy": entropy.mean(), "value_loss": v_loss.mean()}
-        runner = Runner(params, opt_state, env_state, obs, memory, hidden, ep_ret, key,
-                        runner.update + 1)
+        runner = Runner(params, opt_state, env_state, obs, memory, hidden, ep_ret, key)
         return runner, metrics
 
     return update
@@ -366,7 +389,7 @@ def _init(cfg: TrainConfig, env: JaxRobotEnv, net: NetConfig,
     memory = Memory(jnp.full(n, WAIT, jnp.int32), jnp.full(n, env.n_supports, jnp.int32),
                     jnp.ones(n, bool), jnp.ones(n, bool))
     return Runner(params, optimizer.init(params), env_state, obs, memory,
-                  jnp.zeros((n, net.hidden)), jnp.zeros(n), key, jnp.int32(0))
+                  jnp.zeros((n, net.hidden)), jnp.zeros(n), key)
 
 
 @functools.lru_cache(maxsize=4)
