@@ -266,22 +266,31 @@ def test_keys_jit_and_vmap(scenario):
     obs, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)
     step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
     step_batch = jax.jit(env.step_batch)
-    state_b = state
+    obs_b, state_b = env.reset_batch(jax.random.key(0), n, params)
     valid = np.asarray(env.steps.action_mask, bool)
-    ends = 0
+    ends = {"keys": 0, "batch": 0}
+    mixed = []  # steps where many batch envs began an episode: did they draw alike?
     for t in range(30):
-        mask = np.asarray(obs["action_mask"]).astype(bool)
-        assert np.array_equal(mask, valid[np.asarray(state.state)])
-        action = jnp.asarray(np.argmax(mask * np.random.default_rng(t).random(mask.shape), 1))
-        obs, state, reward, done, info = step(jax.random.split(jax.random.key(t), n), state,
-                                              action, params)
-        _, state_b, _, _, _ = step_batch(jax.random.key(t), state_b, action, params)
-        ends += int(done.sum())
-        r = np.asarray(reward, dtype=float)[:, None]
-        assert np.isclose(r, [-1.0, env.r0, 0.0], atol=1e-6).any(axis=1).all()
-        assert np.all(np.asarray(state.episode) < 3)
-    assert ends > 0
-    assert np.all(np.asarray(state.intention) != -1)
+        for path, o, now in (("keys", obs, state), ("batch", obs_b, state_b)):
+            mask = np.asarray(o["action_mask"]).astype(bool)
+            assert np.array_equal(mask, valid[np.asarray(now.state)]), path
+            action = jnp.asarray(np.argmax(mask * np.random.default_rng(t).random(mask.shape),
+                                           1))
+            if path == "keys":
+                obs, state, reward, done, _ = step(jax.random.split(jax.random.key(t), n),
+                                                   state, action, params)
+            else:
+                obs_b, state_b, reward, done, _ = step_batch(jax.random.key(t), state_b,
+                                                             action, params)
+                began = np.asarray(state_b.start)[np.asarray(done)]
+                if began.size >= 10:
+                    mixed.append(np.unique(began).size > 1)
+            ends[path] += int(done.sum())
+            r = np.asarray(reward, dtype=float)[:, None]
+            assert np.isclose(r, [-1.0, env.r0, 0.0], atol=1e-6).any(axis=1).all(), path
+            assert np.all(np.asarray((state if path == "keys" else state_b).episode) < 3)
+    assert ends["keys"] > 0 and ends["batch"] > 0
+    assert mixed and all(mixed)  # one key per batch step, yet a draw of its own per env
 
 
 def test_same_key_same_trajectory():
@@ -296,6 +305,11 @@ def test_same_key_same_trajectory():
                                                jnp.zeros(64, jnp.int32), params)
         out.append(np.asarray(state.state))
     assert np.array_equal(out[0], out[1])
+    obs, state = env.reset_batch(jax.random.key(8), 64, params)
+    for t in range(20):
+        obs, state, reward, done, _ = step(jax.random.key(100 + t), state,
+                                           jnp.zeros(64, jnp.int32), params)
+    assert not np.array_equal(out[0], np.asarray(state.state))  # the key matters
 
 
 def test_population_draw_matches_the_recipe():
@@ -367,7 +381,6 @@ def test_outcome_words_unpack_to_the_step_table(scenario, reward, r0):
     for flag in ("terminated", "lifted", "aborted", "robot_invalid"):
         assert np.array_equal((words >> b[flag] & 1).astype(bool), getattr(steps, flag)), flag
     assert np.array_equal(rewards[words >> b["reward"]], steps.reward)
-    assert len(rewards) == len(np.unique(steps.reward)) <= 8  # the step reads it as selects
 
 
 def test_a_fixed_human_draws_a_new_drift_each_trial():

@@ -35,7 +35,7 @@ def trained(tmp_path_factory):
 def test_training_improves_on_a_random_masked_policy(trained):
     """≈ 330 k steps (well under a minute): better than random valid actions, and better
     than it started."""
-    from benchmarks.train_jax_ppo import random_policy_return
+    from agents.jax_ppo.train import random_policy_return
 
     result, _ = trained
     curve = result.curve["episode_return"]
@@ -83,6 +83,17 @@ def test_agent_acts_validly_and_deterministically(trained):
     out = [simulate(graph, JaxPPOAgent(path.parent, graph, 6), human, schedule, runs=range(6),
                     seed=0, r0=-0.33).reward for _ in range(2)]
     np.testing.assert_array_equal(out[0], out[1])
+    # valid in every state, from any start, whatever the human last did (the mask rules)
+    agent = JaxPPOAgent(path.parent, graph, graph.n_states)
+    rng = np.random.default_rng(0)
+    states = np.arange(graph.n_states)
+    for _ in range(5):
+        agent.begin_episode(rng.integers(graph.n_intentions, size=graph.n_states))
+        obs = {"state": states, "start": rng.integers(graph.n_intentions, size=states.size),
+               "last_human_action": rng.integers(graph.n_actions, size=states.size),
+               "action_mask": graph.valid.astype(np.int8)}
+        action = agent.act(obs, np.ones(states.size, bool))
+        assert graph.valid[states, action].all()
 
 
 def test_jaxppo_in_a_study_and_bad_checkpoints_exit_2(trained, tmp_path, capsys):
@@ -154,15 +165,3 @@ def test_speed_reports_the_jax_figures_naming_the_device(trained):
     assert figures["jax_device"].startswith(jax.devices()[0].platform)
     for key in ("jax_env_steps_per_s", "jax_ppo_train_steps_per_s", "jax_env_vs_vector_env"):
         assert isinstance(figures[key], float) and figures[key] > 0, figures
-
-
-def test_speed_without_the_extra_says_how_to_install(monkeypatch):
-    import importlib.util
-
-    from hri_bench import jax_speed
-
-    real = importlib.util.find_spec
-    monkeypatch.setattr(importlib.util, "find_spec",
-                        lambda name, *a: None if name == "jax" else real(name, *a))
-    note = jax_speed.measure_jax("tiny")
-    assert list(note) == ["jax"] and "[jax]" in note["jax"]
