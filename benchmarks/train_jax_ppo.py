@@ -95,4 +95,5 @@ if __name__ == "__main__":
     try:
         tyro.cli(main)
     except ConfigError as exc:  # a bad value: one line naming it, exit 2 (as hri-bench)
-        sys.exit(f"train_jax_ppo.py: error: {exc}")
+        print(f"train_jax_ppo.py: error: {exc}", file=sys.stderr)
+        sys.exit(2)
