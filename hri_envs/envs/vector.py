@@ -30,6 +30,7 @@ from hri_envs.task.episode import (
     StepTable,
     draw_other_support,
     draw_start_intention,
+    revise_intention,
 )
 from hri_envs.task.greedy_table import GreedyStepTable
 
@@ -429,9 +430,9 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         if self._greedy is None:
             human.observe(state, a_r, a_h, s_next, playing)
             revised = human.revised_intentions()  # humans who changed their minds
-            if revised is not None:
-                changed = ((np.asarray(revised) >= 0) & playing & ~terminated).nonzero()[0]
-                self._intention[changed] = np.asarray(revised)[changed]
+            if revised is not None:  # in place: (N,) int64, as the turning back above
+                self._intention[:] = revise_intention(
+                    self._intention, np.where(playing & ~terminated, revised, -1))
         infos: dict[str, Any] = {"aborted": aborted, "_aborted": self._all,
                                  "invalid_action": invalid, "_invalid_action": self._all}
         if self._same_step:
