@@ -48,7 +48,7 @@ import numpy as np
 
 from hri_envs.errors import ConfigError
 from hri_envs.humans.families import FAMILIES, GROUPS, family_params
-from hri_envs.humans.finite_state import FiniteStateHumans
+from hri_envs.humans.finite_state import FiniteStateHuman, FiniteStateHumans, as_model
 from hri_envs.humans.populations import (
     POPULATIONS,
     HumanDraw,
@@ -371,14 +371,24 @@ class MixtureHumans(FiniteStateHumans):
 
     def __init__(self, graph: TaskGraph, spec: MixtureSpec, n_runs: int = 1) -> None:
         self.spec = spec
-        first = build_human(graph, spec.member_draws[0])
+        self._built: dict[HumanDraw, FiniteStateHuman] = {}
+        first = self._member(graph, spec.member_draws[0])
         super().__init__([first] * n_runs)
+
+    def _member(self, graph: TaskGraph, draw: HumanDraw) -> FiniteStateHuman:
+        """The member's model, built once per seat: models are immutable (a row's own state
+        is its ``z`` in the seat), so rows and draws that meet one member share its model.
+        """
+        model = self._built.get(draw)
+        if model is None:
+            model = self._built[draw] = as_model(build_human(graph, draw))
+        return model
 
     def draw(self, rng: np.random.Generator, rows: Rows = None) -> None:
         """Draw a new member for each row of ``rows``, in order, from ``rng``."""
         idx = all_rows(rows, self.n_runs)
-        self.assign(idx, [build_human(self.graph, self.spec.sample(self.graph.name, rng))
-                          for _ in idx])
+        graph, sample = self.graph, self.spec.sample
+        self.assign(idx, [self._member(graph, sample(graph.name, rng)) for _ in idx])
 
 
 def population_seat(graph: TaskGraph, name: str, n_runs: int = 1,
