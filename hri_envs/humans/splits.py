@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.humans.families import FAMILIES, GROUPS, family_params
+from hri_envs.humans.families import FAMILIES, GROUPS, check_params, family_params
 from hri_envs.humans.finite_state import FiniteStateHuman, FiniteStateHumans, as_model
 from hri_envs.humans.populations import (
     POPULATIONS,
@@ -314,7 +314,7 @@ def family_population(scenario: str, family: str, params: Mapping[str, Any] | No
                        f"({FAMILIES[family].description})",
                        1, 0, (Component(family, 1.0, tuple((k, (v,)) for k, v in given)),),
                        held_out=FAMILIES[family].group != "scripted")
-    build_human(scenario_graph(scenario), spec.member_draws[0])  # impossible values raise
+    check_params(scenario_graph(scenario), family, params)  # impossible values raise
     return spec
 
 
