@@ -45,7 +45,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from agents.protocol import BatchAgent, Trace
-from baselines.bounds import Plan, plan
+from baselines.bounds import Plan, plan, reward_table
 from hri_envs.errors import ConfigError
 from hri_envs.humans.finite_state import FiniteStateHuman, FiniteStateHumans, as_model
 from hri_envs.humans.protocol import BatchHuman
@@ -128,11 +128,7 @@ def _edges(graph: TaskGraph, human: FiniteStateHuman, r0: float, reward: str) ->
     i_st, i_io, i_lf, i_s, i_z, i_ar, i_ah = np.nonzero(mask)
     p = law[mask]
     s2 = g.next_state[i_s, i_ar, i_ah]
-    r_tab = np.stack([np.stack([
-        rules.step_reward(g, np.arange(n_s)[:, None, None], np.arange(n_a)[None, :, None],
-                          np.arange(n_a)[None, None, :], g.next_state, r0, reward=reward,
-                          start=start, lifted=lifted) for lifted in (False, True)])
-        for start in range(k)])  # (K, 2, S, A, A)
+    r_tab = reward_table(g, r0, reward)  # (K, 2, S, A, A)
     r = r_tab[i_st, i_lf, i_s, i_ar, i_ah]
     lf2 = i_lf.astype(bool) | rules.left_start(g, s2, i_st)
     over = rules.episode_over(g, s2, i_st, lf2)
