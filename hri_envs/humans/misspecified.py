@@ -39,7 +39,7 @@ from hri_envs.errors import ConfigError
 from hri_envs.humans.finite_state import FiniteStateHuman, carry_to, one_hot
 from hri_envs.humans.scripted import ScriptedHuman, preference_human, support_actions
 from hri_envs.task import mdp
-from hri_envs.task.actions import PUT_ON, ROTATE, TAKE_OFF, WAIT
+from hri_envs.task.actions import ROTATE, TAKE_OFF, WAIT
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["avoid_human", "cost_route", "impatient_human", "low_human", "rotate_low_human"]
@@ -63,9 +63,7 @@ def cost_route(graph: TaskGraph, cost: np.ndarray, prefer: np.ndarray) -> np.nda
     """
     g = graph
     free = ~g.is_support_state
-    moves = g.valid.copy()
-    moves[:, :PUT_ON] = False
-    moves[~free] = False  # (S, A) the free-space motions
+    moves = mdp.free_motions(g)  # (S, A)
     step = np.where(moves[None], 1.0 + cost, np.inf)  # (K, S, A)
     dist = mdp.cost_to_goal(g, step)  # (K start, K goal, S)
     cand = step[:, None] + dist[:, :, g.next_state[:, WAIT, :]]  # (K, K, S, A)
