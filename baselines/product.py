@@ -54,8 +54,7 @@ from hri_envs.humans.tables import TableHumans
 from hri_envs.task import episode as rules
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["QMDP", "PerRunInformed", "ProductPlan", "model_of_row", "plan_product",
-           "reference_refusal"]
+__all__ = ["QMDP", "PerRunInformed", "ProductPlan", "model_of_row", "plan_product"]
 
 #: Values that change by less than this between two numbers of steps left count as settled.
 SETTLED = 1e-12
@@ -243,26 +242,6 @@ def model_of_row(human: ScriptedHuman | BatchHuman, row: int
         return human.model_of(row)
     if isinstance(human, TableHumans):
         return human.current[row]
-    return None
-
-
-def reference_refusal(agent: str, models: Sequence[ScriptedHuman | FiniteStateHuman | None]
-                      ) -> str | None:
-    """Why reference ``agent`` ("informed" or "qmdp") cannot run with these humans, or None.
-
-    ``informed`` needs a model of every human; ``qmdp`` also needs humans without turning
-    back (a finite-state model).
-    """
-    if any(m is None for m in models):
-        return (f"{agent} plans with the human's model; these humans (a class of your own) "
-                "have none")
-    if agent == "qmdp":
-        turning = sorted({m.name for m in models if isinstance(m, ScriptedHuman)
-                          and m.turn_back > 0})
-        if turning:
-            return (f"qmdp keeps a posterior over the human's finite state; humans that turn "
-                    f"back halfway ({', '.join(turning[:3])}) are not supported: leave out "
-                    "--turn-back or use blind where it fits")
     return None
 
 

@@ -167,19 +167,20 @@ class MixtureSpec:
         weighs every member alike (the estimate of the population's mean then carries no
         sampling error of its make-up).
         """
-        if scenario != self.scenario:
-            raise ConfigError(f"population {self.name!r} is for the {self.scenario}, not "
-                              f"{scenario!r}", field="population")
+        self._check_scenario(scenario)
         block, slot = divmod(int(run), self.size)
         order = np.random.default_rng([int(seed), block, 7]).permutation(self.size)
         return self.member_draws[int(order[slot])]
 
     def sample(self, scenario: str, rng: np.random.Generator) -> HumanDraw:
         """A member drawn uniformly with ``rng`` (one integer; the envs, per reset)."""
+        self._check_scenario(scenario)
+        return self.member_draws[int(rng.integers(self.size))]
+
+    def _check_scenario(self, scenario: str) -> None:
         if scenario != self.scenario:
             raise ConfigError(f"population {self.name!r} is for the {self.scenario}, not "
                               f"{scenario!r}", field="population")
-        return self.member_draws[int(rng.integers(self.size))]
 
     def content_hash(self) -> str:
         """SHA-256 of the generator's parameters, its seeds and the members they give (every
