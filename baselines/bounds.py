@@ -63,7 +63,7 @@ from hri_envs.task import mdp
 from hri_envs.task.actions import WAIT
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["Blind", "Informed", "Plan", "plan"]
+__all__ = ["Blind", "Informed", "Plan", "plan", "reward_table"]
 
 _TERMINAL = -1
 #: Hypotheses whose posterior falls below this are dropped (see the module docstring).
@@ -116,6 +116,19 @@ def _human_law(human: ScriptedHuman) -> np.ndarray:
     law = (1.0 - human.passive) * human.policy
     law[..., WAIT] += human.passive
     return law
+
+
+def reward_table(graph: TaskGraph, r0: float, reward: str) -> np.ndarray:
+    """(K, 2, S, A, A) the robot's step reward ``[start, lifted, s, a_R, a_H]`` (the object
+    moving by the graph's joint transition), for the plans here and in
+    :mod:`baselines.product`.
+    """
+    n_s, n_a = graph.n_states, graph.n_actions
+    s_ix, r_ix, h_ix = np.ix_(np.arange(n_s), np.arange(n_a), np.arange(n_a))
+    return np.stack([np.stack([
+        rules.step_reward(graph, s_ix, r_ix, h_ix, graph.next_state, r0, reward=reward,
+                          start=st, lifted=lf) for lf in (False, True)])
+        for st in range(graph.n_intentions)])
 
 
 def _fingerprint(graph: TaskGraph, human: ScriptedHuman, r0: float, max_steps: int,
@@ -179,10 +192,7 @@ def _solve(graph: TaskGraph, human: ScriptedHuman, r0: float, horizon: int, info
     valid_actions = [np.flatnonzero(graph.valid[s]) for s in range(graph.n_states)]
     next_state = graph.next_state
     n_s = graph.n_states
-    s_ix, r_ix, h_ix = np.ix_(np.arange(n_s), np.arange(n_a), np.arange(n_a))
-    reward_table = np.stack([np.stack([
-        rules.step_reward(graph, s_ix, r_ix, h_ix, next_state, r0, reward=reward, start=st,
-                          lifted=lf) for lf in (False, True)]) for st in range(k)])  # (K,2,S,A,A)
+    rewards = reward_table(graph, r0, reward)  # (K, 2, S, A, A)
     left = rules.left_start(graph, np.arange(n_s)[:, None], np.arange(k)[None, :])  # (S, K)
     ends = rules.episode_over(graph, np.arange(n_s)[:, None, None], np.arange(k)[None, :, None],
                               np.array([False, True])[None, None, :])  # (S, K, 2)
@@ -245,7 +255,7 @@ def _solve(graph: TaskGraph, human: ScriptedHuman, r0: float, horizon: int, info
             for a_r in valid_actions[s]:
                 for a_h in np.flatnonzero(p_h > 0):
                     s2 = int(next_state[s, a_r, a_h])
-                    r = float(reward_table[start, int(lifted), s, a_r, a_h])
+                    r = float(rewards[start, int(lifted), s, a_r, a_h])
                     lifted2 = bool(lifted or left[s2, start])
                     over = bool(ends[s2, start, int(lifted2)])
                     post = joint[:, a_h].copy()

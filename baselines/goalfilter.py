@@ -34,10 +34,11 @@ import numpy as np
 from agents.protocol import Trace
 from baselines.simple import _Tracking
 from hri_envs.checks import check_real
+from hri_envs.humans.finite_state import one_hot
 from hri_envs.humans.rational import D_MAX
 from hri_envs.humans.scripted import support_actions
 from hri_envs.task import mdp
-from hri_envs.task.actions import PUT_ON, TAKE_OFF, TOGGLE, WAIT
+from hri_envs.task.actions import TAKE_OFF, TOGGLE, WAIT
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["GoalFilter", "shortest_path_policy"]
@@ -54,22 +55,21 @@ def shortest_path_policy(graph: TaskGraph, beta: float, epsilon: float) -> np.nd
     g = graph
     n_k, n_s, n_a = g.n_intentions, g.n_states, g.n_actions
     free = ~g.is_support_state
-    moves = g.valid & (np.arange(n_a) >= PUT_ON)[None]
-    moves[~free] = False  # (S, A) free-space motions
+    moves = mdp.free_motions(g)  # (S, A)
     nxt = g.next_state[:, WAIT, :]
     dist = np.minimum(mdp.cost_to_goal(g, np.where(moves, 1.0, np.inf)), D_MAX)  # (K, S)
     q = np.where(moves[None], -(1.0 + dist[:, nxt]), -np.inf)  # (K, S, A)
-    top = q.max(-1, keepdims=True)
-    z = beta * (q - np.where(np.isfinite(top), top, 0.0))
-    soft = np.where(moves[None], np.exp(np.where(moves[None], z, 0.0)), 0.0)
-    soft /= np.maximum(soft.sum(-1, keepdims=True), 1e-300)
+    # β scales q minus the best motion's value (βq - β max q would round otherwise); states
+    # without a motion (the supports) keep probability 0 here.
+    rows = moves.any(-1)
+    soft = np.zeros((n_k, n_s, n_a))
+    soft[:, rows] = mdp.softmax(q[:, rows] - q[:, rows].max(-1, keepdims=True), moves[rows],
+                                beta)
     uniform = g.valid / g.valid.sum(-1, keepdims=True)
     law = np.broadcast_to((1.0 - epsilon) * soft + epsilon * uniform[None], (n_k, n_s, n_a))
     table = np.zeros((n_k, n_k, n_s), dtype=np.int64)
     support_actions(g, table)
-    at_support = np.zeros((n_k, n_k, n_s, n_a))
-    np.put_along_axis(at_support, table[..., None], 1.0, axis=-1)
-    return np.where(free[None, None, :, None], law[None], at_support)
+    return np.where(free[None, None, :, None], law[None], one_hot(table, n_a))
 
 
 class GoalFilter(_Tracking):

@@ -44,19 +44,17 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from agents.protocol import BatchAgent, Trace
-from baselines.bounds import Plan, plan
+from baselines.bounds import Plan, plan, reward_table
+from baselines.simple import _Tracking
 from hri_envs.errors import ConfigError
 from hri_envs.humans.finite_state import FiniteStateHuman, FiniteStateHumans, as_model
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task import episode as rules
-from hri_envs.task import mdp
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["QMDP", "PerRunInformed", "ProductPlan", "model_of_row", "plan_product",
-           "reference_refusal"]
+__all__ = ["QMDP", "PerRunInformed", "ProductPlan", "model_of_row", "plan_product"]
 
 #: Values that change by less than this between two numbers of steps left count as settled.
 SETTLED = 1e-12
@@ -128,11 +126,7 @@ def _edges(graph: TaskGraph, human: FiniteStateHuman, r0: float, reward: str) ->
     i_st, i_io, i_lf, i_s, i_z, i_ar, i_ah = np.nonzero(mask)
     p = law[mask]
     s2 = g.next_state[i_s, i_ar, i_ah]
-    r_tab = np.stack([np.stack([
-        rules.step_reward(g, np.arange(n_s)[:, None, None], np.arange(n_a)[None, :, None],
-                          np.arange(n_a)[None, None, :], g.next_state, r0, reward=reward,
-                          start=start, lifted=lifted) for lifted in (False, True)])
-        for start in range(k)])  # (K, 2, S, A, A)
+    r_tab = reward_table(g, r0, reward)  # (K, 2, S, A, A)
     r = r_tab[i_st, i_lf, i_s, i_ar, i_ah]
     lf2 = i_lf.astype(bool) | rules.left_start(g, s2, i_st)
     over = rules.episode_over(g, s2, i_st, lf2)
@@ -251,38 +245,18 @@ def model_of_row(human: ScriptedHuman | BatchHuman, row: int
     return None
 
 
-def reference_refusal(agent: str, models: Sequence[ScriptedHuman | FiniteStateHuman | None]
-                      ) -> str | None:
-    """Why reference ``agent`` ("informed" or "qmdp") cannot run with these humans, or None.
-
-    ``informed`` needs a model of every human; ``qmdp`` also needs humans without turning
-    back (a finite-state model).
-    """
-    if any(m is None for m in models):
-        return (f"{agent} plans with the human's model; these humans (a class of your own) "
-                "have none")
-    if agent == "qmdp":
-        turning = sorted({m.name for m in models if isinstance(m, ScriptedHuman)
-                          and m.turn_back > 0})
-        if turning:
-            return (f"qmdp keeps a posterior over the human's finite state; humans that turn "
-                    f"back halfway ({', '.join(turning[:3])}) are not supported: leave out "
-                    "--turn-back or use blind where it fits")
-    return None
-
-
 # --------------------------------------------------------------------------- the agents
-class _ProductRows(BatchAgent):
-    """Shared bookkeeping of the agents that follow product plans: rows grouped by plan."""
+class _ProductRows(_Tracking):
+    """Shared bookkeeping of the agents that follow product plans: rows grouped by plan
+    (start and lifted tracking, and the passive action, are :class:`_Tracking`'s).
+    """
 
     def __init__(self, graph: TaskGraph, human: ScriptedHuman | BatchHuman, n_runs: int, *,
                  r0: float, max_steps: int = 100, reward: str = "paper", episodes: int = 1
                  ) -> None:
-        super().__init__(n_runs)
-        self.graph, self.human = graph, human
+        super().__init__(graph, n_runs)
+        self.human = human
         self.r0, self.max_steps, self.reward, self.episodes = r0, max_steps, reward, episodes
-        self.start = np.zeros(n_runs, dtype=np.int64)
-        self.lifted = np.zeros(n_runs, dtype=bool)
         self.steps = np.zeros(n_runs, dtype=np.int64)
         self.z_start = np.zeros(n_runs, dtype=np.int64)
         self.episode = -1
@@ -302,8 +276,7 @@ class _ProductRows(BatchAgent):
 
     def begin_episode(self, starts: np.ndarray) -> None:
         """Look up each row's human model and its plan; group the rows by plan."""
-        self.start = np.asarray(starts, dtype=np.int64).reshape(self.n_runs).copy()
-        self.lifted[:] = False
+        super().begin_episode(starts)
         self.steps[:] = 0
         self.episode += 1
         self.z_start = self._z()
@@ -317,18 +290,11 @@ class _ProductRows(BatchAgent):
             by_plan.setdefault(id(p), (p, []))[1].append(i)
         self.groups = [(p, np.asarray(rows, dtype=np.int64)) for p, rows in by_plan.values()]
 
-    def _passive(self, states: np.ndarray) -> np.ndarray:
-        return mdp.passive_actions(self.graph, self.start, self.lifted)[
-            np.arange(self.n_runs), states]
-
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
                 next_states: np.ndarray, active: np.ndarray) -> None:
         """Count the steps and the lifted flag."""
-        self.lifted |= active & rules.left_start(self.graph, next_states, self.start)
+        super().observe(states, robot_actions, human_actions, next_states, active)
         self.steps += active
-
-    def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
-        """Nothing to learn: the plans are exact for the known humans."""
 
 
 class PerRunInformed(_ProductRows):
@@ -365,7 +331,7 @@ class PerRunInformed(_ProductRows):
             raise KeyError("the informed agent needs observations['intention'] (privileged)")
         states = np.asarray(observations["state"], dtype=np.int64)
         goal = np.asarray(observations["intention"], dtype=np.int64)
-        out = self._passive(states)
+        out = self.passive(states)
         left = np.maximum(self.max_steps - self.steps, 1)
         z = self._z()
         for p, rows in self.groups:
@@ -459,7 +425,7 @@ class QMDP(_ProductRows):
         (the rows' plans stacked, :class:`_Stack`).
         """
         states = np.asarray(observations["state"], dtype=np.int64)
-        out = self._passive(states)
+        out = self.passive(states)
         st = self._stack
         rows = st.rows
         if rows.size == 0:

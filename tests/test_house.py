@@ -18,7 +18,7 @@ from hri_envs.envs.parallel import CooperationParallelEnv
 from hri_envs.envs.partner import PartnerEnv
 from hri_envs.envs.robot import RobotEnv
 from hri_envs.envs.vector import RobotVectorEnv
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ActionError, ConfigError
 from hri_envs.humans import BatchedHumans, PopulationHumans
 from hri_envs.task.actions import WAIT
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph
@@ -166,3 +166,23 @@ def test_a_population_draws_a_human_per_reset_in_the_vector_env_and_partner_env(
         env.reset(seed=seed)
         names.append(env.partner.name)  # type: ignore[union-attr]
     assert len(set(names[:3])) == 3 and names[3] == names[0]
+
+
+# --------------------------------------------------------------------- changes of mind
+def test_batched_humans_report_only_the_humans_that_can_change_their_minds():
+    """BatchedHumans asks no human whose revised_intention is the default, and still hears
+    (and checks) one whose class or instance overrides it."""
+    graph = scenario_graph("hanger")
+    plain = BatchedHumans(graph, [Copycat(graph) for _ in range(3)])
+    assert plain.revised_intentions() is None
+
+    class Turner(Copycat):
+        def revised_intention(self):
+            return 2
+
+    mixed = BatchedHumans(graph, [Copycat(graph), Turner(graph)])
+    assert mixed.revised_intentions().tolist() == [-1, 2]
+    odd = Copycat(graph)
+    odd.revised_intention = lambda: graph.n_intentions  # type: ignore[method-assign]
+    with pytest.raises(ActionError, match="revised_intention"):
+        BatchedHumans(graph, [Copycat(graph), odd]).revised_intentions()

@@ -16,8 +16,8 @@ def test_qmdp_rows_do_not_depend_on_the_rows_beside_them(scenario):
     cfg = StudyConfig(scenario, agents=("qmdp", "informed"), runs=12, episodes=3,
                       population="test", seed=4)
     runs = tuple(range(12))
-    together = _run_unit(_Unit(cfg, "qmdp", "default", runs))[0]["reward"]
-    labels = _run_unit(_Unit(cfg, "qmdp", "default", runs))[3]
+    unit = _run_unit(_Unit(cfg, "qmdp", "default", runs))
+    together, labels = unit[0]["reward"], unit[3]
     assert len(set(labels)) > 6
     for r in (0, 5, 11):
         alone = _run_unit(_Unit(cfg, "qmdp", "default", (r,)))[0]["reward"]

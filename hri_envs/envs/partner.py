@@ -30,9 +30,7 @@ from hri_envs.envs.formats import ClassicLayout
 from hri_envs.envs.parallel import AGENTS, CooperationParallelEnv
 from hri_envs.envs.spaces import check_action
 from hri_envs.errors import ConfigError, ResetNeeded
-from hri_envs.humans.finite_state import FiniteStateHuman
-from hri_envs.humans.protocol import BatchHuman, Human, checked_actions
-from hri_envs.humans.scripted import ScriptedHuman
+from hri_envs.humans.protocol import BatchHuman, checked_actions
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task.actions import HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT
 from hri_envs.task.episode import revise_intention
@@ -124,7 +122,7 @@ class PartnerEnv(gym.Env[Any, np.int64]):
         self.graph = graph = env.unwrapped.graph
         self._human: BatchHuman | None = None
         self._policy: Policy | None = None
-        if isinstance(partner, ScriptedHuman | FiniteStateHuman | Human | BatchHuman) or (
+        if isinstance(partner, HumanLike) or (
                 partner is None and learner == "robot"):
             if learner != "robot":
                 raise ConfigError("a human partner can only play the human; for "

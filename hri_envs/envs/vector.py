@@ -22,7 +22,6 @@ from hri_envs.envs.config import (
 from hri_envs.envs.spaces import robot_observation_space
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
 from hri_envs.humans.protocol import BatchHuman, checked_actions
-from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task.actions import WAIT
@@ -31,15 +30,11 @@ from hri_envs.task.episode import (
     StepTable,
     draw_other_support,
     draw_start_intention,
+    revise_intention,
 )
 from hri_envs.task.greedy_table import GreedyStepTable
 
 __all__ = ["RobotVectorEnv"]
-
-
-def _shared_model(human: BatchHuman) -> ScriptedHuman | None:
-    """The one scripted model a seat shares between its envs (None: per env, or not tables)."""
-    return human.shared if isinstance(human, TableHumans) else None
 
 _VECTOR_OPTION_KEYS = RESET_OPTION_KEYS[:3]
 #: The most envs one vector env holds (its arrays are (num_envs,) and (num_envs, A)).
@@ -207,7 +202,6 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._all = np.ones(n, dtype=bool)
         self._greedy: GreedyStepTable | None = None
         self._adopted: BatchHuman | None = None
-        self._adopted_shared: ScriptedHuman | None = None  # its shared model when adopted
         self._adopt(self._human)
         self._needs_reset = True
 
@@ -279,7 +273,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         old = self._table
         self._greedy = None
         self._table = self._steps
-        shared = self._adopted_shared = _shared_model(human)
+        shared = human.shared if isinstance(human, TableHumans) else None
         # One model for every env: its turning-back probability, read once.
         self._shared_turn_back = None if shared is None else shared.turn_back
         if shared is not None and shared.deterministic and shared.passive == 0.0:
@@ -338,12 +332,10 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                               f"got {seed!r}", field="seed")
         super().reset(seed=seed)
         human = self._human
+        if human is not self._adopted:  # replaced since the last step
+            self._adopt(human)
         rng = self.np_random
         human.draw(rng)  # a population's new members, drawn first
-        # Adopt after the draw: a population's seat holds one shared placeholder until its
-        # first draw, and its members (per env, maybe stochastic) never act by one table.
-        if human is not self._adopted or self._adopted_shared is not _shared_model(human):
-            self._adopt(human)
         human.seed(np.random.default_rng(int(rng.integers(2**63))))
         n, n_k = self.num_envs, self.graph.n_intentions
         start = self._supports(options["start"], "start") if "start" in options else None
@@ -438,9 +430,9 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         if self._greedy is None:
             human.observe(state, a_r, a_h, s_next, playing)
             revised = human.revised_intentions()  # humans who changed their minds
-            if revised is not None:
-                changed = ((np.asarray(revised) >= 0) & playing & ~terminated).nonzero()[0]
-                self._intention[changed] = np.asarray(revised)[changed]
+            if revised is not None:  # in place: (N,) int64, as the turning back above
+                self._intention[:] = revise_intention(
+                    self._intention, np.where(playing & ~terminated, revised, -1))
         infos: dict[str, Any] = {"aborted": aborted, "_aborted": self._all,
                                  "invalid_action": invalid, "_invalid_action": self._all}
         if self._same_step:

@@ -42,11 +42,6 @@ from hri_envs.task.graph import TaskGraph
 __all__ = ["follower_human", "trust_human", "wary_human"]
 
 
-def _robot_axis(n_a: int) -> np.ndarray:
-    """(A, 1) the robot's action on the (a_R, a_H) axes of ``next_z``."""
-    return np.arange(n_a)[:, None]
-
-
 def _wrong(graph: TaskGraph, table: np.ndarray) -> np.ndarray:
     """(K, K, S, A) a robot action ``a_R`` is a wrong motion: valid, a motion, other than the
     human's action ``table[start, ι, s]``, at a step where the human wanted to move.
@@ -82,7 +77,7 @@ def follower_human(graph: TaskGraph, *, k: int = 3, preference: str | None = Non
     n_z = 2 * k
     act = np.zeros((n_z, n_k, n_k, n_s, n_a + 1), dtype=np.int64)
     next_z = np.zeros((n_z, n_k, n_k, n_s, n_a, n_a), dtype=np.int16)
-    a_r = _robot_axis(n_a)
+    a_r = np.arange(n_a)[:, None]  # the robot's action on the (a_R, a_H) axes of next_z
     for route in (0, 1):
         mine, theirs = tables[route], tables[1 - route]
         differ = (mine != theirs)[..., None, None]  # (K, K, S, 1, 1)
@@ -97,11 +92,9 @@ def follower_human(graph: TaskGraph, *, k: int = 3, preference: str | None = Non
             switched = (1 - route) * k
             bumped = switched if count == k - 1 else z + 1
             next_z[z] = np.where(proposal, bumped, np.where(own_step, route * k, z))
-    names = tuple(f"{p} ({c} proposals)" for p in (own.name, other) for c in range(k))
     return FiniteStateHuman(graph, f"follower(k={k},{own.name}->{other})",
                             one_hot(act, n_a), next_z, np.eye(n_z), family="follower",
-                            params=(("k", k), ("preference", own.name), ("other", other)),
-                            z_names=names)
+                            params=(("k", k), ("preference", own.name), ("other", other)))
 
 
 def trust_human(graph: TaskGraph, *, levels: int = 4, start: int = 1, rise: int = 1,
@@ -145,8 +138,7 @@ def trust_human(graph: TaskGraph, *, levels: int = 4, start: int = 1, rise: int 
         f"passive={passive:g})", law[:, :, :, :, None, :], next_z, np.eye(n_z), z0=start,
         family="trust", params=(("levels", levels), ("start", start), ("rise", rise),
                                 ("fall", fall), ("passive", passive),
-                                ("preference", base.name)),
-        z_names=tuple(f"trust {i}" for i in range(n_z)))
+                                ("preference", base.name)))
 
 
 def wary_human(graph: TaskGraph, *, levels: int = 3, forgive: int = 1,
@@ -180,5 +172,4 @@ def wary_human(graph: TaskGraph, *, levels: int = 3, forgive: int = 1,
     return FiniteStateHuman(graph, f"wary(levels={levels},forgive={forgive})", law, next_z,
                             carry, family="wary",
                             params=(("levels", levels), ("forgive", forgive),
-                                    ("preference", base.name)),
-                            z_names=tuple(f"wariness {i}" for i in range(n_z)))
+                                    ("preference", base.name)))

@@ -35,6 +35,7 @@ import inspect
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 from hri_envs.errors import ConfigError
@@ -80,9 +81,15 @@ class Family:
 
     @property
     def defaults(self) -> dict[str, Any]:
-        """The parameters and their defaults (from the model's function)."""
+        """The parameters and their defaults (from the model's function; a new dict)."""
+        return dict(self._defaults)
+
+    @cached_property
+    def _defaults(self) -> tuple[tuple[str, Any], ...]:
+        # The signature once per family: inspecting it was most of a population's draw.
         sig = inspect.signature(self.build)
-        return {n: p.default for n, p in sig.parameters.items() if p.kind == p.KEYWORD_ONLY}
+        return tuple((n, p.default) for n, p in sig.parameters.items()
+                     if p.kind == p.KEYWORD_ONLY)
 
 
 _FAMILIES = (

@@ -6,7 +6,7 @@ number of times it changed its mind) that it carries across steps and episodes. 
 with the episode's start support and the human's current intention ι:
 
 1. the human's action is drawn from ``law[z, start, ι, s, r]``, where ``r`` is the robot's
-   action of the same step where the seat knows it (:data:`ROBOT_UNKNOWN` otherwise) and
+   action of the same step where the seat knows it (the last slot, ``A``, otherwise) and
    0 for a human whose law ignores the robot (``law.shape[4] == 1``);
 2. the object moves by the joint transition; the state becomes
    ``next_z[z, start, ι, s, a_R, a_H]``;
@@ -44,31 +44,13 @@ from hri_envs.task.actions import WAIT
 from hri_envs.task.graph import TaskGraph
 
 __all__ = [
-    "ROBOT_UNKNOWN",
     "FiniteStateHuman",
     "FiniteStateHumans",
     "as_model",
     "carry_to",
     "keep_z",
     "one_hot",
-    "robot_slot",
 ]
-
-#: Index of the robot axis of a law that reacts to the robot: the robot's action is unknown
-#: (an env whose human acts without seeing it) — that slot is the last one, ``A``.
-ROBOT_UNKNOWN = -1
-
-
-def robot_slot(n_robot: int, robot_action: np.ndarray | None) -> np.ndarray | int:
-    """The index into a law's robot axis (length ``n_robot``: 1 or A + 1) of ``robot_action``
-    ((B,) ints, or None when the seat does not know it).
-    """
-    if n_robot == 1:
-        return 0
-    if robot_action is None:
-        return n_robot - 1
-    return np.asarray(robot_action, dtype=np.int64)
-
 
 def one_hot(table: np.ndarray, n_actions: int) -> np.ndarray:
     """(..., A) a deterministic law from an int action ``table`` (...,)."""
@@ -110,7 +92,6 @@ class FiniteStateHuman:
         switched: (Z,) int, ``z`` after a change of mind (needed with :attr:`switch`).
         family: The family's name (:mod:`hri_envs.humans.families`), "" for none.
         params: The family's parameters as (name, value) pairs.
-        z_names: A label per ``z``, for reports (optional).
     """
 
     graph: TaskGraph
@@ -123,7 +104,6 @@ class FiniteStateHuman:
     switched: np.ndarray | None = None
     family: str = ""
     params: tuple[tuple[str, Any], ...] = ()
-    z_names: tuple[str, ...] = ()
     _cum: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -186,12 +166,6 @@ class FiniteStateHuman:
         return self.law.shape[4] > 1
 
     @cached_property
-    def deterministic(self) -> bool:
-        """The law puts all its mass on one action everywhere and the carry is one-hot."""
-        return bool(np.all(self.law.max(-1) == 1.0) and np.all(self.carry.max(1) == 1.0)
-                    and (self.switch is None or not np.any(self.switch > 0)))
-
-    @cached_property
     def remembers(self) -> bool:
         """Whether ``z`` carries information across episodes (the carry depends on ``z``)."""
         return bool(np.any(self.carry != self.carry[:1]))
@@ -207,12 +181,6 @@ class FiniteStateHuman:
             digest.update(str(a.shape).encode())
         digest.update(f"{self.graph.name}|{self.graph.n_states}|{int(self.z0)}".encode())
         return digest.hexdigest()
-
-    def preferred_action(self, z: np.ndarray, state: np.ndarray, start: np.ndarray,
-                         goal: np.ndarray) -> np.ndarray:
-        """The most likely action when the robot's action is unknown (arrays broadcast)."""
-        slot = robot_slot(self.law.shape[4], None)
-        return np.argmax(self.law[z, start, goal, state, slot], axis=-1)
 
     # ----------------------------------------------------------------- construction
     @classmethod
@@ -332,7 +300,6 @@ class FiniteStateHumans(BatchHuman):
         models: Each row's current model.
         z: (n_runs,) int, each row's internal state (of the episode under way, or of the
             next one between episodes).
-        episode: (n_runs,) int, episodes begun per row.
 
     Every row's step is a handful of look-ups into the models' tables stacked flat
     (:class:`_Stack`), whatever the number of distinct models. With one generator per row
@@ -354,9 +321,10 @@ class FiniteStateHumans(BatchHuman):
         self.models: list[FiniteStateHuman] = list(models)
         self.model_id = np.zeros(self.n_runs, dtype=np.int64)
         self.z = np.zeros(self.n_runs, dtype=np.int64)
-        self.episode = np.zeros(self.n_runs, dtype=np.int64)
-        self._start = np.zeros(self.n_runs, dtype=np.int64)
+        # What act() saw, for the observe() of the same step: ι, and the flat index of
+        # (z, start, ι, s) (:meth:`_context`).
         self._intention = np.zeros(self.n_runs, dtype=np.int64)
+        self._ctx = np.zeros(self.n_runs, dtype=np.int64)
         self._u = np.zeros((3, self.n_runs))
         self._revised: np.ndarray | None = None
         self._buffer: np.ndarray | None = None
@@ -411,18 +379,21 @@ class FiniteStateHumans(BatchHuman):
         return u
 
     # ----------------------------------------------------------------- protocol
-    def begin_episode(self, starts: np.ndarray, intentions: np.ndarray, rows: Rows = None
-                      ) -> None:
-        """Remember the episodes' start and intention; ``z`` is what the last episode left."""
-        idx = all_rows(rows, self.n_runs)
-        self._start[idx] = np.asarray(starts, dtype=np.int64).reshape(-1)
-        self._intention[idx] = np.asarray(intentions, dtype=np.int64).reshape(-1)
-        self.episode[idx] += 1
-
     def _context(self, state: np.ndarray, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
         """(n_runs,) the flat index of ``(z, start, ι, s)`` within each row's model."""
         k, n_s = self.graph.n_intentions, self.graph.n_states
         return ((self.z * k + start) * k + goal) * n_s + state
+
+    def _law_cdf(self, st: _Stack, context: np.ndarray, robot: Any) -> np.ndarray:
+        """(n_runs, A) each row's law's CDF in ``context`` for the robot's action ``robot``
+        ((n_runs,), or None: unknown, the last slot).
+        """
+        n_a = self.graph.n_actions
+        m = self.model_id
+        n_r = st.n_robot[m]
+        slot = np.where(n_r == 1, 0, n_a if robot is None else np.asarray(robot))
+        base = st.cum_off[m] + (context * n_r + slot) * n_a
+        return st.cum[base[:, None] + np.arange(n_a)]
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
         """(n_runs,) actions drawn from each row's law (three uniforms per active row)."""
@@ -431,26 +402,25 @@ class FiniteStateHumans(BatchHuman):
         state = np.asarray(observations["state"], dtype=np.int64)
         start = np.asarray(observations["start"], dtype=np.int64)
         goal = np.asarray(observations["intention"], dtype=np.int64)
-        robot = observations.get("robot_action")
-        self._start, self._intention = start.copy(), goal.copy()
+        self._intention = goal.copy()
+        self._ctx = self._context(state, start, goal)
         self._u = u = self._uniforms(3, active)
-        m = self.model_id
-        n_r = st.n_robot[m]
-        slot = np.where(n_r == 1, 0, n_a if robot is None else np.asarray(robot))
-        base = st.cum_off[m] + (self._context(state, start, goal) * n_r + slot) * n_a
-        cum = st.cum[base[:, None] + np.arange(n_a)]  # (B, A)
+        cum = self._law_cdf(st, self._ctx, observations.get("robot_action"))  # (B, A)
         return np.minimum((u[0, :, None] >= cum).sum(-1), n_a - 1)
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
                 next_states: np.ndarray, active: np.ndarray) -> None:
-        """Advance each active row's ``z``; draw the changes of mind (see the module)."""
+        """Advance each active row's ``z``; draw the changes of mind (see the module).
+
+        ``states`` are those :meth:`act` saw in this step (the protocol's order), so the
+        context it computed is reused.
+        """
         st = self._stack.ready()
         n_a, n_k, n_s = self.graph.n_actions, self.graph.n_intentions, self.graph.n_states
-        s, a_r, a_h, s2 = (np.asarray(x, dtype=np.int64) for x in (
-            states, robot_actions, human_actions, next_states))
+        a_r, a_h, s2 = (np.asarray(x, dtype=np.int64) for x in (
+            robot_actions, human_actions, next_states))
         m = self.model_id
-        j = st.next_off[m] + (self._context(s, self._start, self._intention) * n_a + a_r) * n_a \
-            + a_h
+        j = st.next_off[m] + (self._ctx * n_a + a_r) * n_a + a_h
         z = np.where(active, st.next_z[j], self.z)
         self._revised = None
         if st.any_switch:
@@ -484,15 +454,10 @@ class FiniteStateHumans(BatchHuman):
         (the robot's action unknown), for the Oracle: a passive human's action is what it
         does when it acts, as for :class:`~hri_envs.humans.tables.TableHumans`.
         """
-        st = self._stack.ready()
-        n_a = self.graph.n_actions
         state, start, goal = (np.broadcast_to(np.asarray(x, dtype=np.int64), (self.n_runs,))
                               for x in (state, start, goal))
-        m = self.model_id
-        n_r = st.n_robot[m]
-        slot = np.where(n_r == 1, 0, n_a)
-        base = st.cum_off[m] + (self._context(state, start, goal) * n_r + slot) * n_a
-        pdf = np.diff(st.cum[base[:, None] + np.arange(n_a)], axis=1, prepend=0.0)  # (B, A)
+        cum = self._law_cdf(self._stack.ready(), self._context(state, start, goal), None)
+        pdf = np.diff(cum, axis=1, prepend=0.0)  # (B, A)
         moves = pdf[:, WAIT + 1:].sum(1) > 0  # a passive human's action is its motion
         pdf[:, WAIT] = np.where(moves, -1.0, pdf[:, WAIT])
         return np.argmax(pdf, axis=1)

@@ -53,8 +53,7 @@ def fickle_human(graph: TaskGraph, *, hazard: float = 0.15, changes: int = 1,
                             keep_z(graph, n_z), carry_to([0] * n_z, n_z), switch=switch,
                             switched=np.minimum(np.arange(n_z) + 1, changes), family="fickle",
                             params=(("hazard", hazard), ("changes", changes),
-                                    ("preference", base.name)),
-                            z_names=tuple(f"{i} changes" for i in range(n_z)))
+                                    ("preference", base.name)))
 
 
 def moody_human(graph: TaskGraph, *, p: float = 0.25,
@@ -87,5 +86,4 @@ def moody_human(graph: TaskGraph, *, p: float = 0.25,
     np.fill_diagonal(carry, 1.0 - p)
     return FiniteStateHuman(graph, f"moody(p={p:g},{'+'.join(names)})", law, keep_z(graph, n_z),
                             carry, family="moody",
-                            params=(("p", p), ("preferences", "+".join(names))),
-                            z_names=tuple(names))
+                            params=(("p", p), ("preferences", "+".join(names))))

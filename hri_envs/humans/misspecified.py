@@ -39,7 +39,7 @@ from hri_envs.errors import ConfigError
 from hri_envs.humans.finite_state import FiniteStateHuman, carry_to, one_hot
 from hri_envs.humans.scripted import ScriptedHuman, preference_human, support_actions
 from hri_envs.task import mdp
-from hri_envs.task.actions import PUT_ON, ROTATE, TAKE_OFF, WAIT
+from hri_envs.task.actions import ROTATE, TAKE_OFF, WAIT
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["avoid_human", "cost_route", "impatient_human", "low_human", "rotate_low_human"]
@@ -63,9 +63,7 @@ def cost_route(graph: TaskGraph, cost: np.ndarray, prefer: np.ndarray) -> np.nda
     """
     g = graph
     free = ~g.is_support_state
-    moves = g.valid.copy()
-    moves[:, :PUT_ON] = False
-    moves[~free] = False  # (S, A) the free-space motions
+    moves = mdp.free_motions(g)  # (S, A)
     step = np.where(moves[None], 1.0 + cost, np.inf)  # (K, S, A)
     dist = mdp.cost_to_goal(g, step)  # (K start, K goal, S)
     cand = step[:, None] + dist[:, :, g.next_state[:, WAIT, :]]  # (K, K, S, A)
@@ -82,10 +80,6 @@ def _scripted(graph: TaskGraph, table: np.ndarray, name: str) -> ScriptedHuman:
     policy = one_hot(table, graph.n_actions)
     never = np.full((graph.n_intentions,) * 2, -1, dtype=np.int64)
     return ScriptedHuman(graph, policy, name, never)
-
-
-def _base(graph: TaskGraph, preference: str | None) -> ScriptedHuman:
-    return preference_human(graph, preference)
 
 
 def _heights(graph: TaskGraph) -> np.ndarray:
@@ -112,7 +106,7 @@ def low_human(graph: TaskGraph, *, w: float = 4.0, preference: str | None = None
         preference: The base preference that breaks ties (default: the scenario's).
     """
     w = check_real(w, "w", low=0.0, low_open=True, high=1e3, allowed="a weight in (0, 1000]")
-    base = _base(graph, preference)
+    base = preference_human(graph, preference)
     cost = np.broadcast_to(w * _entered(graph, _heights(graph)),
                            (graph.n_intentions, graph.n_states, graph.n_actions))
     return _scripted(graph, cost_route(graph, cost, base.route_table), f"low(w={w:g})")
@@ -143,7 +137,7 @@ def avoid_human(graph: TaskGraph, *, support: str = "A", w: float = 3.0, sigma: 
     near = w * np.exp(-d2 / (2.0 * sigma ** 2))
     cost = np.broadcast_to(_entered(graph, near),
                            (graph.n_intentions, graph.n_states, graph.n_actions))
-    base = _base(graph, preference)
+    base = preference_human(graph, preference)
     return _scripted(graph, cost_route(graph, cost, base.route_table),
                      f"avoid(support={support},w={w:g},sigma={sigma:g})")
 
@@ -162,7 +156,7 @@ def rotate_low_human(graph: TaskGraph, *, w: float = 4.0, preference: str | None
     extra = np.zeros((graph.n_states, graph.n_actions))
     extra[:, ROTATE] = w * _heights(graph)
     cost = np.broadcast_to(extra, (graph.n_intentions, graph.n_states, graph.n_actions))
-    base = _base(graph, preference)
+    base = preference_human(graph, preference)
     return _scripted(graph, cost_route(graph, cost, base.route_table), f"rotate-low(w={w:g})")
 
 
@@ -182,7 +176,7 @@ def impatient_human(graph: TaskGraph, *, k: int = 2, preference: str | None = No
     """
     k = check_whole(k, "k", minimum=1, maximum=50)
     n_k, n_s, n_a = graph.n_intentions, graph.n_states, graph.n_actions
-    table = _base(graph, preference).route_table  # (K, K, S)
+    table = preference_human(graph, preference).route_table  # (K, K, S)
     moving = table >= TAKE_OFF
     n_z = k + 1
     act = np.broadcast_to(table[None, :, :, :, None], (n_z, n_k, n_k, n_s, n_a + 1)).copy()
@@ -194,5 +188,4 @@ def impatient_human(graph: TaskGraph, *, k: int = 2, preference: str | None = No
     next_z = np.broadcast_to(next_z, (n_z, n_k, n_k, n_s, n_a, n_a)).copy()
     return FiniteStateHuman(graph, f"impatient(k={k})", one_hot(act, n_a), next_z,
                             carry_to([0] * n_z, n_z), family="impatient",
-                            params=(("k", k), ("preference", preference)),
-                            z_names=tuple(f"{i} robot waits" for i in range(n_z)))
+                            params=(("k", k), ("preference", preference)))

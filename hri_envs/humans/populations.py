@@ -275,7 +275,12 @@ class PopulationHumans(TableHumans):
                               f"({', '.join(POPULATIONS)}); seat {population!r} with "
                               "hri_envs.humans.splits.population_seat", field="population")
         self.spec = population_spec(population, graph.name)
-        super().__init__(preference_human(graph), n_runs)
+        placeholder = preference_human(graph)  # until the first draw
+        super().__init__(placeholder, n_runs)
+        # Per-row tables from the start, never one shared table: the members differ per row
+        # (and may be stochastic), so no seat may take the placeholder for every row's human
+        # (the vector env acts by one table for a shared deterministic human).
+        self.assign(None, [placeholder] * self.n_runs)
 
     def draw(self, rng: np.random.Generator, rows: Rows = None) -> None:
         """Draw a new member for each row of ``rows``, in order, from ``rng``."""

@@ -112,6 +112,14 @@ class Human(ABC):
         """The episode ended."""
 
 
+def _revises(human: Human) -> bool:
+    """Whether ``human`` may report a change of mind: its :meth:`Human.revised_intention` is
+    not the default (overridden by its class, or set on the instance).
+    """
+    method = getattr(human, "revised_intention", None)
+    return getattr(method, "__func__", None) is not Human.revised_intention
+
+
 class BatchHuman(ABC):
     """A human partner advancing ``n_runs`` independent streams of episodes in lockstep.
 
@@ -200,7 +208,7 @@ class BatchedHumans(BatchHuman):
     """Runs a list of single-stream :class:`Human` objects as one :class:`BatchHuman`.
 
     With one generator (:meth:`seed`) every human draws from it; with one per row, each
-    from its own.
+    from its own. Whether any of them may change its mind is read from the list given here.
     """
 
     def __init__(self, graph: TaskGraph, humans: Sequence[Human]) -> None:
@@ -210,6 +218,9 @@ class BatchedHumans(BatchHuman):
         super().__init__(graph, len(humans))
         self.humans = list(humans)
         self.name = humans[0].name  # type: ignore[misc]
+        # Most humans never change their mind (Human.revised_intention as it is): then there
+        # is nothing to ask after each step.
+        self._may_revise = any(_revises(h) for h in self.humans)
 
     def seed(self, rng: np.random.Generator | Sequence[np.random.Generator]) -> None:
         """Hand each human its generator (the shared one, or its row's)."""
@@ -245,7 +256,11 @@ class BatchedHumans(BatchHuman):
                                    int(human_actions[i]), int(next_states[i]))
 
     def revised_intentions(self) -> np.ndarray | None:
-        """Each human's :meth:`Human.revised_intention` (-1 where None); None if none changed."""
+        """Each human's :meth:`Human.revised_intention` (-1 where None); None if none changed
+        (at once when no human's class, nor the human itself, overrides the method).
+        """
+        if not self._may_revise:
+            return None
         out = np.full(self.n_runs, -1, dtype=np.int64)
         for i, human in enumerate(self.humans):
             new = human.revised_intention()

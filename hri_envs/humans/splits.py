@@ -47,8 +47,8 @@ from typing import Any
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.humans.families import FAMILIES, GROUPS, family_params
-from hri_envs.humans.finite_state import FiniteStateHumans
+from hri_envs.humans.families import FAMILIES, GROUPS, check_params, family_params
+from hri_envs.humans.finite_state import FiniteStateHuman, FiniteStateHumans, as_model
 from hri_envs.humans.populations import (
     POPULATIONS,
     HumanDraw,
@@ -167,19 +167,20 @@ class MixtureSpec:
         weighs every member alike (the estimate of the population's mean then carries no
         sampling error of its make-up).
         """
-        if scenario != self.scenario:
-            raise ConfigError(f"population {self.name!r} is for the {self.scenario}, not "
-                              f"{scenario!r}", field="population")
+        self._check_scenario(scenario)
         block, slot = divmod(int(run), self.size)
         order = np.random.default_rng([int(seed), block, 7]).permutation(self.size)
         return self.member_draws[int(order[slot])]
 
     def sample(self, scenario: str, rng: np.random.Generator) -> HumanDraw:
         """A member drawn uniformly with ``rng`` (one integer; the envs, per reset)."""
+        self._check_scenario(scenario)
+        return self.member_draws[int(rng.integers(self.size))]
+
+    def _check_scenario(self, scenario: str) -> None:
         if scenario != self.scenario:
             raise ConfigError(f"population {self.name!r} is for the {self.scenario}, not "
                               f"{scenario!r}", field="population")
-        return self.member_draws[int(rng.integers(self.size))]
 
     def content_hash(self) -> str:
         """SHA-256 of the generator's parameters, its seeds and the members they give (every
@@ -314,7 +315,7 @@ def family_population(scenario: str, family: str, params: Mapping[str, Any] | No
                        f"({FAMILIES[family].description})",
                        1, 0, (Component(family, 1.0, tuple((k, (v,)) for k, v in given)),),
                        held_out=FAMILIES[family].group != "scripted")
-    build_human(scenario_graph(scenario), spec.member_draws[0])  # impossible values raise
+    check_params(scenario_graph(scenario), family, params)  # impossible values raise
     return spec
 
 
@@ -371,14 +372,24 @@ class MixtureHumans(FiniteStateHumans):
 
     def __init__(self, graph: TaskGraph, spec: MixtureSpec, n_runs: int = 1) -> None:
         self.spec = spec
-        first = build_human(graph, spec.member_draws[0])
+        self._built: dict[HumanDraw, FiniteStateHuman] = {}
+        first = self._member(graph, spec.member_draws[0])
         super().__init__([first] * n_runs)
+
+    def _member(self, graph: TaskGraph, draw: HumanDraw) -> FiniteStateHuman:
+        """The member's model, built once per seat: models are immutable (a row's own state
+        is its ``z`` in the seat), so rows and draws that meet one member share its model.
+        """
+        model = self._built.get(draw)
+        if model is None:
+            model = self._built[draw] = as_model(build_human(graph, draw))
+        return model
 
     def draw(self, rng: np.random.Generator, rows: Rows = None) -> None:
         """Draw a new member for each row of ``rows``, in order, from ``rng``."""
         idx = all_rows(rows, self.n_runs)
-        self.assign(idx, [build_human(self.graph, self.spec.sample(self.graph.name, rng))
-                          for _ in idx])
+        graph, sample = self.graph, self.spec.sample
+        self.assign(idx, [self._member(graph, sample(graph.name, rng)) for _ in idx])
 
 
 def population_seat(graph: TaskGraph, name: str, n_runs: int = 1,

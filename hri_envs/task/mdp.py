@@ -26,7 +26,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.task.actions import BOTH
+from hri_envs.task.actions import BOTH, PUT_ON
 from hri_envs.task.episode import arrived
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
 
@@ -34,6 +34,7 @@ __all__ = [
     "PartnerIndex",
     "absorbing",
     "cost_to_goal",
+    "free_motions",
     "human_transition",
     "improve_policy",
     "one_blas_thread",
@@ -340,6 +341,15 @@ def passive_actions(graph: TaskGraph, start: np.ndarray, lifted: np.ndarray | No
     grasp_here = (graph.support == start) & ~holds & ~lifted_
     release_here = holds & can_end
     return np.where(grasp_here | release_here, TOGGLE, WAIT)
+
+
+def free_motions(graph: TaskGraph) -> np.ndarray:
+    """(S, A) bool, the human's valid motions (putting on, taking off, moving) in free
+    states; False at the supports and for waiting and grasping.
+    """
+    moves = graph.valid & (np.arange(graph.n_actions) >= PUT_ON)[None]
+    moves[graph.is_support_state] = False
+    return moves
 
 
 def cost_to_goal(graph: TaskGraph, step: np.ndarray) -> np.ndarray:
