@@ -119,6 +119,22 @@ def test_a_plain_agent_s_belief_reaches_the_batch():
     assert read_belief(Batched([AlwaysWait()])) is None
 
 
+@pytest.mark.parametrize("second", [[0.5, 0.6, 0.0], [0.5, 0.5]])
+def test_a_plain_agent_s_bad_belief_is_refused_once_stacked(second):
+    class Sure(AlwaysWait):
+        name = "sure"
+
+        def __init__(self, row):
+            self.row = row
+
+        def belief(self):
+            return np.array(self.row)
+
+    with pytest.raises(ConfigError, match="'sure'") as info:
+        read_belief(Batched([Sure([0.0, 1.0, 0.0]), Sure(second)]), 2)
+    assert info.value.field == "belief"
+
+
 # --------------------------------------------------------------------------- learning metrics
 def test_learning_episodes_and_asymptote_on_hand_made_regret():
     regret = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0],
