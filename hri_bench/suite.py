@@ -51,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from hri_bench import provenance, stats
+from hri_bench import metrics, provenance, stats
 from hri_bench.agents import BUILTIN_AGENTS, REFERENCE_AGENTS
 from hri_bench.atomic import atomic_writer
 from hri_bench.regret import ALL_REFERENCES, REFERENCES, reference_summary
@@ -310,16 +310,12 @@ def track_config(track: Track, agents: Sequence[str], *, runs_scale: float = 1.0
                        executor=executor, **dict(track.settings))
 
 
-def _ci(x: np.ndarray, statistic: str, seed: int) -> list[float | None]:
-    return list(stats.bootstrap_ci(x, statistic, seed))
-
-
 def _summary(x: np.ndarray, seed: int) -> dict[str, Any]:
-    """Mean and IQM over runs of each run's episode mean, with 95 % CIs; per-episode means."""
-    per_run = x.mean(1)
+    """Mean and IQM over runs of each run's episode mean, with 95 % CIs
+    (:func:`hri_bench.metrics.summary` without the median); per-episode means.
+    """
     per_ep = stats.per_episode(x, seed, iqm_ci=False)
-    return {"mean": float(per_run.mean()), "ci95": _ci(per_run, "mean", seed),
-            "iqm": float(stats.iqm(per_run)), "iqm_ci95": _ci(per_run, "iqm", seed),
+    return {**metrics.summary(x.mean(1), seed, median=False),
             "per_episode": {"mean": per_ep["mean"], "ci95": per_ep["ci95"]}}
 
 
