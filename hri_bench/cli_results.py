@@ -168,16 +168,13 @@ def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[...
     return docs
 
 
-def warn_code_changes(path: Path, agents: Any) -> None:
+def warn_code_changes(recorded: Any, agents: Any) -> None:
     """Warn on stderr for each agent of a study's ``--config`` (a summary.json) whose code
-    differs from the identity its ``agent_configs`` records.
+    differs from the identity ``recorded`` (the file's ``agent_configs``, as the caller read
+    it; anything but an object: nothing recorded).
     """
     from hri_bench.provenance import code_changes
 
-    try:
-        recorded = json.loads(path.read_bytes()).get("agent_configs") or {}
-    except (OSError, ValueError, AttributeError):
-        return
     for line in code_changes(recorded if isinstance(recorded, dict) else {}, agents):
         print(f"hri-bench study: warning: {line}", file=sys.stderr)
 

@@ -372,3 +372,34 @@ def test_a_study_records_a_custom_agent_s_code_and_its_replay_warns(tmp_path, ca
     assert f"warning: agent '{spec}': its source files' hash differs" in capsys.readouterr().err
     assert (tmp_path / "again" / "episodes.csv").read_bytes() == (
         out / "episodes.csv").read_bytes()
+
+
+def test_a_study_replay_reads_its_config_once_within_the_limit(tmp_path, capsys, monkeypatch):
+    """The code-change warning comes from the document --config was read into (at most
+    cli.MAX_CONFIG_BYTES), not from reading the file a second time without the limit."""
+    import builtins
+    import io
+
+    spec = "tests.helpers_agents:RandomMover"
+    out = tmp_path / "study"
+    assert main(["study", "hanger", "--runs", "2", "--episodes", "1", "--agents", spec,
+                 "--no-progress", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    summary["agent_configs"][spec]["code_sha256"] = "f" * 64
+    config = tmp_path / "edited.json"
+    config.write_text(json.dumps(summary))
+    opened = []
+    real_open = io.open
+
+    def counting_open(file, *args, **kwargs):
+        if str(file) == str(config):
+            opened.append(args[0] if args else kwargs.get("mode", "r"))
+        return real_open(file, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", counting_open)
+    monkeypatch.setattr(io, "open", counting_open)  # what pathlib's read_bytes calls
+    capsys.readouterr()
+    assert main(["study", "--config", str(config), "--no-progress", "--out",
+                 str(tmp_path / "again")]) == 0
+    assert f"warning: agent '{spec}': its source files' hash differs" in capsys.readouterr().err
+    assert opened == ["rb"]
