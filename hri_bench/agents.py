@@ -52,7 +52,8 @@ from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["BRACKET_AGENTS", "BUILTIN_AGENTS", "CONTRACT", "JAXPPO", "JAXPPO_CHECKPOINTS",
-           "JAXPPO_PREFIX", "KNOWN_AGENTS", "OTHER_AGENTS", "REFERENCE_AGENTS", "SB3_PREFIX",
+           "JAXPPO_PREFIX", "KNOWN_AGENTS", "OTHER_AGENTS", "PLANNING_REFERENCES",
+           "REFERENCE_AGENTS", "SB3_PREFIX",
            "agent_settings", "contract_keywords", "import_agent", "jaxppo_path", "make_agent",
            "validate_agent_name"]
 
@@ -61,6 +62,9 @@ BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "
 REFERENCE_AGENTS: tuple[str, ...] = ("informed", "blind")
 #: The lower end of a bracket on blind (baselines.product), not in the default agent list.
 BRACKET_AGENTS: tuple[str, ...] = ("qmdp",)
+#: The references and the bracket's lower end: they plan with the human's model, a suite
+#: adds them to the tracks they fit and never ranks them.
+PLANNING_REFERENCES: tuple[str, ...] = REFERENCE_AGENTS + BRACKET_AGENTS
 #: Further built-in agents, not in the default list of suite v1 (the goal filter).
 OTHER_AGENTS: tuple[str, ...] = ("goalfilter",)
 #: Every built-in name.

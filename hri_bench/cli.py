@@ -311,8 +311,7 @@ def _suite_parser(sub: Any) -> None:
 def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from hri_bench import cli_results
     from hri_bench.suite import (
-        DEFAULT_AGENTS,
-        DEFAULT_AGENTS_V2,
+        default_agents,
         population_track,
         run_suite,
         select_tracks,
@@ -322,7 +321,7 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     seeds = cli_results.suite_plan(args, parser)  # --config replays, --seeds
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     version = args.suite_version
-    agents = args.agents or (DEFAULT_AGENTS if version == "1" else DEFAULT_AGENTS_V2)
+    agents = args.agents or default_agents(version)
     try:
         first = track_config(select_tracks(args.tracks, version)[0], agents, executor=executor,
                              version=version)

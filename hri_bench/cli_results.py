@@ -66,7 +66,7 @@ def _seeds(text: str, parser: argparse.ArgumentParser) -> list[int]:
 
 def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
     """version, agents, tracks, populations, runs_scale, seeds and recorded identities."""
-    from hri_bench.agents import REFERENCE_AGENTS
+    from hri_bench.agents import PLANNING_REFERENCES
     from hri_bench.submission import FORMAT, load
     from hri_bench.suite import SUITE_VERSIONS, TRACKS_BY_VERSION
 
@@ -76,11 +76,10 @@ def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
         parser.error(f"argument --config: {exc}")
     if not isinstance(doc, dict):
         parser.error(f"argument --config: {path}: not a suite.json or results.json")
-    not_ranked = (*REFERENCE_AGENTS, "qmdp")
     try:
         if doc.get("format") == FORMAT:
             version = doc["suite"]["version"]
-            agents = [a for a in doc["agents"] if a not in not_ranked]
+            agents = [a for a in doc["agents"] if a not in PLANNING_REFERENCES]
             tracks = list(doc["suite"]["tracks"])
             plan = {"agents": agents, "tracks": tracks, "populations": [],
                     "runs_scale": doc["runs_scale"], "seeds": list(doc["seeds"]),

@@ -220,6 +220,14 @@ class StudyConfig:
             if value is not None and not isinstance(value, str):
                 raise ConfigError(f"{name} must be None or {what}, got {value!r}", field=name)
 
+        def pairs(name: str, what: str) -> None:
+            value = getattr(self, name)
+            if not isinstance(value, tuple) or not all(
+                    isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
+                    for pair in value):
+                raise ConfigError(f"{name} must be (name, value) pairs of {what}, got "
+                                  f"{value!r}", field=name)
+
         choice("scenario", tuple(SCENARIOS))
         if not isinstance(self.agents, tuple | list) or not self.agents or not all(
                 isinstance(a, str) for a in self.agents):
@@ -269,12 +277,7 @@ class StudyConfig:
             probe.check(graph_for(self.scenario))
         validate_rationality(self.human_rationality)
         text("population", "a population's name or 'module:Class'")
-        if not isinstance(self.human_params, tuple) or not all(
-                isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
-                for pair in self.human_params):
-            raise ConfigError(f"human_params must be (name, value) pairs of a family's "
-                              f"parameters, e.g. (('k', 3),), got {self.human_params!r}",
-                              field="human_params")
+        pairs("human_params", "a family's parameters, e.g. (('k', 3),)")
         if self.human_params and self.population is None:
             raise ConfigError("human_params sets the parameters of a family named as the "
                               "population (e.g. --population impatient --human-param k=3); "
@@ -304,11 +307,7 @@ class StudyConfig:
                                   "leave it out with --population module:Class",
                                   field="agents")
         refuse_references(self)
-        if not isinstance(self.learner, tuple) or not all(
-                isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
-                for pair in self.learner):
-            raise ConfigError(f"learner must be (name, value) pairs of LearnerConfig fields, "
-                              f"e.g. (('beta', 0.9),), got {self.learner!r}", field="learner")
+        pairs("learner", "LearnerConfig fields, e.g. (('beta', 0.9),)")
         if self.learner:
             from agents.config import default_config
 

@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 
 from hri_bench import metrics, provenance, stats
-from hri_bench.agents import BUILTIN_AGENTS, REFERENCE_AGENTS
+from hri_bench.agents import BUILTIN_AGENTS, PLANNING_REFERENCES, REFERENCE_AGENTS
 from hri_bench.atomic import atomic_writer
 from hri_bench.regret import ALL_REFERENCES, REFERENCES, reference_summary
 from hri_bench.study import StudyConfig, StudyResult, regret_reference, run_study
@@ -73,6 +73,7 @@ __all__ = [
     "TRACKS",
     "TRACKS_V2",
     "Track",
+    "default_agents",
     "run_suite",
     "select_tracks",
     "track_config",
@@ -228,6 +229,13 @@ TRACKS_V2: dict[str, Track] = {t.name: t for t in _tracks_v2()}
 TRACKS_BY_VERSION: dict[str, dict[str, Track]] = {"1": TRACKS, "2": TRACKS_V2}
 
 
+def default_agents(version: str) -> tuple[str, ...]:
+    """The agents a version ranks by default (:data:`DEFAULT_AGENTS_V2`, v1
+    :data:`DEFAULT_AGENTS`).
+    """
+    return DEFAULT_AGENTS if version == "1" else DEFAULT_AGENTS_V2
+
+
 def check_version(version: Any) -> str:
     """``version`` if it is a suite version, else a :class:`ConfigError` (``suite_version``)."""
     if not isinstance(version, str) or version not in SUITE_VERSIONS:
@@ -304,7 +312,7 @@ def track_config(track: Track, agents: Sequence[str], *, runs_scale: float = 1.0
     (:func:`track_references`), ``track.runs × runs_scale`` runs (at least 2).
     """
     refs = track_references(track, version)
-    ranked = tuple(a for a in agents if a not in (*REFERENCE_AGENTS, "qmdp"))
+    ranked = tuple(a for a in agents if a not in PLANNING_REFERENCES)
     return StudyConfig(track.scenario, agents=ranked + tuple(refs),
                        runs=_runs(track, runs_scale), seed=seed, jobs=jobs,
                        executor=executor, **dict(track.settings))
@@ -612,7 +620,7 @@ def run_suite(
                           field="runs_scale")
     version = check_version(version)
     if agents is None:
-        agents = DEFAULT_AGENTS if version == "1" else DEFAULT_AGENTS_V2
+        agents = default_agents(version)
     chosen = select_tracks(tracks, version) + [population_track(p, version)
                                                for p in populations]
     configs = [track_config(t, agents, runs_scale=runs_scale, seed=seed, jobs=jobs,
@@ -626,7 +634,7 @@ def run_suite(
                                "converged_threshold": CONVERGED,
                                "references": dict(REFERENCES), "tracks": {}}
     else:
-        ranked = [a for a in agents if a not in (*REFERENCE_AGENTS, "qmdp")]
+        ranked = [a for a in agents if a not in PLANNING_REFERENCES]
         doc = {"suite_version": version, "seed": seed, "runs_scale": runs_scale,
                "agents": ranked, "converged_threshold": CONVERGED,
                "references": dict(ALL_REFERENCES),
