@@ -114,7 +114,7 @@ def validate_agent_name(name: str) -> None:
                               field="agents")
         return
     if ":" in name and all(name.split(":", 1)):
-        _agent_class(name)
+        import_agent(name)
         return
     raise ConfigError(
         f"unknown agent {name!r}; allowed: {', '.join(KNOWN_AGENTS)}, "
@@ -125,13 +125,6 @@ def validate_agent_name(name: str) -> None:
     )
 
 
-def _agent_class(spec: str) -> type[Agent] | type[BatchAgent]:
-    """The class ``module:Class`` names, checked to be an agent."""
-    cls: type[Agent] | type[BatchAgent] = import_class(spec, "agent", "agents",
-                                                       (Agent, BatchAgent))
-    return cls
-
-
 def import_agent(spec: str) -> type[Agent] | type[BatchAgent]:
     """The agent class ``module:Class`` names.
 
@@ -139,7 +132,9 @@ def import_agent(spec: str) -> type[Agent] | type[BatchAgent]:
         ConfigError: The module does not import, or the class is not an agent
             (``field="agents"``).
     """
-    return _agent_class(spec)
+    cls: type[Agent] | type[BatchAgent] = import_class(spec, "agent", "agents",
+                                                       (Agent, BatchAgent))
+    return cls
 
 
 #: What a custom agent's constructor may ask for, by keyword (docs/agents.md, "Your own
@@ -279,7 +274,7 @@ def make_agent(
         from agents.jax_ppo.agent import JaxPPOAgent
 
         return JaxPPOAgent(path, graph, n)
-    cls = _agent_class(name)
+    cls = import_agent(name)
     keys = contract_keywords(cls)
     given: dict[str, Any] = {"graph": graph, "seed": seed, "runs": list(runs), "r0": r0,
                              "reward": reward, "max_steps": max_steps, "episodes": episodes}

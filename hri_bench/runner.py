@@ -31,6 +31,7 @@ from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = [
+    "BELIEF_METRICS",
     "TASK_METRICS",
     "EpisodeMetrics",
     "EpisodeResult",
@@ -110,6 +111,8 @@ def make_schedule(
 #: moved, ``human_alone`` the human's actions while the robot waited (counts per episode).
 TASK_METRICS: tuple[str, ...] = ("map_steps", "log_loss", "brier", "counteract", "human_idle",
                                  "human_alone")
+#: The belief metrics of :data:`TASK_METRICS` (NaN for agents without a belief).
+BELIEF_METRICS: tuple[str, ...] = TASK_METRICS[:3]
 #: Probabilities are clipped here in the log-loss, which stays finite (≤ 34.5).
 LOG_LOSS_FLOOR = 1e-15
 
@@ -280,7 +283,7 @@ def run_episodes(
         for key in ("correct", "passive", "wrong", "log_loss", "brier", *backend.step_means):
             totals[key] /= per_step
         if not has_belief:
-            for key in ("map_steps", "log_loss", "brier"):
+            for key in BELIEF_METRICS:
                 totals[key][:] = np.nan
         intentions = np.where(truncated, -1, graph.support[states[rows, steps]])
         traces = [Trace(states[i, : steps[i] + 1].copy(), robot_acts[i, : steps[i]].copy(),

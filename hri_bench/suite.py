@@ -56,7 +56,7 @@ from hri_bench.agents import BUILTIN_AGENTS, PLANNING_REFERENCES, REFERENCE_AGEN
 from hri_bench.atomic import atomic_writer
 from hri_bench.regret import ALL_REFERENCES, REFERENCES, reference_summary
 from hri_bench.study import StudyConfig, StudyResult, regret_reference, run_study
-from hri_bench.submission import SuiteRecorder, lead_section, task_section
+from hri_bench.submission import SuiteRecorder, lead_section, task_section, write_results
 from hri_envs.errors import ConfigError
 from hri_envs.humans.splits import MIXTURES
 from hri_envs.task.scenarios import SCENARIOS, scenario_spec
@@ -681,7 +681,8 @@ def run_suite(
                      + board[cut:])
     with atomic_writer(out / "leaderboard.md") as f:
         f.write(board + "\n")
-    recorder.write(out, results)
+    if results is not None:
+        write_results(out, results)
     with atomic_writer(out / "suite.json") as f:
         f.write(json.dumps(doc, indent=1, allow_nan=False) + "\n")
     log = {"suite_version": version, "jobs": jobs, "executor": executor,
