@@ -197,15 +197,15 @@ def validate(path: Path) -> int:
     return 0
 
 
-def leaderboard(folder: Path, out: Path | None) -> int:
+def leaderboard(folder: Path, out: Path | None, parser: argparse.ArgumentParser) -> int:
     """``hri-bench leaderboard DIR``: 0 when every file was merged, 1 when some were
-    refused (named on stderr) or none was valid.
+    refused (named on stderr) or none was valid; a DIR that is not a folder is the
+    parser's error (usage, exit 2), as every other bad argument of the CLI.
     """
     from hri_bench.submission import merged_leaderboard
 
     if not folder.is_dir():
-        print(f"hri-bench leaderboard: {folder} is not a folder", file=sys.stderr)
-        return 2
+        parser.error(f"argument dir: {folder} is not a folder")
     files = sorted([*folder.glob("*.json"), *folder.glob("*.json.gz")])
     written, refused = merged_leaderboard(files, out or folder)
     for line in refused:
@@ -222,4 +222,4 @@ def run(args: argparse.Namespace) -> int:
     """Dispatch ``validate`` and ``leaderboard``."""
     if args.command == "validate":
         return validate(args.file)
-    return leaderboard(args.dir, args.out)
+    return leaderboard(args.dir, args.out, args.command_parser)

@@ -98,6 +98,14 @@ METRICS = ("reward", "correct", "passive", "wrong", "steps", "truncated")
 EXECUTORS = ("serial", "process", "ray")
 
 
+def _backend_extras(metrics: Mapping[str, Any]) -> list[str]:
+    """The backend's own metrics among an agent's ``metrics`` of a :class:`StudyResult`
+    (its keys besides :data:`METRICS` and the task's :data:`~hri_bench.runner.TASK_METRICS`),
+    in their order.
+    """
+    return [k for k in metrics if k not in METRICS and k not in TASK_METRICS]
+
+
 def graph_for(scenario: str) -> TaskGraph:
     """The task graph of a scenario by name (built once per process)."""
     return scenario_graph(scenario)
@@ -833,8 +841,7 @@ def summarize(result: StudyResult) -> dict[str, Any]:
             "overall": {"reward_mean": float(r.mean()), "reward_median": float(np.median(r)),
                         "truncation_rate": float(m["truncated"].mean()),
                         "truncated_episodes": int(m["truncated"].sum())},
-            **{k: {"mean": m[k].mean(0).tolist()} for k in m
-               if k not in METRICS and k not in TASK_METRICS},
+            **{k: {"mean": m[k].mean(0).tolist()} for k in _backend_extras(m)},
         }
         # Statistics (docs/benchmark.md): per episode and over all episodes, bootstrap
         # seeded by the study seed.
@@ -921,8 +928,7 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
                 paths.append(out / p.name)
     csv_path = out / "episodes.csv"
     prefs = result.humans if cfg.per_run_humans and result.humans else cfg.preference_of_run()
-    extras = [k for k in next(iter(result.metrics.values()), {})
-              if k not in METRICS and k not in TASK_METRICS]  # the task's: in the suite's
+    extras = _backend_extras(next(iter(result.metrics.values()), {}))  # the task's: in the suite's
     with atomic_writer(csv_path, newline="") as f:
         writer = csv.writer(f)
         writer.writerow(["agent", "run", "episode", "preference", "start", "goal", "turn_back",

@@ -279,6 +279,15 @@ def test_validate_and_leaderboard_commands(suite_dir, tmp_path, capsys):
     assert "`ours.json`" in board and (tmp_path / "board" / "profiles.png").exists()
 
 
+def test_leaderboard_of_a_missing_folder_is_a_usage_error(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["leaderboard", str(tmp_path / "nowhere")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: hri-bench leaderboard")
+    assert f"error: argument dir: {tmp_path / 'nowhere'} is not a folder" in err
+
+
 def test_replay_is_byte_identical_and_warns_when_a_custom_agent_changed(suite_dir, tmp_path,
                                                                          capsys, monkeypatch):
     again = tmp_path / "again"
