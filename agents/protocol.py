@@ -291,11 +291,26 @@ class Batched(BatchAgent):
                                    int(next_states[i]))
 
     def belief(self) -> np.ndarray | None:
-        """The agents' beliefs stacked, (n_runs, K); None unless every agent exposes one."""
-        beliefs = [read_belief(a) for a in self.agents]
-        if any(b is None for b in beliefs):
-            return None
-        return np.stack([np.asarray(b, dtype=float).reshape(-1) for b in beliefs])
+        """The agents' beliefs stacked, (n_runs, K); None unless every agent exposes one.
+
+        Not validated here: whoever reads it (:func:`read_belief`) checks the stacked array
+        once, instead of once per agent and again stacked (this runs every step).
+
+        Raises:
+            ConfigError: The agents' beliefs differ in size.
+        """
+        beliefs = []
+        for agent in self.agents:
+            held = getattr(agent, "belief", None)
+            value = held() if callable(held) else None
+            if value is None:
+                return None
+            beliefs.append(np.asarray(value, dtype=float).reshape(-1))
+        if len({b.size for b in beliefs}) > 1:
+            raise ConfigError(f"belief() of agent {self.name!r} returned beliefs of sizes "
+                              f"{sorted({b.size for b in beliefs})} across runs; expected the "
+                              "same K in every run", field="belief")
+        return np.stack(beliefs)
 
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Let every agent learn from its episode."""

@@ -52,7 +52,8 @@ from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["BRACKET_AGENTS", "BUILTIN_AGENTS", "CONTRACT", "JAXPPO", "JAXPPO_CHECKPOINTS",
-           "JAXPPO_PREFIX", "KNOWN_AGENTS", "OTHER_AGENTS", "REFERENCE_AGENTS", "SB3_PREFIX",
+           "JAXPPO_PREFIX", "KNOWN_AGENTS", "OTHER_AGENTS", "PLANNING_REFERENCES",
+           "REFERENCE_AGENTS", "SB3_PREFIX",
            "agent_settings", "contract_keywords", "import_agent", "jaxppo_path", "make_agent",
            "validate_agent_name"]
 
@@ -61,6 +62,9 @@ BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "
 REFERENCE_AGENTS: tuple[str, ...] = ("informed", "blind")
 #: The lower end of a bracket on blind (baselines.product), not in the default agent list.
 BRACKET_AGENTS: tuple[str, ...] = ("qmdp",)
+#: The references and the bracket's lower end: they plan with the human's model, a suite
+#: adds them to the tracks they fit and never ranks them.
+PLANNING_REFERENCES: tuple[str, ...] = REFERENCE_AGENTS + BRACKET_AGENTS
 #: Further built-in agents, not in the default list of suite v1 (the goal filter).
 OTHER_AGENTS: tuple[str, ...] = ("goalfilter",)
 #: Every built-in name.
@@ -110,7 +114,7 @@ def validate_agent_name(name: str) -> None:
                               field="agents")
         return
     if ":" in name and all(name.split(":", 1)):
-        _agent_class(name)
+        import_agent(name)
         return
     raise ConfigError(
         f"unknown agent {name!r}; allowed: {', '.join(KNOWN_AGENTS)}, "
@@ -121,13 +125,6 @@ def validate_agent_name(name: str) -> None:
     )
 
 
-def _agent_class(spec: str) -> type[Agent] | type[BatchAgent]:
-    """The class ``module:Class`` names, checked to be an agent."""
-    cls: type[Agent] | type[BatchAgent] = import_class(spec, "agent", "agents",
-                                                       (Agent, BatchAgent))
-    return cls
-
-
 def import_agent(spec: str) -> type[Agent] | type[BatchAgent]:
     """The agent class ``module:Class`` names.
 
@@ -135,7 +132,9 @@ def import_agent(spec: str) -> type[Agent] | type[BatchAgent]:
         ConfigError: The module does not import, or the class is not an agent
             (``field="agents"``).
     """
-    return _agent_class(spec)
+    cls: type[Agent] | type[BatchAgent] = import_class(spec, "agent", "agents",
+                                                       (Agent, BatchAgent))
+    return cls
 
 
 #: What a custom agent's constructor may ask for, by keyword (docs/agents.md, "Your own
@@ -275,7 +274,7 @@ def make_agent(
         from agents.jax_ppo.agent import JaxPPOAgent
 
         return JaxPPOAgent(path, graph, n)
-    cls = _agent_class(name)
+    cls = import_agent(name)
     keys = contract_keywords(cls)
     given: dict[str, Any] = {"graph": graph, "seed": seed, "runs": list(runs), "r0": r0,
                              "reward": reward, "max_steps": max_steps, "episodes": episodes}

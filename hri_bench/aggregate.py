@@ -57,15 +57,26 @@ def _strata(scores: Scores, agent: str) -> list[np.ndarray]:
 
 def probability_of_improvement(scores: Scores, a: str, b: str) -> float | None:
     """P(a > b) averaged over (seed, track) where both ran; None where they share none."""
-    from scipy.stats import mannwhitneyu
+    return _improvement_pair(scores, a, b)[0]
 
+
+def _improvement_pair(scores: Scores, a: str, b: str
+                      ) -> tuple[float | None, float | None]:
+    """(P(a > b), P(b > a)) as :func:`probability_of_improvement` computes each, from one
+    Mann-Whitney U per (seed, track) (:func:`hri_bench.stats.improvement_pair`).
+    """
     values = []
     for by_track in scores.values():
         for by_agent in by_track.values():
             if a in by_agent and b in by_agent:
                 x, y = np.asarray(by_agent[a], float), np.asarray(by_agent[b], float)
-                values.append(float(mannwhitneyu(x, y).statistic) / (len(x) * len(y)))
-    return round(float(np.mean(values)), 6) if values else None
+                values.append(stats.improvement_pair(x[:, None], y[:, None]))
+    if not values:
+        return None, None
+    # Each direction averaged as a 1-D array, as before (a mean over axis 0 of the pairs
+    # could add in another order).
+    ab, ba = (round(float(np.mean([v[i] for v in values])), 6) for i in (0, 1))
+    return ab, ba
 
 
 def profile_grid(scores: Scores, points: int = PROFILE_POINTS) -> list[float]:
@@ -127,8 +138,11 @@ def aggregate(scores: Scores, agents: Sequence[str], seed: int) -> dict[str, Any
             "seed_std": float(spread.std(ddof=1)) if len(spread) > 1 else 0.0,
             "seed_min": float(spread.min()), "seed_max": float(spread.max()),
         }
-    poi = {a: {b: probability_of_improvement(scores, a, b) for b in present if b != a}
-           for a in present}
+    poi: dict[str, dict[str, float | None]] = {a: {} for a in present}
+    for i, a in enumerate(present):  # each unordered pair once
+        for b in present[i + 1:]:
+            poi[a][b], poi[b][a] = _improvement_pair(scores, a, b)
+    poi = {a: {b: poi[a][b] for b in present if b != a} for a in present}  # the column order
     grid = profile_grid(scores) if present else []
     return {"score": "each run's mean episode reward (higher is better)", "agents": block,
             "partial": partial,

@@ -311,8 +311,7 @@ def _suite_parser(sub: Any) -> None:
 def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from hri_bench import cli_results
     from hri_bench.suite import (
-        DEFAULT_AGENTS,
-        DEFAULT_AGENTS_V2,
+        default_agents,
         population_track,
         run_suite,
         select_tracks,
@@ -322,7 +321,7 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     seeds = cli_results.suite_plan(args, parser)  # --config replays, --seeds
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     version = args.suite_version
-    agents = args.agents or (DEFAULT_AGENTS if version == "1" else DEFAULT_AGENTS_V2)
+    agents = args.agents or default_agents(version)
     try:
         first = track_config(select_tracks(args.tracks, version)[0], agents, executor=executor,
                              version=version)
@@ -419,7 +418,8 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
     if given:
         parser.error(f"argument --config: it replays the recorded settings; drop "
                      f"{', '.join(given)} (or edit the file's 'settings')")
-    settings = _read_settings(args.config, parser)
+    doc = _read_study_config(args.config, parser)
+    settings = dict(doc["settings"])
     if args.scenario is not None and args.scenario != settings.get("scenario"):
         parser.error(f"argument scenario: {args.config} describes a "
                      f"{settings.get('scenario')!r} study; leave the scenario out")
@@ -427,7 +427,8 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
         cfg = StudyConfig.from_settings(settings, **execution)
         from hri_bench import cli_results
 
-        cli_results.warn_code_changes(args.config, cfg.agents)  # a custom agent edited since
+        # a custom agent edited since: from the document read above (once, within the limit)
+        cli_results.warn_code_changes(doc.get("agent_configs"), cfg.agents)
         return cfg
     except ConfigError as exc:
         if exc.field in EXECUTION_FIELDS:  # from the flags, not from the file
@@ -439,8 +440,8 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
 MAX_CONFIG_BYTES = 64 * 2**20
 
 
-def _read_settings(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
-    """The ``settings`` object of a summary.json given as ``--config``; exit 2 otherwise.
+def _read_study_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
+    """A summary.json given as ``--config``, with a ``settings`` object; exit 2 otherwise.
 
     At most :data:`MAX_CONFIG_BYTES` are read (``/dev/zero`` is refused, not read until
     memory runs out); JSON nested too deeply for the parser is refused too.
@@ -464,7 +465,7 @@ def _read_settings(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any
         refuse(f"not JSON ({exc})")
     if not isinstance(doc, dict) or not isinstance(doc.get("settings"), dict):
         refuse("no 'settings' object")
-    return dict(doc["settings"])
+    return doc
 
 
 def _require_for_study(cfg: Any, *, progress: bool) -> None:

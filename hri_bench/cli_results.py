@@ -66,7 +66,7 @@ def _seeds(text: str, parser: argparse.ArgumentParser) -> list[int]:
 
 def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
     """version, agents, tracks, populations, runs_scale, seeds and recorded identities."""
-    from hri_bench.agents import REFERENCE_AGENTS
+    from hri_bench.agents import PLANNING_REFERENCES
     from hri_bench.submission import FORMAT, load
     from hri_bench.suite import SUITE_VERSIONS, TRACKS_BY_VERSION
 
@@ -76,11 +76,10 @@ def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
         parser.error(f"argument --config: {exc}")
     if not isinstance(doc, dict):
         parser.error(f"argument --config: {path}: not a suite.json or results.json")
-    not_ranked = (*REFERENCE_AGENTS, "qmdp")
     try:
         if doc.get("format") == FORMAT:
             version = doc["suite"]["version"]
-            agents = [a for a in doc["agents"] if a not in not_ranked]
+            agents = [a for a in doc["agents"] if a not in PLANNING_REFERENCES]
             tracks = list(doc["suite"]["tracks"])
             plan = {"agents": agents, "tracks": tracks, "populations": [],
                     "runs_scale": doc["runs_scale"], "seeds": list(doc["seeds"]),
@@ -168,16 +167,13 @@ def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[...
     return docs
 
 
-def warn_code_changes(path: Path, agents: Any) -> None:
+def warn_code_changes(recorded: Any, agents: Any) -> None:
     """Warn on stderr for each agent of a study's ``--config`` (a summary.json) whose code
-    differs from the identity its ``agent_configs`` records.
+    differs from the identity ``recorded`` (the file's ``agent_configs``, as the caller read
+    it; anything but an object: nothing recorded).
     """
     from hri_bench.provenance import code_changes
 
-    try:
-        recorded = json.loads(path.read_bytes()).get("agent_configs") or {}
-    except (OSError, ValueError, AttributeError):
-        return
     for line in code_changes(recorded if isinstance(recorded, dict) else {}, agents):
         print(f"hri-bench study: warning: {line}", file=sys.stderr)
 
@@ -201,15 +197,15 @@ def validate(path: Path) -> int:
     return 0
 
 
-def leaderboard(folder: Path, out: Path | None) -> int:
+def leaderboard(folder: Path, out: Path | None, parser: argparse.ArgumentParser) -> int:
     """``hri-bench leaderboard DIR``: 0 when every file was merged, 1 when some were
-    refused (named on stderr) or none was valid.
+    refused (named on stderr) or none was valid; a DIR that is not a folder is the
+    parser's error (usage, exit 2), as every other bad argument of the CLI.
     """
     from hri_bench.submission import merged_leaderboard
 
     if not folder.is_dir():
-        print(f"hri-bench leaderboard: {folder} is not a folder", file=sys.stderr)
-        return 2
+        parser.error(f"argument dir: {folder} is not a folder")
     files = sorted([*folder.glob("*.json"), *folder.glob("*.json.gz")])
     written, refused = merged_leaderboard(files, out or folder)
     for line in refused:
@@ -226,4 +222,4 @@ def run(args: argparse.Namespace) -> int:
     """Dispatch ``validate`` and ``leaderboard``."""
     if args.command == "validate":
         return validate(args.file)
-    return leaderboard(args.dir, args.out)
+    return leaderboard(args.dir, args.out, args.command_parser)

@@ -27,18 +27,15 @@ from typing import Any
 import numpy as np
 
 from hri_bench import stats
-from hri_bench.runner import TASK_METRICS
+from hri_bench.runner import BELIEF_METRICS, TASK_METRICS
 
-__all__ = ["BELIEF_METRICS", "EFFORT_METRICS", "LEARNED", "agent_metrics", "asymptote",
+__all__ = ["BELIEF_METRICS", "LEARNED", "agent_metrics", "asymptote",
            "last_k", "learning_episodes", "summary"]
 
 #: A run has learned from the first episode after which its regret stays at or below this
 #: (reward units per episode: two waits of the wheel's r0 = −0.25, one and a half of the
 #: hanger's −0.33; an aborted or counteracted step costs 1).
 LEARNED = 0.5
-#: The belief metrics (NaN for agents without a belief) and the human-effort ones.
-BELIEF_METRICS: tuple[str, ...] = ("map_steps", "log_loss", "brier")
-EFFORT_METRICS: tuple[str, ...] = tuple(k for k in TASK_METRICS if k not in BELIEF_METRICS)
 
 
 def last_k(episodes: int) -> int:
@@ -66,13 +63,18 @@ def asymptote(x: np.ndarray) -> np.ndarray:
     return x[:, -last_k(x.shape[1]):].mean(1)
 
 
-def summary(per_run: np.ndarray, seed: int) -> dict[str, Any]:
-    """Mean and IQM over runs with 95 % percentile bootstrap CIs (seeded), and the median."""
+def summary(per_run: np.ndarray, seed: int, *, median: bool = True) -> dict[str, Any]:
+    """Mean and IQM over runs with 95 % percentile bootstrap CIs (seeded), and the median
+    (with ``median``; the suite's ``suite.json`` entries have none).
+    """
     per_run = np.asarray(per_run, dtype=float)
-    return {"mean": float(per_run.mean()), "ci95": list(stats.bootstrap_ci(per_run, "mean", seed)),
-            "iqm": float(stats.iqm(per_run)),
-            "iqm_ci95": list(stats.bootstrap_ci(per_run, "iqm", seed)),
-            "median": float(np.median(per_run))}
+    out: dict[str, Any] = {"mean": float(per_run.mean()),
+                           "ci95": list(stats.bootstrap_ci(per_run, "mean", seed)),
+                           "iqm": float(stats.iqm(per_run)),
+                           "iqm_ci95": list(stats.bootstrap_ci(per_run, "iqm", seed))}
+    if median:
+        out["median"] = float(np.median(per_run))
+    return out
 
 
 def agent_metrics(runs: Mapping[str, np.ndarray], blind: np.ndarray | None, seed: int,

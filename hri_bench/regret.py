@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from baselines.bounds import plan
+from hri_bench.agents import PLANNING_REFERENCES
 from hri_bench.results import StudyResult
 from hri_envs.errors import ConfigError
 from hri_envs.humans.populations import (
@@ -66,8 +67,6 @@ ALL_REFERENCES: dict[str, str] = {
     "qmdp": "lower end of the bracket on blind: a feasible intention-blind policy (QMDP on "
             "the exact posterior) that knows the human's model; simulated",
 }
-#: The agents that plan with the human's model.
-PLANNING_REFERENCES: tuple[str, ...] = ("informed", "blind", "qmdp")
 
 
 _TOO_LARGE = ("the exact blind plan is made for deterministic (or passive) scripted humans; "

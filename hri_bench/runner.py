@@ -31,6 +31,7 @@ from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = [
+    "BELIEF_METRICS",
     "TASK_METRICS",
     "EpisodeMetrics",
     "EpisodeResult",
@@ -110,6 +111,8 @@ def make_schedule(
 #: moved, ``human_alone`` the human's actions while the robot waited (counts per episode).
 TASK_METRICS: tuple[str, ...] = ("map_steps", "log_loss", "brier", "counteract", "human_idle",
                                  "human_alone")
+#: The belief metrics of :data:`TASK_METRICS` (NaN for agents without a belief).
+BELIEF_METRICS: tuple[str, ...] = TASK_METRICS[:3]
 #: Probabilities are clipped here in the log-loss, which stays finite (≤ 34.5).
 LOG_LOSS_FLOOR = 1e-15
 
@@ -200,6 +203,7 @@ def run_episodes(
     eps = EpisodeBatch(EpisodeRules(graph, r0), never, n_b)
     privileged = bool(getattr(agent, "privileged", False))
     rows = np.arange(n_b)
+    scratch = np.empty((n_b, graph.n_intentions))  # _score_belief's, reused every step
     states = np.zeros((n_b, max_steps + 1), dtype=np.int64)
     robot_acts = np.zeros((n_b, max_steps), dtype=np.int64)
     human_seen = np.zeros((n_b, max_steps), dtype=np.int64)
@@ -229,9 +233,10 @@ def run_episodes(
                     "action_mask": graph.valid[s].astype(np.int8)}
                 if privileged:
                     obs["intention"] = eps.intention
+                w = active.astype(float)  # this step's weights (active changes after it)
                 if has_belief:
                     has_belief = _score_belief(read_belief(agent, n_b), eps.intention, active,
-                                               t, totals)
+                                               t, totals, rows, w, scratch)
                 try:
                     chosen = agent.act(obs, active)
                 except ActionError as exc:  # a Batched agent's: add where it happened
@@ -244,7 +249,6 @@ def run_episodes(
                 a_h = np.where(active, _checked("the human's act()", human.act(seen, active),
                                                 active, graph.n_actions, run_ids, e, t), WAIT)
                 step = backend.transition(s, a_r, a_h, active)
-                w = active.astype(float)
                 failed = False if step.penalty is None else step.penalty
                 totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, r0,
                                                     reward=reward, start=eps.start,
@@ -279,7 +283,7 @@ def run_episodes(
         for key in ("correct", "passive", "wrong", "log_loss", "brier", *backend.step_means):
             totals[key] /= per_step
         if not has_belief:
-            for key in ("map_steps", "log_loss", "brier"):
+            for key in BELIEF_METRICS:
                 totals[key][:] = np.nan
         intentions = np.where(truncated, -1, graph.support[states[rows, steps]])
         traces = [Trace(states[i, : steps[i] + 1].copy(), robot_acts[i, : steps[i]].copy(),
@@ -294,25 +298,28 @@ def run_episodes(
 
 
 def _score_belief(belief: np.ndarray | None, intention: np.ndarray, active: np.ndarray,
-                  t: int, totals: dict[str, np.ndarray]) -> bool:
+                  t: int, totals: dict[str, np.ndarray], rows: np.ndarray, w: np.ndarray,
+                  scratch: np.ndarray) -> bool:
     """Add decision ``t``'s belief scores to ``totals``; False when there is no belief.
 
     ``map_steps`` becomes t + 1 wherever the belief's unique maximum is not the current
-    intention, so at the end it counts the decisions up to the last wrong one.
+    intention, so at the end it counts the decisions up to the last wrong one. ``rows`` is
+    ``arange(B)``, ``w`` is ``active`` as floats and ``scratch`` a (B, K) float work array
+    (all the caller's, so that nothing of the sort is rebuilt every step).
     """
     if belief is None:
         return False
-    rows = np.arange(len(intention))
+    if scratch.shape != belief.shape:  # an agent's K other than the graph's
+        scratch = np.empty(belief.shape)
     p_true = belief[rows, intention]
-    off = belief.copy()  # belief minus the one-hot truth
-    off[rows, intention] = p_true - 1.0
-    others = belief.copy()  # the other intentions' beliefs
-    others[rows, intention] = -np.inf
-    w = active.astype(float)
-    totals["map_steps"] = np.where(active & ~(p_true > others.max(1)), t + 1,
-                                   totals["map_steps"])
+    np.copyto(scratch, belief)  # the other intentions' beliefs
+    scratch[rows, intention] = -np.inf
+    totals["map_steps"][active & ~(p_true > scratch.max(1))] = t + 1
     totals["log_loss"] += w * -np.log(np.maximum(p_true, LOG_LOSS_FLOOR))
-    totals["brier"] += w * (off * off).sum(1)
+    np.multiply(belief, belief, out=scratch)  # (belief minus the one-hot truth)²
+    miss = p_true - 1.0
+    scratch[rows, intention] = miss * miss
+    totals["brier"] += w * scratch.sum(1)
     return True
 
 

@@ -25,6 +25,7 @@ __all__ = [
     "aggregate",
     "bootstrap_ci",
     "detectable_difference",
+    "improvement_pair",
     "improvement_table",
     "iqm",
     "per_episode",
@@ -138,12 +139,22 @@ def probability_of_improvement(x: np.ndarray, y: np.ndarray) -> float:
     Per episode it is the Mann-Whitney U statistic of the runs of ``x`` against those of
     ``y`` divided by the number of pairs; both arrays are (runs, episodes).
     """
+    return improvement_pair(x, y)[0]
+
+
+def improvement_pair(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """(P(X > Y), P(Y > X)) as :func:`probability_of_improvement` computes each, from one
+    Mann-Whitney U per episode: U of ``y`` against ``x`` is the number of pairs minus U of
+    ``x`` against ``y``, exactly (both are multiples of one half), so the second equals
+    ``probability_of_improvement(y, x)`` to the bit.
+    """
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if x.shape[1] != y.shape[1]:
         raise ConfigError(f"x and y need the same episodes, got {x.shape} and {y.shape}",
                           field="episodes")
-    per = _scipy_stats().mannwhitneyu(x, y, axis=0).statistic / (len(x) * len(y))  # (E,)
-    return float(np.mean(per))
+    pairs = len(x) * len(y)
+    u = _scipy_stats().mannwhitneyu(x, y, axis=0).statistic  # (E,)
+    return float(np.mean(u / pairs)), float(np.mean((pairs - u) / pairs))
 
 
 def improvement_table(metric: Mapping[str, np.ndarray]) -> dict[str, dict[str, float]]:

@@ -98,6 +98,14 @@ METRICS = ("reward", "correct", "passive", "wrong", "steps", "truncated")
 EXECUTORS = ("serial", "process", "ray")
 
 
+def _backend_extras(metrics: Mapping[str, Any]) -> list[str]:
+    """The backend's own metrics among an agent's ``metrics`` of a :class:`StudyResult`
+    (its keys besides :data:`METRICS` and the task's :data:`~hri_bench.runner.TASK_METRICS`),
+    in their order.
+    """
+    return [k for k in metrics if k not in METRICS and k not in TASK_METRICS]
+
+
 def graph_for(scenario: str) -> TaskGraph:
     """The task graph of a scenario by name (built once per process)."""
     return scenario_graph(scenario)
@@ -220,6 +228,14 @@ class StudyConfig:
             if value is not None and not isinstance(value, str):
                 raise ConfigError(f"{name} must be None or {what}, got {value!r}", field=name)
 
+        def pairs(name: str, what: str) -> None:
+            value = getattr(self, name)
+            if not isinstance(value, tuple) or not all(
+                    isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
+                    for pair in value):
+                raise ConfigError(f"{name} must be (name, value) pairs of {what}, got "
+                                  f"{value!r}", field=name)
+
         choice("scenario", tuple(SCENARIOS))
         if not isinstance(self.agents, tuple | list) or not self.agents or not all(
                 isinstance(a, str) for a in self.agents):
@@ -269,12 +285,7 @@ class StudyConfig:
             probe.check(graph_for(self.scenario))
         validate_rationality(self.human_rationality)
         text("population", "a population's name or 'module:Class'")
-        if not isinstance(self.human_params, tuple) or not all(
-                isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
-                for pair in self.human_params):
-            raise ConfigError(f"human_params must be (name, value) pairs of a family's "
-                              f"parameters, e.g. (('k', 3),), got {self.human_params!r}",
-                              field="human_params")
+        pairs("human_params", "a family's parameters, e.g. (('k', 3),)")
         if self.human_params and self.population is None:
             raise ConfigError("human_params sets the parameters of a family named as the "
                               "population (e.g. --population impatient --human-param k=3); "
@@ -304,11 +315,7 @@ class StudyConfig:
                                   "leave it out with --population module:Class",
                                   field="agents")
         refuse_references(self)
-        if not isinstance(self.learner, tuple) or not all(
-                isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
-                for pair in self.learner):
-            raise ConfigError(f"learner must be (name, value) pairs of LearnerConfig fields, "
-                              f"e.g. (('beta', 0.9),), got {self.learner!r}", field="learner")
+        pairs("learner", "LearnerConfig fields, e.g. (('beta', 0.9),)")
         if self.learner:
             from agents.config import default_config
 
@@ -834,8 +841,7 @@ def summarize(result: StudyResult) -> dict[str, Any]:
             "overall": {"reward_mean": float(r.mean()), "reward_median": float(np.median(r)),
                         "truncation_rate": float(m["truncated"].mean()),
                         "truncated_episodes": int(m["truncated"].sum())},
-            **{k: {"mean": m[k].mean(0).tolist()} for k in m
-               if k not in METRICS and k not in TASK_METRICS},
+            **{k: {"mean": m[k].mean(0).tolist()} for k in _backend_extras(m)},
         }
         # Statistics (docs/benchmark.md): per episode and over all episodes, bootstrap
         # seeded by the study seed.
@@ -922,8 +928,7 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
                 paths.append(out / p.name)
     csv_path = out / "episodes.csv"
     prefs = result.humans if cfg.per_run_humans and result.humans else cfg.preference_of_run()
-    extras = [k for k in next(iter(result.metrics.values()), {})
-              if k not in METRICS and k not in TASK_METRICS]  # the task's: in the suite's
+    extras = _backend_extras(next(iter(result.metrics.values()), {}))  # the task's: in the suite's
     with atomic_writer(csv_path, newline="") as f:
         writer = csv.writer(f)
         writer.writerow(["agent", "run", "episode", "preference", "start", "goal", "turn_back",

@@ -316,13 +316,12 @@ def _ci(entry: Mapping[str, Any], stat: str = "iqm") -> str:
 SEES = {"oracle": " (sees ι)", "informed": " (ref., sees ι)"}
 
 
-def lead_section(doc: Mapping[str, Any], labels: Mapping[str, str] | None = None) -> str:
+def lead_section(doc: Mapping[str, Any]) -> str:
     """The leaderboard's lead: cross-track IQM [95 % stratified bootstrap CI], the seed
     spread, and the probability of improvement of every pair of agents.
     """
     aggregate = doc["aggregate"]
     block = aggregate["agents"]
-    labels = labels or {}
     order = sorted(block, key=lambda a: (-block[a]["iqm"], a))
     seeds = ", ".join(str(s) for s in doc["seeds"])
     lines = ["## Across tracks", "",
@@ -334,22 +333,22 @@ def lead_section(doc: Mapping[str, Any], labels: Mapping[str, str] | None = None
              "|---|---|---|---|---|---|"]
     for a in order:
         e = block[a]
-        lines.append(f"| `{labels.get(a, a)}`{SEES.get(a, '')} | {_ci(e)} | {_ci(e, 'mean')} | "
+        lines.append(f"| `{a}`{SEES.get(a, '')} | {_ci(e)} | {_ci(e, 'mean')} | "
                      f"{_fmt(e['seed_std'])} ({_fmt(e['seed_min'])}–{_fmt(e['seed_max'])}) | "
                      f"{len(e['tracks'])} | {e['runs']} |")
     partial = aggregate.get("partial") or {}
     if partial:
         lines += ["", "Not aggregated (no runs on every track; see the tracks' tables): "
-                  + "; ".join(f"`{labels.get(a, a)}` ({len(t)} track(s))"
+                  + "; ".join(f"`{a}` ({len(t)} track(s))"
                               for a, t in partial.items()) + "."]
     poi = aggregate["probability_of_improvement"]
     lines += ["", "Probability of improvement: row agent's run scores higher than column "
               "agent's on the same track (ties one half), averaged over tracks and seeds.", "",
-              "| P(row > column) | " + " | ".join(f"`{labels.get(a, a)}`" for a in order)
+              "| P(row > column) | " + " | ".join(f"`{a}`" for a in order)
               + " |", "|---|" + "---|" * len(order)]
     for a in order:
         cells = ["·" if a == b else _fmt(poi[a][b], 2) for b in order]
-        lines.append(f"| `{labels.get(a, a)}` | " + " | ".join(cells) + " |")
+        lines.append(f"| `{a}` | " + " | ".join(cells) + " |")
     return "\n".join([*lines, ""])
 
 
@@ -386,16 +385,14 @@ def task_section(doc: Mapping[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def profile_figure(doc: Mapping[str, Any], path: Path, labels: Mapping[str, str] | None = None
-                   ) -> Path:
+def profile_figure(doc: Mapping[str, Any], path: Path) -> Path:
     """The performance profiles (fraction of runs scoring above τ) as a figure."""
     from hri_bench import plots
 
     prof = doc["aggregate"]["profiles"]
-    labels = labels or {}
     fig, ax = plots.new_figure(figsize=(6.0, 3.6))
     for agent, ys in prof["fraction_above"].items():
-        ax.plot(prof["tau"], ys, label=labels.get(agent, plots.LABELS.get(agent, agent)),
+        ax.plot(prof["tau"], ys, label=plots.LABELS.get(agent, agent),
                 color=plots.COLORS.get(agent), linewidth=1.5)
     ax.set_xlabel("τ: run score (mean episode reward)")
     ax.set_ylabel("fraction of runs scoring > τ")
@@ -406,18 +403,16 @@ def profile_figure(doc: Mapping[str, Any], path: Path, labels: Mapping[str, str]
     return plots.save_figure(fig, path)
 
 
-def merge(docs: Mapping[str, Mapping[str, Any]]) -> tuple[dict[str, Any], dict[str, str]]:
+def merge(docs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     """Pool validated results files (by name) into one document's runs and aggregate.
 
     Built-in agents with the same code identity are one agent (their runs of different
     seeds pooled; the same seed's runs are taken once); other agents are named
     ``agent@file`` when two files name different code alike. Returns the merged document
-    (``runs``, ``seeds``, ``agents``, ``statistics``, ``aggregate``, ``threshold``) and
-    each merged agent's label.
+    (``runs``, ``seeds``, ``agents``, ``statistics``, ``aggregate``, ``threshold``).
     """
     runs: dict[str, dict[str, Any]] = {}
     agents: dict[str, Any] = {}
-    labels: dict[str, str] = {}
     for fname, doc in docs.items():
         rename: dict[str, str] = {}
         for agent, ident in doc["agents"].items():
@@ -426,7 +421,6 @@ def merge(docs: Mapping[str, Mapping[str, Any]]) -> tuple[dict[str, Any], dict[s
                 key = f"{agent}@{fname}"
             agents.setdefault(key, ident)
             rename[agent] = key
-            labels[key] = key
         for seed, by_track in doc["runs"].items():
             for track, block in by_track.items():
                 slot = runs.setdefault(seed, {}).setdefault(
@@ -439,7 +433,7 @@ def merge(docs: Mapping[str, Mapping[str, Any]]) -> tuple[dict[str, Any], dict[s
                               "tracks": tracks,
                               "agents": agents, "threshold": first["threshold"]}
     merged["statistics"], merged["aggregate"] = compute(merged)
-    return merged, labels
+    return merged
 
 
 def merged_leaderboard(files: Iterable[Path], out: Path) -> tuple[list[Path], list[str]]:
@@ -463,7 +457,7 @@ def merged_leaderboard(files: Iterable[Path], out: Path) -> tuple[list[Path], li
             valid[path.name] = doc
     if not valid:
         return [], refused
-    merged, labels = merge(valid)
+    merged = merge(valid)
     out.mkdir(parents=True, exist_ok=True)
     subs = []
     for fname, doc in valid.items():
@@ -474,19 +468,20 @@ def merged_leaderboard(files: Iterable[Path], out: Path) -> tuple[list[Path], li
     version = next(iter(valid.values()))["suite"]["version"]
     text = "\n".join([f"# hri-envs leaderboard (suite v{version})",
                       "", "Merged from validated results files (`hri-bench validate`):", "",
-                      *subs, "", lead_section(merged, labels), task_section(merged)])
+                      *subs, "", lead_section(merged), task_section(merged)])
     with atomic_writer(out / "leaderboard.md") as f:
         f.write(text + "\n")
-    fig = profile_figure(merged, out / "profiles.png", labels)
+    fig = profile_figure(merged, out / "profiles.png")
     return [out / "leaderboard.md", fig], refused
 
 
 class SuiteRecorder:
     """Collects a suite's per-run data track by track and writes its results file.
 
-    ``hri_bench.suite.run_suite`` calls :meth:`add` after each track's study and
-    :meth:`write` at the end; tracks outside the versioned suite (a population's own) are
-    left out of the results file (they cannot be validated against the suite).
+    ``hri_bench.suite.run_suite`` calls :meth:`add` after each track's study, then
+    :meth:`document` and :func:`write_results`; tracks outside the versioned suite (a
+    population's own) are left out of the results file (they cannot be validated against
+    the suite).
     """
 
     def __init__(self, seed: int, runs_scale: float, version: str) -> None:
@@ -533,10 +528,6 @@ class SuiteRecorder:
                      track_hashes=self.hashes, seeds=[self.seed], runs_scale=self.runs_scale,
                      agents=self.agents, tracks=self.tracks,
                      runs={str(self.seed): self.runs})
-
-    def write(self, out: Path, doc: Mapping[str, Any] | None) -> list[Path]:
-        """Write ``results.json`` and ``profiles.png`` into ``out``."""
-        return write_results(out, doc) if doc is not None else []
 
 
 def write_results(out: Path, doc: Mapping[str, Any]) -> list[Path]:

@@ -51,12 +51,12 @@ from typing import Any
 
 import numpy as np
 
-from hri_bench import provenance, stats
-from hri_bench.agents import BUILTIN_AGENTS, REFERENCE_AGENTS
+from hri_bench import metrics, provenance, stats
+from hri_bench.agents import BUILTIN_AGENTS, PLANNING_REFERENCES, REFERENCE_AGENTS
 from hri_bench.atomic import atomic_writer
 from hri_bench.regret import ALL_REFERENCES, REFERENCES, reference_summary
 from hri_bench.study import StudyConfig, StudyResult, regret_reference, run_study
-from hri_bench.submission import SuiteRecorder, lead_section, task_section
+from hri_bench.submission import SuiteRecorder, lead_section, task_section, write_results
 from hri_envs.errors import ConfigError
 from hri_envs.humans.splits import MIXTURES
 from hri_envs.task.scenarios import SCENARIOS, scenario_spec
@@ -73,6 +73,7 @@ __all__ = [
     "TRACKS",
     "TRACKS_V2",
     "Track",
+    "default_agents",
     "run_suite",
     "select_tracks",
     "track_config",
@@ -228,6 +229,13 @@ TRACKS_V2: dict[str, Track] = {t.name: t for t in _tracks_v2()}
 TRACKS_BY_VERSION: dict[str, dict[str, Track]] = {"1": TRACKS, "2": TRACKS_V2}
 
 
+def default_agents(version: str) -> tuple[str, ...]:
+    """The agents a version ranks by default (:data:`DEFAULT_AGENTS_V2`, v1
+    :data:`DEFAULT_AGENTS`).
+    """
+    return DEFAULT_AGENTS if version == "1" else DEFAULT_AGENTS_V2
+
+
 def check_version(version: Any) -> str:
     """``version`` if it is a suite version, else a :class:`ConfigError` (``suite_version``)."""
     if not isinstance(version, str) or version not in SUITE_VERSIONS:
@@ -304,22 +312,18 @@ def track_config(track: Track, agents: Sequence[str], *, runs_scale: float = 1.0
     (:func:`track_references`), ``track.runs × runs_scale`` runs (at least 2).
     """
     refs = track_references(track, version)
-    ranked = tuple(a for a in agents if a not in (*REFERENCE_AGENTS, "qmdp"))
+    ranked = tuple(a for a in agents if a not in PLANNING_REFERENCES)
     return StudyConfig(track.scenario, agents=ranked + tuple(refs),
                        runs=_runs(track, runs_scale), seed=seed, jobs=jobs,
                        executor=executor, **dict(track.settings))
 
 
-def _ci(x: np.ndarray, statistic: str, seed: int) -> list[float | None]:
-    return list(stats.bootstrap_ci(x, statistic, seed))
-
-
 def _summary(x: np.ndarray, seed: int) -> dict[str, Any]:
-    """Mean and IQM over runs of each run's episode mean, with 95 % CIs; per-episode means."""
-    per_run = x.mean(1)
+    """Mean and IQM over runs of each run's episode mean, with 95 % CIs
+    (:func:`hri_bench.metrics.summary` without the median); per-episode means.
+    """
     per_ep = stats.per_episode(x, seed, iqm_ci=False)
-    return {"mean": float(per_run.mean()), "ci95": _ci(per_run, "mean", seed),
-            "iqm": float(stats.iqm(per_run)), "iqm_ci95": _ci(per_run, "iqm", seed),
+    return {**metrics.summary(x.mean(1), seed, median=False),
             "per_episode": {"mean": per_ep["mean"], "ci95": per_ep["ci95"]}}
 
 
@@ -616,7 +620,7 @@ def run_suite(
                           field="runs_scale")
     version = check_version(version)
     if agents is None:
-        agents = DEFAULT_AGENTS if version == "1" else DEFAULT_AGENTS_V2
+        agents = default_agents(version)
     chosen = select_tracks(tracks, version) + [population_track(p, version)
                                                for p in populations]
     configs = [track_config(t, agents, runs_scale=runs_scale, seed=seed, jobs=jobs,
@@ -630,7 +634,7 @@ def run_suite(
                                "converged_threshold": CONVERGED,
                                "references": dict(REFERENCES), "tracks": {}}
     else:
-        ranked = [a for a in agents if a not in (*REFERENCE_AGENTS, "qmdp")]
+        ranked = [a for a in agents if a not in PLANNING_REFERENCES]
         doc = {"suite_version": version, "seed": seed, "runs_scale": runs_scale,
                "agents": ranked, "converged_threshold": CONVERGED,
                "references": dict(ALL_REFERENCES),
@@ -677,7 +681,8 @@ def run_suite(
                      + board[cut:])
     with atomic_writer(out / "leaderboard.md") as f:
         f.write(board + "\n")
-    recorder.write(out, results)
+    if results is not None:
+        write_results(out, results)
     with atomic_writer(out / "suite.json") as f:
         f.write(json.dumps(doc, indent=1, allow_nan=False) + "\n")
     log = {"suite_version": version, "jobs": jobs, "executor": executor,

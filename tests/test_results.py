@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from agents.protocol import Agent, BatchAgent, Batched, read_belief
+from agents.protocol import BatchAgent, Batched, read_belief
 from baselines import Passive
 from hri_bench import aggregate, metrics, provenance, submission
 from hri_bench.agents import contract_keywords, make_agent
@@ -117,6 +117,22 @@ def test_a_plain_agent_s_belief_reaches_the_batch():
 
     assert np.array_equal(read_belief(Batched([Sure(), Sure()]), 2), [[0, 1, 0], [0, 1, 0]])
     assert read_belief(Batched([AlwaysWait()])) is None
+
+
+@pytest.mark.parametrize("second", [[0.5, 0.6, 0.0], [0.5, 0.5]])
+def test_a_plain_agent_s_bad_belief_is_refused_once_stacked(second):
+    class Sure(AlwaysWait):
+        name = "sure"
+
+        def __init__(self, row):
+            self.row = row
+
+        def belief(self):
+            return np.array(self.row)
+
+    with pytest.raises(ConfigError, match="'sure'") as info:
+        read_belief(Batched([Sure([0.0, 1.0, 0.0]), Sure(second)]), 2)
+    assert info.value.field == "belief"
 
 
 # --------------------------------------------------------------------------- learning metrics
@@ -263,6 +279,15 @@ def test_validate_and_leaderboard_commands(suite_dir, tmp_path, capsys):
     assert "`ours.json`" in board and (tmp_path / "board" / "profiles.png").exists()
 
 
+def test_leaderboard_of_a_missing_folder_is_a_usage_error(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["leaderboard", str(tmp_path / "nowhere")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: hri-bench leaderboard")
+    assert f"error: argument dir: {tmp_path / 'nowhere'} is not a folder" in err
+
+
 def test_replay_is_byte_identical_and_warns_when_a_custom_agent_changed(suite_dir, tmp_path,
                                                                          capsys, monkeypatch):
     again = tmp_path / "again"
@@ -338,7 +363,6 @@ def test_old_signatures_keep_working_and_kwargs_get_everything():
             self.rngs, self.runs = rngs, runs
 
     assert contract_keywords(OldBatch) == () and contract_keywords(NewBatch) == ("runs", "rngs")
-    assert issubclass(NewBatch, BatchAgent) and not issubclass(NewBatch, Agent)
 
 
 def test_a_study_records_a_custom_agent_s_code_and_its_replay_warns(tmp_path, capsys):
@@ -356,3 +380,34 @@ def test_a_study_records_a_custom_agent_s_code_and_its_replay_warns(tmp_path, ca
     assert f"warning: agent '{spec}': its source files' hash differs" in capsys.readouterr().err
     assert (tmp_path / "again" / "episodes.csv").read_bytes() == (
         out / "episodes.csv").read_bytes()
+
+
+def test_a_study_replay_reads_its_config_once_within_the_limit(tmp_path, capsys, monkeypatch):
+    """The code-change warning comes from the document --config was read into (at most
+    cli.MAX_CONFIG_BYTES), not from reading the file a second time without the limit."""
+    import builtins
+    import io
+
+    spec = "tests.helpers_agents:RandomMover"
+    out = tmp_path / "study"
+    assert main(["study", "hanger", "--runs", "2", "--episodes", "1", "--agents", spec,
+                 "--no-progress", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    summary["agent_configs"][spec]["code_sha256"] = "f" * 64
+    config = tmp_path / "edited.json"
+    config.write_text(json.dumps(summary))
+    opened = []
+    real_open = io.open
+
+    def counting_open(file, *args, **kwargs):
+        if str(file) == str(config):
+            opened.append(args[0] if args else kwargs.get("mode", "r"))
+        return real_open(file, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", counting_open)
+    monkeypatch.setattr(io, "open", counting_open)  # what pathlib's read_bytes calls
+    capsys.readouterr()
+    assert main(["study", "--config", str(config), "--no-progress", "--out",
+                 str(tmp_path / "again")]) == 0
+    assert f"warning: agent '{spec}': its source files' hash differs" in capsys.readouterr().err
+    assert opened == ["rb"]

@@ -49,6 +49,14 @@ def test_probability_of_improvement_hand_computed() -> None:
     assert table["a"]["b"] + table["b"]["a"] == pytest.approx(1.0)
 
 
+def test_improvement_pair_equals_both_directions_to_the_bit() -> None:
+    # Seed 6: ties, and 1 - P(X > Y) differs from P(Y > X) in the last bit.
+    rng = np.random.default_rng(6)
+    x, y = rng.integers(0, 4, (7, 5)).astype(float), rng.integers(0, 4, (5, 5)).astype(float)
+    assert stats.improvement_pair(x, y) == (stats.probability_of_improvement(x, y),
+                                            stats.probability_of_improvement(y, x))
+
+
 def test_summary_reports_iqm_and_cis() -> None:
     res = run_study(StudyConfig("hanger", agents=("learner", "passive"), runs=8, episodes=3))
     s = summarize(res)

@@ -180,7 +180,11 @@ def test_a_second_study_on_the_same_out_is_refused(tmp_path, monkeypatch):
     gate.touch()
     resumed = _cli([*study, "--resume"])
     assert resumed.wait(timeout=120) == 0, resumed.stderr.read()
-    assert json.loads((out / "summary.json").read_text())["runs"] == 2
+    # The resumed study wrote what the same study run without interruption writes.
+    uninterrupted = tmp_path / "uninterrupted"
+    assert main([*study[:-1], str(uninterrupted)]) == 0
+    for name in ("summary.json", "episodes.csv"):
+        assert (out / name).read_bytes() == (uninterrupted / name).read_bytes(), name
     assert not (out / ".lock").exists()
 
 

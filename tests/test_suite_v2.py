@@ -31,7 +31,7 @@ def tiny2(tmp_path_factory):
     return out, run_suite(out, runs_scale=0.05)
 
 
-def test_v2_is_the_default_with_the_test_split_as_headline(tmp_path):
+def test_v2_is_the_default_with_the_test_split_as_headline(tmp_path, monkeypatch):
     assert suite.LATEST == "2"
     headline = [t.name for t in TRACKS_V2.values() if t.headline]
     assert headline == ["hanger-test", "wheel-test"]
@@ -39,12 +39,21 @@ def test_v2_is_the_default_with_the_test_split_as_headline(tmp_path):
         for part in ("misspecified", "adaptive", "inconsistent"):
             assert f"{sc}-test-{part}" in TRACKS_V2
     assert set(TRACKS_V2) == set(PILOT_SD)
-    # The CLI's default suite is v2, with the goal filter among its agents.
+    # The CLI's default suite is v2, and it ranks the goal filter (what run_suite is given).
     from hri_bench.cli import build_parser
 
     args = build_parser().parse_args(["suite", "--out", str(tmp_path)])
     assert args.suite_version == "2"
-    assert "goalfilter" in DEFAULT_AGENTS_V2
+    given = {}
+
+    def record(out, **kwargs):
+        given.update(kwargs)
+        raise AssertionError("recorded")
+
+    monkeypatch.setattr(suite, "run_suite", record)
+    with pytest.raises(AssertionError, match="recorded"):
+        main(["suite", "--out", str(tmp_path / "s"), "--no-progress"])
+    assert given["version"] == "2" and "goalfilter" in given["agents"]
     # Every v2 track has an upper bound (informed), and blind or the bracket's lower end.
     for track in TRACKS_V2.values():
         agents = track_config(track, DEFAULT_AGENTS_V2).agents
@@ -73,6 +82,7 @@ def test_run_counts_come_from_the_power_analysis():
 def test_every_track_reports_each_agents_gap_to_its_reference(tiny2):
     out, doc = tiny2
     assert json.loads((out / "suite.json").read_text()) == doc
+    results = json.loads((out / "results.json").read_text())
     assert doc["suite_version"] == "2" and list(doc["tracks"]) == list(TRACKS_V2)
     board = (out / "leaderboard.md").read_text()
     for name, tr in doc["tracks"].items():
@@ -93,8 +103,17 @@ def test_every_track_reports_each_agents_gap_to_its_reference(tiny2):
                 gap = a[key]
                 lo, hi = gap["ci95"]
                 assert lo <= gap["mean"] + 1e-9 <= hi + 2e-9, (name, agent, key)
-        assert tr["agents"]["informed"]["gap_to_upper"]["mean"] == 0.0
-        assert tr["power"]["runs"] == tr["runs"]
+            # Paired gaps of run means: the bound's mean reward minus the agent's.
+            for key, bound in (("gap_to_upper", "upper_reward"), ("gap_to_lower",
+                                                                   "lower_reward")):
+                assert a[key]["mean"] == pytest.approx(
+                    ref[bound] - a["reward"]["mean"], abs=1e-9), (name, agent, key)
+        # The runs reported are the runs simulated (results.json's per-run rows), 5 % of
+        # the track's, and the power block's detectable difference is for those runs.
+        assert len(results["runs"]["0"][name]["agents"]["informed"]["reward"]) == tr["runs"]
+        assert tr["runs"] == max(2, round(TRACKS_V2[name].runs * 0.05))
+        assert tr["power"]["detectable"] == round(
+            stats.detectable_difference(PILOT_SD[name], tr["runs"]), 4)
         # The leaderboard labels the reference and shows every ranked agent's gap.
         line = next(x for x in board.splitlines() if x.startswith(f"| {name} |")
                     or x.startswith(f"| **{name}** |"))
