@@ -40,7 +40,8 @@ def device_name() -> str:
 
 
 def jax_env_steps_per_s(num_envs: int = 65_536, scenario: str = "hanger", steps: int = 200,
-                        repeats: int = 3, seed: int = 0) -> JaxSpeedResult:
+                        repeats: int = 3, seed: int = 0,
+                        population: str | None = None) -> JaxSpeedResult:
     """Env steps per second (num_envs × steps) of :meth:`JaxRobotEnv.step_batch` under jit.
 
     Args:
@@ -49,8 +50,10 @@ def jax_env_steps_per_s(num_envs: int = 65_536, scenario: str = "hanger", steps:
         steps: Batched steps per timed call (one ``lax.scan``).
         repeats: Timed calls; the fastest counts.
         seed: Seed of the action table and of the env's key.
+        population: The humans to draw from (:class:`JaxRobotEnv`'s ``population``; None:
+            the scenario's default scripted human, the published figure's workload).
     """
-    env = JaxRobotEnv(scenario)
+    env = JaxRobotEnv(scenario, population=population)
     params = env.default_params
     rng = np.random.default_rng(seed)
     n_s = scenario_graph(scenario).n_states
