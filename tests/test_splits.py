@@ -11,10 +11,13 @@ import pytest
 from hri_bench.study import StudyConfig, run_study, summarize
 from hri_envs.envs.vector import RobotVectorEnv
 from hri_envs.errors import ConfigError
-from hri_envs.humans.families import FAMILIES
+from hri_envs.humans.families import FAMILIES, GROUPS
 from hri_envs.humans.splits import (
+    ALL_PREFERENCES,
     MIXTURES,
+    Component,
     MixtureHumans,
+    MixtureSpec,
     population,
     population_hash,
     population_seat,
@@ -54,8 +57,41 @@ FROZEN = {
 }
 
 
+#: Split version 2 (suite v3's humans), frozen likewise.
+FROZEN_V2 = {
+    ("validation-v2", "hanger"):
+        "0150f4654bb3a67a26c0f55c3a91e1ece7dd2767c0943ad93d8f48fe17dc7c12",
+    ("test-v2", "hanger"):
+        "46eedc75fed7d6a013eecf37c2315fb25e1c89e7699be20a4feeb84e2a923c05",
+    ("test-v2-scripted", "hanger"):
+        "abde116e4b31181f98d4b7e42d2872d12e782ea2b00a53e3551c0d6a3c77a25f",
+    ("test-v2-misspecified", "hanger"):
+        "5d50f0689ba48a4c16b99bbad23693cf9c21de2bbad133521740265555fd78e6",
+    ("test-v2-adaptive", "hanger"):
+        "aa3fe094c6d3edeadab0d4081c7024c7c1d545b4961bae3d73b963ebb09ed508",
+    ("test-v2-inconsistent", "hanger"):
+        "55c36bce834e78c507fe8476652e80672ae887d7fd4af1af0e8dbacb4df299da",
+    ("validation-v2", "wheel"):
+        "68461fbc374778db1b4b5cceb9d00732fa0b4482622a56c2e688775e7c43226a",
+    ("test-v2", "wheel"):
+        "41f5f67394514f8d85fa7118b367c3d788073df35216092b3b607a9e23137e00",
+    ("test-v2-scripted", "wheel"):
+        "496b6f0f41edd63cceb1c15870a80eda8cc06980ab9592bbf46bd39aa073bc44",
+    ("test-v2-misspecified", "wheel"):
+        "72bdd362da2de3cd0982d80bcb39684383d46470ceb3694d808de1d2626619dc",
+    ("test-v2-adaptive", "wheel"):
+        "d65ebb2ec9345d3ca1d879831f773e97c6adcafc9f0d113be7dea1fade98c873",
+    ("test-v2-inconsistent", "wheel"):
+        "3c95560ac052447c51fa5e59c9a40b779bf8e6331892d3b477999afbb96d8802",
+}
+
+
 def test_every_split_is_frozen_under_its_hash():
-    assert {key: spec.content_hash() for key, spec in MIXTURES.items()} == FROZEN
+    hashes = {key: spec.content_hash() for key, spec in MIXTURES.items()}
+    assert {k: h for k, h in hashes.items() if k in FROZEN} == FROZEN
+    assert {k: h for k, h in hashes.items() if k in FROZEN_V2} == FROZEN_V2
+    assert set(hashes) - set(FROZEN) - set(FROZEN_V2) == {
+        (f"validation-v2-{g}", sc) for g in GROUPS for sc in ("hanger", "wheel")}
     spec = MIXTURES[("test", "wheel")]
     for change in ({"generator_seed": 1}, {"members": 63}, {"version": "2"}):
         assert dataclasses.replace(spec, **change).content_hash() != FROZEN[("test", "wheel")]
@@ -80,6 +116,34 @@ def test_the_test_split_holds_families_absent_from_train(scenario):
     assert sum(p.size for p in parts) == test.size == 64
     assert sorted(d.label() for p in parts for d in p.member_draws) == sorted(
         d.label() for d in test.member_draws)
+
+
+@pytest.mark.parametrize("scenario", ["hanger", "wheel"])
+def test_test_v2_holds_no_train_or_validation_human_and_enough_different_ones(scenario):
+    """Suite v3's humans: compared by content (each member's model fingerprint)."""
+    def models(name):
+        return MIXTURES[(name, scenario)].fingerprints()
+
+    tuning = {*models("train"), *models("validation"), *models("validation-v2")}
+    test = models("test-v2")
+    assert not tuning & set(test)
+    assert len(set(test)) == len(test) == 160
+    assert not set(models("validation-v2")) & {*models("train"), *models("validation")}
+    parts = [models(f"test-v2-{g}") for g in GROUPS]
+    assert all(len(set(p)) >= 32 for p in parts)
+    assert sorted(f for p in parts for f in p) == sorted(test)  # the groups partition it
+
+
+def test_a_distinct_split_draws_again_and_refuses_what_it_cannot_fill():
+    train = MIXTURES[("train", "wheel")]
+    # The wheel's deterministic preference humans are all train members: none is left.
+    spec = MixtureSpec("x", "wheel", "2", "", 2, 0, (Component("preference", 1.0, (
+        ("preference", (ALL_PREFERENCES,)),)),), distinct=True, exclude=("train",))
+    with pytest.raises(ConfigError, match="gave 0 different humans"):
+        spec.member_draws  # noqa: B018
+    twice = dataclasses.replace(spec, exclude=())
+    assert len(set(twice.fingerprints())) == 2  # both preferences, each once
+    assert set(twice.fingerprints()) <= set(train.fingerprints())
 
 
 def test_a_studys_runs_meet_the_members_in_balanced_blocks():

@@ -69,7 +69,9 @@ __all__ = [
     "Component",
     "MixtureHumans",
     "MixtureSpec",
+    "SPLITS_V2",
     "family_population",
+    "member_fingerprint",
     "draw_human",
     "population",
     "population_hash",
@@ -119,6 +121,10 @@ class MixtureSpec:
         held_out: An evaluation set: never used to tune defaults.
         group: Keep only the members of this family group (a view of a split: the same
             draws, filtered), or None for all.
+        distinct: Every member is a different human: a draw whose model
+            (:func:`member_fingerprint`) equals an earlier member's, or a member's of a
+            split named in ``exclude``, is drawn again (split version 2).
+        exclude: Splits (names, same scenario) whose humans this one must not hold.
     """
 
     name: str
@@ -130,6 +136,8 @@ class MixtureSpec:
     components: tuple[Component, ...]
     held_out: bool = False
     group: str | None = None
+    distinct: bool = False
+    exclude: tuple[str, ...] = ()
 
     @property
     def scenarios(self) -> tuple[str, ...]:
@@ -143,22 +151,59 @@ class MixtureSpec:
 
     @cached_property
     def member_draws(self) -> tuple[HumanDraw, ...]:
-        """The members, as draws (a family and its parameters), in list order."""
+        """The members, as draws (a family and its parameters), in list order.
+
+        Raises:
+            ConfigError: A ``distinct`` split whose component cannot give as many different
+                humans as it is allotted (its choices allow too few models).
+        """
         graph = scenario_graph(self.scenario)
         rng = np.random.default_rng(self.generator_seed)
+        taken = self._excluded_fingerprints() if self.distinct else None
         out = []
         for comp, count in zip(self.components, _allocate(self.components, self.members),
                                strict=True):
-            for _ in range(count):
+            tries = 0
+            got = 0
+            while got < count:
                 params = []
                 for name, values in comp.choices:
                     options = _expand(graph, values)
                     params.append((name, options[int(rng.integers(len(options)))]))
-                out.append(HumanDraw(None, family=comp.family, params=tuple(params)))
+                draw = HumanDraw(None, family=comp.family, params=tuple(params))
+                if taken is not None:
+                    tries += 1
+                    if tries > _MAX_TRIES * count:
+                        raise ConfigError(
+                            f"split {self.name!r} ({self.scenario}): the {comp.family} "
+                            f"component gave {got} different humans in {tries - 1} draws, "
+                            f"it is allotted {count}: widen its choices", field="population")
+                    fingerprint = member_fingerprint(graph, draw)
+                    if fingerprint in taken:
+                        continue
+                    taken.add(fingerprint)
+                out.append(draw)
+                got += 1
         if self.group is not None:
             out = [d for d in out if d.family is not None
                    and FAMILIES[d.family].group == self.group]
         return tuple(out)
+
+    def _excluded_fingerprints(self) -> set[str]:
+        """The models of the members of the splits in :attr:`exclude` (same scenario)."""
+        graph = scenario_graph(self.scenario)
+        out: set[str] = set()
+        for name in self.exclude:
+            out |= {member_fingerprint(graph, d)
+                    for d in MIXTURES[(name, self.scenario)].member_draws}
+        return out
+
+    def fingerprints(self) -> tuple[str, ...]:
+        """Each member's model fingerprint (:func:`member_fingerprint`), in list order: the
+        content hash of the human itself (two members with one fingerprint act alike).
+        """
+        graph = scenario_graph(self.scenario)
+        return tuple(member_fingerprint(graph, d) for d in self.member_draws)
 
     def draw(self, scenario: str, seed: int, run: int) -> HumanDraw:
         """Run ``run``'s member, balanced: runs ``b·size .. (b+1)·size - 1`` meet every member
@@ -187,10 +232,25 @@ class MixtureSpec:
         field but the description, the seeding of the runs, and the member list).
         """
         spec = {k: v for k, v in dataclasses.asdict(self).items() if k != "description"}
+        for k, default in (("distinct", False), ("exclude", ())):  # version 1: as it was
+            if spec[k] == default:
+                del spec[k]
         doc = {"kind": "mixture", "spec": _jsonable(spec),
                "seeding": SEEDING,
                "members": [[d.family, _jsonable(list(d.params))] for d in self.member_draws]}
         return _sha256(doc)
+
+
+#: A distinct split draws a component's members again at most this many times per member.
+_MAX_TRIES = 200
+
+
+def member_fingerprint(graph: TaskGraph, draw: HumanDraw) -> str:
+    """The content hash of one human: its model's tables
+    (:attr:`~hri_envs.humans.finite_state.FiniteStateHuman.fingerprint`), so two draws with
+    different parameters that act alike have one fingerprint.
+    """
+    return as_model(build_human(graph, draw)).fingerprint
 
 
 def _allocate(components: Sequence[Component], members: int) -> list[int]:
@@ -259,6 +319,54 @@ _INCONSISTENT = (
 )
 
 
+def _grid(low: float, high: float, n: int, *, log: bool = False) -> tuple[float, ...]:
+    """``n`` values from ``low`` to ``high`` (geometric with ``log``), rounded to 3 decimals."""
+    values = np.geomspace(low, high, n) if log else np.linspace(low, high, n)
+    return tuple(float(v) for v in np.round(values, 3))
+
+
+def _counted(components: Sequence[tuple[str, int, tuple[tuple[str, tuple[Any, ...]], ...]]]
+             ) -> tuple[Component, ...]:
+    """Components whose weights are their member counts (the allocation is then exact)."""
+    return tuple(Component(family, float(count), choices) for family, count, choices in components)
+
+
+# Split version 2 (suite v3): every member a different human (by its model), none of them a
+# train or validation member's, continuous parameters on fine grids so that the wheel's two
+# preferences still give enough different humans; each group its own exact share.
+_W = ("w", _grid(0.2, 40.0, 60, log=True))
+
+
+def _v2_groups(scale: int) -> dict[str, tuple[Component, ...]]:
+    """The components of a version-2 split per group: ``20 · scale`` members each."""
+    def n(count: int) -> int:
+        return count * scale
+
+    return {
+        "scripted": _counted((
+            ("preference", n(10), (_PREFS, ("passive", _grid(0.05, 0.4, 36)))),
+            ("preference", n(10), (_PREFS, ("rationality", _grid(3.0, 40.0, 40, log=True)))),
+        )),
+        "misspecified": _counted((
+            ("low", n(2), (_W, _PREFS)),
+            ("avoid", n(9), (("support", (ALL_SUPPORTS,)), ("w", _W[1][::4]),
+                             ("sigma", (0.15, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0)), _PREFS)),
+            ("rotate-low", n(3), (_W, _PREFS)),
+            ("impatient", n(6), (("k", tuple(range(1, 16))), _PREFS)),
+        )),
+        "adaptive": _counted((
+            ("follower", n(5), (("k", tuple(range(1, 11))), _PREFS)),
+            ("trust", n(8), (("passive", _grid(0.3, 0.9, 25)), ("fall", (1, 2, 3)), _PREFS)),
+            ("wary", n(7), (("levels", tuple(range(2, 11))), ("forgive", (0, 1)), _PREFS)),
+        )),
+        "inconsistent": _counted((
+            ("fickle", n(10), (("hazard", _grid(0.05, 0.3, 26)), ("changes", (1, 2, 3)),
+                               _PREFS)),
+            ("moody", n(10), (("p", _grid(0.1, 0.5, 81)),)),
+        )),
+    }
+
+
 def _scaled(components: Sequence[Component], share: float) -> tuple[Component, ...]:
     total = sum(c.weight for c in components)
     return tuple(dataclasses.replace(c, weight=share * c.weight / total) for c in components)
@@ -286,6 +394,38 @@ def _mixtures() -> dict[tuple[str, str], MixtureSpec]:
             f"({', '.join(f.name for f in FAMILIES.values() if f.group == group)})",
             group=group) for group in GROUPS)
         out.update({(m.name, sc): m for m in specs + views})
+        out.update(_mixtures_v2(sc, i))
+    return out
+
+
+#: The version-2 splits (suite v3): ``validation-v2`` and ``test-v2`` and their groups.
+SPLITS_V2: tuple[str, ...] = ("validation-v2", "test-v2")
+
+
+def _mixtures_v2(sc: str, i: int) -> dict[tuple[str, str], MixtureSpec]:
+    """Split version 2 of one scenario: a validation split with the test split's families
+    (other humans: it is where suite v3's power pilot runs) and a test split of 40 different
+    humans per group (160), each group a track of suite v3 of its own; neither holds a human
+    of ``train`` or ``validation`` (nor the test one of ``validation-v2``).
+    """
+    out: dict[tuple[str, str], MixtureSpec] = {}
+    previous: tuple[str, ...] = ("train", "validation")
+    for name, scale, seed, held_out, text in (
+            ("validation-v2", 1, 2100 + i, False, "validation split v2: the test split's "
+             "families (scripted, misspecified, adaptive, inconsistent), 20 other humans each"),
+            ("test-v2", 2, 3100 + i, True, "TEST split v2 (suite v3's evaluation set): 40 "
+             "different humans of each group, none of them a train or validation human")):
+        groups = _v2_groups(scale)
+        whole = MixtureSpec(name, sc, "2", text, sum(int(c.weight) for g in groups.values()
+                                                     for c in g),
+                            seed, tuple(c for g in groups.values() for c in g),
+                            held_out=held_out, distinct=True, exclude=previous)
+        out[(name, sc)] = whole
+        for group in GROUPS:
+            out[(f"{name}-{group}", sc)] = dataclasses.replace(
+                whole, name=f"{name}-{group}", group=group,
+                description=f"the {name} split's {group} humans")
+        previous = (*previous, name)
     return out
 
 
