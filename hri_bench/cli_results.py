@@ -33,6 +33,13 @@ def add_parsers(sub: Any) -> None:
                          "hashes, and recompute every statistic from its per-run data. Exit "
                          "0 when valid, 1 with one line per problem otherwise.")
     val.add_argument("file", type=Path, help="results.json (or .json.gz)")
+    val.add_argument("--replay", type=_whole, default=0, metavar="K",
+                     help="also re-simulate K randomly chosen runs of every agent whose code "
+                          "is installed here (built-in agents of this hri-envs version, "
+                          "module:Class with the recorded source hash) and require the "
+                          "recorded values exactly (default 0: no replay)")
+    val.add_argument("--replay-seed", type=_whole, default=None, metavar="S",
+                     help="seed of the runs --replay picks (default: a fresh one, printed)")
     val.set_defaults(command_parser=val)
     lb = sub.add_parser("leaderboard", help="merge validated results files into a leaderboard",
                         description="Validate every results file in DIR (*.json, *.json.gz), "
@@ -40,6 +47,16 @@ def add_parsers(sub: Any) -> None:
     lb.add_argument("dir", type=Path, help="folder of results files")
     lb.add_argument("--out", type=Path, default=None, help="output folder (default: DIR)")
     lb.set_defaults(command_parser=lb)
+
+
+def _whole(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
+    return value
 
 
 def add_suite_flags(suite: argparse.ArgumentParser) -> None:
@@ -178,13 +195,16 @@ def warn_code_changes(recorded: Any, agents: Any) -> None:
         print(f"hri-bench study: warning: {line}", file=sys.stderr)
 
 
-def validate(path: Path) -> int:
-    """``hri-bench validate FILE``: 0 when valid; 1 with one line per problem."""
+def validate(path: Path, replay: int = 0, replay_seed: int | None = None) -> int:
+    """``hri-bench validate FILE [--replay K]``: 0 when valid (and every replayed run
+    identical); 1 with one line per problem.
+    """
     from hri_bench.submission import load
     from hri_bench.submission import validate as check
 
     try:
-        problems = check(load(path))
+        doc = load(path)
+        problems = check(doc)
     except ConfigError as exc:
         print(f"hri-bench validate: {exc}", file=sys.stderr)
         return 1
@@ -194,6 +214,23 @@ def validate(path: Path) -> int:
             print(f"  {line}", file=sys.stderr)
         return 1
     print(f"{path}: valid (schema, suite version and hashes, every statistic recomputed)")
+    if replay:
+        import secrets
+
+        from hri_bench.audit import replay as rerun
+
+        seed = secrets.randbelow(2**31) if replay_seed is None else replay_seed
+        checked, bad, skipped = rerun(doc, replay, seed, progress=sys.stderr.isatty())
+        for agent, why in skipped.items():
+            print(f"  not replayed: agent {agent!r}: {why}")
+        if bad:
+            print(f"{path}: REPLAY FAILED ({len(bad)} of {len(checked)} run(s) differ; "
+                  f"--replay-seed {seed}):", file=sys.stderr)
+            for line in bad:
+                print(f"  {line}", file=sys.stderr)
+            return 1
+        print(f"{path}: {len(checked)} replayed run(s) identical (--replay {replay} "
+              f"--replay-seed {seed})")
     return 0
 
 
@@ -221,5 +258,5 @@ def leaderboard(folder: Path, out: Path | None, parser: argparse.ArgumentParser)
 def run(args: argparse.Namespace) -> int:
     """Dispatch ``validate`` and ``leaderboard``."""
     if args.command == "validate":
-        return validate(args.file)
+        return validate(args.file, args.replay, args.replay_seed)
     return leaderboard(args.dir, args.out, args.command_parser)

@@ -80,6 +80,7 @@ __all__ = [
     "graph_for",
     "regret_reference",
     "run_study",
+    "simulate_runs",
     "summarize",
     "write_outputs",
 ]
@@ -577,6 +578,27 @@ def _run_unit(unit: _Unit) -> UnitResult:
     return metrics, probes, sched, labels
 
 
+def simulate_runs(cfg: StudyConfig, agent: str, runs: Sequence[int]
+                  ) -> dict[str, np.ndarray]:
+    """The metrics of ``runs`` of ``agent`` alone, as :func:`run_study` would give them for
+    those rows (every draw of run ``r`` comes from ``(seed, r)``, so a run simulated on its
+    own is the run of the whole study): ``hri-bench validate --replay`` re-simulates a
+    results file's runs with it.
+    """
+    prefs = cfg.preference_of_run()
+    out: dict[str, np.ndarray] = {}
+    rows = [int(r) for r in runs]
+    groups: dict[str, list[int]] = {}
+    for r in rows:
+        groups.setdefault("" if cfg.population else prefs[r], []).append(r)
+    for pref, members in groups.items():
+        metrics = _run_unit(_Unit(cfg, agent, pref, tuple(members)))[0]
+        for k, v in metrics.items():
+            out.setdefault(k, np.zeros((len(rows),) + v.shape[1:]))[
+                [rows.index(r) for r in members]] = v
+    return out
+
+
 def _run_unit_caught(unit: _Unit) -> UnitResult | UnitFailure:
     """:func:`_run_unit`, returning an agent's exception instead of raising it.
 
@@ -749,6 +771,8 @@ def run_study(
     """
     units = _units(cfg)
     done = dict(done or {})
+    if cfg.mixture_population:  # its members once, here: forked workers inherit them
+        population(cfg.population, cfg.scenario, dict(cfg.human_params)).member_draws  # noqa: B018
     n_e, n_p = cfg.n_episodes, len(cfg.probes)
     keys = METRICS + batch_backend(cfg.backend).extras + TASK_METRICS
     metrics = {a: {k: np.zeros((cfg.runs, n_e)) for k in keys} for a in cfg.agents}

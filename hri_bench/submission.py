@@ -11,6 +11,7 @@ one leaderboard.
 
 from __future__ import annotations
 
+import dataclasses
 import gzip
 import json
 import math
@@ -21,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from hri_bench import aggregate as agg
-from hri_bench import metrics, provenance
+from hri_bench import metrics, provenance, results_v3
 from hri_bench.runner import TASK_METRICS
 from hri_envs.errors import ConfigError
 
@@ -47,23 +48,35 @@ def _round(x: np.ndarray) -> list[Any]:
     return np.round(np.asarray(x, dtype=float), DECIMALS).tolist()
 
 
-def track_runs(result: Any, blind: np.ndarray | None) -> dict[str, Any]:
+def track_runs(result: Any, blind: np.ndarray | None,
+               humans: Sequence[int] | None = None) -> dict[str, Any]:
     """The per-run block of one track of one seed, from a :class:`StudyResult`.
 
     ``reward`` and ``truncated`` per (run, episode); the task metrics
     (:data:`~hri_bench.runner.TASK_METRICS`) as each run's mean over its episodes (the
-    belief ones only for agents exposing a belief); ``blind`` per (run, episode) or None.
+    belief ones only for agents exposing a belief); ``blind`` per (run, episode) or None;
+    with ``humans`` (suite v3) each run's human (:func:`hri_bench.results_v3.run_humans`).
     """
-    agents: dict[str, Any] = {}
-    for name, m in result.metrics.items():
-        entry: dict[str, Any] = {"reward": _round(m["reward"]),
-                                 "truncated": np.asarray(m["truncated"], dtype=int).tolist()}
-        for k in TASK_METRICS:
-            x = np.asarray(m.get(k, np.full(m["reward"].shape, np.nan)), dtype=float)
-            if not np.all(np.isnan(x)):
-                entry[k] = _round(x.mean(1))
-        agents[name] = entry
-    return {"blind": None if blind is None else _round(blind), "agents": agents}
+    agents = {name: round_runs(m) for name, m in result.metrics.items()}
+    block: dict[str, Any] = {"blind": None if blind is None else _round(blind)}
+    if humans is not None:
+        block["humans"] = [int(h) for h in humans]
+    block["agents"] = agents
+    return block
+
+
+def round_runs(m: Mapping[str, np.ndarray]) -> dict[str, Any]:
+    """One agent's per-run records as a results file holds them: ``reward`` rounded to
+    :data:`DECIMALS`, ``truncated`` as 0/1, the task metrics as each run's mean over its
+    episodes, rounded (left out where all NaN: an agent without a belief).
+    """
+    entry: dict[str, Any] = {"reward": _round(m["reward"]),
+                             "truncated": np.asarray(m["truncated"], dtype=int).tolist()}
+    for k in TASK_METRICS:
+        x = np.asarray(m.get(k, np.full(m["reward"].shape, np.nan)), dtype=float)
+        if not np.all(np.isnan(x)):
+            entry[k] = _round(x.mean(1))
+    return entry
 
 
 def _arrays(entry: Mapping[str, Any]) -> dict[str, np.ndarray]:
@@ -75,8 +88,11 @@ def compute(doc: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
 
     ``statistics[seed][track][agent]`` is :func:`hri_bench.metrics.agent_metrics` with the
     bootstrap seeded by the suite seed; ``aggregate`` is :func:`hri_bench.aggregate.
-    aggregate` of the run scores over every seed, seeded by the first seed.
+    aggregate` of the run scores over every seed, seeded by the first seed. A suite v3
+    document (``schema_version`` "2") has its own: :func:`hri_bench.results_v3.compute`.
     """
+    if doc.get("schema_version") == results_v3.SCHEMA_VERSION:
+        return results_v3.compute(doc)
     threshold = float(doc["threshold"])
     tracks = doc.get("tracks", {})
     statistics: dict[str, Any] = {}
@@ -117,7 +133,7 @@ def build(*, suite_version: str, suite_hash: str, track_hashes: Mapping[str, str
         threshold: :data:`hri_bench.metrics.LEARNED`.
     """
     doc: dict[str, Any] = {
-        "format": FORMAT, "schema_version": SCHEMA_VERSION,
+        "format": FORMAT, "schema_version": schema_version(suite_version),
         "suite": {"version": suite_version, "hash": suite_hash, "tracks": dict(track_hashes)},
         "submission": {"name": None, "lab": None, "contact": None, "url": None,
                        "notes": None},
@@ -129,6 +145,13 @@ def build(*, suite_version: str, suite_hash: str, track_hashes: Mapping[str, str
     }
     doc["statistics"], doc["aggregate"] = compute(doc)
     return doc
+
+
+def schema_version(suite_version: str) -> str:
+    """The results file's layout for a suite version: "1" (v1, v2), "2" (v3: the humans
+    each run met, :mod:`hri_bench.results_v3`).
+    """
+    return SCHEMA_VERSION if suite_version in ("1", "2") else results_v3.SCHEMA_VERSION
 
 
 def load(path: str | Path) -> Any:
@@ -207,12 +230,25 @@ def _suite_errors(doc: Mapping[str, Any]) -> list[str]:
             if key not in ("seed", "agents") and tr["settings"].get(key) != value:
                 errors.append(f"tracks.{name}.settings.{key} is {tr['settings'].get(key)!r}; "
                               f"the track's is {value!r}")
+        v3 = doc["schema_version"] == results_v3.SCHEMA_VERSION
+        if v3 and tr.get("members") != json.loads(json.dumps(results_v3.members(cfg))):
+            errors.append(f"tracks.{name}.members: not the humans of the track's population")
+        if v3 and tr.get("headline") != getattr(TRACKS[name], "headline", False):
+            errors.append(f"tracks.{name}.headline is {tr.get('headline')!r}; the track's is "
+                          f"{getattr(TRACKS[name], 'headline', False)!r}")
         for seed in doc["runs"]:
             block = doc["runs"][seed].get(name)
             if block is None:
                 errors.append(f"runs.{seed}: track {name!r} is missing")
                 continue
-            errors += _shape_errors(f"runs.{seed}.{name}", block, cfg.runs, cfg.n_episodes)
+            errors += _shape_errors(f"runs.{seed}.{name}", block, cfg.runs, cfg.n_episodes,
+                                    cfg.max_steps)
+            if v3 and block.get("humans") != results_v3.run_humans(
+                    dataclasses.replace(cfg, seed=int(seed))):
+                errors.append(f"runs.{seed}.{name}.humans: not the humans the suite's runs "
+                              f"meet at seed {seed}")
+            elif not v3 and "humans" in block:
+                errors.append(f"runs.{seed}.{name}.humans: only suite v3 records them")
     for seed in doc["runs"]:
         for name in doc["runs"][seed]:
             if name not in suite["tracks"]:
@@ -222,8 +258,8 @@ def _suite_errors(doc: Mapping[str, Any]) -> list[str]:
     return errors
 
 
-def _shape_errors(where: str, block: Mapping[str, Any], runs: int, episodes: int
-                  ) -> list[str]:
+def _shape_errors(where: str, block: Mapping[str, Any], runs: int, episodes: int,
+                  max_steps: int = 100) -> list[str]:
     errors = []
     per_episode = [("blind", block["blind"])] if block["blind"] is not None else []
     for agent, entry in block["agents"].items():
@@ -234,6 +270,12 @@ def _shape_errors(where: str, block: Mapping[str, Any], runs: int, episodes: int
                 errors.append(f"{where}.agents.{agent}.{k}: {len(entry[k])} runs, the track "
                               f"has {runs}")
     for key, rows in per_episode:
+        if key.endswith(".reward") or key == "blind":
+            flat = [v for r in rows for v in r]
+            if flat and not all(-max_steps <= v <= 0 for v in flat):
+                bad = min(flat) if min(flat) < -max_steps else max(flat)
+                errors.append(f"{where}.{key}: an episode reward of {bad!r}; an episode "
+                              f"earns between -{max_steps} (every step -1) and 0")
         if len(rows) != runs:
             errors.append(f"{where}.{key}: {len(rows)} runs, the track has {runs} (missing "
                           "runs)" if len(rows) < runs else f"{where}.{key}: {len(rows)} runs, "
@@ -366,7 +408,14 @@ def task_section(doc: Mapping[str, Any]) -> str:
              "log-loss and Brier of the belief (agents exposing one); counteract / idle / "
              "alone: the human's motions against a robot motion, waits with nothing moving, "
              "actions while the robot waited, per episode. Means [95 % CI] over runs.", ""]
+    if doc.get("schema_version") == results_v3.SCHEMA_VERSION:
+        lines[2:2] = ["Suite v3: regret is measured against each track's reachable reference "
+                      "(blind's exact values on the anchor, else qmdp's mean reward on the same "
+                      "human in the same episode), so learning speed and asymptote are defined "
+                      "on every track.", ""]
     for track, by_agent in doc["statistics"][seed].items():
+        if "normalisation" in by_agent:  # suite v3: regret against the reachable reference
+            by_agent = by_agent["agents"]
         lines += [f"### The task's metrics on {track}", "",
                   "| agent | learned at | re-adapted after | asymptote | MAP steps | log-loss | "
                   "Brier | counteract | idle | alone |",
@@ -423,13 +472,14 @@ def merge(docs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
             rename[agent] = key
         for seed, by_track in doc["runs"].items():
             for track, block in by_track.items():
-                slot = runs.setdefault(seed, {}).setdefault(
-                    track, {"blind": block["blind"], "agents": {}})
+                head = {k: v for k, v in block.items() if k != "agents"}  # blind, humans
+                slot = runs.setdefault(seed, {}).setdefault(track, {**head, "agents": {}})
                 for agent, entry in block["agents"].items():
                     slot["agents"].setdefault(rename[agent], entry)
     first = next(iter(docs.values()))
     tracks = {t: spec for d in docs.values() for t, spec in d["tracks"].items()}
-    merged: dict[str, Any] = {"seeds": sorted(int(s) for s in runs), "runs": runs,
+    merged: dict[str, Any] = {"schema_version": first["schema_version"],
+                              "seeds": sorted(int(s) for s in runs), "runs": runs,
                               "tracks": tracks,
                               "agents": agents, "threshold": first["threshold"]}
     merged["statistics"], merged["aggregate"] = compute(merged)
@@ -455,6 +505,8 @@ def merged_leaderboard(files: Iterable[Path], out: Path) -> tuple[list[Path], li
                            + (f" (and {len(problems) - 5} more)" if len(problems) > 5 else ""))
         else:
             valid[path.name] = doc
+    valid, apart = _mergeable(valid)
+    refused += apart
     if not valid:
         return [], refused
     merged = merge(valid)
@@ -466,13 +518,56 @@ def merged_leaderboard(files: Iterable[Path], out: Path) -> tuple[list[Path], li
         subs.append(f"- `{fname}`: {who}; agents {', '.join(f'`{a}`' for a in doc['agents'])};"
                     f" seeds {doc['seeds']}, runs scale {doc['runs_scale']}")
     version = next(iter(valid.values()))["suite"]["version"]
+    v3 = merged["schema_version"] == results_v3.SCHEMA_VERSION
+    sections = ([results_v3.lead_section(merged), results_v3.failure_section(merged)] if v3
+                else [lead_section(merged)])
     text = "\n".join([f"# hri-envs leaderboard (suite v{version})",
                       "", "Merged from validated results files (`hri-bench validate`):", "",
-                      *subs, "", lead_section(merged), task_section(merged)])
+                      *subs, "", *sections, task_section(merged)])
     with atomic_writer(out / "leaderboard.md") as f:
         f.write(text + "\n")
-    fig = profile_figure(merged, out / "profiles.png")
+    fig = (results_v3.ranking_figure(merged, out / "ranking.png") if v3
+           else profile_figure(merged, out / "profiles.png"))
     return [out / "leaderboard.md", fig], refused
+
+
+def _mergeable(valid: Mapping[str, Mapping[str, Any]]
+               ) -> tuple[dict[str, Mapping[str, Any]], list[str]]:
+    """The validated files that can be merged with the first one, and one line per file
+    refused: another suite (version or hash) or runs scale than the first file's, or runs
+    that contradict another file's under the same code identity and seed
+    (:func:`hri_bench.audit.conflicts`: both files are refused, the runs named).
+    """
+    from hri_bench.audit import conflicts
+
+    if not valid:
+        return {}, []
+    first_name, first = next(iter(valid.items()))
+    keep: dict[str, Mapping[str, Any]] = {}
+    refused = []
+    for name, doc in valid.items():
+        if doc["suite"]["hash"] != first["suite"]["hash"]:
+            refused.append(f"{name}: refused: suite v{doc['suite']['version']} "
+                           f"({doc['suite']['hash'][:12]}…), {first_name} is suite "
+                           f"v{first['suite']['version']} ({first['suite']['hash'][:12]}…): "
+                           "results of different suites are not merged")
+        elif doc["runs_scale"] != first["runs_scale"]:
+            refused.append(f"{name}: refused: runs scale {doc['runs_scale']}, {first_name} has "
+                           f"{first['runs_scale']}: results of different run counts are not "
+                           "merged (run the suite with the same --runs-scale)")
+        else:
+            keep[name] = doc
+    clash = conflicts(keep)
+    if clash:
+        bad = {n for n in keep if any(line.startswith(f"{n} ") or f" and {n} " in line
+                                      for line in clash)}
+        for n in sorted(bad):
+            refused.append(f"{n}: refused: " + "; ".join(line for line in clash if
+                                                         line.startswith(f"{n} ") or
+                                                         f" and {n} " in line)
+                           + " (hri-bench validate --replay tells which file is genuine)")
+        keep = {n: d for n, d in keep.items() if n not in bad}
+    return keep, refused
 
 
 class SuiteRecorder:
@@ -505,8 +600,10 @@ class SuiteRecorder:
         env_ids = {"gymnasium": spec.panda_id if cfg.backend == "mujoco" else spec.gym_id,
                    "pettingzoo": spec.pettingzoo_module}
         blind, note = regret_reference(result)
+        v3 = self.version not in ("1", "2")
         self.hashes[track.name] = provenance.track_hash(track)
-        self.runs[track.name] = track_runs(result, blind)
+        self.runs[track.name] = track_runs(result, blind,
+                                           results_v3.run_humans(cfg) if v3 else None)
         self.tracks[track.name] = {
             "scenario": cfg.scenario, "runs": cfg.runs, "episodes": cfg.n_episodes,
             "settings": {k: v for k, v in cfg.settings().items() if k != "seed"},  # in seeds
@@ -514,6 +611,9 @@ class SuiteRecorder:
             "population": cfg.population_info(), "regret": note,
             "agent_configs": {a: agent_settings(a, cfg.scenario, cfg.waiting_reward,
                                                 dict(cfg.learner)) for a in cfg.agents}}
+        if v3:
+            self.tracks[track.name].update(headline=track.headline,
+                                           members=results_v3.members(cfg))
         self.agents += [a for a in result.metrics if a not in self.agents]
 
     def document(self) -> dict[str, Any] | None:
@@ -531,12 +631,16 @@ class SuiteRecorder:
 
 
 def write_results(out: Path, doc: Mapping[str, Any]) -> list[Path]:
-    """``results.json`` (compact: one line) and ``profiles.png`` in ``out``."""
+    """``results.json`` (compact: one line) and ``profiles.png`` (suite v3:
+    ``ranking.png``) in ``out``.
+    """
     from hri_bench.atomic import atomic_writer
 
     path = Path(out) / "results.json"
     with atomic_writer(path) as f:
         f.write(json.dumps(doc, separators=(",", ":"), allow_nan=False) + "\n")
+    if doc.get("schema_version") == results_v3.SCHEMA_VERSION:
+        return [path, results_v3.ranking_figure(doc, Path(out) / "ranking.png")]
     return [path, profile_figure(doc, Path(out) / "profiles.png")]
 
 

@@ -51,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from hri_bench import metrics, provenance, stats
+from hri_bench import metrics, provenance, results_v3, stats
 from hri_bench.agents import BUILTIN_AGENTS, PLANNING_REFERENCES, REFERENCE_AGENTS
 from hri_bench.atomic import atomic_writer
 from hri_bench.regret import ALL_REFERENCES, REFERENCES, reference_summary
@@ -82,12 +82,16 @@ __all__ = [
 #: Version of the first track set (v1; frozen).
 SUITE_VERSION = "1"
 #: The suite versions, and the default one.
-SUITE_VERSIONS: tuple[str, ...] = ("1", "2")
-LATEST = "2"
+SUITE_VERSIONS: tuple[str, ...] = ("1", "2", "3")
+LATEST = "3"
 #: The agents ranked by default in v1 (the references are added where they fit).
 DEFAULT_AGENTS: tuple[str, ...] = BUILTIN_AGENTS
 #: The agents ranked by default in v2: v1's and the goal filter.
 DEFAULT_AGENTS_V2: tuple[str, ...] = (*BUILTIN_AGENTS, "goalfilter")
+#: The agents ranked by default in v3: v2's and the count-based QMDP learner.
+DEFAULT_AGENTS_V3: tuple[str, ...] = (*DEFAULT_AGENTS_V2, "countqmdp")
+#: v3's floor of the normalised score (0): an agent that only follows; always run.
+FLOOR = "passive"
 #: v2's smallest difference worth detecting, reward per episode, at this power and level.
 DELTA = 0.05
 POWER = 0.8
@@ -225,15 +229,122 @@ def _tracks_v2() -> tuple[Track, ...]:
 
 #: Suite v2's tracks, by name.
 TRACKS_V2: dict[str, Track] = {t.name: t for t in _tracks_v2()}
+
+
+@dataclass(frozen=True)
+class TrackV3(Track):
+    """A v3 track: a v2 track whose runs meet ``humans`` different humans ``blocks`` times
+    each (a whole number of balanced blocks), from a power analysis with the two-stage
+    spread (:func:`power_v3`).
+
+    Attributes:
+        humans: The track's different humans (1 on the paper's anchor).
+        blocks: Runs per human.
+        pilot_between: The pilot's standard deviation, over humans, of a pair's mean paired
+            difference of normalised scores (the spread of the humans).
+        pilot_within: The pilot's standard deviation of that difference between runs of one
+            human.
+    """
+
+    humans: int = 1
+    blocks: int = 1
+    pilot_between: float = 0.0
+    pilot_within: float = 0.0
+
+
+#: v3's smallest difference worth detecting, in normalised score (5 % of the way from the
+#: floor to the reachable reference), at :data:`POWER` and :data:`ALPHA`.
+DELTA_V3 = 0.05
+#: v3's fewest and most runs per human of a population track (at least two, for the second
+#: stage of the bootstrap), and the runs of a track with one human.
+MIN_BLOCKS, MAX_BLOCKS = 2, 8
+MIN_RUNS_V3, MAX_RUNS_V3 = 60, 400
+#: v3's pilot (``benchmarks/suite_power.py --version 3``: the validation-v2 split's groups
+#: and the paper's human, seed 1000, never the test split): per track, the (between-human,
+#: within-human) standard deviations of the paired difference of normalised scores of the
+#: comparison that needs the most runs among those the suite is for (learner, goalfilter,
+#: countqmdp pairwise and against qmdp).
+PILOT_V3: dict[str, tuple[float, float]] = {
+    "hanger-test-scripted": (0.1, 0.3), "wheel-test-scripted": (0.1, 0.3),
+    "hanger-test-misspecified": (0.1, 0.3), "wheel-test-misspecified": (0.1, 0.3),
+    "hanger-test-adaptive": (0.1, 0.3), "wheel-test-adaptive": (0.1, 0.3),
+    "hanger-test-inconsistent": (0.1, 0.3), "wheel-test-inconsistent": (0.1, 0.3),
+    "hanger-paper": (0.0, 0.1), "wheel-paper": (0.0, 0.1),
+}
+
+
+def detectable_v3(between: float, within: float, humans: int, blocks: int) -> float:
+    """The smallest paired difference of normalised scores a track detects at
+    :data:`POWER` (two-sided, :data:`ALPHA`) when it meets ``humans`` humans ``blocks``
+    times each: the two-stage bootstrap's spread of the mean, ``√((σ_b² + σ_w²/R) / H)``,
+    times ``z_(1-α/2) + z_power``.
+    """
+    spread = math.sqrt((between ** 2 + within ** 2 / blocks) / humans)
+    return round(stats.detectable_difference(spread, 1, power=POWER, alpha=ALPHA), 4)
+
+
+def power_v3(between: float, within: float, humans: int) -> int:
+    """Runs per human: the fewest in [:data:`MIN_BLOCKS`, :data:`MAX_BLOCKS`] that detect
+    :data:`DELTA_V3`, else :data:`MAX_BLOCKS` (the track is then under-powered, and says so);
+    a track of one human: the runs that detect it from the within spread alone, within
+    [:data:`MIN_RUNS_V3`, :data:`MAX_RUNS_V3`].
+    """
+    if humans == 1:
+        need = stats.runs_for_difference(within, DELTA_V3, power=POWER, alpha=ALPHA) \
+            if within > 0 else 0
+        return int(min(max(MIN_RUNS_V3, need), MAX_RUNS_V3))
+    for blocks in range(MIN_BLOCKS, MAX_BLOCKS + 1):
+        if detectable_v3(between, within, humans, blocks) <= DELTA_V3:
+            return blocks
+    return MAX_BLOCKS
+
+
+def _tracks_v3() -> tuple[TrackV3, ...]:
+    texts = {
+        "scripted": ("the test split's scripted humans (the Learner's own model family: any "
+                     "preference, passive or Boltzmann), none of them a train human", True),
+        "misspecified": ("the test split's misspecified humans: low, avoid, rotate-low, "
+                         "impatient (preferences φ does not encode)", True),
+        "adaptive": ("the test split's adaptive humans: follower, trust, wary (they learn "
+                     "from the robot across episodes)", False),
+        "inconsistent": ("the test split's inconsistent humans: fickle (changes its mind "
+                         "mid-episode), moody (changes preference at random episodes)",
+                         False),
+    }
+    out = []
+    for group, (text, stable) in texts.items():
+        for sc in ("hanger", "wheel"):
+            name = f"{sc}-test-{group}"
+            humans = MIXTURES[(f"test-v2-{group}", sc)].size
+            between, within = PILOT_V3[name]
+            blocks = power_v3(between, within, humans)
+            out.append(TrackV3(name, sc, f"HEADLINE: {text}", humans * blocks,
+                               (("population", f"test-v2-{group}"),), None, headline=True,
+                               stable=stable, humans=humans, blocks=blocks,
+                               pilot_between=between, pilot_within=within))
+    for sc in ("hanger", "wheel"):
+        name = f"{sc}-paper"
+        between, within = PILOT_V3[name]
+        runs = power_v3(between, within, 1)
+        out.append(TrackV3(name, sc, "anchor, outside the headline: the paper's settings "
+                           "(deterministic human, default preference); blind exact", runs, (),
+                           None, stable=True, humans=1, blocks=runs, pilot_between=between,
+                           pilot_within=within))
+    return tuple(out)
+
+
+#: Suite v3's tracks, by name.
+TRACKS_V3: dict[str, TrackV3] = {t.name: t for t in _tracks_v3()}
 #: The tracks of each version.
-TRACKS_BY_VERSION: dict[str, dict[str, Track]] = {"1": TRACKS, "2": TRACKS_V2}
+TRACKS_BY_VERSION: dict[str, dict[str, Track]] = {"1": TRACKS, "2": TRACKS_V2,
+                                                  "3": dict(TRACKS_V3)}
 
 
 def default_agents(version: str) -> tuple[str, ...]:
-    """The agents a version ranks by default (:data:`DEFAULT_AGENTS_V2`, v1
-    :data:`DEFAULT_AGENTS`).
+    """The agents a version ranks by default (:data:`DEFAULT_AGENTS_V3`, v2
+    :data:`DEFAULT_AGENTS_V2`, v1 :data:`DEFAULT_AGENTS`).
     """
-    return DEFAULT_AGENTS if version == "1" else DEFAULT_AGENTS_V2
+    return {"1": DEFAULT_AGENTS, "2": DEFAULT_AGENTS_V2}.get(version, DEFAULT_AGENTS_V3)
 
 
 def check_version(version: Any) -> str:
@@ -302,7 +413,8 @@ def track_references(track: Track, version: str = LATEST) -> tuple[str, ...]:
     if ":" in str(dict(track.settings).get("population")):
         return ()  # recorded or module:Class humans: no model to plan with
     exact = not track.per_run_humans and not dict(track.settings).get("human_rationality")
-    return ("informed", "blind") if exact else ("informed", "qmdp")
+    refs = ("informed", "blind") if exact else ("informed", "qmdp")
+    return refs if version == "2" else (*refs, FLOOR)
 
 
 def track_config(track: Track, agents: Sequence[str], *, runs_scale: float = 1.0,
@@ -313,6 +425,7 @@ def track_config(track: Track, agents: Sequence[str], *, runs_scale: float = 1.0
     """
     refs = track_references(track, version)
     ranked = tuple(a for a in agents if a not in PLANNING_REFERENCES)
+    refs = tuple(r for r in refs if r not in ranked)  # v3's floor may be ranked too
     return StudyConfig(track.scenario, agents=ranked + tuple(refs),
                        runs=_runs(track, runs_scale), seed=seed, jobs=jobs,
                        executor=executor, **dict(track.settings))
@@ -390,6 +503,27 @@ def track_summary_v2(track: Track, result: StudyResult) -> dict[str, Any]:
         "runs": cfg.runs,
         "detectable": None if not sd else round(stats.detectable_difference(
             sd, cfg.runs, power=POWER, alpha=ALPHA), 4)}
+    return entry
+
+
+def track_summary_v3(track: Track, result: StudyResult) -> dict[str, Any]:
+    """A v3 ``suite.json`` entry: v2's, with v3's power analysis (humans, runs per human,
+    the pilot's two spreads, the difference detected and whether it meets
+    :data:`DELTA_V3`) in place of v2's.
+    """
+    entry = track_summary_v2(track, result)
+    entry["headline"] = track.headline
+    humans = getattr(track, "humans", 1)
+    between, within = getattr(track, "pilot_between", 0.0), getattr(track, "pilot_within", 0.0)
+    runs = result.config.runs
+    blocks = max(1, runs // humans)
+    found = (detectable_v3(between, within, humans, blocks) if humans > 1 else
+             round(stats.detectable_difference(within, runs, power=POWER, alpha=ALPHA), 4)
+             if within > 0 else 0.0)
+    entry["power"] = {"delta": DELTA_V3, "power": POWER, "alpha": ALPHA, "humans": humans,
+                      "runs_per_human": blocks, "pilot_between": between,
+                      "pilot_within": within, "detectable": found,
+                      "met": bool(found <= DELTA_V3)}
     return entry
 
 
@@ -513,35 +647,75 @@ def leaderboard_v2(doc: dict[str, Any]) -> str:
         lines.append(f"| {label} | {_reference_cell(tr)} | " + " | ".join(cells) + " |")
     lines.append("")
     for name, tr in doc["tracks"].items():
-        pop = tr["population"]
-        pop_text = ("" if pop is None else f" Population `{pop['name']}`." if pop["hash"] is None
-                    else f" Population `{pop['name']}` v{pop['version']} ({pop['members']} "
-                    f"members), hash `{pop['hash'][:16]}`.")
-        power = tr["power"]
+        lines += _track_section(name, tr)
+    return "\n".join(lines)
+
+
+def _track_section(name: str, tr: dict[str, Any]) -> list[str]:
+    """A v2 or v3 leaderboard's section of one track: its humans, power, reference and a
+    table of the agents by mean reward with their gaps to both ends.
+    """
+    pop = tr["population"]
+    pop_text = ("" if pop is None else f" Population `{pop['name']}`." if pop["hash"] is None
+                else f" Population `{pop['name']}` v{pop['version']} ({pop['members']} "
+                f"members), hash `{pop['hash'][:16]}`.")
+    power = tr["power"]
+    if "pilot_sd" in power:  # v2
         power_text = ("" if power["pilot_sd"] is None else
                       f" Pilot spread {power['pilot_sd']:.3f}: {power['runs_needed']} runs "
                       f"needed for {power['delta']}; {power['runs']} run, which detect "
                       f"{power['detectable']}.")
-        ref = tr["reference"]
-        lines += [f"## {name}", "", f"{tr['description']} ({tr['runs']} runs × "
-                  f"{tr['episodes']} episodes).{pop_text}{power_text}", "",
-                  f"Reference: {_reference_cell(tr)}. {ref['note'].capitalize()}.", ""]
-        if tr["failed_agents"]:
-            lines += ["Raised, no results (tracebacks in errors.log): "
-                      + ", ".join(f"`{a}`" for a in tr["failed_agents"]) + ".", ""]
-        lower = "regret vs blind (exact)" if ref["kind"] == "exact" else "gap to qmdp (lower)"
-        lines += [f"| agent | reward mean [95 % CI] | gap to informed (upper) | {lower} | "
-                  "wrong | passive | truncated |", "|---|---|---|---|---|---|---|"]
+    else:
+        power_text = (f" Power: {power['humans']} human(s) × {power['runs_per_human']} runs "
+                      f"detect a normalised difference of {power['detectable']} at "
+                      f"{power['power']:.0%} ({'meets' if power['met'] else 'MISSES'} the "
+                      f"target {power['delta']}).")
+    ref = tr["reference"]
+    lines = [f"## {name}", "", f"{tr['description']} ({tr['runs']} runs × "
+             f"{tr['episodes']} episodes).{pop_text}{power_text}", "",
+             f"Reference: {_reference_cell(tr)}. {ref['note'].capitalize()}.", ""]
+    if tr["failed_agents"]:
+        lines += ["Raised, no results (tracebacks in errors.log): "
+                  + ", ".join(f"`{a}`" for a in tr["failed_agents"]) + ".", ""]
+    lower = "regret vs blind (exact)" if ref["kind"] == "exact" else "gap to qmdp (lower)"
+    lines += [f"| agent | reward mean [95 % CI] | gap to informed (upper) | {lower} | "
+              "wrong | passive | truncated |", "|---|---|---|---|---|---|---|"]
 
-        def key(item: tuple[str, Any]) -> tuple[float, str]:
-            return (-item[1]["reward"]["mean"], item[0])
+    def key(item: tuple[str, Any]) -> tuple[float, str]:
+        return (-item[1]["reward"]["mean"], item[0])
 
-        for agent, a in sorted(tr["agents"].items(), key=key):
-            label = f"`{agent}`" + (" (ref.)" if agent in ALL_REFERENCES else "")
-            lines.append(f"| {label} | {_with_ci(a['reward'])} | {_gap(a['gap_to_upper'])} | "
-                         f"{_gap(a['gap_to_lower'])} | {a['wrong_rate']:.3f} | "
-                         f"{a['passive_rate']:.3f} | {a['truncation_rate']:.1%} |")
-        lines.append("")
+    for agent, a in sorted(tr["agents"].items(), key=key):
+        label = f"`{agent}`" + (" (ref.)" if agent in ALL_REFERENCES else "")
+        lines.append(f"| {label} | {_with_ci(a['reward'])} | {_gap(a['gap_to_upper'])} | "
+                     f"{_gap(a['gap_to_lower'])} | {a['wrong_rate']:.3f} | "
+                     f"{a['passive_rate']:.3f} | {a['truncation_rate']:.1%} |")
+    lines.append("")
+    return lines
+
+
+def leaderboard_v3(doc: dict[str, Any], results: dict[str, Any] | None) -> str:
+    """The ``leaderboard.md`` text of a v3 suite: the headline and pairs
+    (:func:`hri_bench.results_v3.lead_section`), where learners fail, the tracks that miss
+    their power target, the task's metrics, then a section per track.
+    """
+    lines = [f"# hri-envs benchmark suite v{doc['suite_version']}", "",
+             f"Seed {doc['seed']}, runs scale {doc['runs_scale']}. Headline: the frozen test "
+             "split v2 (160 different humans per scenario, none a train or validation human), "
+             "one track per group of humans, each normalised to its reachable reference "
+             "(docs/results.md, \"Ranking (suite v3)\").", ""]
+    if results is not None:
+        lines += [results_v3.lead_section(results), results_v3.failure_section(results)]
+    missed = [f"{n} (detects {tr['power']['detectable']})" for n, tr in doc["tracks"].items()
+              if not tr["power"]["met"]]
+    target = (f"Power target: a normalised difference of {DELTA_V3} at {POWER:.0%} "
+              f"(α = {ALPHA}), with the two-stage spread a pilot on the validation-v2 split "
+              f"measured; at most {MAX_BLOCKS} runs per human.")
+    lines += ["## Power", "", target + (" Tracks that miss it: " + "; ".join(missed) + "."
+                                        if missed else " Every track meets it."), ""]
+    if results is not None:
+        lines.append(task_section(results))
+    for name, tr in doc["tracks"].items():
+        lines += _track_section(name, tr)
     return "\n".join(lines)
 
 
@@ -657,7 +831,8 @@ def run_suite(
         result = run_study(cfg, keep_going=True)
         if result.failures:
             failures[track.name] = result.failures
-        entry = (track_summary if version == "1" else track_summary_v2)(track, result)
+        summarise = {"1": track_summary, "2": track_summary_v2}.get(version, track_summary_v3)
+        entry = summarise(track, result)
         recorder.add(track, result)
         doc["tracks"][track.name] = entry
         track_figure(track.name, entry, out / f"{track.name}.png")
@@ -671,14 +846,25 @@ def run_suite(
     else:
         errors.unlink(missing_ok=True)  # from an earlier suite in the same folder
     results = recorder.document()  # v1's suite.json and leaderboard.md stay as they were
-    board = (leaderboard if version == "1" else leaderboard_v2)(doc)
+    if version not in ("1", "2"):
+        doc["power"] = {"delta": DELTA_V3, "power": POWER, "alpha": ALPHA,
+                        "blocks": [MIN_BLOCKS, MAX_BLOCKS], "runs": [MIN_RUNS_V3, MAX_RUNS_V3],
+                        "pilot": "benchmarks/suite_power.py --version 3: the validation-v2 "
+                                 "split, seed 1000"}
+        doc["floor"] = FLOOR
     if version != "1":
         doc["provenance"] = {"software": provenance.software(),
                              "agents": {a: provenance.agent_identity(a) for a in agents}}
+    if version == "1":
+        board = leaderboard(doc)
+    elif version == "2":
+        board = leaderboard_v2(doc)
         if results is not None:  # the aggregate across tracks leads (docs/results.md)
             cut = board.find("\n## ") + 1 or len(board)
             board = (board[:cut] + lead_section(results) + "\n" + task_section(results) + "\n"
                      + board[cut:])
+    else:
+        board = leaderboard_v3(doc, results)
     with atomic_writer(out / "leaderboard.md") as f:
         f.write(board + "\n")
     if results is not None:

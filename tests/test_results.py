@@ -178,7 +178,7 @@ def suite_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("results") / "s"
     code = main(["suite", "--out", str(out), "--tracks", "hanger-paper", "--runs-scale",
                  "0.006", "--agents", "learner,passive,tests.helpers_agents:RandomMover",
-                 "--no-progress"])
+                 "--no-progress", "--suite-version", "2"])
     assert code == 0
     return out
 

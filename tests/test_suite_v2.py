@@ -1,4 +1,4 @@
-"""hri-bench suite v2 (the default): the test split as headline, a reference on every track
+"""hri-bench suite v2 (the default until v3): the test split as headline, a reference on every track
 (blind exact or a labelled bracket), every agent's gap to it with 95 % CIs, power-chosen runs.
 """
 
@@ -28,22 +28,18 @@ pytestmark = pytest.mark.xdist_group("suite")
 def tiny2(tmp_path_factory):
     """Every v2 track at 5 % of its runs (at least 2), serial."""
     out = tmp_path_factory.mktemp("suite2")
-    return out, run_suite(out, runs_scale=0.05)
+    return out, run_suite(out, runs_scale=0.05, version="2")
 
 
-def test_v2_is_the_default_with_the_test_split_as_headline(tmp_path, monkeypatch):
-    assert suite.LATEST == "2"
+def test_v2_keeps_the_test_split_as_headline_and_v3_is_the_default(tmp_path, monkeypatch):
+    assert suite.LATEST == "3"
     headline = [t.name for t in TRACKS_V2.values() if t.headline]
     assert headline == ["hanger-test", "wheel-test"]
     for sc in ("hanger", "wheel"):
         for part in ("misspecified", "adaptive", "inconsistent"):
             assert f"{sc}-test-{part}" in TRACKS_V2
     assert set(TRACKS_V2) == set(PILOT_SD)
-    # The CLI's default suite is v2, and it ranks the goal filter (what run_suite is given).
-    from hri_bench.cli import build_parser
-
-    args = build_parser().parse_args(["suite", "--out", str(tmp_path)])
-    assert args.suite_version == "2"
+    # --suite-version 2 still runs v2, with the goal filter (what run_suite is given).
     given = {}
 
     def record(out, **kwargs):
@@ -52,11 +48,12 @@ def test_v2_is_the_default_with_the_test_split_as_headline(tmp_path, monkeypatch
 
     monkeypatch.setattr(suite, "run_suite", record)
     with pytest.raises(AssertionError, match="recorded"):
-        main(["suite", "--out", str(tmp_path / "s"), "--no-progress"])
+        main(["suite", "--out", str(tmp_path / "s"), "--no-progress", "--suite-version", "2"])
     assert given["version"] == "2" and "goalfilter" in given["agents"]
+    assert "countqmdp" not in given["agents"]
     # Every v2 track has an upper bound (informed), and blind or the bracket's lower end.
     for track in TRACKS_V2.values():
-        agents = track_config(track, DEFAULT_AGENTS_V2).agents
+        agents = track_config(track, DEFAULT_AGENTS_V2, version="2").agents
         assert "informed" in agents
         assert ("blind" in agents) == track.name.endswith("-paper")
         assert ("qmdp" in agents) != ("blind" in agents)
@@ -142,8 +139,8 @@ def test_an_unknown_version_or_a_track_of_another_version_fails_naming_the_flag(
 
     monkeypatch.setattr(suite, "run_study", boom)
     for argv, flag, text in (
-            (["--suite-version", "3"], "--suite-version", "invalid choice: '3'"),
-            (["--tracks", "wheel-heldout"], "--tracks",
+            (["--suite-version", "4"], "--suite-version", "invalid choice: '4'"),
+            (["--tracks", "wheel-heldout", "--suite-version", "2"], "--tracks",
              "unknown track(s) wheel-heldout of suite v2; allowed: hanger-test"),
             (["--population", "test"], "--population", "a suite track of its own takes")):
         with pytest.raises(SystemExit) as exc:
@@ -152,7 +149,7 @@ def test_an_unknown_version_or_a_track_of_another_version_fails_naming_the_flag(
         err = capsys.readouterr().err
         assert f"argument {flag}: {text}" in err, err
     assert not (tmp_path / "x").exists()
-    assert [t.name for t in select_tracks("wheel-paper,hanger-test")] == [
+    assert [t.name for t in select_tracks("wheel-paper,hanger-test", "2")] == [
         "hanger-test", "wheel-paper"]
 
 
@@ -191,7 +188,7 @@ def test_bad_humans_and_references_fail_before_simulating(argv, flag, text, tmp_
 
 def test_v2_serial_and_two_jobs_give_byte_identical_suite_json(tmp_path):
     kw = {"tracks": "hanger-test-inconsistent", "runs_scale": 0.2,
-          "agents": ("learner", "goalfilter")}
+          "agents": ("learner", "goalfilter"), "version": "2"}
     run_suite(tmp_path / "a", **kw)
     run_suite(tmp_path / "b", jobs=2, executor="process", **kw)
     assert (tmp_path / "a" / "suite.json").read_bytes() == \

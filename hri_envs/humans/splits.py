@@ -146,7 +146,13 @@ class MixtureSpec:
 
     @property
     def size(self) -> int:
-        """How many humans the list holds (after the group's filter)."""
+        """How many humans the list holds (after the group's filter); a ``distinct`` split
+        holds exactly its components' allotments, so its size needs no drawing.
+        """
+        if self.distinct:
+            return sum(count for comp, count in zip(
+                self.components, _allocate(self.components, self.members), strict=True)
+                if self.group is None or FAMILIES[comp.family].group == self.group)
         return len(self.member_draws)
 
     @cached_property
@@ -213,9 +219,13 @@ class MixtureSpec:
         sampling error of its make-up).
         """
         self._check_scenario(scenario)
+        return self.member_draws[self.member_index(seed, run)]
+
+    def member_index(self, seed: int, run: int) -> int:
+        """The index in :attr:`member_draws` of run ``run``'s member (:meth:`draw`)."""
         block, slot = divmod(int(run), self.size)
         order = np.random.default_rng([int(seed), block, 7]).permutation(self.size)
-        return self.member_draws[int(order[slot])]
+        return int(order[slot])
 
     def sample(self, scenario: str, rng: np.random.Generator) -> HumanDraw:
         """A member drawn uniformly with ``rng`` (one integer; the envs, per reset)."""
