@@ -771,8 +771,9 @@ def run_study(
     """
     units = _units(cfg)
     done = dict(done or {})
-    if cfg.mixture_population:  # its members once, here: forked workers inherit them
-        population(cfg.population, cfg.scenario, dict(cfg.human_params)).member_draws  # noqa: B018
+    if cfg.mixture_population and cfg.population is not None:
+        spec = population(cfg.population, cfg.scenario, dict(cfg.human_params))
+        getattr(spec, "member_draws", None)  # drawn once, here: forked workers inherit them
     n_e, n_p = cfg.n_episodes, len(cfg.probes)
     keys = METRICS + batch_backend(cfg.backend).extras + TASK_METRICS
     metrics = {a: {k: np.zeros((cfg.runs, n_e)) for k in keys} for a in cfg.agents}
