@@ -12,6 +12,14 @@ import pytest  # noqa: E402  (after MUJOCO_GL)
 
 from tests.helpers_partner import HAS_JIT  # noqa: E402
 
+try:  # MuJoCo's warnings (a test's NaN control) go to a list, not to MUJOCO_LOG.TXT in the cwd
+    import mujoco
+
+    MUJOCO_WARNINGS: list[str] = []
+    mujoco.set_mju_user_warning(MUJOCO_WARNINGS.append)
+except ImportError:  # the physics extra is not installed
+    pass
+
 
 @pytest.fixture(params=["numpy", "jit"])
 def path(request, monkeypatch):
