@@ -170,9 +170,7 @@ class CountQMDP(_Tracking):
         prior_epsilon: Weight in (0, 1) of a uniform choice in the prior.
         gamma: Discount γ in [0, 1) of the plans.
         hazard: The filter's change-of-mind probability per motion into free space, in
-            [0, 1) (its prior mean when learned).
-        hazard_weight: The prior's weight, in motions, when each run learns its hazard
-            from the changes of mind its episodes show; ``inf`` keeps ``hazard`` fixed.
+            [0, 1).
         decay: Factor in (0, 1] applied to every count after each episode.
         robot_context: How the robot's action of the step splits the human's context, one
             of :data:`ROBOT_CONTEXTS`.
@@ -200,10 +198,10 @@ class CountQMDP(_Tracking):
     def __init__(self, graph: TaskGraph, n_runs: int = 1, *, r0: float = -0.33,
                  reward: str = "paper", rho: float = 1.0, alpha: float = 1.0,
                  kappa: float = 1.0, prior_beta: float = 3.0, prior_epsilon: float = 0.05,
-                 gamma: float = 0.95, hazard: float = 0.0, hazard_weight: float = math.inf,
+                 gamma: float = 0.95, hazard: float = 0.05,
                  decay: float = 1.0,
                  robot_context: str = "wait", by_start: bool = False,
-                 hindsight: str = "revealed", adapt: bool = True,
+                 hindsight: str = "smooth", adapt: bool = True,
                  wait_weight: float = 1.0) -> None:
         super().__init__(graph, n_runs)
         self.r0 = check_real(r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True)
@@ -221,12 +219,6 @@ class CountQMDP(_Tracking):
                                         low_open=True, high_open=True)
         self.gamma = check_real(gamma, "gamma", low=0.0, high=1.0, high_open=True)
         self.hazard = check_real(hazard, "hazard", low=0.0, high=1.0, high_open=True)
-        self.hazard_weight = check_real(hazard_weight, "hazard_weight", low=0.0, low_open=True,
-                                        allow_inf=True, allowed="a number > 0, or inf (a "
-                                        "fixed hazard)")
-        self.hazards = np.full(n_runs, self.hazard)  # (B,) each run's hazard
-        self._switches = np.zeros(n_runs)  # expected changes of mind seen
-        self._chances = np.zeros(n_runs)  # steps that allowed one
         self.decay = check_real(decay, "decay", low=0.0, high=1.0, low_open=True)
         self.wait_weight = check_real(wait_weight, "wait_weight", low=0.0, low_open=True,
                                       high=1e6)
@@ -246,6 +238,8 @@ class CountQMDP(_Tracking):
         n_c = int(self.classes.max()) + 1
         self.refined = n_c > 1 or self.by_start
         self.prior = prior_policy(g, self.prior_beta, self.prior_epsilon)  # (K, K, S, A)
+        # (S,) π0's wait, the same for every start and ι in free space (ε / valid actions).
+        self._prior_wait = self.prior[..., WAIT].mean((0, 1))
         self.relative = relative_actions(g)  # (K, K, A)
         self.roles = state_roles(g)  # (K, K, S)
         self.shared = np.zeros((n_runs, n_s, 3, n_a))
@@ -319,10 +313,10 @@ class CountQMDP(_Tracking):
         """
         waits = self._waits_seen + self._fresh_waits  # (B, S, C)
         steps = self._steps_seen + self._fresh_steps
-        lam, w0 = self.wait_weight, self.prior_epsilon
-        run = (waits.sum(1) + lam * w0) / (steps.sum(1) + lam)  # (B, C)
-        return ((waits[rows, states, classes] + lam * run[rows, classes])
-                / (steps[rows, states, classes] + lam))
+        lam = self.wait_weight
+        run = ((waits.sum(1)[rows, classes] + lam * self._prior_wait[states])
+               / (steps.sum(1)[rows, classes] + lam))
+        return (waits[rows, states, classes] + lam * run) / (steps[rows, states, classes] + lam)
 
     def _waits(self, p: np.ndarray, b: np.ndarray, s: np.ndarray, c: np.ndarray
                ) -> np.ndarray:
@@ -494,7 +488,7 @@ class CountQMDP(_Tracking):
             self._fresh_steps[rows[:, 0], s, self.classes[a_r]] += free
         if self.hazard > 0.0:
             post = np.where(self._may_switch(s, s2)[:, None],
-                            change_of_mind(post, allowed, self.hazards[:, None]), post)
+                            change_of_mind(post, allowed, self.hazard), post)
         self.posterior = np.where(active[:, None], post, self.posterior)
 
     def _may_switch(self, states: np.ndarray, next_states: np.ndarray) -> np.ndarray:
@@ -531,22 +525,15 @@ class CountQMDP(_Tracking):
             if goal < 0 or n_t == 0:
                 continue
             start = int(self.graph.support[trace.states[0]])
-            weight = np.zeros((n_t, n_k))
-            weight[:, goal] = 1.0
-            if self.hazard > 0.0 and (self.hindsight == "smooth"
-                                      or math.isfinite(self.hazard_weight)):
-                smooth, switches, chances = self.smoothed(b, start, trace, int(goal))
-                if self.hindsight == "smooth":
-                    weight = smooth
-                self._switches[b] += switches
-                self._chances[b] += chances
+            if self.hindsight == "smooth" and self.hazard > 0.0:
+                weight = self.smoothed(b, start, trace, int(goal))  # (T, K)
+            else:
+                weight = np.zeros((n_t, n_k))
+                weight[:, goal] = 1.0
             t_ix, i_ix = np.nonzero(weight > 0)
             parts.append((np.full(len(t_ix), b), np.full(len(t_ix), start), i_ix,
                           trace.states[t_ix], trace.robot_actions[t_ix],
                           trace.human_actions[t_ix], weight[t_ix, i_ix]))
-        if math.isfinite(self.hazard_weight) and self.hazard > 0.0:
-            w0 = self.hazard_weight
-            self.hazards = (self.hazard * w0 + self._switches) / (w0 + self._chances)
         if not parts:
             return
         b_, st, io, s, a_r, a_h, w = (np.concatenate(x) for x in zip(*parts, strict=True))
@@ -556,11 +543,9 @@ class CountQMDP(_Tracking):
         _add(self.pooled, (b_, io, s, a_h), w)
         _add(self.counts, (b_, x, io, s, c, a_h), w)
 
-    def smoothed(self, row: int, start: int, trace: Trace, goal: int
-                 ) -> tuple[np.ndarray, float, int]:
-        """The forward–backward pass of one run's episode under the model before it and the
-        run's hazard ``h``: ``(P(ι_t = ι | the trace's human actions, ι_T = goal)`` (T, K),
-        the expected number of changes of mind, the number of steps that allowed one).
+    def smoothed(self, row: int, start: int, trace: Trace, goal: int) -> np.ndarray:
+        """(T, K) ``P(ι_t = ι | the trace's human actions, ι_T = goal)`` of one run's episode
+        under the model before it and the hazard ``h`` (a forward–backward pass).
         """
         g = self.graph
         k = g.n_intentions
@@ -570,7 +555,7 @@ class CountQMDP(_Tracking):
         lifted = np.maximum.accumulate(g.support[trace.states] != start)  # (T+1,)
         allowed = lifted[:, None] | (np.arange(k)[None] != start)  # (T+1, K)
         free = self._may_switch(trace.states[:-1], trace.states[1:])  # (T,) after step t
-        h = float(self.hazards[row])
+        h = self.hazard
         fwd = np.zeros((n_t, k))  # P(ι_t | actions up to t)
         b = allowed[0] / allowed[0].sum()
         for t in range(n_t):
@@ -582,23 +567,17 @@ class CountQMDP(_Tracking):
         # v(ι) = P(the actions after step t, ι_T = goal | ι after step t = ι).
         v = np.eye(k)[goal]
         out = np.zeros((n_t, k))
-        switches = 0.0
         for t in range(n_t - 1, -1, -1):
             if free[t]:  # back through step t's change of mind
                 m = allowed[t + 1]
-                moved = h * ((v * m).sum() - v) / max(m.sum() - 1, 1)
-                stay = (1 - h) * v
-                both = (fwd[t] * (stay + moved)).sum()
-                switches += (fwd[t] * moved).sum() / both if both > 0 else 0.0
-                v = stay + moved
+                v = (1 - h) * v + h * ((v * m).sum() - v) / max(m.sum() - 1, 1)
             post = fwd[t] * v
             out[t] = post / post.sum() if post.sum() > 0 else np.eye(k)[goal]
             v = v * lik[t]
-        return out, switches, int(free.sum())
+        return out
 
 
-def change_of_mind(belief: np.ndarray, allowed: np.ndarray, hazard: float | np.ndarray
-                   ) -> np.ndarray:
+def change_of_mind(belief: np.ndarray, allowed: np.ndarray, hazard: float) -> np.ndarray:
     """(..., K) the belief after a change of mind with probability ``hazard`` to one of the
     other allowed intentions, uniformly: ``(1 - h) b(ι) + h (1 - b(ι)) / (n - 1)`` on the
     ``n`` allowed ones (``belief`` sums to 1 over them), 0 on the others; unchanged where
