@@ -2,67 +2,85 @@
 
 The first thing a researcher would try: learn the human's action law online by counting
 (no reward model, no features), keep a Bayes filter over the intention ι, and act on the
-belief-weighted value of plans made with the learned law.
+belief-weighted value of plans made with the learned law. Defaults (in brackets) were
+chosen on the ``train``, ``validation`` and ``validation-v2`` splits only (docs/agents.md,
+"countqmdp").
 
-**Human model.** Dirichlet–categorical counts of the human's action ``a_H``, in three
-nested contexts, each level's posterior predictive the Dirichlet prior of the next:
+**Human model.** Dirichlet–categorical counts of the human's action ``a_H``, in three nested
+contexts, the posterior predictive of each level the Dirichlet prior of the next:
 
-1. *shared, goal-relative*: per state ``s`` and its role ``role(s; st, ι)`` in the episode
-   (its column, or support, is the goal's, the start's or another's), with "move over to
-   support k" recorded relative to the episode (towards ι, towards the start, towards
-   another support: ``rel(a; st, ι)``; every other action as it is), pooled over starts
-   and intentions. One route seen towards B teaches "here the human moves over towards its
-   goal" for A too:
-   ``P_R(a | st, ι, s) ∝ R[s, role, rel(a; st, ι)] + ρ π0(a | st, ι, s)`` over the valid
-   actions (normalised by ``Σ_valid R + ρ``); ``ρ = inf`` leaves this level out;
-2. per ``(ι, s)``: ``P1(a | st, ι, s) = (M[ι, s, a] + α P_R) / (Σ_a M[ι, s, a] + α)``;
-3. per full context ``(ι, s, c)`` (and the start ``st`` with ``by_start``), ``c = c(a_R)``
-   the class of the robot's action *of the same step* (``robot_context``: ``"none"``, one
-   class; ``"wait"``, whether the robot waited; ``"action"``, the action itself), for the
-   humans who answer the robot's action (the impatient, the wary, the follower):
-   ``P(a | st, ι, s, c) = (N[x, a] + κ P1) / (Σ_a N[x, a] + κ)``; without a refinement
-   (``robot_context="none"``, ``by_start=False``) the model is ``P1``.
+1. *shared, goal-relative*: per state ``s`` and its role in the episode, ``role(s; st, ι)``
+   (the state's column, or support, is ι's, the start's or another's), pooled over starts
+   and intentions, with "move over to support k" recorded relative to the episode
+   (towards ι, towards the start, towards another: ``rel(a; st, ι)``; every other action
+   as it is). One route seen towards B teaches "here the human moves over towards its
+   goal" for A too: ``P_R(a | st, ι, s) = (R[s, role, rel(a)] + ρ π0(a | st, ι, s)) /
+   (Σ_valid R + ρ)`` over the valid actions (ρ = ``rho`` [1]; ``inf`` leaves it out);
+2. per ``(ι, s)``: ``P1(a | st, ι, s) = (M[ι, s, a] + α P_R) / (Σ_a M[ι, s, a] + α)``
+   (α = ``alpha`` [1]);
+3. per ``(ι, s, c)``, ``c = c(a_R)`` the class of the robot's action *of the same step*
+   (``robot_context`` ["wait"]: ``"none"``, one class; ``"wait"``, whether the robot
+   waited; ``"action"``, the action itself), and the start too with ``by_start`` [False]:
+   ``P(a | st, ι, s, c) = (N[x, a] + κ P1) / (Σ_a N[x, a] + κ)`` (κ = ``kappa`` [1]);
+   without a refinement (``"none"``, no ``by_start``) the model is ``P1``.
+
+In free space, *waiting says nothing about the goal*: the probability that the human waits
+is ``ω(s, c)``, the same for every ι, learned from the human's steps in ``s`` under robot
+class ``c`` whatever the episode's intention (truncated episodes included), with prior
+weight λ (``wait_weight`` [1]) on the run's rate under class ``c`` over all free states,
+itself with weight λ on π0's wait; the motions keep the proportions of level 3. So an
+impatient human who answers the robot's waits by waiting teaches in a few steps that the
+robot must lead, everywhere, and a passive human's waits do not move the belief.
 
 ``π0`` is the goal filter's Boltzmann shortest-path human
-(:func:`~baselines.goalfilter.shortest_path_policy`, β = ``prior_beta``) mixed with
-``prior_epsilon`` of a uniform choice among the valid actions in every state (supports
-included, so that no valid action has probability 0). Before any data the model is ``π0``.
+(:func:`~baselines.goalfilter.shortest_path_policy`, β = ``prior_beta`` [3]) mixed with
+``prior_epsilon`` [0.05] of a uniform choice among the valid actions in every state
+(supports included, so that no valid action has probability 0). Before any data the model
+is ``π0`` exactly.
 
-**Learning.** After each episode every count is multiplied by ``decay`` (1: never forget;
-< 1 follows a human who changes), then each step ``(s_t, a_R,t, a_H,t)`` of the trace adds
-1 to the counts of its contexts under the intention revealed in hindsight (the support
-where the episode ended). A truncated episode (``-1``: nothing revealed) adds nothing:
-guessing ι would teach a wrong route with the confidence of a right one (and no truncation
-happened in the tuning studies). With ``hindsight="smooth"`` a step adds instead
-``P(ι_t = ι | the trace, ι_T)`` to the counts of each ι, the smoothed posterior of the
-intention at that step under the change-of-mind hazard ``h`` (a forward–backward pass;
-with ``h = 0`` it is 1 on the revealed ι at every step, the plain rule): the steps a fickle
-human made towards its first goal are then not taught as steps towards its last.
+**Learning.** After each episode every count is multiplied by ``decay`` [1: never forget],
+then the steps ``(s_t, a_R,t, a_H,t)`` of the trace are counted in hindsight. With
+``hindsight="revealed"`` a step adds 1 under the intention revealed (the support where the
+episode ended); with ``"smooth"`` [default] it adds ``P(ι_t = ι | the trace, ι_T)`` to each
+ι, the smoothed posterior of the intention at that step under the change-of-mind hazard
+``h`` (a forward–backward pass; with ``h = 0`` it is 1 on the revealed ι, the plain rule):
+the steps a fickle human made towards its first goal are not taught as steps towards its
+last. A truncated episode (``-1``: nothing revealed) adds nothing to the counts per ι
+(guessing ι would teach a wrong route with the confidence of a right one; no episode was
+truncated in the tuning studies), only to the wait rates.
 
 **Filter.** The belief starts uniform over the supports other than the start. After each
 step, Bayes' rule with the model's probability of the human's action,
-``b'(ι) ∝ b(ι) P(a_H | st, ι, s, c(a_R))``, then, where the object moved into free space,
-a change of mind with probability ``h`` (not after a step in which nothing moved: a human
-who waits often would otherwise blur the belief while telling nothing):
-``b''(ι) = (1 - h) b'(ι) + h (1 - b'(ι)) / (n - 1)``
-over the ``n`` possible intentions. Until the object has left the start, the start is
-impossible (belief 0); after, a human may turn back to it.
+``b'(ι) ∝ b(ι) P(a_H | st, ι, s, c(a_R))``; then, if the object moved into free space, a
+change of mind with probability ``h`` (``hazard`` [0.05]):
+``b''(ι) = (1 - h) b'(ι) + h (1 - b'(ι)) / (n - 1)`` over the ``n`` possible intentions
+(not after a step in which nothing moved). Until the object has left the start, the start
+is impossible (belief 0); after, a human may turn back to it.
 
 **Plan.** Per run, start and intention, the robot's MDP on the joint table with the learned
 law substituted, ``T(s' | s, a_R) = Σ_{a_H} P(a_H | st, ι, s, c(a_R)) 1[next(s, a_R, a_H)
 = s']``, with the benchmark's reward ``r(s, a_R) = Σ_{a_H} P(a_H | ·) R(s, a_R, a_H)`` (the
 study's ``r0`` and reward rule), solved exactly by policy iteration
-(:func:`hri_envs.task.mdp.solve_q`) with discount ``γ``, warm-started from the last plan;
-the states where the episode would end (resting, nobody holding, on a support other than
-the start, or on the start when ι is the start) are absorbing with value 0.
+(:func:`hri_envs.task.mdp.solve_q`) with discount γ (``gamma`` [0.95]), warm-started from
+the last plan, after every episode; the states where the episode would end (resting,
+nobody holding, on a support other than the start, or on the start when ι is the start)
+are absorbing with value 0.
 
-**Act** (QMDP): ``a = argmax_a Σ_ι b(ι) Q_ι(s, a)`` over the valid actions. Ties (within
+**Adapt** (``adapt`` [True]). Within an episode the steps seen so far are counted as well,
+each weighted by the belief after it (and in the wait rates), and the action values in
+the current state are one Bellman backup of the plan's ``V_ι = max_a Q_ι`` under that
+model: ``Q̃_ι(s, a_R) = Σ_{a_H} P̃(a_H | ·) (R(s, a_R, a_H) + γ V_ι(next(s, a_R, a_H)))``
+(the plan's Q where the episode has not yet been). A robot that waited and saw the human
+wait does not wait there again and again; the episode's counts are dropped at its end,
+when the steps are counted in hindsight.
+
+**Act** (QMDP): ``a = argmax_a Σ_ι b(ι) Q̃_ι(s, a)`` over the valid actions. Ties (within
 1e-9 of the best, relative) go to the Passive baseline's action if it is among them, else
 to the lowest action index. Nothing is random: a run's actions depend on its own episodes
 only, whatever the batching and the seed.
 
 Shapes: ``B`` runs, ``K`` supports (= intentions), ``S`` states, ``A`` actions, ``C``
-robot classes, ``X`` = K with ``by_start`` else 1.
+robot classes, ``X`` = K with ``by_start``, else 1.
 """
 
 from __future__ import annotations
@@ -162,25 +180,25 @@ class CountQMDP(_Tracking):
         n_runs: Independent runs.
         r0: The study's waiting reward, in (-1, 0) (default the hanger's -0.33).
         reward: The study's reward rule, one of :data:`hri_envs.task.episode.REWARDS`.
-        rho: ρ > 0, the prior's weight in the shared goal-relative level, ``inf`` to leave
-            that level out.
-        alpha: α > 0, the weight of the level below in the (ι, s) level.
-        kappa: κ > 0, the weight of the (ι, s) level in a refined context.
-        prior_beta: β > 0 of the shortest-path prior.
-        prior_epsilon: Weight in (0, 1) of a uniform choice in the prior.
-        gamma: Discount γ in [0, 1) of the plans.
+        rho: ρ > 0, the prior's weight in the shared goal-relative level, or ``inf`` to
+            leave that level out (default 1).
+        alpha: α > 0, the weight of the shared level in the (ι, s) level (default 1).
+        kappa: κ > 0, the weight of the (ι, s) level in a refined context (default 1).
+        prior_beta: β > 0 of the shortest-path prior (default 3, the goal filter's).
+        prior_epsilon: Weight in (0, 1) of a uniform choice in the prior (default 0.05).
+        gamma: Discount γ in [0, 1) of the plans (default 0.95).
         hazard: The filter's change-of-mind probability per motion into free space, in
-            [0, 1).
-        decay: Factor in (0, 1] applied to every count after each episode.
+            [0, 1) (default 0.05).
+        decay: Factor in (0, 1] applied to every count after each episode (default 1).
         robot_context: How the robot's action of the step splits the human's context, one
-            of :data:`ROBOT_CONTEXTS`.
-        by_start: Whether the start support splits the human's context.
+            of :data:`ROBOT_CONTEXTS` (default ``"wait"``).
+        by_start: Whether the start support splits the human's context (default False).
         hindsight: One of :data:`HINDSIGHT`: ``"revealed"`` (a step counts under the
             revealed intention) or ``"smooth"`` (weighted by the smoothed posterior under
-            ``hazard``).
+            ``hazard``; the default).
         adapt: Whether the actions use this episode's steps already (module docstring,
-            "Adapt").
-        wait_weight: λ > 0, the prior weight of the wait rates (module docstring).
+            "Adapt"; default True).
+        wait_weight: λ > 0, the prior weight of the wait rates (default 1).
 
     Attributes:
         shared: (B, S, 3, A) the counts ``R`` of the goal-relative level, per role.
@@ -198,11 +216,10 @@ class CountQMDP(_Tracking):
     def __init__(self, graph: TaskGraph, n_runs: int = 1, *, r0: float = -0.33,
                  reward: str = "paper", rho: float = 1.0, alpha: float = 1.0,
                  kappa: float = 1.0, prior_beta: float = 3.0, prior_epsilon: float = 0.05,
-                 gamma: float = 0.95, hazard: float = 0.05,
-                 decay: float = 1.0,
+                 gamma: float = 0.95, hazard: float = 0.05, decay: float = 1.0,
                  robot_context: str = "wait", by_start: bool = False,
-                 hindsight: str = "smooth", adapt: bool = True,
-                 wait_weight: float = 1.0) -> None:
+                 hindsight: str = "smooth", adapt: bool = True, wait_weight: float = 1.0
+                 ) -> None:
         super().__init__(graph, n_runs)
         self.r0 = check_real(r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True)
         if not isinstance(reward, str) or reward not in rules.REWARDS:
@@ -500,81 +517,95 @@ class CountQMDP(_Tracking):
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Forget by ``decay``, count the episode's steps in hindsight, plan again."""
         intentions = np.asarray(intentions, dtype=np.int64).reshape(self.n_runs)
-        for a in (self._fresh, self._fresh_pooled, self._fresh_waits, self._fresh_steps):
-            a[:] = 0.0
+        for fresh in (self._fresh, self._fresh_pooled, self._fresh_waits, self._fresh_steps):
+            fresh[:] = 0.0
         if self.decay < 1.0:
-            for a in (self.shared, self.pooled, self.counts, self._waits_seen,
-                      self._steps_seen):
-                a *= self.decay
+            for seen in (self.shared, self.pooled, self.counts, self._waits_seen,
+                         self._steps_seen):
+                seen *= self.decay
         self.add_counts(traces, intentions)
         self._replan()
 
     def add_counts(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
         """Add each run's steps to its counts (module docstring, "Learning"); runs with
-        intention -1 add nothing.
-        """
-        n_k = self.graph.n_intentions
-        parts: list[tuple[np.ndarray, ...]] = []
-        for b, (trace, goal) in enumerate(zip(traces, intentions, strict=True)):
-            n_t = len(trace.human_actions)
-            free = ~self.graph.is_support_state[trace.states[:-1]]
-            index = (np.full(int(free.sum()), b), trace.states[:-1][free],
-                     self.classes[trace.robot_actions[free]])
-            _add(self._waits_seen, index, (trace.human_actions[free] == WAIT).astype(float))
-            _add(self._steps_seen, index, np.ones(len(index[0])))
-            if goal < 0 or n_t == 0:
-                continue
-            start = int(self.graph.support[trace.states[0]])
-            if self.hindsight == "smooth" and self.hazard > 0.0:
-                weight = self.smoothed(b, start, trace, int(goal))  # (T, K)
-            else:
-                weight = np.zeros((n_t, n_k))
-                weight[:, goal] = 1.0
-            t_ix, i_ix = np.nonzero(weight > 0)
-            parts.append((np.full(len(t_ix), b), np.full(len(t_ix), start), i_ix,
-                          trace.states[t_ix], trace.robot_actions[t_ix],
-                          trace.human_actions[t_ix], weight[t_ix, i_ix]))
-        if not parts:
-            return
-        b_, st, io, s, a_r, a_h, w = (np.concatenate(x) for x in zip(*parts, strict=True))
-        x = st if self.by_start else np.zeros_like(st)
-        c = self.classes[a_r]
-        _add(self.shared, (b_, s, self.roles[st, io, s], self.relative[st, io, a_h]), w)
-        _add(self.pooled, (b_, io, s, a_h), w)
-        _add(self.counts, (b_, x, io, s, c, a_h), w)
-
-    def smoothed(self, row: int, start: int, trace: Trace, goal: int) -> np.ndarray:
-        """(T, K) ``P(ι_t = ι | the trace's human actions, ι_T = goal)`` of one run's episode
-        under the model before it and the hazard ``h`` (a forward–backward pass).
+        intention -1 add nothing but to the wait rates.
         """
         g = self.graph
-        k = g.n_intentions
-        n_t = len(trace.human_actions)
-        lik = self.likelihood(trace.states[:-1], trace.robot_actions, trace.human_actions,
-                              np.full(n_t, row), np.full(n_t, start))  # (T, K)
-        lifted = np.maximum.accumulate(g.support[trace.states] != start)  # (T+1,)
-        allowed = lifted[:, None] | (np.arange(k)[None] != start)  # (T+1, K)
-        free = self._may_switch(trace.states[:-1], trace.states[1:])  # (T,) after step t
-        h = self.hazard
-        fwd = np.zeros((n_t, k))  # P(ι_t | actions up to t)
-        b = allowed[0] / allowed[0].sum()
-        for t in range(n_t):
-            post = b * lik[t] * allowed[t]
-            b = post / post.sum() if post.sum() > 0 else b
-            fwd[t] = b
-            if free[t]:
-                b = change_of_mind(b, allowed[t + 1], h)
-        # v(ι) = P(the actions after step t, ι_T = goal | ι after step t = ι).
-        v = np.eye(k)[goal]
-        out = np.zeros((n_t, k))
-        for t in range(n_t - 1, -1, -1):
-            if free[t]:  # back through step t's change of mind
-                m = allowed[t + 1]
-                v = (1 - h) * v + h * ((v * m).sum() - v) / max(m.sum() - 1, 1)
-            post = fwd[t] * v
-            out[t] = post / post.sum() if post.sum() > 0 else np.eye(k)[goal]
-            v = v * lik[t]
-        return out
+        n_k = g.n_intentions
+        lengths = np.array([len(tr.human_actions) for tr in traces], dtype=np.int64)
+        run = np.repeat(np.arange(len(traces)), lengths)  # per step of every trace
+        s = np.concatenate([tr.states[:-1] for tr in traces]).astype(np.int64)
+        a_r = np.concatenate([tr.robot_actions for tr in traces]).astype(np.int64)
+        a_h = np.concatenate([tr.human_actions for tr in traces]).astype(np.int64)
+        free = ~g.is_support_state[s]
+        c = self.classes[a_r]
+        _add(self._waits_seen, (run[free], s[free], c[free]), (a_h[free] == WAIT) * 1.0)
+        _add(self._steps_seen, (run[free], s[free], c[free]), np.ones(int(free.sum())))
+        rows = np.flatnonzero((np.asarray(intentions) >= 0) & (lengths > 0))
+        if not len(rows):
+            return
+        goals = np.asarray(intentions, dtype=np.int64)[rows]
+        if self.hindsight == "smooth" and self.hazard > 0.0:
+            weight = np.concatenate(self.smoothed(rows, [traces[int(i)] for i in rows], goals))
+        else:
+            weight = np.eye(n_k)[np.repeat(goals, lengths[rows])]
+        kept = np.isin(run, rows)  # the steps of the runs that revealed ι, in order
+        step, io = np.nonzero(weight > 0)
+        w = weight[step, io]
+        b_, s_, c_, h_ = (x[kept][step] for x in (run, s, c, a_h))
+        st = g.support[np.array([tr.states[0] for tr in traces])][b_]
+        x = st if self.by_start else np.zeros_like(st)
+        _add(self.shared, (b_, s_, self.roles[st, io, s_], self.relative[st, io, h_]), w)
+        _add(self.pooled, (b_, io, s_, h_), w)
+        _add(self.counts, (b_, x, io, s_, c_, h_), w)
+
+    def smoothed(self, rows: np.ndarray, traces: Sequence[Trace], goals: np.ndarray
+                 ) -> list[np.ndarray]:
+        """Per trace, (T, K) ``P(ι_t = ι | the trace's human actions, ι_T = goal)`` under the
+        model before the episode and the hazard ``h`` (a forward–backward pass, every trace
+        at once; ``rows`` the traces' runs, ``goals`` their revealed intentions).
+        """
+        g = self.graph
+        k, h = g.n_intentions, self.hazard
+        rows, goals = np.asarray(rows, dtype=np.int64), np.asarray(goals, dtype=np.int64)
+        lengths = np.array([len(tr.human_actions) for tr in traces], dtype=np.int64)
+        n, t_max = len(traces), int(lengths.max())
+        states = np.stack([np.pad(tr.states, (0, t_max - len(tr.human_actions)), mode="edge")
+                           for tr in traces]).astype(np.int64)  # (n, T+1)
+        acts = [np.stack([np.pad(getattr(tr, f), (0, t_max - len(tr.human_actions)))
+                          for tr in traces]).astype(np.int64)
+                for f in ("robot_actions", "human_actions")]  # (n, T) each
+        starts = g.support[states[:, 0]]
+        lik = self.likelihood(states[:, :-1].ravel(), acts[0].ravel(), acts[1].ravel(),
+                              np.repeat(rows, t_max), np.repeat(starts, t_max))
+        lik = lik.reshape(n, t_max, k)
+        lifted = np.maximum.accumulate(g.support[states] != starts[:, None], axis=1)
+        allowed = lifted[..., None] | (np.arange(k) != starts[:, None, None])  # (n, T+1, K)
+        on = np.arange(t_max)[None] < lengths[:, None]  # (n, T) real steps
+        free = self._may_switch(states[:, :-1], states[:, 1:]) & on  # a change after step t
+        fwd = np.zeros((n, t_max, k))  # P(ι_t | the actions up to t)
+        b = allowed[:, 0] / allowed[:, 0].sum(-1, keepdims=True)
+        for t in range(t_max):
+            post = b * lik[:, t] * allowed[:, t]
+            total = post.sum(-1, keepdims=True)
+            b = np.where(total > 0, post / np.where(total > 0, total, 1.0), b)
+            fwd[:, t] = b
+            b = np.where(free[:, t, None], change_of_mind(b, allowed[:, t + 1], h), b)
+        # v(ι) ∝ P(the actions after step t, ι_T = goal | ι after step t's change = ι).
+        last = np.eye(k)[goals]
+        v = last.copy()
+        out = np.zeros((n, t_max, k))
+        for t in range(t_max - 1, -1, -1):
+            m = allowed[:, t + 1]
+            moved = (1 - h) * v + h * (((v * m).sum(-1, keepdims=True) - v)
+                                       / np.maximum(m.sum(-1, keepdims=True) - 1, 1))
+            v = np.where(free[:, t, None], moved, v)  # back through step t's change
+            post = fwd[:, t] * v
+            total = post.sum(-1, keepdims=True)
+            out[:, t] = np.where(total > 0, post / np.where(total > 0, total, 1.0), last)
+            v = np.where(on[:, t, None], v * lik[:, t], v)
+            v = v / np.maximum(v.max(-1, keepdims=True), 1e-300)  # its scale is free
+        return [out[i, :lengths[i]] for i in range(n)]
 
 
 def change_of_mind(belief: np.ndarray, allowed: np.ndarray, hazard: float) -> np.ndarray:

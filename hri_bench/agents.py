@@ -189,7 +189,8 @@ def agent_settings(name: str, scenario: str, r0: float,
     """The settings :func:`make_agent` gives agent ``name`` (for ``summary.json``).
 
     The Learner and plain ME-IRL: their :class:`~agents.config.LearnerConfig` as a dict;
-    ``countqmdp``: its parameters (:meth:`~baselines.countqmdp.CountQMDP.defaults`);
+    ``countqmdp``: its parameters (:meth:`~baselines.countqmdp.CountQMDP.defaults`, but
+    the reward rule, which is the study's);
     ``sb3:PATH``, ``jaxppo[:PATH]``: the model's path and size; ``module:Class``: its code identity
     (:func:`hri_bench.provenance.agent_identity`: its source files' sha256 and the
     constructor keywords it is given); the other agents: None (they have none).
@@ -197,8 +198,8 @@ def agent_settings(name: str, scenario: str, r0: float,
     cfg = _learner_config(name, scenario, r0, learner)
     if cfg is not None:
         return cfg.to_dict()
-    if name == "countqmdp":
-        return CountQMDP.defaults(r0=r0)
+    if name == "countqmdp":  # its reward rule is the study's own ("reward_rule")
+        return {k: v for k, v in CountQMDP.defaults(r0=r0).items() if k != "reward"}
     path = Path(name[len(SB3_PREFIX):]) if name.startswith(SB3_PREFIX) else jaxppo_path(name)
     if path is not None:
         return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
