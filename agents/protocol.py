@@ -42,8 +42,8 @@ the benchmark then scores how soon its most likely intention is right and how ca
 is (docs/results.md, "Metrics"). :meth:`Agent.belief` returns a (K,) array of probabilities
 over the K intentions (supports) or None; :meth:`BatchAgent.belief` a (n_runs, K) array or
 None. The default is None (no belief). The benchmark reads it with :func:`read_belief`
-before every ``act``: it is the belief the action is chosen on. The Learner, the goal filter
-and ``qmdp`` expose theirs (so do the recordings and the browser view).
+before every ``act``: it is the belief the action is chosen on. The Learner, the goal filter,
+``countqmdp`` and ``qmdp`` expose theirs (so do the recordings and the browser view).
 """
 
 from __future__ import annotations

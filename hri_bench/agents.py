@@ -1,7 +1,9 @@
 """Which robot agents the benchmark can run, by name.
 
 Built in: ``learner``, ``imitator``, ``maxent``, ``passive``, ``oracle``, ``goalfilter`` (a
-Bayesian goal filter that learns no preference, :mod:`baselines.goalfilter`), and the
+Bayesian goal filter that learns no preference, :mod:`baselines.goalfilter`), ``countqmdp``
+(counts of the human's actions per context, a Bayes filter over ι and QMDP planning,
+:mod:`baselines.countqmdp`), and the
 references ``informed`` (the information bound: sees ι; exact for every scripted or
 finite-state human, shared or drawn per run), ``blind`` (the ceiling for any robot that must
 infer ι, exact for one shared deterministic scripted human), see :mod:`baselines.bounds`,
@@ -42,7 +44,7 @@ from agents.config import LearnerConfig, default_config
 from agents.learner import Learner
 from agents.learning.algorithm1 import Workspace
 from agents.protocol import Agent, BatchAgent, Batched, run_streams
-from baselines import GoalFilter, Imitator, MaxEntIRL, Oracle, Passive
+from baselines import CountQMDP, GoalFilter, Imitator, MaxEntIRL, Oracle, Passive
 from baselines.bounds import Blind, Informed
 from baselines.product import QMDP, PerRunInformed
 from hri_bench.imports import import_class
@@ -65,8 +67,9 @@ BRACKET_AGENTS: tuple[str, ...] = ("qmdp",)
 #: The references and the bracket's lower end: they plan with the human's model, a suite
 #: adds them to the tracks they fit and never ranks them.
 PLANNING_REFERENCES: tuple[str, ...] = REFERENCE_AGENTS + BRACKET_AGENTS
-#: Further built-in agents, not in the default list of suite v1 (the goal filter).
-OTHER_AGENTS: tuple[str, ...] = ("goalfilter",)
+#: Further built-in agents, not in the default list of suite v1 (the goal filter, the
+#: count-based QMDP learner).
+OTHER_AGENTS: tuple[str, ...] = ("goalfilter", "countqmdp")
 #: Every built-in name.
 KNOWN_AGENTS: tuple[str, ...] = BUILTIN_AGENTS + OTHER_AGENTS + REFERENCE_AGENTS + BRACKET_AGENTS
 #: Agent names ``sb3:PATH`` load a saved SB3 model.
@@ -186,6 +189,8 @@ def agent_settings(name: str, scenario: str, r0: float,
     """The settings :func:`make_agent` gives agent ``name`` (for ``summary.json``).
 
     The Learner and plain ME-IRL: their :class:`~agents.config.LearnerConfig` as a dict;
+    ``countqmdp``: its parameters (:meth:`~baselines.countqmdp.CountQMDP.defaults`, but
+    the reward rule, which is the study's);
     ``sb3:PATH``, ``jaxppo[:PATH]``: the model's path and size; ``module:Class``: its code identity
     (:func:`hri_bench.provenance.agent_identity`: its source files' sha256 and the
     constructor keywords it is given); the other agents: None (they have none).
@@ -193,6 +198,8 @@ def agent_settings(name: str, scenario: str, r0: float,
     cfg = _learner_config(name, scenario, r0, learner)
     if cfg is not None:
         return cfg.to_dict()
+    if name == "countqmdp":  # its reward rule is the study's own ("reward_rule")
+        return {k: v for k, v in CountQMDP.defaults(r0=r0).items() if k != "reward"}
     path = Path(name[len(SB3_PREFIX):]) if name.startswith(SB3_PREFIX) else jaxppo_path(name)
     if path is not None:
         return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
@@ -225,11 +232,12 @@ def make_agent(
             their preferred actions).
         runs: Run indices of the batch (randomness derives from ``(seed, run)``).
         seed: Base seed.
-        r0: The study's waiting reward, used by the Learner's robot reward.
+        r0: The study's waiting reward, used by the Learner's robot reward (and the goal
+            filter's and ``countqmdp``'s).
         learner: Changes to the Learner's :class:`~agents.config.LearnerConfig` (after the
             scenario's defaults and ``r0``); other agents ignore them.
         max_steps: The step limit (the horizon of ``informed`` and ``blind``).
-        reward: The reward variant ``informed`` and ``blind`` optimise.
+        reward: The reward variant ``informed``, ``blind`` and ``countqmdp`` optimise.
         episodes: Episodes per run (the horizon of ``informed`` and ``qmdp`` for humans
             who remember across episodes).
     """
@@ -251,6 +259,8 @@ def make_agent(
         return Oracle(graph, human, n)
     if name == "goalfilter":
         return GoalFilter(graph, n, r0=r0)
+    if name == "countqmdp":
+        return CountQMDP(graph, n, r0=r0, reward=reward)
     if name == "informed" and not isinstance(human, ScriptedHuman):
         return PerRunInformed(graph, human, n, r0=r0, max_steps=max_steps, reward=reward,
                               episodes=episodes)
