@@ -285,8 +285,9 @@ def lead_section(doc: Mapping[str, Any]) -> str:
             delta = _ci(p["difference"])
         else:
             wtl = delta = "·"
-        lines.append(f"| {i + 1} | {_name(a)} | {_ci(e)} | {_ci(e, 'iqm')} | "
-                     f"{_fmt(sp.get('std'))} ({_fmt(sp.get('min'))}–{_fmt(sp.get('max'))}) | "
+        spread = (f"{_fmt(sp.get('std'))} ({_fmt(sp.get('min'))} to {_fmt(sp.get('max'))})"
+                  if len(sp.get("by_seed", {})) > 1 else "· (one seed)")
+        lines.append(f"| {i + 1} | {_name(a)} | {_ci(e)} | {_ci(e, 'iqm')} | {spread} | "
                      f"{wtl} | {delta} |")
     partial = {a: t for a, t in (agg.get("partial") or {}).items() if a not in REACHABLE}
     if partial:

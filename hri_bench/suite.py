@@ -103,9 +103,11 @@ MIN_RUNS, MAX_RUNS = 60, 400
 CONVERGED = 0.05
 #: Where the tracebacks of agents that raised go (in the suite's folder).
 ERRORS_LOG = "errors.log"
-#: Agents that must infer the intention (blind is their ceiling).
+#: Agents that must infer the intention (blind is their ceiling), as suite v2 lists them.
 INTENTION_BLIND: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "goalfilter",
                                     "qmdp")
+#: v3's: v2's and the count-based QMDP learner.
+INTENTION_BLIND_V3: tuple[str, ...] = (*INTENTION_BLIND, "countqmdp")
 
 
 @dataclass(frozen=True)
@@ -259,17 +261,20 @@ DELTA_V3 = 0.05
 #: stage of the bootstrap), and the runs of a track with one human.
 MIN_BLOCKS, MAX_BLOCKS = 2, 8
 MIN_RUNS_V3, MAX_RUNS_V3 = 60, 400
+#: Where the target is out of reach, runs per human stop where the difference detected is
+#: within this factor of what infinitely many would detect.
+DIMINISHING = 1.05
 #: v3's pilot (``benchmarks/suite_power.py --version 3``: the validation-v2 split's groups
 #: and the paper's human, seed 1000, never the test split): per track, the (between-human,
 #: within-human) standard deviations of the paired difference of normalised scores of the
 #: comparison that needs the most runs among those the suite is for (learner, goalfilter,
 #: countqmdp pairwise and against qmdp).
 PILOT_V3: dict[str, tuple[float, float]] = {
-    "hanger-test-scripted": (0.1, 0.3), "wheel-test-scripted": (0.1, 0.3),
-    "hanger-test-misspecified": (0.1, 0.3), "wheel-test-misspecified": (0.1, 0.3),
-    "hanger-test-adaptive": (0.1, 0.3), "wheel-test-adaptive": (0.1, 0.3),
-    "hanger-test-inconsistent": (0.1, 0.3), "wheel-test-inconsistent": (0.1, 0.3),
-    "hanger-paper": (0.0, 0.1), "wheel-paper": (0.0, 0.1),
+    "hanger-test-scripted": (0.2935, 0.1114), "wheel-test-scripted": (0.2733, 0.1067),
+    "hanger-test-misspecified": (1.2487, 0.0313), "wheel-test-misspecified": (1.2633, 0.0208),
+    "hanger-test-adaptive": (1.4207, 0.5024), "wheel-test-adaptive": (1.5255, 0.4197),
+    "hanger-test-inconsistent": (0.099, 0.1032), "wheel-test-inconsistent": (0.1232, 0.1208),
+    "hanger-paper": (0.0, 0.0483), "wheel-paper": (0.0, 0.0394),
 }
 
 
@@ -285,16 +290,21 @@ def detectable_v3(between: float, within: float, humans: int, blocks: int) -> fl
 
 def power_v3(between: float, within: float, humans: int) -> int:
     """Runs per human: the fewest in [:data:`MIN_BLOCKS`, :data:`MAX_BLOCKS`] that detect
-    :data:`DELTA_V3`, else :data:`MAX_BLOCKS` (the track is then under-powered, and says so);
-    a track of one human: the runs that detect it from the within spread alone, within
-    [:data:`MIN_RUNS_V3`, :data:`MAX_RUNS_V3`].
+    :data:`DELTA_V3`. Where no number of runs can (the humans' own spread alone, with
+    ``humans`` of them, detects more than the target), the fewest that come within
+    :data:`DIMINISHING` of what infinitely many runs per human would detect (more runs would
+    not narrow the interval noticeably; the track then misses its target, and says so),
+    at most :data:`MAX_BLOCKS`. A track of one human: the runs that detect the target from
+    the within spread alone, within [:data:`MIN_RUNS_V3`, :data:`MAX_RUNS_V3`].
     """
     if humans == 1:
         need = stats.runs_for_difference(within, DELTA_V3, power=POWER, alpha=ALPHA) \
             if within > 0 else 0
         return int(min(max(MIN_RUNS_V3, need), MAX_RUNS_V3))
+    limit = detectable_v3(between, 0.0, humans, 1)  # infinitely many runs per human
+    good_enough = DELTA_V3 if limit <= DELTA_V3 else DIMINISHING * limit
     for blocks in range(MIN_BLOCKS, MAX_BLOCKS + 1):
-        if detectable_v3(between, within, humans, blocks) <= DELTA_V3:
+        if detectable_v3(between, within, humans, blocks) <= good_enough:
             return blocks
     return MAX_BLOCKS
 
@@ -812,7 +822,8 @@ def run_suite(
         doc = {"suite_version": version, "seed": seed, "runs_scale": runs_scale,
                "agents": ranked, "converged_threshold": CONVERGED,
                "references": dict(ALL_REFERENCES),
-               "intention_blind": list(INTENTION_BLIND),
+               "intention_blind": list(INTENTION_BLIND if version == "2"
+                                       else INTENTION_BLIND_V3),
                "power": {"delta": DELTA, "power": POWER, "alpha": ALPHA,
                          "min_runs": MIN_RUNS, "max_runs": MAX_RUNS,
                          "pilot": "benchmarks/suite_power.py: seed 1000, 256 runs per track"},

@@ -119,7 +119,14 @@ def test_power_picks_the_fewest_runs_per_human_that_detect_the_target():
     assert suite.detectable_v3(0.04, 0.25, 40, 5) == pytest.approx(0.0526, abs=1e-4)
     assert suite.power_v3(0.04, 0.25, 40) == 6
     assert suite.power_v3(0.0, 0.05, 40) == suite.MIN_BLOCKS
-    assert suite.power_v3(0.3, 0.1, 40) == suite.MAX_BLOCKS  # humans' spread: out of reach
+    # Out of reach (the humans' spread alone detects 2.8016 · 0.3 / √40 = 0.133): two runs
+    # per human already come within 5 % of it (0.137), more would buy nothing.
+    assert suite.power_v3(0.3, 0.1, 40) == suite.MIN_BLOCKS
+    # Out of reach too (0.053), but the runs' spread matters: as many as allowed.
+    assert suite.power_v3(0.12, 0.3, 40) == suite.MAX_BLOCKS
+    for t in TRACKS_V3.values():  # every track: its pilot's spreads give its runs
+        n = suite.power_v3(t.pilot_between, t.pilot_within, t.humans)
+        assert t.runs == (n if t.humans == 1 else n * t.humans), t.name
 
 
 # --------------------------------------------------------------------------- a small v3 suite
