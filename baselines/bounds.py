@@ -161,16 +161,14 @@ def plan(
         r0: The waiting reward, in (-1, 0).
         max_steps: The step limit T, the horizon of the undiscounted objective.
         informed: Plan for a robot that observes ι (True) or not (False).
-        reward: The reward variant, one of :data:`hri_envs.task.episode.REWARDS`.
+        reward: The reward variant, one of :data:`hri_envs.task.episode.REWARD_RULES`.
         max_nodes: Stop with a ConfigError beyond this many planning nodes.
         prune: Drop hypotheses whose posterior falls below this (0: never).
 
     Returns:
         The cached :class:`Plan`.
     """
-    if reward not in rules.REWARDS:
-        raise ConfigError(f"unknown reward {reward!r}; allowed: {', '.join(rules.REWARDS)}",
-                          field="reward")
+    rules.reward_rule(reward)  # a ConfigError listing the registered rules
     if max_steps < 1:
         raise ConfigError(f"max_steps must be >= 1, got {max_steps}", field="max_steps")
     key = (*_fingerprint(graph, human, r0, max_steps, reward, informed), max_nodes, prune)

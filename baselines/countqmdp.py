@@ -179,7 +179,7 @@ class CountQMDP(_Tracking):
         graph: The task graph.
         n_runs: Independent runs.
         r0: The study's waiting reward, in (-1, 0) (default the hanger's -0.33).
-        reward: The study's reward rule, one of :data:`hri_envs.task.episode.REWARDS`.
+        reward: The study's reward rule, one of :data:`hri_envs.task.episode.REWARD_RULES`.
         rho: ρ > 0, the prior's weight in the shared goal-relative level, or ``inf`` to
             leave that level out (default 1).
         alpha: α > 0, the weight of the shared level in the (ι, s) level (default 1).
@@ -222,10 +222,7 @@ class CountQMDP(_Tracking):
                  ) -> None:
         super().__init__(graph, n_runs)
         self.r0 = check_real(r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True)
-        if not isinstance(reward, str) or reward not in rules.REWARDS:
-            raise ConfigError(f"reward must be one of {', '.join(rules.REWARDS)}, got "
-                              f"{reward!r}", field="reward")
-        self.reward = reward
+        self.reward = rules.reward_rule(reward).name  # a ConfigError names the rules
         self.rho = check_real(rho, "rho", low=0.0, low_open=True, allow_inf=True,
                               allowed="a number > 0, or inf (no shared level)")
         self.alpha = check_real(alpha, "alpha", low=0.0, low_open=True, high=1e6)

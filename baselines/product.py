@@ -46,7 +46,6 @@ import numpy as np
 
 from baselines.bounds import Plan, plan, reward_table
 from baselines.simple import _Tracking
-from hri_envs.errors import ConfigError
 from hri_envs.humans.finite_state import FiniteStateHuman, FiniteStateHumans, as_model
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import ScriptedHuman
@@ -194,9 +193,7 @@ def plan_product(graph: TaskGraph, human: FiniteStateHuman, *, r0: float, max_st
     """The exact plan for ``human`` over ``episodes`` episodes (see the module docstring);
     cached per (human, r0, max_steps, reward, episodes).
     """
-    if reward not in rules.REWARDS:
-        raise ConfigError(f"unknown reward {reward!r}; allowed: {', '.join(rules.REWARDS)}",
-                          field="reward")
+    rules.reward_rule(reward)  # a ConfigError listing the registered rules
     key = (human.fingerprint, float(r0), int(max_steps), reward, int(episodes))
     if key in _CACHE:
         return _CACHE[key]

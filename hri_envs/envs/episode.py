@@ -154,11 +154,11 @@ class Episode:
         i = (s * r.n_actions + a_r) * r.n_actions + a_h
         if s_next == r.next_list[i] and not failed:  # the graph's prediction: look it up
             reward = r.reward_list[i]
-            if r.reward_rule != "paper":
-                reward = float(r.adjust(reward, s, a_r, self.start, self.lifted))
+            if r.rule.charge is not None:
+                reward = float(r.adjust(reward, s, a_r, self.start, self.lifted, a_h, s_next))
         else:  # the backend's outcome differs from the graph's prediction
             reward = float(step_reward(r.graph, s, a_r, a_h, s_next, r.r0,
-                                       reward=r.reward_rule, start=self.start,
+                                       reward=r.rule, start=self.start,
                                        lifted=self.lifted, failed=failed))
         lifted = self.lifted or r.left_list[s_next * r.n_supports + self.start]
         return Transition(reward, r.aborted_list[i],

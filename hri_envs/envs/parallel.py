@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
@@ -24,7 +25,9 @@ from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, human_observation_space, robot_observation_space
 from hri_envs.envs.window import check_display
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
-from hri_envs.humans.scripted import check_probability, preference_human
+from hri_envs.humans.scripted import check_probability
+from hri_envs.humans.seat import human_spec
+from hri_envs.humans.spec import HumanSpec
 from hri_envs.task.episode import EpisodeRules, goal_reward, reached_intention
 from hri_envs.task.scenarios import scenario_spec
 
@@ -119,6 +122,9 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
 
     - ``scenario``: "hanger" or "wheel" (fixed by the versioned modules);
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
+    - ``human``: a :class:`~hri_envs.humans.spec.HumanSpec` of which only ``turn_back``
+      and ``preference`` (the route on which the human turns back) apply here, or their
+      shorthand keywords:
     - ``turn_back``: probability per episode that ι turns to the start support halfway (as
       ``options={"turn_back": True}``, drawn at reset; default 0). The human is an agent
       here, so its rationality and preference are the policy you give it, not env options;
@@ -172,10 +178,17 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         physics: dict[str, Any] | None = None,
         observation_format: str = "dict",
         human_reward: str = "cooperation",
-        turn_back: float = 0.0,
         reward: str = "paper",
+        human: HumanSpec | None = None,
+        **human_keywords: Any,
     ) -> None:
-        self.turn_back = check_probability(turn_back, "turn_back")
+        spec = human_spec(human, human_keywords)
+        if not isinstance(spec, HumanSpec) or dataclasses.replace(
+                spec, turn_back=0.0, preference=None) != HumanSpec():
+            raise ConfigError("the parallel env's human is an agent (your policy): its human "
+                              "spec sets only turn_back (and the preference whose route it "
+                              f"turns back on), got {spec!r}", field="human")
+        self.turn_back = check_probability(spec.turn_back, "turn_back")
         self.metadata = {**type(self).metadata, "name": f"{scenario}_v0",
                          "render_modes": list(type(self).metadata["render_modes"])}
         (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
@@ -192,7 +205,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
 
         self.graph = scenario_graph(scenario)
         self.rules = EpisodeRules(self.graph, self.r0, reward)
-        turn_state = preference_human(self.graph).turn_state
+        turn_state = spec.scripted(self.graph).turn_state  # where a turning human turns
         self._episode: Episode = episode_backend(self.backend)(self.rules, turn_state,
                                                                **physics)
         # The graph backend itself has no faults and no figures of its own for the infos.

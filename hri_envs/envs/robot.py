@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import gymnasium as gym
@@ -100,21 +99,21 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
     ```
 
     - ``scenario``: "hanger" or "wheel" (set by the registered id);
-    - ``preference``: the scripted human's preference, one of
-      :func:`hri_envs.humans.scripted.preferences_for` (default: the hanger study's most frequent
-      one, or the wheel's "straight");
-    - ``human_passive``: probability that the human waits in a step (paper Fig. 10c: 0.2);
-    - ``turn_back``: probability per episode that the human turns back halfway;
-    - ``human``: a ready-made human, replacing the three arguments above: a
-      :class:`~hri_envs.humans.scripted.ScriptedHuman` (for example a Boltzmann human), or
-      any :class:`~hri_envs.humans.protocol.Human` or one-row
+    - ``human``: who the human is: a :class:`~hri_envs.humans.spec.HumanSpec` (a scripted
+      human, a population, split or family, or a ``module:Class`` of your own: the same
+      description a study and ``serve`` take), or a ready-made human: a
+      :class:`~hri_envs.humans.scripted.ScriptedHuman` (for example a Boltzmann human), any
+      :class:`~hri_envs.humans.protocol.Human` or one-row
       :class:`~hri_envs.humans.protocol.BatchHuman` (a human who keeps state, a person);
-    - ``human_rationality``: β of a Boltzmann human that samples its free-space action from
-      ``softmax(β · Q_pref)``, the value of following its preference (docs/environments.md,
-      "Human populations"); ``inf`` (default) is the deterministic scripted human;
-    - ``population``: a name of :data:`hri_envs.humans.populations.POPULATIONS`; every
-      ``reset`` draws a new human (preference, β, passive and turning-back rates) from it
-      with the env's ``np_random``, replacing the human arguments above;
+    - the spec's shorthand, instead of ``human``:
+      ``preference`` (one of :func:`hri_envs.humans.scripted.preferences_for`; default: the
+      hanger study's most frequent one, or the wheel's "straight"), ``human_passive``
+      (probability that the human waits in a step; paper Fig. 10c: 0.2), ``turn_back``
+      (probability per episode of turning back halfway), ``human_rationality`` (β of a
+      Boltzmann human that samples its free-space action from ``softmax(β · Q_pref)``;
+      ``inf``, the default, is deterministic; docs/environments.md, "Human populations"),
+      ``population`` (a population, split, mixture or family: every ``reset`` draws a new
+      member with the env's ``np_random``) and ``human_params`` (a family's parameters);
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
     - ``reward``: ``"paper"`` (default) or ``"no-free-toggle"`` (see "Rewards");
     - ``max_cycles``: step limit per episode (default 100);
@@ -153,12 +152,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         self,
         scenario: str = "hanger",
         *,
-        preference: str | None = None,
-        human_passive: float = 0.0,
-        turn_back: float = 0.0,
         human: HumanLike | None = None,
-        human_rationality: float = math.inf,
-        population: str | None = None,
         r0: float | None = None,
         max_cycles: int = 100,
         render_mode: str | None = None,
@@ -167,6 +161,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         physics: dict[str, Any] | None = None,
         observation_format: str = "dict",
         reward: str = "paper",
+        **human_keywords: Any,
     ) -> None:
         (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
@@ -179,9 +174,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
             check_display()
 
         self.graph = scenario_graph(scenario)
-        self._human: BatchHuman = seat_human(
-            self.graph, human=human, preference=preference, passive=human_passive,
-            turn_back=turn_back, rationality=human_rationality, population=population)
+        self._human: BatchHuman = seat_human(self.graph, human=human, **human_keywords)
         self.rules = EpisodeRules(self.graph, self.r0, reward)
         self._episode: Episode = episode_backend(self.backend)(self.rules, None, **physics)
         self._sync_turn_state()

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -96,15 +95,17 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     ## Arguments
 
     - ``num_envs``: number of episodes N stepped together;
-    - ``scenario``, ``preference``, ``human_passive``, ``turn_back``,
-      ``human_rationality``, ``r0``, ``max_cycles``, ``backend``, ``reward``: as for
-      :class:`~hri_envs.envs.robot.RobotEnv` (every env shares one scripted human);
-    - ``human``: a :class:`~hri_envs.humans.scripted.ScriptedHuman` shared by every env, or
-      a :class:`~hri_envs.humans.protocol.BatchHuman` with ``num_envs`` rows (one human per
+    - ``scenario``, ``r0``, ``max_cycles``, ``backend``, ``reward``: as for
+      :class:`~hri_envs.envs.robot.RobotEnv`;
+    - ``human``: a :class:`~hri_envs.humans.spec.HumanSpec` (a scripted human every env
+      shares, or a population, split or family: each env draws a new member at every
+      (auto)reset with the env's ``np_random``), or its shorthand keywords as for
+      :class:`~hri_envs.envs.robot.RobotEnv` (``preference``, ``human_passive``,
+      ``turn_back``, ``human_rationality``, ``population``, ``human_params``); or a
+      :class:`~hri_envs.humans.scripted.ScriptedHuman` shared by every env, or a
+      :class:`~hri_envs.humans.protocol.BatchHuman` with ``num_envs`` rows (one human per
       env, which may keep state across steps and episodes: the env calls its
       ``begin_episode``, ``observe`` and ``end_episode`` for each env's episodes);
-    - ``population``: a name of :data:`hri_envs.humans.populations.POPULATIONS`: each env
-      draws a new human from it at every (auto)reset, with the env's ``np_random``;
     - ``render_mode``: must be None;
     - ``autoreset_mode``: ``AutoresetMode.NEXT_STEP`` (default) or ``SAME_STEP`` (or their
       string values).
@@ -126,18 +127,14 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         num_envs: int = 1,
         scenario: str = "hanger",
         *,
-        preference: str | None = None,
-        human_passive: float = 0.0,
-        turn_back: float = 0.0,
         human: HumanLike | None = None,
-        human_rationality: float = math.inf,
-        population: str | None = None,
         r0: float | None = None,
         max_cycles: int = 100,
         render_mode: str | None = None,
         backend: str = "graph",
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         reward: str = "paper",
+        **human_keywords: Any,
     ) -> None:
         try:
             mode = AutoresetMode(autoreset_mode)
@@ -166,10 +163,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 field="backend"
             )
         self.graph = scenario_graph(scenario)
-        self._human = seat_human(self.graph, human=human, preference=preference,
-                                 passive=human_passive, turn_back=turn_back,
-                                 rationality=human_rationality, population=population,
-                                 n_runs=self.num_envs)
+        self._human = seat_human(self.graph, human=human, n_runs=self.num_envs,
+                                 **human_keywords)
         self.rules = EpisodeRules(self.graph, self.r0, reward)
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self.single_observation_space = robot_observation_space(n_s, n_k, n_a)

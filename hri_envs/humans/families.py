@@ -47,7 +47,7 @@ from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph
 
 __all__ = ["FAMILIES", "GROUPS", "Family", "HumanModel", "build_family", "check_params",
-           "family_params"]
+           "family_params", "register_family"]
 
 #: What a family builds.
 HumanModel = ScriptedHuman | FiniteStateHuman
@@ -92,7 +92,44 @@ class Family:
                      if p.kind == p.KEYWORD_ONLY)
 
 
-_FAMILIES = (
+#: The family groups, in order: the Learner's own model family, then the kinds of human it
+#: does not assume (docs/humans.md, "Families").
+GROUPS: tuple[str, ...] = ("scripted", "misspecified", "adaptive", "inconsistent")
+#: The families, by name (:func:`register_family` adds one).
+FAMILIES: dict[str, Family] = {}
+
+
+def register_family(family: Family) -> Family:
+    """Make a human family known to populations, ``--population NAME`` and the envs'
+    ``population=``; returns it. docs/extending.md, "A human family", walks through it.
+
+    Raises:
+        ConfigError: ``family`` is not a :class:`Family`, its group is not one of
+            :data:`GROUPS`, its builder takes a parameter that is not keyword-only with a
+            default, or its name is another family's (``field="family"``).
+    """
+    if not isinstance(family, Family) or not (isinstance(family.name, str) and family.name):
+        raise ConfigError(f"register_family takes a Family with a name, got {family!r}",
+                          field="family")
+    if family.group not in GROUPS:
+        raise ConfigError(f"family {family.name!r}: group {family.group!r} is not one of "
+                          f"{', '.join(GROUPS)}", field="family")
+    if not callable(family.build):
+        raise ConfigError(f"family {family.name!r}: build must be a function "
+                          "build(graph, *, params...)", field="family")
+    params = list(inspect.signature(family.build).parameters.values())[1:]
+    loose = [p.name for p in params if p.kind is not p.KEYWORD_ONLY or p.default is p.empty]
+    if loose:
+        raise ConfigError(f"family {family.name!r}: build's parameters after the graph must be "
+                          f"keyword-only with defaults; not so: {', '.join(loose)}",
+                          field="family")
+    if family.name in FAMILIES and FAMILIES[family.name] != family:
+        raise ConfigError(f"family {family.name!r} is registered already", field="family")
+    FAMILIES[family.name] = family
+    return family
+
+
+for _family in (
     Family("preference", "scripted", _preference,
            "a scripted preference human, optionally passive or Boltzmann"),
     Family("low", "misspecified", misspecified.low_human, "keeps the object low"),
@@ -112,11 +149,8 @@ _FAMILIES = (
            "changes its intention mid-episode at random times"),
     Family("moody", "inconsistent", inconsistent.moody_human,
            "changes its preference at random episodes"),
-)
-#: The families, by name.
-FAMILIES: dict[str, Family] = {f.name: f for f in _FAMILIES}
-#: The family groups, in order.
-GROUPS: tuple[str, ...] = ("scripted", "misspecified", "adaptive", "inconsistent")
+):
+    register_family(_family)
 
 
 def family_params(family: str, params: Mapping[str, Any] | None = None) -> dict[str, Any]:

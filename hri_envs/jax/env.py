@@ -32,13 +32,12 @@ from hri_envs.envs.config import check_env_settings, scenario_graph
 from hri_envs.envs.spaces import robot_observation_space
 from hri_envs.errors import ConfigError
 from hri_envs.humans.populations import PopulationSpec, validate_drift
-from hri_envs.humans.rational import rational_human, validate_rationality
 from hri_envs.humans.scripted import (
     ScriptedHuman,
-    check_probability,
-    preference_human,
     preferences_for,
 )
+from hri_envs.humans.seat import human_spec
+from hri_envs.humans.spec import HumanSpec
 from hri_envs.humans.splits import MixtureSpec
 from hri_envs.jax.tables import (
     OUTCOME_BITS,
@@ -281,11 +280,14 @@ class JaxRobotEnv:
 
     ## Arguments
 
-    - ``scenario``, ``preference``, ``human_passive``, ``turn_back``,
-      ``human_rationality``, ``r0``, ``max_cycles``, ``reward``: as for
+    - ``scenario``, ``r0``, ``max_cycles``, ``reward``: as for
       :class:`~hri_envs.envs.vector.RobotVectorEnv`;
-    - ``human``: a :class:`~hri_envs.humans.scripted.ScriptedHuman` shared by every env
-      (humans of the human protocol with Python state cannot run under ``jit``);
+    - ``human``: a :class:`~hri_envs.humans.spec.HumanSpec` (a scripted human, or a
+      population or split below; its shorthand keywords ``preference``, ``human_passive``,
+      ``turn_back``, ``human_rationality``, ``population`` as for the vector env) or a
+      :class:`~hri_envs.humans.scripted.ScriptedHuman` shared by every env (humans of the
+      human protocol with Python state, families with a state of their own and
+      ``module:Class`` humans cannot run under ``jit``: refused naming them);
     - ``population``: a name of
       :data:`~hri_envs.jax.tables.SUPPORTED_POPULATIONS` (or a
       :class:`~hri_envs.humans.populations.PopulationSpec`), or of a split of
@@ -305,32 +307,45 @@ class JaxRobotEnv:
         self,
         scenario: str = "hanger",
         *,
-        preference: str | None = None,
-        human_passive: float = 0.0,
-        turn_back: float = 0.0,
-        human: ScriptedHuman | None = None,
-        human_rationality: float = math.inf,
-        population: str | PopulationSpec | MixtureSpec | None = None,
+        human: HumanSpec | ScriptedHuman | None = None,
         r0: float | None = None,
         max_cycles: int = 100,
         reward: str = "paper",
         episodes_per_human: int = 1,
         drift: int | None = None,
+        **human_keywords: Any,
     ) -> None:
         (self.scenario, self.r0, self.max_cycles, _, _) = check_env_settings(
             scenario, r0, max_cycles, None, [], "graph")
         graph = self.graph = scenario_graph(self.scenario)
-        validate_rationality(human_rationality)
-        passive = check_probability(human_passive, "human_passive")
-        turn = check_probability(turn_back, "turn_back")
+        population: Any = human_keywords.get("population")
+        if isinstance(population, PopulationSpec | MixtureSpec):  # a spec of your own
+            human_keywords = {k: v for k, v in human_keywords.items() if k != "population"}
+        else:
+            population = None
+        given = human_spec(human, human_keywords)
+        if isinstance(given, HumanSpec):
+            spec = given.check(graph)
+            if spec.kind in ("class", "prefixed") or spec.params:
+                raise ConfigError(f"the JAX env holds scripted humans and splits of them as "
+                                  f"tables, not {spec.population!r}"
+                                  + (" with family parameters" if spec.params else ""),
+                                  field="population")
+            if population is not None and spec != HumanSpec():
+                raise ConfigError("give either a human or a population, not both",
+                                  field="population")
+            human = None
+            if population is None and spec.population is not None:
+                population = spec.population
+            elif population is None:
+                human = spec.scripted(graph)
+        elif not isinstance(given, ScriptedHuman):
+            raise ConfigError(f"human must be a HumanSpec or a ScriptedHuman (a table the JAX "
+                              f"env can hold), got {type(given).__name__}", field="human")
+        else:
+            human = given
         episodes_per_human = check_whole(episodes_per_human, "episodes_per_human", minimum=1)
         validate_drift(drift, "drift")
-        if human is not None and population is not None:
-            raise ConfigError("give either a human or a population, not both",
-                              field="population")
-        if human is not None and not isinstance(human, ScriptedHuman):
-            raise ConfigError(f"human must be a ScriptedHuman (a table the JAX env can "
-                              f"hold), got {type(human).__name__}", field="human")
         if human is not None and (human.graph.name != graph.name
                                   or human.graph.n_states != graph.n_states):
             raise ConfigError(f"the human was built for the {human.graph.name} scenario, not "
@@ -348,9 +363,7 @@ class JaxRobotEnv:
         if population is not None:
             pop = population_arrays(graph, population)
         else:
-            if human is None:
-                human = rational_human(preference_human(graph, preference, passive=passive,
-                                                        turn_back=turn), human_rationality)
+            assert human is not None
             plain = is_plain(human, graph)
             if plain is None:  # its own table, after the preference humans
                 extra, fixed_entry = human, len(preferences_for(graph.name))

@@ -29,7 +29,9 @@ fuses the tables of :class:`EpisodeRules` into one look-up per step (the vector 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -40,7 +42,7 @@ if TYPE_CHECKING:
     from hri_envs.task.graph import TaskGraph
 
 __all__ = [
-    "REWARDS",
+    "REWARD_RULES",
     "Decisions",
     "EpisodeBatch",
     "EpisodeRules",
@@ -54,6 +56,10 @@ __all__ = [
     "goal_reward",
     "left_start",
     "reached_intention",
+    "register_reward_rule",
+    "reward_rule",
+    "RewardRule",
+    "RewardStep",
     "revise_intention",
     "robot_correct",
     "start_state",
@@ -63,10 +69,96 @@ __all__ = [
     "unneeded_toggle",
 ]
 
-#: The reward variants: "paper" (v0, the default) and "no-free-toggle" (see :func:`step_reward`).
-REWARDS: tuple[str, ...] = ("paper", "no-free-toggle")
-
 IntArray = np.ndarray | int
+
+
+# --------------------------------------------------------------------------- reward rules
+class RewardStep(NamedTuple):
+    """What a :class:`RewardRule` judges: one step (or a batch of them, arrays broadcast).
+
+    Attributes:
+        graph: The task graph.
+        s, a_r, a_h, s_next: The state, both actions and the state the object reached.
+        r0: The waiting reward.
+        start: The episode's start support.
+        lifted: Whether the object had left the start before the step.
+        paper: The paper rule's reward of the step (:func:`step_reward` with "paper").
+    """
+
+    graph: Any
+    s: Any
+    a_r: Any
+    a_h: Any
+    s_next: Any
+    r0: float
+    start: Any
+    lifted: Any
+    paper: np.ndarray
+
+
+@dataclass(frozen=True)
+class RewardRule:
+    """A reward rule: the paper's robot cooperation reward, possibly charged further.
+
+    Every path that charges a step (the envs, the vector env's fused table, the JAX env's
+    tables, the benchmark's loop, the exact references) applies the same object: it takes
+    the paper rule's reward of a step and its context (:class:`RewardStep`) and returns the
+    rule's. docs/extending.md, "A reward rule", walks through adding one.
+
+    Attributes:
+        name: Registry key (``--reward NAME``, ``reward=NAME``).
+        description: One line for help texts and docs.
+        charge: ``charge(step) -> reward`` (arrays broadcast, every value in [-1, 0]), or
+            None: the paper rule as it is.
+    """
+
+    name: str
+    description: str
+    charge: Callable[[RewardStep], np.ndarray] | None = None
+
+    def apply(self, step: RewardStep) -> np.ndarray:
+        """The rule's reward of ``step`` (the paper's where it charges nothing)."""
+        return step.paper if self.charge is None else np.asarray(self.charge(step), float)
+
+
+#: The reward rules, by name (:func:`register_reward_rule`).
+REWARD_RULES: dict[str, RewardRule] = {}
+
+
+def register_reward_rule(rule: RewardRule) -> RewardRule:
+    """Make ``rule`` known to the envs and ``hri-bench`` (``--reward``); returns it.
+
+    Raises:
+        ConfigError: ``rule`` is not a :class:`RewardRule`, has an empty name, or charges
+            a step outside [-1, 0] or unlike the paper rule where nothing differs
+            (:func:`hri_envs.conformance.check_reward_rule`).
+    """
+    if not isinstance(rule, RewardRule) or not (isinstance(rule.name, str) and rule.name):
+        raise ConfigError(f"register_reward_rule takes a RewardRule with a name, got {rule!r}",
+                          field="reward")
+    REWARD_RULES[rule.name] = rule
+    return rule
+
+
+def reward_rule(name: str | RewardRule) -> RewardRule:
+    """The registered rule ``name`` (a :class:`RewardRule` passes through).
+
+    Raises:
+        ConfigError: An unknown name; the message lists the registered rules.
+    """
+    if isinstance(name, RewardRule):
+        return name
+    rule = REWARD_RULES.get(name) if isinstance(name, str) else None
+    if rule is None:
+        raise ConfigError(f"unknown reward {name!r}; allowed: {', '.join(REWARD_RULES)}",
+                          field="reward")
+    return rule
+
+
+def __getattr__(name: str) -> Any:
+    if name == "REWARDS":  # the registered rules' names, as they are now
+        return tuple(REWARD_RULES)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 # --------------------------------------------------------------------------- start and end
@@ -204,7 +296,7 @@ def step_reward(
     s_next: IntArray,
     r0: float,
     *,
-    reward: str = "paper",
+    reward: str | RewardRule = "paper",
     start: IntArray | None = None,
     lifted: np.ndarray | bool = False,
     failed: np.ndarray | bool = False,
@@ -218,26 +310,24 @@ def step_reward(
 
     ``reward="no-free-toggle"``: as "paper", except that a robot toggle that is
     :func:`unneeded_toggle` (given the episode's ``start`` and ``lifted`` flag *before* the
-    step) and not punished costs ``r0``, like waiting.
+    step) and not punished costs ``r0``, like waiting. Any other registered
+    :class:`RewardRule` charges the paper rule's reward as it says.
 
     ``s_next`` is the state the object reached (the graph's prediction on the graph
     backend, the observed state on the physics backend). ``failed`` marks steps in which the
     backend reports a physical failure (the object dropped, pulled out of the grip, ...):
     they are punished with r⁻ like an aborted step.
     """
+    rule = reward_rule(reward)
     penalty = step_penalty(graph, s, a_r, a_h, s_next) | failed
     passive = (np.asarray(a_r) == WAIT) & (np.asarray(a_h) != WAIT)
     out = np.where(penalty, -1.0, np.where(passive, r0, 0.0))
-    if reward == "no-free-toggle":
-        if start is None:
-            raise ConfigError("reward 'no-free-toggle' needs the episode's start support",
-                              field="start")
-        return charge_unneeded_toggles(out, a_r, unneeded_toggle(graph, s, a_r, start, lifted),
-                                       r0)
-    if reward != "paper":
-        raise ConfigError(f"unknown reward {reward!r}; allowed: {', '.join(REWARDS)}",
-                          field="reward")
-    return out
+    if rule.charge is None:
+        return out
+    if start is None:
+        raise ConfigError(f"reward {rule.name!r} needs the episode's start support",
+                          field="start")
+    return rule.apply(RewardStep(graph, s, a_r, a_h, s_next, r0, start, lifted, out))
 
 
 def charge_unneeded_toggles(reward: np.ndarray | float, a_r: IntArray,
@@ -326,17 +416,14 @@ class EpisodeRules:
         action_mask: (S, A) int8, read-only rows of the observations' ``action_mask``.
         left: (S K,) bool, ``left[s K + start]``: :func:`left_start`.
         ends: (S K 2,) bool, ``ends[(s K + start) 2 + lifted]``: :func:`episode_over`.
-        unneeded: (S K 2,) bool, ``unneeded[(s K + start) 2 + lifted]``: a robot toggle
-            there is :func:`unneeded_toggle` (used by :meth:`adjust` under "no-free-toggle").
     """
 
-    def __init__(self, graph: TaskGraph, r0: float, reward: str = "paper") -> None:
-        if not isinstance(reward, str) or reward not in REWARDS:
-            raise ConfigError(f"unknown reward {reward!r}; allowed: {', '.join(REWARDS)}",
-                              field="reward")
+    def __init__(self, graph: TaskGraph, r0: float, reward: str | RewardRule = "paper"
+                 ) -> None:
+        self.rule = reward_rule(reward)
         self.graph = graph
         self.r0 = r0
-        self.reward_rule = reward
+        self.reward_rule = self.rule.name
         n_s, n_a, n_k = graph.n_states, graph.n_actions, graph.n_intentions
         self.n_states, self.n_actions, self.n_supports = n_s, n_a, n_k
         self.next_state = graph.next_state.astype(np.int64).reshape(-1)
@@ -349,10 +436,6 @@ class EpisodeRules:
         ends = episode_over(graph, np.arange(n_s)[:, None, None], np.arange(n_k)[None, :, None],
                             np.array([False, True])[None, None, :])  # (S, K, 2)
         self.ends = np.ascontiguousarray(ends).reshape(-1)  # (S K 2,)
-        unneeded = unneeded_toggle(graph, np.arange(n_s)[:, None, None], TOGGLE,
-                                   np.arange(n_k)[None, :, None],
-                                   np.array([False, True])[None, None, :])
-        self.unneeded = np.ascontiguousarray(unneeded).reshape(-1)  # (S K 2,)
         for table in (self.next_state, self.reward, self.aborted, self.valid,
                       self.action_mask, self.left, self.ends):
             table.setflags(write=False)
@@ -365,16 +448,23 @@ class EpisodeRules:
         self.ends_list: list[bool] = self.ends.tolist()
 
     def adjust(self, reward: np.ndarray | float, s: IntArray, a_r: IntArray, start: IntArray,
-               lifted: np.ndarray | bool) -> np.ndarray:
-        """Apply the reward variant to rewards of the "paper" rule (arrays broadcast).
+               lifted: np.ndarray | bool, a_h: IntArray | None = None,
+               s_next: IntArray | None = None) -> np.ndarray:
+        """Apply the reward rule to rewards of the "paper" rule (arrays broadcast; ``a_h``
+        and ``s_next`` default to the human waiting and the graph's next state).
 
         Under "no-free-toggle" a robot toggle that scored 0 and is unneeded in the context
         ``(s, start, lifted before the step)`` scores r0; under "paper" nothing changes.
         """
-        if self.reward_rule == "paper":
+        if self.rule.charge is None:
             return np.asarray(reward)
-        context = (np.asarray(s) * self.n_supports + start) * 2 + np.asarray(lifted, dtype=int)
-        return charge_unneeded_toggles(reward, a_r, np.take(self.unneeded, context), self.r0)
+        if a_h is None:
+            a_h = WAIT
+        if s_next is None:
+            s_next = np.take(self.next_state, self.index(np.asarray(s), np.asarray(a_r),
+                                                         np.asarray(a_h)))
+        return self.rule.apply(RewardStep(self.graph, s, a_r, a_h, s_next, self.r0, start,
+                                          lifted, np.asarray(reward, dtype=float)))
 
     def index(self, s: IntArray, a_r: IntArray, a_h: IntArray) -> IntArray:
         """Flat index of ``(s, a_R, a_H)`` into the (S A A,) tables."""
@@ -504,7 +594,8 @@ class StepTable:
         shape = (n_k, 2, n_s, n_a, n_a)
         joint = np.broadcast_to(rules.index(s, a_r, a_h), shape)
         s_next = rules.next_state[joint]
-        reward = np.broadcast_to(rules.adjust(rules.reward[joint], s, a_r, start, lifted), shape)
+        reward = np.broadcast_to(rules.adjust(rules.reward[joint], s, a_r, start, lifted,
+                                              a_h, s_next), shape)
         lifted_next = lifted | rules.left[s_next * n_k + start]
         terminated = rules.ends[(s_next * n_k + start) * 2 + lifted_next]
         next_key = ((start * 2 + lifted_next) * n_s + s_next) * self.stride
@@ -533,3 +624,17 @@ class StepTable:
         """``c A A``: the flat index of the context ``(state, start, lifted)``, arrays broadcast."""
         return ((np.asarray(start) * 2 + np.asarray(lifted, dtype=np.int64)) * self.rules.n_states
                 + state) * self.stride
+
+
+def _no_free_toggle(step: RewardStep) -> np.ndarray:
+    return charge_unneeded_toggles(step.paper, step.a_r, unneeded_toggle(
+        step.graph, step.s, step.a_r, step.start, step.lifted), step.r0)
+
+
+#: The built-in rules: the paper's (v0, the default) and its variant that charges r0 for a
+#: robot grasp toggle the next motion does not need (docs/task-model.md, "Reward").
+PAPER = register_reward_rule(RewardRule(
+    "paper", "the paper's rule: grasping and letting go cost nothing"))
+NO_FREE_TOGGLE = register_reward_rule(RewardRule(
+    "no-free-toggle", "as 'paper', but a robot grasp toggle that the next motion does not "
+    "need costs r0, like waiting", _no_free_toggle))

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -44,6 +44,9 @@ from hri_envs.task.actions import (
 from hri_envs.task.episode import robot_correct, step_reward
 from hri_envs.task.features import state_features
 from hri_envs.task.geometry import Scenario
+
+if TYPE_CHECKING:
+    from hri_envs.task.scenarios.spec import ScenarioSpec
 
 __all__ = [
     "BOTH",
@@ -84,6 +87,10 @@ class TaskGraph:
         mounting_state: (K,) int, the waypoint from which support k is mounted.
         features: (K, S, F) float, φ(s, ι) for each intention ι.
         state_names, action_names: readable labels.
+        spec: The registered scenario this graph was built for
+            (:class:`~hri_envs.task.scenarios.ScenarioSpec`: its r0, γ, episodes,
+            preferences, ids), so that whoever holds the graph holds the scenario; None for a
+            graph built from a bare geometry.
 
     The rules of an episode on these transitions (:attr:`robot_effective`, :meth:`reward`)
     are evaluated from :mod:`hri_envs.task.episode`, where they are written once.
@@ -105,6 +112,7 @@ class TaskGraph:
     features: np.ndarray
     state_names: tuple[str, ...]
     action_names: tuple[str, ...]
+    spec: ScenarioSpec | None = None
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -219,8 +227,10 @@ def _frozen(a: np.ndarray) -> np.ndarray:
     return out
 
 
-def build_graph(scenario: Scenario) -> TaskGraph:
-    """Build the :class:`TaskGraph` of a scenario (states, actions, transitions, features)."""
+def build_graph(scenario: Scenario, spec: ScenarioSpec | None = None) -> TaskGraph:
+    """Build the :class:`TaskGraph` of a scenario (states, actions, transitions, features);
+    ``spec``: the registered scenario it is for (:attr:`TaskGraph.spec`).
+    """
     sc = scenario
     n_k, n_h, n_o = sc.n_supports, len(sc.heights), len(sc.orientations)
     n_s = 4 * n_k + n_k * n_h * n_o
@@ -321,4 +331,5 @@ def build_graph(scenario: Scenario) -> TaskGraph:
               next_state, aborted, terminal,
               mounting_state, features)
     _freeze(*arrays)
-    return TaskGraph(sc, *arrays, state_names=tuple(names), action_names=tuple(action_names))
+    return TaskGraph(sc, *arrays, state_names=tuple(names), action_names=tuple(action_names),
+                     spec=spec)

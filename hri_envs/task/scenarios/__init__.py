@@ -11,8 +11,6 @@ registered here, in one place; :func:`register_scenario` adds one of your own
 
 from __future__ import annotations
 
-import functools
-
 from hri_envs.errors import ConfigError
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph, build_graph
@@ -39,12 +37,16 @@ SCENARIOS: dict[str, ScenarioSpec] = {}
 def register_scenario(spec: ScenarioSpec) -> None:
     """Make ``spec`` known to the envs, the humans, the learners and ``hri-bench``.
 
-    Registering a name again replaces the spec (its graph is rebuilt on next use). Its
-    Gymnasium ids, if any, are registered by :func:`hri_envs.registration.register_envs`.
+    Registering a name again replaces the spec. Its graph is built here, so a spec whose
+    geometry does not build, or whose ``n_actions`` is not its graph's, fails now rather than
+    at first use. Its Gymnasium ids, if any, are registered by
+    :func:`hri_envs.registration.register_envs`; :func:`hri_envs.conformance.check_scenario`
+    checks the rest (its routes, an episode of every env).
 
     Raises:
-        ConfigError: ``spec`` is not a :class:`ScenarioSpec`, or its default preference is
-            not one of its preferences.
+        ConfigError: ``spec`` is not a :class:`ScenarioSpec`, its default preference is not
+            one of its preferences, or its graph does not build or has another number of
+            actions than ``n_actions``.
     """
     if not isinstance(spec, ScenarioSpec):
         raise ConfigError(f"register_scenario takes a ScenarioSpec, got {spec!r}",
@@ -53,8 +55,13 @@ def register_scenario(spec: ScenarioSpec) -> None:
         raise ConfigError(f"the default preference {spec.default_preference!r} of scenario "
                           f"{spec.name!r} is not one of its preferences "
                           f"{', '.join(spec.preferences)}", field="default_preference")
+    graph = _build(spec)
+    if graph.n_actions != spec.n_actions:
+        raise ConfigError(f"scenario {spec.name!r}: its graph has {graph.n_actions} actions "
+                          f"(the supports' moves, the heights and the fixed ones), the spec "
+                          f"says n_actions={spec.n_actions}", field="n_actions")
     SCENARIOS[spec.name] = spec
-    _graph.cache_clear()
+    _GRAPHS[spec.name] = graph
 
 
 def scenario_spec(name: str) -> ScenarioSpec:
@@ -66,19 +73,26 @@ def scenario_spec(name: str) -> ScenarioSpec:
     return spec
 
 
-@functools.cache
-def _graph(name: str) -> TaskGraph:
-    spec = SCENARIOS[name]
-    graph = build_graph(spec.geometry())
-    if graph.n_actions != spec.n_actions:
-        raise AssertionError(f"{name}: the graph has {graph.n_actions} actions, the registry "
-                             f"says {spec.n_actions}")
+#: The registered scenarios' graphs (built once, at registration).
+_GRAPHS: dict[str, TaskGraph] = {}
+
+
+def _build(spec: ScenarioSpec) -> TaskGraph:
+    try:
+        graph = build_graph(spec.geometry(), spec=spec)
+    except ConfigError:
+        raise
+    except Exception as exc:  # a user's geometry: say whose and what
+        raise ConfigError(f"scenario {spec.name!r}: its geometry does not build a task graph "
+                          f"({type(exc).__name__}: {exc})", field="geometry") from exc
     return graph
 
 
 def scenario_graph(name: str) -> TaskGraph:
-    """The (read-only, shared) task graph of a scenario, built once per process."""
-    return _graph(scenario_spec(name).name)
+    """The (read-only, shared) task graph of a scenario, built once per process; it knows
+    its spec (:attr:`TaskGraph.spec`).
+    """
+    return _GRAPHS[scenario_spec(name).name]
 
 
 def episode_scenario(name: str, layout: Layout | None) -> Scenario:

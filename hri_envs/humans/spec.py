@@ -1,0 +1,265 @@
+"""One frozen description of the human partner, and the one factory that seats it.
+
+A :class:`HumanSpec` says who the human is, whatever runs it: the robot envs, the parallel
+and vector envs, the JAX env, a study, ``hri-bench serve``. It is one of
+
+* **a scripted human**: a preference (the scenario's default when None), optionally passive,
+  turning back halfway, Boltzmann (``rationality``);
+* **a population**: a scripted population, a frozen split or mixture, or a family (with its
+  ``params``), by name (:func:`hri_envs.humans.splits.population`): a new member per
+  episode in an env, each run its own member in a study;
+* **a human of your own**: ``module:Class``, a :class:`~hri_envs.humans.protocol.Human`
+  (one per stream) or :class:`~hri_envs.humans.protocol.BatchHuman` subclass;
+* **a prefixed kind** registered by a package above this one
+  (:func:`register_population_kind`; ``hri_bench`` registers ``recorded:DATASET``, a model
+  fitted to recorded people).
+
+:meth:`HumanSpec.seat` builds an env's seat; :meth:`HumanSpec.run_draws` and
+:meth:`HumanSpec.custom` a study's humans. The envs' flat keywords (``preference=``,
+``human_passive=``, ...) are a shorthand for a spec (:meth:`HumanSpec.from_kwargs`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from hri_envs.errors import ConfigError
+from hri_envs.humans.finite_state import FiniteStateHuman, FiniteStateHumans
+from hri_envs.humans.populations import (
+    POPULATIONS,
+    HumanDraw,
+    human_sequence,
+)
+from hri_envs.humans.protocol import BatchedHumans, BatchHuman, Human
+from hri_envs.humans.rational import rational_human, validate_rationality
+from hri_envs.humans.scripted import ScriptedHuman, check_probability, preference_human
+from hri_envs.humans.splits import draw_human, population, population_seat
+from hri_envs.humans.tables import TableHumans
+from hri_envs.imports import import_class
+from hri_envs.task.graph import TaskGraph
+
+__all__ = ["HUMAN_KEYWORDS", "POPULATION_KINDS", "HumanSpec", "PopulationKind",
+           "register_population_kind"]
+
+#: The envs' flat keywords for the human, and the :class:`HumanSpec` field each sets.
+HUMAN_KEYWORDS: dict[str, str] = {"preference": "preference", "human_passive": "passive",
+                                  "turn_back": "turn_back", "human_rationality": "rationality",
+                                  "population": "population", "human_params": "params"}
+
+
+@dataclass(frozen=True)
+class PopulationKind:
+    """Humans named ``PREFIX...`` by a package above ``hri_envs`` (``recorded:DATASET``).
+
+    Attributes:
+        prefix: The names' prefix, e.g. ``"recorded:"``.
+        description: One line for help texts.
+        build: ``build(name, graph)`` -> the human model every run and row shares.
+        check: ``check(name, scenario)`` raises a :class:`ConfigError` for a bad name;
+            None: ``build`` decides.
+    """
+
+    prefix: str
+    description: str
+    build: Callable[[str, TaskGraph], ScriptedHuman | FiniteStateHuman]
+    check: Callable[[str, str], None] | None = None
+
+
+#: The prefixed kinds, by prefix (:func:`register_population_kind`).
+POPULATION_KINDS: dict[str, PopulationKind] = {}
+
+
+def register_population_kind(kind: PopulationKind) -> PopulationKind:
+    """Make humans named ``kind.prefix + ...`` known to every :class:`HumanSpec`."""
+    if not isinstance(kind, PopulationKind) or not kind.prefix.endswith(":"):
+        raise ConfigError(f"register_population_kind takes a PopulationKind whose prefix ends "
+                          f"with ':', got {kind!r}", field="population")
+    POPULATION_KINDS[kind.prefix] = kind
+    return kind
+
+
+def _kind_of(name: str) -> PopulationKind | None:
+    return next((k for p, k in POPULATION_KINDS.items() if name.startswith(p)), None)
+
+
+@dataclass(frozen=True)
+class HumanSpec:
+    """Who the human partner is (module docstring).
+
+    Attributes:
+        preference: The scripted human's preference (None: the scenario's default).
+        passive: Its probability of waiting in a step (a scripted population: added).
+        turn_back: Its probability per episode of turning back halfway.
+        rationality: β of a Boltzmann version (``inf``: deterministic).
+        population: A population, split, mixture or family name, ``module:Class``, or a
+            registered prefixed kind; None: the scripted human above.
+        params: A family's parameters as (name, value) pairs.
+    """
+
+    preference: str | None = None
+    passive: float = 0.0
+    turn_back: float = 0.0
+    rationality: float = math.inf
+    population: str | None = None
+    params: tuple[tuple[str, Any], ...] = ()
+
+    @classmethod
+    def from_kwargs(cls, **keywords: Any) -> HumanSpec:
+        """The spec the envs' flat keywords (:data:`HUMAN_KEYWORDS`) describe.
+
+        Raises:
+            TypeError: A keyword that is not one of them (as a function would).
+        """
+        unknown = sorted(set(keywords) - set(HUMAN_KEYWORDS))
+        if unknown:
+            raise TypeError(f"unexpected keyword argument(s) {', '.join(map(repr, unknown))}; "
+                            f"the human's are {', '.join(HUMAN_KEYWORDS)}")
+        fields = {HUMAN_KEYWORDS[k]: v for k, v in keywords.items()}
+        if "params" in fields:
+            fields["params"] = _pairs(fields["params"])
+        return cls(**fields)
+
+    @property
+    def kind(self) -> str:
+        """"scripted", "population" (a name of :mod:`hri_envs.humans`), "prefixed" (a
+        registered :class:`PopulationKind`) or "class" (``module:Class``).
+        """
+        if self.population is None:
+            return "scripted"
+        if _kind_of(self.population) is not None:
+            return "prefixed"
+        return "class" if ":" in self.population else "population"
+
+    @property
+    def per_run(self) -> bool:
+        """Whether runs (or episodes) meet humans of their own: a population of members."""
+        return self.kind == "population"
+
+    def check(self, graph: TaskGraph) -> HumanSpec:
+        """``self`` if it describes a human of ``graph``'s scenario.
+
+        Raises:
+            ConfigError: A value out of range (``human_passive``, ``turn_back``,
+                ``human_rationality``), an unknown or another scenario's population or
+                preference (``population``, ``preference``), parameters for what is not a
+                family (``human_params``), a class that does not import or is not a human.
+        """
+        validate_rationality(self.rationality)
+        check_probability(self.passive, "human_passive")
+        check_probability(self.turn_back, "turn_back")
+        kind = self.kind
+        if kind == "scripted":
+            if self.params:
+                raise ConfigError("human_params sets a family's parameters; no population is "
+                                  "given", field="human_params")
+            preference_human(graph, self.preference)  # an unknown preference raises
+            return self
+        assert self.population is not None
+        if self.params and kind != "population":
+            raise ConfigError("human_params sets a family's parameters; "
+                              f"{self.population!r} takes none", field="human_params")
+        if kind == "prefixed":
+            found = _kind_of(self.population)
+            assert found is not None
+            (found.check or (lambda name, _: found.build(name, graph)))(self.population,
+                                                                       graph.name)
+        elif kind == "class":
+            self.human_class()
+        else:
+            population(self.population, graph.name, dict(self.params))
+        return self
+
+    def human_class(self) -> type[Human] | type[BatchHuman]:
+        """The class a ``module:Class`` spec names.
+
+        Raises:
+            ConfigError: It does not import, or is neither a Human nor a BatchHuman.
+        """
+        assert self.population is not None
+        cls: type[Human] | type[BatchHuman] = import_class(self.population, "human",
+                                                           "population", (Human, BatchHuman))
+        return cls
+
+    # ----------------------------------------------------------------- an env's seat
+    def seat(self, graph: TaskGraph, n_runs: int = 1) -> BatchHuman:
+        """The seat of an env with ``n_runs`` rows: the scripted human in every row, a
+        population drawing a new member every episode (:meth:`BatchHuman.draw`), or a
+        human of your own (a ``Human`` class: one per row).
+        """
+        self.check(graph)
+        kind = self.kind
+        if kind == "scripted":
+            return TableHumans(self.scripted(graph), n_runs)
+        if kind == "population":
+            assert self.population is not None
+            return population_seat(graph, self.population, n_runs, dict(self.params))
+        return self.custom(graph, n_runs)
+
+    def scripted(self, graph: TaskGraph, preference: str | None = None) -> ScriptedHuman:
+        """The scripted human of this spec (``preference`` overrides its own)."""
+        human = preference_human(graph, preference or self.preference, passive=self.passive,
+                                 turn_back=self.turn_back)
+        return rational_human(human, self.rationality)
+
+    def custom(self, graph: TaskGraph, n_rows: int) -> BatchHuman:
+        """A prefixed kind's or ``module:Class``'s humans for ``n_rows`` rows (a batch of a
+        study's runs, or an env's rows): a ``BatchHuman`` class made once as
+        ``Class(graph, n_rows)``, a ``Human`` class once per row (with ``graph=`` if its
+        constructor takes it), a prefixed kind's model shared by the rows.
+        """
+        assert self.population is not None
+        found = _kind_of(self.population)
+        if found is not None:
+            model = found.build(self.population, graph)
+            if isinstance(model, FiniteStateHuman):
+                return FiniteStateHumans(model, n_rows)
+            return TableHumans(model, n_rows)
+        cls = self.human_class()
+        if issubclass(cls, BatchHuman):
+            return cls(graph, n_rows)
+        single: type[Human] = cls
+        takes_graph = "graph" in inspect.signature(single).parameters
+        return BatchedHumans(graph, [single(graph=graph) if takes_graph  # type: ignore[call-arg]
+                                     else single() for _ in range(n_rows)])
+
+    # ----------------------------------------------------------------- a study's runs
+    def run_draws(self, scenario: str, seed: int, run: int, episodes: int,
+                  preference: str | None = None, drift: int | None = None) -> list[HumanDraw]:
+        """Run ``run``'s human in each episode of a study, from ``(seed, run)`` alone: a
+        population's member of the run (balanced blocks, :meth:`~hri_envs.humans.splits.
+        MixtureSpec.draw`), else the scripted human (``preference`` overrides its own: a
+        study cycling through preferences), drifted after ``drift`` episodes.
+        """
+        draw = draw_human(scenario, seed, run, population=self.population,
+                          preference=preference or self.preference,
+                          rationality=self.rationality, passive=self.passive,
+                          turn_back=self.turn_back, params=self.params)
+        return human_sequence(scenario, draw, seed, run, episodes, drift)
+
+    def info(self) -> dict[str, Any]:
+        """The spec as JSON-ready data (infinity as "inf")."""
+        out = dataclasses.asdict(self)
+        out["params"] = [list(p) for p in self.params]
+        if math.isinf(self.rationality):
+            out["rationality"] = "inf"
+        return out
+
+
+def _pairs(params: Any) -> tuple[tuple[str, Any], ...]:
+    if isinstance(params, Mapping):
+        return tuple(sorted(params.items()))
+    if isinstance(params, Sequence) and not isinstance(params, str):
+        return tuple(tuple(p) for p in params)
+    raise ConfigError(f"human_params must be a mapping or (name, value) pairs, got {params!r}",
+                      field="human_params")
+
+
+#: Whether a name is a scripted population's (kept here so that callers ask the spec).
+def is_scripted_population(name: str | None) -> bool:
+    """Whether ``name`` is one of :data:`~hri_envs.humans.populations.POPULATIONS`."""
+    return name in POPULATIONS
