@@ -1,0 +1,200 @@
+"""Conformance checks anyone can run on what they add, as PettingZoo ships ``api_test``.
+
+Each check raises a :class:`~hri_envs.errors.ConfigError` naming the first thing that does
+not hold (``field`` says what), and returns a short report on success. The test suite runs
+them over every registered entry (``tests/test_conformance.py``); docs/extending.md ends
+each guide with the one that fits. The robot's side has its own:
+:func:`agents.conformance.check_agent`.
+
+* :func:`check_scenario`: a :class:`~hri_envs.task.scenarios.ScenarioSpec` builds a graph
+  of its ``n_actions``, every preference's scripted human leads every start to every goal,
+  and its robot env passes Gymnasium's ``check_env``.
+* :func:`check_human`: a human (a :class:`~hri_envs.humans.spec.HumanSpec` or a ready-made
+  one) plays episodes in a robot env without failing, the same ones for the same seed, and
+  can be seated in several rows.
+* :func:`check_reward_rule`: a :class:`~hri_envs.task.episode.RewardRule` gives rewards in
+  [-1, 0] of the steps' shape, the same on the env's fused table as step by step.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from hri_envs.errors import ConfigError
+from hri_envs.humans.scripted import preference_human
+from hri_envs.humans.seat import HumanLike, seat_human
+from hri_envs.task import episode as rules
+from hri_envs.task.actions import WAIT
+from hri_envs.task.episode import EpisodeRules, RewardRule, StepTable, reward_rule
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import SCENARIOS, ScenarioSpec, scenario_graph, scenario_spec
+
+__all__ = ["check_human", "check_reward_rule", "check_scenario"]
+
+
+def _fail(what: str, field: str) -> ConfigError:
+    return ConfigError(what, field=field)
+
+
+def check_scenario(spec: ScenarioSpec | str, *, env: bool = True) -> str:
+    """Check a scenario (registered or not).
+
+    Args:
+        spec: The spec, or a registered scenario's name.
+        env: Also build its robot env (it must be registered) and run Gymnasium's
+            ``check_env`` on it.
+
+    Raises:
+        ConfigError: The graph does not build or has another number of actions than the
+            spec says; a preference's scripted human cannot lead from a start to a goal with
+            the robot following (``field="route"``); the env fails ``check_env``
+            (``field="env"``).
+    """
+    from hri_envs.task.scenarios import _build
+
+    if isinstance(spec, str):
+        spec = scenario_spec(spec)
+    graph = scenario_graph(spec.name) if SCENARIOS.get(spec.name) is spec else _build(spec)
+    if graph.n_actions != spec.n_actions:
+        raise _fail(f"scenario {spec.name!r}: its graph has {graph.n_actions} actions, the "
+                    f"spec says n_actions={spec.n_actions}", "n_actions")
+    for preference in spec.preferences:
+        human = preference_human(graph, preference)
+        for start in range(graph.n_intentions):
+            for goal in range(graph.n_intentions):
+                if goal != start and not _leads(graph, human, start, goal):
+                    raise _fail(f"scenario {spec.name!r}: preference {preference!r} does not "
+                                f"lead the object from {graph.support_names[start]} to "
+                                f"{graph.support_names[goal]} with the robot following",
+                                "route")
+    if env and SCENARIOS.get(spec.name) is spec:
+        _check_env(spec.name)
+    return (f"scenario {spec.name!r}: {graph.n_states} states, {graph.n_actions} actions, "
+            f"{len(spec.preferences)} preference(s) lead every start to every goal"
+            + (", its env passes check_env" if env else ""))
+
+
+def _leads(graph: TaskGraph, human: Any, start: int, goal: int, limit: int = 200) -> bool:
+    """Whether the deterministic human brings the object from ``start`` to ``goal`` while a
+    robot that mirrors it (holds when it holds, follows its motions) never blocks it.
+    """
+    s = int(rules.start_state(graph, start))
+    lifted = False
+    for _ in range(limit):
+        a_h = int(human.preferred_action(s, start, goal)) if hasattr(
+            human, "preferred_action") else WAIT
+        a_r = a_h if graph.valid[s, a_h] else WAIT
+        s = int(graph.next_state[s, a_r, a_h])
+        lifted = lifted or bool(rules.left_start(graph, s, start))
+        if rules.episode_over(graph, s, start, lifted):
+            return int(graph.support[s]) == goal
+    return False
+
+
+def _check_env(name: str) -> None:
+    from gymnasium.utils.env_checker import check_env
+
+    from hri_envs.envs.robot import RobotEnv
+
+    try:
+        check_env(RobotEnv(name), skip_render_check=True)
+    except Exception as exc:  # gymnasium raises AssertionError and others
+        raise _fail(f"scenario {name!r}: its robot env fails gymnasium's check_env: "
+                    f"{type(exc).__name__}: {exc}", "env") from exc
+
+
+def check_human(human: HumanLike, scenario: str, *, episodes: int = 4, seed: int = 0) -> str:
+    """Check a human in a scenario's robot env (the seat every env, study and ``serve``
+    uses).
+
+    Args:
+        human: A :class:`~hri_envs.humans.spec.HumanSpec` or a ready-made human (as an env's
+            ``human=``). A ready-made human with state of its own is played as given, so
+            pass a fresh one.
+        scenario: A registered scenario.
+        episodes: Episodes played, with a robot that waits and one that acts at random.
+        seed: The first seed.
+
+    Raises:
+        ConfigError: It cannot be seated, fails while playing (an action outside the action
+            set included), is not the same for the same seed, or cannot be seated in several
+            rows (``field="human"``).
+    """
+    from hri_envs.envs.robot import RobotEnv
+
+    graph = scenario_graph(scenario)
+    first = _play(RobotEnv(scenario, human=human), episodes, seed)
+    from hri_envs.humans.spec import HumanSpec
+
+    if isinstance(human, HumanSpec):  # a spec can be seated afresh: the same seed, the same
+        again = _play(RobotEnv(scenario, human=human), episodes, seed)
+        if again != first:
+            raise _fail(f"human {human!r}: two envs with seed {seed} saw different actions",
+                        "human")
+        seat = seat_human(graph, human=human, n_runs=3)
+        if seat.n_runs != 3:
+            raise _fail(f"human {human!r}: a seat of 3 rows has {seat.n_runs}", "human")
+    return (f"human {human!r} on the {scenario}: {episodes} episodes with valid actions"
+            + (", reproducible by seed" if isinstance(human, HumanSpec) else ""))
+
+
+def _play(env: Any, episodes: int, seed: int) -> list[int]:
+    """The human's actions over ``episodes`` episodes (a waiting robot, then a random one);
+    the seat refuses an action outside the action set (``checked_actions``), and an action
+    not valid in the state aborts the step, which the env counts.
+    """
+    rng = np.random.default_rng(seed)
+    seen: list[int] = []
+    for e in range(episodes):
+        obs, _ = env.reset(seed=seed + e)
+        done = False
+        while not done:
+            mask = obs["action_mask"].astype(bool)
+            a = WAIT if e % 2 == 0 else int(rng.choice(np.flatnonzero(mask)))
+            try:
+                obs, _, terminated, truncated, _ = env.step(a)
+            except Exception as exc:
+                raise _fail(f"the human failed in episode {e + 1}: {type(exc).__name__}: "
+                            f"{exc}", "human") from exc
+            seen.append(int(obs["last_human_action"]))
+            done = terminated or truncated
+    return seen
+
+
+def check_reward_rule(rule: RewardRule | str, scenarios: tuple[str, ...] | None = None
+                      ) -> str:
+    """Check a reward rule on every (state, robot action, human action, start, lifted) of
+    the scenarios' graphs.
+
+    Raises:
+        ConfigError: Its rewards are not of the steps' shape, not finite or outside
+            [-1, 0], or differ between the env's fused table (:class:`StepTable`) and
+            :func:`~hri_envs.task.episode.step_reward` (``field="reward"``).
+    """
+    rule = reward_rule(rule)
+    for name in scenarios or tuple(SCENARIOS):
+        graph = scenario_graph(name)
+        n_s, n_a, n_k = graph.n_states, graph.n_actions, graph.n_intentions
+        s = np.arange(n_s)[:, None, None, None, None]
+        a_r = np.arange(n_a)[None, :, None, None, None]
+        a_h = np.arange(n_a)[None, None, :, None, None]
+        start = np.arange(n_k)[None, None, None, :, None]
+        lifted = np.array([False, True])[None, None, None, None, :]
+        s_next = graph.next_state[s, a_r, a_h]
+        shape = (n_s, n_a, n_a, n_k, 2)
+        direct = np.broadcast_to(rules.step_reward(graph, s, a_r, a_h, s_next, -0.3,
+                                                   reward=rule, start=start, lifted=lifted),
+                                 shape)
+        if not np.all(np.isfinite(direct)) or direct.min() < -1.0 or direct.max() > 0.0:
+            raise _fail(f"reward rule {rule.name!r} on the {name}: rewards must be finite "
+                        f"and in [-1, 0], got [{direct.min()}, {direct.max()}]", "reward")
+        table = StepTable(EpisodeRules(graph, -0.3, rule))
+        keys = table.key(np.arange(n_s)[:, None, None, None, None], start, lifted)
+        fused = table.reward[keys + (a_r * n_a + a_h)]
+        if not np.array_equal(np.broadcast_to(fused, shape), direct):
+            raise _fail(f"reward rule {rule.name!r} on the {name}: the envs' fused table and "
+                        "step_reward differ (the rule must depend on the step and its "
+                        "context only)", "reward")
+    return f"reward rule {rule.name!r}: rewards in [-1, 0], the same on every path"
