@@ -489,3 +489,17 @@ def test_partner_env_names_an_env_that_is_not_the_two_agent_env(env):
     with pytest.raises(ConfigError, match="PartnerEnv wraps a two-agent env") as err:
         PartnerEnv(env)
     assert err.value.field == "env"
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, True, "3"])
+@pytest.mark.parametrize("make", ["robot", "parallel", "vector"])
+def test_a_bad_reset_seed_is_the_projects_error_naming_the_seed(make, seed):
+    from hri_envs import hanger_v0
+
+    env = {"robot": lambda: gym.make("hri_envs/Hanger-v0").unwrapped,
+           "parallel": hanger_v0.parallel_env,
+           "vector": lambda: gym.make_vec("hri_envs/Hanger-v0", num_envs=2,
+                                          vectorization_mode="vector_entry_point")}[make]()
+    with pytest.raises(ConfigError, match="seed must be a whole number >= 0 or None") as err:
+        env.reset(seed=seed)
+    assert err.value.field == "seed"

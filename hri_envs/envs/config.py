@@ -31,6 +31,7 @@ __all__ = [
     "check_r0",
     "check_render_mode",
     "check_scenario",
+    "check_seed",
     "episode_scenario",
     "parse_reset_options",
     "scenario_graph",
@@ -59,6 +60,20 @@ def check_r0(r0: float | None, scenario: str) -> float:
     return check_real(r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True,
                       allowed=f"a number in the open interval (-1, 0) (the paper uses {paper} "
                               f"for the {scenario})")
+
+
+def check_seed(seed: Any, what: str = "this env") -> int | None:
+    """A reset's ``seed``: None, or a whole number >= 0 (numpy's generators take no other).
+
+    Raises:
+        ConfigError: Anything else (``field="seed"``), before Gymnasium's own error.
+    """
+    if seed is None:
+        return None
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ConfigError(f"seed must be a whole number >= 0 or None for {what}, got {seed!r}",
+                          field="seed")
+    return int(seed)
 
 
 def check_max_cycles(max_cycles: int) -> int:

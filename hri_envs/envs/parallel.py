@@ -16,6 +16,7 @@ from hri_envs.envs.backends import episode_backend
 from hri_envs.envs.config import (
     check_env_settings,
     check_physics_options,
+    check_seed,
     parse_reset_options,
     scenario_graph,
 )
@@ -266,7 +267,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     ) -> tuple[dict[str, dict[str, Any]], dict[str, dict[str, Any]]]:
         """Start an episode; see the class docstring for ``options``."""
         opts = parse_reset_options(options, self.graph.scenario)
-        if seed is not None:
+        if check_seed(seed) is not None:
             self._np_random, self._np_random_seed = seeding.np_random(seed)
         rng = self.np_random
         self._episode.draw(rng, opts.start, opts.intention, opts.turn_back, self.turn_back)

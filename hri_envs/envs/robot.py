@@ -13,6 +13,7 @@ from hri_envs.envs.backends import episode_backend
 from hri_envs.envs.config import (
     check_env_settings,
     check_physics_options,
+    check_seed,
     parse_reset_options,
     scenario_graph,
 )
@@ -224,7 +225,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode; see the class docstring for ``options``."""
         opts = parse_reset_options(options, self.graph.scenario)
-        super().reset(seed=seed)
+        super().reset(seed=check_seed(seed))
         rng = self.np_random
         human = self._human
         human.draw(rng)  # a population's new member, drawn first

@@ -15,6 +15,7 @@ from hri_envs.envs.config import (
     RESET_OPTION_KEYS,
     check_env_settings,
     check_options_mapping,
+    check_seed,
     scenario_graph,
     support_index,
 )
@@ -321,11 +322,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 f"unknown reset option(s) {', '.join(unknown)} for the vector env; "
                 f"allowed: {', '.join(_VECTOR_OPTION_KEYS)}", field="options"
             )
-        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
-                                 or seed < 0):
-            raise ConfigError(f"seed must be a whole number >= 0 or None for this batched env, "
-                              f"got {seed!r}", field="seed")
-        super().reset(seed=seed)
+        super().reset(seed=check_seed(seed, "this batched env"))
         human = self._human
         if human is not self._adopted:  # replaced since the last step
             self._adopt(human)
