@@ -503,3 +503,15 @@ def test_a_bad_reset_seed_is_the_projects_error_naming_the_seed(make, seed):
     with pytest.raises(ConfigError, match="seed must be a whole number >= 0 or None") as err:
         env.reset(seed=seed)
     assert err.value.field == "seed"
+
+
+@pytest.mark.parametrize("layout, text", [
+    (((1.0, 2.0), (1.0, 2.0)), "the stands are 0 m apart"),
+    (((0.0, 0.2), (1.6, 2.2)), "stand B is 0.2 m from the rack"),
+    (((0.0, 2.2), (0.0, 9.0)), "stand C is 9 m from the rack"),
+])
+def test_a_wheel_layout_its_waypoints_do_not_fit_is_refused_naming_the_stand(layout, text):
+    with pytest.raises(ConfigError, match=text) as err:
+        gym.make("hri_envs/Wheel-v0").reset(seed=0, options={"layout": layout})
+    assert err.value.field == "layout"
+    gym.make("hri_envs/Wheel-v0").reset(seed=0, options={"layout": ((0.0, 2.2), (1.6, 2.2))})

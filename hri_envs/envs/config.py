@@ -225,4 +225,7 @@ def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -
         turn_back = bool(value)
     if options.get("layout") is not None:
         layout = _check_layout(options["layout"])
+        check = scenario_spec(scenario.name).check_layout
+        if check is not None:
+            check(layout)
     return ResetOptions(start, intention, turn_back, layout)

@@ -55,6 +55,8 @@ class ScenarioSpec:
         physics_design: ``"module:function"`` returning its ``PhysicsDesign`` (None: the
             scenario has no physics backend).
         layout: Draws a random support layout per episode (None: the supports are fixed).
+        check_layout: Raises a ``ConfigError`` for a layout (a reset's ``layout`` option)
+            the scenario's waypoints do not fit (None: any of the right shape).
         schedules: Fixed episode schedules by name (the hanger's user study: "table2").
     """
 
@@ -72,4 +74,5 @@ class ScenarioSpec:
     pettingzoo_module: str | None = None
     physics_design: str | None = None
     layout: Callable[..., Layout] | None = None
+    check_layout: Callable[[Layout], None] | None = None
     schedules: Mapping[str, tuple[ScheduleRow, ...]] = field(default_factory=dict)

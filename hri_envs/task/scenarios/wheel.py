@@ -14,7 +14,8 @@ from hri_envs.errors import ConfigError
 from hri_envs.task.geometry import Scenario, Support
 from hri_envs.task.scenarios.spec import Layout, Op, ScenarioSpec, natural_route
 
-__all__ = ["NOMINAL_STANDS", "PREFERENCES", "SPEC", "geometry", "sample_layout"]
+__all__ = ["APART_M", "FROM_RACK_M", "NOMINAL_STANDS", "PREFERENCES", "SPEC", "check_layout",
+           "geometry", "sample_layout"]
 
 _Q_HORIZONTAL = np.array([1.0, 0.0, 0.0, 0.0])
 _Q_VERTICAL = np.array([np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0, 0.0])
@@ -32,17 +33,43 @@ NOMINAL_STANDS: Layout = ((0.0, 2.2), (1.6, 2.2))
 PREFERENCES: tuple[str, ...] = ("straight", "detour")
 
 
+#: Where the paper places the stands [m]: each this far from the rack, and this far apart.
+FROM_RACK_M, APART_M = (1.6, 3.6), (1.0, 2.2)
+
+
 def sample_layout(rng: np.random.Generator) -> Layout:
     """Draw stand positions (x, y) [m] as the paper does.
 
-    Each stand is 1.6-3.6 m from the rack (at the origin) and the stands are 1.0-2.2 m apart.
+    Each stand is 1.6-3.6 m from the rack (at the origin) and the stands are 1.0-2.2 m apart
+    (:data:`FROM_RACK_M`, :data:`APART_M`).
     """
     while True:
-        dist = rng.uniform(1.6, 3.6, size=2)
+        dist = rng.uniform(*FROM_RACK_M, size=2)
         bearing = rng.uniform(-np.pi / 3, np.pi / 3, size=2)
         xy = np.stack([dist * np.sin(bearing), dist * np.cos(bearing)], axis=1)
-        if 1.0 <= np.linalg.norm(xy[0] - xy[1]) <= 2.2:
+        if APART_M[0] <= np.linalg.norm(xy[0] - xy[1]) <= APART_M[1]:
             return (float(xy[0, 0]), float(xy[0, 1])), (float(xy[1, 0]), float(xy[1, 1]))
+
+
+def check_layout(stands: Layout) -> None:
+    """Refuse stand positions the scenario's waypoints do not fit: each stand
+    :data:`FROM_RACK_M` from the rack and the stands :data:`APART_M` apart (the ranges
+    :func:`sample_layout` draws from; two stands at one point, or a stand at the rack,
+    would make waypoints that collide).
+
+    Raises:
+        ConfigError: A stand outside them (``field="layout"``), the message naming it.
+    """
+    xy = np.asarray(stands, dtype=float)
+    for name, d in zip(("B", "C"), np.linalg.norm(xy, axis=1), strict=True):
+        if not FROM_RACK_M[0] - 1e-9 <= d <= FROM_RACK_M[1] + 1e-9:
+            raise ConfigError(f"stand {name} is {d:.3g} m from the rack; the wheel's stands "
+                              f"stand {FROM_RACK_M[0]}-{FROM_RACK_M[1]} m from it",
+                              field="layout")
+    apart = float(np.linalg.norm(xy[0] - xy[1]))
+    if not APART_M[0] - 1e-9 <= apart <= APART_M[1] + 1e-9:
+        raise ConfigError(f"the stands are {apart:.3g} m apart; the wheel's stand "
+                          f"{APART_M[0]}-{APART_M[1]} m apart", field="layout")
 
 
 def geometry(stands: Layout = NOMINAL_STANDS) -> Scenario:
@@ -88,4 +115,5 @@ SPEC = ScenarioSpec(
     default_preference="straight", route=route, n_actions=12, gym_id="hri_envs/Wheel-v0",
     panda_id="hri_envs/WheelPanda-v0", pettingzoo_module="hri_envs.wheel_v0",
     physics_design="hri_envs.physics.design:wheel_design", layout=sample_layout,
+    check_layout=check_layout,
 )
