@@ -108,6 +108,15 @@ class HumanSpec:
     population: str | None = None
     params: tuple[tuple[str, Any], ...] = ()
 
+    def __post_init__(self) -> None:
+        for name, field in (("population", "population"), ("preference", "preference")):
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, str) and value):
+                raise ConfigError(f"{name} must be a name (a non-empty string) or None, got "
+                                  f"{value!r}", field=field)
+        if not isinstance(self.params, tuple):
+            object.__setattr__(self, "params", _pairs(self.params))
+
     @classmethod
     def from_kwargs(cls, **keywords: Any) -> HumanSpec:
         """The spec the envs' flat keywords (:data:`HUMAN_KEYWORDS`) describe.
@@ -252,9 +261,12 @@ class HumanSpec:
 
 def _pairs(params: Any) -> tuple[tuple[str, Any], ...]:
     if isinstance(params, Mapping):
-        return tuple(sorted(params.items()))
+        params = sorted(params.items())
     if isinstance(params, Sequence) and not isinstance(params, str):
-        return tuple(tuple(p) for p in params)
+        pairs = [tuple(p) if isinstance(p, Sequence) and not isinstance(p, str) else (p,)
+                 for p in params]
+        if all(len(p) == 2 and isinstance(p[0], str) for p in pairs):
+            return tuple((str(p[0]), p[1]) for p in pairs)
     raise ConfigError(f"human_params must be a mapping or (name, value) pairs, got {params!r}",
                       field="human_params")
 
