@@ -25,7 +25,7 @@ their run means (runs are paired: the same run meets the same human and schedule
 the runs of each member of the population (the study meets the members in balanced blocks,
 so their make-up adds no error; the CIs are stratified alike); the largest is the track's
 ``pilot_sd``, and ``runs_for_difference(pilot_sd, 0.05)`` at 80 %
-power is what the track needs (``hri_bench.stats``). Pairs with agents whose episodes run
+power is what the track needs (``hri_bench.core.stats``). Pairs with agents whose episodes run
 away (plain ME-IRL and the Imitator loop until the step limit with some humans: run means
 of -20 and worse) would ask for tens of thousands of runs to resolve differences nobody
 needs at 0.05; they are printed for reference, not used. It prints the table and the
@@ -42,7 +42,7 @@ import time
 
 import numpy as np
 
-from hri_bench import stats
+from hri_bench.core import stats
 from hri_bench.suite import ALPHA, DEFAULT_AGENTS_V2, DELTA, POWER, select_tracks, track_config
 
 #: The comparisons that set a track's runs.
@@ -84,9 +84,8 @@ def components(diff: np.ndarray, humans: np.ndarray) -> tuple[float, float]:
 
 def pilot_v3(blocks: int, seed: int, jobs: int, only: str | None) -> None:
     """Run v3's pilot (module docstring) and print ``PILOT_V3``."""
-    from hri_bench import ranking
-    from hri_bench.results_v3 import run_humans
-    from hri_bench.study import regret_reference, run_study
+    from hri_bench.report import ranking
+    from hri_bench.run.study import regret_reference, run_study
     from hri_bench.suite import (
         DEFAULT_AGENTS_V3,
         DELTA_V3,
@@ -95,6 +94,7 @@ def pilot_v3(blocks: int, seed: int, jobs: int, only: str | None) -> None:
         detectable_v3,
         power_v3,
     )
+    from hri_bench.suite.results_v3 import run_humans
 
     found: dict[str, tuple[float, float]] = {}
     for track in select_tracks(only, "3"):
@@ -154,7 +154,7 @@ def main() -> None:
     if args.version == "3":
         pilot_v3(args.blocks, args.seed, args.jobs, args.tracks)
         return
-    from hri_bench.study import run_study
+    from hri_bench.run.study import run_study
 
     found: dict[str, float] = {}
     for track in select_tracks(args.tracks, "2"):  # v2's pilot

@@ -12,11 +12,13 @@ import pytest
 
 from agents.protocol import BatchAgent, Batched, read_belief
 from baselines import Passive
-from hri_bench import aggregate, metrics, provenance, submission
-from hri_bench.agents import contract_keywords, make_agent
 from hri_bench.cli import main
-from hri_bench.runner import make_schedule, simulate
-from hri_bench.study import StudyConfig, graph_for, run_study
+from hri_bench.report import aggregate
+from hri_bench.run import metrics, provenance
+from hri_bench.run.agents import contract_keywords, make_agent
+from hri_bench.run.runner import make_schedule, simulate
+from hri_bench.run.study import StudyConfig, graph_for, run_study
+from hri_bench.suite import submission
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
 from tests.helpers_agents import AlwaysWait

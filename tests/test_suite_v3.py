@@ -10,9 +10,10 @@ import json
 import numpy as np
 import pytest
 
-from hri_bench import aggregate, audit, ranking, submission, suite
+from hri_bench import suite
 from hri_bench.cli import main
-from hri_bench.suite import DEFAULT_AGENTS_V3, TRACKS_V3, track_config
+from hri_bench.report import aggregate, ranking
+from hri_bench.suite import DEFAULT_AGENTS_V3, TRACKS_V3, audit, submission, track_config
 from hri_envs.errors import ConfigError
 from hri_envs.humans.splits import MIXTURES
 
