@@ -277,7 +277,7 @@ def outs(tmp_path_factory):
 def _cli(argv):
     """(exit code or the accepted StudyConfig, stderr) of ``hri-bench`` run in-process."""
     err = io.StringIO()
-    with mock.patch("hri_bench.run.studyio.run_in", _stop), contextlib.redirect_stderr(err), \
+    with mock.patch("hri_bench.cli.commands.run_in", _stop), contextlib.redirect_stderr(err), \
             contextlib.redirect_stdout(io.StringIO()):
         try:
             result = cli.main(argv)

@@ -28,10 +28,33 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from hri_bench.run.agents import BUILTIN_AGENTS
-from hri_bench.run.study import EXECUTORS
-from hri_envs.envs.backends import BACKENDS
-from hri_envs.errors import ConfigError
+from agents.config import default_config
+from hri_bench.cli import people as cli_people
+from hri_bench.cli import results as cli_results
+from hri_bench.people.play import play
+from hri_bench.report.speed import measure
+from hri_bench.run.agents import BUILTIN_AGENTS, SB3_PREFIX, jaxppo_path, validate_agent_name
+from hri_bench.run.regret import REFERENCES
+from hri_bench.run.study import EXECUTION_FIELDS, EXECUTORS, StudyConfig, graph_for
+from hri_bench.run.studyio import UNITS, StudyDir, StudyTerminated, run_in, stop_on_signals
+from hri_bench.suite import (
+    DEFAULT_AGENTS,
+    DEFAULT_AGENTS_V2,
+    LATEST,
+    SUITE_VERSIONS,
+    default_agents,
+    population_track,
+    run_suite,
+    select_tracks,
+    track_config,
+)
+from hri_envs.envs.backends import BACKENDS, check_backend
+from hri_envs.errors import (
+    BackendUnavailableError,
+    ConfigError,
+    LearnerStateError,
+    MissingExtraError,
+)
 from hri_envs.humans.families import FAMILIES
 from hri_envs.humans.populations import POPULATIONS
 from hri_envs.task.episode import REWARDS
@@ -51,8 +74,6 @@ def _human_param(text: str) -> tuple[str, str]:
 
 
 def _agents(text: str) -> tuple[str, ...]:
-    from hri_bench.run.agents import validate_agent_name
-
     names = tuple(a.strip() for a in text.split(",") if a.strip())
     if not names:
         raise argparse.ArgumentTypeError("give at least one agent")
@@ -259,9 +280,6 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--seed", type=_seed, default=0)
 
     _suite_parser(sub)
-    from hri_bench.cli import people as cli_people
-    from hri_bench.cli import results as cli_results
-
     cli_results.add_parsers(sub)
     cli_people.add_parsers(sub)
 
@@ -273,8 +291,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _suite_parser(sub: Any) -> None:
     """The ``suite`` command's flags (docs/benchmark.md, "Suite")."""
-    from hri_bench.suite import DEFAULT_AGENTS, DEFAULT_AGENTS_V2, LATEST, SUITE_VERSIONS
-
     suite = sub.add_parser("suite", help="run the versioned benchmark suite and a leaderboard",
                            description="Run every track of the benchmark suite (one study "
                            "each) and write suite.json, leaderboard.md and one figure per "
@@ -303,22 +319,11 @@ def _suite_parser(sub: Any) -> None:
                        help="add a track of its own on a recorded population "
                             "(recorded:DATASET or recorded-irl:DATASET; repeatable)")
     suite.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    from hri_bench.cli import results as cli_results  # --config, --seeds (docs/results.md)
-
-    cli_results.add_suite_flags(suite)
+    cli_results.add_suite_flags(suite)  # --config, --seeds (docs/results.md)
     suite.set_defaults(command_parser=suite)
 
 
 def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from hri_bench.cli import results as cli_results
-    from hri_bench.suite import (
-        default_agents,
-        population_track,
-        run_suite,
-        select_tracks,
-        track_config,
-    )
-
     seeds = cli_results.suite_plan(args, parser)  # --config replays, --seeds
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     version = args.suite_version
@@ -376,8 +381,6 @@ def _config_error(parser: argparse.ArgumentParser, exc: ConfigError,
 def _learner_changes(args: argparse.Namespace, parser: argparse.ArgumentParser
                      ) -> dict[str, Any]:
     """The ``--learner-*`` flags given, checked against the scenario's LearnerConfig."""
-    from agents.config import default_config
-
     learner: dict[str, Any] = {f: getattr(args, f"learner_{f}") for f in _LEARNER_FLAGS
                                if getattr(args, f"learner_{f}") is not None}
     if args.learner_no_passive_prior:
@@ -393,8 +396,6 @@ def _learner_changes(args: argparse.Namespace, parser: argparse.ArgumentParser
 def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
                   executor: str) -> Any:
     """The :class:`StudyConfig` from the flags, or from ``--config`` (a summary.json)."""
-    from hri_bench.run.study import EXECUTION_FIELDS, StudyConfig
-
     execution = {"jobs": args.jobs, "executor": executor, "ray_address": args.ray_address}
     if args.config is None:
         if args.scenario is None:
@@ -426,8 +427,6 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
                      f"{settings.get('scenario')!r} study; leave the scenario out")
     try:
         cfg = StudyConfig.from_settings(settings, **execution)
-        from hri_bench.cli import results as cli_results
-
         # a custom agent edited since: from the document read above (once, within the limit)
         cli_results.warn_code_changes(doc.get("agent_configs"), cfg.agents)
         return cfg
@@ -474,10 +473,6 @@ def _require_for_study(cfg: Any, *, progress: bool) -> None:
     ``sb3:`` model or ``jaxppo:`` checkpoint cannot be loaded (a :class:`ConfigError` with
     ``field="agents"``).
     """
-    from hri_bench.run.agents import SB3_PREFIX, jaxppo_path
-    from hri_envs.envs.backends import check_backend
-    from hri_envs.errors import MissingExtraError
-
     check_backend(cfg.backend)
     MissingExtraError.require(["matplotlib", *(["tqdm"] if progress else [])],
                               "writing a study's plots")
@@ -486,8 +481,7 @@ def _require_for_study(cfg: Any, *, progress: bool) -> None:
     if any(a.startswith(SB3_PREFIX) for a in cfg.agents):
         MissingExtraError.require(["stable_baselines3", "sb3_contrib", "torch"],
                                   "an 'sb3:' agent")
-        from agents.sb3 import SB3BatchAgent
-        from hri_bench.run.study import graph_for
+        from agents.sb3 import SB3BatchAgent  # torch: the rl extra, only for an sb3: agent
 
         for name in cfg.agents:  # a model that cannot be loaded is bad input: exit 2
             if name.startswith(SB3_PREFIX):
@@ -497,9 +491,7 @@ def _require_for_study(cfg: Any, *, progress: bool) -> None:
                     raise ConfigError(f"agent {name!r}: {exc}", field="agents") from None
     if any(jaxppo_path(a) is not None for a in cfg.agents):
         MissingExtraError.require(["jax", "optax"], "a 'jaxppo' agent")
-        from agents.jax_ppo.agent import load_checked
-        from hri_bench.run.study import graph_for
-        from hri_envs.errors import LearnerStateError
+        from agents.jax_ppo.agent import load_checked  # jax: the jax extra, only for jaxppo
 
         for name in cfg.agents:  # a checkpoint that cannot be loaded is bad input: exit 2
             path = jaxppo_path(name)
@@ -517,8 +509,6 @@ def _resume_hint(argv: Sequence[str]) -> str:
 
 def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
            argv: Sequence[str]) -> int:
-    from hri_bench.run.studyio import UNITS, StudyDir, StudyTerminated, run_in, stop_on_signals
-
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     arguments = {**_STUDY_ARGUMENTS, "out": "--out", "resume": "--resume"}
     try:
@@ -565,8 +555,6 @@ def _cannot_write(exc: OSError, out: Path, argv: Sequence[str]) -> int:
 
 def _print_study(result: Any, out: Path, paths: Sequence[Path]) -> None:
     """The study's table of rewards and regret, and the files written."""
-    from hri_bench.run.regret import REFERENCES
-
     cfg = result.config
     print(f"{cfg.scenario} study: {len(cfg.agents)} agents x {cfg.runs} runs x "
           f"{cfg.n_episodes} episodes in {result.wall_time_s:.1f} s")
@@ -585,7 +573,7 @@ def _print_study(result: Any, out: Path, paths: Sequence[Path]) -> None:
 
 
 def _figures(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from hri_bench.report.figures import FIGURES, make_figures
+    from hri_bench.report.figures import FIGURES, make_figures  # matplotlib: the bench extra
 
     only = FIGURES if args.only is None else tuple(f.strip() for f in args.only.split(","))
     bad = [f for f in only if f not in FIGURES]
@@ -601,8 +589,6 @@ def _figures(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 
 def _speed(args: argparse.Namespace) -> int:
-    from hri_bench.report.speed import measure
-
     figures = measure(jobs=args.jobs, size=args.size, jax=not args.no_jax)
     targets = {"jax": "", "jax_device": "the device JAX ran on",
                "jax_env_envs": "envs stepped together (jit + vmap)",
@@ -625,7 +611,7 @@ def _speed(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from hri_bench.report.figures import make_figures
+    from hri_bench.report.figures import make_figures  # matplotlib: the bench extra
 
     t0 = time.perf_counter()
     print("hri-bench demo: the wheel studies (Fig. 10a-c, 100 runs x 20 episodes), the Learner's "
@@ -661,8 +647,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         if word.startswith("--") and word.endswith("=--"):
             parser.error(f"argument {word[:-3]}: expected one argument, got '--'")
     args = parser.parse_args(argv)
-    from hri_envs.errors import BackendUnavailableError, MissingExtraError
-
     try:
         return _dispatch(args, parser, argv)
     except (MissingExtraError, BackendUnavailableError) as exc:
@@ -679,8 +663,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
               argv: Sequence[str]) -> int:
     if args.command in ("figures", "demo"):
-        from hri_envs.errors import MissingExtraError
-
         MissingExtraError.require(["matplotlib", "tqdm"], f"hri-bench {args.command}")
     if args.command == "study":
         return _study(args, args.command_parser, argv)
@@ -691,16 +673,10 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
     if args.command == "speed":
         return _speed(args)
     if args.command in ("validate", "leaderboard"):
-        from hri_bench.cli import results as cli_results
-
         return cli_results.run(args)
     if args.command in ("serve", "dataset", "replay"):
-        from hri_bench.cli import people as cli_people
-
         return cli_people.run(args)
     if args.command == "play":
-        from hri_bench.people.play import play
-
         play(args.scenario, episodes=args.episodes, seed=args.seed)
         return 0
     return _demo(args)

@@ -19,9 +19,16 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from hri_envs.errors import ConfigError
+from hri_bench.data import datasets
+from hri_bench.data import fit as fitting
+from hri_bench.data.datasets import create_dataset, open_dataset
+from hri_bench.data.replay import replay
+from hri_bench.people.recording import record_study
+from hri_bench.people.serve import ServeConfig, require_web, serve
+from hri_bench.run.study import StudyConfig
+from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.task.episode import REWARDS
-from hri_envs.task.scenarios import SCENARIOS
+from hri_envs.task.scenarios import SCENARIOS, scenario_spec
 
 __all__ = ["COMMANDS", "add_parsers", "run"]
 
@@ -187,12 +194,7 @@ def _read_text(parser: argparse.ArgumentParser, path: Path | None, flag: str) ->
 
 
 def _serve(args: argparse.Namespace) -> int:
-    from hri_bench.people.serve import require_web
-
     require_web("hri-bench serve")
-    from hri_bench.people.serve import ServeConfig, serve
-    from hri_envs.task.scenarios import scenario_spec
-
     parser = args.command_parser
     prefs: tuple[str, ...] = ()
     if args.preferences is not None:
@@ -211,12 +213,8 @@ def _serve(args: argparse.Namespace) -> int:
                              show_belief=args.show_belief, max_sessions=args.max_sessions,
                              idle_timeout_s=args.idle_timeout, **texts)
         if config.agent.startswith("sb3:"):
-            from hri_envs.errors import MissingExtraError
-
             MissingExtraError.require(["stable_baselines3", "sb3_contrib", "torch"],
                                       "an 'sb3:' agent")
-        from hri_bench.data.datasets import create_dataset
-
         create_dataset(config.dataset_id, config.scenario, synthetic=False, root=config.data)
     except ConfigError as exc:
         _fail(parser, exc, _SERVE_ARGUMENTS)
@@ -239,11 +237,7 @@ def _print(doc: Any, as_json: bool, lines: list[str]) -> None:
 
 
 def _dataset(args: argparse.Namespace) -> int:
-    from hri_envs.errors import MissingExtraError
-
     MissingExtraError.require(["pyarrow"], f"hri-bench dataset {args.dataset_command}")
-    from hri_bench.data import datasets
-
     parser = args.command_parser
     action = args.dataset_command
     try:
@@ -289,10 +283,9 @@ def _dataset(args: argparse.Namespace) -> int:
 
 
 def _fit(args: argparse.Namespace, dataset: Any) -> int:
-    from hri_bench.data.fit import evaluate, fit
-
-    models = [fit(dataset, "bc", smoothing=args.smoothing), fit(dataset, "irl")]
-    scores = evaluate(dataset, models)
+    models = [fitting.fit(dataset, "bc", smoothing=args.smoothing),
+              fitting.fit(dataset, "irl")]
+    scores = fitting.evaluate(dataset, models)
     kind = "SYNTHETIC (scripted humans)" if dataset.synthetic else "people"
     print(f"{dataset.dataset_id} ({kind}): fitted to {len(models[0].train)} training "
           f"participants; {len(scores['held_out'])} held out ({scores['steps']} steps)")
@@ -313,12 +306,7 @@ def _fit(args: argparse.Namespace, dataset: Any) -> int:
 
 
 def _record(args: argparse.Namespace) -> int:
-    from hri_envs.errors import MissingExtraError
-
     MissingExtraError.require(["pyarrow"], "hri-bench dataset record")
-    from hri_bench.people.recording import record_study
-    from hri_bench.run.study import StudyConfig
-
     parser = args.command_parser
     arguments = {"agents": "--agent", "runs": "--sessions", "episodes": "--episodes",
                  "preference": "--preference", "population": "--population",
@@ -344,12 +332,7 @@ def _wait_for_enter() -> None:
 
 
 def _replay(args: argparse.Namespace) -> int:
-    from hri_envs.errors import MissingExtraError
-
     MissingExtraError.require(["pyarrow"], "hri-bench replay")
-    from hri_bench.data.datasets import open_dataset
-    from hri_bench.data.replay import replay
-
     parser = args.command_parser
     try:
         dataset = open_dataset(args.dataset, args.data)

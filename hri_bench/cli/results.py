@@ -9,11 +9,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import secrets
 import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from hri_bench.core.atomic import atomic_writer
+from hri_bench.run.agents import PLANNING_REFERENCES, validate_agent_name
+from hri_bench.run.provenance import code_changes
+from hri_bench.suite import audit, submission
+from hri_bench.suite.merged import merged_leaderboard
+from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION
 from hri_envs.errors import ConfigError
 
 __all__ = ["add_parsers", "add_suite_flags", "leaderboard", "run", "run_suites", "suite_plan",
@@ -83,18 +90,14 @@ def _seeds(text: str, parser: argparse.ArgumentParser) -> list[int]:
 
 def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
     """version, agents, tracks, populations, runs_scale, seeds and recorded identities."""
-    from hri_bench.run.agents import PLANNING_REFERENCES
-    from hri_bench.suite import SUITE_VERSIONS, TRACKS_BY_VERSION
-    from hri_bench.suite.submission import FORMAT, load
-
     try:
-        doc = load(path)
+        doc = submission.load(path)
     except ConfigError as exc:
         parser.error(f"argument --config: {exc}")
     if not isinstance(doc, dict):
         parser.error(f"argument --config: {path}: not a suite.json or results.json")
     try:
-        if doc.get("format") == FORMAT:
+        if doc.get("format") == submission.FORMAT:
             version = doc["suite"]["version"]
             agents = [a for a in doc["agents"] if a not in PLANNING_REFERENCES]
             tracks = list(doc["suite"]["tracks"])
@@ -107,7 +110,7 @@ def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
             identities = doc.get("provenance", {}).get("agents")
             beside = path.with_name("results.json")
             if identities is None and beside.is_file():  # v1's suite.json has none
-                identities = load(beside).get("agents")
+                identities = submission.load(beside).get("agents")
             plan = {"agents": list(doc["agents"]),
                     "tracks": [t for t in doc["tracks"] if t in known],
                     "populations": [tr["settings"]["population"]
@@ -128,8 +131,6 @@ def suite_plan(args: argparse.Namespace, parser: argparse.ArgumentParser) -> lis
     """Apply ``--config`` (replay: the file's agents, tracks, scale and seeds; warn on stderr
     when an agent's code differs from the recorded one) and ``--seeds``; the seeds to run.
     """
-    from hri_bench.run.provenance import code_changes
-
     if args.config is None:
         return _seeds(args.seeds, parser) if args.seeds is not None else [args.seed]
     given = [f"--{k.replace('_', '-')}" for k, v in vars(args).items()
@@ -139,8 +140,6 @@ def suite_plan(args: argparse.Namespace, parser: argparse.ArgumentParser) -> lis
         parser.error(f"argument --config: it replays the recorded suite; drop {', '.join(given)}")
     plan = _read_config(args.config, parser)
     for agent in plan["agents"]:  # a custom agent that no longer imports: exit 2 here
-        from hri_bench.run.agents import validate_agent_name
-
         try:
             validate_agent_name(agent)
         except ConfigError as exc:
@@ -159,20 +158,18 @@ def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[...
     """Run the suite once per seed; with several, each in ``out/seed-S``, then the combined
     ``results.json``, ``leaderboard.md`` and ``profiles.png`` in ``out``.
     """
-    from hri_bench.core.atomic import atomic_writer
-    from hri_bench.suite.submission import combine, lead_section, load, task_section, write_results
-
     if len(seeds) == 1:
         return [run_one(args.out, seed=seeds[0])]
     docs = [run_one(args.out / f"seed-{s}", seed=s) for s in seeds]
     parts = [args.out / f"seed-{s}" / "results.json" for s in seeds]
     if all(p.is_file() for p in parts):
-        results = combine([load(p) for p in parts])
-        write_results(args.out, results)
+        results = submission.combine([submission.load(p) for p in parts])
+        submission.write_results(args.out, results)
         with atomic_writer(args.out / "leaderboard.md") as f:
             f.write(f"# hri-envs benchmark suite v{results['suite']['version']}, seeds "
                     f"{', '.join(map(str, seeds))}\n\nPer seed: `seed-S/leaderboard.md`.\n\n"
-                    + lead_section(results) + "\n" + task_section(results) + "\n")
+                    + submission.lead_section(results) + "\n"
+                    + submission.task_section(results) + "\n")
         with atomic_writer(args.out / "suite.json") as f:
             f.write(json.dumps({"suite_version": docs[0]["suite_version"], "seeds": seeds,
                                 "runs_scale": docs[0]["runs_scale"],
@@ -189,8 +186,6 @@ def warn_code_changes(recorded: Any, agents: Any) -> None:
     differs from the identity ``recorded`` (the file's ``agent_configs``, as the caller read
     it; anything but an object: nothing recorded).
     """
-    from hri_bench.run.provenance import code_changes
-
     for line in code_changes(recorded if isinstance(recorded, dict) else {}, agents):
         print(f"hri-bench study: warning: {line}", file=sys.stderr)
 
@@ -199,12 +194,9 @@ def validate(path: Path, replay: int = 0, replay_seed: int | None = None) -> int
     """``hri-bench validate FILE [--replay K]``: 0 when valid (and every replayed run
     identical); 1 with one line per problem.
     """
-    from hri_bench.suite.submission import load
-    from hri_bench.suite.submission import validate as check
-
     try:
-        doc = load(path)
-        problems = check(doc)
+        doc = submission.load(path)
+        problems = submission.validate(doc)
     except ConfigError as exc:
         print(f"hri-bench validate: {exc}", file=sys.stderr)
         return 1
@@ -215,12 +207,8 @@ def validate(path: Path, replay: int = 0, replay_seed: int | None = None) -> int
         return 1
     print(f"{path}: valid (schema, suite version and hashes, every statistic recomputed)")
     if replay:
-        import secrets
-
-        from hri_bench.suite.audit import replay as rerun
-
         seed = secrets.randbelow(2**31) if replay_seed is None else replay_seed
-        checked, bad, skipped = rerun(doc, replay, seed, progress=sys.stderr.isatty())
+        checked, bad, skipped = audit.replay(doc, replay, seed, progress=sys.stderr.isatty())
         for agent, why in skipped.items():
             print(f"  not replayed: agent {agent!r}: {why}")
         if bad:
@@ -239,8 +227,6 @@ def leaderboard(folder: Path, out: Path | None, parser: argparse.ArgumentParser)
     refused (named on stderr) or none was valid; a DIR that is not a folder is the
     parser's error (usage, exit 2), as every other bad argument of the CLI.
     """
-    from hri_bench.suite.submission import merged_leaderboard
-
     if not folder.is_dir():
         parser.error(f"argument dir: {folder} is not a folder")
     files = sorted([*folder.glob("*.json"), *folder.glob("*.json.gz")])

@@ -21,6 +21,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from hri_bench.core import stats
 from hri_bench.core.results import StudyResult, StudySettings
 
 __all__ = ["STYLE", "band_legend", "decision_panels", "impulse_bands", "new_figure",
@@ -92,8 +93,6 @@ def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
     episodes cut off at the step limit, so that a few stalled episodes dragging the mean down
     are visible.
     """
-    from hri_bench.core import stats
-
     episodes = np.arange(1, result.config.n_episodes + 1)
     for agent in agents or list(result.metrics):
         r = result.metrics[agent]["reward"]

@@ -47,9 +47,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from hri_bench.core.atomic import atomic_path, atomic_writer, fsync_dir
+from hri_envs import __version__  # importing hri_envs registers the env ids
 from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
@@ -349,8 +351,6 @@ def create_dataset(dataset_id: str, scenario: str, *, synthetic: bool,
                                   "sessions; give another dataset id", field="dataset")
             return found
         (path / "sessions").mkdir(parents=True, exist_ok=True)
-        from hri_envs import __version__
-
         meta = {"dataset_id": dataset_id, "schema": SCHEMA_VERSION, "scenario": scenario,
                 "synthetic": bool(synthetic), "created_utc": _utc(),
                 "description": description, "hri_envs_version": __version__}
@@ -511,10 +511,6 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
         from minari.data_collector import EpisodeBuffer
     except ImportError as exc:
         raise MissingExtraError(["minari"], "the Minari view of a dataset") from exc
-    import gymnasium as gym
-
-    import hri_envs  # noqa: F401  (registers the env ids)
-
     root = Path(out) if out is not None else dataset.path / "minari"
     episodes = list(robot_episodes(dataset))
     if not episodes:

@@ -32,6 +32,9 @@ from typing import Any
 
 import numpy as np
 
+from agents.config import default_config
+from agents.learner import Learner
+from agents.protocol import Trace
 from hri_bench.data.datasets import Dataset, open_dataset
 from hri_envs.errors import ConfigError
 from hri_envs.humans.fitted import (
@@ -95,8 +98,6 @@ class _Episodes:
 
 
 def _episodes(dataset: Dataset, participants: list[str]) -> _Episodes:
-    from agents.protocol import Trace
-
     empty = np.zeros(0, dtype=np.int64)
     table = dataset.steps(participants)
     if table.num_rows == 0:
@@ -126,9 +127,6 @@ def _episodes(dataset: Dataset, participants: list[str]) -> _Episodes:
 def _irl_policy(graph: TaskGraph, episodes: _Episodes, passes: int) -> tuple[np.ndarray,
                                                                               np.ndarray]:
     """(θ, π̂_H (I, S, A)) after ``passes`` of the Learner's update over the episodes."""
-    from agents.config import default_config
-    from agents.learner import Learner
-
     learner = Learner(graph, 1, default_config(graph.name))
     for _ in range(passes):
         for trace, goal in zip(episodes.traces, episodes.goals, strict=True):

@@ -16,8 +16,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
+import hri_envs  # noqa: F401  (registers the env ids)
+from hri_bench.core.pictures import png
 from hri_bench.data.datasets import Dataset
 from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import Human
@@ -92,11 +95,6 @@ def replay(dataset: Dataset, participants: Sequence[str] | None = None, *,
     Raises:
         ConfigError: A participant the dataset does not have.
     """
-    import gymnasium as gym
-
-    import hri_envs  # noqa: F401  (registers the env ids)
-    from hri_bench.core.pictures import png
-
     known = dataset.participants()
     unknown = sorted(set(participants or ()) - set(known))
     if unknown:

@@ -22,7 +22,15 @@ import numpy as np
 
 from agents.protocol import BatchAgent, read_belief
 from hri_bench.data.datasets import Dataset, SessionWriter, create_dataset
+from hri_bench.run.agents import agent_settings, make_agent
+from hri_bench.run.runner import human_streams, make_schedule, run_episodes
+from hri_bench.run.study import _humans, graph_for
+from hri_envs import __version__
+from hri_envs.envs.backends import batch_backend
+from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import BatchHuman, Rows, all_rows
+from hri_envs.humans.scripted import ScriptedHuman
+from hri_envs.humans.tables import TableHumans
 from hri_envs.task import episode as rules
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import Layout
@@ -33,9 +41,6 @@ __all__ = ["RecordingHumans", "agent_identity", "record_study"]
 def agent_identity(spec: str, scenario: str, r0: float,
                    learner: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The robot agent's id, configuration and the package version, for a session's record."""
-    from hri_bench.run.agents import agent_settings
-    from hri_envs import __version__
-
     return {"agent": spec, "agent_config": agent_settings(spec, scenario, r0, dict(learner or {})),
             "hri_envs_version": __version__}
 
@@ -232,14 +237,6 @@ def record_study(cfg: Any, dataset_id: str, *, root: str | None = None,
         ConfigError: More than one agent, another backend, or a dataset that holds people's
             or another scenario's sessions.
     """
-    from hri_bench.run.agents import make_agent
-    from hri_bench.run.runner import human_streams, make_schedule, run_episodes
-    from hri_bench.run.study import _humans, graph_for
-    from hri_envs.envs.backends import batch_backend
-    from hri_envs.errors import ConfigError
-    from hri_envs.humans.scripted import ScriptedHuman
-    from hri_envs.humans.tables import TableHumans
-
     if len(cfg.agents) != 1:
         raise ConfigError("record one agent at a time (a session has one robot)",
                           field="agents")

@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from baselines import Oracle, Passive
 from hri_bench.run.runner import make_schedule, simulate
 from hri_bench.run.study import StudyConfig, graph_for, run_study
 from hri_envs.errors import ConfigError
@@ -222,7 +223,7 @@ def _reference(cfg: SampleEfficiencyConfig, agent: Any) -> float:
 def _train_curve(cfg: SampleEfficiencyConfig, algo: str, seed: int
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(episodes, reward, steps) at the checkpoints of one training run."""
-    from agents.rl import EpisodeCheckpoints, train_dqn, train_maskable_ppo
+    from agents.rl import EpisodeCheckpoints, train_dqn, train_maskable_ppo  # the rl extra
     from agents.sb3 import SB3BatchAgent
 
     checkpoints = cfg.ppo_checkpoints if algo == "ppo" else cfg.dqn_checkpoints
@@ -256,8 +257,7 @@ def _train_curve(cfg: SampleEfficiencyConfig, algo: str, seed: int
 def run_sample_efficiency(cfg: SampleEfficiencyConfig, *, verbose: bool = False
                           ) -> SampleEfficiencyResult:
     """Measure the curves of :class:`SampleEfficiencyResult` (see the module docs)."""
-    from agents.rl import RandomMasked
-    from baselines import Oracle, Passive
+    from agents.rl import RandomMasked  # the rl extra (stable-baselines3, torch)
 
     say = print if verbose else (lambda *a, **k: None)
     times: dict[str, float] = {}

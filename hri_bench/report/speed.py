@@ -17,7 +17,9 @@ from agents.learner import Learner
 from agents.learning import partner_mdp
 from agents.learning.algorithm1 import Workspace
 from agents.protocol import Trace
+from hri_bench.report.jax_speed import measure_jax
 from hri_bench.run.study import StudyConfig, graph_for, run_study
+from hri_envs.envs.speed import parallel_env_steps_per_s, vector_env_steps_per_s
 from hri_envs.errors import ConfigError
 from hri_envs.task.mdp import one_blas_thread, softmax
 from hri_envs.task.scenarios.hanger import PREFERENCES as HANGER_PREFERENCES
@@ -172,8 +174,6 @@ def measure(jobs: int = 1, size: str = "full", jax: bool = False) -> dict[str, A
     Raises:
         ConfigError: ``size`` is not a key of :data:`SIZES`.
     """
-    from hri_envs.envs.speed import parallel_env_steps_per_s, vector_env_steps_per_s
-
     if size not in SIZES:
         raise ConfigError(f"size must be one of {sorted(SIZES)}, got {size!r}", field="size")
     z = SIZES[size]
@@ -191,7 +191,5 @@ def measure(jobs: int = 1, size: str = "full", jax: bool = False) -> dict[str, A
         "learner_threads": partner_mdp.threads(),
     }
     if jax:
-        from hri_bench.report.jax_speed import measure_jax
-
         figures.update(measure_jax(size, vec.steps_per_s))
     return figures

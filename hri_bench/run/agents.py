@@ -30,11 +30,23 @@ Any other entry of the form ``module:Class`` imports ``Class`` from ``module``: 
 Either is also given, by keyword, each of :data:`CONTRACT` its constructor names (or all of
 them if it takes ``**kwargs``); a constructor that names none of them is called as before
 (``Class()``, or ``Class(graph=...)`` for an ``Agent``; docs/agents.md, "Your own agent").
+
+:func:`agent_identity` names an agent's code for a results file: a built-in agent by the
+installed ``hri-envs`` version; ``sb3:PATH`` by the model file's sha256, ``jaxppo[:PATH]``
+by its checkpoint files'; ``module:Class`` by the sha256 of its module's source file (every
+``.py`` file of its top-level package when it is in one), the files' combined hash
+``code_sha256``, and the constructor keywords the benchmark passes it
+(:func:`contract_keywords`; docs/results.md, "What is recorded").
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib
+import importlib.metadata
 import inspect
+import json
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -55,8 +67,8 @@ from hri_envs.task.graph import TaskGraph
 
 __all__ = ["BRACKET_AGENTS", "BUILTIN_AGENTS", "CONTRACT", "JAXPPO", "JAXPPO_CHECKPOINTS",
            "JAXPPO_PREFIX", "KNOWN_AGENTS", "OTHER_AGENTS", "PLANNING_REFERENCES",
-           "REFERENCE_AGENTS", "SB3_PREFIX",
-           "agent_settings", "contract_keywords", "import_agent", "jaxppo_path", "make_agent",
+           "REFERENCE_AGENTS", "SB3_PREFIX", "agent_identity", "agent_settings",
+           "contract_keywords", "import_agent", "jaxppo_path", "make_agent", "package_version",
            "validate_agent_name"]
 
 BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
@@ -192,7 +204,7 @@ def agent_settings(name: str, scenario: str, r0: float,
     ``countqmdp``: its parameters (:meth:`~baselines.countqmdp.CountQMDP.defaults`, but
     the reward rule, which is the study's);
     ``sb3:PATH``, ``jaxppo[:PATH]``: the model's path and size; ``module:Class``: its code identity
-    (:func:`hri_bench.run.provenance.agent_identity`: its source files' sha256 and the
+    (:func:`agent_identity`: its source files' sha256 and the
     constructor keywords it is given); the other agents: None (they have none).
     """
     cfg = _learner_config(name, scenario, r0, learner)
@@ -204,8 +216,6 @@ def agent_settings(name: str, scenario: str, r0: float,
     if path is not None:
         return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
     if name not in KNOWN_AGENTS and ":" in name:
-        from hri_bench.run.provenance import agent_identity
-
         return agent_identity(name)
     return None
 
@@ -301,3 +311,58 @@ def make_agent(
         return cls(**{k: per_run[k] for k in keys})
 
     return Batched.from_factory(one, runs)
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _combined(hashes: dict[str, str]) -> str:
+    """One sha256 for several files, from their names and hashes."""
+    return hashlib.sha256(json.dumps(hashes, sort_keys=True).encode()).hexdigest()
+
+
+def package_version(package: str) -> str | None:
+    """The installed version of distribution ``package`` (None: not installed)."""
+    try:
+        return importlib.metadata.version(package)
+    except importlib.metadata.PackageNotFoundError:
+        return None
+
+
+def _source_files(module_name: str) -> tuple[Path, list[Path]]:
+    """(root, files): every ``.py`` file of the module's top-level package (or the module's
+    own file when it is in none), with the folder their names are given relative to.
+    """
+    module = sys.modules.get(module_name) or importlib.import_module(module_name)
+    top = module_name.split(".")[0]
+    top_file = getattr(sys.modules.get(top) or importlib.import_module(top), "__file__", None)
+    if top_file is not None and Path(top_file).name == "__init__.py":
+        package = Path(top_file).parent
+        return package.parent, sorted(p for p in package.rglob("*.py") if p.is_file())
+    path = getattr(module, "__file__", None)
+    return (Path("."), []) if path is None else (Path(path).parent, [Path(path)])
+
+
+def agent_identity(name: str) -> dict[str, Any]:
+    """How agent ``name`` of a study is identified (module docstring)."""
+    if name in KNOWN_AGENTS and jaxppo_path(name) is None:
+        return {"kind": "builtin", "package": "hri-envs", "version": package_version("hri-envs")}
+    if name.startswith(SB3_PREFIX):
+        path = Path(name[len(SB3_PREFIX):])
+        return {"kind": "sb3", "path": str(path),
+                "sha256": _sha256(path) if path.is_file() else None}
+    model = jaxppo_path(name)
+    if model is not None:  # a file, or a folder of <scenario>.npz: their combined hash
+        files = sorted(p for p in model.rglob("*") if p.is_file()) if model.is_dir() else (
+            [model] if model.is_file() else [])
+        hashes = {p.relative_to(model).as_posix() if model.is_dir() else p.name: _sha256(p)
+                  for p in files}
+        return {"kind": "jaxppo", "path": str(model),
+                "sha256": _combined(hashes) if hashes else None}
+    cls = import_agent(name)
+    root, files = _source_files(cls.__module__)
+    hashes = {p.relative_to(root).as_posix(): _sha256(p) for p in files}
+    return {"kind": "custom", "module": cls.__module__, "class": cls.__qualname__,
+            "files": hashes, "code_sha256": _combined(hashes),
+            "constructor": list(contract_keywords(cls))}

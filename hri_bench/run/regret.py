@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from baselines.bounds import plan
+from hri_bench.core import stats
 from hri_bench.core.results import StudyResult
 from hri_bench.run.agents import PLANNING_REFERENCES
 from hri_envs.errors import ConfigError
@@ -133,8 +134,6 @@ def _paired(upper: np.ndarray, lower: np.ndarray, seed: int,
     stratified by human: a population's runs meet its members in balanced blocks
     (:meth:`hri_envs.humans.splits.MixtureSpec.draw`), so its make-up is fixed, not sampled.
     """
-    from hri_bench.core import stats
-
     diff = upper.mean(1) - lower.mean(1)
     strata: list[np.ndarray] | np.ndarray = diff
     if labels is not None and len(set(labels)) > 1:

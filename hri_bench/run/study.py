@@ -29,7 +29,9 @@ from typing import Any
 
 import numpy as np
 
+from agents.config import default_config
 from agents.learning import algorithm1
+from hri_bench.core import stats
 from hri_bench.core.atomic import atomic_writer, move_into_place
 from hri_bench.core.results import StudyResult  # re-exported; shared with the plots
 from hri_bench.data.fit import is_recorded
@@ -43,6 +45,7 @@ from hri_bench.run.agents import (
 from hri_bench.run.humans import custom_human, is_custom, validate_population
 from hri_bench.run.regret import ALL_REFERENCES, blind_values, reference_summary, refuse_references
 from hri_bench.run.runner import TASK_METRICS, make_schedule, simulate
+from hri_envs import __version__
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.envs.backends import BACKENDS, batch_backend
 from hri_envs.envs.config import check_physics_options
@@ -318,8 +321,6 @@ class StudyConfig:
         refuse_references(self)
         pairs("learner", "LearnerConfig fields, e.g. (('beta', 0.9),)")
         if self.learner:
-            from agents.config import default_config
-
             default_config(self.scenario, **dict(self.learner))
         choice("reward", REWARDS)
         text("physics_preset", "a preset's name")
@@ -849,8 +850,6 @@ def summarize(result: StudyResult) -> dict[str, Any]:
     Identical for identical settings and seed (no wall time: that goes to the run log of
     :mod:`hri_bench.run.studyio`), so a resumed or replayed study's file is byte-identical.
     """
-    from hri_bench.core import stats
-
     cfg = result.config
     agents: dict[str, Any] = {}
     blind, regret_note = regret_reference(result)
@@ -897,7 +896,7 @@ def summarize(result: StudyResult) -> dict[str, Any]:
         "population_info": cfg.population_info(),
         "learner": agent_settings("learner", cfg.scenario, cfg.waiting_reward,
                                   dict(cfg.learner)),
-        "version": _version(),
+        "version": __version__,
         "env_ids": {"gymnasium": spec.panda_id if cfg.backend == "mujoco" else spec.gym_id,
                     "pettingzoo": spec.pettingzoo_module},
         "settings": cfg.settings(),
@@ -917,12 +916,6 @@ def summarize(result: StudyResult) -> dict[str, Any]:
     }
 
 
-def _version() -> str:
-    from hri_envs import __version__
-
-    return __version__
-
-
 def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bool = True
                   ) -> list[Path]:
     """Write ``summary.json``, ``episodes.csv`` and the plots into ``out``; return the paths.
@@ -940,7 +933,7 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
     cfg = result.config
     paths: list[Path] = []
     if plots and result.metrics:
-        from hri_bench.core import plots as plotting
+        from hri_bench.core import plots as plotting  # matplotlib: the bench extra
 
         with tempfile.TemporaryDirectory(dir=out, prefix=".plots-") as tmp:
             try:

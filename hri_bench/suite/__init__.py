@@ -3,22 +3,39 @@
 ==============  ====================================================================
 module          contents
 ==============  ====================================================================
-``tracks``      every version's tracks and constants, the tracks' studies
+``tracks``      every version's tracks and constants, a track's study
+``results_v3``  suite v3's per-run humans, normalised scores and ranking sections
+``submission``  the results file: build, compute, validate, merge; the suite's recorder
+``audit``       what a valid file cannot prove: replayed runs, conflicting files
+``merged``      ``hri-bench leaderboard``: validated files merged into one leaderboard
+``running``     :func:`run_suite`: the tracks' studies, ``suite.json``, the leaderboards
 ==============  ====================================================================
 
-Every public name of the former module ``hri_bench.suite`` is importable from here.
+The modules import one way, in this table's order (``lint-imports``). Every public name of
+the former module ``hri_bench.suite`` is importable from here, as before.
 """
 
+from hri_bench.suite.running import (
+    CONVERGED,
+    ERRORS_LOG,
+    episodes_to_converge,
+    leaderboard,
+    leaderboard_v2,
+    leaderboard_v3,
+    run_suite,
+    track_figure,
+    track_summary,
+    track_summary_v2,
+    track_summary_v3,
+)
 from hri_bench.suite.tracks import (
     ALPHA,
-    CONVERGED,
     DEFAULT_AGENTS,
     DEFAULT_AGENTS_V2,
     DEFAULT_AGENTS_V3,
     DELTA,
     DELTA_V3,
     DIMINISHING,
-    ERRORS_LOG,
     FLOOR,
     INTENTION_BLIND,
     INTENTION_BLIND_V3,
@@ -43,20 +60,11 @@ from hri_bench.suite.tracks import (
     check_version,
     default_agents,
     detectable_v3,
-    episodes_to_converge,
-    leaderboard,
-    leaderboard_v2,
-    leaderboard_v3,
     population_track,
     power_v3,
-    run_suite,
     select_tracks,
     track_config,
-    track_figure,
     track_references,
-    track_summary,
-    track_summary_v2,
-    track_summary_v3,
 )
 
 __all__ = [

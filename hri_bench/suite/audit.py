@@ -23,6 +23,10 @@ from typing import Any
 
 import numpy as np
 
+from hri_bench.run.agents import agent_identity
+from hri_bench.run.study import simulate_runs
+from hri_bench.suite.submission import round_runs
+from hri_bench.suite.tracks import TRACKS_BY_VERSION, track_config
 from hri_envs.errors import ConfigError
 
 __all__ = ["conflicts", "replay", "replayable"]
@@ -82,8 +86,6 @@ def replayable(name: str, identity: Mapping[str, Any]) -> str | None:
     """Why agent ``name``'s runs cannot be replayed here (its code is not the recorded
     code), or None when they can.
     """
-    from hri_bench.run.provenance import agent_identity
-
     try:
         now = agent_identity(name)
     except (ConfigError, OSError, ImportError) as exc:
@@ -112,10 +114,6 @@ def replay(doc: Mapping[str, Any], k: int, seed: int,
         line per run whose replay differs (naming the first differing record), and per
         agent that could not be replayed the reason.
     """
-    from hri_bench.run.study import simulate_runs
-    from hri_bench.suite import TRACKS_BY_VERSION, track_config
-    from hri_bench.suite.submission import round_runs
-
     if not (isinstance(k, int) and k >= 1):
         raise ConfigError(f"--replay takes a whole number >= 1 of runs, got {k!r}",
                           field="replay")
@@ -138,7 +136,7 @@ def replay(doc: Mapping[str, Any], k: int, seed: int,
             jobs.append((agent, *where[int(i)]))
     bar: Any = jobs
     if progress:
-        from tqdm.auto import tqdm
+        from tqdm.auto import tqdm  # the bench extra, only for the progress bar
 
         bar = tqdm(jobs, desc="replay", unit="run")
     for agent, s, t, r in bar:

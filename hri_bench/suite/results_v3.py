@@ -367,7 +367,7 @@ def ranking_figure(doc: Mapping[str, Any], path: Any) -> Any:
     """``ranking.png``: each agent's headline normalised score with its 95 % CI, best on
     top, and its score on every headline track as small markers.
     """
-    from hri_bench.core import plots
+    from hri_bench.core import plots  # matplotlib: the bench extra
 
     head = doc["aggregate"].get("headline")
     fig, ax = plots.new_figure(figsize=(6.4, 0.45 * max(len(head["order"]) if head else 1, 4)

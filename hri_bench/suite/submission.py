@@ -15,20 +15,25 @@ import dataclasses
 import gzip
 import json
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from hri_bench.core.atomic import atomic_writer
 from hri_bench.report import aggregate as agg
 from hri_bench.run import metrics, provenance
+from hri_bench.run.agents import agent_settings
 from hri_bench.run.runner import TASK_METRICS
+from hri_bench.run.study import regret_reference
 from hri_bench.suite import results_v3
+from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION, track_config
 from hri_envs.errors import ConfigError
+from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["FORMAT", "SCHEMA_PATH", "SCHEMA_VERSION", "build", "compute", "lead_section",
-           "load", "merge", "merged_leaderboard", "profile_figure", "track_runs", "validate"]
+           "load", "merge", "profile_figure", "track_runs", "validate"]
 
 FORMAT = "hri-bench-results"
 #: Version of the results file's layout (the schema); a change gets a new one.
@@ -180,7 +185,7 @@ def _refuse_constant(name: str) -> Any:
 
 
 def _schema_errors(doc: Any) -> list[str]:
-    import jsonschema
+    import jsonschema  # the bench extra, only when validating
 
     schema = json.loads(SCHEMA_PATH.read_text())
     validator = jsonschema.Draft202012Validator(schema)
@@ -193,8 +198,6 @@ def _schema_errors(doc: Any) -> list[str]:
 
 def _suite_errors(doc: Mapping[str, Any]) -> list[str]:
     """The suite's version and hashes, each track's runs and episodes, every array's shape."""
-    from hri_bench.suite import SUITE_VERSIONS, TRACKS_BY_VERSION, track_config
-
     errors = []
     suite = doc["suite"]
     version = suite["version"]
@@ -437,7 +440,7 @@ def task_section(doc: Mapping[str, Any]) -> str:
 
 def profile_figure(doc: Mapping[str, Any], path: Path) -> Path:
     """The performance profiles (fraction of runs scoring above τ) as a figure."""
-    from hri_bench.core import plots
+    from hri_bench.core import plots  # matplotlib: the bench extra
 
     prof = doc["aggregate"]["profiles"]
     fig, ax = plots.new_figure(figsize=(6.0, 3.6))
@@ -487,94 +490,10 @@ def merge(docs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     return merged
 
 
-def merged_leaderboard(files: Iterable[Path], out: Path) -> tuple[list[Path], list[str]]:
-    """Validate ``files``, merge the valid ones, write ``leaderboard.md`` and
-    ``profiles.png`` into ``out``; returns (written paths, one line per refused file).
-    """
-    from hri_bench.core.atomic import atomic_writer
-
-    refused, valid = [], {}
-    for path in files:
-        try:
-            doc = load(path)
-        except ConfigError as exc:
-            refused.append(f"{path}: {exc}")
-            continue
-        problems = validate(doc)
-        if problems:
-            refused.append(f"{path}: refused: " + "; ".join(problems[:5])
-                           + (f" (and {len(problems) - 5} more)" if len(problems) > 5 else ""))
-        else:
-            valid[path.name] = doc
-    valid, apart = _mergeable(valid)
-    refused += apart
-    if not valid:
-        return [], refused
-    merged = merge(valid)
-    out.mkdir(parents=True, exist_ok=True)
-    subs = []
-    for fname, doc in valid.items():
-        sub = doc.get("submission") or {}
-        who = ", ".join(str(sub[k]) for k in ("name", "lab") if sub.get(k)) or "(unnamed)"
-        subs.append(f"- `{fname}`: {who}; agents {', '.join(f'`{a}`' for a in doc['agents'])};"
-                    f" seeds {doc['seeds']}, runs scale {doc['runs_scale']}")
-    version = next(iter(valid.values()))["suite"]["version"]
-    v3 = merged["schema_version"] == results_v3.SCHEMA_VERSION
-    sections = ([results_v3.lead_section(merged), results_v3.failure_section(merged)] if v3
-                else [lead_section(merged)])
-    text = "\n".join([f"# hri-envs leaderboard (suite v{version})",
-                      "", "Merged from validated results files (`hri-bench validate`):", "",
-                      *subs, "", *sections, task_section(merged)])
-    with atomic_writer(out / "leaderboard.md") as f:
-        f.write(text + "\n")
-    fig = (results_v3.ranking_figure(merged, out / "ranking.png") if v3
-           else profile_figure(merged, out / "profiles.png"))
-    return [out / "leaderboard.md", fig], refused
-
-
-def _mergeable(valid: Mapping[str, Mapping[str, Any]]
-               ) -> tuple[dict[str, Mapping[str, Any]], list[str]]:
-    """The validated files that can be merged with the first one, and one line per file
-    refused: another suite (version or hash) or runs scale than the first file's, or runs
-    that contradict another file's under the same code identity and seed
-    (:func:`hri_bench.suite.audit.conflicts`: both files are refused, the runs named).
-    """
-    from hri_bench.suite.audit import conflicts
-
-    if not valid:
-        return {}, []
-    first_name, first = next(iter(valid.items()))
-    keep: dict[str, Mapping[str, Any]] = {}
-    refused = []
-    for name, doc in valid.items():
-        if doc["suite"]["hash"] != first["suite"]["hash"]:
-            refused.append(f"{name}: refused: suite v{doc['suite']['version']} "
-                           f"({doc['suite']['hash'][:12]}…), {first_name} is suite "
-                           f"v{first['suite']['version']} ({first['suite']['hash'][:12]}…): "
-                           "results of different suites are not merged")
-        elif doc["runs_scale"] != first["runs_scale"]:
-            refused.append(f"{name}: refused: runs scale {doc['runs_scale']}, {first_name} has "
-                           f"{first['runs_scale']}: results of different run counts are not "
-                           "merged (run the suite with the same --runs-scale)")
-        else:
-            keep[name] = doc
-    clash = conflicts(keep)
-    if clash:
-        bad = {n for n in keep if any(line.startswith(f"{n} ") or f" and {n} " in line
-                                      for line in clash)}
-        for n in sorted(bad):
-            refused.append(f"{n}: refused: " + "; ".join(line for line in clash if
-                                                         line.startswith(f"{n} ") or
-                                                         f" and {n} " in line)
-                           + " (hri-bench validate --replay tells which file is genuine)")
-        keep = {n: d for n, d in keep.items() if n not in bad}
-    return keep, refused
-
-
 class SuiteRecorder:
     """Collects a suite's per-run data track by track and writes its results file.
 
-    ``hri_bench.suite.run_suite`` calls :meth:`add` after each track's study, then
+    :func:`hri_bench.suite.running.run_suite` calls :meth:`add` after each track's study, then
     :meth:`document` and :func:`write_results`; tracks outside the versioned suite (a
     population's own) are left out of the results file (they cannot be validated against
     the suite).
@@ -589,11 +508,6 @@ class SuiteRecorder:
 
     def add(self, track: Any, result: Any) -> None:
         """Record one track's :class:`~hri_bench.core.results.StudyResult`."""
-        from hri_bench.run.agents import agent_settings
-        from hri_bench.run.study import regret_reference
-        from hri_bench.suite import TRACKS_BY_VERSION
-        from hri_envs.task.scenarios import scenario_spec
-
         if TRACKS_BY_VERSION[self.version].get(track.name) != track:
             return
         cfg = result.config
@@ -619,8 +533,6 @@ class SuiteRecorder:
 
     def document(self) -> dict[str, Any] | None:
         """The results document (None when no track of the suite was run)."""
-        from hri_bench.suite import TRACKS_BY_VERSION
-
         if not self.runs:
             return None
         tracks = list(TRACKS_BY_VERSION[self.version].values())
@@ -635,8 +547,6 @@ def write_results(out: Path, doc: Mapping[str, Any]) -> list[Path]:
     """``results.json`` (compact: one line) and ``profiles.png`` (suite v3:
     ``ranking.png``) in ``out``.
     """
-    from hri_bench.core.atomic import atomic_writer
-
     path = Path(out) / "results.json"
     with atomic_writer(path) as f:
         f.write(json.dumps(doc, separators=(",", ":"), allow_nan=False) + "\n")

@@ -21,7 +21,11 @@ import socket
 import sys
 from collections.abc import Callable
 
+from agents.learning import algorithm1
+from hri_bench.core.pictures import picture
 from hri_bench.people.serve.design import ServeConfig
+from hri_envs.errors import MissingExtraError
+from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 __all__ = ["ServeConfig", "require_web", "serve"]
 
@@ -30,8 +34,6 @@ def require_web(what: str) -> None:
     """Raise :class:`~hri_envs.errors.MissingExtraError` (one line: the install command)
     unless the ``web`` extra's server and data packages are installed.
     """
-    from hri_envs.errors import MissingExtraError
-
     MissingExtraError.require(["fastapi", "uvicorn", "pyarrow", "minari"], what)
 
 
@@ -59,12 +61,9 @@ def serve(config: ServeConfig, *, announce: Callable[[str], None] | None = None)
         OSError: The address cannot be bound.
     """
     require_web("hri-bench serve")
-    import uvicorn
+    import uvicorn  # the web extra, as the app (FastAPI) below
 
-    from agents.learning import algorithm1
-    from hri_bench.core.pictures import picture
     from hri_bench.people.serve.app import create_app
-    from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
     say = announce or (lambda text: print(text, flush=True))
     if config.agent in ("learner", "maxent"):

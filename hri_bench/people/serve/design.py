@@ -23,6 +23,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from agents.config import default_config
+from hri_bench.data.datasets import check_dataset_id
+from hri_bench.run.agents import validate_agent_name
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.errors import ConfigError
 from hri_envs.task.episode import REWARDS
@@ -116,8 +119,6 @@ class ServeConfig:
         if not isinstance(self.scenario, str) or self.scenario not in SCENARIOS:
             raise ConfigError(f"scenario must be one of {', '.join(SCENARIOS)}, got "
                               f"{self.scenario!r}", field="scenario")
-        from hri_bench.run.agents import validate_agent_name
-
         if not isinstance(self.agent, str):
             raise ConfigError(f"agent must be an agent's name, got {self.agent!r}",
                               field="agent")
@@ -159,12 +160,8 @@ class ServeConfig:
                 raise ConfigError(f"{name} must be a non-empty text of at most 100,000 "
                                   "characters", field=name)
         check_flag(self.show_belief, "show_belief")
-        from hri_bench.data.datasets import check_dataset_id
-
         check_dataset_id(self.dataset_id)
         if self.learner:
-            from agents.config import default_config
-
             default_config(self.scenario, **dict(self.learner))
 
     @property

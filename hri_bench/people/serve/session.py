@@ -34,6 +34,9 @@ from hri_bench.core.pictures import picture
 from hri_bench.data.datasets import SessionWriter, create_dataset, new_participant_id
 from hri_bench.people.recording import RecordingHumans, agent_identity
 from hri_bench.people.serve.design import Assignment, ServeConfig, assignment, describe_preference
+from hri_bench.run.agents import make_agent
+from hri_bench.run.runner import Schedule, run_episodes
+from hri_envs.envs.backends import GraphBatch
 from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.task.graph import TaskGraph
@@ -152,9 +155,6 @@ class Session:
     """
 
     def __init__(self, config: ServeConfig, design: Assignment, writer: SessionWriter) -> None:
-        from hri_bench.run.agents import make_agent
-        from hri_bench.run.runner import Schedule
-
         self.config, self.design, self.writer = config, design, writer
         self.token = secrets.token_urlsafe(32)
         self.participant = writer.participant
@@ -344,9 +344,6 @@ class Session:
             picture(self.config.scenario, self.layouts[episode], start)
 
     def _run(self) -> None:
-        from hri_bench.run.runner import run_episodes
-        from hri_envs.envs.backends import GraphBatch
-
         cfg = self.config
         names = self.graph.support_names
         status = "complete"
@@ -415,7 +412,7 @@ class SessionManager:
     """
 
     def __init__(self, config: ServeConfig) -> None:
-        import pyarrow.parquet  # noqa: F401  (loaded once, before a session writes)
+        import pyarrow.parquet  # noqa: F401  (the web extra; loaded once, before a session writes)
 
         self.config = config
         self.dataset = create_dataset(config.dataset_id, config.scenario, synthetic=False,
