@@ -156,9 +156,31 @@ def build_parser() -> argparse.ArgumentParser:
         description="Benchmark cooperative learners on the paper's human-robot carrying studies.",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _study_parser(sub)
+    _figures_parser(sub)
+    _speed_parser(sub)
+    _play_parser(sub)
+    _suite_parser(sub)
+    cli_results.add_parsers(sub)
+    cli_people.add_parsers(sub)
+    _demo_parser(sub)
+    return parser
 
+
+def _study_parser(sub: Any) -> None:
+    """The ``study`` command (docs/benchmark.md, "hri-bench study")."""
     study = sub.add_parser("study", help="run one study and write summary.json, CSV and plots",
                            description="Run one study: several agents, many independent runs.")
+    _study_task_flags(study)
+    _study_run_flags(study)
+    _study_human_flags(study)
+    _study_learner_flags(study)
+    _study_output_flags(study)
+    study.set_defaults(command_parser=study)  # reports errors found after parsing
+
+
+def _study_task_flags(study: argparse.ArgumentParser) -> None:
+    """The task: scenario, agents, runs, episodes, schedule, the scripted human."""
     study.add_argument("scenario", choices=SCENARIOS, nargs="?",
                        help="the task (may be left out with --config)")
     study.add_argument("--agents", type=_agents, default=BUILTIN_AGENTS,
@@ -190,6 +212,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="probability that the human waits in a step (default 0)")
     study.add_argument("--turn-back", type=_probability, default=0.0,
                        help="probability per episode that the human turns back halfway")
+
+
+def _study_run_flags(study: argparse.ArgumentParser) -> None:
+    """Seed, execution, backend, step limit and reward rule."""
     study.add_argument("--seed", type=_seed, default=0, help="base seed, >= 0 (default 0)")
     study.add_argument("--jobs", type=_positive, default=1, help="parallel workers (default 1)")
     study.add_argument("--executor", choices=EXECUTORS, default=None,
@@ -207,6 +233,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="reward rule: paper (default; grasping and letting go are free) or "
                             "no-free-toggle (a robot toggle the next motion does not need "
                             "costs r0)")
+
+
+def _study_human_flags(study: argparse.ArgumentParser) -> None:
+    """Humans other than the scripted one: Boltzmann, a population, a drift."""
     study.add_argument("--human-rationality", type=_rationality, default=float("inf"),
                        metavar="BETA",
                        help="Boltzmann human: samples softmax(BETA * Q_pref) (docs/benchmark.md);"
@@ -227,12 +257,20 @@ def build_parser() -> argparse.ArgumentParser:
                             "e.g. --population impatient --human-param k=3")
     study.add_argument("--human-drift", type=_positive, default=None, metavar="K",
                        help="the human switches to another preference after K episodes")
+
+
+def _study_learner_flags(study: argparse.ArgumentParser) -> None:
+    """The ``--learner-*`` changes to the Learner's configuration."""
     for field_name, (flag, kind, text) in _LEARNER_FLAGS.items():
         study.add_argument(flag, type=kind, default=None, dest=f"learner_{field_name}",
                            metavar="P" if kind is str else "X", help=text)
     study.add_argument("--learner-no-passive-prior", action="store_true",
                        help="the Learner's bounded soft-max without the passive baseline "
                             "(paper Sect. 7)")
+
+
+def _study_output_flags(study: argparse.ArgumentParser) -> None:
+    """Where the study goes, and replaying or resuming one."""
     study.add_argument("--out", required=True, type=Path,
                        help="output directory (new or empty, unless --resume or --overwrite)")
     study.add_argument("--resume", action="store_true",
@@ -244,8 +282,10 @@ def build_parser() -> argparse.ArgumentParser:
                             "only --out, --jobs, --executor, --ray-address, --resume, "
                             "--overwrite and --no-progress may be given with it")
     study.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    study.set_defaults(command_parser=study)  # reports errors found after parsing
 
+
+def _figures_parser(sub: Any) -> None:
+    """The ``figures`` command."""
     figs = sub.add_parser("figures", help="reproduce the paper's figures as PNGs",
                           description="Run the studies behind Figs. 4, 8, 10a-c, 11 and 12.")
     figs.add_argument("--out", required=True, type=Path, help="output directory")
@@ -257,6 +297,9 @@ def build_parser() -> argparse.ArgumentParser:
     figs.add_argument("--wheel-episodes", type=_positive, default=20,
                       help="episodes per wheel run (default 20)")
 
+
+def _speed_parser(sub: Any) -> None:
+    """The ``speed`` command."""
     speed = sub.add_parser("speed", help="measure env and Learner throughput",
                            description="Measure parallel_env_steps_per_s, vector_env_steps_per_s "
                                        "(1024 envs), learner_update_ms (wheel) and "
@@ -274,19 +317,20 @@ def build_parser() -> argparse.ArgumentParser:
                        help="skip the JAX env and PPO training figures (measured when the "
                             "jax extra is installed)")
 
-    play = sub.add_parser("play", help="play the human in the terminal against the Learner")
-    play.add_argument("scenario", choices=SCENARIOS)
-    play.add_argument("--episodes", type=_positive, default=3)
-    play.add_argument("--seed", type=_seed, default=0)
 
-    _suite_parser(sub)
-    cli_results.add_parsers(sub)
-    cli_people.add_parsers(sub)
+def _play_parser(sub: Any) -> None:
+    """The ``play`` command."""
+    game = sub.add_parser("play", help="play the human in the terminal against the Learner")
+    game.add_argument("scenario", choices=SCENARIOS)
+    game.add_argument("--episodes", type=_positive, default=3)
+    game.add_argument("--seed", type=_seed, default=0)
 
+
+def _demo_parser(sub: Any) -> None:
+    """The ``demo`` command (``make demo``)."""
     demo = sub.add_parser("demo", help="the main job: a reduced but real set of the figures")
     demo.add_argument("--out", type=Path, default=Path("out/demo"))
     demo.add_argument("--jobs", type=_positive, default=2)
-    return parser
 
 
 def _suite_parser(sub: Any) -> None:

@@ -71,10 +71,19 @@ def _real(ok: Any, allowed: str) -> Any:
     return parse
 
 
+#: The help of every ``--data`` flag.
+_DATA_HELP = "the datasets' root folder (default: $HRI_BENCH_DATASETS, else ~/.hri-bench/datasets)"
+
+
 def add_parsers(sub: Any) -> None:
     """Add ``serve``, ``dataset`` and ``replay`` to the ``hri-bench`` subparsers."""
-    data_help = ("the datasets' root folder (default: $HRI_BENCH_DATASETS, else "
-                 "~/.hri-bench/datasets)")
+    _serve_parser(sub)
+    _dataset_parsers(sub)
+    _replay_parser(sub)
+
+
+def _serve_parser(sub: Any) -> None:
+    """``serve``: the web page, the robot, the design and the limits of the server."""
     serve = sub.add_parser("serve", help="play the human in a browser; sessions are recorded",
                            description="Serve a web page where a person plays the human "
                            "against a robot agent that learns across the session's episodes; "
@@ -87,7 +96,7 @@ def add_parsers(sub: Any) -> None:
                        help="episodes per session (default 8)")
     serve.add_argument("--dataset", default=None,
                        help="dataset id to record in (default <scenario>-people-v0)")
-    serve.add_argument("--data", type=Path, default=None, help=data_help)
+    serve.add_argument("--data", type=Path, default=None, help=_DATA_HELP)
     serve.add_argument("--host", default="127.0.0.1",
                        help="address to bind (default 127.0.0.1: this machine only)")
     serve.add_argument("--port", type=_whole(0, 65535), default=8000,
@@ -114,15 +123,18 @@ def add_parsers(sub: Any) -> None:
                        default=1800.0, help="close a session idle this long (default 1800 s)")
     serve.set_defaults(command_parser=serve)
 
+
+def _dataset_parsers(sub: Any) -> None:
+    """``dataset list|show|export|record|fit``."""
     ds = sub.add_parser("dataset", help="list, show, export, record or fit recorded datasets",
                         description="Recorded sessions (docs/people.md, 'Datasets').")
     ds_sub = ds.add_subparsers(dest="dataset_command", required=True, metavar="ACTION")
     listing = ds_sub.add_parser("list", help="the datasets under the root")
-    listing.add_argument("--data", type=Path, default=None, help=data_help)
+    listing.add_argument("--data", type=Path, default=None, help=_DATA_HELP)
     listing.add_argument("--json", action="store_true", help="one JSON document")
     show = ds_sub.add_parser("show", help="a dataset's metadata, counts, hash and sessions")
     show.add_argument("dataset", help="dataset id (or a dataset folder)")
-    show.add_argument("--data", type=Path, default=None, help=data_help)
+    show.add_argument("--data", type=Path, default=None, help=_DATA_HELP)
     show.add_argument("--json", action="store_true", help="one JSON document")
     export = ds_sub.add_parser("export", help="write the steps as one Parquet file, or the "
                                "robot's view as a Minari dataset")
@@ -131,7 +143,7 @@ def add_parsers(sub: Any) -> None:
     export.add_argument("--out", type=Path, default=None,
                         help="the Parquet file, or the Minari root folder (default: "
                              "<dataset>/minari for minari; required for parquet)")
-    export.add_argument("--data", type=Path, default=None, help=data_help)
+    export.add_argument("--data", type=Path, default=None, help=_DATA_HELP)
     record = ds_sub.add_parser("record", help="record scripted humans' sessions (synthetic)")
     record.add_argument("scenario", choices=SCENARIOS)
     record.add_argument("--dataset", required=True, help="dataset id (synthetic data only)")
@@ -151,7 +163,7 @@ def add_parsers(sub: Any) -> None:
     record.add_argument("--seed", type=_whole(0), default=0, help="base seed (default 0)")
     record.add_argument("--max-steps", type=_whole(1, 10_000), default=100,
                         help="step limit per episode (default 100)")
-    record.add_argument("--data", type=Path, default=None, help=data_help)
+    record.add_argument("--data", type=Path, default=None, help=_DATA_HELP)
     fit = ds_sub.add_parser("fit", help="fit human models to the training participants and "
                             "score them on the held-out ones")
     fit.add_argument("dataset", help="dataset id (or a dataset folder)")
@@ -159,10 +171,13 @@ def add_parsers(sub: Any) -> None:
                      help="behaviour cloning's smoothing α (default 1)")
     fit.add_argument("--out", type=Path, default=None,
                      help="a folder for the models (bc.npz, irl.npz)")
-    fit.add_argument("--data", type=Path, default=None, help=data_help)
+    fit.add_argument("--data", type=Path, default=None, help=_DATA_HELP)
     for p in (listing, show, export, record, fit):
         p.set_defaults(command_parser=p)
 
+
+def _replay_parser(sub: Any) -> None:
+    """``replay``: a recorded session, step by step."""
     rep = sub.add_parser("replay", help="re-play a recorded session step by step",
                          description="Re-play recorded sessions in the env: a log line per "
                                      "step and, with --frames, the pictures.")
@@ -171,7 +186,7 @@ def add_parsers(sub: Any) -> None:
                      help="whose session (repeatable; default: all)")
     rep.add_argument("--frames", type=Path, default=None, help="write each step's picture here")
     rep.add_argument("--step", action="store_true", help="wait for Enter after each step")
-    rep.add_argument("--data", type=Path, default=None, help=data_help)
+    rep.add_argument("--data", type=Path, default=None, help=_DATA_HELP)
     rep.set_defaults(command_parser=rep)
 
 

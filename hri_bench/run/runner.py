@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from agents.protocol import BatchAgent, Trace, read_belief
-from hri_envs.envs.backends import BatchBackend, batch_backend
+from hri_envs.envs.backends import BatchBackend, BatchStep, batch_backend
 from hri_envs.errors import ActionError, ConfigError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import ScriptedHuman
@@ -199,102 +199,171 @@ def run_episodes(
     for who, n in (("agent", agent.n_runs), ("human", human.n_runs)):
         if n != n_b:
             raise ConfigError(f"the {who} has {n} runs, the schedule {n_b}", field="runs")
-    never = np.full((graph.n_intentions,) * 2, -1)
-    eps = EpisodeBatch(EpisodeRules(graph, r0), never, n_b)
-    privileged = bool(getattr(agent, "privileged", False))
-    rows = np.arange(n_b)
-    scratch = np.empty((n_b, graph.n_intentions))  # _score_belief's, reused every step
-    states = np.zeros((n_b, max_steps + 1), dtype=np.int64)
-    robot_acts = np.zeros((n_b, max_steps), dtype=np.int64)
-    human_seen = np.zeros((n_b, max_steps), dtype=np.int64)
+    loop = _Loop(graph, agent, human, backend, n_b, r0=r0, max_steps=max_steps,
+                 run_ids=run_ids, reward=reward)
     for e in range(n_e):
-        human.begin_episode(schedule.start[:, e], schedule.goal[:, e])
-        where = human.turn_state  # (K, K), or (B, K, K): each run's human turns at its own point
-        eps.turn_state = never if where is None else where
-        eps.begin(rows, schedule.start[:, e], schedule.goal[:, e], schedule.turn_back[:, e])
-        agent.begin_episode(eps.start.copy())
-        human_last = np.full(n_b, WAIT, dtype=np.int64)
-        totals = {k: np.zeros(n_b) for k in ("reward", "correct", "passive", "wrong",
-                                              *backend.extras, *TASK_METRICS)}
-        has_belief = True
-        over = np.zeros(n_b, dtype=bool)
-        faulted = np.zeros(n_b, dtype=bool)
-        states[:, 0] = eps.state
-        for group in backend.groups():
-            faulted[group] = backend.begin(group, eps.start[group])
-            active = np.zeros(n_b, dtype=bool)
-            active[group] = ~faulted[group]
-            for t in range(max_steps):
-                if not active.any():
+        yield loop.episode(e, schedule)
+
+
+@dataclass
+class _Progress:
+    """One episode of a batch so far, each (B,): the metrics' sums, the human's last action,
+    which runs ended, which faulted, which still act (in the backend's current group).
+    """
+
+    totals: dict[str, np.ndarray]
+    human_last: np.ndarray
+    over: np.ndarray
+    faulted: np.ndarray
+    active: np.ndarray
+    has_belief: bool = True
+
+
+class _Loop:
+    """:func:`run_episodes` for one batch: the buffers its episodes share, and one method per
+    part of an episode (begin, choose the actions, account for a step, record it, finish).
+    """
+
+    def __init__(self, graph: TaskGraph, agent: BatchAgent, human: BatchHuman,
+                 backend: BatchBackend, n_b: int, *, r0: float, max_steps: int,
+                 run_ids: Sequence[int] | np.ndarray | None, reward: str) -> None:
+        self.graph, self.agent, self.human, self.backend = graph, agent, human, backend
+        self.n_b, self.r0, self.max_steps, self.run_ids = n_b, r0, max_steps, run_ids
+        self.reward = reward
+        self.never = np.full((graph.n_intentions,) * 2, -1)
+        self.eps = EpisodeBatch(EpisodeRules(graph, r0), self.never, n_b)
+        self.privileged = bool(getattr(agent, "privileged", False))
+        self.rows = np.arange(n_b)
+        self.scratch = np.empty((n_b, graph.n_intentions))  # _score_belief's, every step
+        self.states = np.zeros((n_b, max_steps + 1), dtype=np.int64)
+        self.robot_acts = np.zeros((n_b, max_steps), dtype=np.int64)
+        self.human_seen = np.zeros((n_b, max_steps), dtype=np.int64)
+
+    def episode(self, e: int, schedule: Schedule) -> EpisodeResult:
+        """Play episode ``e`` of ``schedule`` in every run; the agent has learned from it."""
+        p = self._begin(e, schedule)
+        for group in self.backend.groups():
+            p.faulted[group] = self.backend.begin(group, self.eps.start[group])
+            p.active = np.zeros(self.n_b, dtype=bool)
+            p.active[group] = ~p.faulted[group]
+            for t in range(self.max_steps):
+                if not p.active.any():
                     break
-                s = eps.state
-                obs: dict[str, np.ndarray] = {
-                    "state": s, "start": eps.start, "last_human_action": eps.last_human,
-                    "action_mask": graph.valid[s].astype(np.int8)}
-                if privileged:
-                    obs["intention"] = eps.intention
-                w = active.astype(float)  # this step's weights (active changes after it)
-                if has_belief:
-                    has_belief = _score_belief(read_belief(agent, n_b), eps.intention, active,
-                                               t, totals, rows, w, scratch)
-                try:
-                    chosen = agent.act(obs, active)
-                except ActionError as exc:  # a Batched agent's: add where it happened
-                    raise ActionError(f"{exc} (episode {e + 1}, step {t + 1})") from None
-                a_r = np.where(active, _checked("act()", chosen, active, graph.n_actions,
-                                                run_ids, e, t), WAIT)
-                seen = {"state": s, "start": eps.start, "intention": eps.intention,
-                        "last_human_action": human_last, "action_mask": obs["action_mask"],
-                        "robot_action": a_r}
-                a_h = np.where(active, _checked("the human's act()", human.act(seen, active),
-                                                active, graph.n_actions, run_ids, e, t), WAIT)
-                step = backend.transition(s, a_r, a_h, active)
-                failed = False if step.penalty is None else step.penalty
-                totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, r0,
-                                                    reward=reward, start=eps.start,
-                                                    lifted=eps.lifted, failed=failed)
-                for key, judged in zip(("correct", "passive", "wrong"),
-                                       classify(graph, s, a_r, a_h, step.next_state),
-                                       strict=True):
-                    totals[key] += w * judged
-                for key, value in step.extras.items():
-                    totals[key] += w * value
-                motion_r, motion_h = a_r >= TAKE_OFF, a_h >= TAKE_OFF
-                totals["counteract"] += w * (motion_r & motion_h & (a_r != a_h))
-                totals["human_idle"] += w * ((a_h == WAIT) & (step.next_state == s))
-                totals["human_alone"] += w * ((a_r == WAIT) & (a_h != WAIT))
-                agent.observe(s, a_r, step.human_seen, step.next_state, active)
-                human.observe(s, a_r, a_h, step.next_state, active)
-                human_last = np.where(active, a_h, human_last)
-                robot_acts[active, t] = a_r[active]
-                human_seen[active, t] = step.human_seen[active]
-                ended = eps.commit(step.next_state, step.human_seen, active)
-                revised = human.revised_intentions()  # a human who changed its mind
-                if revised is not None:
-                    eps.revise(np.asarray(revised, dtype=np.int64), active & ~ended)
-                states[active, t + 1] = eps.state[active]
-                over |= ended
-                if step.fault is not None:
-                    faulted |= active & step.fault & ~ended
-                active &= ~(ended | faulted)
-        steps = eps.steps.copy()
-        truncated = ~over
+                self._step(e, t, p)
+        return self._finish(e, p)
+
+    def _begin(self, e: int, schedule: Schedule) -> _Progress:
+        """Start episode ``e``: the human's, the episode rules' and the agent's."""
+        eps = self.eps
+        self.human.begin_episode(schedule.start[:, e], schedule.goal[:, e])
+        where = self.human.turn_state  # (K, K), or (B, K, K): each run's human turns apart
+        eps.turn_state = self.never if where is None else where
+        eps.begin(self.rows, schedule.start[:, e], schedule.goal[:, e],
+                  schedule.turn_back[:, e])
+        self.agent.begin_episode(eps.start.copy())
+        n_b = self.n_b
+        totals = {k: np.zeros(n_b) for k in ("reward", "correct", "passive", "wrong",
+                                              *self.backend.extras, *TASK_METRICS)}
+        self.states[:, 0] = eps.state
+        return _Progress(totals, np.full(n_b, WAIT, dtype=np.int64), np.zeros(n_b, dtype=bool),
+                         np.zeros(n_b, dtype=bool), np.zeros(n_b, dtype=bool))
+
+    def _step(self, e: int, t: int, p: _Progress) -> None:
+        """Step ``t``: both act, the backend moves, the metrics add up, both observe."""
+        s = self.eps.state
+        w = p.active.astype(float)  # this step's weights (active changes after it)
+        a_r, a_h = self._actions(e, t, s, w, p)
+        step = self.backend.transition(s, a_r, a_h, p.active)
+        self._account(s, a_r, a_h, step, w, p.totals)
+        self.agent.observe(s, a_r, step.human_seen, step.next_state, p.active)
+        self.human.observe(s, a_r, a_h, step.next_state, p.active)
+        self._record(t, a_r, a_h, step, p)
+
+    def _actions(self, e: int, t: int, s: np.ndarray, w: np.ndarray, p: _Progress
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """The robot's action, then the human's (who sees it); WAIT for inactive runs. The
+        agent's belief is scored before it acts.
+        """
+        eps, active, n_actions = self.eps, p.active, self.graph.n_actions
+        obs: dict[str, np.ndarray] = {
+            "state": s, "start": eps.start, "last_human_action": eps.last_human,
+            "action_mask": self.graph.valid[s].astype(np.int8)}
+        if self.privileged:
+            obs["intention"] = eps.intention
+        if p.has_belief:
+            p.has_belief = _score_belief(read_belief(self.agent, self.n_b), eps.intention,
+                                         active, t, p.totals, self.rows, w, self.scratch)
+        try:
+            chosen = self.agent.act(obs, active)
+        except ActionError as exc:  # a Batched agent's: add where it happened
+            raise ActionError(f"{exc} (episode {e + 1}, step {t + 1})") from None
+        a_r = np.where(active, _checked("act()", chosen, active, n_actions, self.run_ids, e, t),
+                       WAIT)
+        seen = {"state": s, "start": eps.start, "intention": eps.intention,
+                "last_human_action": p.human_last, "action_mask": obs["action_mask"],
+                "robot_action": a_r}
+        a_h = np.where(active, _checked("the human's act()", self.human.act(seen, active),
+                                        active, n_actions, self.run_ids, e, t), WAIT)
+        return a_r, a_h
+
+    def _account(self, s: np.ndarray, a_r: np.ndarray, a_h: np.ndarray, step: BatchStep,
+                 w: np.ndarray, totals: dict[str, np.ndarray]) -> None:
+        """Add the step's reward, decisions, backend figures and human effort (weights ``w``)."""
+        graph, eps = self.graph, self.eps
+        failed = False if step.penalty is None else step.penalty
+        totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, self.r0,
+                                            reward=self.reward, start=eps.start,
+                                            lifted=eps.lifted, failed=failed)
+        for key, judged in zip(("correct", "passive", "wrong"),
+                               classify(graph, s, a_r, a_h, step.next_state), strict=True):
+            totals[key] += w * judged
+        for key, value in step.extras.items():
+            totals[key] += w * value
+        motion_r, motion_h = a_r >= TAKE_OFF, a_h >= TAKE_OFF
+        totals["counteract"] += w * (motion_r & motion_h & (a_r != a_h))
+        totals["human_idle"] += w * ((a_h == WAIT) & (step.next_state == s))
+        totals["human_alone"] += w * ((a_r == WAIT) & (a_h != WAIT))
+
+    def _record(self, t: int, a_r: np.ndarray, a_h: np.ndarray, step: BatchStep,
+                p: _Progress) -> None:
+        """Commit the step to the episode and the traces; runs that ended or faulted stop."""
+        active, eps = p.active, self.eps
+        p.human_last = np.where(active, a_h, p.human_last)
+        self.robot_acts[active, t] = a_r[active]
+        self.human_seen[active, t] = step.human_seen[active]
+        ended = eps.commit(step.next_state, step.human_seen, active)
+        revised = self.human.revised_intentions()  # a human who changed its mind
+        if revised is not None:
+            eps.revise(np.asarray(revised, dtype=np.int64), active & ~ended)
+        self.states[active, t + 1] = eps.state[active]
+        p.over |= ended
+        if step.fault is not None:
+            p.faulted |= active & step.fault & ~ended
+        active &= ~(ended | p.faulted)
+
+    def _finish(self, e: int, p: _Progress) -> EpisodeResult:
+        """The episode's metrics and traces; the agent learns from them, the human ends it."""
+        steps = self.eps.steps.copy()
+        truncated = ~p.over
         per_step = np.maximum(steps, 1)
-        for key in ("correct", "passive", "wrong", "log_loss", "brier", *backend.step_means):
+        totals = p.totals
+        for key in ("correct", "passive", "wrong", "log_loss", "brier",
+                    *self.backend.step_means):
             totals[key] /= per_step
-        if not has_belief:
+        if not p.has_belief:
             for key in BELIEF_METRICS:
                 totals[key][:] = np.nan
-        intentions = np.where(truncated, -1, graph.support[states[rows, steps]])
-        traces = [Trace(states[i, : steps[i] + 1].copy(), robot_acts[i, : steps[i]].copy(),
-                        human_seen[i, : steps[i]].copy()) for i in range(n_b)]
-        agent.end_episode(traces, intentions)
-        human.end_episode()
+        intentions = np.where(truncated, -1, self.graph.support[self.states[self.rows, steps]])
+        traces = [Trace(self.states[i, : steps[i] + 1].copy(),
+                        self.robot_acts[i, : steps[i]].copy(),
+                        self.human_seen[i, : steps[i]].copy()) for i in range(self.n_b)]
+        self.agent.end_episode(traces, intentions)
+        self.human.end_episode()
         metrics = EpisodeMetrics(totals["reward"], totals["correct"], totals["passive"],
                                  totals["wrong"], steps.astype(float), truncated,
-                                 {k: totals[k] for k in backend.extras},
+                                 {k: totals[k] for k in self.backend.extras},
                                  {k: totals[k] for k in TASK_METRICS})
-        yield EpisodeResult(e, metrics, traces, intentions)
+        return EpisodeResult(e, metrics, traces, intentions)
 
 
 def _score_belief(belief: np.ndarray | None, intention: np.ndarray, active: np.ndarray,

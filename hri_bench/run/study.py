@@ -218,29 +218,19 @@ class StudyConfig:
     human_params: tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
-        def choice(name: str, allowed: Sequence[str], *, optional: bool = False) -> None:
-            value = getattr(self, name)
-            if optional and value is None:
-                return
-            if not isinstance(value, str) or value not in allowed:
-                none = "None or " if optional else ""
-                raise ConfigError(f"{name} must be {none}one of {', '.join(allowed)}, got "
-                                  f"{value!r}", field=name)
+        """Validate every field, in the fields' order (a :class:`ConfigError` names the field
+        in its ``field`` attribute).
+        """
+        self._check_task()
+        self._check_execution()
+        self._check_humans()
+        self._check_learning()
 
-        def text(name: str, what: str) -> None:
-            value = getattr(self, name)
-            if value is not None and not isinstance(value, str):
-                raise ConfigError(f"{name} must be None or {what}, got {value!r}", field=name)
-
-        def pairs(name: str, what: str) -> None:
-            value = getattr(self, name)
-            if not isinstance(value, tuple) or not all(
-                    isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
-                    for pair in value):
-                raise ConfigError(f"{name} must be (name, value) pairs of {what}, got "
-                                  f"{value!r}", field=name)
-
-        choice("scenario", tuple(SCENARIOS))
+    def _check_task(self) -> None:
+        """The scenario, agents, runs, episodes, schedule, preference, r0, the scripted
+        human's probabilities.
+        """
+        self._choice("scenario", tuple(SCENARIOS))
         if not isinstance(self.agents, tuple | list) or not self.agents or not all(
                 isinstance(a, str) for a in self.agents):
             raise ConfigError(f"agents must be a non-empty list of agent names (e.g. "
@@ -251,11 +241,11 @@ class StudyConfig:
                               "more than once", field="agents")
         for name in self.agents:
             validate_agent_name(name)
-        runs = check_whole(self.runs, "runs", minimum=1, maximum=MAX_RUNS)
+        check_whole(self.runs, "runs", minimum=1, maximum=MAX_RUNS)
         if self.episodes is not None:
             check_whole(self.episodes, "episodes", minimum=1, maximum=MAX_EPISODES,
                         label="episodes (None or a number)")
-        choice("schedule", ("random", *scenario_spec(self.scenario).schedules))
+        self._choice("schedule", ("random", *scenario_spec(self.scenario).schedules))
         prefs = preferences_for(self.scenario)
         if self.preference is not None and (not isinstance(self.preference, str)
                                             or self.preference not in (*prefs, "all")):
@@ -267,13 +257,18 @@ class StudyConfig:
         for name in ("human_passive", "turn_back"):
             check_real(getattr(self, name), name, low=0.0, high=1.0,
                        allowed="a probability in [0, 1]")
+
+    def _check_execution(self) -> None:
+        """The seed, jobs, executor, backend, step limit, the sizes of the result arrays, the
+        probes.
+        """
         check_whole(self.seed, "seed", minimum=0)
         check_whole(self.jobs, "jobs", minimum=1)
-        choice("executor", EXECUTORS)
-        text("ray_address", "a Ray cluster's address")
-        choice("backend", tuple(BACKENDS))
+        self._choice("executor", EXECUTORS)
+        self._text("ray_address", "a Ray cluster's address")
+        self._choice("backend", tuple(BACKENDS))
         max_steps = check_whole(self.max_steps, "max_steps", minimum=1, maximum=MAX_STEPS)
-        n_episodes = self.n_episodes
+        runs, n_episodes = int(self.runs), self.n_episodes  # runs: checked by _check_task
         if runs * n_episodes > MAX_RUN_EPISODES:
             raise ConfigError(f"runs x episodes must be at most {MAX_RUN_EPISODES:,} (the "
                               f"study's result arrays), got {runs:,} x {n_episodes:,}",
@@ -287,9 +282,12 @@ class StudyConfig:
                               field="probes")
         for probe in self.probes:
             probe.check(graph_for(self.scenario))
+
+    def _check_humans(self) -> None:
+        """Rationality, population and its parameters, drift, and what each allows."""
         validate_rationality(self.human_rationality)
-        text("population", "a population's name or 'module:Class'")
-        pairs("human_params", "a family's parameters, e.g. (('k', 3),)")
+        self._text("population", "a population's name or 'module:Class'")
+        self._pairs("human_params", "a family's parameters, e.g. (('k', 3),)")
         if self.human_params and self.population is None:
             raise ConfigError("human_params sets the parameters of a family named as the "
                               "population (e.g. --population impatient --human-param k=3); "
@@ -318,17 +316,44 @@ class StudyConfig:
                 raise ConfigError("the oracle copies a scripted human's preferred actions; "
                                   "leave it out with --population module:Class",
                                   field="agents")
+
+    def _check_learning(self) -> None:
+        """The references the humans allow, the Learner's changes, the reward rule, the
+        physics preset.
+        """
         refuse_references(self)
-        pairs("learner", "LearnerConfig fields, e.g. (('beta', 0.9),)")
+        self._pairs("learner", "LearnerConfig fields, e.g. (('beta', 0.9),)")
         if self.learner:
             default_config(self.scenario, **dict(self.learner))
-        choice("reward", REWARDS)
-        text("physics_preset", "a preset's name")
+        self._choice("reward", REWARDS)
+        self._text("physics_preset", "a preset's name")
         if self.physics_preset is not None:
             try:
                 check_physics_options(self.physics, self.backend)
             except ConfigError as exc:
                 raise ConfigError(str(exc), field="physics_preset") from None
+
+    def _choice(self, name: str, allowed: Sequence[str]) -> None:
+        """Field ``name`` is one of ``allowed``."""
+        value = getattr(self, name)
+        if not isinstance(value, str) or value not in allowed:
+            raise ConfigError(f"{name} must be one of {', '.join(allowed)}, got {value!r}",
+                              field=name)
+
+    def _text(self, name: str, what: str) -> None:
+        """Field ``name`` is None or a string (``what`` it names)."""
+        value = getattr(self, name)
+        if value is not None and not isinstance(value, str):
+            raise ConfigError(f"{name} must be None or {what}, got {value!r}", field=name)
+
+    def _pairs(self, name: str, what: str) -> None:
+        """Field ``name`` is a tuple of (name, value) pairs of ``what``."""
+        value = getattr(self, name)
+        if not isinstance(value, tuple) or not all(
+                isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
+                for pair in value):
+            raise ConfigError(f"{name} must be (name, value) pairs of {what}, got "
+                              f"{value!r}", field=name)
 
     @property
     def per_run_humans(self) -> bool:

@@ -461,73 +461,15 @@ def run_suite(
                             executor=executor, version=version) for t in chosen]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    if version == "1":
-        ranked = [a for a in agents if a not in REFERENCE_AGENTS]
-        doc: dict[str, Any] = {"suite_version": version, "seed": seed,
-                               "runs_scale": runs_scale, "agents": ranked,
-                               "converged_threshold": CONVERGED,
-                               "references": dict(REFERENCES), "tracks": {}}
-    else:
-        ranked = [a for a in agents if a not in PLANNING_REFERENCES]
-        doc = {"suite_version": version, "seed": seed, "runs_scale": runs_scale,
-               "agents": ranked, "converged_threshold": CONVERGED,
-               "references": dict(ALL_REFERENCES),
-               "intention_blind": list(INTENTION_BLIND if version == "2"
-                                       else INTENTION_BLIND_V3),
-               "power": {"delta": DELTA, "power": POWER, "alpha": ALPHA,
-                         "min_runs": MIN_RUNS, "max_runs": MAX_RUNS,
-                         "pilot": "benchmarks/suite_power.py: seed 1000, 256 runs per track"},
-               "tracks": {}}
-    walls: dict[str, float] = {}
+    doc = _suite_header(version, seed, runs_scale, agents)
     t0 = time.perf_counter()
-    iterator: Any = zip(chosen, configs, strict=True)
-    if progress:
-        from tqdm.auto import tqdm
-
-        iterator = tqdm(list(iterator), desc="suite", unit="track")
-    failures: dict[str, dict[str, str]] = {}
     recorder = SuiteRecorder(seed, runs_scale, version)  # results.json (submission.py)
-    for track, cfg in iterator:
-        t = time.perf_counter()
-        result = run_study(cfg, keep_going=True)
-        if result.failures:
-            failures[track.name] = result.failures
-        summarise = {"1": track_summary, "2": track_summary_v2}.get(version, track_summary_v3)
-        entry = summarise(track, result)
-        recorder.add(track, result)
-        doc["tracks"][track.name] = entry
-        track_figure(track.name, entry, out / f"{track.name}.png")
-        walls[track.name] = round(time.perf_counter() - t, 2)
-    errors = out / ERRORS_LOG
-    if failures:
-        with atomic_writer(errors) as f:
-            for track_name, by_agent in failures.items():
-                for agent, text in by_agent.items():
-                    f.write(f"track {track_name}: agent {agent!r} raised:\n{text}\n")
-    else:
-        errors.unlink(missing_ok=True)  # from an earlier suite in the same folder
+    walls, failures = _run_tracks(chosen, configs, doc, recorder, out, progress)
+    _write_errors(out, failures)
     results = recorder.document()  # v1's suite.json and leaderboard.md stay as they were
-    if version not in ("1", "2"):
-        doc["power"] = {"delta": DELTA_V3, "power": POWER, "alpha": ALPHA,
-                        "blocks": [MIN_BLOCKS, MAX_BLOCKS], "runs": [MIN_RUNS_V3, MAX_RUNS_V3],
-                        "pilot": "benchmarks/suite_power.py --version 3: the validation-v2 "
-                                 "split, seed 1000"}
-        doc["floor"] = FLOOR
-    if version != "1":
-        doc["provenance"] = {"software": provenance.software(),
-                             "agents": {a: provenance.agent_identity(a) for a in agents}}
-    if version == "1":
-        board = leaderboard(doc)
-    elif version == "2":
-        board = leaderboard_v2(doc)
-        if results is not None:  # the aggregate across tracks leads (docs/results.md)
-            cut = board.find("\n## ") + 1 or len(board)
-            board = (board[:cut] + lead_section(results) + "\n" + task_section(results) + "\n"
-                     + board[cut:])
-    else:
-        board = leaderboard_v3(doc, results)
+    _add_power_and_provenance(doc, version, agents)
     with atomic_writer(out / "leaderboard.md") as f:
-        f.write(board + "\n")
+        f.write(_leaderboard_text(doc, results) + "\n")
     if results is not None:
         write_results(out, results)
     with atomic_writer(out / "suite.json") as f:
@@ -538,3 +480,99 @@ def run_suite(
     with atomic_writer(out / "suite_log.json") as f:
         f.write(json.dumps(log, indent=1) + "\n")
     return doc
+
+
+def _suite_header(version: str, seed: int, runs_scale: float, agents: Sequence[str]
+                  ) -> dict[str, Any]:
+    """``suite.json``'s document before its tracks: the version's ranked agents,
+    references and (v2, v3) the agents that must infer the intention and v2's power.
+    """
+    if version == "1":
+        ranked = [a for a in agents if a not in REFERENCE_AGENTS]
+        return {"suite_version": version, "seed": seed, "runs_scale": runs_scale,
+                "agents": ranked, "converged_threshold": CONVERGED,
+                "references": dict(REFERENCES), "tracks": {}}
+    ranked = [a for a in agents if a not in PLANNING_REFERENCES]
+    return {"suite_version": version, "seed": seed, "runs_scale": runs_scale,
+            "agents": ranked, "converged_threshold": CONVERGED,
+            "references": dict(ALL_REFERENCES),
+            "intention_blind": list(INTENTION_BLIND if version == "2"
+                                    else INTENTION_BLIND_V3),
+            "power": {"delta": DELTA, "power": POWER, "alpha": ALPHA,
+                      "min_runs": MIN_RUNS, "max_runs": MAX_RUNS,
+                      "pilot": "benchmarks/suite_power.py: seed 1000, 256 runs per track"},
+            "tracks": {}}
+
+
+def _run_tracks(chosen: Sequence[Track], configs: Sequence[Any], doc: dict[str, Any],
+                recorder: SuiteRecorder, out: Path, progress: bool
+                ) -> tuple[dict[str, float], dict[str, dict[str, str]]]:
+    """Run each track's study (an agent that raises is left out), summarise it into
+    ``doc["tracks"]``, record it for ``results.json`` and draw its figure; returns the wall
+    times and the tracebacks by track and agent.
+    """
+    version = doc["suite_version"]
+    summarise = {"1": track_summary, "2": track_summary_v2}.get(version, track_summary_v3)
+    walls: dict[str, float] = {}
+    failures: dict[str, dict[str, str]] = {}
+    iterator: Any = zip(chosen, configs, strict=True)
+    if progress:
+        from tqdm.auto import tqdm
+
+        iterator = tqdm(list(iterator), desc="suite", unit="track")
+    for track, cfg in iterator:
+        t = time.perf_counter()
+        result = run_study(cfg, keep_going=True)
+        if result.failures:
+            failures[track.name] = result.failures
+        entry = summarise(track, result)
+        recorder.add(track, result)
+        doc["tracks"][track.name] = entry
+        track_figure(track.name, entry, out / f"{track.name}.png")
+        walls[track.name] = round(time.perf_counter() - t, 2)
+    return walls, failures
+
+
+def _write_errors(out: Path, failures: dict[str, dict[str, str]]) -> None:
+    """``errors.log`` with each failed agent's traceback by track; none when none failed."""
+    errors = out / ERRORS_LOG
+    if failures:
+        with atomic_writer(errors) as f:
+            for track_name, by_agent in failures.items():
+                for agent, text in by_agent.items():
+                    f.write(f"track {track_name}: agent {agent!r} raised:\n{text}\n")
+    else:
+        errors.unlink(missing_ok=True)  # from an earlier suite in the same folder
+
+
+def _add_power_and_provenance(doc: dict[str, Any], version: str,
+                              agents: Sequence[str]) -> None:
+    """v3's power analysis and floor; from v2 on, the software and the agents' code
+    identities.
+    """
+    if version not in ("1", "2"):
+        doc["power"] = {"delta": DELTA_V3, "power": POWER, "alpha": ALPHA,
+                        "blocks": [MIN_BLOCKS, MAX_BLOCKS], "runs": [MIN_RUNS_V3, MAX_RUNS_V3],
+                        "pilot": "benchmarks/suite_power.py --version 3: the validation-v2 "
+                                 "split, seed 1000"}
+        doc["floor"] = FLOOR
+    if version != "1":
+        doc["provenance"] = {"software": provenance.software(),
+                             "agents": {a: provenance.agent_identity(a) for a in agents}}
+
+
+def _leaderboard_text(doc: dict[str, Any], results: dict[str, Any] | None) -> str:
+    """``leaderboard.md`` of the version: v1's, v2's with the aggregate across tracks
+    leading (docs/results.md), or v3's.
+    """
+    version = doc["suite_version"]
+    if version == "1":
+        return leaderboard(doc)
+    if version == "2":
+        board = leaderboard_v2(doc)
+        if results is not None:  # the aggregate across tracks leads (docs/results.md)
+            cut = board.find("\n## ") + 1 or len(board)
+            board = (board[:cut] + lead_section(results) + "\n" + task_section(results) + "\n"
+                     + board[cut:])
+        return board
+    return leaderboard_v3(doc, results)

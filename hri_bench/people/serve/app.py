@@ -23,7 +23,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Awaitable, Callable
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
@@ -32,7 +32,7 @@ from fastapi import FastAPI, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import FileResponse, JSONResponse, Response
 
 from hri_bench.people.serve.design import ServeConfig
-from hri_bench.people.serve.session import MessageError, SessionManager, parse_message
+from hri_bench.people.serve.session import MessageError, Session, SessionManager, parse_message
 from hri_envs.errors import ConfigError
 
 __all__ = ["create_app"]
@@ -84,24 +84,9 @@ def create_app(config: ServeConfig, manager: SessionManager | None = None) -> An
     app = FastAPI(title="hri-bench serve", docs_url=None, redoc_url=None, openapi_url=None,
                   lifespan=lifespan)
     app.state.sessions = sessions
-
-    @app.middleware("http")
-    async def headers(request: Request, call_next: Any) -> Response:
-        response: Response = await call_next(request)
-        response.headers.update(_HEADERS)
-        return response
-
-    files = {"/": ("index.html", "text/html"), "/app.js": ("app.js", "text/javascript"),
-             "/app.css": ("app.css", "text/css")}
-
-    def static_route(path: str, name: str, media: str) -> None:
-        async def serve_file() -> FileResponse:
-            return FileResponse(STATIC / name, media_type=media)
-
-        app.get(path, include_in_schema=False)(serve_file)
-
-    for route, (name, media) in files.items():
-        static_route(route, name, media)
+    app.middleware("http")(_headers)
+    for route, (name, media) in _FILES.items():
+        app.get(route, include_in_schema=False)(_file_route(name, media))
 
     @app.get("/api/study")
     async def study() -> dict[str, Any]:
@@ -109,93 +94,148 @@ def create_app(config: ServeConfig, manager: SessionManager | None = None) -> An
 
     @app.post("/api/sessions")
     async def join(request: Request) -> JSONResponse:
-        body = await request.body()
-        try:
-            doc = json.loads(body) if len(body) <= 1024 else None
-        except ValueError:
-            doc = None
-        if not isinstance(doc, dict) or set(doc) != {"consent"} or doc["consent"] is not True:
-            return JSONResponse({"field": "consent", "error": "send {\"consent\": true} to "
-                                 "take part; nothing is recorded without it"}, 400)
-        try:
-            session = await asyncio.to_thread(sessions.create)
-        except ConfigError as exc:
-            return JSONResponse({"field": exc.field, "error": str(exc)}, 503)
-        return JSONResponse({"session": session.token}, 201)
+        return await _join(request, sessions)
 
     @app.websocket("/ws")
     async def channel(ws: WebSocket) -> None:
-        if not _same_origin(ws.headers):
-            await ws.close(CLOSE_ORIGIN)
-            return
-        await ws.accept()
-        try:
-            text = await asyncio.wait_for(ws.receive_text(), HELLO_TIMEOUT_S)
-            msg = parse_message(text)
-            if msg["type"] != "hello":
-                raise MessageError("say hello first: {\"type\": \"hello\", \"session\": TOKEN}",
-                                   field="type")
-        except (TimeoutError, MessageError, KeyError, WebSocketDisconnect) as exc:
-            with contextlib.suppress(Exception):
-                if isinstance(exc, MessageError):
-                    await ws.send_text(_error(exc))
-                await ws.close(CLOSE_BAD)
-            return
-        session = sessions.get(msg["session"])
-        if session is None:
-            await ws.send_text(_error(MessageError(
-                "unknown session: join from the start page", field="session")))
-            await ws.close(CLOSE_UNKNOWN)
-            return
-        loop = asyncio.get_running_loop()
-        changed = asyncio.Event()
-        replaced = asyncio.Event()
-        send_lock = asyncio.Lock()
-        def on_view() -> None:
-            loop.call_soon_threadsafe(changed.set)
-
-        def on_replaced() -> None:
-            loop.call_soon_threadsafe(replaced.set)
-
-        unsubscribe = session.subscribe(on_view)
-        owner = session.connect(on_replaced)
-
-        async def send_views() -> None:
-            sent = -1
-            while True:
-                seq, text = session.view()
-                if seq != sent:
-                    async with send_lock:
-                        await ws.send_text(text)
-                    sent = seq
-                changed.clear()
-                if session.view()[0] == sent:
-                    await changed.wait()
-
-        async def receive() -> None:
-            while True:
-                text = await ws.receive_text()
-                try:
-                    session.handle(parse_message(text))
-                except MessageError as exc:
-                    async with send_lock:
-                        await ws.send_text(_error(exc))
-
-        tasks = [asyncio.ensure_future(send_views()), asyncio.ensure_future(receive()),
-                 asyncio.ensure_future(replaced.wait())]
-        try:
-            done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
-            if tasks[2] in done:
-                with contextlib.suppress(Exception):
-                    await ws.send_text(json.dumps({"type": "replaced"}))
-                    await ws.close(CLOSE_REPLACED)
-        finally:
-            for t in tasks:
-                t.cancel()
-            unsubscribe()
-            session.disconnect(owner)
-            for t in tasks:
-                with contextlib.suppress(BaseException):
-                    await t
+        await _channel(ws, sessions)
 
     return app
+
+
+#: The page's files: route -> (file in :data:`STATIC`, media type).
+_FILES = {"/": ("index.html", "text/html"), "/app.js": ("app.js", "text/javascript"),
+          "/app.css": ("app.css", "text/css")}
+
+
+async def _headers(request: Request, call_next: Any) -> Response:
+    """Every response's security headers (:data:`_HEADERS`)."""
+    response: Response = await call_next(request)
+    response.headers.update(_HEADERS)
+    return response
+
+
+def _file_route(name: str, media: str) -> Callable[[], Awaitable[FileResponse]]:
+    """The route of one static file."""
+    async def serve_file() -> FileResponse:
+        return FileResponse(STATIC / name, media_type=media)
+
+    return serve_file
+
+
+async def _join(request: Request, sessions: SessionManager) -> JSONResponse:
+    """``POST /api/sessions``: a new session with consent; 400 without, 503 when full."""
+    body = await request.body()
+    try:
+        doc = json.loads(body) if len(body) <= 1024 else None
+    except ValueError:
+        doc = None
+    if not isinstance(doc, dict) or set(doc) != {"consent"} or doc["consent"] is not True:
+        return JSONResponse({"field": "consent", "error": "send {\"consent\": true} to "
+                             "take part; nothing is recorded without it"}, 400)
+    try:
+        session = await asyncio.to_thread(sessions.create)
+    except ConfigError as exc:
+        return JSONResponse({"field": exc.field, "error": str(exc)}, 503)
+    return JSONResponse({"session": session.token}, 201)
+
+
+async def _channel(ws: WebSocket, sessions: SessionManager) -> None:
+    """``WS /ws``: this site's page says hello with its session's token; then the session's
+    views go out and the page's messages come in (:func:`_relay`).
+    """
+    if not _same_origin(ws.headers):
+        await ws.close(CLOSE_ORIGIN)
+        return
+    await ws.accept()
+    msg = await _hello(ws)
+    if msg is None:
+        return
+    session = sessions.get(msg["session"])
+    if session is None:
+        await ws.send_text(_error(MessageError(
+            "unknown session: join from the start page", field="session")))
+        await ws.close(CLOSE_UNKNOWN)
+        return
+    await _relay(ws, session)
+
+
+async def _hello(ws: WebSocket) -> dict[str, Any] | None:
+    """The first message, a hello; None (the connection closed, code 4400) for anything
+    else or nothing within :data:`HELLO_TIMEOUT_S`.
+    """
+    try:
+        text = await asyncio.wait_for(ws.receive_text(), HELLO_TIMEOUT_S)
+        msg = parse_message(text)
+        if msg["type"] != "hello":
+            raise MessageError("say hello first: {\"type\": \"hello\", \"session\": TOKEN}",
+                               field="type")
+    except (TimeoutError, MessageError, KeyError, WebSocketDisconnect) as exc:
+        with contextlib.suppress(Exception):
+            if isinstance(exc, MessageError):
+                await ws.send_text(_error(exc))
+            await ws.close(CLOSE_BAD)
+        return None
+    return msg
+
+
+async def _relay(ws: WebSocket, session: Session) -> None:
+    """Send the session's views and pass the page's messages on until the page leaves or a
+    newer connection of the session replaces this one (told, code 4409).
+    """
+    loop = asyncio.get_running_loop()
+    changed = asyncio.Event()
+    replaced = asyncio.Event()
+    send_lock = asyncio.Lock()
+
+    def on_view() -> None:
+        loop.call_soon_threadsafe(changed.set)
+
+    def on_replaced() -> None:
+        loop.call_soon_threadsafe(replaced.set)
+
+    unsubscribe = session.subscribe(on_view)
+    owner = session.connect(on_replaced)
+    tasks = [asyncio.ensure_future(_send_views(ws, session, changed, send_lock)),
+             asyncio.ensure_future(_receive(ws, session, send_lock)),
+             asyncio.ensure_future(replaced.wait())]
+    try:
+        done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+        if tasks[2] in done:
+            with contextlib.suppress(Exception):
+                await ws.send_text(json.dumps({"type": "replaced"}))
+                await ws.close(CLOSE_REPLACED)
+    finally:
+        for t in tasks:
+            t.cancel()
+        unsubscribe()
+        session.disconnect(owner)
+        for t in tasks:
+            with contextlib.suppress(BaseException):
+                await t
+
+
+async def _send_views(ws: WebSocket, session: Session, changed: asyncio.Event,
+                      send_lock: asyncio.Lock) -> None:
+    """Send each new view of the session once, waiting for ``changed`` in between."""
+    sent = -1
+    while True:
+        seq, text = session.view()
+        if seq != sent:
+            async with send_lock:
+                await ws.send_text(text)
+            sent = seq
+        changed.clear()
+        if session.view()[0] == sent:
+            await changed.wait()
+
+
+async def _receive(ws: WebSocket, session: Session, send_lock: asyncio.Lock) -> None:
+    """Hand each message of the page to the session; a bad one is answered with an error."""
+    while True:
+        text = await ws.receive_text()
+        try:
+            session.handle(parse_message(text))
+        except MessageError as exc:
+            async with send_lock:
+                await ws.send_text(_error(exc))
