@@ -11,8 +11,9 @@ and ``countqmdp`` pairwise and each against the reachable reference), it splits 
 of the paired difference of normalised scores into the part between humans and the part
 between runs of one human (a one-way random-effects estimate): the two spreads the suite's
 two-stage bootstrap resamples. The track keeps the pair that needs the most runs per
-human; it prints the ``PILOT_V3`` dict that ``hri_bench/suite.py`` freezes, and each
-track's runs per human and the difference it detects (:func:`hri_bench.suite.power_v3`).
+human; it prints the ``PILOT_V3`` dict that ``hri_bench/suite/tracks.py`` freezes, and
+each track's runs per human and the difference it detects
+(:func:`hri_bench.suite.tracks.power_v3`).
 
 **Version 2** (the rest of this docstring, frozen with suite v2):
 
@@ -29,7 +30,7 @@ power is what the track needs (``hri_bench.core.stats``). Pairs with agents whos
 away (plain ME-IRL and the Imitator loop until the step limit with some humans: run means
 of -20 and worse) would ask for tens of thousands of runs to resolve differences nobody
 needs at 0.05; they are printed for reference, not used. It prints the table and the
-``PILOT_SD`` dict that ``hri_bench/suite.py`` freezes.
+``PILOT_SD`` dict that ``hri_bench/suite/tracks.py`` freezes.
 """
 
 

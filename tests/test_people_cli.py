@@ -1,5 +1,5 @@
 """The people-in-the-loop commands: ``hri-bench dataset``, ``replay``, recorded populations
-in ``study`` and ``suite`` (hri_bench/cli_people.py, hri_bench/fit.py)."""
+in ``study`` and ``suite`` (hri_bench/cli/people.py, hri_bench/data/fit.py)."""
 
 import json
 import os

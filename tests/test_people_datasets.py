@@ -1,4 +1,4 @@
-"""Recorded datasets (hri_bench/datasets.py, recording.py, replay.py, fit.py): scripted
+"""Recorded datasets (hri_bench/data/, hri_bench/people/recording.py): scripted
 humans recorded through the same path as people, both views, atomic episodes, the env's
 replay, fitted populations in studies."""
 

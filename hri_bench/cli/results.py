@@ -1,7 +1,7 @@
 """``hri-bench validate``, ``hri-bench leaderboard`` and the suite's ``--config`` and
 ``--seeds`` (docs/results.md).
 
-Kept apart from :mod:`hri_bench.cli`, which calls :func:`add_parsers`,
+Kept apart from :mod:`hri_bench.cli.commands`, which calls :func:`add_parsers`,
 :func:`add_suite_flags`, :func:`suite_plan` and :func:`run_suites`.
 """
 
