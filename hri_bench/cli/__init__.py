@@ -7,6 +7,7 @@ module          contents
                 and demo commands
 ``people``      ``serve``, ``dataset``, ``replay`` (people in the loop)
 ``results``     ``validate``, ``leaderboard`` and the suite's ``--config``, ``--seeds``
+``__main__``    ``python -m hri_bench.cli``
 ==============  ====================================================================
 """
 
