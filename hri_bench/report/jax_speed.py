@@ -62,7 +62,7 @@ def measure_jax(size: str = "full", vector_env_steps_per_s: float | None = None,
         MissingExtraError.require(["jax", "optax"], "the JAX figures")
     except MissingExtraError as exc:
         return {"jax": f"not installed: {exc}"}
-    from agents.jax_ppo.train import TrainConfig, train
+    from agents.jax_ppo.train import TrainConfig, train  # jax: imported once checked above
     from hri_envs.jax.speed import jax_env_steps_per_s
 
     z = JAX_SIZES[size]

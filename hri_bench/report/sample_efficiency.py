@@ -224,7 +224,7 @@ def _train_curve(cfg: SampleEfficiencyConfig, algo: str, seed: int
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(episodes, reward, steps) at the checkpoints of one training run."""
     from agents.rl import EpisodeCheckpoints, train_dqn, train_maskable_ppo  # the rl extra
-    from agents.sb3 import SB3BatchAgent
+    from agents.sb3 import SB3BatchAgent  # the rl extra too
 
     checkpoints = cfg.ppo_checkpoints if algo == "ppo" else cfg.dqn_checkpoints
     episodes: list[float] = []

@@ -286,12 +286,12 @@ def make_agent(
         cls_ref = Informed if name == "informed" else Blind
         return cls_ref(graph, human, n, r0=r0, max_steps=max_steps, reward=reward)
     if name.startswith(SB3_PREFIX):
-        from agents.sb3 import SB3BatchAgent
+        from agents.sb3 import SB3BatchAgent  # the rl extra (stable-baselines3, torch)
 
         return SB3BatchAgent(name[len(SB3_PREFIX):], n, graph=graph, seed=seed, runs=runs)
     path = jaxppo_path(name)
     if path is not None:
-        from agents.jax_ppo.agent import JaxPPOAgent
+        from agents.jax_ppo.agent import JaxPPOAgent  # the jax extra
 
         return JaxPPOAgent(path, graph, n)
     cls = import_agent(name)

@@ -432,18 +432,19 @@ def run_suite(
     Args:
         out: Output directory (created).
         agents: Agents to rank (see :mod:`hri_bench.run.agents`, e.g. "mypkg.mod:MyAgent");
-            None: the version's defaults (:data:`DEFAULT_AGENTS_V2`, v1 :data:`DEFAULT_AGENTS`).
+            None: the version's defaults (:func:`~hri_bench.suite.tracks.default_agents`).
         tracks: Track names (comma-separated or a list); None: all of the version's tracks
-            (:data:`TRACKS_V2`, v1 :data:`TRACKS`).
+            (:data:`~hri_bench.suite.tracks.TRACKS_BY_VERSION`).
         runs_scale: Multiplies every track's run count (at least 2 runs), > 0.
         seed: Base seed of every study and bootstrap.
         jobs: Worker processes per study (passed to :func:`run_study`).
         executor: "serial", "process" or "ray".
         progress: Show a tqdm progress bar over tracks.
         populations: Populations to add a track of their own for, after the chosen tracks
-            (:func:`population_track`, e.g. ``recorded:hanger-people-v0``).
-        version: The suite version, "1" or "2" (:data:`SUITE_VERSIONS`; default
-            :data:`LATEST`).
+            (:func:`~hri_bench.suite.tracks.population_track`, e.g.
+            ``recorded:hanger-people-v0``).
+        version: The suite version (:data:`~hri_bench.suite.tracks.SUITE_VERSIONS`; default
+            :data:`~hri_bench.suite.tracks.LATEST`).
 
     Raises:
         ConfigError: Unknown track, bad agents, bad runs_scale (before any simulation).
