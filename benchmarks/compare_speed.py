@@ -28,7 +28,7 @@ import time, numpy as np
 from agents.learner import Learner
 try:  # this layout, then the one before the benchmark became its own package
     from agents.protocol import Trace
-    from hri_bench.study import graph_for
+    from hri_bench.run.study import graph_for
 except ImportError:
     from hri_envs.bench.study import graph_for
     from hri_envs.task.protocol import Trace
@@ -69,8 +69,8 @@ print(best * 1e3)
     "hanger_study_20_runs": ("""
 import time
 try:
-    from hri_bench.speed import HANGER_STUDY_PREFERENCES
-    from hri_bench.study import StudyConfig, run_study
+    from hri_bench.report.speed import HANGER_STUDY_PREFERENCES
+    from hri_bench.run.study import StudyConfig, run_study
 except ImportError:
     from hri_envs.bench.speed import HANGER_STUDY_PREFERENCES
     from hri_envs.bench.study import StudyConfig, run_study

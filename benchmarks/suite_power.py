@@ -11,8 +11,9 @@ and ``countqmdp`` pairwise and each against the reachable reference), it splits 
 of the paired difference of normalised scores into the part between humans and the part
 between runs of one human (a one-way random-effects estimate): the two spreads the suite's
 two-stage bootstrap resamples. The track keeps the pair that needs the most runs per
-human; it prints the ``PILOT_V3`` dict that ``hri_bench/suite.py`` freezes, and each
-track's runs per human and the difference it detects (:func:`hri_bench.suite.power_v3`).
+human; it prints the ``PILOT_V3`` dict that ``hri_bench/suite/tracks.py`` freezes, and
+each track's runs per human and the difference it detects
+(:func:`hri_bench.suite.tracks.power_v3`).
 
 **Version 2** (the rest of this docstring, frozen with suite v2):
 
@@ -25,11 +26,11 @@ their run means (runs are paired: the same run meets the same human and schedule
 the runs of each member of the population (the study meets the members in balanced blocks,
 so their make-up adds no error; the CIs are stratified alike); the largest is the track's
 ``pilot_sd``, and ``runs_for_difference(pilot_sd, 0.05)`` at 80 %
-power is what the track needs (``hri_bench.stats``). Pairs with agents whose episodes run
+power is what the track needs (``hri_bench.core.stats``). Pairs with agents whose episodes run
 away (plain ME-IRL and the Imitator loop until the step limit with some humans: run means
 of -20 and worse) would ask for tens of thousands of runs to resolve differences nobody
 needs at 0.05; they are printed for reference, not used. It prints the table and the
-``PILOT_SD`` dict that ``hri_bench/suite.py`` freezes.
+``PILOT_SD`` dict that ``hri_bench/suite/tracks.py`` freezes.
 """
 
 
@@ -42,7 +43,7 @@ import time
 
 import numpy as np
 
-from hri_bench import stats
+from hri_bench.core import stats
 from hri_bench.suite import ALPHA, DEFAULT_AGENTS_V2, DELTA, POWER, select_tracks, track_config
 
 #: The comparisons that set a track's runs.
@@ -84,9 +85,8 @@ def components(diff: np.ndarray, humans: np.ndarray) -> tuple[float, float]:
 
 def pilot_v3(blocks: int, seed: int, jobs: int, only: str | None) -> None:
     """Run v3's pilot (module docstring) and print ``PILOT_V3``."""
-    from hri_bench import ranking
-    from hri_bench.results_v3 import run_humans
-    from hri_bench.study import regret_reference, run_study
+    from hri_bench.report import ranking
+    from hri_bench.run.study import regret_reference, run_study
     from hri_bench.suite import (
         DEFAULT_AGENTS_V3,
         DELTA_V3,
@@ -95,6 +95,7 @@ def pilot_v3(blocks: int, seed: int, jobs: int, only: str | None) -> None:
         detectable_v3,
         power_v3,
     )
+    from hri_bench.suite.results_v3 import run_humans
 
     found: dict[str, tuple[float, float]] = {}
     for track in select_tracks(only, "3"):
@@ -154,7 +155,7 @@ def main() -> None:
     if args.version == "3":
         pilot_v3(args.blocks, args.seed, args.jobs, args.tracks)
         return
-    from hri_bench.study import run_study
+    from hri_bench.run.study import run_study
 
     found: dict[str, float] = {}
     for track in select_tracks(args.tracks, "2"):  # v2's pilot

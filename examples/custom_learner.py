@@ -33,7 +33,7 @@ import tyro
 import hri_envs  # noqa: F401  (registers the Gymnasium ids)
 from agents.protocol import Agent, Trace
 from agents.rollout import run_episode
-from hri_bench.study import StudyConfig, run_study
+from hri_bench.run.study import StudyConfig, run_study
 from hri_envs.task import mdp
 from hri_envs.task.graph import WAIT, TaskGraph
 from hri_envs.task.scenarios import scenario_spec

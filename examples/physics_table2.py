@@ -20,8 +20,8 @@ import numpy as np
 import tyro
 from tqdm.auto import tqdm
 
-from hri_bench.agents import make_agent
-from hri_bench.runner import make_schedule, simulate
+from hri_bench.run.agents import make_agent
+from hri_bench.run.runner import make_schedule, simulate
 from hri_envs.envs.config import check_physics_options, scenario_graph
 from hri_envs.humans.scripted import preference_human
 from hri_envs.task.scenarios.hanger import TABLE2

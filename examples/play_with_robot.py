@@ -18,8 +18,8 @@ from typing import Literal
 import numpy as np
 import tyro
 
-from hri_bench.play import play
-from hri_bench.study import graph_for
+from hri_bench.people.play import play
+from hri_bench.run.study import graph_for
 from hri_envs.humans.scripted import preference_human
 
 

@@ -25,8 +25,8 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 
 from agents.rl import RandomMasked, train_dqn, train_maskable_ppo
 from agents.sb3 import SB3BatchAgent
-from hri_bench.runner import make_schedule, simulate
-from hri_bench.study import StudyConfig, graph_for, run_study
+from hri_bench.run.runner import make_schedule, simulate
+from hri_bench.run.study import StudyConfig, graph_for, run_study
 from hri_envs.humans.scripted import preference_human
 
 

@@ -9,7 +9,7 @@ import pytest
 from agents import Learner, LearnerStateError, Trace, default_config
 from agents.protocol import Agent, Batched
 from baselines import Imitator, MaxEntIRL, Oracle, Passive
-from hri_bench.runner import make_schedule, simulate
+from hri_bench.run.runner import make_schedule, simulate
 from hri_envs.humans.scripted import preference_human
 from hri_envs.task import build_graph, hanger_scenario, wheel_scenario
 from hri_envs.task.graph import ROTATE, WAIT

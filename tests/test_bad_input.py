@@ -16,7 +16,7 @@ from agents import Learner, LearnerConfig, LearnerStateError
 from agents.protocol import BatchAgent, Batched
 from agents.rollout import run_episode
 from hri_bench.cli import main
-from hri_bench.study import StudyConfig, run_study
+from hri_bench.run.study import StudyConfig, run_study
 from hri_envs import hanger_v0, wheel_v0
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.envs.partner import PartnerEnv

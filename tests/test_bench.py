@@ -9,9 +9,9 @@ import pytest
 
 from agents.learning import partner_mdp
 from hri_bench.cli import main
-from hri_bench.figures import make_figures
-from hri_bench.play import play
-from hri_bench.study import StudyConfig, run_study
+from hri_bench.people.play import play
+from hri_bench.report.figures import make_figures
+from hri_bench.run.study import StudyConfig, run_study
 from hri_envs.envs.config import scenario_graph
 from hri_envs.errors import ConfigError
 
@@ -183,7 +183,7 @@ def _positive_finite(value):
 
 def test_speed_json_runs_the_real_measurements_on_a_tiny_size(monkeypatch, capsys):
     """``hri-bench speed --json --size tiny`` end to end: every figure measured for real."""
-    import hri_bench.speed as speed
+    import hri_bench.report.speed as speed
 
     studies = []
     real_study = speed.run_study
@@ -208,7 +208,7 @@ def test_speed_json_runs_the_real_measurements_on_a_tiny_size(monkeypatch, capsy
 
 
 def test_speed_sizes_are_checked_and_the_full_size_is_the_published_one():
-    import hri_bench.speed as speed
+    import hri_bench.report.speed as speed
 
     full = speed.SIZES["full"]
     assert (full.vector_envs, full.batch_runs, full.study_runs, full.study_episodes) == (
@@ -261,9 +261,9 @@ def test_learner_update_ms_is_the_mean_time_of_real_updates(monkeypatch):
     """The timing arithmetic on a fake clock: each real Learner update "takes" 2.5 ms."""
     from types import SimpleNamespace
 
-    import hri_bench.speed as speed
+    import hri_bench.report.speed as speed
     from agents.learner import Learner
-    from hri_bench.study import graph_for
+    from hri_bench.run.study import graph_for
 
     clock, updates = [0.0], []
     real_update = Learner.end_episode
@@ -325,8 +325,8 @@ class _FailsOnSecondStep:
 
 
 def test_a_physical_failure_costs_r_minus_and_the_other_runs_go_on(monkeypatch):
-    from hri_bench.agents import make_agent
-    from hri_bench.runner import make_schedule, simulate
+    from hri_bench.run.agents import make_agent
+    from hri_bench.run.runner import make_schedule, simulate
     from hri_envs.envs import backends
     from hri_envs.humans.scripted import preference_human
 

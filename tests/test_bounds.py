@@ -8,8 +8,8 @@ import pytest
 
 from baselines.bounds import Blind, Informed, plan
 from hri_bench.cli import main
-from hri_bench.runner import make_schedule, simulate
-from hri_bench.study import StudyConfig, run_study
+from hri_bench.run.runner import make_schedule, simulate
+from hri_bench.run.study import StudyConfig, run_study
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
 from hri_envs.task.actions import TOGGLE, WAIT

@@ -151,7 +151,7 @@ def test_missing_extras_give_one_line_with_the_install_command(argv, missing, ex
 
 
 def test_a_missing_package_met_later_is_one_line_too(monkeypatch, capsys):
-    from hri_bench import cli
+    from hri_bench.cli import commands as cli
 
     def fail(*args, **kwargs):
         raise ModuleNotFoundError("No module named 'torch'", name="torch")

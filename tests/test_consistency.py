@@ -16,7 +16,7 @@ from hypothesis.extra import numpy as hnp
 
 import hri_envs  # noqa: F401  (registers the ids)
 from agents.protocol import BatchAgent
-from hri_bench.runner import Schedule, simulate
+from hri_bench.run.runner import Schedule, simulate
 from hri_envs import hanger_v0, wheel_v0
 from hri_envs.envs.config import scenario_graph
 from hri_envs.humans.scripted import preference_human, preferences_for

@@ -8,8 +8,8 @@ from agents.protocol import Trace, read_belief
 from baselines import CountQMDP
 from baselines.bounds import plan
 from baselines.countqmdp import change_of_mind, prior_policy, relative_actions
-from hri_bench.agents import agent_settings, make_agent
-from hri_bench.runner import make_schedule, simulate
+from hri_bench.run.agents import agent_settings, make_agent
+from hri_bench.run.runner import make_schedule, simulate
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
 from hri_envs.task import build_graph, hanger_scenario, wheel_scenario

@@ -10,7 +10,7 @@ import hri_envs
 import hri_envs.envs
 from agents import LearnerConfig, LearnerStateError
 from hri_bench.cli import main
-from hri_bench.study import StudyConfig
+from hri_bench.run.study import StudyConfig
 from hri_envs import errors
 from hri_envs.errors import ConfigError, HriEnvsError
 from hri_envs.humans.scripted import preference_human

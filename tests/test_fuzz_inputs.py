@@ -27,7 +27,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import hri_envs  # noqa: F401  (registers the ids)
-from hri_bench import cli
+from hri_bench.cli import commands as cli
 from hri_envs.checks import integer_or_none
 from hri_envs.envs.config import check_physics_options
 from hri_envs.envs.parallel import CooperationParallelEnv
@@ -277,7 +277,7 @@ def outs(tmp_path_factory):
 def _cli(argv):
     """(exit code or the accepted StudyConfig, stderr) of ``hri-bench`` run in-process."""
     err = io.StringIO()
-    with mock.patch("hri_bench.studyio.run_in", _stop), contextlib.redirect_stderr(err), \
+    with mock.patch("hri_bench.cli.commands.run_in", _stop), contextlib.redirect_stderr(err), \
             contextlib.redirect_stdout(io.StringIO()):
         try:
             result = cli.main(argv)
@@ -321,7 +321,7 @@ def _json_values():
 @pytest.fixture(scope="module")
 def recorded(outs):
     """A tiny study's settings, as its summary.json holds them."""
-    from hri_bench.study import StudyConfig
+    from hri_bench.run.study import StudyConfig
 
     cfg = StudyConfig("hanger", agents=("passive",), runs=2, episodes=1)
     return json.loads(json.dumps(cfg.settings()))

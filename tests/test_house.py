@@ -12,7 +12,7 @@ from pettingzoo.test import parallel_api_test
 
 from agents.learner import Learner
 from agents.rollout import run_episode
-from hri_bench.study import StudyConfig, run_study, write_outputs
+from hri_bench.run.study import StudyConfig, run_study, write_outputs
 from hri_envs import hanger_v0
 from hri_envs.envs.parallel import CooperationParallelEnv
 from hri_envs.envs.partner import PartnerEnv

@@ -75,7 +75,7 @@ def test_agent_acts_validly_and_deterministically(trained):
         JaxPPOAgent(path, scenario_graph("wheel"), 2)
     with pytest.raises(ConfigError):
         JaxPPOAgent(path.parent / "missing.npz", graph, 2)
-    from hri_bench.runner import make_schedule, simulate
+    from hri_bench.run.runner import make_schedule, simulate
     from hri_envs.humans.scripted import preference_human
 
     human = preference_human(graph)
@@ -134,7 +134,7 @@ NO_JAX = """
 import sys
 sys.modules['jax'] = sys.modules['optax'] = None
 from hri_bench.cli import main
-from hri_bench.jax_speed import measure_jax
+from hri_bench.report.jax_speed import measure_jax
 out = sys.argv[1]
 print('passive', main(['study', 'hanger', '--agents', 'passive', '--runs', '2',
                        '--episodes', '1', '--out', out + '/a', '--no-progress']))
@@ -158,7 +158,7 @@ def test_without_jax_the_cli_works_and_the_jax_parts_say_how_to_install(tmp_path
 
 
 def test_speed_reports_the_jax_figures_naming_the_device(trained):
-    from hri_bench.jax_speed import measure_jax
+    from hri_bench.report.jax_speed import measure_jax
 
     # the smoke config's update is compiled already (the fixture): time it, not a new one
     figures = measure_jax("tiny", vector_env_steps_per_s=1e6, ppo=SMOKE)

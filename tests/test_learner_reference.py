@@ -13,7 +13,7 @@ import pytest
 from agents.learner import Learner
 from agents.learning import mdp
 from agents.protocol import Trace
-from hri_bench.study import graph_for
+from hri_bench.run.study import graph_for
 from hri_envs.task import mdp as task_mdp
 from tests.data.make_learner_reference import ARRAYS, CASES
 

@@ -9,7 +9,8 @@ import shlex
 import tomllib
 from pathlib import Path
 
-from hri_bench.cli import _NEXT_STEPS, build_parser
+from hri_bench.cli import build_parser
+from hri_bench.cli.commands import _NEXT_STEPS
 
 ROOT = Path(__file__).resolve().parents[1]
 

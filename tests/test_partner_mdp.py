@@ -10,8 +10,8 @@ import pytest
 from agents.learner import Learner
 from agents.learning import algorithm1, mdp, partner_mdp
 from agents.protocol import Trace
-from hri_bench.speed import _wheel_trace
-from hri_bench.study import graph_for
+from hri_bench.report.speed import _wheel_trace
+from hri_bench.run.study import graph_for
 from hri_envs.errors import ConfigError
 from hri_envs.task import mdp as task_mdp
 from tests.helpers_partner import HAS_JIT

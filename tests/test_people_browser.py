@@ -20,8 +20,8 @@ pytest.importorskip("pyarrow")
 pytest.importorskip("fastapi")
 webdriver = pytest.importorskip("selenium.webdriver")
 
-from hri_bench.datasets import export_minari, export_parquet, open_dataset  # noqa: E402
-from hri_bench.replay import replay  # noqa: E402
+from hri_bench.data.datasets import export_minari, export_parquet, open_dataset  # noqa: E402
+from hri_bench.data.replay import replay  # noqa: E402
 from hri_envs.humans.scripted import preference_human  # noqa: E402
 from hri_envs.task.scenarios import scenario_graph  # noqa: E402
 

@@ -1,5 +1,5 @@
 """The people-in-the-loop commands: ``hri-bench dataset``, ``replay``, recorded populations
-in ``study`` and ``suite`` (hri_bench/cli_people.py, hri_bench/fit.py)."""
+in ``study`` and ``suite`` (hri_bench/cli/people.py, hri_bench/data/fit.py)."""
 
 import json
 import os
@@ -10,8 +10,8 @@ import pytest
 pytest.importorskip("pyarrow")
 
 from hri_bench.cli import main  # noqa: E402
-from hri_bench.recording import record_study  # noqa: E402
-from hri_bench.study import StudyConfig  # noqa: E402
+from hri_bench.people.recording import record_study  # noqa: E402
+from hri_bench.run.study import StudyConfig  # noqa: E402
 
 pytestmark = pytest.mark.xdist_group("people-datasets")
 

@@ -1,4 +1,4 @@
-"""Recorded datasets (hri_bench/datasets.py, recording.py, replay.py, fit.py): scripted
+"""Recorded datasets (hri_bench/data/, hri_bench/people/recording.py): scripted
 humans recorded through the same path as people, both views, atomic episodes, the env's
 replay, fitted populations in studies."""
 
@@ -9,12 +9,12 @@ import pytest
 
 pa = pytest.importorskip("pyarrow")
 
-from hri_bench import datasets  # noqa: E402
-from hri_bench.datasets import COLUMNS, SessionWriter, create_dataset, open_dataset  # noqa: E402
-from hri_bench.fit import evaluate, fit, split_participants  # noqa: E402
-from hri_bench.recording import RecordingHumans, record_study  # noqa: E402
-from hri_bench.replay import replay  # noqa: E402
-from hri_bench.study import StudyConfig, run_study  # noqa: E402
+from hri_bench.data import datasets  # noqa: E402
+from hri_bench.data.datasets import COLUMNS, SessionWriter, create_dataset, open_dataset  # noqa: E402
+from hri_bench.data.fit import evaluate, fit, split_participants  # noqa: E402
+from hri_bench.data.replay import replay  # noqa: E402
+from hri_bench.people.recording import RecordingHumans, record_study  # noqa: E402
+from hri_bench.run.study import StudyConfig, run_study  # noqa: E402
 from hri_envs.errors import ConfigError  # noqa: E402
 
 pytestmark = pytest.mark.xdist_group("people-datasets")
@@ -104,8 +104,8 @@ def test_content_hash_names_the_data(recorded, tmp_path):
 def test_a_crash_loses_only_the_episode_in_progress(tmp_path):
     """Two sessions; one human raises in its second episode: its first episode and the
     other session's episodes are on disk, complete, and no temporary file is left."""
-    from hri_bench.agents import make_agent
-    from hri_bench.runner import Schedule, run_episodes
+    from hri_bench.run.agents import make_agent
+    from hri_bench.run.runner import Schedule, run_episodes
     from hri_envs.envs.backends import GraphBatch
     from hri_envs.humans.scripted import preference_human
     from hri_envs.humans.tables import TableHumans

@@ -15,11 +15,11 @@ from fastapi.testclient import TestClient  # noqa: E402
 from starlette.websockets import WebSocketDisconnect  # noqa: E402
 
 from hri_bench.cli import main  # noqa: E402
-from hri_bench.datasets import open_dataset  # noqa: E402
-from hri_bench.replay import replay  # noqa: E402
-from hri_bench.serve.app import create_app  # noqa: E402
-from hri_bench.serve.design import ServeConfig, assignment, pair_circuit  # noqa: E402
-from hri_bench.serve.session import parse_message  # noqa: E402
+from hri_bench.data.datasets import open_dataset  # noqa: E402
+from hri_bench.data.replay import replay  # noqa: E402
+from hri_bench.people.serve.app import create_app  # noqa: E402
+from hri_bench.people.serve.design import ServeConfig, assignment, pair_circuit  # noqa: E402
+from hri_bench.people.serve.session import parse_message  # noqa: E402
 from hri_envs.errors import ConfigError  # noqa: E402
 from hri_envs.humans.scripted import preference_human  # noqa: E402
 from hri_envs.task.scenarios import scenario_graph  # noqa: E402
@@ -332,8 +332,8 @@ def test_serve_config_errors_name_the_field(kw, field):
 def test_no_agent_that_plans_for_the_humans_model_faces_a_person():
     """Every built-in that reads the human's policy (the oracle, the references, the bracket's
     QMDP) is refused, including ones added to the benchmark later."""
-    from hri_bench.agents import BRACKET_AGENTS, REFERENCE_AGENTS
-    from hri_bench.serve.design import UNSUITED_AGENTS
+    from hri_bench.people.serve.design import UNSUITED_AGENTS
+    from hri_bench.run.agents import BRACKET_AGENTS, REFERENCE_AGENTS
 
     for name in ("oracle", *REFERENCE_AGENTS, *BRACKET_AGENTS):
         assert name in UNSUITED_AGENTS

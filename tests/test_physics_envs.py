@@ -128,7 +128,7 @@ def test_a_video_that_cannot_be_written_fails_when_the_env_is_built(tmp_path, mo
 
 def test_simulate_on_the_physics_backend():
     from baselines import Passive
-    from hri_bench.runner import make_schedule, simulate
+    from hri_bench.run.runner import make_schedule, simulate
     from hri_envs.envs.config import scenario_graph
     from hri_envs.humans.scripted import preference_human
 

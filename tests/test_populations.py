@@ -13,8 +13,8 @@ import hri_envs  # noqa: F401  (registers the envs)
 from agents.config import default_config
 from agents.learner import Learner
 from hri_bench.cli import main
-from hri_bench.runner import human_streams, make_schedule
-from hri_bench.study import StudyConfig, run_study
+from hri_bench.run.runner import human_streams, make_schedule
+from hri_bench.run.study import StudyConfig, run_study
 from hri_envs.errors import ConfigError
 from hri_envs.humans.populations import (
     POPULATIONS,

@@ -6,7 +6,7 @@ depend on the rows beside it; and its bracket order holds on a hand-made mixture
 import numpy as np
 import pytest
 
-from hri_bench.study import StudyConfig, _run_unit, _Unit
+from hri_bench.run.study import StudyConfig, _run_unit, _Unit
 
 
 @pytest.mark.parametrize("scenario", ["hanger", "wheel"])

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from baselines.bounds import plan
-from hri_bench.regret import blind_values
-from hri_bench.study import StudyConfig, run_study
+from hri_bench.run.regret import blind_values
+from hri_bench.run.study import StudyConfig, run_study
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
 from hri_envs.task.scenarios import scenario_graph

@@ -12,11 +12,14 @@ import pytest
 
 from agents.protocol import BatchAgent, Batched, read_belief
 from baselines import Passive
-from hri_bench import aggregate, metrics, provenance, submission
-from hri_bench.agents import contract_keywords, make_agent
 from hri_bench.cli import main
-from hri_bench.runner import make_schedule, simulate
-from hri_bench.study import StudyConfig, graph_for, run_study
+from hri_bench.report import aggregate
+from hri_bench.run import agents as bench_agents
+from hri_bench.run import metrics, provenance
+from hri_bench.run.agents import contract_keywords, make_agent
+from hri_bench.run.runner import make_schedule, simulate
+from hri_bench.run.study import StudyConfig, graph_for, run_study
+from hri_bench.suite import submission
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
 from tests.helpers_agents import AlwaysWait
@@ -317,7 +320,7 @@ def test_code_changes_names_the_changed_file(tmp_path, monkeypatch):
         "from tests.helpers_agents import AlwaysWait\nclass Mine(AlwaysWait):\n    pass\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     before = provenance.agent_identity("mylab_agent:Mine")
-    assert before["files"] == {"mylab_agent.py": provenance._sha256(tmp_path / "mylab_agent.py")}
+    assert before["files"] == {"mylab_agent.py": bench_agents._sha256(tmp_path / "mylab_agent.py")}
     assert provenance.code_changes({"mylab_agent:Mine": before}, ["mylab_agent:Mine"]) == []
     (tmp_path / "mylab_agent.py").write_text(
         "from tests.helpers_agents import AlwaysWait\nclass Mine(AlwaysWait):\n    x = 1\n")

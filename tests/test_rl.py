@@ -26,16 +26,16 @@ from agents.rl import (
 )
 from agents.rollout import run_episode
 from agents.sb3 import SB3Agent, SB3BatchAgent, detect_algorithm, load_model
-from hri_bench.agents import make_agent, validate_agent_name
 from hri_bench.cli import main as bench_main
-from hri_bench.runner import make_schedule, simulate
-from hri_bench.sample_efficiency import (
+from hri_bench.report.sample_efficiency import (
     SampleEfficiencyConfig,
     episodes_to_reach,
     plot,
     run_sample_efficiency,
 )
-from hri_bench.study import graph_for
+from hri_bench.run.agents import make_agent, validate_agent_name
+from hri_bench.run.runner import make_schedule, simulate
+from hri_bench.run.study import graph_for
 from hri_envs.humans.scripted import preference_human
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from hri_bench.study import StudyConfig, run_study, summarize
+from hri_bench.run.study import StudyConfig, run_study, summarize
 from hri_envs.envs.vector import RobotVectorEnv
 from hri_envs.errors import ConfigError
 from hri_envs.humans.families import FAMILIES, GROUPS

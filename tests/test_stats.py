@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hri_bench import stats
-from hri_bench.study import StudyConfig, run_study, summarize
+from hri_bench.core import stats
+from hri_bench.run.study import StudyConfig, run_study, summarize
 from hri_envs.errors import ConfigError
 
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from hri_bench import study
-from hri_bench.study import Probe, StudyConfig, run_study
+from hri_bench.run import study
+from hri_bench.run.study import Probe, StudyConfig, run_study
 
 
 def test_mixed_preference_batch_equals_one_batch_per_preference(monkeypatch):

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from hri_bench.cli import main
-from hri_bench.study import StudyConfig, run_study
+from hri_bench.run.study import StudyConfig, run_study
 from hri_envs.errors import ActionError, ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -111,7 +111,7 @@ def test_nothing_left_to_simulate_starts_no_pool(monkeypatch):
     def no_pool(*args, **kwargs):
         raise AssertionError("a pool was started with nothing to simulate")
 
-    monkeypatch.setattr("hri_bench.study._start_pool", no_pool)
+    monkeypatch.setattr("hri_bench.run.study._start_pool", no_pool)
     again = run_study(cfg, done=done)
     for agent, metrics in first.metrics.items():
         for key, values in metrics.items():
@@ -120,8 +120,8 @@ def test_nothing_left_to_simulate_starts_no_pool(monkeypatch):
 
 _EARLY_SIGINT = """
 import os, signal
-from hri_bench import study
-from hri_bench.studyio import stop_on_signals
+from hri_bench.run import study
+from hri_bench.run.studyio import stop_on_signals
 
 real = study._worker_init
 
@@ -189,7 +189,7 @@ def test_a_second_study_on_the_same_out_is_refused(tmp_path, monkeypatch):
 
 
 def test_the_lock_is_held_for_the_folders_life(tmp_path, capsys):
-    from hri_bench.studyio import StudyDir
+    from hri_bench.run.studyio import StudyDir
 
     out = tmp_path / "study"
     base = ["study", "wheel", "--runs", "2", "--episodes", "1", "--agents", "passive",
@@ -219,7 +219,7 @@ def _interrupted(out):
         raise KeyboardInterrupt
 
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr("hri_bench.studyio.write_outputs", stop)
+        mp.setattr("hri_bench.run.studyio.write_outputs", stop)
         assert main([*SMALL, "--out", str(out)]) == 130
 
 
@@ -269,7 +269,7 @@ def test_ctrl_c_while_the_folder_is_cleaned_is_a_stop_not_a_traceback(tmp_path, 
     def ctrl_c(self):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr("hri_bench.studyio.StudyDir._remove_leftovers", ctrl_c)
+    monkeypatch.setattr("hri_bench.run.studyio.StudyDir._remove_leftovers", ctrl_c)
     capsys.readouterr()
     assert main([*SMALL, "--out", str(out), "--resume"]) == 130
     err = capsys.readouterr().err
@@ -331,7 +331,7 @@ def test_resume_refuses_a_folder_of_another_study(tmp_path, capsys):
     (out / ".units").mkdir(parents=True)
     base = ["study", "wheel", "--runs", "2", "--episodes", "1", "--no-progress", "--out",
             str(out)]
-    from hri_bench.studyio import StudyDir
+    from hri_bench.run.studyio import StudyDir
 
     StudyDir(out, StudyConfig("wheel", runs=2, episodes=1, seed=5), overwrite=True).close()
     with pytest.raises(SystemExit):
@@ -341,7 +341,7 @@ def test_resume_refuses_a_folder_of_another_study(tmp_path, capsys):
 
 def test_unwritable_out(tmp_path, capsys, monkeypatch):
     # chmod does not stop root, so the permission check itself is made to say no.
-    monkeypatch.setattr("hri_bench.studyio.os.access", lambda *args, **kwargs: False)
+    monkeypatch.setattr("hri_bench.run.studyio.os.access", lambda *args, **kwargs: False)
     with pytest.raises(SystemExit):
         main(["study", "wheel", "--runs", "1", "--out", str(tmp_path / "x")])
     assert "cannot write" in capsys.readouterr().err
@@ -428,7 +428,7 @@ def test_config_replays_a_study_byte_for_byte(tmp_path, capsys):
 
 
 def test_settings_round_trip_and_unknown_settings_are_named():
-    from hri_bench.study import Probe
+    from hri_bench.run.study import Probe
     from hri_envs.errors import ConfigError
 
     cfg = StudyConfig("hanger", agents=("learner",), runs=2, turn_back=0.2,
@@ -451,9 +451,9 @@ def test_truncations_are_counted_in_the_summary(tmp_path):
 
 def test_a_unit_an_earlier_version_wrote_without_the_task_metrics_is_simulated_again(tmp_path):
     # --resume of a study begun before the task's metrics existed: its units lack them.
-    from hri_bench.runner import TASK_METRICS
-    from hri_bench.study import _units
-    from hri_bench.studyio import StudyDir
+    from hri_bench.run.runner import TASK_METRICS
+    from hri_bench.run.study import _units
+    from hri_bench.run.studyio import StudyDir
 
     cfg = StudyConfig("wheel", agents=("passive",), runs=2, episodes=1)
     units = _units(cfg)

@@ -33,8 +33,8 @@ from pathlib import Path
 
 import pytest
 
-from hri_bench import plots
 from hri_bench.cli import main
+from hri_bench.core import plots
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
 

@@ -11,7 +11,6 @@ import warnings
 import numpy as np
 import pytest
 
-from hri_bench import suite
 from hri_bench.cli import main
 from hri_bench.suite import (
     INTENTION_BLIND,
@@ -140,7 +139,7 @@ def test_unknown_track_errors_before_any_simulation(tmp_path, monkeypatch, capsy
     def boom(*args, **kwargs):
         raise AssertionError("simulated")
 
-    monkeypatch.setattr(suite, "run_study", boom)
+    monkeypatch.setattr("hri_bench.suite.running.run_study", boom)
     with pytest.raises(SystemExit) as exc:
         main(["suite", "--out", str(tmp_path / "x"), "--suite-version", "1", "--tracks",
               "wheel-paper,wheel-noisy"])
@@ -226,7 +225,7 @@ def test_an_agent_that_is_not_one_is_refused_before_any_simulation(agent, messag
     def boom(*args, **kwargs):
         raise AssertionError("simulated")
 
-    monkeypatch.setattr(suite, "run_study", boom)
+    monkeypatch.setattr("hri_bench.suite.running.run_study", boom)
     with pytest.raises(SystemExit) as exc:
         main(["suite", "--out", str(tmp_path / "x"), "--agents", f"learner,{agent}"])
     assert exc.value.code == 2

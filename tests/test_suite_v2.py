@@ -6,8 +6,9 @@ import json
 
 import pytest
 
-from hri_bench import stats, suite
+from hri_bench import suite
 from hri_bench.cli import main
+from hri_bench.core import stats
 from hri_bench.suite import (
     DEFAULT_AGENTS_V2,
     INTENTION_BLIND,
@@ -46,7 +47,7 @@ def test_v2_keeps_the_test_split_as_headline_and_v3_is_the_default(tmp_path, mon
         given.update(kwargs)
         raise AssertionError("recorded")
 
-    monkeypatch.setattr(suite, "run_suite", record)
+    monkeypatch.setattr("hri_bench.cli.commands.run_suite", record)
     with pytest.raises(AssertionError, match="recorded"):
         main(["suite", "--out", str(tmp_path / "s"), "--no-progress", "--suite-version", "2"])
     assert given["version"] == "2" and "goalfilter" in given["agents"]
@@ -137,7 +138,7 @@ def test_an_unknown_version_or_a_track_of_another_version_fails_naming_the_flag(
     def boom(*args, **kwargs):
         raise AssertionError("simulated")
 
-    monkeypatch.setattr(suite, "run_study", boom)
+    monkeypatch.setattr("hri_bench.suite.running.run_study", boom)
     for argv, flag, text in (
             (["--suite-version", "4"], "--suite-version", "invalid choice: '4'"),
             (["--tracks", "wheel-heldout", "--suite-version", "2"], "--tracks",
@@ -169,7 +170,7 @@ def test_an_unknown_version_or_a_track_of_another_version_fails_naming_the_flag(
 ])
 def test_bad_humans_and_references_fail_before_simulating(argv, flag, text, tmp_path,
                                                           monkeypatch, capsys):
-    from hri_bench import study, studyio  # noqa: F401  (imported first: it binds run_study)
+    from hri_bench.run import study, studyio  # noqa: F401  (imported first: it binds run_study)
 
     def boom(*args, **kwargs):
         raise AssertionError("simulated")

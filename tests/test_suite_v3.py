@@ -10,9 +10,10 @@ import json
 import numpy as np
 import pytest
 
-from hri_bench import aggregate, audit, ranking, submission, suite
+from hri_bench import suite
 from hri_bench.cli import main
-from hri_bench.suite import DEFAULT_AGENTS_V3, TRACKS_V3, track_config
+from hri_bench.report import aggregate, ranking
+from hri_bench.suite import DEFAULT_AGENTS_V3, TRACKS_V3, audit, merged, submission, track_config
 from hri_envs.errors import ConfigError
 from hri_envs.humans.splits import MIXTURES
 
@@ -213,6 +214,6 @@ def test_merging_files_of_another_runs_scale_is_refused_by_name(v3_dir):
     doc = submission.load(v3_dir / "results.json")
     scaled = copy.deepcopy(doc)
     scaled["runs_scale"] = 0.5
-    keep, refused = submission._mergeable({"a.json": doc, "b.json": scaled})
+    keep, refused = merged._mergeable({"a.json": doc, "b.json": scaled})
     assert list(keep) == ["a.json"]
     assert refused and refused[0].startswith("b.json: refused: runs scale 0.5")

@@ -5,7 +5,7 @@ A backend has two faces, both looked up here by its name so that no caller compa
 * an :class:`~hri_envs.envs.episode.Episode` subclass, one running episode with scalar
   state, for the single-episode envs;
 * a :class:`BatchBackend` subclass, which advances the runs of a study for the benchmark's
-  one simulation loop (:func:`hri_bench.runner.simulate`).
+  one simulation loop (:func:`hri_bench.run.runner.simulate`).
 
 Both are named as ``"module:Class"`` entry points (Gymnasium's convention) and imported only
 when used, so an optional backend costs nothing until it is asked for, and a missing extra

@@ -12,7 +12,7 @@ steps into a human of the human protocol:
       p(a | k, ι, s)     ∝ n(k, ι, s, a)     + α · p(a | ι, s)
 
   with ``α`` the smoothing weight (in steps). A state never visited gets the prior.
-* **IRL** (in :mod:`hri_bench.fit`): the Learner's own ME-IRL fit of a preference θ over
+* **IRL** (in :mod:`hri_bench.data.fit`): the Learner's own ME-IRL fit of a preference θ over
   the features φ, whose soft-max policy π̂_H(a | s, ι) is such a table too.
 
 Either table becomes a :class:`~hri_envs.humans.scripted.ScriptedHuman` through

@@ -1,5 +1,5 @@
 """The physics backend for the benchmark: :class:`PhysicsBatch`, which the one simulation
-loop (:func:`hri_bench.runner.simulate`) drives for ``hri-bench study --backend mujoco``.
+loop (:func:`hri_bench.run.runner.simulate`) drives for ``hri-bench study --backend mujoco``.
 
 The physics is not batched: one :class:`PandaSim` simulates the runs one after the other
 within each episode (the loop then sees one active run at a time, which the batched agent

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from agents.learner import Learner
-from hri_bench.runner import make_schedule, simulate
-from hri_bench.study import graph_for
+from hri_bench.run.runner import make_schedule, simulate
+from hri_bench.run.study import graph_for
 from hri_envs.humans.scripted import preference_human
 
 #: (scenario, preference, human passivity, runs, episodes, step limit): small, but every

@@ -1,0 +1,95 @@
+"""``hri-bench serve``: a person plays the human in a browser; every session is recorded.
+
+==============  ====================================================================
+module          contents
+==============  ====================================================================
+``design``      :class:`ServeConfig` (the server's settings), the counterbalanced design
+``session``     a participant's session: the benchmark loop in a thread, the person in the
+                human's seat, the messages a page may send
+``app``         the FastAPI app: the page, joining, the websocket (the pictures:
+                :mod:`hri_bench.core.pictures`)
+``static/``     the page (HTML, JavaScript, CSS; no external resources)
+==============  ====================================================================
+
+Run it with ``hri-bench serve hanger --data out/datasets`` and open the printed address;
+docs/people.md has the rest. Needs the ``web`` extra.
+"""
+
+from __future__ import annotations
+
+import socket
+import sys
+from collections.abc import Callable
+
+from agents.learning import algorithm1
+from hri_bench.core.pictures import picture
+from hri_bench.people.serve.design import ServeConfig
+from hri_envs.errors import MissingExtraError
+from hri_envs.task.scenarios import scenario_graph, scenario_spec
+
+__all__ = ["ServeConfig", "require_web", "serve"]
+
+
+def require_web(what: str) -> None:
+    """Raise :class:`~hri_envs.errors.MissingExtraError` (one line: the install command)
+    unless the ``web`` extra's server and data packages are installed.
+    """
+    MissingExtraError.require(["fastapi", "uvicorn", "pyarrow", "minari"], what)
+
+
+def _bind(host: str, port: int) -> socket.socket:
+    """A listening socket on ``host``:``port`` (IPv6 when the host is one)."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.bind((host, port))
+    sock.listen(128)
+    return sock
+
+
+def serve(config: ServeConfig, *, announce: Callable[[str], None] | None = None) -> None:
+    """Serve the study until interrupted (Ctrl-C, SIGTERM); every session is stopped and
+    recorded as such on the way out.
+
+    Args:
+        config: The settings.
+        announce: Told what it is doing (loading the kernels) and the address once the
+            server listens (default: printed).
+
+    Raises:
+        MissingExtraError: The ``web`` extra is not installed.
+        OSError: The address cannot be bound.
+    """
+    require_web("hri-bench serve")
+    import uvicorn  # the web extra, as the app (FastAPI) below
+
+    from hri_bench.people.serve.app import create_app
+
+    say = announce or (lambda text: print(text, flush=True))
+    if config.agent in ("learner", "maxent"):
+        # the first participant does not wait for the kernels; compiling them the first
+        # time (numba caches them on disk) takes a minute or more
+        say("hri-bench serve: loading the robot's compiled kernels (the first time after "
+            "installing, they are compiled: a minute or more)")
+        algorithm1.preload()
+    app = create_app(config)
+    if scenario_spec(config.scenario).layout is None:  # one picture per state for all
+        for state in range(scenario_graph(config.scenario).n_states):
+            picture(config.scenario, None, state)
+    sock = _bind(config.host, config.port)
+    host, port = sock.getsockname()[:2]
+    shown = f"[{host}]" if ":" in host else host
+    url = f"http://{shown}:{port}/"
+    say(
+        f"hri-bench serve: {config.scenario}, robot {config.agent}, {config.episodes} episodes "
+        f"per session; recording to {app.state.sessions.dataset.path}\n"
+        f"serving on {url}" + ("" if config.local_only else
+                               "  (reachable from other machines: plain HTTP, unencrypted)"))
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", ws_max_size=4096,
+                                           access_log=False, lifespan="on"))
+    try:
+        server.run(sockets=[sock])
+    finally:
+        sock.close()
+        sys.stdout.flush()
+

@@ -1,0 +1,241 @@
+"""The web app: a page, a JSON endpoint to join, and one websocket per participant.
+
+Routes:
+
+* ``GET /`` — the page (``static/index.html``, ``app.js``, ``app.css``);
+* ``GET /api/study`` — the public settings: texts, the task's names, episodes;
+* ``POST /api/sessions`` with ``{"consent": true}`` — join: a new session (and robot), whose
+  secret token the page keeps in its ``localStorage``; 400 without consent, 503 when full;
+* ``WS /ws`` — the session's channel. The first message is ``{"type": "hello", "session":
+  TOKEN}``; the server answers with the current view and every new one; the page sends
+  actions and ``continue`` (:mod:`hri_bench.people.serve.session`). A reload says hello again
+  and resumes where the session is.
+
+Nothing else is served: no route lists sessions or returns recordings, and a token is
+needed for everything about a session. Every message is validated; a bad one gets
+``{"type": "error", "field", "error"}`` and changes nothing; a hello with an unknown token
+closes the connection (code 4401). Websockets from another site's pages are refused (their
+``Origin`` must be this server's).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+from collections.abc import AsyncIterator, Awaitable, Callable
+from pathlib import Path
+from typing import Any
+from urllib.parse import urlsplit
+
+from fastapi import FastAPI, Request, WebSocket, WebSocketDisconnect
+from fastapi.responses import FileResponse, JSONResponse, Response
+
+from hri_bench.people.serve.design import ServeConfig
+from hri_bench.people.serve.session import MessageError, Session, SessionManager, parse_message
+from hri_envs.errors import ConfigError
+
+__all__ = ["create_app"]
+
+STATIC = Path(__file__).parent / "static"
+#: Seconds a new connection has to say hello.
+HELLO_TIMEOUT_S = 10.0
+#: Close codes: unknown session, bad first message, replaced by a newer connection.
+CLOSE_UNKNOWN, CLOSE_BAD, CLOSE_REPLACED, CLOSE_ORIGIN = 4401, 4400, 4409, 4403
+
+_HEADERS = {
+    "Content-Security-Policy": "default-src 'self'; img-src 'self' data:; "
+                               "connect-src 'self'; style-src 'self'; script-src 'self'; "
+                               "frame-ancestors 'none'; base-uri 'none'; form-action 'none'",
+    "X-Content-Type-Options": "nosniff",
+    "Referrer-Policy": "no-referrer",
+    "X-Frame-Options": "DENY",
+    "Cache-Control": "no-store",
+}
+
+
+def _error(exc: ConfigError) -> str:
+    return json.dumps({"type": "error", "field": exc.field, "error": str(exc)})
+
+
+def _same_origin(headers: Any) -> bool:
+    """A browser's websocket must come from this server's own page (no Origin: not a
+    browser, allowed: it still needs a token).
+    """
+    origin = headers.get("origin")
+    if origin is None:
+        return True
+    host = headers.get("host", "")
+    return urlsplit(origin).netloc == host
+
+
+def create_app(config: ServeConfig, manager: SessionManager | None = None) -> Any:
+    """The FastAPI app of ``hri-bench serve`` for ``config`` (its sessions in ``manager``,
+    made here by default; :meth:`SessionManager.stop_all` runs on shutdown).
+    """
+    sessions = manager if manager is not None else SessionManager(config)
+    public = config.public()
+
+    @contextlib.asynccontextmanager
+    async def lifespan(_: Any) -> AsyncIterator[None]:
+        yield
+        await asyncio.to_thread(sessions.stop_all)
+
+    app = FastAPI(title="hri-bench serve", docs_url=None, redoc_url=None, openapi_url=None,
+                  lifespan=lifespan)
+    app.state.sessions = sessions
+    app.middleware("http")(_headers)
+    for route, (name, media) in _FILES.items():
+        app.get(route, include_in_schema=False)(_file_route(name, media))
+
+    @app.get("/api/study")
+    async def study() -> dict[str, Any]:
+        return public
+
+    @app.post("/api/sessions")
+    async def join(request: Request) -> JSONResponse:
+        return await _join(request, sessions)
+
+    @app.websocket("/ws")
+    async def channel(ws: WebSocket) -> None:
+        await _channel(ws, sessions)
+
+    return app
+
+
+#: The page's files: route -> (file in :data:`STATIC`, media type).
+_FILES = {"/": ("index.html", "text/html"), "/app.js": ("app.js", "text/javascript"),
+          "/app.css": ("app.css", "text/css")}
+
+
+async def _headers(request: Request, call_next: Any) -> Response:
+    """Every response's security headers (:data:`_HEADERS`)."""
+    response: Response = await call_next(request)
+    response.headers.update(_HEADERS)
+    return response
+
+
+def _file_route(name: str, media: str) -> Callable[[], Awaitable[FileResponse]]:
+    """The route of one static file."""
+    async def serve_file() -> FileResponse:
+        return FileResponse(STATIC / name, media_type=media)
+
+    return serve_file
+
+
+async def _join(request: Request, sessions: SessionManager) -> JSONResponse:
+    """``POST /api/sessions``: a new session with consent; 400 without, 503 when full."""
+    body = await request.body()
+    try:
+        doc = json.loads(body) if len(body) <= 1024 else None
+    except ValueError:
+        doc = None
+    if not isinstance(doc, dict) or set(doc) != {"consent"} or doc["consent"] is not True:
+        return JSONResponse({"field": "consent", "error": "send {\"consent\": true} to "
+                             "take part; nothing is recorded without it"}, 400)
+    try:
+        session = await asyncio.to_thread(sessions.create)
+    except ConfigError as exc:
+        return JSONResponse({"field": exc.field, "error": str(exc)}, 503)
+    return JSONResponse({"session": session.token}, 201)
+
+
+async def _channel(ws: WebSocket, sessions: SessionManager) -> None:
+    """``WS /ws``: this site's page says hello with its session's token; then the session's
+    views go out and the page's messages come in (:func:`_relay`).
+    """
+    if not _same_origin(ws.headers):
+        await ws.close(CLOSE_ORIGIN)
+        return
+    await ws.accept()
+    msg = await _hello(ws)
+    if msg is None:
+        return
+    session = sessions.get(msg["session"])
+    if session is None:
+        await ws.send_text(_error(MessageError(
+            "unknown session: join from the start page", field="session")))
+        await ws.close(CLOSE_UNKNOWN)
+        return
+    await _relay(ws, session)
+
+
+async def _hello(ws: WebSocket) -> dict[str, Any] | None:
+    """The first message, a hello; None (the connection closed, code 4400) for anything
+    else or nothing within :data:`HELLO_TIMEOUT_S`.
+    """
+    try:
+        text = await asyncio.wait_for(ws.receive_text(), HELLO_TIMEOUT_S)
+        msg = parse_message(text)
+        if msg["type"] != "hello":
+            raise MessageError("say hello first: {\"type\": \"hello\", \"session\": TOKEN}",
+                               field="type")
+    except (TimeoutError, MessageError, KeyError, WebSocketDisconnect) as exc:
+        with contextlib.suppress(Exception):
+            if isinstance(exc, MessageError):
+                await ws.send_text(_error(exc))
+            await ws.close(CLOSE_BAD)
+        return None
+    return msg
+
+
+async def _relay(ws: WebSocket, session: Session) -> None:
+    """Send the session's views and pass the page's messages on until the page leaves or a
+    newer connection of the session replaces this one (told, code 4409).
+    """
+    loop = asyncio.get_running_loop()
+    changed = asyncio.Event()
+    replaced = asyncio.Event()
+    send_lock = asyncio.Lock()
+
+    def on_view() -> None:
+        loop.call_soon_threadsafe(changed.set)
+
+    def on_replaced() -> None:
+        loop.call_soon_threadsafe(replaced.set)
+
+    unsubscribe = session.subscribe(on_view)
+    owner = session.connect(on_replaced)
+    tasks = [asyncio.ensure_future(_send_views(ws, session, changed, send_lock)),
+             asyncio.ensure_future(_receive(ws, session, send_lock)),
+             asyncio.ensure_future(replaced.wait())]
+    try:
+        done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+        if tasks[2] in done:
+            with contextlib.suppress(Exception):
+                await ws.send_text(json.dumps({"type": "replaced"}))
+                await ws.close(CLOSE_REPLACED)
+    finally:
+        for t in tasks:
+            t.cancel()
+        unsubscribe()
+        session.disconnect(owner)
+        for t in tasks:
+            with contextlib.suppress(BaseException):
+                await t
+
+
+async def _send_views(ws: WebSocket, session: Session, changed: asyncio.Event,
+                      send_lock: asyncio.Lock) -> None:
+    """Send each new view of the session once, waiting for ``changed`` in between."""
+    sent = -1
+    while True:
+        seq, text = session.view()
+        if seq != sent:
+            async with send_lock:
+                await ws.send_text(text)
+            sent = seq
+        changed.clear()
+        if session.view()[0] == sent:
+            await changed.wait()
+
+
+async def _receive(ws: WebSocket, session: Session, send_lock: asyncio.Lock) -> None:
+    """Hand each message of the page to the session; a bad one is answered with an error."""
+    while True:
+        text = await ws.receive_text()
+        try:
+            session.handle(parse_message(text))
+        except MessageError as exc:
+            async with send_lock:
+                await ws.send_text(_error(exc))

@@ -1,0 +1,266 @@
+"""What a web session is: the server's settings and each participant's counterbalanced design.
+
+:class:`ServeConfig` holds what whoever starts ``hri-bench serve`` chooses (never the
+browser): the scenario, the robot agent, the number of episodes, the texts, where the data
+goes. :func:`assignment` gives participant ``i`` (in the order they joined) their episodes
+and, optionally, the preference they are asked to follow:
+
+* **Intentions** are counterbalanced over the ordered (start, goal) pairs of the scenario's
+  supports. The pairs are put in one Eulerian circuit of the complete directed graph of the
+  supports (for the hanger A→B, B→C, C→A, A→C, C→B, B→A), so that every episode starts
+  where the last one ended, as in the paper's user study; participant ``i`` begins at
+  position ``i`` of the circuit. Over ``K (K - 1)`` consecutive participants every pair
+  comes equally often at every episode position (a Latin square).
+* **Preferences** (``preferences``): participant ``i`` is asked to follow
+  ``preferences[i mod n]``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from agents.config import default_config
+from hri_bench.data.datasets import check_dataset_id
+from hri_bench.run.agents import validate_agent_name
+from hri_envs.checks import check_flag, check_real, check_whole
+from hri_envs.errors import ConfigError
+from hri_envs.task.episode import REWARDS
+from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
+
+__all__ = ["DEFAULT_CONSENT", "DEFAULT_INSTRUCTIONS", "UNSUITED_AGENTS", "Assignment",
+           "ServeConfig", "assignment", "describe_preference", "pair_circuit"]
+
+#: Agents that cannot face a person: they copy or plan for a scripted human's policy (the
+#: oracle, the exact references ``informed`` and ``blind``, and ``qmdp``, which reads each
+#: run's human model).
+UNSUITED_AGENTS = ("oracle", "informed", "blind", "qmdp")
+#: The most sessions at once (each has a thread and a robot).
+MAX_SESSIONS = 1000
+
+DEFAULT_CONSENT = """\
+This is a study of how a robot learns to cooperate with a person. You will carry an object
+together with a simulated robot, a few times, by choosing your actions with the keyboard.
+
+We record what you and the robot do in each step (the actions, the object's positions, the
+robot's estimate of your goal) and how long you take to choose, under a random anonymous
+code. We record nothing else about you: no name, no address, no browser details.
+
+Taking part is voluntary; you may stop at any time by closing this page. Recorded episodes
+are kept under the anonymous code, which is shown at the end.
+"""
+
+DEFAULT_INSTRUCTIONS = """\
+You and the robot carry the {object} between its supports ({supports}). Each episode you are
+given a goal: bring the {object} there and leave it resting on it (let go).
+
+In each step the picture shows where the {object} is: grey when nobody holds it, orange when
+you hold it, blue when the robot does, green when you both do. The robot chooses its action
+at the same time as you; it does not know your goal and learns from what you do. You are in
+control: when you both hold the {object}, it moves your way.
+
+Choose an action with its number key (or click it). When an episode is over, press Enter for
+the next one.
+"""
+
+
+@dataclass(frozen=True)
+class ServeConfig:
+    """The settings of ``hri-bench serve`` (docs/people.md).
+
+    Attributes:
+        scenario: "hanger" or "wheel".
+        agent: The robot: any agent name ``hri-bench study`` accepts (the Learner by
+            default; ``sb3:PATH``, ``module:Class``) except :data:`UNSUITED_AGENTS`.
+        episodes: Episodes per session.
+        dataset: The dataset id the sessions are recorded in (default
+            ``<scenario>-people-v0``).
+        data: The datasets' root folder (None: :func:`hri_bench.data.datasets.data_root`).
+        host: Address to bind; 127.0.0.1 (this machine only) unless told otherwise.
+        port: TCP port (0: any free one).
+        seed: Base seed; participant ``i``'s robot draws from ``(seed, i)``.
+        max_steps: Step limit per episode.
+        r0: The robot's waiting reward (None: the scenario's).
+        reward: The reward variant.
+        preferences: Preferences participants are asked to follow, counterbalanced (empty:
+            none is asked for).
+        instructions: Instructions shown beside the task (``{object}`` and ``{supports}``
+            are filled in).
+        consent: The consent text shown before a session starts.
+        show_belief: Show the robot's belief about the goal during play.
+        max_sessions: The most sessions running at once.
+        idle_timeout_s: A session whose participant does nothing this long is closed.
+        learner: Changes to the Learner's configuration, as (name, value) pairs.
+    """
+
+    scenario: str = "hanger"
+    agent: str = "learner"
+    episodes: int = 8
+    dataset: str | None = None
+    data: Path | None = None
+    host: str = "127.0.0.1"
+    port: int = 8000
+    seed: int = 0
+    max_steps: int = 60
+    r0: float | None = None
+    reward: str = "paper"
+    preferences: tuple[str, ...] = ()
+    instructions: str = DEFAULT_INSTRUCTIONS
+    consent: str = DEFAULT_CONSENT
+    show_belief: bool = False
+    max_sessions: int = 50
+    idle_timeout_s: float = 1800.0
+    learner: tuple[tuple[str, Any], ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.scenario, str) or self.scenario not in SCENARIOS:
+            raise ConfigError(f"scenario must be one of {', '.join(SCENARIOS)}, got "
+                              f"{self.scenario!r}", field="scenario")
+        if not isinstance(self.agent, str):
+            raise ConfigError(f"agent must be an agent's name, got {self.agent!r}",
+                              field="agent")
+        try:
+            validate_agent_name(self.agent)
+        except ConfigError as exc:
+            raise ConfigError(str(exc), field="agent") from None
+        if self.agent in UNSUITED_AGENTS:
+            raise ConfigError(f"agent {self.agent!r} copies or plans for a scripted human's "
+                              "policy and cannot face a person; give another (e.g. learner)",
+                              field="agent")
+        check_whole(self.episodes, "episodes", minimum=1, maximum=1000)
+        check_whole(self.seed, "seed", minimum=0)
+        check_whole(self.port, "port", minimum=0, maximum=65535)
+        check_whole(self.max_steps, "max_steps", minimum=1, maximum=10_000)
+        check_whole(self.max_sessions, "max_sessions", minimum=1, maximum=MAX_SESSIONS)
+        check_real(self.idle_timeout_s, "idle_timeout_s", low=1.0, high=7 * 86400.0,
+                   allowed="a number of seconds in [1, 604800]")
+        if self.r0 is not None:
+            check_real(self.r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True,
+                       allowed="None or a number in (-1, 0)")
+        if self.reward not in REWARDS:
+            raise ConfigError(f"reward must be one of {', '.join(REWARDS)}, got "
+                              f"{self.reward!r}", field="reward")
+        if not isinstance(self.host, str) or not self.host or any(c.isspace()
+                                                                  for c in self.host):
+            raise ConfigError(f"host must be an address to bind, got {self.host!r}",
+                              field="host")
+        allowed = scenario_spec(self.scenario).preferences
+        bad = [p for p in self.preferences if p not in allowed]
+        if bad or not isinstance(self.preferences, tuple):
+            raise ConfigError(f"preferences must be of the {self.scenario}'s: "
+                              f"{', '.join(allowed[:4])}{', ...' if len(allowed) > 4 else ''} "
+                              f"(or 'all'); got {', '.join(map(str, bad))}",
+                              field="preferences")
+        for name in ("instructions", "consent"):
+            text = getattr(self, name)
+            if not isinstance(text, str) or not text.strip() or len(text) > 100_000:
+                raise ConfigError(f"{name} must be a non-empty text of at most 100,000 "
+                                  "characters", field=name)
+        check_flag(self.show_belief, "show_belief")
+        check_dataset_id(self.dataset_id)
+        if self.learner:
+            default_config(self.scenario, **dict(self.learner))
+
+    @property
+    def dataset_id(self) -> str:
+        """The dataset the sessions go to."""
+        return self.dataset or f"{self.scenario}-people-v0"
+
+    @property
+    def waiting_reward(self) -> float:
+        """r0 after defaults."""
+        return scenario_spec(self.scenario).r0 if self.r0 is None else self.r0
+
+    @property
+    def local_only(self) -> bool:
+        """Whether the server is reachable from this machine only."""
+        return self.host in ("127.0.0.1", "localhost", "::1") or self.host.startswith("127.")
+
+    def text_hashes(self) -> dict[str, str]:
+        """sha256 of the consent and instruction texts (recorded with each session)."""
+        return {f"{k}_sha256": hashlib.sha256(getattr(self, k).encode()).hexdigest()
+                for k in ("consent", "instructions")}
+
+    def public(self) -> dict[str, Any]:
+        """What the page may know: texts, the task's names, episodes; nothing of the server."""
+        graph = scenario_graph(self.scenario)
+        obj = graph.scenario.object_name
+        supports = ", ".join(graph.support_names)
+        return {"scenario": self.scenario, "object": obj, "supports": list(graph.support_names),
+                "episodes": self.episodes, "consent": self.consent,
+                "instructions": self.instructions.replace("{object}", obj)
+                .replace("{supports}", supports)}
+
+    def settings(self) -> dict[str, Any]:
+        """The settings recorded with each session (texts by their hash)."""
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+               if f.name not in ("instructions", "consent", "data", "host", "port")}
+        out["preferences"] = list(self.preferences)
+        out["learner"] = [list(p) for p in self.learner]
+        out["idle_timeout_s"] = float(self.idle_timeout_s)
+        return {**out, **self.text_hashes()}
+
+
+def pair_circuit(n_supports: int) -> list[tuple[int, int]]:
+    """Every ordered pair (start, goal ≠ start) once, each starting where the last ended
+    (an Eulerian circuit of the complete directed graph, by Hierholzer's algorithm).
+    """
+    todo = {k: [g for g in reversed(range(n_supports)) if g != k] for k in range(n_supports)}
+    stack, path = [0], []
+    while stack:
+        v = stack[-1]
+        if todo[v]:
+            stack.append(todo[v].pop())
+        else:
+            path.append(stack.pop())
+    path.reverse()
+    return list(zip(path[:-1], path[1:], strict=True))
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """A participant's design.
+
+    Attributes:
+        index: The participant's row of the design (join order, from 0).
+        pairs: (start, goal) per episode.
+        preference: The preference they are asked to follow, or None.
+    """
+
+    index: int
+    pairs: tuple[tuple[int, int], ...]
+    preference: str | None
+
+
+def assignment(config: ServeConfig, index: int) -> Assignment:
+    """Participant ``index``'s counterbalanced design (see the module docstring)."""
+    circuit = pair_circuit(scenario_graph(config.scenario).n_intentions)
+    pairs = tuple(circuit[(index + e) % len(circuit)] for e in range(config.episodes))
+    prefs = config.preferences
+    return Assignment(index, pairs, prefs[index % len(prefs)] if prefs else None)
+
+
+_HANGER_STEP = {"down": "move down", "up": "move up", "over": "move over", "rotate": "rotate"}
+_WHEEL = {"straight": "take the shortest way, changing direction as little as possible, and "
+                      "turn the wheel at the last moment",
+          "detour": "turn the wheel horizontal at the first opportunity, then carry it over at "
+                    "carrying height"}
+
+
+def describe_preference(scenario: str, preference: str) -> str:
+    """How a preference reads to a participant (one or two sentences)."""
+    if scenario == "hanger" and "/" in preference:
+        to_peg, to_rail = (part.split("-") for part in preference.split("/"))
+
+        def order(steps: list[str]) -> str:
+            words = [_HANGER_STEP.get(s, s) for s in steps]
+            return ", then ".join(words)
+
+        return (f"Between the rail and the peg, carry it this way: to the peg A, "
+                f"{order(to_peg)}; to the rail (B, C), {order(to_rail)}.")
+    if scenario == "wheel" and preference in _WHEEL:
+        return f"Carry it this way: {_WHEEL[preference]}."
+    return f"Carry it the way called {preference!r}."

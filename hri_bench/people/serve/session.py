@@ -1,0 +1,473 @@
+"""A participant's session: a person in the human's seat of the benchmark's own loop.
+
+Each session runs :func:`hri_bench.run.runner.run_episodes` in a thread of its own, with its
+own robot agent (made by :func:`hri_bench.run.agents.make_agent`, as in a study) and, in the
+human's seat, :class:`PersonHuman` inside :class:`~hri_bench.people.recording.RecordingHumans`:
+when the loop asks the human to act, the person's page is sent a picture of the step (a
+*view*), and the thread waits until the page sends a valid action. The episode rules, rewards
+and the robot's learning between episodes are the benchmark's; nothing is simulated here.
+
+The page and the thread meet in :class:`Session`: the thread publishes views (``frame``,
+``outcome``, ``done``, ``ended``), each with a sequence number ``seq``; the page answers a
+``frame`` with ``{"type": "action", "seq", "action", "rt_ms"}`` and an ``outcome`` with
+``{"type": "continue", "seq"}``. :meth:`Session.handle` checks every message against the view
+it answers (its ``seq``, an action among the offered ones) and changes nothing otherwise.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import logging
+import queue
+import secrets
+import threading
+import time
+from collections.abc import Callable, Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any
+
+import numpy as np
+
+from agents.protocol import read_belief
+from hri_bench.core.pictures import picture
+from hri_bench.data.datasets import SessionWriter, create_dataset, new_participant_id
+from hri_bench.people.recording import RecordingHumans, agent_identity
+from hri_bench.people.serve.design import Assignment, ServeConfig, assignment, describe_preference
+from hri_bench.run.agents import make_agent
+from hri_bench.run.runner import Schedule, run_episodes
+from hri_envs.envs.backends import GraphBatch
+from hri_envs.errors import ConfigError
+from hri_envs.humans.protocol import BatchHuman
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import Layout, scenario_graph, scenario_spec
+
+__all__ = ["MessageError", "PersonHuman", "Session", "SessionManager", "parse_message"]
+
+log = logging.getLogger("hri_bench.serve")
+
+#: The largest message a page may send, in characters.
+MAX_MESSAGE = 1024
+#: Client response times above this are not believed (recorded as unknown).
+MAX_RT_MS = 24 * 3600 * 1000.0
+
+
+@functools.cache
+def _writer() -> ThreadPoolExecutor:
+    """The thread that writes finished episodes, one at a time, in the order handed in."""
+    return ThreadPoolExecutor(1, thread_name_prefix="hri-bench-writer")
+
+
+class MessageError(ConfigError):
+    """A message from the page that is refused; ``field`` names the offending part."""
+
+
+class _Stopped(Exception):
+    """The session was stopped (``status``: stopped, abandoned) while waiting for the page."""
+
+    def __init__(self, status: str) -> None:
+        super().__init__(status)
+        self.status = status
+
+
+def _whole(value: Any, field: str, low: int, high: int) -> int:
+    if type(value) is not int or not low <= value <= high:
+        raise MessageError(f"{field} must be a whole number in [{low}, {high}], got "
+                           f"{json.dumps(value)[:40]}", field=field)
+    return value
+
+
+#: Message type -> its fields (besides "type"): the schema of what a page may send.
+MESSAGES: dict[str, tuple[str, ...]] = {
+    "hello": ("session",),
+    "action": ("seq", "action", "rt_ms"),
+    "continue": ("seq",),
+}
+
+
+def parse_message(text: Any) -> dict[str, Any]:
+    """A page's message, validated: a JSON object of a known ``type`` with exactly its
+    fields, of their types (:data:`MESSAGES`); :class:`MessageError` naming the field
+    otherwise.
+    """
+    if not isinstance(text, str) or len(text) > MAX_MESSAGE:
+        raise MessageError(f"a message is a JSON text of at most {MAX_MESSAGE} characters",
+                           field="message")
+    try:
+        msg = json.loads(text)
+    except (ValueError, RecursionError):
+        raise MessageError("a message is a JSON object; this is not JSON", field="message"
+                           ) from None
+    if not isinstance(msg, dict):
+        raise MessageError("a message is a JSON object with a 'type'", field="message")
+    kind = msg.get("type")
+    if not isinstance(kind, str) or kind not in MESSAGES:
+        raise MessageError(f"type must be one of {', '.join(MESSAGES)}, got "
+                           f"{json.dumps(kind)[:40]}", field="type")
+    fields = MESSAGES[kind]
+    unknown = sorted(set(msg) - {"type", *fields})
+    if unknown:
+        raise MessageError(f"a {kind!r} message has the fields {', '.join(fields)}; unknown: "
+                           f"{', '.join(map(str, unknown))[:80]}", field=str(unknown[0])[:40])
+    if kind == "hello":
+        token = msg.get("session")
+        if not isinstance(token, str) or not 16 <= len(token) <= 128:
+            raise MessageError("session must be the session's token", field="session")
+    else:
+        _whole(msg.get("seq"), "seq", 0, 2**31)
+    if kind == "action":
+        _whole(msg.get("action"), "action", 0, 1000)
+        rt = msg.get("rt_ms")
+        if rt is not None and (type(rt) not in (int, float) or not 0 <= rt <= MAX_RT_MS):
+            raise MessageError(f"rt_ms must be null or a number of milliseconds in [0, "
+                               f"{MAX_RT_MS:.0f}]", field="rt_ms")
+    return msg
+
+
+class PersonHuman(BatchHuman):
+    """A person at a web page in the human's seat (one row): each ``act`` shows the page
+    the step and waits for the person's action (:meth:`Session.ask`).
+
+    Attributes:
+        client_response_ms: (1,) the response time the page measured, NaN when unknown.
+    """
+
+    name = "person"
+
+    def __init__(self, graph: TaskGraph, ask: Callable[[Mapping[str, np.ndarray]], int]) -> None:
+        super().__init__(graph, 1)
+        self.ask = ask
+        self.client_response_ms = np.full(1, np.nan)
+
+    def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
+        """The person's action (blocks until the page sends a valid one)."""
+        return np.array([self.ask(observations)], dtype=np.int64)
+
+
+class Session:
+    """One participant: a robot, a recorder and the thread that runs the episodes.
+
+    Args:
+        config: The server's settings.
+        design: The participant's counterbalanced design.
+        writer: Where the session is recorded.
+        on_view: Called (from the session's thread) whenever a new view is published.
+    """
+
+    def __init__(self, config: ServeConfig, design: Assignment, writer: SessionWriter) -> None:
+        self.config, self.design, self.writer = config, design, writer
+        self.token = secrets.token_urlsafe(32)
+        self.participant = writer.participant
+        self.graph = scenario_graph(config.scenario)
+        self._lock = threading.Lock()
+        self._actions: queue.Queue[tuple[str, int]] = queue.Queue()
+        self._listeners: list[Callable[[], None]] = []
+        self._owner: Callable[[], None] | None = None
+        self._view: dict[str, Any] = {"type": "wait", "seq": 0}
+        self._text = json.dumps(self._view)
+        self._expect: tuple[str, int, frozenset[int]] | None = None  # (type, seq, actions)
+        self._stop: str | None = None
+        self.last_activity = time.monotonic()
+        self.outcomes: list[dict[str, Any]] = []
+        self.finished = threading.Event()
+        n_e = config.episodes
+        self.person = PersonHuman(self.graph, self._ask)
+        self.agent = make_agent(config.agent, self.graph, self.person, [design.index],
+                                seed=config.seed, r0=config.waiting_reward,
+                                learner=dict(config.learner), max_steps=config.max_steps,
+                                reward=config.reward)
+        starts = np.array([[p[0] for p in design.pairs]], dtype=np.int64)
+        goals = np.array([[p[1] for p in design.pairs]], dtype=np.int64)
+        self.schedule = Schedule(starts, goals, np.zeros((1, n_e), dtype=bool))
+        sample = scenario_spec(config.scenario).layout
+        rng = np.random.default_rng([config.seed, design.index, 3])
+        self.layouts: list[Layout | None] = [None if sample is None else sample(rng)
+                                             for _ in range(n_e)]
+        self.recorder = RecordingHumans(self.person, [writer], agent=self.agent,
+                                        r0=config.waiting_reward, reward=config.reward,
+                                        session_index=[design.index], layouts=[self.layouts],
+                                        defer_writes=True)
+        self._episode = 0
+        self._step = 0
+        self._last: tuple[int, int, int] | None = None
+        self._written: Future[None] | None = None
+        self.thread = threading.Thread(target=self._run, name=f"session-{self.participant}",
+                                       daemon=True)
+
+    # ----------------------------------------------------------------- the page's side
+    def subscribe(self, listener: Callable[[], None]) -> Callable[[], None]:
+        """Call ``listener`` on every new view (from the session's thread); returns the
+        function that unsubscribes it.
+        """
+        with self._lock:
+            self._listeners.append(listener)
+
+        def unsubscribe() -> None:
+            with self._lock:
+                if listener in self._listeners:
+                    self._listeners.remove(listener)
+
+        return unsubscribe
+
+    def connect(self, on_replaced: Callable[[], None]) -> object:
+        """Make a new connection the session's page; the previous one, if any, is told by its
+        ``on_replaced`` (a reload, or a second tab, takes the session over). Returns the
+        connection's handle for :meth:`disconnect`.
+        """
+        with self._lock:
+            old, self._owner = self._owner, on_replaced
+        if old is not None:
+            old()
+        return on_replaced
+
+    def disconnect(self, handle: object) -> None:
+        """The connection ``handle`` closed."""
+        with self._lock:
+            if self._owner is handle:
+                self._owner = None
+
+    def view(self) -> tuple[int, str]:
+        """The current view: its ``seq`` and its JSON text."""
+        with self._lock:
+            return int(self._view["seq"]), self._text
+
+    def handle(self, msg: Mapping[str, Any]) -> None:
+        """Apply a validated ``action`` or ``continue`` message (:func:`parse_message`).
+
+        Raises:
+            MessageError: The message does not answer the current view (another ``seq``, a
+                ``continue`` during a step, an action the step does not offer); nothing
+                changes.
+        """
+        with self._lock:
+            expect = self._expect
+            if expect is None:
+                raise MessageError("the session is not waiting for you now", field="type")
+            kind, seq, actions = expect
+            if msg["type"] != kind:
+                want = "an action" if kind == "action" else "'continue'"
+                raise MessageError(f"the page shows a {self._view['type']}; it waits for "
+                                   f"{want}", field="type")
+            if msg["seq"] != seq:
+                raise MessageError(f"seq {msg['seq']} does not answer the view on the page "
+                                   f"(seq {seq}); reload the page", field="seq")
+            if kind == "action" and msg["action"] not in actions:
+                raise MessageError(f"action {msg['action']} is not offered in this step; "
+                                   f"offered: {', '.join(map(str, sorted(actions)))}",
+                                   field="action")
+            self._expect = None
+            self.last_activity = time.monotonic()
+            if kind == "action":
+                rt = msg.get("rt_ms")
+                self.person.client_response_ms[0] = np.nan if rt is None else float(rt)
+            self._actions.put((kind, int(msg.get("action", 0))))
+
+    def stop(self, status: str = "stopped") -> None:
+        """End the session (the thread records ``status`` and exits)."""
+        with self._lock:
+            if self._stop is None:
+                self._stop = status
+        self._actions.put(("stop", 0))
+
+    # ----------------------------------------------------------------- the thread's side
+    def _publish(self, view: dict[str, Any], expect: tuple[str, frozenset[int]] | None
+                 ) -> None:
+        with self._lock:
+            view["seq"] = int(self._view["seq"]) + 1
+            self._view, self._text = view, json.dumps(view)
+            self._expect = None if expect is None else (expect[0], view["seq"], expect[1])
+            listeners = list(self._listeners)
+        for listener in listeners:
+            listener()
+
+    def _wait(self) -> int:
+        """Block until the page answers the current view; the action (0 for continue)."""
+        idle = self.config.idle_timeout_s
+        while True:
+            try:
+                kind, action = self._actions.get(timeout=0.5)
+            except queue.Empty:
+                kind, action = "", 0
+            with self._lock:
+                stop = self._stop
+            if stop is not None:
+                raise _Stopped(stop)
+            if kind in ("action", "continue"):
+                return action
+            if time.monotonic() - self.last_activity > idle:
+                raise _Stopped("abandoned")
+
+    def _header(self) -> dict[str, Any]:
+        names = self.graph.support_names
+        start, goal = self.design.pairs[self._episode]
+        pref = self.design.preference
+        return {"episode": self._episode + 1, "episodes": self.config.episodes,
+                "start": int(start), "start_name": names[start], "goal": int(goal),
+                "goal_name": names[goal],
+                "preference": None if pref is None else describe_preference(
+                    self.config.scenario, pref)}
+
+    def _ask(self, observations: Mapping[str, np.ndarray]) -> int:
+        """The loop asks the person to act: publish the frame, wait for a valid action."""
+        g = self.graph
+        s, a_r = int(observations["state"][0]), int(observations["robot_action"][0])
+        options = [int(a) for a in np.flatnonzero(g.valid[s])]
+        note = None
+        if self._last is not None and g.aborted[self._last]:
+            note = "Nothing moved: your action and the robot's did not fit together."
+        view = {"type": "frame", **self._header(), "step": self._step + 1,
+                "max_steps": self.config.max_steps, "state": s, "state_name": g.state_names[s],
+                "robot": g.agent_action_label(s, a_r, robot=True), "note": note,
+                "options": [{"action": a, "label": g.agent_action_label(s, a, robot=False),
+                             "key": str(i + 1) if i < 9 else ""}
+                            for i, a in enumerate(options)],
+                "picture": picture(self.config.scenario, self.layouts[self._episode], s)}
+        if self.config.show_belief:
+            belief = read_belief(self.agent)
+            if belief is not None:
+                view["belief"] = {n: round(float(b), 3) for n, b in
+                                  zip(g.support_names, np.asarray(belief)[0], strict=True)}
+        self.person.client_response_ms[0] = np.nan
+        self._publish(view, ("action", frozenset(options)))
+        a_h = self._wait()
+        self._last = (s, a_r, a_h)
+        self._step += 1
+        return a_h
+
+    def _prerender(self, episode: int) -> None:
+        """Encode an episode's first picture ahead, while the page shows the last outcome
+        (the wheel's layout is new each episode; later pictures are drawn when first
+        needed, about 7 ms each, and kept).
+        """
+        if 0 <= episode < self.config.episodes:
+            start = int(self.graph.support_state(self.design.pairs[episode][0], 0))
+            picture(self.config.scenario, self.layouts[episode], start)
+
+    def _run(self) -> None:
+        cfg = self.config
+        names = self.graph.support_names
+        status = "complete"
+
+        try:
+            self._prerender(0)
+            loop = run_episodes(self.graph, self.agent, self.recorder, self.schedule,
+                                GraphBatch(self.graph, [self.design.index], cfg.seed),
+                                r0=cfg.waiting_reward, max_steps=cfg.max_steps,
+                                reward=cfg.reward)
+            for result in loop:
+                trace = result.traces[0]
+                end = int(trace.states[-1])
+                reached = int(result.intentions[0])
+                goal = self.design.pairs[self._episode][1]
+                outcome = {"episode": self._episode + 1,
+                           "reached_name": None if reached < 0 else names[reached],
+                           "goal_name": names[goal], "success": reached == goal,
+                           "truncated": bool(result.metrics.truncated[0]),
+                           "steps": int(result.metrics.steps[0]),
+                           "reward": round(float(result.metrics.reward[0]), 4)}
+                self.outcomes.append(outcome)
+                last = self._episode + 1 == cfg.episodes
+                self._publish({"type": "outcome", **self._header(), **outcome, "last": last,
+                               "picture": picture(cfg.scenario, self.layouts[self._episode],
+                                                  end)},
+                              None if last else ("continue", frozenset()))
+                # written by the server's writer thread while the page shows the outcome
+                self._written = _writer().submit(self.recorder.flush)
+                if last:
+                    break
+                self._prerender(self._episode + 1)
+                self._wait()
+                self._episode += 1
+                self._step = 0
+                self._last = None
+        except _Stopped as stop:
+            status = stop.status
+        except Exception:  # a failing agent ends this session only; the others go on
+            log.exception("session %s failed", self.participant)
+            status = "failed"
+        try:
+            if self._written is not None:
+                self._written.result()
+        except OSError:
+            log.exception("session %s: cannot write an episode", self.participant)
+            status = "failed"
+        try:
+            self.writer.finish(status)
+        except OSError:
+            log.exception("session %s: cannot write its metadata", self.participant)
+        if status == "complete":
+            self._publish({"type": "done", "participant": self.participant,
+                           "outcomes": self.outcomes}, None)
+        else:
+            self._publish({"type": "ended", "reason": status,
+                           "participant": self.participant}, None)
+        self.finished.set()
+
+
+class SessionManager:
+    """The server's sessions, by token; creates them in join order (the design's rows).
+
+    Args:
+        config: The server's settings.
+    """
+
+    def __init__(self, config: ServeConfig) -> None:
+        import pyarrow.parquet  # noqa: F401  (the web extra; loaded once, before a session writes)
+
+        self.config = config
+        self.dataset = create_dataset(config.dataset_id, config.scenario, synthetic=False,
+                                      root=config.data,
+                                      description="people in the human's seat "
+                                                  "(hri-bench serve)")
+        self._lock = threading.Lock()
+        self._sessions: dict[str, Session] = {}
+        self._joined = len(self.dataset.session_dirs())
+
+    def create(self) -> Session:
+        """A new participant's session, started.
+
+        Raises:
+            ConfigError: As many sessions run as ``max_sessions`` allows (``field="sessions"``).
+        """
+        cfg = self.config
+        with self._lock:
+            running = sum(not s.finished.is_set() for s in self._sessions.values())
+            if running >= cfg.max_sessions:
+                raise ConfigError(f"the study is full ({cfg.max_sessions} sessions at once); "
+                                  "try again later", field="sessions")
+            index = self._joined
+            self._joined += 1
+            design = assignment(cfg, index)
+            participant = new_participant_id()
+            writer = SessionWriter(self.dataset, participant, {
+                "source": "web", "human": "person", "session_index": index,
+                "scenario": cfg.scenario, "r0": cfg.waiting_reward, "reward_rule": cfg.reward,
+                "max_steps": cfg.max_steps, "seed": cfg.seed, "run": index,
+                "episodes_planned": cfg.episodes,
+                "schedule": [[int(a), int(b), False] for a, b in design.pairs],
+                "preference": design.preference, "serve_settings": cfg.settings(),
+                **agent_identity(cfg.agent, cfg.scenario, cfg.waiting_reward, dict(cfg.learner))})
+            session = Session(cfg, design, writer)
+            self._sessions[session.token] = session
+        session.thread.start()
+        return session
+
+    def get(self, token: Any) -> Session | None:
+        """The session whose token this is, or None (compared in constant time)."""
+        if not isinstance(token, str):
+            return None
+        with self._lock:
+            for known, session in self._sessions.items():
+                if secrets.compare_digest(known, token):
+                    return session
+        return None
+
+    def stop_all(self, timeout: float = 5.0) -> None:
+        """Stop every session (status ``stopped``) and wait for their threads."""
+        with self._lock:
+            sessions = list(self._sessions.values())
+        for s in sessions:
+            s.stop("stopped")
+        deadline = time.monotonic() + timeout
+        for s in sessions:
+            s.thread.join(max(0.0, deadline - time.monotonic()))

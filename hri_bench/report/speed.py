@@ -1,0 +1,195 @@
+"""``hri-bench speed``: throughput of the envs and the Learner on this machine.
+
+Besides the throughput figures, :func:`machine_ms` times a fixed numpy workload in the same
+run, so that figures from different machines (or from one machine under different load)
+can be compared as ratios to it. :data:`SIZES` names how much work each figure does:
+``"full"`` for the published figures, ``"tiny"`` for a smoke test that runs in seconds.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from agents.learner import Learner
+from agents.learning import partner_mdp
+from agents.learning.algorithm1 import Workspace
+from agents.protocol import Trace
+from hri_bench.report.jax_speed import measure_jax
+from hri_bench.run.study import StudyConfig, graph_for, run_study
+from hri_envs.envs.speed import parallel_env_steps_per_s, vector_env_steps_per_s
+from hri_envs.errors import ConfigError
+from hri_envs.task.mdp import one_blas_thread, softmax
+from hri_envs.task.scenarios.hanger import PREFERENCES as HANGER_PREFERENCES
+
+__all__ = [
+    "HANGER_STUDY_PREFERENCES",
+    "SIZES",
+    "SpeedSize",
+    "hanger_study_s",
+    "learner_update_batched_ms_per_run",
+    "learner_update_ms",
+    "machine_ms",
+    "measure",
+]
+
+#: Nine hanger preferences for the paper's simulation study (it does not list its nine):
+#: the most frequent one and every fourth of the others.
+HANGER_STUDY_PREFERENCES: tuple[str, ...] = (
+    "down-over-rotate/over-rotate-up",
+    *[p for p in HANGER_PREFERENCES if p != "down-over-rotate/over-rotate-up"][::4][:8],
+)
+
+
+class SpeedSize(NamedTuple):
+    """How much work each figure of :func:`measure` does.
+
+    Attributes:
+        parallel_steps: Joint steps per timed repeat of the parallel env.
+        vector_envs: Envs of the vector env.
+        vector_steps: Vector steps per timed repeat.
+        env_repeats: Timed repeats of each env figure (the fastest counts).
+        update_repeats: Learner updates timed for ``learner_update_ms``.
+        batch_runs: Runs of the batched Learner (``learner_update_batched_ms_per_run``).
+        batch_repeats: Batched updates timed.
+        study_runs: Runs per preference of the hanger study.
+        study_episodes: Episodes per run of the hanger study.
+        machine_repeats: Timed repeats of the :func:`machine_ms` workload.
+    """
+
+    parallel_steps: int
+    vector_envs: int
+    vector_steps: int
+    env_repeats: int
+    update_repeats: int
+    batch_runs: int
+    batch_repeats: int
+    study_runs: int
+    study_episodes: int
+    machine_repeats: int
+
+
+#: ``"full"``: the published figures; ``"tiny"``: every measurement for real, in seconds
+#: (for tests and a quick look; its figures are not comparable to the full ones).
+SIZES: dict[str, SpeedSize] = {
+    "full": SpeedSize(50_000, 1024, 1_000, 3, 200, 100, 10, 100, 8, 5),
+    "tiny": SpeedSize(200, 4, 25, 1, 2, 3, 1, 1, 2, 1),
+}
+
+
+def _wheel_trace() -> tuple[Any, Trace]:
+    """The wheel's graph and a typical straight episode from the rack to stand B."""
+    graph = graph_for("wheel")
+    w = graph.waypoint_state
+    states = np.array([0, 1, 3, w(0, 3, 1), w(1, 3, 1), w(1, 1, 1), w(1, 1, 0), 7, 4])
+    return graph, Trace(states, np.zeros(8, np.int64), np.zeros(8, np.int64))
+
+
+def _update_seconds(n_runs: int, repeats: int) -> float:
+    """Seconds per Learner update of ``n_runs`` runs on the wheel trace (after a warm-up)."""
+    graph, trace = _wheel_trace()
+    learner = Learner(graph, n_runs, workspace=Workspace())
+    traces, intentions = [trace] * n_runs, np.ones(n_runs, np.int64)
+    learner.end_episode(traces, intentions)  # warm-up
+    t0 = time.perf_counter()
+    for _ in range(repeats):
+        learner.end_episode(traces, intentions)
+    return (time.perf_counter() - t0) / repeats
+
+
+def learner_update_ms(scenario: str = "wheel", repeats: int = 200) -> float:
+    """Milliseconds for one Learner update (loop removal, IRL step, π̂_H and robot Q), one run.
+
+    Args:
+        scenario: Only "wheel" (the trace is a wheel episode).
+        repeats: Updates timed after one warm-up.
+    """
+    if scenario != "wheel":
+        raise ConfigError(f"the update is timed on a wheel trace; scenario must be 'wheel', "
+                          f"got {scenario!r}", field="scenario")
+    return _update_seconds(1, repeats) * 1e3
+
+
+def learner_update_batched_ms_per_run(runs: int = 100, repeats: int = 10) -> float:
+    """Milliseconds per run of one batched Learner update of ``runs`` runs (wheel trace).
+
+    Args:
+        runs: Runs advanced together (the studies batch 100).
+        repeats: Batched updates timed after one warm-up.
+    """
+    return _update_seconds(runs, repeats) / runs * 1e3
+
+
+def machine_ms(repeats: int = 5) -> float:
+    """Milliseconds for a fixed numpy workload: the machine's speed, to compare figures by.
+
+    The workload (seeded, always the same, BLAS on one thread like the Learner's update) is
+    the update's arithmetic at the studies' batch size, ten times over: 300 linear solves of
+    36 x 36, 300 products (432 x 36) @ (36 x 1), and a soft-max over 300 x 36 x 12 values.
+    The fastest of ``repeats`` counts. Divide a figure by it (or compare ratios of it) to
+    set figures from different machines or loads side by side.
+    """
+    rng = np.random.default_rng(0)
+    a = rng.random((300, 36, 36)) + 36 * np.eye(36)
+    b = rng.random((300, 36, 1))
+    t = rng.random((300, 432, 36))
+    z = rng.random((300, 36, 12))
+    valid = np.ones((36, 12), dtype=bool)
+    best = np.inf
+    with one_blas_thread():
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            for _ in range(10):
+                v = np.linalg.solve(a, b)
+                np.matmul(t, v)
+                softmax(z, valid, 1.0)
+            best = min(best, time.perf_counter() - t0)
+    return float(best * 1e3)
+
+
+def hanger_study_s(runs: int = 100, episodes: int = 8, jobs: int = 1) -> float:
+    """Seconds for the paper's hanger simulation study: 9 preferences × ``runs`` × ``episodes``,
+    Learner only (graph backend).
+    """
+    t0 = time.perf_counter()
+    for i, pref in enumerate(HANGER_STUDY_PREFERENCES):
+        cfg = StudyConfig("hanger", agents=("learner",), runs=runs, episodes=episodes,
+                          preference=pref, seed=i, jobs=jobs,
+                          executor="process" if jobs > 1 else "serial")
+        run_study(cfg)
+    return time.perf_counter() - t0
+
+
+def measure(jobs: int = 1, size: str = "full", jax: bool = False) -> dict[str, Any]:
+    """All speed figures as a dict (keys: docs/benchmark.md, 'Other subcommands').
+
+    Args:
+        jobs: Worker processes for the hanger study.
+        size: A key of :data:`SIZES`: "full" (the published figures) or "tiny".
+        jax: Add the JAX env's and PPO training's figures
+            (:func:`hri_bench.report.jax_speed.measure_jax`; a note when the extra is missing).
+
+    Raises:
+        ConfigError: ``size`` is not a key of :data:`SIZES`.
+    """
+    if size not in SIZES:
+        raise ConfigError(f"size must be one of {sorted(SIZES)}, got {size!r}", field="size")
+    z = SIZES[size]
+    par = parallel_env_steps_per_s(steps=z.parallel_steps, repeats=z.env_repeats)
+    vec = vector_env_steps_per_s(num_envs=z.vector_envs, steps=z.vector_steps,
+                                 repeats=z.env_repeats)
+    figures = {
+        "parallel_env_steps_per_s": round(par.steps_per_s, 1),
+        "vector_env_steps_per_s": round(vec.steps_per_s, 1),
+        "learner_update_ms": round(learner_update_ms("wheel", z.update_repeats), 4),
+        "learner_update_batched_ms_per_run": round(
+            learner_update_batched_ms_per_run(z.batch_runs, z.batch_repeats), 4),
+        "hanger_study_s": round(hanger_study_s(z.study_runs, z.study_episodes, jobs=jobs), 3),
+        "machine_ms": round(machine_ms(z.machine_repeats), 3),
+        "learner_threads": partner_mdp.threads(),
+    }
+    if jax:
+        figures.update(measure_jax(size, vec.steps_per_s))
+    return figures

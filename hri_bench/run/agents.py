@@ -1,0 +1,368 @@
+"""Which robot agents the benchmark can run, by name.
+
+Built in: ``learner``, ``imitator``, ``maxent``, ``passive``, ``oracle``, ``goalfilter`` (a
+Bayesian goal filter that learns no preference, :mod:`baselines.goalfilter`), ``countqmdp``
+(counts of the human's actions per context, a Bayes filter over ι and QMDP planning,
+:mod:`baselines.countqmdp`), and the
+references ``informed`` (the information bound: sees ι; exact for every scripted or
+finite-state human, shared or drawn per run), ``blind`` (the ceiling for any robot that must
+infer ι, exact for one shared deterministic scripted human), see :mod:`baselines.bounds`,
+and ``qmdp`` (a feasible intention-blind policy that knows the human's model: the lower
+end of the bracket on ``blind`` where the exact plan does not fit), see
+:mod:`baselines.product`.
+
+``sb3:PATH`` plays a trained stable-baselines3 / sb3-contrib model saved at ``PATH`` (a
+``.zip``; MaskablePPO, PPO, A2C, DQN or :class:`agents.rl.MaskedDQN`) through
+:class:`agents.sb3.SB3BatchAgent`: deterministic, invalid actions masked, frozen (it does
+not learn between episodes). The file is read without unpickling: its JSON metadata and its
+weights (see :func:`agents.sb3.load_model`).
+
+``jaxppo:PATH`` plays a recurrent PPO policy trained in JAX (:mod:`agents.jax_ppo`, the
+``jax`` extra) through :class:`agents.jax_ppo.agent.JaxPPOAgent`: greedy, invalid actions
+masked, its GRU memory kept across a run's episodes. ``PATH`` is its ``.npz`` checkpoint
+(arrays and a JSON config, no pickle) or a folder with one ``<scenario>.npz`` per scenario.
+``jaxppo`` alone plays the checkpoints shipped with the package (:data:`JAXPPO_CHECKPOINTS`,
+trained by ``benchmarks/train_jax_ppo.py`` on the ``train`` split).
+
+Any other entry of the form ``module:Class`` imports ``Class`` from ``module``: a
+:class:`~agents.protocol.Agent` subclass is instantiated once per run, a
+:class:`~agents.protocol.BatchAgent` subclass once per batch as ``Class(graph, n_runs)``.
+Either is also given, by keyword, each of :data:`CONTRACT` its constructor names (or all of
+them if it takes ``**kwargs``); a constructor that names none of them is called as before
+(``Class()``, or ``Class(graph=...)`` for an ``Agent``; docs/agents.md, "Your own agent").
+
+:func:`agent_identity` names an agent's code for a results file: a built-in agent by the
+installed ``hri-envs`` version; ``sb3:PATH`` by the model file's sha256, ``jaxppo[:PATH]``
+by its checkpoint files'; ``module:Class`` by the sha256 of its module's source file (every
+``.py`` file of its top-level package when it is in one), the files' combined hash
+``code_sha256``, and the constructor keywords the benchmark passes it
+(:func:`contract_keywords`; docs/results.md, "What is recorded").
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.metadata
+import inspect
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import agents as agents_package
+from agents.config import LearnerConfig, default_config
+from agents.learner import Learner
+from agents.learning.algorithm1 import Workspace
+from agents.protocol import Agent, BatchAgent, Batched, run_streams
+from baselines import CountQMDP, GoalFilter, Imitator, MaxEntIRL, Oracle, Passive
+from baselines.bounds import Blind, Informed
+from baselines.product import QMDP, PerRunInformed
+from hri_bench.core.imports import import_class
+from hri_envs.errors import ConfigError
+from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
+from hri_envs.task.graph import TaskGraph
+
+__all__ = ["BRACKET_AGENTS", "BUILTIN_AGENTS", "CONTRACT", "JAXPPO", "JAXPPO_CHECKPOINTS",
+           "JAXPPO_PREFIX", "KNOWN_AGENTS", "OTHER_AGENTS", "PLANNING_REFERENCES",
+           "REFERENCE_AGENTS", "SB3_PREFIX", "agent_identity", "agent_settings",
+           "contract_keywords", "import_agent", "jaxppo_path", "make_agent", "package_version",
+           "validate_agent_name"]
+
+BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
+#: Built-in names that are not in the default agent list (exact references, see baselines.bounds).
+REFERENCE_AGENTS: tuple[str, ...] = ("informed", "blind")
+#: The lower end of a bracket on blind (baselines.product), not in the default agent list.
+BRACKET_AGENTS: tuple[str, ...] = ("qmdp",)
+#: The references and the bracket's lower end: they plan with the human's model, a suite
+#: adds them to the tracks they fit and never ranks them.
+PLANNING_REFERENCES: tuple[str, ...] = REFERENCE_AGENTS + BRACKET_AGENTS
+#: Further built-in agents, not in the default list of suite v1 (the goal filter, the
+#: count-based QMDP learner).
+OTHER_AGENTS: tuple[str, ...] = ("goalfilter", "countqmdp")
+#: Every built-in name.
+KNOWN_AGENTS: tuple[str, ...] = BUILTIN_AGENTS + OTHER_AGENTS + REFERENCE_AGENTS + BRACKET_AGENTS
+#: Agent names ``sb3:PATH`` load a saved SB3 model.
+SB3_PREFIX = "sb3:"
+#: Agent names ``jaxppo:PATH`` load a recurrent PPO policy trained in JAX.
+JAXPPO_PREFIX = "jaxppo:"
+#: The agent name that plays the shipped JAX PPO checkpoints (:data:`JAXPPO_CHECKPOINTS`).
+JAXPPO = "jaxppo"
+#: The shipped checkpoints, one ``<scenario>.npz`` per scenario (package data).
+JAXPPO_CHECKPOINTS = Path(agents_package.__file__).parent / "jax_ppo" / "checkpoints"
+
+
+def jaxppo_path(name: str) -> Path | None:
+    """The checkpoint (file or folder) a ``jaxppo`` or ``jaxppo:PATH`` name plays; None for
+    other names.
+    """
+    if name == JAXPPO:
+        return JAXPPO_CHECKPOINTS
+    if name.startswith(JAXPPO_PREFIX):
+        return Path(name[len(JAXPPO_PREFIX):])
+    return None
+
+
+def validate_agent_name(name: str) -> None:
+    """Raise a :class:`~hri_envs.errors.ConfigError` naming the allowed agents unless
+    ``name`` is one.
+
+    For ``sb3:PATH`` the file must exist (its contents are checked when it is loaded); for
+    ``module:Class`` the class is imported and must subclass :class:`~agents.protocol.Agent`
+    or :class:`~agents.protocol.BatchAgent`, so a study refuses it before simulating.
+    """
+    if name in KNOWN_AGENTS:
+        return
+    if name.startswith(SB3_PREFIX):
+        model = Path(name[len(SB3_PREFIX):])
+        if not model.is_file():
+            raise ConfigError(f"agent {name!r}: no SB3 model file at {str(model)!r}; give "
+                              "'sb3:PATH' with the .zip written by model.save()", field="agents")
+        return
+    path = jaxppo_path(name)
+    if path is not None:
+        if not (path.is_file() or path.is_dir()):  # the folder's file: when it is loaded
+            raise ConfigError(f"agent {name!r}: no JAX PPO checkpoint at {str(path)!r}; give "
+                              "'jaxppo:FILE.npz' or 'jaxppo:FOLDER' holding <scenario>.npz",
+                              field="agents")
+        return
+    if ":" in name and all(name.split(":", 1)):
+        import_agent(name)
+        return
+    raise ConfigError(
+        f"unknown agent {name!r}; allowed: {', '.join(KNOWN_AGENTS)}, "
+        "'sb3:PATH' for a saved stable-baselines3 model, 'jaxppo' or 'jaxppo:PATH' for a "
+        "JAX PPO policy, "
+        "or 'module:Class' for your own agent",
+        field="agents",
+    )
+
+
+def import_agent(spec: str) -> type[Agent] | type[BatchAgent]:
+    """The agent class ``module:Class`` names.
+
+    Raises:
+        ConfigError: The module does not import, or the class is not an agent
+            (``field="agents"``).
+    """
+    cls: type[Agent] | type[BatchAgent] = import_class(spec, "agent", "agents",
+                                                       (Agent, BatchAgent))
+    return cls
+
+
+#: What a custom agent's constructor may ask for, by keyword (docs/agents.md, "Your own
+#: agent"). ``Agent`` classes (one per run) get ``run`` and ``rng``, ``BatchAgent`` classes
+#: (one per batch) ``runs`` and ``rngs``; both get the rest.
+CONTRACT: dict[str, str] = {
+    "graph": "the task graph (hri_envs.task.graph.TaskGraph)",
+    "seed": "the study's base seed",
+    "run": "Agent: this run's index",
+    "rng": "Agent: this run's generator, numpy default_rng([seed, run]) (run_streams)",
+    "runs": "BatchAgent: the batch's run indices",
+    "rngs": "BatchAgent: one generator per run of the batch, as rng",
+    "r0": "the study's waiting reward r0",
+    "reward": "the reward rule, 'paper' or 'no-free-toggle'",
+    "max_steps": "the step limit per episode",
+    "episodes": "episodes per run",
+}
+
+
+def contract_keywords(cls: type) -> tuple[str, ...]:
+    """The :data:`CONTRACT` keywords ``cls``'s constructor is given: those it names, or
+    all that fit its flavour when it takes ``**kwargs``.
+    """
+    params = inspect.signature(cls).parameters
+    batch = issubclass(cls, BatchAgent)
+    fits = [k for k in CONTRACT if k not in (("run", "rng") if batch else ("runs", "rngs"))]
+    if batch:
+        fits.remove("graph")  # given by position
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return tuple(fits)
+    return tuple(k for k in fits if k in params and params[k].kind in (
+        inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD))
+
+
+def _learner_config(name: str, scenario: str, r0: float,
+                    learner: dict[str, Any] | None = None) -> LearnerConfig | None:
+    """The :class:`~agents.config.LearnerConfig` a built-in agent is made with (or None);
+    ``learner`` changes the Learner's (after the scenario's defaults and ``r0``).
+    """
+    if name == "learner":
+        return default_config(scenario, **{"r0": r0, **(learner or {})})
+    if name == "maxent":
+        return default_config(scenario, r0=r0, learning_rate=0.03)
+    return None
+
+
+def agent_settings(name: str, scenario: str, r0: float,
+                   learner: dict[str, Any] | None = None) -> dict[str, Any] | None:
+    """The settings :func:`make_agent` gives agent ``name`` (for ``summary.json``).
+
+    The Learner and plain ME-IRL: their :class:`~agents.config.LearnerConfig` as a dict;
+    ``countqmdp``: its parameters (:meth:`~baselines.countqmdp.CountQMDP.defaults`, but
+    the reward rule, which is the study's);
+    ``sb3:PATH``, ``jaxppo[:PATH]``: the model's path and size; ``module:Class``: its code identity
+    (:func:`agent_identity`: its source files' sha256 and the
+    constructor keywords it is given); the other agents: None (they have none).
+    """
+    cfg = _learner_config(name, scenario, r0, learner)
+    if cfg is not None:
+        return cfg.to_dict()
+    if name == "countqmdp":  # its reward rule is the study's own ("reward_rule")
+        return {k: v for k, v in CountQMDP.defaults(r0=r0).items() if k != "reward"}
+    path = Path(name[len(SB3_PREFIX):]) if name.startswith(SB3_PREFIX) else jaxppo_path(name)
+    if path is not None:
+        return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
+    if name not in KNOWN_AGENTS and ":" in name:
+        return agent_identity(name)
+    return None
+
+
+def make_agent(
+    name: str,
+    graph: TaskGraph,
+    human: ScriptedHuman | BatchHuman,
+    runs: Sequence[int],
+    *,
+    seed: int,
+    r0: float,
+    learner: dict[str, Any] | None = None,
+    max_steps: int = 100,
+    reward: str = "paper",
+    episodes: int = 1,
+) -> BatchAgent:
+    """A batched agent for the given runs.
+
+    Args:
+        name: See the module docstring.
+        graph: The task graph.
+        human: The scripted human, or the benchmark's humans per run (the Oracle copies
+            their preferred actions).
+        runs: Run indices of the batch (randomness derives from ``(seed, run)``).
+        seed: Base seed.
+        r0: The study's waiting reward, used by the Learner's robot reward (and the goal
+            filter's and ``countqmdp``'s).
+        learner: Changes to the Learner's :class:`~agents.config.LearnerConfig` (after the
+            scenario's defaults and ``r0``); other agents ignore them.
+        max_steps: The step limit (the horizon of ``informed`` and ``blind``).
+        reward: The reward variant ``informed``, ``blind`` and ``countqmdp`` optimise.
+        episodes: Episodes per run (the horizon of ``informed`` and ``qmdp`` for humans
+            who remember across episodes).
+    """
+    validate_agent_name(name)
+    n = len(runs)
+    cfg = _learner_config(name, graph.name, r0, learner)
+    if name == "learner" and cfg is not None:
+        return Learner(graph, n, cfg, seed=seed, runs=runs, workspace=Workspace())
+    if name == "maxent" and cfg is not None:
+        return MaxEntIRL(graph, n, cfg, seed=seed, runs=runs)
+    if name == "imitator":
+        return Imitator(graph, n)
+    if name == "passive":
+        return Passive(graph, n)
+    if name == "oracle":
+        if not isinstance(human, PreferredActions):
+            raise ConfigError("the oracle copies a scripted human's preferred actions; this "
+                              "study's humans name none", field="agents")
+        return Oracle(graph, human, n)
+    if name == "goalfilter":
+        return GoalFilter(graph, n, r0=r0)
+    if name == "countqmdp":
+        return CountQMDP(graph, n, r0=r0, reward=reward)
+    if name == "informed" and not isinstance(human, ScriptedHuman):
+        return PerRunInformed(graph, human, n, r0=r0, max_steps=max_steps, reward=reward,
+                              episodes=episodes)
+    if name == "qmdp":
+        return QMDP(graph, human, n, r0=r0, max_steps=max_steps, reward=reward,
+                    episodes=episodes)
+    if name in REFERENCE_AGENTS:
+        if not isinstance(human, ScriptedHuman):
+            raise ConfigError("agent 'blind' plans for one scripted human shared by every "
+                              "run; studies whose runs have humans of their own (--population, "
+                              "--human-drift) are not supported: use qmdp and informed for a "
+                              "bracket", field="agents")
+        cls_ref = Informed if name == "informed" else Blind
+        return cls_ref(graph, human, n, r0=r0, max_steps=max_steps, reward=reward)
+    if name.startswith(SB3_PREFIX):
+        from agents.sb3 import SB3BatchAgent  # the rl extra (stable-baselines3, torch)
+
+        return SB3BatchAgent(name[len(SB3_PREFIX):], n, graph=graph, seed=seed, runs=runs)
+    path = jaxppo_path(name)
+    if path is not None:
+        from agents.jax_ppo.agent import JaxPPOAgent  # the jax extra
+
+        return JaxPPOAgent(path, graph, n)
+    cls = import_agent(name)
+    keys = contract_keywords(cls)
+    given: dict[str, Any] = {"graph": graph, "seed": seed, "runs": list(runs), "r0": r0,
+                             "reward": reward, "max_steps": max_steps, "episodes": episodes}
+    if issubclass(cls, BatchAgent):
+        if "rngs" in keys:
+            given["rngs"] = run_streams(seed, runs)
+        kwargs = {k: given[k] for k in keys}
+        return cls(graph, n, **kwargs)  # type: ignore[call-arg,arg-type]  # documented contract
+
+    def one(run: int) -> Agent:
+        per_run = {**given, "run": run}
+        if "rng" in keys:
+            per_run["rng"] = run_streams(seed, [run])[0]
+        return cls(**{k: per_run[k] for k in keys})
+
+    return Batched.from_factory(one, runs)
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _combined(hashes: dict[str, str]) -> str:
+    """One sha256 for several files, from their names and hashes."""
+    return hashlib.sha256(json.dumps(hashes, sort_keys=True).encode()).hexdigest()
+
+
+def package_version(package: str) -> str | None:
+    """The installed version of distribution ``package`` (None: not installed)."""
+    try:
+        return importlib.metadata.version(package)
+    except importlib.metadata.PackageNotFoundError:
+        return None
+
+
+def _source_files(module_name: str) -> tuple[Path, list[Path]]:
+    """(root, files): every ``.py`` file of the module's top-level package (or the module's
+    own file when it is in none), with the folder their names are given relative to.
+    """
+    module = sys.modules.get(module_name) or importlib.import_module(module_name)
+    top = module_name.split(".")[0]
+    top_file = getattr(sys.modules.get(top) or importlib.import_module(top), "__file__", None)
+    if top_file is not None and Path(top_file).name == "__init__.py":
+        package = Path(top_file).parent
+        return package.parent, sorted(p for p in package.rglob("*.py") if p.is_file())
+    path = getattr(module, "__file__", None)
+    return (Path("."), []) if path is None else (Path(path).parent, [Path(path)])
+
+
+def agent_identity(name: str) -> dict[str, Any]:
+    """How agent ``name`` of a study is identified (module docstring)."""
+    if name in KNOWN_AGENTS and jaxppo_path(name) is None:
+        return {"kind": "builtin", "package": "hri-envs", "version": package_version("hri-envs")}
+    if name.startswith(SB3_PREFIX):
+        path = Path(name[len(SB3_PREFIX):])
+        return {"kind": "sb3", "path": str(path),
+                "sha256": _sha256(path) if path.is_file() else None}
+    model = jaxppo_path(name)
+    if model is not None:  # a file, or a folder of <scenario>.npz: their combined hash
+        files = sorted(p for p in model.rglob("*") if p.is_file()) if model.is_dir() else (
+            [model] if model.is_file() else [])
+        hashes = {p.relative_to(model).as_posix() if model.is_dir() else p.name: _sha256(p)
+                  for p in files}
+        return {"kind": "jaxppo", "path": str(model),
+                "sha256": _combined(hashes) if hashes else None}
+    cls = import_agent(name)
+    root, files = _source_files(cls.__module__)
+    hashes = {p.relative_to(root).as_posix(): _sha256(p) for p in files}
+    return {"kind": "custom", "module": cls.__module__, "class": cls.__qualname__,
+            "files": hashes, "code_sha256": _combined(hashes),
+            "constructor": list(contract_keywords(cls))}

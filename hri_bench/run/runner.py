@@ -1,0 +1,480 @@
+"""The benchmark's one simulation loop: many independent runs of (robot agent, human).
+
+One *run* is a sequence of episodes between one agent and one human; the agent learns
+across the run's episodes. :func:`run_episodes` advances a batch of runs with array
+operations on any backend (:class:`~hri_envs.envs.backends.BatchBackend`: the graph moves
+every run in lockstep, the physics one run at a time); :func:`simulate` collects its
+metrics, and ``hri-bench play`` drives the same loop with you as the human. The episode's
+rules (start state, lifting, turning back, end, reward, decisions) are those of
+:mod:`hri_envs.task.episode`. Every random draw of run ``r`` comes from generators seeded by
+``(seed, r)`` alone, so a run's numbers do not depend on which batch, process or machine
+simulated it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from agents.protocol import BatchAgent, Trace, read_belief
+from hri_envs.envs.backends import BatchBackend, BatchStep, batch_backend
+from hri_envs.errors import ActionError, ConfigError
+from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.scripted import ScriptedHuman
+from hri_envs.humans.tables import TableHumans
+from hri_envs.task.actions import TAKE_OFF, WAIT
+from hri_envs.task.episode import EpisodeBatch, EpisodeRules, classify, step_reward
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import scenario_spec
+
+__all__ = [
+    "BELIEF_METRICS",
+    "TASK_METRICS",
+    "EpisodeMetrics",
+    "EpisodeResult",
+    "Schedule",
+    "human_streams",
+    "make_schedule",
+    "run_episodes",
+    "simulate",
+]
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """Start support, intended goal and turning back, per run and episode.
+
+    Attributes:
+        start: (B, E) int.
+        goal: (B, E) int, the intention at the start of the episode.
+        turn_back: (B, E) bool, the human returns to the start halfway.
+    """
+
+    start: np.ndarray
+    goal: np.ndarray
+    turn_back: np.ndarray
+
+
+def make_schedule(
+    graph: TaskGraph,
+    kind: str,
+    runs: Sequence[int] | np.ndarray,
+    episodes: int,
+    seed: int,
+    human: ScriptedHuman | BatchHuman | None = None,
+) -> Schedule:
+    """Episode schedule: ``"random"`` (start and goal ≠ start drawn per episode) or one of
+    the scenario's fixed schedules (the hanger's ``"table2"``, paper Table 2), cycled if
+    more episodes are asked for.
+
+    Random schedules draw from ``(seed, run, 2)`` only; turning back is drawn with each
+    run's human's ``turn_back`` probability.
+    """
+    n_b, n_k = len(runs), graph.n_intentions
+    fixed = scenario_spec(graph.name).schedules
+    if kind in fixed:
+        names = graph.support_names
+        table = fixed[kind]
+        rows = [table[e % len(table)] for e in range(episodes)]
+        start = np.array([[names.index(r[0]) for r in rows]] * n_b, dtype=np.int64)
+        goal = np.array([[names.index(r[1]) for r in rows]] * n_b, dtype=np.int64)
+        turn = np.array([[r[2] for r in rows]] * n_b, dtype=bool)
+        return Schedule(start.reshape(n_b, episodes), goal.reshape(n_b, episodes),
+                        turn.reshape(n_b, episodes))
+    if kind != "random":
+        raise ConfigError(f"unknown schedule {kind!r} for the {graph.name}; allowed: "
+                          f"{', '.join(['random', *fixed])}", field="schedule")
+    start = np.zeros((n_b, episodes), dtype=np.int64)
+    goal = np.zeros((n_b, episodes), dtype=np.int64)
+    turn = np.zeros((n_b, episodes), dtype=bool)
+    p_turn = np.zeros(n_b)
+    if human is not None:
+        p_turn[:] = human.turn_back
+    for i, r in enumerate(runs):
+        rng = np.random.default_rng([int(seed), int(r), 2])
+        start[i] = rng.integers(0, n_k, episodes)
+        goal[i] = (start[i] + rng.integers(1, n_k, episodes)) % n_k
+        turn[i] = rng.random(episodes) < p_turn[i]
+    return Schedule(start, goal, turn)
+
+
+#: Per-episode metrics of the task itself (docs/results.md, "Metrics"): ``map_steps`` the
+#: robot's decisions before its most likely intention is right for good (its belief's
+#: unique maximum on the current ι at every later decision; the episode's length when it
+#: is wrong at the last one), ``log_loss`` and ``brier`` the mean over its decisions of
+#: -ln b(ι) and Σ_k (b(k) - [k = ι])² (these three NaN for agents exposing no belief,
+#: :func:`agents.protocol.read_belief`); human effort: ``counteract`` the human's motions
+#: against a different robot motion, ``human_idle`` the human's waits in which nothing
+#: moved, ``human_alone`` the human's actions while the robot waited (counts per episode).
+TASK_METRICS: tuple[str, ...] = ("map_steps", "log_loss", "brier", "counteract", "human_idle",
+                                 "human_alone")
+#: The belief metrics of :data:`TASK_METRICS` (NaN for agents without a belief).
+BELIEF_METRICS: tuple[str, ...] = TASK_METRICS[:3]
+#: Probabilities are clipped here in the log-loss, which stays finite (≤ 34.5).
+LOG_LOSS_FLOOR = 1e-15
+
+
+@dataclass
+class EpisodeMetrics:
+    """Per-run, per-episode results, each (B, E) (or (B,) for one episode of a batch).
+
+    Attributes:
+        reward: Summed robot cooperation reward.
+        correct: Fraction of steps where the robot acted and got the effect it acted towards.
+        passive: Fraction of steps where the robot waited.
+        wrong: Fraction of steps where the robot acted otherwise.
+        steps: Episode length.
+        truncated: The episode did not end (step limit or a backend fault).
+        extras: The backend's per-episode figures (the physics: impulses, duration, ...).
+        task: The :data:`TASK_METRICS`.
+    """
+
+    reward: np.ndarray
+    correct: np.ndarray
+    passive: np.ndarray
+    wrong: np.ndarray
+    steps: np.ndarray
+    truncated: np.ndarray
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+    task: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+@dataclass
+class EpisodeResult:
+    """One episode of every run of a batch.
+
+    Attributes:
+        episode: The episode's index in the schedule.
+        metrics: Its :class:`EpisodeMetrics`, each array (B,).
+        traces: What the robot saw, per run.
+        intentions: Where each episode ended, -1 where truncated (nothing revealed).
+    """
+
+    episode: int
+    metrics: EpisodeMetrics
+    traces: list[Trace]
+    intentions: np.ndarray
+
+
+def run_episodes(
+    graph: TaskGraph,
+    agent: BatchAgent,
+    human: BatchHuman,
+    schedule: Schedule,
+    backend: BatchBackend,
+    *,
+    r0: float,
+    max_steps: int = 100,
+    run_ids: Sequence[int] | np.ndarray | None = None,
+    reward: str = "paper",
+) -> Iterator[EpisodeResult]:
+    """Play ``schedule`` for a batch of runs; yields each episode after the agent learned.
+
+    Args:
+        graph: The task graph.
+        agent: A batched agent with ``n_runs`` = the schedule's runs.
+        human: The human, ``n_runs`` = the schedule's runs (the human protocol,
+            :mod:`hri_envs.humans.protocol`; e.g. :class:`~hri_envs.humans.tables.TableHumans`);
+            it acts after the robot has chosen and sees its action. Where it turns back
+            (:attr:`~hri_envs.humans.protocol.BatchHuman.turn_state`) is read after each
+            :meth:`~hri_envs.humans.protocol.BatchHuman.begin_episode`; a change of mind it
+            reports after a step (:meth:`~hri_envs.humans.protocol.BatchHuman.
+            revised_intentions`) is ι from the next step on.
+        schedule: From :func:`make_schedule`; its ``goal`` is the intention at the start.
+        backend: Moves the runs (the graph, or a simulator).
+        r0: Reward for the robot waiting while the human acts.
+        max_steps: Step limit per episode (the episode is truncated there).
+        reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
+        run_ids: The runs' indices, for error messages (default 0 .. B-1).
+
+    Raises:
+        ActionError: The agent's or the human's ``act`` returned something other than one
+            integer action in [0, A) per run (masked actions are allowed: they abort the
+            step); the message names who, the run, the episode and the step.
+    """
+    n_b, n_e = schedule.start.shape
+    for who, n in (("agent", agent.n_runs), ("human", human.n_runs)):
+        if n != n_b:
+            raise ConfigError(f"the {who} has {n} runs, the schedule {n_b}", field="runs")
+    loop = _Loop(graph, agent, human, backend, n_b, r0=r0, max_steps=max_steps,
+                 run_ids=run_ids, reward=reward)
+    for e in range(n_e):
+        yield loop.episode(e, schedule)
+
+
+@dataclass
+class _Progress:
+    """One episode of a batch so far, each (B,): the metrics' sums, the human's last action,
+    which runs ended, which faulted, which still act (in the backend's current group).
+    """
+
+    totals: dict[str, np.ndarray]
+    human_last: np.ndarray
+    over: np.ndarray
+    faulted: np.ndarray
+    active: np.ndarray
+    has_belief: bool = True
+
+
+class _Loop:
+    """:func:`run_episodes` for one batch: the buffers its episodes share, and one method per
+    part of an episode (begin, choose the actions, account for a step, record it, finish).
+    """
+
+    def __init__(self, graph: TaskGraph, agent: BatchAgent, human: BatchHuman,
+                 backend: BatchBackend, n_b: int, *, r0: float, max_steps: int,
+                 run_ids: Sequence[int] | np.ndarray | None, reward: str) -> None:
+        self.graph, self.agent, self.human, self.backend = graph, agent, human, backend
+        self.n_b, self.r0, self.max_steps, self.run_ids = n_b, r0, max_steps, run_ids
+        self.reward = reward
+        self.never = np.full((graph.n_intentions,) * 2, -1)
+        self.eps = EpisodeBatch(EpisodeRules(graph, r0), self.never, n_b)
+        self.privileged = bool(getattr(agent, "privileged", False))
+        self.rows = np.arange(n_b)
+        self.scratch = np.empty((n_b, graph.n_intentions))  # _score_belief's, every step
+        self.states = np.zeros((n_b, max_steps + 1), dtype=np.int64)
+        self.robot_acts = np.zeros((n_b, max_steps), dtype=np.int64)
+        self.human_seen = np.zeros((n_b, max_steps), dtype=np.int64)
+
+    def episode(self, e: int, schedule: Schedule) -> EpisodeResult:
+        """Play episode ``e`` of ``schedule`` in every run; the agent has learned from it."""
+        p = self._begin(e, schedule)
+        for group in self.backend.groups():
+            p.faulted[group] = self.backend.begin(group, self.eps.start[group])
+            p.active = np.zeros(self.n_b, dtype=bool)
+            p.active[group] = ~p.faulted[group]
+            for t in range(self.max_steps):
+                if not p.active.any():
+                    break
+                self._step(e, t, p)
+        return self._finish(e, p)
+
+    def _begin(self, e: int, schedule: Schedule) -> _Progress:
+        """Start episode ``e``: the human's, the episode rules' and the agent's."""
+        eps = self.eps
+        self.human.begin_episode(schedule.start[:, e], schedule.goal[:, e])
+        where = self.human.turn_state  # (K, K), or (B, K, K): each run's human turns apart
+        eps.turn_state = self.never if where is None else where
+        eps.begin(self.rows, schedule.start[:, e], schedule.goal[:, e],
+                  schedule.turn_back[:, e])
+        self.agent.begin_episode(eps.start.copy())
+        n_b = self.n_b
+        totals = {k: np.zeros(n_b) for k in ("reward", "correct", "passive", "wrong",
+                                              *self.backend.extras, *TASK_METRICS)}
+        self.states[:, 0] = eps.state
+        return _Progress(totals, np.full(n_b, WAIT, dtype=np.int64), np.zeros(n_b, dtype=bool),
+                         np.zeros(n_b, dtype=bool), np.zeros(n_b, dtype=bool))
+
+    def _step(self, e: int, t: int, p: _Progress) -> None:
+        """Step ``t``: both act, the backend moves, the metrics add up, both observe."""
+        s = self.eps.state
+        w = p.active.astype(float)  # this step's weights (active changes after it)
+        a_r, a_h = self._actions(e, t, s, w, p)
+        step = self.backend.transition(s, a_r, a_h, p.active)
+        self._account(s, a_r, a_h, step, w, p.totals)
+        self.agent.observe(s, a_r, step.human_seen, step.next_state, p.active)
+        self.human.observe(s, a_r, a_h, step.next_state, p.active)
+        self._record(t, a_r, a_h, step, p)
+
+    def _actions(self, e: int, t: int, s: np.ndarray, w: np.ndarray, p: _Progress
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """The robot's action, then the human's (who sees it); WAIT for inactive runs. The
+        agent's belief is scored before it acts.
+        """
+        eps, active, n_actions = self.eps, p.active, self.graph.n_actions
+        obs: dict[str, np.ndarray] = {
+            "state": s, "start": eps.start, "last_human_action": eps.last_human,
+            "action_mask": self.graph.valid[s].astype(np.int8)}
+        if self.privileged:
+            obs["intention"] = eps.intention
+        if p.has_belief:
+            p.has_belief = _score_belief(read_belief(self.agent, self.n_b), eps.intention,
+                                         active, t, p.totals, self.rows, w, self.scratch)
+        try:
+            chosen = self.agent.act(obs, active)
+        except ActionError as exc:  # a Batched agent's: add where it happened
+            raise ActionError(f"{exc} (episode {e + 1}, step {t + 1})") from None
+        a_r = np.where(active, _checked("act()", chosen, active, n_actions, self.run_ids, e, t),
+                       WAIT)
+        seen = {"state": s, "start": eps.start, "intention": eps.intention,
+                "last_human_action": p.human_last, "action_mask": obs["action_mask"],
+                "robot_action": a_r}
+        a_h = np.where(active, _checked("the human's act()", self.human.act(seen, active),
+                                        active, n_actions, self.run_ids, e, t), WAIT)
+        return a_r, a_h
+
+    def _account(self, s: np.ndarray, a_r: np.ndarray, a_h: np.ndarray, step: BatchStep,
+                 w: np.ndarray, totals: dict[str, np.ndarray]) -> None:
+        """Add the step's reward, decisions, backend figures and human effort (weights ``w``)."""
+        graph, eps = self.graph, self.eps
+        failed = False if step.penalty is None else step.penalty
+        totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, self.r0,
+                                            reward=self.reward, start=eps.start,
+                                            lifted=eps.lifted, failed=failed)
+        for key, judged in zip(("correct", "passive", "wrong"),
+                               classify(graph, s, a_r, a_h, step.next_state), strict=True):
+            totals[key] += w * judged
+        for key, value in step.extras.items():
+            totals[key] += w * value
+        motion_r, motion_h = a_r >= TAKE_OFF, a_h >= TAKE_OFF
+        totals["counteract"] += w * (motion_r & motion_h & (a_r != a_h))
+        totals["human_idle"] += w * ((a_h == WAIT) & (step.next_state == s))
+        totals["human_alone"] += w * ((a_r == WAIT) & (a_h != WAIT))
+
+    def _record(self, t: int, a_r: np.ndarray, a_h: np.ndarray, step: BatchStep,
+                p: _Progress) -> None:
+        """Commit the step to the episode and the traces; runs that ended or faulted stop."""
+        active, eps = p.active, self.eps
+        p.human_last = np.where(active, a_h, p.human_last)
+        self.robot_acts[active, t] = a_r[active]
+        self.human_seen[active, t] = step.human_seen[active]
+        ended = eps.commit(step.next_state, step.human_seen, active)
+        revised = self.human.revised_intentions()  # a human who changed its mind
+        if revised is not None:
+            eps.revise(np.asarray(revised, dtype=np.int64), active & ~ended)
+        self.states[active, t + 1] = eps.state[active]
+        p.over |= ended
+        if step.fault is not None:
+            p.faulted |= active & step.fault & ~ended
+        active &= ~(ended | p.faulted)
+
+    def _finish(self, e: int, p: _Progress) -> EpisodeResult:
+        """The episode's metrics and traces; the agent learns from them, the human ends it."""
+        steps = self.eps.steps.copy()
+        truncated = ~p.over
+        per_step = np.maximum(steps, 1)
+        totals = p.totals
+        for key in ("correct", "passive", "wrong", "log_loss", "brier",
+                    *self.backend.step_means):
+            totals[key] /= per_step
+        if not p.has_belief:
+            for key in BELIEF_METRICS:
+                totals[key][:] = np.nan
+        intentions = np.where(truncated, -1, self.graph.support[self.states[self.rows, steps]])
+        traces = [Trace(self.states[i, : steps[i] + 1].copy(),
+                        self.robot_acts[i, : steps[i]].copy(),
+                        self.human_seen[i, : steps[i]].copy()) for i in range(self.n_b)]
+        self.agent.end_episode(traces, intentions)
+        self.human.end_episode()
+        metrics = EpisodeMetrics(totals["reward"], totals["correct"], totals["passive"],
+                                 totals["wrong"], steps.astype(float), truncated,
+                                 {k: totals[k] for k in self.backend.extras},
+                                 {k: totals[k] for k in TASK_METRICS})
+        return EpisodeResult(e, metrics, traces, intentions)
+
+
+def _score_belief(belief: np.ndarray | None, intention: np.ndarray, active: np.ndarray,
+                  t: int, totals: dict[str, np.ndarray], rows: np.ndarray, w: np.ndarray,
+                  scratch: np.ndarray) -> bool:
+    """Add decision ``t``'s belief scores to ``totals``; False when there is no belief.
+
+    ``map_steps`` becomes t + 1 wherever the belief's unique maximum is not the current
+    intention, so at the end it counts the decisions up to the last wrong one. ``rows`` is
+    ``arange(B)``, ``w`` is ``active`` as floats and ``scratch`` a (B, K) float work array
+    (all the caller's, so that nothing of the sort is rebuilt every step).
+    """
+    if belief is None:
+        return False
+    if scratch.shape != belief.shape:  # an agent's K other than the graph's
+        scratch = np.empty(belief.shape)
+    p_true = belief[rows, intention]
+    np.copyto(scratch, belief)  # the other intentions' beliefs
+    scratch[rows, intention] = -np.inf
+    totals["map_steps"][active & ~(p_true > scratch.max(1))] = t + 1
+    totals["log_loss"] += w * -np.log(np.maximum(p_true, LOG_LOSS_FLOOR))
+    np.multiply(belief, belief, out=scratch)  # (belief minus the one-hot truth)²
+    miss = p_true - 1.0
+    scratch[rows, intention] = miss * miss
+    totals["brier"] += w * scratch.sum(1)
+    return True
+
+
+def _checked(who: str, actions: object, active: np.ndarray, n_actions: int,
+             run_ids: Sequence[int] | np.ndarray | None, episode: int, step: int) -> np.ndarray:
+    """The actions ``who`` returned as an int array, or an :class:`ActionError` naming where."""
+    arr = np.asarray(actions)
+    n_b = active.shape[0]
+    where = f"episode {episode + 1}, step {step + 1}"
+    if arr.shape != (n_b,) or arr.dtype.kind not in "iu":
+        raise ActionError(f"{who} returned {arr.dtype} of shape {arr.shape} in {where}; "
+                          f"expected one integer action per run, shape ({n_b},)")
+    bad = active & ((arr < 0) | (arr >= n_actions))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        run = i if run_ids is None else int(run_ids[i])
+        raise ActionError(f"{who} returned action {arr[i]} for run {run} in {where}; "
+                          f"actions are integers in [0, {n_actions})")
+    return arr
+
+
+def human_streams(seed: int, runs: Sequence[int] | np.ndarray) -> list[np.random.Generator]:
+    """The human's generator of each run: seeded by ``(seed, run, 1)`` only."""
+    return [np.random.default_rng([int(seed), int(r), 1]) for r in runs]
+
+
+def simulate(
+    graph: TaskGraph,
+    agent: BatchAgent,
+    human: ScriptedHuman | BatchHuman,
+    schedule: Schedule,
+    *,
+    runs: Sequence[int] | np.ndarray,
+    seed: int,
+    r0: float,
+    max_steps: int = 100,
+    after_episode: Callable[[int, BatchAgent], None] | None = None,
+    backend: str = "graph",
+    reward: str = "paper",
+    physics: Mapping[str, Any] | None = None,
+) -> EpisodeMetrics:
+    """Simulate ``schedule`` for a batch of runs with one agent and one human per run.
+
+    Args:
+        graph: The task graph.
+        agent: A batched agent with ``n_runs == len(runs)``.
+        human: A scripted human shared by the runs (each with its own random stream), or a
+            :class:`~hri_envs.humans.protocol.BatchHuman` with a row per run.
+        schedule: From :func:`make_schedule`.
+        runs: Run indices (the human draws from :func:`human_streams`).
+        seed: Base seed.
+        r0: Reward for the robot waiting while the human acts (for the metrics).
+        max_steps: Step limit per episode (the episode is truncated there).
+        after_episode: Called as ``after_episode(e, agent)`` after each learning update.
+        backend: A registered backend (:mod:`hri_envs.envs.backends`): "graph" or "mujoco".
+        reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
+        physics: Validated ``physics`` options of the backend (e.g. ``{"preset":
+            "weak-human"}``); None or empty for its defaults.
+
+    Returns:
+        The episode metrics; ``extras`` holds the backend's per-episode figures (the
+        physics: interaction impulses, simulated duration, agreement with the graph),
+        ``task`` the :data:`TASK_METRICS`.
+    """
+    n_b, n_e = schedule.start.shape
+    if len(runs) != n_b:
+        raise ConfigError(f"the schedule has {n_b} runs, runs= names {len(runs)}", field="runs")
+    sim = batch_backend(backend)(graph, runs, seed, physics=physics)
+    keys = ("reward", "correct", "passive", "wrong", "steps")
+    out = {k: np.zeros((n_b, n_e)) for k in keys}
+    extras = {k: np.zeros((n_b, n_e)) for k in sim.extras}
+    task = {k: np.zeros((n_b, n_e)) for k in TASK_METRICS}
+    truncated = np.zeros((n_b, n_e), dtype=bool)
+    humans = TableHumans(human, n_b) if isinstance(human, ScriptedHuman) else human
+    humans.seed(human_streams(seed, runs))
+    for res in run_episodes(graph, agent, humans, schedule, sim, r0=r0, max_steps=max_steps,
+                            run_ids=runs, reward=reward):
+        e, m = res.episode, res.metrics
+        for k in keys:
+            out[k][:, e] = getattr(m, k)
+        for k, v in m.extras.items():
+            extras[k][:, e] = v
+        for k, v in m.task.items():
+            task[k][:, e] = v
+        truncated[:, e] = m.truncated
+        if after_episode is not None:
+            after_episode(e, agent)
+    return EpisodeMetrics(out["reward"], out["correct"], out["passive"], out["wrong"],
+                          out["steps"], truncated, extras, task)

@@ -1,0 +1,994 @@
+"""A study: several agents, many runs, one scenario and human; results as arrays and files.
+
+:func:`run_study` splits the work into units of (agent, human preference, chunk of runs),
+runs them serially, in a process pool or on Ray, and stitches the results together in run
+order. Since every run draws only from ``(seed, run)``, the numbers are identical whatever
+the executor, the number of jobs and the size of the chunks (:data:`UNIT_EPISODES`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import dataclasses
+import json
+import math
+import multiprocessing
+import os
+import pickle
+import signal
+import sys
+import tempfile
+import threading
+import time
+import traceback
+from collections.abc import Callable, Generator, Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.config import default_config
+from agents.learning import algorithm1
+from hri_bench.core import stats
+from hri_bench.core.atomic import atomic_writer, move_into_place
+from hri_bench.core.results import StudyResult  # re-exported; shared with the plots
+from hri_bench.data.fit import is_recorded
+from hri_bench.run.agents import (
+    BUILTIN_AGENTS,
+    REFERENCE_AGENTS,
+    agent_settings,
+    make_agent,
+    validate_agent_name,
+)
+from hri_bench.run.humans import custom_human, is_custom, validate_population
+from hri_bench.run.regret import ALL_REFERENCES, blind_values, reference_summary, refuse_references
+from hri_bench.run.runner import TASK_METRICS, make_schedule, simulate
+from hri_envs import __version__
+from hri_envs.checks import check_flag, check_real, check_whole
+from hri_envs.envs.backends import BACKENDS, batch_backend
+from hri_envs.envs.config import check_physics_options
+from hri_envs.errors import ActionError, ConfigError, MissingExtraError
+from hri_envs.humans.finite_state import FiniteStateHumans
+from hri_envs.humans.populations import (
+    POPULATIONS,
+    HumanDraw,
+    human_sequence,
+    humans_of,
+    validate_drift,
+)
+from hri_envs.humans.protocol import BatchHuman
+from hri_envs.humans.rational import rational_human, validate_rationality
+from hri_envs.humans.scripted import ScriptedHuman, preference_human, preferences_for
+from hri_envs.humans.splits import draw_human, population, population_hash
+from hri_envs.humans.tables import TableHumans
+from hri_envs.task.episode import REWARDS
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
+
+__all__ = [
+    "EXECUTION_FIELDS",
+    "MAX_EPISODES",
+    "MAX_RUNS",
+    "MAX_RUN_EPISODES",
+    "MAX_RUN_STEPS",
+    "MAX_STEPS",
+    "METRICS",
+    "Probe",
+    "StudyConfig",
+    "StudyResult",
+    "UnitFailure",
+    "UnitResult",
+    "graph_for",
+    "regret_reference",
+    "run_study",
+    "simulate_runs",
+    "summarize",
+    "write_outputs",
+]
+
+#: The most runs per agent, episodes per run and steps per episode a study takes, and the
+#: most runs x episodes (each agent's result arrays) and runs x steps (the episode buffers):
+#: bounds that keep a study's memory within a few hundred MB (docs/benchmark.md).
+MAX_RUNS = 100_000
+MAX_EPISODES = 10_000
+MAX_STEPS = 10_000
+MAX_RUN_EPISODES = 1_000_000
+MAX_RUN_STEPS = 10_000_000
+
+#: Metrics of every backend; a backend adds its own ``extras`` (the physics: impulses, ...).
+METRICS = ("reward", "correct", "passive", "wrong", "steps", "truncated")
+EXECUTORS = ("serial", "process", "ray")
+
+
+def _backend_extras(metrics: Mapping[str, Any]) -> list[str]:
+    """The backend's own metrics among an agent's ``metrics`` of a :class:`StudyResult`
+    (its keys besides :data:`METRICS` and the task's :data:`~hri_bench.run.runner.TASK_METRICS`),
+    in their order.
+    """
+    return [k for k in metrics if k not in METRICS and k not in TASK_METRICS]
+
+
+def graph_for(scenario: str) -> TaskGraph:
+    """The task graph of a scenario by name (built once per process)."""
+    return scenario_graph(scenario)
+
+
+@dataclass(frozen=True)
+class Probe:
+    """A policy entry to record after every episode: π(action | state, intention).
+
+    ``kind`` is "human" (the agent's estimate π̂_H) or "robot" (its π_R); agents without the
+    matching ``human_policy``/``robot_policy`` method record NaN.
+    """
+
+    label: str
+    kind: str
+    state: int
+    intention: int
+    action: int
+    relative_to_wait: bool = False
+
+    def check(self, graph: TaskGraph) -> None:
+        """Raise a :class:`ConfigError` (``field="probes"``) unless this probe fits ``graph``:
+        ``kind`` "human" or "robot", indices within its states, intentions and actions.
+        """
+        try:
+            if not isinstance(self.label, str) or self.kind not in ("human", "robot"):
+                raise ConfigError("", field="probes")
+            for name, n in (("state", graph.n_states), ("intention", graph.n_intentions),
+                            ("action", graph.n_actions)):
+                check_whole(getattr(self, name), "probes", minimum=0, maximum=n - 1)
+            check_flag(self.relative_to_wait, "probes")
+        except ConfigError:
+            raise ConfigError(
+                f"probe {self!r} does not fit the {graph.name}: a probe has a label (str), "
+                "kind 'human' or 'robot', state, intention and action indices of the task "
+                f"graph (< {graph.n_states}, {graph.n_intentions}, {graph.n_actions}) and "
+                "relative_to_wait (bool)", field="probes") from None
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """What to simulate. ``None`` fields take the scenario's defaults.
+
+    Attributes:
+        scenario: "hanger" or "wheel".
+        agents: Agent names (see :mod:`hri_bench.run.agents`).
+        runs: Independent runs per agent (each learns from scratch).
+        episodes: Episodes per run (default: the scenario's, or a fixed schedule's length:
+            8 hanger, 20 wheel, 9 for "table2").
+        schedule: "random" start and goal per episode, or one of the scenario's fixed
+            schedules (the hanger's user study, "table2").
+        preference: The scripted human's preference, or "all" to cycle runs over all of them.
+        r0: Robot reward for waiting while the human acts, in (-1, 0).
+        human_passive: Probability that the human waits in a step.
+        turn_back: Probability per episode that the human turns back halfway.
+        seed: Base seed; run r depends on (seed, r) only.
+        jobs: Worker processes (or Ray tasks in flight).
+        executor: "serial", "process" or "ray".
+        backend: "graph" (the abstract task graph, batched) or "mujoco" (the simulated
+            Panda, one run at a time; adds interaction impulse, duration and graph agreement
+            to the metrics).
+        max_steps: Step limit per episode.
+        ray_address: Address of a Ray cluster (default: start Ray locally).
+        probes: Policy entries to record per episode (for Figs. 8, 11, 12).
+        human_rationality: β of a Boltzmann human following its preference
+            (:func:`hri_envs.humans.rational.rational_human`); ``inf``: deterministic.
+        population: Draw each run's human from this population
+            (:data:`hri_envs.humans.populations.POPULATIONS`), or ``module:Class``: a human
+            class of your own (:mod:`hri_bench.run.humans`); None: the fixed human above.
+        human_drift: The human switches to another preference after this many episodes
+            (:func:`hri_envs.humans.populations.human_sequence`); None: never.
+        learner: Changes to the Learner's :class:`~agents.config.LearnerConfig` as
+            (name, value) pairs, e.g. ``(("beta", 0.9),)``.
+        reward: The reward variant, "paper" (v0) or "no-free-toggle" (a robot grasp toggle
+            that the object's next motion does not need costs r0; see
+            :func:`hri_envs.task.episode.step_reward`).
+        physics_preset: A named set of physics options of the backend (mujoco:
+            "weak-human", "noisy-sensor"; docs/physics.md); None for its defaults.
+        human_params: The parameters of a family named as ``population`` (e.g.
+            ``(("k", 3),)`` for ``population="impatient"``; :mod:`hri_envs.humans.families`),
+            as (name, value) pairs; the others take the family's defaults.
+    """
+
+    scenario: str
+    agents: tuple[str, ...] = BUILTIN_AGENTS
+    runs: int = 100
+    episodes: int | None = None
+    schedule: str = "random"
+    preference: str | None = None
+    r0: float | None = None
+    human_passive: float = 0.0
+    turn_back: float = 0.0
+    seed: int = 0
+    jobs: int = 1
+    executor: str = "serial"
+    backend: str = "graph"
+    max_steps: int = 100
+    ray_address: str | None = None
+    probes: tuple[Probe, ...] = field(default_factory=tuple)
+    human_rationality: float = math.inf
+    population: str | None = None
+    human_drift: int | None = None
+    learner: tuple[tuple[str, Any], ...] = ()
+    reward: str = "paper"
+    physics_preset: str | None = None
+    human_params: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        """Validate every field, in the fields' order (a :class:`ConfigError` names the field
+        in its ``field`` attribute).
+        """
+        self._check_task()
+        self._check_execution()
+        self._check_humans()
+        self._check_learning()
+
+    def _check_task(self) -> None:
+        """The scenario, agents, runs, episodes, schedule, preference, r0, the scripted
+        human's probabilities.
+        """
+        self._choice("scenario", tuple(SCENARIOS))
+        if not isinstance(self.agents, tuple | list) or not self.agents or not all(
+                isinstance(a, str) for a in self.agents):
+            raise ConfigError(f"agents must be a non-empty list of agent names (e.g. "
+                              f"['learner', 'passive']), got {self.agents!r}", field="agents")
+        twice = sorted({a for a in self.agents if self.agents.count(a) > 1})
+        if twice:
+            raise ConfigError(f"agents must name each agent once; {', '.join(twice)} is given "
+                              "more than once", field="agents")
+        for name in self.agents:
+            validate_agent_name(name)
+        check_whole(self.runs, "runs", minimum=1, maximum=MAX_RUNS)
+        if self.episodes is not None:
+            check_whole(self.episodes, "episodes", minimum=1, maximum=MAX_EPISODES,
+                        label="episodes (None or a number)")
+        self._choice("schedule", ("random", *scenario_spec(self.scenario).schedules))
+        prefs = preferences_for(self.scenario)
+        if self.preference is not None and (not isinstance(self.preference, str)
+                                            or self.preference not in (*prefs, "all")):
+            raise ConfigError(f"preference must be 'all' or one of {', '.join(prefs)}, got "
+                              f"{self.preference!r}", field="preference")
+        if self.r0 is not None:
+            check_real(self.r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True,
+                       allowed="None or a number in (-1, 0)")
+        for name in ("human_passive", "turn_back"):
+            check_real(getattr(self, name), name, low=0.0, high=1.0,
+                       allowed="a probability in [0, 1]")
+
+    def _check_execution(self) -> None:
+        """The seed, jobs, executor, backend, step limit, the sizes of the result arrays, the
+        probes.
+        """
+        check_whole(self.seed, "seed", minimum=0)
+        check_whole(self.jobs, "jobs", minimum=1)
+        self._choice("executor", EXECUTORS)
+        self._text("ray_address", "a Ray cluster's address")
+        self._choice("backend", tuple(BACKENDS))
+        max_steps = check_whole(self.max_steps, "max_steps", minimum=1, maximum=MAX_STEPS)
+        runs, n_episodes = int(self.runs), self.n_episodes  # runs: checked by _check_task
+        if runs * n_episodes > MAX_RUN_EPISODES:
+            raise ConfigError(f"runs x episodes must be at most {MAX_RUN_EPISODES:,} (the "
+                              f"study's result arrays), got {runs:,} x {n_episodes:,}",
+                              field="runs")
+        if runs * max_steps > MAX_RUN_STEPS:
+            raise ConfigError(f"runs x max_steps must be at most {MAX_RUN_STEPS:,} (the "
+                              f"episode buffers), got {runs:,} x {max_steps:,}", field="runs")
+        if not isinstance(self.probes, tuple) or not all(isinstance(p, Probe)
+                                                         for p in self.probes):
+            raise ConfigError(f"probes must be a tuple of Probe, got {self.probes!r}",
+                              field="probes")
+        for probe in self.probes:
+            probe.check(graph_for(self.scenario))
+
+    def _check_humans(self) -> None:
+        """Rationality, population and its parameters, drift, and what each allows."""
+        validate_rationality(self.human_rationality)
+        self._text("population", "a population's name or 'module:Class'")
+        self._pairs("human_params", "a family's parameters, e.g. (('k', 3),)")
+        if self.human_params and self.population is None:
+            raise ConfigError("human_params sets the parameters of a family named as the "
+                              "population (e.g. --population impatient --human-param k=3); "
+                              "no population is given", field="human_params")
+        if self.population is not None:
+            validate_population(self.population, self.scenario, dict(self.human_params))
+            if self.preference is not None:
+                raise ConfigError("give either a population or a preference, not both",
+                                  field="preference")
+        validate_drift(self.human_drift)
+        if self.mixture_population:
+            for name, bad in (("human_rationality", not math.isinf(self.human_rationality)),
+                              ("human_passive", self.human_passive > 0),
+                              ("turn_back", self.turn_back > 0),
+                              ("human_drift", self.human_drift is not None)):
+                if bad:
+                    raise ConfigError(f"population {self.population!r} gives each run a "
+                                      f"frozen member as it is; {name} cannot change it "
+                                      "(leave it at its default)", field=name)
+        if is_custom(self.population):
+            if self.human_drift is not None:
+                raise ConfigError("a human of your own (--population module:Class) does not "
+                                  "drift; leave out --human-drift", field="human_drift")
+            if "oracle" in self.agents and not is_recorded(self.population):
+                # a fitted human is a policy table: the oracle copies its likeliest action
+                raise ConfigError("the oracle copies a scripted human's preferred actions; "
+                                  "leave it out with --population module:Class",
+                                  field="agents")
+
+    def _check_learning(self) -> None:
+        """The references the humans allow, the Learner's changes, the reward rule, the
+        physics preset.
+        """
+        refuse_references(self)
+        self._pairs("learner", "LearnerConfig fields, e.g. (('beta', 0.9),)")
+        if self.learner:
+            default_config(self.scenario, **dict(self.learner))
+        self._choice("reward", REWARDS)
+        self._text("physics_preset", "a preset's name")
+        if self.physics_preset is not None:
+            try:
+                check_physics_options(self.physics, self.backend)
+            except ConfigError as exc:
+                raise ConfigError(str(exc), field="physics_preset") from None
+
+    def _choice(self, name: str, allowed: Sequence[str]) -> None:
+        """Field ``name`` is one of ``allowed``."""
+        value = getattr(self, name)
+        if not isinstance(value, str) or value not in allowed:
+            raise ConfigError(f"{name} must be one of {', '.join(allowed)}, got {value!r}",
+                              field=name)
+
+    def _text(self, name: str, what: str) -> None:
+        """Field ``name`` is None or a string (``what`` it names)."""
+        value = getattr(self, name)
+        if value is not None and not isinstance(value, str):
+            raise ConfigError(f"{name} must be None or {what}, got {value!r}", field=name)
+
+    def _pairs(self, name: str, what: str) -> None:
+        """Field ``name`` is a tuple of (name, value) pairs of ``what``."""
+        value = getattr(self, name)
+        if not isinstance(value, tuple) or not all(
+                isinstance(pair, tuple | list) and len(pair) == 2 and isinstance(pair[0], str)
+                for pair in value):
+            raise ConfigError(f"{name} must be (name, value) pairs of {what}, got "
+                              f"{value!r}", field=name)
+
+    @property
+    def per_run_humans(self) -> bool:
+        """Whether runs have humans of their own (a population or a drifting human)."""
+        return self.population is not None or self.human_drift is not None
+
+    @property
+    def mixture_population(self) -> bool:
+        """Whether the population is a split, mixture or family
+        (:func:`hri_envs.humans.splits.population`), not a scripted population or a class.
+        """
+        return (self.population is not None and not is_custom(self.population)
+                and self.population not in POPULATIONS)
+
+    def population_info(self) -> dict[str, Any] | None:
+        """The population's name, version, content hash and whether it is held out (None:
+        no population; a human class of the user's has no hash).
+        """
+        if self.population is None:
+            return None
+        if is_custom(self.population):
+            return {"name": self.population, "version": None, "hash": None,
+                    "held_out": None, "members": None}
+        spec = population(self.population, self.scenario, dict(self.human_params))
+        members = getattr(spec, "size", None)
+        return {"name": self.population, "version": getattr(spec, "version", "1"),
+                "hash": population_hash(spec), "held_out": bool(spec.held_out),
+                "members": members}
+
+    def human_draws(self, run: int, preference: str) -> list[HumanDraw]:
+        """Run ``run``'s human in each episode, as its own draw from ``(seed, run)`` (a
+        population, rationality, drift; see :mod:`hri_envs.humans.populations`).
+        """
+        draw = draw_human(self.scenario, self.seed, run, population=self.population,
+                          preference=preference, rationality=self.human_rationality,
+                          passive=self.human_passive, turn_back=self.turn_back,
+                          params=self.human_params)
+        return human_sequence(self.scenario, draw, self.seed, run, self.n_episodes,
+                              self.human_drift)
+
+    @property
+    def physics(self) -> dict[str, Any]:
+        """The backend's ``physics`` options this study sets."""
+        return {} if self.physics_preset is None else {"preset": self.physics_preset}
+
+    @property
+    def n_episodes(self) -> int:
+        """Episodes per run after defaults."""
+        if self.episodes is not None:
+            return self.episodes
+        spec = scenario_spec(self.scenario)
+        fixed = spec.schedules.get(self.schedule)
+        return spec.episodes if fixed is None else len(fixed)
+
+    @property
+    def waiting_reward(self) -> float:
+        """r0 after defaults."""
+        return scenario_spec(self.scenario).r0 if self.r0 is None else self.r0
+
+    def preference_of_run(self) -> list[str]:
+        """The human preference of each run."""
+        prefs = preferences_for(self.scenario)
+        if self.preference == "all":
+            return [prefs[r % len(prefs)] for r in range(self.runs)]
+        default = scenario_spec(self.scenario).default_preference
+        return [self.preference or default] * self.runs
+
+    def settings(self) -> dict[str, Any]:
+        """Every field that can change a number, JSON-ready (``summary.json``'s "settings").
+
+        All dataclass fields but :data:`EXECUTION_FIELDS` (which only decide where and how
+        fast the runs are simulated), so fields added to this class are recorded without
+        further code; a field added after a file format was published
+        (:data:`LATER_FIELDS`) is left out while at its default, so the files of earlier
+        studies (and suite v1) read the same. :meth:`from_settings` reads it back.
+        """
+        return {f.name: _jsonable(getattr(self, f.name)) for f in dataclasses.fields(self)
+                if f.name not in EXECUTION_FIELDS
+                and not (f.name in LATER_FIELDS and getattr(self, f.name) == LATER_FIELDS[f.name])}
+
+    @classmethod
+    def from_settings(cls, settings: Mapping[str, Any], **execution: Any) -> StudyConfig:
+        """The configuration :meth:`settings` describes (lists become tuples).
+
+        Args:
+            settings: As written by :meth:`settings`: every field but
+                :data:`EXECUTION_FIELDS`, with JSON's types (lists for tuples, "inf" for
+                infinity). A missing field is an error rather than a default, so that a
+                hand-edited file never runs another study than it reads as.
+            execution: Values of :data:`EXECUTION_FIELDS` (``jobs``, ``executor``, ...).
+
+        Raises:
+            ConfigError: A missing, unknown or invalid setting (its ``field`` names it).
+        """
+        names = {f.name for f in dataclasses.fields(cls)} - set(EXECUTION_FIELDS)
+        if not isinstance(settings, Mapping):
+            raise ConfigError(f"settings must be a JSON object with the fields "
+                              f"{', '.join(sorted(names))}, got {type(settings).__name__}",
+                              field="settings")
+        unknown = sorted(map(str, set(settings) - names))
+        if unknown:
+            raise ConfigError(f"unknown setting(s) {', '.join(unknown)}; a study's settings "
+                              f"are {', '.join(sorted(names))}", field=unknown[0])
+        missing = sorted(names - set(settings) - set(LATER_FIELDS))
+        if missing:
+            raise ConfigError(f"missing setting(s) {', '.join(missing)}; a study's settings "
+                              f"name every one of {', '.join(sorted(names))}",
+                              field=missing[0])
+        kwargs: dict[str, Any] = {}
+        for name, value in settings.items():
+            if name == "probes":
+                keys = {f.name for f in dataclasses.fields(Probe)}
+                if not isinstance(value, list) or not all(isinstance(p, dict) and set(p) == keys
+                                                          for p in value):
+                    raise ConfigError(f"probes must be a list of objects with the fields "
+                                      f"{', '.join(sorted(keys))}, got {value!r}",
+                                      field="probes")
+                value = tuple(Probe(**p) for p in value)
+            elif name in ("learner", "human_params") and isinstance(value, list):
+                value = tuple(tuple(p) if isinstance(p, list) else p for p in value)
+            elif isinstance(value, list):
+                value = tuple(value)
+            elif isinstance(value, str) and value in ("inf", "-inf"):
+                value = float(value)  # written so by settings(): JSON has no infinity
+            kwargs[name] = value
+        return cls(**kwargs, **execution)
+
+
+#: Fields of :class:`StudyConfig` that never change a study's numbers.
+EXECUTION_FIELDS = ("jobs", "executor", "ray_address")
+#: Fields added after the settings' format was published, with their defaults: left out of
+#: :meth:`StudyConfig.settings` at the default, and taken as the default when missing.
+LATER_FIELDS: dict[str, Any] = {"human_params": ()}
+
+
+def _jsonable(value: Any) -> Any:
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {k: _jsonable(v) for k, v in dataclasses.asdict(value).items()}
+    if isinstance(value, (tuple, list)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, float) and math.isinf(value):
+        return _json_float(value)  # JSON has no infinity
+    return value
+
+
+@dataclass(frozen=True)
+class _Unit:
+    config: StudyConfig
+    agent: str
+    preference: str
+    runs: tuple[int, ...]
+
+
+def _probe(agent: Any, probes: Sequence[Probe]) -> np.ndarray:
+    out = np.full((agent.n_runs, len(probes)), np.nan)
+    for j, p in enumerate(probes):
+        fn = getattr(agent, f"{p.kind}_policy", None)
+        if fn is None:
+            continue
+        pi = fn(p.state, p.intention)  # (B, A)
+        out[:, j] = pi[:, p.action] / pi[:, 0] if p.relative_to_wait else pi[:, p.action]
+    return out
+
+
+def _json_float(x: float) -> float | str:
+    """A float for JSON: ``inf`` as the string "inf" (``-inf`` as "-inf")."""
+    return str(x) if math.isinf(x) else x
+
+
+def _humans(cfg: StudyConfig, preference: str, runs: list[int]
+            ) -> tuple[ScriptedHuman | BatchHuman, list[str]]:
+    """The unit's human(s) and each run's human label (per episode for drift: "a>b").
+
+    The one place a study's humans are made: a scripted human shared by the runs, each
+    run's own scripted humans (a population's draw, a drift), or a human class of the user's
+    (``--population module:Class``).
+    """
+    graph = graph_for(cfg.scenario)
+    if is_custom(cfg.population):
+        assert cfg.population is not None
+        return custom_human(cfg.population, graph, runs), [cfg.population] * len(runs)
+    if preference == "all" and not cfg.per_run_humans:  # a batch of the runs' preferences
+        prefs = [cfg.preference_of_run()[r] for r in runs]
+        shared = {p: rational_human(preference_human(graph, p, passive=cfg.human_passive,
+                                                     turn_back=cfg.turn_back),
+                                    cfg.human_rationality) for p in dict.fromkeys(prefs)}
+        return TableHumans([[shared[p]] for p in prefs]), prefs
+    if not cfg.per_run_humans:
+        human = preference_human(graph, preference, passive=cfg.human_passive,
+                                 turn_back=cfg.turn_back)
+        human = rational_human(human, cfg.human_rationality)
+        return human, [preference] * len(runs)
+    seqs = [cfg.human_draws(r, preference) for r in runs]
+    labels = [">".join(dict.fromkeys(x.label() for x in seq)) for seq in seqs]
+    flat = humans_of(graph, [d for seq in seqs for d in seq])
+    n_e = cfg.n_episodes
+    per_run = [flat[i * n_e:(i + 1) * n_e] for i in range(len(runs))]
+    if all(isinstance(h, ScriptedHuman) for h in flat):
+        return TableHumans(per_run), labels
+    # A member with a finite state (misspecified, adaptive, inconsistent): one model per run
+    # throughout (such populations do not drift).
+    return FiniteStateHumans([seq[0] for seq in per_run]), labels
+
+
+#: What a unit yields: metrics, probes, schedule and each run's human label.
+UnitResult = tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray], list[str]]
+
+
+@dataclass(frozen=True)
+class UnitFailure:
+    """A unit whose agent raised: the agent's name, the exception and its traceback text."""
+
+    agent: str
+    runs: tuple[int, ...]
+    error: BaseException
+    traceback: str
+
+
+def _run_unit(unit: _Unit) -> UnitResult:
+    cfg = unit.config
+    graph = graph_for(cfg.scenario)
+    runs = list(unit.runs)
+    human, labels = _humans(cfg, unit.preference, runs)
+    schedule = make_schedule(graph, cfg.schedule, runs, cfg.n_episodes, cfg.seed, human)
+    agent = make_agent(unit.agent, graph, human, runs, seed=cfg.seed, r0=cfg.waiting_reward,
+                       learner=dict(cfg.learner), max_steps=cfg.max_steps, reward=cfg.reward,
+                       episodes=cfg.n_episodes)
+    probes = np.full((len(runs), cfg.n_episodes + 1, len(cfg.probes)), np.nan)
+    if cfg.probes:
+        probes[:, 0] = _probe(agent, cfg.probes)
+
+    def record(e: int, a: Any) -> None:
+        probes[:, e + 1] = _probe(a, cfg.probes)
+
+    try:
+        m = simulate(graph, agent, human, schedule, runs=runs, seed=cfg.seed,
+                     r0=cfg.waiting_reward, max_steps=cfg.max_steps,
+                     after_episode=record if cfg.probes else None, backend=cfg.backend,
+                     reward=cfg.reward, physics=cfg.physics)
+    except ActionError as exc:
+        raise ActionError(f"agent {unit.agent!r}: {exc}") from exc
+    metrics = {k: np.asarray(getattr(m, k), dtype=float) for k in METRICS}
+    metrics.update({k: np.asarray(v, dtype=float) for k, v in m.extras.items()})
+    metrics.update({k: np.asarray(v, dtype=float) for k, v in m.task.items()})  # results file
+    sched = {"start": schedule.start, "goal": schedule.goal, "turn_back": schedule.turn_back}
+    return metrics, probes, sched, labels
+
+
+def simulate_runs(cfg: StudyConfig, agent: str, runs: Sequence[int]
+                  ) -> dict[str, np.ndarray]:
+    """The metrics of ``runs`` of ``agent`` alone, as :func:`run_study` would give them for
+    those rows (every draw of run ``r`` comes from ``(seed, r)``, so a run simulated on its
+    own is the run of the whole study): ``hri-bench validate --replay`` re-simulates a
+    results file's runs with it.
+    """
+    prefs = cfg.preference_of_run()
+    out: dict[str, np.ndarray] = {}
+    rows = [int(r) for r in runs]
+    groups: dict[str, list[int]] = {}
+    for r in rows:
+        groups.setdefault("" if cfg.population else prefs[r], []).append(r)
+    for pref, members in groups.items():
+        metrics = _run_unit(_Unit(cfg, agent, pref, tuple(members)))[0]
+        for k, v in metrics.items():
+            out.setdefault(k, np.zeros((len(rows),) + v.shape[1:]))[
+                [rows.index(r) for r in members]] = v
+    return out
+
+
+def _run_unit_caught(unit: _Unit) -> UnitResult | UnitFailure:
+    """:func:`_run_unit`, returning an agent's exception instead of raising it.
+
+    An agent that calls ``sys.exit()`` fails like one that raises (a :class:`RuntimeError`
+    naming it): it must not end the study, nor a pool worker (whose unit would never end).
+    """
+    try:
+        return _run_unit(unit)
+    except (Exception, SystemExit) as exc:
+        text = traceback.format_exc()
+        error: Exception
+        if isinstance(exc, SystemExit):
+            error = RuntimeError(f"agent {unit.agent!r} called sys.exit({exc.code!r})")
+        else:
+            try:
+                pickle.dumps(exc)
+                error = exc
+            except Exception:
+                error = RuntimeError(str(exc))
+        return UnitFailure(unit.agent, unit.runs, error, text)
+
+
+#: At most this many episodes (runs × episodes per run) in one unit of work on a backend of
+#: table look-ups, so that an interrupted study loses at most about that much (a run, which
+#: learns over its episodes, is never split). Other backends (the MuJoCo simulation, about
+#: 0.2 s a step, one run at a time) get one run per unit. The numbers do not depend on it.
+UNIT_EPISODES = 1000
+
+
+def _runs_per_unit(cfg: StudyConfig) -> int:
+    if not BACKENDS[cfg.backend].vectorizable:
+        return 1
+    return max(1, UNIT_EPISODES // cfg.n_episodes)
+
+
+def _units(cfg: StudyConfig) -> list[_Unit]:
+    """The study's work: per agent and human preference, chunks of runs of at most
+    :func:`_runs_per_unit` runs, and at least ``jobs`` chunks (to keep the workers busy).
+    """
+    per_unit = _runs_per_unit(cfg)
+    by_pref: dict[str, list[int]] = {}
+    for r, pref in enumerate(cfg.preference_of_run()):
+        # A population draws each run's own human: one group, split only by --jobs.
+        by_pref.setdefault("" if cfg.population else pref, []).append(r)
+    # --preference all: the runs' preferences differ, but an agent that does not plan for
+    # one shared human simulates them in one batch (fewer, larger array operations; the
+    # numbers are the same: every draw of run r comes from (seed, r)).
+    mixed = ({"all": list(range(cfg.runs))}
+             if cfg.preference == "all" and not cfg.per_run_humans else None)
+    units = []
+    for agent in cfg.agents:
+        groups = by_pref if mixed is None or agent in REFERENCE_AGENTS else mixed
+        for pref, runs in groups.items():
+            n_chunks = max(min(cfg.jobs, len(runs)), -(-len(runs) // per_unit))
+            for chunk in np.array_split(np.asarray(runs), n_chunks):
+                units.append(_Unit(cfg, agent, pref, tuple(int(r) for r in chunk)))
+    return units
+
+
+#: The signals that stop a study (:func:`hri_bench.run.studyio.stop_on_signals`).
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def _worker_init(mask: Iterable[int]) -> None:
+    """Pool worker set-up: leave Ctrl-C to the parent, die on SIGTERM, exit with the parent.
+
+    The worker is forked with SIGINT and SIGTERM blocked (:func:`_start_pool`), so it never
+    runs the parent's handlers; they are replaced here, and only then is the parent's signal
+    ``mask`` restored (a signal that arrived in between meets the worker's own handling).
+    The parent stops the pool on SIGINT/SIGTERM; if it is killed outright (SIGKILL), a
+    watchdog thread notices that the worker was re-parented and exits, so no worker is
+    left behind.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler (forked)
+    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+    parent = os.getppid()  # the study's process (or the fork server, which exits with it)
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.2)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
+def _start_pool(processes: int, method: str | None = None) -> Any:
+    """A :class:`multiprocessing.pool.Pool` whose workers start with the stop signals blocked.
+
+    They stay blocked in the parent only while the pool forks; the pool's own threads, made
+    meanwhile, keep them blocked, so workers it forks later start the same way. ``method``:
+    the start method (None: the platform's default, fork on Linux).
+    """
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    try:
+        return multiprocessing.get_context(method).Pool(processes, initializer=_worker_init,
+                                                        initargs=(mask,))
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
+def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
+             ) -> Generator[tuple[int, UnitResult | UnitFailure], None, None]:
+    """Yield (unit index, result or failure) for the units ``todo`` as they finish.
+
+    Nothing is started (no pool, no Ray) when ``todo`` is empty.
+    """
+    if not todo:
+        return
+    if cfg.executor == "serial" or (cfg.executor == "process" and cfg.jobs == 1):
+        for i in todo:
+            yield i, _run_unit_caught(units[i])
+    elif cfg.executor == "process":
+        if {"learner", "maxent"} & set(cfg.agents):
+            algorithm1.preload()  # forked workers inherit the loaded kernels
+        # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
+        # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
+        # every worker at once.
+        # JAX's runtime is multithreaded: a worker forked after it started in this process
+        # can hang for good, so once anything here imported JAX (the jaxppo agents, a custom
+        # agent, the caller) the workers start fresh (spawn).
+        method = "spawn" if "jax" in sys.modules else None
+        with _start_pool(min(cfg.jobs, len(todo)), method) as pool:
+            yield from pool.imap_unordered(_run_indexed, [(i, units[i]) for i in todo])
+    else:
+        yield from _execute_ray(cfg, [units[i] for i in todo], list(todo))
+
+
+def _run_indexed(item: tuple[int, _Unit]) -> tuple[int, UnitResult | UnitFailure]:
+    return item[0], _run_unit_caught(item[1])
+
+
+def _execute_ray(cfg: StudyConfig, units: list[_Unit], index: list[int]
+                 ) -> Iterator[tuple[int, UnitResult | UnitFailure]]:
+    try:
+        import ray
+    except ImportError as exc:
+        raise MissingExtraError(["ray"], "executor 'ray'") from exc
+    if not ray.is_initialized():
+        ray.init(address=cfg.ray_address, num_cpus=None if cfg.ray_address else cfg.jobs,
+                 include_dashboard=False, log_to_driver=False)
+    remote = ray.remote(_run_unit_caught)
+    refs = {remote.remote(u): i for u, i in zip(units, index, strict=True)}
+    pending = list(refs)
+    while pending:
+        done, pending = ray.wait(pending, num_returns=1)
+        yield refs[done[0]], ray.get(done[0])
+
+
+def run_study(
+    cfg: StudyConfig,
+    *,
+    progress: bool = False,
+    on_unit: Callable[[], None] | None = None,
+    done: Mapping[int, UnitResult] | None = None,
+    on_result: Callable[[int, UnitResult], None] | None = None,
+    keep_going: bool = False,
+) -> StudyResult:
+    """Simulate a study and gather per-run arrays in run order.
+
+    Args:
+        cfg: What to simulate.
+        progress: Show a progress bar (tqdm) over work units.
+        on_unit: Called after each finished unit (for callers with their own progress).
+        done: Results of units already simulated, by their index in the study's units
+            (a resumed study, :mod:`hri_bench.run.studyio`); they are not run again.
+        on_result: Called as ``on_result(index, result)`` when a unit finishes (to save it).
+        keep_going: When an agent raises, record it in :attr:`StudyResult.failures` (its
+            traceback) and drop that agent from the result instead of raising.
+    """
+    units = _units(cfg)
+    done = dict(done or {})
+    if cfg.mixture_population and cfg.population is not None:
+        spec = population(cfg.population, cfg.scenario, dict(cfg.human_params))
+        getattr(spec, "member_draws", None)  # drawn once, here: forked workers inherit them
+    n_e, n_p = cfg.n_episodes, len(cfg.probes)
+    keys = METRICS + batch_backend(cfg.backend).extras + TASK_METRICS
+    metrics = {a: {k: np.zeros((cfg.runs, n_e)) for k in keys} for a in cfg.agents}
+    probes = {a: np.full((cfg.runs, n_e + 1, n_p), np.nan) for a in cfg.agents}
+    schedule = {k: np.zeros((cfg.runs, n_e), dtype=bool if k == "turn_back" else np.int64)
+                for k in ("start", "goal", "turn_back")}
+    failures: dict[str, str] = {}
+
+    humans = ["" for _ in range(cfg.runs)]
+
+    def place(i: int, res: UnitResult) -> None:
+        m, p, sched, labels = res
+        u = units[i]
+        rows = list(u.runs)
+        for r, label in zip(rows, labels, strict=True):
+            humans[r] = label
+        for k in keys:
+            metrics[u.agent][k][rows] = m[k]
+        probes[u.agent][rows] = p
+        for k in schedule:
+            schedule[k][rows] = sched[k]
+
+    for i, finished in done.items():
+        place(i, finished)
+    todo = [i for i in range(len(units)) if i not in done]
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(units), initial=len(done), desc=f"{cfg.scenario} study",
+                   unit="batch", leave=False)
+    t0 = time.perf_counter()
+    try:
+        # closing(): an exception here stops the pool now, not when the generator is freed.
+        with contextlib.closing(_execute(cfg, units, todo)) as executed:
+            for i, res in executed:
+                if isinstance(res, UnitFailure):
+                    if not keep_going:
+                        raise res.error
+                    failures.setdefault(res.agent, res.traceback)
+                else:
+                    place(i, res)
+                    if on_result is not None:
+                        on_result(i, res)
+                if bar is not None:
+                    bar.update(1)
+                if on_unit is not None:
+                    on_unit()
+    finally:
+        if bar is not None:
+            bar.close()
+    for name in failures:
+        del metrics[name], probes[name]
+    return StudyResult(cfg, metrics, probes, schedule, time.perf_counter() - t0,
+                       humans=humans, failures=failures)
+
+
+def regret_reference(result: StudyResult) -> tuple[np.ndarray | None, str]:
+    """Blind's exact expected reward per (run, episode) and how regret is computed; None
+    (with the reason) where the exact blind plan is too large for the study's human.
+    """
+    try:
+        values = blind_values(result)
+    except ConfigError as exc:
+        return None, f"not reported: {exc}"
+    return values, ("blind's exact expected episode reward from the episode's start support "
+                    "minus the agent's reward, mean over runs (hri_bench/regret.py)")
+
+
+def summarize(result: StudyResult) -> dict[str, Any]:
+    """The ``summary.json`` document (docs/benchmark.md, 'summary.json').
+
+    Identical for identical settings and seed (no wall time: that goes to the run log of
+    :mod:`hri_bench.run.studyio`), so a resumed or replayed study's file is byte-identical.
+    """
+    cfg = result.config
+    agents: dict[str, Any] = {}
+    blind, regret_note = regret_reference(result)
+    for name, m in result.metrics.items():
+        r = m["reward"]
+        agents[name] = {
+            "reward": {"mean": r.mean(0).tolist(), "median": np.median(r, 0).tolist(),
+                       "q25": np.percentile(r, 25, 0).tolist(),
+                       "q75": np.percentile(r, 75, 0).tolist()},
+            **({} if blind is None else {"regret": {"mean": (blind - r).mean(0).tolist()}}),
+            **{k: {"mean": m[k].mean(0).tolist()} for k in ("correct", "passive", "wrong")},
+            "truncated": {"mean": m["truncated"].mean(0).tolist()},
+            "overall": {"reward_mean": float(r.mean()), "reward_median": float(np.median(r)),
+                        "truncation_rate": float(m["truncated"].mean()),
+                        "truncated_episodes": int(m["truncated"].sum())},
+            **{k: {"mean": m[k].mean(0).tolist()} for k in _backend_extras(m)},
+        }
+        # Statistics (docs/benchmark.md): per episode and over all episodes, bootstrap
+        # seeded by the study seed.
+        for k in ("reward", "correct", "passive", "wrong"):
+            pe = stats.per_episode(m[k], cfg.seed, iqm_ci=k == "reward")
+            agents[name][k].update(pe, overall=stats.aggregate(m[k], cfg.seed,
+                                                                iqm_ci=k == "reward"))
+    prefs = sorted(set(cfg.preference_of_run()))
+    spec = scenario_spec(cfg.scenario)
+    return {
+        "scenario": cfg.scenario,
+        "backend": cfg.backend,
+        "physics_preset": cfg.physics_preset,
+        "schedule": cfg.schedule,
+        # With a population each run has its own human (see episodes.csv).
+        "preference": None if cfg.population else prefs[0] if len(prefs) == 1 else "all",
+        "r0": cfg.waiting_reward,
+        "human_passive": cfg.human_passive,
+        "turn_back": cfg.turn_back,
+        "max_steps": cfg.max_steps,
+        "runs": cfg.runs,
+        "episodes": cfg.n_episodes,
+        "seed": cfg.seed,
+        "human_rationality": _json_float(cfg.human_rationality),
+        "population": cfg.population,
+        "human_drift": cfg.human_drift,
+        "human_params": _jsonable(cfg.human_params),
+        "population_info": cfg.population_info(),
+        "learner": agent_settings("learner", cfg.scenario, cfg.waiting_reward,
+                                  dict(cfg.learner)),
+        "version": __version__,
+        "env_ids": {"gymnasium": spec.panda_id if cfg.backend == "mujoco" else spec.gym_id,
+                    "pettingzoo": spec.pettingzoo_module},
+        "settings": cfg.settings(),
+        "agent_configs": {a: agent_settings(a, cfg.scenario, cfg.waiting_reward,
+                                            dict(cfg.learner))
+                          for a in cfg.agents},
+        "failed_agents": sorted(result.failures),
+        "reward_rule": cfg.reward,
+        "regret": regret_note,
+        "references": {k: v for k, v in ALL_REFERENCES.items() if k in result.metrics},
+        "reference": reference_summary(result),
+        "agents": agents,
+        "probability_of_improvement": {
+            "metric": "reward",
+            "table": stats.improvement_table({a: m["reward"] for a, m in result.metrics.items()}),
+        },
+    }
+
+
+def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bool = True
+                  ) -> list[Path]:
+    """Write ``summary.json``, ``episodes.csv`` and the plots into ``out``; return the paths.
+
+    Every file is written under a temporary name, flushed to disk and renamed into place,
+    plots first and ``summary.json`` last, so an interrupted write never leaves a
+    complete-looking file, and a ``summary.json`` in place means that every file is.
+
+    Raises:
+        OSError: A file cannot be written (its ``filename`` names it; the temporary files
+            are removed).
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    cfg = result.config
+    paths: list[Path] = []
+    if plots and result.metrics:
+        from hri_bench.core import plots as plotting  # matplotlib: the bench extra
+
+        with tempfile.TemporaryDirectory(dir=out, prefix=".plots-") as tmp:
+            try:
+                made = plotting.study_plots(result, Path(tmp))
+            except OSError as exc:  # a full disk, say: name the folder (atomic_path's way)
+                exc.filename = exc.filename or str(out)
+                raise
+            for p in made:
+                move_into_place(p, out / p.name)
+                paths.append(out / p.name)
+    csv_path = out / "episodes.csv"
+    prefs = result.humans if cfg.per_run_humans and result.humans else cfg.preference_of_run()
+    extras = _backend_extras(next(iter(result.metrics.values()), {}))  # the task's: in the suite's
+    with atomic_writer(csv_path, newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["agent", "run", "episode", "preference", "start", "goal", "turn_back",
+                         *METRICS, *extras])
+        names = graph_for(cfg.scenario).support_names
+        s = result.schedule
+        for agent, m in result.metrics.items():
+            for r in range(cfg.runs):
+                for e in range(cfg.n_episodes):
+                    writer.writerow([
+                        agent, r, e + 1, prefs[r], names[s["start"][r, e]], names[s["goal"][r, e]],
+                        int(s["turn_back"][r, e]), round(m["reward"][r, e], 6),
+                        *(round(m[k][r, e], 6) for k in ("correct", "passive", "wrong")),
+                        int(m["steps"][r, e]), int(m["truncated"][r, e]),
+                        *(round(m[k][r, e], 6) for k in extras),
+                    ])
+    summary_path = out / "summary.json"
+    with atomic_writer(summary_path) as f:
+        f.write(json.dumps(summarize(result), indent=1, allow_nan=False) + "\n")
+    return [summary_path, csv_path, *paths]

@@ -1,0 +1,118 @@
+"""The benchmark suite: versioned tracks, their runs, the results files and leaderboards.
+
+==============  ====================================================================
+module          contents
+==============  ====================================================================
+``tracks``      every version's tracks and constants, a track's study
+``results_v3``  suite v3's per-run humans, normalised scores and ranking sections
+``submission``  the results file: build, compute, validate, merge; the suite's recorder
+``audit``       what a valid file cannot prove: replayed runs, conflicting files
+``merged``      ``hri-bench leaderboard``: validated files merged into one leaderboard
+``running``     :func:`run_suite`: the tracks' studies, ``suite.json``, the leaderboards
+==============  ====================================================================
+
+The modules import one way, in this table's order (``lint-imports``). Every public name of
+the former module ``hri_bench.suite`` is importable from here, as before.
+"""
+
+from hri_bench.suite.running import (
+    CONVERGED,
+    ERRORS_LOG,
+    episodes_to_converge,
+    leaderboard,
+    leaderboard_v2,
+    leaderboard_v3,
+    run_suite,
+    track_figure,
+    track_summary,
+    track_summary_v2,
+    track_summary_v3,
+)
+from hri_bench.suite.tracks import (
+    ALPHA,
+    DEFAULT_AGENTS,
+    DEFAULT_AGENTS_V2,
+    DEFAULT_AGENTS_V3,
+    DELTA,
+    DELTA_V3,
+    DIMINISHING,
+    FLOOR,
+    INTENTION_BLIND,
+    INTENTION_BLIND_V3,
+    LATEST,
+    MAX_BLOCKS,
+    MAX_RUNS,
+    MAX_RUNS_V3,
+    MIN_BLOCKS,
+    MIN_RUNS,
+    MIN_RUNS_V3,
+    PILOT_SD,
+    PILOT_V3,
+    POWER,
+    SUITE_VERSION,
+    SUITE_VERSIONS,
+    TRACKS,
+    TRACKS_BY_VERSION,
+    TRACKS_V2,
+    TRACKS_V3,
+    Track,
+    TrackV3,
+    check_version,
+    default_agents,
+    detectable_v3,
+    population_track,
+    power_v3,
+    select_tracks,
+    track_config,
+    track_references,
+)
+
+__all__ = [
+    "ALPHA",
+    "CONVERGED",
+    "DEFAULT_AGENTS",
+    "DEFAULT_AGENTS_V2",
+    "DEFAULT_AGENTS_V3",
+    "DELTA",
+    "DELTA_V3",
+    "DIMINISHING",
+    "ERRORS_LOG",
+    "FLOOR",
+    "INTENTION_BLIND",
+    "INTENTION_BLIND_V3",
+    "LATEST",
+    "MAX_BLOCKS",
+    "MAX_RUNS",
+    "MAX_RUNS_V3",
+    "MIN_BLOCKS",
+    "MIN_RUNS",
+    "MIN_RUNS_V3",
+    "PILOT_SD",
+    "PILOT_V3",
+    "POWER",
+    "SUITE_VERSION",
+    "SUITE_VERSIONS",
+    "TRACKS",
+    "TRACKS_BY_VERSION",
+    "TRACKS_V2",
+    "TRACKS_V3",
+    "Track",
+    "TrackV3",
+    "check_version",
+    "default_agents",
+    "detectable_v3",
+    "episodes_to_converge",
+    "leaderboard",
+    "leaderboard_v2",
+    "leaderboard_v3",
+    "population_track",
+    "power_v3",
+    "run_suite",
+    "select_tracks",
+    "track_config",
+    "track_figure",
+    "track_references",
+    "track_summary",
+    "track_summary_v2",
+    "track_summary_v3",
+]

@@ -1,0 +1,109 @@
+"""``hri-bench leaderboard``: validated results files merged into one leaderboard.
+
+:func:`merged_leaderboard` validates every file (:func:`hri_bench.suite.submission.validate`),
+keeps those of the first file's suite and runs scale whose runs do not contradict another
+file's (:func:`hri_bench.suite.audit.conflicts`), merges them
+(:func:`hri_bench.suite.submission.merge`) and writes ``leaderboard.md`` with the figure
+(docs/results.md, "hri-bench leaderboard DIR").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+from hri_bench.core.atomic import atomic_writer
+from hri_bench.suite import results_v3
+from hri_bench.suite.audit import conflicts
+from hri_bench.suite.submission import (
+    lead_section,
+    load,
+    merge,
+    profile_figure,
+    task_section,
+    validate,
+)
+from hri_envs.errors import ConfigError
+
+__all__ = ["merged_leaderboard"]
+
+
+def merged_leaderboard(files: Iterable[Path], out: Path) -> tuple[list[Path], list[str]]:
+    """Validate ``files``, merge the valid ones, write ``leaderboard.md`` and
+    ``profiles.png`` into ``out``; returns (written paths, one line per refused file).
+    """
+    refused, valid = [], {}
+    for path in files:
+        try:
+            doc = load(path)
+        except ConfigError as exc:
+            refused.append(f"{path}: {exc}")
+            continue
+        problems = validate(doc)
+        if problems:
+            refused.append(f"{path}: refused: " + "; ".join(problems[:5])
+                           + (f" (and {len(problems) - 5} more)" if len(problems) > 5 else ""))
+        else:
+            valid[path.name] = doc
+    valid, apart = _mergeable(valid)
+    refused += apart
+    if not valid:
+        return [], refused
+    merged = merge(valid)
+    out.mkdir(parents=True, exist_ok=True)
+    subs = []
+    for fname, doc in valid.items():
+        sub = doc.get("submission") or {}
+        who = ", ".join(str(sub[k]) for k in ("name", "lab") if sub.get(k)) or "(unnamed)"
+        subs.append(f"- `{fname}`: {who}; agents {', '.join(f'`{a}`' for a in doc['agents'])};"
+                    f" seeds {doc['seeds']}, runs scale {doc['runs_scale']}")
+    version = next(iter(valid.values()))["suite"]["version"]
+    v3 = merged["schema_version"] == results_v3.SCHEMA_VERSION
+    sections = ([results_v3.lead_section(merged), results_v3.failure_section(merged)] if v3
+                else [lead_section(merged)])
+    text = "\n".join([f"# hri-envs leaderboard (suite v{version})",
+                      "", "Merged from validated results files (`hri-bench validate`):", "",
+                      *subs, "", *sections, task_section(merged)])
+    with atomic_writer(out / "leaderboard.md") as f:
+        f.write(text + "\n")
+    fig = (results_v3.ranking_figure(merged, out / "ranking.png") if v3
+           else profile_figure(merged, out / "profiles.png"))
+    return [out / "leaderboard.md", fig], refused
+
+
+def _mergeable(valid: Mapping[str, Mapping[str, Any]]
+               ) -> tuple[dict[str, Mapping[str, Any]], list[str]]:
+    """The validated files that can be merged with the first one, and one line per file
+    refused: another suite (version or hash) or runs scale than the first file's, or runs
+    that contradict another file's under the same code identity and seed
+    (:func:`hri_bench.suite.audit.conflicts`: both files are refused, the runs named).
+    """
+    if not valid:
+        return {}, []
+    first_name, first = next(iter(valid.items()))
+    keep: dict[str, Mapping[str, Any]] = {}
+    refused = []
+    for name, doc in valid.items():
+        if doc["suite"]["hash"] != first["suite"]["hash"]:
+            refused.append(f"{name}: refused: suite v{doc['suite']['version']} "
+                           f"({doc['suite']['hash'][:12]}…), {first_name} is suite "
+                           f"v{first['suite']['version']} ({first['suite']['hash'][:12]}…): "
+                           "results of different suites are not merged")
+        elif doc["runs_scale"] != first["runs_scale"]:
+            refused.append(f"{name}: refused: runs scale {doc['runs_scale']}, {first_name} has "
+                           f"{first['runs_scale']}: results of different run counts are not "
+                           "merged (run the suite with the same --runs-scale)")
+        else:
+            keep[name] = doc
+    clash = conflicts(keep)
+    if clash:
+        bad = {n for n in keep if any(line.startswith(f"{n} ") or f" and {n} " in line
+                                      for line in clash)}
+        for n in sorted(bad):
+            refused.append(f"{n}: refused: " + "; ".join(line for line in clash if
+                                                         line.startswith(f"{n} ") or
+                                                         f" and {n} " in line)
+                           + " (hri-bench validate --replay tells which file is genuine)")
+        keep = {n: d for n, d in keep.items() if n not in bad}
+    return keep, refused
