@@ -48,6 +48,10 @@ def _single(maker: AgentMaker, graph: TaskGraph) -> Agent:
     if not isinstance(made, Agent):
         raise ConfigError(f"an agent must be an agents.protocol.Agent or BatchAgent, got "
                           f"{type(made).__name__}", field="agent")
+    if getattr(getattr(made, "batch", made), "privileged", False):
+        raise ConfigError("the agent is privileged (it reads the intention, which the robot's "
+                          "observation never holds): check_agent checks agents that act on "
+                          "the robot's view", field="agent")
     return made
 
 

@@ -61,7 +61,11 @@ def check_scenario(spec: ScenarioSpec | str, *, env: bool = True) -> str:
         raise _fail(f"scenario {spec.name!r}: its graph has {graph.n_actions} actions, the "
                     f"spec says n_actions={spec.n_actions}", "n_actions")
     for preference in spec.preferences:
-        human = preference_human(graph, preference)
+        try:
+            human = preference_human(graph, preference)
+        except ConfigError as exc:
+            raise _fail(f"scenario {spec.name!r}: preference {preference!r} does not lead the "
+                        f"object anywhere a scripted human can follow ({exc})", "route") from exc
         for start in range(graph.n_intentions):
             for goal in range(graph.n_intentions):
                 if goal != start and not _leads(graph, human, start, goal):

@@ -33,13 +33,20 @@ from hri_bench.cli import people as cli_people
 from hri_bench.cli import results as cli_results
 from hri_bench.people.play import play
 from hri_bench.report.speed import measure
-from hri_bench.run.agents import BUILTIN_AGENTS, SB3_PREFIX, jaxppo_path, validate_agent_name
+from hri_bench.run.agents import (
+    AGENTS,
+    DEFAULT_STUDY_AGENTS,
+    SB3_PREFIX,
+    jaxppo_path,
+    validate_agent_name,
+)
 from hri_bench.run.regret import REFERENCES
 from hri_bench.run.study import EXECUTION_FIELDS, EXECUTORS, StudyConfig, graph_for
 from hri_bench.run.studyio import UNITS, StudyDir, StudyTerminated, run_in, stop_on_signals
 from hri_bench.suite import (
     DEFAULT_AGENTS,
     DEFAULT_AGENTS_V2,
+    DEFAULT_AGENTS_V3,
     LATEST,
     SUITE_VERSIONS,
     default_agents,
@@ -57,7 +64,8 @@ from hri_envs.errors import (
 )
 from hri_envs.humans.families import FAMILIES
 from hri_envs.humans.populations import POPULATIONS
-from hri_envs.task.episode import REWARDS
+from hri_envs.humans.splits import MIXTURES
+from hri_envs.task.episode import REWARD_RULES
 from hri_envs.task.scenarios import SCENARIOS
 
 __all__ = ["build_parser", "main"]
@@ -183,9 +191,10 @@ def _study_task_flags(study: argparse.ArgumentParser) -> None:
     """The task: scenario, agents, runs, episodes, schedule, the scripted human."""
     study.add_argument("scenario", choices=SCENARIOS, nargs="?",
                        help="the task (may be left out with --config)")
-    study.add_argument("--agents", type=_agents, default=BUILTIN_AGENTS,
-                       help=f"comma-separated, from {','.join(BUILTIN_AGENTS)} or module:Class "
-                            "(default: all built-in)")
+    study.add_argument("--agents", type=_agents, default=DEFAULT_STUDY_AGENTS,
+                       help="comma-separated, from " + ",".join(AGENTS) + ", sb3:PATH, "
+                            "jaxppo[:PATH] or module:Class (default: the paper's "
+                            + ",".join(DEFAULT_STUDY_AGENTS) + ")")
     study.add_argument("--runs", type=_positive, default=100, help="runs per agent (default 100)")
     study.add_argument("--episodes", type=_positive, default=None,
                        help="episodes per run (default: "
@@ -222,17 +231,17 @@ def _study_run_flags(study: argparse.ArgumentParser) -> None:
                        help="serial, process (default when --jobs > 1) or ray")
     study.add_argument("--ray-address", default=None, help="Ray cluster address (executor ray)")
     study.add_argument("--backend", choices=BACKENDS, default="graph",
-                       help="graph (abstract task graph) or mujoco (simulated Panda; slow: "
-                            "about 0.2 s per step)")
+                       help="graph (abstract task graph, the default) or a physics backend: "
+                            + ", ".join(n for n in BACKENDS if n != "graph")
+                            + " (the simulated Panda; slow: about 0.2 s per step on mujoco)")
     study.add_argument("--physics-preset", default=None,
                        help="named physics options of the backend (mujoco: "
                             + ", ".join(BACKENDS["mujoco"].presets) + "; docs/physics.md)")
     study.add_argument("--max-steps", type=_positive, default=100,
                        help="step limit per episode (default 100)")
-    study.add_argument("--reward", choices=REWARDS, default="paper",
-                       help="reward rule: paper (default; grasping and letting go are free) or "
-                            "no-free-toggle (a robot toggle the next motion does not need "
-                            "costs r0)")
+    study.add_argument("--reward", choices=tuple(REWARD_RULES), default="paper",
+                       help="reward rule (default paper): "
+                            + "; ".join(f"{n}: {r.description}" for n, r in REWARD_RULES.items()))
 
 
 def _study_human_flags(study: argparse.ArgumentParser) -> None:
@@ -245,9 +254,8 @@ def _study_human_flags(study: argparse.ArgumentParser) -> None:
                        help="draw each run's human from a population: "
                             + ", ".join(f"{n}{' (held out)' if p.held_out else ''}"
                                         for n, p in POPULATIONS.items())
-                            + "; the splits train, validation, test (held out) and its "
-                            "parts test-misspecified, test-adaptive, test-inconsistent, "
-                            "test-scripted; a family ("
+                            + "; a split or a part of one ("
+                            + ", ".join(dict.fromkeys(n for n, _ in MIXTURES)) + "); a family ("
                             + ", ".join(FAMILIES) + "); recorded:DATASET or "
                             "recorded-irl:DATASET (a model fitted to recorded sessions); "
                             "module:Class (your own)")
@@ -341,16 +349,17 @@ def _suite_parser(sub: Any) -> None:
                            "track.")
     suite.add_argument("--out", required=True, type=Path, help="output directory")
     suite.add_argument("--suite-version", choices=SUITE_VERSIONS, default=LATEST,
-                       help=f"the track set (default {LATEST}: the test split as the headline, "
-                            "a reference or bracket on every track; 1: the first ten tracks, "
-                            "as they were)")
+                       help=f"the track set (default {LATEST}: the test split v2's four groups "
+                            "of humans as headline tracks, normalised to the reachable "
+                            "reference; 2: the test split with a reference or bracket on every "
+                            "track; 1: the first ten tracks; 1 and 2 as they were)")
     suite.add_argument("--jobs", type=_positive, default=1,
                        help="parallel workers per track (default 1)")
     suite.add_argument("--agents", type=_agents, default=None,
                        help="agents to rank, comma-separated, e.g. learner,mypkg.mod:MyAgent "
-                            f"(default v2: {','.join(DEFAULT_AGENTS_V2)}; v1: "
-                            f"{','.join(DEFAULT_AGENTS)}; the references are added where "
-                            "they fit)")
+                            f"(default v3: {','.join(DEFAULT_AGENTS_V3)}; v2: "
+                            f"{','.join(DEFAULT_AGENTS_V2)}; v1: {','.join(DEFAULT_AGENTS)}; "
+                            "the references and the floor are added where they fit)")
     suite.add_argument("--executor", choices=EXECUTORS, default=None,
                        help="serial, process (default with --jobs > 1) or ray")
     suite.add_argument("--runs-scale", type=_bounded(float, "a number > 0",

@@ -27,7 +27,7 @@ from hri_bench.people.recording import record_study
 from hri_bench.people.serve import ServeConfig, require_web, serve
 from hri_bench.run.study import StudyConfig
 from hri_envs.errors import ConfigError, MissingExtraError
-from hri_envs.task.episode import REWARDS
+from hri_envs.task.episode import REWARD_RULES
 from hri_envs.task.scenarios import SCENARIOS, scenario_spec
 
 __all__ = ["COMMANDS", "add_parsers", "run"]
@@ -106,7 +106,8 @@ def _serve_parser(sub: Any) -> None:
                        help="step limit per episode (default 60)")
     serve.add_argument("--r0", type=_real(lambda v: -1 < v < 0, "a number in (-1, 0)"),
                        default=None, help="the robot's waiting reward (default: the scenario's)")
-    serve.add_argument("--reward", choices=REWARDS, default="paper", help="reward rule")
+    serve.add_argument("--reward", choices=tuple(REWARD_RULES), default="paper",
+                       help="reward rule: " + ", ".join(REWARD_RULES) + " (default paper)")
     serve.add_argument("--preferences", default=None,
                        help="preferences participants are asked to follow, counterbalanced "
                             "(comma-separated, or 'all'; default: none asked for)")

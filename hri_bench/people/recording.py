@@ -54,7 +54,7 @@ class RecordingHumans(BatchHuman):
         agent: The robot agent of the same loop; its ``belief()`` ((B, I) array) is recorded
             when it has one.
         r0: The waiting reward of the robot's cooperation reward.
-        reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
+        reward: The reward variant (:data:`hri_envs.task.episode.REWARD_RULES`).
         session_index: Each row's index in the counterbalanced design (default the row).
         layouts: Per row, the supports' layout of each episode (the wheel's stands), or
             None: nominal.

@@ -47,12 +47,13 @@ import importlib.metadata
 import inspect
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import agents as agents_package
-from agents.config import LearnerConfig, default_config
+from agents.config import default_config
 from agents.learner import Learner
 from agents.learning.algorithm1 import Workspace
 from agents.protocol import Agent, BatchAgent, Batched, run_streams
@@ -65,25 +66,128 @@ from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["BRACKET_AGENTS", "BUILTIN_AGENTS", "CONTRACT", "JAXPPO", "JAXPPO_CHECKPOINTS",
-           "JAXPPO_PREFIX", "KNOWN_AGENTS", "OTHER_AGENTS", "PLANNING_REFERENCES",
-           "REFERENCE_AGENTS", "SB3_PREFIX", "agent_identity", "agent_settings",
-           "contract_keywords", "import_agent", "jaxppo_path", "make_agent", "package_version",
-           "validate_agent_name"]
+__all__ = ["AGENTS", "CONTRACT", "DEFAULT_STUDY_AGENTS", "JAXPPO", "JAXPPO_CHECKPOINTS",
+           "JAXPPO_PREFIX", "SB3_PREFIX", "AgentContext", "AgentSpec", "agent_identity",
+           "agent_settings", "agent_spec", "contract_keywords", "import_agent", "jaxppo_path",
+           "make_agent", "package_version", "register_agent", "validate_agent_name"]
 
-BUILTIN_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
-#: Built-in names that are not in the default agent list (exact references, see baselines.bounds).
-REFERENCE_AGENTS: tuple[str, ...] = ("informed", "blind")
-#: The lower end of a bracket on blind (baselines.product), not in the default agent list.
-BRACKET_AGENTS: tuple[str, ...] = ("qmdp",)
-#: The references and the bracket's lower end: they plan with the human's model, a suite
-#: adds them to the tracks they fit and never ranks them.
-PLANNING_REFERENCES: tuple[str, ...] = REFERENCE_AGENTS + BRACKET_AGENTS
-#: Further built-in agents, not in the default list of suite v1 (the goal filter, the
-#: count-based QMDP learner).
-OTHER_AGENTS: tuple[str, ...] = ("goalfilter", "countqmdp")
-#: Every built-in name.
-KNOWN_AGENTS: tuple[str, ...] = BUILTIN_AGENTS + OTHER_AGENTS + REFERENCE_AGENTS + BRACKET_AGENTS
+
+@dataclass(frozen=True)
+class AgentContext:
+    """What the benchmark hands an agent's maker: one batch of a study's runs.
+
+    Attributes:
+        graph: The task graph (it knows its scenario: ``graph.spec``).
+        human: The scripted human, or the runs' humans (the Oracle and the references read
+            their models).
+        runs: The batch's run indices (randomness derives from ``(seed, run)``).
+        seed: The study's base seed.
+        r0: The study's waiting reward.
+        learner: Changes to the Learner's configuration (``--learner-*``).
+        max_steps: The step limit per episode.
+        reward: The reward rule's name.
+        episodes: Episodes per run.
+    """
+
+    graph: TaskGraph
+    human: ScriptedHuman | BatchHuman
+    runs: tuple[int, ...]
+    seed: int
+    r0: float
+    learner: dict[str, Any]
+    max_steps: int
+    reward: str
+    episodes: int
+
+
+@dataclass(frozen=True)
+class AgentSpec:
+    """A robot agent the benchmark knows by name (docs/extending.md, "An agent").
+
+    Attributes:
+        name: Registry key (``--agents NAME``).
+        make: ``make(context) -> BatchAgent`` for one batch of runs (:class:`AgentContext`).
+        role: "learner", "baseline" or "reference" (a bound the suites add where it fits
+            and never rank).
+        intention_blind: It must infer the intention (``blind`` is its ceiling); False for
+            an agent that sees ι (the Oracle, ``informed``).
+        plans: It plans with the human's model (a reference: refused for humans without one).
+        shared_human: It plans for one human shared by every run (a study groups its runs by
+            the human's preference for it).
+        description: One line for help texts.
+        settings: ``settings(scenario, r0, learner) -> dict | None``: what ``summary.json``
+            records of its configuration (None: nothing).
+    """
+
+    name: str
+    make: Callable[[AgentContext], BatchAgent]
+    role: str = "baseline"
+    intention_blind: bool = True
+    plans: bool = False
+    shared_human: bool = False
+    description: str = ""
+    settings: Callable[[str, float, dict[str, Any]], dict[str, Any] | None] | None = None
+
+
+#: The agents the benchmark knows by name (:func:`register_agent`).
+AGENTS: dict[str, AgentSpec] = {}
+ROLES: tuple[str, ...] = ("learner", "baseline", "reference")
+
+
+def register_agent(spec: AgentSpec) -> AgentSpec:
+    """Make an agent known to ``hri-bench study --agents`` and ``suite --agents``; returns
+    it. A published suite's agents are listed by value and never change with this.
+
+    Raises:
+        ConfigError: ``spec`` is not an :class:`AgentSpec`, its name has a ``:`` (the form
+            of ``module:Class``, ``sb3:PATH``) or is another agent's, or its role is not one
+            of :data:`ROLES` (``field="agents"``).
+    """
+    if not isinstance(spec, AgentSpec) or not (isinstance(spec.name, str) and spec.name):
+        raise ConfigError(f"register_agent takes an AgentSpec with a name, got {spec!r}",
+                          field="agents")
+    if ":" in spec.name or spec.name == JAXPPO:
+        raise ConfigError(f"agent name {spec.name!r} is taken by a form of its own "
+                          "(module:Class, sb3:PATH, jaxppo[:PATH]); choose another",
+                          field="agents")
+    if spec.role not in ROLES:
+        raise ConfigError(f"agent {spec.name!r}: role {spec.role!r} is not one of "
+                          f"{', '.join(ROLES)}", field="agents")
+    if spec.name in AGENTS and AGENTS[spec.name] != spec:
+        raise ConfigError(f"agent {spec.name!r} is registered already", field="agents")
+    AGENTS[spec.name] = spec
+    return spec
+
+
+def agent_spec(name: str) -> AgentSpec | None:
+    """The registered agent ``name`` (None: not a registered name)."""
+    return AGENTS.get(name)
+
+
+#: The study's default agents (``hri-bench study --agents``): the paper's five, by value.
+DEFAULT_STUDY_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
+
+
+def __getattr__(name: str) -> Any:
+    """Views of the registry under the names they had before it (read when asked, so that
+    agents registered since are in them): ``KNOWN_AGENTS`` (every name),
+    ``REFERENCE_AGENTS`` (references planning for one shared human), ``BRACKET_AGENTS``
+    (other references), ``PLANNING_REFERENCES`` (all references), ``BUILTIN_AGENTS`` (the
+    study's default agents).
+    """
+    if name == "KNOWN_AGENTS":
+        return tuple(AGENTS)
+    if name == "PLANNING_REFERENCES":
+        return tuple(a for a, s in AGENTS.items() if s.plans)
+    if name == "REFERENCE_AGENTS":
+        return tuple(a for a, s in AGENTS.items() if s.plans and s.shared_human)
+    if name == "BRACKET_AGENTS":
+        return tuple(a for a, s in AGENTS.items() if s.plans and not s.shared_human)
+    if name == "BUILTIN_AGENTS":
+        return DEFAULT_STUDY_AGENTS
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 #: Agent names ``sb3:PATH`` load a saved SB3 model.
 SB3_PREFIX = "sb3:"
 #: Agent names ``jaxppo:PATH`` load a recurrent PPO policy trained in JAX.
@@ -113,7 +217,7 @@ def validate_agent_name(name: str) -> None:
     ``module:Class`` the class is imported and must subclass :class:`~agents.protocol.Agent`
     or :class:`~agents.protocol.BatchAgent`, so a study refuses it before simulating.
     """
-    if name in KNOWN_AGENTS:
+    if name in AGENTS:
         return
     if name.startswith(SB3_PREFIX):
         model = Path(name[len(SB3_PREFIX):])
@@ -132,7 +236,7 @@ def validate_agent_name(name: str) -> None:
         import_agent(name)
         return
     raise ConfigError(
-        f"unknown agent {name!r}; allowed: {', '.join(KNOWN_AGENTS)}, "
+        f"unknown agent {name!r}; allowed: {', '.join(AGENTS)}, "
         "'sb3:PATH' for a saved stable-baselines3 model, 'jaxppo' or 'jaxppo:PATH' for a "
         "JAX PPO policy, "
         "or 'module:Class' for your own agent",
@@ -184,16 +288,106 @@ def contract_keywords(cls: type) -> tuple[str, ...]:
         inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD))
 
 
-def _learner_config(name: str, scenario: str, r0: float,
-                    learner: dict[str, Any] | None = None) -> LearnerConfig | None:
-    """The :class:`~agents.config.LearnerConfig` a built-in agent is made with (or None);
-    ``learner`` changes the Learner's (after the scenario's defaults and ``r0``).
-    """
-    if name == "learner":
-        return default_config(scenario, **{"r0": r0, **(learner or {})})
-    if name == "maxent":
-        return default_config(scenario, r0=r0, learning_rate=0.03)
-    return None
+# --------------------------------------------------------------------------- the built-ins
+def _learner_settings(scenario: str, r0: float, learner: dict[str, Any]) -> dict[str, Any]:
+    return default_config(scenario, **{"r0": r0, **learner}).to_dict()
+
+
+def _maxent_settings(scenario: str, r0: float, learner: dict[str, Any]) -> dict[str, Any]:
+    return default_config(scenario, r0=r0, learning_rate=0.03).to_dict()
+
+
+def _countqmdp_settings(scenario: str, r0: float, learner: dict[str, Any]) -> dict[str, Any]:
+    # its reward rule is the study's own ("reward_rule" of summary.json)
+    return {k: v for k, v in CountQMDP.defaults(r0=r0).items() if k != "reward"}
+
+
+def _make_learner(c: AgentContext) -> BatchAgent:
+    cfg = default_config(c.graph.name, **{"r0": c.r0, **c.learner})
+    return Learner(c.graph, len(c.runs), cfg, seed=c.seed, runs=c.runs, workspace=Workspace())
+
+
+def _make_maxent(c: AgentContext) -> BatchAgent:
+    cfg = default_config(c.graph.name, r0=c.r0, learning_rate=0.03)
+    return MaxEntIRL(c.graph, len(c.runs), cfg, seed=c.seed, runs=c.runs)
+
+
+def _make_oracle(c: AgentContext) -> BatchAgent:
+    if not isinstance(c.human, PreferredActions):
+        raise ConfigError("the oracle copies a scripted human's preferred actions; this "
+                          "study's humans name none", field="agents")
+    return Oracle(c.graph, c.human, len(c.runs))
+
+
+def _make_exact(c: AgentContext, cls: type[Informed] | type[Blind]) -> BatchAgent:
+    if not isinstance(c.human, ScriptedHuman):
+        raise ConfigError("agent 'blind' plans for one scripted human shared by every "
+                          "run; studies whose runs have humans of their own (--population, "
+                          "--human-drift) are not supported: use qmdp and informed for a "
+                          "bracket", field="agents")
+    return cls(c.graph, c.human, len(c.runs), r0=c.r0, max_steps=c.max_steps,
+               reward=c.reward)
+
+
+def _make_informed(c: AgentContext) -> BatchAgent:
+    if not isinstance(c.human, ScriptedHuman):  # humans of their own: the product's plans
+        return PerRunInformed(c.graph, c.human, len(c.runs), r0=c.r0, max_steps=c.max_steps,
+                              reward=c.reward, episodes=c.episodes)
+    return _make_exact(c, Informed)
+
+
+def _make_blind(c: AgentContext) -> BatchAgent:
+    return _make_exact(c, Blind)
+
+
+def _make_qmdp(c: AgentContext) -> BatchAgent:
+    return QMDP(c.graph, c.human, len(c.runs), r0=c.r0, max_steps=c.max_steps,
+                reward=c.reward, episodes=c.episodes)
+
+
+def _make_imitator(c: AgentContext) -> BatchAgent:
+    return Imitator(c.graph, len(c.runs))
+
+
+def _make_passive(c: AgentContext) -> BatchAgent:
+    return Passive(c.graph, len(c.runs))
+
+
+def _make_goalfilter(c: AgentContext) -> BatchAgent:
+    return GoalFilter(c.graph, len(c.runs), r0=c.r0)
+
+
+def _make_countqmdp(c: AgentContext) -> BatchAgent:
+    return CountQMDP(c.graph, len(c.runs), r0=c.r0, reward=c.reward)
+
+
+for _spec in (
+    AgentSpec("learner", _make_learner, "learner",
+              description="the paper's Learner (Algorithm 1): IRL human model, Bayes filter "
+                          "over the intention", settings=_learner_settings),
+    AgentSpec("imitator", _make_imitator, description="Algorithm 3: repeats the human's last "
+              "action per (start, state)"),
+    AgentSpec("maxent", _make_maxent, "learner", description="Algorithm 4: plain ME-IRL of its "
+              "own reward, count-based intention", settings=_maxent_settings),
+    AgentSpec("passive", _make_passive, description="Algorithm 2: grasp, follow, let go"),
+    AgentSpec("oracle", _make_oracle, intention_blind=False,
+              description="the paper's heuristic baseline: sees the intention and the "
+                          "preference (not a bound)"),
+    AgentSpec("goalfilter", _make_goalfilter, description="a Bayesian goal filter that "
+              "learns no preference"),
+    AgentSpec("countqmdp", _make_countqmdp, "learner", description="counts the human's "
+              "actions per context, filters the intention, plans by QMDP",
+              settings=_countqmdp_settings),
+    AgentSpec("informed", _make_informed, "reference", intention_blind=False, plans=True,
+              shared_human=True, description="the information bound: the exact optimum "
+              "that sees the intention"),
+    AgentSpec("blind", _make_blind, "reference", plans=True, shared_human=True,
+              description="the exact intention-blind optimum for one shared human"),
+    AgentSpec("qmdp", _make_qmdp, "reference", plans=True, description="QMDP on the exact "
+              "posterior with the human's model: the reachable reference where blind does "
+              "not fit"),
+):
+    register_agent(_spec)
 
 
 def agent_settings(name: str, scenario: str, r0: float,
@@ -207,15 +401,13 @@ def agent_settings(name: str, scenario: str, r0: float,
     (:func:`agent_identity`: its source files' sha256 and the
     constructor keywords it is given); the other agents: None (they have none).
     """
-    cfg = _learner_config(name, scenario, r0, learner)
-    if cfg is not None:
-        return cfg.to_dict()
-    if name == "countqmdp":  # its reward rule is the study's own ("reward_rule")
-        return {k: v for k, v in CountQMDP.defaults(r0=r0).items() if k != "reward"}
+    spec = AGENTS.get(name)
+    if spec is not None:
+        return None if spec.settings is None else spec.settings(scenario, r0, learner or {})
     path = Path(name[len(SB3_PREFIX):]) if name.startswith(SB3_PREFIX) else jaxppo_path(name)
     if path is not None:
         return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
-    if name not in KNOWN_AGENTS and ":" in name:
+    if ":" in name:
         return agent_identity(name)
     return None
 
@@ -253,38 +445,10 @@ def make_agent(
     """
     validate_agent_name(name)
     n = len(runs)
-    cfg = _learner_config(name, graph.name, r0, learner)
-    if name == "learner" and cfg is not None:
-        return Learner(graph, n, cfg, seed=seed, runs=runs, workspace=Workspace())
-    if name == "maxent" and cfg is not None:
-        return MaxEntIRL(graph, n, cfg, seed=seed, runs=runs)
-    if name == "imitator":
-        return Imitator(graph, n)
-    if name == "passive":
-        return Passive(graph, n)
-    if name == "oracle":
-        if not isinstance(human, PreferredActions):
-            raise ConfigError("the oracle copies a scripted human's preferred actions; this "
-                              "study's humans name none", field="agents")
-        return Oracle(graph, human, n)
-    if name == "goalfilter":
-        return GoalFilter(graph, n, r0=r0)
-    if name == "countqmdp":
-        return CountQMDP(graph, n, r0=r0, reward=reward)
-    if name == "informed" and not isinstance(human, ScriptedHuman):
-        return PerRunInformed(graph, human, n, r0=r0, max_steps=max_steps, reward=reward,
-                              episodes=episodes)
-    if name == "qmdp":
-        return QMDP(graph, human, n, r0=r0, max_steps=max_steps, reward=reward,
-                    episodes=episodes)
-    if name in REFERENCE_AGENTS:
-        if not isinstance(human, ScriptedHuman):
-            raise ConfigError("agent 'blind' plans for one scripted human shared by every "
-                              "run; studies whose runs have humans of their own (--population, "
-                              "--human-drift) are not supported: use qmdp and informed for a "
-                              "bracket", field="agents")
-        cls_ref = Informed if name == "informed" else Blind
-        return cls_ref(graph, human, n, r0=r0, max_steps=max_steps, reward=reward)
+    spec = AGENTS.get(name)
+    if spec is not None:
+        return spec.make(AgentContext(graph, human, tuple(int(r) for r in runs), seed, r0,
+                                      dict(learner or {}), max_steps, reward, episodes))
     if name.startswith(SB3_PREFIX):
         from agents.sb3 import SB3BatchAgent  # the rl extra (stable-baselines3, torch)
 
@@ -346,8 +510,14 @@ def _source_files(module_name: str) -> tuple[Path, list[Path]]:
 
 def agent_identity(name: str) -> dict[str, Any]:
     """How agent ``name`` of a study is identified (module docstring)."""
-    if name in KNOWN_AGENTS and jaxppo_path(name) is None:
+    spec = AGENTS.get(name)
+    if spec is not None and spec.make.__module__ == __name__:  # shipped with hri-envs
         return {"kind": "builtin", "package": "hri-envs", "version": package_version("hri-envs")}
+    if spec is not None:  # registered by a package of the user's: its maker's source
+        root, files = _source_files(spec.make.__module__)
+        hashes = {p.relative_to(root).as_posix(): _sha256(p) for p in files}
+        return {"kind": "custom", "module": spec.make.__module__, "class": f"registered:{name}",
+                "files": hashes, "code_sha256": _combined(hashes), "constructor": []}
     if name.startswith(SB3_PREFIX):
         path = Path(name[len(SB3_PREFIX):])
         return {"kind": "sb3", "path": str(path),

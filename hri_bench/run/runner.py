@@ -26,9 +26,9 @@ from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task.actions import TAKE_OFF, WAIT
-from hri_envs.task.episode import EpisodeBatch, EpisodeRules, classify, step_reward
+from hri_envs.task.episode import EpisodeBatch, EpisodeRules, classify
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import spec_of
 
 __all__ = [
     "BELIEF_METRICS",
@@ -74,7 +74,7 @@ def make_schedule(
     run's human's ``turn_back`` probability.
     """
     n_b, n_k = len(runs), graph.n_intentions
-    fixed = scenario_spec(graph.name).schedules
+    fixed = spec_of(graph).schedules
     if kind in fixed:
         names = graph.support_names
         table = fixed[kind]
@@ -187,7 +187,7 @@ def run_episodes(
         backend: Moves the runs (the graph, or a simulator).
         r0: Reward for the robot waiting while the human acts.
         max_steps: Step limit per episode (the episode is truncated there).
-        reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
+        reward: The reward variant (:data:`hri_envs.task.episode.REWARD_RULES`).
         run_ids: The runs' indices, for error messages (default 0 .. B-1).
 
     Raises:
@@ -231,7 +231,11 @@ class _Loop:
         self.n_b, self.r0, self.max_steps, self.run_ids = n_b, r0, max_steps, run_ids
         self.reward = reward
         self.never = np.full((graph.n_intentions,) * 2, -1)
-        self.eps = EpisodeBatch(EpisodeRules(graph, r0), self.never, n_b)
+        self.rules = EpisodeRules(graph, r0, reward)  # the one place a step is judged
+        self.eps = EpisodeBatch(self.rules, self.never, n_b)
+        # A human whose draw() does something (a population of the user's, say) draws the
+        # next episode's member before each episode, from each run's own generator.
+        self.draws = type(human).draw is not BatchHuman.draw
         self.privileged = bool(getattr(agent, "privileged", False))
         self.rows = np.arange(n_b)
         self.scratch = np.empty((n_b, graph.n_intentions))  # _score_belief's, every step
@@ -255,6 +259,8 @@ class _Loop:
     def _begin(self, e: int, schedule: Schedule) -> _Progress:
         """Start episode ``e``: the human's, the episode rules' and the agent's."""
         eps = self.eps
+        if self.draws:
+            _draw(self.human)
         self.human.begin_episode(schedule.start[:, e], schedule.goal[:, e])
         where = self.human.turn_state  # (K, K), or (B, K, K): each run's human turns apart
         eps.turn_state = self.never if where is None else where
@@ -311,9 +317,8 @@ class _Loop:
         """Add the step's reward, decisions, backend figures and human effort (weights ``w``)."""
         graph, eps = self.graph, self.eps
         failed = False if step.penalty is None else step.penalty
-        totals["reward"] += w * step_reward(graph, s, a_r, a_h, step.next_state, self.r0,
-                                            reward=self.reward, start=eps.start,
-                                            lifted=eps.lifted, failed=failed)
+        totals["reward"] += w * self.rules.judge(s, a_r, a_h, step.next_state, eps.start,
+                                                 eps.lifted, failed)
         for key, judged in zip(("correct", "passive", "wrong"),
                                classify(graph, s, a_r, a_h, step.next_state), strict=True):
             totals[key] += w * judged
@@ -364,6 +369,18 @@ class _Loop:
                                  {k: totals[k] for k in self.backend.extras},
                                  {k: totals[k] for k in TASK_METRICS})
         return EpisodeResult(e, metrics, traces, intentions)
+
+
+def _draw(human: BatchHuman) -> None:
+    """Ask the seat to draw the next episode's humans: each row from its own generator
+    (the study's ``(seed, run, 1)``), else every row from the shared one.
+    """
+    rngs = getattr(human, "rngs", None)
+    if rngs is None:
+        human.draw(human.rng)
+        return
+    for i, rng in enumerate(rngs):
+        human.draw(rng, np.array([i]))
 
 
 def _score_belief(belief: np.ndarray | None, intention: np.ndarray, active: np.ndarray,
@@ -444,7 +461,7 @@ def simulate(
         max_steps: Step limit per episode (the episode is truncated there).
         after_episode: Called as ``after_episode(e, agent)`` after each learning update.
         backend: A registered backend (:mod:`hri_envs.envs.backends`): "graph" or "mujoco".
-        reward: The reward variant (:data:`hri_envs.task.episode.REWARDS`).
+        reward: The reward variant (:data:`hri_envs.task.episode.REWARD_RULES`).
         physics: Validated ``physics`` options of the backend (e.g. ``{"preset":
             "weak-human"}``); None or empty for its defaults.
 

@@ -42,7 +42,7 @@ from hri_bench.run.agents import (
     make_agent,
     validate_agent_name,
 )
-from hri_bench.run.humans import custom_human, is_custom, validate_population
+from hri_bench.run.humans import is_custom
 from hri_bench.run.regret import ALL_REFERENCES, blind_values, reference_summary, refuse_references
 from hri_bench.run.runner import TASK_METRICS, make_schedule, simulate
 from hri_envs import __version__
@@ -54,16 +54,16 @@ from hri_envs.humans.finite_state import FiniteStateHumans
 from hri_envs.humans.populations import (
     POPULATIONS,
     HumanDraw,
-    human_sequence,
     humans_of,
     validate_drift,
 )
 from hri_envs.humans.protocol import BatchHuman
-from hri_envs.humans.rational import rational_human, validate_rationality
-from hri_envs.humans.scripted import ScriptedHuman, preference_human, preferences_for
-from hri_envs.humans.splits import draw_human, population, population_hash
+from hri_envs.humans.rational import validate_rationality
+from hri_envs.humans.scripted import ScriptedHuman, preferences_for
+from hri_envs.humans.spec import HumanSpec
+from hri_envs.humans.splits import population, population_hash
 from hri_envs.humans.tables import TableHumans
-from hri_envs.task.episode import REWARDS
+from hri_envs.task.episode import REWARD_RULES
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
@@ -293,7 +293,7 @@ class StudyConfig:
                               "population (e.g. --population impatient --human-param k=3); "
                               "no population is given", field="human_params")
         if self.population is not None:
-            validate_population(self.population, self.scenario, dict(self.human_params))
+            self.human.check(graph_for(self.scenario))
             if self.preference is not None:
                 raise ConfigError("give either a population or a preference, not both",
                                   field="preference")
@@ -325,7 +325,7 @@ class StudyConfig:
         self._pairs("learner", "LearnerConfig fields, e.g. (('beta', 0.9),)")
         if self.learner:
             default_config(self.scenario, **dict(self.learner))
-        self._choice("reward", REWARDS)
+        self._choice("reward", tuple(REWARD_RULES))
         self._text("physics_preset", "a preset's name")
         if self.physics_preset is not None:
             try:
@@ -383,16 +383,22 @@ class StudyConfig:
                 "hash": population_hash(spec), "held_out": bool(spec.held_out),
                 "members": members}
 
+    @property
+    def human(self) -> HumanSpec:
+        """The study's human as every env takes it (:class:`~hri_envs.humans.spec.
+        HumanSpec`; ``--preference all`` cycles the runs over the preferences, so its
+        preference is then None and each run's is given where its humans are made).
+        """
+        return HumanSpec(None if self.preference == "all" else self.preference,
+                         self.human_passive, self.turn_back, self.human_rationality,
+                         self.population, tuple(self.human_params))
+
     def human_draws(self, run: int, preference: str) -> list[HumanDraw]:
         """Run ``run``'s human in each episode, as its own draw from ``(seed, run)`` (a
-        population, rationality, drift; see :mod:`hri_envs.humans.populations`).
+        population, rationality, drift; :meth:`HumanSpec.run_draws`).
         """
-        draw = draw_human(self.scenario, self.seed, run, population=self.population,
-                          preference=preference, rationality=self.human_rationality,
-                          passive=self.human_passive, turn_back=self.turn_back,
-                          params=self.human_params)
-        return human_sequence(self.scenario, draw, self.seed, run, self.n_episodes,
-                              self.human_drift)
+        return self.human.run_draws(self.scenario, self.seed, run, self.n_episodes,
+                                    preference, self.human_drift)
 
     @property
     def physics(self) -> dict[str, Any]:
@@ -534,20 +540,16 @@ def _humans(cfg: StudyConfig, preference: str, runs: list[int]
     (``--population module:Class``).
     """
     graph = graph_for(cfg.scenario)
+    spec = cfg.human
     if is_custom(cfg.population):
         assert cfg.population is not None
-        return custom_human(cfg.population, graph, runs), [cfg.population] * len(runs)
+        return spec.custom(graph, len(runs)), [cfg.population] * len(runs)
     if preference == "all" and not cfg.per_run_humans:  # a batch of the runs' preferences
         prefs = [cfg.preference_of_run()[r] for r in runs]
-        shared = {p: rational_human(preference_human(graph, p, passive=cfg.human_passive,
-                                                     turn_back=cfg.turn_back),
-                                    cfg.human_rationality) for p in dict.fromkeys(prefs)}
+        shared = {p: spec.scripted(graph, p) for p in dict.fromkeys(prefs)}
         return TableHumans([[shared[p]] for p in prefs]), prefs
     if not cfg.per_run_humans:
-        human = preference_human(graph, preference, passive=cfg.human_passive,
-                                 turn_back=cfg.turn_back)
-        human = rational_human(human, cfg.human_rationality)
-        return human, [preference] * len(runs)
+        return spec.scripted(graph, preference), [preference] * len(runs)
     seqs = [cfg.human_draws(r, preference) for r in runs]
     labels = [">".join(dict.fromkeys(x.label() for x in seq)) for seq in seqs]
     flat = humans_of(graph, [d for seq in seqs for d in seq])

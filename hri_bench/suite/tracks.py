@@ -34,11 +34,10 @@ from typing import Any
 from hri_bench.core import stats
 from hri_bench.data.datasets import open_dataset
 from hri_bench.data.fit import is_recorded
-from hri_bench.run.agents import BUILTIN_AGENTS, PLANNING_REFERENCES, REFERENCE_AGENTS
+from hri_bench.run.agents import PLANNING_REFERENCES
 from hri_bench.run.study import StudyConfig
 from hri_envs.errors import ConfigError
 from hri_envs.humans.splits import MIXTURES
-from hri_envs.task.scenarios import SCENARIOS, scenario_spec
 
 __all__ = [
     "DEFAULT_AGENTS",
@@ -68,12 +67,18 @@ SUITE_VERSION = "1"
 #: The suite versions, and the default one.
 SUITE_VERSIONS: tuple[str, ...] = ("1", "2", "3")
 LATEST = "3"
+# Every published suite version lists its scenarios, agents and references by value: it never
+# reads a registry, so registering a scenario, a family or an agent changes none of them.
+#: The scenarios of every published version, in their order.
+SUITE_SCENARIOS: tuple[str, ...] = ("hanger", "wheel")
 #: The agents ranked by default in v1 (the references are added where they fit).
-DEFAULT_AGENTS: tuple[str, ...] = BUILTIN_AGENTS
+DEFAULT_AGENTS: tuple[str, ...] = ("learner", "imitator", "maxent", "passive", "oracle")
 #: The agents ranked by default in v2: v1's and the goal filter.
-DEFAULT_AGENTS_V2: tuple[str, ...] = (*BUILTIN_AGENTS, "goalfilter")
+DEFAULT_AGENTS_V2: tuple[str, ...] = (*DEFAULT_AGENTS, "goalfilter")
 #: The agents ranked by default in v3: v2's and the count-based QMDP learner.
 DEFAULT_AGENTS_V3: tuple[str, ...] = (*DEFAULT_AGENTS_V2, "countqmdp")
+#: v1's references, added where one human is shared.
+REFERENCES_V1: tuple[str, ...] = ("informed", "blind")
 #: v3's floor of the normalised score (0): an agent that only follows; always run.
 FLOOR = "passive"
 #: v2's smallest difference worth detecting, reward per episode, at this power and level.
@@ -124,8 +129,7 @@ class Track:
 
 def _tracks() -> tuple[Track, ...]:
     out = []
-    for sc in SCENARIOS:
-        drift = scenario_spec(sc).episodes // 2
+    for sc, drift in zip(SUITE_SCENARIOS, (4, 10), strict=True):  # half their episodes
         out += [
             Track(f"{sc}-paper", sc, "the paper's settings: deterministic human, default "
                   "preference", 500),
@@ -185,9 +189,7 @@ def _tracks_v2() -> tuple[Track, ...]:
                          "mid-episode), moody (changes preference at random episodes)",
                          False),
     }
-    for sc in SCENARIOS:
-        if sc not in ("hanger", "wheel"):
-            continue
+    for sc in SUITE_SCENARIOS:
         name = f"{sc}-test"
         out.append(Track(name, sc, "HEADLINE: the frozen test split (the evaluation set): "
                          "scripted, misspecified, adaptive and inconsistent humans",
@@ -394,7 +396,7 @@ def track_references(track: Track, version: str = LATEST) -> tuple[str, ...]:
     none on a track of its own whose humans have no model (``recorded:``, ``module:Class``).
     """
     if version == "1":
-        return () if track.per_run_humans else REFERENCE_AGENTS
+        return () if track.per_run_humans else REFERENCES_V1
     if ":" in str(dict(track.settings).get("population")):
         return ()  # recorded or module:Class humans: no model to plan with
     exact = not track.per_run_humans and not dict(track.settings).get("human_rationality")

@@ -24,7 +24,6 @@ from hri_envs.task.episode import (
     draw_other_support,
     draw_start_intention,
     start_state,
-    step_reward,
 )
 from hri_envs.task.scenarios import episode_scenario
 
@@ -157,9 +156,7 @@ class Episode:
             if r.rule.charge is not None:
                 reward = float(r.adjust(reward, s, a_r, self.start, self.lifted, a_h, s_next))
         else:  # the backend's outcome differs from the graph's prediction
-            reward = float(step_reward(r.graph, s, a_r, a_h, s_next, r.r0,
-                                       reward=r.rule, start=self.start,
-                                       lifted=self.lifted, failed=failed))
+            reward = float(r.judge(s, a_r, a_h, s_next, self.start, self.lifted, failed))
         lifted = self.lifted or r.left_list[s_next * r.n_supports + self.start]
         return Transition(reward, r.aborted_list[i],
                           r.ends_list[(s_next * r.n_supports + self.start) * 2 + lifted],

@@ -26,7 +26,7 @@ from hri_envs.errors import ConfigError
 from hri_envs.humans.finite_state import FiniteStateHuman, carry_to, keep_z, one_hot
 from hri_envs.humans.scripted import preference_human, preferences_for
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["fickle_human", "moody_human"]
 
@@ -70,7 +70,7 @@ def moody_human(graph: TaskGraph, *, p: float = 0.25,
     p = check_real(p, "p", low=0.0, high=1.0, allowed="a probability in [0, 1]")
     allowed = preferences_for(graph.name)
     if preferences is None:
-        first = scenario_spec(graph.name).default_preference
+        first = spec_of(graph).default_preference
         names = [first, *[q for q in allowed if q != first]][:4]
     else:
         names = preferences.split("+") if isinstance(preferences, str) else list(preferences)

@@ -38,7 +38,7 @@ from hri_envs.task.graph import (
     WAIT,
     TaskGraph,
 )
-from hri_envs.task.scenarios import Op, scenario_spec
+from hri_envs.task.scenarios import Op, scenario_spec, spec_of
 
 __all__ = [
     "PreferredActions",
@@ -233,15 +233,15 @@ def preference_human(
         passive: Probability of waiting in a step (0.2 in paper Fig. 10c).
         turn_back: Probability per episode of turning back halfway to the start support.
     """
-    allowed = preferences_for(graph.name)
+    allowed = spec_of(graph).preferences
     if preference is None:
-        preference = scenario_spec(graph.name).default_preference
+        preference = spec_of(graph).default_preference
     if not isinstance(preference, str) or preference not in allowed:
         raise ConfigError(
             f"unknown {graph.name} preference {preference!r}; allowed: {', '.join(allowed)}",
             field="preference",
         )
-    route_of = scenario_spec(graph.name).route
+    route_of = spec_of(graph).route
     n_k, n_s = graph.n_intentions, graph.n_states
     table = np.zeros((n_k, n_k, n_s), dtype=np.int64)
     support_actions(graph, table)

@@ -29,7 +29,7 @@ from hri_envs.humans.splits import MixtureSpec
 from hri_envs.humans.splits import population as named_population
 from hri_envs.task.episode import EpisodeRules, StepTable
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["OUTCOME_BITS", "SUPPORTED_POPULATIONS", "SUPPORTED_SPLITS", "HumanBank",
            "PopulationArrays", "StepArrays", "human_bank", "is_plain", "mixture_arrays",
@@ -220,7 +220,7 @@ def mixture_arrays(graph: TaskGraph, spec: MixtureSpec) -> PopulationArrays:
                 f"preference human; the JAX env holds the splits "
                 f"{', '.join(SUPPORTED_SPLITS)} and the populations "
                 f"{', '.join(SUPPORTED_POPULATIONS)}", field="population")
-        pref = params.get("preference") or scenario_spec(graph.name).default_preference
+        pref = params.get("preference") or spec_of(graph).default_preference
         entries.append(names.index(pref))
         rates.append((float(params.get("rationality", math.inf)),
                       float(params.get("passive", 0.0)), 0.0))
@@ -254,7 +254,7 @@ def population_arrays(graph: TaskGraph, population: str | PopulationSpec | Mixtu
                           f"{graph.name!r}", field="population")
     names = preferences_for(graph.name)
     chosen = names if spec.preferences == ("*",) else (  # "*": every preference
-        spec.preferences or (scenario_spec(graph.name).default_preference,))
+        spec.preferences or (spec_of(graph).default_preference,))
     prefs = np.array([names.index(p) for p in chosen], dtype=np.int32)
     log_beta = None
     if spec.rationality is not None:

@@ -21,7 +21,7 @@ from hri_envs.physics.episode import STEP_FIGURES, STEP_MEANS, step_figures
 from hri_envs.physics.ik import IKFailure
 from hri_envs.physics.sim import PandaSim
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import episode_scenario, scenario_spec
+from hri_envs.task.scenarios import episode_scenario, spec_of
 
 __all__ = ["PhysicsBatch"]
 
@@ -54,7 +54,7 @@ class PhysicsBatch(BatchBackend):
         self.sim = PandaSim(graph, options=self.physics)
         self._noise = [np.random.default_rng([self.seed, int(r), 3]) for r in self.runs]
         self._layouts = [np.random.default_rng([self.seed, int(r), 4]) for r in self.runs]
-        self._sample_layout = scenario_spec(graph.name).layout
+        self._sample_layout = spec_of(graph).layout
 
     def groups(self) -> list[np.ndarray]:
         """One run at a time: the simulator holds one run's state."""

@@ -406,7 +406,7 @@ class EpisodeRules:
     Args:
         graph: The task graph.
         r0: Robot reward for waiting while the human acts, in (-1, 0).
-        reward: The reward variant, one of :data:`REWARDS` (see :func:`step_reward`).
+        reward: The reward variant, one of :data:`REWARD_RULES` (see :func:`step_reward`).
 
     Attributes:
         next_state: (S A A,) int64, ``next_state[(s A + a_R) A + a_H]``.
@@ -465,6 +465,17 @@ class EpisodeRules:
                                                          np.asarray(a_h)))
         return self.rule.apply(RewardStep(self.graph, s, a_r, a_h, s_next, self.r0, start,
                                           lifted, np.asarray(reward, dtype=float)))
+
+    def judge(self, s: IntArray, a_r: IntArray, a_h: IntArray, s_next: IntArray,
+              start: IntArray, lifted: np.ndarray | bool,
+              failed: np.ndarray | bool = False) -> np.ndarray:
+        """The robot's reward of a step that reached ``s_next`` (the graph's prediction, or
+        a simulator's outcome) under the rules' reward rule: :func:`step_reward`, arrays
+        broadcast. Every loop that charges a step (the benchmark's, the envs' where the
+        outcome is not the graph's) calls this, so none restates a rule.
+        """
+        return step_reward(self.graph, s, a_r, a_h, s_next, self.r0, reward=self.rule,
+                           start=start, lifted=lifted, failed=failed)
 
     def index(self, s: IntArray, a_r: IntArray, a_h: IntArray) -> IntArray:
         """Flat index of ``(s, a_R, a_H)`` into the (S A A,) tables."""

@@ -28,7 +28,7 @@ from hri_bench.data.datasets import check_dataset_id
 from hri_bench.run.agents import validate_agent_name
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.errors import ConfigError
-from hri_envs.task.episode import REWARDS
+from hri_envs.task.episode import REWARD_RULES
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
 __all__ = ["DEFAULT_CONSENT", "DEFAULT_INSTRUCTIONS", "UNSUITED_AGENTS", "Assignment",
@@ -140,8 +140,8 @@ class ServeConfig:
         if self.r0 is not None:
             check_real(self.r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True,
                        allowed="None or a number in (-1, 0)")
-        if self.reward not in REWARDS:
-            raise ConfigError(f"reward must be one of {', '.join(REWARDS)}, got "
+        if self.reward not in REWARD_RULES:
+            raise ConfigError(f"reward must be one of {', '.join(REWARD_RULES)}, got "
                               f"{self.reward!r}", field="reward")
         if not isinstance(self.host, str) or not self.host or any(c.isspace()
                                                                   for c in self.host):

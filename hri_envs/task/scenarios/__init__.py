@@ -28,6 +28,7 @@ __all__ = [
     "register_scenario",
     "scenario_graph",
     "scenario_spec",
+    "spec_of",
 ]
 
 #: The registry, by name.
@@ -86,6 +87,13 @@ def _build(spec: ScenarioSpec) -> TaskGraph:
         raise ConfigError(f"scenario {spec.name!r}: its geometry does not build a task graph "
                           f"({type(exc).__name__}: {exc})", field="geometry") from exc
     return graph
+
+
+def spec_of(graph: TaskGraph) -> ScenarioSpec:
+    """The scenario a graph was built for (:attr:`TaskGraph.spec`; a graph built from a
+    bare geometry: the registered scenario of its name).
+    """
+    return graph.spec if graph.spec is not None else scenario_spec(graph.name)
 
 
 def scenario_graph(name: str) -> TaskGraph:
