@@ -489,3 +489,13 @@ def test_partner_env_names_an_env_that_is_not_the_two_agent_env(env):
     with pytest.raises(ConfigError, match="PartnerEnv wraps a two-agent env") as err:
         PartnerEnv(env)
     assert err.value.field == "env"
+
+
+@pytest.mark.parametrize("population", [False, True, 3, 1.5, b"train"])
+def test_a_population_that_is_not_a_name_is_refused(population):
+    """Hypothesis found population=False: a TypeError from deep inside the human's seat."""
+    from hri_envs.envs import RobotEnv
+
+    with pytest.raises(ConfigError, match="population must be a name") as exc:
+        RobotEnv(population=population)
+    assert exc.value.field == "population"

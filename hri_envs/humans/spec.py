@@ -128,9 +128,15 @@ class HumanSpec:
     def kind(self) -> str:
         """"scripted", "population" (a name of :mod:`hri_envs.humans`), "prefixed" (a
         registered :class:`PopulationKind`) or "class" (``module:Class``).
+
+        Raises:
+            ConfigError: ``population`` is neither None nor a name (``False``, a number).
         """
         if self.population is None:
             return "scripted"
+        if not isinstance(self.population, str):
+            raise ConfigError(f"population must be a name (a str) or None, got "
+                              f"{self.population!r}", field="population")
         if _kind_of(self.population) is not None:
             return "prefixed"
         return "class" if ":" in self.population else "population"
