@@ -25,6 +25,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from agents.archive import BoundedNpz
 from agents.config import LearnerConfig, default_config
 from agents.learning import algorithm1, mdp, partner_mdp
 from agents.protocol import BatchAgent, Trace, run_streams
@@ -34,10 +35,16 @@ from hri_envs.task import mdp as task_mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["Learner", "LearnerStateError", "graph_fingerprint", "sample_actions"]
+__all__ = ["MAX_STATE_BYTES", "Learner", "LearnerStateError", "graph_fingerprint",
+           "sample_actions"]
 
 _FORMAT = "hri-envs/learner/1"
 _ARRAYS = ("theta", "pi_h", "q_r", "pi_r")
+#: The most memory a saved learner state's arrays may take when loaded (256 MiB: about
+#: 8,000 wheel runs; a study's learners hold hundreds).
+MAX_STATE_BYTES = 256 * 2**20
+#: The most its metadata (a JSON string, 4 bytes per character) may take.
+MAX_META_BYTES = 4 * 2**20
 
 
 def graph_fingerprint(graph: TaskGraph) -> str:
@@ -282,27 +289,87 @@ class Learner(BatchAgent):
     def load(cls, path: str | Path, graph: TaskGraph, *, seed: int = 0) -> Learner:
         """Restore a learner saved by :meth:`save` for the same scenario.
 
+        The archive is read with bounded memory (:class:`~agents.archive.BoundedNpz`):
+        its metadata and the arrays' headers are checked before any array is read, the
+        arrays take at most :data:`MAX_STATE_BYTES`, and nothing is unpickled.
+
         Raises:
             LearnerStateError: The file is missing, truncated or damaged (any failure to
                 read it), lacks an entry, is from another scenario or graph, or holds
-                arrays (of a shape, of values or of a dtype other than float64, such as
-                complex), counts or parameters that no learner has.
+                arrays (of a shape, of a dtype other than float64, such as complex, or of
+                values: NaN, infinity, θ outside [-1, 1], a robot Q beyond what its
+                rewards and γ allow, policies that are not policies), counts or parameters
+                that no learner has; or its arrays would take more than
+                :data:`MAX_STATE_BYTES` (a deflate bomb is refused before it is inflated).
         """
         try:
-            with np.load(path, allow_pickle=False) as data:
-                missing = sorted({"meta", *_ARRAYS} - set(data.files))
+            with BoundedNpz(path, max_bytes=MAX_STATE_BYTES) as npz:
+                missing = sorted({"meta", *_ARRAYS} - set(npz.headers))
                 if missing:
                     raise LearnerStateError(f"{path}: missing entries {', '.join(missing)}; a "
                                             f"learner state has meta, {', '.join(_ARRAYS)}")
-                meta = json.loads(str(data["meta"]))
-                theta = np.array(data["theta"])
-                pi_h, q_r, pi_r = (np.array(data[k]) for k in ("pi_h", "q_r", "pi_r"))
+                head = npz.headers["meta"]
+                if head.dtype.kind != "U" or head.shape != () or head.nbytes > MAX_META_BYTES:
+                    raise LearnerStateError(f"{path}: its metadata is not a JSON object (a "
+                                            f"string of at most {MAX_META_BYTES // 4:,} "
+                                            f"characters); got shape {head.shape} of "
+                                            f"{head.dtype}")
+                meta = json.loads(str(npz.read("meta")))
+                cls._check_meta(path, meta, graph)
+                expected = cls._expected_shapes(graph, npz.headers["theta"].shape)
+                for key in _ARRAYS:
+                    head = npz.headers[key]
+                    if head.dtype != np.float64:  # complex, float32, int, str: never a learner's
+                        raise LearnerStateError(f"{path}: {key} holds {head.dtype} values; a "
+                                                "learner state holds arrays of real numbers, "
+                                                "float64")
+                    if head.shape != expected[key]:
+                        raise LearnerStateError(f"{path}: {key} has shape {head.shape}, "
+                                                f"expected {expected[key]}")
+                theta, pi_h, q_r, pi_r = npz.read_all(_ARRAYS)
         except LearnerStateError:
             raise
         except Exception as exc:  # zip, zlib, EOF, JSON, tokenizer, ... errors alike
             raise LearnerStateError(f"{path} is not a readable learner state "
                                     f"({type(exc).__name__}: {exc}); give a file written by "
                                     "Learner.save") from exc
+        n_b = theta.shape[0]
+        arrays = {"theta": theta, "pi_h": pi_h, "q_r": q_r, "pi_r": pi_r}
+        for key, arr in arrays.items():
+            if not np.all(np.isfinite(arr)):
+                raise LearnerStateError(f"{path}: {key} contains NaN or infinity")
+        if np.abs(theta).max(initial=0.0) > 1.0:
+            raise LearnerStateError(
+                f"{path}: theta holds {np.abs(theta).max():.6g} in absolute value; θ is kept "
+                "in [-1, 1] (every IRL step rescales it to max |θ| = 1)")
+        for key in ("pi_h", "pi_r"):
+            p = arrays[key]
+            if np.abs(p.sum(-1) - 1).max() > 1e-6 or np.any(p[..., ~graph.valid] > 0):
+                raise LearnerStateError(f"{path}: {key} is not a policy over valid actions")
+        try:
+            config = LearnerConfig(**meta["config"])
+        except (TypeError, ValueError, KeyError) as exc:
+            raise LearnerStateError(f"{path}: invalid learner parameters: {exc!r}") from exc
+        bound = np.abs(graph.reward(config.r0)).max() / (1.0 - config.gamma)
+        if np.abs(q_r).max(initial=0.0) > bound * (1 + 1e-9) + 1e-9:
+            raise LearnerStateError(
+                f"{path}: q_r holds {np.abs(q_r).max():.6g} in absolute value; a robot Q "
+                f"of these rewards and γ = {config.gamma:g} lies within ±{bound:.6g} "
+                "(max |reward| / (1 - γ))")
+        episodes = meta.get("episodes", 0)
+        if type(episodes) is not int or episodes < 0:
+            raise LearnerStateError(f"{path}: episode count {episodes!r}; it must be a whole "
+                                    "number >= 0")
+        # The saved model replaces the initial one: do not pretrain it again.
+        learner = cls(graph, n_b, config.replace(initial_preference=None), seed=seed)
+        learner.config = config
+        learner.theta, learner.pi_h, learner.q_r, learner.pi_r = theta, pi_h, q_r, pi_r
+        learner.episodes = episodes
+        return learner
+
+    @staticmethod
+    def _check_meta(path: str | Path, meta: object, graph: TaskGraph) -> None:
+        """The metadata is this format's, for ``graph``."""
         if not isinstance(meta, dict):
             raise LearnerStateError(f"{path}: its metadata is not a JSON object")
         if meta.get("format") != _FORMAT:
@@ -314,35 +381,12 @@ class Learner(BatchAgent):
                 f"{path} holds a learner for scenario {meta.get('scenario')!r}; it cannot be "
                 f"loaded for {graph.name!r} (or the task graph changed)"
             )
-        n_b = theta.shape[0] if theta.ndim == 2 else -1
+
+    @staticmethod
+    def _expected_shapes(graph: TaskGraph, theta_shape: tuple[int, ...]
+                         ) -> dict[str, tuple[int, ...]]:
+        """The arrays' shapes for ``graph``, with B runs from θ's shape (B, F)."""
+        n_b = theta_shape[0] if len(theta_shape) == 2 else -1
         shape_r = (n_b, graph.n_intentions, graph.n_states, graph.n_actions)
-        arrays = {"theta": theta, "pi_h": pi_h, "q_r": q_r, "pi_r": pi_r}
-        expected = {"theta": (n_b, graph.n_features), "pi_h": shape_r, "q_r": shape_r,
-                    "pi_r": shape_r}
-        for key, arr in arrays.items():
-            if arr.dtype != np.float64:  # complex, float32, int, str: never a learner's
-                raise LearnerStateError(f"{path}: {key} holds {arr.dtype} values; a learner "
-                                        "state holds arrays of real numbers, float64")
-            if arr.shape != expected[key]:
-                raise LearnerStateError(f"{path}: {key} has shape {arr.shape}, expected "
-                                        f"{expected[key]}")
-            if not np.all(np.isfinite(arr)):
-                raise LearnerStateError(f"{path}: {key} contains NaN or infinity")
-        for key in ("pi_h", "pi_r"):
-            p = arrays[key]
-            if np.abs(p.sum(-1) - 1).max() > 1e-6 or np.any(p[..., ~graph.valid] > 0):
-                raise LearnerStateError(f"{path}: {key} is not a policy over valid actions")
-        try:
-            config = LearnerConfig(**meta["config"])
-        except (TypeError, ValueError, KeyError) as exc:
-            raise LearnerStateError(f"{path}: invalid learner parameters: {exc!r}") from exc
-        episodes = meta.get("episodes", 0)
-        if type(episodes) is not int or episodes < 0:
-            raise LearnerStateError(f"{path}: episode count {episodes!r}; it must be a whole "
-                                    "number >= 0")
-        # The saved model replaces the initial one: do not pretrain it again.
-        learner = cls(graph, n_b, config.replace(initial_preference=None), seed=seed)
-        learner.config = config
-        learner.theta, learner.pi_h, learner.q_r, learner.pi_r = theta, pi_h, q_r, pi_r
-        learner.episodes = episodes
-        return learner
+        return {"theta": (n_b, graph.n_features), "pi_h": shape_r, "q_r": shape_r,
+                "pi_r": shape_r}

@@ -1,7 +1,7 @@
 """Pairwise speed comparison of this checkout against another one, robust to a loaded machine.
 
-    python benchmarks/compare_speed.py --vs /path/to/old/checkout [--rounds 5] [--only learner]
-    python benchmarks/compare_speed.py --run /path/to/checkout --only jax_env   # one figure
+    .venv/bin/python benchmarks/compare_speed.py --vs /path/to/old/checkout [--rounds 5]
+    .venv/bin/python benchmarks/compare_speed.py --run /path/to/checkout --only jax_env
 
 Each round times every measure once in the old checkout and once in this one, alternately,
 each in a fresh interpreter with that checkout first on its path; the report gives, per
@@ -120,8 +120,11 @@ def main() -> None:
     which = parser.add_mutually_exclusive_group(required=True)
     which.add_argument("--vs", type=Path, help="the other checkout")
     which.add_argument("--run", type=Path, help="time this checkout once and print the figure")
-    parser.add_argument("--rounds", type=int, default=5)
-    parser.add_argument("--only", choices=sorted(MEASURES), action="append")
+    parser.add_argument("--rounds", type=int, default=5,
+                        help="rounds, each timing both checkouts once (default 5)")
+    parser.add_argument("--only", choices=sorted(MEASURES), action="append",
+                        help="time only this measure (repeat for several; jax_env only when "
+                             "named)")
     parser.add_argument("--json", action="store_true", help="end with one JSON line")
     args = parser.parse_args()
     if args.run is not None:

@@ -1,6 +1,6 @@
 """Environment throughput: PettingZoo joint steps/s and vector-env steps/s.
 
-    python benchmarks/env_speed.py [--num-envs 1024] [--cpu-time] [--repeats 3]
+    .venv/bin/python benchmarks/env_speed.py [--num-envs 1024] [--cpu-time] [--repeats 3]
 
 Targets (an idle 2-core machine): parallel env >= 300,000 joint steps/s, vector env with 1024
 envs >= 20,000,000 env steps/s. The measuring code lives in hri_envs.envs.speed (also used by
@@ -22,8 +22,10 @@ VECTOR_TARGET = 20_000_000
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--num-envs", type=int, default=1024)
-    parser.add_argument("--scenario", choices=["hanger", "wheel", "both"], default="both")
+    parser.add_argument("--num-envs", type=int, default=1024,
+                        help="envs of the vector env (default 1024)")
+    parser.add_argument("--scenario", choices=["hanger", "wheel", "both"], default="both",
+                        help="the scenario to time (default both)")
     parser.add_argument("--cpu-time", action="store_true",
                         help="time with the thread's CPU time (for a loaded machine)")
     parser.add_argument("--repeats", type=int, default=3, help="timed repeats; the best counts")

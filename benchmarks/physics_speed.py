@@ -1,6 +1,6 @@
 """Physics backend speed: real-time factor and wall seconds per abstract step.
 
-    python benchmarks/physics_speed.py [--scenario hanger|wheel] [--async N [--seconds S]]
+    .venv/bin/python benchmarks/physics_speed.py [--scenario hanger|wheel] [--async N [--seconds S]]
 
 Targets (2-core machine): >= 20x real time on one core for the Panda + object + embodied
 human (2 ms physics steps, control at 125 Hz, mink IK at 25 Hz); with ``--async N``: >= 50
@@ -24,7 +24,8 @@ ASYNC_TARGET = 50.0
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenario", choices=["hanger", "wheel"], default="hanger")
+    parser.add_argument("--scenario", choices=["hanger", "wheel"], default="hanger",
+                        help="the scenario to time (default hanger)")
     parser.add_argument("--async", dest="num_envs", type=int, default=0, metavar="N",
                         help="measure N envs in an AsyncVectorEnv instead (one process each)")
     parser.add_argument("--seconds", type=float, default=30.0,

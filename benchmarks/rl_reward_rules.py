@@ -6,7 +6,7 @@ and cost nothing, so a robot can replace a wait (r0) by a pointless toggle (docs
 ``"no-free-toggle"`` and evaluates each policy under both rules, counting the robot's unneeded
 toggles (``hri_envs.task.episode.unneeded_toggle``)::
 
-    python benchmarks/rl_reward_rules.py --timesteps 60000 --episodes 200
+    .venv/bin/python benchmarks/rl_reward_rules.py --timesteps 60000 --episodes 200
 
 Needs the ``rl`` extra. Prints one JSON line at the end.
 """
@@ -49,12 +49,18 @@ def evaluate(model, env_id: str, rule: str, episodes: int, seed: int, **kwargs) 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--env", default="hri_envs/Wheel-v0")
-    parser.add_argument("--preference", default="straight")
-    parser.add_argument("--human-passive", type=float, default=0.2)
-    parser.add_argument("--timesteps", type=int, default=60_000)
-    parser.add_argument("--episodes", type=int, default=200)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--env", default="hri_envs/Wheel-v0",
+                        help="the Gymnasium id to train on (default hri_envs/Wheel-v0)")
+    parser.add_argument("--preference", default="straight",
+                        help="the scripted human's preference (default straight)")
+    parser.add_argument("--human-passive", type=float, default=0.2,
+                        help="probability that the human waits in a step (default 0.2)")
+    parser.add_argument("--timesteps", type=int, default=60_000,
+                        help="MaskablePPO's training steps per reward rule (default 60000)")
+    parser.add_argument("--episodes", type=int, default=200,
+                        help="evaluation episodes per policy and rule (default 200)")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="seed of the training and of the evaluation episodes (default 0)")
     args = parser.parse_args()
     kwargs = {"preference": args.preference, "human_passive": args.human_passive}
     out: dict = {"env": args.env, **kwargs, "timesteps": args.timesteps}

@@ -126,9 +126,10 @@ def main() -> None:
     p.add_argument("--episodes", type=int, default=8, help="episodes per session (8)")
     p.add_argument("--think-ms", type=float, default=300.0,
                    help="mean wait before each key press, ms (300; 0: as fast as possible)")
-    p.add_argument("--scenario", choices=("hanger", "wheel"), default="hanger")
+    p.add_argument("--scenario", choices=("hanger", "wheel"), default="hanger",
+                   help="the scenario the participants play (default hanger)")
     p.add_argument("--seconds", type=float, default=600.0, help="deadline (600 s)")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true", help="end with one JSON line")
     args = p.parse_args()
     with tempfile.TemporaryDirectory() as data:
         proc, url = start_server(data, args.episodes, args.sessions, args.scenario)

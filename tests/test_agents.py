@@ -174,6 +174,115 @@ def test_load_rejects_other_scenarios_and_damage(tmp_path, hanger, wheel):
         Learner.load(nan_path, hanger)
 
 
+def _saved_arrays(path):
+    with np.load(path) as data:
+        return {k: data[k] for k in data.files}
+
+
+@pytest.mark.parametrize(("key", "value", "fragment"), [
+    ("theta", 1e308, "theta holds 1e\\+308 .* kept in \\[-1, 1\\]"),
+    ("theta", -1.5, "theta holds 1.5 .* kept in \\[-1, 1\\]"),
+    ("q_r", 1e308, "q_r holds 1e\\+308 .* within ±10"),
+    ("q_r", -50.0, "q_r holds 50 in absolute value"),
+])
+def test_load_refuses_arrays_out_of_range(tmp_path, hanger, key, value, fragment):
+    """θ = 1e308 used to load and divide by zero in episode 2; a Q no rewards give too."""
+    path = tmp_path / "learner.npz"
+    Learner(hanger, 2).save(path)
+    arrays = _saved_arrays(path)
+    arrays[key] = arrays[key].copy()
+    arrays[key].reshape(-1)[3] = value
+    with open(path, "wb") as f:
+        np.savez(f, **arrays)
+    with pytest.raises(LearnerStateError, match=fragment):
+        Learner.load(path, hanger)
+
+
+def _deflate_bomb(path, arrays, bombs):
+    """``arrays`` as an .npz, but each of ``bombs`` (name -> shape) a member of that shape's
+    zeros, deflated (a few hundred kB that declare hundreds of MB)."""
+    import io
+    import zipfile
+
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for name, array in arrays.items():
+            if name not in bombs:
+                buf = io.BytesIO()
+                np.lib.format.write_array(buf, array)
+                zf.writestr(f"{name}.npy", buf.getvalue())
+                continue
+            shape = bombs[name]
+            buf = io.BytesIO()
+            np.lib.format.write_array_header_1_0(buf, {"descr": "<f8", "fortran_order": False,
+                                                       "shape": shape})
+            with zf.open(f"{name}.npy", "w", force_zip64=True) as f:
+                f.write(buf.getvalue())
+                left = int(np.prod(shape)) * 8
+                chunk = bytes(8 * 2**20)
+                while left > 0:
+                    f.write(chunk[:left])
+                    left -= len(chunk)
+
+
+@pytest.mark.parametrize("kind", ["one member", "all consistent"])
+def test_a_deflate_bomb_is_refused_before_it_is_inflated(tmp_path, hanger, kind):
+    """Each member's header and its size in the zip directory are read first: a member
+    that declares 300 MB (a mismatched shape, or a state larger than MAX_STATE_BYTES)
+    is refused having allocated next to nothing."""
+    import tracemalloc
+
+    path = tmp_path / "learner.npz"
+    Learner(hanger, 2).save(path)
+    arrays = _saved_arrays(path)
+    n_i, n_s, n_a = hanger.n_intentions, hanger.n_states, hanger.n_actions
+    if kind == "one member":
+        bombs = {"pi_h": (52_000, n_i, n_s, n_a)}  # 300 MB, theta says 2 runs
+        fragment = "pi_h has shape"
+    else:
+        b = 16_000  # every array of 16,000 runs: 276 MB in all
+        bombs = {"theta": (b, hanger.n_features), "pi_h": (b, n_i, n_s, n_a),
+                 "q_r": (b, n_i, n_s, n_a), "pi_r": (b, n_i, n_s, n_a)}
+        fragment = "more than 256 MiB"
+    _deflate_bomb(path, arrays, bombs)
+    assert path.stat().st_size < 2 * 2**20
+    tracemalloc.start()
+    try:
+        with pytest.raises(LearnerStateError, match=fragment):
+            Learner.load(path, hanger)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 32 * 2**20, f"{peak / 2**20:.0f} MiB allocated before refusing"
+
+
+def test_load_refuses_a_member_whose_size_is_not_its_header(tmp_path, hanger):
+    import zipfile
+
+    path = tmp_path / "learner.npz"
+    Learner(hanger, 1).save(path)
+    arrays = _saved_arrays(path)
+    with zipfile.ZipFile(path, "w") as zf:
+        for name, array in arrays.items():
+            import io
+
+            buf = io.BytesIO()
+            np.lib.format.write_array(buf, array)
+            zf.writestr(f"{name}.npy", buf.getvalue() + (b"x" * 100 if name == "q_r" else b""))
+    with pytest.raises(LearnerStateError, match="q_r takes .* but its header declares"):
+        Learner.load(path, hanger)
+
+
+def test_load_never_unpickles(tmp_path, hanger):
+    path = tmp_path / "learner.npz"
+    Learner(hanger, 1).save(path)
+    arrays = _saved_arrays(path)
+    arrays["meta"] = np.array([{"format": "x"}], dtype=object)
+    with open(path, "wb") as f:
+        np.savez(f, **arrays)
+    with pytest.raises(LearnerStateError, match="meta holds Python objects"):
+        Learner.load(path, hanger)
+
+
 def test_config_rejects_bad_values():
     with pytest.raises(ValueError, match="r0 must be in"):
         default_config("wheel", r0=0.5)

@@ -515,3 +515,13 @@ def test_a_wheel_layout_its_waypoints_do_not_fit_is_refused_naming_the_stand(lay
         gym.make("hri_envs/Wheel-v0").reset(seed=0, options={"layout": layout})
     assert err.value.field == "layout"
     gym.make("hri_envs/Wheel-v0").reset(seed=0, options={"layout": ((0.0, 2.2), (1.6, 2.2))})
+
+
+@pytest.mark.parametrize("population", [False, True, 3, 1.5, b"train"])
+def test_a_population_that_is_not_a_name_is_refused(population):
+    """Hypothesis found population=False: a TypeError from deep inside the human's seat."""
+    from hri_envs.envs import RobotEnv
+
+    with pytest.raises(ConfigError, match="population must be a name") as exc:
+        RobotEnv(population=population)
+    assert exc.value.field == "population"

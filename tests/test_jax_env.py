@@ -23,7 +23,7 @@ import jax.numpy as jnp  # noqa: E402
 
 from hri_envs.envs.config import check_r0, scenario_graph  # noqa: E402
 from hri_envs.envs.vector import RobotVectorEnv  # noqa: E402
-from hri_envs.errors import ConfigError  # noqa: E402
+from hri_envs.errors import ActionError, ConfigError  # noqa: E402
 from hri_envs.humans.populations import (  # noqa: E402
     POPULATIONS,
     PopulationHumans,
@@ -399,3 +399,130 @@ def test_a_fixed_human_draws_a_new_drift_each_trial():
             seen[i].add(int(d))
         assert np.all(np.asarray(state.member.entry) == int(params.fixed.entry))
     assert np.mean([len(s) > 1 for s in seen]) > 0.5
+
+
+# --------------------------------------------------------------------------- bad inputs
+@pytest.fixture(scope="module")
+def hanger_env():
+    env = JaxRobotEnv("hanger")
+    params = env.default_params
+    _, state = env.reset(jax.random.key(0), params)
+    _, batch = env.reset_batch(jax.random.key(0), 4, params)
+    return env, params, state, batch
+
+
+@pytest.mark.parametrize("action", [0.5, 1.7, True, np.True_, "1", None, [1],
+                                    np.float32(2.0), jnp.float32(0.5), jnp.bool_(True)])
+def test_a_non_integer_action_is_refused_not_truncated(hanger_env, action):
+    env, params, state, _ = hanger_env
+    with pytest.raises(ActionError, match=r"step: action must be an integer in 0\.\.9"):
+        env.step(jax.random.key(1), state, action, params)
+
+
+@pytest.mark.parametrize("action", [-1, 10, 99, np.int64(10), jnp.int32(-5)])
+def test_an_action_out_of_range_is_refused_when_concrete(hanger_env, action):
+    env, params, state, _ = hanger_env
+    with pytest.raises(ActionError, match=f"got {int(action)}"):
+        env.step(jax.random.key(1), state, action, params)
+
+
+@pytest.mark.parametrize(("action", "what"), [
+    (jnp.array([0.5, 0.0, 0.0, 0.0]), "float32"), (jnp.array([True] * 4), "bool"),
+    (jnp.array([1, 2, 3]), r"shape \(3,\)"), (jnp.array([0, 1, 10, 2]), r"got \[10\]"),
+    (np.array([[0, 1, 2, 3]]), r"shape \(1, 4\)"), ([0, 1, 2, 3], "list")])
+def test_step_batch_refuses_bad_actions(hanger_env, action, what):
+    env, params, _, batch = hanger_env
+    with pytest.raises(ActionError, match=f"step_batch: action must be .*{what}"):
+        env.step_batch(jax.random.key(1), batch, action, params)
+
+
+def test_under_jit_a_float_action_is_refused_while_tracing(hanger_env):
+    """Dtypes and shapes are static: checked once when tracing, nothing in the step."""
+    env, params, _, batch = hanger_env
+    step = jax.jit(env.step_batch)
+    with pytest.raises(ActionError, match="float32"):
+        step(jax.random.key(1), batch, jnp.zeros(4, jnp.float32), params)
+    with pytest.raises(ActionError, match="float32"):
+        jax.jit(jax.vmap(env.step, in_axes=(None, 0, 0, None)))(
+            jax.random.key(1), batch, jnp.zeros(4, jnp.float32), params)
+    obs, _, _, _, _ = step(jax.random.key(1), batch, jnp.zeros(4, jnp.int32), params)
+    assert obs["state"].shape == (4,)
+
+
+@pytest.mark.parametrize(("field", "value"), [
+    ("state", 10000), ("state", -5), ("start", 3), ("intention", -1), ("steps", 100),
+    ("turn_at", -2), ("last_human", 10), ("episode", 1)])
+def test_a_state_no_step_makes_is_refused(hanger_env, field, value):
+    env, params, state, batch = hanger_env
+    bad = state._replace(**{field: jnp.int32(value)})
+    with pytest.raises(ConfigError, match=f"state.{field} must be in .*got {value}") as exc:
+        env.step(jax.random.key(1), bad, 0, params)
+    assert exc.value.field == "state"
+    bad = batch._replace(**{field: getattr(batch, field).at[2].set(value)})
+    with pytest.raises(ConfigError, match=f"state.{field} must be in .*got \\[{value}\\]"):
+        env.step_batch(jax.random.key(1), bad, jnp.zeros(4, jnp.int32), params)
+
+
+@pytest.mark.parametrize(("field", "value"), [("entry", 99), ("passive", 1.5),
+                                              ("turn_back", -0.1), ("beta", math.nan),
+                                              ("beta", 0.0)])
+def test_a_member_no_draw_makes_is_refused(hanger_env, field, value):
+    env, params, state, _ = hanger_env
+    old = getattr(state.member, field)
+    bad = state._replace(member=state.member._replace(
+        **{field: jnp.asarray(value, old.dtype)}))
+    with pytest.raises(ConfigError, match=f"state.member.{field} must be"):
+        env.step(jax.random.key(1), bad, 0, params)
+
+
+def test_a_state_of_the_wrong_dtype_or_shape_is_refused(hanger_env):
+    env, params, state, batch = hanger_env
+    with pytest.raises(ConfigError, match=r"state.state must be an integer array of shape \(\)"):
+        env.step(jax.random.key(1), state._replace(state=jnp.float32(3)), 0, params)
+    with pytest.raises(ConfigError, match=r"state.start must be an integer array of shape"):
+        env.step_batch(jax.random.key(1), batch._replace(start=batch.start[:3]),
+                       jnp.zeros(4, jnp.int32), params)
+    with pytest.raises(ConfigError, match="EnvState"):
+        env.step(jax.random.key(1), {"state": 0}, 0, params)
+    with pytest.raises(ConfigError, match=r"shape \(N,\)"):
+        env.step_batch(jax.random.key(1), state, jnp.zeros((), jnp.int32), params)
+
+
+def test_another_scenarios_params_are_refused(hanger_env):
+    env, _, state, batch = hanger_env
+    wheel = JaxRobotEnv("wheel").default_params
+    with pytest.raises(ConfigError, match=r"params.outcome has shape .*\(the hanger") as exc:
+        env.step(jax.random.key(1), state, 0, wheel)
+    assert exc.value.field == "params"
+    for call in (lambda: env.reset(jax.random.key(0), wheel),
+                 lambda: env.reset_batch(jax.random.key(0), 4, wheel),
+                 lambda: jax.jit(env.step_batch)(jax.random.key(1), batch,
+                                                 jnp.zeros(4, jnp.int32), wheel)):
+        with pytest.raises(ConfigError, match="another scenario"):
+            call()
+    with pytest.raises(ConfigError, match="another scenario"):  # another population's
+        env.reset(jax.random.key(0), JaxRobotEnv("hanger", population="train").default_params)
+    with pytest.raises(ConfigError, match="EnvParams"):
+        env.reset(jax.random.key(0), {"outcome": 0})
+
+
+@pytest.mark.parametrize("n", [1.5, -1, 0, True, "2", 2**28 + 1, None])
+def test_reset_batch_refuses_a_count_that_is_not_a_whole_number_of_envs(hanger_env, n):
+    env, params, _, _ = hanger_env
+    with pytest.raises(ConfigError, match="reset_batch's n must be a whole number") as exc:
+        env.reset_batch(jax.random.key(0), n, params)
+    assert exc.value.field == "n"
+
+
+def test_checked_inputs_step_as_before(hanger_env):
+    """The checks change nothing for good inputs: eager, jit and numpy integer actions."""
+    env, params, state, batch = hanger_env
+    action = jnp.array([0, 3, 5, 9], jnp.int32)
+    eager = env.step_batch(jax.random.key(3), batch, action, params)
+    jitted = jax.jit(env.step_batch)(jax.random.key(3), batch, action, params)
+    numpy_int = env.step_batch(jax.random.key(3), batch, np.asarray(action, np.int64), params)
+    for got in (jitted, numpy_int):
+        for a, b in zip(jax.tree.leaves(eager), jax.tree.leaves(got), strict=True):
+            np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    one = env.step(jax.random.key(3), state, np.int64(4), params)
+    assert int(one[1].steps) in (0, 1)

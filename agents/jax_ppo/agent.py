@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from agents.jax_ppo import checkpoint
-from agents.jax_ppo.network import Inputs, NetConfig, apply, masked_logits
+from agents.jax_ppo.network import Inputs, NetConfig, apply, masked_logits, param_shapes
 from agents.protocol import BatchAgent, Trace
 from hri_envs.errors import ConfigError, LearnerStateError
 from hri_envs.task.actions import WAIT
@@ -55,7 +55,9 @@ def load_checked(path: str | os.PathLike[str], graph: TaskGraph
 
     Raises:
         ConfigError: No checkpoint there (``field="agents"``).
-        LearnerStateError: Not a checkpoint, or one trained on another scenario.
+        LearnerStateError: Not a checkpoint, one trained on another scenario, weights that
+            are not all finite (:func:`~agents.jax_ppo.checkpoint.load`), or weights that
+            do not fit its network's sizes.
     """
     file = checkpoint_path(path, graph.name)
     arrays, config = checkpoint.load(file)
@@ -66,6 +68,21 @@ def load_checked(path: str | os.PathLike[str], graph: TaskGraph
         raise LearnerStateError(f"{str(file)!r} was trained on the "
                                 f"{config.get('scenario')!r} scenario; this study is the "
                                 f"{graph.name}")
+    try:
+        sizes = NetConfig(**net)
+        want = param_shapes(sizes)
+    except TypeError as exc:
+        raise LearnerStateError(f"{str(file)!r}: its network sizes {net!r} are not a "
+                                f"NetConfig's ({exc})") from None
+    if (sizes.n_supports, type(sizes.hidden)) != (graph.n_intentions, int) or sizes.hidden < 1:
+        raise LearnerStateError(f"{str(file)!r}: its network sizes {net!r} do not fit the "
+                                f"{graph.name} (K = {graph.n_intentions}, hidden >= 1)")
+    got = {k: tuple(v.shape) for k, v in arrays.items()}
+    if got != want:
+        wrong = sorted(k for k in set(got) | set(want) if got.get(k) != want.get(k))
+        raise LearnerStateError(
+            f"{str(file)!r}: its weights do not fit its network ({', '.join(wrong[:4])}: "
+            f"{[got.get(k) for k in wrong[:4]]}, expected {[want.get(k) for k in wrong[:4]]})")
     return file, arrays, config
 
 

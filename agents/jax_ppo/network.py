@@ -19,7 +19,7 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 
-__all__ = ["Inputs", "NetConfig", "apply", "init_params", "masked_logits"]
+__all__ = ["Inputs", "NetConfig", "apply", "init_params", "masked_logits", "param_shapes"]
 
 Params = dict[str, jax.Array]
 
@@ -65,6 +65,15 @@ class Inputs(NamedTuple):
     prev_action: jax.Array
     last_end: jax.Array
     first: jax.Array
+
+
+def param_shapes(cfg: NetConfig) -> dict[str, tuple[int, ...]]:
+    """The shape of each parameter :func:`init_params` makes (to check a checkpoint)."""
+    h, a, k = cfg.hidden, cfg.n_actions, cfg.n_supports
+    return {"emb_state": (cfg.n_states * k, h), "emb_start": (k, h), "emb_human": (a, h),
+            "emb_prev": (a, h), "emb_end": (2 * (k + 1), h), "w_mask": (a, h), "b_in": (h,),
+            "gru_wx": (h, 3 * h), "gru_wh": (h, 3 * h), "gru_b": (3 * h,), "gru_bhn": (h,),
+            "pi_w": (h, a), "pi_b": (a,), "v_w": (h, 1), "v_b": (1,)}
 
 
 def init_params(key: jax.Array, cfg: NetConfig) -> Params:

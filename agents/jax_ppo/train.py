@@ -42,39 +42,48 @@ from hri_envs.task.scenarios import scenario_spec
 __all__ = ["TrainConfig", "TrainResult", "make_env", "sample_actions", "train"]
 
 
+#: The most episodes of one trial (the update keeps a sum per episode index of a trial).
+MAX_TRIAL = 10_000
+
+
 @dataclass(frozen=True)
 class TrainConfig:
     """What to train, on what, how long (JSON-ready; stored in the checkpoint).
 
+    The attributes' descriptions are ``benchmarks/train_jax_ppo.py --help``'s help texts
+    (tyro prints them as written: plain text, no markup). :meth:`check` refuses bad values.
+
     Attributes:
-        scenario: "hanger" or "wheel".
-        population: The training population's name: the frozen ``train`` split
-            (:mod:`hri_envs.humans.splits`: 40 scripted preference humans, deterministic,
-            passive or Boltzmann; the default), or a scripted population of
-            :data:`hri_envs.jax.tables.SUPPORTED_POPULATIONS` (the held-out one and the
-            evaluation splits are refused).
-        passive: (low, high) passive rate drawn per human, replacing a scripted
-            population's (None: the population's; not for a split).
-        turn_back: (low, high) turning-back rate drawn per human, likewise.
-        episodes_per_trial: Episodes with one human (None: the scenario's study length).
-        reward: The reward variant ("paper" or "no-free-toggle").
-        r0: The robot's waiting reward (None: the scenario's).
+        scenario: The scenario: "hanger" or "wheel".
+        population: The training population: the frozen "train" split (40 scripted
+            preference humans, deterministic, passive or Boltzmann; see
+            hri_envs.humans.splits), "validation", or a scripted population the JAX env
+            holds (hanger-all, preferences, mixed-rationality, passive-turnback). The
+            held-out population and the evaluation splits are refused.
+        passive: LOW HIGH: the passive rate drawn per human, in [0, 1] with LOW <= HIGH;
+            replaces a scripted population's range (None: the population's; not for a
+            split).
+        turn_back: LOW HIGH: the turning-back rate drawn per human, likewise.
+        episodes_per_trial: Episodes with one human, at least 1 (None: the scenario's
+            study length, hanger 8, wheel 20).
+        reward: The reward variant: "paper" or "no-free-toggle".
+        r0: The robot's waiting reward, in (-1, 0) (None: the scenario's).
         max_cycles: Step limit per episode.
-        total_steps: Env steps to train for (rounded up to whole updates).
+        total_steps: Env steps to train for (rounded up to whole chunks of updates).
         num_envs: Envs stepped together.
         rollout: Steps per env between updates.
         epochs: Passes over a rollout.
-        minibatches: Minibatches per pass (split along the envs).
-        lr: Adam's learning rate (annealed linearly to 0).
-        gamma: Discount per step, over the whole trial.
-        gae_lambda: GAE's λ.
-        clip: PPO's ratio clip.
-        ent_coef: Entropy bonus.
-        vf_coef: Value-loss weight.
-        max_grad_norm: Gradient clip.
-        reward_scale: Rewards are multiplied by it for the value function and GAE (a
-            trial's return is tens of rewards; unscaled, the value loss's gradient would
-            dominate the clipped global norm and starve the policy's).
+        minibatches: Minibatches per pass (split along the envs; must divide num-envs).
+        lr: Adam's learning rate, > 0 (annealed linearly to 0).
+        gamma: Discount per step, over the whole trial, in (0, 1].
+        gae_lambda: GAE's lambda, in (0, 1].
+        clip: PPO's ratio clip, in (0, 1].
+        ent_coef: Weight of the entropy bonus, a finite number >= 0.
+        vf_coef: Weight of the value loss, a finite number >= 0.
+        max_grad_norm: Gradient clip (global norm), in (0, 1].
+        reward_scale: Rewards are multiplied by it, in (0, 1], for the value function and
+            GAE: a trial's return is tens of rewards; unscaled, the value loss's gradient
+            would dominate the clipped global norm and starve the policy's.
         hidden: GRU width.
         seed: Every draw (initial weights, envs, sampling) derives from it.
         chunk: Updates per compiled call (progress is logged between calls).
@@ -125,7 +134,13 @@ class TrainConfig:
         return asdict(self)
 
     def check(self) -> TrainConfig:
-        """Raise a :class:`ConfigError` naming the field of a bad value; return self."""
+        """Raise a :class:`ConfigError` naming the field of a bad value; return self.
+
+        Every number is checked for its type and range (NaN and infinity are refused, so
+        a bad coefficient cannot train NaN weights); a rate range must be ``(low, high)``
+        in [0, 1] with ``low <= high``. The names (scenario, population, reward) are
+        checked by :func:`make_env`.
+        """
         for name in ("total_steps", "num_envs", "rollout", "epochs", "minibatches", "hidden",
                      "chunk", "max_cycles"):
             check_whole(getattr(self, name), name, minimum=1)
@@ -135,8 +150,35 @@ class TrainConfig:
         for name in ("gamma", "gae_lambda", "clip", "max_grad_norm", "reward_scale"):
             check_real(getattr(self, name), name, low=0.0, high=1.0, low_open=True)
         check_real(self.lr, "lr", low=0.0, high=1e3, low_open=True)
+        for name in ("ent_coef", "vf_coef"):
+            check_real(getattr(self, name), name, low=0.0)
+        for name in ("passive", "turn_back"):
+            _check_range(getattr(self, name), name)
+        if self.episodes_per_trial is not None:
+            check_whole(self.episodes_per_trial, "episodes_per_trial", minimum=1,
+                        maximum=MAX_TRIAL,
+                        allowed=f"a whole number in 1..{MAX_TRIAL:,} or None (the "
+                                "scenario's study length)")
+        if self.r0 is not None:
+            check_real(self.r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True,
+                       allowed="a number in the open interval (-1, 0), or None (the "
+                               "scenario's)")
         check_whole(self.seed, "seed", minimum=0)
         return self
+
+
+def _check_range(value: Any, name: str) -> None:
+    """None, or ``(low, high)`` rates in [0, 1] with ``low <= high``."""
+    if value is None:
+        return
+    if not isinstance(value, tuple | list) or len(value) != 2:
+        raise ConfigError(f"{name} must be a pair (low, high) of rates in [0, 1], or None, "
+                          f"got {value!r}", field=name)
+    low, high = (check_real(v, name, low=0.0, high=1.0, label=f"{name} {which}")
+                 for v, which in zip(value, ("low", "high"), strict=True))
+    if low > high:
+        raise ConfigError(f"{name} must be (low, high) with low <= high, got ({low:g}, "
+                          f"{high:g})", field=name)
 
 
 def training_population(cfg: TrainConfig) -> PopulationSpec | MixtureSpec:

@@ -30,7 +30,7 @@ from gymnasium import spaces
 from hri_envs.checks import check_whole
 from hri_envs.envs.config import check_env_settings, scenario_graph
 from hri_envs.envs.spaces import robot_observation_space
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ActionError, ConfigError
 from hri_envs.humans.populations import PopulationSpec, validate_drift
 from hri_envs.humans.scripted import (
     ScriptedHuman,
@@ -59,6 +59,8 @@ __all__ = ["OUTCOME_BITS", "EnvParams", "EnvState", "JaxRobotEnv", "Member", "Re
 Array = jax.Array
 #: Draw streams of one env step (see :func:`uniforms`).
 N_STREAMS = 10
+#: The most envs of one batch (:func:`uniform` hashes ``16 index + stream`` in 32 bits).
+MAX_BATCH = 2**28
 
 
 class Member(NamedTuple):
@@ -228,6 +230,27 @@ def _select(values: Array, index: Array) -> Array:
     return out
 
 
+def _concrete(x: Any) -> bool:
+    """``x`` holds values (not a tracer of ``jit``, ``vmap`` or ``grad``)."""
+    return not isinstance(x, jax.core.Tracer)
+
+
+def _leaf_name(path: tuple[Any, ...]) -> str:
+    """A pytree path as ``"outcome"`` or ``"member.entry"``."""
+    return ".".join(str(getattr(k, "name", k)) for k in path)
+
+
+def _values(bad: np.ndarray, shape: tuple[int, ...]) -> str:
+    """The first offending values, one alone for a scalar input."""
+    first = bad.reshape(-1)[:5].tolist()
+    return repr(first[0]) if not shape else repr(first)
+
+
+def _describe(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 # --------------------------------------------------------------------------- the env
 class JaxRobotEnv:
     """The robot vs a scripted human, as pure functions (gymnax's API, same-step autoreset).
@@ -245,9 +268,15 @@ class JaxRobotEnv:
 
     ## Action Space
 
-    ``Discrete(A)`` (:meth:`action_space`), as the numpy env. An action outside
-    ``0 .. A - 1`` cannot raise inside ``jit``: it is clipped into range (check actions
-    where they come from; the action masks say which are valid).
+    ``Discrete(A)`` (:meth:`action_space`), as the numpy env: an integer (``int`` or an
+    integer array; ``bool``, floats and strings are refused with an
+    :class:`~hri_envs.errors.ActionError`, never rounded). The public methods check their
+    inputs where it costs nothing under ``jit`` (:meth:`check_step_inputs`): types, dtypes
+    and shapes when a function is traced, values too when they are concrete (eager calls).
+    Under ``jit`` an action outside ``0 .. A - 1`` and a state no step made cannot raise
+    (the kernels do not look at values: that would cost a pass per step); such an action
+    is clipped into range (check actions where they come from; the action masks say which
+    are valid).
 
     ## Observation Space
 
@@ -390,6 +419,7 @@ class JaxRobotEnv:
             self._stochastic = self._rational
         self._fixed = (fixed_entry, fixed_passive, fixed_turn)
         self._params: dict[Any, EnvParams] = {}
+        self._shapes: dict[str, tuple[int, ...]] | None = None
         self.spec = scenario_spec(self.scenario)
 
     # ----------------------------------------------------------------- spaces
@@ -576,10 +606,146 @@ class JaxRobotEnv:
                 "last_human_action": state.last_human,
                 "action_mask": (bits & 1).astype(jnp.int8)}
 
+    # ----------------------------------------------------------------- input checks
+    def _param_shapes(self) -> dict[str, tuple[int, ...]]:
+        """The shape of each leaf of this env's params (``"outcome"``, ``"fixed.entry"``...)."""
+        if self._shapes is None:
+            ftype = jnp.zeros(()).dtype
+            abstract = jax.eval_shape(lambda: self._build_params(ftype))
+            self._shapes = {_leaf_name(path): tuple(leaf.shape) for path, leaf
+                            in jax.tree_util.tree_leaves_with_path(abstract)}
+        return self._shapes
+
+    def check_params(self, params: EnvParams | None, where: str = "params") -> EnvParams:
+        """``params`` (this env's :attr:`default_params` for None) if its arrays have the
+        shapes of this env's; free under ``jit`` (shapes are known when tracing).
+
+        Raises:
+            ConfigError: Not an :class:`EnvParams`, or arrays of other shapes: the params
+                of another scenario (or population, or human) (``field="params"``).
+        """
+        if params is None:
+            return self.default_params
+        if not isinstance(params, EnvParams) or not isinstance(params.fixed, Member):
+            raise ConfigError(f"{where}: params must be this env's EnvParams "
+                              f"(env.default_params), got {type(params).__name__}",
+                              field="params")
+        want = self._param_shapes()
+        for path, leaf in jax.tree_util.tree_leaves_with_path(params):
+            name = _leaf_name(path)
+            if tuple(np.shape(leaf)) != want.get(name):
+                raise ConfigError(
+                    f"{where}: params.{name} has shape {tuple(np.shape(leaf))}, this env "
+                    f"(the {self.scenario}, its humans) has {want.get(name)}: the params of "
+                    "another scenario or env; pass this env's default_params",
+                    field="params")
+        return params
+
+    def check_step_inputs(self, state: EnvState, action: Any, params: EnvParams | None,
+                          batch: int | None = None, where: str = "step") -> EnvParams:
+        """Check a step's inputs as far as it costs nothing under ``jit``; return the params.
+
+        Types, dtypes and shapes are checked always (under ``jit`` and ``vmap`` only while
+        tracing); values only when they are concrete (an eager call), never in a compiled
+        step (a value check there would cost a pass over the batch per step).
+
+        Args:
+            state: The env state (its leaves of shape ``()``, or ``(batch,)``).
+            action: The robot's action: an ``int`` or integer array (not bool, float, str)
+                in ``0 .. A - 1``, of the state's shape.
+            params: The env's params (None: :attr:`default_params`).
+            batch: N for :meth:`step_batch`, None for one env.
+            where: The calling method, for the messages.
+
+        Raises:
+            ActionError: A non-integer action, one of the wrong shape, or (concrete) one
+                outside ``0 .. A - 1``.
+            ConfigError: A state that is not an :class:`EnvState` of this env's dtypes and
+                shapes, or (concrete) with a value no reset or step makes
+                (``field="state"``); params of another env (``field="params"``).
+        """
+        p = self.check_params(params, where)
+        shape = () if batch is None else (batch,)
+        self._check_state(state, shape, where)
+        self._check_action(action, shape, where)
+        return p
+
+    def _check_action(self, action: Any, shape: tuple[int, ...], where: str) -> None:
+        n_a = self.n_actions
+        kind = "an int or a 0-d integer array" if not shape else (
+            f"an integer array of shape {shape}")
+        allowed = (f"an integer in 0..{n_a - 1} ({kind}; bool, float and str are refused, "
+                   "not rounded)")
+        if type(action) is int and not shape:
+            if not 0 <= action < n_a:
+                raise ActionError(f"{where}: action must be {allowed}, got {action}")
+            return
+        dtype = getattr(action, "dtype", None)
+        if dtype is None or isinstance(action, bool | float | str):
+            raise ActionError(f"{where}: action must be {allowed}, got {_describe(action)} "
+                              f"({type(action).__name__})")
+        if np.dtype(dtype).kind not in "iu":
+            raise ActionError(f"{where}: action must be {allowed}, got an array of "
+                              f"{np.dtype(dtype)}")
+        if tuple(np.shape(action)) != shape:
+            raise ActionError(f"{where}: action must be {allowed}, got shape "
+                              f"{tuple(np.shape(action))}")
+        if _concrete(action):
+            a = np.asarray(action)
+            bad = a[(a < 0) | (a >= n_a)]
+            if bad.size:
+                raise ActionError(f"{where}: action must be {allowed}, got "
+                                  f"{_values(bad, shape)}")
+
+    def _state_ranges(self) -> dict[str, tuple[str, float, float]]:
+        """Each state leaf's dtype kind and the values a reset or step gives it."""
+        s, k, a = self.n_states, self.n_supports, self.n_actions
+        entries = len(self.bank.names) - 1
+        return {"state": ("i", 0, s - 1), "start": ("i", 0, k - 1),
+                "intention": ("i", 0, k - 1), "lifted": ("b", 0, 1),
+                "steps": ("i", 0, min(self.max_cycles, 2**31 - 1) - 1),
+                "turn_at": ("i", -1, s - 1), "last_human": ("i", 0, a - 1),
+                "episode": ("i", 0, self.episodes_per_human - 1),
+                "member.entry": ("i", 0, entries), "member.beta": ("f", 0.0, math.inf),
+                "member.passive": ("f", 0.0, 1.0), "member.turn_back": ("f", 0.0, 1.0),
+                "member.drift_entry": ("i", 0, entries)}
+
+    def _check_state(self, state: Any, shape: tuple[int, ...], where: str) -> None:
+        if not isinstance(state, EnvState) or not isinstance(state.member, Member):
+            raise ConfigError(f"{where}: state must be an EnvState of this env's reset or "
+                              f"step, got {type(state).__name__}", field="state")
+        leaves = {_leaf_name(path): leaf
+                  for path, leaf in jax.tree_util.tree_leaves_with_path(state)}
+        for name, (kind, lo, hi) in self._state_ranges().items():
+            leaf = leaves[name]
+            dtype = np.dtype(leaf.dtype if hasattr(leaf, "dtype") else np.asarray(leaf).dtype)
+            kinds = {"i": "iu", "b": "b", "f": "f"}[kind]
+            if dtype.kind not in kinds or tuple(np.shape(leaf)) != shape:
+                raise ConfigError(
+                    f"{where}: state.{name} must be {'an integer' if kind == 'i' else dtype}"
+                    f" array of shape {shape}, as reset and step make it; got "
+                    f"{dtype}{tuple(np.shape(leaf))}", field="state")
+            if kind == "b" or not _concrete(leaf):
+                continue
+            v = np.asarray(leaf)
+            ok = v > 0 if name == "member.beta" else (v >= lo) & (v <= hi)  # NaN: never
+            bad = v[~ok]
+            if bad.size:
+                allowed = (f"in {lo}..{hi}" if kind == "i" else
+                           "> 0 (inf: the entry's own policy)" if name == "member.beta"
+                           else f"in [{lo:g}, {hi:g}]")
+                raise ConfigError(f"{where}: state.{name} must be {allowed} (values a reset "
+                                  f"or step of this env makes), got {_values(bad, shape)}",
+                                  field="state")
+
+    # ----------------------------------------------------------------- the kernels
     def reset_given(self, draws: ResetDraws, params: EnvParams | None = None
                     ) -> tuple[dict[str, Array], EnvState]:
         """Start a trial (a new human) and its first episode from given draws."""
-        p = self.default_params if params is None else params
+        return self._reset_given(draws, self.check_params(params, "reset_given"))
+
+    def _reset_given(self, draws: ResetDraws, p: EnvParams
+                     ) -> tuple[dict[str, Array], EnvState]:
         state = self._begin(draws, draws.member, jnp.int32(0), p)
         return self.observation(state, p), state
 
@@ -588,11 +754,19 @@ class JaxRobotEnv:
                    ) -> tuple[dict[str, Array], EnvState, Array, Array, dict[str, Array]]:
         """One step of one env on given draws (pure; ``jit``/``vmap`` it).
 
+        Its inputs are checked first (:meth:`check_step_inputs`).
+
         Returns:
             ``(obs, state, reward, done, info)``; when the step ends the episode, ``obs`` and
             ``state`` are the next episode's (drawn from ``draws.reset``).
         """
-        p = self.default_params if params is None else params
+        p = self.check_step_inputs(state, action, params, where="step_given")
+        return self._step_given(state, action, draws, p)
+
+    def _step_given(self, state: EnvState, action: Array | int, draws: StepDraws,
+                    p: EnvParams
+                    ) -> tuple[dict[str, Array], EnvState, Array, Array, dict[str, Array]]:
+        """:meth:`step_given` without its checks: the kernel every step runs."""
         n_s, n_a = self.n_states, self.n_actions
         a_r = jnp.clip(jnp.asarray(action, jnp.int32), 0, n_a - 1)
         a_h = self.human_action(state, draws.u_passive, draws.u_choice, p)
@@ -632,27 +806,44 @@ class JaxRobotEnv:
     def reset(self, key: Array, params: EnvParams | None = None
               ) -> tuple[dict[str, Array], EnvState]:
         """Start one env: a human (the population's draw) and an episode, from ``key``."""
-        p = self.default_params if params is None else params
-        return self.reset_given(self.draws(key, p).reset, p)
+        p = self.check_params(params, "reset")
+        return self._reset_given(self.draws(key, p).reset, p)
 
     def step(self, key: Array, state: EnvState, action: Array | int,
              params: EnvParams | None = None
              ) -> tuple[dict[str, Array], EnvState, Array, Array, dict[str, Array]]:
         """One step of one env, its draws from ``key`` (see :meth:`step_given`)."""
-        p = self.default_params if params is None else params
-        return self.step_given(state, action, self.draws(key, p), p)
+        p = self.check_step_inputs(state, action, params, where="step")
+        return self._step_given(state, action, self.draws(key, p), p)
 
     def reset_batch(self, key: Array, n: int, params: EnvParams | None = None
                     ) -> tuple[dict[str, Array], EnvState]:
-        """Start ``n`` envs from one key (arrays with a leading (n,) axis)."""
-        p = self.default_params if params is None else params
+        """Start ``n`` envs from one key (arrays with a leading (n,) axis).
+
+        Raises:
+            ConfigError: ``n`` is not a whole number in ``1 .. 2**28`` (``field="n"``;
+                a float is refused, not rounded), or params of another env.
+        """
+        n = check_whole(n, "n", minimum=1, maximum=MAX_BATCH, label="reset_batch's n",
+                        allowed=f"a whole number of envs in 1..{MAX_BATCH:,} (an int, not a "
+                                "float or bool)")
+        p = self.check_params(params, "reset_batch")
         draws = self.batch_draws(key, n, p)
-        return jax.vmap(self.reset_given, in_axes=(0, None))(draws.reset, p)
+        return jax.vmap(self._reset_given, in_axes=(0, None))(draws.reset, p)
 
     def step_batch(self, key: Array, state: EnvState, action: Array,
                    params: EnvParams | None = None
                    ) -> tuple[dict[str, Array], EnvState, Array, Array, dict[str, Array]]:
-        """One step of N envs ((N,) actions) with one key: the fast path under ``jit``."""
-        p = self.default_params if params is None else params
-        draws = self.batch_draws(key, action.shape[0], p)
-        return jax.vmap(self.step_given, in_axes=(0, 0, 0, None))(state, action, draws, p)
+        """One step of N envs ((N,) actions) with one key: the fast path under ``jit``.
+
+        Its inputs are checked first (:meth:`check_step_inputs`: shapes and dtypes while
+        tracing, values of concrete inputs; nothing in the compiled step).
+        """
+        n = np.shape(state.state) if isinstance(state, EnvState) else ()
+        if len(n) != 1 or not 1 <= n[0] <= MAX_BATCH:
+            raise ConfigError(f"step_batch: state must be an EnvState of reset_batch or "
+                              f"step_batch (arrays of shape (N,), N in 1..{MAX_BATCH:,}), got "
+                              f"{type(state).__name__} of shape {n}", field="state")
+        p = self.check_step_inputs(state, action, params, batch=n[0], where="step_batch")
+        draws = self.batch_draws(key, n[0], p)
+        return jax.vmap(self._step_given, in_axes=(0, 0, 0, None))(state, action, draws, p)
