@@ -225,6 +225,22 @@ def test_equals_the_numpy_env_with_a_split(scenario, split):
     assert len(kinds) == 3, kinds  # it met deterministic, passive and Boltzmann members
 
 
+def test_the_human_spec_is_taken_as_the_numpy_env_takes_it():
+    """The JAX env takes a HumanSpec (the envs' flat keywords are its shorthand) and
+    refuses what it cannot hold as tables, naming it."""
+    from hri_envs.humans.spec import HumanSpec
+
+    by_spec = JaxRobotEnv("wheel", human=HumanSpec(preference="detour", passive=0.2))
+    by_keywords = JaxRobotEnv("wheel", preference="detour", human_passive=0.2)
+    assert by_spec._fixed == by_keywords._fixed and by_spec._passive
+    assert JaxRobotEnv("hanger", human=HumanSpec(population="train")).population is not None
+    for spec in (HumanSpec(population="impatient", params=(("k", 3),)),
+                 HumanSpec(population="tests.helpers_humans:Copycat")):
+        with pytest.raises(ConfigError) as exc:
+            JaxRobotEnv("hanger", human=spec)
+        assert exc.value.field == "population"
+
+
 def test_a_split_with_stateful_families_is_refused():
     with pytest.raises(ConfigError) as exc:
         JaxRobotEnv("hanger", population="test")
