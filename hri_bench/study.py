@@ -607,7 +607,8 @@ UNIT_EPISODES = 1000
 
 
 def _runs_per_unit(cfg: StudyConfig) -> int:
-    if not BACKENDS[cfg.backend].vectorizable:
+    spec = BACKENDS[cfg.backend]
+    if not (spec.vectorizable or spec.batch_runs):
         return 1
     return max(1, UNIT_EPISODES // cfg.n_episodes)
 
@@ -873,7 +874,8 @@ def summarize(result: StudyResult) -> dict[str, Any]:
         "learner": agent_settings("learner", cfg.scenario, cfg.waiting_reward,
                                   dict(cfg.learner)),
         "version": _version(),
-        "env_ids": {"gymnasium": spec.panda_id if cfg.backend == "mujoco" else spec.gym_id,
+        "env_ids": {"gymnasium": spec.panda_id if BACKENDS[cfg.backend].physical
+                    else spec.gym_id,
                     "pettingzoo": spec.pettingzoo_module},
         "settings": cfg.settings(),
         "agent_configs": {a: agent_settings(a, cfg.scenario, cfg.waiting_reward,

@@ -23,6 +23,7 @@ import numpy as np
 from hri_bench import aggregate as agg
 from hri_bench import metrics, provenance
 from hri_bench.runner import TASK_METRICS
+from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
 
 __all__ = ["FORMAT", "SCHEMA_PATH", "SCHEMA_VERSION", "build", "compute", "lead_section",
@@ -502,7 +503,8 @@ class SuiteRecorder:
             return
         cfg = result.config
         spec = scenario_spec(cfg.scenario)
-        env_ids = {"gymnasium": spec.panda_id if cfg.backend == "mujoco" else spec.gym_id,
+        env_ids = {"gymnasium": spec.panda_id if BACKENDS[cfg.backend].physical
+                   else spec.gym_id,
                    "pettingzoo": spec.pettingzoo_module}
         blind, note = regret_reference(result)
         self.hashes[track.name] = provenance.track_hash(track)

@@ -67,8 +67,26 @@ _FINGER_ON_GRIP_M = 0.0219
 _FINGER_HOLD_STIFFENING = 10.0
 _CONTACT_OFF_MARGIN_M = -1.0  # a geom margin that no contact reaches
 _LAMBDA_INV_REGULARIZATION = 1e-6  # as in controller.py
+#: ADMM iterations of mink-warp's box-constrained IK step. The IK reference steers the arm's
+#: null space, so an unconverged QP lets a redundant arm drift away from the C backend's
+#: (mink's daqp solves the QP exactly): on the wheel's human-led move down from A′ (10
+#: joints) the object ended 18 mm from the C backend's with mink-warp's default 30
+#: iterations, 1.6 mm with 100, 26 µm with 300 and 1.6 µm with 1000; the C IK itself in
+#: place of mink-warp gave 0.3 µm.
+IK_ADMM_ITERATIONS = 300
 #: Contacts allocated per world, and constraint rows (both far above what the scene uses).
-NCONMAX, NJMAX = 64, 600
+NCONMAX, NJMAX = 48, 300
+
+
+#: The per-world arrays of :class:`WarpWorlds` (first axis: the worlds).
+_PER_WORLD: tuple[str, ...] = (
+    "phase", "holding", "human_holding", "q_ref", "states", "has_line", "has_hold", "l_start",
+    "l_delta", "l_rot", "l_q0", "l_q1", "l_dur", "l_dir", "l_axis", "hold_pos", "hold_quat",
+    "limit_s", "min_time_s", "elapsed", "calm", "ik_bad", "t_line", "yielded", "alpha", "high",
+    "overload", "period", "settled", "h_plan", "h_t", "h_noise", "h_start", "h_delta", "h_rot",
+    "h_q0", "h_q1", "h_dur", "following", "reach_kp", "reach_kv", "follow_kv", "noise_scale",
+    "lead", "sensor_noise", "sensor_bias", "true_wrench", "seat_pos", "seat_exit", "seat_quat",
+    "seat_hold", "tot", "lowest_z", "sensordata")
 
 
 @dataclass
@@ -191,7 +209,7 @@ class WarpWorlds:
             self.ik_posture = mink_warp.PostureTask(self._ik_model, cost=cost)
             self.ik_solver = mink_warp.ConstrainedSolver(
                 self.ik_config, [mink_warp.ConfigurationLimit(self._ik_model, gain=0.9)],
-                damping=1e-4)
+                damping=1e-4, admm_iters=IK_ADMM_ITERATIONS)
         self._ik_q = np.repeat(tpl.ik.home[None], n, axis=0)  # (N, nq_ik)
         self._ik_target = self._ik_q.copy()  # the posture targets
         self._ik_pose = np.zeros((n, 7))
@@ -272,7 +290,7 @@ class WarpWorlds:
         Raises:
             IKFailure: The robot cannot reach its pose.
         """
-        tpl, sc, w = self.template, self.scene, self.worlds[i]
+        tpl, w = self.template, self.worlds[i]
         rng = rng if rng is not None else np.random.default_rng(0)
         s0 = tpl.reset(start, scenario, rng, state)
         src = tpl.data
@@ -331,6 +349,36 @@ class WarpWorlds:
         self.sensordata[i] = self._get("sensordata")[i]
         return s0
 
+    def copy_world(self, src: int, rows: np.ndarray) -> None:
+        """Make the worlds ``rows`` copies of world ``src`` (its state, its episode's
+        parameters and its step's set-up; each copy draws its noise from a generator of its
+        own, seeded by its index). For measurements: a reset costs a C IK solve per world.
+        """
+        rows = np.asarray(rows, dtype=np.int64)
+        for name in ("qpos", "qvel", "ctrl", "act", "mocap_pos", "mocap_quat", "eq_active",
+                     "qacc_warmstart", "xfrc_applied", "time"):
+            arr = self._get(name)
+            arr[rows] = arr[src]
+            self._put(name, arr)
+        for name in ("geom_margin", "actuator_gainprm", "actuator_biasprm",
+                     "actuator_forcerange", "body_mass", "body_inertia"):
+            arr = getattr(self.m, name).numpy()
+            arr[rows] = arr[src]
+            self._model_put(name, arr)
+        for name in _PER_WORLD:
+            value = getattr(self, name)
+            value[rows] = value[src]
+        for value in (self._ik_q, self._ik_target, self._ik_pose):
+            value[rows] = value[src]
+        w = self.worlds[src]
+        for i in rows:
+            copy_ = self.worlds[int(i)] = copy.copy(w)
+            copy_.queue = deque(w.queue)
+            copy_.rng, copy_.sensor_rng, copy_.handle_rng = (
+                np.random.default_rng([int(i), k]) for k in range(3))
+        self._mjw.forward(self.m, self.d)
+        self.sensordata[rows] = self.sensordata[src]
+
     def _set_contacts(self, rows: np.ndarray, robot_weld: np.ndarray,
                       human_holds: np.ndarray) -> None:
         """Finger pads off while the robot's weld holds; the thumb on while the human holds
@@ -355,7 +403,8 @@ class WarpWorlds:
 
     def _weld(self, i: int, on: bool) -> None:
         """The robot's grasp weld of world ``i`` (PandaSim._weld; its relative pose is the
-        model's, set once by the template)."""
+        model's, set once by the template).
+        """
         eq = self._get("eq_active")
         eq[i, self.scene.weld] = on
         self._put("eq_active", eq)
@@ -423,7 +472,7 @@ class WarpWorlds:
         return compose(grip, np.array([0.0, 0.0, -self.design.pregrasp_distance_m]),
                        np.array([1.0, 0, 0, 0]))
 
-    def _start(self, i: int, s: int, a_r: int, a_h: int) -> None:
+    def begin_step(self, i: int, s: int, a_r: int, a_h: int) -> None:
         """World ``i`` starts the abstract step (PandaSim.step up to its first run)."""
         g, w, design = self.graph, self.worlds[i], self.design
         w.s, w.a_r, w.a_h = s, a_r, a_h
@@ -644,7 +693,9 @@ class WarpWorlds:
         """One abstract step of every ``active`` world (the others stay frozen).
 
         Args:
-            states, a_r, a_h: (N,) the observed state and both agents' actions per world.
+            states: (N,) the abstract state each world observed before the step.
+            a_r: (N,) the robot's abstract action per world.
+            a_h: (N,) the human's true abstract action per world.
             active: (N,) bool, the worlds that step.
 
         Returns:
@@ -655,15 +706,15 @@ class WarpWorlds:
             w = self.worlds[i]
             if w.fault is not None and w.result is None:  # a reset that failed
                 continue
-            self._start(int(i), int(states[i]), int(a_r[i]), int(a_h[i]))
+            self.begin_step(int(i), int(states[i]), int(a_r[i]), int(a_h[i]))
         while (self.phase != _IDLE).any():
-            self._period()
+            self.run_period()
         out: list[StepResult | None] = [None] * self.n
         for i in rows:
             out[i] = self.worlds[i].result
         return out
 
-    def _period(self) -> None:
+    def run_period(self) -> None:
         """One control period of every world that is in a run (PandaSim._run's loop body)."""
         mjw, design, sc = self._mjw, self.design, self.scene
         run = self.phase != _IDLE
@@ -700,7 +751,7 @@ class WarpWorlds:
             tau_n = design.human_noise_time_s
             a = min(dt_c / tau_n, 1.0)
             kz = math.sqrt(2.0 * a)
-            z = np.stack([self.worlds[i].rng.standard_normal(6) for i in h_rows])  # type: ignore[union-attr]
+            z = np.stack([self._rng(i).standard_normal(6) for i in h_rows])
             self.h_noise[h_rows] = self.h_noise[h_rows] + (-self.h_noise[h_rows] * a + kz * z)
         self.h_t[rows[reacting]] += dt_c
         following = holding_h & ~reaching
@@ -866,6 +917,13 @@ class WarpWorlds:
                     continue
             self._end_phase(i, None)
 
+    def _rng(self, i: int, which: str = "rng") -> np.random.Generator:
+        """World ``i``'s generator of the human's noise (or ``which`` other)."""
+        rng = getattr(self.worlds[int(i)], which)
+        if rng is None:
+            raise RuntimeError(f"world {i} was never reset")
+        return rng
+
     def _floor_touch(self, rows: np.ndarray) -> np.ndarray:
         """(R,) bool: a contact of each world in ``rows`` involves the floor."""
         nacon = min(int(self.d.nacon.numpy()[0]), self.d.contact.worldid.shape[0])
@@ -940,8 +998,7 @@ class WarpWorlds:
         noisy = self.sensor_noise[rows] > 0.0
         if noisy.any():
             lever = self.template.design.sensor_torque_lever_m
-            z = np.stack([self.worlds[int(i)].sensor_rng.standard_normal(6)  # type: ignore[union-attr]
-                          for i in rows[noisy]])
+            z = np.stack([self._rng(i, "sensor_rng").standard_normal(6) for i in rows[noisy]])
             k = self.sensor_noise[rows[noisy]][:, None]
             z[:, 3:] *= lever
             out[noisy] += k * z
