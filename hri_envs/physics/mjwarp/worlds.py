@@ -216,6 +216,7 @@ class WarpWorlds:
         self._ik_pose[:, 0] = 1.0
         self.worlds = [_World() for _ in range(n)]
         self.on_period: Callable[[np.ndarray], None] | None = None
+        self._placed: set[int] = set()
         self._alloc()
 
     # ------------------------------------------------------------------ state
@@ -344,10 +345,18 @@ class WarpWorlds:
         self._set_contacts(np.array([i]), self.holding[i:i + 1], self.human_holding[i:i + 1])
         self._finger_gains(np.array([i]), self.holding[i:i + 1])
         # Kinematics, contacts and sensors of the placed world (as PandaSim.reset's
-        # mj_forward); the other worlds' are recomputed from their unchanged state.
-        self._mjw.forward(self.m, self.d)
-        self.sensordata[i] = self._get("sensordata")[i]
+        # mj_forward) before it is read or stepped: one forward pass for all the worlds
+        # placed meanwhile (the others' are recomputed from their unchanged state).
+        self._placed.add(i)
         return s0
+
+    def _refresh(self) -> None:
+        """Forward pass for the worlds placed since the last one (see :meth:`reset_world`)."""
+        if self._placed:
+            self._mjw.forward(self.m, self.d)
+            rows = np.fromiter(self._placed, dtype=np.int64)
+            self.sensordata[rows] = self._get("sensordata")[rows]
+            self._placed.clear()
 
     def copy_world(self, src: int, rows: np.ndarray) -> None:
         """Make the worlds ``rows`` copies of world ``src`` (its state, its episode's
@@ -376,8 +385,8 @@ class WarpWorlds:
             copy_.queue = deque(w.queue)
             copy_.rng, copy_.sensor_rng, copy_.handle_rng = (
                 np.random.default_rng([int(i), k]) for k in range(3))
-        self._mjw.forward(self.m, self.d)
-        self.sensordata[rows] = self.sensordata[src]
+        self._placed.update(int(i) for i in rows)
+        self._refresh()
 
     def _set_contacts(self, rows: np.ndarray, robot_weld: np.ndarray,
                       human_holds: np.ndarray) -> None:
@@ -430,6 +439,7 @@ class WarpWorlds:
 
     # ------------------------------------------------------------------ poses (one world)
     def _site_pose(self, i: int, site: int) -> Pose:
+        self._refresh()
         pos = self._get("site_xpos")[i, site].astype(float)
         quat = bm.mat_to_quat(self._get("site_xmat")[i, site].astype(float)[None])[0]
         return Pose(pos, quat)
@@ -440,6 +450,7 @@ class WarpWorlds:
 
     def object_pose(self, i: int) -> Pose:
         """The object's pose in world ``i``."""
+        self._refresh()
         b = self.scene.object_body
         return Pose(self._get("xpos")[i, b].astype(float),
                     self._get("xquat")[i, b].astype(float))
@@ -701,6 +712,7 @@ class WarpWorlds:
         Returns:
             Per world its :class:`~hri_envs.physics.sim.StepResult`, None where inactive.
         """
+        self._refresh()
         rows = np.flatnonzero(active)
         for i in rows:
             w = self.worlds[i]
