@@ -164,7 +164,8 @@ class StudyConfig:
         seed: Base seed; run r depends on (seed, r) only.
         jobs: Worker processes (or Ray tasks in flight).
         executor: "serial", "process" or "ray".
-        backend: "graph" (the abstract task graph, batched) or "mujoco" (the simulated
+        backend: "graph" (the abstract task graph, batched), "mjwarp" (the simulated Panda on
+            MuJoCo Warp, a unit's runs as worlds of one batch) or "mujoco" (the simulated
             Panda, one run at a time; adds interaction impulse, duration and graph agreement
             to the metrics).
         max_steps: Step limit per episode.

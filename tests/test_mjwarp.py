@@ -321,6 +321,38 @@ def test_the_parallel_env_runs_on_mjwarp():
     env.close()
 
 
+def test_the_panda_vector_env_refuses_the_graph():
+    from hri_envs.errors import ConfigError
+    from hri_envs.physics.mjwarp.vector import PandaVectorEnv
+
+    with pytest.raises(ConfigError, match="physics backends mujoco, mjwarp"):
+        PandaVectorEnv(2, backend="graph")
+
+
+def test_speed_reports_the_physics_beside_the_c_backend(capsys):
+    """``hri-bench speed --physics --size tiny --physics-worlds 2`` for real (no timing
+    thresholds): the C figures, the device, world-steps/s and real-time factor per number of
+    worlds, consistent with each other."""
+    import json
+
+    from hri_bench.cli import main
+
+    assert main(["speed", "--json", "--size", "tiny", "--no-jax", "--physics",
+                 "--physics-worlds", "2"]) == 0
+    out = capsys.readouterr().out.strip().splitlines()
+    figures = json.loads(out[-1])
+    assert figures["physics_warp_device"] == "cpu"
+    assert figures["physics_c_world_steps_per_s"] == pytest.approx(
+        figures["physics_c_realtime_factor"] / 0.002, rel=1e-3)
+    steps = figures["physics_warp_world_steps_per_s_by_worlds"]
+    rtf = figures["physics_warp_realtime_factor_by_worlds"]
+    assert set(steps) == set(rtf) == {"2"}
+    for n in steps:
+        assert steps[n] > 0 and rtf[n] == pytest.approx(steps[n] * 0.002, rel=1e-2)
+    assert figures["physics_warp_setup_s"] > 0
+    assert any(line.startswith("physics_warp_device") for line in out)
+
+
 def test_the_graph_vector_env_still_refuses_the_simulated_backends():
     import gymnasium as gym
 

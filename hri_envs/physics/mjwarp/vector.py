@@ -11,7 +11,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from hri_envs.checks import check_whole
-from hri_envs.envs.backends import backend_spec
+from hri_envs.envs.backends import BACKENDS, backend_spec
 from hri_envs.envs.config import check_physics_options, scenario_graph
 from hri_envs.envs.robot import RobotEnv
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
@@ -19,10 +19,6 @@ from hri_envs.physics.mjwarp.episode import WarpPhysicsEpisode, WarpSim
 from hri_envs.physics.mjwarp.worlds import WarpWorlds
 
 __all__ = ["PandaVectorEnv"]
-
-#: The backends this vector env accepts; both run on MuJoCo Warp (see the class docstring).
-_BACKENDS = ("mujoco", "mjwarp")
-
 
 class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     """``num_envs`` copies of the Panda env (:class:`~hri_envs.envs.robot.RobotEnv` with the
@@ -76,7 +72,8 @@ class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     - ``scenario`` and the single env's arguments (``preference``, ``human_passive``,
       ``turn_back``, ``human_rationality``, ``population``, ``r0``, ``max_cycles``,
       ``physics``, ``reward``), the same for every env;
-    - ``backend``: ``"mujoco"`` or ``"mjwarp"`` (both MuJoCo Warp);
+    - ``backend``: a physics backend (``"mujoco"`` or ``"mjwarp"``; both run here on MuJoCo
+      Warp); ``"graph"`` is refused (its vector env is the graph ids');
     - ``device``: Warp's device (default: Warp's default, a GPU where there is one);
     - ``render_mode``: must be None;
     - ``autoreset_mode``: ``AutoresetMode.NEXT_STEP`` (default) or ``SAME_STEP``.
@@ -97,10 +94,11 @@ class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                  human_rationality: float = math.inf, population: str | None = None,
                  r0: float | None = None, max_cycles: int = 100,
                  reward: str = "paper") -> None:
-        if backend not in _BACKENDS:
+        physical = [name for name, spec in BACKENDS.items() if spec.physical]
+        if backend not in physical or not backend_spec(backend).physical:
             raise ConfigError(f"the Panda vector env runs the physics on MuJoCo Warp; backend "
-                              f"must be one of {', '.join(_BACKENDS)}, got {backend!r}",
-                              field="backend")
+                              f"must be one of the physics backends {', '.join(physical)}, got "
+                              f"{backend!r}", field="backend")
         if render_mode is not None:
             raise ConfigError(f"the Panda vector env does not render; render_mode must be "
                               f"None, got {render_mode!r}", field="render_mode")
