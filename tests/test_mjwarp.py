@@ -342,13 +342,14 @@ def test_speed_reports_the_physics_beside_the_c_backend(capsys):
     out = capsys.readouterr().out.strip().splitlines()
     figures = json.loads(out[-1])
     assert figures["physics_warp_device"] == "cpu"
-    assert figures["physics_c_world_steps_per_s"] == pytest.approx(
-        figures["physics_c_realtime_factor"] / 0.002, rel=1e-3)
+    # The figures are rounded (world-steps/s to 0.1, real-time factors to 0.01).
+    assert figures["physics_c_world_steps_per_s"] * 0.002 == pytest.approx(
+        figures["physics_c_realtime_factor"], abs=0.006)
     steps = figures["physics_warp_world_steps_per_s_by_worlds"]
     rtf = figures["physics_warp_realtime_factor_by_worlds"]
     assert set(steps) == set(rtf) == {"2"}
     for n in steps:
-        assert steps[n] > 0 and rtf[n] == pytest.approx(steps[n] * 0.002, rel=1e-2)
+        assert steps[n] > 0 and rtf[n] == pytest.approx(steps[n] * 0.002, abs=0.006)
     assert figures["physics_warp_setup_s"] > 0
     assert any(line.startswith("physics_warp_device") for line in out)
 
