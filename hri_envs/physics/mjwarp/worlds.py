@@ -32,8 +32,11 @@ IK places the arm) and copied into the world.
 Differences from the C backend, all within the tolerances of ``tests/test_mjwarp.py``:
 MuJoCo Warp computes in float32 (the C backend in float64); MuJoCo's ``BADQACC``/``BADQVEL``
 warnings are not kept per world (the ``unstable`` fault comes from non-finite or too fast
-velocities only); mink-warp's IK is an ADMM box-constrained QP, mink's is daqp; a frozen
-world's kinematics are those of its current state (C: of the state one physics step before).
+velocities only); mink-warp's IK is an ADMM box-constrained QP (:data:`IK_ADMM_ITERATIONS`),
+mink's is daqp; a fault found before a control period's physics (``pulled_out``,
+``ik_failure``) ends the world's step after that period's physics, 8 ms later than the C
+backend; a frozen world's kinematics are those of its current state (C: of the state one
+physics step before).
 """
 
 from __future__ import annotations
