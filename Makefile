@@ -23,7 +23,7 @@ $(VENV)/.serve-installed: pyproject.toml constraints.txt | $(PY)
 	touch $@ $(VENV)/.demo-installed
 
 $(VENV)/.test-installed: pyproject.toml constraints.txt | $(PY)
-	$(PIP) -e ".[bench,mujoco,rl,ray,clients,web,jax,dev]"
+	$(PIP) -e ".[bench,mujoco,mjwarp,rl,ray,clients,web,jax,dev]"
 	touch $@ $(VENV)/.demo-installed $(VENV)/.serve-installed
 
 demo: $(VENV)/.demo-installed
@@ -51,9 +51,14 @@ test: $(VENV)/.test-installed system-deps
 	$(VENV)/bin/lint-imports
 	@# JAX starts threads on import, and a process that forks after that may hang: its test
 	@# modules are not even collected (imported) in the run whose tests fork pools.
-	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup --ignore-glob='tests/test_jax*'
+	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup --ignore-glob='tests/test_jax*' \
+	  --ignore-glob='tests/test_mjwarp*'
 	@# One process for them: they share what JAX compiled, and JAX uses every core itself.
 	MUJOCO_GL=egl $(PY) -m pytest -q tests/test_jax*.py
+	@# One process for MuJoCo Warp's tests too: Warp compiles its kernels once (about 1.5 min
+	@# of one core without a cache) into its kernel cache (~/.cache/warp, or $$WARP_CACHE_PATH),
+	@# which every later run on the machine reuses.
+	MUJOCO_GL=egl $(PY) -m pytest -q tests/test_mjwarp*.py
 
 # A person plays the human in a browser (http://127.0.0.1:8000/); sessions are recorded.
 serve: $(VENV)/.serve-installed

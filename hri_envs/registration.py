@@ -3,7 +3,9 @@
 Versioned ids with string entry points (nothing is imported until an env is made), read
 from the scenario registry (:mod:`hri_envs.task.scenarios`). ``vector_entry_point`` serves
 ``gymnasium.make_vec(id, num_envs, vectorization_mode="vector_entry_point")`` with the
-numpy-batched :class:`~hri_envs.envs.vector.RobotVectorEnv`. The envs truncate episodes
+numpy-batched :class:`~hri_envs.envs.vector.RobotVectorEnv` on the graph ids and with
+:class:`~hri_envs.physics.mjwarp.vector.PandaVectorEnv` (N worlds on MuJoCo Warp, the
+"mjwarp" extra) on the Panda ids. The envs truncate episodes
 themselves (``max_cycles``), so no ``max_episode_steps`` is set.
 """
 
@@ -17,6 +19,8 @@ __all__ = ["register_envs"]
 
 _ROBOT_ENV = "hri_envs.envs.robot:RobotEnv"
 _ROBOT_VECTOR_ENV = "hri_envs.envs.vector:RobotVectorEnv"
+#: The Panda ids' vector env: N worlds on MuJoCo Warp (the "mjwarp" extra).
+_PANDA_VECTOR_ENV = "hri_envs.physics.mjwarp.vector:PandaVectorEnv"
 
 
 
@@ -33,6 +37,7 @@ def _specs() -> list[dict[str, object]]:
                         "kwargs": {"scenario": spec.name}})
         if spec.panda_id is not None:
             out.append({"id": spec.panda_id, "entry_point": _ROBOT_ENV,
+                        "vector_entry_point": _PANDA_VECTOR_ENV,
                         "kwargs": {"scenario": spec.name, "backend": "mujoco"}})
     return out
 

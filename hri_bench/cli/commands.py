@@ -111,6 +111,13 @@ def _bounded(kind: type, allowed: str, ok: Callable[[Any], bool]) -> Callable[[s
 
 
 _positive = _bounded(int, "a whole number >= 1", lambda v: v >= 1)
+
+
+def _world_counts(text: str) -> tuple[int, ...]:
+    """``--physics-worlds``: comma-separated whole numbers >= 1."""
+    return tuple(_positive(w.strip()) for w in text.split(","))
+
+
 _seed = _bounded(int, "a whole number >= 0", lambda v: v >= 0)
 _probability = _bounded(float, "a probability in [0, 1]", lambda v: 0.0 <= v <= 1.0)
 _r0 = _bounded(float, "a number in (-1, 0)", lambda v: -1.0 < v < 0.0)
@@ -231,9 +238,10 @@ def _study_run_flags(study: argparse.ArgumentParser) -> None:
                        help="serial, process (default when --jobs > 1) or ray")
     study.add_argument("--ray-address", default=None, help="Ray cluster address (executor ray)")
     study.add_argument("--backend", choices=BACKENDS, default="graph",
-                       help="graph (abstract task graph, the default) or a physics backend: "
-                            + ", ".join(n for n in BACKENDS if n != "graph")
-                            + " (the simulated Panda; slow: about 0.2 s per step on mujoco)")
+                       help="graph (abstract task graph), mujoco (simulated Panda, MuJoCo's C "
+                            "library, one run at a time; slow: about 0.2 s per step) or mjwarp "
+                            "(the same physics on MuJoCo Warp, every run of a unit in its own "
+                            "world at once; the 'mjwarp' extra; docs/physics.md)")
     study.add_argument("--physics-preset", default=None,
                        help="named physics options of the backend (mujoco: "
                             + ", ".join(BACKENDS["mujoco"].presets) + "; docs/physics.md)")
@@ -324,6 +332,15 @@ def _speed_parser(sub: Any) -> None:
     speed.add_argument("--no-jax", action="store_true",
                        help="skip the JAX env and PPO training figures (measured when the "
                             "jax extra is installed)")
+    speed.add_argument("--physics", action="store_true",
+                       help="add the physics figures (not in the default run: minutes on a "
+                            "CPU): world-steps/s and real-time factor of MuJoCo Warp for 1, "
+                            "64, 1,024 and 4,096 worlds on Warp's device (named), beside "
+                            "MuJoCo's C library; the first run on a machine also compiles "
+                            "Warp's kernels (about 1.5 min, then cached)")
+    speed.add_argument("--physics-worlds", type=_world_counts, default=None,
+                       help="comma-separated numbers of worlds for --physics (default "
+                            "1,64,1024,4096)")
 
 
 def _play_parser(sub: Any) -> None:
@@ -643,6 +660,10 @@ def _figures(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 def _speed(args: argparse.Namespace) -> int:
     figures = measure(jobs=args.jobs, size=args.size, jax=not args.no_jax)
+    if args.physics:
+        from hri_bench.speed import measure_physics
+
+        figures.update(measure_physics(size=args.size, worlds=args.physics_worlds))
     targets = {"jax": "", "jax_device": "the device JAX ran on",
                "jax_env_envs": "envs stepped together (jit + vmap)",
                "jax_env_steps_per_s": "the vector env's workload, JAX env (jit + vmap)",
@@ -654,7 +675,16 @@ def _speed(args: argparse.Namespace) -> int:
                "learner_update_ms": "target <= 0.3",
                "learner_update_batched_ms_per_run": "target <= 0.05",
                "hanger_study_s": "target <= 1", "machine_ms": "the fixed numpy workload",
-               "learner_threads": "threads sharing a batched update (HRI_ENVS_THREADS)"}
+               "learner_threads": "threads sharing a batched update (HRI_ENVS_THREADS)",
+               "physics_c_world_steps_per_s": "MuJoCo's C library, one world (the C backend)",
+               "physics_c_realtime_factor": "simulated s per wall s, C backend",
+               "physics_warp": "",
+               "physics_warp_device": "Warp's device",
+               "physics_warp_world_steps_per_s_by_worlds":
+                   "per number of worlds; goal >= 1,000,000 on one datacentre GPU",
+               "physics_warp_realtime_factor_by_worlds": "all worlds' simulated s per wall s",
+               "physics_warp_setup_s": "build, place, first period (compiles once per machine)",
+               "physics_warp_kernel_cache": "Warp's kernel cache"}
     for key, value in figures.items():
         shown = f"{value:>14,.4f}" if isinstance(value, float) else f"{value!s:>14}"
         print(f"{key:34s} {shown}   {targets[key]}".rstrip())

@@ -26,6 +26,8 @@ from hri_envs.task.scenarios.hanger import PREFERENCES as HANGER_PREFERENCES
 
 __all__ = [
     "HANGER_STUDY_PREFERENCES",
+    "PHYSICS_PERIODS",
+    "PHYSICS_WORLDS",
     "SIZES",
     "SpeedSize",
     "hanger_study_s",
@@ -33,6 +35,7 @@ __all__ = [
     "learner_update_ms",
     "machine_ms",
     "measure",
+    "measure_physics",
 ]
 
 #: Nine hanger preferences for the paper's simulation study (it does not list its nine):
@@ -160,6 +163,71 @@ def hanger_study_s(runs: int = 100, episodes: int = 8, jobs: int = 1) -> float:
                           executor="process" if jobs > 1 else "serial")
         run_study(cfg)
     return time.perf_counter() - t0
+
+
+#: Worlds stepped together for the physics figures (``--physics``), per size.
+PHYSICS_WORLDS: dict[str, tuple[int, ...]] = {"full": (1, 64, 1024, 4096), "tiny": (1, 2)}
+#: Control periods (4 physics steps each) timed per world count, per size.
+PHYSICS_PERIODS: dict[str, int] = {"full": 25, "tiny": 2}
+
+
+def measure_physics(size: str = "full", worlds: tuple[int, ...] | None = None,
+                    device: str | None = None) -> dict[str, Any]:
+    """The physics figures: MuJoCo Warp for each number of worlds, beside MuJoCo's C library.
+
+    Both run the C backend's speed workload (the robot carrying the hanger between supports
+    A and B, the human following; contacts, sensors, controller and IK on). A world-step is
+    one 2 ms physics step of one world; the real-time factor is the simulated seconds of all
+    worlds per wall second. ``physics_warp_setup_s`` is the time to build and place the
+    first count's worlds and run one control period: on a machine without Warp's kernel
+    cache it includes the kernels' compilation (about 1.5 min of one core), later runs load
+    them from the cache (``physics_warp_kernel_cache``). Without the ``mjwarp`` extra only
+    the C figures and a note are given.
+
+    Args:
+        size: A key of :data:`SIZES` ("tiny": 1 and 2 worlds, 2 periods, a smoke test).
+        worlds: The numbers of worlds (default :data:`PHYSICS_WORLDS` of the size).
+        device: Warp's device (default: Warp's default, a GPU where there is one).
+    """
+    from hri_envs.physics.speed import physics_realtime_factor
+
+    if size not in SIZES:
+        raise ConfigError(f"size must be one of {sorted(SIZES)}, got {size!r}", field="size")
+    c = physics_realtime_factor("hanger", repeats=1)
+    dt = 0.002
+    figures: dict[str, Any] = {
+        "physics_c_world_steps_per_s": round(c.realtime_factor / dt, 1),
+        "physics_c_realtime_factor": round(c.realtime_factor, 2),
+    }
+    try:
+        from hri_envs.physics.mjwarp.device import kernel_cache_dir
+        from hri_envs.physics.mjwarp.speed import warp_world_steps
+    except ImportError as exc:  # pragma: no cover - the extra is part of make test's install
+        figures["physics_warp"] = f"not measured: {exc}"
+        return figures
+    try:
+        cache = kernel_cache_dir()
+    except ImportError as exc:
+        figures["physics_warp"] = f"not measured: {exc}"
+        return figures
+    by_steps: dict[str, float] = {}
+    by_rtf: dict[str, float] = {}
+    setup = None
+    dev = ""
+    for n in worlds if worlds is not None else PHYSICS_WORLDS[size]:
+        res = warp_world_steps(n, periods=PHYSICS_PERIODS[size], device=device)
+        setup = res.setup_s if setup is None else setup
+        dev = res.device
+        by_steps[str(n)] = round(res.world_steps_per_s, 1)
+        by_rtf[str(n)] = round(res.realtime_factor, 2)
+    figures.update({
+        "physics_warp_device": dev,
+        "physics_warp_world_steps_per_s_by_worlds": by_steps,
+        "physics_warp_realtime_factor_by_worlds": by_rtf,
+        "physics_warp_setup_s": round(setup or 0.0, 1),
+        "physics_warp_kernel_cache": cache,
+    })
+    return figures
 
 
 def measure(jobs: int = 1, size: str = "full", jax: bool = False) -> dict[str, Any]:

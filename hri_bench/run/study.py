@@ -168,7 +168,8 @@ class StudyConfig:
         seed: Base seed; run r depends on (seed, r) only.
         jobs: Worker processes (or Ray tasks in flight).
         executor: "serial", "process" or "ray".
-        backend: "graph" (the abstract task graph, batched) or "mujoco" (the simulated
+        backend: "graph" (the abstract task graph, batched), "mjwarp" (the simulated Panda on
+            MuJoCo Warp, a unit's runs as worlds of one batch) or "mujoco" (the simulated
             Panda, one run at a time; adds interaction impulse, duration and graph agreement
             to the metrics).
         max_steps: Step limit per episode.
@@ -657,7 +658,8 @@ UNIT_EPISODES = 1000
 
 
 def _runs_per_unit(cfg: StudyConfig) -> int:
-    if not BACKENDS[cfg.backend].vectorizable:
+    spec = BACKENDS[cfg.backend]
+    if not (spec.vectorizable or spec.batch_runs):
         return 1
     return max(1, UNIT_EPISODES // cfg.n_episodes)
 
@@ -924,7 +926,8 @@ def summarize(result: StudyResult) -> dict[str, Any]:
         "learner": agent_settings("learner", cfg.scenario, cfg.waiting_reward,
                                   dict(cfg.learner)),
         "version": __version__,
-        "env_ids": {"gymnasium": spec.panda_id if cfg.backend == "mujoco" else spec.gym_id,
+        "env_ids": {"gymnasium": spec.panda_id if BACKENDS[cfg.backend].physical
+                    else spec.gym_id,
                     "pettingzoo": spec.pettingzoo_module},
         "settings": cfg.settings(),
         "agent_configs": {a: agent_settings(a, cfg.scenario, cfg.waiting_reward,

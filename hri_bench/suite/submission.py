@@ -29,6 +29,7 @@ from hri_bench.run.runner import TASK_METRICS
 from hri_bench.run.study import regret_reference
 from hri_bench.suite import results_v3
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION, track_config
+from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
 from hri_envs.task.scenarios import scenario_spec
 
@@ -512,7 +513,8 @@ class SuiteRecorder:
             return
         cfg = result.config
         spec = scenario_spec(cfg.scenario)
-        env_ids = {"gymnasium": spec.panda_id if cfg.backend == "mujoco" else spec.gym_id,
+        env_ids = {"gymnasium": spec.panda_id if BACKENDS[cfg.backend].physical
+                   else spec.gym_id,
                    "pettingzoo": spec.pettingzoo_module}
         blind, note = regret_reference(result)
         v3 = self.version not in ("1", "2")

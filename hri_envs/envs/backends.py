@@ -39,6 +39,7 @@ __all__ = [
     "episode_backend",
     "options_checker",
     "register_backend",
+    "vector_backend",
 ]
 
 
@@ -58,6 +59,12 @@ class BackendSpec:
             None: the backend takes no options.
         presets: Names ``physics={"preset": ...}`` (and ``--physics-preset``) accepts (the
             checker knows them too; listed here for help texts that must not import it).
+        batch_runs: Its :class:`BatchBackend` simulates many runs at once (a study hands it
+            chunks of runs rather than one run at a time).
+        physical: It simulates the Panda (its Gymnasium id is the scenario's Panda id).
+        vector_entry: ``"module:Class"`` of a vector env that steps many envs of this
+            backend at once (``gymnasium.make_vec(..., vectorization_mode=
+            "vector_entry_point", backend=...)``), None: refused.
     """
 
     name: str
@@ -68,6 +75,9 @@ class BackendSpec:
     vectorizable: bool = False
     options: str | None = None
     presets: tuple[str, ...] = ()
+    batch_runs: bool = False
+    physical: bool = False
+    vector_entry: str | None = None
 
 
 BACKENDS: dict[str, BackendSpec] = {}
@@ -84,7 +94,16 @@ register_backend(BackendSpec("mujoco", "hri_envs.physics.episode:PhysicsEpisode"
                              "hri_envs.physics.batch:PhysicsBatch",
                              requires=("mujoco", "mink", "gymnasium_robotics"), extra="mujoco",
                              options="hri_envs.physics.options:check_options",
-                             presets=("weak-human", "noisy-sensor")))
+                             presets=("weak-human", "noisy-sensor"), physical=True))
+# The same physics, many worlds at once on MuJoCo Warp (docs/physics.md, "Many worlds").
+register_backend(BackendSpec("mjwarp", "hri_envs.physics.mjwarp.episode:WarpPhysicsEpisode",
+                             "hri_envs.physics.mjwarp.batch:WarpPhysicsBatch",
+                             requires=("mujoco", "mink", "gymnasium_robotics", "warp",
+                                       "mujoco_warp", "mink_warp"), extra="mjwarp",
+                             options="hri_envs.physics.options:check_options",
+                             presets=("weak-human", "noisy-sensor"), batch_runs=True,
+                             physical=True,
+                             vector_entry="hri_envs.physics.mjwarp.vector:PandaVectorEnv"))
 
 
 def backend_spec(name: str) -> BackendSpec:
@@ -122,6 +141,12 @@ def episode_backend(name: str) -> type[Episode]:
     """The :class:`~hri_envs.envs.episode.Episode` class of backend ``name``."""
     cls: type[Episode] = _load(backend_spec(name).episode)
     return cls
+
+
+def vector_backend(name: str) -> Any:
+    """The vector env class of backend ``name`` (None: it has none)."""
+    entry = backend_spec(name).vector_entry
+    return None if entry is None else _load(entry)
 
 
 def batch_backend(name: str) -> type[BatchBackend]:

@@ -250,13 +250,23 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         a_r = check_action("robot", action, self.rules.n_actions)
         if self._done:
             raise ResetNeeded()
+        a_h, seen = self._human_action(a_r)
+        return self._advance(a_r, a_h, seen)
+
+    def _human_action(self, a_r: int) -> tuple[int, dict[str, np.ndarray]]:
+        """The human's action against the robot's ``a_r``, and what the human saw."""
         ep = self._episode
-        s, human = ep.state, self._human
+        s = ep.state
         seen = {"state": np.array([s]), "start": np.array([ep.start]),
                 "intention": np.array([ep.intention]),
                 "last_human_action": np.array([ep.last_human]),
                 "action_mask": self.rules.action_mask[s][None], "robot_action": np.array([a_r])}
-        a_h = int(checked_actions(human.act(seen, _ONE), 1, self.rules.n_actions)[0])
+        return int(checked_actions(self._human.act(seen, _ONE), 1, self.rules.n_actions)[0]), seen
+
+    def _advance(self, a_r: int, a_h: int, seen: dict[str, np.ndarray]
+                 ) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
+        """The joint action moves the episode (the second half of :meth:`step`)."""
+        ep, human = self._episode, self._human
         t = ep.advance(a_r, a_h)
         human.observe(seen["state"], seen["robot_action"], np.array([a_h]),
                       np.array([ep.state]), _ONE)

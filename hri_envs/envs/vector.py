@@ -53,8 +53,11 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     :class:`~hri_envs.task.episode.EpisodeRules` the single env uses (next state, reward,
     end and next context in one look-up each), with no Python loop over episodes; a
     deterministic human that is never passive acts by one look-up too. It runs on the
-    graph only: a backend that simulates (``backend="mujoco"``) is refused; vectorise the
-    Panda envs with Gymnasium's ``vectorization_mode="async"`` instead. Made by
+    graph only: a backend that simulates (``backend="mujoco"`` or ``"mjwarp"``) is refused;
+    vectorise the Panda envs with their own vector entry point
+    (:class:`~hri_envs.physics.mjwarp.vector.PandaVectorEnv`, ``gymnasium.make_vec(
+    "hri_envs/HangerPanda-v0", num_envs=N, vectorization_mode="vector_entry_point")``, the
+    ``mjwarp`` extra) or with Gymnasium's ``vectorization_mode="async"``. Made by
     ``gymnasium.make_vec("hri_envs/Hanger-v0", num_envs=N,
     vectorization_mode="vector_entry_point")``.
 
@@ -157,11 +160,16 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
                                             self.metadata["render_modes"], backend)
 
-        if not backend_spec(self.backend).vectorizable:
+        spec = backend_spec(self.backend)
+        if not spec.vectorizable:
+            batched = ("; or the Panda ids' vector entry point, whose worlds step together on "
+                       "MuJoCo Warp: gymnasium.make_vec('hri_envs/HangerPanda-v0', num_envs=N, "
+                       "vectorization_mode='vector_entry_point')"
+                       if spec.vector_entry is not None else "")
             raise ConfigError(
                 f"the numpy vector env runs on the graph only, not backend={self.backend!r}; "
-                "use gymnasium.make_vec(..., vectorization_mode='async') for a simulated backend",
-                field="backend"
+                "use gymnasium.make_vec(..., vectorization_mode='async') for a simulated backend"
+                + batched, field="backend"
             )
         self.graph = scenario_graph(scenario)
         self._human = seat_human(self.graph, human=human, n_runs=self.num_envs,

@@ -21,6 +21,7 @@ module             contents
 ``batch``          :class:`PhysicsBatch`, the backend of ``hri-bench study --backend mujoco``
 ``speed``          real-time factor and wall time per abstract step
 ``rendering``      headless ``rgb_array`` (EGL, OSMesa fallback) and videos
+``mjwarp``         the same physics, many worlds at once on MuJoCo Warp (``"mjwarp"``)
 =================  ==============================================================
 
 Importing this package selects MuJoCo's headless OpenGL backend (``MUJOCO_GL``) unless it

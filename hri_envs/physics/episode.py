@@ -27,6 +27,7 @@ from hri_envs.physics.rendering import SceneRenderer, write_video
 from hri_envs.physics.sim import PHYSICAL_FAULTS, PandaSim, StepResult
 from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import EpisodeRules
+from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import episode_scenario
 
 __all__ = ["STEP_FIGURES", "STEP_MEANS", "PhysicsEpisode", "step_figures"]
@@ -87,7 +88,7 @@ class PhysicsEpisode(Episode):
                  **options: Any) -> None:
         if video_path is not None:  # before anything is simulated
             video_path = prepare_video_path(video_path)
-        self.sim = PandaSim(rules.graph, options=options)
+        self.sim = self.make_sim(rules.graph, options)
         self._observed_human = WAIT
         self.result: StepResult | None = None
         self._fault: str | None = None
@@ -99,6 +100,14 @@ class PhysicsEpisode(Episode):
         self._renderer: SceneRenderer | None = None
         self._viewer: Any = None
         super().__init__(rules, turn_state)
+
+    @classmethod
+    def make_sim(cls, graph: TaskGraph, options: dict[str, Any]) -> Any:
+        """The simulation of one episode (here MuJoCo's C library, :class:`PandaSim`; another
+        backend returns an object with its ``reset``, ``step``, ``model``, ``data``, ``seats``,
+        ``dt_control``, ``control_every``, ``frame_every`` and ``on_frame``).
+        """
+        return PandaSim(graph, options=options)
 
     @property
     def observed_human(self) -> int:

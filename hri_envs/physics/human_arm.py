@@ -251,6 +251,11 @@ class HumanArm:
         self.hold(data, holding)
         self._set_gains(following=False)
 
+    @staticmethod
+    def thumb_ctrl(on: bool) -> float:
+        """The thumb actuator's target [m]: squeezing the handle (``on``) or open."""
+        return _THUMB_PAST_M if on else -_THUMB_OPEN_M
+
     def hold(self, data: mujoco.MjData, on: bool) -> None:
         """Grasp (weld on, the thumb squeezes the handle) or let go (weld off, thumb open).
 

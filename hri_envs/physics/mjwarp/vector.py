@@ -1,0 +1,216 @@
+"""N Panda envs stepped together on MuJoCo Warp: :class:`PandaVectorEnv`."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from hri_envs.checks import check_whole
+from hri_envs.envs.backends import BACKENDS, backend_spec
+from hri_envs.envs.config import check_physics_options, scenario_graph
+from hri_envs.envs.robot import RobotEnv
+from hri_envs.errors import ActionError, ConfigError, ResetNeeded
+from hri_envs.physics.mjwarp.episode import WarpPhysicsEpisode, WarpSim
+from hri_envs.physics.mjwarp.worlds import WarpWorlds
+
+__all__ = ["PandaVectorEnv"]
+
+class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
+    """``num_envs`` copies of the Panda env (:class:`~hri_envs.envs.robot.RobotEnv` with the
+    physics), their worlds stepped together on MuJoCo Warp.
+
+    ## Description
+
+    The robot-vs-scripted-human task on the simulated Panda, for N episodes at once: every
+    env is a :class:`~hri_envs.envs.robot.RobotEnv` on the ``"mjwarp"`` backend whose
+    world is one of the N worlds of a shared
+    :class:`~hri_envs.physics.mjwarp.worlds.WarpWorlds`; a vector step asks every human for
+    its action, simulates all the worlds' abstract steps together (each world as long as
+    its step lasts; the others wait frozen) and hands each env its outcome. Made by
+    ``gymnasium.make_vec("hri_envs/HangerPanda-v0", num_envs=N,
+    vectorization_mode="vector_entry_point")`` (likewise ``WheelPanda-v0``). The Panda ids
+    say ``backend="mujoco"``: here that runs the same physics on MuJoCo Warp, since MuJoCo's C
+    library steps one world per call (use ``vectorization_mode="async"`` for C worlds in
+    processes); ``backend="mjwarp"`` is the same.
+
+    ## Action Space
+
+    ``MultiDiscrete([A] * N)``: one robot action per env.
+
+    ## Observation Space
+
+    The single env's ``Dict`` (``"dict"`` format), batched: ``"state"``, ``"start"``,
+    ``"last_human_action"`` (N,) int64 and ``"action_mask"`` (N, A) int8.
+
+    ## Rewards
+
+    (N,) float64, the single env's; 0 in the step that autoresets an env.
+
+    ## Starting State
+
+    As the single env; ``reset(seed=s)`` seeds env *i* with ``s + i`` (as Gymnasium's sync
+    vector env does), ``options`` are handed to every env.
+
+    ## Episode End
+
+    As the single env (a fault truncates with ``infos["truncation_reason"]``). Autoreset is
+    the graph's vector env's (:class:`~hri_envs.envs.vector.RobotVectorEnv`): next-step by
+    default (the step after an episode ends ignores that env's action and returns the first
+    observation of a new episode, reward 0, neither terminated nor truncated), or
+    ``autoreset_mode=AutoresetMode.SAME_STEP`` (the final observation in
+    ``infos["final_obs"]``, masked by ``infos["_final_obs"]``). The single env's ``info``
+    keys are batched with Gymnasium's ``_key`` masks.
+
+    ## Arguments
+
+    - ``num_envs``: the number of envs (and worlds) N;
+    - ``scenario`` and the single env's arguments (``preference``, ``human_passive``,
+      ``turn_back``, ``human_rationality``, ``population``, ``r0``, ``max_cycles``,
+      ``physics``, ``reward``), the same for every env;
+    - ``backend``: a physics backend (``"mujoco"`` or ``"mjwarp"``; both run here on MuJoCo
+      Warp); ``"graph"`` is refused (its vector env is the graph ids');
+    - ``device``: Warp's device (default: Warp's default, a GPU where there is one);
+    - ``render_mode``: must be None;
+    - ``autoreset_mode``: ``AutoresetMode.NEXT_STEP`` (default) or ``SAME_STEP``.
+
+    ## Version History
+
+    - v0: initial version.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int = 1, scenario: str = "hanger", *,
+                 backend: str = "mjwarp", device: str | None = None,
+                 render_mode: str | None = None,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+                 physics: dict[str, Any] | None = None, preference: str | None = None,
+                 human_passive: float = 0.0, turn_back: float = 0.0,
+                 human_rationality: float = math.inf, population: str | None = None,
+                 r0: float | None = None, max_cycles: int = 100,
+                 reward: str = "paper") -> None:
+        physical = [name for name, spec in BACKENDS.items() if spec.physical]
+        if backend not in physical or not backend_spec(backend).physical:
+            raise ConfigError(f"the Panda vector env runs the physics on MuJoCo Warp; backend "
+                              f"must be one of the physics backends {', '.join(physical)}, got "
+                              f"{backend!r}", field="backend")
+        if render_mode is not None:
+            raise ConfigError(f"the Panda vector env does not render; render_mode must be "
+                              f"None, got {render_mode!r}", field="render_mode")
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            mode = None
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ConfigError(f"autoreset_mode must be {AutoresetMode.NEXT_STEP.value!r} or "
+                              f"{AutoresetMode.SAME_STEP.value!r}, got {autoreset_mode!r}",
+                              field="autoreset_mode")
+        self.metadata = {**type(self).metadata, "autoreset_mode": mode}
+        self._same_step = mode == AutoresetMode.SAME_STEP
+        self.num_envs = n = check_whole(num_envs, "num_envs", minimum=1, maximum=1_000_000)
+        self.backend = backend_spec("mjwarp").name
+        self.render_mode = None
+        kwargs: dict[str, Any] = {"preference": preference, "human_passive": human_passive,
+                  "turn_back": turn_back, "human_rationality": human_rationality,
+                  "population": population, "r0": r0, "max_cycles": max_cycles,
+                  "physics": physics, "reward": reward}
+        self.graph = scenario_graph(scenario)
+        options = check_physics_options(physics, "mjwarp")
+        if "video_path" in options:
+            raise ConfigError("the Panda vector env does not record videos; use the single "
+                              "env for physics={'video_path': ...}", field="physics")
+        self.worlds = WarpWorlds(self.graph, n, options=options, device=device)
+        with WarpPhysicsEpisode.sharing([WarpSim(self.worlds, i) for i in range(n)]):
+            self.envs = [RobotEnv(scenario, backend="mjwarp", **kwargs) for _ in range(n)]
+        self.single_observation_space = self.envs[0].observation_space
+        self.single_action_space = spaces.Discrete(self.graph.n_actions)
+        self.observation_space = batch_space(self.single_observation_space, n)
+        self.action_space = batch_space(self.single_action_space, n)
+        self._ended = np.zeros(n, dtype=bool)
+        self._obs: list[dict[str, Any]] = [{} for _ in range(n)]
+        self._needs_reset = True
+
+    def _batch(self, obs: list[dict[str, Any]]) -> dict[str, np.ndarray]:
+        return {"state": np.array([o["state"] for o in obs], dtype=np.int64),
+                "start": np.array([o["start"] for o in obs], dtype=np.int64),
+                "last_human_action": np.array([o["last_human_action"] for o in obs],
+                                              dtype=np.int64),
+                "action_mask": np.stack([o["action_mask"] for o in obs]).astype(np.int8)}
+
+    def action_masks(self) -> np.ndarray:
+        """(N, A) bool, each env's valid robot actions."""
+        return np.stack([env.action_masks() for env in self.envs])
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Start N episodes (env *i* seeded with ``seed + i``)."""
+        infos: dict[str, Any] = {}
+        for i, env in enumerate(self.envs):
+            obs, info = env.reset(seed=None if seed is None else seed + i, options=options)
+            self._obs[i] = obs
+            infos = self._add_info(infos, info, i)
+        self._ended[:] = False
+        self._needs_reset = False
+        return self._batch(self._obs), infos
+
+    def step(self, actions: Any) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray,
+                                          np.ndarray, dict[str, Any]]:
+        """Every env's robot acts, its human acts; the worlds move together."""
+        if self._needs_reset:
+            raise ResetNeeded("call reset() before step()")
+        a = np.asarray(actions)
+        n, n_a = self.num_envs, self.graph.n_actions
+        if a.shape != (n,) or a.dtype.kind not in "iu" or ((a < 0) | (a >= n_a)).any():
+            raise ActionError(f"robot actions must be an integer array of shape ({n},) with "
+                              f"values 0..{n_a - 1}; got {a.dtype} {a.shape}")
+        rewards = np.zeros(n)
+        terminated = np.zeros(n, dtype=bool)
+        truncated = np.zeros(n, dtype=bool)
+        infos: dict[str, Any] = {}
+        restart = np.flatnonzero(self._ended) if not self._same_step else np.zeros(0, int)
+        for i in restart:  # next-step autoreset
+            self._obs[i], info = self.envs[i].reset()
+            infos = self._add_info(infos, info, int(i))
+        stepping = ~self._ended if not self._same_step else np.ones(n, dtype=bool)
+        a_h = np.zeros(n, dtype=np.int64)
+        seen: list[dict[str, np.ndarray] | None] = [None] * n
+        states = np.zeros(n, dtype=np.int64)
+        sim_active = np.zeros(n, dtype=bool)
+        for i in np.flatnonzero(stepping):
+            env = self.envs[i]
+            a_h[i], seen[i] = env._human_action(int(a[i]))
+            states[i] = env._episode.state
+            sim_active[i] = env._episode.fault is None
+        results = self.worlds.step(states, a.astype(np.int64), a_h, sim_active)
+        final: dict[int, dict[str, Any]] = {}
+        for i in np.flatnonzero(stepping):
+            env = self.envs[i]
+            sim = env._episode.sim  # type: ignore[attr-defined]
+            sim.pending = results[i]
+            obs, rewards[i], terminated[i], truncated[i], info = env._advance(
+                int(a[i]), int(a_h[i]), seen[i])  # type: ignore[arg-type]
+            sim.pending = None
+            self._obs[i] = obs
+            infos = self._add_info(infos, info, int(i))
+            if terminated[i] or truncated[i]:
+                if self._same_step:
+                    final[int(i)] = obs
+                    self._obs[i], _ = env.reset()
+        self._ended = (terminated | truncated) if not self._same_step else self._ended
+        if final:
+            final_obs = np.full(n, None, dtype=object)
+            mask = np.zeros(n, dtype=bool)
+            for i, o in final.items():
+                final_obs[i], mask[i] = o, True
+            infos["final_obs"], infos["_final_obs"] = final_obs, mask
+        return self._batch(self._obs), rewards, terminated, truncated, infos
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Close every env."""
+        for env in self.envs:
+            env.close()
