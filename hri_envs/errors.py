@@ -47,6 +47,7 @@ EXTRA_OF: dict[str, str] = {
     "stable_baselines3": "rl", "sb3_contrib": "rl", "torch": "rl",
     "ray": "ray",
     "jax": "jax", "jaxlib": "jax", "optax": "jax",
+    "myo_sim": "arm",
 }
 
 
