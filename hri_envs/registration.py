@@ -17,13 +17,15 @@ __all__ = ["register_envs"]
 
 _ROBOT_ENV = "hri_envs.envs.robot:RobotEnv"
 _ROBOT_VECTOR_ENV = "hri_envs.envs.vector:RobotVectorEnv"
+_CONTINUOUS_ENV = "hri_envs.physics.continuous:CarryEnv"
 
 
 
 def _specs() -> list[dict[str, object]]:
-    """One robot env per scenario on the graph (with the numpy vector form), and one on the
+    """One robot env per scenario on the graph (with the numpy vector form), one on the
     simulated Franka Emika Panda (MuJoCo, mink IK, compliant control; needs the "mujoco"
-    extra, see hri_envs.physics). Ids come from the scenario registry.
+    extra, see hri_envs.physics) and one continuous-control env on the Panda with the whole
+    human arm. Ids come from the scenario registry.
     """
     out: list[dict[str, object]] = []
     for spec in SCENARIOS.values():
@@ -34,6 +36,9 @@ def _specs() -> list[dict[str, object]]:
         if spec.panda_id is not None:
             out.append({"id": spec.panda_id, "entry_point": _ROBOT_ENV,
                         "kwargs": {"scenario": spec.name, "backend": "mujoco"}})
+        if spec.continuous_id is not None:  # continuous control with the whole human arm
+            out.append({"id": spec.continuous_id, "entry_point": _CONTINUOUS_ENV,
+                        "kwargs": {"scenario": spec.name}})
     return out
 
 

@@ -24,7 +24,9 @@ wrench their hand puts on the handle, integrated: the paper's H2 measure from th
 side), the disagreement (work the human does *against* the object's motion), where the
 object rests, and a fault: ``dropped`` (the object touched the floor or fell, or slipped
 out of the hand of a human who carries it alone), ``slipped`` (the handle slipped out of
-the human's hand) or ``ik_failure``.
+the human's hand), ``too_weak`` (a human who carries the object alone has pushed at their
+strength limit for 1 s without moving it, and the arm cannot lift its weight) or
+``ik_failure``.
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ from hri_envs.physics.kinematics import (
     TrajectorySample,
     compose,
     cross3,
+    quat_conj,
     quat_mul,
     quat_to_mat,
     rotation_error,
@@ -77,6 +80,7 @@ _CONTROL_PERIODS = 5  # control periods (125 Hz) per step (25 Hz)
 _SLIP_M, _SLIP_RAD = 0.03, 0.5  # the handle has left the hand beyond these
 _CALM_S = 0.15  # [s] a placed object stays slow this long
 _VEL_SQ_MAX, _ANGVEL_SQ_MAX = 1e-4, 2.5e-3
+_STRAINED_S = 1.0  # [s] at the strength limit without moving the object: too weak
 
 
 class RobotCommand(NamedTuple):
@@ -99,7 +103,7 @@ class CarryStep(NamedTuple):
         sensed: (6,) the robot's last wrist reading of the external wrench [N, N m].
         placed: The support the object rests on after leaving its start (-1: none yet).
         fault: None, or ``"<kind>: <detail>"`` (kinds ``dropped``, ``slipped``,
-            ``ik_failure``).
+            ``too_weak``, ``ik_failure``).
         saturated: The arm's joints whose torque was at the human's strength limit for
             most of the step (names).
     """
@@ -213,6 +217,7 @@ class CarrySim:
         self.start, self.goal = 0, 1
         self.q_ref = home.copy()
         self.left_start = False
+        self._strained = 0.0
         self._calm = 0.0
         self._lowest_z = 0.0
         self.time = 0.0
@@ -299,7 +304,7 @@ class CarrySim:
         if sc.platform_mocap >= 0:
             data.mocap_pos[sc.platform_mocap] = [*data.qpos[:2] + design.base_pos[:2], 0.1]
         mujoco.mj_forward(model, data)
-        self.left_start, self._calm, self.time = False, 0.0, 0.0
+        self.left_start, self._calm, self.time, self._strained = False, 0.0, 0.0, 0.0
         self.sensed = np.zeros(6)
         self.sat_counts[:] = 0.0
 
@@ -353,8 +358,23 @@ class CarrySim:
         return RobotCommand(Pose(pos, quat_mul(dq, grip.quat)), (float(a[6]) + 1.0) / 2.0)
 
     # ------------------------------------------------------------------ step
-    def step(self, cmd: RobotCommand) -> CarryStep:
-        """Simulate one 40 ms step with the robot's command."""
+    def human_command(self, action: np.ndarray) -> RobotCommand:
+        """The human agent's command for an action in [-1, 1]^7: a target for their hand's
+        grip frame relative to where it is (like the robot's) and their stiffness scale.
+        """
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, self.data.site_xmat[self.arm.grip_site])
+        hand = Pose(self.data.site_xpos[self.arm.grip_site].copy(), q)
+        a = np.asarray(action, dtype=float)
+        return RobotCommand(Pose(hand.pos + self.max_step_m * a[:3],
+                                 _rotate(hand.quat, self.max_step_rad * a[3:6])),
+                            (float(a[6]) + 1.0) / 2.0)
+
+    def step(self, cmd: RobotCommand, human_cmd: RobotCommand | None = None) -> CarryStep:
+        """Simulate one 40 ms step with the robot's command; ``human_cmd`` (the human
+        seat's agent, :meth:`human_command`) replaces the scripted human's reference for
+        the step (their impedance's stiffness scaled by its stiffness).
+        """
         model, data, sc = self.model, self.data, self.scene
         k, dt_c, body = self.control_every, self.dt_control, sc.object_body
         human, arm, impedance, drive = self.human, self.arm, self.impedance, self.arm_drive
@@ -378,6 +398,15 @@ class CarrySim:
         fault = None
         weight = self.design.object_mass * 9.81
         sat = np.zeros(len(self.posture))
+        start_obj = data.xpos[body].copy()
+        if human_cmd is not None:
+            q = np.empty(4)
+            mujoco.mju_mat2Quat(q, data.site_xmat[arm.grip_site])
+            hand0 = Pose(data.site_xpos[arm.grip_site].copy(), q)
+            h_delta = human_cmd.target.pos - hand0.pos
+            h_rot = rotation_error(human_cmd.target.quat, hand0.quat)
+            gains = self._gains()
+            impedance.gains = tuple(g * human_cmd.stiffness for g in gains)  # type: ignore[assignment]
         try:
             for i in range(_CONTROL_PERIODS):
                 mujoco.mj_step1(model, data)
@@ -386,10 +415,18 @@ class CarrySim:
                 v, w_body = qv[:3].copy(), np.empty(3)
                 mujoco.mju_rotVecQuat(w_body, qv[3:].copy(), quat)
                 # The human: reference, torso, arm torques.
-                ref = human.advance(dt_c, pos, quat)
-                hand_ref = self._hand_reference(ref)
+                if human_cmd is None:
+                    ref = human.advance(dt_c, pos, quat)
+                    hand_ref = self._hand_reference(ref)
+                    ref_quat = ref.quat
+                else:
+                    s_h = (i + 1) / _CONTROL_PERIODS
+                    hand_ref = TrajectorySample(hand0.pos + s_h * h_delta,
+                                                _rotate(hand0.quat, s_h * h_rot),
+                                                h_delta / self.dt_step, h_rot / self.dt_step)
+                    ref_quat = quat_mul(hand_ref.quat, quat_conj(self.handle_quat))
                 data.ctrl[arm.torso_actuators] = arm.torso_target(
-                    hand_ref.pos, arm.yaw_of(ref.quat, self.rest_quat))
+                    hand_ref.pos, arm.yaw_of(ref_quat, self.rest_quat))
                 ff = None
                 if not self.robot_holds:  # carrying alone: hold up the object's weight
                     grip = data.site_xpos[arm.grip_site]
@@ -430,8 +467,18 @@ class CarrySim:
                 self._check(pos)
         except _Fault as exc:
             fault = str(exc)
+        finally:
+            if human_cmd is not None:
+                impedance.gains = self._gains()
         self.time += self.dt_step
         self.sat_counts = sat
+        if fault is None and not self.robot_holds:
+            moved = float(np.linalg.norm(self.object_pose().pos - start_obj))
+            strained = bool(np.any(sat > _CONTROL_PERIODS / 2)) and moved < 1e-3
+            self._strained = self._strained + self.dt_step if strained else 0.0
+            if self._strained >= _STRAINED_S and self.max_lift_n() < weight:
+                fault = "too_weak: the human cannot carry the object alone; " + \
+                    self._why_slipped()
         if sc.platform_mocap >= 0:
             data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + self.design.base_pos[:2]
         return self._result(lin, ang, disagree, fault, lever)

@@ -214,17 +214,25 @@ class IntentionHuman:
         self.t += dt
         return sample
 
-    def progress(self, pos: np.ndarray, quat: np.ndarray) -> float:
-        """The object's progress along the whole route (0 at the start, 1 at the goal),
-        by path length (m + lever x rad), projected onto the reference's current line and
-        the next.
+    def progress(self, pos: np.ndarray, quat: np.ndarray, tolerance_m: float = 0.05) -> float:
+        """The object's progress along the whole route (0 at the start, 1 at the goal), by
+        path length (m + lever x rad): the farthest point of the route within
+        ``tolerance_m`` (same measure) of the object, else the route's nearest point.
         """
         lengths = [float(np.linalg.norm(ln.delta) + self.lever * np.linalg.norm(ln.rotvec))
                    for ln in self.lines]
         total = sum(lengths)
-        best = 0.0
-        for i in range(max(self.index - 1, 0), min(self.index + 2, len(self.lines))):
-            s = self._progress(self.lines[i], pos, quat, clamp=i <= self.index)
-            if s > 0.0 or i <= self.index:  # a later line counts once the object is on it
-                best = max(best, (sum(lengths[:i]) + max(s, 0.0) * lengths[i]) / total)
-        return best
+        best, nearest, nearest_d = -1.0, 0.0, math.inf
+        done = 0.0
+        for line, length in zip(self.lines, lengths, strict=True):
+            s = self._progress(line, pos, quat)
+            p = line.start.pos + s * line.delta
+            e = rotation_error(quat, line.start.quat) - s * line.rotvec
+            d = float(np.linalg.norm(pos - p) + self.lever * np.linalg.norm(e))
+            value = (done + s * length) / total
+            if d < tolerance_m:
+                best = max(best, value)
+            if d < nearest_d:
+                nearest, nearest_d = value, d
+            done += length
+        return best if best >= 0.0 else nearest
