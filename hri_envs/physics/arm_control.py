@@ -4,7 +4,7 @@
 grip frame towards its reference, plus a null-space pull towards a comfortable posture::
 
     w = [K (x_ref - x) + D (ẋ_ref - ẋ) + f_ff ;  K_r e(R_ref, R) + D_r (ω_ref - ω) + t_ff]
-    τ = Jᵀ w + (I - Jᵀ J⁺ᵀ) [K_n (q_0 - q) - D_n q̇]
+    τ = Jᵀ w + (I - Jᵀ (J Jᵀ)⁻¹ J) [K_n (q_0 - q) - D_n q̇]
 
 with J the grip frame's Jacobian in the arm's *independent* coordinates (for the muscle
 model, whose shoulder girdle follows the shoulder through equality constraints, the chain
@@ -90,8 +90,9 @@ class HandImpedance:
         self.posture = np.asarray(posture, dtype=float)
         self.gains = gains
         self.kn, self.dn = posture_gains
-        self._jacp = np.zeros((3, model.nv))
-        self._jacr = np.zeros((3, model.nv))
+        self._jac = np.zeros((6, model.nv))
+        self._jacp, self._jacr = self._jac[:3], self._jac[3:]  # contiguous row blocks
+        self._reg = 1e-4 * np.eye(6)
         self._quat = np.zeros(4)
         self.wrench = np.zeros(6)  # the last task wrench [N, N m] the hand aims to apply
 
@@ -102,7 +103,7 @@ class HandImpedance:
         """
         m, arm = self.model, self.arm
         mujoco.mj_jacSite(m, data, self._jacp, self._jacr, arm.grip_site)
-        jac_full = np.vstack([self._jacp, self._jacr])  # (6, nv)
+        jac_full = self._jac  # (6, nv)
         twist = jac_full.dot(data.qvel)
         c = self.coupling.update(data)
         jac = jac_full[:, self.coupling.dofs].dot(c)  # (6, n)
@@ -117,6 +118,7 @@ class HandImpedance:
         q = data.qpos[arm.arm_qpos]
         qd = data.qvel[arm.arm_dofs]
         tau0 = self.kn * (self.posture - q) - self.dn * qd
-        pinv = np.linalg.pinv(jac)  # (n, 6)
-        tau += tau0 - jac.T.dot(pinv.T.dot(tau0))
+        # The posture torque without its part along the task: (I - Jᵀ (J Jᵀ)⁻¹ J) τ₀, with a
+        # little regularisation near singular postures.
+        tau += tau0 - jac.T.dot(np.linalg.solve(jac.dot(jac.T) + self._reg, jac.dot(tau0)))
         return tau
