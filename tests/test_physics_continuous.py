@@ -175,3 +175,43 @@ def test_the_upper_reference_places_the_object_with_less_effort(scenario: str) -
         efforts[name] = (info["episode_effort"], info)
     assert efforts["upper"][1]["reached_intention"]
     assert efforts["upper"][0] < efforts["passive"][0]
+
+
+def test_muscle_driven_arm_makes_the_torques_it_is_asked_for() -> None:
+    """MyoSuite's arm in the scene: the coupling's derivative is the polynomials' (finite
+    differences), the activations (in [0, 1]) make a modest torque request, and the arm
+    carries the wheel with the upper reference without a fault.
+    """
+    pytest.importorskip("myo_sim")
+    pytest.importorskip("scipy")
+    import mujoco
+
+    sim = CarrySim(scenario_graph("wheel"), drive="muscle")
+    sim.reset(1, 0, np.random.default_rng(0))
+    coupling, data = sim.coupling, sim.data
+    c = coupling.update(data).copy()
+    q_ind = data.qpos[sim.arm.arm_qpos].copy()
+    dep = coupling.dofs[len(q_ind):]
+    h = 1e-6
+    for j in range(len(q_ind)):
+        data.qpos[sim.arm.arm_qpos] = q_ind
+        data.qpos[sim.arm.arm_qpos[j]] += h
+        coupling.apply(data)
+        plus = data.qpos[sim.model.jnt_qposadr[[int(np.flatnonzero(sim.model.jnt_dofadr == d)[0])
+                                                for d in dep]]].copy()
+        data.qpos[sim.arm.arm_qpos[j]] -= 2 * h
+        coupling.apply(data)
+        minus = data.qpos[sim.model.jnt_qposadr[[int(np.flatnonzero(sim.model.jnt_dofadr == d)[0])
+                                                 for d in dep]]].copy()
+        assert np.allclose((plus - minus) / (2 * h), c[len(q_ind):, j], atol=1e-4)
+    data.qpos[sim.arm.arm_qpos] = q_ind
+    coupling.apply(data)
+    mujoco.mj_forward(sim.model, data)
+    want = np.array([2.0, -1.0, 0.5, 3.0, 0.2, 0.1, -0.1])
+    made = sim.arm_drive.apply(data, want)
+    act = sim.arm_drive.activation  # type: ignore[attr-defined]
+    assert act.min() >= 0.0 and act.max() <= 1.0 and act.max() > 0.0
+    assert np.allclose(made, want, atol=0.3)
+    for _ in range(25):
+        res = sim.step(sim.command(_follow(sim)))
+        assert res.fault is None

@@ -80,6 +80,7 @@ _CONTROL_PERIODS = 5  # control periods (125 Hz) per step (25 Hz)
 _SLIP_M, _SLIP_RAD = 0.03, 0.5  # the handle has left the hand beyond these
 _CALM_S = 0.15  # [s] a placed object stays slow this long
 _VEL_SQ_MAX, _ANGVEL_SQ_MAX = 1e-4, 2.5e-3
+_REACH_ERROR_MAX_M = 0.01  # [m] + 0.2 m/rad: the arm's IK error at a reset
 _STRAINED_S = 1.0  # [s] at the strength limit without moving the object: too weak
 
 
@@ -259,7 +260,8 @@ class CarrySim:
         ``robot_holds``), the human meaning to bring it to ``goal``.
 
         Raises:
-            IKFailure: The robot cannot reach its grip (a layout it cannot serve).
+            IKFailure: The robot cannot reach its grip (a layout it cannot serve), or the
+                human's arm cannot reach the handle.
         """
         model, data, sc, design = self.model, self.data, self.scene, self.design
         mujoco.mj_resetData(model, data)
@@ -297,7 +299,10 @@ class CarrySim:
         data.qpos[self.arm.torso_qpos] = self.arm.torso_target(
             hand.pos, self.arm.yaw_of(quat, self.rest_quat))
         data.ctrl[self.arm.torso_actuators] = data.qpos[self.arm.torso_qpos]
-        self.arm.solve_ik(data, hand.pos, hand.quat, self.posture)
+        reach = self.arm.solve_ik(data, hand.pos, hand.quat, self.posture)
+        if reach > _REACH_ERROR_MAX_M:
+            raise IKFailure(f"the human's arm cannot put its hand on the handle on support "
+                            f"{start} (error {reach:.3f} m + 0.2 m/rad)")
         self.arm.close(data, True)
         data.qpos[self.arm.fingers_qpos] = 0.0
         self.human_holds = True
