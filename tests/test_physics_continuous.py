@@ -48,7 +48,12 @@ def test_gymnasium_and_sb3_check_env(env_id: str) -> None:
 def test_parallel_api() -> None:
     from pettingzoo.test import parallel_api_test
 
-    parallel_api_test(parallel_env("hanger", max_time_s=1.0), num_cycles=30)
+    env = parallel_env("hanger", max_time_s=1.0)
+    parallel_api_test(env, num_cycles=30)
+    obs, _ = env.reset(seed=0)
+    for _ in range(3):
+        assert all(env.observation_space(a).contains(o) for a, o in obs.items())
+        obs, *_ = env.step({a: env.action_space(a).sample() for a in env.agents})
 
 
 def test_intention_is_not_observed_by_the_robot() -> None:
@@ -77,13 +82,17 @@ def test_bad_input_is_refused_with_what_is_allowed() -> None:
 
 
 def test_same_seed_same_episode() -> None:
-    def run() -> list[float]:
+    def run() -> list[np.ndarray]:
         env = gym.make(IDS[0])
         env.reset(seed=11)
         rng = np.random.default_rng(0)
-        return [env.step(rng.uniform(-1, 1, 7))[1] for _ in range(10)]
+        out = []
+        for _ in range(10):
+            obs, reward, *_ = env.step(rng.uniform(-1, 1, 7))
+            out.append(np.append(obs, reward))  # the sensed wrench's noise included
+        return out
 
-    assert run() == run()
+    assert all(np.array_equal(a, b) for a, b in zip(run(), run(), strict=True))
 
 
 def test_the_human_pushes_against_a_robot_going_the_wrong_way() -> None:
@@ -145,6 +154,24 @@ def test_an_adult_carries_the_object_alone() -> None:
         if term or trunc:
             break
     assert info["fault"] is None and info["reached_intention"]
+
+
+def test_the_effort_is_the_hands_wrench_on_the_object() -> None:
+    """A human carrying the hanger alone holds up its weight: the linear impulse of their
+    hand's wrench per second is the weight (within the motion's accelerations).
+    """
+    env = CarryEnv("hanger", human={"speed": 0.5})
+    env.reset(seed=0, options={"start": "B", "intention": "A", "robot_holds": False})
+    forces = []
+    for _ in range(200):
+        _, _, term, trunc, info = env.step(PASSIVE)
+        if info["progress"] > 0.3:  # off the seat, carried
+            forces.append(info["linear_impulse"] / env.sim.dt_step)
+        if term or trunc:
+            break
+    weight = env.sim.design.object_mass * 9.81
+    assert len(forces) > 20
+    assert abs(np.median(forces) - weight) < 0.2 * weight
 
 
 def test_a_weak_grip_slips() -> None:
