@@ -189,19 +189,29 @@ def test_a_weak_grip_slips() -> None:
 
 @pytest.mark.parametrize("scenario", ["hanger", "wheel"])
 def test_the_upper_reference_places_the_object_with_less_effort(scenario: str) -> None:
+    from baselines.continuous import PassiveFloor, UpperReference, run_episode
+
     env = CarryEnv(scenario)
-    efforts = {}
-    for name in ("upper", "passive"):
-        env.reset(seed=1, options={"start": "B", "intention": "A"})
-        info: dict = {}
-        for _ in range(env.max_steps):
-            a = _follow(env.sim) if name == "upper" else PASSIVE
-            _, _, term, trunc, info = env.step(a)
-            if term or trunc:
-                break
-        efforts[name] = (info["episode_effort"], info)
-    assert efforts["upper"][1]["reached_intention"]
-    assert efforts["upper"][0] < efforts["passive"][0]
+    options = {"start": "B", "intention": "A"}
+    upper = run_episode(env, UpperReference(), seed=1, options=options)
+    passive = run_episode(env, PassiveFloor(), seed=1, options=options)
+    assert upper["reached_intention"] and upper["fault"] is None
+    assert upper["effort"] < passive["effort"]
+
+
+def test_the_lifted_learner_acts_through_primitives_and_learns() -> None:
+    """The Learner sees the abstract states the object passes, and learns at the end."""
+    from baselines.continuous import LiftedLearner, run_episode
+
+    env = CarryEnv("hanger", max_time_s=6.0)
+    learner = LiftedLearner(env, seed=0)
+    theta = learner.agent.batch.theta.copy()  # type: ignore[attr-defined]
+    run_episode(env, learner, seed=0, options={"start": "B", "intention": "A"})
+    assert len(set(learner.states)) >= 2  # the object left its support state
+    assert learner.agent.batch.episodes == 1  # type: ignore[attr-defined]
+    run_episode(env, learner, seed=1, options={"start": "A", "intention": "B"})
+    assert learner.agent.batch.episodes == 2  # type: ignore[attr-defined]
+    assert theta.shape == learner.agent.batch.theta.shape  # type: ignore[attr-defined]
 
 
 def test_muscle_driven_arm_makes_the_torques_it_is_asked_for() -> None:

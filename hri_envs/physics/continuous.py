@@ -206,7 +206,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         self._renderer: Any = None
         self._done = True
         self.steps = 0
-        self.intention = 1
+        self.start, self.intention = 0, 1
         self.episode_effort = 0.0
         self._progress = 0.0
 
