@@ -45,10 +45,13 @@ def test_gymnasium_and_sb3_check_env(env_id: str) -> None:
     env.close()
 
 
-def test_parallel_api() -> None:
+@pytest.mark.parametrize("module", ["hanger_continuous_v0", "wheel_continuous_v0"])
+def test_parallel_api(module: str) -> None:
+    import importlib
+
     from pettingzoo.test import parallel_api_test
 
-    env = parallel_env("hanger", max_time_s=1.0)
+    env = importlib.import_module(f"hri_envs.{module}").parallel_env(max_time_s=1.0)
     parallel_api_test(env, num_cycles=30)
     obs, _ = env.reset(seed=0)
     for _ in range(3):
