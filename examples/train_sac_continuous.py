@@ -88,12 +88,14 @@ def main() -> None:
     kw: dict[str, float] = {"max_step_m": args.max_step_m, "max_step_rad": args.max_step_rad}
     if args.max_time_s is not None:
         kw["max_time_s"] = args.max_time_s
+    # Observations and, for training only, rewards normalised (the per-step rewards are
+    # small, about 0.03, and SAC's entropy bonus would drown them otherwise).
     train = VecNormalize(DummyVecEnv([lambda: Monitor(gym.make(ENV_ID, **kw))]),
-                         norm_obs=True, norm_reward=False)
+                         norm_obs=True, norm_reward=True, gamma=0.98)
     train.seed(args.seed)
     model = SAC("MlpPolicy", train, learning_starts=min(1_000, args.steps // 2),
                 batch_size=256, buffer_size=200_000, learning_rate=3e-4, gamma=0.98,
-                seed=args.seed, verbose=0,
+                ent_coef="auto_0.01", seed=args.seed, verbose=0,
                 policy_kwargs={"net_arch": [int(n) for n in args.net.split(",")]})
     eval_env = gym.make(ENV_ID, **kw)
     seeds = [10_000 + i for i in range(args.eval_episodes)]
