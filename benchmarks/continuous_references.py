@@ -33,6 +33,14 @@ def bootstrap_ci(values: np.ndarray, n: int = 10_000, seed: int = 0) -> tuple[fl
     return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
 
 
+def _exact_ci(k: int, n: int) -> tuple[float, float]:
+    """Clopper-Pearson 95 % CI of a rate of k in n (scipy)."""
+    from scipy.stats import binomtest
+
+    ci = binomtest(k, n).proportion_ci(0.95, method="exact")
+    return float(ci.low), float(ci.high)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--episodes", type=int, default=100)
@@ -62,12 +70,14 @@ def main() -> None:
             results[scenario][name] = {
                 "episodes": args.episodes, "reached_goal": float(reached.mean()),
                 "reached_goal_ci95": bootstrap_ci(reached),
+                "reached_goal_ci95_exact": _exact_ci(int(reached.sum()), len(reached)),
                 "effort_mean_ns": float(effort.mean()), "effort_ci95": bootstrap_ci(effort),
                 "return_mean": float(ret.mean()), "return_ci95": bootstrap_ci(ret),
                 "faults": faults, "simulated_s": sim_s, "wall_s": wall}
             r = results[scenario][name]
+            lo, hi = r["reached_goal_ci95_exact"]
             print(f"{scenario:6s} {name:8s} goal {r['reached_goal']:.2f} "
-                  f"[{r['reached_goal_ci95'][0]:.2f}, {r['reached_goal_ci95'][1]:.2f}]  "
+                  f"[{lo:.3f}, {hi:.3f}] (Clopper-Pearson)  "
                   f"effort {r['effort_mean_ns']:.1f} N s [{r['effort_ci95'][0]:.1f}, "
                   f"{r['effort_ci95'][1]:.1f}]  return {r['return_mean']:.2f}  "
                   f"faults {faults}  {sim_s:.0f} s simulated in {wall:.0f} s", flush=True)
