@@ -72,6 +72,9 @@ def main() -> None:
     p.add_argument("--max-step-rad", type=float, default=0.03,
                    help="the env's action scale: rotation per step [rad] at an action of 1")
     p.add_argument("--net", default="128,128", help="hidden layers of actor and critics")
+    p.add_argument("--gamma", type=float, default=0.995,
+                   help="discount (close to 1: the env's return does not reward speed, and a "
+                        "short horizon would make SAC push the human to finish sooner)")
     p.add_argument("--max-time-s", type=float, default=None,
                    help="episode time limit [s] (default: the env's, 30 s)")
     p.add_argument("--out", default="out/sac_hanger")
@@ -91,10 +94,10 @@ def main() -> None:
     # Observations and, for training only, rewards normalised (the per-step rewards are
     # small, about 0.03, and SAC's entropy bonus would drown them otherwise).
     train = VecNormalize(DummyVecEnv([lambda: Monitor(gym.make(ENV_ID, **kw))]),
-                         norm_obs=True, norm_reward=True, gamma=0.98)
+                         norm_obs=True, norm_reward=True, gamma=args.gamma)
     train.seed(args.seed)
     model = SAC("MlpPolicy", train, learning_starts=min(1_000, args.steps // 2),
-                batch_size=256, buffer_size=200_000, learning_rate=3e-4, gamma=0.98,
+                batch_size=256, buffer_size=200_000, learning_rate=3e-4, gamma=args.gamma,
                 ent_coef="auto_0.01", seed=args.seed, verbose=0,
                 policy_kwargs={"net_arch": [int(n) for n in args.net.split(",")]})
     eval_env = gym.make(ENV_ID, **kw)
