@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
+import mujoco
 import numpy as np
 from gymnasium import spaces
 
@@ -310,8 +311,6 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         q = obj.quat if obj.quat[0] >= 0 else -obj.quat
         v = d.qvel[sim.scene.object_dofs]
         w = np.empty(3)
-        import mujoco  # noqa: PLC0415
-
         mujoco.mju_rotVecQuat(w, np.ascontiguousarray(v[3:]), obj.quat)
         grip = sim.grip_pose()
         gq = grip.quat if grip.quat[0] >= 0 else -grip.quat
