@@ -23,7 +23,7 @@ $(VENV)/.serve-installed: pyproject.toml constraints.txt | $(PY)
 	touch $@ $(VENV)/.demo-installed
 
 $(VENV)/.test-installed: pyproject.toml constraints.txt | $(PY)
-	$(PIP) -e ".[bench,mujoco,mjwarp,rl,ray,clients,web,jax,dev]"
+	$(PIP) -e ".[bench,mujoco,mjwarp,arm,rl,ray,clients,web,jax,dev]"
 	touch $@ $(VENV)/.demo-installed $(VENV)/.serve-installed
 
 demo: $(VENV)/.demo-installed

@@ -48,6 +48,7 @@ EXTRA_OF: dict[str, str] = {
     "ray": "ray",
     "jax": "jax", "jaxlib": "jax", "optax": "jax",
     "warp": "mjwarp", "mujoco_warp": "mjwarp", "mink_warp": "mjwarp",
+    "myo_sim": "arm",
 }
 
 

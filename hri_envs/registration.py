@@ -21,13 +21,15 @@ _ROBOT_ENV = "hri_envs.envs.robot:RobotEnv"
 _ROBOT_VECTOR_ENV = "hri_envs.envs.vector:RobotVectorEnv"
 #: The Panda ids' vector env: N worlds on MuJoCo Warp (the "mjwarp" extra).
 _PANDA_VECTOR_ENV = "hri_envs.physics.mjwarp.vector:PandaVectorEnv"
+_CONTINUOUS_ENV = "hri_envs.physics.continuous:CarryEnv"
 
 
 
 def _specs() -> list[dict[str, object]]:
-    """One robot env per scenario on the graph (with the numpy vector form), and one on the
+    """One robot env per scenario on the graph (with the numpy vector form), one on the
     simulated Franka Emika Panda (MuJoCo, mink IK, compliant control; needs the "mujoco"
-    extra, see hri_envs.physics). Ids come from the scenario registry.
+    extra, see hri_envs.physics) and one continuous-control env on the Panda with the whole
+    human arm. Ids come from the scenario registry.
     """
     out: list[dict[str, object]] = []
     for spec in SCENARIOS.values():
@@ -39,6 +41,9 @@ def _specs() -> list[dict[str, object]]:
             out.append({"id": spec.panda_id, "entry_point": _ROBOT_ENV,
                         "vector_entry_point": _PANDA_VECTOR_ENV,
                         "kwargs": {"scenario": spec.name, "backend": "mujoco"}})
+        if spec.continuous_id is not None:  # continuous control with the whole human arm
+            out.append({"id": spec.continuous_id, "entry_point": _CONTINUOUS_ENV,
+                        "kwargs": {"scenario": spec.name}})
     return out
 
 

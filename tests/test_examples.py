@@ -25,7 +25,8 @@ def run(script, *args, cwd):
 def test_every_example_is_covered():
     scripts = {p.name for p in EXAMPLES.glob("*.py") if p.name != "__init__.py"}
     assert scripts == {"train_maskable_ppo.py", "rllib_multiagent.py", "custom_learner.py",
-                       "play_with_robot.py", "physics_table2.py"}
+                       "play_with_robot.py", "physics_table2.py",
+                       "train_sac_continuous.py"}
 
 
 def test_train_maskable_ppo(tmp_path):
@@ -61,6 +62,18 @@ def test_physics_table2(tmp_path):
               "--out", str(tmp_path / "t2"), cwd=tmp_path)
     assert "passive" in out and "graph agrees 1.000" in out
     assert (tmp_path / "t2" / "summary.json").is_file()
+
+
+def test_train_sac_continuous(tmp_path):
+    pytest.importorskip("mujoco")
+    pytest.importorskip("stable_baselines3")
+    out = run("train_sac_continuous.py", "--steps", "200", "--eval-every", "100",
+              "--eval-episodes", "1", "--final-episodes", "3", "--max-time-s", "1.0",
+              "--out", str(tmp_path / "sac"), cwd=tmp_path)
+    assert "SAC - passive return" in out
+    assert (tmp_path / "sac" / "learning_curve.png").is_file()
+    summary = (tmp_path / "sac" / "summary.json").read_text()
+    assert '"sac_minus_passive_return"' in summary and '"curve"' in summary
 
 
 @pytest.mark.slow  # tests/test_rl.py builds and trains the same example in-process

@@ -22,6 +22,13 @@ module             contents
 ``speed``          real-time factor and wall time per abstract step
 ``rendering``      headless ``rgb_array`` (EGL, OSMesa fallback) and videos
 ``mjwarp``         the same physics, many worlds at once on MuJoCo Warp (``"mjwarp"``)
+``whole_arm``      the continuous envs' human: a whole arm on a torso, friction grip
+``muscles``        the same arm muscle-driven: MyoSuite's ``myoarm_r`` (``arm`` extra)
+``arm_control``    the arm's hand impedance and its torque drive
+``intention``      the human's route, minimum-jerk reference and yielding; parameters
+``carry``          :class:`CarrySim`: robot, whole arm and object stepped at 25 Hz
+``continuous``     the continuous-control Gymnasium env (``*PandaContinuous-v0``)
+``continuous_parallel``  its PettingZoo parallel form (the human seat as an agent)
 =================  ==============================================================
 
 Importing this package selects MuJoCo's headless OpenGL backend (``MUJOCO_GL``) unless it

@@ -21,6 +21,7 @@ by position servos.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import mujoco
@@ -204,8 +205,18 @@ class Scene:
     support_geoms: np.ndarray
 
 
-def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
-    """Compile the scene of ``scenario`` with the physical ``design``."""
+def build_scene(scenario: Scenario, design: PhysicsDesign,
+                human: Callable[[mujoco.MjSpec], None] | None = None) -> Scene:
+    """Compile the scene of ``scenario`` with the physical ``design``.
+
+    Args:
+        scenario: The geometry.
+        design: The physical design.
+        human: Adds the human to the spec (after the object and its collision geometry,
+            before the robot's grip geometry); None: the v0 envs' hand on six joints
+            (:func:`~hri_envs.physics.human_arm.add_human_arm`). The continuous envs pass
+            the whole arm (:mod:`hri_envs.physics.whole_arm`).
+    """
     spec = _robot_spec(design)
     spec.visual.global_.offwidth, spec.visual.global_.offheight = 640, 480
     spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
@@ -245,7 +256,10 @@ def build_scene(scenario: Scenario, design: PhysicsDesign) -> Scene:
     design.shapes.object_collision(obj, scenario, {
         "contype": _OBJECT_BIT, "conaffinity": _FLOOR_BIT | _SUPPORT_BIT, "group": 3,
         "rgba": (0, 0, 0, 0), "mass": 0.0, **_CONTACT})
-    add_human_arm(spec, design)
+    if human is None:
+        add_human_arm(spec, design)
+    else:
+        human(spec)
     _grip_geometry(obj, design)
     _finger_collision(spec)
     _support_collision(spec, scenario, design)

@@ -71,6 +71,7 @@ SPEC = ScenarioSpec(
     "hanger", geometry, r0=-0.33, gamma=0.9, episodes=8, preferences=PREFERENCES,
     default_preference=DEFAULT_PREFERENCE, route=route, n_actions=10,
     gym_id="hri_envs/Hanger-v0", panda_id="hri_envs/HangerPanda-v0",
+    continuous_id="hri_envs/HangerPandaContinuous-v0",
     pettingzoo_module="hri_envs.hanger_v0",
     physics_design="hri_envs.physics.design:hanger_design", schedules={"table2": TABLE2},
 )

@@ -50,6 +50,8 @@ class ScenarioSpec:
         n_actions: Size A of the action set (checked against the graph).
         gym_id: Gymnasium id of the robot env on the graph (None: not registered).
         panda_id: Gymnasium id of the robot env on the simulated Panda (None: none).
+        continuous_id: Gymnasium id of the continuous-control env on the simulated Panda
+            with the whole human arm (None: none; :mod:`hri_envs.physics.continuous`).
         pettingzoo_module: Module of the PettingZoo entry points (None: none; the envs are
             still made with ``scenario=name``).
         physics_design: ``"module:function"`` returning its ``PhysicsDesign`` (None: the
@@ -71,6 +73,7 @@ class ScenarioSpec:
     n_actions: int
     gym_id: str | None = None
     panda_id: str | None = None
+    continuous_id: str | None = None
     pettingzoo_module: str | None = None
     physics_design: str | None = None
     layout: Callable[..., Layout] | None = None

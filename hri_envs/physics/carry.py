@@ -1,0 +1,593 @@
+"""Continuous carrying: the robot's Cartesian grip targets at 25 Hz and a whole human arm.
+
+:class:`CarrySim` owns one MuJoCo scene of a scenario with the whole human arm
+(:mod:`~hri_envs.physics.whole_arm`, torque-driven, or :mod:`~hri_envs.physics.muscles`,
+muscle-driven). Both partners hold the object from the start (the robot by its grasp weld
+on the grip block, the human by friction on the handle); the human means to bring it to
+their goal support along their route (:mod:`~hri_envs.physics.intention`). Each
+:meth:`CarrySim.step` takes the robot's action, a grip target relative to where its grip
+is (and a stiffness), and simulates 40 ms:
+
+* the robot's impedance controller (:class:`~hri_envs.physics.controller.
+  ImpedanceController`, at 125 Hz) tracks a line from its grip to the target with the
+  given stiffness (0: passive, gravity and payload compensated); its null-space posture
+  follows a mink IK reference updated once per step (25 Hz);
+* the human's reference advances (yielding to a robot that leads their way) and their arm's
+  impedance pulls the hand towards it, within their strength (:mod:`~hri_envs.physics.
+  arm_control`); the torso walks and turns with the reference;
+* the supports hold a resting object by their seat law (:mod:`~hri_envs.physics.seats`);
+* the wrist sensor reads the external wrench on the object (:mod:`~hri_envs.physics.
+  sensing`: compensated, biased, noisy, delayed).
+
+What a step reports (:class:`CarryStep`): the route progress, the human's effort (the
+wrench their hand puts on the handle, integrated: the paper's H2 measure from the human's
+side), the disagreement (work the human does *against* the object's motion), where the
+object rests, and a fault: ``dropped`` (the object touched the floor or fell, or slipped
+out of the hand of a human who carries it alone), ``slipped`` (the handle slipped out of
+the human's hand), ``too_weak`` (a human who carries the object alone has pushed at their
+strength limit for 1 s without moving it, and the arm cannot lift its weight) or
+``ik_failure``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping
+from typing import NamedTuple
+
+import mujoco
+import numpy as np
+
+from hri_envs.errors import ConfigError
+from hri_envs.physics.arm_control import ArmDrive, HandImpedance, TorqueDrive
+from hri_envs.physics.contacts import touches
+from hri_envs.physics.controller import ImpedanceController
+from hri_envs.physics.design import PhysicsDesign, design_for
+from hri_envs.physics.ik import IKFailure, ReferenceIK
+from hri_envs.physics.intention import HumanParams, IntentionHuman, route_states
+from hri_envs.physics.kinematics import (
+    Pose,
+    TrajectorySample,
+    compose,
+    cross3,
+    quat_conj,
+    quat_mul,
+    quat_to_mat,
+    rotation_error,
+)
+from hri_envs.physics.observer import StateObserver
+from hri_envs.physics.scene import build_robot_model, build_scene
+from hri_envs.physics.seats import Seats
+from hri_envs.physics.sensing import SensorModel, WristSensor
+from hri_envs.physics.whole_arm import (
+    ARM_JOINTS,
+    COMFORT_POSTURE,
+    TORQUE_LIMITS,
+    WholeArm,
+    add_whole_arm,
+    handle_quat_in_object,
+)
+from hri_envs.task.geometry import Scenario
+from hri_envs.task.graph import BOTH, TaskGraph
+
+__all__ = ["DRIVES", "CarrySim", "CarryStep", "RobotCommand"]
+
+#: The arm's drives: joint torque motors, or MyoSuite's muscles (the "arm" extra).
+DRIVES: tuple[str, ...] = ("torque", "muscle")
+_FINGER_ON_GRIP_M = 0.0219  # [m] as in hri_envs.physics.sim
+_CONTROL_PERIODS = 5  # control periods (125 Hz) per step (25 Hz)
+_SLIP_M, _SLIP_RAD = 0.03, 0.5  # the handle has left the hand beyond these
+_CALM_S = 0.15  # [s] a placed object stays slow this long
+_VEL_SQ_MAX, _ANGVEL_SQ_MAX = 1e-4, 2.5e-3
+_REACH_ERROR_MAX_M = 0.01  # [m] + 0.2 m/rad: the arm's IK error at a reset
+_STRAINED_S = 1.0  # [s] at the strength limit without moving the object: too weak
+
+
+class RobotCommand(NamedTuple):
+    """The robot's command for one step: the grip target and the stiffness scale (0-1)."""
+
+    target: Pose
+    stiffness: float
+
+
+class CarryStep(NamedTuple):
+    """What one 40 ms step did.
+
+    Attributes:
+        progress: The object's progress along the human's route (0 start, 1 goal).
+        effort: ∫ (|F| + |τ| / lever) dt [N s] of the wrench the human's hand puts on the
+            handle (torque about the handle).
+        linear_impulse, angular_impulse: ∫ |F| dt [N s] and ∫ |τ| dt [N m s] of it.
+        disagreement: ∫ max(0, -(F·v + τ·ω)) dt [J]: the work the human does against
+            the object's motion.
+        sensed: (6,) the robot's last wrist reading of the external wrench [N, N m].
+        placed: The support the object rests on after leaving its start (-1: none yet).
+        fault: None, or ``"<kind>: <detail>"`` (kinds ``dropped``, ``slipped``,
+            ``too_weak``, ``ik_failure``).
+        saturated: The arm's joints whose torque was at the human's strength limit for
+            most of the step (names).
+    """
+
+    progress: float
+    effort: float
+    linear_impulse: float
+    angular_impulse: float
+    disagreement: float
+    sensed: np.ndarray
+    placed: int
+    fault: str | None
+    saturated: tuple[str, ...]
+
+    @property
+    def fault_kind(self) -> str | None:
+        """The fault's kind without its detail, or None."""
+        return None if self.fault is None else self.fault.split(":", 1)[0]
+
+
+class _Fault(Exception):
+    pass
+
+
+class CarrySim:
+    """The robot, the whole human arm and the object of a scenario, stepped at 25 Hz.
+
+    Args:
+        graph: The scenario's task graph (supports, states, the human's routes).
+        drive: "torque" (joint torque motors) or "muscle" (MyoSuite's arm, the "arm" extra).
+        design: Physical design (default: the scenario's).
+        max_step_m, max_step_rad: The largest grip target offset per step (an action of
+            ±1) [m], [rad].
+        sensor: Overrides of the wrist sensor model: ``noise_n``, ``bias_n``, ``delay_s``.
+
+    Raises:
+        ConfigError: An unknown drive.
+        MissingExtraError: ``drive="muscle"`` without the "arm" extra (myo-sim).
+    """
+
+    def __init__(self, graph: TaskGraph, drive: str = "torque",
+                 design: PhysicsDesign | None = None, max_step_m: float = 0.02,
+                 max_step_rad: float = 0.06, sensor: Mapping[str, float] | None = None) -> None:
+        if drive not in DRIVES:
+            raise ConfigError(f"unknown arm drive {drive!r}; allowed: {', '.join(DRIVES)}",
+                              field="drive")
+        self.graph, self.drive_name = graph, drive
+        self.design = design = design if design is not None else design_for(graph.name)
+        self.scenario = graph.scenario
+        self.rest_quat = self.scenario.orientations[0]
+        self.max_step_m, self.max_step_rad = max_step_m, max_step_rad
+        if drive == "torque":
+            self.scene = build_scene(self.scenario, design, functools.partial(
+                add_whole_arm, design=design, rest_quat=self.rest_quat))
+            self.model = self.scene.model
+            self.arm = WholeArm(self.model, ARM_JOINTS)
+            acts = np.array([mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, n)
+                             for n in ARM_JOINTS])
+            self.arm_drive: ArmDrive = TorqueDrive(self.model, acts,
+                                                   np.array(list(TORQUE_LIMITS.values())))
+            coupling = self.arm.coupling
+            posture = COMFORT_POSTURE
+        else:
+            from hri_envs.physics import muscles  # noqa: PLC0415
+
+            self.scene, self.arm, self.arm_drive, coupling, posture = muscles.build(
+                self.scenario, design, self.rest_quat)
+            self.model = self.scene.model
+        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MIDPHASE
+        self.data = mujoco.MjData(self.model)
+        self.dt = float(self.model.opt.timestep)
+        self.control_every = max(1, int(design.control_every_steps))
+        self.dt_control = self.control_every * self.dt
+        self.dt_step = _CONTROL_PERIODS * self.dt_control
+        self.posture = np.asarray(posture, dtype=float)
+        self.coupling = coupling
+        self.controller = ImpedanceController(self.scene)
+        self.seats = Seats(self.scenario, design)
+        self.observer = StateObserver(graph, self.scenario, design.lever)
+        sensor = dict(sensor or {})
+        self.sensor = WristSensor(self.scene, SensorModel(
+            sensor.get("noise_n", design.sensor_noise_n),
+            sensor.get("bias_n", design.sensor_bias_n),
+            sensor.get("delay_s", design.sensor_delay_s), design.sensor_torque_lever_m,
+            self.dt_control))
+        n, n_base = len(self.scene.robot_dofs), 3 if design.mobile_base else 0
+        self.n_base = n_base
+        home = np.zeros(n)
+        home[n_base:] = design.home
+        self.home = home
+        self.ik = ReferenceIK(build_robot_model(design), n, n_base, home)
+        self.base_offset = self._base_offset() if n_base else np.zeros(3)
+        self.grip_in_object = Pose(design.grip_pos, design.grip_quat)
+        self.handle_pos = np.asarray(design.handle_pos, dtype=float)
+        self.handle_quat = handle_quat_in_object(self.rest_quat)
+        m = self.model
+        self._site_pos = m.site_pos[self.scene.grip_site].copy()
+        self._site_quat = m.site_quat[self.scene.grip_site].copy()
+        for name in ("human_handle_force", "human_handle_torque"):
+            if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, name) < 0:
+                raise AssertionError(f"the scene lacks the sensor {name!r}")
+        self._hf = int(m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR,
+                                                      "human_handle_force")])
+        self._ht = int(m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR,
+                                                      "human_handle_torque")])
+        self.params = HumanParams()
+        self.human = IntentionHuman(design, self.params, design.lever)
+        self.impedance = HandImpedance(m, self.arm, coupling, self.posture, self._gains())
+        self.robot_holds = True
+        self.human_holds = True
+        self.start, self.goal = 0, 1
+        self.q_ref = home.copy()
+        self.left_start = False
+        self._strained = 0.0
+        self._calm = 0.0
+        self._lowest_z = 0.0
+        self.time = 0.0
+        self.sensed = np.zeros(6)
+        self.sat_counts = np.zeros(len(self.posture))
+
+    # ------------------------------------------------------------------ set-up
+    def _gains(self) -> tuple[float, float, float, float]:
+        d, k = self.design, self.params.stiffness
+        return (k * d.human_stiffness, k * d.human_damping, k * d.human_rot_stiffness,
+                k * d.human_rot_damping)
+
+    def _base_offset(self) -> np.ndarray:
+        m = self.ik.model
+        data = mujoco.MjData(m)
+        data.qpos[: len(self.home)] = self.home
+        mujoco.mj_kinematics(m, data)
+        site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "grip")
+        return self.design.base_pos - data.site_xpos[site]
+
+    def set_scenario(self, scenario: Scenario) -> None:
+        """Move the supports (the wheel's stands) to ``scenario``'s layout."""
+        self.scenario = scenario
+        for k, sup in enumerate(scenario.supports):
+            self.data.mocap_pos[self.scene.support_mocap[k]] = sup.position
+        self.seats.set_scenario(scenario)
+        self.observer.set_scenario(scenario)
+        self._lowest_z = float(self.observer.pos[:, 2].min())
+
+    def route(self, start: int, goal: int) -> list[Pose]:
+        """The object poses of the human's route from ``start`` to ``goal``."""
+        states = route_states(self.graph, start, goal, self.params.preference)
+        return [Pose(*self.observer.pose(s)) for s in states]
+
+    def reset(self, start: int, goal: int, rng: np.random.Generator,
+              scenario: Scenario | None = None, human: HumanParams | None = None,
+              robot_holds: bool = True) -> None:
+        """The object on support ``start``, both partners holding it (the robot only if
+        ``robot_holds``), the human meaning to bring it to ``goal``.
+
+        Raises:
+            IKFailure: The robot cannot reach its grip (a layout it cannot serve), or the
+                human's arm cannot reach the handle.
+        """
+        model, data, sc, design = self.model, self.data, self.scene, self.design
+        mujoco.mj_resetData(model, data)
+        self.set_scenario(scenario if scenario is not None else self.graph.scenario)
+        self.params = human if human is not None else HumanParams()
+        self.human = IntentionHuman(design, self.params, design.lever)
+        self.impedance.gains = self._gains()
+        self.arm_drive.set_strength(self.params.strength)
+        grip_force = (self.params.grip_force_n if self.params.grip_force_n is not None
+                      else _grip_force(design))
+        self.arm.set_grip_force(grip_force)
+        self.sensor.reset(rng.spawn(1)[0])
+        self.start, self.goal = start, goal
+        self.human.plan(self.route(start, goal))
+        s0 = self.graph.support_state(start, BOTH)
+        pos, quat = self.observer.pose(s0)
+        data.qpos[sc.object_qpos] = np.concatenate([pos, quat])
+        grip = compose(Pose(pos, quat), *self.grip_in_object)
+        q0 = self.home.copy()
+        if self.n_base:
+            q0[:3] = grip.pos + self.base_offset - design.base_pos
+        self.ik.reset(q0)
+        if self.ik.solve(grip, iterations=300) > design.reset_grip_ik_error_max_m:
+            raise IKFailure(f"the robot cannot reach its grip on support {start}")
+        self.q_ref = self.ik.q
+        data.qpos[sc.robot_qpos] = self.q_ref
+        data.qpos[sc.finger_qpos] = _FINGER_ON_GRIP_M
+        self.robot_holds = robot_holds
+        self._weld(robot_holds)
+        if not robot_holds:  # the robot's hand waits out of the way
+            data.qpos[sc.robot_qpos] = self.home if not self.n_base else q0
+        # The human: torso in reach, arm on the handle, fingers closed.
+        mujoco.mj_kinematics(model, data)
+        hand = self._hand_pose(Pose(pos, quat))
+        data.qpos[self.arm.torso_qpos] = self.arm.torso_target(
+            hand.pos, self.arm.yaw_of(quat, self.rest_quat))
+        data.ctrl[self.arm.torso_actuators] = data.qpos[self.arm.torso_qpos]
+        reach = self.arm.solve_ik(data, hand.pos, hand.quat, self.posture)
+        if reach > _REACH_ERROR_MAX_M:
+            raise IKFailure(f"the human's arm cannot put its hand on the handle on support "
+                            f"{start} (error {reach:.3f} m + 0.2 m/rad)")
+        self.arm.close(data, True)
+        data.qpos[self.arm.fingers_qpos] = 0.0
+        self.human_holds = True
+        if sc.platform_mocap >= 0:
+            data.mocap_pos[sc.platform_mocap] = [*data.qpos[:2] + design.base_pos[:2], 0.1]
+        mujoco.mj_forward(model, data)
+        self.left_start, self._calm, self.time, self._strained = False, 0.0, 0.0, 0.0
+        self.sensed = np.zeros(6)
+        self.sat_counts[:] = 0.0
+
+    def _weld(self, on: bool) -> None:
+        sc, m, data = self.scene, self.model, self.data
+        if on:
+            inv_q = np.array([self._site_quat[0], *-self._site_quat[1:]])
+            lever = np.empty(3)
+            mujoco.mju_rotVecQuat(lever, self._site_pos, inv_q)
+            rel = compose(self.grip_in_object, -lever, inv_q)
+            m.eq_data[sc.weld, 0:3] = 0.0
+            m.eq_data[sc.weld, 3:6] = rel.pos
+            m.eq_data[sc.weld, 6:10] = rel.quat
+        data.eq_active[sc.weld] = int(on)
+        data.ctrl[sc.finger_actuators] = _FINGER_ON_GRIP_M if on else 0.04
+        m.geom_contype[sc.finger_geoms.ravel()] = 0
+
+    # ------------------------------------------------------------------ poses
+    def object_pose(self) -> Pose:
+        """The object's current pose."""
+        b = self.scene.object_body
+        return Pose(self.data.xpos[b].copy(), self.data.xquat[b].copy())
+
+    def grip_pose(self) -> Pose:
+        """The robot hand's grip frame now."""
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, self.data.site_xmat[self.scene.grip_site])
+        return Pose(self.data.site_xpos[self.scene.grip_site].copy(), q)
+
+    def _hand_pose(self, obj: Pose) -> Pose:
+        """The human's grip frame when it holds the handle of the object at ``obj``."""
+        return compose(obj, self.handle_pos, self.handle_quat)
+
+    def human_grip_reference(self) -> Pose:
+        """Where the robot's grip would be with the object at the human's reference now
+        (what an upper reference that knows the intention follows).
+        """
+        ref = self.human.lines[self.human.index].sample(max(self.human.t, 0.0)) \
+            if not self.human.done else self.human.lines[-1].sample(math.inf)
+        return compose(Pose(ref.pos, ref.quat), *self.grip_in_object)
+
+    def command(self, action: np.ndarray) -> RobotCommand:
+        """The robot's command for an action in [-1, 1]^7 (grip offset, rotation, stiffness)."""
+        grip = self.grip_pose()
+        a = np.asarray(action, dtype=float)
+        pos = grip.pos + self.max_step_m * a[:3]
+        rv = self.max_step_rad * a[3:6]
+        angle = float(np.linalg.norm(rv))
+        dq = (np.array([1.0, 0, 0, 0]) if angle < 1e-12 else
+              np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * rv / angle]))
+        return RobotCommand(Pose(pos, quat_mul(dq, grip.quat)), (float(a[6]) + 1.0) / 2.0)
+
+    # ------------------------------------------------------------------ step
+    def human_command(self, action: np.ndarray) -> RobotCommand:
+        """The human agent's command for an action in [-1, 1]^7: a target for their hand's
+        grip frame relative to where it is (like the robot's) and their stiffness scale.
+        """
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, self.data.site_xmat[self.arm.grip_site])
+        hand = Pose(self.data.site_xpos[self.arm.grip_site].copy(), q)
+        a = np.asarray(action, dtype=float)
+        return RobotCommand(Pose(hand.pos + self.max_step_m * a[:3],
+                                 _rotate(hand.quat, self.max_step_rad * a[3:6])),
+                            (float(a[6]) + 1.0) / 2.0)
+
+    def step(self, cmd: RobotCommand, human_cmd: RobotCommand | None = None) -> CarryStep:
+        """Simulate one 40 ms step with the robot's command; ``human_cmd`` (the human
+        seat's agent, :meth:`human_command`) replaces the scripted human's reference for
+        the step (their impedance's stiffness scaled by its stiffness).
+        """
+        model, data, sc = self.model, self.data, self.scene
+        k, dt_c, body = self.control_every, self.dt_control, sc.object_body
+        human, arm, impedance, drive = self.human, self.arm, self.impedance, self.arm_drive
+        lever = self.design.lever
+        start_grip = self.grip_pose()
+        stiff = cmd.stiffness > 1e-3 and self.robot_holds
+        delta = cmd.target.pos - start_grip.pos
+        rotvec = rotation_error(cmd.target.quat, start_grip.quat)
+        vel, angvel = delta / self.dt_step, rotvec / self.dt_step
+        robot_q = data.qpos[:len(sc.robot_qpos)]
+        try:
+            if stiff:
+                self.q_ref = self.ik.step(cmd.target, self.dt_step).copy()
+            else:
+                self.ik.reset(robot_q.copy())
+                self.q_ref = self.ik.step(start_grip, self.dt_step).copy()
+        except IKFailure as exc:
+            return self._result(0.0, 0.0, 0.0, f"ik_failure: {exc}")
+        xfrc = data.xfrc_applied[body]
+        lin = ang = disagree = 0.0
+        fault = None
+        weight = self.design.object_mass * 9.81
+        sat = np.zeros(len(self.posture))
+        start_obj = data.xpos[body].copy()
+        if human_cmd is not None:
+            q = np.empty(4)
+            mujoco.mju_mat2Quat(q, data.site_xmat[arm.grip_site])
+            hand0 = Pose(data.site_xpos[arm.grip_site].copy(), q)
+            h_delta = human_cmd.target.pos - hand0.pos
+            h_rot = rotation_error(human_cmd.target.quat, hand0.quat)
+            gains = self._gains()
+            impedance.gains = tuple(g * human_cmd.stiffness for g in gains)  # type: ignore[assignment]
+        try:
+            for i in range(_CONTROL_PERIODS):
+                mujoco.mj_step1(model, data)
+                pos, quat = data.xpos[body], data.xquat[body]
+                qv = data.qvel[sc.object_dofs]
+                v, w_body = qv[:3].copy(), np.empty(3)
+                mujoco.mju_rotVecQuat(w_body, qv[3:].copy(), quat)
+                # The human: reference, torso, arm torques.
+                if human_cmd is None:
+                    ref = human.advance(dt_c, pos, quat)
+                    hand_ref = self._hand_reference(ref)
+                    ref_quat = ref.quat
+                else:
+                    s_h = (i + 1) / _CONTROL_PERIODS
+                    hand_ref = TrajectorySample(hand0.pos + s_h * h_delta,
+                                                _rotate(hand0.quat, s_h * h_rot),
+                                                h_delta / self.dt_step, h_rot / self.dt_step)
+                    ref_quat = quat_mul(hand_ref.quat, quat_conj(self.handle_quat))
+                data.ctrl[arm.torso_actuators] = arm.torso_target(
+                    hand_ref.pos, arm.yaw_of(ref_quat, self.rest_quat))
+                ff = None
+                if not self.robot_holds:  # carrying alone: hold up the object's weight
+                    grip = data.site_xpos[arm.grip_site]
+                    r = data.xipos[body] - grip
+                    ff = np.array([0.0, 0.0, weight, *cross3(r, (0.0, 0.0, weight))])
+                tau = impedance.torques(data, hand_ref, ff)
+                made = drive.apply(data, tau)
+                sat += (made <= drive.lo + 1e-9) | (made >= drive.hi - 1e-9)
+                # The robot.
+                rot = data.xmat[body].reshape(3, 3)
+                self.sensed = self.sensor.external(data, self.robot_holds, pos, rot)
+                seat = self.seats.engaged(pos, quat)
+                if seat >= 0:
+                    f_seat, t_seat = self.seats.wrench(seat, pos, quat, v, w_body)
+                    xfrc[:3], xfrc[3:] = f_seat, t_seat
+                else:
+                    xfrc[:] = 0.0
+                    self.left_start = True
+                ref_r = None
+                if stiff:
+                    s = (i + 1) / _CONTROL_PERIODS
+                    ref_r = TrajectorySample(start_grip.pos + s * delta,
+                                             _rotate(start_grip.quat, s * rotvec), vel, angvel)
+                tau_r = self.controller.torques(data, ref_r, self.q_ref,
+                                                min(cmd.stiffness, 1.0), self.robot_holds)
+                data.ctrl[sc.robot_actuators] = tau_r
+                mujoco.mj_step2(model, data)
+                if k > 1:
+                    mujoco.mj_step(model, data, nstep=k - 1)
+                # The human's wrench on the handle (its sensor: the object on the handle,
+                # in the handle's frame; the hand's wrench on the object is the same).
+                f, t = self._handle_wrench()
+                lin += math.sqrt(f.dot(f)) * dt_c
+                ang += math.sqrt(t.dot(t)) * dt_c
+                hv = data.qvel[sc.object_dofs]
+                power = f.dot(hv[:3]) + t.dot(w_body)
+                disagree += max(0.0, -float(power)) * dt_c
+                if i == _CONTROL_PERIODS - 1:  # once per step (40 ms)
+                    self._check(pos)
+        except _Fault as exc:
+            fault = str(exc)
+        finally:
+            if human_cmd is not None:
+                impedance.gains = self._gains()
+        self.time += self.dt_step
+        self.sat_counts = sat
+        if fault is None and not self.robot_holds:
+            moved = float(np.linalg.norm(self.object_pose().pos - start_obj))
+            strained = bool(np.any(sat > _CONTROL_PERIODS / 2)) and moved < 1e-3
+            self._strained = self._strained + self.dt_step if strained else 0.0
+            if self._strained >= _STRAINED_S and self.max_lift_n() < weight:
+                fault = "too_weak: the human cannot carry the object alone; " + \
+                    self._why_slipped()
+        if sc.platform_mocap >= 0:
+            data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + self.design.base_pos[:2]
+        return self._result(lin, ang, disagree, fault, lever)
+
+    def _hand_reference(self, ref: TrajectorySample) -> TrajectorySample:
+        rot = quat_to_mat(ref.quat)
+        r = rot.dot(self.handle_pos)
+        return TrajectorySample(ref.pos + r, quat_mul(ref.quat, self.handle_quat),
+                                ref.vel + np.array(cross3(ref.angvel.tolist(), r.tolist())),
+                                ref.angvel)
+
+    def _handle_wrench(self) -> tuple[np.ndarray, np.ndarray]:
+        """The hand's force [N] and torque [N m] on the handle, in the world (torque about
+        the handle's centre).
+        """
+        d, site = self.data, self.arm.handle_site
+        rot = d.site_xmat[site].reshape(3, 3)
+        return (-rot.dot(d.sensordata[self._hf:self._hf + 3]),
+                -rot.dot(d.sensordata[self._ht:self._ht + 3]))
+
+    def _check(self, pos: np.ndarray) -> None:
+        data, sc = self.data, self.scene
+        if touches(data, sc.floor_geom) or pos[2] < self._lowest_z - 0.15:
+            raise _Fault("dropped: the object " + ("hit the floor" if touches(
+                data, sc.floor_geom) else "fell below every support"))
+        if not np.all(np.isfinite(data.qpos)):
+            raise _Fault("unstable: the simulation diverged")
+        gp, hp = data.site_xpos[self.arm.grip_site], data.site_xpos[self.arm.handle_site]
+        off = float(np.linalg.norm(gp - hp))
+        q1, q2 = np.empty(4), np.empty(4)
+        mujoco.mju_mat2Quat(q1, data.site_xmat[self.arm.grip_site])
+        mujoco.mju_mat2Quat(q2, data.site_xmat[self.arm.handle_site])
+        angle = float(np.linalg.norm(rotation_error(q1, q2)))
+        if off > _SLIP_M or angle > _SLIP_RAD:
+            self.human_holds = False
+            why = self._why_slipped()
+            kind = "slipped" if self.robot_holds else "dropped"
+            raise _Fault(f"{kind}: the handle slipped out of the human's hand "
+                         f"({off * 100:.1f} cm, {math.degrees(angle):.0f}° off); {why}")
+
+    def _why_slipped(self) -> str:
+        sat = [n for n, c in zip(self.joint_names(), self.sat_counts, strict=True) if c > 0]
+        weight = self.design.object_mass * 9.81
+        lift = self.max_lift_n()
+        if not self.robot_holds and lift < weight:
+            return (f"the arm can lift at most {lift:.1f} N here, the object weighs "
+                    f"{weight:.1f} N (joints at their strength limit: "
+                    f"{', '.join(sat) or 'none'})")
+        return (f"grip force {self.model.actuator_forcerange[self.arm.fingers, 1]:.1f} N; "
+                f"joints at their strength limit: {', '.join(sat) or 'none'}")
+
+    def joint_names(self) -> list[str]:
+        """The names of the arm's driven joints."""
+        return [mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_JOINT, int(j))
+                for j in self.arm.arm_joints]
+
+    def max_lift_n(self) -> float:
+        """The largest upward force [N] the hand can hold statically in the current posture
+        within the human's strength: min over joints of limit / |(Jᵀ ẑ)_j| (0 if a joint
+        that must resist has no strength).
+        """
+        m, data = self.model, self.data
+        jacp = np.zeros((3, m.nv))
+        mujoco.mj_jacSite(m, data, jacp, None, self.arm.grip_site)
+        c = self.coupling.update(data)
+        moment = jacp[2, self.coupling.dofs].dot(c)  # (n,) torque per N of upward force
+        lim = np.minimum(-self.arm_drive.lo, self.arm_drive.hi)
+        with np.errstate(divide="ignore"):
+            ratio = np.where(np.abs(moment) > 1e-9, lim / np.abs(moment), np.inf)
+        return float(ratio.min())
+
+    def _result(self, lin: float, ang: float, disagree: float, fault: str | None,
+                lever: float | None = None) -> CarryStep:
+        lever = self.design.lever if lever is None else lever
+        pose = self.object_pose()
+        progress = self.human.progress(pose.pos, pose.quat)
+        placed = -1
+        seat = self.seats.engaged(pose.pos, pose.quat)
+        v = self.data.qvel[self.scene.object_dofs]
+        slow = float(v[:3].dot(v[:3])) < _VEL_SQ_MAX and float(v[3:].dot(v[3:])) < _ANGVEL_SQ_MAX
+        if seat >= 0 and self.left_start and slow:
+            self._calm += self.dt_step
+            if self._calm >= _CALM_S:
+                placed = seat
+        else:
+            self._calm = 0.0
+        sat = tuple(n for n, c in zip(self.joint_names(), self.sat_counts, strict=True)
+                    if c > _CONTROL_PERIODS / 2)
+        return CarryStep(progress, lin + ang / lever, lin, ang, disagree, self.sensed.copy(),
+                         placed, fault, sat)
+
+
+def _rotate(quat: np.ndarray, rotvec: np.ndarray) -> np.ndarray:
+    """``quat`` turned by the world-frame rotation vector ``rotvec``."""
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-12:
+        return quat
+    dq = np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * rotvec / angle])
+    return quat_mul(dq, quat)
+
+
+def _grip_force(design: PhysicsDesign) -> float:
+    """The default grip force [N]: enough for the object's weight about 4 times over with
+    friction 1 on palm and fingers.
+    """
+    return max(20.0, 8.0 * design.object_mass * 9.81)

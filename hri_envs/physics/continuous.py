@@ -1,0 +1,361 @@
+"""The continuous-control Gymnasium env: the robot carries the object with a whole human arm.
+
+Registered as ``hri_envs/HangerPandaContinuous-v0`` and ``hri_envs/WheelPandaContinuous-v0``
+(:mod:`hri_envs.registration`); the parallel two-agent form is
+:mod:`hri_envs.physics.continuous_parallel`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium import spaces
+
+from hri_envs.errors import ActionError, ConfigError, ResetNeeded
+from hri_envs.physics.carry import DRIVES, CarrySim, CarryStep, RobotCommand
+from hri_envs.physics.ik import IKFailure
+from hri_envs.physics.intention import HumanParams
+from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
+
+__all__ = ["ACTION_SIZE", "CarryEnv", "RewardWeights", "check_box_action"]
+
+#: The robot's action: grip offset (3), rotation (3), stiffness (1), each in [-1, 1].
+ACTION_SIZE = 7
+_FAULT_KINDS = ("dropped", "slipped", "too_weak")
+_DEFAULT_TIME_S = {"hanger": 30.0, "wheel": 45.0}
+
+
+@dataclass(frozen=True)
+class RewardWeights:
+    """The reward's weights (see :class:`CarryEnv`, "Rewards").
+
+    Attributes:
+        progress: Reward for the whole route (per unit of route progress).
+        effort: Cost per N s of the human's effort.
+        disagreement: Cost per J of work the human does against the object's motion.
+        fault: Cost of an episode that ends dropped or slipped.
+    """
+
+    progress: float = 10.0
+    effort: float = 0.02
+    disagreement: float = 0.1
+    fault: float = 5.0
+
+
+def check_box_action(agent: str, action: Any, size: int = ACTION_SIZE) -> np.ndarray:
+    """``action`` as a float (size,) array in [-1, 1]; an :class:`ActionError` (a
+    ``ValueError``) naming the agent, the action and the valid range otherwise.
+    """
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.shape != (size,) or not np.all(np.isfinite(a)) \
+            or np.any(np.abs(a) > 1.0 + 1e-6):
+        raise ActionError(f"the {agent}'s action must be {size} finite numbers in [-1, 1] "
+                          f"(Box(-1, 1, ({size},))), got {action!r}")
+    return np.clip(a, -1.0, 1.0)
+
+
+class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
+    """The robot carries an object with a simulated human, feeling them through its wrist.
+
+    ## Description
+
+    A simulated Franka Panda and a simulated human carry an object (clothes hanger, or
+    wheel) from the support it rests on to the support the human intends. The human is a
+    whole arm on a torso (:mod:`hri_envs.physics.whole_arm`; torque-driven with adult
+    strength limits, or muscle-driven through MyoSuite's arm) that holds the object's
+    handle by friction and conveys their hidden intention by force: their hand tracks a
+    minimum-jerk reference along their route to the goal with an impedance around it,
+    pushing against a robot that goes another way and yielding to one that goes theirs
+    (:mod:`hri_envs.physics.intention`). The robot never observes the intention; it feels
+    the human through its wrist force/torque sensor. docs/physics.md, "Continuous envs".
+
+    ## Action Space
+
+    ``Box(-1, 1, (7,), float32)``, at 25 Hz: the robot's grip target relative to where its
+    grip is, ``a[0:3] x max_step_m`` (default 2 cm) in the world's x, y, z and a rotation
+    vector ``a[3:6] x max_step_rad`` (default 0.06 rad), tracked by the existing Cartesian
+    impedance controller with stiffness scale ``(a[6] + 1) / 2`` (0: passive, gravity and
+    payload compensated; 1: the design's stiffness).
+
+    ## Observation Space
+
+    ``Box(-inf, inf, (N,), float32)``, physical units: the object's position (3) [m],
+    orientation quaternion (4, w >= 0), linear (3) [m/s] and angular velocity (3) [rad/s];
+    the robot's grip position (3) and orientation (4); its joint positions (n) [rad, m] and
+    velocities (n) (n = 7 hanger, 10 wheel with its mobile base); the wrist sensor's estimate
+    of the external wrench on the object (6) [N, N m] (compensated, biased, noisy, delayed:
+    :mod:`hri_envs.physics.sensing`); the start support, one-hot (K); the supports'
+    positions (K x 3) [m]; the elapsed fraction of the time limit (1). Never the intention.
+    Hanger N = 53, wheel N = 59.
+
+    ## Rewards
+
+    Per step ``w_p Δprogress - w_e effort - w_d disagreement``: ``progress`` is the object's
+    progress along the human's route to their goal (0 at the start, 1 at the goal: path
+    length of position + lever x angle, projected onto the route), ``effort`` the human's
+    effort (∫ |F| + |τ| / lever dt [N s] of the wrench their hand puts on the handle),
+    ``disagreement`` the work [J] the human does against the object's motion. An episode
+    that ends dropped, slipped or too weak costs ``w_f`` more. Weights :class:`RewardWeights`
+    (defaults 10, 0.02, 0.1, 5).
+
+    ## Starting State
+
+    The object rests on a start support; the robot holds its grip block, the human the
+    handle; the human's goal ι is another support. Start and goal are uniform draws from
+    ``np_random`` unless ``reset(options={"start": k, "intention": k})`` fixes them
+    (indices or names "A", "B", ...); ``options={"robot_holds": False}`` starts with the
+    robot's hand off the object (the human carries alone). The wheel's stands are placed at
+    random per episode (``options={"layout": ((xB, yB), (xC, yC))}`` fixes them).
+
+    ## Episode End
+
+    Terminated when the object is *placed* (it rests, slow for 0.15 s, on a support after
+    leaving its start: ``info["placed"]`` is that support, ``info["reached_intention"]``
+    whether it is the goal), *dropped* (it touched the floor or fell, or slipped out of a
+    human's hand who carried it alone) or *slipped* (the handle slipped out of the human's
+    hand), or when a human who carries the object alone is *too weak* (their arm pushed at
+    its strength limit for 1 s without moving the object, and cannot lift its weight):
+    ``info["fault"]`` is ``"dropped"``, ``"slipped"`` or ``"too_weak"`` and
+    ``info["fault_detail"]`` says why (the arm's greatest lifting force in its posture
+    against the object's weight, the joints at their strength limit, the grip force).
+    Truncated when the time limit passes (``max_time_s``, 30 s hanger, 45 s wheel) or the
+    robot cannot reach its grip (``info["fault"] = "ik_failure"``).
+
+    ## Arguments
+
+    ```python
+    import gymnasium as gym
+    import hri_envs
+    env = gym.make("hri_envs/HangerPandaContinuous-v0", drive="torque", human=None,
+                   max_time_s=None, reward=None, sensor=None, render_mode=None)
+    ```
+
+    - ``scenario``: "hanger" or "wheel" (set by the registered id);
+    - ``drive``: "torque" (joint torque motors, the default) or "muscle" (MyoSuite's arm,
+      the "arm" extra; docs/physics.md says where it works);
+    - ``human``: a mapping of :class:`~hri_envs.physics.intention.HumanParams` (``strength``,
+      ``stiffness``, ``hesitation_s``, ``reaction_s``, ``grip_force_n``, ``preference``,
+      ``speed``) and/or ``preset`` ("default", "weak", "hesitant", "firm");
+    - ``max_time_s``: the time limit [s]; ``reward``: a mapping of :class:`RewardWeights`;
+    - ``sensor``: the wrist sensor's ``noise_n``, ``bias_n``, ``delay_s``;
+    - ``max_step_m``, ``max_step_rad``: the action's scale;
+    - ``render_mode``: None or "rgb_array".
+
+    ``info`` of every step: ``progress``, ``effort``, ``linear_impulse``,
+    ``angular_impulse``, ``disagreement``, ``episode_effort``, ``fault``, ``placed``,
+    ``reached_intention``, ``saturated`` (arm joints at their strength limit).
+
+    ## Version History
+
+    - v0: initial version.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 25}
+
+    def __init__(self, scenario: str = "hanger", *, drive: str = "torque",
+                 human: Mapping[str, Any] | None = None, max_time_s: float | None = None,
+                 reward: Mapping[str, float] | None = None,
+                 sensor: Mapping[str, float] | None = None, max_step_m: float = 0.02,
+                 max_step_rad: float = 0.06, render_mode: str | None = None) -> None:
+        spec = scenario_spec(scenario)
+        if spec.physics_design is None:
+            raise ConfigError(f"scenario {scenario!r} has no physical design; allowed: "
+                              "hanger, wheel", field="scenario")
+        if drive not in DRIVES:
+            raise ConfigError(f"unknown drive {drive!r}; allowed: {', '.join(DRIVES)}",
+                              field="drive")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ConfigError(f"render_mode must be None or 'rgb_array', got {render_mode!r}",
+                              field="render_mode")
+        self.human_params = HumanParams.of(dict(human) if human is not None else None)
+        self.weights = _weights(reward)
+        max_time_s = _DEFAULT_TIME_S.get(scenario, 30.0) if max_time_s is None else max_time_s
+        if isinstance(max_time_s, bool) or not isinstance(max_time_s, int | float) \
+                or not math.isfinite(max_time_s) or max_time_s <= 0:
+            raise ConfigError(f"max_time_s must be a positive number [s], got {max_time_s!r}",
+                              field="max_time_s")
+        for key, value in (("max_step_m", max_step_m), ("max_step_rad", max_step_rad)):
+            if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
+                raise ConfigError(f"{key} must be a positive number, got {value!r}", field=key)
+        sensor = dict(sensor or {})
+        bad = sorted(set(sensor) - {"noise_n", "bias_n", "delay_s"})
+        if bad or any(not isinstance(v, int | float) or isinstance(v, bool) or v < 0
+                      for v in sensor.values()):
+            raise ConfigError(f"sensor takes noise_n, bias_n, delay_s (numbers >= 0), got "
+                              f"{sensor!r}", field="sensor")
+        self.scenario_name, self.render_mode = scenario, render_mode
+        self.graph = scenario_graph(scenario)
+        self.sim = CarrySim(self.graph, drive, max_step_m=max_step_m,
+                            max_step_rad=max_step_rad, sensor=sensor)
+        self._layout_sampler = spec.layout
+        self.max_steps = max(1, round(max_time_s / self.sim.dt_step))
+        n_k = self.graph.n_intentions
+        n_q = len(self.sim.scene.robot_dofs)
+        self.n_obs = 13 + 7 + 2 * n_q + 6 + n_k + 3 * n_k + 1
+        self.observation_space = spaces.Box(-np.inf, np.inf, (self.n_obs,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
+        self.layout: tuple[tuple[float, float], ...] | None = None
+        self._renderer: Any = None
+        self._done = True
+        self.steps = 0
+        self.start, self.intention = 0, 1
+        self.episode_effort = 0.0
+        self._progress = 0.0
+
+    # ------------------------------------------------------------------ gym API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start an episode; see the class docstring for ``options``."""
+        super().reset(seed=seed)
+        opts = dict(options or {})
+        # pettingzoo.test's api tests probe reset(options={"options": 1}): ignored, as by
+        # the v0 envs (hri_envs.envs.config).
+        unknown = sorted(set(opts) - {"start", "intention", "robot_holds", "layout",
+                                      "options"})
+        if unknown:
+            raise ConfigError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; "
+                              "allowed: start, intention, robot_holds, layout",
+                              field="options")
+        rng = self.np_random
+        k = self.graph.n_intentions
+        start = self._support(opts.get("start"), "start")
+        if start is None:
+            start = int(rng.integers(k))
+        goal = self._support(opts.get("intention"), "intention")
+        if goal is None:
+            goal = int((start + 1 + rng.integers(k - 1)) % k)
+        if goal == start:
+            raise ConfigError(f"the intention must differ from the start support ({start})",
+                              field="intention")
+        robot_holds = opts.get("robot_holds", True)
+        if not isinstance(robot_holds, bool | np.bool_):
+            raise ConfigError(f"reset option 'robot_holds' must be True or False, got "
+                              f"{robot_holds!r}", field="options")
+        self.layout = None
+        if self._layout_sampler is not None:
+            self.layout = (opts["layout"] if opts.get("layout") is not None
+                           else self._layout_sampler(rng))
+        scenario = episode_scenario(self.scenario_name, self.layout)
+        self.start, self.intention = start, goal
+        self._fault: str | None = None
+        try:
+            self.sim.reset(start, goal, np.random.default_rng(int(rng.integers(2**63))),
+                           scenario, self.human_params, bool(robot_holds))
+        except IKFailure as exc:
+            self._fault = f"ik_failure: {exc}"
+        self.steps, self.episode_effort, self._done = 0, 0.0, False
+        self._progress = self.sim.human.progress(*self.sim.object_pose())
+        return self._observation(), {"progress": self._progress, "placed": -1,
+                                     "reached_intention": False, "fault": None}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """The robot acts for 40 ms; the human acts; the object moves."""
+        a = check_box_action("robot", action)
+        if self._done:
+            raise ResetNeeded()
+        if self._fault is not None:  # the robot could not reach its grip: nothing runs
+            self._done = True
+            return self._observation(), 0.0, False, True, {
+                "fault": "ik_failure", "fault_detail": self._fault, "placed": -1,
+                "reached_intention": False, "progress": self._progress}
+        res = self.sim.step(self.sim.command(a))
+        return self._after(res)
+
+    def _after(self, res: CarryStep) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        self.steps += 1
+        w = self.weights
+        reward = (w.progress * (res.progress - self._progress) - w.effort * res.effort
+                  - w.disagreement * res.disagreement)
+        self._progress = res.progress
+        self.episode_effort += res.effort
+        kind = res.fault_kind
+        terminated = res.placed >= 0 or kind in _FAULT_KINDS
+        if kind in _FAULT_KINDS:
+            reward -= w.fault
+        truncated = not terminated and (self.steps >= self.max_steps or kind is not None)
+        self._done = terminated or truncated
+        info = {"progress": res.progress, "effort": res.effort,
+                "linear_impulse": res.linear_impulse, "angular_impulse": res.angular_impulse,
+                "disagreement": res.disagreement, "episode_effort": self.episode_effort,
+                "fault": kind, "placed": res.placed,
+                "reached_intention": res.placed == self.intention,
+                "saturated": res.saturated, "time_s": self.steps * self.sim.dt_step}
+        if res.fault is not None:
+            info["fault_detail"] = res.fault
+        return self._observation(), float(reward), terminated, truncated, info
+
+    def _support(self, value: Any, key: str) -> int | None:
+        if value is None:
+            return None
+        names = [s.name for s in self.graph.scenario.supports]
+        if isinstance(value, str) and value in names:
+            return names.index(value)
+        if isinstance(value, int | np.integer) and not isinstance(value, bool) \
+                and 0 <= value < len(names):
+            return int(value)
+        raise ConfigError(f"reset option {key!r} must be a support index 0-{len(names) - 1} or "
+                          f"name {', '.join(names)}, got {value!r}", field="options")
+
+    def _observation(self) -> np.ndarray:
+        sim, d = self.sim, self.sim.data
+        obj = sim.object_pose()
+        q = obj.quat if obj.quat[0] >= 0 else -obj.quat
+        v = d.qvel[sim.scene.object_dofs]
+        w = np.empty(3)
+        mujoco.mju_rotVecQuat(w, np.ascontiguousarray(v[3:]), obj.quat)
+        grip = sim.grip_pose()
+        gq = grip.quat if grip.quat[0] >= 0 else -grip.quat
+        n = len(sim.scene.robot_dofs)
+        onehot = np.zeros(self.graph.n_intentions)
+        onehot[self.start] = 1.0
+        frac = self.steps / self.max_steps
+        out = np.concatenate([obj.pos, q, v[:3], w, grip.pos, gq, d.qpos[:n], d.qvel[:n],
+                              sim.sensed, onehot, sim.seats.pos.ravel(), [frac]])
+        return out.astype(np.float32)
+
+    def render(self) -> np.ndarray | None:
+        """An RGB picture (``render_mode="rgb_array"``), else None."""
+        if self.render_mode != "rgb_array":
+            return None
+        if self._renderer is None:
+            from hri_envs.physics.rendering import SceneRenderer  # noqa: PLC0415
+
+            self._renderer = SceneRenderer(self.sim.model, self.sim.seats.pos)
+        self._renderer.aim(self.sim.seats.pos)
+        frame: np.ndarray = self._renderer.render(self.sim.data)
+        return frame
+
+    def close(self) -> None:
+        """Release the renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # ------------------------------------------------------------------ references
+    def robot_command(self, action: np.ndarray) -> RobotCommand:
+        """The command an action gives in the current state (for agents and tools)."""
+        return self.sim.command(check_box_action("robot", action))
+
+
+def _weights(reward: Mapping[str, float] | None) -> RewardWeights:
+    values = dict(reward or {})
+    allowed = ("progress", "effort", "disagreement", "fault")
+    bad = sorted(set(values) - set(allowed))
+    if bad:
+        raise ConfigError(f"unknown reward weight(s) {', '.join(map(repr, bad))}; allowed: "
+                          f"{', '.join(allowed)}", field="reward")
+    for key, value in values.items():
+        if isinstance(value, bool) or not isinstance(value, int | float) \
+                or not math.isfinite(value) or value < 0:
+            raise ConfigError(f"reward weight {key!r} must be a number >= 0, got {value!r}",
+                              field="reward")
+    return RewardWeights(**{k: float(v) for k, v in values.items()})
