@@ -43,11 +43,16 @@ def _exact_ci(k: int, n: int) -> tuple[float, float]:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--episodes", type=int, default=100)
-    p.add_argument("--scenarios", default="hanger,wheel")
-    p.add_argument("--policies", default="upper,passive,learner")
-    p.add_argument("--drive", default="torque")
-    p.add_argument("--out", default="out/continuous_references.json")
+    p.add_argument("--episodes", type=int, default=100,
+                   help="episodes per scenario and policy (default 100)")
+    p.add_argument("--scenarios", default="hanger,wheel",
+                   help="comma-separated scenarios (default hanger,wheel)")
+    p.add_argument("--policies", default="upper,passive,learner",
+                   help="comma-separated, from upper, passive, learner (default all three)")
+    p.add_argument("--drive", default="torque",
+                   help="the human arm's drive: torque (default) or muscle")
+    p.add_argument("--out", default="out/continuous_references.json",
+                   help="where the figures are written as JSON")
     args = p.parse_args()
     results: dict[str, dict[str, dict[str, object]]] = {}
     for scenario in args.scenarios.split(","):

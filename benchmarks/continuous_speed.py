@@ -27,9 +27,11 @@ from hri_envs.task.scenarios import scenario_spec
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--scenario", default="hanger")
-    p.add_argument("--drive", default="torque")
-    p.add_argument("--seconds", type=float, default=20.0)
+    p.add_argument("--scenario", default="hanger", help="hanger (default) or wheel")
+    p.add_argument("--drive", default="torque",
+                   help="the human arm's drive: torque (default) or muscle")
+    p.add_argument("--seconds", type=float, default=20.0,
+                   help="simulated seconds per measurement (default 20)")
     args = p.parse_args()
     env = gym.make(str(scenario_spec(args.scenario).continuous_id), drive=args.drive)
     base = env.unwrapped

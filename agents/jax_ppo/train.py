@@ -66,7 +66,7 @@ class TrainConfig:
         turn_back: LOW HIGH: the turning-back rate drawn per human, likewise.
         episodes_per_trial: Episodes with one human, at least 1 (None: the scenario's
             study length, hanger 8, wheel 20).
-        reward: The reward variant: "paper" or "no-free-toggle".
+        reward: The reward rule, a name of hri_envs.task.episode.REWARD_RULES ("paper", ...).
         r0: The robot's waiting reward, in (-1, 0) (None: the scenario's).
         max_cycles: Step limit per episode.
         total_steps: Env steps to train for (rounded up to whole chunks of updates).

@@ -32,7 +32,7 @@ from agents.config import default_config
 from hri_bench.cli import people as cli_people
 from hri_bench.cli import results as cli_results
 from hri_bench.people.play import play
-from hri_bench.report.speed import measure
+from hri_bench.report.speed import measure, measure_physics
 from hri_bench.run.agents import (
     AGENTS,
     DEFAULT_STUDY_AGENTS,
@@ -661,8 +661,6 @@ def _figures(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 def _speed(args: argparse.Namespace) -> int:
     figures = measure(jobs=args.jobs, size=args.size, jax=not args.no_jax)
     if args.physics:
-        from hri_bench.speed import measure_physics
-
         figures.update(measure_physics(size=args.size, worlds=args.physics_worlds))
     targets = {"jax": "", "jax_device": "the device JAX ran on",
                "jax_env_envs": "envs stepped together (jit + vmap)",

@@ -267,7 +267,7 @@ CONTRACT: dict[str, str] = {
     "runs": "BatchAgent: the batch's run indices",
     "rngs": "BatchAgent: one generator per run of the batch, as rng",
     "r0": "the study's waiting reward r0",
-    "reward": "the reward rule, 'paper' or 'no-free-toggle'",
+    "reward": "the reward rule's name (hri_envs.task.episode.REWARD_RULES)",
     "max_steps": "the step limit per episode",
     "episodes": "episodes per run",
 }

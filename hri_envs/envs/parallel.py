@@ -129,7 +129,9 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
     - ``turn_back``: probability per episode that ι turns to the start support halfway (as
       ``options={"turn_back": True}``, drawn at reset; default 0). The human is an agent
       here, so its rationality and preference are the policy you give it, not env options;
-    - ``reward``: ``"paper"`` (default) or ``"no-free-toggle"`` (see "Rewards");
+    - ``reward``: a registered reward rule's name (``"paper"``, the default,
+      ``"no-free-toggle"``, or your own: :data:`hri_envs.task.episode.REWARD_RULES`; see
+      "Rewards");
     - ``max_cycles``: step limit per episode (default 100);
     - ``render_mode``: None, "ansi", "rgb_array" or "human" (a window: matplotlib on the
       graph backend, MuJoCo's viewer on the physics; without a display the env raises

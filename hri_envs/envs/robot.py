@@ -116,7 +116,9 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
       ``population`` (a population, split, mixture or family: every ``reset`` draws a new
       member with the env's ``np_random``) and ``human_params`` (a family's parameters);
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
-    - ``reward``: ``"paper"`` (default) or ``"no-free-toggle"`` (see "Rewards");
+    - ``reward``: a registered reward rule's name (``"paper"``, the default,
+      ``"no-free-toggle"``, or your own: :data:`hri_envs.task.episode.REWARD_RULES`; see
+      "Rewards");
     - ``max_cycles``: step limit per episode (default 100);
     - ``render_mode``: None, "ansi", "rgb_array" or "human" (a window; without a display
       :class:`~hri_envs.errors.DisplayUnavailableError` when built); ``render_intention``
