@@ -246,6 +246,17 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, rank, te
           policy, warm, max_iter, temperature, r, q, greedy, soft, lo, hi):
     """The ``steps`` of the MDPs lo..hi-1, one MDP after the other.
 
+    Per MDP: its expected reward (:func:`_expected_reward`), policy iteration (rounds of
+    :func:`_evaluation_matrix`, the elimination :func:`_solve_in_place` and
+    :func:`_improve`), the soft-max of its Q (:func:`_softmax`).
+
+    The steps are functions of their own that numba inlines here (``inline="always"``),
+    and the rounds' loop, its early exit and the elimination's call stay in this function:
+    numba counts references to the arrays an inlined function is given (atomic operations,
+    one pair per array and call) and LLVM prunes those pairs only where no call and no early
+    exit lies between them, so that this function's loops count none (as before the split:
+    checked in the LLVM IR). The elimination gets only its own scratch.
+
     Args:
         steps: Sum of the flags :data:`STATE_REWARD`, :data:`JOINT_REWARD`, :data:`SOLVE`,
             :data:`SOFTMAX`.
@@ -273,142 +284,196 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, rank, te
         soft: (N, S, A) zeros: the soft-max policies, written by SOFTMAX.
         lo: First MDP.
         hi: One past the last MDP.
-
-    Everything is in this one function, and the elimination called from it gets only its
-    own scratch: a compiled function counts references to the arrays it is given (atomic
-    operations, one pair per array and call), and calls of small helpers inside these
-    loops made them a cost of their own.
     """
-    n_s, n_p, n_a = r.shape[1], partner.shape[2], r.shape[2]
-    m = np.empty((n_s, n_s))
-    v = np.empty(n_s)
-    v_ranked = np.empty(n_s)  # v with the states in elimination order
-    act = np.empty(n_s, np.int64)
-    bits = np.zeros((n_s, (n_s + 63) // 64), np.uint64)
-    below = np.zeros((n_s, (n_s + 63) // 64), np.uint64)
-    cols = np.empty((n_s, n_s), np.uint64)  # unsigned: see _solve_in_place
-    n_cols = np.empty(n_s, np.uint64)
+    n_s, n_a = r.shape[1], r.shape[2]
+    m, v, v_ranked, act, bits, below, cols, n_cols = _scratch(n_s)
     z = np.empty(n_a)
-    one, six, low = np.uint64(1), np.uint64(6), np.uint64(63)
+    state_reward = (steps & STATE_REWARD) != 0
     for k in range(lo, hi):
         o = k if r.shape[0] > 1 else 0
         term = terminal[k]
         # With a warm start, the expected reward of a state reward is made in the first
         # round's backup, which reads the same next states (each sum takes the same terms
         # in the same order); the evaluation before it needs only the current actions'.
-        fill = (steps & STATE_REWARD) != 0 and (steps & SOLVE) != 0 and warm
+        fill = state_reward and (steps & SOLVE) != 0 and warm
         if steps & (STATE_REWARD | JOINT_REWARD) and not fill:
-            for s in range(n_s):
-                if s == term and steps & STATE_REWARD:
-                    for a in range(n_a):
-                        r[o, s, a] = values[k, s]
-                    continue
-                for a in range(n_a):
-                    r[o, s, a] = 0.0
-                if s == term:
-                    continue
-                for p in range(n_p):  # outermost: the A sums proceed together, each in p
-                    w = partner[k, s, p]
-                    if w != 0.0:
-                        if steps & STATE_REWARD:
-                            for a in range(n_a):
-                                r[o, s, a] += w * values[k, nxt_t[s, p, a]]
-                        else:
-                            for a in range(n_a):
-                                r[o, s, a] += w * joint_t[s, p, a]
+            _expected_reward(state_reward, k, term, nxt_t, partner, values, joint_t, r, o)
         if steps & SOLVE:
             for s in range(n_s):
                 act[s] = policy[k, s] if warm else _best(r, o, s, vidx, n_valid)[1]
             for _ in range(max_iter):
-                m[:, :] = 0.0  # I - γ P_π, and where it is nonzero
-                bits[:, :] = 0
-                below[:, :] = 0
-                for s in range(n_s):  # row and column rank[s] are state s's
-                    i = rank[s]
-                    m[i, i] = 1.0
-                    bits[i, i >> six] = one << (i & low)
-                    cols[i, 0] = i
-                    n_cols[i] = 1
-                    a = act[s]
-                    if s == term:
-                        v_ranked[i] = values[k, s] if fill else r[o, s, a]
-                        m[i, i] -= gamma
-                        continue
-                    x = 0.0 if fill else r[o, s, a]
-                    for p in range(n_p):
-                        w = partner[k, s, p]
-                        if w != 0.0:
-                            if fill:
-                                x += w * values[k, nxt_t[s, p, a]]
-                            j = rank[nxt_t[s, p, a]]
-                            bit = one << (j & low)
-                            if not bits[i, j >> six] & bit:
-                                bits[i, j >> six] |= bit
-                                cols[i, n_cols[i]] = j
-                                n_cols[i] += one
-                                below[j, i >> six] |= one << (i & low)
-                            m[i, j] -= gamma * w
-                    v_ranked[i] = x
+                _evaluation_matrix(k, term, o, fill, act, nxt_t, partner, values, r, rank,
+                                   gamma, m, v_ranked, bits, below, cols, n_cols)
                 _solve_in_place(m, v_ranked, bits, cols, n_cols, below)
                 for s in range(n_s):
                     v[s] = v_ranked[rank[s]]
-                changed = False
-                for s in range(n_s):
-                    if s == term:
-                        for a in range(n_a):
-                            if fill:
-                                r[o, s, a] = values[k, s]
-                            q[k, s, a] = r[o, s, a] + gamma * v[term]
-                    else:
-                        for a in range(n_a):  # Σ_p partner(p|s) v(next) first, as above
-                            z[a] = 0.0
-                            if fill:
-                                r[o, s, a] = 0.0
-                        for p in range(n_p):
-                            w = partner[k, s, p]
-                            if w != 0.0:
-                                if fill:
-                                    for a in range(n_a):
-                                        j = nxt_t[s, p, a]
-                                        r[o, s, a] += w * values[k, j]
-                                        z[a] += w * v[j]
-                                else:
-                                    for a in range(n_a):
-                                        z[a] += w * v[nxt_t[s, p, a]]
-                        for a in range(n_a):
-                            q[k, s, a] = r[o, s, a] + gamma * z[a]
-                    best, best_a = _best(q, k, s, vidx, n_valid)
-                    current = q[k, s, act[s]] if valid[s, act[s]] else _NEG
-                    # Keep the current action on (numerical) ties so the iteration ends.
-                    if best - current > 1e-10 * (1.0 + abs(best)):
-                        act[s] = best_a
-                        changed = True
+                changed = _improve(k, term, o, fill, act, v, nxt_t, partner, values, r, valid,
+                                   vidx, n_valid, gamma, z, q)
                 fill = False
                 if not changed:
                     break
             for s in range(n_s):
                 greedy[k, s] = _best(q, k, s, vidx, n_valid)[1]
         if steps & SOFTMAX:
-            # Over the valid actions only, in increasing order: the same maximum,
-            # exponentials, sum and quotients as a pass over every action that skips the
-            # invalid ones (a state without valid actions divides 0 by 0 as there).
-            for s in range(n_s):
-                c = n_valid[s]
-                if c == 0:
-                    raise ZeroDivisionError("float division by zero")
-                top = -np.inf
-                for u in range(c):
-                    x = temperature * q[k, s, vidx[s, u]]
-                    z[u] = x
-                    if x > top:
-                        top = x
-                total = 0.0
-                for u in range(c):
-                    e = np.exp(z[u] - top)
-                    z[u] = e
-                    total += e
-                for u in range(c):
-                    soft[k, s, vidx[s, u]] = z[u] / total
+            _softmax(k, q, vidx, n_valid, temperature, z, soft)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _scratch(n_s):
+    """The policy iteration's scratch for S states, made once per :func:`_mdps` call.
+
+    ``(m, v, v_ranked, act, bits, below, cols, n_cols)``: the (S, S) matrix I - γ P_π, the
+    values (S,) by state and by elimination rank, the current actions (S,) int, and the
+    bookkeeping of :func:`_solve_in_place` (unsigned: see there).
+    """
+    n_w = (n_s + 63) // 64
+    return (np.empty((n_s, n_s)), np.empty(n_s), np.empty(n_s), np.empty(n_s, np.int64),
+            np.zeros((n_s, n_w), np.uint64), np.zeros((n_s, n_w), np.uint64),
+            np.empty((n_s, n_s), np.uint64), np.empty(n_s, np.uint64))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _expected_reward(state_reward, k, term, nxt_t, partner, values, joint_t, r, o):
+    """``r[o, s, a]``: MDP k's expected immediate reward of each own action.
+
+    With ``state_reward``: Σ_p partner[k, s, p] values[k, next state] (the absorbing state
+    ``term``: its own value); otherwise Σ_p partner[k, s, p] joint_t[s, p, a] (0 in ``term``).
+    """
+    n_s, n_p, n_a = r.shape[1], partner.shape[2], r.shape[2]
+    for s in range(n_s):
+        if s == term and state_reward:
+            for a in range(n_a):
+                r[o, s, a] = values[k, s]
+            continue
+        for a in range(n_a):
+            r[o, s, a] = 0.0
+        if s == term:
+            continue
+        for p in range(n_p):  # outermost: the A sums proceed together, each in p
+            w = partner[k, s, p]
+            if w != 0.0:
+                if state_reward:
+                    for a in range(n_a):
+                        r[o, s, a] += w * values[k, nxt_t[s, p, a]]
+                else:
+                    for a in range(n_a):
+                        r[o, s, a] += w * joint_t[s, p, a]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _evaluation_matrix(k, term, o, fill, act, nxt_t, partner, values, r, rank, gamma, m,
+                       v_ranked, bits, below, cols, n_cols):
+    """The policy evaluation of MDP k's actions ``act``, (I - γ P_π) v = r_π, for
+    :func:`_solve_in_place`: ``m``, the right-hand side ``v_ranked``, and where ``m`` may be
+    nonzero (``bits``, ``below``, ``cols``, ``n_cols``).
+
+    Row and column ``rank[s]`` are state s's (the elimination order). With ``fill`` the
+    right-hand side is summed from the state reward ``values[k]`` (``r[o]`` is not made
+    yet: see :func:`_mdps`).
+    """
+    n_s, n_p = r.shape[1], partner.shape[2]
+    one, six, low = np.uint64(1), np.uint64(6), np.uint64(63)
+    m[:, :] = 0.0  # I - γ P_π, and where it is nonzero
+    bits[:, :] = 0
+    below[:, :] = 0
+    for s in range(n_s):  # row and column rank[s] are state s's
+        i = rank[s]
+        m[i, i] = 1.0
+        bits[i, i >> six] = one << (i & low)
+        cols[i, 0] = i
+        n_cols[i] = 1
+        a = act[s]
+        if s == term:
+            v_ranked[i] = values[k, s] if fill else r[o, s, a]
+            m[i, i] -= gamma
+            continue
+        x = 0.0 if fill else r[o, s, a]
+        for p in range(n_p):
+            w = partner[k, s, p]
+            if w != 0.0:
+                if fill:
+                    x += w * values[k, nxt_t[s, p, a]]
+                j = rank[nxt_t[s, p, a]]
+                bit = one << (j & low)
+                if not bits[i, j >> six] & bit:
+                    bits[i, j >> six] |= bit
+                    cols[i, n_cols[i]] = j
+                    n_cols[i] += one
+                    below[j, i >> six] |= one << (i & low)
+                m[i, j] -= gamma * w
+        v_ranked[i] = x
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _improve(k, term, o, fill, act, v, nxt_t, partner, values, r, valid, vidx, n_valid, gamma,
+             z, q):
+    """MDP k's Q of the values ``v`` into ``q[k]``; moves ``act`` to better actions.
+
+    Q(s, a) = r(s, a) + γ Σ_p partner(p|s) v(next state) (with ``fill``, ``r[o]`` is
+    summed from ``values[k]`` in the same pass). A state's action changes only where the
+    best valid action is better by more than a numerical tie, so the iteration ends.
+    Returns whether any action changed.
+    """
+    n_s, n_p, n_a = r.shape[1], partner.shape[2], r.shape[2]
+    changed = False
+    for s in range(n_s):
+        if s == term:
+            for a in range(n_a):
+                if fill:
+                    r[o, s, a] = values[k, s]
+                q[k, s, a] = r[o, s, a] + gamma * v[term]
+        else:
+            for a in range(n_a):  # Σ_p partner(p|s) v(next) first, as in the evaluation
+                z[a] = 0.0
+                if fill:
+                    r[o, s, a] = 0.0
+            for p in range(n_p):
+                w = partner[k, s, p]
+                if w != 0.0:
+                    if fill:
+                        for a in range(n_a):
+                            j = nxt_t[s, p, a]
+                            r[o, s, a] += w * values[k, j]
+                            z[a] += w * v[j]
+                    else:
+                        for a in range(n_a):
+                            z[a] += w * v[nxt_t[s, p, a]]
+            for a in range(n_a):
+                q[k, s, a] = r[o, s, a] + gamma * z[a]
+        best, best_a = _best(q, k, s, vidx, n_valid)
+        current = q[k, s, act[s]] if valid[s, act[s]] else _NEG
+        # Keep the current action on (numerical) ties so the iteration ends.
+        if best - current > 1e-10 * (1.0 + abs(best)):
+            act[s] = best_a
+            changed = True
+    return changed
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _softmax(k, q, vidx, n_valid, temperature, z, soft):
+    """``soft[k]``: the soft-max of ``temperature * q[k]`` over each state's valid actions.
+
+    Over the valid actions only, in increasing order: the same maximum, exponentials, sum
+    and quotients as a pass over every action that skips the invalid ones (a state without
+    valid actions divides 0 by 0 as there). ``z`` (A,) is scratch.
+    """
+    for s in range(q.shape[1]):
+        c = n_valid[s]
+        if c == 0:
+            raise ZeroDivisionError("float division by zero")
+        top = -np.inf
+        for u in range(c):
+            x = temperature * q[k, s, vidx[s, u]]
+            z[u] = x
+            if x > top:
+                top = x
+        total = 0.0
+        for u in range(c):
+            e = np.exp(z[u] - top)
+            z[u] = e
+            total += e
+        for u in range(c):
+            soft[k, s, vidx[s, u]] = z[u] / total
 
 
 @njit(cache=True, nogil=True)
