@@ -699,7 +699,8 @@ def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, g
 
 @njit(cache=True, nogil=True)
 def learner_tables(next_r, valid, reward):
-    """The tables :func:`irl_steps` and :func:`partner_models` take, made once per update.
+    """The tables :func:`irl_steps`, :func:`human_models` and :func:`robot_models` take, made
+    once per update.
 
     Args:
         next_r: (S, A_R, A_H) int the robot's joint table (the human's is its transpose).
@@ -797,67 +798,107 @@ def irl_steps(nxt_h, next_h, valid, vidx, n_valid, rank, features, terminal, the
 
 
 @njit(cache=True, nogil=True)
-def partner_models(nxt_r, nxt_h, joint_t, valid, vidx, n_valid, rank, terminal, r_state, pi_r,
-                   warm_h, warm_r, warm, gamma, human_temperature, robot_temperature, max_iter,
-                   q_h, greedy_h, pi_h, q_r, greedy_r, pi_r_out, lo, hi):
-    """The human model and the robot's Q of the runs lo..hi-1 (the Learner's).
+def human_models(nxt_h, valid, vidx, n_valid, rank, terminal, r_state, pi_r, warm_h, warm,
+                 gamma, temperature, max_iter, q_h, greedy_h, pi_h, lo, hi):
+    """The human model of the runs lo..hi-1 (Alg. 1 l. 20-22, the Learner's).
 
     For each intention ι of run b: :func:`solve_soft` of the human MDP (state reward
     ``r_state[b, ι]``, the robot's policy ``pi_r[b, ι]`` substituted, soft-max at
-    ``human_temperature``) into ``q_h``, ``greedy_h``, ``pi_h``; then of the robot's MDP
-    (joint ``reward``, that ``pi_h[b, ι]`` substituted, soft-max at ``robot_temperature``)
-    into ``q_r``, ``greedy_r``, ``pi_r_out``. Warm-started from ``warm_h``/``warm_r`` if
-    ``warm``. The numbers are :func:`solve_soft`'s bit for bit (its steps, MDP by MDP).
+    ``temperature``, the human's τ_H) into ``q_h``, ``greedy_h`` and ``pi_h``,
+    warm-started from ``warm_h`` if ``warm``. The numbers are :func:`solve_soft`'s bit for
+    bit (its steps, MDP by MDP).
 
     Args:
-        nxt_r: The robot's and the human's tables for :func:`_mdps`, the robot's joint
-            reward with the human's action first, and the valid actions' lists and the
-            elimination order of both: :func:`learner_tables`; the same for ``nxt_h``,
-            ``joint_t``, ``vidx``, ``n_valid`` and ``rank``.
-        nxt_h: See ``nxt_r``.
+        nxt_h: (S, P, A) unsigned, the human's table for :func:`_mdps` (the robot first),
+            and the valid actions' lists and the elimination order: :func:`learner_tables`;
+            the same for ``vidx``, ``n_valid`` and ``rank``.
+        valid: (S, A) bool (both partners').
+        vidx: See ``nxt_h``.
+        n_valid: See ``nxt_h``.
+        rank: See ``nxt_h``.
+        terminal: (I,) int absorbing state of each intention's MDP.
+        r_state: (B, I, S) the human's state reward θ·φ(·, ι) per run and intention.
+        pi_r: (B, I, S, A) the robot's policies the human model assumes.
+        warm_h: (B, I, S) int starting actions of the policy iterations.
+        warm: Whether ``warm_h`` is used.
+        gamma: Discount.
+        temperature: τ_H of the human model's soft-max.
+        max_iter: Cap on improvement rounds.
+        q_h: Outputs, (B, I, S, A) floats and (B, I, S) ints, written for runs lo..hi-1;
+            the same for ``greedy_h`` and ``pi_h``.
+        greedy_h: See ``q_h``.
+        pi_h: See ``q_h``.
+        lo: First run.
+        hi: One past the last run.
+    """
+    n_b, n_i, n_s = r_state.shape
+    n, n_a = n_b * n_i, valid.shape[1]
+    first, last = lo * n_i, hi * n_i  # run b's intention ι is MDP b * I + ι (see _goals)
+    soft = pi_h.reshape(n, n_s, n_a)
+    soft[first:last] = 0.0
+    _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_h, pi_r.reshape(n, n_s, n_a),
+          r_state.reshape(n, n_s), np.zeros((1, 1, 1)), valid, vidx, n_valid, rank,
+          _goals(terminal, n, first, last), gamma, warm_h.reshape(n, n_s), warm, max_iter,
+          temperature, np.empty((1, n_s, n_a)), q_h.reshape(n, n_s, n_a),
+          greedy_h.reshape(n, n_s), soft, first, last)
+
+
+@njit(cache=True, nogil=True)
+def robot_models(nxt_r, joint_t, valid, vidx, n_valid, rank, terminal, pi_h, warm_r, warm,
+                 gamma, temperature, max_iter, q_r, greedy_r, pi_r, lo, hi):
+    """The robot's Q of the runs lo..hi-1 and the robot policy the human model assumes
+    (Alg. 1 l. 3-5, the Learner's).
+
+    For each intention ι of run b: :func:`solve_soft` of the robot's MDP (the joint reward,
+    the human model ``pi_h[b, ι]`` substituted, soft-max at ``temperature``) into ``q_r``,
+    ``greedy_r`` and ``pi_r``, warm-started from ``warm_r`` if ``warm``. The numbers are
+    :func:`solve_soft`'s bit for bit (its steps, MDP by MDP).
+
+    Args:
+        nxt_r: (S, P, A) unsigned, the robot's table for :func:`_mdps` (the human first),
+            ``joint_t`` the robot's joint reward with the human's action first, and the
+            valid actions' lists and the elimination order: :func:`learner_tables`; the
+            same for ``vidx``, ``n_valid`` and ``rank``.
         joint_t: See ``nxt_r``.
         valid: (S, A) bool (both partners').
         vidx: See ``nxt_r``.
         n_valid: See ``nxt_r``.
         rank: See ``nxt_r``.
         terminal: (I,) int absorbing state of each intention's MDP.
-        r_state: (B, I, S) the human's state reward θ·φ(·, ι) per run and intention.
-        pi_r: (B, I, S, A) the robot's policies the human model assumes.
-        warm_h: (B, I, S) int starting actions of the human's policy iterations.
-        warm_r: (B, I, S) int those of the robot's.
-        warm: Whether the warm starts are used.
+        pi_h: (B, I, S, A) the human model π̂_H (:func:`human_models`).
+        warm_r: (B, I, S) int starting actions of the policy iterations.
+        warm: Whether ``warm_r`` is used.
         gamma: Discount.
-        human_temperature: Of the human model's soft-max.
-        robot_temperature: Of the robot policy the human model assumes.
+        temperature: Of the robot policy the human model assumes.
         max_iter: Cap on improvement rounds.
-        q_h: Outputs, (B, I, S, A) floats and (B, I, S) ints, written for runs lo..hi-1;
-            the same for ``greedy_h``, ``pi_h``, ``q_r``, ``greedy_r``, ``pi_r_out``.
-        greedy_h: See ``q_h``.
-        pi_h: See ``q_h``.
-        q_r: See ``q_h``.
-        greedy_r: See ``q_h``.
-        pi_r_out: See ``q_h``.
+        q_r: Outputs, (B, I, S, A) floats and (B, I, S) ints, written for runs lo..hi-1;
+            the same for ``greedy_r`` and ``pi_r``.
+        greedy_r: See ``q_r``.
+        pi_r: See ``q_r``.
         lo: First run.
         hi: One past the last run.
     """
-    n_i, n_s, n_a = r_state.shape[1], r_state.shape[2], valid.shape[1]
-    r = np.empty((1, n_s, n_a))
-    unused_v, unused_j = np.zeros((1, 1)), np.zeros((1, 1, 1))
-    # The runs' MDPs one after another (run b's intention ι is MDP b * I + ι): one call per
-    # model, on views made once (a view per run made the threads count references on the
-    # same arrays).
-    n = r_state.shape[0] * n_i
+    n_b, n_i, n_s, n_a = pi_h.shape
+    n = n_b * n_i
+    first, last = lo * n_i, hi * n_i  # run b's intention ι is MDP b * I + ι (see _goals)
+    soft = pi_r.reshape(n, n_s, n_a)
+    soft[first:last] = 0.0
+    _mdps(JOINT_REWARD | SOLVE | SOFTMAX, nxt_r, pi_h.reshape(n, n_s, n_a), np.zeros((1, 1)),
+          joint_t, valid, vidx, n_valid, rank, _goals(terminal, n, first, last), gamma,
+          warm_r.reshape(n, n_s), warm, max_iter, temperature, np.empty((1, n_s, n_a)),
+          q_r.reshape(n, n_s, n_a), greedy_r.reshape(n, n_s), soft, first, last)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _goals(terminal, n, first, last):
+    """(N,) int the absorbing state of each of a batch's N = B * I MDPs (set for first..last-1).
+
+    The runs' MDPs lie one after another, run b's intention ι as MDP b * I + ι, so that
+    one :func:`_mdps` call per model takes a part of the runs, on views made once (a view
+    per run made the threads count references on the same arrays).
+    """
+    n_i = terminal.shape[0]
     goal = np.empty(n, np.int64)
-    for k in range(lo * n_i, hi * n_i):
+    for k in range(first, last):
         goal[k] = terminal[k % n_i]
-    flat_h, flat_r = pi_h.reshape(n, n_s, n_a), pi_r_out.reshape(n, n_s, n_a)
-    flat_h[lo * n_i:hi * n_i] = 0.0
-    flat_r[lo * n_i:hi * n_i] = 0.0
-    _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_h, pi_r.reshape(n, n_s, n_a),
-          r_state.reshape(n, n_s), unused_j, valid, vidx, n_valid, rank, goal, gamma,
-          warm_h.reshape(n, n_s), warm, max_iter, human_temperature, r,
-          q_h.reshape(n, n_s, n_a), greedy_h.reshape(n, n_s), flat_h, lo * n_i, hi * n_i)
-    _mdps(JOINT_REWARD | SOLVE | SOFTMAX, nxt_r, flat_h, unused_v, joint_t, valid, vidx,
-          n_valid, rank, goal, gamma, warm_r.reshape(n, n_s), warm, max_iter,
-          robot_temperature, r, q_r.reshape(n, n_s, n_a), greedy_r.reshape(n, n_s), flat_r,
-          lo * n_i, hi * n_i)
+    return goal
