@@ -180,116 +180,169 @@ def plan(
 
 def _solve(graph: TaskGraph, human: ScriptedHuman, r0: float, horizon: int, informed: bool,
            reward: str, max_nodes: int, prune: float) -> Plan:
-    k, n_a = graph.n_intentions, graph.n_actions
-    n_h = 2 * k  # hypotheses h = 2 ι + turning
-    law = _human_law(human)
-    turn_state = np.asarray(human.turn_state)
-    q = float(human.turn_back)
-    iota = np.arange(n_h) // 2
-    turning = np.arange(n_h) % 2 == 1
-    valid_actions = [np.flatnonzero(graph.valid[s]) for s in range(graph.n_states)]
-    next_state = graph.next_state
-    n_s = graph.n_states
-    rewards = reward_table(graph, r0, reward)  # (K, 2, S, A, A)
-    left = rules.left_start(graph, np.arange(n_s)[:, None], np.arange(k)[None, :])  # (S, K)
-    ends = rules.episode_over(graph, np.arange(n_s)[:, None, None], np.arange(k)[None, :, None],
-                              np.array([False, True])[None, None, :])  # (S, K, 2)
+    """The plan: every node reachable within ``horizon`` steps (:class:`_Tree`), then
+    backward induction over them (:func:`_backward_induction`).
+    """
+    k = graph.n_intentions
+    tree = _Tree(graph, human, r0, informed, reward, max_nodes, prune)
+    roots = tree.roots()
+    tree.expand(sorted(set(roots[roots >= 0].tolist())), horizon)
+    value, policy = _backward_induction(graph, tree, horizon)
+    if not informed:
+        for start in range(k):
+            roots[start, start] = roots[start, (start + 1) % k]
+    return Plan(informed, horizon, k, roots, value, policy, tree.successor, len(tree.nodes))
 
-    keys: dict[tuple[int, int, bool, bytes], int] = {}
-    nodes: list[tuple[int, int, bool, np.ndarray]] = []
 
-    def node_of(start: int, s: int, lifted: bool, belief: np.ndarray) -> int:
+class _Tree:
+    """The planning nodes (start, state, lifted, belief over h) and the edges between them.
+
+    Edges ``(node, a_R, prob, reward, successor)`` are kept as lists (``e_node``,
+    ``e_act``, ``e_prob``, ``e_rew``, ``e_succ``; successor :data:`_TERMINAL` where the
+    episode ends) and ``successor`` maps ``(node, a_R, observation)`` to the successor
+    (see :class:`Plan`).
+    """
+
+    def __init__(self, graph: TaskGraph, human: ScriptedHuman, r0: float, informed: bool,
+                 reward: str, max_nodes: int, prune: float) -> None:
+        k, n_s = graph.n_intentions, graph.n_states
+        self.k, self.informed, self.max_nodes, self.prune = k, informed, max_nodes, prune
+        self.n_h = 2 * k  # hypotheses h = 2 ι + turning
+        self.law = _human_law(human)
+        self.turn_state = np.asarray(human.turn_state)
+        self.q = float(human.turn_back)
+        self.iota = np.arange(self.n_h) // 2
+        self.turning = np.arange(self.n_h) % 2 == 1
+        self.valid_actions = [np.flatnonzero(graph.valid[s]) for s in range(n_s)]
+        self.next_state = graph.next_state
+        self.rewards = reward_table(graph, r0, reward)  # (K, 2, S, A, A)
+        self.left = rules.left_start(graph, np.arange(n_s)[:, None], np.arange(k)[None, :])
+        self.ends = rules.episode_over(graph, np.arange(n_s)[:, None, None],
+                                       np.arange(k)[None, :, None],
+                                       np.array([False, True])[None, None, :])  # (S, K, 2)
+        self.start_state = [int(rules.start_state(graph, start)) for start in range(k)]
+        self.keys: dict[tuple[int, int, bool, bytes], int] = {}
+        self.nodes: list[tuple[int, int, bool, np.ndarray]] = []
+        self.successor: dict[tuple[int, int, int], int] = {}
+        self.e_node: list[int] = []
+        self.e_act: list[int] = []
+        self.e_prob: list[float] = []
+        self.e_rew: list[float] = []
+        self.e_succ: list[int] = []
+
+    def node_of(self, start: int, s: int, lifted: bool, belief: np.ndarray) -> int:
+        """The node of ``belief`` (normalised, pruned, rounded to 9 decimals), made if new.
+
+        Raises:
+            ConfigError: More than ``max_nodes`` nodes.
+        """
         b = belief / belief.sum()
-        if prune > 0.0:
-            b = np.where(b < prune, 0.0, b)
+        if self.prune > 0.0:
+            b = np.where(b < self.prune, 0.0, b)
             b /= b.sum()
         key = (start, s, lifted, np.round(b, 9).tobytes())
-        if key not in keys:
-            if len(nodes) >= max_nodes:
+        if key not in self.keys:
+            if len(self.nodes) >= self.max_nodes:
                 raise ConfigError(
-                    f"the exact {'informed' if informed else 'blind'} plan needs more than "
-                    f"{max_nodes} belief nodes for this human; it fits deterministic humans "
-                    "that are passive or turn back (passivity together with turning back, or "
-                    "a stochastic policy, can need more); raise max_nodes to try",
-                    field="human")
-            keys[key] = len(nodes)
-            nodes.append((start, s, lifted, b))
-        return keys[key]
+                    f"the exact {'informed' if self.informed else 'blind'} plan needs more "
+                    f"than {self.max_nodes} belief nodes for this human; it fits "
+                    "deterministic humans that are passive or turn back (passivity together "
+                    "with turning back, or a stochastic policy, can need more); raise "
+                    "max_nodes to try", field="human")
+            self.keys[key] = len(self.nodes)
+            self.nodes.append((start, s, lifted, b))
+        return self.keys[key]
 
-    def prior(start: int, goals: Sequence[int]) -> np.ndarray:
-        b = np.zeros(n_h)
+    def prior(self, start: int, goals: Sequence[int]) -> np.ndarray:
+        """(H,) the belief at the start: uniform over ``goals``, each split by turning."""
+        b = np.zeros(self.n_h)
         for g in goals:
             w = 1.0 / len(goals)
-            if turn_state[start, g] >= 0 and q > 0.0:
-                b[2 * g + 1] += w * q
-                b[2 * g] += w * (1.0 - q)
+            if self.turn_state[start, g] >= 0 and self.q > 0.0:
+                b[2 * g + 1] += w * self.q
+                b[2 * g] += w * (1.0 - self.q)
             else:
                 b[2 * g] += w
         return b
 
-    roots = np.full((k, k), -1, dtype=np.int64)
-    for start in range(k):
-        s0 = int(rules.start_state(graph, start))
-        others = [g for g in range(k) if g != start]
-        for g in others:
-            roots[start, g] = node_of(start, s0, False, prior(start, [g] if informed else others))
-    # Breadth-first enumeration; edges (node, a_R, obs, prob, reward, successor).
-    e_node: list[int] = []
-    e_act: list[int] = []
-    e_prob: list[float] = []
-    e_rew: list[float] = []
-    e_succ: list[int] = []
-    successor: dict[tuple[int, int, int], int] = {}
-    frontier = sorted(set(roots[roots >= 0].tolist()))
-    for _depth in range(horizon):
-        if not frontier:
-            break
+    def roots(self) -> np.ndarray:
+        """(K, K) ``roots[start, ι]``: the start nodes (-1 for ι == start; see :class:`Plan`)."""
+        k = self.k
+        roots = np.full((k, k), -1, dtype=np.int64)
+        for start in range(k):
+            others = [g for g in range(k) if g != start]
+            for g in others:
+                roots[start, g] = self.node_of(start, self.start_state[start], False,
+                                               self.prior(start, [g] if self.informed
+                                                          else others))
+        return roots
+
+    def expand(self, frontier: list[int], horizon: int) -> None:
+        """Breadth-first enumeration from ``frontier``, ``horizon`` steps deep."""
+        for _depth in range(horizon):
+            if not frontier:
+                break
+            new: list[int] = []
+            for n in frontier:
+                new += self._expand_node(n)
+            frontier = new
+
+    def _expand_node(self, n: int) -> list[int]:
+        """The edges out of node ``n``; the nodes first found on them."""
+        start, s, lifted, b = self.nodes[n]
+        k, iota, turning, turn_state = self.k, self.iota, self.turning, self.turn_state
+        nodes, successor = self.nodes, self.successor
+        lik = self.law[start, iota, s]  # (H, A)
+        joint = b[:, None] * lik  # (H, A)
+        p_h = joint.sum(0)
         new: list[int] = []
-        for n in frontier:
-            start, s, lifted, b = nodes[n]
-            lik = law[start, iota, s]  # (H, A)
-            joint = b[:, None] * lik  # (H, A)
-            p_h = joint.sum(0)
-            for a_r in valid_actions[s]:
-                for a_h in np.flatnonzero(p_h > 0):
-                    s2 = int(next_state[s, a_r, a_h])
-                    r = float(rewards[start, int(lifted), s, a_r, a_h])
-                    lifted2 = bool(lifted or left[s2, start])
-                    over = bool(ends[s2, start, int(lifted2)])
-                    post = joint[:, a_h].copy()
-                    turns = turning & (turn_state[start, iota] == s2) & (post > 0)
-                    if turns.any():
-                        post[2 * start] += post[turns].sum()
-                        post[turns] = 0.0
-                    groups = [(int(i), post * (iota == i)) for i in range(k)] if informed \
-                        else [(0, post)]
-                    for i, part in groups:
-                        mass = float(part.sum())
-                        if mass <= 0.0:
-                            continue
-                        if over:
-                            nxt = _TERMINAL
-                        else:
-                            before = len(nodes)
-                            nxt = node_of(start, s2, lifted2, part)
-                            if nxt >= before:
-                                new.append(nxt)
-                        successor[(n, int(a_r), int(a_h) * k + i)] = nxt
-                        e_node.append(n)
-                        e_act.append(int(a_r))
-                        e_prob.append(mass)
-                        e_rew.append(r)
-                        e_succ.append(nxt)
-        frontier = new
-    n_nodes = len(nodes)
-    node = np.asarray(e_node, dtype=np.int64)
-    act = np.asarray(e_act, dtype=np.int64)
-    prob = np.asarray(e_prob)
-    rew = np.asarray(e_rew)
-    succ = np.asarray(e_succ, dtype=np.int64)
+        for a_r in self.valid_actions[s]:
+            for a_h in np.flatnonzero(p_h > 0):
+                s2 = int(self.next_state[s, a_r, a_h])
+                r = float(self.rewards[start, int(lifted), s, a_r, a_h])
+                lifted2 = bool(lifted or self.left[s2, start])
+                over = bool(self.ends[s2, start, int(lifted2)])
+                post = joint[:, a_h].copy()
+                turns = turning & (turn_state[start, iota] == s2) & (post > 0)
+                if turns.any():
+                    post[2 * start] += post[turns].sum()
+                    post[turns] = 0.0
+                groups = [(int(i), post * (iota == i)) for i in range(k)] if self.informed \
+                    else [(0, post)]
+                for i, part in groups:
+                    mass = float(part.sum())
+                    if mass <= 0.0:
+                        continue
+                    if over:
+                        nxt = _TERMINAL
+                    else:
+                        before = len(nodes)
+                        nxt = self.node_of(start, s2, lifted2, part)
+                        if nxt >= before:
+                            new.append(nxt)
+                    successor[(n, int(a_r), int(a_h) * k + i)] = nxt
+                    self.e_node.append(n)
+                    self.e_act.append(int(a_r))
+                    self.e_prob.append(mass)
+                    self.e_rew.append(r)
+                    self.e_succ.append(nxt)
+        return new
+
+
+def _backward_induction(graph: TaskGraph, tree: _Tree, horizon: int
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """``(value, policy)``, (T+1, N) each: the optimal expected reward and robot action
+    with t steps left, over the tree's edges.
+    """
+    n_nodes, n_a = len(tree.nodes), graph.n_actions
+    node = np.asarray(tree.e_node, dtype=np.int64)
+    act = np.asarray(tree.e_act, dtype=np.int64)
+    prob = np.asarray(tree.e_prob)
+    rew = np.asarray(tree.e_rew)
+    succ = np.asarray(tree.e_succ, dtype=np.int64)
     succ = np.where(succ == _TERMINAL, n_nodes, succ)  # a sink with value 0
     valid = np.zeros((n_nodes, n_a), dtype=bool)
-    states = np.array([nd[1] for nd in nodes], dtype=np.int64)
+    states = np.array([nd[1] for nd in tree.nodes], dtype=np.int64)
     valid[:] = graph.valid[states]
     # Nodes first found at depth T are never expanded: they are only needed with 0 steps left.
     unexpanded = np.ones(n_nodes, dtype=bool)
@@ -305,10 +358,7 @@ def _solve(graph: TaskGraph, human: ScriptedHuman, r0: float, horizon: int, info
         best = np.argmax(qv, axis=1)
         policy[t] = best
         value[t] = np.where(unexpanded, 0.0, qv[np.arange(n_nodes), best])
-    if not informed:
-        for start in range(k):
-            roots[start, start] = roots[start, (start + 1) % k]
-    return Plan(informed, horizon, k, roots, value, policy, successor, n_nodes)
+    return value, policy
 
 
 class _PlanAgent(BatchAgent):

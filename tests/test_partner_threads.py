@@ -179,7 +179,8 @@ def test_solve_soft_needs_exactly_one_reward(path, rewards):
 
 
 def _models_inputs(seed, n_b=30, scenario="wheel"):
-    """Random but valid inputs of update_models: policies, θ, warm starts, looped traces."""
+    """Random but valid inputs of algorithm1.update: the graph's own (read-only) tables, the
+    parameters, policies, θ, warm starts, looped traces."""
     g = graph_for(scenario)
     rng = np.random.default_rng(seed)
     pi_r = task_mdp.softmax(rng.normal(size=(n_b, g.n_intentions, g.n_states, g.n_actions)),
@@ -190,36 +191,45 @@ def _models_inputs(seed, n_b=30, scenario="wheel"):
                  for _ in range(2))
     traces = [t % g.n_states for t in looped_traces(g.n_states, n_b, seed)]
     intentions = rng.integers(-1, g.n_intentions, n_b)
-    tables = (g.next_state, g.valid, g.reward(-0.1), g.features, g.terminal)
-    params = dict(gamma=0.9, human_temperature=3.0, robot_temperature=2.0,
-                  irl_temperature=1.5, learning_rate=0.2)
-    return tables, theta, pi_r, warm, traces, intentions, params
+    tables = algorithm1.Tables(g.next_state, g.valid, g.reward(-0.1), g.features, g.terminal)
+    params = algorithm1.Params(gamma=0.9, human_temperature=3.0, robot_temperature=2.0,
+                               irl_temperature=1.5, learning_rate=0.2)
+    return tables, params, theta, pi_r, warm, traces, intentions
 
 
-@needs_jit  # without numba update_models is the calls it stands for
+def _last(warm):
+    """Models of a last update that hold only its greedy actions (all update reads of them)."""
+    return algorithm1.Models(*[None] * 8)._replace(greedy_h=warm[0], greedy_r=warm[1])
+
+
+def _into(models):
+    """A workspace given ``models`` to write the next update into."""
+    workspace = algorithm1.Workspace()
+    workspace.give(models)
+    return workspace
+
+
+@needs_jit  # without numba update is reference_update
 @pytest.mark.parametrize("n_threads", [1, 2])
 @pytest.mark.parametrize("warm_start", [False, True])
 @pytest.mark.parametrize("irl", [False, True])
-def test_update_models_is_the_calls_it_stands_for_bit_for_bit(threads, n_threads, warm_start,
-                                                              irl):
-    """The per-run kernels (one hand-out to the threads) against solve_soft,
-    expected_feature_counts, loop_free_counts and irl_step called in turn; into new
-    arrays and into reused ones holding garbage."""
+def test_update_is_the_reference_bit_for_bit(threads, n_threads, warm_start, irl):
+    """The compiled steps (one hand-out to the threads) against reference_update (solve_soft,
+    expected_feature_counts, loop_free_counts and irl_step called in turn); into new
+    arrays and into a workspace's arrays holding garbage."""
     threads(n_threads)
-    tables, theta, pi_r, warm, traces, intentions, params = _models_inputs(3, n_b=100)
-    args = dict(state_traces=traces if irl else None, intentions=intentions if irl else None,
-                **params)
-    warm_ = warm if warm_start else None
-    fused = algorithm1.update_models(*tables, theta, pi_r, warm_, **args)
+    tables, params, theta, pi_r, warm, traces, intentions = _models_inputs(3, n_b=100)
+    args = dict(state_traces=traces if irl else None, intentions=intentions if irl else None)
+    last = _last(warm) if warm_start else None
+    fused = algorithm1.update(tables, params, theta, pi_r, last, **args)
     garbage = algorithm1.Models(*(np.full_like(a, 7) for a in fused))
-    reused = algorithm1.update_models(*tables, theta, pi_r, warm_, out=garbage, **args)
+    reused = algorithm1.update(tables, params, theta, pi_r, last, workspace=_into(garbage),
+                               **args)
     nxt, ok, joint, phi, term = (np.asarray(t) for t in tables)
     plain = algorithm1.reference_update(
-        algorithm1.Tables(nxt.astype(np.int64), ok, joint, phi, term.astype(np.int64)),
-        algorithm1.Params(params["gamma"], params["human_temperature"],
-                          params["robot_temperature"], params["irl_temperature"],
-                          params["learning_rate"]),
-        theta, pi_r, warm_, traces if irl else None, intentions if irl else None)
+        algorithm1.Tables(nxt.astype(np.int64), ok, joint, phi, term.astype(np.int64)), params,
+        theta, pi_r, warm if warm_start else None, traces if irl else None,
+        intentions if irl else None)
     for name, a, b, c in zip(algorithm1.Models._fields, fused, reused, plain, strict=True):
         assert a.shape == c.shape and a.tobytes() == c.tobytes(), name
         assert b.tobytes() == c.tobytes(), name
@@ -230,27 +240,41 @@ def test_update_models_is_the_calls_it_stands_for_bit_for_bit(threads, n_threads
         assert not np.isclose(fused.theta[~kept], theta[~kept]).all(axis=1).any()
 
 
+def test_update_models_is_deprecated_and_is_update(path):
+    """The old call (the tables and parameters as separate arguments) still works: it
+    warns, naming update, and gives update's numbers, written into ``out``."""
+    tables, params, theta, pi_r, warm, traces, intentions = _models_inputs(5)
+    args = dict(state_traces=traces, intentions=intentions)
+    expected = algorithm1.update(tables, params, theta, pi_r, _last(warm), **args)
+    garbage = algorithm1.Models(*(np.full_like(a, 7) for a in expected))
+    with pytest.warns(DeprecationWarning, match=r"algorithm1\.update\(Tables"):
+        got = algorithm1.update_models(*tables, theta, pi_r, warm, **params._asdict(), **args,
+                                       out=garbage)
+    for name, a, b in zip(algorithm1.Models._fields, got, expected, strict=True):
+        assert a.tobytes() == b.tobytes(), name
+    assert all(x is y for x, y in zip(got[1:], garbage[1:], strict=True))
+
+
 @pytest.mark.parametrize(("change", "field"), [
     ({"intentions": np.full(30, 3)}, "intentions"),
     ({"intentions": np.zeros(29, np.int64)}, "intentions"),
     ({"theta": np.zeros((30, 5))}, "theta"),
     ({"theta": np.zeros(26)}, "theta"),
     ({"pi_r": np.zeros((30, 2, 36, 12))}, "pi_r"),
-    ({"warm": (np.full((30, 3, 36), 12), np.zeros((30, 3, 36), np.int64))}, "greedy_h"),
+    ({"last": _last((np.full((30, 3, 36), 12), np.zeros((30, 3, 36), np.int64)))}, "greedy_h"),
     ({"state_reward": np.zeros((30, 3, 35))}, "state_reward"),
-    ({"out": "wrong"}, "out.q_h"),
+    ({}, "out.q_h"),
     ({"state_traces": [np.array([0, 36])] * 30}, "state_traces"),
 ])
-def test_update_models_refuses_bad_inputs_before_any_kernel_runs(path, change, field):
-    tables, theta, pi_r, warm, traces, intentions, params = _models_inputs(4)
-    args = dict(theta=theta, pi_r=pi_r, warm=warm, state_traces=traces,
+def test_update_refuses_bad_inputs_before_any_kernel_runs(path, change, field):
+    tables, params, theta, pi_r, warm, traces, intentions = _models_inputs(4)
+    args = dict(theta=theta, pi_r=pi_r, last=_last(warm), state_traces=traces,
                 intentions=intentions) | change
     if field == "out.q_h":
-        good = algorithm1.update_models(*tables, theta, pi_r, warm, **params)
-        args["out"] = good._replace(q_h=np.zeros((30, 3, 36, 11)))
+        good = algorithm1.update(tables, params, theta, pi_r, _last(warm))
+        args["workspace"] = _into(good._replace(q_h=np.zeros((30, 3, 36, 11))))
     with pytest.raises(ConfigError) as err:
-        algorithm1.update_models(*tables, args.pop("theta"), args.pop("pi_r"),
-                                  args.pop("warm"), **args, **params)
+        algorithm1.update(tables, params, args.pop("theta"), args.pop("pi_r"), **args)
     assert err.value.field == field
 
 
@@ -274,7 +298,7 @@ def test_a_learner_writes_into_arrays_only_with_a_workspace():
 
 def test_a_theta_changed_in_place_is_the_one_the_next_update_learns_from():
     """The Learner keeps θ·φ for the next IRL step; a θ written into in place makes it
-    compute θ·φ again: the models of update_models without the kept θ·φ."""
+    compute θ·φ again: the models of update without the kept θ·φ."""
     graph, trace = _wheel_trace()
     traces, ints = [trace] * 4, np.array([1, 2, -1, 1])
     learner = Learner(graph, 4)

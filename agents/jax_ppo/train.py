@@ -346,30 +346,7 @@ def _make_update(cfg: TrainConfig, env: JaxRobotEnv, optimizer: optax.GradientTr
         out = (x, memory.new_trial, action, logp_a, value, reward, info["new_trial"])
         return (params, env_state, obs, memory_next, hidden, ep_ret, key, sums, counts), out
 
-    def sequence_loss(params: Params, h0: jax.Array, batch: tuple) -> tuple[jax.Array, tuple]:
-        x, reset, action, logp_old, adv, target = batch
-
-        def step(h: jax.Array, xs: tuple) -> tuple[jax.Array, tuple]:
-            xi, ri = xs
-            h = jnp.where(ri[:, None], 0.0, h)
-            h, logits, value = apply(params, xi, h)
-            return h, (logits, value)
-
-        _, (logits, value) = jax.lax.scan(step, h0, (x, reset))
-        masked = masked_logits(logits, x.mask)
-        logp = jax.nn.log_softmax(masked)
-        logp_a = jnp.take_along_axis(logp, action[..., None], axis=-1)[..., 0]
-        ratio = jnp.exp(logp_a - logp_old)
-        adv_n = (adv - adv.mean()) / (adv.std() + 1e-8)
-        pg = -jnp.minimum(ratio * adv_n,
-                          jnp.clip(ratio, 1 - cfg.clip, 1 + cfg.clip) * adv_n).mean()
-        v_loss = 0.5 * ((value - target) ** 2).mean()  # unclipped: trial returns are large
-        probs = jnp.exp(logp)
-        entropy = -jnp.sum(jnp.where(x.mask.astype(bool), probs * logp, 0.0), axis=-1).mean()
-        loss = pg + cfg.vf_coef * v_loss - cfg.ent_coef * entropy
-        return loss, (v_loss, entropy)
-
-    grad_fn = jax.value_and_grad(sequence_loss, has_aux=True)
+    grad_fn = jax.value_and_grad(functools.partial(_sequence_loss, cfg), has_aux=True)
 
     def update(runner: Runner, _: Any) -> tuple[Runner, dict[str, jax.Array]]:
         params = runner.params
@@ -382,36 +359,11 @@ def _make_update(cfg: TrainConfig, env: JaxRobotEnv, optimizer: optax.GradientTr
         x, reset, action, logp, value, reward, trial_done = traj
         h_last = jnp.where(memory.new_trial[:, None], 0.0, hidden)
         _, _, last_value = apply(params, inputs_of(obs, memory), h_last)
-
-        def gae(next_: tuple, xs: tuple) -> tuple[tuple, jax.Array]:
-            adv_next, v_next = next_
-            r, v, d = xs
-            live = 1.0 - d.astype(r.dtype)
-            delta = r + cfg.gamma * v_next * live - v
-            adv = delta + cfg.gamma * cfg.gae_lambda * live * adv_next
-            return (adv, v), adv
-
-        _, adv = jax.lax.scan(gae, (jnp.zeros(n), last_value),
-                              (reward * cfg.reward_scale, value, trial_done), reverse=True)
-        target = adv + value
-        batch = (x, reset, action, logp, adv, target)
-
-        def epoch(state: tuple, key_e: jax.Array) -> tuple[tuple, tuple]:
-            params, opt_state = state
-            order = jax.random.permutation(key_e, n).reshape(cfg.minibatches, -1)
-
-            def minibatch(state: tuple, idx: jax.Array) -> tuple[tuple, tuple]:
-                params, opt_state = state
-                mb = jax.tree.map(lambda a: a[:, idx], batch)
-                (_, aux), grads = grad_fn(params, h0[idx], mb)
-                updates, opt_state = optimizer.update(grads, opt_state, params)
-                return (optax.apply_updates(params, updates), opt_state), aux
-
-            return jax.lax.scan(minibatch, (params, opt_state), order)
-
+        adv = _advantages(cfg, reward, value, trial_done, last_value)
+        batch = (x, reset, action, logp, adv, adv + value)
         key, k_epochs = jax.random.split(key)
-        (params, opt_state), (v_loss, entropy) = jax.lax.scan(
-            epoch, (params, runner.opt_state), jax.random.split(k_epochs, cfg.epochs))
+        params, opt_state, v_loss, entropy = _ppo_epochs(cfg, optimizer, grad_fn, params,
+                                                         runner.opt_state, h0, batch, k_epochs)
         metrics = {"episode_return": sums.sum() / jnp.maximum(counts.sum(), 1.0),
                    "return_by_episode": sums / jnp.maximum(counts, 1.0),
                    "entropy": entropy.mean(), "value_loss": v_loss.mean()}
@@ -419,6 +371,76 @@ def _make_update(cfg: TrainConfig, env: JaxRobotEnv, optimizer: optax.GradientTr
         return runner, metrics
 
     return update
+
+
+def _sequence_loss(cfg: TrainConfig, params: Params, h0: jax.Array, batch: tuple
+                   ) -> tuple[jax.Array, tuple]:
+    """Clipped-PPO loss of a minibatch's envs, the GRU re-run over their whole rollout from
+    the hidden states ``h0`` they started with; aux ``(value loss, entropy)``.
+    """
+    x, reset, action, logp_old, adv, target = batch
+
+    def step(h: jax.Array, xs: tuple) -> tuple[jax.Array, tuple]:
+        xi, ri = xs
+        h = jnp.where(ri[:, None], 0.0, h)
+        h, logits, value = apply(params, xi, h)
+        return h, (logits, value)
+
+    _, (logits, value) = jax.lax.scan(step, h0, (x, reset))
+    masked = masked_logits(logits, x.mask)
+    logp = jax.nn.log_softmax(masked)
+    logp_a = jnp.take_along_axis(logp, action[..., None], axis=-1)[..., 0]
+    ratio = jnp.exp(logp_a - logp_old)
+    adv_n = (adv - adv.mean()) / (adv.std() + 1e-8)
+    pg = -jnp.minimum(ratio * adv_n,
+                      jnp.clip(ratio, 1 - cfg.clip, 1 + cfg.clip) * adv_n).mean()
+    v_loss = 0.5 * ((value - target) ** 2).mean()  # unclipped: trial returns are large
+    probs = jnp.exp(logp)
+    entropy = -jnp.sum(jnp.where(x.mask.astype(bool), probs * logp, 0.0), axis=-1).mean()
+    loss = pg + cfg.vf_coef * v_loss - cfg.ent_coef * entropy
+    return loss, (v_loss, entropy)
+
+
+def _advantages(cfg: TrainConfig, reward: jax.Array, value: jax.Array, trial_done: jax.Array,
+                last_value: jax.Array) -> jax.Array:
+    """(T, N) GAE over the rollout (scaled rewards; a trial's end cuts the return)."""
+
+    def gae(next_: tuple, xs: tuple) -> tuple[tuple, jax.Array]:
+        adv_next, v_next = next_
+        r, v, d = xs
+        live = 1.0 - d.astype(r.dtype)
+        delta = r + cfg.gamma * v_next * live - v
+        adv = delta + cfg.gamma * cfg.gae_lambda * live * adv_next
+        return (adv, v), adv
+
+    _, adv = jax.lax.scan(gae, (jnp.zeros(cfg.num_envs), last_value),
+                          (reward * cfg.reward_scale, value, trial_done), reverse=True)
+    return adv
+
+
+def _ppo_epochs(cfg: TrainConfig, optimizer: optax.GradientTransformation, grad_fn: Callable,
+                params: Params, opt_state: Any, h0: jax.Array, batch: tuple,
+                key: jax.Array) -> tuple[Params, Any, jax.Array, jax.Array]:
+    """``epochs`` passes of minibatch updates (the envs shuffled into ``minibatches``);
+    returns the new params and optimiser state, and the value losses and entropies.
+    """
+
+    def epoch(state: tuple, key_e: jax.Array) -> tuple[tuple, tuple]:
+        params, opt_state = state
+        order = jax.random.permutation(key_e, cfg.num_envs).reshape(cfg.minibatches, -1)
+
+        def minibatch(state: tuple, idx: jax.Array) -> tuple[tuple, tuple]:
+            params, opt_state = state
+            mb = jax.tree.map(lambda a: a[:, idx], batch)
+            (_, aux), grads = grad_fn(params, h0[idx], mb)
+            updates, opt_state = optimizer.update(grads, opt_state, params)
+            return (optax.apply_updates(params, updates), opt_state), aux
+
+        return jax.lax.scan(minibatch, (params, opt_state), order)
+
+    (params, opt_state), (v_loss, entropy) = jax.lax.scan(
+        epoch, (params, opt_state), jax.random.split(key, cfg.epochs))
+    return params, opt_state, v_loss, entropy
 
 
 def _init(cfg: TrainConfig, env: JaxRobotEnv, net: NetConfig,

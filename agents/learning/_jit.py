@@ -246,6 +246,17 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, rank, te
           policy, warm, max_iter, temperature, r, q, greedy, soft, lo, hi):
     """The ``steps`` of the MDPs lo..hi-1, one MDP after the other.
 
+    Per MDP: its expected reward (:func:`_expected_reward`), policy iteration (rounds of
+    :func:`_evaluation_matrix`, the elimination :func:`_solve_in_place` and
+    :func:`_improve`), the soft-max of its Q (:func:`_softmax`).
+
+    The steps are functions of their own that numba inlines here (``inline="always"``),
+    and the rounds' loop, its early exit and the elimination's call stay in this function:
+    numba counts references to the arrays an inlined function is given (atomic operations,
+    one pair per array and call) and LLVM prunes those pairs only where no call and no early
+    exit lies between them, so that this function's loops count none (as before the split:
+    checked in the LLVM IR). The elimination gets only its own scratch.
+
     Args:
         steps: Sum of the flags :data:`STATE_REWARD`, :data:`JOINT_REWARD`, :data:`SOLVE`,
             :data:`SOFTMAX`.
@@ -273,142 +284,196 @@ def _mdps(steps, nxt_t, partner, values, joint_t, valid, vidx, n_valid, rank, te
         soft: (N, S, A) zeros: the soft-max policies, written by SOFTMAX.
         lo: First MDP.
         hi: One past the last MDP.
-
-    Everything is in this one function, and the elimination called from it gets only its
-    own scratch: a compiled function counts references to the arrays it is given (atomic
-    operations, one pair per array and call), and calls of small helpers inside these
-    loops made them a cost of their own.
     """
-    n_s, n_p, n_a = r.shape[1], partner.shape[2], r.shape[2]
-    m = np.empty((n_s, n_s))
-    v = np.empty(n_s)
-    v_ranked = np.empty(n_s)  # v with the states in elimination order
-    act = np.empty(n_s, np.int64)
-    bits = np.zeros((n_s, (n_s + 63) // 64), np.uint64)
-    below = np.zeros((n_s, (n_s + 63) // 64), np.uint64)
-    cols = np.empty((n_s, n_s), np.uint64)  # unsigned: see _solve_in_place
-    n_cols = np.empty(n_s, np.uint64)
+    n_s, n_a = r.shape[1], r.shape[2]
+    m, v, v_ranked, act, bits, below, cols, n_cols = _scratch(n_s)
     z = np.empty(n_a)
-    one, six, low = np.uint64(1), np.uint64(6), np.uint64(63)
+    state_reward = (steps & STATE_REWARD) != 0
     for k in range(lo, hi):
         o = k if r.shape[0] > 1 else 0
         term = terminal[k]
         # With a warm start, the expected reward of a state reward is made in the first
         # round's backup, which reads the same next states (each sum takes the same terms
         # in the same order); the evaluation before it needs only the current actions'.
-        fill = (steps & STATE_REWARD) != 0 and (steps & SOLVE) != 0 and warm
+        fill = state_reward and (steps & SOLVE) != 0 and warm
         if steps & (STATE_REWARD | JOINT_REWARD) and not fill:
-            for s in range(n_s):
-                if s == term and steps & STATE_REWARD:
-                    for a in range(n_a):
-                        r[o, s, a] = values[k, s]
-                    continue
-                for a in range(n_a):
-                    r[o, s, a] = 0.0
-                if s == term:
-                    continue
-                for p in range(n_p):  # outermost: the A sums proceed together, each in p
-                    w = partner[k, s, p]
-                    if w != 0.0:
-                        if steps & STATE_REWARD:
-                            for a in range(n_a):
-                                r[o, s, a] += w * values[k, nxt_t[s, p, a]]
-                        else:
-                            for a in range(n_a):
-                                r[o, s, a] += w * joint_t[s, p, a]
+            _expected_reward(state_reward, k, term, nxt_t, partner, values, joint_t, r, o)
         if steps & SOLVE:
             for s in range(n_s):
                 act[s] = policy[k, s] if warm else _best(r, o, s, vidx, n_valid)[1]
             for _ in range(max_iter):
-                m[:, :] = 0.0  # I - γ P_π, and where it is nonzero
-                bits[:, :] = 0
-                below[:, :] = 0
-                for s in range(n_s):  # row and column rank[s] are state s's
-                    i = rank[s]
-                    m[i, i] = 1.0
-                    bits[i, i >> six] = one << (i & low)
-                    cols[i, 0] = i
-                    n_cols[i] = 1
-                    a = act[s]
-                    if s == term:
-                        v_ranked[i] = values[k, s] if fill else r[o, s, a]
-                        m[i, i] -= gamma
-                        continue
-                    x = 0.0 if fill else r[o, s, a]
-                    for p in range(n_p):
-                        w = partner[k, s, p]
-                        if w != 0.0:
-                            if fill:
-                                x += w * values[k, nxt_t[s, p, a]]
-                            j = rank[nxt_t[s, p, a]]
-                            bit = one << (j & low)
-                            if not bits[i, j >> six] & bit:
-                                bits[i, j >> six] |= bit
-                                cols[i, n_cols[i]] = j
-                                n_cols[i] += one
-                                below[j, i >> six] |= one << (i & low)
-                            m[i, j] -= gamma * w
-                    v_ranked[i] = x
+                _evaluation_matrix(k, term, o, fill, act, nxt_t, partner, values, r, rank,
+                                   gamma, m, v_ranked, bits, below, cols, n_cols)
                 _solve_in_place(m, v_ranked, bits, cols, n_cols, below)
                 for s in range(n_s):
                     v[s] = v_ranked[rank[s]]
-                changed = False
-                for s in range(n_s):
-                    if s == term:
-                        for a in range(n_a):
-                            if fill:
-                                r[o, s, a] = values[k, s]
-                            q[k, s, a] = r[o, s, a] + gamma * v[term]
-                    else:
-                        for a in range(n_a):  # Σ_p partner(p|s) v(next) first, as above
-                            z[a] = 0.0
-                            if fill:
-                                r[o, s, a] = 0.0
-                        for p in range(n_p):
-                            w = partner[k, s, p]
-                            if w != 0.0:
-                                if fill:
-                                    for a in range(n_a):
-                                        j = nxt_t[s, p, a]
-                                        r[o, s, a] += w * values[k, j]
-                                        z[a] += w * v[j]
-                                else:
-                                    for a in range(n_a):
-                                        z[a] += w * v[nxt_t[s, p, a]]
-                        for a in range(n_a):
-                            q[k, s, a] = r[o, s, a] + gamma * z[a]
-                    best, best_a = _best(q, k, s, vidx, n_valid)
-                    current = q[k, s, act[s]] if valid[s, act[s]] else _NEG
-                    # Keep the current action on (numerical) ties so the iteration ends.
-                    if best - current > 1e-10 * (1.0 + abs(best)):
-                        act[s] = best_a
-                        changed = True
+                changed = _improve(k, term, o, fill, act, v, nxt_t, partner, values, r, valid,
+                                   vidx, n_valid, gamma, z, q)
                 fill = False
                 if not changed:
                     break
             for s in range(n_s):
                 greedy[k, s] = _best(q, k, s, vidx, n_valid)[1]
         if steps & SOFTMAX:
-            # Over the valid actions only, in increasing order: the same maximum,
-            # exponentials, sum and quotients as a pass over every action that skips the
-            # invalid ones (a state without valid actions divides 0 by 0 as there).
-            for s in range(n_s):
-                c = n_valid[s]
-                if c == 0:
-                    raise ZeroDivisionError("float division by zero")
-                top = -np.inf
-                for u in range(c):
-                    x = temperature * q[k, s, vidx[s, u]]
-                    z[u] = x
-                    if x > top:
-                        top = x
-                total = 0.0
-                for u in range(c):
-                    e = np.exp(z[u] - top)
-                    z[u] = e
-                    total += e
-                for u in range(c):
-                    soft[k, s, vidx[s, u]] = z[u] / total
+            _softmax(k, q, vidx, n_valid, temperature, z, soft)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _scratch(n_s):
+    """The policy iteration's scratch for S states, made once per :func:`_mdps` call.
+
+    ``(m, v, v_ranked, act, bits, below, cols, n_cols)``: the (S, S) matrix I - γ P_π, the
+    values (S,) by state and by elimination rank, the current actions (S,) int, and the
+    bookkeeping of :func:`_solve_in_place` (unsigned: see there).
+    """
+    n_w = (n_s + 63) // 64
+    return (np.empty((n_s, n_s)), np.empty(n_s), np.empty(n_s), np.empty(n_s, np.int64),
+            np.zeros((n_s, n_w), np.uint64), np.zeros((n_s, n_w), np.uint64),
+            np.empty((n_s, n_s), np.uint64), np.empty(n_s, np.uint64))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _expected_reward(state_reward, k, term, nxt_t, partner, values, joint_t, r, o):
+    """``r[o, s, a]``: MDP k's expected immediate reward of each own action.
+
+    With ``state_reward``: Σ_p partner[k, s, p] values[k, next state] (the absorbing state
+    ``term``: its own value); otherwise Σ_p partner[k, s, p] joint_t[s, p, a] (0 in ``term``).
+    """
+    n_s, n_p, n_a = r.shape[1], partner.shape[2], r.shape[2]
+    for s in range(n_s):
+        if s == term and state_reward:
+            for a in range(n_a):
+                r[o, s, a] = values[k, s]
+            continue
+        for a in range(n_a):
+            r[o, s, a] = 0.0
+        if s == term:
+            continue
+        for p in range(n_p):  # outermost: the A sums proceed together, each in p
+            w = partner[k, s, p]
+            if w != 0.0:
+                if state_reward:
+                    for a in range(n_a):
+                        r[o, s, a] += w * values[k, nxt_t[s, p, a]]
+                else:
+                    for a in range(n_a):
+                        r[o, s, a] += w * joint_t[s, p, a]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _evaluation_matrix(k, term, o, fill, act, nxt_t, partner, values, r, rank, gamma, m,
+                       v_ranked, bits, below, cols, n_cols):
+    """The policy evaluation of MDP k's actions ``act``, (I - γ P_π) v = r_π, for
+    :func:`_solve_in_place`: ``m``, the right-hand side ``v_ranked``, and where ``m`` may be
+    nonzero (``bits``, ``below``, ``cols``, ``n_cols``).
+
+    Row and column ``rank[s]`` are state s's (the elimination order). With ``fill`` the
+    right-hand side is summed from the state reward ``values[k]`` (``r[o]`` is not made
+    yet: see :func:`_mdps`).
+    """
+    n_s, n_p = r.shape[1], partner.shape[2]
+    one, six, low = np.uint64(1), np.uint64(6), np.uint64(63)
+    m[:, :] = 0.0  # I - γ P_π, and where it is nonzero
+    bits[:, :] = 0
+    below[:, :] = 0
+    for s in range(n_s):  # row and column rank[s] are state s's
+        i = rank[s]
+        m[i, i] = 1.0
+        bits[i, i >> six] = one << (i & low)
+        cols[i, 0] = i
+        n_cols[i] = 1
+        a = act[s]
+        if s == term:
+            v_ranked[i] = values[k, s] if fill else r[o, s, a]
+            m[i, i] -= gamma
+            continue
+        x = 0.0 if fill else r[o, s, a]
+        for p in range(n_p):
+            w = partner[k, s, p]
+            if w != 0.0:
+                if fill:
+                    x += w * values[k, nxt_t[s, p, a]]
+                j = rank[nxt_t[s, p, a]]
+                bit = one << (j & low)
+                if not bits[i, j >> six] & bit:
+                    bits[i, j >> six] |= bit
+                    cols[i, n_cols[i]] = j
+                    n_cols[i] += one
+                    below[j, i >> six] |= one << (i & low)
+                m[i, j] -= gamma * w
+        v_ranked[i] = x
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _improve(k, term, o, fill, act, v, nxt_t, partner, values, r, valid, vidx, n_valid, gamma,
+             z, q):
+    """MDP k's Q of the values ``v`` into ``q[k]``; moves ``act`` to better actions.
+
+    Q(s, a) = r(s, a) + γ Σ_p partner(p|s) v(next state) (with ``fill``, ``r[o]`` is
+    summed from ``values[k]`` in the same pass). A state's action changes only where the
+    best valid action is better by more than a numerical tie, so the iteration ends.
+    Returns whether any action changed.
+    """
+    n_s, n_p, n_a = r.shape[1], partner.shape[2], r.shape[2]
+    changed = False
+    for s in range(n_s):
+        if s == term:
+            for a in range(n_a):
+                if fill:
+                    r[o, s, a] = values[k, s]
+                q[k, s, a] = r[o, s, a] + gamma * v[term]
+        else:
+            for a in range(n_a):  # Σ_p partner(p|s) v(next) first, as in the evaluation
+                z[a] = 0.0
+                if fill:
+                    r[o, s, a] = 0.0
+            for p in range(n_p):
+                w = partner[k, s, p]
+                if w != 0.0:
+                    if fill:
+                        for a in range(n_a):
+                            j = nxt_t[s, p, a]
+                            r[o, s, a] += w * values[k, j]
+                            z[a] += w * v[j]
+                    else:
+                        for a in range(n_a):
+                            z[a] += w * v[nxt_t[s, p, a]]
+            for a in range(n_a):
+                q[k, s, a] = r[o, s, a] + gamma * z[a]
+        best, best_a = _best(q, k, s, vidx, n_valid)
+        current = q[k, s, act[s]] if valid[s, act[s]] else _NEG
+        # Keep the current action on (numerical) ties so the iteration ends.
+        if best - current > 1e-10 * (1.0 + abs(best)):
+            act[s] = best_a
+            changed = True
+    return changed
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _softmax(k, q, vidx, n_valid, temperature, z, soft):
+    """``soft[k]``: the soft-max of ``temperature * q[k]`` over each state's valid actions.
+
+    Over the valid actions only, in increasing order: the same maximum, exponentials, sum
+    and quotients as a pass over every action that skips the invalid ones (a state without
+    valid actions divides 0 by 0 as there). ``z`` (A,) is scratch.
+    """
+    for s in range(q.shape[1]):
+        c = n_valid[s]
+        if c == 0:
+            raise ZeroDivisionError("float division by zero")
+        top = -np.inf
+        for u in range(c):
+            x = temperature * q[k, s, vidx[s, u]]
+            z[u] = x
+            if x > top:
+                top = x
+        total = 0.0
+        for u in range(c):
+            e = np.exp(z[u] - top)
+            z[u] = e
+            total += e
+        for u in range(c):
+            soft[k, s, vidx[s, u]] = z[u] / total
 
 
 @njit(cache=True, nogil=True)
@@ -634,7 +699,8 @@ def solve_soft(next_state, partner, values, joint, use_joint, valid, terminal, g
 
 @njit(cache=True, nogil=True)
 def learner_tables(next_r, valid, reward):
-    """The tables :func:`irl_steps` and :func:`partner_models` take, made once per update.
+    """The tables :func:`irl_steps`, :func:`human_models` and :func:`robot_models` take, made
+    once per update.
 
     Args:
         next_r: (S, A_R, A_H) int the robot's joint table (the human's is its transpose).
@@ -732,67 +798,107 @@ def irl_steps(nxt_h, next_h, valid, vidx, n_valid, rank, features, terminal, the
 
 
 @njit(cache=True, nogil=True)
-def partner_models(nxt_r, nxt_h, joint_t, valid, vidx, n_valid, rank, terminal, r_state, pi_r,
-                   warm_h, warm_r, warm, gamma, human_temperature, robot_temperature, max_iter,
-                   q_h, greedy_h, pi_h, q_r, greedy_r, pi_r_out, lo, hi):
-    """The human model and the robot's Q of the runs lo..hi-1 (the Learner's).
+def human_models(nxt_h, valid, vidx, n_valid, rank, terminal, r_state, pi_r, warm_h, warm,
+                 gamma, temperature, max_iter, q_h, greedy_h, pi_h, lo, hi):
+    """The human model of the runs lo..hi-1 (Alg. 1 l. 20-22, the Learner's).
 
     For each intention ι of run b: :func:`solve_soft` of the human MDP (state reward
     ``r_state[b, ι]``, the robot's policy ``pi_r[b, ι]`` substituted, soft-max at
-    ``human_temperature``) into ``q_h``, ``greedy_h``, ``pi_h``; then of the robot's MDP
-    (joint ``reward``, that ``pi_h[b, ι]`` substituted, soft-max at ``robot_temperature``)
-    into ``q_r``, ``greedy_r``, ``pi_r_out``. Warm-started from ``warm_h``/``warm_r`` if
-    ``warm``. The numbers are :func:`solve_soft`'s bit for bit (its steps, MDP by MDP).
+    ``temperature``, the human's τ_H) into ``q_h``, ``greedy_h`` and ``pi_h``,
+    warm-started from ``warm_h`` if ``warm``. The numbers are :func:`solve_soft`'s bit for
+    bit (its steps, MDP by MDP).
 
     Args:
-        nxt_r: The robot's and the human's tables for :func:`_mdps`, the robot's joint
-            reward with the human's action first, and the valid actions' lists and the
-            elimination order of both: :func:`learner_tables`; the same for ``nxt_h``,
-            ``joint_t``, ``vidx``, ``n_valid`` and ``rank``.
-        nxt_h: See ``nxt_r``.
+        nxt_h: (S, P, A) unsigned, the human's table for :func:`_mdps` (the robot first),
+            and the valid actions' lists and the elimination order: :func:`learner_tables`;
+            the same for ``vidx``, ``n_valid`` and ``rank``.
+        valid: (S, A) bool (both partners').
+        vidx: See ``nxt_h``.
+        n_valid: See ``nxt_h``.
+        rank: See ``nxt_h``.
+        terminal: (I,) int absorbing state of each intention's MDP.
+        r_state: (B, I, S) the human's state reward θ·φ(·, ι) per run and intention.
+        pi_r: (B, I, S, A) the robot's policies the human model assumes.
+        warm_h: (B, I, S) int starting actions of the policy iterations.
+        warm: Whether ``warm_h`` is used.
+        gamma: Discount.
+        temperature: τ_H of the human model's soft-max.
+        max_iter: Cap on improvement rounds.
+        q_h: Outputs, (B, I, S, A) floats and (B, I, S) ints, written for runs lo..hi-1;
+            the same for ``greedy_h`` and ``pi_h``.
+        greedy_h: See ``q_h``.
+        pi_h: See ``q_h``.
+        lo: First run.
+        hi: One past the last run.
+    """
+    n_b, n_i, n_s = r_state.shape
+    n, n_a = n_b * n_i, valid.shape[1]
+    first, last = lo * n_i, hi * n_i  # run b's intention ι is MDP b * I + ι (see _goals)
+    soft = pi_h.reshape(n, n_s, n_a)
+    soft[first:last] = 0.0
+    _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_h, pi_r.reshape(n, n_s, n_a),
+          r_state.reshape(n, n_s), np.zeros((1, 1, 1)), valid, vidx, n_valid, rank,
+          _goals(terminal, n, first, last), gamma, warm_h.reshape(n, n_s), warm, max_iter,
+          temperature, np.empty((1, n_s, n_a)), q_h.reshape(n, n_s, n_a),
+          greedy_h.reshape(n, n_s), soft, first, last)
+
+
+@njit(cache=True, nogil=True)
+def robot_models(nxt_r, joint_t, valid, vidx, n_valid, rank, terminal, pi_h, warm_r, warm,
+                 gamma, temperature, max_iter, q_r, greedy_r, pi_r, lo, hi):
+    """The robot's Q of the runs lo..hi-1 and the robot policy the human model assumes
+    (Alg. 1 l. 3-5, the Learner's).
+
+    For each intention ι of run b: :func:`solve_soft` of the robot's MDP (the joint reward,
+    the human model ``pi_h[b, ι]`` substituted, soft-max at ``temperature``) into ``q_r``,
+    ``greedy_r`` and ``pi_r``, warm-started from ``warm_r`` if ``warm``. The numbers are
+    :func:`solve_soft`'s bit for bit (its steps, MDP by MDP).
+
+    Args:
+        nxt_r: (S, P, A) unsigned, the robot's table for :func:`_mdps` (the human first),
+            ``joint_t`` the robot's joint reward with the human's action first, and the
+            valid actions' lists and the elimination order: :func:`learner_tables`; the
+            same for ``vidx``, ``n_valid`` and ``rank``.
         joint_t: See ``nxt_r``.
         valid: (S, A) bool (both partners').
         vidx: See ``nxt_r``.
         n_valid: See ``nxt_r``.
         rank: See ``nxt_r``.
         terminal: (I,) int absorbing state of each intention's MDP.
-        r_state: (B, I, S) the human's state reward θ·φ(·, ι) per run and intention.
-        pi_r: (B, I, S, A) the robot's policies the human model assumes.
-        warm_h: (B, I, S) int starting actions of the human's policy iterations.
-        warm_r: (B, I, S) int those of the robot's.
-        warm: Whether the warm starts are used.
+        pi_h: (B, I, S, A) the human model π̂_H (:func:`human_models`).
+        warm_r: (B, I, S) int starting actions of the policy iterations.
+        warm: Whether ``warm_r`` is used.
         gamma: Discount.
-        human_temperature: Of the human model's soft-max.
-        robot_temperature: Of the robot policy the human model assumes.
+        temperature: Of the robot policy the human model assumes.
         max_iter: Cap on improvement rounds.
-        q_h: Outputs, (B, I, S, A) floats and (B, I, S) ints, written for runs lo..hi-1;
-            the same for ``greedy_h``, ``pi_h``, ``q_r``, ``greedy_r``, ``pi_r_out``.
-        greedy_h: See ``q_h``.
-        pi_h: See ``q_h``.
-        q_r: See ``q_h``.
-        greedy_r: See ``q_h``.
-        pi_r_out: See ``q_h``.
+        q_r: Outputs, (B, I, S, A) floats and (B, I, S) ints, written for runs lo..hi-1;
+            the same for ``greedy_r`` and ``pi_r``.
+        greedy_r: See ``q_r``.
+        pi_r: See ``q_r``.
         lo: First run.
         hi: One past the last run.
     """
-    n_i, n_s, n_a = r_state.shape[1], r_state.shape[2], valid.shape[1]
-    r = np.empty((1, n_s, n_a))
-    unused_v, unused_j = np.zeros((1, 1)), np.zeros((1, 1, 1))
-    # The runs' MDPs one after another (run b's intention ι is MDP b * I + ι): one call per
-    # model, on views made once (a view per run made the threads count references on the
-    # same arrays).
-    n = r_state.shape[0] * n_i
+    n_b, n_i, n_s, n_a = pi_h.shape
+    n = n_b * n_i
+    first, last = lo * n_i, hi * n_i  # run b's intention ι is MDP b * I + ι (see _goals)
+    soft = pi_r.reshape(n, n_s, n_a)
+    soft[first:last] = 0.0
+    _mdps(JOINT_REWARD | SOLVE | SOFTMAX, nxt_r, pi_h.reshape(n, n_s, n_a), np.zeros((1, 1)),
+          joint_t, valid, vidx, n_valid, rank, _goals(terminal, n, first, last), gamma,
+          warm_r.reshape(n, n_s), warm, max_iter, temperature, np.empty((1, n_s, n_a)),
+          q_r.reshape(n, n_s, n_a), greedy_r.reshape(n, n_s), soft, first, last)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _goals(terminal, n, first, last):
+    """(N,) int the absorbing state of each of a batch's N = B * I MDPs (set for first..last-1).
+
+    The runs' MDPs lie one after another, run b's intention ι as MDP b * I + ι, so that
+    one :func:`_mdps` call per model takes a part of the runs, on views made once (a view
+    per run made the threads count references on the same arrays).
+    """
+    n_i = terminal.shape[0]
     goal = np.empty(n, np.int64)
-    for k in range(lo * n_i, hi * n_i):
+    for k in range(first, last):
         goal[k] = terminal[k % n_i]
-    flat_h, flat_r = pi_h.reshape(n, n_s, n_a), pi_r_out.reshape(n, n_s, n_a)
-    flat_h[lo * n_i:hi * n_i] = 0.0
-    flat_r[lo * n_i:hi * n_i] = 0.0
-    _mdps(STATE_REWARD | SOLVE | SOFTMAX, nxt_h, pi_r.reshape(n, n_s, n_a),
-          r_state.reshape(n, n_s), unused_j, valid, vidx, n_valid, rank, goal, gamma,
-          warm_h.reshape(n, n_s), warm, max_iter, human_temperature, r,
-          q_h.reshape(n, n_s, n_a), greedy_h.reshape(n, n_s), flat_h, lo * n_i, hi * n_i)
-    _mdps(JOINT_REWARD | SOLVE | SOFTMAX, nxt_r, flat_h, unused_v, joint_t, valid, vidx,
-          n_valid, rank, goal, gamma, warm_r.reshape(n, n_s), warm, max_iter,
-          robot_temperature, r, q_r.reshape(n, n_s, n_a), greedy_r.reshape(n, n_s), flat_r,
-          lo * n_i, hi * n_i)
+    return goal

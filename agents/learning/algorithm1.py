@@ -12,16 +12,20 @@ After every episode the paper's Learner
    (l. 3-5).
 
 :func:`reference_update` is that, step by step, in numpy: the readable reference.
-:func:`update_models` gives the same numbers, bit for bit, from compiled kernels (the runs
-cut into parts that threads take, :mod:`agents.learning.partner_mdp`), and falls back to
-the reference where the kernels are off. :func:`update` is what the Learner calls: the
-graph's :class:`Tables`, the :class:`Params`, the current :class:`Models` and, optionally,
-a :class:`Workspace` whose arrays the update writes into.
+:func:`update` is what the Learner calls: the graph's :class:`Tables`, the :class:`Params`,
+θ, π_R, the last :class:`Models` and, optionally, a :class:`Workspace` whose arrays the
+update writes into. It gives the reference's numbers, bit for bit, from compiled kernels
+(:class:`_CompiledSteps`: the IRL step, the human model and the robot's Q, the runs cut
+into parts that threads take, :mod:`agents.learning.partner_mdp`), and falls back to the
+reference where the kernels are off. :func:`update_models`, the same update from the
+tables and parameters as separate arguments, is deprecated.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
+from types import ModuleType
 from typing import NamedTuple
 
 import numpy as np
@@ -98,7 +102,7 @@ class Params(NamedTuple):
 
 
 class Models(NamedTuple):
-    """The Learner's model of both partners after :func:`update_models` (B runs, I intentions).
+    """The Learner's model of both partners after :func:`update` (B runs, I intentions).
 
     Attributes:
         theta: (B, F) feature weights of the human's reward.
@@ -150,7 +154,25 @@ def update(tables: Tables, params: Params, theta: np.ndarray, pi_r: np.ndarray,
            state_traces: Sequence[np.ndarray] | None = None,
            intentions: np.ndarray | None = None, workspace: Workspace | None = None
            ) -> Models:
-    """One update of a batch of Learners: :func:`update_models` from their current models.
+    """The Learner's update of its models (Alg. 1 l. 17-22 and 3-5) for B runs in one call.
+
+    1. With ``state_traces``: one ME-IRL step on θ per run whose intention was revealed
+       (``intentions[b] >= 0``; -1 keeps θ): the loop-free counts of its trace against the
+       counts the soft-max policy (at the IRL temperature) of the human MDP of that
+       intention expects (reward θ·φ, the robot's ``pi_r`` substituted), then
+       :func:`agents.learning.mdp.irl_step`.
+    2. The human model: for every intention, the soft-max solution of the human MDP
+       (reward θ·φ with the new θ, ``pi_r`` substituted, at τ_H).
+    3. The robot's Q: the soft-max solution of its MDP (the joint reward, the new π̂_H
+       substituted, at the robot temperature).
+
+    Every policy iteration is warm-started from ``last``'s greedy actions if given.
+
+    Where the kernels are on, the runs are cut into parts that the threads take in one
+    hand-out per call (:func:`~agents.learning.partner_mdp.set_threads`); each part goes
+    through the compiled steps (:class:`_CompiledSteps`) with numpy's θ·φ of the new θ
+    between the IRL step and the human model: the same numbers, bit for bit, as
+    :func:`reference_update`, the path without the kernels.
 
     Args:
         tables: The graph's tables.
@@ -158,22 +180,28 @@ def update(tables: Tables, params: Params, theta: np.ndarray, pi_r: np.ndarray,
         theta: (B, F) θ before the update.
         pi_r: (B, I, S, A) the robot's policies the human model assumed so far.
         last: The models of the last update, whose greedy actions warm-start every policy
-            iteration; None for the first update.
+            iteration (only ``greedy_h`` and ``greedy_r`` are read); None for the first
+            update.
         state_reward: (B, I, S) θ·φ of ``theta`` if the caller has it (``last``'s, when θ has
-            not changed since), to spare computing it again.
-        state_traces: B state sequences, or None: no IRL step (the models of ``theta``).
+            not changed since; its values are trusted), to spare computing it again.
+        state_traces: B state sequences (each at least one state), or None: no IRL step (the
+            models of ``theta``).
         intentions: (B,) int the intention each trace revealed, -1 for none.
-        workspace: Where the result is written (:class:`Workspace`), or None: new arrays.
+        workspace: Where the result is written (:class:`Workspace`: the arrays it was given,
+            of the shapes and types of the result and sharing no memory with the inputs;
+            all but ``theta``, which is always new when θ changes), or None: new arrays.
+
+    Returns:
+        The new :class:`Models`.
+
+    Raises:
+        ConfigError: An array of the wrong shape, an index out of range, or what
+            :func:`~agents.learning.partner_mdp.solve_soft` refuses.
     """
     warm = None if last is None else (last.greedy_h, last.greedy_r)
-    return update_models(*tables, theta, pi_r, warm, gamma=params.gamma,
-                         human_temperature=params.human_temperature,
-                         robot_temperature=params.robot_temperature,
-                         irl_temperature=params.irl_temperature,
-                         learning_rate=params.learning_rate, state_traces=state_traces,
-                         intentions=intentions, max_iter=params.max_iter,
-                         state_reward=state_reward,
-                         out=None if workspace is None else workspace.take())
+    out = None if workspace is None else workspace.take()
+    return _update(tables, params, theta, pi_r, warm, state_reward, state_traces, intentions,
+                   out)
 
 
 def update_models(
@@ -197,75 +225,95 @@ def update_models(
     state_reward: np.ndarray | None = None,
     out: Models | None = None,
 ) -> Models:
-    """The Learner's update of its models (Alg. 1 l. 17-22 and 3-5) for B runs in one call.
+    """Deprecated: :func:`update`, which takes the tables and parameters as objects.
 
-    1. With ``state_traces``: one ME-IRL step on θ per run whose intention was revealed
-       (``intentions[b] >= 0``; -1 keeps θ): the loop-free counts of its trace against the
-       counts the soft-max policy (at ``irl_temperature``) of the human MDP of that
-       intention expects (reward θ·φ, the robot's ``pi_r`` substituted), then
-       :func:`agents.learning.mdp.irl_step`.
-    2. The human model: for every intention, the soft-max solution of the human MDP
-       (reward θ·φ with the new θ, ``pi_r`` substituted, at ``human_temperature``).
-    3. The robot's Q: the soft-max solution of its MDP (joint ``reward``, the new π̂_H
-       substituted, at ``robot_temperature``).
+    ``update_models(*tables, theta, pi_r, (greedy_h, greedy_r), gamma=..., ..., out=out)``
+    is ``update(Tables(*tables), Params(gamma, ...), theta, pi_r, last, ...,
+    workspace=w)`` with ``last`` holding those greedy actions and ``w`` a
+    :class:`Workspace` given ``out``. Arguments and results are :func:`update`'s: the five
+    tables of :class:`Tables`, then θ, π_R and the warm starts ``(greedy_h, greedy_r)``
+    (or None), the six numbers of :class:`Params` by name, and the arrays to write into.
+    Kept for one release (CHANGELOG.md, "Deprecated").
+    """
+    warnings.warn("agents.learning.algorithm1.update_models is deprecated; use "
+                  "agents.learning.algorithm1.update(Tables(...), Params(...), theta, pi_r, "
+                  "last, ..., workspace=...)", DeprecationWarning, stacklevel=2)
+    return _update(Tables(next_state, valid, reward, features, terminal),
+                   Params(gamma, human_temperature, robot_temperature, irl_temperature,
+                          learning_rate, max_iter),
+                   theta, pi_r, warm, state_reward, state_traces, intentions, out)
 
-    Every policy iteration is warm-started from ``warm``'s greedy actions if given.
 
-    Where the kernels are on, the runs are cut into parts that the threads take in one
-    hand-out per call (:func:`~agents.learning.partner_mdp.set_threads`); each part goes
-    through the compiled :func:`agents.learning._jit.irl_steps`, numpy's θ·φ of the new θ, and
-    :func:`agents.learning._jit.partner_models`: the same numbers, bit for bit, as the calls
-    listed above, which :func:`reference_update` makes (the path without the kernels).
+def _update(tables: Tables, params: Params, theta: np.ndarray, pi_r: np.ndarray,
+            warm: tuple[np.ndarray, np.ndarray] | None, state_reward: np.ndarray | None,
+            state_traces: Sequence[np.ndarray] | None, intentions: np.ndarray | None,
+            out: Models | None) -> Models:
+    """:func:`update` from the warm starts ``(greedy_h, greedy_r)`` and the arrays to
+    write into (``out``), each or both None: the compiled steps where the kernels are on,
+    else the reference.
+    """
+    batch = _checked(tables, params, theta, pi_r, warm, state_reward, state_traces,
+                     intentions, out)
+    jit = kernels()
+    # (numpy sums a single feature's counts pairwise)
+    if jit is None or batch.tables.features.shape[2] < 2:
+        made = reference_update(batch.tables, params, batch.theta, batch.pi_r, batch.warm,
+                                state_traces, batch.intentions)
+        return made if out is None else _written(made, out)
+    return _compiled_update(_CompiledSteps(jit, batch, params), batch, out)
 
-    Args:
-        next_state: (S, A, A) int joint table, the robot's action first; the human's MDP
-            uses its transpose.
-        valid: (S, A) bool valid actions (of both partners).
-        reward: (S, A, A) the robot's joint reward.
-        features: (I, S, F) φ(s, ι).
-        terminal: (I,) int the absorbing goal state of each intention.
+
+class _Batch(NamedTuple):
+    """An update's inputs, checked, in the kernels' types (C-contiguous float64 or int64).
+
+    Attributes:
+        tables: The tables.
         theta: (B, F) θ before the update.
         pi_r: (B, I, S, A) the robot's policies the human model assumed so far.
-        warm: ``(greedy_h, greedy_r)`` (B, I, S) int of the last update, or None.
-        gamma: Discount in [0, 1).
-        human_temperature: τ_H of π̂_H.
-        robot_temperature: τ of the robot policy the human model assumes.
-        irl_temperature: τ of the IRL's soft-max policy.
-        learning_rate: λ of the IRL step.
-        state_traces: B state sequences (each at least one state), or None: no IRL step.
-        intentions: (B,) int the intention each trace revealed, -1 for none.
-        max_iter: Cap on improvement rounds.
-        state_reward: (B, I, S) θ·φ of ``theta``, if the caller has it (the
-            ``state_reward`` of the update that made this θ; its values are trusted), to
-            spare the compiled path computing it again; None: computed.
-        out: Arrays to write the new models into (all but ``theta``, which is always new
-            when θ changes), of the shapes and types of the result and sharing no memory
-            with the inputs; None: new arrays. Reusing the arrays of an earlier update
-            spares the allocator fresh pages (about a sixth of a 100-run update's time).
+        warm: ``(greedy_h, greedy_r)`` (B, I, S) the warm starts, or None.
+        state_reward: (B, I, S) θ·φ of ``theta`` if the caller gave it.
+        intentions: (B,) the revealed intentions (-1: none), or None: no IRL step.
+        states: The traces one after another (with ``intentions``).
+        offsets: (B + 1,) trace b is ``states[offsets[b]:offsets[b + 1]]``.
+    """
 
-    Returns:
-        The new :class:`Models`.
+    tables: Tables
+    theta: np.ndarray
+    pi_r: np.ndarray
+    warm: tuple[np.ndarray, np.ndarray] | None
+    state_reward: np.ndarray | None
+    intentions: np.ndarray | None
+    states: np.ndarray | None
+    offsets: np.ndarray | None
+
+
+def _checked(tables: Tables, params: Params, theta: np.ndarray, pi_r: np.ndarray,
+             warm: tuple[np.ndarray, np.ndarray] | None, state_reward: np.ndarray | None,
+             state_traces: Sequence[np.ndarray] | None, intentions: np.ndarray | None,
+             out: Models | None) -> _Batch:
+    """The inputs of :func:`_update`, checked before any kernel runs (the kernels index
+    without bounds checks).
 
     Raises:
-        ConfigError: An array of the wrong shape, an index out of range, or what
+        ConfigError: An array of the wrong shape, an index out of range, or parameters
             :func:`~agents.learning.partner_mdp.solve_soft` refuses.
     """
-    phi = _c(np.asarray(features), np.float64)
+    phi = _c(np.asarray(tables.features), np.float64)
     th = _c(np.asarray(theta), np.float64)
     if phi.ndim != 3 or th.ndim != 2:
         raise ConfigError(f"features must be (I, S, F) and theta (B, F), got shapes "
                           f"{phi.shape} and {th.shape}",
                           field="features" if phi.ndim != 3 else "theta")
     n_i, n_s, n_f = phi.shape
-    n_a = np.shape(valid)[-1]
+    n_a = np.shape(tables.valid)[-1]
     n_b = len(th)
-    nxt = _c(np.asarray(next_state), np.int64)
+    nxt = _c(np.asarray(tables.next_state), np.int64)
     _check_shape("next_state", nxt, (n_s, n_a, n_a))
     _check_range("next_state", nxt, 0, n_s)
-    ok = _valid(valid, n_s, n_a)
-    joint = _c(np.asarray(reward), np.float64)
+    ok = _valid(tables.valid, n_s, n_a)
+    joint = _c(np.asarray(tables.reward), np.float64)
     _check_shape("reward", joint, (n_s, n_a, n_a))
-    term = _c(np.asarray(terminal), np.int64)
+    term = _c(np.asarray(tables.terminal), np.int64)
     _check_shape("terminal", term, (n_i,))
     _check_range("terminal", term, -1, n_s)
     _check_shape("theta", th, (n_b, n_f))
@@ -276,13 +324,13 @@ def update_models(
         for name, w in zip(("greedy_h", "greedy_r"), warm, strict=True):
             _check_shape(name, w, (n_b, n_i, n_s))
             _check_range(name, w, 0, n_a)
-    _check_iteration(gamma, max_iter)
+    _check_iteration(params.gamma, params.max_iter)
     if state_reward is not None:
         state_reward = _c(np.asarray(state_reward), np.float64)
         _check_shape("state_reward", state_reward, (n_b, n_i, n_s))
     if out is not None:
         _check_out(out, (n_b, n_i, n_s, n_a))
-    intent = None
+    intent = states = offsets = None
     if state_traces is not None:
         intent = _c(np.asarray(intentions).reshape(-1), np.int64)
         if len(intent) != n_b or len(state_traces) != n_b:
@@ -290,50 +338,12 @@ def update_models(
                               f"{len(state_traces)} and {len(intent)}", field="intentions")
         _check_range("intentions", intent, -1, n_i)
         states, offsets = _joined(state_traces, n_s)
-    jit = kernels()
-    if jit is None or n_f < 2:  # (numpy sums a single feature's counts pairwise)
-        made = reference_update(
-            Tables(nxt, ok, joint, phi, term),
-            Params(gamma, human_temperature, robot_temperature, irl_temperature, learning_rate,
-                   max_iter), th, pi, warm, state_traces, intent)
-        if out is None:
-            return made
-        for into, value in zip(out[1:], made[1:], strict=True):
-            np.copyto(into, value)
-        return Models(made.theta, *out[1:])
-    nxt_r, nxt_h, next_h, joint_t, vidx, n_valid, rank = jit.learner_tables(nxt, ok, joint)
-    shape = (n_b, n_i, n_s, n_a)
-    theta_new = th if intent is None else np.empty_like(th)
-    if out is None:
-        new = Models(theta_new, np.empty(shape[:3]), np.empty(shape),
-                     np.empty(shape[:3], np.int64), np.empty(shape), np.empty(shape),
-                     np.empty(shape[:3], np.int64), np.empty(shape))
-    else:
-        new = Models(theta_new, *out[1:])
-    w_h, w_r = warm if warm is not None else (np.zeros(shape[:3], np.int64),) * 2
-    if intent is not None and state_reward is None:
-        state_reward = np.einsum("isf,bf->bis", phi, th)
-
-    def runs(lo: int, hi: int) -> None:
-        if intent is not None:
-            jit.irl_steps(nxt_h, next_h, ok, vidx, n_valid, rank, phi, term, th, state_reward,
-                          pi, w_h, warm is not None, states, offsets, intent, float(gamma),
-                          float(irl_temperature), int(max_iter), float(learning_rate),
-                          new.theta, lo, hi)
-        # numpy's θ·φ (its sums' order is numpy's), a part at a time: the same numbers
-        np.einsum("isf,bf->bis", phi, new.theta[lo:hi], out=new.state_reward[lo:hi])
-        jit.partner_models(nxt_r, nxt_h, joint_t, ok, vidx, n_valid, rank, term,
-                           new.state_reward, pi, w_h, w_r, warm is not None, float(gamma),
-                           float(human_temperature), float(robot_temperature), int(max_iter),
-                           new.q_h, new.greedy_h, new.pi_h, new.q_r, new.greedy_r, new.pi_r,
-                           lo, hi)
-
-    _in_parts(runs, n_b, mdps=n_b * (2 * n_i + (state_traces is not None)))
-    return new
+    return _Batch(Tables(nxt, ok, joint, phi, term), th, pi, warm, state_reward, intent,
+                  states, offsets)
 
 
 def _check_out(out: Models, shape: tuple[int, ...]) -> None:
-    """Raise ConfigError unless ``out`` can take :func:`update_models`' results."""
+    """Raise ConfigError unless ``out`` can take :func:`update`'s results."""
     for name in Models._fields[1:]:
         arr = getattr(out, name)
         ints = name.startswith("greedy")
@@ -346,6 +356,114 @@ def _check_out(out: Models, shape: tuple[int, ...]) -> None:
                               field=f"out.{name}")
 
 
+def _written(made: Models, out: Models) -> Models:
+    """``made``, its arrays (all but θ) copied into ``out``'s."""
+    for into, value in zip(out[1:], made[1:], strict=True):
+        np.copyto(into, value)
+    return Models(made.theta, *out[1:])
+
+
+def _compiled_update(steps: _CompiledSteps, batch: _Batch, out: Models | None) -> Models:
+    """Algorithm 1's update from the compiled kernels, run by run in parts.
+
+    The runs are cut into parts that the threads take in one hand-out
+    (:func:`~agents.learning.partner_mdp.set_threads`); each part goes through the steps in
+    the paper's order, writing into the new models (``out``'s arrays, or new ones).
+    """
+    features, irl = batch.tables.features, batch.intentions is not None
+    n_b, n_i, n_s, n_a = batch.pi_r.shape
+    new = _new_models(batch.theta, (n_b, n_i, n_s, n_a), irl, out)
+    old_reward = None  # θ·φ of the old θ for the IRL step (the caller's, or numpy's)
+    if irl:
+        old_reward = (batch.state_reward if batch.state_reward is not None
+                      else np.einsum("isf,bf->bis", features, batch.theta))
+
+    def runs(lo: int, hi: int) -> None:
+        if old_reward is not None:  # l. 17-19: one ME-IRL step on θ per revealing run
+            steps.irl_step(old_reward, new.theta, lo, hi)
+        # θ·φ of the new θ: numpy's (its sums' order is numpy's), a part at a time
+        np.einsum("isf,bf->bis", features, new.theta[lo:hi], out=new.state_reward[lo:hi])
+        steps.human_model(new, lo, hi)  # l. 20-22: π̂_H = softmax(τ_H Q_H) per intention
+        steps.robot_model(new, lo, hi)  # l. 3-5: the robot's Q and the policy π̂_H assumes
+
+    _in_parts(runs, n_b, mdps=n_b * (2 * n_i + irl))
+    return new
+
+
+def _new_models(theta: np.ndarray, shape: tuple[int, int, int, int], irl: bool,
+                out: Models | None) -> Models:
+    """The arrays an update writes into: ``out``'s, or new ones; θ new if it changes."""
+    theta_new = np.empty_like(theta) if irl else theta
+    if out is not None:
+        return Models(theta_new, *out[1:])
+    return Models(theta_new, np.empty(shape[:3]), np.empty(shape),
+                  np.empty(shape[:3], np.int64), np.empty(shape), np.empty(shape),
+                  np.empty(shape[:3], np.int64), np.empty(shape))
+
+
+class _CompiledSteps:
+    """Algorithm 1's steps as the compiled kernels (:mod:`agents.learning._jit`) take them.
+
+    The one place where the update's objects (:class:`Tables`, :class:`Params`, the checked
+    inputs and the new :class:`Models`) become the flat arrays and plain numbers of an
+    ``@njit`` call: numba's kernels take arrays, not the NamedTuples that hold them. Made
+    once per update, with the tables the kernels derive from the graph's
+    (:func:`~agents.learning._jit.learner_tables`); each step does the runs lo..hi-1 and
+    may run in several threads at once.
+    """
+
+    def __init__(self, jit: ModuleType, batch: _Batch, params: Params) -> None:
+        t = batch.tables
+        self._jit, self._batch, self._params = jit, batch, params
+        (self._nxt_r, self._nxt_h, self._next_h, self._joint_t, self._vidx, self._n_valid,
+         self._rank) = jit.learner_tables(t.next_state, t.valid, t.reward)
+        self._warm = batch.warm is not None
+        warm = batch.warm
+        if warm is None:  # (unread)
+            zeros = np.zeros(batch.pi_r.shape[:3], np.int64)
+            warm = (zeros, zeros)
+        self._warm_h: np.ndarray = warm[0]
+        self._warm_r: np.ndarray = warm[1]
+
+    def irl_step(self, state_reward: np.ndarray, theta_out: np.ndarray, lo: int, hi: int
+                 ) -> None:
+        """Alg. 1 l. 17-19, the IRL step, into ``theta_out``, from θ·φ of the old θ.
+
+        :func:`agents.learning._jit.irl_steps`.
+        """
+        b, t, p = self._batch, self._batch.tables, self._params
+        self._jit.irl_steps(
+            self._nxt_h, self._next_h, t.valid, self._vidx, self._n_valid, self._rank,
+            t.features, t.terminal, b.theta, state_reward, b.pi_r, self._warm_h, self._warm,
+            b.states, b.offsets, b.intentions, float(p.gamma), float(p.irl_temperature),
+            int(p.max_iter), float(p.learning_rate), theta_out, lo, hi)
+
+    def human_model(self, new: Models, lo: int, hi: int) -> None:
+        """Alg. 1 l. 20-22, the human model, into ``new.q_h``, ``.greedy_h``, ``.pi_h``.
+
+        From ``new.state_reward`` and the π_R of the inputs:
+        :func:`agents.learning._jit.human_models`.
+        """
+        t, p = self._batch.tables, self._params
+        self._jit.human_models(
+            self._nxt_h, t.valid, self._vidx, self._n_valid, self._rank, t.terminal,
+            new.state_reward, self._batch.pi_r, self._warm_h, self._warm, float(p.gamma),
+            float(p.human_temperature), int(p.max_iter), new.q_h, new.greedy_h, new.pi_h,
+            lo, hi)
+
+    def robot_model(self, new: Models, lo: int, hi: int) -> None:
+        """Alg. 1 l. 3-5, the robot's Q, into ``new.q_r``, ``.greedy_r``, ``.pi_r``.
+
+        From ``new.pi_h``: :func:`agents.learning._jit.robot_models`.
+        """
+        t, p = self._batch.tables, self._params
+        self._jit.robot_models(
+            self._nxt_r, self._joint_t, t.valid, self._vidx, self._n_valid, self._rank,
+            t.terminal, new.pi_h, self._warm_r, self._warm, float(p.gamma),
+            float(p.robot_temperature), int(p.max_iter), new.q_r, new.greedy_r, new.pi_r,
+            lo, hi)
+
+
 @task_mdp.one_blas_thread()
 def reference_update(tables: Tables, params: Params, theta: np.ndarray, pi_r: np.ndarray,
                      warm: tuple[np.ndarray, np.ndarray] | None = None,
@@ -353,7 +471,8 @@ def reference_update(tables: Tables, params: Params, theta: np.ndarray, pi_r: np
                      intentions: np.ndarray | None = None) -> Models:
     """Algorithm 1's update for B runs, step by step in numpy (the reference).
 
-    The arguments are those of :func:`update_models` (checked by it); BLAS runs on one thread
+    The arguments are those of :func:`update` (checked by it), the last update's greedy
+    actions ``(greedy_h, greedy_r)`` as ``warm``; BLAS runs on one thread
     (:func:`hri_envs.task.mdp.one_blas_thread`: numpy's solves are small).
     """
     nxt, valid, reward, features, terminal = tables
@@ -407,8 +526,8 @@ def preload() -> bool:
     if not preload_kernels():
         return False
     nxt, zero = np.zeros((1, 1, 1), np.int64), np.zeros(1, np.int64)
-    update_models(nxt, np.ones((1, 1), np.bool_), np.zeros((1, 1, 1)), np.zeros((1, 1, 2)),
-                  zero, np.zeros((1, 2)), np.ones((1, 1, 1, 1)), None, gamma=0.5,
-                  human_temperature=1.0, robot_temperature=1.0, irl_temperature=1.0,
-                  learning_rate=0.1, state_traces=[zero], intentions=zero)
+    tables = Tables(nxt, np.ones((1, 1), np.bool_), np.zeros((1, 1, 1)), np.zeros((1, 1, 2)),
+                    zero)
+    update(tables, Params(0.5, 1.0, 1.0, 1.0, 0.1), np.zeros((1, 2)), np.ones((1, 1, 1, 1)),
+           state_traces=[zero], intentions=zero)
     return True

@@ -420,33 +420,14 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         terminated = table.terminated.take(j)
         aborted = table.aborted.take(j)
         invalid = table.robot_invalid.take(j)
-        if self._turning:  # ι becomes the start support on entering the turning state
-            back = (s_next == self._turn_at).nonzero()[0]
-            if back.size:
-                self._intention[back] = start = self._start[back]
-                self._turn_at[back] = -1
-                if self._greedy is not None:
-                    self._goal_key[back] = start * self._greedy.goal_stride
+        if self._turning:
+            self._turn_back(s_next)
         if self._greedy is None:
-            human.observe(state, a_r, a_h, s_next, playing)
-            revised = human.revised_intentions()  # humans who changed their minds
-            if revised is not None:  # in place: (N,) int64, as the turning back above
-                self._intention[:] = revise_intention(
-                    self._intention, np.where(playing & ~terminated, revised, -1))
+            self._observe(state, a_r, a_h, s_next, playing, terminated)
         infos: dict[str, Any] = {"aborted": aborted, "_aborted": self._all,
                                  "invalid_action": invalid, "_invalid_action": self._all}
         if self._same_step:
-            truncated = self._truncated(t, terminated)
-            ended = terminated | truncated
-            if ended.any():
-                which = ended.nonzero()[0]
-                human.end_episode(which)
-                final = self._observations()
-                final_obs = np.full(self.num_envs, None, dtype=object)
-                for i in which:
-                    final_obs[i] = {k: v[i] for k, v in final.items()}
-                infos["final_obs"], infos["_final_obs"] = final_obs, ended
-                self._restart(which)
+            truncated = self._end_same_step(t, terminated, infos)
             return self._observations(), reward, terminated, truncated, infos
         # Next-step autoreset: the envs that ended in the previous step stepped in the "over"
         # context (reward 0, nothing ended, aborted or invalid) and start afresh now.
@@ -476,6 +457,45 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             "last_human_action": last if fresh_human else last.copy(),
             "action_mask": self.rules.action_mask.take(s_next, axis=0)}
         return obs, reward, terminated, truncated, infos
+
+    def _turn_back(self, s_next: np.ndarray) -> None:
+        """ι becomes the start support in the envs whose human enters its turning state."""
+        back = (s_next == self._turn_at).nonzero()[0]
+        if back.size:
+            self._intention[back] = start = self._start[back]
+            self._turn_at[back] = -1
+            if self._greedy is not None:
+                self._goal_key[back] = start * self._greedy.goal_stride
+
+    def _observe(self, state: np.ndarray, a_r: np.ndarray, a_h: np.ndarray,
+                 s_next: np.ndarray, playing: np.ndarray, terminated: np.ndarray) -> None:
+        """Show the humans (who do not act by a table) the step; take their revised
+        intentions in the envs still playing.
+        """
+        human = self._human
+        human.observe(state, a_r, a_h, s_next, playing)
+        revised = human.revised_intentions()  # humans who changed their minds
+        if revised is not None:  # in place: (N,) int64, as the turning back
+            self._intention[:] = revise_intention(
+                self._intention, np.where(playing & ~terminated, revised, -1))
+
+    def _end_same_step(self, t: int, terminated: np.ndarray, infos: dict[str, Any]
+                       ) -> np.ndarray:
+        """Same-step autoreset: the envs that end restart at once, their last observation in
+        ``infos["final_obs"]``; returns ``truncated``.
+        """
+        truncated = self._truncated(t, terminated)
+        ended = terminated | truncated
+        if ended.any():
+            which = ended.nonzero()[0]
+            self._human.end_episode(which)
+            final = self._observations()
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            for i in which:
+                final_obs[i] = {k: v[i] for k, v in final.items()}
+            infos["final_obs"], infos["_final_obs"] = final_obs, ended
+            self._restart(which)
+        return truncated
 
     def _truncated(self, t: int, terminated: np.ndarray) -> np.ndarray:
         """(N,) bool: the envs that reach the step limit in step ``t`` without terminating."""

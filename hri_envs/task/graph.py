@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -232,10 +232,47 @@ def build_graph(scenario: Scenario, spec: ScenarioSpec | None = None) -> TaskGra
     ``spec``: the registered scenario it is for (:attr:`TaskGraph.spec`).
     """
     sc = scenario
+    st = _states(sc)
+    valid, motion_target = _single_agent_moves(sc, st)
+    next_state, aborted = _joint_transition(st, valid, motion_target)
+    quaternion = np.ascontiguousarray(sc.orientations[st.orientation])
+    terminal = np.array([4 * k for k in range(sc.n_supports)])
+    features = state_features(sc, st.position, quaternion, st.grasp)
+    arrays = (st.grasp, st.support, st.column, st.height, st.orientation, st.position,
+              quaternion, valid, next_state, aborted, terminal, st.mounting_state, features)
+    _freeze(*arrays)
+    return TaskGraph(sc, *arrays, state_names=tuple(st.names),
+                     action_names=tuple(_action_names(sc)), spec=spec)
+
+
+class _States(NamedTuple):
+    """The states of a scenario's graph, as :func:`build_graph` numbers them.
+
+    Attributes:
+        grasp, support, column, height, orientation, position, mounting_state: As the
+            attributes of :class:`TaskGraph`.
+        names: Each state's readable label.
+    """
+
+    grasp: np.ndarray
+    support: np.ndarray
+    column: np.ndarray
+    height: np.ndarray
+    orientation: np.ndarray
+    position: np.ndarray
+    mounting_state: np.ndarray
+    names: list[str]
+
+
+def _free_state(sc: Scenario, c: Any, h: Any, o: Any) -> Any:
+    """Index of the free-space waypoint at column ``c``, height ``h``, orientation ``o``."""
+    return 4 * sc.n_supports + (c * len(sc.heights) + h) * len(sc.orientations) + o
+
+
+def _states(sc: Scenario) -> _States:
+    """The support states ``4 k + μ`` first, then the free-space waypoints."""
     n_k, n_h, n_o = sc.n_supports, len(sc.heights), len(sc.orientations)
     n_s = 4 * n_k + n_k * n_h * n_o
-    n_a = N_FIXED_ACTIONS + n_k + n_h
-
     grasp = np.full(n_s, BOTH, dtype=np.int64)
     support = np.full(n_s, -1, dtype=np.int64)
     column = np.zeros(n_s, dtype=np.int64)
@@ -243,7 +280,6 @@ def build_graph(scenario: Scenario, spec: ScenarioSpec | None = None) -> TaskGra
     orientation = np.zeros(n_s, dtype=np.int64)
     position = np.zeros((n_s, 3))
     names: list[str] = []
-
     mount_h = np.array([sc.height_index(s.mounting[2]) for s in sc.supports])
     for k, sup in enumerate(sc.supports):
         for mu in range(4):
@@ -254,7 +290,7 @@ def build_graph(scenario: Scenario, spec: ScenarioSpec | None = None) -> TaskGra
     for c in range(n_k):
         for h in range(n_h):
             for o in range(n_o):
-                s = 4 * n_k + (c * n_h + h) * n_o + o
+                s = _free_state(sc, c, h, o)
                 column[s], height[s], orientation[s] = c, h, o
                 position[s] = [*sc.supports[c].mounting[:2], sc.heights[h]]
                 prime = "′" if h == mount_h[c] else ""
@@ -262,50 +298,66 @@ def build_graph(scenario: Scenario, spec: ScenarioSpec | None = None) -> TaskGra
                     f"held at {sc.supports[c].name}{prime} column, {sc.heights[h]:.3g} m, "
                     f"{sc.orientation_names[o]}"
                 )
-    quaternion = sc.orientations[orientation]
-
-    def free_state(c: int, h: int, o: int) -> int:
-        return 4 * n_k + (c * n_h + h) * n_o + o
-
-    mounting_state = np.array([free_state(k, mount_h[k], sc.supports[k].orientation)
+    mounting_state = np.array([_free_state(sc, k, mount_h[k], sc.supports[k].orientation)
                                for k in range(n_k)])
+    return _States(grasp, support, column, height, orientation, position, mounting_state,
+                   names)
 
-    # ---- single-agent validity and the effect of each motion action (Table 1)
+
+def _single_agent_moves(sc: Scenario, st: _States) -> tuple[np.ndarray, np.ndarray]:
+    """Single-agent validity and the effect of each motion action (paper Table 1).
+
+    Returns:
+        ``(valid, motion_target)``: (S, A) bool, and (S, A) int the state a valid motion
+        action leads to (-1 for the other actions).
+    """
+    n_k, n_h, n_o = sc.n_supports, len(sc.heights), len(sc.orientations)
+    n_s, n_a = len(st.grasp), N_FIXED_ACTIONS + n_k + n_h
     valid = np.zeros((n_s, n_a), dtype=bool)
     motion_target = np.full((n_s, n_a), -1, dtype=np.int64)
     valid[:, WAIT] = True
     for s in range(n_s):
-        if support[s] >= 0:
+        if st.support[s] >= 0:
             valid[s, TOGGLE] = True
-            if grasp[s] == BOTH:
+            if st.grasp[s] == BOTH:
                 valid[s, TAKE_OFF] = True
-                motion_target[s, TAKE_OFF] = mounting_state[support[s]]
+                motion_target[s, TAKE_OFF] = st.mounting_state[st.support[s]]
             continue
-        c, h, o = column[s], height[s], orientation[s]
-        if s == mounting_state[c]:
+        c, h, o = st.column[s], st.height[s], st.orientation[s]
+        if s == st.mounting_state[c]:
             valid[s, PUT_ON] = True
             motion_target[s, PUT_ON] = 4 * c + BOTH
         if n_o > 1:
             valid[s, ROTATE] = True
-            motion_target[s, ROTATE] = free_state(c, h, (o + 1) % n_o)
+            motion_target[s, ROTATE] = _free_state(sc, c, h, (o + 1) % n_o)
         for k in range(n_k):
             if k != c:
                 a = N_FIXED_ACTIONS + k
-                valid[s, a], motion_target[s, a] = True, free_state(k, h, o)
+                valid[s, a], motion_target[s, a] = True, _free_state(sc, k, h, o)
         for hh in range(n_h):
             if hh != h:
                 a = N_FIXED_ACTIONS + n_k + hh
-                valid[s, a], motion_target[s, a] = True, free_state(c, hh, o)
+                valid[s, a], motion_target[s, a] = True, _free_state(sc, c, hh, o)
+    return valid, motion_target
 
-    # ---- the joint transition, vectorised over (s, a_R, a_H)
+
+def _joint_transition(st: _States, valid: np.ndarray, motion_target: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The joint transition, vectorised over (s, a_R, a_H): ``(next_state, aborted)``.
+
+    Grasp toggles first; the step is aborted if either action is invalid in the resulting
+    state; else the object moves by the human's motion or, when the human makes none, by
+    the robot's.
+    """
+    n_s, n_a = valid.shape
     s_idx = np.arange(n_s)[:, None, None]
     a_r = np.arange(n_a)[None, :, None]
     a_h = np.arange(n_a)[None, None, :]
     toggle_r = (a_r == TOGGLE) & valid[s_idx, TOGGLE]
     toggle_h = (a_h == TOGGLE) & valid[s_idx, TOGGLE]
-    new_grasp = grasp[s_idx] ^ (ROBOT_BIT * toggle_r) ^ (HUMAN_BIT * toggle_h)
+    new_grasp = st.grasp[s_idx] ^ (ROBOT_BIT * toggle_r) ^ (HUMAN_BIT * toggle_h)
     # After the toggles only support states change their μ: 4k + μ'.
-    s1 = np.where(support[s_idx] >= 0, 4 * support[s_idx] + new_grasp, s_idx)
+    s1 = np.where(st.support[s_idx] >= 0, 4 * st.support[s_idx] + new_grasp, s_idx)
     s1 = np.broadcast_to(s1, (n_s, n_a, n_a))
     aborted = ~(valid[s1, np.broadcast_to(a_r, s1.shape)]
                 & valid[s1, np.broadcast_to(a_h, s1.shape)])
@@ -315,21 +367,12 @@ def build_graph(scenario: Scenario, spec: ScenarioSpec | None = None) -> TaskGra
     mover = np.broadcast_to(mover, s1.shape)
     moved = motion_target[s1, np.maximum(mover, 0)]
     next_state = np.where(aborted | (mover < 0), s1, moved)
+    return np.ascontiguousarray(next_state), np.ascontiguousarray(aborted)
 
 
-    action_names = ["wait", "grasp/let go", "take off", "put on", "rotate"]
-    action_names += [f"move over to {s.name}" for s in sc.supports]
-    action_names += [f"move to {h:.3g} m" for h in sc.heights]
-
-    terminal = np.array([4 * k for k in range(n_k)])
-    features = state_features(sc, position, quaternion, grasp)
-
-    next_state = np.ascontiguousarray(next_state)
-    aborted = np.ascontiguousarray(aborted)
-    quaternion = np.ascontiguousarray(quaternion)
-    arrays = (grasp, support, column, height, orientation, position, quaternion, valid,
-              next_state, aborted, terminal,
-              mounting_state, features)
-    _freeze(*arrays)
-    return TaskGraph(sc, *arrays, state_names=tuple(names), action_names=tuple(action_names),
-                     spec=spec)
+def _action_names(sc: Scenario) -> list[str]:
+    """The actions' labels in their global numbering (see the module docstring)."""
+    names = ["wait", "grasp/let go", "take off", "put on", "rotate"]
+    names += [f"move over to {s.name}" for s in sc.supports]
+    names += [f"move to {h:.3g} m" for h in sc.heights]
+    return names
