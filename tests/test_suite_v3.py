@@ -152,6 +152,12 @@ def test_a_v3_results_file_validates_and_leads_with_the_headline(v3_dir):
     assert board.index("## Headline") < board.index("## What the agents fail on") < \
         board.index("## Power") < board.index("## wheel-test-inconsistent")
     assert "W/T/L vs next" in board and (v3_dir / "ranking.png").exists()
+    # At a runs scale below 1 the power figures are for the humans met, not the track's 40.
+    suite_doc = json.loads((v3_dir / "suite.json").read_text())
+    power = suite_doc["tracks"]["wheel-test-inconsistent"]["power"]
+    assert power["humans"] == suite_doc["tracks"]["wheel-test-inconsistent"]["runs"] == 16
+    assert power["detectable"] == suite.detectable_v3(
+        power["pilot_between"], power["pilot_within"], 16, 1)
 
     def wrong_humans(d):
         d["runs"]["0"]["wheel-test-inconsistent"]["humans"][0] += 1

@@ -176,6 +176,7 @@ def track_summary_v3(track: Track, result: StudyResult) -> dict[str, Any]:
     humans = getattr(track, "humans", 1)
     between, within = getattr(track, "pilot_between", 0.0), getattr(track, "pilot_within", 0.0)
     runs = result.config.runs
+    humans = min(humans, runs)  # a runs scale below 1 meets fewer of them
     blocks = max(1, runs // humans)
     found = (detectable_v3(between, within, humans, blocks) if humans > 1 else
              round(stats.detectable_difference(within, runs, power=POWER, alpha=ALPHA), 4)
