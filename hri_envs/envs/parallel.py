@@ -30,7 +30,7 @@ from hri_envs.humans.scripted import check_probability
 from hri_envs.humans.seat import human_spec
 from hri_envs.humans.spec import HumanSpec
 from hri_envs.task.episode import EpisodeRules, goal_reward, reached_intention
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["AGENTS", "CooperationParallelEnv"]
 
@@ -214,7 +214,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         # The graph backend itself has no faults and no figures of its own for the infos.
         self._graph_only = type(self._episode) is Episode
         self._masks = list(self.rules.action_mask)  # (A,) int8 read-only row per state
-        self._sample_layout = scenario_spec(scenario).layout
+        self._sample_layout = spec_of(self.graph).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self._observation_spaces: dict[str, spaces.Space[Any]] = {
             "human": human_observation_space(n_s, n_k, n_a),

@@ -26,7 +26,7 @@ from hri_envs.errors import ResetNeeded
 from hri_envs.humans.protocol import BatchHuman, checked_actions
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task.episode import EpisodeRules, reached_intention, revise_intention
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["RobotEnv"]
 
@@ -181,7 +181,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         self.rules = EpisodeRules(self.graph, self.r0, reward)
         self._episode: Episode = episode_backend(self.backend)(self.rules, None, **physics)
         self._sync_turn_state()
-        self._sample_layout = scenario_spec(scenario).layout
+        self._sample_layout = spec_of(self.graph).layout
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self.observation_space = robot_observation_space(n_s, n_k, n_a)
         if self.observation_format != "dict":
