@@ -55,6 +55,7 @@ from typing import Any
 import agents as agents_package
 from agents.config import default_config
 from agents.learner import Learner
+from agents.learning import algorithm1
 from agents.learning.algorithm1 import Workspace
 from agents.protocol import Agent, BatchAgent, Batched, run_streams
 from baselines import CountQMDP, GoalFilter, Imitator, MaxEntIRL, Oracle, Passive
@@ -117,6 +118,8 @@ class AgentSpec:
         description: One line for help texts.
         settings: ``settings(scenario, r0, learner) -> dict | None``: what ``summary.json``
             records of its configuration (None: nothing).
+        warm: Called once before a study forks its workers (e.g. to load compiled kernels
+            the workers then inherit); None: nothing to do.
     """
 
     name: str
@@ -127,6 +130,7 @@ class AgentSpec:
     shared_human: bool = False
     description: str = ""
     settings: Callable[[str, float, dict[str, Any]], dict[str, Any] | None] | None = None
+    warm: Callable[[], Any] | None = None
 
 
 #: The agents the benchmark knows by name (:func:`register_agent`).
@@ -364,11 +368,13 @@ def _make_countqmdp(c: AgentContext) -> BatchAgent:
 for _spec in (
     AgentSpec("learner", _make_learner, "learner",
               description="the paper's Learner (Algorithm 1): IRL human model, Bayes filter "
-                          "over the intention", settings=_learner_settings),
+                          "over the intention", settings=_learner_settings,
+              warm=algorithm1.preload),
     AgentSpec("imitator", _make_imitator, description="Algorithm 3: repeats the human's last "
               "action per (start, state)"),
     AgentSpec("maxent", _make_maxent, "learner", description="Algorithm 4: plain ME-IRL of its "
-              "own reward, count-based intention", settings=_maxent_settings),
+              "own reward, count-based intention", settings=_maxent_settings,
+              warm=algorithm1.preload),
     AgentSpec("passive", _make_passive, description="Algorithm 2: grasp, follow, let go"),
     AgentSpec("oracle", _make_oracle, intention_blind=False,
               description="the paper's heuristic baseline: sees the intention and the "

@@ -30,7 +30,6 @@ from typing import Any
 import numpy as np
 
 from agents.config import default_config
-from agents.learning import algorithm1
 from hri_bench.core import stats
 from hri_bench.core.atomic import atomic_writer, move_into_place
 from hri_bench.core.results import StudyResult  # re-exported; shared with the plots
@@ -39,6 +38,7 @@ from hri_bench.run.agents import (
     BUILTIN_AGENTS,
     REFERENCE_AGENTS,
     agent_settings,
+    agent_spec,
     make_agent,
     validate_agent_name,
 )
@@ -742,8 +742,9 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
         for i in todo:
             yield i, _run_unit_caught(units[i])
     elif cfg.executor == "process":
-        if {"learner", "maxent"} & set(cfg.agents):
-            algorithm1.preload()  # forked workers inherit the loaded kernels
+        for spec in filter(None, map(agent_spec, dict.fromkeys(cfg.agents))):
+            if spec.warm is not None:
+                spec.warm()  # e.g. the Learner's compiled kernels: forked workers inherit them
         # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
         # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
         # every worker at once.
