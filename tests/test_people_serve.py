@@ -119,6 +119,12 @@ BAD = [
     ('{"type": "action", "seq": -1, "action": 1, "rt_ms": null}', "seq"),
     ('{"type": "continue", "seq": SEQ}', "type"),
     ('{"type": "hello", "session": "OTHER"}', "type"),
+    # every field is required (rt_ms may be null, but not left out), and given once
+    ('{"type": "action", "seq": SEQ, "action": 1}', "rt_ms"),
+    ('{"type": "action", "action": 1, "rt_ms": null}', "seq"),
+    ('{"type": "action", "seq": SEQ, "action": 3, "action": 1, "rt_ms": null}', "action"),
+    ('{"type": "action", "seq": SEQ, "seq": SEQ, "action": 1, "rt_ms": null}', "seq"),
+    ('{"type": "fly", "type": "action", "seq": SEQ, "action": 1, "rt_ms": null}', "type"),
 ]
 
 
@@ -259,6 +265,16 @@ def test_joining_needs_consent_and_takes_nothing_else(tmp_path, body):
     assert open_dataset(cfg.dataset_id, tmp_path).session_dirs() == []
 
 
+def test_joining_refuses_a_key_given_twice(tmp_path):
+    cfg, client = _client(tmp_path)
+    with client:
+        r = client.post("/api/sessions", content=b'{"consent": false, "consent": true}',
+                        headers={"content-type": "application/json"})
+        assert r.status_code == 400, r.text
+        assert r.json()["field"] == "consent" and "twice" in r.json()["error"]
+    assert open_dataset(cfg.dataset_id, tmp_path).session_dirs() == []
+
+
 def test_the_server_is_full_at_max_sessions_and_stops_them_on_shutdown(tmp_path):
     cfg, client = _client(tmp_path, max_sessions=1)
     with client:
@@ -370,6 +386,14 @@ def test_serve_without_the_web_extra_says_how_to_install_it(monkeypatch, capsys)
 
 def test_message_schema():
     assert parse_message('{"type": "continue", "seq": 3}') == {"type": "continue", "seq": 3}
+    with pytest.raises(ConfigError, match="rt_ms") as err:
+        parse_message('{"type": "action", "seq": 3, "action": 1}')
+    assert "missing" in str(err.value) and err.value.field == "rt_ms"
+    with pytest.raises(ConfigError, match="twice") as err:
+        parse_message('{"type": "continue", "seq": 3, "seq": 4}')
+    assert err.value.field == "seq"
+    with pytest.raises(ConfigError, match="twice"):  # nested objects too
+        parse_message('{"type": "continue", "seq": {"a": 1, "a": 2}}')
     with pytest.raises(ConfigError, match="JSON"):
         parse_message("{")
     with pytest.raises(ConfigError):

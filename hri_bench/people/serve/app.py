@@ -32,7 +32,13 @@ from fastapi import FastAPI, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import FileResponse, JSONResponse, Response
 
 from hri_bench.people.serve.design import ServeConfig
-from hri_bench.people.serve.session import MessageError, Session, SessionManager, parse_message
+from hri_bench.people.serve.session import (
+    MessageError,
+    Session,
+    SessionManager,
+    load_json,
+    parse_message,
+)
 from hri_envs.errors import ConfigError
 
 __all__ = ["create_app"]
@@ -127,9 +133,12 @@ async def _join(request: Request, sessions: SessionManager) -> JSONResponse:
     """``POST /api/sessions``: a new session with consent; 400 without, 503 when full."""
     body = await request.body()
     try:
-        doc = json.loads(body) if len(body) <= 1024 else None
-    except ValueError:
-        doc = None
+        doc = load_json(body, "the body") if len(body) <= 1024 else None
+    except MessageError as exc:
+        if exc.field == "message":
+            doc = None
+        else:  # a key given twice
+            return JSONResponse({"field": exc.field, "error": str(exc)}, 400)
     if not isinstance(doc, dict) or set(doc) != {"consent"} or doc["consent"] is not True:
         return JSONResponse({"field": "consent", "error": "send {\"consent\": true} to "
                              "take part; nothing is recorded without it"}, 400)

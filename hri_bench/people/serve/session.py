@@ -42,7 +42,8 @@ from hri_envs.humans.protocol import BatchHuman
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import Layout, scenario_graph, scenario_spec
 
-__all__ = ["MessageError", "PersonHuman", "Session", "SessionManager", "parse_message"]
+__all__ = ["MessageError", "PersonHuman", "Session", "SessionManager", "load_json",
+           "parse_message"]
 
 log = logging.getLogger("hri_bench.serve")
 
@@ -85,19 +86,42 @@ MESSAGES: dict[str, tuple[str, ...]] = {
 }
 
 
+def _once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object's members, each key once (``object_pairs_hook``)."""
+    doc: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in doc:
+            raise MessageError(f"the key {json.dumps(key)[:40]} is given twice; give each "
+                               "once", field=str(key)[:40])
+        doc[key] = value
+    return doc
+
+
+def load_json(text: str | bytes, what: str = "a message") -> Any:
+    """``text`` parsed as JSON whose objects give each key once.
+
+    Raises:
+        MessageError: Not JSON (``field="message"``), or a key given twice (the field is
+            the key).
+    """
+    try:
+        return json.loads(text, object_pairs_hook=_once)
+    except MessageError:
+        raise
+    except (ValueError, RecursionError):
+        raise MessageError(f"{what} is a JSON object; this is not JSON", field="message"
+                           ) from None
+
+
 def parse_message(text: Any) -> dict[str, Any]:
     """A page's message, validated: a JSON object of a known ``type`` with exactly its
-    fields, of their types (:data:`MESSAGES`); :class:`MessageError` naming the field
-    otherwise.
+    fields (each once, none missing; ``rt_ms`` may be null), of their types
+    (:data:`MESSAGES`); :class:`MessageError` naming the field otherwise.
     """
     if not isinstance(text, str) or len(text) > MAX_MESSAGE:
         raise MessageError(f"a message is a JSON text of at most {MAX_MESSAGE} characters",
                            field="message")
-    try:
-        msg = json.loads(text)
-    except (ValueError, RecursionError):
-        raise MessageError("a message is a JSON object; this is not JSON", field="message"
-                           ) from None
+    msg = load_json(text)
     if not isinstance(msg, dict):
         raise MessageError("a message is a JSON object with a 'type'", field="message")
     kind = msg.get("type")
@@ -109,6 +133,12 @@ def parse_message(text: Any) -> dict[str, Any]:
     if unknown:
         raise MessageError(f"a {kind!r} message has the fields {', '.join(fields)}; unknown: "
                            f"{', '.join(map(str, unknown))[:80]}", field=str(unknown[0])[:40])
+    missing = [f for f in fields if f not in msg]
+    if missing:
+        raise MessageError(f"a {kind!r} message has the fields {', '.join(fields)}; missing: "
+                           f"{', '.join(missing)}" + (" (null when not measured)"
+                                                      if missing[0] == "rt_ms" else ""),
+                           field=missing[0])
     if kind == "hello":
         token = msg.get("session")
         if not isinstance(token, str) or not 16 <= len(token) <= 128:
