@@ -317,6 +317,18 @@ def test_headers_origin_and_public_settings(tmp_path):
         assert closed.value.code == 4403
 
 
+def test_object_and_supports_are_filled_in_the_consent_text_too(tmp_path):
+    cfg = ServeConfig("hanger", consent="You will carry the {object} between {supports}.",
+                      instructions="Carry the {object}.")
+    public = cfg.public()
+    assert public["consent"] == "You will carry the clothes hanger between A, B, C."
+    assert public["instructions"] == "Carry the clothes hanger."
+    # the recorded hashes are of the texts as given
+    import hashlib
+
+    assert cfg.text_hashes()["consent_sha256"] == hashlib.sha256(cfg.consent.encode()).hexdigest()
+
+
 def test_counterbalanced_design():
     circuit = pair_circuit(3)
     assert sorted(circuit) == [(a, b) for a in range(3) for b in range(3) if a != b]

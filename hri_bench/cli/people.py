@@ -114,7 +114,8 @@ def _serve_parser(sub: Any) -> None:
     serve.add_argument("--instructions", type=Path, default=None,
                        help="a text file of instructions ({object}, {supports} filled in)")
     serve.add_argument("--consent", type=Path, default=None,
-                       help="a text file shown for consent before a session starts")
+                       help="a text file shown for consent before a session starts ({object}, "
+                            "{supports} filled in)")
     serve.add_argument("--show-belief", action="store_true",
                        help="show the robot's belief about the goal while playing")
     serve.add_argument("--max-sessions", type=_whole(1, 1000), default=50,

@@ -89,7 +89,8 @@ class ServeConfig:
             none is asked for).
         instructions: Instructions shown beside the task (``{object}`` and ``{supports}``
             are filled in).
-        consent: The consent text shown before a session starts.
+        consent: The consent text shown before a session starts (``{object}`` and
+            ``{supports}`` are filled in).
         show_belief: Show the robot's belief about the goal during play.
         max_sessions: The most sessions running at once.
         idle_timeout_s: A session whose participant does nothing this long is closed.
@@ -189,10 +190,13 @@ class ServeConfig:
         graph = scenario_graph(self.scenario)
         obj = graph.scenario.object_name
         supports = ", ".join(graph.support_names)
+
+        def fill(text: str) -> str:
+            return text.replace("{object}", obj).replace("{supports}", supports)
+
         return {"scenario": self.scenario, "object": obj, "supports": list(graph.support_names),
-                "episodes": self.episodes, "consent": self.consent,
-                "instructions": self.instructions.replace("{object}", obj)
-                .replace("{supports}", supports)}
+                "episodes": self.episodes, "consent": fill(self.consent),
+                "instructions": fill(self.instructions)}
 
     def settings(self) -> dict[str, Any]:
         """The settings recorded with each session (texts by their hash)."""
