@@ -386,6 +386,36 @@ def test_serve_flags_exit_2(argv, flag, tmp_path, capsys):
     assert f"argument {flag}" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("flag", ["--consent", "--instructions"])
+@pytest.mark.parametrize("kind", ["fifo", "device", "folder"])
+def test_a_text_flag_takes_a_regular_file_only(flag, kind, tmp_path, capsys):
+    """A FIFO once blocked serve for ever (waiting for a writer); a device or a folder is
+    refused as well, naming the flag (exit 2)."""
+    import os
+    import threading
+
+    path = {"fifo": tmp_path / "consent.fifo", "device": "/dev/zero", "folder": tmp_path}[kind]
+    if kind == "fifo":
+        os.mkfifo(path)
+    result = {}
+
+    def run():
+        try:
+            main(["serve", flag, str(path), "--data", str(tmp_path / "data")])
+        except SystemExit as exc:
+            result["code"] = exc.code
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(20)
+    if thread.is_alive() and kind == "fifo":  # release it: a writer that closes at once
+        os.close(os.open(path, os.O_WRONLY | os.O_NONBLOCK))
+        thread.join(20)
+    assert result.get("code") == 2, "serve blocked on the file"
+    err = capsys.readouterr().err
+    assert f"argument {flag}" in err and "regular file" in err, err
+
+
 def test_serve_without_the_web_extra_says_how_to_install_it(monkeypatch, capsys):
     from hri_envs import errors
 

@@ -15,6 +15,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import stat
 import sys
 from pathlib import Path
 from typing import Any
@@ -201,10 +203,20 @@ def _read_text(parser: argparse.ArgumentParser, path: Path | None, flag: str) ->
     if path is None:
         return None
     try:
-        with open(path, encoding="utf-8") as f:
+        # opened without blocking (a FIFO would wait for a writer), then checked to be a
+        # regular file before anything is read (a device never ends)
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError as exc:
+        parser.error(f"argument {flag}: cannot read {path} ({exc.strerror or exc})")
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            parser.error(f"argument {flag}: {path} is not a regular file; give a text file")
+        with open(fd, encoding="utf-8", closefd=False) as f:
             text = f.read(100_001)
     except (OSError, UnicodeDecodeError) as exc:
         parser.error(f"argument {flag}: cannot read {path} ({exc})")
+    finally:
+        os.close(fd)
     if len(text) > 100_000 or not text.strip():
         parser.error(f"argument {flag}: {path} must hold a text of 1 to 100,000 characters")
     return text
