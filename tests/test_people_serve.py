@@ -275,6 +275,64 @@ def test_joining_refuses_a_key_given_twice(tmp_path):
     assert open_dataset(cfg.dataset_id, tmp_path).session_dirs() == []
 
 
+def _post_raw(app, headers, chunks):
+    """POST /api/sessions straight to the ASGI app, the body in ``chunks`` handed out as
+    the app asks for them; (status, JSON body, how many chunks it asked for)."""
+    import asyncio
+
+    asked = []
+
+    async def receive():
+        asked.append(1)
+        i = len(asked) - 1
+        if i < len(chunks):
+            return {"type": "http.request", "body": chunks[i], "more_body": i + 1 < len(chunks)}
+        return {"type": "http.disconnect"}
+
+    out = {"body": b""}
+
+    async def send(message):
+        if message["type"] == "http.response.start":
+            out["status"] = message["status"]
+        elif message["type"] == "http.response.body":
+            out["body"] += message.get("body", b"")
+
+    scope = {"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1",
+             "method": "POST", "scheme": "http", "path": "/api/sessions", "raw_path":
+             b"/api/sessions", "query_string": b"", "root_path": "",
+             "headers": [(k.lower().encode(), v.encode()) for k, v in headers.items()],
+             "client": ("127.0.0.1", 5000), "server": ("127.0.0.1", 8000)}
+    asyncio.run(app(scope, receive, send))
+    return out["status"], json.loads(out["body"]), len(asked)
+
+
+def _page_headers(client):
+    """The headers the served page sends with its POST (token, origin, type)."""
+    return {}
+
+
+@pytest.mark.parametrize("declared", [True, False])
+def test_a_big_body_is_refused_as_it_streams(tmp_path, declared):
+    """A body over 1 KiB is refused (413) without reading the rest: by its Content-Length
+    when it has one, else as soon as the streamed count passes the cap. It once was read
+    whole first (a 200 MB body cost 147 MB)."""
+    cfg, client = _client(tmp_path)
+    chunk = b" " * 65536
+    chunks = [chunk] * 200
+    headers = {"host": "testserver", "content-type": "application/json",
+               **_page_headers(client)}
+    if declared:
+        headers["content-length"] = str(len(chunk) * len(chunks))
+    status, body, asked = _post_raw(client.app, headers, chunks)
+    assert status == 413 and body["field"] == "body" and "1024" in body["error"]
+    assert asked <= (0 if declared else 1), asked
+    # at the cap it is read and judged
+    ok = json.dumps({"consent": True}).encode().ljust(1024)
+    status, body, _ = _post_raw(client.app, {**headers, "content-length": "1024"}, [ok])
+    assert status == 201, body
+    client.app.state.sessions.stop_all()
+
+
 def test_the_server_is_full_at_max_sessions_and_stops_them_on_shutdown(tmp_path):
     cfg, client = _client(tmp_path, max_sessions=1)
     with client:

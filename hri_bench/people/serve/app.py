@@ -44,6 +44,8 @@ from hri_envs.errors import ConfigError
 __all__ = ["create_app"]
 
 STATIC = Path(__file__).parent / "static"
+#: The largest body ``POST /api/sessions`` reads, in bytes.
+MAX_BODY = 1024
 #: Seconds a new connection has to say hello.
 HELLO_TIMEOUT_S = 10.0
 #: Close codes: unknown session, bad first message, replaced by a newer connection.
@@ -129,11 +131,36 @@ def _file_route(name: str, media: str) -> Callable[[], Awaitable[FileResponse]]:
     return serve_file
 
 
+async def _read_body(request: Request) -> bytes | JSONResponse:
+    """The request's body, at most :data:`MAX_BODY` bytes; a 413 refusal for a longer one,
+    told by its ``Content-Length`` before anything is read, else as soon as the streamed
+    count passes the cap (the rest is never read).
+    """
+    def refuse(status: int, error: str) -> JSONResponse:
+        return JSONResponse({"field": "body", "error": error}, status)
+
+    too_long = f"the body is at most {MAX_BODY} bytes (send {{\"consent\": true}})"
+    declared = request.headers.get("content-length")
+    if declared is not None:
+        if not declared.isdigit() or len(declared) > 18:
+            return refuse(400, "Content-Length must be a whole number of bytes")
+        if int(declared) > MAX_BODY:
+            return refuse(413, too_long)
+    body = bytearray()
+    async for chunk in request.stream():
+        body += chunk
+        if len(body) > MAX_BODY:
+            return refuse(413, too_long)
+    return bytes(body)
+
+
 async def _join(request: Request, sessions: SessionManager) -> JSONResponse:
     """``POST /api/sessions``: a new session with consent; 400 without, 503 when full."""
-    body = await request.body()
+    body = await _read_body(request)
+    if isinstance(body, JSONResponse):
+        return body
     try:
-        doc = load_json(body, "the body") if len(body) <= 1024 else None
+        doc = load_json(body, "the body")
     except MessageError as exc:
         if exc.field == "message":
             doc = None
