@@ -103,13 +103,48 @@ def _view(driver):
         "        keys: keys};")
 
 
-def test_a_person_plays_three_episodes_with_the_keyboard(server, browser, monkeypatch):
+@pytest.fixture
+def elsewhere():
+    """Another site: a page served from another port (another origin) of this machine."""
+    import http.server
+    import threading
+
+    class Page(http.server.BaseHTTPRequestHandler):
+        def do_GET(self):
+            body = b"<!doctype html><p>another site</p>"
+            self.send_response(200)
+            self.send_header("Content-Type", "text/html")
+            self.send_header("Content-Length", str(len(body)))
+            self.end_headers()
+            self.wfile.write(body)
+
+        def log_message(self, *args):
+            pass
+
+    httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Page)
+    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+    thread.start()
+    yield f"http://127.0.0.1:{httpd.server_address[1]}/"
+    httpd.shutdown()
+    httpd.server_close()
+
+
+def test_a_person_plays_three_episodes_with_the_keyboard(server, browser, elsewhere,
+                                                         monkeypatch):
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.keys import Keys
 
     url, data = server
     graph = scenario_graph("hanger")
     person = preference_human(graph, None)  # the person's choices: the study's preference
+    # a page elsewhere tries to join (as any site the lab machine visits could): refused
+    browser.get(elsewhere)
+    status = browser.execute_async_script(
+        "const done = arguments[arguments.length - 1];"
+        "fetch(arguments[0] + 'api/sessions', {method: 'POST', mode: 'no-cors',"
+        "  headers: {'Content-Type': 'text/plain'}, body: '{\"consent\": true}'})"
+        ".then((r) => done(r.type), (e) => done(String(e)));", url)
+    assert status == "opaque"  # sent; the answer (403) is not theirs to read
     browser.get(url)
     _wait(browser, lambda: _view(browser)["view"] == "consent")
     assert "anonymous" in browser.find_element("id", "consent-text").text

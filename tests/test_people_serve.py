@@ -3,6 +3,7 @@ sessions, reloads, isolation between participants, and bad or forged messages, e
 which must get a clear error and change nothing."""
 
 import json
+import re
 import time
 
 import numpy as np
@@ -28,13 +29,27 @@ pytestmark = pytest.mark.xdist_group("people-serve")
 
 
 def _client(tmp_path, **kw):
+    """A server whose page is reached as the test client's ``http://testserver``."""
     cfg = ServeConfig(kw.pop("scenario", "hanger"), data=tmp_path, max_steps=40,
-                      **{"episodes": 2, **kw})
+                      **{"episodes": 2, "allowed_hosts": ("testserver",), **kw})
     return cfg, TestClient(create_app(cfg))
 
 
+def _page_headers(client):
+    """What the served page sends with its join: its Origin, its token, JSON."""
+    page = client.get("/")
+    token = re.search(r'<meta name="hri-bench-token" content="([^"]+)">', page.text).group(1)
+    return {"origin": "http://testserver", "x-hri-bench-token": token,
+            "content-type": "application/json"}
+
+
+def _post(client, body, **headers):
+    return client.post("/api/sessions", content=json.dumps(body).encode(),
+                       headers={**_page_headers(client), **headers})
+
+
 def _join(client):
-    r = client.post("/api/sessions", json={"consent": True})
+    r = _post(client, {"consent": True})
     assert r.status_code == 201, r.text
     return r.json()["session"]
 
@@ -260,7 +275,7 @@ def test_a_crashed_session_loses_no_step_of_the_others(tmp_path):
 def test_joining_needs_consent_and_takes_nothing_else(tmp_path, body):
     cfg, client = _client(tmp_path)
     with client:
-        r = client.post("/api/sessions", json=body)
+        r = _post(client, body)
         assert r.status_code == 400 and r.json()["field"] == "consent"
     assert open_dataset(cfg.dataset_id, tmp_path).session_dirs() == []
 
@@ -269,7 +284,7 @@ def test_joining_refuses_a_key_given_twice(tmp_path):
     cfg, client = _client(tmp_path)
     with client:
         r = client.post("/api/sessions", content=b'{"consent": false, "consent": true}',
-                        headers={"content-type": "application/json"})
+                        headers=_page_headers(client))
         assert r.status_code == 400, r.text
         assert r.json()["field"] == "consent" and "twice" in r.json()["error"]
     assert open_dataset(cfg.dataset_id, tmp_path).session_dirs() == []
@@ -306,11 +321,6 @@ def _post_raw(app, headers, chunks):
     return out["status"], json.loads(out["body"]), len(asked)
 
 
-def _page_headers(client):
-    """The headers the served page sends with its POST (token, origin, type)."""
-    return {}
-
-
 @pytest.mark.parametrize("declared", [True, False])
 def test_a_big_body_is_refused_as_it_streams(tmp_path, declared):
     """A body over 1 KiB is refused (413) without reading the rest: by its Content-Length
@@ -337,7 +347,7 @@ def test_the_server_is_full_at_max_sessions_and_stops_them_on_shutdown(tmp_path)
     cfg, client = _client(tmp_path, max_sessions=1)
     with client:
         _join(client)
-        r = client.post("/api/sessions", json={"consent": True})
+        r = _post(client, {"consent": True})
         assert r.status_code == 503 and "full" in r.json()["error"]
     assert [s["status"] for s in open_dataset(cfg.dataset_id, tmp_path).sessions()] == [
         "stopped"]
@@ -387,6 +397,123 @@ def test_object_and_supports_are_filled_in_the_consent_text_too(tmp_path):
     assert cfg.text_hashes()["consent_sha256"] == hashlib.sha256(cfg.consent.encode()).hexdigest()
 
 
+FOREIGN = [  # (what a page elsewhere, or a script, sends) -> (status, field)
+    ({"origin": "http://evil.example", "content-type": "text/plain"}, 403, "origin"),
+    ({"origin": "http://evil.example"}, 403, "origin"),
+    ({"origin": None}, 403, "origin"),                      # a browser always sends one
+    ({"origin": "null"}, 403, "origin"),                    # a sandboxed frame, a file
+    ({"origin": "http://testserver.evil.example"}, 403, "origin"),
+    ({"x-hri-bench-token": None}, 403, "token"),           # not from the page
+    ({"x-hri-bench-token": "x" * 43}, 403, "token"),
+    ({"content-type": "text/plain"}, 415, "content-type"),
+    ({"content-type": "application/x-www-form-urlencoded"}, 415, "content-type"),
+    ({"content-type": None}, 415, "content-type"),
+    ({"host": "evil.example"}, 400, "host"),                # DNS rebinding
+    ({"host": "evil.example", "origin": "http://evil.example"}, 400, "host"),
+]
+
+
+@pytest.mark.parametrize("change, status, field", FOREIGN)
+def test_only_the_served_page_can_join(tmp_path, change, status, field):
+    """Any page the lab machine's browser visited could once fill the study (a foreign
+    Origin with text/plain got 201): now joining needs this server's Host, its page's
+    Origin and token, and JSON; each refusal is a JSON body naming the problem."""
+    cfg, client = _client(tmp_path, max_sessions=1)
+    with client:
+        headers = {k: v for k, v in {**_page_headers(client), **change}.items()
+                   if v is not None}
+        r = client.post("/api/sessions", content=b'{"consent": true}', headers=headers)
+        assert r.status_code == status and r.json()["field"] == field, r.text
+        assert r.json()["error"]
+        _join(client)  # the study was not filled: the page's own request still gets in
+    assert len(open_dataset(cfg.dataset_id, tmp_path).session_dirs()) == 1
+
+
+def test_every_route_answers_only_to_this_servers_host(tmp_path):
+    """A page whose name is rebound to 127.0.0.1 reaches the server with its own name in
+    Host: it can read neither the page (and its token) nor anything else."""
+    cfg, client = _client(tmp_path)
+    with client:
+        for path in ("/", "/app.js", "/api/study", "/nowhere"):
+            r = client.get(path, headers={"host": "rebind.evil.example:8000"})
+            assert r.status_code == 400 and r.json()["field"] == "host", path
+            assert r.headers["x-frame-options"] == "DENY"
+            assert "{{" not in r.text
+        token = _join(client)
+        for headers in ({"host": "rebind.evil.example"},
+                        {"origin": "http://evil.example"}):
+            with pytest.raises(WebSocketDisconnect) as closed, client.websocket_connect(
+                    "/ws", headers=headers) as ws:
+                ws.send_text(json.dumps({"type": "hello", "session": token}))
+                ws.receive_text()
+            assert closed.value.code == 4403
+
+
+def test_the_page_carries_a_token_of_its_own_server(tmp_path):
+    _, one = _client(tmp_path / "a")
+    _, two = _client(tmp_path / "b")
+    with one, two:
+        a, b = _page_headers(one), _page_headers(two)
+        assert a["x-hri-bench-token"] != b["x-hri-bench-token"]
+        assert len(a["x-hri-bench-token"]) >= 43
+        assert _page_headers(one) == a  # the same for every load of the page
+        r = one.post("/api/sessions", content=b'{"consent": true}', headers=b)
+        assert r.status_code == 403 and r.json()["field"] == "token"
+
+
+@pytest.mark.parametrize("bind, named, host, ok", [
+    ("127.0.0.1", (), "127.0.0.1:8000", True),
+    ("127.0.0.1", (), "localhost:8000", True),
+    ("127.0.0.1", (), "LOCALHOST:8000", True),
+    ("127.0.0.1", (), "[::1]:8000", True),
+    ("127.0.0.1", (), "localhost:8001", False),
+    ("127.0.0.1", (), "127.0.0.1", False),                  # port 80
+    ("127.0.0.1", (), "evil.example:8000", False),
+    ("127.0.0.1", (), "127.0.0.1.nip.io:8000", False),
+    ("127.0.0.1", (), "10.0.0.5:8000", False),
+    ("127.0.0.1", (), "", False),
+    ("127.0.0.1", (), None, False),
+    ("127.0.0.1", (), "127.0.0.1:8000/x", False),
+    ("::1", (), "[::1]:8000", True),
+    ("0.0.0.0", (), "192.168.1.5:8000", True),              # an address: no rebinding
+    ("0.0.0.0", (), "[fe80::1]:8000", True),
+    ("0.0.0.0", (), "localhost:8000", True),
+    ("0.0.0.0", (), "labpc:8000", False),                   # a name: only when given
+    ("0.0.0.0", ("labpc",), "labpc:8000", True),
+    ("0.0.0.0", ("labpc",), "labpc", True),                 # behind a proxy
+    ("0.0.0.0", ("labpc",), "labpc:9000", False),
+    ("0.0.0.0", ("study.example:443",), "study.example:443", True),
+    ("0.0.0.0", ("study.example:443",), "study.example:8000", False),
+    ("192.168.1.5", (), "192.168.1.5:8000", True),
+    ("192.168.1.5", (), "192.168.1.6:8000", False),
+])
+def test_the_hosts_a_server_answers_to(bind, named, host, ok):
+    from hri_bench.people.serve.access import Access
+
+    assert Access(bind, 8000, named).host_ok(host) is ok
+
+
+@pytest.mark.parametrize("origin, host, ok", [
+    ("http://127.0.0.1:8000", "127.0.0.1:8000", True),
+    ("http://localhost:8000", "localhost:8000", True),
+    ("http://localhost:8000", "127.0.0.1:8000", False),     # another origin
+    ("http://127.0.0.1:8001", "127.0.0.1:8000", False),
+    ("https://127.0.0.1:8000", "127.0.0.1:8000", True),
+    ("https://study.example", "127.0.0.1:8000", True),      # named: a TLS proxy's
+    ("https://study.example", "study.example", True),
+    ("http://evil.example", "127.0.0.1:8000", False),
+    ("null", "127.0.0.1:8000", False),
+    ("file://", "127.0.0.1:8000", False),
+    ("http://127.0.0.1:8000/path", "127.0.0.1:8000", False),
+    (None, "127.0.0.1:8000", False),
+])
+def test_the_origins_that_may_join(origin, host, ok):
+    from hri_bench.people.serve.access import Access
+
+    access = Access("127.0.0.1", 8000, ("study.example",))
+    assert access.origin_ok(origin, host, required=True) is ok
+
+
 def test_counterbalanced_design():
     circuit = pair_circuit(3)
     assert sorted(circuit) == [(a, b) for a in range(3) for b in range(3) if a != b]
@@ -408,6 +535,8 @@ def test_counterbalanced_design():
     ({"preferences": ("sideways",)}, "preferences"), ({"host": ""}, "host"),
     ({"consent": "  "}, "consent"), ({"dataset": "../x"}, "dataset"),
     ({"port": 70000}, "port"), ({"idle_timeout_s": 0.0}, "idle_timeout_s"),
+    ({"allowed_hosts": ("http://x",)}, "allowed_hosts"),
+    ({"allowed_hosts": ["x"]}, "allowed_hosts"),
 ])
 def test_serve_config_errors_name_the_field(kw, field):
     with pytest.raises(ConfigError) as err:
@@ -436,6 +565,8 @@ def test_no_agent_that_plans_for_the_humans_model_faces_a_person():
     (["serve", "--consent", "/nonexistent/consent.txt"], "--consent"),
     (["serve", "--port", "-1"], "--port"),
     (["serve", "--idle-timeout", "nan"], "--idle-timeout"),
+    (["serve", "--allow-host", "evil.example/x"], "--allow-host"),
+    (["serve", "--allow-host", "a b"], "--allow-host"),
 ])
 def test_serve_flags_exit_2(argv, flag, tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:

@@ -27,6 +27,7 @@ from hri_bench.data.datasets import create_dataset, open_dataset
 from hri_bench.data.replay import replay
 from hri_bench.people.recording import record_study
 from hri_bench.people.serve import ServeConfig, require_web, serve
+from hri_bench.people.serve.access import check_host_name
 from hri_bench.run.study import StudyConfig
 from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.task.episode import REWARD_RULES
@@ -40,6 +41,7 @@ COMMANDS = ("serve", "dataset", "replay")
 #: ServeConfig field -> the flag it comes from.
 _SERVE_ARGUMENTS = {"scenario": "scenario", "agent": "--agent", "episodes": "--episodes",
                     "dataset": "--dataset", "data": "--data", "host": "--host",
+                    "allowed_hosts": "--allow-host",
                     "port": "--port", "seed": "--seed", "max_steps": "--max-steps",
                     "r0": "--r0", "reward": "--reward", "preferences": "--preferences",
                     "instructions": "--instructions", "consent": "--consent",
@@ -73,6 +75,13 @@ def _real(ok: Any, allowed: str) -> Any:
     return parse
 
 
+def _host_name(text: str) -> str:
+    try:
+        return check_host_name(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 #: The help of every ``--data`` flag.
 _DATA_HELP = "the datasets' root folder (default: $HRI_BENCH_DATASETS, else ~/.hri-bench/datasets)"
 
@@ -103,6 +112,12 @@ def _serve_parser(sub: Any) -> None:
                        help="address to bind (default 127.0.0.1: this machine only)")
     serve.add_argument("--port", type=_whole(0, 65535), default=8000,
                        help="TCP port (default 8000; 0: any free port)")
+    serve.add_argument("--allow-host", action="append", type=_host_name, default=None,
+                       metavar="NAME[:PORT]",
+                       help="a name the server answers to besides the address it listens "
+                            "on, e.g. this machine's name or a TLS proxy's (repeatable; "
+                            "requests naming another host are refused, against DNS "
+                            "rebinding)")
     serve.add_argument("--seed", type=_whole(0), default=0, help="base seed (default 0)")
     serve.add_argument("--max-steps", type=_whole(1, 10_000), default=60,
                        help="step limit per episode (default 60)")
@@ -237,7 +252,8 @@ def _serve(args: argparse.Namespace) -> int:
     try:
         config = ServeConfig(args.scenario, agent=args.agent, episodes=args.episodes,
                              dataset=args.dataset, data=args.data, host=args.host,
-                             port=args.port, seed=args.seed, max_steps=args.max_steps,
+                             port=args.port, allowed_hosts=tuple(args.allow_host or ()),
+                             seed=args.seed, max_steps=args.max_steps,
                              r0=args.r0, reward=args.reward, preferences=prefs,
                              show_belief=args.show_belief, max_sessions=args.max_sessions,
                              idle_timeout_s=args.idle_timeout, **texts)

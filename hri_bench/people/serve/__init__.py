@@ -4,6 +4,8 @@
 module          contents
 ==============  ====================================================================
 ``design``      :class:`ServeConfig` (the server's settings), the counterbalanced design
+``access``      who may call: the ``Host`` it answers to, the ``Origin`` that may join, the
+                page's token
 ``session``     a participant's session: the benchmark loop in a thread, the person in the
                 human's seat, the messages a page may send
 ``app``         the FastAPI app: the page, joining, the websocket (the pictures:
@@ -72,19 +74,26 @@ def serve(config: ServeConfig, *, announce: Callable[[str], None] | None = None)
         say("hri-bench serve: loading the robot's compiled kernels (the first time after "
             "installing, they are compiled: a minute or more)")
         algorithm1.preload()
-    app = create_app(config)
     if scenario_spec(config.scenario).layout is None:  # one picture per state for all
         for state in range(scenario_graph(config.scenario).n_states):
             picture(config.scenario, None, state)
     sock = _bind(config.host, config.port)
     host, port = sock.getsockname()[:2]
+    try:
+        app = create_app(config, port=port)  # it answers to the port it listens on
+    except BaseException:
+        sock.close()
+        raise
     shown = f"[{host}]" if ":" in host else host
     url = f"http://{shown}:{port}/"
+    remote = ("" if config.local_only else
+              "  (reachable from other machines: plain HTTP, unencrypted)\n"
+              "answering to " + ", ".join(app.state.access.allowed()) +
+              " (name others with --allow-host)")
     say(
         f"hri-bench serve: {config.scenario}, robot {config.agent}, {config.episodes} episodes "
         f"per session; recording to {app.state.sessions.dataset.path}\n"
-        f"serving on {url}" + ("" if config.local_only else
-                               "  (reachable from other machines: plain HTTP, unencrypted)"))
+        f"serving on {url}" + remote)
     server = uvicorn.Server(uvicorn.Config(app, log_level="warning", ws_max_size=4096,
                                            access_log=False, lifespan="on"))
     try:

@@ -2,7 +2,8 @@
 
 Routes:
 
-* ``GET /`` — the page (``static/index.html``, ``app.js``, ``app.css``);
+* ``GET /`` — the page (``static/index.html``, carrying this server's page token;
+  ``app.js``, ``app.css``);
 * ``GET /api/study`` — the public settings: texts, the task's names, episodes;
 * ``POST /api/sessions`` with ``{"consent": true}`` — join: a new session (and robot), whose
   secret token the page keeps in its ``localStorage``; 400 without consent, 503 when full;
@@ -12,10 +13,15 @@ Routes:
   and resumes where the session is.
 
 Nothing else is served: no route lists sessions or returns recordings, and a token is
-needed for everything about a session. Every message is validated; a bad one gets
-``{"type": "error", "field", "error"}`` and changes nothing; a hello with an unknown token
-closes the connection (code 4401). Websockets from another site's pages are refused (their
-``Origin`` must be this server's).
+needed for everything about a session. Only this server's own page can join
+(:mod:`hri_bench.people.serve.access`): every request must name this server in ``Host``
+(400 otherwise, against DNS rebinding); joining needs this page's ``Origin`` (403), the
+page's token in ``X-HRI-Bench-Token`` (403), ``Content-Type: application/json`` (415) and
+a body of at most 1 KiB (413, refused as it streams). Every refusal is a JSON body
+``{"field", "error"}``. Every message is validated; a bad one gets ``{"type": "error",
+"field", "error"}`` and changes nothing; a hello with an unknown token closes the
+connection (code 4401). Websockets from another site's pages, or to another host, are
+refused (code 4403).
 """
 
 from __future__ import annotations
@@ -26,11 +32,11 @@ import json
 from collections.abc import AsyncIterator, Awaitable, Callable
 from pathlib import Path
 from typing import Any
-from urllib.parse import urlsplit
 
 from fastapi import FastAPI, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import FileResponse, JSONResponse, Response
 
+from hri_bench.people.serve.access import TOKEN_HEADER, Access
 from hri_bench.people.serve.design import ServeConfig
 from hri_bench.people.serve.session import (
     MessageError,
@@ -66,23 +72,24 @@ def _error(exc: ConfigError) -> str:
     return json.dumps({"type": "error", "field": exc.field, "error": str(exc)})
 
 
-def _same_origin(headers: Any) -> bool:
-    """A browser's websocket must come from this server's own page (no Origin: not a
-    browser, allowed: it still needs a token).
-    """
-    origin = headers.get("origin")
-    if origin is None:
-        return True
-    host = headers.get("host", "")
-    return urlsplit(origin).netloc == host
+#: Where index.html carries the page token.
+_TOKEN_SLOT = "{{page_token}}"
 
 
-def create_app(config: ServeConfig, manager: SessionManager | None = None) -> Any:
+def create_app(config: ServeConfig, manager: SessionManager | None = None, *,
+               port: int | None = None) -> Any:
     """The FastAPI app of ``hri-bench serve`` for ``config`` (its sessions in ``manager``,
-    made here by default; :meth:`SessionManager.stop_all` runs on shutdown).
+    made here by default; :meth:`SessionManager.stop_all` runs on shutdown). ``port`` is
+    the port the server listens on (default ``config.port``): the ``Host`` it answers to.
     """
+    access = Access(config.host, config.port if port is None else port,
+                    config.allowed_hosts)
     sessions = manager if manager is not None else SessionManager(config)
     public = config.public()
+    page = (STATIC / "index.html").read_text(encoding="utf-8")
+    if page.count(_TOKEN_SLOT) != 1:
+        raise RuntimeError(f"static/index.html must hold {_TOKEN_SLOT} once")
+    page = page.replace(_TOKEN_SLOT, access.token)
 
     @contextlib.asynccontextmanager
     async def lifespan(_: Any) -> AsyncIterator[None]:
@@ -92,7 +99,27 @@ def create_app(config: ServeConfig, manager: SessionManager | None = None) -> An
     app = FastAPI(title="hri-bench serve", docs_url=None, redoc_url=None, openapi_url=None,
                   lifespan=lifespan)
     app.state.sessions = sessions
-    app.middleware("http")(_headers)
+    app.state.access = access
+
+    async def guard(request: Request, call_next: Any) -> Response:
+        """The Host check (:mod:`~hri_bench.people.serve.access`) and every response's
+        security headers (:data:`_HEADERS`).
+        """
+        response: Response
+        host = request.headers.get("host")
+        if not access.host_ok(host):
+            response = JSONResponse({"field": "host", "error": _wrong_host(host)}, 400)
+        else:
+            response = await call_next(request)
+        response.headers.update(_HEADERS)
+        return response
+
+    app.middleware("http")(guard)
+
+    @app.get("/", include_in_schema=False)
+    async def index() -> Response:
+        return Response(page, media_type="text/html")
+
     for route, (name, media) in _FILES.items():
         app.get(route, include_in_schema=False)(_file_route(name, media))
 
@@ -102,25 +129,52 @@ def create_app(config: ServeConfig, manager: SessionManager | None = None) -> An
 
     @app.post("/api/sessions")
     async def join(request: Request) -> JSONResponse:
-        return await _join(request, sessions)
+        refused = _refuse_join(request, access)
+        return refused if refused is not None else await _join(request, sessions)
 
     @app.websocket("/ws")
     async def channel(ws: WebSocket) -> None:
+        headers = ws.headers
+        if not (access.host_ok(headers.get("host"))
+                and access.origin_ok(headers.get("origin"), headers.get("host"),
+                                     required=False)):
+            await ws.close(CLOSE_ORIGIN)
+            return
         await _channel(ws, sessions)
 
     return app
 
 
-#: The page's files: route -> (file in :data:`STATIC`, media type).
-_FILES = {"/": ("index.html", "text/html"), "/app.js": ("app.js", "text/javascript"),
-          "/app.css": ("app.css", "text/css")}
+#: The page's other files: route -> (file in :data:`STATIC`, media type).
+_FILES = {"/app.js": ("app.js", "text/javascript"), "/app.css": ("app.css", "text/css")}
 
 
-async def _headers(request: Request, call_next: Any) -> Response:
-    """Every response's security headers (:data:`_HEADERS`)."""
-    response: Response = await call_next(request)
-    response.headers.update(_HEADERS)
-    return response
+def _wrong_host(host: str | None) -> str:
+    shown = "none" if host is None else repr(host[:80])
+    return (f"this server does not answer to the host {shown} (a page reached by another "
+            "name is refused, against DNS rebinding); open the address serve printed, or "
+            "start serve with --allow-host NAME for a name of this machine")
+
+
+def _refuse_join(request: Request, access: Access) -> JSONResponse | None:
+    """Why a join does not come from this server's page (a JSON refusal), or None."""
+    headers = request.headers
+    if not access.origin_ok(headers.get("origin"), headers.get("host"), required=True):
+        origin = headers.get("origin")
+        return JSONResponse({"field": "origin", "error": (
+            "join from the study's page: this request has "
+            + ("no Origin" if origin is None else f"the Origin {origin[:80]!r}")
+            + ", not the page's")}, 403)
+    if not access.token_ok(headers.get(TOKEN_HEADER)):
+        return JSONResponse({"field": "token", "error": (
+            f"join from the study's page: the {TOKEN_HEADER} header must carry the page's "
+            "token (reload the page if the server restarted)")}, 403)
+    kind = headers.get("content-type", "").split(";")[0].strip().lower()
+    if kind != "application/json":
+        return JSONResponse({"field": "content-type", "error": (
+            f"the body must be application/json, got {kind[:60] or 'no Content-Type'!r}")},
+            415)
+    return None
 
 
 def _file_route(name: str, media: str) -> Callable[[], Awaitable[FileResponse]]:
@@ -177,12 +231,10 @@ async def _join(request: Request, sessions: SessionManager) -> JSONResponse:
 
 
 async def _channel(ws: WebSocket, sessions: SessionManager) -> None:
-    """``WS /ws``: this site's page says hello with its session's token; then the session's
-    views go out and the page's messages come in (:func:`_relay`).
+    """``WS /ws`` (its Host and Origin checked): this site's page says hello with its
+    session's token; then the session's views go out and the page's messages come in
+    (:func:`_relay`).
     """
-    if not _same_origin(ws.headers):
-        await ws.close(CLOSE_ORIGIN)
-        return
     await ws.accept()
     msg = await _hello(ws)
     if msg is None:

@@ -25,6 +25,7 @@ from typing import Any
 
 from agents.config import default_config
 from hri_bench.data.datasets import check_dataset_id
+from hri_bench.people.serve.access import check_host_name
 from hri_bench.run.agents import validate_agent_name
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.errors import ConfigError
@@ -81,6 +82,9 @@ class ServeConfig:
         data: The datasets' root folder (None: :func:`hri_bench.data.datasets.data_root`).
         host: Address to bind; 127.0.0.1 (this machine only) unless told otherwise.
         port: TCP port (0: any free one).
+        allowed_hosts: Names (``NAME`` or ``NAME:PORT``) the server answers to besides the
+            address it listens on, e.g. the machine's name or a TLS proxy's
+            (:mod:`hri_bench.people.serve.access`).
         seed: Base seed; participant ``i``'s robot draws from ``(seed, i)``.
         max_steps: Step limit per episode.
         r0: The robot's waiting reward (None: the scenario's).
@@ -104,6 +108,7 @@ class ServeConfig:
     data: Path | None = None
     host: str = "127.0.0.1"
     port: int = 8000
+    allowed_hosts: tuple[str, ...] = ()
     seed: int = 0
     max_steps: int = 60
     r0: float | None = None
@@ -148,6 +153,16 @@ class ServeConfig:
                                                                   for c in self.host):
             raise ConfigError(f"host must be an address to bind, got {self.host!r}",
                               field="host")
+        if not isinstance(self.allowed_hosts, tuple) or len(self.allowed_hosts) > 100:
+            raise ConfigError("allowed_hosts must be a tuple of at most 100 host names",
+                              field="allowed_hosts")
+        for name in self.allowed_hosts:
+            try:
+                check_host_name(name)
+            except ValueError:
+                raise ConfigError(f"allowed_hosts: expected a host name or address, "
+                                  f"optionally with ':PORT' (IPv6 in brackets), got "
+                                  f"{name!r}", field="allowed_hosts") from None
         allowed = scenario_spec(self.scenario).preferences
         bad = [p for p in self.preferences if p not in allowed]
         if bad or not isinstance(self.preferences, tuple):
@@ -201,7 +216,8 @@ class ServeConfig:
     def settings(self) -> dict[str, Any]:
         """The settings recorded with each session (texts by their hash)."""
         out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
-               if f.name not in ("instructions", "consent", "data", "host", "port")}
+               if f.name not in ("instructions", "consent", "data", "host", "port",
+                                 "allowed_hosts")}
         out["preferences"] = list(self.preferences)
         out["learner"] = [list(p) for p in self.learner]
         out["idle_timeout_s"] = float(self.idle_timeout_s)

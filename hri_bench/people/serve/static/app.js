@@ -190,8 +190,11 @@ function connect(token) {
 
 async function start() {
   $("start").disabled = true;
+  // the page's token: only a page this server served carries it
+  const token = document.querySelector('meta[name="hri-bench-token"]').content;
   const response = await fetch("/api/sessions", {
-    method: "POST", headers: {"Content-Type": "application/json"},
+    method: "POST",
+    headers: {"Content-Type": "application/json", "X-HRI-Bench-Token": token},
     body: JSON.stringify({consent: true}),
   });
   const body = await response.json();
