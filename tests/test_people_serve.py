@@ -4,6 +4,7 @@ which must get a clear error and change nothing."""
 
 import json
 import re
+import threading
 import time
 
 import numpy as np
@@ -24,6 +25,7 @@ from hri_bench.people.serve.session import parse_message  # noqa: E402
 from hri_envs.errors import ConfigError  # noqa: E402
 from hri_envs.humans.scripted import preference_human  # noqa: E402
 from hri_envs.task.scenarios import scenario_graph  # noqa: E402
+from tests.helpers_agents import AlwaysWait  # noqa: E402
 
 pytestmark = pytest.mark.xdist_group("people-serve")
 
@@ -268,6 +270,65 @@ def test_a_crashed_session_loses_no_step_of_the_others(tmp_path):
     assert rows.num_rows == sum(o["steps"] for o in done["outcomes"]) + len(
         dataset.steps(participants=[pb_]))
     assert all(r.agrees for r in replay(dataset))
+
+
+class HangsInAct(AlwaysWait):
+    """Never returns from its first decision (until the test releases it)."""
+
+    release = threading.Event()
+
+    def act(self, observation):
+        HangsInAct.release.wait(60)
+        return 0
+
+
+class ExitsWhenMade(AlwaysWait):
+    def __init__(self):
+        raise SystemExit(4)
+
+
+class RaisesInLearning(AlwaysWait):
+    def end_episode(self, trace, intention):
+        raise KeyboardInterrupt
+
+
+@pytest.mark.parametrize("agent, call, error", [
+    ("tests.helpers_agents:ExitsInAct", "act()", "SystemExit"),
+    ("tests.test_people_serve:ExitsWhenMade", "making the agent", "SystemExit"),
+    ("tests.test_people_serve:RaisesInLearning", "end_episode()", "KeyboardInterrupt"),
+    ("tests.test_people_serve:HangsInAct", "act()", "did not answer in time"),
+])
+def test_a_robot_that_exits_raises_or_hangs_ends_its_session_with_a_named_error(
+        tmp_path, agent, call, error):
+    """An agent calling sys.exit() once killed the session's thread silently, and a hung
+    one left the page waiting: the session stayed 'running' for ever. Now the session
+    ends (failed), the page is told why, and the record says so; the server goes on."""
+    HangsInAct.release.clear()
+    cfg, client = _client(tmp_path, agent=agent, agent_timeout_s=1.0, episodes=1)
+    try:
+        with client:
+            token = _join(client)
+            session = client.app.state.sessions.get(token)
+            assert call == "end_episode()" or session.finished.wait(30)
+            with client.websocket_connect("/ws") as ws:
+                m = _hello(ws, token)
+                if m["type"] == "frame":  # it fails when it learns after the episode
+                    m = _play(ws, m)
+            assert m["type"] == "ended" and m["reason"] == "failed", m
+            assert error in m["error"] and call in m["error"], m
+            assert _join(client)  # the server goes on
+        meta = open_dataset(cfg.dataset_id, tmp_path).sessions()[0]
+        assert meta["status"] == "failed" and error.split()[0] in meta["error"] or (
+            "did not return" in meta["error"]), meta
+    finally:
+        HangsInAct.release.set()
+
+
+def test_the_page_shows_why_a_session_ended():
+    from pathlib import Path
+
+    script = (Path(__file__).parents[1] / "hri_bench/people/serve/static/app.js").read_text()
+    assert "m.error" in script[script.index("function onEnded"):]
 
 
 @pytest.mark.parametrize("body", [{}, {"consent": False}, {"consent": "yes"}, {"consent": 1},
@@ -537,6 +598,7 @@ def test_counterbalanced_design():
     ({"port": 70000}, "port"), ({"idle_timeout_s": 0.0}, "idle_timeout_s"),
     ({"allowed_hosts": ("http://x",)}, "allowed_hosts"),
     ({"allowed_hosts": ["x"]}, "allowed_hosts"),
+    ({"agent_timeout_s": 0.0}, "agent_timeout_s"),
 ])
 def test_serve_config_errors_name_the_field(kw, field):
     with pytest.raises(ConfigError) as err:
@@ -567,6 +629,7 @@ def test_no_agent_that_plans_for_the_humans_model_faces_a_person():
     (["serve", "--idle-timeout", "nan"], "--idle-timeout"),
     (["serve", "--allow-host", "evil.example/x"], "--allow-host"),
     (["serve", "--allow-host", "a b"], "--allow-host"),
+    (["serve", "--agent-timeout", "0"], "--agent-timeout"),
 ])
 def test_serve_flags_exit_2(argv, flag, tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:

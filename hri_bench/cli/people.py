@@ -45,7 +45,8 @@ _SERVE_ARGUMENTS = {"scenario": "scenario", "agent": "--agent", "episodes": "--e
                     "port": "--port", "seed": "--seed", "max_steps": "--max-steps",
                     "r0": "--r0", "reward": "--reward", "preferences": "--preferences",
                     "instructions": "--instructions", "consent": "--consent",
-                    "max_sessions": "--max-sessions", "idle_timeout_s": "--idle-timeout"}
+                    "max_sessions": "--max-sessions", "idle_timeout_s": "--idle-timeout",
+                    "agent_timeout_s": "--agent-timeout"}
 
 
 def _whole(low: int, high: int | None = None) -> Any:
@@ -140,6 +141,11 @@ def _serve_parser(sub: Any) -> None:
     serve.add_argument("--idle-timeout", type=_real(lambda v: 1 <= v <= 604800,
                                                     "seconds in [1, 604800]"),
                        default=1800.0, help="close a session idle this long (default 1800 s)")
+    serve.add_argument("--agent-timeout", type=_real(lambda v: 0.1 <= v <= 86400,
+                                                     "seconds in [0.1, 86400]"),
+                       default=60.0, help="end a session whose robot takes longer than this "
+                                          "for one call (making it, a step, its learning "
+                                          "after an episode; default 60 s)")
     serve.set_defaults(command_parser=serve)
 
 
@@ -256,7 +262,8 @@ def _serve(args: argparse.Namespace) -> int:
                              seed=args.seed, max_steps=args.max_steps,
                              r0=args.r0, reward=args.reward, preferences=prefs,
                              show_belief=args.show_belief, max_sessions=args.max_sessions,
-                             idle_timeout_s=args.idle_timeout, **texts)
+                             idle_timeout_s=args.idle_timeout,
+                             agent_timeout_s=args.agent_timeout, **texts)
         if config.agent.startswith("sb3:"):
             MissingExtraError.require(["stable_baselines3", "sb3_contrib", "torch"],
                                       "an 'sb3:' agent")

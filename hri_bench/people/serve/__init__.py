@@ -8,6 +8,8 @@ module          contents
                 page's token
 ``session``     a participant's session: the benchmark loop in a thread, the person in the
                 human's seat, the messages a page may send
+``robot``       the robot's calls, made in a thread of their own with a time limit: an
+                agent that raises, exits or hangs ends its session only
 ``app``         the FastAPI app: the page, joining, the websocket (the pictures:
                 :mod:`hri_bench.core.pictures`)
 ``static/``     the page (HTML, JavaScript, CSS; no external resources)

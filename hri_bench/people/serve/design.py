@@ -98,6 +98,9 @@ class ServeConfig:
         show_belief: Show the robot's belief about the goal during play.
         max_sessions: The most sessions running at once.
         idle_timeout_s: A session whose participant does nothing this long is closed.
+        agent_timeout_s: The longest one call of the robot's agent may take (making it,
+            an ``act``, its learning after an episode); a longer one ends the session
+            (``failed``), as an agent that raises or exits does.
         learner: Changes to the Learner's configuration, as (name, value) pairs.
     """
 
@@ -119,6 +122,7 @@ class ServeConfig:
     show_belief: bool = False
     max_sessions: int = 50
     idle_timeout_s: float = 1800.0
+    agent_timeout_s: float = 60.0
     learner: tuple[tuple[str, Any], ...] = field(default_factory=tuple)
 
     def __post_init__(self) -> None:
@@ -143,6 +147,8 @@ class ServeConfig:
         check_whole(self.max_sessions, "max_sessions", minimum=1, maximum=MAX_SESSIONS)
         check_real(self.idle_timeout_s, "idle_timeout_s", low=1.0, high=7 * 86400.0,
                    allowed="a number of seconds in [1, 604800]")
+        check_real(self.agent_timeout_s, "agent_timeout_s", low=0.1, high=86400.0,
+                   allowed="a number of seconds in [0.1, 86400]")
         if self.r0 is not None:
             check_real(self.r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True,
                        allowed="None or a number in (-1, 0)")
@@ -221,6 +227,7 @@ class ServeConfig:
         out["preferences"] = list(self.preferences)
         out["learner"] = [list(p) for p in self.learner]
         out["idle_timeout_s"] = float(self.idle_timeout_s)
+        out["agent_timeout_s"] = float(self.agent_timeout_s)
         return {**out, **self.text_hashes()}
 
 

@@ -29,11 +29,13 @@ from typing import Any
 
 import numpy as np
 
-from agents.protocol import read_belief
+from agents.learning import algorithm1
+from agents.protocol import BatchAgent, read_belief
 from hri_bench.core.pictures import picture
 from hri_bench.data.datasets import SessionWriter, create_dataset, new_participant_id
 from hri_bench.people.recording import RecordingHumans, agent_identity
 from hri_bench.people.serve.design import Assignment, ServeConfig, assignment, describe_preference
+from hri_bench.people.serve.robot import AgentFailed, AgentWorker, GuardedAgent, Stopped
 from hri_bench.run.agents import make_agent
 from hri_bench.run.runner import Schedule, run_episodes
 from hri_envs.envs.backends import GraphBatch
@@ -61,14 +63,6 @@ def _writer() -> ThreadPoolExecutor:
 
 class MessageError(ConfigError):
     """A message from the page that is refused; ``field`` names the offending part."""
-
-
-class _Stopped(Exception):
-    """The session was stopped (``status``: stopped, abandoned) while waiting for the page."""
-
-    def __init__(self, status: str) -> None:
-        super().__init__(status)
-        self.status = status
 
 
 def _whole(value: Any, field: str, low: int, high: int) -> int:
@@ -200,12 +194,14 @@ class Session:
         self.last_activity = time.monotonic()
         self.outcomes: list[dict[str, Any]] = []
         self.finished = threading.Event()
+        self.error: str | None = None  # why it failed, for the page
         n_e = config.episodes
         self.person = PersonHuman(self.graph, self._ask)
-        self.agent = make_agent(config.agent, self.graph, self.person, [design.index],
-                                seed=config.seed, r0=config.waiting_reward,
-                                learner=dict(config.learner), max_steps=config.max_steps,
-                                reward=config.reward)
+        # the robot is made, and called, in a worker thread of its own (robot.py), by the
+        # session's thread: an agent that fails or hangs ends this session only
+        self.worker = AgentWorker(f"robot-{self.participant}", config.agent_timeout_s)
+        self.agent: GuardedAgent | None = None
+        self.recorder: RecordingHumans | None = None
         starts = np.array([[p[0] for p in design.pairs]], dtype=np.int64)
         goals = np.array([[p[1] for p in design.pairs]], dtype=np.int64)
         self.schedule = Schedule(starts, goals, np.zeros((1, n_e), dtype=bool))
@@ -213,10 +209,6 @@ class Session:
         rng = np.random.default_rng([config.seed, design.index, 3])
         self.layouts: list[Layout | None] = [None if sample is None else sample(rng)
                                              for _ in range(n_e)]
-        self.recorder = RecordingHumans(self.person, [writer], agent=self.agent,
-                                        r0=config.waiting_reward, reward=config.reward,
-                                        session_index=[design.index], layouts=[self.layouts],
-                                        defer_writes=True)
         self._episode = 0
         self._step = 0
         self._last: tuple[int, int, int] | None = None
@@ -293,10 +285,13 @@ class Session:
             self._actions.put((kind, int(msg.get("action", 0))))
 
     def stop(self, status: str = "stopped") -> None:
-        """End the session (the thread records ``status`` and exits)."""
+        """End the session (the thread records ``status`` and exits, without waiting for a
+        call of the robot under way).
+        """
         with self._lock:
             if self._stop is None:
                 self._stop = status
+        self.worker.stop(status)
         self._actions.put(("stop", 0))
 
     # ----------------------------------------------------------------- the thread's side
@@ -321,11 +316,11 @@ class Session:
             with self._lock:
                 stop = self._stop
             if stop is not None:
-                raise _Stopped(stop)
+                raise Stopped(stop)
             if kind in ("action", "continue"):
                 return action
             if time.monotonic() - self.last_activity > idle:
-                raise _Stopped("abandoned")
+                raise Stopped("abandoned")
 
     def _header(self) -> dict[str, Any]:
         names = self.graph.support_names
@@ -352,7 +347,7 @@ class Session:
                              "key": str(i + 1) if i < 9 else ""}
                             for i, a in enumerate(options)],
                 "picture": picture(self.config.scenario, self.layouts[self._episode], s)}
-        if self.config.show_belief:
+        if self.config.show_belief and self.agent is not None:
             belief = read_belief(self.agent)
             if belief is not None:
                 view["belief"] = {n: round(float(b), 3) for n, b in
@@ -373,54 +368,91 @@ class Session:
             start = int(self.graph.support_state(self.design.pairs[episode][0], 0))
             picture(self.config.scenario, self.layouts[episode], start)
 
-    def _run(self) -> None:
+    def _make_robot(self) -> tuple[GuardedAgent, RecordingHumans]:
+        """The robot agent, made in its worker as in a study, and the recorder around the
+        person.
+        """
+        cfg, design = self.config, self.design
+        inner = self.worker.call("making the agent", lambda: make_agent(
+            cfg.agent, self.graph, self.person, [design.index], seed=cfg.seed,
+            r0=cfg.waiting_reward, learner=dict(cfg.learner), max_steps=cfg.max_steps,
+            reward=cfg.reward))
+        if not isinstance(inner, BatchAgent):
+            raise AgentFailed("the robot could not be made",
+                              f"the agent is a {type(inner).__name__}, not a BatchAgent")
+        agent = GuardedAgent(inner, self.worker)
+        recorder = RecordingHumans(self.person, [self.writer], agent=agent,
+                                   r0=cfg.waiting_reward, reward=cfg.reward,
+                                   session_index=[design.index], layouts=[self.layouts],
+                                   defer_writes=True)
+        return agent, recorder
+
+    def _play(self) -> None:
+        """The session's episodes, each outcome shown; returns when all are played."""
         cfg = self.config
         names = self.graph.support_names
-        status = "complete"
+        self._prerender(0)
+        self.agent, self.recorder = self._make_robot()
+        loop = run_episodes(self.graph, self.agent, self.recorder, self.schedule,
+                            GraphBatch(self.graph, [self.design.index], cfg.seed),
+                            r0=cfg.waiting_reward, max_steps=cfg.max_steps, reward=cfg.reward)
+        for result in loop:
+            end = int(result.traces[0].states[-1])
+            reached = int(result.intentions[0])
+            goal = self.design.pairs[self._episode][1]
+            outcome = {"episode": self._episode + 1,
+                       "reached_name": None if reached < 0 else names[reached],
+                       "goal_name": names[goal], "success": reached == goal,
+                       "truncated": bool(result.metrics.truncated[0]),
+                       "steps": int(result.metrics.steps[0]),
+                       "reward": round(float(result.metrics.reward[0]), 4)}
+            self.outcomes.append(outcome)
+            last = self._episode + 1 == cfg.episodes
+            self._publish({"type": "outcome", **self._header(), **outcome, "last": last,
+                           "picture": picture(cfg.scenario, self.layouts[self._episode], end)},
+                          None if last else ("continue", frozenset()))
+            # written by the server's writer thread while the page shows the outcome
+            self._written = _writer().submit(self.recorder.flush)
+            if last:
+                return
+            self._prerender(self._episode + 1)
+            self._wait()
+            self._episode += 1
+            self._step = 0
+            self._last = None
 
+    def _run(self) -> None:
+        """The session's thread: play, then record how it ended and tell the page. Whatever
+        happens (the robot raising, exiting or hanging included) the session ends, is
+        recorded and the page is told.
+        """
+        status, detail = "complete", None
         try:
-            self._prerender(0)
-            loop = run_episodes(self.graph, self.agent, self.recorder, self.schedule,
-                                GraphBatch(self.graph, [self.design.index], cfg.seed),
-                                r0=cfg.waiting_reward, max_steps=cfg.max_steps,
-                                reward=cfg.reward)
-            for result in loop:
-                trace = result.traces[0]
-                end = int(trace.states[-1])
-                reached = int(result.intentions[0])
-                goal = self.design.pairs[self._episode][1]
-                outcome = {"episode": self._episode + 1,
-                           "reached_name": None if reached < 0 else names[reached],
-                           "goal_name": names[goal], "success": reached == goal,
-                           "truncated": bool(result.metrics.truncated[0]),
-                           "steps": int(result.metrics.steps[0]),
-                           "reward": round(float(result.metrics.reward[0]), 4)}
-                self.outcomes.append(outcome)
-                last = self._episode + 1 == cfg.episodes
-                self._publish({"type": "outcome", **self._header(), **outcome, "last": last,
-                               "picture": picture(cfg.scenario, self.layouts[self._episode],
-                                                  end)},
-                              None if last else ("continue", frozenset()))
-                # written by the server's writer thread while the page shows the outcome
-                self._written = _writer().submit(self.recorder.flush)
-                if last:
-                    break
-                self._prerender(self._episode + 1)
-                self._wait()
-                self._episode += 1
-                self._step = 0
-                self._last = None
-        except _Stopped as stop:
+            self._play()
+        except Stopped as stop:
             status = stop.status
-        except Exception:  # a failing agent ends this session only; the others go on
+        except AgentFailed as exc:  # the robot's fault: this session ends, the others go on
+            log.error("session %s failed: %s", self.participant, exc.detail)
+            status, self.error, detail = "failed", exc.public, exc.detail
+        except BaseException as exc:  # noqa: BLE001 (a session never stays running)
             log.exception("session %s failed", self.participant)
             status = "failed"
+            self.error = f"the session failed ({type(exc).__name__})"
+            detail = f"{type(exc).__name__}: {str(exc)[:300]}"
+        self.worker.close()
+        self._end(status, detail)
+
+    def _end(self, status: str, detail: str | None) -> None:
+        """Wait for the episodes' writes, record the status, publish the last view."""
         try:
             if self._written is not None:
                 self._written.result()
         except OSError:
             log.exception("session %s: cannot write an episode", self.participant)
             status = "failed"
+            self.error = self.error or "the session could not be recorded"
+        if detail is not None:
+            self.writer.meta["error"] = detail
         try:
             self.writer.finish(status)
         except OSError:
@@ -429,7 +461,7 @@ class Session:
             self._publish({"type": "done", "participant": self.participant,
                            "outcomes": self.outcomes}, None)
         else:
-            self._publish({"type": "ended", "reason": status,
+            self._publish({"type": "ended", "reason": status, "error": self.error,
                            "participant": self.participant}, None)
         self.finished.set()
 
@@ -444,6 +476,10 @@ class SessionManager:
     def __init__(self, config: ServeConfig) -> None:
         import pyarrow.parquet  # noqa: F401  (the web extra; loaded once, before a session writes)
 
+        if config.agent in ("learner", "maxent"):
+            # compiled (the first time after installing) or loaded now, so that no robot's
+            # first call waits for them (and none runs into --agent-timeout)
+            algorithm1.preload()
         self.config = config
         self.dataset = create_dataset(config.dataset_id, config.scenario, synthetic=False,
                                       root=config.data,

@@ -132,7 +132,8 @@ function onDone(m) {
 function onEnded(m) {
   over = true;
   show("done");
-  $("done-text").textContent = `The session has ended (${m.reason}). ` +
+  $("done-text").textContent = `The session has ended (${m.reason}` +
+    (m.error ? `: ${m.error}` : "") + `). ` +
     `Your anonymous code is ${m.participant}. Thank you.`;
   localStorage.removeItem(KEY);
 }
