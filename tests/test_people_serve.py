@@ -425,6 +425,79 @@ def test_an_idle_session_is_abandoned(tmp_path):
     assert open_dataset(cfg.dataset_id, tmp_path).sessions()[0]["status"] == "abandoned"
 
 
+def test_ended_sessions_are_freed_and_a_reload_still_shows_the_end(tmp_path):
+    """Every session once stayed in memory for good (about 120 KiB each, the robot and the
+    recorder). Now a session that ended, once recorded, leaves its last view only: the
+    robot, the recorder and the thread are freed, the page is closed (code 1000), and a
+    reload still shows the end with the participant's code."""
+    import gc
+    import weakref
+
+    cfg, client = _client(tmp_path, episodes=1, max_sessions=2)
+    with client:
+        manager = client.app.state.sessions
+        tokens, refs, ends = [], [], []
+        for _ in range(4):  # more than max_sessions one after the other
+            token = _join(client)
+            session = manager.get(token)
+            refs += [weakref.ref(session), weakref.ref(session.worker)]
+            with client.websocket_connect("/ws") as ws:
+                m = _hello(ws, token)
+                refs += [weakref.ref(manager.get(token).agent),
+                         weakref.ref(manager.get(token).agent.inner)]
+                done = _play(ws, m)
+                with pytest.raises(WebSocketDisconnect) as closed:
+                    ws.receive_text()  # the server closes the page's channel at the end
+                assert closed.value.code == 1000
+            assert done["type"] == "done"
+            tokens.append(token)
+            ends.append(done)
+            del session, m
+        assert manager.running() == 0
+        gc.collect()
+        alive = [r() for r in refs if r() is not None]
+        assert not alive, [type(a).__name__ for a in alive]
+        with client.websocket_connect("/ws") as ws:  # a reload after the end
+            again = _hello(ws, tokens[0])
+            assert again == ends[0]
+            ws.send_text(json.dumps({"type": "continue", "seq": again["seq"]}))
+        kept = [len(manager.get(t).text) for t in tokens]
+        assert max(kept) < 2048, kept  # what stays of a session: its last view
+    assert [s["status"] for s in open_dataset(cfg.dataset_id, tmp_path).sessions()] == [
+        "complete"] * 4
+
+
+def test_the_last_views_kept_are_bounded(tmp_path, monkeypatch):
+    from hri_bench.people.serve import session as session_module
+
+    monkeypatch.setattr(session_module, "ENDED_KEEP_BYTES", 1)
+    _, client = _client(tmp_path, episodes=1)
+    with client:
+        manager = client.app.state.sessions
+        first, second = _join(client), _join(client)
+        for token in (first, second):
+            manager.get(token).stop("stopped")
+        deadline = time.monotonic() + 20
+        while manager.running() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert manager.get(first) is None  # dropped: over the byte budget
+        with client.websocket_connect("/ws") as ws:
+            ws.send_text(json.dumps({"type": "hello", "session": first}))
+            assert json.loads(ws.receive_text())["field"] == "session"
+
+
+def test_a_token_that_is_not_ascii_is_unknown(tmp_path):
+    _, client = _client(tmp_path)
+    with client:
+        _join(client)
+        with client.websocket_connect("/ws") as ws:
+            ws.send_text(json.dumps({"type": "hello", "session": "é" * 43}))
+            assert json.loads(ws.receive_text())["field"] == "session"
+            with pytest.raises(WebSocketDisconnect) as closed:
+                ws.receive_text()
+            assert closed.value.code == 4401
+
+
 def test_headers_origin_and_public_settings(tmp_path):
     cfg, client = _client(tmp_path)
     with client:

@@ -39,6 +39,7 @@ from fastapi.responses import FileResponse, JSONResponse, Response
 from hri_bench.people.serve.access import TOKEN_HEADER, Access
 from hri_bench.people.serve.design import ServeConfig
 from hri_bench.people.serve.session import (
+    EndedSession,
     MessageError,
     Session,
     SessionManager,
@@ -267,9 +268,11 @@ async def _hello(ws: WebSocket) -> dict[str, Any] | None:
     return msg
 
 
-async def _relay(ws: WebSocket, session: Session) -> None:
-    """Send the session's views and pass the page's messages on until the page leaves or a
-    newer connection of the session replaces this one (told, code 4409).
+async def _relay(ws: WebSocket, session: Session | EndedSession) -> None:
+    """Send the session's views and pass the page's messages on until the page leaves, a
+    newer connection of the session replaces this one (told, code 4409), or the session's
+    last view (``done``, ``ended``) is sent (closed, code 1000: the server keeps nothing
+    of the session for the page).
     """
     loop = asyncio.get_running_loop()
     changed = asyncio.Event()
@@ -293,6 +296,9 @@ async def _relay(ws: WebSocket, session: Session) -> None:
             with contextlib.suppress(Exception):
                 await ws.send_text(json.dumps({"type": "replaced"}))
                 await ws.close(CLOSE_REPLACED)
+        elif tasks[0] in done and tasks[0].exception() is None:
+            with contextlib.suppress(Exception):
+                await ws.close(1000)
     finally:
         for t in tasks:
             t.cancel()
@@ -303,9 +309,11 @@ async def _relay(ws: WebSocket, session: Session) -> None:
                 await t
 
 
-async def _send_views(ws: WebSocket, session: Session, changed: asyncio.Event,
+async def _send_views(ws: WebSocket, session: Session | EndedSession, changed: asyncio.Event,
                       send_lock: asyncio.Lock) -> None:
-    """Send each new view of the session once, waiting for ``changed`` in between."""
+    """Send each new view of the session once, waiting for ``changed`` in between; return
+    once the last one (``done``, ``ended``) is sent.
+    """
     sent = -1
     while True:
         seq, text = session.view()
@@ -313,12 +321,15 @@ async def _send_views(ws: WebSocket, session: Session, changed: asyncio.Event,
             async with send_lock:
                 await ws.send_text(text)
             sent = seq
+            if seq == session.final_seq:
+                return
         changed.clear()
         if session.view()[0] == sent:
             await changed.wait()
 
 
-async def _receive(ws: WebSocket, session: Session, send_lock: asyncio.Lock) -> None:
+async def _receive(ws: WebSocket, session: Session | EndedSession,
+                   send_lock: asyncio.Lock) -> None:
     """Hand each message of the page to the session; a bad one is answered with an error."""
     while True:
         text = await ws.receive_text()

@@ -44,8 +44,8 @@ from hri_envs.humans.protocol import BatchHuman
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import Layout, scenario_graph, scenario_spec
 
-__all__ = ["MessageError", "PersonHuman", "Session", "SessionManager", "load_json",
-           "parse_message"]
+__all__ = ["EndedSession", "MessageError", "PersonHuman", "Session", "SessionManager",
+           "load_json", "parse_message"]
 
 log = logging.getLogger("hri_bench.serve")
 
@@ -178,8 +178,10 @@ class Session:
         on_view: Called (from the session's thread) whenever a new view is published.
     """
 
-    def __init__(self, config: ServeConfig, design: Assignment, writer: SessionWriter) -> None:
+    def __init__(self, config: ServeConfig, design: Assignment, writer: SessionWriter,
+                 on_end: Callable[[Session], None] | None = None) -> None:
         self.config, self.design, self.writer = config, design, writer
+        self.on_end = on_end
         self.token = secrets.token_urlsafe(32)
         self.participant = writer.participant
         self.graph = scenario_graph(config.scenario)
@@ -191,6 +193,7 @@ class Session:
         self._text = json.dumps(self._view)
         self._expect: tuple[str, int, frozenset[int]] | None = None  # (type, seq, actions)
         self._stop: str | None = None
+        self.final_seq: int | None = None  # the seq of the last view (done, ended)
         self.last_activity = time.monotonic()
         self.outcomes: list[dict[str, Any]] = []
         self.finished = threading.Event()
@@ -300,6 +303,8 @@ class Session:
         with self._lock:
             view["seq"] = int(self._view["seq"]) + 1
             self._view, self._text = view, json.dumps(view)
+            if view["type"] in ("done", "ended"):
+                self.final_seq = view["seq"]
             self._expect = None if expect is None else (expect[0], view["seq"], expect[1])
             listeners = list(self._listeners)
         for listener in listeners:
@@ -463,7 +468,50 @@ class Session:
         else:
             self._publish({"type": "ended", "reason": status, "error": self.error,
                            "participant": self.participant}, None)
+        if self.on_end is not None:
+            self.on_end(self)  # the server keeps its last view only
         self.finished.set()
+
+
+class EndedSession:
+    """What the server keeps of a session that has ended and is recorded: its last view
+    (``done`` or ``ended``), so that a reload still shows it, and nothing else (the robot,
+    the recorder and the thread are freed).
+    """
+
+    def __init__(self, session: Session) -> None:
+        self.participant = session.participant
+        self.seq, self.text = session.view()
+        self.final_seq: int | None = self.seq
+        self.ended_at = time.monotonic()
+
+    def subscribe(self, listener: Callable[[], None]) -> Callable[[], None]:
+        """No view will follow."""
+        return lambda: None
+
+    def connect(self, on_replaced: Callable[[], None]) -> object:
+        """Any number of pages may show the last view."""
+        return on_replaced
+
+    def disconnect(self, handle: object) -> None:
+        """Nothing to do."""
+
+    def view(self) -> tuple[int, str]:
+        """The last view."""
+        return self.seq, self.text
+
+    def handle(self, msg: Mapping[str, Any]) -> None:
+        """Nothing is accepted any more.
+
+        Raises:
+            MessageError: Always.
+        """
+        raise MessageError("the session is over", field="type")
+
+
+#: How long, and up to how many bytes in all, the last views of ended sessions are kept.
+ENDED_KEEP_S = 3600.0
+ENDED_KEEP_BYTES = 8 << 20
 
 
 class SessionManager:
@@ -486,7 +534,9 @@ class SessionManager:
                                       description="people in the human's seat "
                                                   "(hri-bench serve)")
         self._lock = threading.Lock()
-        self._sessions: dict[str, Session] = {}
+        self._sessions: dict[str, Session] = {}  # running
+        self._ended: dict[str, EndedSession] = {}  # in the order they ended
+        self._ended_bytes = 0
         self._joined = len(self.dataset.session_dirs())
 
     def create(self) -> Session:
@@ -497,8 +547,7 @@ class SessionManager:
         """
         cfg = self.config
         with self._lock:
-            running = sum(not s.finished.is_set() for s in self._sessions.values())
-            if running >= cfg.max_sessions:
+            if len(self._sessions) >= cfg.max_sessions:
                 raise ConfigError(f"the study is full ({cfg.max_sessions} sessions at once); "
                                   "try again later", field="sessions")
             index = self._joined
@@ -513,20 +562,53 @@ class SessionManager:
                 "schedule": [[int(a), int(b), False] for a, b in design.pairs],
                 "preference": design.preference, "serve_settings": cfg.settings(),
                 **agent_identity(cfg.agent, cfg.scenario, cfg.waiting_reward, dict(cfg.learner))})
-            session = Session(cfg, design, writer)
+            session = Session(cfg, design, writer, on_end=self._retire)
             self._sessions[session.token] = session
         session.thread.start()
         return session
 
-    def get(self, token: Any) -> Session | None:
-        """The session whose token this is, or None (compared in constant time)."""
+    def _retire(self, session: Session) -> None:
+        """A session has ended and is recorded: keep its last view only (an
+        :class:`EndedSession`, for :data:`ENDED_KEEP_S` and within
+        :data:`ENDED_KEEP_BYTES` in all, the oldest dropped first).
+        """
+        ended = EndedSession(session)
+        with self._lock:
+            self._sessions.pop(session.token, None)
+            self._ended[session.token] = ended
+            self._ended_bytes += len(ended.text)
+            self._prune()
+
+    def _prune(self) -> None:
+        """Drop the last views kept too long or beyond the byte budget (lock held)."""
+        now = time.monotonic()
+        while self._ended:
+            token, oldest = next(iter(self._ended.items()))
+            if (now - oldest.ended_at <= ENDED_KEEP_S
+                    and self._ended_bytes <= ENDED_KEEP_BYTES):
+                break
+            del self._ended[token]
+            self._ended_bytes -= len(oldest.text)
+
+    def running(self) -> int:
+        """How many sessions run."""
+        with self._lock:
+            return len(self._sessions)
+
+    def get(self, token: Any) -> Session | EndedSession | None:
+        """The session whose token this is (or the last view of one that ended), or None
+        (compared in constant time).
+        """
         if not isinstance(token, str):
             return None
+        found: Session | EndedSession | None = None
         with self._lock:
-            for known, session in self._sessions.items():
-                if secrets.compare_digest(known, token):
-                    return session
-        return None
+            self._prune()
+            for table in (self._sessions, self._ended):
+                for known, session in table.items():
+                    if secrets.compare_digest(known.encode(), token.encode()):
+                        found = session
+        return found
 
     def stop_all(self, timeout: float = 5.0) -> None:
         """Stop every session (status ``stopped``) and wait for their threads."""
