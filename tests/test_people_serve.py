@@ -3,6 +3,7 @@ sessions, reloads, isolation between participants, and bad or forged messages, e
 which must get a clear error and change nothing."""
 
 import json
+import os
 import re
 import threading
 import time
@@ -496,6 +497,125 @@ def test_a_token_that_is_not_ascii_is_unknown(tmp_path):
             with pytest.raises(WebSocketDisconnect) as closed:
                 ws.receive_text()
             assert closed.value.code == 4401
+
+
+def _modes(root):
+    """{path relative to root: permission bits} of root and everything under it."""
+    import os
+    import stat
+
+    return {str(p.relative_to(root)): stat.S_IMODE(os.lstat(p).st_mode)
+            for p in [root, *root.rglob("*")]}
+
+
+def test_recordings_are_private_to_the_user(tmp_path):
+    """Recordings were world-readable (0644 files in 0755 folders): now the dataset's
+    folders are 0700 and its files 0600, those there before the server started too."""
+    from hri_bench.data.datasets import create_dataset
+
+    # the dataset exists, made with the usual umask
+    data = create_dataset("hanger-people-v0", "hanger", synthetic=False, root=tmp_path).path
+    data.chmod(0o755)
+    (data / "dataset.json").chmod(0o644)
+    (data / "notes.txt").write_text("the experimenter's")
+    outside = tmp_path / "outside.txt"
+    outside.write_text("not the dataset's")
+    outside.chmod(0o644)
+    os.symlink(outside, data / "link")
+    _, client = _client(tmp_path, episodes=1)
+    with client:
+        token = _join(client)
+        with client.websocket_connect("/ws") as ws:
+            assert _play(ws, _hello(ws, token))["type"] == "done"
+    modes = _modes(data)
+    assert any(name.endswith(".parquet") for name in modes)
+    for name, mode in modes.items():
+        if name == "link":
+            continue  # a link's own mode means nothing; its target is not changed
+        assert mode == (0o700 if (data / name).is_dir() else 0o600), (name, oct(mode))
+    assert oct(outside.stat().st_mode & 0o777) == "0o644"  # the link was not followed
+
+
+def test_one_server_per_dataset_and_a_killed_servers_sessions_are_interrupted(tmp_path):
+    """A server killed mid-session left the session 'running' for good. Now a server holds
+    the dataset (a second one is refused, naming the process), and the next server marks
+    what a killed one left running as 'interrupted', episodes on disk kept."""
+    from hri_bench.data.datasets import SessionWriter, create_dataset
+
+    dataset = create_dataset("hanger-people-v0", "hanger", synthetic=False, root=tmp_path)
+    left = SessionWriter(dataset, "p0123456789ab", {"session_index": 0})  # running
+    done = SessionWriter(dataset, "p0123456789ac", {"session_index": 1})
+    done.finish("complete")
+    cfg, client = _client(tmp_path)
+    with client:
+        with pytest.raises(ConfigError, match="another hri-bench serve") as err:
+            create_app(cfg)
+        assert err.value.field == "dataset" and str(os.getpid()) in str(err.value)
+        assert client.app.state.sessions.interrupted == ["p0123456789ab"]
+    statuses = {s["participant"]: s for s in open_dataset(cfg.dataset_id, tmp_path).sessions()}
+    assert statuses["p0123456789ab"]["status"] == "interrupted"
+    assert statuses["p0123456789ab"]["interrupted_noticed_utc"]
+    assert statuses["p0123456789ac"]["status"] == "complete"
+    assert left.meta["status"] == "running"
+    with TestClient(create_app(cfg)):  # the first released the dataset when it stopped
+        pass
+
+
+def test_serve_killed_and_started_again(tmp_path):
+    """The whole story with real processes: ``kill -9`` mid-session, a second server on the
+    same dataset refused (exit 2, --dataset) while the first runs, the next one marks the
+    session interrupted; files are private from the start (umask 077)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import urllib.request
+
+    data = tmp_path / "data"
+
+    def start(*extra):
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "hri_bench.cli", "serve", "hanger", "--agent", "passive",
+             "--port", "0", "--data", str(data), *extra],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+        lines = []
+        for line in proc.stdout:
+            lines.append(line)
+            found = re.search(r"serving on (http://127\.0\.0\.1:\d+/)", line)
+            if found:
+                return proc, found.group(1), lines
+        proc.wait(30)
+        return proc, None, lines
+
+    first, url, _ = start()
+    try:
+        assert url
+        page = urllib.request.urlopen(url, timeout=30).read().decode()
+        token = re.search(r'"hri-bench-token" content="([^"]+)"', page).group(1)
+        request = urllib.request.Request(
+            url + "api/sessions", data=b'{"consent": true}', method="POST",
+            headers={"Origin": url.rstrip("/"), "X-HRI-Bench-Token": token,
+                     "Content-Type": "application/json"})
+        assert urllib.request.urlopen(request, timeout=30).status == 201
+        second, url2, lines = start()
+        assert url2 is None and second.returncode == 2, "".join(lines)
+        assert "argument --dataset" in "".join(lines) and str(first.pid) in "".join(lines)
+    finally:
+        first.send_signal(signal.SIGKILL)
+        first.wait(30)
+    (meta,) = open_dataset("hanger-people-v0", data).sessions()
+    assert meta["status"] == "running"
+    assert {oct(m) for n, m in _modes(data / "hanger-people-v0").items()
+            if n.startswith("sessions/p")} == {"0o700", "0o600"}
+    third, url3, lines = start()
+    try:
+        assert url3 and "marked 1 session(s)" in "".join(lines), "".join(lines)
+    finally:
+        third.send_signal(signal.SIGINT)
+        third.wait(30)
+    (meta,) = open_dataset("hanger-people-v0", data).sessions()
+    assert meta["status"] == "interrupted" and meta["participant"] in "".join(lines)
 
 
 def test_headers_origin_and_public_settings(tmp_path):

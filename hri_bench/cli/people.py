@@ -272,6 +272,8 @@ def _serve(args: argparse.Namespace) -> int:
         _fail(parser, exc, _SERVE_ARGUMENTS)
     try:
         serve(config)
+    except ConfigError as exc:  # another server records into the dataset, say
+        _fail(parser, exc, _SERVE_ARGUMENTS)
     except OSError as exc:
         print(f"hri-bench serve: cannot listen on {args.host}:{args.port}: "
               f"{exc.strerror or exc}", file=sys.stderr)

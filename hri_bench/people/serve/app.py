@@ -80,7 +80,7 @@ _TOKEN_SLOT = "{{page_token}}"
 def create_app(config: ServeConfig, manager: SessionManager | None = None, *,
                port: int | None = None) -> Any:
     """The FastAPI app of ``hri-bench serve`` for ``config`` (its sessions in ``manager``,
-    made here by default; :meth:`SessionManager.stop_all` runs on shutdown). ``port`` is
+    made here by default; :meth:`SessionManager.close` runs on shutdown). ``port`` is
     the port the server listens on (default ``config.port``): the ``Host`` it answers to.
     """
     access = Access(config.host, config.port if port is None else port,
@@ -95,7 +95,7 @@ def create_app(config: ServeConfig, manager: SessionManager | None = None, *,
     @contextlib.asynccontextmanager
     async def lifespan(_: Any) -> AsyncIterator[None]:
         yield
-        await asyncio.to_thread(sessions.stop_all)
+        await asyncio.to_thread(sessions.close)
 
     app = FastAPI(title="hri-bench serve", docs_url=None, redoc_url=None, openapi_url=None,
                   lifespan=lifespan)

@@ -36,6 +36,7 @@ from hri_bench.data.datasets import SessionWriter, create_dataset, new_participa
 from hri_bench.people.recording import RecordingHumans, agent_identity
 from hri_bench.people.serve.design import Assignment, ServeConfig, assignment, describe_preference
 from hri_bench.people.serve.robot import AgentFailed, AgentWorker, GuardedAgent, Stopped
+from hri_bench.people.serve.store import DatasetLock, make_private, mark_interrupted
 from hri_bench.run.agents import make_agent
 from hri_bench.run.runner import Schedule, run_episodes
 from hri_envs.envs.backends import GraphBatch
@@ -460,6 +461,7 @@ class Session:
             self.writer.meta["error"] = detail
         try:
             self.writer.finish(status)
+            make_private(self.writer.path)
         except OSError:
             log.exception("session %s: cannot write its metadata", self.participant)
         if status == "complete":
@@ -533,6 +535,15 @@ class SessionManager:
                                       root=config.data,
                                       description="people in the human's seat "
                                                   "(hri-bench serve)")
+        self._dataset_lock = DatasetLock(self.dataset)  # one server per dataset (store.py)
+        try:
+            #: Sessions a server that was killed left running, now marked interrupted.
+            self.interrupted = mark_interrupted(self.dataset)
+            make_private(self.dataset.path)
+        except OSError as exc:
+            self._dataset_lock.release()
+            raise ConfigError(f"cannot use the dataset folder {self.dataset.path} "
+                              f"({exc.strerror or exc}): {exc.filename}", field="data") from None
         self._lock = threading.Lock()
         self._sessions: dict[str, Session] = {}  # running
         self._ended: dict[str, EndedSession] = {}  # in the order they ended
@@ -609,6 +620,14 @@ class SessionManager:
                     if secrets.compare_digest(known.encode(), token.encode()):
                         found = session
         return found
+
+    def close(self, timeout: float = 5.0) -> None:
+        """Stop every session (:meth:`stop_all`), then let another server use the dataset
+        (a session that did not end in time stays ``running`` on disk: the next server
+        marks it ``interrupted``).
+        """
+        self.stop_all(timeout)
+        self._dataset_lock.release()
 
     def stop_all(self, timeout: float = 5.0) -> None:
         """Stop every session (status ``stopped``) and wait for their threads."""
