@@ -36,13 +36,11 @@ pytestmark = [
 EPISODES = 3
 
 
-@pytest.fixture
-def server(tmp_path):
-    """``hri-bench serve`` on a free port of 127.0.0.1; yields (url, data root)."""
-    data = tmp_path / "data"
+def _start(data, *extra):
+    """``hri-bench serve`` on a free port of 127.0.0.1; (process, url)."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "hri_bench.cli", "serve", "hanger", "--port", "0",
-         "--data", str(data), "--episodes", str(EPISODES), "--max-steps", "40"],
+         "--data", str(data), "--episodes", str(EPISODES), "--max-steps", "40", *extra],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"})
     assert proc.stdout is not None
@@ -56,13 +54,25 @@ def server(tmp_path):
         found = re.search(r"serving on (http://127\.0\.0\.1:\d+/)", line)
         url = found.group(1) if found else None
     assert url, "".join(lines)
-    yield url, data
+    return proc, url
+
+
+def _stop(proc):
     proc.send_signal(signal.SIGINT)
     try:
         proc.wait(20)
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait()
+
+
+@pytest.fixture
+def server(tmp_path):
+    """``hri-bench serve`` on a free port of 127.0.0.1; yields (url, data root)."""
+    data = tmp_path / "data"
+    proc, url = _start(data)
+    yield url, data
+    _stop(proc)
 
 
 @pytest.fixture
@@ -206,3 +216,19 @@ def test_a_person_plays_three_episodes_with_the_keyboard(server, browser, elsewh
     for episode, mine in zip(md.iterate_episodes(), replayed, strict=True):
         np.testing.assert_array_equal(episode.rewards, mine.replayed)
         assert len(episode.observations["state"]) == len(episode.actions) + 1
+
+
+def test_the_page_says_why_a_session_ended(tmp_path, browser):
+    """A robot that calls sys.exit() ends the session with its error on the page (it once
+    left the page waiting for ever)."""
+    proc, url = _start(tmp_path / "data", "--agent", "tests.helpers_agents:ExitsInAct")
+    try:
+        browser.get(url)
+        _wait(browser, lambda: _view(browser)["view"] == "consent")
+        browser.find_element("id", "agree").click()
+        browser.find_element("id", "start").click()
+        _wait(browser, lambda: _view(browser)["view"] == "ended")
+        text = browser.find_element("id", "done-text").text
+        assert "failed" in text and "SystemExit in act()" in text, text
+    finally:
+        _stop(proc)
