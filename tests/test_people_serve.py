@@ -405,6 +405,23 @@ def test_a_big_body_is_refused_as_it_streams(tmp_path, declared):
     client.app.state.sessions.stop_all()
 
 
+def test_a_session_that_cannot_be_recorded_is_refused_with_json(tmp_path, monkeypatch):
+    from hri_bench.people.serve import session as session_module
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    _, client = _client(tmp_path)
+    with client:
+        monkeypatch.setattr(session_module, "SessionWriter", full)
+        r = _post(client, {"consent": True})
+        assert r.status_code == 503 and r.json()["field"] == "sessions", r.text
+        monkeypatch.undo()
+        _join(client)
+    (meta,) = open_dataset("hanger-people-v0", tmp_path).sessions()
+    assert meta["session_index"] == 0  # the design's row was not used up
+
+
 def test_the_server_is_full_at_max_sessions_and_stops_them_on_shutdown(tmp_path):
     cfg, client = _client(tmp_path, max_sessions=1)
     with client:

@@ -29,6 +29,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import logging
 from collections.abc import AsyncIterator, Awaitable, Callable
 from pathlib import Path
 from typing import Any
@@ -51,6 +52,7 @@ from hri_envs.errors import ConfigError
 __all__ = ["create_app"]
 
 STATIC = Path(__file__).parent / "static"
+log = logging.getLogger("hri_bench.serve")
 #: The largest body ``POST /api/sessions`` reads, in bytes.
 MAX_BODY = 1024
 #: Seconds a new connection has to say hello.
@@ -228,6 +230,10 @@ async def _join(request: Request, sessions: SessionManager) -> JSONResponse:
         session = await asyncio.to_thread(sessions.create)
     except ConfigError as exc:
         return JSONResponse({"field": exc.field, "error": str(exc)}, 503)
+    except OSError as exc:  # the session's folder cannot be written (a full disk, say)
+        log.error("cannot record a new session: %s", exc)
+        return JSONResponse({"field": "sessions", "error": "the study cannot record a new "
+                             "session now; tell the experimenter"}, 503)
     return JSONResponse({"session": session.token}, 201)
 
 

@@ -486,6 +486,8 @@ class EndedSession:
         self.seq, self.text = session.view()
         self.final_seq: int | None = self.seq
         self.ended_at = time.monotonic()
+        self.finished = threading.Event()
+        self.finished.set()
 
     def subscribe(self, listener: Callable[[], None]) -> Callable[[], None]:
         """No view will follow."""
@@ -562,7 +564,6 @@ class SessionManager:
                 raise ConfigError(f"the study is full ({cfg.max_sessions} sessions at once); "
                                   "try again later", field="sessions")
             index = self._joined
-            self._joined += 1
             design = assignment(cfg, index)
             participant = new_participant_id()
             writer = SessionWriter(self.dataset, participant, {
@@ -573,6 +574,7 @@ class SessionManager:
                 "schedule": [[int(a), int(b), False] for a, b in design.pairs],
                 "preference": design.preference, "serve_settings": cfg.settings(),
                 **agent_identity(cfg.agent, cfg.scenario, cfg.waiting_reward, dict(cfg.learner))})
+            self._joined += 1  # the design's row is taken once the session is on disk
             session = Session(cfg, design, writer, on_end=self._retire)
             self._sessions[session.token] = session
         session.thread.start()
