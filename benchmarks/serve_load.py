@@ -60,8 +60,16 @@ T0 = time.perf_counter()
 
 
 def join(url: str) -> str:
+    """Join as the page does: its Origin, the token it carries, JSON."""
+    with urllib.request.urlopen(url, timeout=30) as r:
+        page = r.read().decode()
+    token = re.search(r'<meta name="hri-bench-token" content="([^"]+)">', page)
+    assert token is not None, "the page carries no token"
     req = urllib.request.Request(url + "api/sessions", data=b'{"consent": true}',
-                                 headers={"Content-Type": "application/json"}, method="POST")
+                                 headers={"Content-Type": "application/json",
+                                          "Origin": url.rstrip("/"),
+                                          "X-HRI-Bench-Token": token.group(1)},
+                                 method="POST")
     with urllib.request.urlopen(req, timeout=30) as r:
         return str(json.loads(r.read())["session"])
 

@@ -36,13 +36,11 @@ pytestmark = [
 EPISODES = 3
 
 
-@pytest.fixture
-def server(tmp_path):
-    """``hri-bench serve`` on a free port of 127.0.0.1; yields (url, data root)."""
-    data = tmp_path / "data"
+def _start(data, *extra):
+    """``hri-bench serve`` on a free port of 127.0.0.1; (process, url)."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "hri_bench.cli", "serve", "hanger", "--port", "0",
-         "--data", str(data), "--episodes", str(EPISODES), "--max-steps", "40"],
+         "--data", str(data), "--episodes", str(EPISODES), "--max-steps", "40", *extra],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"})
     assert proc.stdout is not None
@@ -56,13 +54,25 @@ def server(tmp_path):
         found = re.search(r"serving on (http://127\.0\.0\.1:\d+/)", line)
         url = found.group(1) if found else None
     assert url, "".join(lines)
-    yield url, data
+    return proc, url
+
+
+def _stop(proc):
     proc.send_signal(signal.SIGINT)
     try:
         proc.wait(20)
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait()
+
+
+@pytest.fixture
+def server(tmp_path):
+    """``hri-bench serve`` on a free port of 127.0.0.1; yields (url, data root)."""
+    data = tmp_path / "data"
+    proc, url = _start(data)
+    yield url, data
+    _stop(proc)
 
 
 @pytest.fixture
@@ -103,13 +113,48 @@ def _view(driver):
         "        keys: keys};")
 
 
-def test_a_person_plays_three_episodes_with_the_keyboard(server, browser, monkeypatch):
+@pytest.fixture
+def elsewhere():
+    """Another site: a page served from another port (another origin) of this machine."""
+    import http.server
+    import threading
+
+    class Page(http.server.BaseHTTPRequestHandler):
+        def do_GET(self):
+            body = b"<!doctype html><p>another site</p>"
+            self.send_response(200)
+            self.send_header("Content-Type", "text/html")
+            self.send_header("Content-Length", str(len(body)))
+            self.end_headers()
+            self.wfile.write(body)
+
+        def log_message(self, *args):
+            pass
+
+    httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Page)
+    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+    thread.start()
+    yield f"http://127.0.0.1:{httpd.server_address[1]}/"
+    httpd.shutdown()
+    httpd.server_close()
+
+
+def test_a_person_plays_three_episodes_with_the_keyboard(server, browser, elsewhere,
+                                                         monkeypatch):
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.keys import Keys
 
     url, data = server
     graph = scenario_graph("hanger")
     person = preference_human(graph, None)  # the person's choices: the study's preference
+    # a page elsewhere tries to join (as any site the lab machine visits could): refused
+    browser.get(elsewhere)
+    status = browser.execute_async_script(
+        "const done = arguments[arguments.length - 1];"
+        "fetch(arguments[0] + 'api/sessions', {method: 'POST', mode: 'no-cors',"
+        "  headers: {'Content-Type': 'text/plain'}, body: '{\"consent\": true}'})"
+        ".then((r) => done(r.type), (e) => done(String(e)));", url)
+    assert status == "opaque"  # sent; the answer (403) is not theirs to read
     browser.get(url)
     _wait(browser, lambda: _view(browser)["view"] == "consent")
     assert "anonymous" in browser.find_element("id", "consent-text").text
@@ -171,3 +216,19 @@ def test_a_person_plays_three_episodes_with_the_keyboard(server, browser, monkey
     for episode, mine in zip(md.iterate_episodes(), replayed, strict=True):
         np.testing.assert_array_equal(episode.rewards, mine.replayed)
         assert len(episode.observations["state"]) == len(episode.actions) + 1
+
+
+def test_the_page_says_why_a_session_ended(tmp_path, browser):
+    """A robot that calls sys.exit() ends the session with its error on the page (it once
+    left the page waiting for ever)."""
+    proc, url = _start(tmp_path / "data", "--agent", "tests.helpers_agents:ExitsInAct")
+    try:
+        browser.get(url)
+        _wait(browser, lambda: _view(browser)["view"] == "consent")
+        browser.find_element("id", "agree").click()
+        browser.find_element("id", "start").click()
+        _wait(browser, lambda: _view(browser)["view"] == "ended")
+        text = browser.find_element("id", "done-text").text
+        assert "failed" in text and "SystemExit in act()" in text, text
+    finally:
+        _stop(proc)

@@ -15,6 +15,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import stat
 import sys
 from pathlib import Path
 from typing import Any
@@ -25,6 +27,7 @@ from hri_bench.data.datasets import create_dataset, open_dataset
 from hri_bench.data.replay import replay
 from hri_bench.people.recording import record_study
 from hri_bench.people.serve import ServeConfig, require_web, serve
+from hri_bench.people.serve.access import check_host_name
 from hri_bench.run.study import StudyConfig
 from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.task.episode import REWARD_RULES
@@ -38,10 +41,12 @@ COMMANDS = ("serve", "dataset", "replay")
 #: ServeConfig field -> the flag it comes from.
 _SERVE_ARGUMENTS = {"scenario": "scenario", "agent": "--agent", "episodes": "--episodes",
                     "dataset": "--dataset", "data": "--data", "host": "--host",
+                    "allowed_hosts": "--allow-host",
                     "port": "--port", "seed": "--seed", "max_steps": "--max-steps",
                     "r0": "--r0", "reward": "--reward", "preferences": "--preferences",
                     "instructions": "--instructions", "consent": "--consent",
-                    "max_sessions": "--max-sessions", "idle_timeout_s": "--idle-timeout"}
+                    "max_sessions": "--max-sessions", "idle_timeout_s": "--idle-timeout",
+                    "agent_timeout_s": "--agent-timeout"}
 
 
 def _whole(low: int, high: int | None = None) -> Any:
@@ -69,6 +74,13 @@ def _real(ok: Any, allowed: str) -> Any:
         return value
 
     return parse
+
+
+def _host_name(text: str) -> str:
+    try:
+        return check_host_name(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 #: The help of every ``--data`` flag.
@@ -101,6 +113,12 @@ def _serve_parser(sub: Any) -> None:
                        help="address to bind (default 127.0.0.1: this machine only)")
     serve.add_argument("--port", type=_whole(0, 65535), default=8000,
                        help="TCP port (default 8000; 0: any free port)")
+    serve.add_argument("--allow-host", action="append", type=_host_name, default=None,
+                       metavar="NAME[:PORT]",
+                       help="a name the server answers to besides the address it listens "
+                            "on, e.g. this machine's name or a TLS proxy's (repeatable; "
+                            "requests naming another host are refused, against DNS "
+                            "rebinding)")
     serve.add_argument("--seed", type=_whole(0), default=0, help="base seed (default 0)")
     serve.add_argument("--max-steps", type=_whole(1, 10_000), default=60,
                        help="step limit per episode (default 60)")
@@ -114,7 +132,8 @@ def _serve_parser(sub: Any) -> None:
     serve.add_argument("--instructions", type=Path, default=None,
                        help="a text file of instructions ({object}, {supports} filled in)")
     serve.add_argument("--consent", type=Path, default=None,
-                       help="a text file shown for consent before a session starts")
+                       help="a text file shown for consent before a session starts ({object}, "
+                            "{supports} filled in)")
     serve.add_argument("--show-belief", action="store_true",
                        help="show the robot's belief about the goal while playing")
     serve.add_argument("--max-sessions", type=_whole(1, 1000), default=50,
@@ -122,6 +141,11 @@ def _serve_parser(sub: Any) -> None:
     serve.add_argument("--idle-timeout", type=_real(lambda v: 1 <= v <= 604800,
                                                     "seconds in [1, 604800]"),
                        default=1800.0, help="close a session idle this long (default 1800 s)")
+    serve.add_argument("--agent-timeout", type=_real(lambda v: 0.1 <= v <= 86400,
+                                                     "seconds in [0.1, 86400]"),
+                       default=60.0, help="end a session whose robot takes longer than this "
+                                          "for one call (making it, a step, its learning "
+                                          "after an episode; default 60 s)")
     serve.set_defaults(command_parser=serve)
 
 
@@ -200,10 +224,20 @@ def _read_text(parser: argparse.ArgumentParser, path: Path | None, flag: str) ->
     if path is None:
         return None
     try:
-        with open(path, encoding="utf-8") as f:
+        # opened without blocking (a FIFO would wait for a writer), then checked to be a
+        # regular file before anything is read (a device never ends)
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError as exc:
+        parser.error(f"argument {flag}: cannot read {path} ({exc.strerror or exc})")
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            parser.error(f"argument {flag}: {path} is not a regular file; give a text file")
+        with open(fd, encoding="utf-8", closefd=False) as f:
             text = f.read(100_001)
     except (OSError, UnicodeDecodeError) as exc:
         parser.error(f"argument {flag}: cannot read {path} ({exc})")
+    finally:
+        os.close(fd)
     if len(text) > 100_000 or not text.strip():
         parser.error(f"argument {flag}: {path} must hold a text of 1 to 100,000 characters")
     return text
@@ -224,10 +258,12 @@ def _serve(args: argparse.Namespace) -> int:
     try:
         config = ServeConfig(args.scenario, agent=args.agent, episodes=args.episodes,
                              dataset=args.dataset, data=args.data, host=args.host,
-                             port=args.port, seed=args.seed, max_steps=args.max_steps,
+                             port=args.port, allowed_hosts=tuple(args.allow_host or ()),
+                             seed=args.seed, max_steps=args.max_steps,
                              r0=args.r0, reward=args.reward, preferences=prefs,
                              show_belief=args.show_belief, max_sessions=args.max_sessions,
-                             idle_timeout_s=args.idle_timeout, **texts)
+                             idle_timeout_s=args.idle_timeout,
+                             agent_timeout_s=args.agent_timeout, **texts)
         if config.agent.startswith("sb3:"):
             MissingExtraError.require(["stable_baselines3", "sb3_contrib", "torch"],
                                       "an 'sb3:' agent")
@@ -236,6 +272,8 @@ def _serve(args: argparse.Namespace) -> int:
         _fail(parser, exc, _SERVE_ARGUMENTS)
     try:
         serve(config)
+    except ConfigError as exc:  # another server records into the dataset, say
+        _fail(parser, exc, _SERVE_ARGUMENTS)
     except OSError as exc:
         print(f"hri-bench serve: cannot listen on {args.host}:{args.port}: "
               f"{exc.strerror or exc}", file=sys.stderr)

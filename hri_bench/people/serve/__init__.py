@@ -4,8 +4,14 @@
 module          contents
 ==============  ====================================================================
 ``design``      :class:`ServeConfig` (the server's settings), the counterbalanced design
+``access``      who may call: the ``Host`` it answers to, the ``Origin`` that may join, the
+                page's token
 ``session``     a participant's session: the benchmark loop in a thread, the person in the
                 human's seat, the messages a page may send
+``store``       the dataset folder: one server at a time, sessions a killed server left
+                running marked interrupted, recordings private to the user
+``robot``       the robot's calls, made in a thread of their own with a time limit: an
+                agent that raises, exits or hangs ends its session only
 ``app``         the FastAPI app: the page, joining, the websocket (the pictures:
                 :mod:`hri_bench.core.pictures`)
 ``static/``     the page (HTML, JavaScript, CSS; no external resources)
@@ -17,9 +23,11 @@ docs/people.md has the rest. Needs the ``web`` extra.
 
 from __future__ import annotations
 
+import os
 import socket
 import sys
 from collections.abc import Callable
+from typing import Any
 
 from agents.learning import algorithm1
 from hri_bench.core.pictures import picture
@@ -59,6 +67,8 @@ def serve(config: ServeConfig, *, announce: Callable[[str], None] | None = None)
     Raises:
         MissingExtraError: The ``web`` extra is not installed.
         OSError: The address cannot be bound.
+        ConfigError: Another server records into the dataset (``field="dataset"``), or
+            its folder cannot be used (``field="data"``).
     """
     require_web("hri-bench serve")
     import uvicorn  # the web extra, as the app (FastAPI) below
@@ -66,25 +76,45 @@ def serve(config: ServeConfig, *, announce: Callable[[str], None] | None = None)
     from hri_bench.people.serve.app import create_app
 
     say = announce or (lambda text: print(text, flush=True))
+    umask = os.umask(0o077)  # recordings are the user's only (store.py), from their start
+    try:
+        _serve(config, say, uvicorn, create_app)
+    finally:
+        os.umask(umask)
+
+
+def _serve(config: ServeConfig, say: Callable[[str], None], uvicorn: Any,
+           create_app: Callable[..., Any]) -> None:
+    """:func:`serve` once the web extra is loaded."""
     if config.agent in ("learner", "maxent"):
         # the first participant does not wait for the kernels; compiling them the first
         # time (numba caches them on disk) takes a minute or more
         say("hri-bench serve: loading the robot's compiled kernels (the first time after "
             "installing, they are compiled: a minute or more)")
         algorithm1.preload()
-    app = create_app(config)
     if scenario_spec(config.scenario).layout is None:  # one picture per state for all
         for state in range(scenario_graph(config.scenario).n_states):
             picture(config.scenario, None, state)
     sock = _bind(config.host, config.port)
     host, port = sock.getsockname()[:2]
+    try:
+        app = create_app(config, port=port)  # it answers to the port it listens on
+    except BaseException:
+        sock.close()
+        raise
     shown = f"[{host}]" if ":" in host else host
     url = f"http://{shown}:{port}/"
+    remote = ("" if config.local_only else
+              "  (reachable from other machines: plain HTTP, unencrypted)\n"
+              "answering to " + ", ".join(app.state.access.allowed()) +
+              " (name others with --allow-host)")
+    marked = app.state.sessions.interrupted
     say(
         f"hri-bench serve: {config.scenario}, robot {config.agent}, {config.episodes} episodes "
-        f"per session; recording to {app.state.sessions.dataset.path}\n"
-        f"serving on {url}" + ("" if config.local_only else
-                               "  (reachable from other machines: plain HTTP, unencrypted)"))
+        f"per session; recording to {app.state.sessions.dataset.path} (private to you)\n"
+        + (f"marked {len(marked)} session(s) that a stopped server left running as "
+           f"interrupted: {', '.join(marked)}\n" if marked else "")
+        + f"serving on {url}" + remote)
     server = uvicorn.Server(uvicorn.Config(app, log_level="warning", ws_max_size=4096,
                                            access_log=False, lifespan="on"))
     try:

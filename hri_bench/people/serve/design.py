@@ -25,6 +25,7 @@ from typing import Any
 
 from agents.config import default_config
 from hri_bench.data.datasets import check_dataset_id
+from hri_bench.people.serve.access import check_host_name
 from hri_bench.run.agents import validate_agent_name
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.errors import ConfigError
@@ -81,6 +82,9 @@ class ServeConfig:
         data: The datasets' root folder (None: :func:`hri_bench.data.datasets.data_root`).
         host: Address to bind; 127.0.0.1 (this machine only) unless told otherwise.
         port: TCP port (0: any free one).
+        allowed_hosts: Names (``NAME`` or ``NAME:PORT``) the server answers to besides the
+            address it listens on, e.g. the machine's name or a TLS proxy's
+            (:mod:`hri_bench.people.serve.access`).
         seed: Base seed; participant ``i``'s robot draws from ``(seed, i)``.
         max_steps: Step limit per episode.
         r0: The robot's waiting reward (None: the scenario's).
@@ -89,10 +93,14 @@ class ServeConfig:
             none is asked for).
         instructions: Instructions shown beside the task (``{object}`` and ``{supports}``
             are filled in).
-        consent: The consent text shown before a session starts.
+        consent: The consent text shown before a session starts (``{object}`` and
+            ``{supports}`` are filled in).
         show_belief: Show the robot's belief about the goal during play.
         max_sessions: The most sessions running at once.
         idle_timeout_s: A session whose participant does nothing this long is closed.
+        agent_timeout_s: The longest one call of the robot's agent may take (making it,
+            an ``act``, its learning after an episode); a longer one ends the session
+            (``failed``), as an agent that raises or exits does.
         learner: Changes to the Learner's configuration, as (name, value) pairs.
     """
 
@@ -103,6 +111,7 @@ class ServeConfig:
     data: Path | None = None
     host: str = "127.0.0.1"
     port: int = 8000
+    allowed_hosts: tuple[str, ...] = ()
     seed: int = 0
     max_steps: int = 60
     r0: float | None = None
@@ -113,6 +122,7 @@ class ServeConfig:
     show_belief: bool = False
     max_sessions: int = 50
     idle_timeout_s: float = 1800.0
+    agent_timeout_s: float = 60.0
     learner: tuple[tuple[str, Any], ...] = field(default_factory=tuple)
 
     def __post_init__(self) -> None:
@@ -137,6 +147,8 @@ class ServeConfig:
         check_whole(self.max_sessions, "max_sessions", minimum=1, maximum=MAX_SESSIONS)
         check_real(self.idle_timeout_s, "idle_timeout_s", low=1.0, high=7 * 86400.0,
                    allowed="a number of seconds in [1, 604800]")
+        check_real(self.agent_timeout_s, "agent_timeout_s", low=0.1, high=86400.0,
+                   allowed="a number of seconds in [0.1, 86400]")
         if self.r0 is not None:
             check_real(self.r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True,
                        allowed="None or a number in (-1, 0)")
@@ -147,6 +159,16 @@ class ServeConfig:
                                                                   for c in self.host):
             raise ConfigError(f"host must be an address to bind, got {self.host!r}",
                               field="host")
+        if not isinstance(self.allowed_hosts, tuple) or len(self.allowed_hosts) > 100:
+            raise ConfigError("allowed_hosts must be a tuple of at most 100 host names",
+                              field="allowed_hosts")
+        for name in self.allowed_hosts:
+            try:
+                check_host_name(name)
+            except ValueError:
+                raise ConfigError(f"allowed_hosts: expected a host name or address, "
+                                  f"optionally with ':PORT' (IPv6 in brackets), got "
+                                  f"{name!r}", field="allowed_hosts") from None
         allowed = scenario_spec(self.scenario).preferences
         bad = [p for p in self.preferences if p not in allowed]
         if bad or not isinstance(self.preferences, tuple):
@@ -189,18 +211,23 @@ class ServeConfig:
         graph = scenario_graph(self.scenario)
         obj = graph.scenario.object_name
         supports = ", ".join(graph.support_names)
+
+        def fill(text: str) -> str:
+            return text.replace("{object}", obj).replace("{supports}", supports)
+
         return {"scenario": self.scenario, "object": obj, "supports": list(graph.support_names),
-                "episodes": self.episodes, "consent": self.consent,
-                "instructions": self.instructions.replace("{object}", obj)
-                .replace("{supports}", supports)}
+                "episodes": self.episodes, "consent": fill(self.consent),
+                "instructions": fill(self.instructions)}
 
     def settings(self) -> dict[str, Any]:
         """The settings recorded with each session (texts by their hash)."""
         out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
-               if f.name not in ("instructions", "consent", "data", "host", "port")}
+               if f.name not in ("instructions", "consent", "data", "host", "port",
+                                 "allowed_hosts")}
         out["preferences"] = list(self.preferences)
         out["learner"] = [list(p) for p in self.learner]
         out["idle_timeout_s"] = float(self.idle_timeout_s)
+        out["agent_timeout_s"] = float(self.agent_timeout_s)
         return {**out, **self.text_hashes()}
 
 

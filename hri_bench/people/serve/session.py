@@ -29,11 +29,14 @@ from typing import Any
 
 import numpy as np
 
-from agents.protocol import read_belief
+from agents.learning import algorithm1
+from agents.protocol import BatchAgent, read_belief
 from hri_bench.core.pictures import picture
 from hri_bench.data.datasets import SessionWriter, create_dataset, new_participant_id
 from hri_bench.people.recording import RecordingHumans, agent_identity
 from hri_bench.people.serve.design import Assignment, ServeConfig, assignment, describe_preference
+from hri_bench.people.serve.robot import AgentFailed, AgentWorker, GuardedAgent, Stopped
+from hri_bench.people.serve.store import DatasetLock, make_private, mark_interrupted
 from hri_bench.run.agents import make_agent
 from hri_bench.run.runner import Schedule, run_episodes
 from hri_envs.envs.backends import GraphBatch
@@ -42,7 +45,8 @@ from hri_envs.humans.protocol import BatchHuman
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import Layout, scenario_graph, scenario_spec
 
-__all__ = ["MessageError", "PersonHuman", "Session", "SessionManager", "parse_message"]
+__all__ = ["EndedSession", "MessageError", "PersonHuman", "Session", "SessionManager",
+           "load_json", "parse_message"]
 
 log = logging.getLogger("hri_bench.serve")
 
@@ -62,14 +66,6 @@ class MessageError(ConfigError):
     """A message from the page that is refused; ``field`` names the offending part."""
 
 
-class _Stopped(Exception):
-    """The session was stopped (``status``: stopped, abandoned) while waiting for the page."""
-
-    def __init__(self, status: str) -> None:
-        super().__init__(status)
-        self.status = status
-
-
 def _whole(value: Any, field: str, low: int, high: int) -> int:
     if type(value) is not int or not low <= value <= high:
         raise MessageError(f"{field} must be a whole number in [{low}, {high}], got "
@@ -85,19 +81,42 @@ MESSAGES: dict[str, tuple[str, ...]] = {
 }
 
 
+def _once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object's members, each key once (``object_pairs_hook``)."""
+    doc: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in doc:
+            raise MessageError(f"the key {json.dumps(key)[:40]} is given twice; give each "
+                               "once", field=str(key)[:40])
+        doc[key] = value
+    return doc
+
+
+def load_json(text: str | bytes, what: str = "a message") -> Any:
+    """``text`` parsed as JSON whose objects give each key once.
+
+    Raises:
+        MessageError: Not JSON (``field="message"``), or a key given twice (the field is
+            the key).
+    """
+    try:
+        return json.loads(text, object_pairs_hook=_once)
+    except MessageError:
+        raise
+    except (ValueError, RecursionError):
+        raise MessageError(f"{what} is a JSON object; this is not JSON", field="message"
+                           ) from None
+
+
 def parse_message(text: Any) -> dict[str, Any]:
     """A page's message, validated: a JSON object of a known ``type`` with exactly its
-    fields, of their types (:data:`MESSAGES`); :class:`MessageError` naming the field
-    otherwise.
+    fields (each once, none missing; ``rt_ms`` may be null), of their types
+    (:data:`MESSAGES`); :class:`MessageError` naming the field otherwise.
     """
     if not isinstance(text, str) or len(text) > MAX_MESSAGE:
         raise MessageError(f"a message is a JSON text of at most {MAX_MESSAGE} characters",
                            field="message")
-    try:
-        msg = json.loads(text)
-    except (ValueError, RecursionError):
-        raise MessageError("a message is a JSON object; this is not JSON", field="message"
-                           ) from None
+    msg = load_json(text)
     if not isinstance(msg, dict):
         raise MessageError("a message is a JSON object with a 'type'", field="message")
     kind = msg.get("type")
@@ -109,6 +128,12 @@ def parse_message(text: Any) -> dict[str, Any]:
     if unknown:
         raise MessageError(f"a {kind!r} message has the fields {', '.join(fields)}; unknown: "
                            f"{', '.join(map(str, unknown))[:80]}", field=str(unknown[0])[:40])
+    missing = [f for f in fields if f not in msg]
+    if missing:
+        raise MessageError(f"a {kind!r} message has the fields {', '.join(fields)}; missing: "
+                           f"{', '.join(missing)}" + (" (null when not measured)"
+                                                      if missing[0] == "rt_ms" else ""),
+                           field=missing[0])
     if kind == "hello":
         token = msg.get("session")
         if not isinstance(token, str) or not 16 <= len(token) <= 128:
@@ -154,8 +179,10 @@ class Session:
         on_view: Called (from the session's thread) whenever a new view is published.
     """
 
-    def __init__(self, config: ServeConfig, design: Assignment, writer: SessionWriter) -> None:
+    def __init__(self, config: ServeConfig, design: Assignment, writer: SessionWriter,
+                 on_end: Callable[[Session], None] | None = None) -> None:
         self.config, self.design, self.writer = config, design, writer
+        self.on_end = on_end
         self.token = secrets.token_urlsafe(32)
         self.participant = writer.participant
         self.graph = scenario_graph(config.scenario)
@@ -167,15 +194,18 @@ class Session:
         self._text = json.dumps(self._view)
         self._expect: tuple[str, int, frozenset[int]] | None = None  # (type, seq, actions)
         self._stop: str | None = None
+        self.final_seq: int | None = None  # the seq of the last view (done, ended)
         self.last_activity = time.monotonic()
         self.outcomes: list[dict[str, Any]] = []
         self.finished = threading.Event()
+        self.error: str | None = None  # why it failed, for the page
         n_e = config.episodes
         self.person = PersonHuman(self.graph, self._ask)
-        self.agent = make_agent(config.agent, self.graph, self.person, [design.index],
-                                seed=config.seed, r0=config.waiting_reward,
-                                learner=dict(config.learner), max_steps=config.max_steps,
-                                reward=config.reward)
+        # the robot is made, and called, in a worker thread of its own (robot.py), by the
+        # session's thread: an agent that fails or hangs ends this session only
+        self.worker = AgentWorker(f"robot-{self.participant}", config.agent_timeout_s)
+        self.agent: GuardedAgent | None = None
+        self.recorder: RecordingHumans | None = None
         starts = np.array([[p[0] for p in design.pairs]], dtype=np.int64)
         goals = np.array([[p[1] for p in design.pairs]], dtype=np.int64)
         self.schedule = Schedule(starts, goals, np.zeros((1, n_e), dtype=bool))
@@ -183,10 +213,6 @@ class Session:
         rng = np.random.default_rng([config.seed, design.index, 3])
         self.layouts: list[Layout | None] = [None if sample is None else sample(rng)
                                              for _ in range(n_e)]
-        self.recorder = RecordingHumans(self.person, [writer], agent=self.agent,
-                                        r0=config.waiting_reward, reward=config.reward,
-                                        session_index=[design.index], layouts=[self.layouts],
-                                        defer_writes=True)
         self._episode = 0
         self._step = 0
         self._last: tuple[int, int, int] | None = None
@@ -263,10 +289,13 @@ class Session:
             self._actions.put((kind, int(msg.get("action", 0))))
 
     def stop(self, status: str = "stopped") -> None:
-        """End the session (the thread records ``status`` and exits)."""
+        """End the session (the thread records ``status`` and exits, without waiting for a
+        call of the robot under way).
+        """
         with self._lock:
             if self._stop is None:
                 self._stop = status
+        self.worker.stop(status)
         self._actions.put(("stop", 0))
 
     # ----------------------------------------------------------------- the thread's side
@@ -275,6 +304,8 @@ class Session:
         with self._lock:
             view["seq"] = int(self._view["seq"]) + 1
             self._view, self._text = view, json.dumps(view)
+            if view["type"] in ("done", "ended"):
+                self.final_seq = view["seq"]
             self._expect = None if expect is None else (expect[0], view["seq"], expect[1])
             listeners = list(self._listeners)
         for listener in listeners:
@@ -291,11 +322,11 @@ class Session:
             with self._lock:
                 stop = self._stop
             if stop is not None:
-                raise _Stopped(stop)
+                raise Stopped(stop)
             if kind in ("action", "continue"):
                 return action
             if time.monotonic() - self.last_activity > idle:
-                raise _Stopped("abandoned")
+                raise Stopped("abandoned")
 
     def _header(self) -> dict[str, Any]:
         names = self.graph.support_names
@@ -322,7 +353,7 @@ class Session:
                              "key": str(i + 1) if i < 9 else ""}
                             for i, a in enumerate(options)],
                 "picture": picture(self.config.scenario, self.layouts[self._episode], s)}
-        if self.config.show_belief:
+        if self.config.show_belief and self.agent is not None:
             belief = read_belief(self.agent)
             if belief is not None:
                 view["belief"] = {n: round(float(b), 3) for n, b in
@@ -343,65 +374,148 @@ class Session:
             start = int(self.graph.support_state(self.design.pairs[episode][0], 0))
             picture(self.config.scenario, self.layouts[episode], start)
 
-    def _run(self) -> None:
+    def _make_robot(self) -> tuple[GuardedAgent, RecordingHumans]:
+        """The robot agent, made in its worker as in a study, and the recorder around the
+        person.
+        """
+        cfg, design = self.config, self.design
+        inner = self.worker.call("making the agent", lambda: make_agent(
+            cfg.agent, self.graph, self.person, [design.index], seed=cfg.seed,
+            r0=cfg.waiting_reward, learner=dict(cfg.learner), max_steps=cfg.max_steps,
+            reward=cfg.reward))
+        if not isinstance(inner, BatchAgent):
+            raise AgentFailed("the robot could not be made",
+                              f"the agent is a {type(inner).__name__}, not a BatchAgent")
+        agent = GuardedAgent(inner, self.worker)
+        recorder = RecordingHumans(self.person, [self.writer], agent=agent,
+                                   r0=cfg.waiting_reward, reward=cfg.reward,
+                                   session_index=[design.index], layouts=[self.layouts],
+                                   defer_writes=True)
+        return agent, recorder
+
+    def _play(self) -> None:
+        """The session's episodes, each outcome shown; returns when all are played."""
         cfg = self.config
         names = self.graph.support_names
-        status = "complete"
+        self._prerender(0)
+        self.agent, self.recorder = self._make_robot()
+        loop = run_episodes(self.graph, self.agent, self.recorder, self.schedule,
+                            GraphBatch(self.graph, [self.design.index], cfg.seed),
+                            r0=cfg.waiting_reward, max_steps=cfg.max_steps, reward=cfg.reward)
+        for result in loop:
+            end = int(result.traces[0].states[-1])
+            reached = int(result.intentions[0])
+            goal = self.design.pairs[self._episode][1]
+            outcome = {"episode": self._episode + 1,
+                       "reached_name": None if reached < 0 else names[reached],
+                       "goal_name": names[goal], "success": reached == goal,
+                       "truncated": bool(result.metrics.truncated[0]),
+                       "steps": int(result.metrics.steps[0]),
+                       "reward": round(float(result.metrics.reward[0]), 4)}
+            self.outcomes.append(outcome)
+            last = self._episode + 1 == cfg.episodes
+            self._publish({"type": "outcome", **self._header(), **outcome, "last": last,
+                           "picture": picture(cfg.scenario, self.layouts[self._episode], end)},
+                          None if last else ("continue", frozenset()))
+            # written by the server's writer thread while the page shows the outcome
+            self._written = _writer().submit(self.recorder.flush)
+            if last:
+                return
+            self._prerender(self._episode + 1)
+            self._wait()
+            self._episode += 1
+            self._step = 0
+            self._last = None
 
+    def _run(self) -> None:
+        """The session's thread: play, then record how it ended and tell the page. Whatever
+        happens (the robot raising, exiting or hanging included) the session ends, is
+        recorded and the page is told.
+        """
+        status, detail = "complete", None
         try:
-            self._prerender(0)
-            loop = run_episodes(self.graph, self.agent, self.recorder, self.schedule,
-                                GraphBatch(self.graph, [self.design.index], cfg.seed),
-                                r0=cfg.waiting_reward, max_steps=cfg.max_steps,
-                                reward=cfg.reward)
-            for result in loop:
-                trace = result.traces[0]
-                end = int(trace.states[-1])
-                reached = int(result.intentions[0])
-                goal = self.design.pairs[self._episode][1]
-                outcome = {"episode": self._episode + 1,
-                           "reached_name": None if reached < 0 else names[reached],
-                           "goal_name": names[goal], "success": reached == goal,
-                           "truncated": bool(result.metrics.truncated[0]),
-                           "steps": int(result.metrics.steps[0]),
-                           "reward": round(float(result.metrics.reward[0]), 4)}
-                self.outcomes.append(outcome)
-                last = self._episode + 1 == cfg.episodes
-                self._publish({"type": "outcome", **self._header(), **outcome, "last": last,
-                               "picture": picture(cfg.scenario, self.layouts[self._episode],
-                                                  end)},
-                              None if last else ("continue", frozenset()))
-                # written by the server's writer thread while the page shows the outcome
-                self._written = _writer().submit(self.recorder.flush)
-                if last:
-                    break
-                self._prerender(self._episode + 1)
-                self._wait()
-                self._episode += 1
-                self._step = 0
-                self._last = None
-        except _Stopped as stop:
+            self._play()
+        except Stopped as stop:
             status = stop.status
-        except Exception:  # a failing agent ends this session only; the others go on
+        except AgentFailed as exc:  # the robot's fault: this session ends, the others go on
+            log.error("session %s failed: %s", self.participant, exc.detail)
+            status, self.error, detail = "failed", exc.public, exc.detail
+        except BaseException as exc:  # noqa: BLE001 (a session never stays running)
             log.exception("session %s failed", self.participant)
             status = "failed"
+            self.error = f"the session failed ({type(exc).__name__})"
+            detail = f"{type(exc).__name__}: {str(exc)[:300]}"
+        self.worker.close()
+        self._end(status, detail)
+
+    def _end(self, status: str, detail: str | None) -> None:
+        """Wait for the episodes' writes, record the status, publish the last view."""
         try:
             if self._written is not None:
                 self._written.result()
         except OSError:
             log.exception("session %s: cannot write an episode", self.participant)
             status = "failed"
+            self.error = self.error or "the session could not be recorded"
+        if detail is not None:
+            self.writer.meta["error"] = detail
         try:
             self.writer.finish(status)
+            make_private(self.writer.path)
         except OSError:
             log.exception("session %s: cannot write its metadata", self.participant)
         if status == "complete":
             self._publish({"type": "done", "participant": self.participant,
                            "outcomes": self.outcomes}, None)
         else:
-            self._publish({"type": "ended", "reason": status,
+            self._publish({"type": "ended", "reason": status, "error": self.error,
                            "participant": self.participant}, None)
+        if self.on_end is not None:
+            self.on_end(self)  # the server keeps its last view only
         self.finished.set()
+
+
+class EndedSession:
+    """What the server keeps of a session that has ended and is recorded: its last view
+    (``done`` or ``ended``), so that a reload still shows it, and nothing else (the robot,
+    the recorder and the thread are freed).
+    """
+
+    def __init__(self, session: Session) -> None:
+        self.participant = session.participant
+        self.seq, self.text = session.view()
+        self.final_seq: int | None = self.seq
+        self.ended_at = time.monotonic()
+        self.finished = threading.Event()
+        self.finished.set()
+
+    def subscribe(self, listener: Callable[[], None]) -> Callable[[], None]:
+        """No view will follow."""
+        return lambda: None
+
+    def connect(self, on_replaced: Callable[[], None]) -> object:
+        """Any number of pages may show the last view."""
+        return on_replaced
+
+    def disconnect(self, handle: object) -> None:
+        """Nothing to do."""
+
+    def view(self) -> tuple[int, str]:
+        """The last view."""
+        return self.seq, self.text
+
+    def handle(self, msg: Mapping[str, Any]) -> None:
+        """Nothing is accepted any more.
+
+        Raises:
+            MessageError: Always.
+        """
+        raise MessageError("the session is over", field="type")
+
+
+#: How long, and up to how many bytes in all, the last views of ended sessions are kept.
+ENDED_KEEP_S = 3600.0
+ENDED_KEEP_BYTES = 8 << 20
 
 
 class SessionManager:
@@ -414,13 +528,28 @@ class SessionManager:
     def __init__(self, config: ServeConfig) -> None:
         import pyarrow.parquet  # noqa: F401  (the web extra; loaded once, before a session writes)
 
+        if config.agent in ("learner", "maxent"):
+            # compiled (the first time after installing) or loaded now, so that no robot's
+            # first call waits for them (and none runs into --agent-timeout)
+            algorithm1.preload()
         self.config = config
         self.dataset = create_dataset(config.dataset_id, config.scenario, synthetic=False,
                                       root=config.data,
                                       description="people in the human's seat "
                                                   "(hri-bench serve)")
+        self._dataset_lock = DatasetLock(self.dataset)  # one server per dataset (store.py)
+        try:
+            #: Sessions a server that was killed left running, now marked interrupted.
+            self.interrupted = mark_interrupted(self.dataset)
+            make_private(self.dataset.path)
+        except OSError as exc:
+            self._dataset_lock.release()
+            raise ConfigError(f"cannot use the dataset folder {self.dataset.path} "
+                              f"({exc.strerror or exc}): {exc.filename}", field="data") from None
         self._lock = threading.Lock()
-        self._sessions: dict[str, Session] = {}
+        self._sessions: dict[str, Session] = {}  # running
+        self._ended: dict[str, EndedSession] = {}  # in the order they ended
+        self._ended_bytes = 0
         self._joined = len(self.dataset.session_dirs())
 
     def create(self) -> Session:
@@ -431,12 +560,10 @@ class SessionManager:
         """
         cfg = self.config
         with self._lock:
-            running = sum(not s.finished.is_set() for s in self._sessions.values())
-            if running >= cfg.max_sessions:
+            if len(self._sessions) >= cfg.max_sessions:
                 raise ConfigError(f"the study is full ({cfg.max_sessions} sessions at once); "
                                   "try again later", field="sessions")
             index = self._joined
-            self._joined += 1
             design = assignment(cfg, index)
             participant = new_participant_id()
             writer = SessionWriter(self.dataset, participant, {
@@ -447,20 +574,62 @@ class SessionManager:
                 "schedule": [[int(a), int(b), False] for a, b in design.pairs],
                 "preference": design.preference, "serve_settings": cfg.settings(),
                 **agent_identity(cfg.agent, cfg.scenario, cfg.waiting_reward, dict(cfg.learner))})
-            session = Session(cfg, design, writer)
+            self._joined += 1  # the design's row is taken once the session is on disk
+            session = Session(cfg, design, writer, on_end=self._retire)
             self._sessions[session.token] = session
         session.thread.start()
         return session
 
-    def get(self, token: Any) -> Session | None:
-        """The session whose token this is, or None (compared in constant time)."""
+    def _retire(self, session: Session) -> None:
+        """A session has ended and is recorded: keep its last view only (an
+        :class:`EndedSession`, for :data:`ENDED_KEEP_S` and within
+        :data:`ENDED_KEEP_BYTES` in all, the oldest dropped first).
+        """
+        ended = EndedSession(session)
+        with self._lock:
+            self._sessions.pop(session.token, None)
+            self._ended[session.token] = ended
+            self._ended_bytes += len(ended.text)
+            self._prune()
+
+    def _prune(self) -> None:
+        """Drop the last views kept too long or beyond the byte budget (lock held)."""
+        now = time.monotonic()
+        while self._ended:
+            token, oldest = next(iter(self._ended.items()))
+            if (now - oldest.ended_at <= ENDED_KEEP_S
+                    and self._ended_bytes <= ENDED_KEEP_BYTES):
+                break
+            del self._ended[token]
+            self._ended_bytes -= len(oldest.text)
+
+    def running(self) -> int:
+        """How many sessions run."""
+        with self._lock:
+            return len(self._sessions)
+
+    def get(self, token: Any) -> Session | EndedSession | None:
+        """The session whose token this is (or the last view of one that ended), or None
+        (compared in constant time).
+        """
         if not isinstance(token, str):
             return None
+        found: Session | EndedSession | None = None
         with self._lock:
-            for known, session in self._sessions.items():
-                if secrets.compare_digest(known, token):
-                    return session
-        return None
+            self._prune()
+            for table in (self._sessions, self._ended):
+                for known, session in table.items():
+                    if secrets.compare_digest(known.encode(), token.encode()):
+                        found = session
+        return found
+
+    def close(self, timeout: float = 5.0) -> None:
+        """Stop every session (:meth:`stop_all`), then let another server use the dataset
+        (a session that did not end in time stays ``running`` on disk: the next server
+        marks it ``interrupted``).
+        """
+        self.stop_all(timeout)
+        self._dataset_lock.release()
 
     def stop_all(self, timeout: float = 5.0) -> None:
         """Stop every session (status ``stopped``) and wait for their threads."""

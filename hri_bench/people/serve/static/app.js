@@ -132,7 +132,8 @@ function onDone(m) {
 function onEnded(m) {
   over = true;
   show("done");
-  $("done-text").textContent = `The session has ended (${m.reason}). ` +
+  $("done-text").textContent = `The session has ended (${m.reason}` +
+    (m.error ? `: ${m.error}` : "") + `). ` +
     `Your anonymous code is ${m.participant}. Thank you.`;
   localStorage.removeItem(KEY);
 }
@@ -190,8 +191,11 @@ function connect(token) {
 
 async function start() {
   $("start").disabled = true;
+  // the page's token: only a page this server served carries it
+  const token = document.querySelector('meta[name="hri-bench-token"]').content;
   const response = await fetch("/api/sessions", {
-    method: "POST", headers: {"Content-Type": "application/json"},
+    method: "POST",
+    headers: {"Content-Type": "application/json", "X-HRI-Bench-Token": token},
     body: JSON.stringify({consent: true}),
   });
   const body = await response.json();
