@@ -113,3 +113,78 @@ def test_minari_export_with_a_relative_data_folder(recorded, tmp_path, monkeypat
     data = pytest.importorskip("minari").load_dataset("hri-envs/synthetic-hanger-v0")
     assert data.total_episodes == 20
     assert not [p for p in root.parent.iterdir() if ".build-" in p.name]
+
+
+def _damaged_copy(recorded, tmp_path, damage):
+    """A copy of the recorded dataset under ``tmp_path/data`` with ``damage(episode file)``."""
+    import shutil
+
+    root = tmp_path / "data"
+    shutil.copytree(recorded[0] / "synthetic-hanger-v0", root / "synthetic-hanger-v0")
+    damage(root / "synthetic-hanger-v0" / "sessions" / "s0002" / "episode-0002.parquet")
+    return root
+
+
+def _start_7(path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    i = table.schema.get_field_index("start")
+    pq.write_table(table.set_column(i, table.schema.field("start"),
+                                    pa.array([7] * table.num_rows, type=pa.int8())), path)
+
+
+@pytest.mark.parametrize("damage, says", [
+    (lambda p: p.write_bytes(p.read_bytes()[:300]), "is not a readable Parquet file"),
+    (lambda p: p.write_bytes(b""), "is not a readable Parquet file"),
+    (_start_7, "step 0: start 7 is outside [0, 3)"),
+])
+@pytest.mark.parametrize("argv", [["dataset", "show"], ["dataset", "export", "--out", "x.pq"],
+                                  ["dataset", "export", "--format", "minari"],
+                                  ["dataset", "fit"], ["replay"]])
+def test_damaged_datasets_exit_2_naming_the_file(recorded, tmp_path, capsys, monkeypatch,
+                                                 damage, says, argv):
+    root = _damaged_copy(recorded, tmp_path, damage)
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exit_:
+        main([*argv[:2], "synthetic-hanger", *argv[2:], "--data", str(root)])
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and "Traceback" not in err
+    assert "argument dataset:" in err and "s0002/episode-0002.parquet" in err and says in err
+    assert not (tmp_path / "x.pq").exists()
+
+
+@pytest.mark.parametrize("population", ["recorded:synthetic-hanger",
+                                        "recorded-irl:synthetic-hanger"])
+def test_a_damaged_recorded_population_is_refused_before_simulating(
+        recorded, tmp_path, capsys, monkeypatch, population):
+    """Before: the study simulated, the fit failed in each run, and the agents were
+    blamed (exit 1)."""
+    root = _damaged_copy(recorded, tmp_path, _start_7)
+    monkeypatch.setenv("HRI_BENCH_DATASETS", str(root))
+    with pytest.raises(SystemExit) as exit_:
+        main(["study", "hanger", "--agents", "learner", "--runs", "2", "--episodes", "2",
+              "--population", population, "--out", str(tmp_path / "o"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and "argument --population" in err
+    assert "start 7 is outside" in err and "episode-0002.parquet" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_dataset_id_that_is_a_path_is_refused(recorded, tmp_path, capsys):
+    """dataset.json's id names Minari's folders: '../../../tmp/evil' wrote outside the
+    export root."""
+    import shutil
+
+    folder = tmp_path / "d" / "sneaky-v0"
+    shutil.copytree(recorded[0] / "synthetic-hanger-v0", folder)
+    meta = json.loads((folder / "dataset.json").read_text())
+    (folder / "dataset.json").write_text(json.dumps({**meta, "dataset_id": "../../../x/evil"}))
+    for argv in (["dataset", "export", str(folder), "--format", "minari", "--out",
+                  str(tmp_path / "m" / "a" / "b")], ["dataset", "show", str(folder)]):
+        with pytest.raises(SystemExit) as exit_:
+            main(argv)
+        err = capsys.readouterr().err
+        assert exit_.value.code == 2 and "dataset_id '../../../x/evil' is no dataset id" in err
+    assert not (tmp_path / "x").exists() and not (tmp_path / "m").exists()
