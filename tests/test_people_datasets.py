@@ -323,3 +323,24 @@ def test_a_fit_needs_valid_human_actions(recorded, tmp_path):
         with pytest.raises(ConfigError, match=f"participant {train[0]} episode 1 step 0: the "
                                               f"human's action {bad} is not valid"):
             fit(dataset, kind)
+
+
+def test_minari_export_refuses_observations_outside_the_env_spaces(recorded, tmp_path,
+                                                                   monkeypatch):
+    """Before: exit 0 with last_human_action 99 in a Discrete(10) space."""
+    pytest.importorskip("minari")
+    _, _, dataset, _ = recorded
+    good = list(datasets.robot_episodes(dataset))
+    bad = good[3]
+    bad.observations["last_human_action"][2] = 99
+    monkeypatch.setattr(datasets, "robot_episodes", lambda _: iter(good))
+    with pytest.raises(ConfigError) as err:
+        datasets.export_minari(dataset, tmp_path / "minari")
+    assert (f"participant {bad.participant} episode {bad.episode + 1}, observation 2 "
+            "(0: after reset): last_human_action 99 is outside the env's Discrete(10)"
+            in str(err.value))
+    assert err.value.field == "dataset" and not list(tmp_path.iterdir())
+    bad.observations["last_human_action"][2] = 0
+    bad.actions[0] = -1
+    with pytest.raises(ConfigError, match="step 0: the robot's action -1 is outside"):
+        datasets.export_minari(dataset, tmp_path / "minari")

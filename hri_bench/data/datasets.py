@@ -638,6 +638,28 @@ def robot_episodes(dataset: Dataset) -> Iterator[RobotEpisode]:
             participant=str(cols["participant"][rows[0]]), episode=int(cols["episode"][rows[0]]))
 
 
+def _check_spaces(env: Any, episodes: Sequence[RobotEpisode]) -> None:
+    """Raise a :class:`ConfigError` naming the first step whose observation is outside the
+    env's observation space, or whose action is outside its action space.
+    """
+    obs_space, act_space = env.observation_space, env.action_space
+    for ep in episodes:
+        where = f"participant {ep.participant} episode {ep.episode + 1}"
+        for t in range(len(ep.actions) + 1):
+            obs = {k: v[t] for k, v in ep.observations.items()}
+            if not obs_space.contains(obs):
+                bad = next((k for k, v in obs.items() if not obs_space[k].contains(v)), "")
+                value = np.asarray(obs.get(bad)).tolist()
+                raise ConfigError(f"{where}, observation {t} (0: after reset): {bad} "
+                                  f"{value} is outside the env's "
+                                  f"{obs_space[bad] if bad else obs_space}; not exported",
+                                  field="dataset")
+            if t < len(ep.actions) and not act_space.contains(ep.actions[t]):
+                raise ConfigError(f"{where}, step {t}: the robot's action {ep.actions[t]} is "
+                                  f"outside the env's {act_space}; not exported",
+                                  field="dataset")
+
+
 def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -> Path:
     """Write the robot's view as a Minari dataset ``hri-envs/<dataset id>`` (data format
     ``arrow``) under the Minari root ``out`` (default ``<dataset>/minari``), replacing an
@@ -648,7 +670,8 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
 
     Raises:
         MissingExtraError: minari (or pyarrow) is not installed.
-        ConfigError: The dataset has no episode yet.
+        ConfigError: The dataset has no episode yet, or an observation or action outside
+            the env's spaces (naming the first such step; nothing is written).
     """
     try:
         import minari
@@ -669,6 +692,11 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
                for i, ep in enumerate(episodes)]
     spec = scenario_spec(dataset.scenario)
     env = gym.make(str(spec.gym_id))
+    try:
+        _check_spaces(env, episodes)
+    except ConfigError:
+        env.close()
+        raise
     kind = "scripted humans (synthetic)" if dataset.synthetic else "people"
     root.parent.mkdir(parents=True, exist_ok=True)
     build = Path(tempfile.mkdtemp(dir=root.parent, prefix=f".{root.name}.build-"))
