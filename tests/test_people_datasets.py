@@ -344,3 +344,50 @@ def test_minari_export_refuses_observations_outside_the_env_spaces(recorded, tmp
     bad.actions[0] = -1
     with pytest.raises(ConfigError, match="step 0: the robot's action -1 is outside"):
         datasets.export_minari(dataset, tmp_path / "minari")
+
+
+def _copy(recorded, tmp_path):
+    import shutil
+
+    shutil.copytree(recorded[2].path, tmp_path / "synthetic-hanger-v0")
+    return open_dataset(tmp_path / "synthetic-hanger-v0")
+
+
+def test_replay_checks_every_step(recorded, tmp_path):
+    """A human reward the rules do not give, in a middle step: before, only the robot's
+    rewards and the last step's end were compared, and the episode 'agreed'."""
+    dataset = _copy(recorded, tmp_path)
+    ep = dataset.path / "sessions" / "s0002" / "episode-0002.parquet"
+    _rewrite(ep, "human_reward", edit=lambda c: c[:1] + [c[1] + 1.0] + c[2:])
+    lines = []
+    results = replay(dataset, ["s0002"], write=lines.append)
+    bad = [r for r in results if not r.agrees]
+    assert [(r.participant, r.episode) for r in bad] == [("s0002", 1)]
+    assert bad[0].differences[0].startswith("step 2: human reward")
+    assert any(line.startswith("  step 2:") and "DIFFERS: human reward" in line for line in lines)
+
+
+def test_replay_stops_where_the_env_ends_the_episode(recorded, tmp_path):
+    """A session whose step limit the env enforces before the recording ends (before: the
+    env was stepped past its end)."""
+    dataset = _copy(recorded, tmp_path)
+    long = max(dataset.episode_paths(["s0003"]), key=lambda p: pa.parquet.read_metadata(p).num_rows)
+    n = pa.parquet.read_metadata(long).num_rows
+    meta_path = long.parent / "session.json"
+    meta = json.loads(meta_path.read_text())
+    meta_path.write_text(json.dumps({**meta, "max_steps": n - 2}))
+    results = replay(dataset, ["s0003"])
+    bad = [r for r in results if not r.agrees]
+    assert bad and any(f"step {n - 1}: the env has ended the episode" in d
+                       for r in bad for d in r.differences)
+
+
+def test_replay_names_a_session_without_the_env_settings(recorded, tmp_path):
+    dataset = _copy(recorded, tmp_path)
+    meta_path = dataset.path / "sessions" / "s0001" / "session.json"
+    meta = json.loads(meta_path.read_text())
+    for bad in ({"r0": "abc"}, {"max_steps": None}, {"r0": 5.0}, {"reward_rule": "nope"}):
+        meta_path.write_text(json.dumps({**meta, **bad}))
+        with pytest.raises(ConfigError, match="s0001/session.json") as err:
+            replay(dataset, ["s0001"])
+        assert err.value.field == "dataset"

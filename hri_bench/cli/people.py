@@ -360,8 +360,15 @@ def _replay(args: argparse.Namespace) -> int:
         return 0
     differ = [r for r in results if not r.agrees]
     print(f"{len(results)} episodes replayed; " + (
-        "the env gives the recorded rewards in every step" if not differ else
-        f"{len(differ)} differ from the recording"))
+        "the env gives the recorded rewards, states, actions and episode ends in every step"
+        if not differ else f"{len(differ)} differ from the recording:"))
+    for r in differ[:10]:
+        first = r.differences[0] if r.differences else (
+            f"episode end (terminated, truncated): recorded {r.terminated[0], r.truncated[0]}, "
+            f"the env's {r.terminated[1], r.truncated[1]}")
+        print(f"  {r.participant} episode {r.episode + 1}: {first}"
+              + (f" (and {len(r.differences) - 1} more steps)" if len(r.differences) > 1
+                 else ""))
     return 1 if differ else 0
 
 
