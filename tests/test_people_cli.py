@@ -188,3 +188,33 @@ def test_a_dataset_id_that_is_a_path_is_refused(recorded, tmp_path, capsys):
         err = capsys.readouterr().err
         assert exit_.value.code == 2 and "dataset_id '../../../x/evil' is no dataset id" in err
     assert not (tmp_path / "x").exists() and not (tmp_path / "m").exists()
+
+
+def test_a_recorded_population_has_a_content_hash_and_replays_say_when_it_changed(
+        recorded, tmp_path, capsys, monkeypatch):
+    """Before: its hash was null, and a --config replay after the data changed differed
+    without a word."""
+    import shutil
+
+    from hri_bench.data.datasets import open_dataset
+
+    root = tmp_path / "data"
+    shutil.copytree(recorded[0] / "synthetic-hanger-v0", root / "synthetic-hanger-v0")
+    monkeypatch.setenv("HRI_BENCH_DATASETS", str(root))
+    dataset = open_dataset("synthetic-hanger", root)
+    argv = ["--agents", "learner", "--runs", "2", "--episodes", "2", "--no-progress"]
+    assert main(["study", "hanger", "--population", "recorded-irl:synthetic-hanger", *argv,
+                 "--out", str(tmp_path / "a")]) == 0
+    info = json.loads((tmp_path / "a" / "summary.json").read_text())["population_info"]
+    assert info["hash"] == dataset.content_hash() and info["fit"] == "irl"
+    assert info["dataset_id"] == "synthetic-hanger-v0" and info["members"] == 4
+    capsys.readouterr()
+    config = ["study", "--config", str(tmp_path / "a" / "summary.json"), "--no-progress"]
+    assert main([*config, "--out", str(tmp_path / "b")]) == 0
+    assert "warning" not in capsys.readouterr().err  # the same data: nothing to say
+    (root / "synthetic-hanger-v0" / "sessions" / "s0003" / "episode-0004.parquet").unlink()
+    assert main([*config, "--out", str(tmp_path / "c")]) == 0
+    err = capsys.readouterr().err
+    assert ("warning: population 'recorded-irl:synthetic-hanger': the recorded dataset's "
+            f"finished sessions changed since the replayed study (content {info['hash']} "
+            f"then, {open_dataset('synthetic-hanger', root).content_hash()} now)") in err

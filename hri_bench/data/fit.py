@@ -54,7 +54,7 @@ from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import scenario_graph
 
 __all__ = ["KINDS", "PREFIXES", "FittedModel", "evaluate", "fit", "is_recorded",
-           "recorded_human", "split_participants", "validate_recorded"]
+           "recorded_human", "recorded_info", "split_participants", "validate_recorded"]
 
 #: Fitting methods.
 KINDS: tuple[str, ...] = ("bc", "irl")
@@ -313,6 +313,20 @@ def validate_recorded(name: str, scenario: str) -> None:
     if not episodes.traces:
         raise ConfigError(f"population {name!r}: dataset {dataset.dataset_id} has no recorded "
                           "episode of a training participant yet", field="population")
+
+
+def recorded_info(name: str, scenario: str) -> dict[str, Any]:
+    """A recorded population's ``population_info`` (as a split's,
+    :meth:`hri_bench.run.study.StudyConfig.population_info`): ``hash`` is the content hash
+    of the dataset's finished sessions (:meth:`Dataset.content_hash`, what the model is
+    fitted to and scored on), ``version`` the dataset id's, ``members`` the training
+    participants; and ``dataset_id``, ``synthetic``, ``fit`` (bc or irl).
+    """
+    kind, dataset = _dataset_of(name, scenario)
+    train, _ = split_participants(dataset.dataset_id, dataset.participants(unfinished=False))
+    return {"name": name, "version": dataset.dataset_id.rsplit("-v", 1)[1],
+            "hash": dataset.content_hash(), "held_out": None, "members": len(train),
+            "dataset_id": dataset.dataset_id, "synthetic": dataset.synthetic, "fit": kind}
 
 
 def recorded_human(name: str, scenario: str) -> ScriptedHuman:
