@@ -391,3 +391,83 @@ def test_replay_names_a_session_without_the_env_settings(recorded, tmp_path):
         with pytest.raises(ConfigError, match="s0001/session.json") as err:
             replay(dataset, ["s0001"])
         assert err.value.field == "dataset"
+
+
+def test_uniform_accuracy_is_that_of_a_uniform_choice(recorded):
+    """Before: the argmax of a flat row is its first valid action (wait), so uniform's
+    'accuracy' was the share of waits (0.000 without any)."""
+    from hri_envs.task.scenarios import scenario_graph
+
+    _, _, dataset, _ = recorded
+    g = scenario_graph("hanger")
+    bc, irl = fit(dataset, "bc"), fit(dataset, "irl")
+    scores = evaluate(dataset, [bc, irl])
+    states = np.array(dataset.steps(scores["held_out"]).column("state").to_pylist())
+    assert scores["uniform"]["accuracy"] == pytest.approx(np.mean(1 / g.valid[states].sum(1)))
+    for kind in ("bc", "irl"):
+        b = scores[kind]["breakdown"]
+        assert 0 <= b["unlikely_steps"] <= scores["steps"] and b["waits"] >= b["unlikely_waits"]
+
+
+def test_an_interrupted_recording_is_marked_and_left_out(tmp_path, monkeypatch):
+    """Ctrl-C (or SIGTERM in the CLI) in the middle of 'dataset record': its sessions were
+    marked 'failed', and a kill left them 'running'; both were fitted and exported."""
+    import threading
+
+    from hri_bench.people import recording
+
+    cfg = StudyConfig("hanger", agents=("learner",), runs=3, episodes=2, seed=1)
+    dataset = record_study(cfg, "partial", root=tmp_path)
+    whole = dataset.content_hash()
+    real = recording.run_episodes
+
+    def stopped_after_one_episode(*args, **kwargs):
+        for i, step in enumerate(real(*args, **kwargs)):
+            if i == 1:
+                raise KeyboardInterrupt
+            yield step
+
+    monkeypatch.setattr(recording, "run_episodes", stopped_after_one_episode)
+    with pytest.raises(KeyboardInterrupt):
+        record_study(cfg, "partial", root=tmp_path)
+    status = {s["participant"]: s["status"] for s in dataset.sessions()}
+    assert status == {"s0001": "complete", "s0002": "complete", "s0003": "complete",
+                      "s0004": "interrupted", "s0005": "interrupted", "s0006": "interrupted"}
+    assert dataset.episode_paths(["s0004"])  # its finished episodes are kept ...
+    assert dataset.participants(unfinished=False) == ["s0001", "s0002", "s0003"]
+    assert dataset.content_hash() == whole  # ... and left out of the data
+    assert set(dataset.steps().column("participant").to_pylist()) == {"s0001", "s0002",
+                                                                      "s0003"}
+    assert {u["participant"] for u in dataset.unfinished()} == {"s0004", "s0005", "s0006"}
+    model = fit(dataset, "bc")
+    assert sorted(model.train + model.test) == ["s0001", "s0002", "s0003"]
+    assert len(replay(dataset, ["s0004"])) >= 1  # replay plays it when asked
+
+    # a recorder killed outright leaves 'running': read as interrupted once no recorder
+    # holds the dataset's lock, and so marked on disk by the next recording
+    meta = dataset.path / "sessions" / "s0005" / "session.json"
+    meta.write_text(meta.read_text().replace('"interrupted"', '"running"'))
+    assert {s["participant"]: s["status"] for s in dataset.sessions()}["s0005"] == "interrupted"
+    held, release = threading.Event(), threading.Event()
+
+    def recorder():
+        with open_dataset(dataset.path).recording():
+            held.set()
+            release.wait(10)
+
+    thread = threading.Thread(target=recorder)
+    thread.start()
+    try:
+        assert held.wait(10)
+        assert '"interrupted"' in meta.read_text()  # marked by the recorder, under the lock
+        meta.write_text(meta.read_text().replace('"interrupted"', '"running"'))
+        assert dataset.recorder_alive()
+        assert {s["participant"]: s["status"] for s in dataset.sessions()}["s0005"] == "running"
+        with pytest.raises(ConfigError, match="another hri-bench dataset record is recording"):
+            with dataset.recording(timeout_s=0.2):
+                pass
+    finally:
+        release.set()
+        thread.join()
+    assert not dataset.recorder_alive()
+    assert dataset.participants(unfinished=False) == ["s0001", "s0002", "s0003"]

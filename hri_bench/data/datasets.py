@@ -674,7 +674,7 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
             the env's spaces (naming the first such step; nothing is written).
     """
     try:
-        import minari
+        import minari  # noqa: F401  (the extra, checked before anything is read)
         from minari.data_collector import EpisodeBuffer
     except ImportError as exc:
         raise MissingExtraError(["minari"], "the Minari view of a dataset") from exc
@@ -690,17 +690,27 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
                              infos={k: v.tolist() for k, v in ep.infos.items()},
                              options={"participant": ep.participant, "episode": ep.episode})
                for i, ep in enumerate(episodes)]
-    spec = scenario_spec(dataset.scenario)
-    env = gym.make(str(spec.gym_id))
+    env = gym.make(str(scenario_spec(dataset.scenario).gym_id))
     try:
         _check_spaces(env, episodes)
-    except ConfigError:
-        env.close()
+        _write_minari(dataset, root, buffers, env)
+    except OSError as exc:  # named by the folder asked for, not its temporary one
+        exc.filename = str(root)
         raise
+    finally:
+        env.close()
+    return root
+
+
+def _write_minari(dataset: Dataset, root: Path, buffers: list[Any], env: Any) -> None:
+    """Build the Minari dataset beside ``root`` and rename it into place."""
+    import minari
+
+    content = dataset.content_hash()
+    spec = scenario_spec(dataset.scenario)
     kind = "scripted humans (synthetic)" if dataset.synthetic else "people"
     root.parent.mkdir(parents=True, exist_ok=True)
     build = Path(tempfile.mkdtemp(dir=root.parent, prefix=f".{root.name}.build-"))
-    content = dataset.content_hash()
     try:
         with _lock, warnings.catch_warnings():
             # Minari warns of metadata a recording has no use for (author, permalink)
@@ -721,7 +731,6 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
                     del os.environ["MINARI_DATASETS_PATH"]
                 else:
                     os.environ["MINARI_DATASETS_PATH"] = before
-        env.close()
         old = None
         if root.exists():
             old = root.parent / f".{root.name}.old-{secrets.token_hex(4)}"
@@ -732,7 +741,6 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
             shutil.rmtree(old, ignore_errors=True)
     finally:
         shutil.rmtree(build, ignore_errors=True)
-    return root
 
 
 def export_parquet(dataset: Dataset, path: str | os.PathLike[str]) -> Path:
@@ -750,7 +758,11 @@ def export_parquet(dataset: Dataset, path: str | os.PathLike[str]) -> Path:
             "hri_envs_version": str(dataset.meta.get("hri_envs_version", ""))}
     table = table.replace_schema_metadata(meta)
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path, ".parquet") as tmp:
-        pq.write_table(table, tmp)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path, ".parquet") as tmp:
+            pq.write_table(table, tmp)
+    except OSError as exc:  # named by the file asked for, not its temporary name
+        exc.filename = str(path)
+        raise
     return path

@@ -39,6 +39,7 @@ import numpy as np
 from agents.config import default_config
 from agents.learner import Learner
 from agents.protocol import Trace
+from hri_bench.core.atomic import atomic_path
 from hri_bench.data.datasets import Dataset, open_dataset
 from hri_envs.errors import ConfigError
 from hri_envs.humans.fitted import (
@@ -185,7 +186,7 @@ class FittedModel:
                 "settings": self.settings}
         theta = np.zeros(0) if self.theta is None else self.theta
         path = Path(path)
-        with open(path, "wb") as f:
+        with atomic_path(path, ".npz") as tmp, open(tmp, "wb") as f:  # whole or not at all
             np.savez(f, meta=np.array(json.dumps(meta)), policy=self.policy, theta=theta)
         return path
 
