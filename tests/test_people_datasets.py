@@ -261,6 +261,9 @@ DAMAGES = {
         ep, ep.with_name("episode-0009.parquet")), "is in episode-0002.parquet too"),
     "copied to another": (lambda d, ep: __import__("shutil").copy(
         ep, d / "sessions" / "s0003" / "episode-0009.parquet"), "holds steps of participant"),
+    "a value bomb": (lambda d, ep: _rewrite(ep, "layout", edit=lambda c: [
+        [0.0] * (5_000_000 // len(c) + 1)] * len(c)),  # a small file, 40 MB once read
+        "an episode file holds at most 4000000 values"),
     "session.json of another": (lambda d, ep: (ep.parent / "session.json").write_text(
         (ep.parent / "session.json").read_text().replace('"s0002"', '"s0004"')),
         "is not the folder's"),

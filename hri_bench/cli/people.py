@@ -332,9 +332,9 @@ def _show(dataset: Any, as_json: bool) -> None:
               f"{s['episodes_recorded']}/{s['episodes_planned']} episodes, robot "
               f"{s['agent']}" for s in doc["sessions"]]
     if doc["unfinished"]:
-        lines += [f"  {len(doc['unfinished'])} unfinished session(s) (running: in progress "
-                  "or its recorder killed; interrupted: its recorder stopped) are left out of "
-                  "the counts, the content hash, the exports and the fits"]
+        lines += [f"  {len(doc['unfinished'])} unfinished session(s) (interrupted: its "
+                  "recorder stopped or killed; running: in progress, or its server killed) "
+                  "are left out of the counts, the content hash, the exports and the fits"]
     _print(doc, as_json, lines)
 
 

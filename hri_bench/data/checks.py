@@ -6,7 +6,8 @@ refuses a file with a :class:`~hri_envs.errors.ConfigError` (``field="dataset"``
 names the file, the step and what is wrong:
 
 * not a readable Parquet file (truncated, corrupt, empty, a folder, unreadable), or one of
-  more than :data:`MAX_EPISODE_ROWS` rows;
+  more than :data:`MAX_EPISODE_ROWS` rows, :data:`MAX_EPISODE_VALUES` values or
+  :data:`MAX_EPISODE_BYTES` of data;
 * a column missing, of another kind than the schema's (a string for an integer, say),
   with values its schema type cannot hold, or with nulls where the schema has none;
 * no step, or steps that are not one episode of the session whose folder holds the file
@@ -37,10 +38,16 @@ import numpy as np
 from hri_envs.errors import ConfigError
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["MAX_EPISODE_ROWS", "check_steps", "read_episode"]
+__all__ = ["MAX_EPISODE_BYTES", "MAX_EPISODE_ROWS", "MAX_EPISODE_VALUES", "check_steps",
+           "read_episode"]
 
 #: The most rows (steps) an episode file may hold (``--max-steps`` allows 10,000).
 MAX_EPISODE_ROWS = 100_000
+#: The most values (list entries counted) and bytes an episode file's data may hold once
+#: decompressed (a step has about 45 values in a few hundred bytes), so that a small file
+#: cannot fill the memory.
+MAX_EPISODE_VALUES = 4_000_000
+MAX_EPISODE_BYTES = 64 * 2**20
 
 
 def _refuse(path: Path, what: str) -> ConfigError:
@@ -75,19 +82,36 @@ def read_episode(path: Path, target: Any) -> Any:
     :func:`check_steps`'s).
     """
     import pyarrow as pa
+    import pyarrow.compute as pc
     import pyarrow.parquet as pq
 
     if not path.is_file():
         raise _refuse(path, "is not a file (an episode is one Parquet file)")
+
+    def unreadable(exc: Exception) -> ConfigError:
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        return _refuse(path, f"is not a readable Parquet file ({reason})")
+
+    errors = (pa.ArrowException, OSError, ValueError, IndexError)
     try:
         meta = pq.read_metadata(path)
-        if meta.num_rows > MAX_EPISODE_ROWS:
-            raise _refuse(path, f"holds {meta.num_rows} rows; an episode file holds at most "
-                                f"{MAX_EPISODE_ROWS} steps")
+        chunks = [meta.row_group(i).column(j) for i in range(meta.num_row_groups)
+                  for j in range(meta.num_columns)]
+        values = sum(c.num_values for c in chunks)
+        size = sum(c.total_uncompressed_size for c in chunks)
+    except errors as exc:
+        raise unreadable(exc) from None
+    if meta.num_rows > MAX_EPISODE_ROWS:
+        raise _refuse(path, f"holds {meta.num_rows} rows; an episode file holds at most "
+                            f"{MAX_EPISODE_ROWS} steps")
+    if values > MAX_EPISODE_VALUES or size > MAX_EPISODE_BYTES:
+        raise _refuse(path, f"holds {values} values in {size / 2**20:.1f} MiB; an episode "
+                            f"file holds at most {MAX_EPISODE_VALUES} values in "
+                            f"{MAX_EPISODE_BYTES // 2**20} MiB")
+    try:
         table = pq.read_table(path)
-    except (pa.ArrowException, OSError, ValueError, IndexError) as exc:
-        reason = " ".join(str(exc).split()) or type(exc).__name__
-        raise _refuse(path, f"is not a readable Parquet file ({reason})") from None
+    except errors as exc:
+        raise unreadable(exc) from None
     missing = [f.name for f in target if f.name not in table.schema.names]
     if missing:
         raise _refuse(path, f"has no column {', '.join(missing)} (the schema's columns are "
@@ -107,7 +131,7 @@ def read_episode(path: Path, target: Any) -> Any:
             raise _refuse(path, f"column {field.name}: values its type {field.type} cannot "
                                 f"hold ({' '.join(str(exc).split())})") from None
         if pa.types.is_list(field.type):
-            values = pa.compute.list_flatten(col)
+            values = pc.list_flatten(col)
             if values.null_count:
                 raise _refuse(path, f"column {field.name} has null values in its lists")
         columns.append(col)
@@ -208,7 +232,8 @@ def _check_session(col: dict[str, np.ndarray], path: Path, participant: str,
                             f"{'synthetic' if synthetic else 'people'} dataset")
     for name in ("session_index", "episode"):
         if (col[name] != col[name][0]).any():
-            raise _refuse(path, f"holds more than one {name} ({sorted(set(col[name]))[:5]})")
+            raise _refuse(path, f"holds more than one {name} "
+                                f"({sorted(set(col[name].tolist()))[:5]})")
     if col["episode"][0] < 0 or col["session_index"][0] < 0:
         raise _refuse(path, f"episode {col['episode'][0]} and session_index "
                             f"{col['session_index'][0]} must be >= 0")

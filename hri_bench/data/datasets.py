@@ -15,6 +15,10 @@ dataset id is ``name-vN`` (Minari's form; ``-v0`` is added to a bare name). Part
 anonymous random ids (``p`` and 12 hex digits for people, ``s0001`` ... for scripted
 humans); nothing else about a person is stored.
 
+Every episode file is checked as it is read (:mod:`hri_bench.data.checks`; an episode in
+two files is refused too), and the sessions that did not finish (:data:`UNFINISHED`) are
+left out of the data unless asked for by participant.
+
 Two views of the same steps:
 
 * **The multi-agent episode schema** (:data:`COLUMNS`): one row per joint step with both

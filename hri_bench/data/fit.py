@@ -205,8 +205,11 @@ def fit(dataset: Dataset, kind: str = "bc", *, smoothing: float = 1.0,
     train, test = split_participants(dataset.dataset_id, dataset.participants(unfinished=False))
     episodes = _episodes(dataset, train)
     if not episodes.traces:
+        left = dataset.unfinished()
         raise ConfigError(f"dataset {dataset.dataset_id} has no recorded episode of a "
-                          "training participant to fit to", field="dataset")
+                          "training participant to fit to" + (
+                              f" ({len(left)} unfinished session(s) are left out)" if left
+                              else ""), field="dataset")
     theta = None
     if kind == "irl":
         theta, pi_h = _irl_policy(graph, episodes, passes)
