@@ -40,6 +40,7 @@ from hri_bench.run.agents import (
     jaxppo_path,
     validate_agent_name,
 )
+from hri_bench.run.humans import population_changes
 from hri_bench.run.regret import REFERENCES
 from hri_bench.run.study import EXECUTION_FIELDS, EXECUTORS, StudyConfig, graph_for
 from hri_bench.run.studyio import UNITS, StudyDir, StudyTerminated, run_in, stop_on_signals
@@ -499,6 +500,8 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
         cfg = StudyConfig.from_settings(settings, **execution)
         # a custom agent edited since: from the document read above (once, within the limit)
         cli_results.warn_code_changes(doc.get("agent_configs"), cfg.agents)
+        for line in population_changes(doc.get("population_info"), cfg.population_info()):
+            print(f"hri-bench study: warning: {line}", file=sys.stderr)  # recordings changed
         return cfg
     except ConfigError as exc:
         if exc.field in EXECUTION_FIELDS:  # from the flags, not from the file

@@ -15,6 +15,10 @@ dataset id is ``name-vN`` (Minari's form; ``-v0`` is added to a bare name). Part
 anonymous random ids (``p`` and 12 hex digits for people, ``s0001`` ... for scripted
 humans); nothing else about a person is stored.
 
+Every episode file is checked as it is read (:mod:`hri_bench.data.checks`; an episode in
+two files is refused too), and the sessions that did not finish (:data:`UNFINISHED`) are
+left out of the data unless asked for by participant.
+
 Two views of the same steps:
 
 * **The multi-agent episode schema** (:data:`COLUMNS`): one row per joint step with both
@@ -32,6 +36,7 @@ Needs the ``web`` extra (pyarrow, and minari for the Minari view).
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import hashlib
 import json
 import os
@@ -51,6 +56,7 @@ import gymnasium as gym
 import numpy as np
 
 from hri_bench.core.atomic import atomic_path, atomic_writer, fsync_dir
+from hri_bench.data.checks import check_steps, read_episode
 from hri_envs import __version__  # importing hri_envs registers the env ids
 from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
@@ -60,6 +66,7 @@ __all__ = [
     "DATASETS_ENV",
     "MINARI_NAMESPACE",
     "SCHEMA_VERSION",
+    "UNFINISHED",
     "Dataset",
     "SessionWriter",
     "check_dataset_id",
@@ -120,6 +127,12 @@ _PARTICIPANT_RE = re.compile(r"^(p[0-9a-f]{12}|s[0-9]{4,9})$")
 _EPISODE_FILE = "episode-{:04d}.parquet"
 _DATASET_FILE = "dataset.json"
 _SESSION_FILE = "session.json"
+_RECORDING_LOCK = ".recording"  # flock()ed by ``dataset record`` while it records
+#: Session statuses of a session that did not finish: ``running`` (in progress, or its
+#: server was killed) and ``interrupted`` (its recorder was stopped or killed). Their
+#: episodes are left out of :meth:`Dataset.steps` (so of the content hash, the exports and
+#: the fits) unless asked for by participant.
+UNFINISHED = ("running", "interrupted")
 _lock = threading.Lock()  # MINARI_DATASETS_PATH is process-wide; dataset.json creation
 
 
@@ -176,14 +189,42 @@ def new_participant_id() -> str:
     return "p" + secrets.token_hex(6)
 
 
+#: The largest ``dataset.json`` or ``session.json`` read.
+_MAX_JSON_BYTES = 4 * 2**20
+
+
 def _read_json(path: Path, what: str) -> dict[str, Any]:
     try:
-        doc = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
+        if not path.is_file():
+            raise OSError("not a regular file")
+        with open(path, "rb") as f:
+            data = f.read(_MAX_JSON_BYTES + 1)
+        if len(data) > _MAX_JSON_BYTES:
+            raise ValueError(f"larger than {_MAX_JSON_BYTES // 2**20} MiB")
+        doc = json.loads(data)
+    except (OSError, ValueError, RecursionError) as exc:
         raise ConfigError(f"{path}: cannot read {what} ({exc})", field="dataset") from None
     if not isinstance(doc, dict):
         raise ConfigError(f"{path}: {what} is no JSON object", field="dataset")
     return doc
+
+
+def _session_meta(folder: Path) -> dict[str, Any]:
+    """A session folder's ``session.json``, checked: its participant is the folder's, its
+    status a string and its session index a whole number >= 0.
+    """
+    path = folder / _SESSION_FILE
+    meta = _read_json(path, "a session's metadata")
+    index = meta.get("session_index")
+    if meta.get("participant") != folder.name:
+        raise ConfigError(f"{path}: participant {meta.get('participant')!r} is not the "
+                          f"folder's {folder.name!r}", field="dataset")
+    if not isinstance(meta.get("status"), str):
+        raise ConfigError(f"{path}: no status (a string)", field="dataset")
+    if isinstance(index, bool) or not isinstance(index, int) or index < 0:
+        raise ConfigError(f"{path}: session_index must be a whole number >= 0, got "
+                          f"{index!r}", field="dataset")
+    return meta
 
 
 def _write_json(path: Path, doc: Mapping[str, Any]) -> None:
@@ -234,20 +275,91 @@ class Dataset:
 
     def sessions(self) -> list[dict[str, Any]]:
         """Each session's ``session.json`` (with ``episodes_recorded`` counted from its
-        files), in join order.
+        files), in join order. A scripted session still ``running`` while no ``hri-bench
+        dataset record`` records this dataset is given as ``interrupted`` (its recorder
+        was killed).
+
+        Raises:
+            ConfigError: A ``session.json`` that is unreadable, is not of the folder's
+                participant, or has no status or session index (``field="dataset"``).
         """
         out = []
+        recording: bool | None = None
         for d in self.session_dirs():
             if not (d / _SESSION_FILE).is_file():
                 continue
-            meta = _read_json(d / _SESSION_FILE, "a session's metadata")
+            meta = _session_meta(d)
             meta["episodes_recorded"] = len(self.episode_paths([d.name]))
+            if meta["status"] == "running" and meta.get("source") == "scripted":
+                if recording is None:
+                    recording = self.recorder_alive()
+                if not recording:
+                    meta["status"] = "interrupted"
             out.append(meta)
-        return sorted(out, key=lambda m: (m.get("session_index", 0), m.get("participant", "")))
+        return sorted(out, key=lambda m: (m["session_index"], m["participant"]))
 
-    def participants(self) -> list[str]:
-        """The participants' ids, in join order."""
-        return [str(m["participant"]) for m in self.sessions()]
+    def participants(self, *, unfinished: bool = True) -> list[str]:
+        """The participants' ids, in join order (``unfinished=False``: of the sessions that
+        finished, whose status is not in :data:`UNFINISHED`).
+        """
+        return [str(m["participant"]) for m in self.sessions()
+                if unfinished or m["status"] not in UNFINISHED]
+
+    def unfinished(self) -> list[dict[str, Any]]:
+        """The sessions that did not finish (status in :data:`UNFINISHED`): ``participant``,
+        ``status``, ``episodes_recorded``, ``episodes_planned``.
+        """
+        return [{k: m.get(k) for k in ("participant", "status", "episodes_recorded",
+                                        "episodes_planned")}
+                for m in self.sessions() if m["status"] in UNFINISHED]
+
+    def recorder_alive(self) -> bool:
+        """Whether an ``hri-bench dataset record`` is recording into this dataset now (it
+        holds the dataset's recording lock; the kernel frees it when the process ends).
+        """
+        try:
+            fd = os.open(self.path / _RECORDING_LOCK, os.O_RDONLY)
+        except OSError:
+            return False
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return True
+        except OSError:
+            return False
+        finally:
+            os.close(fd)  # and with it the shared lock
+        return False
+
+    @contextlib.contextmanager
+    def recording(self, timeout_s: float = 5.0) -> Iterator[None]:
+        """Hold the dataset's recording lock while sessions are recorded into it; first mark
+        scripted sessions a killed recorder left ``running`` as ``interrupted``.
+
+        Raises:
+            ConfigError: Another process records into the dataset (``field="dataset"``).
+        """
+        fd = os.open(self.path / _RECORDING_LOCK, os.O_RDWR | os.O_CREAT, 0o666)
+        try:
+            deadline = time.monotonic() + timeout_s  # readers hold it for a moment only
+            while True:
+                try:
+                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    break
+                except BlockingIOError:
+                    if time.monotonic() > deadline:
+                        raise ConfigError(f"another hri-bench dataset record is recording "
+                                          f"into {self.dataset_id} ({self.path}); wait for "
+                                          "it to end", field="dataset") from None
+                    time.sleep(0.05)
+            for folder in self.session_dirs():  # the lock is held: no other recorder
+                if (folder / _SESSION_FILE).is_file():
+                    meta = _session_meta(folder)
+                    if meta["status"] == "running" and meta.get("source") == "scripted":
+                        _write_json(folder / _SESSION_FILE, {**meta, "status": "interrupted"})
+            yield
+        finally:
+            os.close(fd)
 
     def episode_paths(self, participants: Sequence[str] | None = None) -> list[Path]:
         """The episode files of ``participants`` (default all), by participant and episode."""
@@ -258,18 +370,41 @@ class Dataset:
         return [p for d in dirs for p in sorted(d.glob("episode-*.parquet"))]
 
     def steps(self, participants: Sequence[str] | None = None) -> Any:
-        """Every recorded step of ``participants`` (default all) as one Arrow table of
-        :data:`COLUMNS`, sorted by session index, participant, episode and step.
+        """Every recorded step of ``participants`` (default: every finished session's, see
+        :data:`UNFINISHED`) as one Arrow table of :data:`COLUMNS`, sorted by session index,
+        participant, episode and step.
+
+        Raises:
+            ConfigError: An episode file that is unreadable, not of the schema or not an
+                episode of its session that the scenario's graph can have produced
+                (:mod:`hri_bench.data.checks`), an episode in two files, or episode files
+                of a session without ``session.json`` (``field="dataset"``).
         """
         pa = _pa()
-        import pyarrow.parquet as pq
-
+        if participants is None:
+            participants = self.participants(unfinished=False)
+            orphans = [d for d in self.session_dirs() if not (d / _SESSION_FILE).is_file()
+                       and self.episode_paths([d.name])]
+            if orphans:
+                raise ConfigError(f"{orphans[0]}: episode files without a session.json",
+                                  field="dataset")
         paths = self.episode_paths(participants)
         target = schema()
         if not paths:
             return target.empty_table()
-        tables = [pq.read_table(p).select([n for n, _, _ in COLUMNS]).cast(target)
-                  for p in paths]
+        graph = scenario_graph(self.scenario)
+        tables, seen = [], dict[tuple[str, int], Path]()
+        for path in paths:
+            table = read_episode(path, target)
+            check_steps(table, path, graph, participant=path.parent.name,
+                        synthetic=self.synthetic)
+            key = (path.parent.name, int(table.column("episode")[0].as_py()))
+            if key in seen:
+                raise ConfigError(f"{path}: episode {key[1] + 1} of {key[0]} is in "
+                                  f"{seen[key].name} too (a copied file?); remove one",
+                                  field="dataset")
+            seen[key] = path
+            tables.append(table)
         table = pa.concat_tables(tables).combine_chunks()
         return table.sort_by([("session_index", "ascending"), ("participant", "ascending"),
                               ("episode", "ascending"), ("step", "ascending")])
@@ -286,12 +421,16 @@ class Dataset:
         return "sha256:" + hashlib.sha256(sink.getvalue().to_pybytes()).hexdigest()
 
     def summary(self) -> dict[str, Any]:
-        """What ``hri-bench dataset show`` prints: the metadata, counts, hash and sessions."""
+        """What ``hri-bench dataset show`` prints: the metadata, the finished sessions'
+        counts and content hash, the unfinished sessions, and every session.
+        """
         sessions = self.sessions()
+        used = [m for m in sessions if m["status"] not in UNFINISHED]
         table = self.steps()
-        return {**self.meta, "participants": len(sessions),
-                "episodes": sum(m["episodes_recorded"] for m in sessions),
+        return {**self.meta, "participants": len(used),
+                "episodes": sum(m["episodes_recorded"] for m in used),
                 "steps": table.num_rows, "content_hash": self.content_hash(),
+                "unfinished": self.unfinished(),
                 "minari_id": self.minari_id, "path": str(self.path),
                 "sessions": [{k: m.get(k) for k in ("participant", "session_index", "status",
                                                      "episodes_planned", "episodes_recorded",
@@ -327,6 +466,15 @@ def open_dataset(name: str | os.PathLike[str], root: str | os.PathLike[str] | No
     if meta.get("schema") != SCHEMA_VERSION or meta.get("scenario") not in SCENARIOS:
         raise ConfigError(f"{path}: not a dataset of schema {SCHEMA_VERSION} for a known "
                           "scenario", field=field)
+    try:  # it names folders and Minari's files: a plain name, never a path
+        if check_dataset_id(meta.get("dataset_id"), field) != meta["dataset_id"]:
+            raise ConfigError("not of the form name-vN", field=field)
+    except ConfigError as exc:
+        raise ConfigError(f"{path / _DATASET_FILE}: dataset_id {meta.get('dataset_id')!r} "
+                          f"is no dataset id ({exc})", field=field) from None
+    if not isinstance(meta.get("synthetic"), bool):
+        raise ConfigError(f"{path / _DATASET_FILE}: synthetic must be true or false",
+                          field=field)
     return Dataset(path, meta)
 
 
@@ -494,6 +642,28 @@ def robot_episodes(dataset: Dataset) -> Iterator[RobotEpisode]:
             participant=str(cols["participant"][rows[0]]), episode=int(cols["episode"][rows[0]]))
 
 
+def _check_spaces(env: Any, episodes: Sequence[RobotEpisode]) -> None:
+    """Raise a :class:`ConfigError` naming the first step whose observation is outside the
+    env's observation space, or whose action is outside its action space.
+    """
+    obs_space, act_space = env.observation_space, env.action_space
+    for ep in episodes:
+        where = f"participant {ep.participant} episode {ep.episode + 1}"
+        for t in range(len(ep.actions) + 1):
+            obs = {k: v[t] for k, v in ep.observations.items()}
+            if not obs_space.contains(obs):
+                bad = next((k for k, v in obs.items() if not obs_space[k].contains(v)), "")
+                value = np.asarray(obs.get(bad)).tolist()
+                raise ConfigError(f"{where}, observation {t} (0: after reset): {bad} "
+                                  f"{value} is outside the env's "
+                                  f"{obs_space[bad] if bad else obs_space}; not exported",
+                                  field="dataset")
+            if t < len(ep.actions) and not act_space.contains(ep.actions[t]):
+                raise ConfigError(f"{where}, step {t}: the robot's action {ep.actions[t]} is "
+                                  f"outside the env's {act_space}; not exported",
+                                  field="dataset")
+
+
 def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -> Path:
     """Write the robot's view as a Minari dataset ``hri-envs/<dataset id>`` (data format
     ``arrow``) under the Minari root ``out`` (default ``<dataset>/minari``), replacing an
@@ -504,10 +674,11 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
 
     Raises:
         MissingExtraError: minari (or pyarrow) is not installed.
-        ConfigError: The dataset has no episode yet.
+        ConfigError: The dataset has no episode yet, or an observation or action outside
+            the env's spaces (naming the first such step; nothing is written).
     """
     try:
-        import minari
+        import minari  # noqa: F401  (the extra, checked before anything is read)
         from minari.data_collector import EpisodeBuffer
     except ImportError as exc:
         raise MissingExtraError(["minari"], "the Minari view of a dataset") from exc
@@ -523,18 +694,34 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
                              infos={k: v.tolist() for k, v in ep.infos.items()},
                              options={"participant": ep.participant, "episode": ep.episode})
                for i, ep in enumerate(episodes)]
+    env = gym.make(str(scenario_spec(dataset.scenario).gym_id))
+    try:
+        _check_spaces(env, episodes)
+        _write_minari(dataset, root, buffers, env)
+    except OSError as exc:  # named by the folder asked for, not its temporary one
+        exc.filename = str(root)
+        raise
+    finally:
+        env.close()
+    return root
+
+
+def _write_minari(dataset: Dataset, root: Path, buffers: list[Any], env: Any) -> None:
+    """Build the Minari dataset beside ``root`` and rename it into place."""
+    import minari
+
+    content = dataset.content_hash()
     spec = scenario_spec(dataset.scenario)
-    env = gym.make(str(spec.gym_id))
     kind = "scripted humans (synthetic)" if dataset.synthetic else "people"
     root.parent.mkdir(parents=True, exist_ok=True)
     build = Path(tempfile.mkdtemp(dir=root.parent, prefix=f".{root.name}.build-"))
-    content = dataset.content_hash()
     try:
         with _lock, warnings.catch_warnings():
             # Minari warns of metadata a recording has no use for (author, permalink)
             warnings.simplefilter("ignore", UserWarning)
             before = os.environ.get("MINARI_DATASETS_PATH")
-            os.environ["MINARI_DATASETS_PATH"] = str(build)
+            # absolute: Minari joins a relative root to paths it already joined it to
+            os.environ["MINARI_DATASETS_PATH"] = str(build.absolute())
             try:
                 minari.create_dataset_from_buffers(
                     dataset.minari_id, buffers, env=env, algorithm_name="hri-bench",
@@ -548,7 +735,6 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
                     del os.environ["MINARI_DATASETS_PATH"]
                 else:
                     os.environ["MINARI_DATASETS_PATH"] = before
-        env.close()
         old = None
         if root.exists():
             old = root.parent / f".{root.name}.old-{secrets.token_hex(4)}"
@@ -559,7 +745,6 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
             shutil.rmtree(old, ignore_errors=True)
     finally:
         shutil.rmtree(build, ignore_errors=True)
-    return root
 
 
 def export_parquet(dataset: Dataset, path: str | os.PathLike[str]) -> Path:
@@ -577,7 +762,11 @@ def export_parquet(dataset: Dataset, path: str | os.PathLike[str]) -> Path:
             "hri_envs_version": str(dataset.meta.get("hri_envs_version", ""))}
     table = table.replace_schema_metadata(meta)
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path, ".parquet") as tmp:
-        pq.write_table(table, tmp)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path, ".parquet") as tmp:
+            pq.write_table(table, tmp)
+    except OSError as exc:  # named by the file asked for, not its temporary name
+        exc.filename = str(path)
+        raise
     return path

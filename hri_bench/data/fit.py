@@ -10,10 +10,13 @@ ways (docs/people.md, "Fitted humans"):
   human policy estimate π̂_H = softmax(τ_H Q_H) as the human's policy.
 
 The goal of a step is where its episode ended (what the person did reveals it, as it does
-for the Learner), or the assigned goal when the episode was cut off. Participants are split
-once per dataset into a training and a held-out set (:func:`split_participants`, by a hash
-of the dataset id and the participant's id): models are fitted on the training set only,
-and :func:`evaluate` scores them on the held-out participants' steps.
+for the Learner), or the assigned goal when the episode was cut off. Participants of the
+finished sessions (:data:`~hri_bench.data.datasets.UNFINISHED`) are split once per dataset
+into a training and a held-out set (:func:`split_participants`, by a hash of the dataset
+id and the participant's id): models are fitted on the training set only, and
+:func:`evaluate` scores them on the held-out participants' steps. Every step is checked
+first (:mod:`hri_bench.data.checks`; a fit also needs every human action valid in its
+state); an episode recorded in two files is refused, never fitted twice.
 
 In studies and the suite, ``--population recorded:DATASET`` seats the ``bc`` model,
 ``--population recorded-irl:DATASET`` the ``irl`` one (:func:`recorded_human`), each run's
@@ -25,6 +28,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +39,7 @@ import numpy as np
 from agents.config import default_config
 from agents.learner import Learner
 from agents.protocol import Trace
+from hri_bench.core.atomic import atomic_path
 from hri_bench.data.datasets import Dataset, open_dataset
 from hri_envs.errors import ConfigError
 from hri_envs.humans.fitted import (
@@ -45,11 +50,12 @@ from hri_envs.humans.fitted import (
     uniform_policy,
 )
 from hri_envs.humans.scripted import ScriptedHuman
+from hri_envs.task.actions import WAIT
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import scenario_graph
 
 __all__ = ["KINDS", "PREFIXES", "FittedModel", "evaluate", "fit", "is_recorded",
-           "recorded_human", "split_participants", "validate_recorded"]
+           "recorded_human", "recorded_info", "split_participants", "validate_recorded"]
 
 #: Fitting methods.
 KINDS: tuple[str, ...] = ("bc", "irl")
@@ -103,9 +109,18 @@ def _episodes(dataset: Dataset, participants: list[str]) -> _Episodes:
     if table.num_rows == 0:
         return _Episodes(Steps(empty, empty, empty, empty), [], empty)
     col = {n: table.column(n).to_numpy(zero_copy_only=False)
-           for n in ("participant", "episode", "start", "assigned_intention", "state",
+           for n in ("participant", "episode", "step", "start", "assigned_intention", "state",
                      "next_state", "robot_action", "human_action", "terminated")}
     graph = scenario_graph(dataset.scenario)
+    invalid = ~graph.valid[col["state"].astype(np.int64), col["human_action"].astype(np.int64)]
+    if invalid.any():
+        i = int(np.flatnonzero(invalid)[0])
+        s, a = int(col["state"][i]), int(col["human_action"][i])
+        raise ConfigError(f"dataset {dataset.dataset_id}: participant {col['participant'][i]} "
+                          f"episode {int(col['episode'][i]) + 1} step {int(col['step'][i])}: "
+                          f"the human's action {a} is not valid in state {s} "
+                          f"({graph.state_names[s]}); a human model is fitted to valid "
+                          "actions only", field="dataset")
     key = np.array([f"{p}/{e}" for p, e in zip(col["participant"], col["episode"],
                                                strict=True)])
     cuts = np.flatnonzero(key[1:] != key[:-1]) + 1
@@ -120,7 +135,7 @@ def _episodes(dataset: Dataset, participants: list[str]) -> _Episodes:
             np.int64), col["robot_action"][rows].astype(np.int64),
             col["human_action"][rows].astype(np.int64)))
     steps = Steps(col["start"].astype(np.int64), goal_of_step, col["state"].astype(np.int64),
-                  col["human_action"].astype(np.int64))
+                  col["human_action"].astype(np.int64)).checked(graph)
     return _Episodes(steps, traces, np.array(goals, dtype=np.int64))
 
 
@@ -171,7 +186,7 @@ class FittedModel:
                 "settings": self.settings}
         theta = np.zeros(0) if self.theta is None else self.theta
         path = Path(path)
-        with open(path, "wb") as f:
+        with atomic_path(path, ".npz") as tmp, open(tmp, "wb") as f:  # whole or not at all
             np.savez(f, meta=np.array(json.dumps(meta)), policy=self.policy, theta=theta)
         return path
 
@@ -187,11 +202,14 @@ def fit(dataset: Dataset, kind: str = "bc", *, smoothing: float = 1.0,
     if kind not in KINDS:
         raise ConfigError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}", field="kind")
     graph = scenario_graph(dataset.scenario)
-    train, test = split_participants(dataset.dataset_id, dataset.participants())
+    train, test = split_participants(dataset.dataset_id, dataset.participants(unfinished=False))
     episodes = _episodes(dataset, train)
     if not episodes.traces:
+        left = dataset.unfinished()
         raise ConfigError(f"dataset {dataset.dataset_id} has no recorded episode of a "
-                          "training participant to fit to", field="dataset")
+                          "training participant to fit to" + (
+                              f" ({len(left)} unfinished session(s) are left out)" if left
+                              else ""), field="dataset")
     theta = None
     if kind == "irl":
         theta, pi_h = _irl_policy(graph, episodes, passes)
@@ -204,19 +222,63 @@ def fit(dataset: Dataset, kind: str = "bc", *, smoothing: float = 1.0,
                        policy, theta, train, test, settings)
 
 
+#: A held-out step a model gives less probability than this is "unlikely" in
+#: :func:`evaluate`'s breakdown.
+UNLIKELY = 1e-3
+
+
+def _accuracy(p: np.ndarray, actions: np.ndarray) -> float:
+    """How often the likeliest action is the one taken, ties broken evenly at random (in
+    expectation: a step whose action ties with k - 1 others for the top counts 1/k), so
+    the uniform policy's is the expected accuracy of a uniform choice, 1/(valid actions).
+    """
+    top = p >= p.max(-1, keepdims=True) * (1 - 1e-12)
+    hit = top[np.arange(len(actions)), actions]
+    return float(np.mean(hit / top.sum(-1)))
+
+
+def _breakdown(p_taken: np.ndarray, p_uniform: np.ndarray, actions: np.ndarray
+               ) -> dict[str, Any]:
+    """Where a model's held-out log-likelihood goes: the steps it finds unlikely
+    (:data:`UNLIKELY`), how many of them are waits, their share of its total, and its and
+    the uniform policy's mean over the other steps.
+    """
+    log_p = np.log(np.maximum(p_taken, 1e-300))
+    low = p_taken < UNLIKELY
+    total = float(log_p.sum())
+    wait = actions == WAIT
+    return {"unlikely_steps": int(low.sum()), "unlikely_waits": int((low & wait).sum()),
+            "unlikely_share": float(log_p[low].sum() / total) if total < 0 else 0.0,
+            "worst_log_likelihood": float(log_p.min()),
+            "others_log_likelihood": float(log_p[~low].mean()) if (~low).any() else math.nan,
+            "uniform_others_log_likelihood": (float(np.log(p_uniform[~low]).mean())
+                                              if (~low).any() else math.nan),
+            "waits": int(wait.sum())}
+
+
 def evaluate(dataset: Dataset, models: list[FittedModel]) -> dict[str, Any]:
     """Each model's, and the uniform policy's, mean log-likelihood per step and accuracy
-    on the held-out participants' steps (NaN without held-out participants).
+    (:func:`_accuracy`: ties shared evenly) on the held-out participants' steps (NaN
+    without held-out participants), and for each model where its log-likelihood goes
+    (:func:`_breakdown`, under ``"breakdown"``).
     """
     graph = scenario_graph(dataset.scenario)
-    _, test = split_participants(dataset.dataset_id, dataset.participants())
+    _, test = split_participants(dataset.dataset_id, dataset.participants(unfinished=False))
     steps = _episodes(dataset, test).steps
     uniform = np.broadcast_to(uniform_policy(graph), (graph.n_intentions,
                                                       *uniform_policy(graph).shape))
     out: dict[str, Any] = {"held_out": test, "steps": int(len(steps.state))}
+    rows = np.arange(len(steps.state))
+    p_uniform = uniform[steps.start, steps.intention, steps.state][rows, steps.action]
     for name, policy in [("uniform", uniform), *((m.kind, m.policy) for m in models)]:
         ll, acc = action_log_likelihood(np.asarray(policy), steps, graph)
         out[name] = {"log_likelihood": ll, "accuracy": acc}
+        if len(rows):
+            p = np.asarray(policy)[steps.start, steps.intention, steps.state]
+            out[name]["accuracy"] = _accuracy(p, steps.action)
+            if name != "uniform":
+                out[name]["breakdown"] = _breakdown(p[rows, steps.action], p_uniform,
+                                                    steps.action)
     return out
 
 
@@ -240,16 +302,35 @@ def _dataset_of(name: str, scenario: str) -> tuple[str, Dataset]:
 
 def validate_recorded(name: str, scenario: str) -> None:
     """Raise a :class:`ConfigError` (``field="population"``) unless ``name`` names a recorded
-    dataset of ``scenario`` with a training participant's episode (the root is
+    dataset of ``scenario`` whose steps all pass the checks (:mod:`hri_bench.data.checks`,
+    and valid human actions) with a training participant's episode (the root is
     ``$HRI_BENCH_DATASETS``, else ``~/.hri-bench/datasets``; a dataset folder's path works
-    too).
+    too). Studies call it before anything is simulated.
     """
-    kind, dataset = _dataset_of(name, scenario)
-    train, _ = split_participants(dataset.dataset_id, dataset.participants())
-    if not dataset.episode_paths(train):
+    _, dataset = _dataset_of(name, scenario)
+    try:
+        dataset.content_hash()  # reads and checks every finished session's steps
+        train, _ = split_participants(dataset.dataset_id, dataset.participants(unfinished=False))
+        episodes = _episodes(dataset, train)
+    except ConfigError as exc:
+        raise ConfigError(f"population {name!r}: {exc}", field="population") from None
+    if not episodes.traces:
         raise ConfigError(f"population {name!r}: dataset {dataset.dataset_id} has no recorded "
                           "episode of a training participant yet", field="population")
-    del kind
+
+
+def recorded_info(name: str, scenario: str) -> dict[str, Any]:
+    """A recorded population's ``population_info`` (as a split's,
+    :meth:`hri_bench.run.study.StudyConfig.population_info`): ``hash`` is the content hash
+    of the dataset's finished sessions (:meth:`Dataset.content_hash`, what the model is
+    fitted to and scored on), ``version`` the dataset id's, ``members`` the training
+    participants; and ``dataset_id``, ``synthetic``, ``fit`` (bc or irl).
+    """
+    kind, dataset = _dataset_of(name, scenario)
+    train, _ = split_participants(dataset.dataset_id, dataset.participants(unfinished=False))
+    return {"name": name, "version": dataset.dataset_id.rsplit("-v", 1)[1],
+            "hash": dataset.content_hash(), "held_out": None, "members": len(train),
+            "dataset_id": dataset.dataset_id, "synthetic": dataset.synthetic, "fit": kind}
 
 
 def recorded_human(name: str, scenario: str) -> ScriptedHuman:

@@ -7,11 +7,15 @@
 the rewards by the episode rules (:mod:`hri_envs.task.episode`), the intention, the robot's
 belief where the agent has one (``agent.belief()``, :func:`agents.protocol.read_belief`),
 timestamps and response times. People and scripted humans take the same path;
-:func:`record_study` records scripted humans, labelled synthetic.
+:func:`record_study` records scripted humans, labelled synthetic; a recording stopped by
+Ctrl-C or SIGTERM marks its sessions ``interrupted``, one stopped by an error ``failed``,
+and one killed outright leaves them ``running``, which readers take as ``interrupted``
+once no recorder holds the dataset's lock (:meth:`Dataset.recording`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
@@ -234,8 +238,10 @@ def record_study(cfg: Any, dataset_id: str, *, root: str | None = None,
     study's humans, schedule and seeds: the recorded rewards are the study's.
 
     Raises:
-        ConfigError: More than one agent, another backend, or a dataset that holds people's
-            or another scenario's sessions.
+        ConfigError: More than one agent, another backend, a dataset that holds people's
+            or another scenario's sessions, or one another recorder is recording into.
+        KeyboardInterrupt: Stopped (the sessions are marked ``interrupted``; their finished
+            episodes are kept).
     """
     if len(cfg.agents) != 1:
         raise ConfigError("record one agent at a time (a session has one robot)",
@@ -254,30 +260,44 @@ def record_study(cfg: Any, dataset_id: str, *, root: str | None = None,
                        learner=dict(cfg.learner), max_steps=cfg.max_steps, reward=cfg.reward)
     humans = TableHumans(human, len(runs)) if isinstance(human, ScriptedHuman) else human
     humans.seed(human_streams(cfg.seed, runs))
-    first = len(dataset.session_dirs())
     identity = agent_identity(cfg.agents[0], cfg.scenario, cfg.waiting_reward, dict(cfg.learner))
-    writers = []
-    for r in runs:
-        design = [[int(schedule.start[r, e]), int(schedule.goal[r, e]),
-                   bool(schedule.turn_back[r, e])] for e in range(cfg.n_episodes)]
-        writers.append(SessionWriter(dataset, f"s{first + r + 1:04d}", {
-            "source": "scripted", "human": labels[r], "session_index": first + r,
-            "scenario": cfg.scenario, "r0": cfg.waiting_reward, "reward_rule": cfg.reward,
-            "max_steps": cfg.max_steps, "seed": cfg.seed, "run": r,
-            "episodes_planned": cfg.n_episodes, "schedule": design,
-            "study_settings": cfg.settings(), **identity}))
-    recorder = RecordingHumans(humans, writers, agent=agent, r0=cfg.waiting_reward,
-                               reward=cfg.reward,
-                               session_index=[first + r for r in runs])
-    backend = batch_backend("graph")(graph, runs, cfg.seed)
-    try:
-        for _ in run_episodes(graph, agent, recorder, schedule, backend, r0=cfg.waiting_reward,
-                              max_steps=cfg.max_steps, run_ids=runs, reward=cfg.reward):
-            pass
-    except BaseException:
+    with dataset.recording():  # one recorder at a time; a killed one's sessions: interrupted
+        first = len(dataset.session_dirs())
+        writers: list[SessionWriter] = []
+        try:
+            for r in runs:
+                design = [[int(schedule.start[r, e]), int(schedule.goal[r, e]),
+                           bool(schedule.turn_back[r, e])] for e in range(cfg.n_episodes)]
+                writers.append(SessionWriter(dataset, f"s{first + r + 1:04d}", {
+                    "source": "scripted", "human": labels[r], "session_index": first + r,
+                    "scenario": cfg.scenario, "r0": cfg.waiting_reward,
+                    "reward_rule": cfg.reward, "max_steps": cfg.max_steps, "seed": cfg.seed,
+                    "run": r, "episodes_planned": cfg.n_episodes, "schedule": design,
+                    "study_settings": cfg.settings(), **identity}))
+            recorder = RecordingHumans(humans, writers, agent=agent, r0=cfg.waiting_reward,
+                                       reward=cfg.reward,
+                                       session_index=[first + r for r in runs])
+            backend = batch_backend("graph")(graph, runs, cfg.seed)
+            for _ in run_episodes(graph, agent, recorder, schedule, backend,
+                                  r0=cfg.waiting_reward, max_steps=cfg.max_steps, run_ids=runs,
+                                  reward=cfg.reward):
+                pass
+        except KeyboardInterrupt:  # Ctrl-C, or SIGTERM within stop_on_signals
+            _close(writers, "interrupted")
+            raise
+        except BaseException:
+            _close(writers, "failed")
+            raise
         for w in writers:
-            w.finish("failed")
-        raise
-    for w in writers:
-        w.finish("complete")
+            w.finish("complete")
     return dataset
+
+
+def _close(writers: Sequence[SessionWriter], status: str) -> None:
+    """Mark the sessions ``status`` as far as the disk lets (a full disk: they stay
+    ``running``, which readers treat as unfinished too), keeping the error that stopped
+    the recording the one raised.
+    """
+    for w in writers:
+        with contextlib.suppress(OSError):
+            w.finish(status)

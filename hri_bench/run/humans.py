@@ -21,12 +21,20 @@ a :class:`~hri_envs.humans.spec.PopulationKind`.
 
 from __future__ import annotations
 
-from hri_bench.data.fit import PREFIXES, recorded_human, validate_recorded
+from typing import Any
+
+from hri_bench.data.fit import (
+    PREFIXES,
+    is_recorded,
+    recorded_human,
+    recorded_info,
+    validate_recorded,
+)
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.spec import HumanSpec, PopulationKind, register_population_kind
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["is_custom"]
+__all__ = ["custom_population_info", "is_custom", "population_changes"]
 
 
 def _fitted(name: str, graph: TaskGraph) -> ScriptedHuman:
@@ -44,3 +52,33 @@ def is_custom(name: str | None) -> bool:
     ``module:Class`` of the user's, or a model fitted to recordings (``recorded:DATASET``).
     """
     return name is not None and HumanSpec(population=name).kind in ("class", "prefixed")
+
+
+def custom_population_info(name: str, scenario: str) -> dict[str, Any]:
+    """The ``population_info`` of a human from outside the registered populations: a
+    recorded dataset's has its content hash (:func:`hri_bench.data.fit.recorded_info`), so
+    that a study replayed after the recordings changed says so (:func:`population_changes`);
+    a ``module:Class`` has none.
+    """
+    if is_recorded(name):
+        return recorded_info(name, scenario)
+    return {"name": name, "version": None, "hash": None, "held_out": None, "members": None}
+
+
+def population_changes(recorded: Any, current: dict[str, Any] | None) -> list[str]:
+    """What differs between the ``population_info`` a study recorded (its summary.json's,
+    as read; anything but an object: nothing recorded) and the same population's now: a
+    line when its content hash changed, or when a recorded dataset's was not recorded.
+    """
+    if current is None or current.get("hash") is None:
+        return []
+    name = current["name"]
+    then = recorded.get("hash") if isinstance(recorded, dict) else None
+    if then is None:
+        return [f"population {name!r}: the replayed study recorded no content hash for it "
+                f"(now {current['hash']}); if its data changed since, so do the results"]
+    if then != current["hash"]:
+        what = "recorded dataset's finished sessions" if is_recorded(name) else "population"
+        return [f"population {name!r}: the {what} changed since the replayed study "
+                f"(content {then} then, {current['hash']} now); its results will differ"]
+    return []

@@ -42,7 +42,7 @@ from hri_bench.run.agents import (
     make_agent,
     validate_agent_name,
 )
-from hri_bench.run.humans import is_custom
+from hri_bench.run.humans import custom_population_info, is_custom
 from hri_bench.run.regret import ALL_REFERENCES, blind_values, reference_summary, refuse_references
 from hri_bench.run.runner import TASK_METRICS, make_schedule, simulate
 from hri_envs import __version__
@@ -375,9 +375,8 @@ class StudyConfig:
         """
         if self.population is None:
             return None
-        if is_custom(self.population):
-            return {"name": self.population, "version": None, "hash": None,
-                    "held_out": None, "members": None}
+        if is_custom(self.population):  # a recorded dataset's has its content hash
+            return custom_population_info(self.population, self.scenario)
         spec = population(self.population, self.scenario, dict(self.human_params))
         members = getattr(spec, "size", None)
         return {"name": self.population, "version": getattr(spec, "version", "1"),
