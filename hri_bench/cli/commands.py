@@ -41,7 +41,14 @@ from hri_bench.run.agents import (
     validate_agent_name,
 )
 from hri_bench.run.regret import REFERENCES
-from hri_bench.run.study import EXECUTION_FIELDS, EXECUTORS, StudyConfig, graph_for
+from hri_bench.run.study import (
+    EXECUTION_FIELDS,
+    EXECUTORS,
+    UNIT_TIME_LIMIT,
+    StudyConfig,
+    UnitLostError,
+    graph_for,
+)
 from hri_bench.run.studyio import UNITS, StudyDir, StudyTerminated, run_in, stop_on_signals
 from hri_bench.suite import (
     DEFAULT_AGENTS,
@@ -119,6 +126,7 @@ def _world_counts(text: str) -> tuple[int, ...]:
 
 
 _seed = _bounded(int, "a whole number >= 0", lambda v: v >= 0)
+_seconds = _bounded(float, "a number of seconds > 0, or inf", lambda v: v > 0)
 _probability = _bounded(float, "a probability in [0, 1]", lambda v: 0.0 <= v <= 1.0)
 _r0 = _bounded(float, "a number in (-1, 0)", lambda v: -1.0 < v < 0.0)
 _rationality = _bounded(float, "a number > 0 or inf", lambda v: v > 0)
@@ -161,6 +169,7 @@ _STUDY_ARGUMENTS = {
     "reward": "--reward",
     "physics_preset": "--physics-preset",
     "human_params": "--human-param",
+    "unit_time_limit": "--unit-time-limit",
 }
 
 
@@ -237,6 +246,7 @@ def _study_run_flags(study: argparse.ArgumentParser) -> None:
     study.add_argument("--executor", choices=EXECUTORS, default=None,
                        help="serial, process (default when --jobs > 1) or ray")
     study.add_argument("--ray-address", default=None, help="Ray cluster address (executor ray)")
+    _time_limit_flag(study)
     study.add_argument("--backend", choices=BACKENDS, default="graph",
                        help="graph (abstract task graph), mujoco (simulated Panda, MuJoCo's C "
                             "library, one run at a time; slow: about 0.2 s per step) or mjwarp "
@@ -250,6 +260,17 @@ def _study_run_flags(study: argparse.ArgumentParser) -> None:
     study.add_argument("--reward", choices=tuple(REWARD_RULES), default="paper",
                        help="reward rule (default paper): "
                             + "; ".join(f"{n}: {r.description}" for n, r in REWARD_RULES.items()))
+
+
+def _time_limit_flag(parser: argparse.ArgumentParser) -> None:
+    """``--unit-time-limit`` (``study`` and ``suite``)."""
+    parser.add_argument("--unit-time-limit", type=_seconds, default=UNIT_TIME_LIMIT,
+                        metavar="S",
+                        help="the most wall seconds one unit of work (an agent's chunk of "
+                             "runs: at most 1,000 episodes, or one run on mujoco) may take; "
+                             "a unit over it, like a worker process that dies, stops the "
+                             "study with an error naming it, its finished units kept for "
+                             f"--resume (default {UNIT_TIME_LIMIT:g}; inf: no limit)")
 
 
 def _study_human_flags(study: argparse.ArgumentParser) -> None:
@@ -466,7 +487,8 @@ def _learner_changes(args: argparse.Namespace, parser: argparse.ArgumentParser
 def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
                   executor: str) -> Any:
     """The :class:`StudyConfig` from the flags, or from ``--config`` (a summary.json)."""
-    execution = {"jobs": args.jobs, "executor": executor, "ray_address": args.ray_address}
+    execution = {"jobs": args.jobs, "executor": executor, "ray_address": args.ray_address,
+                 "unit_time_limit": args.unit_time_limit}
     if args.config is None:
         if args.scenario is None:
             parser.error("the following arguments are required: scenario (or --config)")
@@ -601,6 +623,12 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
         print(f"\nstopped; {kept} finished unit(s) kept in {units}. Resume with:\n"
               f"  {_resume_hint(argv)}", file=sys.stderr)
         return 143 if isinstance(exc, StudyTerminated) else 130
+    except UnitLostError as exc:
+        kept = len(list((Path(args.out) / UNITS).glob("*.npz")))
+        print(f"hri-bench: study stopped: {exc}; {kept} finished unit(s) kept in "
+              f"{Path(args.out) / UNITS}; continue with: {_resume_hint(argv)}",
+              file=sys.stderr)
+        return 1
     except OSError as exc:
         return _cannot_write(exc, args.out, argv)
     if run.result is None:
