@@ -66,3 +66,19 @@ class SpinsInC(AlwaysWait):
             signal.pthread_sigmask(signal.SIG_BLOCK, [signal.SIGUSR2])
             signal.sigwait([signal.SIGUSR2])
         return 0
+
+
+class WaitsOnWheel(AlwaysWait):
+    """On the wheel, waits in ``act`` until the gate opens (at most 120 s); on the hanger it
+    waits as AlwaysWait: a suite runs its hanger tracks, then stays in its first wheel track
+    while a test interrupts it.
+    """
+
+    def __init__(self, graph):
+        self.wheel = graph.name == "wheel"
+
+    def act(self, observation):
+        deadline = time.monotonic() + 120
+        while self.wheel and _closed() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        return 0

@@ -720,14 +720,18 @@ class UnitLostError(RuntimeError):
         agent: The unit's agent.
         runs: Its runs.
         reason: What happened, in words.
+        where: Where the study ran (a suite's "track NAME"), or "".
     """
 
-    def __init__(self, agent: str, runs: Sequence[int], reason: str) -> None:
-        super().__init__(agent, tuple(runs), reason)  # args: pickled and rebuilt alike
+    def __init__(self, agent: str, runs: Sequence[int], reason: str, where: str = "") -> None:
+        super().__init__(agent, tuple(runs), reason, where)  # args: pickled and rebuilt alike
         self.agent, self.runs, self.reason = agent, tuple(runs), reason
+        #: Where the study ran, for the message (a suite's "track hanger-paper"), or "".
+        self.where = where
 
     def __str__(self) -> str:
-        return f"agent {self.agent!r}, {_runs_text(self.runs)}: {self.reason}"
+        where = f"{self.where}, " if self.where else ""
+        return f"{where}agent {self.agent!r}, {_runs_text(self.runs)}: {self.reason}"
 
 
 def _runs_text(runs: Sequence[int]) -> str:
@@ -832,7 +836,7 @@ def _start_pool(processes: int, method: str | None = None) -> list[_Worker]:
     thread; a worker that dies is not replaced: the study ends). ``method``: the start method
     (None: the platform's default, fork on Linux).
     """
-    ctx = multiprocessing.get_context(method)
+    ctx: Any = multiprocessing.get_context(method)
     forked = ctx.get_start_method() == "fork"
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
     workers: list[_Worker] = []
