@@ -18,6 +18,8 @@ from hri_envs.task.scenarios import SCENARIOS
 __all__ = ["register_envs"]
 
 _ROBOT_ENV = "hri_envs.envs.robot:RobotEnv"
+#: The Panda ids' env: a RobotEnv that refuses a backend other than a physics one.
+_PANDA_ENV = "hri_envs.envs.robot:panda_env"
 _ROBOT_VECTOR_ENV = "hri_envs.envs.vector:RobotVectorEnv"
 #: The Panda ids' vector env: N worlds on MuJoCo Warp (the "mjwarp" extra).
 _PANDA_VECTOR_ENV = "hri_envs.physics.mjwarp.vector:PandaVectorEnv"
@@ -38,7 +40,7 @@ def _specs() -> list[dict[str, object]]:
                         "vector_entry_point": _ROBOT_VECTOR_ENV,
                         "kwargs": {"scenario": spec.name}})
         if spec.panda_id is not None:
-            out.append({"id": spec.panda_id, "entry_point": _ROBOT_ENV,
+            out.append({"id": spec.panda_id, "entry_point": _PANDA_ENV,
                         "vector_entry_point": _PANDA_VECTOR_ENV,
                         "kwargs": {"scenario": spec.name, "backend": "mujoco"}})
         if spec.continuous_id is not None:  # continuous control with the whole human arm

@@ -424,8 +424,10 @@ def test_the_config_replays_when_nothing_is_wrong(settings, tmp_path):
 
 
 @pytest.mark.parametrize(("content", "message"), [
-    (None, "larger than 64 MiB"),  # /dev/zero: read up to the cap, not until memory runs out
-    ('{"settings": ' + "[" * 100_000 + "]" * 100_000 + "}", "its JSON is nested too deeply"),
+    (None, "not a regular file"),  # /dev/zero: refused before a byte is read
+    ('{"settings": ' + "[" * 100_000 + "]" * 100_000 + "}", "its JSON nests deeper than 64"),
+    ('{"settings": ' + "[" * 500 + "]" * 500 + "}", "its JSON nests deeper than 64"),
+    ('{"settings": {}, "settings": {}}', "the key 'settings' appears twice"),
     ("[1, 2]", "no 'settings' object"),
     ('{"settings": [1]}', "no 'settings' object"),
     ("\x00\x01", "not JSON"),
@@ -441,7 +443,7 @@ def test_a_config_file_that_is_no_summary_exits_2(content, message, tmp_path, ca
 
 def test_a_config_that_is_a_folder_exits_2(tmp_path, capsys):
     line = _exit_2(["study", "--config", str(tmp_path), "--out", str(tmp_path / "o")], capsys)
-    assert "cannot be read (Is a directory)" in line
+    assert "not a regular file (a FIFO, device or folder)" in line
 
 
 # ----------------------------------------------------------------- humans and partners

@@ -209,9 +209,11 @@ def test_an_agent_that_raises_is_left_out_and_the_others_are_written(tmp_path, c
                      "--no-progress"]) == 1
     assert json.loads((tmp_path / "all" / "suite.json").read_text())["tracks"]["wheel-drift"][
         "agents"] == {}
-    # A later suite in the same folder without failures leaves no stale errors.log.
+    # A later suite in the same folder (--overwrite: it is not empty) without failures leaves
+    # no stale errors.log.
     assert main(["suite", "--out", str(out), "--suite-version", "1", "--tracks", "wheel-paper",
-                 "--runs-scale", "0.005", "--agents", "passive", "--no-progress"]) == 0
+                 "--runs-scale", "0.005", "--agents", "passive", "--no-progress",
+                 "--overwrite"]) == 0
     assert not (out / "errors.log").exists()
 
 

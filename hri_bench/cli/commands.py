@@ -42,7 +42,14 @@ from hri_bench.run.agents import (
 )
 from hri_bench.run.humans import population_changes
 from hri_bench.run.regret import REFERENCES
-from hri_bench.run.study import EXECUTION_FIELDS, EXECUTORS, StudyConfig, graph_for
+from hri_bench.run.study import (
+    EXECUTION_FIELDS,
+    EXECUTORS,
+    UNIT_TIME_LIMIT,
+    StudyConfig,
+    UnitLostError,
+    graph_for,
+)
 from hri_bench.run.studyio import UNITS, StudyDir, StudyTerminated, run_in, stop_on_signals
 from hri_bench.suite import (
     DEFAULT_AGENTS,
@@ -56,6 +63,8 @@ from hri_bench.suite import (
     select_tracks,
     track_config,
 )
+from hri_bench.suite.resume import STATE, SuiteDir, suite_plan
+from hri_bench.suite.submission import read_json
 from hri_envs.envs.backends import BACKENDS, check_backend
 from hri_envs.errors import (
     BackendUnavailableError,
@@ -120,6 +129,7 @@ def _world_counts(text: str) -> tuple[int, ...]:
 
 
 _seed = _bounded(int, "a whole number >= 0", lambda v: v >= 0)
+_seconds = _bounded(float, "a number of seconds > 0, or inf", lambda v: v > 0)
 _probability = _bounded(float, "a probability in [0, 1]", lambda v: 0.0 <= v <= 1.0)
 _r0 = _bounded(float, "a number in (-1, 0)", lambda v: -1.0 < v < 0.0)
 _rationality = _bounded(float, "a number > 0 or inf", lambda v: v > 0)
@@ -162,6 +172,7 @@ _STUDY_ARGUMENTS = {
     "reward": "--reward",
     "physics_preset": "--physics-preset",
     "human_params": "--human-param",
+    "unit_time_limit": "--unit-time-limit",
 }
 
 
@@ -238,6 +249,7 @@ def _study_run_flags(study: argparse.ArgumentParser) -> None:
     study.add_argument("--executor", choices=EXECUTORS, default=None,
                        help="serial, process (default when --jobs > 1) or ray")
     study.add_argument("--ray-address", default=None, help="Ray cluster address (executor ray)")
+    _time_limit_flag(study)
     study.add_argument("--backend", choices=BACKENDS, default="graph",
                        help="graph (abstract task graph), mujoco (simulated Panda, MuJoCo's C "
                             "library, one run at a time; slow: about 0.2 s per step) or mjwarp "
@@ -251,6 +263,17 @@ def _study_run_flags(study: argparse.ArgumentParser) -> None:
     study.add_argument("--reward", choices=tuple(REWARD_RULES), default="paper",
                        help="reward rule (default paper): "
                             + "; ".join(f"{n}: {r.description}" for n, r in REWARD_RULES.items()))
+
+
+def _time_limit_flag(parser: argparse.ArgumentParser) -> None:
+    """``--unit-time-limit`` (``study`` and ``suite``)."""
+    parser.add_argument("--unit-time-limit", type=_seconds, default=UNIT_TIME_LIMIT,
+                        metavar="S",
+                        help="the most wall seconds one unit of work (an agent's chunk of "
+                             "runs: at most 1,000 episodes, or one run on mujoco) may take; "
+                             "a unit over it, like a worker process that dies, stops the "
+                             "study with an error naming it, its finished units kept for "
+                             f"--resume (default {UNIT_TIME_LIMIT:g}; inf: no limit)")
 
 
 def _study_human_flags(study: argparse.ArgumentParser) -> None:
@@ -365,7 +388,14 @@ def _suite_parser(sub: Any) -> None:
                            description="Run every track of the benchmark suite (one study "
                            "each) and write suite.json, leaderboard.md and one figure per "
                            "track.")
-    suite.add_argument("--out", required=True, type=Path, help="output directory")
+    suite.add_argument("--out", required=True, type=Path,
+                       help="output directory (new or empty, unless --resume or --overwrite)")
+    suite.add_argument("--resume", action="store_true",
+                       help="continue the suite interrupted in --out (same settings): tracks "
+                            "and units already finished are not run again")
+    suite.add_argument("--overwrite", action="store_true",
+                       help="start afresh in a non-empty --out (removes only the suite's own "
+                            "files: its outputs, every track's figure, seed-S folders)")
     suite.add_argument("--suite-version", choices=SUITE_VERSIONS, default=LATEST,
                        help=f"the track set (default {LATEST}: the test split v2's four groups "
                             "of humans as headline tracks, normalised to the reachable "
@@ -389,37 +419,62 @@ def _suite_parser(sub: Any) -> None:
     suite.add_argument("--population", action="append", default=[], metavar="NAME",
                        help="add a track of its own on a recorded population "
                             "(recorded:DATASET or recorded-irl:DATASET; repeatable)")
+    _time_limit_flag(suite)
     suite.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     cli_results.add_suite_flags(suite)  # --config, --seeds (docs/results.md)
     suite.set_defaults(command_parser=suite)
 
 
-def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser,
+           argv: Sequence[str]) -> int:
     seeds = cli_results.suite_plan(args, parser)  # --config replays, --seeds
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
     version = args.suite_version
     agents = args.agents or default_agents(version)
     try:
-        first = track_config(select_tracks(args.tracks, version)[0], agents, executor=executor,
-                             version=version)
+        tracks = select_tracks(args.tracks, version)
+        first = track_config(tracks[0], agents, executor=executor, version=version)
         _require_for_study(first, progress=not args.no_progress)  # before simulating
         for name in args.population:
             track_config(population_track(name, version), agents, executor=executor,
                          version=version)
     except ConfigError as exc:
         _config_error(parser, exc, _SUITE_ARGUMENTS)
+    plan = suite_plan(version, agents, [t.name for t in tracks], args.population,
+                      args.runs_scale, seeds)
     t0 = time.perf_counter()
 
     def one(out: Path, seed: int) -> dict[str, Any]:
         return run_suite(out, agents=agents, tracks=args.tracks, version=version,
                          runs_scale=args.runs_scale, seed=seed, jobs=args.jobs,
                          executor=executor, progress=not args.no_progress,
-                         populations=args.population)
+                         populations=args.population, resume=args.resume,
+                         unit_time_limit=args.unit_time_limit)
 
     try:
-        docs = cli_results.run_suites(args, seeds, one)
-    except ConfigError as exc:
+        with stop_on_signals():  # from the lock on: Ctrl-C keeps the finished work
+            try:
+                folder = SuiteDir(args.out, plan, resume=args.resume, overwrite=args.overwrite)
+            except ConfigError as exc:
+                _config_error(parser, exc, _SUITE_ARGUMENTS)
+            with folder:
+                if folder.complete:
+                    print(f"nothing to do: the suite in {args.out} is complete (suite.json, "
+                          "results.json, leaderboard.md and the figures are in place)")
+                    return 0
+                docs = cli_results.run_suites(args, seeds, one, plan)
+    except ConfigError as exc:  # a seed's folder of another suite (--resume)
         _config_error(parser, exc, _SUITE_ARGUMENTS)
+    except KeyboardInterrupt as exc:
+        print(f"\nstopped; {_suite_kept(args.out)}. Resume with:\n  {_resume_hint(argv)}",
+              file=sys.stderr)
+        return 143 if isinstance(exc, StudyTerminated) else 130
+    except UnitLostError as exc:
+        print(f"hri-bench: suite stopped: {exc}; {_suite_kept(args.out)}; continue with: "
+              f"{_resume_hint(argv)}", file=sys.stderr)
+        return 1
+    except OSError as exc:
+        return _cannot_write(exc, args.out, argv, kept="the finished tracks and units are kept")
     doc = docs[0]
     times = f" × {len(docs)} seeds" if len(docs) > 1 else ""
     print(f"suite v{doc['suite_version']}: {len(doc['tracks'])} tracks{times} in "
@@ -432,6 +487,15 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
               f"they did; tracebacks in {args.out / 'errors.log'}", file=sys.stderr)
         return 1
     return 0
+
+
+def _suite_kept(out: Path) -> str:
+    """What an interrupted suite keeps in ``out`` (and its seeds' folders), in words."""
+    states = [p for p in Path(out).glob(f"**/{STATE}") if p.is_dir()]
+    tracks = sum(1 for s in states for p in s.glob("*.json") if p.name != "plan.json")
+    units = sum(1 for s in states for _ in s.glob("*/*.npz"))
+    return (f"{tracks} finished track(s) and {units} finished unit(s) kept in "
+            f"{Path(out) / STATE}")
 
 
 #: The ``suite`` argument a :class:`ConfigError`'s field comes from (a track's runs are
@@ -467,7 +531,8 @@ def _learner_changes(args: argparse.Namespace, parser: argparse.ArgumentParser
 def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
                   executor: str) -> Any:
     """The :class:`StudyConfig` from the flags, or from ``--config`` (a summary.json)."""
-    execution = {"jobs": args.jobs, "executor": executor, "ray_address": args.ray_address}
+    execution = {"jobs": args.jobs, "executor": executor, "ray_address": args.ray_address,
+                 "unit_time_limit": args.unit_time_limit}
     if args.config is None:
         if args.scenario is None:
             parser.error("the following arguments are required: scenario (or --config)")
@@ -516,28 +581,20 @@ MAX_CONFIG_BYTES = 64 * 2**20
 def _read_study_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
     """A summary.json given as ``--config``, with a ``settings`` object; exit 2 otherwise.
 
-    At most :data:`MAX_CONFIG_BYTES` are read (``/dev/zero`` is refused, not read until
-    memory runs out); JSON nested too deeply for the parser is refused too.
+    Read with :func:`hri_bench.suite.submission.read_json`: a regular file of at most
+    :data:`MAX_CONFIG_BYTES` (``/dev/zero`` and a FIFO are refused, not read), not nested
+    too deeply, without a key twice in an object.
     """
     def refuse(why: str) -> NoReturn:
-        parser.error(f"argument --config: {path}: {why}; give the summary.json of an "
-                     "hri-bench study (it has a 'settings' object)")
+        parser.error(f"argument --config: {why}; give the summary.json of an hri-bench "
+                     "study (it has a 'settings' object)")
 
     try:
-        with open(path, "rb") as f:
-            data = f.read(MAX_CONFIG_BYTES + 1)
-    except OSError as exc:
-        refuse(f"cannot be read ({exc.strerror or exc})")
-    if len(data) > MAX_CONFIG_BYTES:
-        refuse(f"larger than {MAX_CONFIG_BYTES // 2**20} MiB")
-    try:
-        doc = json.loads(data)
-    except RecursionError:
-        refuse("its JSON is nested too deeply")
-    except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError
-        refuse(f"not JSON ({exc})")
+        doc = read_json(path, max_bytes=MAX_CONFIG_BYTES, what="summary.json", constants=True)
+    except ConfigError as exc:
+        refuse(str(exc))
     if not isinstance(doc, dict) or not isinstance(doc.get("settings"), dict):
-        refuse("no 'settings' object")
+        refuse(f"{path}: no 'settings' object")
     return doc
 
 
@@ -604,6 +661,12 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
         print(f"\nstopped; {kept} finished unit(s) kept in {units}. Resume with:\n"
               f"  {_resume_hint(argv)}", file=sys.stderr)
         return 143 if isinstance(exc, StudyTerminated) else 130
+    except UnitLostError as exc:
+        kept = len(list((Path(args.out) / UNITS).glob("*.npz")))
+        print(f"hri-bench: study stopped: {exc}; {kept} finished unit(s) kept in "
+              f"{Path(args.out) / UNITS}; continue with: {_resume_hint(argv)}",
+              file=sys.stderr)
+        return 1
     except OSError as exc:
         return _cannot_write(exc, args.out, argv)
     if run.result is None:
@@ -618,11 +681,12 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
     return 0
 
 
-def _cannot_write(exc: OSError, out: Path, argv: Sequence[str]) -> int:
+def _cannot_write(exc: OSError, out: Path, argv: Sequence[str], *,
+                  kept: str = "the finished units are kept") -> int:
     """Report a file that cannot be written (a full disk, say) in one line; exit status 1."""
     reason = exc.strerror or str(exc)
-    print(f"hri-bench: cannot write {exc.filename or out}: {reason}; the finished units are "
-          f"kept; once it can be written, continue with: {_resume_hint(argv)}", file=sys.stderr)
+    print(f"hri-bench: cannot write {exc.filename or out}: {reason}; {kept}; once it can be "
+          f"written, continue with: {_resume_hint(argv)}", file=sys.stderr)
     return 1
 
 
@@ -742,6 +806,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"hri-bench: {missing}", file=sys.stderr)
         return 1
+    except OSError as exc:  # a full disk or a bad output path no command reported itself
+        where = f" {exc.filename}" if exc.filename else ""
+        print(f"hri-bench {args.command}: cannot write or read{where}: "
+              f"{exc.strerror or exc}", file=sys.stderr)
+        return 1
 
 
 def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
@@ -753,7 +822,7 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
     if args.command == "figures":
         return _figures(args, parser)
     if args.command == "suite":
-        return _suite(args, args.command_parser)
+        return _suite(args, args.command_parser, argv)
     if args.command == "speed":
         return _speed(args)
     if args.command in ("validate", "leaderboard"):

@@ -8,9 +8,13 @@ Kept apart from :mod:`hri_bench.cli.commands`, which calls :func:`add_parsers`,
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import math
 import secrets
+import shutil
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -18,8 +22,9 @@ from typing import Any
 from hri_bench.core.atomic import atomic_writer
 from hri_bench.run.agents import PLANNING_REFERENCES, validate_agent_name
 from hri_bench.run.provenance import code_changes
-from hri_bench.suite import audit, submission
-from hri_bench.suite.merged import merged_leaderboard
+from hri_bench.run.studyio import LOCK, FolderLock, check_out
+from hri_bench.suite import audit, resume, submission
+from hri_bench.suite.merged import HEADING, merged_leaderboard
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION
 from hri_envs.errors import ConfigError
 
@@ -28,7 +33,8 @@ __all__ = ["add_parsers", "add_suite_flags", "leaderboard", "run", "run_suites",
            "validate"]
 
 #: The suite flags ``--config`` may be combined with (they change no number).
-EXECUTION_FLAGS = ("out", "jobs", "executor", "no_progress")
+EXECUTION_FLAGS = ("out", "jobs", "executor", "no_progress", "resume", "overwrite",
+                   "unit_time_limit")
 
 
 def add_parsers(sub: Any) -> None:
@@ -49,10 +55,14 @@ def add_parsers(sub: Any) -> None:
                      help="seed of the runs --replay picks (default: a fresh one, printed)")
     val.set_defaults(command_parser=val)
     lb = sub.add_parser("leaderboard", help="merge validated results files into a leaderboard",
-                        description="Validate every results file in DIR (*.json, *.json.gz), "
-                        "merge the valid ones and write leaderboard.md and profiles.png.")
+                        description="Validate every results file in DIR (*.json, *.json.gz; "
+                        "other JSON files, such as a suite's suite.json, are skipped), merge "
+                        "the valid ones and write leaderboard.md and profiles.png "
+                        "(ranking.png for suite v3).")
     lb.add_argument("dir", type=Path, help="folder of results files")
-    lb.add_argument("--out", type=Path, default=None, help="output folder (default: DIR)")
+    lb.add_argument("--out", type=Path, default=None,
+                    help="output folder (default: DIR/merged; new, empty, or one an earlier "
+                         "leaderboard wrote)")
     lb.set_defaults(command_parser=lb)
 
 
@@ -70,7 +80,8 @@ def add_suite_flags(suite: argparse.ArgumentParser) -> None:
     """The suite's ``--config`` (replay) and ``--seeds`` flags."""
     suite.add_argument("--config", type=Path, default=None, metavar="FILE",
                        help="replay the suite a suite.json or results.json describes (only "
-                            "--out, --jobs, --executor, --no-progress may be given with it)")
+                            "--out, --jobs, --executor, --unit-time-limit, --resume, "
+                            "--overwrite and --no-progress may be given with it)")
     suite.add_argument("--seeds", default=None, metavar="S1,S2,...",
                        help="run the suite once per seed (in DIR/seed-S) and aggregate over "
                             "them with the seed-to-seed spread (instead of --seed)")
@@ -102,7 +113,7 @@ def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
             agents = [a for a in doc["agents"] if a not in PLANNING_REFERENCES]
             tracks = list(doc["suite"]["tracks"])
             plan = {"agents": agents, "tracks": tracks, "populations": [],
-                    "runs_scale": doc["runs_scale"], "seeds": list(doc["seeds"]),
+                    "runs_scale": doc["runs_scale"], "seeds": _listed(doc["seeds"]),
                     "identities": doc["agents"], "version": version}
         else:
             version = doc["suite_version"]
@@ -111,20 +122,61 @@ def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
             beside = path.with_name("results.json")
             if identities is None and beside.is_file():  # v1's suite.json has none
                 identities = submission.load(beside).get("agents")
-            plan = {"agents": list(doc["agents"]),
+            plan = {"agents": _listed(doc["agents"]),
                     "tracks": [t for t in doc["tracks"] if t in known],
                     "populations": [tr["settings"]["population"]
                                     for t, tr in doc["tracks"].items() if t not in known],
                     "runs_scale": doc["runs_scale"],
-                    "seeds": list(doc["seeds"] if "seeds" in doc else [doc["seed"]]),
+                    "seeds": _listed(doc["seeds"] if "seeds" in doc else [doc["seed"]]),
                     "identities": identities or {}, "version": version}
     except (KeyError, TypeError, AttributeError, ConfigError) as exc:
         parser.error(f"argument --config: {path}: not a suite.json or results.json (missing "
                      f"{exc})")
-    if plan["version"] not in SUITE_VERSIONS:
+    if not isinstance(plan["version"], str) or plan["version"] not in SUITE_VERSIONS:
         parser.error(f"argument --config: {path}: suite version {plan['version']!r} is not "
                      f"one of {', '.join(SUITE_VERSIONS)}")
+    _check_plan(plan, path, parser)
     return plan
+
+
+def _listed(value: Any) -> Any:
+    """``value`` if it is a list; anything else is kept as it is, for :func:`_check_plan` to
+    name (``list("ab")`` would read a string as two names).
+    """
+    return list(value) if isinstance(value, list | tuple) else value
+
+
+def _names(value: Any) -> bool:
+    """A list of distinct non-empty strings."""
+    return (isinstance(value, list) and all(isinstance(v, str) and v for v in value)
+            and len(set(value)) == len(value))
+
+
+def _check_plan(plan: dict[str, Any], path: Path, parser: argparse.ArgumentParser) -> None:
+    """Exit 2 naming the setting of a ``--config`` file that the matching flag would refuse
+    (``seeds`` [0, 0], ``agents`` [], ``seeds`` ["a"], ``runs_scale`` 0, ...).
+    """
+    def bad(setting: str, flag: str, allowed: str) -> None:
+        parser.error(f"argument --config: {path}: its {setting} {plan[setting]!r}: expected "
+                     f"{allowed} (as {flag})")
+
+    if not (_names(plan["agents"]) and plan["agents"]):
+        bad("agents", "--agents", "a non-empty list of distinct agent names")
+    if not (_names(plan["tracks"]) and plan["tracks"]):
+        bad("tracks", "--tracks", "a non-empty list of distinct track names of the version")
+    if not _names(plan["populations"]):
+        bad("populations", "--population", "a list of distinct population names")
+    scale = plan["runs_scale"]
+    if not (isinstance(scale, int | float) and not isinstance(scale, bool)
+            and math.isfinite(scale) and scale > 0):
+        bad("runs_scale", "--runs-scale", "a number > 0")
+    seeds = plan["seeds"]
+    if not (isinstance(seeds, list) and seeds
+            and all(isinstance(x, int) and not isinstance(x, bool) and x >= 0 for x in seeds)
+            and len(set(seeds)) == len(seeds)):
+        bad("seeds", "--seeds", "distinct whole numbers >= 0")
+    if not isinstance(plan["identities"], dict):
+        bad("identities", "--config", "the agents' code identities (an object)")
 
 
 def suite_plan(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list[int]:
@@ -153,13 +205,21 @@ def suite_plan(args: argparse.Namespace, parser: argparse.ArgumentParser) -> lis
     return [int(s) for s in plan["seeds"]]
 
 
-def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[..., Any]
-               ) -> list[dict[str, Any]]:
+def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[..., Any],
+               plan: dict[str, Any] | None = None) -> list[dict[str, Any]]:
     """Run the suite once per seed; with several, each in ``out/seed-S``, then the combined
-    ``results.json``, ``leaderboard.md`` and ``profiles.png`` in ``out``.
+    ``results.json``, ``leaderboard.md``, ``profiles.png`` and ``suite.json`` in ``out``, and
+    last ``suite_log.json`` with ``plan`` (:func:`hri_bench.suite.resume.suite_plan`; the
+    plan is kept in ``out/.suite`` meanwhile, for ``--resume``).
     """
     if len(seeds) == 1:
         return [run_one(args.out, seed=seeds[0])]
+    state = args.out / resume.STATE
+    t0 = time.perf_counter()
+    if plan is not None and not (state / "plan.json").is_file():
+        state.mkdir(parents=True, exist_ok=True)
+        with atomic_writer(state / "plan.json") as f:
+            json.dump(plan, f, indent=1)
     docs = [run_one(args.out / f"seed-{s}", seed=s) for s in seeds]
     parts = [args.out / f"seed-{s}" / "results.json" for s in seeds]
     if all(p.is_file() for p in parts):
@@ -178,6 +238,11 @@ def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[...
                                            for n, t in docs[0]["tracks"].items()},
                                 "provenance": docs[0].get("provenance", {})}, indent=1)
                     + "\n")
+    if plan is not None:
+        with atomic_writer(args.out / resume.SUITE_LOG) as f:
+            f.write(json.dumps({"seeds": seeds, "wall_time_s": round(time.perf_counter() - t0, 2),
+                                "plan": plan}, indent=1) + "\n")
+        shutil.rmtree(state, ignore_errors=True)
     return docs
 
 
@@ -222,23 +287,87 @@ def validate(path: Path, replay: int = 0, replay_seed: int | None = None) -> int
     return 0
 
 
+#: What ``hri-bench leaderboard`` writes into its ``--out`` (besides its lock).
+LEADERBOARD_FILES = ("leaderboard.md", "profiles.png", "ranking.png")
+
+
+def _leaderboard_out(out: Path) -> str | None:
+    """Why ``out`` cannot take a merged leaderboard (None when it can): it holds files
+    ``hri-bench leaderboard`` did not write, or a ``leaderboard.md`` of another kind (a
+    suite's).
+    """
+    if not out.is_dir():
+        return None
+    foreign = sorted(p.name for p in out.iterdir()
+                     if p.name not in (*LEADERBOARD_FILES, LOCK))
+    board = out / "leaderboard.md"
+    if board.exists():
+        try:
+            with open(board, "rb") as f:
+                head = f.read(len(HEADING.encode()))
+        except OSError:
+            head = b""
+        if not board.is_file() or head != HEADING.encode():
+            foreign.insert(0, "leaderboard.md (not one hri-bench leaderboard wrote)")
+    if not foreign:
+        return None
+    shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3
+                                      else "")
+    return (f"{out} holds files hri-bench leaderboard did not write ({shown}); give a new or "
+            "empty folder, or the one an earlier leaderboard wrote")
+
+
 def leaderboard(folder: Path, out: Path | None, parser: argparse.ArgumentParser) -> int:
-    """``hri-bench leaderboard DIR``: 0 when every file was merged, 1 when some were
-    refused (named on stderr) or none was valid; a DIR that is not a folder is the
-    parser's error (usage, exit 2), as every other bad argument of the CLI.
+    """``hri-bench leaderboard DIR [--out OUT]``: 0 when every results file was merged, 1
+    when some were refused (named on stderr), none was valid, or a file cannot be written;
+    a DIR that is not a folder, or an OUT that holds other files, is the parser's error
+    (usage, exit 2), as every other bad argument of the CLI.
+
+    The merged leaderboard goes to ``DIR/merged`` by default, never over a suite's own
+    ``leaderboard.md``; files that are not results files (a suite's ``suite.json``) are
+    skipped with a note.
     """
     if not folder.is_dir():
         parser.error(f"argument dir: {folder} is not a folder")
+    out = folder / "merged" if out is None else out
+    created = not out.exists()
+    lock = FolderLock(out, "leaderboard")
+    try:
+        check_out(out, "leaderboard")
+        lock.acquire()
+        why = _leaderboard_out(out)
+    except ConfigError as exc:
+        parser.error(f"argument --out: {exc}")
+    except OSError as exc:
+        lock.release()
+        parser.error(f"argument --out: cannot use {out} ({exc.strerror or exc}); give a "
+                     "folder you can write to")
+    if why is not None:
+        lock.release()
+        parser.error(f"argument --out: {why}")
     files = sorted([*folder.glob("*.json"), *folder.glob("*.json.gz")])
-    written, refused = merged_leaderboard(files, out or folder)
-    for line in refused:
+    try:
+        merged = merged_leaderboard(files, out)
+    except OSError as exc:
+        print(f"hri-bench leaderboard: cannot write {exc.filename or out}: "
+              f"{exc.strerror or exc}", file=sys.stderr)
+        return 1
+    finally:
+        lock.release()
+    if created and not merged.written:
+        with contextlib.suppress(OSError):
+            out.rmdir()  # made for nothing
+    for line in merged.skipped:
+        print(line)
+    for line in merged.refused:
         print(line, file=sys.stderr)
-    if not written:
+    results = len(files) - len(merged.skipped)
+    if not merged.written:
         print(f"hri-bench leaderboard: no valid results file in {folder}", file=sys.stderr)
         return 1
-    print(f"merged {len(files) - len(refused)} of {len(files)} file(s): wrote "
-          f"{', '.join(str(p) for p in written)}")
-    return 1 if refused else 0
+    print(f"merged {results - len(merged.refused)} of {results} results file(s): wrote "
+          f"{', '.join(str(p) for p in merged.written)}")
+    return 1 if merged.refused else 0
 
 
 def run(args: argparse.Namespace) -> int:

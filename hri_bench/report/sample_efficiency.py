@@ -26,7 +26,9 @@ Run it (under a minute on two cores)::
 
     python -m hri_bench.report.sample_efficiency --out docs/figures
 
-writes ``sample_efficiency.png`` and ``sample_efficiency.json``.
+writes ``sample_efficiency.png`` and ``sample_efficiency.json`` (by default into
+``out/sample_efficiency``, never into the tracked docs: the command above, which regenerates
+the docs' figure, names ``--out docs/figures``).
 """
 
 from __future__ import annotations
@@ -360,14 +362,19 @@ def plot(result: SampleEfficiencyResult, path: str | Path) -> Path:
     return path
 
 
+#: Where ``main`` writes without ``--out`` (not the tracked docs/figures).
+DEFAULT_OUT = Path("out/sample_efficiency")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m hri_bench.report.sample_efficiency --out DIR``."""
     parser = argparse.ArgumentParser(
         prog="python -m hri_bench.report.sample_efficiency",
         description="Cooperation reward against episodes of interaction: Learner vs "
                     "MaskablePPO and MaskedDQN vs the Oracle.")
-    parser.add_argument("--out", type=Path, default=Path("docs/figures"),
-                        help="output directory (default docs/figures)")
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT,
+                        help=f"output directory (default {DEFAULT_OUT}; the docs' figure: "
+                             "--out docs/figures)")
     parser.add_argument("--scenario", choices=tuple(SCENARIOS), default="hanger")
     parser.add_argument("--preference", default=None, help="the scripted human's preference")
     parser.add_argument("--algorithms", default=",".join(RL_ALGORITHMS),

@@ -297,8 +297,8 @@ class _Loop:
         if self.privileged:
             obs["intention"] = eps.intention
         if p.has_belief:
-            p.has_belief = _score_belief(read_belief(self.agent, self.n_b), eps.intention,
-                                         active, t, p.totals, self.rows, w, self.scratch)
+            p.has_belief = _score_belief(self._belief(), eps.intention, active, t, p.totals,
+                                         self.rows, w, self.scratch)
         try:
             chosen = self.agent.act(obs, active)
         except ActionError as exc:  # a Batched agent's: add where it happened
@@ -311,6 +311,21 @@ class _Loop:
         a_h = np.where(active, _checked("the human's act()", self.human.act(seen, active),
                                         active, n_actions, self.run_ids, e, t), WAIT)
         return a_r, a_h
+
+    def _belief(self) -> np.ndarray | None:
+        """The agent's belief (:func:`agents.protocol.read_belief`), one probability per run
+        and intention of the graph: a belief over another number of intentions is a
+        :class:`ConfigError` naming the agent, never scored.
+        """
+        belief = read_belief(self.agent, self.n_b)
+        k = self.graph.n_intentions
+        if belief is not None and belief.shape[1] != k:
+            name = getattr(self.agent, "name", type(self.agent).__name__)
+            raise ConfigError(f"belief() of agent {name!r} returned {belief.shape[1]} "
+                              f"probabilities per run; the {self.graph.name} has {k} "
+                              "intentions (one probability each, in the order of its supports)",
+                              field="belief")
+        return belief
 
     def _account(self, s: np.ndarray, a_r: np.ndarray, a_h: np.ndarray, step: BatchStep,
                  w: np.ndarray, totals: dict[str, np.ndarray]) -> None:
@@ -395,8 +410,6 @@ def _score_belief(belief: np.ndarray | None, intention: np.ndarray, active: np.n
     """
     if belief is None:
         return False
-    if scratch.shape != belief.shape:  # an agent's K other than the graph's
-        scratch = np.empty(belief.shape)
     p_true = belief[rows, intention]
     np.copyto(scratch, belief)  # the other intentions' beliefs
     scratch[rows, intention] = -np.inf

@@ -24,6 +24,8 @@ import time
 import traceback
 from collections.abc import Callable, Generator, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from multiprocessing.connection import Connection
+from multiprocessing.connection import wait as mp_wait
 from pathlib import Path
 from typing import Any
 
@@ -78,7 +80,9 @@ __all__ = [
     "Probe",
     "StudyConfig",
     "StudyResult",
+    "UNIT_TIME_LIMIT",
     "UnitFailure",
+    "UnitLostError",
     "UnitResult",
     "graph_for",
     "regret_reference",
@@ -100,6 +104,11 @@ MAX_RUN_STEPS = 10_000_000
 #: Metrics of every backend; a backend adds its own ``extras`` (the physics: impulses, ...).
 METRICS = ("reward", "correct", "passive", "wrong", "steps", "truncated")
 EXECUTORS = ("serial", "process", "ray")
+#: The default most wall seconds one unit of work may take (:attr:`StudyConfig.
+#: unit_time_limit`): generous, as a unit is at most 1,000 episodes on the graph backend
+#: (well under a minute for the built-in agents) or one run on the MuJoCo backend (at most
+#: 20 episodes × 100 steps of about 0.2 s).
+UNIT_TIME_LIMIT = 3600.0
 
 
 def _backend_extras(metrics: Mapping[str, Any]) -> list[str]:
@@ -192,6 +201,10 @@ class StudyConfig:
         human_params: The parameters of a family named as ``population`` (e.g.
             ``(("k", 3),)`` for ``population="impatient"``; :mod:`hri_envs.humans.families`),
             as (name, value) pairs; the others take the family's defaults.
+        unit_time_limit: The most wall seconds one unit of work (an agent's chunk of runs,
+            :data:`UNIT_EPISODES`) may take (``inf``: no limit); a unit over it ends the
+            study with a :class:`UnitLostError` naming it, as a worker that dies does
+            (docs/benchmark.md, "Interrupted studies").
     """
 
     scenario: str
@@ -217,6 +230,7 @@ class StudyConfig:
     reward: str = "paper"
     physics_preset: str | None = None
     human_params: tuple[tuple[str, Any], ...] = ()
+    unit_time_limit: float = UNIT_TIME_LIMIT
 
     def __post_init__(self) -> None:
         """Validate every field, in the fields' order (a :class:`ConfigError` names the field
@@ -266,6 +280,8 @@ class StudyConfig:
         check_whole(self.seed, "seed", minimum=0)
         check_whole(self.jobs, "jobs", minimum=1)
         self._choice("executor", EXECUTORS)
+        check_real(self.unit_time_limit, "unit_time_limit", low=0.0, low_open=True,
+                   allow_inf=True, allowed="a number of seconds > 0, or inf (no limit)")
         self._text("ray_address", "a Ray cluster's address")
         self._choice("backend", tuple(BACKENDS))
         max_steps = check_whole(self.max_steps, "max_steps", minimum=1, maximum=MAX_STEPS)
@@ -489,7 +505,7 @@ class StudyConfig:
 
 
 #: Fields of :class:`StudyConfig` that never change a study's numbers.
-EXECUTION_FIELDS = ("jobs", "executor", "ray_address")
+EXECUTION_FIELDS = ("jobs", "executor", "ray_address", "unit_time_limit")
 #: Fields added after the settings' format was published, with their defaults: left out of
 #: :meth:`StudyConfig.settings` at the default, and taken as the default when missing.
 LATER_FIELDS: dict[str, Any] = {"human_params": ()}
@@ -691,6 +707,51 @@ def _units(cfg: StudyConfig) -> list[_Unit]:
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
+class UnitLostError(RuntimeError):
+    """A unit of work that did not finish ended the study: its worker process died (the OOM
+    killer, ``kill -9``, an agent calling ``os._exit`` or raising ``KeyboardInterrupt``), or
+    it ran past :attr:`StudyConfig.unit_time_limit`.
+
+    The units finished before it are kept (by the caller's ``on_result``), so a resumed study
+    simulates only the missing ones.
+
+    Attributes:
+        agent: The unit's agent.
+        runs: Its runs.
+        reason: What happened, in words.
+        where: Where the study ran (a suite's "track NAME"), or "".
+    """
+
+    def __init__(self, agent: str, runs: Sequence[int], reason: str, where: str = "") -> None:
+        super().__init__(agent, tuple(runs), reason, where)  # args: pickled and rebuilt alike
+        self.agent, self.runs, self.reason = agent, tuple(runs), reason
+        #: Where the study ran, for the message (a suite's "track hanger-paper"), or "".
+        self.where = where
+
+    def __str__(self) -> str:
+        where = f"{self.where}, " if self.where else ""
+        return f"{where}agent {self.agent!r}, {_runs_text(self.runs)}: {self.reason}"
+
+
+def _runs_text(runs: Sequence[int]) -> str:
+    """"run 3", "runs 0–17" (consecutive), or "runs 0, 9, 18, ... (12 runs)"."""
+    if len(runs) == 1:
+        return f"run {runs[0]}"
+    if list(runs) == list(range(runs[0], runs[-1] + 1)):
+        return f"runs {runs[0]}–{runs[-1]}"
+    shown = ", ".join(map(str, runs[:3]))
+    return f"runs {shown}" + (f", ... ({len(runs)} runs)" if len(runs) > 3 else "")
+
+
+def _lost(unit: _Unit, reason: str) -> UnitLostError:
+    return UnitLostError(unit.agent, unit.runs, reason)
+
+
+def _over_time(limit: float) -> str:
+    return (f"it ran longer than the time limit of {limit:g} s per unit of work (a hanging "
+            "agent? --unit-time-limit sets the limit)")
+
+
 def _worker_init(mask: Iterable[int]) -> None:
     """Pool worker set-up: leave Ctrl-C to the parent, die on SIGTERM, exit with the parent.
 
@@ -704,7 +765,7 @@ def _worker_init(mask: Iterable[int]) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler (forked)
     signal.pthread_sigmask(signal.SIG_SETMASK, mask)
-    parent = os.getppid()  # the study's process (or the fork server, which exits with it)
+    parent = os.getppid()  # the study's process
 
     def watch() -> None:
         while os.getppid() == parent:
@@ -714,55 +775,233 @@ def _worker_init(mask: Iterable[int]) -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
-def _start_pool(processes: int, method: str | None = None) -> Any:
-    """A :class:`multiprocessing.pool.Pool` whose workers start with the stop signals blocked.
-
-    They stay blocked in the parent only while the pool forks; the pool's own threads, made
-    meanwhile, keep them blocked, so workers it forks later start the same way. ``method``:
-    the start method (None: the platform's default, fork on Linux).
+@dataclass(frozen=True)
+class _Stopped:
+    """What a worker sends back when its unit ended it without a result (the agent raised
+    ``KeyboardInterrupt``, say): the reason, in words.
     """
+
+    reason: str
+
+
+def _pool_worker(conn: Connection, mask: Iterable[int], inherited: Sequence[Connection]
+                 ) -> None:
+    """A pool worker: receive ``(index, unit)``, send back ``(index, result or failure)``,
+    until it receives None or the parent's end closes.
+
+    ``inherited``: the parent's ends of every pipe (forked into this process), closed here
+    so that only the parent holds them: a worker that dies then shows the parent an end of
+    file, never a pipe that another worker keeps open.
+    """
+    for other in inherited:
+        other.close()
+    _worker_init(mask)
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):
+            return
+        if task is None:
+            return
+        index, unit = task
+        out: UnitResult | UnitFailure | _Stopped
+        try:
+            out = _run_unit_caught(unit)
+        except BaseException as exc:  # KeyboardInterrupt raised by the agent, say
+            out = _Stopped(f"the agent raised {type(exc).__name__}"
+                           + (f" ({exc})" if str(exc) else "") + " in its worker process")
+        try:
+            conn.send((index, out))
+        except Exception as exc:  # a result that cannot be pickled, say
+            conn.send((index, _Stopped(f"its result could not be sent back "
+                                       f"({type(exc).__name__}: {exc})")))
+        if isinstance(out, _Stopped):
+            return
+
+
+@dataclass(frozen=True, eq=False)
+class _Worker:
+    """A pool worker process and the parent's end of its pipe."""
+
+    process: Any
+    conn: Connection
+
+
+def _start_pool(processes: int, method: str | None = None) -> list[_Worker]:
+    """``processes`` workers (:func:`_pool_worker`), each with a pipe of its own, started
+    with the stop signals blocked.
+
+    They stay blocked in the parent only while it starts the workers (all at once, from this
+    thread; a worker that dies is not replaced: the study ends). ``method``: the start method
+    (None: the platform's default, fork on Linux).
+    """
+    ctx: Any = multiprocessing.get_context(method)
+    forked = ctx.get_start_method() == "fork"
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    workers: list[_Worker] = []
     try:
-        return multiprocessing.get_context(method).Pool(processes, initializer=_worker_init,
-                                                        initargs=(mask,))
+        for _ in range(processes):
+            ours, theirs = ctx.Pipe()
+            inherited = [*(w.conn for w in workers), ours] if forked else []
+            process = ctx.Process(target=_pool_worker, args=(theirs, mask, inherited),
+                                  daemon=True, name="hri-bench-worker")
+            process.start()
+            theirs.close()
+            workers.append(_Worker(process, ours))
+    except BaseException:
+        _stop_pool(workers)
+        raise
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+    return workers
+
+
+def _stop_pool(workers: Sequence[_Worker]) -> None:
+    """End every worker now (SIGTERM, then SIGKILL after a second) and wait for it."""
+    for w in workers:
+        if w.process.is_alive():
+            w.process.terminate()
+    for w in workers:
+        w.process.join(1.0)
+        if w.process.is_alive():
+            w.process.kill()
+            w.process.join()
+        w.conn.close()
+
+
+def _death(worker: _Worker) -> str:
+    """How a worker that ended without sending its unit's result ended, in words."""
+    worker.process.join(1.0)
+    code = worker.process.exitcode
+    if code is None:
+        return "its worker process closed its pipe"
+    if code < 0:
+        try:
+            name = signal.Signals(-code).name
+        except ValueError:
+            name = f"signal {-code}"
+        if -code == signal.SIGKILL:
+            return (f"its worker process was killed ({name}: the kernel's out-of-memory "
+                    "killer, or kill -9)")
+        return f"its worker process was killed by {name}"
+    return (f"its worker process ended with exit status {code} (the agent, or code it "
+            "called, ended the process: os._exit?)")
+
+
+def _execute_pool(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int], method: str | None
+                  ) -> Iterator[tuple[int, UnitResult | UnitFailure]]:
+    """The units ``todo`` on ``min(jobs, len(todo))`` worker processes, as they finish.
+
+    Each worker gets one unit at a time, so the parent knows which unit each one works on:
+    a worker that dies, or a unit over :attr:`StudyConfig.unit_time_limit`, raises
+    :class:`UnitLostError` naming that unit within a fraction of a second. Leaving the
+    generator, normally or by an exception (Ctrl-C), stops every worker at once.
+    """
+    workers = _start_pool(min(cfg.jobs, len(todo)), method)
+    queue = list(reversed(todo))
+    busy: dict[_Worker, tuple[int, float]] = {}
+    limit = float(cfg.unit_time_limit)
+
+    def assign(w: _Worker) -> None:
+        if queue:
+            i = queue.pop()
+            w.conn.send((i, units[i]))
+            busy[w] = (i, time.monotonic())
+        else:
+            w.conn.send(None)
+
+    try:
+        for w in workers:
+            assign(w)
+        while busy:
+            first = min(started for _, started in busy.values())
+            timeout = None if math.isinf(limit) else max(0.0, first + limit - time.monotonic())
+            ready = set(mp_wait([x for w in busy for x in (w.conn, w.process.sentinel)],
+                                timeout))
+            for w, (i, started) in list(busy.items()):
+                if w.conn in ready:
+                    try:
+                        index, out = w.conn.recv()
+                    except (EOFError, OSError):
+                        raise _lost(units[i], _death(w)) from None
+                    if isinstance(out, _Stopped):
+                        raise _lost(units[i], out.reason)
+                    del busy[w]
+                    assign(w)
+                    yield index, out
+                elif w.process.sentinel in ready:
+                    raise _lost(units[i], _death(w))
+                elif time.monotonic() - started > limit:
+                    raise _lost(units[i], _over_time(limit))
+    finally:
+        _stop_pool(workers)
+
+
+class _TimeUp(BaseException):
+    """A serial unit's time is up (raised by SIGALRM's handler; not an agent's Exception)."""
+
+
+@contextlib.contextmanager
+def _alarm(seconds: float) -> Iterator[None]:
+    """Raise :class:`_TimeUp` in this thread after ``seconds`` of wall time (SIGALRM).
+
+    Only in the main thread, and only when no other interval timer is running (a test
+    runner's, say); elsewhere, and for ``inf``, no limit.
+    """
+    if (math.isinf(seconds) or threading.current_thread() is not threading.main_thread()
+            or signal.getitimer(signal.ITIMER_REAL)[0] > 0):
+        yield
+        return
+
+    def ring(signum: int, frame: Any) -> None:
+        raise _TimeUp
+
+    previous = signal.signal(signal.SIGALRM, ring)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
 
 
 def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
              ) -> Generator[tuple[int, UnitResult | UnitFailure], None, None]:
     """Yield (unit index, result or failure) for the units ``todo`` as they finish.
 
-    Nothing is started (no pool, no Ray) when ``todo`` is empty.
+    Nothing is started (no pool, no Ray) when ``todo`` is empty. A unit that cannot finish
+    (its worker died, or it ran past the time limit) raises :class:`UnitLostError`; in the
+    serial executor the limit interrupts the agent's Python code (SIGALRM, main thread only).
     """
     if not todo:
         return
     if cfg.executor == "serial" or (cfg.executor == "process" and cfg.jobs == 1):
         for i in todo:
-            yield i, _run_unit_caught(units[i])
+            try:
+                with _alarm(cfg.unit_time_limit):
+                    out = _run_unit_caught(units[i])
+            except _TimeUp:
+                raise _lost(units[i], _over_time(cfg.unit_time_limit)) from None
+            yield i, out
     elif cfg.executor == "process":
         for spec in filter(None, map(agent_spec, dict.fromkeys(cfg.agents))):
             if spec.warm is not None:
                 spec.warm()  # e.g. the Learner's compiled kernels: forked workers inherit them
-        # multiprocessing.Pool (not concurrent.futures) for its public terminate(): leaving
-        # the ``with`` block, normally or by an exception such as KeyboardInterrupt, stops
-        # every worker at once.
         # JAX's runtime is multithreaded: a worker forked after it started in this process
         # can hang for good, so once anything here imported JAX (the jaxppo agents, a custom
         # agent, the caller) the workers start fresh (spawn).
         method = "spawn" if "jax" in sys.modules else None
-        with _start_pool(min(cfg.jobs, len(todo)), method) as pool:
-            yield from pool.imap_unordered(_run_indexed, [(i, units[i]) for i in todo])
+        yield from _execute_pool(cfg, units, todo, method)
     else:
         yield from _execute_ray(cfg, [units[i] for i in todo], list(todo))
 
 
-def _run_indexed(item: tuple[int, _Unit]) -> tuple[int, UnitResult | UnitFailure]:
-    return item[0], _run_unit_caught(item[1])
-
-
 def _execute_ray(cfg: StudyConfig, units: list[_Unit], index: list[int]
                  ) -> Iterator[tuple[int, UnitResult | UnitFailure]]:
+    """The units on Ray, at most ``jobs`` in flight, as they finish; a task whose worker
+    fails, or that runs past the time limit (counted from its submission), raises
+    :class:`UnitLostError`.
+    """
     try:
         import ray
     except ImportError as exc:
@@ -771,11 +1010,34 @@ def _execute_ray(cfg: StudyConfig, units: list[_Unit], index: list[int]
         ray.init(address=cfg.ray_address, num_cpus=None if cfg.ray_address else cfg.jobs,
                  include_dashboard=False, log_to_driver=False)
     remote = ray.remote(_run_unit_caught)
-    refs = {remote.remote(u): i for u, i in zip(units, index, strict=True)}
-    pending = list(refs)
-    while pending:
-        done, pending = ray.wait(pending, num_returns=1)
-        yield refs[done[0]], ray.get(done[0])
+    queue = list(reversed(list(zip(units, index, strict=True))))
+    running: dict[Any, tuple[_Unit, int, float]] = {}
+    limit = float(cfg.unit_time_limit)
+    try:
+        while queue or running:
+            while queue and len(running) < cfg.jobs:
+                unit, i = queue.pop()
+                running[remote.remote(unit)] = (unit, i, time.monotonic())
+            first = min(started for _, _, started in running.values())
+            timeout = None if math.isinf(limit) else max(0.0, first + limit - time.monotonic())
+            done, _ = ray.wait(list(running), num_returns=1, timeout=timeout)
+            if not done:
+                unit, _, started = min(running.values(), key=lambda x: x[2])
+                if time.monotonic() - started > limit:
+                    raise _lost(unit, _over_time(limit))
+                continue
+            unit, i, _ = running.pop(done[0])
+            try:
+                out = ray.get(done[0])
+            except ray.exceptions.RayError as exc:
+                raise _lost(unit, f"its Ray task failed ({type(exc).__name__}: "
+                                          f"{str(exc).splitlines()[0] if str(exc) else ''})"
+                                    ) from None
+            yield i, out
+    finally:
+        for ref in running:
+            with contextlib.suppress(Exception):
+                ray.cancel(ref, force=True)
 
 
 def run_study(
@@ -798,6 +1060,11 @@ def run_study(
         on_result: Called as ``on_result(index, result)`` when a unit finishes (to save it).
         keep_going: When an agent raises, record it in :attr:`StudyResult.failures` (its
             traceback) and drop that agent from the result instead of raising.
+
+    Raises:
+        UnitLostError: A unit could not finish: its worker process died, or it ran past
+            ``cfg.unit_time_limit`` (whatever ``keep_going``); the units finished before it
+            were passed to ``on_result``.
     """
     units = _units(cfg)
     done = dict(done or {})

@@ -35,7 +35,7 @@ import re
 import shutil
 import signal
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from types import FrameType, TracebackType
 from typing import Any, NamedTuple
@@ -55,8 +55,9 @@ from hri_bench.run.study import (
 )
 from hri_envs.errors import ConfigError
 
-__all__ = ["LOCK", "OUTPUT_FILES", "UNITS", "StudyDir", "StudyRun", "StudyTerminated", "run_in",
-           "stop_on_signals"]
+__all__ = ["LOCK", "OUTPUT_FILES", "UNITS", "FolderLock", "StudyDir", "StudyRun",
+           "StudyTerminated", "check_out", "load_result", "load_units", "remove_temporary",
+           "run_in", "save_result", "save_unit", "stop_on_signals", "unit_path"]
 
 UNITS = ".units"
 MANIFEST = "study.json"
@@ -67,6 +68,7 @@ SUMMARY = "summary.json"
 #: study is not locked, and only the lock counts).
 LOCK = ".lock"
 _FORMAT = "hri-bench-units-1"
+_RESULT_FORMAT = "hri-bench-study-result-1"
 #: Files a study writes into its folder (removed by ``overwrite`` before it starts).
 OUTPUT_FILES = (SUMMARY, "episodes.csv", "reward.png", "decisions.png", "impulse.png",
                 ERRORS_LOG, RUN_LOG)
@@ -115,12 +117,181 @@ def stop_on_signals() -> Iterator[None]:
             signal.signal(sig, handler)
 
 
+def check_out(out: Path, what: str) -> None:
+    """Refuse an output folder that is a file, or whose first existing ancestor cannot be
+    written (a :class:`ConfigError` with ``field="out"``; ``what``: "study", "suite", ...).
+    """
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"{str(out)!r} is a file; give a directory (new or empty) for the "
+                          f"{what}", field="out")
+    existing = out if out.exists() else next(p for p in out.absolute().parents if p.exists())
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise ConfigError(f"cannot write in {str(existing)!r}; give a directory you can "
+                          "write to", field="out")
+
+
+class FolderLock:
+    """``out/.lock``, locked (:func:`fcntl.flock`) while a study, suite or leaderboard works
+    in ``out`` (:data:`LOCK`): a second one is refused, saying which process holds it.
+
+    ``kind`` ("study", "suite", ...) is written beside the process id, so that the refusal
+    names what is running. The kernel releases the lock when the process ends, however it
+    ends; :meth:`release` removes the file.
+    """
+
+    def __init__(self, out: Path, kind: str) -> None:
+        self.out, self.kind = Path(out), kind
+        self.fd: int | None = None
+
+    def acquire(self) -> None:
+        """Lock ``out/.lock`` (creating ``out``) or raise a :class:`ConfigError` naming the
+        process that holds it.
+
+        The file is removed when the lock is released; a process that opened it just before
+        then would hold a lock on a removed file, so the lock counts only if the file it
+        locked is still the one in the folder.
+        """
+        self.out.mkdir(parents=True, exist_ok=True)
+        path = self.out / LOCK
+        while True:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                words = os.pread(fd, 64, 0).decode(errors="replace").split()
+                os.close(fd)
+                pid = f" (process {words[0]})" if words and words[0].isdigit() else ""
+                kind = words[1] if len(words) > 1 and words[1].isalpha() else "study"
+                raise ConfigError(
+                    f"another {kind}{pid} is writing in {str(self.out)!r}; wait for it to "
+                    "end (--resume then continues it if it was stopped), or give another "
+                    "--out", field="out") from None
+            try:
+                locked, current = os.fstat(fd), os.stat(path)
+                if (locked.st_dev, locked.st_ino) == (current.st_dev, current.st_ino):
+                    break
+            except FileNotFoundError:
+                pass
+            os.close(fd)
+        _HELD_LOCKS.add(fd)
+        self.fd = fd
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()} {self.kind}\n".encode(), 0)
+
+    def release(self) -> None:
+        """Release the lock (another process may then work in the folder); remove its file."""
+        if self.fd is not None:
+            with contextlib.suppress(FileNotFoundError):
+                (self.out / LOCK).unlink()  # while locked: see acquire
+            _HELD_LOCKS.discard(self.fd)
+            os.close(self.fd)  # closing the descriptor releases the flock
+            self.fd = None
+
+
+
 def _manifest(cfg: StudyConfig) -> dict[str, Any]:
     return {"format": _FORMAT, "settings": cfg.settings(), "jobs": cfg.jobs}
 
 
 def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text)[:40]
+
+
+def unit_path(folder: Path, index: int, unit: _Unit) -> Path:
+    """Where unit ``index`` of a study is kept in ``folder`` once finished."""
+    name = f"{index:04d}-{_slug(unit.agent)}-{_slug(unit.preference)}"
+    return Path(folder) / f"{name}-{unit.runs[0]}-{unit.runs[-1]}.npz"
+
+
+def remove_temporary(folder: Path, names: Iterable[str]) -> None:
+    """Remove the temporary files a killed write of ``names`` left in ``folder``
+    (:func:`~hri_bench.core.atomic.atomic_path`'s ``.NAME.*.tmp``).
+    """
+    for name in names:
+        for tmp in Path(folder).glob(f".{glob.escape(name)}.*.tmp"):
+            tmp.unlink(missing_ok=True)
+
+
+def save_unit(path: Path, result: UnitResult) -> None:
+    """Write a finished unit's result to ``path`` (numpy arrays, no pickle; atomically)."""
+    metrics, probes, schedule, humans = result
+    arrays: dict[str, Any] = {**{f"m.{k}": v for k, v in metrics.items()}, "probes": probes,
+                              **{f"s.{k}": v for k, v in schedule.items()},
+                              "humans": np.array(humans, dtype=str)}
+    with atomic_path(path, suffix=".npz") as tmp:
+        np.savez(tmp, allow_pickle=False, **arrays)
+
+
+def load_units(folder: Path, units: list[_Unit]) -> dict[int, UnitResult]:
+    """The finished units of ``units`` kept in ``folder`` (:func:`unit_path`), by index;
+    unreadable files, and units an earlier version wrote without today's metrics, are left
+    out (simulated again).
+    """
+    done: dict[int, UnitResult] = {}
+    for i, u in enumerate(units):
+        path = unit_path(folder, i, u)
+        if not path.is_file():
+            continue
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                metrics = {k[2:]: np.array(data[k]) for k in data.files if k.startswith("m.")}
+                if not set(TASK_METRICS) <= set(metrics):
+                    continue  # written before the task's metrics: simulated again
+                schedule = {k[2:]: np.array(data[k]) for k in data.files if k.startswith("s.")}
+                done[i] = (metrics, np.array(data["probes"]), schedule,
+                           [str(h) for h in data["humans"]])
+        except Exception:  # a damaged unit is simulated again
+            continue
+    return done
+
+
+def _beside(path: Path, suffix: str) -> Path:
+    return path.parent / f"{path.name}{suffix}"
+
+
+def save_result(path: Path, result: StudyResult, extra: dict[str, Any]) -> None:
+    """Write a whole :class:`StudyResult` (but its configuration) to ``PATH.npz`` and
+    ``PATH.json`` (its failures, the order of its agents and ``extra``), the arrays first,
+    each atomically: the ``.json`` in place means that both are.
+    """
+    agents = list(result.metrics)
+    arrays: dict[str, Any] = {"humans": np.array(result.humans, dtype=str)}
+    for j, agent in enumerate(agents):
+        arrays.update({f"m.{j}.{k}": v for k, v in result.metrics[agent].items()})
+        arrays[f"p.{j}"] = result.probes[agent]
+    arrays.update({f"s.{k}": v for k, v in result.schedule.items()})
+    with atomic_path(_beside(path, ".npz"), suffix=".npz") as tmp:
+        np.savez(tmp, allow_pickle=False, **arrays)
+    with atomic_writer(_beside(path, ".json")) as f:
+        json.dump({"format": _RESULT_FORMAT, "agents": agents, "failures": result.failures,
+                   "wall_time_s": result.wall_time_s, **extra}, f)
+
+
+def load_result(path: Path, cfg: StudyConfig) -> tuple[StudyResult, dict[str, Any]] | None:
+    """The :class:`StudyResult` of study ``cfg`` that :func:`save_result` wrote to ``PATH.*``
+    with the document of its ``.json``; None when it is missing or unreadable (the study
+    is simulated again).
+    """
+    try:
+        doc = json.loads(_beside(path, ".json").read_text())
+        if doc.get("format") != _RESULT_FORMAT:
+            return None
+        with np.load(_beside(path, ".npz"), allow_pickle=False) as data:
+            metrics: dict[str, dict[str, np.ndarray]] = {}
+            probes: dict[str, np.ndarray] = {}
+            for j, agent in enumerate(doc["agents"]):
+                head = f"m.{j}."
+                metrics[agent] = {k[len(head):]: np.array(data[k]) for k in data.files
+                                  if k.startswith(head)}
+                probes[agent] = np.array(data[f"p.{j}"])
+            schedule = {k[2:]: np.array(data[k]) for k in data.files if k.startswith("s.")}
+            humans = [str(h) for h in data["humans"]]
+    except Exception:  # missing, damaged or of another layout: simulated again
+        return None
+    result = StudyResult(cfg, metrics, probes, schedule, float(doc["wall_time_s"]),
+                         humans=humans, failures=dict(doc["failures"]))
+    return result, doc
+
 
 
 class StudyDir:
@@ -153,12 +324,12 @@ class StudyDir:
         self.units_dir = self.out / UNITS
         #: The study in ``out`` was already complete (``resume``): nothing to do.
         self.complete = False
-        self._lock: int | None = None
+        self._lock = FolderLock(self.out, "study")
         if resume and overwrite:
             raise ConfigError("give either resume or overwrite, not both", field="resume")
-        self._check_writable()
+        check_out(self.out, "study")
         try:
-            self._acquire_lock()
+            self._lock.acquire()
             self._check(resume, overwrite)
         except OSError as exc:  # e.g. /proc/x, a read-only file system, a name too long
             self.close()
@@ -178,55 +349,7 @@ class StudyDir:
 
     def close(self) -> None:
         """Release the folder's lock (another study may then work there) and remove its file."""
-        if self._lock is not None:
-            with contextlib.suppress(FileNotFoundError):
-                (self.out / LOCK).unlink()  # while locked: see _acquire_lock
-            _HELD_LOCKS.discard(self._lock)
-            os.close(self._lock)  # closing the descriptor releases the flock
-            self._lock = None
-
-    def _check_writable(self) -> None:
-        out = self.out
-        if out.exists() and not out.is_dir():
-            raise ConfigError(f"{str(out)!r} is a file; give a directory (new or empty)",
-                              field="out")
-        existing = out if out.exists() else next(p for p in out.absolute().parents if p.exists())
-        if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-            raise ConfigError(f"cannot write in {str(existing)!r}; give a directory you can "
-                              "write to", field="out")
-
-    def _acquire_lock(self) -> None:
-        """Lock ``out/.lock`` or say which process holds it.
-
-        The file is removed when the lock is released (:meth:`close`); a study that opened
-        it just before then would hold a lock on a removed file, so the lock counts only if
-        the file it locked is still the one in the folder.
-        """
-        self.out.mkdir(parents=True, exist_ok=True)
-        path = self.out / LOCK
-        while True:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                holder = os.pread(fd, 32, 0).decode(errors="replace").strip()
-                os.close(fd)
-                raise ConfigError(
-                    f"another study{f' (process {holder})' if holder.isdigit() else ''} is "
-                    f"writing in {str(self.out)!r}; wait for it to end (--resume then "
-                    "continues it if it was stopped), or give another --out",
-                    field="out") from None
-            try:
-                locked, current = os.fstat(fd), os.stat(path)
-                if (locked.st_dev, locked.st_ino) == (current.st_dev, current.st_ino):
-                    break
-            except FileNotFoundError:
-                pass
-            os.close(fd)
-        _HELD_LOCKS.add(fd)
-        self._lock = fd
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        self._lock.release()
 
     def _check(self, resume: bool, overwrite: bool) -> None:
         out = self.out
@@ -292,9 +415,7 @@ class StudyDir:
         lock held, so they belong to no live study).
         """
         out = self.out
-        for name in OUTPUT_FILES:
-            for tmp in out.glob(f".{glob.escape(name)}.*.tmp"):
-                tmp.unlink(missing_ok=True)
+        remove_temporary(out, OUTPUT_FILES)
         for tmp in out.glob(".plots-*"):
             shutil.rmtree(tmp, ignore_errors=True)
         if self.complete:
@@ -306,39 +427,17 @@ class StudyDir:
 
     def unit_path(self, index: int, unit: _Unit) -> Path:
         """Where unit ``index`` of the study is kept once finished."""
-        name = f"{index:04d}-{_slug(unit.agent)}-{_slug(unit.preference)}"
-        return self.units_dir / f"{name}-{unit.runs[0]}-{unit.runs[-1]}.npz"
+        return unit_path(self.units_dir, index, unit)
 
     def save_unit(self, index: int, unit: _Unit, result: UnitResult) -> None:
         """Write a finished unit (atomically)."""
-        metrics, probes, schedule, humans = result
-        arrays: dict[str, Any] = {**{f"m.{k}": v for k, v in metrics.items()}, "probes": probes,
-                                  **{f"s.{k}": v for k, v in schedule.items()},
-                                  "humans": np.array(humans, dtype=str)}
-        with atomic_path(self.unit_path(index, unit), suffix=".npz") as tmp:
-            np.savez(tmp, allow_pickle=False, **arrays)
+        save_unit(self.unit_path(index, unit), result)
 
     def load_done(self, units: list[_Unit]) -> dict[int, UnitResult]:
         """The finished units found on disk, by index (unreadable files, and units an earlier
         version wrote without today's metrics, are run again).
         """
-        done: dict[int, UnitResult] = {}
-        for i, u in enumerate(units):
-            path = self.unit_path(i, u)
-            if not path.is_file():
-                continue
-            try:
-                with np.load(path, allow_pickle=False) as data:
-                    metrics = {k[2:]: np.array(data[k]) for k in data.files if k.startswith("m.")}
-                    if not set(TASK_METRICS) <= set(metrics):
-                        continue  # written before the task's metrics: simulated again
-                    schedule = {k[2:]: np.array(data[k]) for k in data.files
-                                if k.startswith("s.")}
-                    done[i] = (metrics, np.array(data["probes"]), schedule,
-                               [str(h) for h in data["humans"]])
-            except Exception:  # a damaged unit is simulated again
-                continue
-        return done
+        return load_units(self.units_dir, units)
 
     def log_failures(self, failures: dict[str, str]) -> Path | None:
         """Write ``errors.log`` with each failed agent's traceback (None if none failed)."""

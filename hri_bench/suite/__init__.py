@@ -3,9 +3,11 @@
 ==============  ====================================================================
 module          contents
 ==============  ====================================================================
+``markdown``    names from users and files made safe in every leaderboard's text
 ``tracks``      every version's tracks and constants, a track's study
+``resume``      the suite's folder: its lock, checks, finished tracks and units, resume
 ``results_v3``  suite v3's per-run humans, normalised scores and ranking sections
-``submission``  the results file: build, compute, validate, merge; the suite's recorder
+``submission``  the results file: read, build, compute, validate, merge; the recorder
 ``audit``       what a valid file cannot prove: replayed runs, conflicting files
 ``merged``      ``hri-bench leaderboard``: validated files merged into one leaderboard
 ``running``     :func:`run_suite`: the tracks' studies, ``suite.json``, the leaderboards

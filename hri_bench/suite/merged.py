@@ -11,12 +11,14 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from hri_bench.core.atomic import atomic_writer
 from hri_bench.suite import results_v3
 from hri_bench.suite.audit import conflicts
+from hri_bench.suite.markdown import code, escape
 from hri_bench.suite.submission import (
+    FORMAT,
     lead_section,
     load,
     merge,
@@ -26,19 +28,43 @@ from hri_bench.suite.submission import (
 )
 from hri_envs.errors import ConfigError
 
-__all__ = ["merged_leaderboard"]
+__all__ = ["HEADING", "Merged", "merged_leaderboard"]
 
 
-def merged_leaderboard(files: Iterable[Path], out: Path) -> tuple[list[Path], list[str]]:
+class Merged(NamedTuple):
+    """What :func:`merged_leaderboard` did."""
+
+    #: The files written (``leaderboard.md`` and the figure); empty when none was valid.
+    written: list[Path]
+    #: One line per refused results file.
+    refused: list[str]
+    #: One line per file skipped as not a results file (``format`` not :data:`FORMAT`:
+    #: a suite's ``suite.json`` and ``suite_log.json``, say).
+    skipped: list[str]
+
+
+#: The first line of every leaderboard :func:`merged_leaderboard` writes.
+HEADING = "# hri-envs leaderboard (suite v"
+
+
+def merged_leaderboard(files: Iterable[Path], out: Path) -> Merged:
     """Validate ``files``, merge the valid ones, write ``leaderboard.md`` and
-    ``profiles.png`` into ``out``; returns (written paths, one line per refused file).
+    ``profiles.png`` (``ranking.png``, suite v3) into ``out``.
+
+    A file that is JSON but not a results file (its ``format`` is not :data:`FORMAT`) is
+    skipped, not refused: a suite's folder holds its ``suite.json`` beside ``results.json``.
     """
-    refused, valid = [], {}
+    refused, skipped, valid = [], [], {}
     for path in files:
         try:
             doc = load(path)
         except ConfigError as exc:
             refused.append(f"{path}: {exc}")
+            continue
+        kind = doc.get("format") if isinstance(doc, dict) else None
+        if kind != FORMAT:
+            skipped.append(f"{path}: skipped: not a results file (its format is {kind!r}, "
+                           f"not {FORMAT!r})")
             continue
         problems = validate(doc)
         if problems:
@@ -49,27 +75,29 @@ def merged_leaderboard(files: Iterable[Path], out: Path) -> tuple[list[Path], li
     valid, apart = _mergeable(valid)
     refused += apart
     if not valid:
-        return [], refused
+        return Merged([], refused, skipped)
     merged = merge(valid)
     out.mkdir(parents=True, exist_ok=True)
     subs = []
     for fname, doc in valid.items():
         sub = doc.get("submission") or {}
-        who = ", ".join(str(sub[k]) for k in ("name", "lab") if sub.get(k)) or "(unnamed)"
-        subs.append(f"- `{fname}`: {who}; agents {', '.join(f'`{a}`' for a in doc['agents'])};"
+        who = ", ".join(escape(sub[k]) for k in ("name", "lab") if sub.get(k)) or "(unnamed)"
+        subs.append(f"- {code(fname)}: {who}; agents {', '.join(code(a) for a in doc['agents'])};"
                     f" seeds {doc['seeds']}, runs scale {doc['runs_scale']}")
     version = next(iter(valid.values()))["suite"]["version"]
     v3 = merged["schema_version"] == results_v3.SCHEMA_VERSION
     sections = ([results_v3.lead_section(merged), results_v3.failure_section(merged)] if v3
                 else [lead_section(merged)])
-    text = "\n".join([f"# hri-envs leaderboard (suite v{version})",
+    text = "\n".join([f"{HEADING}{version})",
                       "", "Merged from validated results files (`hri-bench validate`):", "",
                       *subs, "", *sections, task_section(merged)])
     with atomic_writer(out / "leaderboard.md") as f:
         f.write(text + "\n")
+    for stale in ("ranking.png", "profiles.png"):  # another version's, from an earlier merge
+        (out / stale).unlink(missing_ok=True)
     fig = (results_v3.ranking_figure(merged, out / "ranking.png") if v3
            else profile_figure(merged, out / "profiles.png"))
-    return [out / "leaderboard.md", fig], refused
+    return Merged([out / "leaderboard.md", fig], refused, skipped)
 
 
 def _mergeable(valid: Mapping[str, Mapping[str, Any]]

@@ -20,6 +20,7 @@ import numpy as np
 
 from hri_bench.report import ranking
 from hri_bench.run import metrics
+from hri_bench.suite.markdown import code, escape
 from hri_envs.humans.finite_state import as_model
 from hri_envs.humans.scripted import preference_human
 from hri_envs.humans.splits import MixtureSpec, population
@@ -242,14 +243,8 @@ def _ci(entry: Mapping[str, Any], key: str = "mean") -> str:
     return f"{_fmt(entry[key])} [{_fmt(lo)}, {_fmt(hi)}]"
 
 
-def _escape(text: str) -> str:
-    """Text from a file, safe in a Markdown table cell (no markup, no new rows)."""
-    return (str(text).replace("\\", "\\\\").replace("|", "\\|").replace("<", "&lt;")
-            .replace(">", "&gt;").replace("`", "'").replace("\n", " ").replace("#", "\\#"))
-
-
 def _name(agent: str) -> str:
-    return f"`{_escape(agent)}`{MARKS.get(agent, '')}"
+    return f"{code(agent)}{MARKS.get(agent, '')}"
 
 
 def lead_section(doc: Mapping[str, Any]) -> str:
@@ -321,7 +316,7 @@ def lead_section(doc: Mapping[str, Any]) -> str:
               "| track | " + " | ".join(_name(a) for a in order) + " |",
               "|---|" + "---|" * len(order)]
     for t in next(iter(block.values()))["per_track"]:
-        label = f"**{t}**" if t in head["tracks"] else f"{t} (anchor)"
+        label = f"**{escape(t)}**" if t in head["tracks"] else f"{escape(t)} (anchor)"
         lines.append(f"| {label} | " + " | ".join(_ci(block[a]["per_track"][t])
                                                   for a in order) + " |")
     return "\n".join([*lines, ""])
@@ -344,7 +339,8 @@ def failure_section(doc: Mapping[str, Any]) -> str:
              "| track | " + " | ".join(_name(a) for a in order) + " |",
              "|---|" + "---|" * len(order)]
     for t in tracks:
-        lines.append(f"| {t} | " + " | ".join(_ci(agg["gap"][a][t]) for a in order) + " |")
+        lines.append(f"| {escape(t)} | " + " | ".join(_ci(agg["gap"][a][t]) for a in order)
+                     + " |")
     families = sorted({f for a in order for f in agg["families"][a]})
     lines += ["", "Per family (headline tracks): mean gap per episode (normalised score).", "",
               "| family | humans | " + " | ".join(_name(a) for a in order) + " |",
@@ -353,12 +349,13 @@ def failure_section(doc: Mapping[str, Any]) -> str:
         n = next(agg["families"][a][f]["humans"] for a in order if f in agg["families"][a])
         cells = [f"{_fmt(e['gap'])} ({_fmt(e['normalised'], 2)})" if e is not None else "–"
                  for e in (agg["families"][a].get(f) for a in order)]
-        lines.append(f"| {_escape(f)} | {n} | " + " | ".join(cells) + " |")
+        lines.append(f"| {escape(f)} | {n} | " + " | ".join(cells) + " |")
     lines += ["", f"Each agent's {WORST} worst humans (headline tracks, by normalised score; "
               "gap per episode).", ""]
     for a in order:
-        worst = "; ".join(f"{_escape(w['label'])} on {w['track']} ({_fmt(w['normalised'], 2)}, "
-                          f"gap {_fmt(w['gap'], 2)})" for w in agg["worst"][a])
+        worst = "; ".join(f"{escape(w['label'])} on {escape(w['track'])} "
+                          f"({_fmt(w['normalised'], 2)}, gap {_fmt(w['gap'], 2)})"
+                          for w in agg["worst"][a])
         lines.append(f"- {_name(a)}: {worst}")
     return "\n".join([*lines, ""])
 

@@ -27,6 +27,7 @@ value per episode. See docs/benchmark.md, "Suite".
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -42,8 +43,17 @@ from hri_bench.core.atomic import atomic_writer
 from hri_bench.run import metrics, provenance
 from hri_bench.run.agents import PLANNING_REFERENCES, REFERENCE_AGENTS
 from hri_bench.run.regret import ALL_REFERENCES, REFERENCES, reference_summary
-from hri_bench.run.study import StudyResult, regret_reference, run_study
+from hri_bench.run.study import (
+    UNIT_TIME_LIMIT,
+    StudyResult,
+    UnitLostError,
+    _units,
+    regret_reference,
+    run_study,
+)
 from hri_bench.suite import results_v3
+from hri_bench.suite.markdown import code, escape
+from hri_bench.suite.resume import SUITE_LOG, TrackStore, complete_suite, suite_plan
 from hri_bench.suite.submission import SuiteRecorder, lead_section, task_section, write_results
 from hri_bench.suite.tracks import (
     ALPHA,
@@ -215,12 +225,12 @@ def _overview(doc: dict[str, Any]) -> list[str]:
     lines = ["## Overview", "", "Mean regret vs blind per episode [95 % CI]; where regret is "
              "n/a, the mean reward (marked r). — : the agent does not run on the track; raised: "
              "it failed there (errors.log).", "",
-             "| track | " + " | ".join(f"`{a}`" for a in agents) + " |",
+             "| track | " + " | ".join(code(a) for a in agents) + " |",
              "|---|" + "---|" * len(agents)]
     for name, tr in doc["tracks"].items():
         cells = _cells(tr, agents, (lambda e: _with_ci(e["regret"])) if tr["regret_reported"]
                        else (lambda e: "r " + _with_ci(e["reward"])))
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        lines.append(f"| {escape(name)} | " + " | ".join(cells) + " |")
     return [*lines, ""]
 
 
@@ -239,13 +249,14 @@ def leaderboard(doc: dict[str, Any]) -> str:
              ""]
     lines += _overview(doc)
     for name, tr in doc["tracks"].items():
-        lines += [f"## {name}", "", f"{tr['description']} ({tr['runs']} runs × "
+        lines += [f"## {escape(name)}", "", f"{escape(tr['description'])} ({tr['runs']} runs × "
                   f"{tr['episodes']} episodes).", ""]
         if not tr["regret_reported"]:
-            lines += [f"Regret n/a: {tr['regret'].removeprefix('not reported: ')}.", ""]
+            lines += [f"Regret n/a: {escape(tr['regret'].removeprefix('not reported: '))}.",
+                      ""]
         if tr["failed_agents"]:
             lines += ["Raised, no results (tracebacks in errors.log): "
-                      + ", ".join(f"`{a}`" for a in tr["failed_agents"]) + ".", ""]
+                      + ", ".join(code(a) for a in tr["failed_agents"]) + ".", ""]
         lines += ["| agent | regret mean [95 % CI] | regret IQM [95 % CI] | "
                   "reward mean [95 % CI] | wrong | passive | truncated | converged at |",
                   "|---|---|---|---|---|---|---|---|"]
@@ -258,7 +269,7 @@ def leaderboard(doc: dict[str, Any]) -> str:
         for agent, a in sorted(tr["agents"].items(), key=key):
             conv = a["episodes_to_converge"]
             conv_text = "n/a" if a["regret"] is None else "never" if conv is None else str(conv)
-            label = f"`{agent}`" + (" (ref.)" if agent in REFERENCES else "")
+            label = code(agent) + (" (ref.)" if agent in REFERENCES else "")
             lines.append(f"| {label} | {_with_ci(a['regret'])} | {_with_ci(a['regret'], 'iqm')}"
                          f" | {_with_ci(a['reward'])} | {a['wrong_rate']:.3f} | "
                          f"{a['passive_rate']:.3f} | {a['truncation_rate']:.1%} | {conv_text} |")
@@ -300,11 +311,11 @@ def leaderboard_v2(doc: dict[str, Any]) -> str:
              f"(α = {doc['power']['alpha']}), from a pilot's spread, within "
              f"[{doc['power']['min_runs']}, {doc['power']['max_runs']}].", "",
              "## Overview: gap to the upper bound (informed) per episode [95 % CI]", "",
-             "| track | reference | " + " | ".join(f"`{a}`" for a in ranked) + " |",
+             "| track | reference | " + " | ".join(code(a) for a in ranked) + " |",
              "|---|---|" + "---|" * len(ranked)]
     for name, tr in doc["tracks"].items():
         cells = _cells(tr, ranked, lambda e: _gap(e["gap_to_upper"]))
-        label = f"**{name}**" if tr["headline"] else name
+        label = f"**{escape(name)}**" if tr["headline"] else escape(name)
         lines.append(f"| {label} | {_reference_cell(tr)} | " + " | ".join(cells) + " |")
     lines.append("")
     for name, tr in doc["tracks"].items():
@@ -317,8 +328,8 @@ def _track_section(name: str, tr: dict[str, Any]) -> list[str]:
     table of the agents by mean reward with their gaps to both ends.
     """
     pop = tr["population"]
-    pop_text = ("" if pop is None else f" Population `{pop['name']}`." if pop["hash"] is None
-                else f" Population `{pop['name']}` v{pop['version']} ({pop['members']} "
+    pop_text = ("" if pop is None else f" Population {code(pop['name'])}." if pop["hash"] is None
+                else f" Population {code(pop['name'])} v{pop['version']} ({pop['members']} "
                 f"members), hash `{pop['hash'][:16]}`.")
     power = tr["power"]
     if "pilot_sd" in power:  # v2
@@ -332,12 +343,12 @@ def _track_section(name: str, tr: dict[str, Any]) -> list[str]:
                       f"{power['power']:.0%} ({'meets' if power['met'] else 'MISSES'} the "
                       f"target {power['delta']}).")
     ref = tr["reference"]
-    lines = [f"## {name}", "", f"{tr['description']} ({tr['runs']} runs × "
+    lines = [f"## {escape(name)}", "", f"{escape(tr['description'])} ({tr['runs']} runs × "
              f"{tr['episodes']} episodes).{pop_text}{power_text}", "",
-             f"Reference: {_reference_cell(tr)}. {ref['note'].capitalize()}.", ""]
+             f"Reference: {_reference_cell(tr)}. {escape(ref['note'].capitalize())}.", ""]
     if tr["failed_agents"]:
         lines += ["Raised, no results (tracebacks in errors.log): "
-                  + ", ".join(f"`{a}`" for a in tr["failed_agents"]) + ".", ""]
+                  + ", ".join(code(a) for a in tr["failed_agents"]) + ".", ""]
     lower = "regret vs blind (exact)" if ref["kind"] == "exact" else "gap to qmdp (lower)"
     lines += [f"| agent | reward mean [95 % CI] | gap to informed (upper) | {lower} | "
               "wrong | passive | truncated |", "|---|---|---|---|---|---|---|"]
@@ -346,7 +357,7 @@ def _track_section(name: str, tr: dict[str, Any]) -> list[str]:
         return (-item[1]["reward"]["mean"], item[0])
 
     for agent, a in sorted(tr["agents"].items(), key=key):
-        label = f"`{agent}`" + (" (ref.)" if agent in ALL_REFERENCES else "")
+        label = code(agent) + (" (ref.)" if agent in ALL_REFERENCES else "")
         lines.append(f"| {label} | {_with_ci(a['reward'])} | {_gap(a['gap_to_upper'])} | "
                      f"{_gap(a['gap_to_lower'])} | {a['wrong_rate']:.3f} | "
                      f"{a['passive_rate']:.3f} | {a['truncation_rate']:.1%} |")
@@ -423,12 +434,16 @@ def run_suite(
     progress: bool = False,
     populations: Sequence[str] = (),
     version: str = LATEST,
+    resume: bool = False,
+    unit_time_limit: float = UNIT_TIME_LIMIT,
 ) -> dict[str, Any]:
     """Run the suite's tracks and write its files into ``out``; return suite.json's document.
 
     Every track's configuration is built (and so validated) before any simulation. An
     agent that raises (or calls ``sys.exit``) is left out of that track and recorded: the
-    track's ``failed_agents`` and ``DIR/errors.log``; the other agents run on.
+    track's ``failed_agents`` and ``DIR/errors.log``; the other agents run on. The work
+    in progress is kept in ``out/.suite`` (:class:`~hri_bench.suite.resume.TrackStore`)
+    until every file is written.
 
     Args:
         out: Output directory (created).
@@ -446,9 +461,18 @@ def run_suite(
             ``recorded:hanger-people-v0``).
         version: The suite version (:data:`~hri_bench.suite.tracks.SUITE_VERSIONS`; default
             :data:`~hri_bench.suite.tracks.LATEST`).
+        resume: Continue the suite interrupted in ``out`` (its finished tracks and units
+            are not run again; the files are byte-identical to an uninterrupted run's), or
+            return the document of the complete suite ``out`` holds; without it, what an
+            interrupted suite left in ``out/.suite`` is removed first.
+        unit_time_limit: The most wall seconds one unit of work may take
+            (:attr:`~hri_bench.run.study.StudyConfig.unit_time_limit`).
 
     Raises:
-        ConfigError: Unknown track, bad agents, bad runs_scale (before any simulation).
+        ConfigError: Unknown track, bad agents, bad runs_scale (before any simulation);
+            ``resume`` on a folder of another suite (``field="out"``).
+        UnitLostError: A unit's worker died or it ran past the time limit (the finished
+            tracks and units are kept for ``resume``).
     """
     if not (isinstance(runs_scale, int | float) and math.isfinite(runs_scale)
             and runs_scale > 0):
@@ -457,16 +481,25 @@ def run_suite(
     version = check_version(version)
     if agents is None:
         agents = default_agents(version)
-    chosen = select_tracks(tracks, version) + [population_track(p, version)
-                                               for p in populations]
-    configs = [track_config(t, agents, runs_scale=runs_scale, seed=seed, jobs=jobs,
-                            executor=executor, version=version) for t in chosen]
+    versioned = select_tracks(tracks, version)
+    chosen = versioned + [population_track(p, version) for p in populations]
+    configs = [dataclasses.replace(
+        track_config(t, agents, runs_scale=runs_scale, seed=seed, jobs=jobs,
+                     executor=executor, version=version), unit_time_limit=unit_time_limit)
+               for t in chosen]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    plan = suite_plan(version, agents, [t.name for t in versioned], populations, runs_scale,
+                      [seed])
+    if resume:
+        complete = complete_suite(out, plan)
+        if complete is not None:
+            return complete
+    store = TrackStore(out, plan, resume=resume)
     doc = _suite_header(version, seed, runs_scale, agents)
     t0 = time.perf_counter()
     recorder = SuiteRecorder(seed, runs_scale, version)  # results.json (submission.py)
-    walls, failures = _run_tracks(chosen, configs, doc, recorder, out, progress)
+    walls, failures = _run_tracks(chosen, configs, doc, recorder, store, progress)
     _write_errors(out, failures)
     results = recorder.document()  # v1's suite.json and leaderboard.md stay as they were
     _add_power_and_provenance(doc, version, agents)
@@ -478,9 +511,10 @@ def run_suite(
         f.write(json.dumps(doc, indent=1, allow_nan=False) + "\n")
     log = {"suite_version": version, "jobs": jobs, "executor": executor,
            "wall_time_s": round(time.perf_counter() - t0, 2), "tracks_wall_time_s": walls,
-           "load_average": list(os.getloadavg()), "cpus": os.cpu_count()}
-    with atomic_writer(out / "suite_log.json") as f:
+           "load_average": list(os.getloadavg()), "cpus": os.cpu_count(), "plan": plan}
+    with atomic_writer(out / SUITE_LOG) as f:
         f.write(json.dumps(log, indent=1) + "\n")
+    store.finish()
     return doc
 
 
@@ -507,31 +541,49 @@ def _suite_header(version: str, seed: int, runs_scale: float, agents: Sequence[s
 
 
 def _run_tracks(chosen: Sequence[Track], configs: Sequence[Any], doc: dict[str, Any],
-                recorder: SuiteRecorder, out: Path, progress: bool
+                recorder: SuiteRecorder, store: TrackStore, progress: bool
                 ) -> tuple[dict[str, float], dict[str, dict[str, str]]]:
     """Run each track's study (an agent that raises is left out), summarise it into
     ``doc["tracks"]``, record it for ``results.json`` and draw its figure; returns the wall
-    times and the tracebacks by track and agent.
+    times and the tracebacks by track and agent. A track that ``store`` holds as finished
+    is not run again; each finished unit and track is kept there.
     """
     version = doc["suite_version"]
     summarise = {"1": track_summary, "2": track_summary_v2}.get(version, track_summary_v3)
     walls: dict[str, float] = {}
     failures: dict[str, dict[str, str]] = {}
-    iterator: Any = zip(chosen, configs, strict=True)
+    iterator: Any = enumerate(zip(chosen, configs, strict=True))
     if progress:
         from tqdm.auto import tqdm
 
         iterator = tqdm(list(iterator), desc="suite", unit="track")
-    for track, cfg in iterator:
-        t = time.perf_counter()
-        result = run_study(cfg, keep_going=True)
+    for k, (track, cfg) in iterator:
+        finished = store.finished(k, track, cfg)
+        if finished is None:
+            t = time.perf_counter()
+            units = _units(cfg)
+
+            def keep(i: int, res: Any, k: int = k, track: Track = track,
+                     units: list[Any] = units) -> None:
+                store.save_unit(k, track, i, units[i], res)
+
+            try:
+                result = run_study(cfg, keep_going=True,
+                                   done=store.units_done(k, track, units), on_result=keep)
+            except UnitLostError as exc:
+                raise UnitLostError(exc.agent, exc.runs, exc.reason,
+                                    f"track {track.name}") from None
+            wall = round(time.perf_counter() - t, 2)
+            store.save(k, track, result, wall)
+        else:
+            result, wall = finished
         if result.failures:
             failures[track.name] = result.failures
         entry = summarise(track, result)
         recorder.add(track, result)
         doc["tracks"][track.name] = entry
-        track_figure(track.name, entry, out / f"{track.name}.png")
-        walls[track.name] = round(time.perf_counter() - t, 2)
+        track_figure(track.name, entry, store.out / f"{track.name}.png")
+        walls[track.name] = wall
     return walls, failures
 
 

@@ -12,9 +12,11 @@ one leaderboard.
 from __future__ import annotations
 
 import dataclasses
-import gzip
 import json
 import math
+import os
+import stat
+import zlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -28,13 +30,15 @@ from hri_bench.run.agents import agent_settings
 from hri_bench.run.runner import TASK_METRICS
 from hri_bench.run.study import regret_reference
 from hri_bench.suite import results_v3
+from hri_bench.suite.markdown import code, escape
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION, track_config
 from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
 from hri_envs.task.scenarios import scenario_spec
 
-__all__ = ["FORMAT", "SCHEMA_PATH", "SCHEMA_VERSION", "build", "compute", "lead_section",
-           "load", "merge", "profile_figure", "track_runs", "validate"]
+__all__ = ["FORMAT", "MAX_DEPTH", "SCHEMA_PATH", "SCHEMA_VERSION", "build", "compute",
+           "lead_section", "load", "merge", "profile_figure", "read_json", "track_runs",
+           "validate"]
 
 FORMAT = "hri-bench-results"
 #: Version of the results file's layout (the schema); a change gets a new one.
@@ -161,28 +165,129 @@ def schema_version(suite_version: str) -> str:
     return SCHEMA_VERSION if suite_version in ("1", "2") else results_v3.SCHEMA_VERSION
 
 
-def load(path: str | Path) -> Any:
-    """A results file's JSON (``.json`` or gzip-compressed ``.json.gz``).
+#: The deepest nesting of JSON arrays and objects read (a results file nests 7 deep, a
+#: summary.json 6): deeper documents are refused before any recursive check meets them.
+MAX_DEPTH = 64
 
-    Raises:
-        ConfigError: It cannot be read, is larger than :data:`MAX_BYTES` or is not JSON.
+
+class _DuplicateKey(ValueError):
+    pass
+
+
+def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    doc = dict(pairs)
+    if len(doc) != len(pairs):
+        seen: set[str] = set()
+        for key, _ in pairs:
+            if key in seen:
+                raise _DuplicateKey(f"the key {key!r} appears twice in one JSON object")
+            seen.add(key)
+    return doc
+
+
+def _depth_exceeds(doc: Any, limit: int) -> bool:
+    """Whether ``doc`` nests arrays and objects more than ``limit`` deep (no recursion)."""
+    if not isinstance(doc, dict | list):
+        return False
+    stack = [(doc, 1)]
+    while stack:
+        node, depth = stack.pop()
+        items = node.values() if isinstance(node, dict) else node
+        for child in items:
+            if isinstance(child, dict | list):
+                if depth + 1 > limit:
+                    return True
+                stack.append((child, depth + 1))
+    return False
+
+
+def read_json(path: str | Path, *, max_bytes: int | None = None, what: str = "results file",
+              constants: bool = False) -> Any:
+    """The JSON document of a regular file (``.gz``: gzip-compressed), refused early
+    (a :class:`ConfigError`, ``field="file"``, whose message names ``path`` and says why)
+    when it is not a regular file (a FIFO, ``/dev/zero``, a folder: nothing is read), is
+    larger than ``max_bytes`` (compressed, or decompressed: the gzip stream is decompressed
+    only up to that size), nests deeper than :data:`MAX_DEPTH`, repeats a key within an
+    object, or (unless ``constants``) holds NaN or Infinity. ``max_bytes`` defaults to
+    :data:`MAX_BYTES`.
     """
     path = Path(path)
+    max_bytes = MAX_BYTES if max_bytes is None else max_bytes
     try:
-        if path.stat().st_size > MAX_BYTES:
-            raise ConfigError(f"{path}: larger than {MAX_BYTES // 2**20} MiB", field="file")
-        raw = path.read_bytes()
-        if path.suffix == ".gz":
-            raw = gzip.decompress(raw)[: MAX_BYTES + 1]
-        return json.loads(raw, parse_constant=lambda c: _refuse_constant(c))
-    except (OSError, EOFError, gzip.BadGzipFile) as exc:
-        raise ConfigError(f"{path}: cannot be read ({exc})", field="file") from exc
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # a FIFO without a writer: no wait
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})",
+                          field="file") from None
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise ConfigError(f"{path}: not a regular file (a FIFO, device or folder); give "
+                              f"a {what}", field="file")
+        with os.fdopen(fd, "rb", closefd=False) as f:
+            raw = f.read(max_bytes + 1)
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})",
+                          field="file") from None
+    finally:
+        os.close(fd)
+    if len(raw) > max_bytes:
+        raise ConfigError(f"{path}: larger than {max_bytes // 2**20} MiB", field="file")
+    text: bytes | bytearray = _gunzip(path, raw, max_bytes) if path.suffix == ".gz" else raw
+    deep = ConfigError(f"{path}: its JSON nests deeper than {MAX_DEPTH} levels; not a {what}",
+                       field="file")
+    try:
+        doc = json.loads(text, object_pairs_hook=_no_duplicates,
+                         parse_constant=None if constants else _refuse_constant)
+    except RecursionError:
+        raise deep from None
+    except _DuplicateKey as exc:
+        raise ConfigError(f"{path}: {exc}; not a {what}", field="file") from None
     except (json.JSONDecodeError, UnicodeDecodeError, ValueError) as exc:
-        raise ConfigError(f"{path}: not a JSON results file ({exc})", field="file") from exc
+        raise ConfigError(f"{path}: not JSON ({exc}); not a {what}", field="file") from None
+    if _depth_exceeds(doc, MAX_DEPTH):
+        raise deep
+    return doc
+
+
+def _gunzip(path: Path, raw: bytes, max_bytes: int) -> bytearray:
+    """Decompress gzip ``raw`` (every member), a MiB at a time, to at most ``max_bytes``: a
+    stream that would give more is refused as soon as that much is out, so a small bomb costs
+    no more memory than the largest file allowed.
+    """
+    out = bytearray()
+    d = zlib.decompressobj(16 + zlib.MAX_WBITS)
+    pending = raw
+    try:
+        while pending:
+            out += d.decompress(pending, 2**20)
+            if len(out) > max_bytes:
+                raise ConfigError(f"{path}: decompresses to more than "
+                                  f"{max_bytes // 2**20} MiB", field="file")
+            pending = d.unconsumed_tail
+            if d.eof:  # another gzip member may follow
+                pending = d.unused_data.lstrip(b"\0")
+                d = zlib.decompressobj(16 + zlib.MAX_WBITS)
+            elif not pending:
+                raise ConfigError(f"{path}: cannot be read (a truncated gzip stream)",
+                                  field="file")
+    except zlib.error as exc:
+        raise ConfigError(f"{path}: cannot be read (not gzip: {exc})", field="file") from None
+    return out
 
 
 def _refuse_constant(name: str) -> Any:
     raise ValueError(f"{name} is not a number JSON allows")
+
+
+def load(path: str | Path) -> Any:
+    """A results file's JSON (``.json`` or gzip-compressed ``.json.gz``), read with
+    :func:`read_json`.
+
+    Raises:
+        ConfigError: It is not a regular file, cannot be read, is larger than
+            :data:`MAX_BYTES` (compressed or not), nests too deep, repeats a key or is not
+            JSON.
+    """
+    return read_json(path)
 
 
 def _schema_errors(doc: Any) -> list[str]:
@@ -380,22 +485,22 @@ def lead_section(doc: Mapping[str, Any]) -> str:
              "|---|---|---|---|---|---|"]
     for a in order:
         e = block[a]
-        lines.append(f"| `{a}`{SEES.get(a, '')} | {_ci(e)} | {_ci(e, 'mean')} | "
+        lines.append(f"| {code(a)}{SEES.get(a, '')} | {_ci(e)} | {_ci(e, 'mean')} | "
                      f"{_fmt(e['seed_std'])} ({_fmt(e['seed_min'])}–{_fmt(e['seed_max'])}) | "
                      f"{len(e['tracks'])} | {e['runs']} |")
     partial = aggregate.get("partial") or {}
     if partial:
         lines += ["", "Not aggregated (no runs on every track; see the tracks' tables): "
-                  + "; ".join(f"`{a}` ({len(t)} track(s))"
+                  + "; ".join(f"{code(a)} ({len(t)} track(s))"
                               for a, t in partial.items()) + "."]
     poi = aggregate["probability_of_improvement"]
     lines += ["", "Probability of improvement: row agent's run scores higher than column "
               "agent's on the same track (ties one half), averaged over tracks and seeds.", "",
-              "| P(row > column) | " + " | ".join(f"`{a}`" for a in order)
+              "| P(row > column) | " + " | ".join(code(a) for a in order)
               + " |", "|---|" + "---|" * len(order)]
     for a in order:
         cells = ["·" if a == b else _fmt(poi[a][b], 2) for b in order]
-        lines.append(f"| `{a}` | " + " | ".join(cells) + " |")
+        lines.append(f"| {code(a)} | " + " | ".join(cells) + " |")
     return "\n".join([*lines, ""])
 
 
@@ -421,7 +526,7 @@ def task_section(doc: Mapping[str, Any]) -> str:
     for track, by_agent in doc["statistics"][seed].items():
         if "normalisation" in by_agent:  # suite v3: regret against the reachable reference
             by_agent = by_agent["agents"]
-        lines += [f"### The task's metrics on {track}", "",
+        lines += [f"### The task's metrics on {escape(track)}", "",
                   "| agent | learned at | re-adapted after | asymptote | MAP steps | log-loss | "
                   "Brier | counteract | idle | alone |",
                   "|---|---|---|---|---|---|---|---|---|---|"]
@@ -430,7 +535,7 @@ def task_section(doc: Mapping[str, Any]) -> str:
                 return "–" if s.get(key) is None else _ci(s[key], "mean")
             asym = cell("asymptote_regret") if s["asymptote_regret"] is not None else \
                 "r " + cell("asymptote_reward")
-            lines.append(f"| `{agent}` | {cell('learning_episodes')} | "
+            lines.append(f"| {code(agent)} | {cell('learning_episodes')} | "
                          f"{cell('readapt_episodes')} | {asym} | "
                          f"{cell('map_steps')} | {cell('log_loss')} | {cell('brier')} | "
                          f"{cell('counteract')} | {cell('human_idle')} | "

@@ -9,7 +9,7 @@ import numpy as np
 from gymnasium import spaces
 
 from hri_envs.checks import check_flag
-from hri_envs.envs.backends import episode_backend
+from hri_envs.envs.backends import BACKENDS, episode_backend
 from hri_envs.envs.config import (
     check_env_settings,
     check_physics_options,
@@ -22,13 +22,13 @@ from hri_envs.envs.formats import ClassicLayout, check_observation_format
 from hri_envs.envs.render import render_ansi
 from hri_envs.envs.spaces import check_action, robot_observation_space
 from hri_envs.envs.window import check_display
-from hri_envs.errors import ResetNeeded
+from hri_envs.errors import ConfigError, ResetNeeded
 from hri_envs.humans.protocol import BatchHuman, checked_actions
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task.episode import EpisodeRules, reached_intention, revise_intention
 from hri_envs.task.scenarios import spec_of
 
-__all__ = ["RobotEnv"]
+__all__ = ["RobotEnv", "panda_env"]
 
 _ONE = np.ones(1, dtype=bool)
 _ONE.setflags(write=False)
@@ -318,3 +318,31 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
     def close(self) -> None:
         """Release what the backend holds (the physics' renderer, a pending video)."""
         self._episode.close()
+
+
+def panda_env(scenario: str = "hanger", *, backend: str = "mujoco", **kwargs: Any) -> RobotEnv:
+    """The entry point of the Panda ids (``hri_envs/HangerPanda-v0``, ...): a
+    :class:`RobotEnv` on a backend that simulates the Panda.
+
+    ``gymnasium.make(panda_id, backend=...)`` may choose among the physics backends of
+    :data:`~hri_envs.envs.backends.BACKENDS` (``physical``: "mujoco", "mjwarp"); any other
+    (the abstract "graph") is refused rather than silently giving the graph env under a Panda
+    id: that env is the scenario's graph id.
+
+    Raises:
+        ConfigError: ``backend`` is not a physics backend (``field="backend"``).
+    """
+    physical = [name for name, spec in BACKENDS.items() if spec.physical]
+    if not isinstance(backend, str) or backend not in physical:
+        try:
+            graph_id = f" ({scenario_spec(scenario).gym_id})"
+        except ConfigError:
+            graph_id = ""
+        raise ConfigError(f"a Panda id simulates the Panda: backend must be one of the physics "
+                          f"backends {', '.join(physical)}, got {backend!r}; the graph env has "
+                          f"an id of its own{graph_id}", field="backend")
+    return RobotEnv(scenario, backend=backend, **kwargs)
+
+
+#: ``gymnasium.make`` reads the render modes of an entry point from its ``metadata``.
+panda_env.metadata = RobotEnv.metadata  # type: ignore[attr-defined]

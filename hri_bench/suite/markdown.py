@@ -1,0 +1,28 @@
+"""Text from files and users, made safe in the leaderboards' Markdown.
+
+Agent names (``module:Class``, ``sb3:PATH``), submission names, file names, population and
+track names come from users or files: every leaderboard text (``hri-bench suite`` v1, v2,
+v3, ``hri-bench leaderboard``) puts them through :func:`escape` (or :func:`code`), so that
+none can start a heading, close a table row, or inject HTML (``<img>``). The names of the
+project's own agents and tracks contain none of the characters it changes, so they read as
+before.
+"""
+
+from __future__ import annotations
+
+__all__ = ["code", "escape"]
+
+
+def escape(text: object) -> str:
+    """``text`` safe in a Markdown table cell, heading or list item: no markup, no new rows
+    or lines, no HTML (backslash, ``|`` and ``#`` escaped, ``<`` and ``>`` as entities, a
+    backtick as ``'``, line breaks as spaces).
+    """
+    return (str(text).replace("\\", "\\\\").replace("|", "\\|").replace("<", "&lt;")
+            .replace(">", "&gt;").replace("`", "'").replace("\r", " ").replace("\n", " ")
+            .replace("#", "\\#"))
+
+
+def code(text: object) -> str:
+    """``text`` as inline code: :func:`escape`, in backticks."""
+    return f"`{escape(text)}`"

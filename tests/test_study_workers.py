@@ -1,0 +1,185 @@
+"""Dead and hung pool workers (issue 34): a study whose worker dies (``os._exit``, SIGKILL
+from the agent or from outside, ``KeyboardInterrupt`` raised by the agent) or whose unit runs
+past ``--unit-time-limit`` ends within seconds with one line naming the unit, keeps its
+finished units, and ``--resume`` completes it byte-identical to an uninterrupted run.
+
+Before the fix each of these studies waited forever at 0 CPU; here every subprocess has a
+timeout, so a hang fails the test instead of stalling it.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hri_bench.cli import main
+from hri_bench.run.study import StudyConfig, UnitLostError, run_study
+from hri_envs.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parents[1]
+#: Seconds a study with a dead or hung worker may take to end (it ends in about one).
+PROMPT = 30
+
+
+def _study(agent, *extra):
+    return ["study", "wheel", "--runs", "4", "--episodes", "2", "--no-progress", "--agents",
+            f"passive,{agent}", *extra]
+
+
+def _cli(args, gate):
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "HRI_TEST_GATE": str(gate)}
+    return subprocess.Popen([sys.executable, "-m", "hri_bench.cli", *args], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+
+
+def _finish(proc, timeout=PROMPT):
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        pytest.fail(f"the study hung (killed after {timeout} s)")
+    return proc.returncode, out, err
+
+
+def _uninterrupted(args, out, gate, monkeypatch):
+    gate.touch()
+    monkeypatch.setenv("HRI_TEST_GATE", str(gate))
+    assert main([*args, "--out", str(out)]) == 0
+
+
+def _resumed_identically(args, out, gate, reference):
+    gate.touch()
+    code, _, err = _finish(_cli([*args, "--out", str(out), "--resume"], gate), timeout=120)
+    assert code == 0, err
+    for name in ("summary.json", "episodes.csv"):
+        assert (out / name).read_bytes() == (reference / name).read_bytes(), name
+    assert not (out / ".units").exists() and not (out / ".lock").exists()
+
+
+@pytest.mark.parametrize("agent, says", [
+    ("ExitsProcess", "its worker process ended with exit status 3"),
+    ("KillsItself", "its worker process was killed (SIGKILL"),
+    ("RaisesKeyboardInterrupt", "the agent raised KeyboardInterrupt (deliberate) in its "
+                                "worker process"),
+])
+def test_a_dead_worker_ends_the_study_naming_the_unit_and_resume_completes_it(
+        agent, says, tmp_path, monkeypatch):
+    name = f"tests.helpers_faults:{agent}"
+    args = _study(name, "--jobs", "2")
+    gate = tmp_path / "gate"
+    out = tmp_path / "study"
+    t = time.monotonic()
+    code, _, err = _finish(_cli([*args, "--out", str(out)], gate))
+    took = time.monotonic() - t
+    assert code == 1, err
+    err = err.strip()
+    assert "\n" not in err and "Traceback" not in err
+    assert err.startswith(f"hri-bench: study stopped: agent {name!r}, runs ")
+    assert says in err
+    assert err.endswith(f"--out {out} --resume")
+    assert took < PROMPT
+    assert not (out / "summary.json").exists()
+    reference = tmp_path / "reference"
+    _uninterrupted(args, reference, tmp_path / "open", monkeypatch)
+    _resumed_identically(args, out, gate, reference)
+
+
+def _children(pid):
+    kids = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                kids.append(int(entry.name))
+    return kids
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+def test_a_worker_killed_from_outside_ends_the_study_within_seconds(tmp_path, monkeypatch):
+    # kill -9 (or the OOM killer) on a worker busy with a unit: its agent waits for the gate.
+    args = _study("tests.helpers_agents:WaitsForGate", "--jobs", "2")
+    gate = tmp_path / "gate"
+    out = tmp_path / "study"
+    proc = _cli([*args, "--out", str(out)], gate)
+    deadline = time.monotonic() + 60
+    while len(_children(proc.pid)) < 2 or not list((out / ".units").glob("0*.npz")):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stderr.read()
+        time.sleep(0.02)
+    time.sleep(0.2)  # both workers now wait in WaitsForGate's units
+    victim = _children(proc.pid)[0]
+    os.kill(victim, signal.SIGKILL)
+    t = time.monotonic()
+    code, _, err = _finish(proc)
+    took = time.monotonic() - t
+    assert code == 1, err
+    assert "agent 'tests.helpers_agents:WaitsForGate', runs " in err
+    assert "its worker process was killed (SIGKILL" in err and "Traceback" not in err
+    assert took < 5, f"the study took {took:.1f} s to notice the dead worker"
+    reference = tmp_path / "reference"
+    _uninterrupted(args, reference, gate, monkeypatch)
+    _resumed_identically(args, out, gate, reference)
+
+
+@pytest.mark.parametrize("agent, jobs", [("Hangs", "1"), ("Hangs", "2"), ("SpinsInC", "2")])
+def test_a_unit_over_the_time_limit_ends_the_study(agent, jobs, tmp_path, monkeypatch):
+    name = f"tests.helpers_faults:{agent}"
+    args = _study(name, "--jobs", jobs, "--unit-time-limit", "1.5")
+    gate = tmp_path / "gate"
+    out = tmp_path / "study"
+    code, _, err = _finish(_cli([*args, "--out", str(out)], gate))
+    assert code == 1, err
+    assert f"agent {name!r}, runs " in err and "Traceback" not in err
+    assert "ran longer than the time limit of 1.5 s per unit of work" in err
+    reference = tmp_path / "reference"
+    _uninterrupted(args, reference, tmp_path / "open", monkeypatch)
+    _resumed_identically(args, out, gate, reference)
+
+
+def test_the_library_raises_a_unit_lost_error_naming_the_unit(monkeypatch):
+    monkeypatch.delenv("HRI_TEST_GATE", raising=False)
+    cfg = StudyConfig("wheel", agents=("tests.helpers_faults:ExitsProcess",), runs=4,
+                      episodes=1, jobs=2, executor="process")
+    seen = []
+    with pytest.raises(UnitLostError) as info:
+        run_study(cfg, on_result=lambda i, res: seen.append(i), keep_going=True)
+    assert info.value.agent == "tests.helpers_faults:ExitsProcess"
+    assert info.value.runs in ((0, 1), (2, 3)) and "exit status 3" in info.value.reason
+    assert seen == []
+    with pytest.raises(UnitLostError, match="time limit of 0.5 s"):
+        run_study(StudyConfig("wheel", agents=("tests.helpers_faults:Hangs",), runs=2,
+                              episodes=1, unit_time_limit=0.5))
+
+
+@pytest.mark.parametrize("bad", [0, -1, float("nan"), "60", True])
+def test_the_time_limit_is_checked(bad):
+    with pytest.raises(ConfigError) as info:
+        StudyConfig("wheel", unit_time_limit=bad)
+    assert info.value.field == "unit_time_limit"
+    assert StudyConfig("wheel", unit_time_limit=float("inf")).unit_time_limit == float("inf")
+
+
+@pytest.mark.parametrize("bad", ["0", "-1", "nan", "soon"])
+def test_the_time_limit_flag_is_checked(bad, tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["study", "wheel", "--unit-time-limit", bad, "--out", str(tmp_path / "x")])
+    assert exc.value.code == 2
+    assert "argument --unit-time-limit: expected a number of seconds > 0, or inf" in \
+        capsys.readouterr().err
+
+
+def test_the_time_limit_changes_no_number_and_is_not_a_setting():
+    a = StudyConfig("wheel", agents=("learner",), runs=2, episodes=2)
+    b = StudyConfig("wheel", agents=("learner",), runs=2, episodes=2, unit_time_limit=99.0)
+    assert a.settings() == b.settings()
+    ra, rb = run_study(a), run_study(b)
+    for key, values in ra.metrics["learner"].items():
+        np.testing.assert_array_equal(values, rb.metrics["learner"][key], err_msg=key)
