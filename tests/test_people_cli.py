@@ -3,6 +3,7 @@ in ``study`` and ``suite`` (hri_bench/cli/people.py, hri_bench/data/fit.py)."""
 
 import json
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -95,3 +96,20 @@ def test_fit_says_when_no_participant_is_held_out(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "no held-out participant" in out and "nan" not in out
     assert "0 held out" in out and "recorded:alone-v0" in out
+
+
+def test_minari_export_with_a_relative_data_folder(recorded, tmp_path, monkeypatch, capsys):
+    """As README and docs/people.md write it: ``--data out/datasets``, a relative path."""
+    pytest.importorskip("minari")
+    import shutil
+
+    shutil.copytree(recorded[0], tmp_path / "out" / "datasets")
+    monkeypatch.chdir(tmp_path)
+    assert main(["dataset", "export", "synthetic-hanger", "--data", "out/datasets",
+                 "--format", "minari"]) == 0
+    assert "wrote the Minari dataset hri-envs/synthetic-hanger-v0" in capsys.readouterr().out
+    root = Path("out/datasets/synthetic-hanger-v0/minari")  # loaded as the docs do
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(root))
+    data = pytest.importorskip("minari").load_dataset("hri-envs/synthetic-hanger-v0")
+    assert data.total_episodes == 20
+    assert not [p for p in root.parent.iterdir() if ".build-" in p.name]

@@ -534,7 +534,8 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
             # Minari warns of metadata a recording has no use for (author, permalink)
             warnings.simplefilter("ignore", UserWarning)
             before = os.environ.get("MINARI_DATASETS_PATH")
-            os.environ["MINARI_DATASETS_PATH"] = str(build)
+            # absolute: Minari joins a relative root to paths it already joined it to
+            os.environ["MINARI_DATASETS_PATH"] = str(build.absolute())
             try:
                 minari.create_dataset_from_buffers(
                     dataset.minari_id, buffers, env=env, algorithm_name="hri-bench",
