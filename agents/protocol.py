@@ -58,7 +58,38 @@ import numpy as np
 from hri_envs.checks import integer_action
 from hri_envs.errors import ActionError, ConfigError
 
-__all__ = ["Agent", "BatchAgent", "Batched", "Trace", "read_belief", "run_streams"]
+__all__ = ["METHODS", "Agent", "BatchAgent", "Batched", "Trace", "agent_name", "missing_methods",
+           "read_belief", "run_streams"]
+
+#: The methods every agent implements, in the order of an episode (``belief`` is optional).
+METHODS: tuple[str, ...] = ("begin_episode", "act", "observe", "end_episode")
+
+
+def missing_methods(cls: type) -> list[str]:
+    """The protocol's methods (:data:`METHODS`) that the agent class ``cls`` leaves abstract
+    or does not define as methods (an attribute that is not callable), in episode order.
+
+    A class that misses one cannot be instantiated (or fails at its first call): the
+    benchmark checks this when it reads an agent's name, before anything is simulated.
+    """
+    abstract: frozenset[str] = getattr(cls, "__abstractmethods__", frozenset())
+    return [m for m in METHODS if m in abstract or not callable(getattr(cls, m, None))]
+
+
+def agent_name(agent: object) -> str:
+    """The name messages call ``agent`` by: the ``name`` it or its class sets (a class
+    below :class:`Agent` and :class:`BatchAgent`, whose ``name`` is the placeholder
+    "agent"), else its class's name, so that a nameless agent is not called 'agent'.
+    """
+    own = getattr(agent, "__dict__", {}).get("name")
+    if isinstance(own, str) and own:
+        return own
+    for cls in type(agent).__mro__:
+        if cls in (Agent, BatchAgent):
+            break
+        if isinstance(vars(cls).get("name"), str) and vars(cls)["name"]:
+            return str(vars(cls)["name"])
+    return type(agent).__name__
 
 
 @dataclass(frozen=True)
@@ -139,7 +170,7 @@ def read_belief(agent: Agent | BatchAgent, n_runs: int | None = None) -> np.ndar
     if value is None:
         return None
     b = np.asarray(value, dtype=float)
-    name = getattr(agent, "name", type(agent).__name__)
+    name = agent_name(agent)
     if n_runs is not None and (b.ndim != 2 or b.shape[0] != n_runs):
         raise ConfigError(f"belief() of agent {name!r} returned shape {b.shape}; expected "
                           f"({n_runs}, K)", field="belief")
@@ -213,7 +244,7 @@ class BatchAgent(ABC):
 class _Single(Agent):
     def __init__(self, batch: BatchAgent) -> None:
         self.batch = batch
-        self.name = batch.name  # type: ignore[misc]
+        self.name = agent_name(batch)  # type: ignore[misc]
 
     def begin_episode(self, start: int) -> None:
         self.batch.begin_episode(np.array([start]))
@@ -251,7 +282,7 @@ class Batched(BatchAgent):
     def __init__(self, agents: Sequence[Agent], runs: Sequence[int] | None = None) -> None:
         super().__init__(len(agents))
         self.agents = list(agents)
-        self.name = agents[0].name  # type: ignore[misc]
+        self.name = agent_name(agents[0])  # type: ignore[misc]
         self.runs = list(range(len(agents)) if runs is None else (int(r) for r in runs))
         if len(self.runs) != self.n_runs:
             raise ConfigError(f"{self.n_runs} agents but {len(self.runs)} run indices",

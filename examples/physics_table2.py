@@ -93,6 +93,8 @@ def main() -> None:
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
+
+        from hri_bench.core.plots import agent_style  # each agent's colour in every figure
     except ImportError:
         print("matplotlib is not installed: no plots (pip install 'hri-envs[bench]')")
         return
@@ -104,7 +106,8 @@ def main() -> None:
         fig, ax = plt.subplots(figsize=(7, 3.2))
         width = 0.8 / len(results)
         for j, (name, r) in enumerate(results.items()):
-            ax.bar(x + (j - (len(results) - 1) / 2) * width, r[key], width, label=name)
+            ax.bar(x + (j - (len(results) - 1) / 2) * width, r[key], width, label=name,
+                   color=agent_style(name)[0])
         ax.set_xticks(x, labels, fontsize=7)
         ax.set_xlabel("episode (paper Table 2)")
         ax.set_ylabel(ylabel)

@@ -68,7 +68,7 @@ class ScriptedPlayer:
         action = int(self.human.preferred_action(np.array([self.state]), np.array([self.start]),
                                                  np.array([self.goal]))[0])
         options = np.flatnonzero(self.graph.valid[self.state])
-        answer = str(int(np.flatnonzero(options == action)[0]))
+        answer = str(int(np.flatnonzero(options == action)[0]) + 1)  # play numbers from 1
         if not self.quiet:
             print(f"{prompt}{answer}")
         return answer

@@ -201,14 +201,20 @@ def _plot(curve: list[dict[str, float]], refs: dict[str, dict[str, list[float]]]
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from hri_bench.core.plots import agent_style  # the colours of every other figure
+
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     steps = [c["steps"] for c in curve]
     for ax, key, label in ((axes[0], "return", "reward per episode"),
                            (axes[1], "effort", "human's effort per episode [N s]")):
-        ax.plot(steps, [c[key] for c in curve], "o-", label="SAC")
-        for name, color in (("upper", "tab:green"), ("passive", "tab:red")):
+        color, dashes = agent_style("sb3")  # an SB3 policy
+        ax.plot(steps, [c[key] for c in curve], marker="o", ls=dashes, color=color,
+                label="SAC")
+        # the upper reference sees the goal, as informed does; the floor is passive
+        for name, like in (("upper", "informed"), ("passive", "passive")):
             m = float(np.mean(refs[name][key]))
-            ax.axhline(m, color=color, ls="--", label=f"{name} reference")
+            color, dashes = agent_style(like)
+            ax.axhline(m, color=color, ls=dashes, label=f"{name} reference")
         ax.set_xlabel("training steps (25 Hz)")
         ax.set_ylabel(label)
         ax.legend()

@@ -163,13 +163,16 @@ def test_figures_subset_are_written(tmp_path):
 
 
 def test_play_in_the_terminal_with_scripted_answers():
-    answers = iter(["x", "99"] + ["1"] * 200)  # junk first, then always the second choice
+    answers = iter(["x", "99", "0"] + ["2"] * 200)  # junk first, then always the second choice
     lines: list[str] = []
     totals = play("wheel", episodes=1, read=lambda _: next(answers), write=lines.append,
                   max_steps=6)
     assert len(totals) == 1
     text = "\n".join(lines)
     assert "Robot belief" in text and "robot chooses" in text and "Type a number" in text
+    # numbered from 1, as the page of `hri-bench serve` numbers its keys; 0 is refused
+    assert "  [1] " in text and "  [0] " not in text
+    assert text.count("Type a number from 1 to") == 3  # "x", "99" and "0"
 
 
 SPEED_KEYS = {"parallel_env_steps_per_s", "vector_env_steps_per_s", "learner_update_ms",

@@ -29,6 +29,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from agents.config import default_config
+from agents.learning import algorithm1, partner_mdp
 from hri_bench.cli import people as cli_people
 from hri_bench.cli import results as cli_results
 from hri_bench.people.play import play
@@ -369,17 +370,35 @@ def _speed_parser(sub: Any) -> None:
 
 def _play_parser(sub: Any) -> None:
     """The ``play`` command."""
-    game = sub.add_parser("play", help="play the human in the terminal against the Learner")
-    game.add_argument("scenario", choices=SCENARIOS)
-    game.add_argument("--episodes", type=_positive, default=3)
-    game.add_argument("--seed", type=_seed, default=0)
+    game = sub.add_parser(
+        "play", help="play the human in the terminal against the Learner",
+        description="You are the human, the Learner is the robot and learns between "
+                    "episodes. Each step shows the state, the robot's belief over your goal "
+                    "and the action it chose, and lists your valid actions numbered from 1 "
+                    "(as the keys of hri-bench serve's page); type a number, or q to stop "
+                    "(the end of input, Ctrl-D, stops too). Your goal is yours alone: choose "
+                    "a support and carry the object there.")
+    game.add_argument("scenario", choices=SCENARIOS, help="the task")
+    game.add_argument("--episodes", type=_positive, default=3,
+                      help="episodes to play, each from a random start support (default 3)")
+    game.add_argument("--seed", type=_seed, default=0,
+                      help="seed of the starts and of the robot, >= 0 (default 0)")
 
 
 def _demo_parser(sub: Any) -> None:
     """The ``demo`` command (``make demo``)."""
-    demo = sub.add_parser("demo", help="the main job: a reduced but real set of the figures")
-    demo.add_argument("--out", type=Path, default=Path("out/demo"))
-    demo.add_argument("--jobs", type=_positive, default=2)
+    demo = sub.add_parser(
+        "demo", help="the main job (make demo): the paper's figures at full size, then what next",
+        description="The main job of make demo: the studies behind the paper's figures that "
+                    "hri-bench figures draws (Figs. 4, 8, 10a-c, 11 and 12) at full size, 100 "
+                    "runs per study and 20 wheel episodes (hri-bench figures --runs 100), "
+                    "written as PNGs into --out; then the commands to try next. The first run "
+                    "after installing also compiles the Learner's kernels (about a minute, "
+                    "once). Fig. 6 needs the physics: examples/physics_table2.py.")
+    demo.add_argument("--out", type=Path, default=Path("out/demo"),
+                      help="output directory (default out/demo)")
+    demo.add_argument("--jobs", type=_positive, default=2,
+                      help="worker processes (default 2)")
 
 
 def _suite_parser(sub: Any) -> None:
@@ -763,7 +782,14 @@ def _demo(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     print("hri-bench demo: the wheel studies (Fig. 10a-c, 100 runs x 20 episodes), the Learner's "
-          "policies (Figs. 11-12) and the hanger studies (Figs. 4 and 8)")
+          "policies (Figs. 11-12) and the hanger studies (Figs. 4 and 8)", flush=True)
+    if partner_mdp.jit_enabled():  # else the numpy path: nothing to compile
+        # as serve does: the first run after installing compiles them (numba keeps them on
+        # disk), a minute or more that would otherwise pass in silence before the first study
+        print("loading the Learner's compiled kernels (the first time after installing they "
+              "are compiled: a minute or more, once)", flush=True)
+        algorithm1.preload()
+        print(f"kernels ready in {time.perf_counter() - t0:.0f} s; simulating", flush=True)
     paths = make_figures(args.out, runs=100, jobs=args.jobs,
                          executor="process" if args.jobs > 1 else "serial", wheel_episodes=20,
                          progress=sys.stderr.isatty())

@@ -10,6 +10,7 @@ there, e.g. with :func:`new_figure` and :func:`save_figure`.
 from __future__ import annotations
 
 import functools
+import zlib
 from collections.abc import Callable, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
@@ -24,15 +25,38 @@ from matplotlib.ticker import MaxNLocator
 from hri_bench.core import stats
 from hri_bench.core.results import StudyResult, StudySettings
 
-__all__ = ["STYLE", "band_legend", "decision_panels", "impulse_bands", "new_figure",
-           "policy_lines", "reward_bands", "save_figure", "study_plots", "style", "styled"]
+__all__ = ["COLORS", "LABELS", "STYLE", "STYLES", "agent_style", "band_legend",
+           "decision_panels", "impulse_bands", "new_figure", "policy_lines", "reward_bands",
+           "save_figure", "study_plots", "style", "styled"]
 
 _F = TypeVar("_F", bound=Callable[..., Any])
 #: A study result as the plots read it (any configuration with the :class:`StudySettings`).
 Result = StudyResult[StudySettings]
 
-COLORS = {"learner": "#1f5fa8", "imitator": "#7fb2e5", "maxent": "#7a7a7a",
-          "passive": "#e0a030", "oracle": "#2a9d55"}
+#: Line styles as matplotlib dash patterns (offset, (on, off, ...)) in points.
+SOLID: Any = "-"
+TRAINED: Any = (0, (6, 2))          # policies trained by RL: long dashes
+CUSTOM: Any = (0, (3, 1.5, 1, 1.5))  # an agent of the user's own (module:Class): dash-dot
+#: Every agent's colour and line style, the same in every figure (study plots, the suite's
+#: figures, ``profiles.png``, ``ranking.png``, the paper's figures, sample efficiency). The
+#: agents that infer the intention take Okabe & Ito's colour-blind-safe colours (solid),
+#: the RL policies four colours of Paul Tol's (long dashes); the references and the Oracle
+#: are black or grey, each with a dash pattern of its own. Same-style colours stay apart
+#: under simulated deuteranopia and protanopia (``tests/test_palette.py``).
+STYLES: dict[str, tuple[str, Any]] = {
+    "learner": ("#0072B2", SOLID), "goalfilter": ("#56B4E9", SOLID),
+    "countqmdp": ("#D55E00", SOLID), "imitator": ("#009E73", SOLID),
+    "maxent": ("#CC79A7", SOLID), "passive": ("#E69F00", SOLID),
+    "jaxppo": ("#882255", TRAINED), "ppo": ("#332288", TRAINED), "dqn": ("#999933", TRAINED),
+    "sb3": ("#44AA99", TRAINED),
+    "informed": ("#000000", (0, (5, 2))), "oracle": ("#000000", (0, (1, 1.5))),
+    "blind": ("#666666", (0, (5, 2, 1, 2))), "qmdp": ("#666666", (0, (5, 2, 1, 2, 1, 2))),
+    "random": ("#999999", (0, (1, 3))),
+}
+#: The colours of agents of the user's own (:data:`CUSTOM` lines), one picked by name.
+CUSTOM_COLORS = ("#0072B2", "#56B4E9", "#D55E00", "#009E73", "#CC79A7", "#E69F00")
+#: Colour per agent (:data:`STYLES`), for callers that want the colour alone.
+COLORS = {agent: color for agent, (color, _) in STYLES.items()}
 LABELS = {"learner": "Learner", "imitator": "Imitator", "maxent": "plain ME-IRL",
           "passive": "Passive", "oracle": "Oracle"}
 DECISION_COLORS = {"correct": "#1f5fa8", "passive": "#bcd3ea", "wrong": "#c8102e"}
@@ -81,6 +105,22 @@ def _label(agent: str) -> str:
     return LABELS.get(agent, agent)
 
 
+def agent_style(agent: str) -> tuple[str, Any]:
+    """The colour and line style (a matplotlib ``linestyle``) of ``agent`` in every figure.
+
+    Built-in agents and the references by :data:`STYLES`; ``sb3:PATH`` as ``sb3``,
+    ``jaxppo:PATH`` as ``jaxppo``; any other name (``module:Class``) dash-dotted, in one of
+    :data:`CUSTOM_COLORS` picked by a checksum of the name (the same in every figure and
+    run).
+    """
+    if agent in STYLES:
+        return STYLES[agent]
+    prefix = agent.partition(":")[0]
+    if prefix in ("sb3", "jaxppo") and ":" in agent:
+        return STYLES[prefix]
+    return CUSTOM_COLORS[zlib.crc32(agent.encode()) % len(CUSTOM_COLORS)], CUSTOM
+
+
 def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
                  title: str | None = None, *, stalls: bool = False) -> None:
     """Mean (line), its 95 % CI (dark band) and the interquartile range (light band) of the
@@ -96,8 +136,7 @@ def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
     episodes = np.arange(1, result.config.n_episodes + 1)
     for agent in agents or list(result.metrics):
         r = result.metrics[agent]["reward"]
-        color = COLORS.get(agent)
-        style = "--" if agent == "oracle" else "-"
+        color, dashes = agent_style(agent)
         ax.fill_between(episodes, np.percentile(r, 25, 0), np.percentile(r, 75, 0),
                         color=color, alpha=0.14, linewidth=0)
         cis = stats.per_episode(r, getattr(result.config, "seed", 0), iqm_ci=False)["ci95"]
@@ -107,7 +146,7 @@ def reward_bands(ax: Axes, result: Result, agents: Sequence[str] | None = None,
         if stalls:
             label += f" ({result.metrics[agent]['truncated'].mean():.1%} truncated)"
             ax.plot(episodes, np.median(r, 0), ":", color=color, linewidth=1.4)
-        ax.plot(episodes, r.mean(0), style, color=color, label=label, linewidth=1.8)
+        ax.plot(episodes, r.mean(0), linestyle=dashes, color=color, label=label, linewidth=1.8)
     ax.set_xlabel("episode")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("robot cooperation reward per episode")
@@ -222,10 +261,11 @@ def impulse_bands(ax: Axes, result: Result, title: str | None = None) -> None:
     episodes = np.arange(1, result.config.n_episodes + 1)
     for agent, m in result.metrics.items():
         v = m["linear_impulse"]
-        color = COLORS.get(agent)
+        color, dashes = agent_style(agent)
         ax.fill_between(episodes, np.percentile(v, 25, 0), np.percentile(v, 75, 0),
                         color=color, alpha=0.18, linewidth=0)
-        ax.plot(episodes, v.mean(0), color=color, label=_label(agent), linewidth=1.8)
+        ax.plot(episodes, v.mean(0), linestyle=dashes, color=color, label=_label(agent),
+                linewidth=1.8)
     ax.set_xlabel("episode")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("linear impulse of the human [N s]")

@@ -1,10 +1,12 @@
 """``hri-bench play``: you are the human; the Learner is the robot and learns across episodes.
 
 Each step shows the state, the robot's belief over your intention and the action it chose,
-and lists your valid actions; you type a number (or ``q`` to stop). The robot learns from
-each finished episode, as in the paper's simulator with a user interface. The episodes run
-in the benchmark's own loop (:func:`hri_bench.run.runner.run_episodes`), with you as its
-human.
+and lists your valid actions numbered from 1, as the browser page of ``hri-bench serve``
+numbers its keys; you type a number (or ``q`` to stop). The numbers count the valid actions
+of the state, they are not the task's action indices (docs/agents.md, "Action numbers").
+The robot learns from each finished episode, as in the paper's simulator with a user
+interface. The episodes run in the benchmark's own loop
+(:func:`hri_bench.run.runner.run_episodes`), with you as its human.
 """
 
 from __future__ import annotations
@@ -50,7 +52,7 @@ class _TerminalHuman(BatchHuman):
         self.write(f"\nState: {g.state_names[s]}\nRobot belief: {belief}; "
                    f"robot chooses: {g.agent_action_label(s, a_r, robot=True)}")
         options = np.flatnonzero(g.valid[s])
-        for i, a in enumerate(options):
+        for i, a in enumerate(options, start=1):  # from 1, as the page's keys
             self.write(f"  [{i}] {g.agent_action_label(s, int(a), robot=False)}")
         while True:
             try:
@@ -60,10 +62,10 @@ class _TerminalHuman(BatchHuman):
                 raise _Quit from None
             if answer in ("q", "quit"):
                 raise _Quit
-            if answer.isdigit() and int(answer) < len(options):
-                a_h = int(options[int(answer)])
+            if answer.isdigit() and 1 <= int(answer) <= len(options):
+                a_h = int(options[int(answer) - 1])
                 break
-            self.write(f"Type a number from 0 to {len(options) - 1}, or q.")
+            self.write(f"Type a number from 1 to {len(options)}, or q.")
         self._last = (s, a_r, a_h)
         return np.array([a_h])
 

@@ -307,8 +307,7 @@ def run_sample_efficiency(cfg: SampleEfficiencyConfig, *, verbose: bool = False
     return result
 
 
-_STYLE = {"learner": ("#1f5fa8", "Learner (paper, Alg. 1)"),
-          "ppo": ("#c8102e", "MaskablePPO"), "dqn": ("#8a4fbf", "MaskedDQN")}
+_LABELS = {"learner": "Learner (paper, Alg. 1)", "ppo": "MaskablePPO", "dqn": "MaskedDQN"}
 
 
 def plot(result: SampleEfficiencyResult, path: str | Path) -> Path:
@@ -318,33 +317,37 @@ def plot(result: SampleEfficiencyResult, path: str | Path) -> Path:
     """
     from matplotlib.figure import Figure
 
+    from hri_bench.core.plots import agent_style  # matplotlib, as above
+
     cfg = result.config
     fig = Figure(figsize=(7.2, 4.2))
     ax = fig.subplots()
-    color, label = _STYLE["learner"]
+    color, dashes = agent_style("learner")  # each agent's colour and line in every figure
     x = result.learner_episodes
     ax.fill_between(x, result.learner_q25, result.learner_q75, color=color, alpha=0.18, lw=0)
-    ax.plot(x, result.learner_reward, "-o", ms=3, color=color, label=label, lw=1.8)
+    ax.plot(x, result.learner_reward, marker="o", ls=dashes, ms=3, color=color,
+            label=_LABELS["learner"], lw=1.8)
     refs = result.references
     # Zoom on the range between the random policy and the Oracle; a half-trained greedy
     # policy can deadlock (the episode runs to the step limit), far below it.
     bottom = 1.6 * min(refs["random"], result.learner_reward.min(), -1.0)
     clipped_any = False
     for algo, reward in result.rl_reward.items():
-        color, label = _STYLE[algo]
+        color, dashes = agent_style(algo)
         xs, mean = result.rl_episodes[algo], reward.mean(0)
         ax.fill_between(xs, reward.min(0), reward.max(0), color=color, alpha=0.15, lw=0)
-        ax.plot(xs, np.maximum(mean, bottom), "-s", ms=3, color=color, lw=1.8,
-                label=f"{label} ({len(cfg.rl_seeds)} seeds, min-max)")
+        ax.plot(xs, np.maximum(mean, bottom), marker="s", ls=dashes, ms=3, color=color, lw=1.8,
+                label=f"{_LABELS[algo]} ({len(cfg.rl_seeds)} seeds, min-max)")
         low = mean < bottom
         if low.any():
             clipped_any = True
             ax.plot(xs[low], np.full(low.sum(), bottom), "v", ms=7, color=color, clip_on=False)
-    ax.axhline(refs["oracle"], color="#2a9d55", ls="--", lw=1.5, label="Oracle (knows ι)")
-    ax.axhline(refs["passive"], color="#e0a030", ls=":", lw=1.5, label="Passive")
-    ax.axhline(refs["random"], color="#7a7a7a", ls=":", lw=1.5, label="random valid action")
+    for name, label in (("oracle", "Oracle (knows ι)"), ("passive", "Passive"),
+                        ("random", "random valid action")):
+        color, dashes = agent_style(name)
+        ax.axhline(refs[name], color=color, ls=dashes, lw=1.5, label=label)
     level = refs["random"] + cfg.threshold * (refs["oracle"] - refs["random"])
-    ax.axhline(level, color="k", ls=(0, (1, 3)), lw=1,
+    ax.axhline(level, color="#bbbbbb", ls="-", lw=1,
                label=f"{cfg.threshold:.0%} of the way from random to Oracle")
     ax.set_ylim(bottom, 0.25)
     if clipped_any:

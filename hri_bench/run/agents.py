@@ -57,7 +57,7 @@ from agents.config import default_config
 from agents.learner import Learner
 from agents.learning import algorithm1
 from agents.learning.algorithm1 import Workspace
-from agents.protocol import Agent, BatchAgent, Batched, run_streams
+from agents.protocol import METHODS, Agent, BatchAgent, Batched, missing_methods, run_streams
 from baselines import CountQMDP, GoalFilter, Imitator, MaxEntIRL, Oracle, Passive
 from baselines.bounds import Blind, Informed
 from baselines.product import QMDP, PerRunInformed
@@ -219,7 +219,8 @@ def validate_agent_name(name: str) -> None:
 
     For ``sb3:PATH`` the file must exist (its contents are checked when it is loaded); for
     ``module:Class`` the class is imported and must subclass :class:`~agents.protocol.Agent`
-    or :class:`~agents.protocol.BatchAgent`, so a study refuses it before simulating.
+    or :class:`~agents.protocol.BatchAgent` and implement every method of the protocol
+    (:data:`agents.protocol.METHODS`), so a study refuses it before simulating.
     """
     if name in AGENTS:
         return
@@ -252,12 +253,18 @@ def import_agent(spec: str) -> type[Agent] | type[BatchAgent]:
     """The agent class ``module:Class`` names.
 
     Raises:
-        ConfigError: The module does not import, or the class is not an agent
-            (``field="agents"``).
+        ConfigError: The module does not import, the class is not an agent, or it leaves a
+            method of the protocol unimplemented (``field="agents"``).
     """
     cls: type[Agent] | type[BatchAgent] = import_class(spec, "agent", "agents",
                                                        (Agent, BatchAgent))
+    missing = missing_methods(cls)
+    if missing:  # refused now, not when the first run makes it (mid-study, in a worker)
+        raise ConfigError(f"agent {spec!r} does not implement {', '.join(missing)} of the agent "
+                          f"protocol ({', '.join(METHODS)}; docs/agents.md, \"Your own "
+                          "agent\")", field="agents")
     return cls
+
 
 
 #: What a custom agent's constructor may ask for, by keyword (docs/agents.md, "Your own

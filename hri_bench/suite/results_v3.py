@@ -373,7 +373,7 @@ def ranking_figure(doc: Mapping[str, Any], path: Any) -> Any:
         order = head["order"][::-1]
         for y, a in enumerate(order):
             e = head["agents"][a]
-            color = plots.COLORS.get(a, "#444444")
+            color = plots.agent_style(a)[0]  # one colour per agent in every figure
             ax.errorbar([e["mean"]], [y], xerr=[[e["mean"] - e["ci95"][0]],
                                                 [e["ci95"][1] - e["mean"]]],
                         fmt="o", color=color, capsize=3, markersize=6)

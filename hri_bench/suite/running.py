@@ -406,9 +406,9 @@ def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
                              dtype=float).T
         yerr = np.nan_to_num(np.clip(np.stack([mean - low, high - mean]), 0.0, None))
         x = np.arange(1, len(mean) + 1) + 0.06 * (i - len(entry["agents"]) / 2)
-        ax.errorbar(x, mean, yerr=yerr, color=plots.COLORS.get(agent),
-                    label=plots.LABELS.get(agent, agent), linewidth=1.4, elinewidth=0.8,
-                    capsize=2, linestyle="--" if agent in REFERENCES else "-")
+        color, dashes = plots.agent_style(agent)  # one colour and line per agent everywhere
+        ax.errorbar(x, mean, yerr=yerr, color=color, label=plots.LABELS.get(agent, agent),
+                    linewidth=1.4, elinewidth=0.8, capsize=2, linestyle=dashes)
     ax.set_xlabel("episode")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("regret vs blind per episode" if metric == "regret"

@@ -37,8 +37,8 @@ from hri_envs.errors import ConfigError
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["FORMAT", "MAX_DEPTH", "SCHEMA_PATH", "SCHEMA_VERSION", "build", "compute",
-           "lead_section", "load", "merge", "profile_figure", "read_json", "track_runs",
-           "validate"]
+           "lead_section", "load", "merge", "profile_figure", "profile_span", "read_json",
+           "track_runs", "validate"]
 
 FORMAT = "hri-bench-results"
 #: Version of the results file's layout (the schema); a change gets a new one.
@@ -545,21 +545,60 @@ def task_section(doc: Mapping[str, Any]) -> str:
 
 
 def profile_figure(doc: Mapping[str, Any], path: Path) -> Path:
-    """The performance profiles (fraction of runs scoring above τ) as a figure."""
+    """The performance profiles (fraction of runs scoring above τ) as a figure.
+
+    The grid spans every run score, and a few runs far below the rest (an episode cut off
+    at the step limit costs up to −100) would squeeze every curve against the right edge:
+    the x axis spans the scores most runs have, from the lowest τ at which some agent's
+    fraction drops below 95 % to the highest at which some agent's is still above 5 %
+    (:func:`profile_span`), and its label says how far the scores reach beyond.
+    """
     from hri_bench.core import plots  # matplotlib: the bench extra
 
     prof = doc["aggregate"]["profiles"]
     fig, ax = plots.new_figure(figsize=(6.0, 3.6))
     for agent, ys in prof["fraction_above"].items():
-        ax.plot(prof["tau"], ys, label=plots.LABELS.get(agent, agent),
-                color=plots.COLORS.get(agent), linewidth=1.5)
-    ax.set_xlabel("τ: run score (mean episode reward)")
+        color, dashes = plots.agent_style(agent)  # one colour and line per agent everywhere
+        ax.plot(prof["tau"], ys, label=plots.LABELS.get(agent, agent), color=color,
+                linestyle=dashes, linewidth=1.5)
+    label = "τ: run score (mean episode reward)"
     ax.set_ylabel("fraction of runs scoring > τ")
     ax.set_ylim(-0.02, 1.02)
+    span = profile_span(prof)
+    if span is not None:
+        ax.set_xlim(*span)
+        lo, hi = prof["tau"][0], prof["tau"][-1]
+        if lo < span[0] or hi > span[1]:
+            label += (f"\nshown where the fractions lie in {PROFILE_TAIL:.0%}–"
+                      f"{1 - PROFILE_TAIL:.0%}; the runs' scores reach {lo:.3g} … {hi:.3g}")
+    ax.set_xlabel(label)
     if prof["fraction_above"]:  # every agent may be partial (a failure on a track)
         ax.legend(fontsize=7, loc="lower left")
     ax.set_title("Performance profiles across tracks")
     return plots.save_figure(fig, path)
+
+
+#: The share of every agent's runs :func:`profile_figure` may leave off either end.
+PROFILE_TAIL = 0.05
+
+
+def profile_span(prof: Mapping[str, Any], low: float = PROFILE_TAIL
+                 ) -> tuple[float, float] | None:
+    """The τ range of a profiles block where the curves change: from one grid step below the
+    first τ at which some agent's fraction is below ``1 - low`` to one step above the last
+    at which some agent's is above ``low``; None without agents or grid.
+    """
+    tau = np.asarray(prof["tau"], dtype=float)
+    if tau.size < 2 or not prof["fraction_above"]:
+        return None
+    fractions = np.asarray(list(prof["fraction_above"].values()), dtype=float)  # (agents, τ)
+    falling = np.flatnonzero((fractions < 1 - low).any(0))
+    rising = np.flatnonzero((fractions > low).any(0))
+    first = max(int(falling[0]) - 1, 0) if falling.size else 0
+    last = min(int(rising[-1]) + 1, tau.size - 1) if rising.size else tau.size - 1
+    if last <= first:
+        first, last = 0, tau.size - 1
+    return float(tau[first]), float(tau[last])
 
 
 def merge(docs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
