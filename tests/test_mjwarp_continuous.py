@@ -9,8 +9,9 @@ Equality, as stated in docs/physics.md ("Many worlds on MuJoCo Warp"): a seeded 
 ``backend="mjwarp"`` ends in the same step as on ``backend="mujoco"``, terminated or
 truncated alike, with the same fault and placement; after every step the object is within
 :data:`POS_TOL_M` of the C backend's, and the episode's integral of the sensed wrench, its
-human's effort and its return are within :data:`SENSED_TOL`, :data:`EFFORT_RTOL` and
-:data:`RETURN_TOL` (the slipping grip within :data:`SLIP_EFFORT_RTOL`).
+human's effort and its return are within :data:`SENSED_TOL` (+ :data:`SENSED_RTOL`),
+:data:`EFFORT_RTOL` and :data:`RETURN_TOL` (the slipping grip within
+:data:`SLIP_EFFORT_RTOL`).
 """
 
 import importlib.util
@@ -30,8 +31,9 @@ pytestmark = [
 #: MuJoCo Warp, mink-warp's IK): largest seen 0.18 mm, in the slipping grip's episode.
 POS_TOL_M = 1e-3
 #: How far the episode's integral of the sensed wrench (force [N s] and torque [N m s]
-#: components) may be from the C backend's.
-SENSED_TOL = 0.01
+#: components) may be from the C backend's: SENSED_TOL + SENSED_RTOL x its size (seen: 0.4 %,
+#: the robot leading against a slow human).
+SENSED_TOL, SENSED_RTOL = 0.01, 0.01
 #: The human's effort over the episode (∫ |F| + |τ| / lever dt), relative.
 EFFORT_RTOL = 0.01
 #: ... while the handle slips out of the hand: friction at the edge of slipping amplifies
@@ -43,12 +45,14 @@ RETURN_TOL = 0.02
 HANGER = "hri_envs/HangerPandaContinuous-v0"
 B_TO_A = {"start": "B", "intention": "A"}
 ALONE = {**B_TO_A, "robot_holds": False}
-#: A human agent's action (parallel form): their hand 1 cm ahead and up per step, stiff.
-HUMAN_ACTION = np.array([-0.5, 0.0, 0.5, 0.0, 0.0, 0.0, 1.0])
+#: A human agent's action (parallel form): their hand 1 cm ahead and up and turning by
+#: 0.018 rad per step, stiff.
+HUMAN_ACTION = np.array([-0.5, 0.0, 0.5, 0.3, 0.0, -0.1, 1.0])
 #: (human, reset options, robot policy, human agent's action or None, max_time_s) per world.
 CASES = {
     "carried": ({}, B_TO_A, "upper", None, 1.1),  # truncated at the time limit
-    "dragged": ({}, {"start": "C", "intention": "B"}, "passive", None, 1.1),
+    # a slow human yields to a robot leading their way
+    "leading": ({"reaction_s": 0.0, "speed": 0.3}, B_TO_A, "lead", None, 1.1),
     "human agent": ({}, B_TO_A, "passive", HUMAN_ACTION, 1.1),
     "slip": ({"grip_force_n": 0.3}, ALONE, "passive", None, 1.1),  # dropped
     "too weak": ({"strength": 0.002}, ALONE, "passive", None, 1.1),  # too_weak
@@ -60,6 +64,9 @@ def _action(policy, env):
 
     if policy == "passive":
         return PASSIVE_ACTION.astype(float)
+    if policy == "lead":  # along the human's current line, stiff
+        human = env.sim.human
+        return np.array([*human.lines[human.index].direction, 0.0, 0.0, 0.0, 1.0])
     return follow_action(env, env.sim.human_grip_reference()).astype(float)
 
 
@@ -139,7 +146,8 @@ def test_seeded_episodes_equal_the_c_backend(episodes):
         dt = 0.04
         sensed_c = sum(s["sensed"] for s in c) * dt
         sensed_w = sum(s["sensed"] for s in w) * dt
-        np.testing.assert_allclose(sensed_w, sensed_c, atol=SENSED_TOL, err_msg=name)
+        np.testing.assert_allclose(sensed_w, sensed_c, rtol=SENSED_RTOL, atol=SENSED_TOL,
+                                   err_msg=name)
         rtol = SLIP_EFFORT_RTOL if name == "slip" else EFFORT_RTOL
         assert wl["info"]["episode_effort"] == pytest.approx(cl["info"]["episode_effort"],
                                                              rel=rtol), name
@@ -159,7 +167,7 @@ def test_the_faults_are_per_world(episodes):
     assert ends["slip"]["fault_detail"] == c_slip
     assert ends["too weak"]["fault"] == "too_weak"
     assert "can lift at most" in ends["too weak"]["fault_detail"]
-    for name in ("carried", "dragged", "human agent"):
+    for name in ("carried", "leading", "human agent"):
         assert ends[name]["fault"] is None and ends[name]["time_s"] == pytest.approx(1.12)
     worlds = episodes["worlds"]
     assert worlds.device == "cpu" and worlds.n == len(CASES)
@@ -227,6 +235,10 @@ def test_the_single_and_parallel_envs_run_on_mjwarp_and_the_muscles_are_refused(
                                                                                 "torque"))
     with pytest.raises(ConfigError, match="allowed there: torque"):
         gym.make(HANGER, backend="mjwarp", drive="muscle")
+    from hri_envs.envs.backends import carry_backend
+
+    with pytest.raises(ConfigError, match="drive='muscle' does not run on backend='mjwarp'"):
+        carry_backend("mjwarp", "muscle")  # refused by the registry, before any world
     with pytest.raises(ConfigError, match="no vector env on backend='mujoco'"):
         gym.make_vec(HANGER, num_envs=2, vectorization_mode="vector_entry_point",
                      backend="mujoco")
