@@ -1,13 +1,28 @@
-"""Real-time factor of the continuous envs on one core, beside raw ``mj_step`` of the scene.
+"""Speed of the continuous envs on the C backend (one core) and on MuJoCo Warp (N worlds).
+
+The C backend's real-time factor, and world-steps per second of N worlds on MuJoCo Warp
+beside it:
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/continuous_speed.py --scenario hanger
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/continuous_speed.py --backend both \\
+        --worlds 1,64,1024
 
-runs the env with the upper reference (whole episodes, seeds 0, 1, ...) for ``--seconds``
-of wall time and reports simulated seconds per wall second and per CPU second of the
-process (one thread: what one core gives when other jobs share the machine); then steps
-the same compiled scene with ``mujoco.mj_step`` alone (from a state mid-episode, both
-partners holding the object, the controls held) for as long. Wall-clock figures depend on
-the machine's load (``uptime``'s load averages are printed).
+``--backend mujoco`` (the default) runs the env with the upper reference (whole episodes,
+seeds 0, 1, ...) for ``--seconds`` of wall time and reports simulated seconds per wall second
+and per CPU second of the process (one thread: what one core gives when other jobs share the
+machine); then steps the same compiled scene with ``mujoco.mj_step`` alone (from a state
+mid-episode, both partners holding the object, the controls held) for as long.
+
+``--backend mjwarp`` steps N worlds of the same scene together on MuJoCo Warp
+(:class:`~hri_envs.physics.mjwarp.carry.WarpCarryWorlds`, Warp's default device or
+``--device``) for each N of ``--worlds``: every world a copy of one reset (start B, the
+human's goal A; a reset costs a C IK solve per world, which is not timed), the upper
+reference acting in every world, ``--steps`` env steps of 40 ms timed after one untimed
+step. A *world-step* is one 2 ms physics step of one world; the real-time factor is the
+simulated seconds of all worlds per wall second. ``--backend both`` measures the C backend
+first in the same run (its world-steps/s: the env's physics steps per wall second).
+
+Wall-clock figures depend on the machine's load (``os.getloadavg()`` is printed).
 """
 
 from __future__ import annotations
@@ -15,32 +30,28 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from types import SimpleNamespace
 
 import gymnasium as gym
 import mujoco
+import numpy as np
 from threadpoolctl import threadpool_limits
 
 import hri_envs  # noqa: F401
-from baselines.continuous import UpperReference
-from hri_envs.task.scenarios import scenario_spec
+from baselines.continuous import UpperReference, follow_action
+from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--scenario", default="hanger", help="hanger (default) or wheel")
-    p.add_argument("--drive", default="torque",
-                   help="the human arm's drive: torque (default) or muscle")
-    p.add_argument("--seconds", type=float, default=20.0,
-                   help="simulated seconds per measurement (default 20)")
-    args = p.parse_args()
-    env = gym.make(str(scenario_spec(args.scenario).continuous_id), drive=args.drive)
+def c_speed(scenario: str, drive: str, seconds: float) -> dict[str, float]:
+    """The C backend's env and raw ``mj_step`` (see the module)."""
+    env = gym.make(str(scenario_spec(scenario).continuous_id), drive=drive)
     base = env.unwrapped
     policy = UpperReference()
     with threadpool_limits(1):
         steps, seed = 0, 0
         t0, c0 = time.perf_counter(), time.process_time()
         snapshot = None
-        while time.perf_counter() - t0 < args.seconds:
+        while time.perf_counter() - t0 < seconds:
             obs, _ = env.reset(seed=seed)
             seed += 1
             while True:
@@ -52,24 +63,86 @@ def main() -> None:
                 if term or trunc:
                     break
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-        env_rtf = steps * base.sim.dt_step / wall
-        env_rtf_cpu = steps * base.sim.dt_step / cpu
         model = base.sim.model
         data = snapshot if snapshot is not None else base.sim.data
         n, t1, c1 = 0, time.perf_counter(), time.process_time()
-        while time.perf_counter() - t1 < min(args.seconds, 10.0):
+        while time.perf_counter() - t1 < min(seconds, 10.0):
             mujoco.mj_step(model, data, nstep=100)
             n += 100
         raw_wall, raw_cpu = time.perf_counter() - t1, time.process_time() - c1
-        raw_rtf = n * model.opt.timestep / raw_wall
-        raw_rtf_cpu = n * model.opt.timestep / raw_cpu
-    print(f"{args.scenario} ({args.drive}): env {steps} steps in {wall:.1f} s = "
-          f"{steps / wall:.0f} steps/s, {env_rtf:.1f}x real time by the wall clock, "
-          f"{env_rtf_cpu:.1f}x per CPU second of the process; raw mj_step "
-          f"{n / raw_wall:.0f} steps/s, {raw_rtf:.1f}x real time by the wall clock, "
-          f"{raw_rtf_cpu:.1f}x per CPU second (nv {model.nv}, nu {model.nu}); load average "
-          f"{os.getloadavg()}")
+    dt_step = base.sim.dt_step
+    per_step = round(dt_step / model.opt.timestep)
     env.close()
+    return {"steps": steps, "wall": wall, "env_rtf": steps * dt_step / wall,
+            "env_rtf_cpu": steps * dt_step / cpu, "world_steps_per_s": steps * per_step / wall,
+            "raw_steps_per_s": n / raw_wall, "raw_rtf": n * model.opt.timestep / raw_wall,
+            "raw_rtf_cpu": n * model.opt.timestep / raw_cpu, "nv": model.nv, "nu": model.nu}
+
+
+def warp_speed(scenario: str, n_worlds: int, steps: int,
+               device: str | None) -> dict[str, float | str]:
+    """N worlds on MuJoCo Warp with the upper reference in each (see the module)."""
+    from hri_envs.physics.mjwarp.carry import WarpCarryWorlds
+    from hri_envs.physics.mjwarp.carry_sim import WarpCarrySim
+
+    t0 = time.perf_counter()
+    worlds = WarpCarryWorlds(scenario_graph(scenario), n_worlds, device=device)
+    worlds.reset_world(0, 1, 0, np.random.default_rng(0))
+    if n_worlds > 1:
+        worlds.copy_world(0, np.arange(1, n_worlds))
+    views = [SimpleNamespace(sim=WarpCarrySim(worlds, i)) for i in range(n_worlds)]
+    rows, active = np.arange(n_worlds), np.ones(n_worlds, dtype=bool)
+
+    def one_step() -> None:
+        actions = np.stack([follow_action(v, v.sim.human_grip_reference()) for v in views])
+        worlds.step(worlds.commands(rows, actions), active)
+
+    one_step()  # the first run on a machine compiles Warp's kernels here
+    setup = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    for _ in range(steps):
+        one_step()
+    wall = time.perf_counter() - t1
+    world_steps = n_worlds * steps * round(worlds.dt_step / worlds.dt)
+    return {"worlds": n_worlds, "device": worlds.device, "setup_s": setup, "wall": wall,
+            "world_steps_per_s": world_steps / wall, "rtf": world_steps * worlds.dt / wall}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--scenario", default="hanger", help="hanger (default) or wheel")
+    p.add_argument("--drive", default="torque",
+                   help="the human arm's drive: torque (default) or muscle (C backend only)")
+    p.add_argument("--seconds", type=float, default=20.0,
+                   help="wall seconds of the C backend's measurement (default 20)")
+    p.add_argument("--backend", default="mujoco", choices=("mujoco", "mjwarp", "both"),
+                   help="mujoco: the C backend (default); mjwarp: N worlds on MuJoCo Warp; "
+                        "both: the C backend, then MuJoCo Warp, in one run")
+    p.add_argument("--worlds", default="1,64,1024",
+                   help="numbers of worlds on MuJoCo Warp, comma-separated (default 1,64,1024)")
+    p.add_argument("--steps", type=int, default=10,
+                   help="timed env steps (40 ms) per number of worlds on MuJoCo Warp "
+                        "(default 10)")
+    p.add_argument("--device", default=None,
+                   help="Warp's device, e.g. cpu or cuda:0 (default: Warp's default, a GPU "
+                        "where there is one)")
+    args = p.parse_args()
+    print(f"load average before: {os.getloadavg()}")
+    if args.backend in ("mujoco", "both"):
+        c = c_speed(args.scenario, args.drive, args.seconds)
+        print(f"{args.scenario} ({args.drive}), C backend: env {c['steps']} steps in "
+              f"{c['wall']:.1f} s = {c['world_steps_per_s']:.0f} world-steps/s, "
+              f"{c['env_rtf']:.1f}x real time by the wall clock, {c['env_rtf_cpu']:.1f}x per "
+              f"CPU second of the process; raw mj_step {c['raw_steps_per_s']:.0f} steps/s, "
+              f"{c['raw_rtf']:.1f}x real time by the wall clock, {c['raw_rtf_cpu']:.1f}x per "
+              f"CPU second (nv {c['nv']}, nu {c['nu']}); load average {os.getloadavg()}")
+    if args.backend in ("mjwarp", "both"):
+        for n in (int(x) for x in args.worlds.split(",")):
+            w = warp_speed(args.scenario, n, args.steps, args.device)
+            print(f"{args.scenario} (torque), MuJoCo Warp on {w['device']}, {n} worlds: "
+                  f"{w['world_steps_per_s']:.0f} world-steps/s, real-time factor "
+                  f"{w['rtf']:.2f} (all worlds; {args.steps} steps in {w['wall']:.1f} s, set-up "
+                  f"{w['setup_s']:.1f} s); load average {os.getloadavg()}", flush=True)
 
 
 if __name__ == "__main__":

@@ -5,7 +5,9 @@ from the scenario registry (:mod:`hri_envs.task.scenarios`). ``vector_entry_poin
 ``gymnasium.make_vec(id, num_envs, vectorization_mode="vector_entry_point")`` with the
 numpy-batched :class:`~hri_envs.envs.vector.RobotVectorEnv` on the graph ids and with
 :class:`~hri_envs.physics.mjwarp.vector.PandaVectorEnv` (N worlds on MuJoCo Warp, the
-"mjwarp" extra) on the Panda ids. The envs truncate episodes
+"mjwarp" extra) on the Panda ids, and with
+:class:`~hri_envs.physics.mjwarp.carry_vector.CarryVectorEnv` on the continuous ids. The
+envs truncate episodes
 themselves (``max_cycles``), so no ``max_episode_steps`` is set.
 """
 
@@ -24,6 +26,8 @@ _ROBOT_VECTOR_ENV = "hri_envs.envs.vector:RobotVectorEnv"
 #: The Panda ids' vector env: N worlds on MuJoCo Warp (the "mjwarp" extra).
 _PANDA_VECTOR_ENV = "hri_envs.physics.mjwarp.vector:PandaVectorEnv"
 _CONTINUOUS_ENV = "hri_envs.physics.continuous:CarryEnv"
+#: The continuous ids' vector env: N worlds on MuJoCo Warp (the "mjwarp" extra).
+_CONTINUOUS_VECTOR_ENV = "hri_envs.physics.continuous:vector_env"
 
 
 
@@ -45,6 +49,7 @@ def _specs() -> list[dict[str, object]]:
                         "kwargs": {"scenario": spec.name, "backend": "mujoco"}})
         if spec.continuous_id is not None:  # continuous control with the whole human arm
             out.append({"id": spec.continuous_id, "entry_point": _CONTINUOUS_ENV,
+                        "vector_entry_point": _CONTINUOUS_VECTOR_ENV,
                         "kwargs": {"scenario": spec.name}})
     return out
 

@@ -35,6 +35,8 @@ __all__ = [
     "GraphBatch",
     "backend_spec",
     "batch_backend",
+    "carry_backend",
+    "carry_vector_backend",
     "check_backend",
     "episode_backend",
     "options_checker",
@@ -65,6 +67,13 @@ class BackendSpec:
         vector_entry: ``"module:Class"`` of a vector env that steps many envs of this
             backend at once (``gymnasium.make_vec(..., vectorization_mode=
             "vector_entry_point", backend=...)``), None: refused.
+        carry: ``"module:callable"`` making the continuous envs' simulation (the arguments
+            of :class:`~hri_envs.physics.carry.CarrySim`), None: the continuous envs do
+            not run on it.
+        carry_drives: The human arm's drives it runs (``CarryEnv(drive=...)``).
+        carry_vector: ``"module:Class"`` of the continuous envs' vector env (``gymnasium.
+            make_vec("hri_envs/HangerPandaContinuous-v0", ..., "vector_entry_point")``),
+            None: refused.
     """
 
     name: str
@@ -78,6 +87,9 @@ class BackendSpec:
     batch_runs: bool = False
     physical: bool = False
     vector_entry: str | None = None
+    carry: str | None = None
+    carry_drives: tuple[str, ...] = ()
+    carry_vector: str | None = None
 
 
 BACKENDS: dict[str, BackendSpec] = {}
@@ -94,7 +106,9 @@ register_backend(BackendSpec("mujoco", "hri_envs.physics.episode:PhysicsEpisode"
                              "hri_envs.physics.batch:PhysicsBatch",
                              requires=("mujoco", "mink", "gymnasium_robotics"), extra="mujoco",
                              options="hri_envs.physics.options:check_options",
-                             presets=("weak-human", "noisy-sensor"), physical=True))
+                             presets=("weak-human", "noisy-sensor"), physical=True,
+                             carry="hri_envs.physics.carry:CarrySim",
+                             carry_drives=("torque", "muscle")))
 # The same physics, many worlds at once on MuJoCo Warp (docs/physics.md, "Many worlds").
 register_backend(BackendSpec("mjwarp", "hri_envs.physics.mjwarp.episode:WarpPhysicsEpisode",
                              "hri_envs.physics.mjwarp.batch:WarpPhysicsBatch",
@@ -103,7 +117,10 @@ register_backend(BackendSpec("mjwarp", "hri_envs.physics.mjwarp.episode:WarpPhys
                              options="hri_envs.physics.options:check_options",
                              presets=("weak-human", "noisy-sensor"), batch_runs=True,
                              physical=True,
-                             vector_entry="hri_envs.physics.mjwarp.vector:PandaVectorEnv"))
+                             vector_entry="hri_envs.physics.mjwarp.vector:PandaVectorEnv",
+                             carry="hri_envs.physics.mjwarp.carry_sim:make_carry_sim",
+                             carry_drives=("torque",),
+                             carry_vector="hri_envs.physics.mjwarp.carry_vector:CarryVectorEnv"))
 
 
 def backend_spec(name: str) -> BackendSpec:
@@ -147,6 +164,41 @@ def vector_backend(name: str) -> Any:
     """The vector env class of backend ``name`` (None: it has none)."""
     entry = backend_spec(name).vector_entry
     return None if entry is None else _load(entry)
+
+
+def carry_backend(name: str, drive: str) -> Callable[..., Any]:
+    """What makes the continuous envs' simulation on backend ``name`` with the arm's
+    ``drive`` (the arguments of :class:`~hri_envs.physics.carry.CarrySim`).
+
+    Raises:
+        ConfigError: The continuous envs do not run on ``name``, or not with ``drive``
+            (naming what is allowed).
+    """
+    spec = backend_spec(name)
+    if spec.carry is None:
+        allowed = [n for n, s in BACKENDS.items() if s.carry is not None]
+        raise ConfigError(f"the continuous envs do not run on backend={name!r}; allowed: "
+                          f"{', '.join(allowed)}", field="backend")
+    if drive not in spec.carry_drives:
+        raise ConfigError(f"drive={drive!r} does not run on backend={name!r}; allowed there: "
+                          f"{', '.join(spec.carry_drives)}", field="drive")
+    maker: Callable[..., Any] = _load(spec.carry)
+    return maker
+
+
+def carry_vector_backend(name: str) -> Any:
+    """The continuous envs' vector env class on backend ``name``.
+
+    Raises:
+        ConfigError: ``name`` has none (naming the backends that have one).
+    """
+    spec = backend_spec(name)
+    if spec.carry_vector is None:
+        allowed = [n for n, s in BACKENDS.items() if s.carry_vector is not None]
+        raise ConfigError(f"the continuous envs have no vector env on backend={name!r}; "
+                          f"allowed: {', '.join(allowed)} (or vectorization_mode='async' for "
+                          "C worlds in processes)", field="backend")
+    return _load(spec.carry_vector)
 
 
 def batch_backend(name: str) -> type[BatchBackend]:

@@ -339,6 +339,27 @@ class CarrySim:
         mujoco.mju_mat2Quat(q, self.data.site_xmat[self.scene.grip_site])
         return Pose(self.data.site_xpos[self.scene.grip_site].copy(), q)
 
+    def object_velocity(self) -> tuple[np.ndarray, np.ndarray]:
+        """The object's linear and angular velocity (world frame) now."""
+        v = self.data.qvel[self.scene.object_dofs]
+        w = np.empty(3)
+        mujoco.mju_rotVecQuat(w, np.ascontiguousarray(v[3:]),
+                              self.data.xquat[self.scene.object_body].copy())
+        return v[:3].copy(), w
+
+    def robot_joints(self) -> tuple[np.ndarray, np.ndarray]:
+        """The robot's joint positions and velocities now."""
+        n = len(self.scene.robot_dofs)
+        return self.data.qpos[:n].copy(), self.data.qvel[:n].copy()
+
+    def seat_positions(self) -> np.ndarray:
+        """(K, 3) the supports' seats in the current layout."""
+        return self.seats.pos
+
+    def progress(self) -> float:
+        """The object's progress along the human's route now."""
+        return self.human.progress(*self.object_pose())
+
     def _hand_pose(self, obj: Pose) -> Pose:
         """The human's grip frame when it holds the handle of the object at ``obj``."""
         return compose(obj, self.handle_pos, self.handle_quat)

@@ -10,20 +10,26 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import gymnasium as gym
 import mujoco
 import numpy as np
 from gymnasium import spaces
 
+from hri_envs.envs.backends import carry_backend, carry_vector_backend
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
-from hri_envs.physics.carry import DRIVES, CarrySim, CarryStep, RobotCommand
+from hri_envs.physics.carry import DRIVES, CarryStep, RobotCommand
+from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.ik import IKFailure
-from hri_envs.physics.intention import HumanParams
+from hri_envs.physics.intention import HumanParams, IntentionHuman
+from hri_envs.physics.kinematics import Pose
+from hri_envs.physics.scene import Scene
+from hri_envs.task.geometry import Scenario
 from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 
-__all__ = ["ACTION_SIZE", "CarryEnv", "RewardWeights", "check_box_action"]
+__all__ = ["ACTION_SIZE", "CarryEnv", "CarrySimulation", "RewardWeights", "check_box_action",
+           "vector_env"]
 
 #: The robot's action: grip offset (3), rotation (3), stiffness (1), each in [-1, 1].
 ACTION_SIZE = 7
@@ -46,6 +52,73 @@ class RewardWeights:
     effort: float = 0.02
     disagreement: float = 0.1
     fault: float = 5.0
+
+
+class CarrySimulation(Protocol):
+    """What the continuous envs use of their simulation: a
+    :class:`~hri_envs.physics.carry.CarrySim` (``backend="mujoco"``) or one world on MuJoCo
+    Warp (:class:`~hri_envs.physics.mjwarp.carry_sim.WarpCarrySim`, ``backend="mjwarp"``).
+    """
+
+    design: PhysicsDesign
+    scene: Scene
+    dt_step: float
+    max_step_m: float
+    max_step_rad: float
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        """The C model (for pictures)."""
+
+    @property
+    def data(self) -> mujoco.MjData:
+        """A C ``MjData`` holding the current state (for pictures)."""
+
+    @property
+    def sensed(self) -> np.ndarray:
+        """(6,) the robot's last wrist reading."""
+
+    @property
+    def human(self) -> IntentionHuman:
+        """The human's intention and reference."""
+
+    def reset(self, start: int, goal: int, rng: np.random.Generator,
+              scenario: Scenario | None = None, human: HumanParams | None = None,
+              robot_holds: bool = True) -> None:
+        """Place an episode's start (:meth:`CarrySim.reset`)."""
+
+    def command(self, action: np.ndarray) -> RobotCommand:
+        """The robot's command for an action."""
+
+    def human_command(self, action: np.ndarray) -> RobotCommand:
+        """The human agent's command for an action."""
+
+    def step(self, cmd: RobotCommand, human_cmd: RobotCommand | None = None) -> CarryStep:
+        """Simulate 40 ms."""
+
+    def object_pose(self) -> Pose:
+        """The object's pose."""
+
+    def grip_pose(self) -> Pose:
+        """The robot's grip frame."""
+
+    def object_velocity(self) -> tuple[np.ndarray, np.ndarray]:
+        """The object's linear and angular velocity."""
+
+    def robot_joints(self) -> tuple[np.ndarray, np.ndarray]:
+        """The robot's joint positions and velocities."""
+
+    def seat_positions(self) -> np.ndarray:
+        """(K, 3) the supports' seats."""
+
+    def progress(self) -> float:
+        """The object's progress along the human's route."""
+
+    def human_grip_reference(self) -> Pose:
+        """The robot's grip pose at the human's reference now."""
+
+    def max_lift_n(self) -> float:
+        """The arm's greatest upward force at the hand [N]."""
 
 
 def check_box_action(agent: str, action: Any, size: int = ACTION_SIZE) -> np.ndarray:
@@ -136,10 +209,16 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
     import gymnasium as gym
     import hri_envs
     env = gym.make("hri_envs/HangerPandaContinuous-v0", drive="torque", human=None,
-                   max_time_s=None, reward=None, sensor=None, render_mode=None)
+                   max_time_s=None, reward=None, sensor=None, render_mode=None,
+                   backend="mujoco")
     ```
 
     - ``scenario``: "hanger" or "wheel" (set by the registered id);
+    - ``backend``: "mujoco" (MuJoCo's C library, the default) or "mjwarp" (the same scene on
+      MuJoCo Warp, the "mjwarp" extra; the torque drive only; docs/physics.md, "Many worlds
+      on MuJoCo Warp"); ``gymnasium.make_vec(id, num_envs=N, vectorization_mode=
+      "vector_entry_point")`` steps N of them on MuJoCo Warp together
+      (:class:`~hri_envs.physics.mjwarp.carry_vector.CarryVectorEnv`);
     - ``drive``: "torque" (joint torque motors, the default) or "muscle" (MyoSuite's arm,
       the "arm" extra; docs/physics.md says where it works);
     - ``human``: a mapping of :class:`~hri_envs.physics.intention.HumanParams` (``strength``,
@@ -156,7 +235,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Version History
 
-    - v0: initial version.
+    - v0: initial version (``backend="mjwarp"`` added later; the default is unchanged).
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 25}
@@ -165,7 +244,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
                  human: Mapping[str, Any] | None = None, max_time_s: float | None = None,
                  reward: Mapping[str, float] | None = None,
                  sensor: Mapping[str, float] | None = None, max_step_m: float = 0.02,
-                 max_step_rad: float = 0.06, render_mode: str | None = None) -> None:
+                 max_step_rad: float = 0.06, render_mode: str | None = None,
+                 backend: str = "mujoco") -> None:
         spec = scenario_spec(scenario)
         if spec.physics_design is None:
             raise ConfigError(f"scenario {scenario!r} has no physical design; allowed: "
@@ -192,10 +272,11 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
                       for v in sensor.values()):
             raise ConfigError(f"sensor takes noise_n, bias_n, delay_s (numbers >= 0), got "
                               f"{sensor!r}", field="sensor")
-        self.scenario_name, self.render_mode = scenario, render_mode
+        make_sim = carry_backend(backend, drive)
+        self.scenario_name, self.render_mode, self.backend = scenario, render_mode, backend
         self.graph = scenario_graph(scenario)
-        self.sim = CarrySim(self.graph, drive, max_step_m=max_step_m,
-                            max_step_rad=max_step_rad, sensor=sensor)
+        self.sim: CarrySimulation = make_sim(self.graph, drive, max_step_m=max_step_m,
+                                             max_step_rad=max_step_rad, sensor=sensor)
         self._layout_sampler = spec.layout
         self.max_steps = max(1, round(max_time_s / self.sim.dt_step))
         n_k = self.graph.n_intentions
@@ -253,7 +334,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         except IKFailure as exc:
             self._fault = f"ik_failure: {exc}"
         self.steps, self.episode_effort, self._done = 0, 0.0, False
-        self._progress = self.sim.human.progress(*self.sim.object_pose())
+        self._progress = self.sim.progress()
         return self._observation(), {"progress": self._progress, "placed": -1,
                                      "reached_intention": False, "fault": None}
 
@@ -306,20 +387,18 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
                           f"name {', '.join(names)}, got {value!r}", field="options")
 
     def _observation(self) -> np.ndarray:
-        sim, d = self.sim, self.sim.data
+        sim = self.sim
         obj = sim.object_pose()
         q = obj.quat if obj.quat[0] >= 0 else -obj.quat
-        v = d.qvel[sim.scene.object_dofs]
-        w = np.empty(3)
-        mujoco.mju_rotVecQuat(w, np.ascontiguousarray(v[3:]), obj.quat)
+        v, w = sim.object_velocity()
         grip = sim.grip_pose()
         gq = grip.quat if grip.quat[0] >= 0 else -grip.quat
-        n = len(sim.scene.robot_dofs)
+        joints, joint_vel = sim.robot_joints()
         onehot = np.zeros(self.graph.n_intentions)
         onehot[self.start] = 1.0
         frac = self.steps / self.max_steps
-        out = np.concatenate([obj.pos, q, v[:3], w, grip.pos, gq, d.qpos[:n], d.qvel[:n],
-                              sim.sensed, onehot, sim.seats.pos.ravel(), [frac]])
+        out = np.concatenate([obj.pos, q, v, w, grip.pos, gq, joints, joint_vel, sim.sensed,
+                              onehot, sim.seat_positions().ravel(), [frac]])
         return out.astype(np.float32)
 
     def render(self) -> np.ndarray | None:
@@ -329,8 +408,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         if self._renderer is None:
             from hri_envs.physics.rendering import SceneRenderer  # noqa: PLC0415
 
-            self._renderer = SceneRenderer(self.sim.model, self.sim.seats.pos)
-        self._renderer.aim(self.sim.seats.pos)
+            self._renderer = SceneRenderer(self.sim.model, self.sim.seat_positions())
+        self._renderer.aim(self.sim.seat_positions())
         frame: np.ndarray = self._renderer.render(self.sim.data)
         return frame
 
@@ -344,6 +423,19 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
     def robot_command(self, action: np.ndarray) -> RobotCommand:
         """The command an action gives in the current state (for agents and tools)."""
         return self.sim.command(check_box_action("robot", action))
+
+
+def vector_env(num_envs: int = 1, scenario: str = "hanger", *, backend: str = "mjwarp",
+               **kwargs: Any) -> Any:
+    """``num_envs`` continuous envs stepped together on ``backend`` (the continuous ids'
+    ``vector_entry_point``: ``gymnasium.make_vec(id, num_envs=N,
+    vectorization_mode="vector_entry_point")``); keyword arguments: :class:`CarryEnv`'s and
+    the vector env's (:class:`~hri_envs.physics.mjwarp.carry_vector.CarryVectorEnv`).
+
+    Raises:
+        ConfigError: ``backend`` has no vector form of these envs.
+    """
+    return carry_vector_backend(backend)(num_envs, scenario, backend=backend, **kwargs)
 
 
 def _weights(reward: Mapping[str, float] | None) -> RewardWeights:
