@@ -26,7 +26,7 @@ from hri_envs.errors import ConfigError, ResetNeeded
 from hri_envs.humans.protocol import BatchHuman, checked_actions
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task.episode import EpisodeRules, reached_intention, revise_intention
-from hri_envs.task.scenarios import spec_of
+from hri_envs.task.scenarios import scenario_spec, spec_of
 
 __all__ = ["RobotEnv", "panda_env"]
 
