@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import os
 
 import numpy as np
 import pytest
@@ -407,8 +408,16 @@ def test_a_study_replay_reads_its_config_once_within_the_limit(tmp_path, capsys,
             opened.append(args[0] if args else kwargs.get("mode", "r"))
         return real_open(file, *args, **kwargs)
 
+    real_os_open = os.open
+
+    def counting_os_open(path, flags, *args, **kwargs):
+        if str(path) == str(config):
+            opened.append("rb" if flags & (os.O_WRONLY | os.O_RDWR) == 0 else "w")
+        return real_os_open(path, flags, *args, **kwargs)
+
     monkeypatch.setattr(builtins, "open", counting_open)
     monkeypatch.setattr(io, "open", counting_open)  # what pathlib's read_bytes calls
+    monkeypatch.setattr(os, "open", counting_os_open)  # what read_json opens with
     capsys.readouterr()
     assert main(["study", "--config", str(config), "--no-progress", "--out",
                  str(tmp_path / "again")]) == 0
