@@ -47,18 +47,26 @@ system-deps:
 # Lint, type and layer checks first, so that pytest's summaries are the last lines.
 test: $(VENV)/.test-installed system-deps
 	$(VENV)/bin/ruff check hri_envs agents baselines hri_bench tests examples benchmarks
-	$(VENV)/bin/mypy
-	$(VENV)/bin/lint-imports
-	@# JAX starts threads on import, and a process that forks after that may hang: its test
-	@# modules are not even collected (imported) in the run whose tests fork pools.
-	MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup --ignore-glob='tests/test_jax*' \
-	  --ignore-glob='tests/test_mjwarp*'
-	@# One process for them: they share what JAX compiled, and JAX uses every core itself.
-	MUJOCO_GL=egl $(PY) -m pytest -q tests/test_jax*.py
-	@# One process for MuJoCo Warp's tests too: Warp compiles its kernels once (about 1.5 min
-	@# of one core without a cache) into its kernel cache (~/.cache/warp, or $$WARP_CACHE_PATH),
-	@# which every later run on the machine reuses.
-	MUJOCO_GL=egl $(PY) -m pytest -q tests/test_mjwarp*.py
+	@# MuJoCo Warp's tests run in a process of their own, beside the others: they keep about
+	@# one core busy (Warp compiles its kernels once, about 1.5 min of one core without a
+	@# cache, into ~/.cache/warp or $$WARP_CACHE_PATH, which later runs reuse), so the other
+	@# core is left to the rest. Their output is shown when they end; a failure of either fails.
+	@# JAX starts threads on import, and a process that forks after that may hang: its tests
+	@# run in a process of their own too, never collected by the run whose tests fork pools.
+	@warp_log=$$(mktemp); \
+	echo "MUJOCO_GL=egl $(PY) -m pytest -q tests/test_mjwarp*.py  (in the background)"; \
+	MUJOCO_GL=egl $(PY) -m pytest -q -p no:cacheprovider tests/test_mjwarp*.py \
+	  >"$$warp_log" 2>&1 & warp=$$!; \
+	trap 'kill $$warp 2>/dev/null; rm -f "$$warp_log"' EXIT; \
+	set -x; \
+	$(VENV)/bin/mypy && $(VENV)/bin/lint-imports \
+	&& MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup \
+	  --ignore-glob='tests/test_jax*' --ignore-glob='tests/test_mjwarp*' \
+	&& MUJOCO_GL=egl $(PY) -m pytest -q tests/test_jax*.py; \
+	rest=$$?; set +x; \
+	if [ $$rest -ne 0 ]; then exit $$rest; fi; \
+	echo "waiting for tests/test_mjwarp*.py"; wait $$warp; warp_status=$$?; \
+	cat "$$warp_log"; exit $$warp_status
 
 # A person plays the human in a browser (http://127.0.0.1:8000/); sessions are recorded.
 serve: $(VENV)/.serve-installed

@@ -26,6 +26,8 @@ SUITE = ["suite", "--suite-version", "1", "--tracks", "hanger-paper,hanger-passi
          f"learner,passive,{GATED}"]
 FILES = ("suite.json", "results.json", "leaderboard.md")
 PROMPT = 60
+#: One worker runs the module, so that the uninterrupted suite (:func:`gate`) runs once.
+pytestmark = pytest.mark.xdist_group("suite-resume")
 
 
 def _cli(args, gate):
@@ -79,7 +81,11 @@ def _in_the_wheel_track(out):
         (out / ".suite" / "02-wheel-paper").glob("0*.npz"))
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
+#: SIGTERM takes SIGINT's path (exit 143 instead of 130; tests/test_study_faults.py runs
+#: the study's in the default run).
+@pytest.mark.parametrize("sig", [signal.SIGINT,
+                                 pytest.param(signal.SIGTERM, marks=pytest.mark.slow),
+                                 signal.SIGKILL])
 def test_a_stopped_suite_resumes_without_running_finished_work(sig, gate, tmp_path,
                                                                monkeypatch):
     opened, reference = gate
@@ -187,7 +193,11 @@ def test_ctrl_c_in_process_is_the_resume_command_not_a_traceback(gate, tmp_path,
     _identical(out, reference)
 
 
-@pytest.mark.parametrize("victim", ["results.json", "suite.json", ".npz"])
+#: suite.json is written as results.json is; a unit's .npz as the study's (tests/
+#: test_study_faults.py, in the default run).
+@pytest.mark.parametrize("victim", ["results.json",
+                                    pytest.param("suite.json", marks=pytest.mark.slow),
+                                    pytest.param(".npz", marks=pytest.mark.slow)])
 def test_a_full_disk_is_one_line_and_resume_completes(victim, gate, tmp_path, capsys,
                                                       monkeypatch):
     opened, reference = gate
