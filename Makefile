@@ -51,15 +51,19 @@ test: $(VENV)/.test-installed system-deps
 	@# one core busy (Warp compiles its kernels once, about 1.5 min of one core without a
 	@# cache, into ~/.cache/warp or $$WARP_CACHE_PATH, which later runs reuse), so the other
 	@# core is left to the rest. Their output is shown when they end; a failure of either fails.
-	@# JAX starts threads on import, and a process that forks after that may hang: its tests
-	@# run in a process of their own too, never collected by the run whose tests fork pools.
+	@# The Learner's numba kernels are compiled once (about 30 s of one core on a fresh clone,
+	@# cached beside their module), beside mypy, before the tests' processes would each
+	@# compile them at once. JAX starts threads on import, and a process that forks after
+	@# that may hang: its tests run in a process of their own too, never collected by the run
+	@# whose tests fork pools.
 	@warp_log=$$(mktemp); \
 	echo "MUJOCO_GL=egl $(PY) -m pytest -q tests/test_mjwarp*.py  (in the background)"; \
 	MUJOCO_GL=egl $(PY) -m pytest -q -p no:cacheprovider tests/test_mjwarp*.py \
 	  >"$$warp_log" 2>&1 & warp=$$!; \
 	trap 'kill $$warp 2>/dev/null; rm -f "$$warp_log"' EXIT; \
 	set -x; \
-	$(VENV)/bin/mypy && $(VENV)/bin/lint-imports \
+	$(PY) -c "from agents.learning.algorithm1 import preload; preload()" & kernels=$$!; \
+	$(VENV)/bin/mypy && $(VENV)/bin/lint-imports && wait $$kernels \
 	&& MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup \
 	  --ignore-glob='tests/test_jax*' --ignore-glob='tests/test_mjwarp*' \
 	&& MUJOCO_GL=egl $(PY) -m pytest -q tests/test_jax*.py; \
