@@ -202,14 +202,14 @@ PLAN: dict[str, Plan] = {
     ".venv/bin/hri-bench study wheel --agents learner,imitator,maxent,passive,oracle --runs 100 "
     "--preference straight --r0 -0.25 --jobs 2 --out out/wheel": Scaled(
         ".venv/bin/hri-bench study wheel --agents learner,imitator,maxent,passive,oracle "
-        "--runs 4 --preference straight --r0 -0.25 --jobs 2 --out out/wheel", "4 runs"),
+        "--runs 2 --preference straight --r0 -0.25 --jobs 2 --out out/wheel", "2 runs"),
     ".venv/bin/hri-bench study hanger --schedule table2 --preference all --out out/table2":
-        Scaled(".venv/bin/hri-bench study hanger --schedule table2 --preference all --runs 4 "
-               "--out out/table2", "4 runs instead of 100"),
+        Scaled(".venv/bin/hri-bench study hanger --schedule table2 --preference all --runs 2 "
+               "--out out/table2", "2 runs instead of 100"),
     ".venv/bin/hri-bench study wheel --agents learner,examples.custom_learner:GoalMemory "
     "--out out/mine": Scaled(".venv/bin/hri-bench study wheel --agents "
-                             "learner,examples.custom_learner:GoalMemory --runs 4 --out out/mine",
-                             "4 runs instead of 100"),
+                             "learner,examples.custom_learner:GoalMemory --runs 2 --out out/mine",
+                             "2 runs instead of 100"),
     ".venv/bin/hri-bench study --config out/wheel/summary.json --out out/again": RUN,
     ".venv/bin/hri-bench figures --out out/figures --runs 100 --jobs 2": Scaled(
         ".venv/bin/hri-bench figures --out out/figures --runs 2 --wheel-episodes 3",
@@ -221,12 +221,12 @@ PLAN: dict[str, Plan] = {
     ".venv/bin/hri-bench study wheel --preference straight --human-passive 0.2 --agents "
     "informed,blind,learner,oracle --runs 100 --out out/bounds": Scaled(
         ".venv/bin/hri-bench study wheel --preference straight --human-passive 0.2 --agents "
-        "informed,blind,learner,oracle --runs 4 --out out/bounds", "4 runs"),
+        "informed,blind,learner,oracle --runs 2 --out out/bounds", "2 runs"),
     ".venv/bin/hri-bench study wheel --preference straight --human-passive 0.2 --agents "
     "informed,blind,learner,oracle --runs 100 --out out/bounds-toggle --reward no-free-toggle":
         Scaled(".venv/bin/hri-bench study wheel --preference straight --human-passive 0.2 "
-               "--agents informed,blind,learner,oracle --runs 4 --out out/bounds-toggle "
-               "--reward no-free-toggle", "4 runs"),
+               "--agents informed,blind,learner,oracle --runs 2 --out out/bounds-toggle "
+               "--reward no-free-toggle", "2 runs"),
     ".venv/bin/hri-bench suite --out out/suite --jobs 2": Scaled(
         ".venv/bin/hri-bench suite --out out/suite --runs-scale 0.01 --tracks hanger-paper",
         "one track, its smallest runs scale (2 runs), one process"),
@@ -251,7 +251,7 @@ PLAN: dict[str, Plan] = {
     "HRI_BENCH_DATASETS=out/datasets .venv/bin/hri-bench study hanger --population "
     "recorded:hanger-people --out out/people": Scaled(
         "HRI_BENCH_DATASETS=out/datasets .venv/bin/hri-bench study hanger --population "
-        "recorded:hanger-people --runs 4 --out out/people", "4 runs"),
+        "recorded:hanger-people --runs 2 --out out/people", "2 runs"),
     "HRI_BENCH_DATASETS=out/datasets .venv/bin/hri-bench suite --population "
     "recorded:hanger-people --out out/suite-people": Scaled(
         "HRI_BENCH_DATASETS=out/datasets .venv/bin/hri-bench suite --population "
@@ -259,12 +259,12 @@ PLAN: dict[str, Plan] = {
         "the recorded track beside one of the suite's, 2 runs each"),
     ".venv/bin/pip install -c constraints.txt -e '.[rl]'": Skip(INSTALL, an_extra),
     ".venv/bin/python examples/train_maskable_ppo.py": Scaled(
-        ".venv/bin/python examples/train_maskable_ppo.py --timesteps 1024 --n-envs 4 --runs 4 "
-        "--episodes 2", "1,024 training steps instead of 30,000; 4 runs of 2 episodes"),
+        ".venv/bin/python examples/train_maskable_ppo.py --timesteps 1024 --n-envs 4 --runs 2 "
+        "--episodes 2", "1,024 training steps instead of 30,000; 2 runs of 2 episodes"),
     ".venv/bin/hri-bench study hanger --agents learner,sb3:out/train_maskable_ppo/ppo_hanger.zip "
     "--out out/sb3": Scaled(
         ".venv/bin/hri-bench study hanger --agents "
-        "learner,sb3:out/train_maskable_ppo/ppo_hanger.zip --runs 4 --out out/sb3", "4 runs"),
+        "learner,sb3:out/train_maskable_ppo/ppo_hanger.zip --runs 2 --out out/sb3", "2 runs"),
     ".venv/bin/python benchmarks/train_jax_ppo.py --scenario hanger --total-steps 25000000 "
     "--out out/jaxppo": Skip("25 M steps of JAX training (140 s); " + JAX, jax_script_flags),
     ".venv/bin/hri-bench suite --suite-version 1 --agents "
@@ -273,8 +273,8 @@ PLAN: dict[str, Plan] = {
     # docs/agents.md
     ".venv/bin/hri-bench study hanger --agents learner,mylab.follower:Follower --runs 20 "
     "--out out/follower": Scaled(".venv/bin/hri-bench study hanger --agents "
-                                 "learner,mylab.follower:Follower --runs 4 --out out/follower",
-                                 "4 runs instead of 20"),
+                                 "learner,mylab.follower:Follower --runs 2 --out out/follower",
+                                 "2 runs instead of 20"),
     # docs/people.md
     ".venv/bin/pip install -c constraints.txt -e '.[web]'": Skip(INSTALL, an_extra),
     'make serve SERVE_ARGS="hanger --data out/datasets"': Skip(
@@ -306,11 +306,11 @@ PLAN: dict[str, Plan] = {
     ".venv/bin/hri-bench study hanger --population recorded:hanger-people --agents "
     "learner,imitator,oracle --out out/people": Scaled(
         ".venv/bin/hri-bench study hanger --population recorded:hanger-people --agents "
-        "learner,imitator,oracle --runs 4 --out out/people", "4 runs"),
+        "learner,imitator,oracle --runs 2 --out out/people", "2 runs"),
     ".venv/bin/hri-bench study hanger --population recorded-irl:hanger-people --out "
     "out/people-irl": Scaled(
-        ".venv/bin/hri-bench study hanger --population recorded-irl:hanger-people --runs 4 "
-        "--out out/people-irl", "4 runs"),
+        ".venv/bin/hri-bench study hanger --population recorded-irl:hanger-people --runs 2 "
+        "--out out/people-irl", "2 runs"),
     ".venv/bin/hri-bench suite --out out/suite-people --population recorded:hanger-people":
         Scaled(".venv/bin/hri-bench suite --out out/suite-people --population "
                "recorded:hanger-people --runs-scale 0.01 --tracks hanger-paper",
@@ -331,13 +331,13 @@ PLAN: dict[str, Plan] = {
     # docs/rl.md
     ".venv/bin/pip install -c constraints.txt -e '.[ray]'": Skip(INSTALL, an_extra),
     ".venv/bin/python examples/train_maskable_ppo.py --timesteps 50000 --n-envs 16": Scaled(
-        ".venv/bin/python examples/train_maskable_ppo.py --timesteps 1024 --n-envs 16 --runs 4 "
-        "--episodes 2 --out out/throughput", "1,024 training steps; 4 runs of 2 episodes; its "
+        ".venv/bin/python examples/train_maskable_ppo.py --timesteps 1024 --n-envs 16 --runs 2 "
+        "--episodes 2 --out out/throughput", "1,024 training steps; 2 runs of 2 episodes; its "
         "own --out (the README's command writes the default one)"),
     ".venv/bin/hri-bench study hanger --agents learner,sb3:out/ppo_hanger.zip,oracle --runs 100 "
     "--out out/ppo": Scaled(".venv/bin/hri-bench study hanger --agents "
-                            "learner,sb3:out/ppo_hanger.zip,oracle --runs 4 --out out/ppo",
-                            "4 runs"),
+                            "learner,sb3:out/ppo_hanger.zip,oracle --runs 2 --out out/ppo",
+                            "2 runs"),
     ".venv/bin/python examples/rllib_multiagent.py": Skip(
         "starts a local Ray cluster (36 s and more); tests/test_rl.py trains the same example",
         script_flags),

@@ -64,7 +64,9 @@ def _resumed_identically(args, out, gate, reference):
 
 @pytest.mark.parametrize("agent, says", [
     ("ExitsProcess", "its worker process ended with exit status 3"),
-    ("KillsItself", "its worker process was killed (SIGKILL"),
+    # A SIGKILL the agent sends itself: test_a_worker_killed_from_outside_... sends one.
+    pytest.param("KillsItself", "its worker process was killed (SIGKILL",
+                 marks=pytest.mark.slow),
     ("RaisesKeyboardInterrupt", "the agent raised KeyboardInterrupt (deliberate) in its "
                                 "worker process"),
 ])
@@ -129,7 +131,10 @@ def test_a_worker_killed_from_outside_ends_the_study_within_seconds(tmp_path, mo
     _resumed_identically(args, out, gate, reference)
 
 
-@pytest.mark.parametrize("agent, jobs", [("Hangs", "1"), ("Hangs", "2"), ("SpinsInC", "2")])
+#: With --jobs 2 the parent's clock ends a unit whatever its worker does: a worker spinning
+#: in C code (SpinsInC) is ended as a sleeping one (Hangs); in the slow run.
+@pytest.mark.parametrize("agent, jobs", [("Hangs", "1"), ("Hangs", "2"),
+                                         pytest.param("SpinsInC", "2", marks=pytest.mark.slow)])
 def test_a_unit_over_the_time_limit_ends_the_study(agent, jobs, tmp_path, monkeypatch):
     name = f"tests.helpers_faults:{agent}"
     args = _study(name, "--jobs", jobs, "--unit-time-limit", "1.5")

@@ -33,6 +33,9 @@ def require_warp() -> tuple[ModuleType, ModuleType, ModuleType]:
     import warp as wp
 
     wp.config.quiet = True  # type: ignore[attr-defined,unused-ignore]
+    # Nothing here is differentiated: kernels are compiled without their adjoints (MuJoCo
+    # Warp's own modules already are; mink-warp's and any other are not by default).
+    wp.config.enable_backward = False  # type: ignore[attr-defined,unused-ignore]
     if hasattr(wp, "LOG_WARNING"):  # no line per module compiled or loaded
         wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)
     wp.init()
