@@ -7,6 +7,7 @@ Before the fix each of these studies waited forever at 0 CPU; here every subproc
 timeout, so a hang fails the test instead of stalling it.
 """
 
+import math
 import os
 import signal
 import subprocess
@@ -188,3 +189,14 @@ def test_the_time_limit_changes_no_number_and_is_not_a_setting():
     ra, rb = run_study(a), run_study(b)
     for key, values in ra.metrics["learner"].items():
         np.testing.assert_array_equal(values, rb.metrics["learner"][key], err_msg=key)
+
+
+def test_the_default_time_limit_is_the_backends():
+    """A unit on MuJoCo Warp batches up to 1,000 episodes into its worlds at its device's
+    speed (4 runs of 2 episodes took 761 s on a CPU): no default limit there, which would
+    stop a sound study as hung; 3600 s on the other backends; a given limit always wins."""
+    assert StudyConfig("wheel").time_limit() == 3600.0
+    assert StudyConfig("hanger", backend="mujoco").time_limit() == 3600.0
+    assert StudyConfig("hanger", backend="mjwarp").time_limit() == math.inf
+    assert StudyConfig("hanger", backend="mjwarp", unit_time_limit=5).time_limit() == 5.0
+    assert StudyConfig("wheel", unit_time_limit=math.inf).time_limit() == math.inf

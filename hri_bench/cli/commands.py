@@ -268,13 +268,14 @@ def _study_run_flags(study: argparse.ArgumentParser) -> None:
 
 def _time_limit_flag(parser: argparse.ArgumentParser) -> None:
     """``--unit-time-limit`` (``study`` and ``suite``)."""
-    parser.add_argument("--unit-time-limit", type=_seconds, default=UNIT_TIME_LIMIT,
+    parser.add_argument("--unit-time-limit", type=_seconds, default=None,
                         metavar="S",
                         help="the most wall seconds one unit of work (an agent's chunk of "
                              "runs: at most 1,000 episodes, or one run on mujoco) may take; "
                              "a unit over it, like a worker process that dies, stops the "
                              "study with an error naming it, its finished units kept for "
-                             f"--resume (default {UNIT_TIME_LIMIT:g}; inf: no limit)")
+                             f"--resume (default {UNIT_TIME_LIMIT:g}, none on mjwarp, whose "
+                             "speed is its device's; inf: no limit)")
 
 
 def _study_human_flags(study: argparse.ArgumentParser) -> None:

@@ -49,7 +49,7 @@ from hri_bench.run.regret import ALL_REFERENCES, blind_values, reference_summary
 from hri_bench.run.runner import TASK_METRICS, make_schedule, simulate
 from hri_envs import __version__
 from hri_envs.checks import check_flag, check_real, check_whole
-from hri_envs.envs.backends import BACKENDS, batch_backend
+from hri_envs.envs.backends import BACKENDS, DEFAULT_UNIT_TIME_LIMIT, batch_backend
 from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ActionError, ConfigError, MissingExtraError
 from hri_envs.humans.finite_state import FiniteStateHumans
@@ -105,10 +105,9 @@ MAX_RUN_STEPS = 10_000_000
 METRICS = ("reward", "correct", "passive", "wrong", "steps", "truncated")
 EXECUTORS = ("serial", "process", "ray")
 #: The default most wall seconds one unit of work may take (:attr:`StudyConfig.
-#: unit_time_limit`): generous, as a unit is at most 1,000 episodes on the graph backend
-#: (well under a minute for the built-in agents) or one run on the MuJoCo backend (at most
-#: 20 episodes × 100 steps of about 0.2 s).
-UNIT_TIME_LIMIT = 3600.0
+#: unit_time_limit`) on the graph and MuJoCo backends (``BackendSpec.unit_time_limit``; none
+#: on MuJoCo Warp, whose speed is its device's).
+UNIT_TIME_LIMIT = DEFAULT_UNIT_TIME_LIMIT
 
 
 def _backend_extras(metrics: Mapping[str, Any]) -> list[str]:
@@ -202,8 +201,10 @@ class StudyConfig:
             ``(("k", 3),)`` for ``population="impatient"``; :mod:`hri_envs.humans.families`),
             as (name, value) pairs; the others take the family's defaults.
         unit_time_limit: The most wall seconds one unit of work (an agent's chunk of runs,
-            :data:`UNIT_EPISODES`) may take (``inf``: no limit); a unit over it ends the
-            study with a :class:`UnitLostError` naming it, as a worker that dies does
+            :data:`UNIT_EPISODES`) may take (``inf``: no limit; None: the backend's
+            default, :data:`UNIT_TIME_LIMIT` on the graph and MuJoCo backends, none on
+            MuJoCo Warp; :meth:`time_limit`); a unit over it ends the study with a
+            :class:`UnitLostError` naming it, as a worker that dies does
             (docs/benchmark.md, "Interrupted studies").
     """
 
@@ -230,7 +231,7 @@ class StudyConfig:
     reward: str = "paper"
     physics_preset: str | None = None
     human_params: tuple[tuple[str, Any], ...] = ()
-    unit_time_limit: float = UNIT_TIME_LIMIT
+    unit_time_limit: float | None = None
 
     def __post_init__(self) -> None:
         """Validate every field, in the fields' order (a :class:`ConfigError` names the field
@@ -280,8 +281,10 @@ class StudyConfig:
         check_whole(self.seed, "seed", minimum=0)
         check_whole(self.jobs, "jobs", minimum=1)
         self._choice("executor", EXECUTORS)
-        check_real(self.unit_time_limit, "unit_time_limit", low=0.0, low_open=True,
-                   allow_inf=True, allowed="a number of seconds > 0, or inf (no limit)")
+        if self.unit_time_limit is not None:
+            check_real(self.unit_time_limit, "unit_time_limit", low=0.0, low_open=True,
+                       allow_inf=True, allowed="a number of seconds > 0, inf (no limit) or "
+                       "None (the backend's default)")
         self._text("ray_address", "a Ray cluster's address")
         self._choice("backend", tuple(BACKENDS))
         max_steps = check_whole(self.max_steps, "max_steps", minimum=1, maximum=MAX_STEPS)
@@ -349,6 +352,14 @@ class StudyConfig:
                 check_physics_options(self.physics, self.backend)
             except ConfigError as exc:
                 raise ConfigError(str(exc), field="physics_preset") from None
+
+    def time_limit(self) -> float:
+        """The most wall seconds one unit of work may take: :attr:`unit_time_limit`, or
+        the backend's default when it is None (``inf``: no limit).
+        """
+        if self.unit_time_limit is None:
+            return float(BACKENDS[self.backend].unit_time_limit)
+        return float(self.unit_time_limit)
 
     def _choice(self, name: str, allowed: Sequence[str]) -> None:
         """Field ``name`` is one of ``allowed``."""
@@ -900,7 +911,7 @@ def _execute_pool(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int], met
     workers = _start_pool(min(cfg.jobs, len(todo)), method)
     queue = list(reversed(todo))
     busy: dict[_Worker, tuple[int, float]] = {}
-    limit = float(cfg.unit_time_limit)
+    limit = cfg.time_limit()
 
     def assign(w: _Worker) -> None:
         if queue:
@@ -978,10 +989,10 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
     if cfg.executor == "serial" or (cfg.executor == "process" and cfg.jobs == 1):
         for i in todo:
             try:
-                with _alarm(cfg.unit_time_limit):
+                with _alarm(cfg.time_limit()):
                     out = _run_unit_caught(units[i])
             except _TimeUp:
-                raise _lost(units[i], _over_time(cfg.unit_time_limit)) from None
+                raise _lost(units[i], _over_time(cfg.time_limit())) from None
             yield i, out
     elif cfg.executor == "process":
         for spec in filter(None, map(agent_spec, dict.fromkeys(cfg.agents))):
@@ -1012,7 +1023,7 @@ def _execute_ray(cfg: StudyConfig, units: list[_Unit], index: list[int]
     remote = ray.remote(_run_unit_caught)
     queue = list(reversed(list(zip(units, index, strict=True))))
     running: dict[Any, tuple[_Unit, int, float]] = {}
-    limit = float(cfg.unit_time_limit)
+    limit = cfg.time_limit()
     try:
         while queue or running:
             while queue and len(running) < cfg.jobs:

@@ -44,7 +44,6 @@ from hri_bench.run import metrics, provenance
 from hri_bench.run.agents import PLANNING_REFERENCES, REFERENCE_AGENTS
 from hri_bench.run.regret import ALL_REFERENCES, REFERENCES, reference_summary
 from hri_bench.run.study import (
-    UNIT_TIME_LIMIT,
     StudyResult,
     UnitLostError,
     _units,
@@ -435,7 +434,7 @@ def run_suite(
     populations: Sequence[str] = (),
     version: str = LATEST,
     resume: bool = False,
-    unit_time_limit: float = UNIT_TIME_LIMIT,
+    unit_time_limit: float | None = None,
 ) -> dict[str, Any]:
     """Run the suite's tracks and write its files into ``out``; return suite.json's document.
 
@@ -466,7 +465,8 @@ def run_suite(
             return the document of the complete suite ``out`` holds; without it, what an
             interrupted suite left in ``out/.suite`` is removed first.
         unit_time_limit: The most wall seconds one unit of work may take
-            (:attr:`~hri_bench.run.study.StudyConfig.unit_time_limit`).
+            (:attr:`~hri_bench.run.study.StudyConfig.unit_time_limit`; None: the backend's
+            default).
 
     Raises:
         ConfigError: Unknown track, bad agents, bad runs_scale (before any simulation);

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -32,6 +33,7 @@ __all__ = [
     "BackendSpec",
     "BatchBackend",
     "BatchStep",
+    "DEFAULT_UNIT_TIME_LIMIT",
     "GraphBatch",
     "backend_spec",
     "batch_backend",
@@ -43,6 +45,13 @@ __all__ = [
     "register_backend",
     "vector_backend",
 ]
+
+
+#: A study's default time limit per unit of work (:attr:`BackendSpec.unit_time_limit`):
+#: generous, as a unit is at most 1,000 episodes on the graph backend (well under a minute
+#: for the built-in agents) or one run on the MuJoCo backend (at most 20 episodes × 100 steps
+#: of about 0.2 s).
+DEFAULT_UNIT_TIME_LIMIT = 3600.0
 
 
 @dataclass(frozen=True)
@@ -74,6 +83,8 @@ class BackendSpec:
         carry_vector: ``"module:Class"`` of the continuous envs' vector env (``gymnasium.
             make_vec("hri_envs/HangerPandaContinuous-v0", ..., "vector_entry_point")``),
             None: refused.
+        unit_time_limit: The default most wall seconds one unit of a study's work may take
+            on it (``hri-bench study --unit-time-limit``); ``inf``: no limit.
     """
 
     name: str
@@ -90,6 +101,7 @@ class BackendSpec:
     carry: str | None = None
     carry_drives: tuple[str, ...] = ()
     carry_vector: str | None = None
+    unit_time_limit: float = DEFAULT_UNIT_TIME_LIMIT
 
 
 BACKENDS: dict[str, BackendSpec] = {}
@@ -120,7 +132,10 @@ register_backend(BackendSpec("mjwarp", "hri_envs.physics.mjwarp.episode:WarpPhys
                              vector_entry="hri_envs.physics.mjwarp.vector:PandaVectorEnv",
                              carry="hri_envs.physics.mjwarp.carry_sim:make_carry_sim",
                              carry_drives=("torque",),
-                             carry_vector="hri_envs.physics.mjwarp.carry_vector:CarryVectorEnv"))
+                             carry_vector="hri_envs.physics.mjwarp.carry_vector:CarryVectorEnv",
+                             # a unit batches up to 1,000 episodes into its worlds, whose speed
+                             # is the device's: hours on a CPU
+                             unit_time_limit=math.inf))
 
 
 def backend_spec(name: str) -> BackendSpec:
