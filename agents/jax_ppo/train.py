@@ -11,9 +11,9 @@ population (the suite's runs: 8 hanger / 20 wheel episodes with one partner); th
 is kept across a trial's episodes and cleared when a new human comes, and the return (GAE)
 runs over the whole trial, so what the robot learns about its partner in one episode pays
 in the next. Sampling draws one uniform per env and step (inverse CDF), from a hash like the
-env's, not a ``jax.random.categorical`` per env and step: on a CPU, drawing random numbers
-costs more than the table look-ups of the step itself (docs/rl.md, "What a step of the JAX
-env costs").
+env's, not a ``jax.random.categorical`` per env and step: on a CPU random draws are a large
+part of a step's cost (docs/rl.md, "What a step of the JAX env costs": the env's own draws
+take about a quarter of its step).
 """
 
 from __future__ import annotations
