@@ -19,31 +19,12 @@ import pytest
 from hri_bench.cli import main
 from hri_bench.run.study import StudyConfig, run_study
 from hri_envs.errors import ActionError, ConfigError
+from tests.helpers_processes import children, start_cli
 
 ROOT = Path(__file__).resolve().parents[1]
 # 2 agents x 36 preferences (one run each, so one chunk) = 72 units of about 10 ms each.
 STUDY = ["study", "hanger", "--preference", "all", "--runs", "36", "--episodes", "3",
          "--agents", "learner,maxent", "--jobs", "2", "--no-progress"]
-
-
-def _cli(args, **kwargs):
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    return subprocess.Popen([sys.executable, "-m", "hri_bench.cli", *args], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            cwd=ROOT, **kwargs)
-
-
-def _children(pid):
-    kids = []
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                stat = (entry / "stat").read_text()
-            except OSError:
-                continue
-            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
-                kids.append(int(entry.name))
-    return kids
 
 
 def _alive(pid):
@@ -68,13 +49,13 @@ def reference(tmp_path_factory):
                                  signal.SIGINT])
 def test_killed_study_leaves_no_workers_and_resumes_identically(sig, reference, tmp_path):
     out = tmp_path / "study"
-    proc = _cli([*STUDY, "--out", str(out)])
+    proc = start_cli([*STUDY, "--out", str(out)])
     deadline = time.monotonic() + 60
     while not list((out / ".units").glob("0*.npz")):
         assert proc.poll() is None, "the study ended before the first unit was seen"
         assert time.monotonic() < deadline
         time.sleep(0.02)
-    workers = _children(proc.pid)
+    workers = children(proc.pid)
     assert len(workers) == 2
     proc.send_signal(sig)
     code = proc.wait(timeout=30)
@@ -94,7 +75,7 @@ def test_killed_study_leaves_no_workers_and_resumes_identically(sig, reference, 
         with np.load(path, allow_pickle=False) as data:
             assert data["m.reward"].shape[1] == 3
 
-    resumed = _cli([*STUDY, "--out", str(out), "--resume"])
+    resumed = start_cli([*STUDY, "--out", str(out), "--resume"])
     assert resumed.wait(timeout=120) == 0, resumed.stderr.read()
     for name in ("summary.json", "episodes.csv"):
         assert (out / name).read_bytes() == (reference / name).read_bytes()
@@ -162,13 +143,13 @@ def test_a_second_study_on_the_same_out_is_refused(tmp_path, monkeypatch):
     out = tmp_path / "study"
     study = ["study", "wheel", "--runs", "2", "--episodes", "2", "--jobs", "1", "--no-progress",
              "--agents", "tests.helpers_agents:WaitsForGate", "--out", str(out)]
-    first = _cli(study)
+    first = start_cli(study)
     deadline = time.monotonic() + 60
     while not (out / ".lock").exists():
         assert first.poll() is None and time.monotonic() < deadline
         time.sleep(0.02)
     for flag in ("--overwrite", "--resume"):
-        second = _cli([*study, flag])
+        second = start_cli([*study, flag])
         assert second.wait(timeout=60) == 2
         err = second.stderr.read()
         assert f"argument --out: another study (process {first.pid}) is writing in" in err
@@ -181,7 +162,7 @@ def test_a_second_study_on_the_same_out_is_refused(tmp_path, monkeypatch):
         fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
         fcntl.flock(f, fcntl.LOCK_UN)
     gate.touch()
-    resumed = _cli([*study, "--resume"])
+    resumed = start_cli([*study, "--resume"])
     assert resumed.wait(timeout=120) == 0, resumed.stderr.read()
     # The resumed study wrote what the same study run without interruption writes.
     uninterrupted = tmp_path / "uninterrupted"

@@ -10,8 +10,6 @@ timeout, so a hang fails the test instead of stalling it.
 import math
 import os
 import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -21,8 +19,8 @@ import pytest
 from hri_bench.cli import main
 from hri_bench.run.study import StudyConfig, UnitLostError, run_study
 from hri_envs.errors import ConfigError
+from tests.helpers_processes import children, finish, start_cli
 
-ROOT = Path(__file__).resolve().parents[1]
 #: Seconds a study with a dead or hung worker may take to end (it ends in about one).
 PROMPT = 30
 
@@ -30,22 +28,6 @@ PROMPT = 30
 def _study(agent, *extra):
     return ["study", "wheel", "--runs", "4", "--episodes", "2", "--no-progress", "--agents",
             f"passive,{agent}", *extra]
-
-
-def _cli(args, gate):
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "HRI_TEST_GATE": str(gate)}
-    return subprocess.Popen([sys.executable, "-m", "hri_bench.cli", *args], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
-
-
-def _finish(proc, timeout=PROMPT):
-    try:
-        out, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.communicate()
-        pytest.fail(f"the study hung (killed after {timeout} s)")
-    return proc.returncode, out, err
 
 
 def _uninterrupted(args, out, gate, monkeypatch):
@@ -56,7 +38,7 @@ def _uninterrupted(args, out, gate, monkeypatch):
 
 def _resumed_identically(args, out, gate, reference):
     gate.touch()
-    code, _, err = _finish(_cli([*args, "--out", str(out), "--resume"], gate), timeout=120)
+    code, _, err = finish(start_cli([*args, "--out", str(out), "--resume"], gate), timeout=120)
     assert code == 0, err
     for name in ("summary.json", "episodes.csv"):
         assert (out / name).read_bytes() == (reference / name).read_bytes(), name
@@ -78,7 +60,7 @@ def test_a_dead_worker_ends_the_study_naming_the_unit_and_resume_completes_it(
     gate = tmp_path / "gate"
     out = tmp_path / "study"
     t = time.monotonic()
-    code, _, err = _finish(_cli([*args, "--out", str(out)], gate))
+    code, _, err = finish(start_cli([*args, "--out", str(out)], gate), PROMPT)
     took = time.monotonic() - t
     assert code == 1, err
     err = err.strip()
@@ -93,35 +75,22 @@ def test_a_dead_worker_ends_the_study_naming_the_unit_and_resume_completes_it(
     _resumed_identically(args, out, gate, reference)
 
 
-def _children(pid):
-    kids = []
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                stat = (entry / "stat").read_text()
-            except OSError:
-                continue
-            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
-                kids.append(int(entry.name))
-    return kids
-
-
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
 def test_a_worker_killed_from_outside_ends_the_study_within_seconds(tmp_path, monkeypatch):
     # kill -9 (or the OOM killer) on a worker busy with a unit: its agent waits for the gate.
     args = _study("tests.helpers_agents:WaitsForGate", "--jobs", "2")
     gate = tmp_path / "gate"
     out = tmp_path / "study"
-    proc = _cli([*args, "--out", str(out)], gate)
+    proc = start_cli([*args, "--out", str(out)], gate)
     deadline = time.monotonic() + 60
-    while len(_children(proc.pid)) < 2 or not list((out / ".units").glob("0*.npz")):
+    while len(children(proc.pid)) < 2 or not list((out / ".units").glob("0*.npz")):
         assert proc.poll() is None and time.monotonic() < deadline, proc.stderr.read()
         time.sleep(0.02)
     time.sleep(0.2)  # both workers now wait in WaitsForGate's units
-    victim = _children(proc.pid)[0]
+    victim = children(proc.pid)[0]
     os.kill(victim, signal.SIGKILL)
     t = time.monotonic()
-    code, _, err = _finish(proc)
+    code, _, err = finish(proc, PROMPT)
     took = time.monotonic() - t
     assert code == 1, err
     assert "agent 'tests.helpers_agents:WaitsForGate', runs " in err
@@ -141,7 +110,7 @@ def test_a_unit_over_the_time_limit_ends_the_study(agent, jobs, tmp_path, monkey
     args = _study(name, "--jobs", jobs, "--unit-time-limit", "1.5")
     gate = tmp_path / "gate"
     out = tmp_path / "study"
-    code, _, err = _finish(_cli([*args, "--out", str(out)], gate))
+    code, _, err = finish(start_cli([*args, "--out", str(out)], gate), PROMPT)
     assert code == 1, err
     assert f"agent {name!r}, runs " in err and "Traceback" not in err
     assert "ran longer than the time limit of 1.5 s per unit of work" in err

@@ -8,8 +8,6 @@ import errno
 import json
 import os
 import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -17,8 +15,8 @@ import pytest
 
 from hri_bench.cli import main
 from hri_bench.suite import running
+from tests.helpers_processes import finish, start_cli
 
-ROOT = Path(__file__).resolve().parents[1]
 GATED = "tests.helpers_faults:WaitsOnWheel"
 #: Three small v1 tracks; the gated agent stays in the wheel track until its gate opens.
 SUITE = ["suite", "--suite-version", "1", "--tracks", "hanger-paper,hanger-passive,wheel-paper",
@@ -30,12 +28,6 @@ PROMPT = 60
 pytestmark = pytest.mark.xdist_group("suite-resume")
 
 
-def _cli(args, gate):
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "HRI_TEST_GATE": str(gate)}
-    return subprocess.Popen([sys.executable, "-m", "hri_bench.cli", *args], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
-
-
 def _wait_for(proc, ready, what):
     deadline = time.monotonic() + PROMPT
     while not ready():
@@ -43,16 +35,6 @@ def _wait_for(proc, ready, what):
             proc.kill()
             pytest.fail(f"never saw {what}: {proc.communicate()[1]}")
         time.sleep(0.02)
-
-
-def _finish(proc, timeout=PROMPT):
-    try:
-        out, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.communicate()
-        pytest.fail(f"the suite hung (killed after {timeout} s)")
-    return proc.returncode, out, err
 
 
 @pytest.fixture(scope="module")
@@ -91,10 +73,10 @@ def test_a_stopped_suite_resumes_without_running_finished_work(sig, gate, tmp_pa
     opened, reference = gate
     out = tmp_path / "suite"
     closed = tmp_path / "closed"
-    proc = _cli([*SUITE, "--out", str(out)], closed)
+    proc = start_cli([*SUITE, "--out", str(out)], closed)
     _wait_for(proc, _in_the_wheel_track(out), "the suite in its wheel track")
     proc.send_signal(sig)
-    code, _, err = _finish(proc)
+    code, _, err = finish(proc, PROMPT, "the suite")
     if sig != signal.SIGKILL:
         assert code == {signal.SIGINT: 130, signal.SIGTERM: 143}[sig], err
         assert "Traceback" not in err and "KeyboardInterrupt" not in err
@@ -119,7 +101,7 @@ def test_a_stopped_suite_resumes_without_running_finished_work(sig, gate, tmp_pa
 def test_a_second_suite_or_study_on_the_folder_is_refused(gate, tmp_path, capsys):
     out = tmp_path / "suite"
     closed = tmp_path / "closed"
-    first = _cli([*SUITE, "--out", str(out)], closed)
+    first = start_cli([*SUITE, "--out", str(out)], closed)
     _wait_for(first, _in_the_wheel_track(out), "the suite in its wheel track")
     for flag in ("--resume", "--overwrite"):
         with pytest.raises(SystemExit) as exc:
@@ -132,7 +114,7 @@ def test_a_second_suite_or_study_on_the_folder_is_refused(gate, tmp_path, capsys
     assert f"another suite (process {first.pid}) is writing in" in capsys.readouterr().err
     assert first.poll() is None  # undisturbed
     first.send_signal(signal.SIGINT)
-    assert _finish(first)[0] == 130
+    assert finish(first, PROMPT, "the suite")[0] == 130
 
 
 def test_a_non_empty_out_needs_resume_or_overwrite_which_removes_only_the_suites_files(
@@ -245,7 +227,7 @@ def test_a_dead_worker_ends_the_suite_naming_the_track_and_resume_completes(gate
     out = tmp_path / "suite"
     closed = tmp_path / "closed"
     t = time.monotonic()
-    code, _, err = _finish(_cli([*args, "--out", str(out)], closed))
+    code, _, err = finish(start_cli([*args, "--out", str(out)], closed), PROMPT, "the suite")
     assert code == 1, err
     assert time.monotonic() - t < PROMPT
     err = err.strip()
@@ -257,7 +239,8 @@ def test_a_dead_worker_ends_the_suite_naming_the_track_and_resume_completes(gate
     monkeypatch.setenv("HRI_TEST_GATE", str(opened))
     reference = tmp_path / "reference"
     assert main([*args, "--out", str(reference)]) == 0
-    code, _, err = _finish(_cli([*args, "--out", str(out), "--resume"], opened))
+    code, _, err = finish(start_cli([*args, "--out", str(out), "--resume"], opened), PROMPT,
+                          "the suite")
     assert code == 0, err
     _identical(out, reference)
 
