@@ -10,6 +10,7 @@ from collections.abc import Mapping
 from typing import Any, NamedTuple
 
 import numpy as np
+from gymnasium.vector import AutoresetMode
 
 from hri_envs.checks import check_real, check_whole
 from hri_envs.envs.backends import BACKENDS, check_backend, options_checker
@@ -23,6 +24,7 @@ __all__ = [
     "RESET_OPTION_KEYS",
     "EnvSettings",
     "ResetOptions",
+    "check_autoreset_mode",
     "check_backend",
     "check_env_settings",
     "check_max_cycles",
@@ -229,3 +231,21 @@ def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -
         if check is not None:
             check(layout)
     return ResetOptions(start, intention, turn_back, layout)
+
+
+def check_autoreset_mode(value: Any) -> AutoresetMode:
+    """A vector env's ``autoreset_mode`` (an :class:`~gymnasium.vector.AutoresetMode` or its
+    value): next-step or same-step; disabled autoreset is not supported.
+
+    Raises:
+        ConfigError: Anything else (``field="autoreset_mode"``).
+    """
+    allowed = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
+    try:
+        mode = AutoresetMode(value)
+    except ValueError:
+        mode = None
+    if mode not in allowed:
+        raise ConfigError(f"autoreset_mode must be {allowed[0].value!r} or {allowed[1].value!r}, "
+                          f"got {value!r}", field="autoreset_mode")
+    return mode

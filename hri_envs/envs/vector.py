@@ -13,6 +13,7 @@ from hri_envs.checks import check_whole
 from hri_envs.envs.backends import backend_spec
 from hri_envs.envs.config import (
     RESET_OPTION_KEYS,
+    check_autoreset_mode,
     check_env_settings,
     check_options_mapping,
     check_seed,
@@ -140,18 +141,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         reward: str = "paper",
         **human_keywords: Any,
     ) -> None:
-        try:
-            mode = AutoresetMode(autoreset_mode)
-        except ValueError:
-            raise ConfigError(
-                f"autoreset_mode must be {AutoresetMode.NEXT_STEP.value!r} or "
-                f"{AutoresetMode.SAME_STEP.value!r}, got {autoreset_mode!r}",
-                field="autoreset_mode"
-            ) from None
-        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
-            raise ConfigError(f"autoreset_mode {mode.value!r} is not supported; use "
-                              f"{AutoresetMode.NEXT_STEP.value!r} or "
-                              f"{AutoresetMode.SAME_STEP.value!r}", field="autoreset_mode")
+        mode = check_autoreset_mode(autoreset_mode)
         self.metadata = {**type(self).metadata, "autoreset_mode": mode}
         self._same_step = mode == AutoresetMode.SAME_STEP
         self.num_envs = check_whole(num_envs, "num_envs", minimum=1, maximum=MAX_NUM_ENVS)

@@ -25,7 +25,10 @@ import numpy as np
 from hri_envs.physics.kinematics import TrajectorySample, rotation_error
 from hri_envs.physics.whole_arm import Coupling, WholeArm
 
-__all__ = ["ArmDrive", "HandImpedance", "TorqueDrive"]
+__all__ = ["POSTURE_REGULARIZATION", "ArmDrive", "HandImpedance", "TorqueDrive"]
+
+#: [-] added to the hand Jacobian's J Jᵀ before it is inverted for the null-space posture term.
+POSTURE_REGULARIZATION = 1e-4
 
 
 class ArmDrive(ABC):
@@ -92,7 +95,7 @@ class HandImpedance:
         self.kn, self.dn = posture_gains
         self._jac = np.zeros((6, model.nv))
         self._jacp, self._jacr = self._jac[:3], self._jac[3:]  # contiguous row blocks
-        self._reg = 1e-4 * np.eye(6)
+        self._reg = POSTURE_REGULARIZATION * np.eye(6)
         self._quat = np.zeros(4)
         self.wrench = np.zeros(6)  # the last task wrench [N, N m] the hand aims to apply
 

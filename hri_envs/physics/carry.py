@@ -60,6 +60,7 @@ from hri_envs.physics.observer import StateObserver
 from hri_envs.physics.scene import build_robot_model, build_scene
 from hri_envs.physics.seats import Seats
 from hri_envs.physics.sensing import SensorModel, WristSensor
+from hri_envs.physics.sim import _FINGER_ON_GRIP_M
 from hri_envs.physics.whole_arm import (
     ARM_JOINTS,
     COMFORT_POSTURE,
@@ -71,17 +72,17 @@ from hri_envs.physics.whole_arm import (
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import BOTH, TaskGraph
 
-__all__ = ["DRIVES", "CarrySim", "CarryStep", "RobotCommand"]
+__all__ = ["DRIVES", "CarrySim", "CarryStep", "RobotCommand", "grip_reference"]
 
 #: The arm's drives: joint torque motors, or MyoSuite's muscles (the "arm" extra).
 DRIVES: tuple[str, ...] = ("torque", "muscle")
-_FINGER_ON_GRIP_M = 0.0219  # [m] as in hri_envs.physics.sim
 _CONTROL_PERIODS = 5  # control periods (125 Hz) per step (25 Hz)
 _SLIP_M, _SLIP_RAD = 0.03, 0.5  # the handle has left the hand beyond these
 _CALM_S = 0.15  # [s] a placed object stays slow this long
 _VEL_SQ_MAX, _ANGVEL_SQ_MAX = 1e-4, 2.5e-3
 _REACH_ERROR_MAX_M = 0.01  # [m] + 0.2 m/rad: the arm's IK error at a reset
 _STRAINED_S = 1.0  # [s] at the strength limit without moving the object: too weak
+_DROP_BELOW_M = 0.15  # [m] the object this far below the lowest support point: dropped
 
 
 class RobotCommand(NamedTuple):
@@ -368,9 +369,7 @@ class CarrySim:
         """Where the robot's grip would be with the object at the human's reference now
         (what an upper reference that knows the intention follows).
         """
-        ref = self.human.lines[self.human.index].sample(max(self.human.t, 0.0)) \
-            if not self.human.done else self.human.lines[-1].sample(math.inf)
-        return compose(Pose(ref.pos, ref.quat), *self.grip_in_object)
+        return grip_reference(self.human, self.grip_in_object)
 
     def command(self, action: np.ndarray) -> RobotCommand:
         """The robot's command for an action in [-1, 1]^7 (grip offset, rotation, stiffness)."""
@@ -528,7 +527,7 @@ class CarrySim:
 
     def _check(self, pos: np.ndarray) -> None:
         data, sc = self.data, self.scene
-        if touches(data, sc.floor_geom) or pos[2] < self._lowest_z - 0.15:
+        if touches(data, sc.floor_geom) or pos[2] < self._lowest_z - _DROP_BELOW_M:
             raise _Fault("dropped: the object " + ("hit the floor" if touches(
                 data, sc.floor_geom) else "fell below every support"))
         if not np.all(np.isfinite(data.qpos)):
@@ -596,6 +595,15 @@ class CarrySim:
                     if c > _CONTROL_PERIODS / 2)
         return CarryStep(progress, lin + ang / lever, lin, ang, disagree, self.sensed.copy(),
                          placed, fault, sat)
+
+
+def grip_reference(human: IntentionHuman, grip_in_object: Pose) -> Pose:
+    """Where the robot's grip would be with the object at ``human``'s reference now (the
+    start of its current line until it starts moving, the route's end once it is done).
+    """
+    ref = human.lines[human.index].sample(max(human.t, 0.0)) if not human.done \
+        else human.lines[-1].sample(math.inf)
+    return compose(Pose(ref.pos, ref.quat), *grip_in_object)
 
 
 def _rotate(quat: np.ndarray, rotvec: np.ndarray) -> np.ndarray:

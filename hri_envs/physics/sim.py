@@ -73,7 +73,7 @@ from hri_envs.task.graph import (
     TaskGraph,
 )
 
-__all__ = ["PHYSICAL_FAULTS", "PandaSim", "StepResult"]
+__all__ = ["PHYSICAL_FAULTS", "PandaSim", "StepPlan", "StepResult", "plan_step"]
 
 #: Faults that are physical failures of the task (punished with r⁻ by the episode rules).
 PHYSICAL_FAULTS = ("dropped", "grasp_failed", "pulled_out", "off_support")
@@ -88,6 +88,34 @@ _PLATFORM_Z_M = 0.1  # [m] height of the mobile base's floor platform mocap (sce
 # Numerical method: iterations of the reset IK solve onto the grip and the waiting pose.
 _RESET_GRIP_IK_ITERATIONS = 300
 _RESET_PREGRASP_IK_ITERATIONS = 200
+
+
+class StepPlan(NamedTuple):
+    """The abstract side of a physical step (:func:`plan_step`)."""
+
+    human_toggle: bool  # the human grasps or lets go
+    s1: int  # the state after the toggles, where the motions start
+    robot_moves: bool  # the robot's motion runs
+    human_moves: bool  # the human's motion runs
+
+
+def plan_step(g: TaskGraph, s: int, a_r: int, a_h: int, attempt: bool) -> StepPlan:
+    """Which toggles and motions of joint action (``a_r``, ``a_h``) in state ``s`` run, the
+    same on every physics backend.
+
+    The human toggles only where toggling is valid; the motions start from the state after
+    the toggles. With ``attempt`` (``attempt_invalid``) the robot tries any motion and the
+    human refuses an invalid one; otherwise an invalid motion of either aborts both.
+    """
+    toggle_ok = bool(g.valid[s, TOGGLE])
+    human_toggle = a_h == TOGGLE and toggle_ok
+    s1 = int(g.next_state[s, a_r if a_r == TOGGLE and toggle_ok else WAIT,
+                          a_h if human_toggle else WAIT])
+    if attempt:
+        return StepPlan(human_toggle, s1, a_r > TOGGLE, a_h > TOGGLE and bool(g.valid[s1, a_h]))
+    aborted = not (g.valid[s1, a_r] and g.valid[s1, a_h])
+    return StepPlan(human_toggle, s1, a_r > TOGGLE and not aborted,
+                    a_h > TOGGLE and not aborted)
 
 
 class StepResult(NamedTuple):
@@ -376,7 +404,7 @@ class PandaSim:
         toggle_ok = bool(g.valid[s, TOGGLE])
         attempt = self.settings.attempt_invalid
         robot_toggle = a_r == TOGGLE and (toggle_ok or attempt)
-        human_toggle = a_h == TOGGLE and toggle_ok
+        human_toggle, s1, robot_moves, human_moves = plan_step(g, s, a_r, a_h, attempt)
         try:
             if robot_toggle:
                 self._robot_toggle(totals)
@@ -384,15 +412,6 @@ class PandaSim:
                 self.human.holding = bool(g.grasp[int(g.next_state[s, WAIT, TOGGLE])]
                                           & HUMAN_BIT)
             self.arm.hold(self.data, self.human.holding)  # the hand's weld is the grasp bit
-            s1 = int(g.next_state[s, a_r if a_r == TOGGLE and toggle_ok else WAIT,
-                                  a_h if human_toggle else WAIT])
-            if attempt:  # the robot tries any motion; the human refuses what is invalid
-                robot_moves = a_r > TOGGLE
-                human_moves = a_h > TOGGLE and bool(g.valid[s1, a_h])
-            else:
-                aborted = not (g.valid[s1, a_r] and g.valid[s1, a_h])
-                robot_moves = a_r > TOGGLE and not aborted
-                human_moves = a_h > TOGGLE and not aborted
             line = None
             if robot_moves:
                 goal = self.state_grip_pose(self._motion_target(s1, a_r))

@@ -26,7 +26,13 @@ from hri_envs.physics.mjwarp import batchmath as bm
 from hri_envs.physics.mjwarp.control import RobotImpedance, WarpSeats, WristSensors
 from hri_envs.physics.mjwarp.ik import BatchIK
 from hri_envs.physics.mjwarp.model import WarpModel
-from hri_envs.physics.sim import PandaSim, StepResult
+from hri_envs.physics.sim import (
+    _FINGER_HOLD_STIFFENING,
+    _FINGER_ON_GRIP_M,
+    _FINGER_OPEN_M,
+    PandaSim,
+    StepResult,
+)
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import WAIT, TaskGraph
 
@@ -34,9 +40,7 @@ __all__ = ["PER_WORLD", "PandaWorldsState"]
 
 # Phases of a world's abstract step.
 IDLE, APPROACH, CLOSE, RETREAT, MAIN = 0, 1, 2, 3, 4
-FINGER_OPEN_M = 0.04  # as in sim.py
-_FINGER_ON_GRIP_M = 0.0219
-_FINGER_HOLD_STIFFENING = 10.0
+FINGER_OPEN_M = _FINGER_OPEN_M
 _CONTACT_OFF_MARGIN_M = -1.0  # a geom margin that no contact reaches
 #: The model values that differ per world.
 _MODEL_PER_WORLD = ("geom_margin", "actuator_gainprm", "actuator_biasprm",

@@ -35,7 +35,18 @@ from typing import NamedTuple
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.physics.carry import CarrySim, CarryStep
+from hri_envs.physics.carry import (
+    _ANGVEL_SQ_MAX,
+    _CALM_S,
+    _CONTROL_PERIODS,
+    _DROP_BELOW_M,
+    _SLIP_M,
+    _SLIP_RAD,
+    _STRAINED_S,
+    _VEL_SQ_MAX,
+    CarrySim,
+    CarryStep,
+)
 from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.intention import HumanParams
 from hri_envs.physics.mjwarp import batchmath as bm
@@ -50,12 +61,7 @@ __all__ = ["WARP_DRIVES", "Commands", "WarpCarryWorlds"]
 
 #: The arm drives that run on MuJoCo Warp.
 WARP_DRIVES: tuple[str, ...] = ("torque",)
-_PERIODS = 5  # control periods per step, as in carry.py
-_SLIP_M, _SLIP_RAD = 0.03, 0.5
-_CALM_S = 0.15
-_VEL_SQ_MAX, _ANGVEL_SQ_MAX = 1e-4, 2.5e-3
-_STRAINED_S = 1.0
-_DROP_BELOW_M = 0.15
+_PERIODS = _CONTROL_PERIODS
 _DATA = ("qpos", "qvel", "ctrl", "act", "mocap_pos", "mocap_quat", "eq_active",
          "qacc_warmstart", "xfrc_applied", "time")
 _PER_WORLD = ("robot_holds", "human_holds", "q_ref", "left_start", "strained", "calm",

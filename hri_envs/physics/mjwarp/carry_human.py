@@ -16,16 +16,15 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
+from hri_envs.physics.arm_control import POSTURE_REGULARIZATION
 from hri_envs.physics.intention import IntentionHuman
 from hri_envs.physics.mjwarp import batchmath as bm
 from hri_envs.physics.mjwarp.control import chain_jacobian
 from hri_envs.physics.mjwarp.model import WarpModel
-from hri_envs.physics.whole_arm import WholeArm
+from hri_envs.physics.whole_arm import _TORSO_HEIGHT_M, WholeArm
 
 __all__ = ["Samples", "WarpArms", "WarpIntention", "rotate_by"]
 
-_TORSO_HEIGHT_M = 1.0  # as in whole_arm.py
-_POSTURE_REGULARIZATION = 1e-4  # as in arm_control.py
 
 
 class Samples(NamedTuple):
@@ -277,7 +276,7 @@ class WarpArms:
         tau = np.einsum("rij,ri->rj", jac, w)
         q = wm._get("qpos")[rows][:, self.arm_qpos].astype(float)
         tau0 = self.kn * (self.posture - q) - self.dn * qvel[:, self.arm_dofs]
-        jjt = np.einsum("rin,rjn->rij", jac, jac) + _POSTURE_REGULARIZATION * np.eye(6)
+        jjt = np.einsum("rin,rjn->rij", jac, jac) + POSTURE_REGULARIZATION * np.eye(6)
         x = np.linalg.solve(jjt, np.einsum("rin,rn->ri", jac, tau0)[..., None])[..., 0]
         return tau + (tau0 - np.einsum("rin,ri->rn", jac, x))
 

@@ -16,10 +16,10 @@ from contextlib import contextmanager
 import mujoco
 import numpy as np
 
-from hri_envs.physics.carry import CarryStep, RobotCommand
+from hri_envs.physics.carry import CarryStep, RobotCommand, grip_reference
 from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.intention import HumanParams, IntentionHuman
-from hri_envs.physics.kinematics import Pose, compose
+from hri_envs.physics.kinematics import Pose
 from hri_envs.physics.mjwarp import batchmath as bm
 from hri_envs.physics.mjwarp.carry import Commands, WarpCarryWorlds
 from hri_envs.physics.scene import Scene
@@ -146,10 +146,7 @@ class WarpCarrySim:
 
     def human_grip_reference(self) -> Pose:
         """As :meth:`CarrySim.human_grip_reference`."""
-        human = self.human
-        ref = human.lines[human.index].sample(max(human.t, 0.0)) if not human.done \
-            else human.lines[-1].sample(np.inf)
-        return compose(Pose(ref.pos, ref.quat), *self.grip_in_object)
+        return grip_reference(self.human, self.grip_in_object)
 
     def max_lift_n(self) -> float:
         """As :meth:`CarrySim.max_lift_n`."""

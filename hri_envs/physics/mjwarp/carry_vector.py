@@ -10,6 +10,7 @@ from gymnasium.vector.utils import batch_space
 
 from hri_envs.checks import check_whole
 from hri_envs.envs.backends import carry_backend
+from hri_envs.envs.config import check_autoreset_mode
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
 from hri_envs.physics.continuous import ACTION_SIZE, CarryEnv
 from hri_envs.physics.mjwarp.carry import WarpCarryWorlds
@@ -92,14 +93,7 @@ class CarryVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         if render_mode is not None:
             raise ConfigError(f"the continuous vector env does not render; render_mode must "
                               f"be None, got {render_mode!r}", field="render_mode")
-        try:
-            mode = AutoresetMode(autoreset_mode)
-        except ValueError:
-            mode = None
-        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
-            raise ConfigError(f"autoreset_mode must be {AutoresetMode.NEXT_STEP.value!r} or "
-                              f"{AutoresetMode.SAME_STEP.value!r}, got {autoreset_mode!r}",
-                              field="autoreset_mode")
+        mode = check_autoreset_mode(autoreset_mode)
         self.metadata = {**type(self).metadata, "autoreset_mode": mode}
         self._same_step = mode == AutoresetMode.SAME_STEP
         self.num_envs = n = check_whole(num_envs, "num_envs", minimum=1, maximum=1_000_000)

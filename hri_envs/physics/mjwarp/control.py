@@ -22,7 +22,7 @@ from collections import deque
 import mujoco
 import numpy as np
 
-from hri_envs.physics.controller import ImpedanceController
+from hri_envs.physics.controller import _LAMBDA_INV_REGULARIZATION, ImpedanceController
 from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.mjwarp import batchmath as bm
 from hri_envs.physics.mjwarp.model import WarpModel
@@ -33,7 +33,6 @@ from hri_envs.physics.sensing import SensorModel, WristSensor
 __all__ = ["RobotImpedance", "WarpSeats", "WristSensors", "chain_jacobian", "davi",
            "disagreement"]
 
-_LAMBDA_INV_REGULARIZATION = 1e-6  # as in controller.py
 
 
 def chain_jacobian(wm: WarpModel, rows: np.ndarray, joints: np.ndarray, hinge: np.ndarray,

@@ -28,7 +28,7 @@ from hri_envs.physics.mjwarp.build import (
     PandaWorldsState,
 )
 from hri_envs.physics.observer import infer_human_action
-from hri_envs.physics.sim import StepResult
+from hri_envs.physics.sim import StepResult, plan_step
 from hri_envs.task.graph import BOTH, HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT
 
 __all__ = ["PandaEvents"]
@@ -62,8 +62,7 @@ class PandaEvents(PandaWorldsState):
         self._put("xfrc_applied", xfrc)
 
     def _pregrasp(self, grip: Pose) -> Pose:
-        return compose(grip, np.array([0.0, 0.0, -self.design.pregrasp_distance_m]),
-                       np.array([1.0, 0, 0, 0]))
+        return self.template._pregrasp(grip)
 
     def begin_step(self, i: int, s: int, a_r: int, a_h: int) -> None:
         """World ``i`` starts the abstract step (PandaSim.step up to its first run)."""
@@ -96,21 +95,12 @@ class PandaEvents(PandaWorldsState):
         """The human's toggle and the step's motion (PandaSim.step after the robot's toggle)."""
         g, w, design, tpl = self.graph, self.worlds[i], self.design, self.template
         s, a_r, a_h = w.s, w.a_r, w.a_h
-        toggle_ok = bool(g.valid[s, TOGGLE])
-        human_toggle = a_h == TOGGLE and toggle_ok
+        human_toggle, s1, robot_moves, human_moves = plan_step(
+            g, s, a_r, a_h, tpl.settings.attempt_invalid)
         if human_toggle:
             self.human_holding[i] = bool(g.grasp[int(g.next_state[s, WAIT, TOGGLE])]
                                          & HUMAN_BIT)
         self._human_hold(i, bool(self.human_holding[i]))
-        s1 = int(g.next_state[s, a_r if a_r == TOGGLE and toggle_ok else WAIT,
-                              a_h if human_toggle else WAIT])
-        if tpl.settings.attempt_invalid:
-            robot_moves = a_r > TOGGLE
-            human_moves = a_h > TOGGLE and bool(g.valid[s1, a_h])
-        else:
-            aborted = not (g.valid[s1, a_r] and g.valid[s1, a_h])
-            robot_moves = a_r > TOGGLE and not aborted
-            human_moves = a_h > TOGGLE and not aborted
         line = None
         observer = self._observer(i)
         if robot_moves:
