@@ -228,8 +228,7 @@ class _Loop:
                  backend: BatchBackend, n_b: int, *, r0: float, max_steps: int,
                  run_ids: Sequence[int] | np.ndarray | None, reward: str) -> None:
         self.graph, self.agent, self.human, self.backend = graph, agent, human, backend
-        self.n_b, self.r0, self.max_steps, self.run_ids = n_b, r0, max_steps, run_ids
-        self.reward = reward
+        self.n_b, self.max_steps, self.run_ids = n_b, max_steps, run_ids
         self.never = np.full((graph.n_intentions,) * 2, -1)
         self.rules = EpisodeRules(graph, r0, reward)  # the one place a step is judged
         self.eps = EpisodeBatch(self.rules, self.never, n_b)

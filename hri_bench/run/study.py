@@ -646,11 +646,12 @@ def simulate_runs(cfg: StudyConfig, agent: str, runs: Sequence[int]
     groups: dict[str, list[int]] = {}
     for r in rows:
         groups.setdefault("" if cfg.population else prefs[r], []).append(r)
+    position = {r: i for i, r in enumerate(rows)}
     for pref, members in groups.items():
         metrics = _run_unit(_Unit(cfg, agent, pref, tuple(members)))[0]
         for k, v in metrics.items():
             out.setdefault(k, np.zeros((len(rows),) + v.shape[1:]))[
-                [rows.index(r) for r in members]] = v
+                [position[r] for r in members]] = v
     return out
 
 

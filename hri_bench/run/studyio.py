@@ -35,7 +35,7 @@ import re
 import shutil
 import signal
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from types import FrameType, TracebackType
 from typing import Any, NamedTuple
@@ -56,8 +56,9 @@ from hri_bench.run.study import (
 from hri_envs.errors import ConfigError
 
 __all__ = ["LOCK", "OUTPUT_FILES", "UNITS", "FolderLock", "StudyDir", "StudyRun",
-           "StudyTerminated", "check_out", "load_result", "load_units", "remove_temporary",
-           "run_in", "save_result", "save_unit", "stop_on_signals", "unit_path"]
+           "StudyTerminated", "check_out", "differing_keys", "load_result", "load_units",
+           "remove_temporary", "run_in", "save_result", "save_unit", "stop_on_signals",
+           "unit_path"]
 
 UNITS = ".units"
 MANIFEST = "study.json"
@@ -76,6 +77,13 @@ OUTPUT_FILES = (SUMMARY, "episodes.csv", "reward.png", "decisions.png", "impulse
 #: Descriptors of the locks this process holds; a forked child (a pool worker) closes its
 #: copies at once, so that the lock ends with the study's process, not with its last worker.
 _HELD_LOCKS: set[int] = set()
+
+
+def differing_keys(a: Mapping[str, Any], b: Mapping[str, Any]) -> list[str]:
+    """The keys whose values differ between ``a`` and ``b`` (missing counts as None), sorted:
+    what a refused resume names.
+    """
+    return sorted(k for k in {**a, **b} if a.get(k) != b.get(k))
 
 
 def _close_locks_in_child() -> None:
@@ -370,8 +378,7 @@ class StudyDir:
                 raise ConfigError(f"cannot read {manifest}: {exc}; use --overwrite",
                                   field="out") from exc
             if saved != want:
-                differ = sorted(k for k in {**saved.get("settings", {}), **want["settings"]}
-                                if saved.get("settings", {}).get(k) != want["settings"].get(k))
+                differ = differing_keys(saved.get("settings", {}), want["settings"])
                 if saved.get("jobs") != want["jobs"]:
                     differ.append("jobs")
                 raise ConfigError(
@@ -404,7 +411,7 @@ class StudyDir:
                               f"{UNITS}/{MANIFEST} and no complete study; use --overwrite to "
                               "start afresh", field="out") from None
         if saved != settings:
-            differ = sorted(k for k in {**saved, **settings} if saved.get(k) != settings.get(k))
+            differ = differing_keys(saved, settings)
             raise ConfigError(f"{str(self.out)!r} holds a different, complete study (differs "
                               f"in: {', '.join(differ)}); use --overwrite", field="out")
         self.complete = True

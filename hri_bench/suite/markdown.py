@@ -10,7 +10,10 @@ before.
 
 from __future__ import annotations
 
-__all__ = ["code", "escape"]
+from collections.abc import Mapping
+from typing import Any
+
+__all__ = ["code", "escape", "number", "with_ci"]
 
 
 def escape(text: object) -> str:
@@ -26,3 +29,18 @@ def escape(text: object) -> str:
 def code(text: object) -> str:
     """``text`` as inline code: :func:`escape`, in backticks."""
     return f"`{escape(text)}`"
+
+
+def number(x: float | None, digits: int = 3) -> str:
+    """A leaderboard's number: ``digits`` decimals, "–" for None."""
+    return "–" if x is None else f"{x:.{digits}f}"
+
+
+def with_ci(entry: Mapping[str, Any] | None, stat: str = "mean") -> str:
+    """An entry's ``stat`` ("mean": its ``ci95``; "iqm": its ``iqm_ci95``) with its 95 % CI,
+    "value [low, high]"; "n/a" for no entry.
+    """
+    if entry is None:
+        return "n/a"
+    lo, hi = entry["iqm_ci95" if stat == "iqm" else "ci95"]
+    return f"{number(entry[stat])} [{number(lo)}, {number(hi)}]"

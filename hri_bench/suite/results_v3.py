@@ -20,7 +20,8 @@ import numpy as np
 
 from hri_bench.report import ranking
 from hri_bench.run import metrics
-from hri_bench.suite.markdown import code, escape
+from hri_bench.suite.markdown import code, escape, number, with_ci
+from hri_bench.suite.tracks import FLOOR
 from hri_envs.humans.finite_state import as_model
 from hri_envs.humans.scripted import preference_human
 from hri_envs.humans.splits import MixtureSpec, population
@@ -33,7 +34,6 @@ __all__ = ["FLOOR", "REACHABLE", "SCHEMA_VERSION", "compute", "failure_section",
 SCHEMA_VERSION = "2"
 #: The normalised score's floor (0) and the reachable references (1), in order of
 #: preference: blind's exact values where they were recorded, else ``qmdp``.
-FLOOR = "passive"
 REACHABLE = ("blind", "qmdp")
 #: The humans each agent's worst list names.
 WORST = 5
@@ -234,15 +234,6 @@ def _worst(ranked: Sequence[ranking.Track], gaps: Mapping[str, Any],
 
 
 # --------------------------------------------------------------------- leaderboard text
-def _fmt(x: float | None, digits: int = 3) -> str:
-    return "–" if x is None else f"{x:.{digits}f}"
-
-
-def _ci(entry: Mapping[str, Any], key: str = "mean") -> str:
-    lo, hi = entry["iqm_ci95" if key == "iqm" else "ci95"]
-    return f"{_fmt(entry[key])} [{_fmt(lo)}, {_fmt(hi)}]"
-
-
 def _name(agent: str) -> str:
     return f"{code(agent)}{MARKS.get(agent, '')}"
 
@@ -278,12 +269,12 @@ def lead_section(doc: Mapping[str, Any]) -> str:
         if i + 1 < len(order):
             p = pairs[a][order[i + 1]]
             wtl = f"{p['wins']}/{p['ties']}/{p['losses']}"
-            delta = _ci(p["difference"])
+            delta = with_ci(p["difference"])
         else:
             wtl = delta = "·"
-        spread = (f"{_fmt(sp.get('std'))} ({_fmt(sp.get('min'))} to {_fmt(sp.get('max'))})"
+        spread = (f"{number(sp.get('std'))} ({number(sp.get('min'))} to {number(sp.get('max'))})"
                   if len(sp.get("by_seed", {})) > 1 else "· (one seed)")
-        lines.append(f"| {i + 1} | {_name(a)} | {_ci(e)} | {_ci(e, 'iqm')} | {spread} | "
+        lines.append(f"| {i + 1} | {_name(a)} | {with_ci(e)} | {with_ci(e, 'iqm')} | {spread} | "
                      f"{wtl} | {delta} |")
     partial = {a: t for a, t in (agg.get("partial") or {}).items() if a not in REACHABLE}
     if partial:
@@ -296,7 +287,7 @@ def lead_section(doc: Mapping[str, Any]) -> str:
               "|---|" + "---|" * len(order)]
     for a in order:
         cells = ["·" if a == b else f"{pairs[a][b]['wins']}/{pairs[a][b]['ties']}/"
-                 f"{pairs[a][b]['losses']}, {_fmt(pairs[a][b]['difference']['mean'])}"
+                 f"{pairs[a][b]['losses']}, {number(pairs[a][b]['difference']['mean'])}"
                  for b in order]
         lines.append(f"| {_name(a)} | " + " | ".join(cells) + " |")
     odd = [(a, b) for i, a in enumerate(order) for b in order[i + 1:]
@@ -308,7 +299,7 @@ def lead_section(doc: Mapping[str, Any]) -> str:
                               f"{pairs[a][b]['losses']} headline track(s) to it and wins "
                               f"{pairs[a][b]['wins']}: its wins are larger than its losses "
                               f"(paired headline difference "
-                              f"{_ci(pairs[a][b]['difference'])})" for a, b in odd) + ".", ""]
+                              f"{with_ci(pairs[a][b]['difference'])})" for a, b in odd) + ".", ""]
     else:
         lines += ["The order agrees with the tracks: no agent loses more headline tracks to "
                   "an agent ranked below it than it wins.", ""]
@@ -317,7 +308,7 @@ def lead_section(doc: Mapping[str, Any]) -> str:
               "|---|" + "---|" * len(order)]
     for t in next(iter(block.values()))["per_track"]:
         label = f"**{escape(t)}**" if t in head["tracks"] else f"{escape(t)} (anchor)"
-        lines.append(f"| {label} | " + " | ".join(_ci(block[a]["per_track"][t])
+        lines.append(f"| {label} | " + " | ".join(with_ci(block[a]["per_track"][t])
                                                   for a in order) + " |")
     return "\n".join([*lines, ""])
 
@@ -339,7 +330,7 @@ def failure_section(doc: Mapping[str, Any]) -> str:
              "| track | " + " | ".join(_name(a) for a in order) + " |",
              "|---|" + "---|" * len(order)]
     for t in tracks:
-        lines.append(f"| {escape(t)} | " + " | ".join(_ci(agg["gap"][a][t]) for a in order)
+        lines.append(f"| {escape(t)} | " + " | ".join(with_ci(agg["gap"][a][t]) for a in order)
                      + " |")
     families = sorted({f for a in order for f in agg["families"][a]})
     lines += ["", "Per family (headline tracks): mean gap per episode (normalised score).", "",
@@ -347,14 +338,14 @@ def failure_section(doc: Mapping[str, Any]) -> str:
               "|---|---|" + "---|" * len(order)]
     for f in families:
         n = next(agg["families"][a][f]["humans"] for a in order if f in agg["families"][a])
-        cells = [f"{_fmt(e['gap'])} ({_fmt(e['normalised'], 2)})" if e is not None else "–"
+        cells = [f"{number(e['gap'])} ({number(e['normalised'], 2)})" if e is not None else "–"
                  for e in (agg["families"][a].get(f) for a in order)]
         lines.append(f"| {escape(f)} | {n} | " + " | ".join(cells) + " |")
     lines += ["", f"Each agent's {WORST} worst humans (headline tracks, by normalised score; "
               "gap per episode).", ""]
     for a in order:
         worst = "; ".join(f"{escape(w['label'])} on {escape(w['track'])} "
-                          f"({_fmt(w['normalised'], 2)}, gap {_fmt(w['gap'], 2)})"
+                          f"({number(w['normalised'], 2)}, gap {number(w['gap'], 2)})"
                           for w in agg["worst"][a])
         lines.append(f"- {_name(a)}: {worst}")
     return "\n".join([*lines, ""])

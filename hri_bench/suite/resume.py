@@ -36,6 +36,7 @@ from hri_bench.run.studyio import (
     LOCK,
     FolderLock,
     check_out,
+    differing_keys,
     load_result,
     load_units,
     remove_temporary,
@@ -202,7 +203,7 @@ def _same_plan(saved: Any, plan: dict[str, Any], out: Path, what: str) -> None:
     if saved == plan:
         return
     saved = saved if isinstance(saved, dict) else {}
-    differ = sorted(k for k in {**saved, **plan} if saved.get(k) != plan.get(k))
+    differ = differing_keys(saved, plan)
     raise ConfigError(f"{str(out)!r} holds a different, {what}suite (differs in: "
                       f"{', '.join(differ)}); resume with the same settings, or use "
                       "--overwrite", field="out")

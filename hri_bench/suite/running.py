@@ -51,7 +51,7 @@ from hri_bench.run.study import (
     run_study,
 )
 from hri_bench.suite import results_v3
-from hri_bench.suite.markdown import code, escape
+from hri_bench.suite.markdown import code, escape, number, with_ci
 from hri_bench.suite.resume import SUITE_LOG, TrackStore, complete_suite, suite_plan
 from hri_bench.suite.submission import SuiteRecorder, lead_section, task_section, write_results
 from hri_bench.suite.tracks import (
@@ -197,23 +197,12 @@ def track_summary_v3(track: Track, result: StudyResult) -> dict[str, Any]:
     return entry
 
 
-def _fmt(x: float | None) -> str:
-    return "–" if x is None else f"{x:.3f}"
-
-
 def _cells(tr: dict[str, Any], agents: list[str], value: Any) -> list[str]:
     """A leaderboard row's cells: ``value(entry)`` per agent, "raised" where it failed on the
     track, "—" where it does not run there.
     """
     return ["raised" if a in tr["failed_agents"] else "—" if tr["agents"].get(a) is None
             else value(tr["agents"][a]) for a in agents]
-
-
-def _with_ci(entry: dict[str, Any] | None, stat: str = "mean") -> str:
-    if entry is None:
-        return "n/a"
-    lo, hi = entry[f"{stat}_ci95" if stat == "iqm" else "ci95"]
-    return f"{_fmt(entry[stat])} [{_fmt(lo)}, {_fmt(hi)}]"
 
 
 def _overview(doc: dict[str, Any]) -> list[str]:
@@ -227,8 +216,8 @@ def _overview(doc: dict[str, Any]) -> list[str]:
              "| track | " + " | ".join(code(a) for a in agents) + " |",
              "|---|" + "---|" * len(agents)]
     for name, tr in doc["tracks"].items():
-        cells = _cells(tr, agents, (lambda e: _with_ci(e["regret"])) if tr["regret_reported"]
-                       else (lambda e: "r " + _with_ci(e["reward"])))
+        cells = _cells(tr, agents, (lambda e: with_ci(e["regret"])) if tr["regret_reported"]
+                       else (lambda e: "r " + with_ci(e["reward"])))
         lines.append(f"| {escape(name)} | " + " | ".join(cells) + " |")
     return [*lines, ""]
 
@@ -269,27 +258,20 @@ def leaderboard(doc: dict[str, Any]) -> str:
             conv = a["episodes_to_converge"]
             conv_text = "n/a" if a["regret"] is None else "never" if conv is None else str(conv)
             label = code(agent) + (" (ref.)" if agent in REFERENCES else "")
-            lines.append(f"| {label} | {_with_ci(a['regret'])} | {_with_ci(a['regret'], 'iqm')}"
-                         f" | {_with_ci(a['reward'])} | {a['wrong_rate']:.3f} | "
+            lines.append(f"| {label} | {with_ci(a['regret'])} | {with_ci(a['regret'], 'iqm')}"
+                         f" | {with_ci(a['reward'])} | {a['wrong_rate']:.3f} | "
                          f"{a['passive_rate']:.3f} | {a['truncation_rate']:.1%} | {conv_text} |")
         lines.append("")
     return "\n".join(lines)
 
 
-def _gap(entry: dict[str, Any] | None) -> str:
-    if entry is None:
-        return "n/a"
-    lo, hi = entry["ci95"]
-    return f"{_fmt(entry['mean'])} [{_fmt(lo)}, {_fmt(hi)}]"
-
-
 def _reference_cell(tr: dict[str, Any]) -> str:
     ref = tr["reference"]
     if ref["kind"] == "exact":
-        return f"exact: blind {_fmt(ref['lower_reward'])}, informed {_fmt(ref['upper_reward'])}"
+        return f"exact: blind {number(ref['lower_reward'])}, informed {number(ref['upper_reward'])}"
     if ref["kind"] == "bracket":
-        return (f"bracket: blind in [{_fmt(ref['lower_reward'])} (qmdp), "
-                f"{_fmt(ref['upper_reward'])} (informed)]")
+        return (f"bracket: blind in [{number(ref['lower_reward'])} (qmdp), "
+                f"{number(ref['upper_reward'])} (informed)]")
     return ref["kind"]
 
 
@@ -313,7 +295,7 @@ def leaderboard_v2(doc: dict[str, Any]) -> str:
              "| track | reference | " + " | ".join(code(a) for a in ranked) + " |",
              "|---|---|" + "---|" * len(ranked)]
     for name, tr in doc["tracks"].items():
-        cells = _cells(tr, ranked, lambda e: _gap(e["gap_to_upper"]))
+        cells = _cells(tr, ranked, lambda e: with_ci(e["gap_to_upper"]))
         label = f"**{escape(name)}**" if tr["headline"] else escape(name)
         lines.append(f"| {label} | {_reference_cell(tr)} | " + " | ".join(cells) + " |")
     lines.append("")
@@ -357,8 +339,8 @@ def _track_section(name: str, tr: dict[str, Any]) -> list[str]:
 
     for agent, a in sorted(tr["agents"].items(), key=key):
         label = code(agent) + (" (ref.)" if agent in ALL_REFERENCES else "")
-        lines.append(f"| {label} | {_with_ci(a['reward'])} | {_gap(a['gap_to_upper'])} | "
-                     f"{_gap(a['gap_to_lower'])} | {a['wrong_rate']:.3f} | "
+        lines.append(f"| {label} | {with_ci(a['reward'])} | {with_ci(a['gap_to_upper'])} | "
+                     f"{with_ci(a['gap_to_lower'])} | {a['wrong_rate']:.3f} | "
                      f"{a['passive_rate']:.3f} | {a['truncation_rate']:.1%} |")
     lines.append("")
     return lines

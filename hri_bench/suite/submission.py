@@ -30,7 +30,7 @@ from hri_bench.run.agents import agent_settings
 from hri_bench.run.runner import TASK_METRICS
 from hri_bench.run.study import regret_reference
 from hri_bench.suite import results_v3
-from hri_bench.suite.markdown import code, escape
+from hri_bench.suite.markdown import code, escape, number, with_ci
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION, track_config
 from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
@@ -455,15 +455,6 @@ def validate(doc: Any) -> list[str]:
 
 
 # --------------------------------------------------------------------------- leaderboards
-def _fmt(x: float | None, digits: int = 3) -> str:
-    return "–" if x is None else f"{x:.{digits}f}"
-
-
-def _ci(entry: Mapping[str, Any], stat: str = "iqm") -> str:
-    lo, hi = entry[f"{stat}_ci95" if stat == "iqm" else "ci95"]
-    return f"{_fmt(entry[stat])} [{_fmt(lo)}, {_fmt(hi)}]"
-
-
 #: Agents that see the intention (privileged): marked in the leaderboard's lead.
 SEES = {"oracle": " (sees ι)", "informed": " (ref., sees ι)"}
 
@@ -485,8 +476,8 @@ def lead_section(doc: Mapping[str, Any]) -> str:
              "|---|---|---|---|---|---|"]
     for a in order:
         e = block[a]
-        lines.append(f"| {code(a)}{SEES.get(a, '')} | {_ci(e)} | {_ci(e, 'mean')} | "
-                     f"{_fmt(e['seed_std'])} ({_fmt(e['seed_min'])}–{_fmt(e['seed_max'])}) | "
+        lines.append(f"| {code(a)}{SEES.get(a, '')} | {with_ci(e, 'iqm')} | {with_ci(e)} | "
+                     f"{number(e['seed_std'])} ({number(e['seed_min'])}–{number(e['seed_max'])}) | "
                      f"{len(e['tracks'])} | {e['runs']} |")
     partial = aggregate.get("partial") or {}
     if partial:
@@ -499,7 +490,7 @@ def lead_section(doc: Mapping[str, Any]) -> str:
               "| P(row > column) | " + " | ".join(code(a) for a in order)
               + " |", "|---|" + "---|" * len(order)]
     for a in order:
-        cells = ["·" if a == b else _fmt(poi[a][b], 2) for b in order]
+        cells = ["·" if a == b else number(poi[a][b], 2) for b in order]
         lines.append(f"| {code(a)} | " + " | ".join(cells) + " |")
     return "\n".join([*lines, ""])
 
@@ -532,7 +523,7 @@ def task_section(doc: Mapping[str, Any]) -> str:
                   "|---|---|---|---|---|---|---|---|---|---|"]
         for agent, s in by_agent.items():
             def cell(key: str, s: Mapping[str, Any] = s) -> str:
-                return "–" if s.get(key) is None else _ci(s[key], "mean")
+                return "–" if s.get(key) is None else with_ci(s[key])
             asym = cell("asymptote_regret") if s["asymptote_regret"] is not None else \
                 "r " + cell("asymptote_reward")
             lines.append(f"| {code(agent)} | {cell('learning_episodes')} | "
