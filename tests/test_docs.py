@@ -425,7 +425,8 @@ def _workspace(tmp: Path) -> Path:
 def _status() -> list[str]:
     done = subprocess.run(["git", "status", "--porcelain", "--untracked-files=all"], cwd=ROOT,
                           capture_output=True, text=True, timeout=60)
-    return done.stdout.splitlines() if done.returncode == 0 else []
+    assert done.returncode == 0, f"the checkout's git status: {done.stderr}"
+    return done.stdout.splitlines()
 
 
 def _shell_line(command: str, doc: str) -> tuple[str, str]:
@@ -437,6 +438,7 @@ def _shell_line(command: str, doc: str) -> tuple[str, str]:
     if plan == RUN:
         return command, "as pasted"
     if isinstance(plan, Scaled):
+        syntax(command)  # the command as the page shows it parses, though a smaller one runs
         return plan.command, f"scaled: {plan.why}"
     if isinstance(plan, Fed):
         return f"printf %s {shlex.quote(plan.stdin)} | {command}", f"fed: {plan.why}"
@@ -610,6 +612,14 @@ def test_every_command_of_the_pages_has_a_plan():
     assert not stale, f"plans for commands no page has any more: {stale}"
     for plan in PLAN.values():
         assert plan == RUN or (isinstance(plan, Scaled | Fed | Skip) and plan.why)
+
+
+def test_every_python_scaling_applies_to_one_block():
+    """A :data:`PYTHON_SCALED` entry whose text left its page would silently run the page's
+    full-size code."""
+    for doc, old, _, why in PYTHON_SCALED:
+        found = [b for b in read_blocks(doc) if b.lang == "python" and old in b.text]
+        assert len(found) == 1, (doc, old, why)
 
 
 def test_every_block_is_a_command_code_or_listed():

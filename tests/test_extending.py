@@ -73,7 +73,12 @@ def test_a_scenario_family_reward_rule_and_agent_added_one_file_each(tmp_path):
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     report = json.loads((tmp_path / "report.json").read_text())
-    assert len(report["checks"]) == 4 and all(report["checks"])
+    scenario, human, rule, agent = report["checks"]  # what each check says it checked
+    assert scenario.startswith("scenario 'box': 36 states, 12 actions") and "check_env" in scenario
+    assert human.startswith("human HumanSpec(") and "population='sloppy'" in human
+    assert "with valid actions, reproducible by seed" in human
+    assert rule.startswith("reward rule 'costly-wait': rewards in [")
+    assert agent.startswith("agent on the box: 3 episodes") and agent.endswith("reproducible")
     assert set(report["rewards"]) == {"learner", "eager-goalfilter", "informed"}
     assert all(-100.0 <= r <= 0.0 for r in report["rewards"].values())
     # Registering changed no published suite: definitions, and their files byte for byte.

@@ -142,7 +142,10 @@ def test_the_study_and_suite_figures_draw_each_agent_in_its_style(monkeypatch, t
                  tmp_path / "t.png")
     # errorbar's data line is the container's first line; its label is the container's
     fig = figures[-1]
-    for container in fig.axes[0].containers:
+    containers = fig.axes[0].containers
+    assert sorted(c.get_label() for c in containers) == sorted(
+        plots.LABELS.get(n, n) for n in names)  # one errorbar per agent, none drawn otherwise
+    for container in containers:
         line = container.lines[0]
         name = next(n for n in names if plots.LABELS.get(n, n) == container.get_label())
         color, dashes = plots.agent_style(name)
