@@ -374,3 +374,32 @@ def test_a_missing_extra_names_the_install_command(monkeypatch):
                         lambda name, *a: None if name == "mink_warp" else real(name, *a))
     with pytest.raises(MissingExtraError, match=r"mink_warp: .*pip install .*\[mjwarp\]"):
         device.require_warp()
+
+
+def test_the_panda_vector_env_seats_a_human_spec_in_every_env():
+    """As the other envs: ``human=HumanSpec(...)`` or its flat keywords; a batch of humans,
+    which the N envs would share, is refused."""
+    import gymnasium as gym
+
+    import hri_envs  # noqa: F401
+    from hri_envs.errors import ConfigError
+    from hri_envs.humans.finite_state import FiniteStateHumans
+    from hri_envs.humans.spec import HumanSpec
+    from hri_envs.humans.splits import MixtureHumans
+
+    def panda_vec(n, **kwargs):
+        return gym.make_vec("hri_envs/HangerPanda-v0", num_envs=n,
+                            vectorization_mode="vector_entry_point", **kwargs).unwrapped
+
+    population = (MixtureHumans, FiniteStateHumans)
+    venv = panda_vec(2, human=HumanSpec(population="test-v2-adaptive"))
+    assert all(isinstance(env.human, population) and env.human.n_runs == 1
+               for env in venv.envs)
+    flat = panda_vec(1, population="test-v2-adaptive")  # the flat keyword reaches the envs
+    assert isinstance(flat.envs[0].human, population)
+    assert not isinstance(panda_vec(1).envs[0].human, population)
+    batch = gym.make_vec("hri_envs/Hanger-v0", num_envs=2,
+                         vectorization_mode="vector_entry_point").unwrapped.human
+    with pytest.raises(ConfigError, match="seats one human per env") as err:
+        panda_vec(2, human=batch)
+    assert err.value.field == "human"

@@ -43,7 +43,6 @@ __all__ = [
     "episode_backend",
     "options_checker",
     "register_backend",
-    "vector_backend",
 ]
 
 
@@ -173,12 +172,6 @@ def episode_backend(name: str) -> type[Episode]:
     """The :class:`~hri_envs.envs.episode.Episode` class of backend ``name``."""
     cls: type[Episode] = _load(backend_spec(name).episode)
     return cls
-
-
-def vector_backend(name: str) -> Any:
-    """The vector env class of backend ``name`` (None: it has none)."""
-    entry = backend_spec(name).vector_entry
-    return None if entry is None else _load(entry)
 
 
 def carry_backend(name: str, drive: str) -> Callable[..., Any]:

@@ -20,7 +20,7 @@ C backend (whose robot fingers never collide in this scene). Faults (``dropped``
 
 Resets are simulated by a C :class:`~hri_envs.physics.carry.CarrySim` (its IK places the
 robot's and the human's arm, from the same random streams) and copied into the world. Only
-the torque drive runs here (:data:`WARP_DRIVES`). Differences from the C backend: float32
+the torque drive runs here (the backend's ``carry_drives``). Differences from the C backend: float32
 physics; mink-warp's IK (an ADMM QP, not daqp; a failed solve is an ``ik_failure`` only if
 its result is not finite); a world's kinematics after another world's reset are recomputed
 from its state (the C backend's are those of one physics step earlier).
@@ -34,6 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from hri_envs.envs.backends import backend_spec
 from hri_envs.errors import ConfigError
 from hri_envs.physics.carry import (
     _ANGVEL_SQ_MAX,
@@ -57,10 +58,8 @@ from hri_envs.physics.mjwarp.model import WarpModel
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["WARP_DRIVES", "Commands", "WarpCarryWorlds"]
+__all__ = ["Commands", "WarpCarryWorlds"]
 
-#: The arm drives that run on MuJoCo Warp.
-WARP_DRIVES: tuple[str, ...] = ("torque",)
 _PERIODS = _CONTROL_PERIODS
 _DATA = ("qpos", "qvel", "ctrl", "act", "mocap_pos", "mocap_quat", "eq_active",
          "qacc_warmstart", "xfrc_applied", "time")
@@ -94,10 +93,11 @@ class WarpCarryWorlds(WarpModel):
                  design: PhysicsDesign | None = None, max_step_m: float = 0.02,
                  max_step_rad: float = 0.06, sensor: Mapping[str, float] | None = None,
                  device: str | None = None) -> None:
-        if drive not in WARP_DRIVES:
+        drives = backend_spec("mjwarp").carry_drives  # the registry says what runs here
+        if drive not in drives:
             raise ConfigError(f"drive {drive!r} does not run on backend='mjwarp' (MyoSuite's "
                               "muscles need a least-squares problem per world and control "
-                              f"period); allowed there: {', '.join(WARP_DRIVES)}",
+                              f"period); allowed there: {', '.join(drives)}",
                               field="drive")
         tpl = self.template = CarrySim(graph, drive, design, max_step_m, max_step_rad, sensor)
         tpl._weld(True)  # the grasp weld's relative pose, the robot fingers' contacts off

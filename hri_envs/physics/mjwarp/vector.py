@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -11,10 +10,14 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from hri_envs.checks import check_whole
-from hri_envs.envs.backends import BACKENDS, backend_spec
+from hri_envs.envs.backends import BACKENDS
 from hri_envs.envs.config import check_autoreset_mode, check_physics_options, scenario_graph
 from hri_envs.envs.robot import RobotEnv
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
+from hri_envs.humans.finite_state import FiniteStateHuman
+from hri_envs.humans.scripted import ScriptedHuman
+from hri_envs.humans.seat import HumanLike, human_spec
+from hri_envs.humans.spec import HumanSpec
 from hri_envs.physics.mjwarp.episode import WarpPhysicsEpisode, WarpSim
 from hri_envs.physics.mjwarp.worlds import WarpWorlds
 
@@ -69,9 +72,10 @@ class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     ## Arguments
 
     - ``num_envs``: the number of envs (and worlds) N;
-    - ``scenario`` and the single env's arguments (``preference``, ``human_passive``,
-      ``turn_back``, ``human_rationality``, ``population``, ``r0``, ``max_cycles``,
-      ``physics``, ``reward``), the same for every env;
+    - ``scenario`` and the single env's arguments (``human``: a
+      :class:`~hri_envs.humans.spec.HumanSpec` or a scripted or finite-state human, each env
+      seating its own; or its flat keywords ``preference``, ``human_passive``, ...; ``r0``,
+      ``max_cycles``, ``physics``, ``reward``), the same for every env;
     - ``backend``: a physics backend (``"mujoco"`` or ``"mjwarp"``; both run here on MuJoCo
       Warp); ``"graph"`` is refused (its vector env is the graph ids');
     - ``device``: Warp's device (default: Warp's default, a GPU where there is one);
@@ -89,13 +93,11 @@ class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                  backend: str = "mjwarp", device: str | None = None,
                  render_mode: str | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-                 physics: dict[str, Any] | None = None, preference: str | None = None,
-                 human_passive: float = 0.0, turn_back: float = 0.0,
-                 human_rationality: float = math.inf, population: str | None = None,
+                 physics: dict[str, Any] | None = None, human: HumanLike | None = None,
                  r0: float | None = None, max_cycles: int = 100,
-                 reward: str = "paper") -> None:
+                 reward: str = "paper", **human_keywords: Any) -> None:
         physical = [name for name, spec in BACKENDS.items() if spec.physical]
-        if backend not in physical or not backend_spec(backend).physical:
+        if backend not in physical:
             raise ConfigError(f"the Panda vector env runs the physics on MuJoCo Warp; backend "
                               f"must be one of the physics backends {', '.join(physical)}, got "
                               f"{backend!r}", field="backend")
@@ -106,12 +108,15 @@ class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self.metadata = {**type(self).metadata, "autoreset_mode": mode}
         self._same_step = mode == AutoresetMode.SAME_STEP
         self.num_envs = n = check_whole(num_envs, "num_envs", minimum=1, maximum=1_000_000)
-        self.backend = backend_spec("mjwarp").name
+        self.backend = "mjwarp"
         self.render_mode = None
-        kwargs: dict[str, Any] = {"preference": preference, "human_passive": human_passive,
-                  "turn_back": turn_back, "human_rationality": human_rationality,
-                  "population": population, "r0": r0, "max_cycles": max_cycles,
-                  "physics": physics, "reward": reward}
+        human = human_spec(human, human_keywords)
+        if not isinstance(human, HumanSpec | ScriptedHuman | FiniteStateHuman):
+            raise ConfigError(f"the Panda vector env seats one human per env: give a HumanSpec "
+                              f"(or a scripted or finite-state human), not a "
+                              f"{type(human).__name__}", field="human")
+        kwargs: dict[str, Any] = {"human": human, "r0": r0, "max_cycles": max_cycles,
+                                  "physics": physics, "reward": reward}
         self.graph = scenario_graph(scenario)
         options = check_physics_options(physics, "mjwarp")
         if "video_path" in options:
