@@ -19,7 +19,7 @@ from __future__ import annotations
 import dataclasses
 import json
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -29,7 +29,7 @@ from hri_bench.suite.submission import round_runs
 from hri_bench.suite.tracks import TRACKS_BY_VERSION, track_config
 from hri_envs.errors import ConfigError
 
-__all__ = ["conflicts", "replay", "replayable"]
+__all__ = ["Conflict", "conflicts", "replay", "replayable"]
 
 #: At most this many differing runs are named per conflict or replay.
 SHOWN = 5
@@ -40,9 +40,19 @@ def identity_key(identity: Any) -> str:
     return json.dumps(identity, sort_keys=True)
 
 
-def conflicts(docs: Mapping[str, Mapping[str, Any]]) -> list[str]:
-    """One line per pair of files that disagree on a run of the same (suite hash, agent code
-    identity, seed, track), naming the runs; an empty list when every shared run agrees.
+class Conflict(NamedTuple):
+    """Two files that disagree on a run of the same (suite hash, agent code identity, seed,
+    track, agent), and a line saying where.
+    """
+
+    files: tuple[str, str]
+    text: str
+
+
+def conflicts(docs: Mapping[str, Mapping[str, Any]]) -> list[Conflict]:
+    """One :class:`Conflict` per disagreement of two files on a run of the same (suite hash,
+    agent code identity, seed, track), naming the runs; an empty list when every shared run
+    agrees.
     """
     seen: dict[tuple[str, str, str, str, str], tuple[str, Mapping[str, Any]]] = {}
     out = []
@@ -60,9 +70,9 @@ def conflicts(docs: Mapping[str, Mapping[str, Any]]) -> list[str]:
                     if runs:
                         shown = ", ".join(map(str, runs[:SHOWN])) + (
                             f" (and {len(runs) - SHOWN} more)" if len(runs) > SHOWN else "")
-                        out.append(f"{fname} and {other} disagree on agent {agent!r} (same "
-                                   f"code identity) at seed {seed}, track {track}: run(s) "
-                                   f"{shown}")
+                        out.append(Conflict((fname, other), f"{fname} and {other} disagree "
+                                            f"on agent {agent!r} (same code identity) at "
+                                            f"seed {seed}, track {track}: run(s) {shown}"))
     return out
 
 

@@ -125,13 +125,9 @@ def _mergeable(valid: Mapping[str, Mapping[str, Any]]
         else:
             keep[name] = doc
     clash = conflicts(keep)
-    if clash:
-        bad = {n for n in keep if any(line.startswith(f"{n} ") or f" and {n} " in line
-                                      for line in clash)}
-        for n in sorted(bad):
-            refused.append(f"{n}: refused: " + "; ".join(line for line in clash if
-                                                         line.startswith(f"{n} ") or
-                                                         f" and {n} " in line)
-                           + " (hri-bench validate --replay tells which file is genuine)")
-        keep = {n: d for n, d in keep.items() if n not in bad}
+    bad = sorted({n for c in clash for n in c.files})
+    for n in bad:
+        refused.append(f"{n}: refused: " + "; ".join(c.text for c in clash if n in c.files)
+                       + " (hri-bench validate --replay tells which file is genuine)")
+    keep = {n: d for n, d in keep.items() if n not in bad}
     return keep, refused
