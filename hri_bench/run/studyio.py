@@ -38,7 +38,7 @@ import time
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from types import FrameType, TracebackType
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Self
 
 import numpy as np
 
@@ -55,10 +55,9 @@ from hri_bench.run.study import (
 )
 from hri_envs.errors import ConfigError
 
-__all__ = ["LOCK", "OUTPUT_FILES", "UNITS", "FolderLock", "StudyDir", "StudyRun",
+__all__ = ["LOCK", "OUTPUT_FILES", "UNITS", "FolderLock", "LockedFolder", "StudyDir", "StudyRun",
            "StudyTerminated", "check_out", "differing_keys", "load_result", "load_units",
-           "remove_temporary", "run_in", "save_result", "save_unit", "stop_on_signals",
-           "unit_path"]
+           "remove_temporary", "run_in", "save_result", "save_unit", "stop_on_signals", "unit_path"]
 
 UNITS = ".units"
 MANIFEST = "study.json"
@@ -302,8 +301,64 @@ def load_result(path: Path, cfg: StudyConfig) -> tuple[StudyResult, dict[str, An
 
 
 
-class StudyDir:
-    """The output folder of one study, locked and checked before any simulation.
+class LockedFolder:
+    """An output folder a command holds while it writes (:data:`LOCK`), checked before
+    anything runs: a study's (:class:`StudyDir`), a suite's
+    (:class:`~hri_bench.suite.resume.SuiteDir`).
+
+    The folder is created if missing and stays locked until :meth:`close` or the process
+    ends (use it as a context manager); another command on it meanwhile is refused. A
+    subclass names its command (``kind``) and checks the folder's contents in
+    :meth:`_check`, with the lock held.
+
+    Raises:
+        ConfigError: (``field="out"``) both ``resume`` and ``overwrite``, ``out`` is not a
+            writable directory (also when writing in it fails, as under ``/proc``), another
+            command works in it, or what :meth:`_check` refuses.
+    """
+
+    #: The command whose folder it is ("study", "suite"), for the lock and the messages.
+    kind = ""
+
+    def __init__(self, out: str | os.PathLike[str], *, resume: bool = False,
+                 overwrite: bool = False) -> None:
+        self.out = Path(out)
+        #: What ``out`` holds was already complete (``resume``): nothing to do.
+        self.complete = False
+        self._lock = FolderLock(self.out, self.kind)
+        if resume and overwrite:
+            raise ConfigError("give either --resume or --overwrite, not both", field="out")
+        check_out(self.out, self.kind)
+        try:
+            self._lock.acquire()
+            self._check(resume, overwrite)
+        except OSError as exc:  # e.g. /proc/x, a read-only file system, a name too long
+            self.close()
+            raise ConfigError(f"cannot use {str(self.out)!r} as the {self.kind}'s folder "
+                              f"({exc.strerror or exc}); give a directory you can write to",
+                              field="out") from None
+        except BaseException:
+            self.close()
+            raise
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Release the folder's lock (another command may then work there)."""
+        self._lock.release()
+
+    def _check(self, resume: bool, overwrite: bool) -> None:
+        """Check (and with ``overwrite``, clear) the folder, its lock held."""
+
+
+class StudyDir(LockedFolder):
+    """The output folder of one study, locked and checked before any simulation
+    (:class:`LockedFolder`).
 
     Args:
         out: The folder (created if missing).
@@ -325,39 +380,13 @@ class StudyDir:
             given, or it holds a different study than the one to resume.
     """
 
+    kind = "study"
+
     def __init__(self, out: str | os.PathLike[str], cfg: StudyConfig, *, resume: bool = False,
                  overwrite: bool = False) -> None:
-        self.out = Path(out)
         self.cfg = cfg
-        self.units_dir = self.out / UNITS
-        #: The study in ``out`` was already complete (``resume``): nothing to do.
-        self.complete = False
-        self._lock = FolderLock(self.out, "study")
-        if resume and overwrite:
-            raise ConfigError("give either resume or overwrite, not both", field="resume")
-        check_out(self.out, "study")
-        try:
-            self._lock.acquire()
-            self._check(resume, overwrite)
-        except OSError as exc:  # e.g. /proc/x, a read-only file system, a name too long
-            self.close()
-            raise ConfigError(f"cannot use {str(self.out)!r} as the study's folder "
-                              f"({exc.strerror or exc}); give a directory you can write to",
-                              field="out") from None
-        except BaseException:
-            self.close()
-            raise
-
-    def __enter__(self) -> StudyDir:
-        return self
-
-    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
-        self.close()
-
-    def close(self) -> None:
-        """Release the folder's lock (another study may then work there) and remove its file."""
-        self._lock.release()
+        self.units_dir = Path(out) / UNITS
+        super().__init__(out, resume=resume, overwrite=overwrite)
 
     def _check(self, resume: bool, overwrite: bool) -> None:
         out = self.out

@@ -27,15 +27,13 @@ import re
 import shutil
 from collections.abc import Sequence
 from pathlib import Path
-from types import TracebackType
 from typing import Any
 
 from hri_bench.core.atomic import atomic_writer, fsync_dir
 from hri_bench.run.study import StudyConfig, StudyResult, _Unit
 from hri_bench.run.studyio import (
     LOCK,
-    FolderLock,
-    check_out,
+    LockedFolder,
     differing_keys,
     load_result,
     load_units,
@@ -109,9 +107,9 @@ def _remove(paths: Sequence[Path]) -> None:
             p.unlink(missing_ok=True)
 
 
-class SuiteDir:
+class SuiteDir(LockedFolder):
     """The output folder of one suite (``plan``, :func:`suite_plan`), locked and checked
-    before anything runs.
+    before anything runs (:class:`~hri_bench.run.studyio.LockedFolder`).
 
     Args:
         out: The folder (created if missing).
@@ -127,38 +125,12 @@ class SuiteDir:
             given, or it holds another suite than the one to resume.
     """
 
+    kind = "suite"
+
     def __init__(self, out: str | os.PathLike[str], plan: dict[str, Any], *,
                  resume: bool = False, overwrite: bool = False) -> None:
-        self.out = Path(out)
         self.plan = plan
-        #: The suite in ``out`` was already complete (``resume``): nothing to do.
-        self.complete = False
-        self._lock = FolderLock(self.out, "suite")
-        if resume and overwrite:
-            raise ConfigError("give either --resume or --overwrite, not both", field="out")
-        check_out(self.out, "suite")
-        try:
-            self._lock.acquire()
-            self._check(resume, overwrite)
-        except OSError as exc:  # /proc/x, a read-only file system, a name too long, ...
-            self.close()
-            raise ConfigError(f"cannot use {str(self.out)!r} as the suite's folder "
-                              f"({exc.strerror or exc}); give a directory you can write to",
-                              field="out") from None
-        except BaseException:
-            self.close()
-            raise
-
-    def __enter__(self) -> SuiteDir:
-        return self
-
-    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
-        self.close()
-
-    def close(self) -> None:
-        """Release the folder's lock."""
-        self._lock.release()
+        super().__init__(out, resume=resume, overwrite=overwrite)
 
     def _check(self, resume: bool, overwrite: bool) -> None:
         out = self.out
