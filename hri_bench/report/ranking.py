@@ -47,7 +47,8 @@ import numpy as np
 from hri_envs.errors import ConfigError
 
 __all__ = ["LEVEL", "REPLICATES", "Track", "compare", "headline", "human_groups",
-           "normalise", "replicate_weights", "summarise", "track_seed", "weighted_iqm"]
+           "normalise", "public", "replicate_weights", "summarise", "track_seed",
+           "weighted_iqm"]
 
 #: Bootstrap replicates (as :data:`hri_bench.core.stats.N_RESAMPLES`).
 REPLICATES = 2000
@@ -209,7 +210,8 @@ def compare(track: Track, a: str, b: str) -> dict[str, Any]:
             "_difference": reps, "_improvement": p_reps}
 
 
-def _public(entry: Mapping[str, Any]) -> dict[str, Any]:
+def public(entry: Mapping[str, Any]) -> dict[str, Any]:
+    """A summary's entries without the private ones (``_...``: bootstrap replicates)."""
     return {k: v for k, v in entry.items() if not k.startswith("_")}
 
 
@@ -239,7 +241,7 @@ def headline(tracks: Sequence[Track], agents: Sequence[str]) -> dict[str, Any]:
         out["agents"][a] = {
             "mean": float(np.mean([per[t.name]["mean"] for t in lead])), "ci95": _interval(reps),
             "iqm": float(np.mean([per[t.name]["iqm"] for t in lead])), "iqm_ci95": _interval(iqms),
-            "per_track": {name: _public(e) for name, e in per.items()}}
+            "per_track": {name: public(e) for name, e in per.items()}}
     out["order"] = sorted(agents, key=lambda a: (-out["agents"][a]["mean"], a))
     for a in agents:
         out["pairs"][a] = {}
@@ -259,5 +261,5 @@ def headline(tracks: Sequence[Track], agents: Sequence[str]) -> dict[str, Any]:
                 "improvement": {"mean": float(np.mean([per[t.name]["improvement"]["mean"]
                                                        for t in lead])),
                                 "ci95": _interval(imp)},
-                "per_track": {name: _public(e) for name, e in per.items()}}
+                "per_track": {name: public(e) for name, e in per.items()}}
     return out

@@ -88,13 +88,16 @@ def _reachable(block: Mapping[str, Any]) -> tuple[str, np.ndarray]:
     return "qmdp", out
 
 
-def _normalisation(block: Mapping[str, Any]) -> dict[str, Any]:
+def _normalisation(block: Mapping[str, Any]) -> tuple[dict[str, Any], np.ndarray]:
+    """The track's normalisation (its reachable reference and floor, their mean rewards) and
+    the reference per run and episode (:func:`_reachable`).
+    """
     name, ref = _reachable(block)
     if FLOOR not in block["agents"]:
         raise ValueError(f"no floor ({FLOOR}) on the track")
     floor = float(np.asarray(block["agents"][FLOOR]["reward"], dtype=float).mean())
     return {"reference": name, "reference_reward": float(ref.mean()), "floor": FLOOR,
-            "floor_reward": floor}
+            "floor_reward": floor}, ref
 
 
 def _scores(block: Mapping[str, Any], norm: Mapping[str, Any]) -> dict[str, np.ndarray]:
@@ -125,8 +128,7 @@ def compute(doc: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
     for seed, by_track in doc["runs"].items():
         statistics[seed] = {}
         for track, block in by_track.items():
-            norm = _normalisation(block)
-            _, ref = _reachable(block)
+            norm, ref = _normalisation(block)
             z = _scores(block, norm)
             drift = tracks.get(track, {}).get("settings", {}).get("human_drift")
             one = ranking.Track(track, z, block["humans"], int(seed))
@@ -134,8 +136,7 @@ def compute(doc: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
             for agent, entry in block["agents"].items():
                 arrays = {k: np.asarray(v, dtype=float) for k, v in entry.items()}
                 stat = metrics.agent_metrics(arrays, ref, int(seed), threshold, drift)
-                stat["normalised"] = {k: v for k, v in ranking.summarise(one, agent).items()
-                                      if not k.startswith("_")}
+                stat["normalised"] = ranking.public(ranking.summarise(one, agent))
                 per_agent[agent] = stat
                 pooled.setdefault(track, {}).setdefault(agent, []).append(z[agent])
                 gaps.setdefault(track, {}).setdefault(agent, []).append(
