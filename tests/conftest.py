@@ -21,6 +21,22 @@ except ImportError:  # the physics extra is not installed
     pass
 
 
+@pytest.fixture(scope="module")
+def wheel():
+    """The wheel's task graph (a module's own: a test may change its arrays)."""
+    from hri_envs.task import build_graph, wheel_scenario
+
+    return build_graph(wheel_scenario())
+
+
+@pytest.fixture(scope="module")
+def hanger():
+    """The hanger's task graph (a module's own)."""
+    from hri_envs.task import build_graph, hanger_scenario
+
+    return build_graph(hanger_scenario())
+
+
 @pytest.fixture(params=["numpy", "jit"])
 def path(request, monkeypatch):
     """Run a test of the learning math on the numpy path and on the compiled one (the

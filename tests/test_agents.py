@@ -11,18 +11,7 @@ from agents.protocol import Agent, Batched
 from baselines import Imitator, MaxEntIRL, Oracle, Passive
 from hri_bench.run.runner import make_schedule, simulate
 from hri_envs.humans.scripted import preference_human
-from hri_envs.task import build_graph, hanger_scenario, wheel_scenario
 from hri_envs.task.graph import ROTATE, WAIT
-
-
-@pytest.fixture(scope="module")
-def wheel():
-    return build_graph(wheel_scenario())
-
-
-@pytest.fixture(scope="module")
-def hanger():
-    return build_graph(hanger_scenario())
 
 
 class Recorder(Learner):

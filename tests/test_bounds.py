@@ -19,11 +19,6 @@ from hri_envs.task.scenarios import scenario_graph
 R0 = -0.25
 
 
-@pytest.fixture(scope="module")
-def wheel():
-    return scenario_graph("wheel")
-
-
 def _values(graph, human, informed, reward="paper", max_steps=100):
     return plan(graph, human, r0=R0, max_steps=max_steps, informed=informed,
                 reward=reward).start_value()

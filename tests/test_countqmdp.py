@@ -12,19 +12,8 @@ from hri_bench.run.agents import agent_settings, make_agent
 from hri_bench.run.runner import make_schedule, simulate
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
-from hri_envs.task import build_graph, hanger_scenario, wheel_scenario
 from hri_envs.task import episode as rules
 from hri_envs.task.graph import N_FIXED_ACTIONS, TOGGLE, WAIT
-
-
-@pytest.fixture(scope="module")
-def wheel():
-    return build_graph(wheel_scenario())
-
-
-@pytest.fixture(scope="module")
-def hanger():
-    return build_graph(hanger_scenario())
 
 
 def route(graph, human, start, goal):

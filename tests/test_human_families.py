@@ -28,16 +28,6 @@ from hri_envs.task.scenarios import scenario_graph
 A, B, C = 0, 1, 2
 
 
-@pytest.fixture(scope="module")
-def wheel():
-    return scenario_graph("wheel")
-
-
-@pytest.fixture(scope="module")
-def hanger():
-    return scenario_graph("hanger")
-
-
 def seat(model, seed=0):
     h = FiniteStateHumans(model)
     h.seed(np.random.default_rng(seed))

@@ -6,7 +6,6 @@ import pytest
 from hri_envs.humans.scripted import boltzmann_human, preference_human
 from hri_envs.task import (
     build_graph,
-    hanger_scenario,
     initial_theta,
     sample_wheel_layout,
     state_features,
@@ -24,16 +23,6 @@ from hri_envs.task.episode import (
 from hri_envs.task.features import feature_groups
 from hri_envs.task.graph import PUT_ON, ROTATE, TAKE_OFF, TOGGLE, WAIT
 from hri_envs.task.scenarios.hanger import PREFERENCES as HANGER_PREFERENCES
-
-
-@pytest.fixture(scope="module")
-def hanger():
-    return build_graph(hanger_scenario())
-
-
-@pytest.fixture(scope="module")
-def wheel():
-    return build_graph(wheel_scenario())
 
 
 def test_sizes_match_the_paper(hanger, wheel):
