@@ -19,7 +19,8 @@ import numpy as np
 from hri_envs.envs.backends import BatchBackend, BatchStep
 from hri_envs.physics.episode import STEP_FIGURES, STEP_MEANS, step_figures
 from hri_envs.physics.ik import IKFailure
-from hri_envs.physics.sim import PandaSim
+from hri_envs.physics.sim import PandaSim, StepResult
+from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import episode_scenario, spec_of
 
@@ -51,22 +52,29 @@ class PhysicsBatch(BatchBackend):
     def __init__(self, graph: TaskGraph, runs: Sequence[int] | np.ndarray, seed: int,
                  physics: Mapping[str, Any] | None = None) -> None:
         super().__init__(graph, runs, seed, physics)
-        self.sim = PandaSim(graph, options=self.physics)
         self._noise = [np.random.default_rng([self.seed, int(r), 3]) for r in self.runs]
         self._layouts = [np.random.default_rng([self.seed, int(r), 4]) for r in self.runs]
         self._sample_layout = spec_of(graph).layout
+        self._open()
+
+    def _open(self) -> None:
+        """Build the simulator (a subclass: its own, e.g. N worlds on MuJoCo Warp)."""
+        self.sim = PandaSim(self.graph, options=self.physics)
 
     def groups(self) -> list[np.ndarray]:
         """One run at a time: the simulator holds one run's state."""
         return [np.array([i]) for i in range(len(self.runs))]
 
-    def begin(self, rows: np.ndarray, start: np.ndarray) -> np.ndarray:
-        """Reset the simulator to run ``rows[0]``'s start (a new stand layout on the wheel)."""
-        (i,) = rows
+    def _scenario(self, i: int) -> Scenario:
+        """Row ``i``'s scenario for its next episode (a new stand layout on the wheel)."""
         layout = None if self._sample_layout is None else self._sample_layout(self._layouts[i])
-        scenario = episode_scenario(self.graph.name, layout)
+        return episode_scenario(self.graph.name, layout)
+
+    def begin(self, rows: np.ndarray, start: np.ndarray) -> np.ndarray:
+        """Reset the simulator to run ``rows[0]``'s start."""
+        (i,) = rows
         try:
-            self.sim.reset(int(start[0]), scenario, self._noise[i])
+            self.sim.reset(int(start[0]), self._scenario(int(i)), self._noise[i])
         except IKFailure:
             return np.ones(1, dtype=bool)
         return np.zeros(1, dtype=bool)
@@ -74,14 +82,17 @@ class PhysicsBatch(BatchBackend):
     def transition(self, state: np.ndarray, a_r: np.ndarray, a_h: np.ndarray,
                    active: np.ndarray) -> BatchStep:
         """Simulate the joint action of the one active run."""
+        return self._batch_step({int(i): self.sim.step(int(state[i]), int(a_r[i]), int(a_h[i]))
+                                 for i in np.flatnonzero(active)}, state, a_h)
+
+    def _batch_step(self, results: Mapping[int, StepResult], state: np.ndarray,
+                    a_h: np.ndarray) -> BatchStep:
+        """The loop's step from the physical steps ``results`` of the active rows."""
         next_state, seen = state.copy(), np.zeros_like(a_h)
         fault = np.zeros(len(state), dtype=bool)
-        penalty = np.zeros(len(state), dtype=bool)
         extras = {k: np.zeros(len(state)) for k in self.extras}
-        for i in np.flatnonzero(active):
-            res = self.sim.step(int(state[i]), int(a_r[i]), int(a_h[i]))
+        for i, res in results.items():
             next_state[i], seen[i], fault[i] = res.state, res.human_action, res.fault is not None
             for key, value in step_figures(res, int(a_h[i])).items():
                 extras[key][i] = value
-            penalty[i] = extras["physical_fault"][i] > 0
-        return BatchStep(next_state, seen, fault, extras, penalty)
+        return BatchStep(next_state, seen, fault, extras, extras["physical_fault"] > 0)
