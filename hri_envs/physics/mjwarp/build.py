@@ -45,9 +45,6 @@ _CONTACT_OFF_MARGIN_M = -1.0  # a geom margin that no contact reaches
 #: The model values that differ per world.
 _MODEL_PER_WORLD = ("geom_margin", "actuator_gainprm", "actuator_biasprm",
                     "actuator_forcerange", "body_mass", "body_inertia")
-#: Data that :meth:`PandaWorldsState.copy_world` copies.
-_COPIED_DATA = ("qpos", "qvel", "ctrl", "act", "mocap_pos", "mocap_quat", "eq_active",
-                "qacc_warmstart", "xfrc_applied", "time")
 
 #: The per-world arrays of :class:`PandaWorldsState` (first axis: the worlds).
 PER_WORLD: tuple[str, ...] = (
@@ -126,7 +123,6 @@ class PandaWorldsState(WarpModel):
         self.ik = BatchIK(tpl.ik.model, n, self.n_base, tpl.ik.home, self.device)
         self.worlds = [World() for _ in range(n)]
         self.on_period: Callable[[np.ndarray], None] | None = None
-        self._placed: set[int] = set()
         self._alloc()
 
     def _alloc(self) -> None:
@@ -164,7 +160,6 @@ class PandaWorldsState(WarpModel):
         # The step's totals.
         self.tot = np.zeros((n, 5))  # lin, ang, work, lin_true, ang_true
         self.lowest_z = np.zeros(n)
-        self.sensordata = np.zeros((n, self._mjm.nsensordata))
 
     # ------------------------------------------------------------------ reset
     def reset_world(self, i: int, start: int, scenario: Scenario | None = None,
@@ -211,21 +206,13 @@ class PandaWorldsState(WarpModel):
         self._placed.add(i)
         return s0
 
-    def _refresh(self) -> None:
-        """Forward pass for the worlds placed since the last one (see :meth:`reset_world`)."""
-        if self._placed:
-            self._mjw.forward(self.m, self.d)
-            rows = np.fromiter(self._placed, dtype=np.int64)
-            self.sensordata[rows] = self._get("sensordata")[rows]
-            self._placed.clear()
-
     def copy_world(self, src: int, rows: np.ndarray) -> None:
         """Make the worlds ``rows`` copies of world ``src`` (its state, its episode's
         parameters and its step's set-up; each copy draws its noise from a generator of its
         own, seeded by its index). For measurements: a reset costs a C IK solve per world.
         """
         rows = np.asarray(rows, dtype=np.int64)
-        self.copy_rows(src, rows, _COPIED_DATA)
+        self.copy_rows(src, rows)
         for name in PER_WORLD:
             value = getattr(self, name)
             value[rows] = value[src]

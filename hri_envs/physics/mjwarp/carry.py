@@ -61,8 +61,6 @@ from hri_envs.task.graph import TaskGraph
 __all__ = ["Commands", "WarpCarryWorlds"]
 
 _PERIODS = _CONTROL_PERIODS
-_DATA = ("qpos", "qvel", "ctrl", "act", "mocap_pos", "mocap_quat", "eq_active",
-         "qacc_warmstart", "xfrc_applied", "time")
 _PER_WORLD = ("robot_holds", "human_holds", "q_ref", "left_start", "strained", "calm",
               "time", "sensed", "sat_counts", "lowest_z", "sensordata")
 
@@ -127,11 +125,9 @@ class WarpCarryWorlds(WarpModel):
         self.sensed = np.zeros((n, 6))
         self.sat_counts = np.zeros((n, len(tpl.posture)))
         self.lowest_z = np.zeros(n)
-        self.sensordata = np.zeros((n, self._mjm.nsensordata))
         self.params: list[HumanParams] = [HumanParams()] * n
         self.scenarios: list[Scenario] = [graph.scenario] * n
         self.joint_names = tpl.joint_names()
-        self._placed: set[int] = set()
 
     # ------------------------------------------------------------------ resets
     def reset_world(self, i: int, start: int, goal: int, rng: np.random.Generator,
@@ -168,7 +164,7 @@ class WarpCarryWorlds(WarpModel):
         a generator of its own): for measurements, without a C reset per world.
         """
         rows = np.asarray(rows, dtype=np.int64)
-        self.copy_rows(src, rows, _DATA)
+        self.copy_rows(src, rows)
         for name in _PER_WORLD:
             value = getattr(self, name)
             value[rows] = value[src]
@@ -180,15 +176,6 @@ class WarpCarryWorlds(WarpModel):
             self.params[int(i)], self.scenarios[int(i)] = self.params[src], self.scenarios[src]
         self._placed.update(int(i) for i in rows)
 
-    def _refresh(self) -> None:
-        """Kinematics and sensors of the worlds placed since the last call (one forward
-        pass of all the worlds; the others' are recomputed from their unchanged state).
-        """
-        if self._placed:
-            self._mjw.forward(self.m, self.d)
-            rows = np.fromiter(self._placed, dtype=np.int64)
-            self.sensordata[rows] = self._get("sensordata")[rows]
-            self._placed.clear()
 
     # ------------------------------------------------------------------ poses
     def site_poses(self, rows: np.ndarray, site: int) -> tuple[np.ndarray, np.ndarray]:

@@ -18,13 +18,14 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Iterable, Sequence
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from hri_envs.physics.mjwarp.device import require_warp
 
-__all__ = ["NCONMAX", "NJMAX", "STATE_FIELDS", "WarpModel"]
+__all__ = ["NCONMAX", "NJMAX", "STATE_FIELDS", "WORLD_DATA", "WarpModel"]
 
 #: Contacts allocated per world, and constraint rows (both far above what the scenes use).
 NCONMAX, NJMAX = 48, 300
@@ -33,6 +34,11 @@ STATE_FIELDS: tuple[str, ...] = ("qpos", "qvel", "act", "qacc_warmstart", "time"
 #: What a reset copies from a C ``MjData`` (the rest of the state is zeroed).
 _COPIED = ("qpos", "qvel", "ctrl", "act", "mocap_pos", "mocap_quat")
 _ZEROED = ("qacc_warmstart", "xfrc_applied", "qacc")
+
+
+#: The Data arrays that make a world's state (what :meth:`WarpModel.copy_rows` copies).
+WORLD_DATA = ("qpos", "qvel", "ctrl", "act", "mocap_pos", "mocap_quat", "eq_active",
+              "qacc_warmstart", "xfrc_applied", "time")
 
 
 class WarpModel:
@@ -71,21 +77,37 @@ class WarpModel:
             self._rhs = wp.zeros((n, mjm.nv), dtype=float)
             self._sol = wp.zeros((n, mjm.nv), dtype=float)
         self.nv = mjm.nv
+        #: Each world's sensor readings as of its last forward pass or step.
+        self.sensordata = np.zeros((n, mjm.nsensordata))
+        self._placed: set[int] = set()  # worlds placed since the last forward pass
 
     # ------------------------------------------------------------------ host access
     def _get(self, name: str) -> np.ndarray:
         """A Data array on the host (a view on the CPU device; write back with _put)."""
         return getattr(self.d, name).numpy()
 
-    def _put(self, name: str, value: np.ndarray) -> None:
-        arr = getattr(self.d, name)
+    def _assign(self, arr: Any, value: np.ndarray) -> None:
+        """Write ``value`` into the Warp array ``arr`` (nothing to do for its own view on
+        the CPU device).
+        """
         if self.device != "cpu" or value.ctypes.data != arr.ptr:
             arr.assign(value.astype(arr.numpy().dtype, copy=False))
 
+    def _put(self, name: str, value: np.ndarray) -> None:
+        self._assign(getattr(self.d, name), value)
+
     def _model_put(self, name: str, value: np.ndarray) -> None:
-        arr = getattr(self.m, name)
-        if self.device != "cpu" or value.ctypes.data != arr.ptr:
-            arr.assign(value.astype(arr.numpy().dtype, copy=False))
+        self._assign(getattr(self.m, name), value)
+
+    def _refresh(self) -> None:
+        """Kinematics and sensors of the worlds placed since the last call (one forward
+        pass of all the worlds; the others' are recomputed from their unchanged state).
+        """
+        if self._placed:
+            self._mjw.forward(self.m, self.d)
+            rows = np.fromiter(self._placed, dtype=np.int64)
+            self.sensordata[rows] = self._get("sensordata")[rows]
+            self._placed.clear()
 
     def set_rows(self, name: str, rows: np.ndarray | int, value: np.ndarray | float) -> None:
         """Data array ``name`` of the worlds ``rows`` set to ``value``."""
@@ -115,7 +137,8 @@ class WarpModel:
             if name != "geom_margin":  # switched per world by the backend itself
                 self.set_model_rows(name, i, getattr(model, name))
 
-    def copy_rows(self, src: int, rows: np.ndarray, data_fields: Iterable[str]) -> None:
+    def copy_rows(self, src: int, rows: np.ndarray,
+                  data_fields: Iterable[str] = WORLD_DATA) -> None:
         """The worlds ``rows`` take world ``src``'s ``data_fields`` and per-world model
         values.
         """
