@@ -263,12 +263,10 @@ class WarpCarryWorlds(WarpModel):
         delta = robot.pos[rows] - grip_pos
         rotvec = bm.rotation_error(robot.quat[rows], grip_quat)
         robot_q = self._get("qpos")[rows, :n_r].astype(float)
-        for j in np.flatnonzero(~stiff):  # ReferenceIK.reset(robot_q)
-            i = int(rows[j])
-            ik.q[i] = self.template.ik.home
-            ik.q[i, :n_r] = robot_q[j]
-            ik.target[i] = self.template.ik.home
-            ik.target[i, :n_b] = robot_q[j, :n_b]
+        loose = rows[~stiff]  # ReferenceIK.reset(robot_q), in every loose world at once
+        ik.q[loose] = ik.target[loose] = self.template.ik.home
+        ik.q[loose, :n_r] = robot_q[~stiff]
+        ik.target[loose, :n_b] = robot_q[~stiff, :n_b]
         t_pos = np.where(stiff[:, None], robot.pos[rows], grip_pos)
         t_quat = np.where(stiff[:, None], robot.quat[rows], grip_quat)
         if len(rows):

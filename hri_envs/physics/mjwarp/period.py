@@ -215,12 +215,12 @@ class PandaPeriod(PandaEvents):
         design, sc, n_r, ik = self.design, self.scene, self.n_robot, self.ik
         has_ref = ref.active
         robot_q = self._get("qpos")[rows, :n_r].astype(float)
-        for j in np.flatnonzero(due & ~has_ref):  # passive: restart from the actual arm
-            i = int(rows[j])
-            ik.q[i] = self.template.ik.home
-            ik.q[i, :n_r] = robot_q[j]
-            if self.n_base:
-                ik.target[i, :self.n_base] = robot_q[j, :self.n_base]
+        restart = due & ~has_ref  # passive: restart from the actual arm, all such at once
+        passive = rows[restart]
+        ik.q[passive] = self.template.ik.home
+        ik.q[passive, :n_r] = robot_q[restart]
+        if self.n_base:
+            ik.target[passive, :self.n_base] = robot_q[restart, :self.n_base]
         grip_now_pos = self._get("site_xpos")[rows, sc.grip_site].astype(float)
         grip_now_quat = bm.mat_to_quat(self._get("site_xmat")[rows, sc.grip_site].astype(float))
         t_pos = np.where(has_ref[:, None], ref.pos, grip_now_pos)
@@ -295,11 +295,13 @@ class PandaPeriod(PandaEvents):
         """PandaSim._run's periodic checks: diverged, or the object dropped."""
         design = self.design
         qv_all = self._get("qvel")[rows]
+        with np.errstate(invalid="ignore"):  # NaN velocities: caught by isfinite
+            diverged = ~np.isfinite(qv_all).all(1) | (np.abs(qv_all).max(1)
+                                                      > design.diverged_qvel_max)
         floor = self.touching(rows, self.scene.floor_geom)
         for j in np.flatnonzero(checking):
             i = int(rows[j])
-            if not np.all(np.isfinite(qv_all[j])) or np.abs(qv_all[j]).max() > \
-                    design.diverged_qvel_max:
+            if diverged[j]:
                 faults.setdefault(i, "unstable: the simulation diverged")
             elif floor[j] or pos_now[j, 2] < self.lowest_z[i] - design.drop_margin_m:
                 faults.setdefault(i, "dropped: the object " + (
