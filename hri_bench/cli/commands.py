@@ -22,7 +22,7 @@ import math
 import shlex
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -32,6 +32,7 @@ from agents.config import default_config
 from agents.learning import algorithm1, partner_mdp
 from hri_bench.cli import people as cli_people
 from hri_bench.cli import results as cli_results
+from hri_bench.cli.args import bounded, whole
 from hri_bench.people.play import play
 from hri_bench.report.speed import measure, measure_physics
 from hri_bench.run.agents import (
@@ -104,24 +105,7 @@ def _agents(text: str) -> tuple[str, ...]:
     return names
 
 
-def _bounded(kind: type, allowed: str, ok: Callable[[Any], bool]) -> Callable[[str], Any]:
-    """An argparse ``type`` parsing ``kind`` and checking it, with a message saying what is
-    allowed.
-    """
-
-    def parse(text: str) -> Any:
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}") from None
-        if not ok(value):
-            raise argparse.ArgumentTypeError(f"expected {allowed}, got {value}")
-        return value
-
-    return parse
-
-
-_positive = _bounded(int, "a whole number >= 1", lambda v: v >= 1)
+_positive = bounded(int, "a whole number >= 1", lambda v: v >= 1)
 
 
 def _world_counts(text: str) -> tuple[int, ...]:
@@ -129,11 +113,11 @@ def _world_counts(text: str) -> tuple[int, ...]:
     return tuple(_positive(w.strip()) for w in text.split(","))
 
 
-_seed = _bounded(int, "a whole number >= 0", lambda v: v >= 0)
-_seconds = _bounded(float, "a number of seconds > 0, or inf", lambda v: v > 0)
-_probability = _bounded(float, "a probability in [0, 1]", lambda v: 0.0 <= v <= 1.0)
-_r0 = _bounded(float, "a number in (-1, 0)", lambda v: -1.0 < v < 0.0)
-_rationality = _bounded(float, "a number > 0 or inf", lambda v: v > 0)
+_seed = whole
+_seconds = bounded(float, "a number of seconds > 0, or inf", lambda v: v > 0)
+_probability = bounded(float, "a probability in [0, 1]", lambda v: 0.0 <= v <= 1.0)
+_r0 = bounded(float, "a number in (-1, 0)", lambda v: -1.0 < v < 0.0)
+_rationality = bounded(float, "a number > 0 or inf", lambda v: v > 0)
 
 #: ``--learner-*`` options: LearnerConfig field -> (flag, metavar, help). Values are checked
 #: by :class:`agents.config.LearnerConfig`; its errors name the flag.
@@ -430,7 +414,7 @@ def _suite_parser(sub: Any) -> None:
                             "the references and the floor are added where they fit)")
     suite.add_argument("--executor", choices=EXECUTORS, default=None,
                        help="serial, process (default with --jobs > 1) or ray")
-    suite.add_argument("--runs-scale", type=_bounded(float, "a number > 0",
+    suite.add_argument("--runs-scale", type=bounded(float, "a number > 0",
                                                      lambda v: math.isfinite(v) and v > 0),
                        default=1.0, help="multiply every track's runs (default 1)")
     suite.add_argument("--tracks", default=None,

@@ -19,6 +19,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from hri_bench.cli.args import whole
 from hri_bench.core.atomic import atomic_writer
 from hri_bench.run.agents import PLANNING_REFERENCES, validate_agent_name
 from hri_bench.run.provenance import code_changes
@@ -46,12 +47,12 @@ def add_parsers(sub: Any) -> None:
                          "hashes, and recompute every statistic from its per-run data. Exit "
                          "0 when valid, 1 with one line per problem otherwise.")
     val.add_argument("file", type=Path, help="results.json (or .json.gz)")
-    val.add_argument("--replay", type=_whole, default=0, metavar="K",
+    val.add_argument("--replay", type=whole, default=0, metavar="K",
                      help="also re-simulate K randomly chosen runs of every agent whose code "
                           "is installed here (built-in agents of this hri-envs version, "
                           "module:Class with the recorded source hash) and require the "
                           "recorded values exactly (default 0: no replay)")
-    val.add_argument("--replay-seed", type=_whole, default=None, metavar="S",
+    val.add_argument("--replay-seed", type=whole, default=None, metavar="S",
                      help="seed of the runs --replay picks (default: a fresh one, printed)")
     val.set_defaults(command_parser=val)
     lb = sub.add_parser("leaderboard", help="merge validated results files into a leaderboard",
@@ -64,16 +65,6 @@ def add_parsers(sub: Any) -> None:
                     help="output folder (default: DIR/merged; new, empty, or one an earlier "
                          "leaderboard wrote)")
     lb.set_defaults(command_parser=lb)
-
-
-def _whole(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
-    return value
 
 
 def add_suite_flags(suite: argparse.ArgumentParser) -> None:
