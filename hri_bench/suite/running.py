@@ -181,15 +181,12 @@ def track_summary_v3(track: Track, result: StudyResult) -> dict[str, Any]:
     :data:`DELTA_V3`) in place of v2's.
     """
     entry = track_summary_v2(track, result)
-    entry["headline"] = track.headline
     humans = getattr(track, "humans", 1)
     between, within = getattr(track, "pilot_between", 0.0), getattr(track, "pilot_within", 0.0)
     runs = result.config.runs
     humans = min(humans, runs)  # a runs scale below 1 meets fewer of them
     blocks = max(1, runs // humans)
-    found = (detectable_v3(between, within, humans, blocks) if humans > 1 else
-             round(stats.detectable_difference(within, runs, power=POWER, alpha=ALPHA), 4)
-             if within > 0 else 0.0)
+    found = detectable_v3(between, within, humans, blocks)  # one human: blocks == runs
     entry["power"] = {"delta": DELTA_V3, "power": POWER, "alpha": ALPHA, "humans": humans,
                       "runs_per_human": blocks, "pilot_between": between,
                       "pilot_within": within, "detectable": found,
