@@ -96,12 +96,12 @@ def _warp_episodes(cases, seed):
     """Every case a world of one batch: its CarryEnv on a shared WarpCarryWorlds."""
     from hri_envs.physics.continuous import CarryEnv
     from hri_envs.physics.mjwarp.carry import WarpCarryWorlds
-    from hri_envs.physics.mjwarp.carry_sim import WarpCarrySim, sharing
+    from hri_envs.physics.mjwarp.carry_sim import SHARED, WarpCarrySim
     from hri_envs.task.scenarios import scenario_graph
 
     n = len(cases)
     worlds = WarpCarryWorlds(scenario_graph("hanger"), n)
-    with sharing([WarpCarrySim(worlds, i) for i in range(n)]):
+    with SHARED.sharing([WarpCarrySim(worlds, i) for i in range(n)]):
         envs = [CarryEnv("hanger", backend="mjwarp", human=h, max_time_s=t)
                 for h, _, _, _, t in cases]
     for env, (_, options, _, _, _) in zip(envs, cases, strict=True):

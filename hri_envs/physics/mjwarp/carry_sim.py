@@ -5,13 +5,12 @@
 ``gymnasium.make("hri_envs/HangerPandaContinuous-v0", backend="mjwarp")`` and the parallel
 form with ``backend="mjwarp"`` own a one-world :class:`WarpCarryWorlds`; the vector env
 (:class:`~hri_envs.physics.mjwarp.carry_vector.CarryVectorEnv`) gives each of its envs one
-world of a shared one (:func:`sharing`) and steps them together.
+world of a shared one (:data:`SHARED`) and steps them together.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Mapping
 
 import mujoco
 import numpy as np
@@ -22,25 +21,15 @@ from hri_envs.physics.intention import HumanParams, IntentionHuman
 from hri_envs.physics.kinematics import Pose
 from hri_envs.physics.mjwarp import batchmath as bm
 from hri_envs.physics.mjwarp.carry import Commands, WarpCarryWorlds
+from hri_envs.physics.mjwarp.handout import Handout
 from hri_envs.physics.scene import Scene
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["WarpCarrySim", "make_carry_sim", "sharing"]
+__all__ = ["SHARED", "WarpCarrySim", "make_carry_sim"]
 
-_SHARED: list[WarpCarrySim] = []
-
-
-@contextmanager
-def sharing(sims: list[WarpCarrySim]) -> Iterator[None]:
-    """Within the block, :func:`make_carry_sim` hands out ``sims`` in order (the vector
-    env's worlds) instead of making a one-world :class:`WarpCarryWorlds` each.
-    """
-    _SHARED[:] = list(sims)
-    try:
-        yield
-    finally:
-        _SHARED.clear()
+#: A vector env's worlds for the envs it builds (``with SHARED.sharing(sims):``).
+SHARED: Handout[WarpCarrySim] = Handout()
 
 
 def make_carry_sim(graph: TaskGraph, drive: str = "torque",
@@ -49,12 +38,10 @@ def make_carry_sim(graph: TaskGraph, drive: str = "torque",
                    device: str | None = None) -> WarpCarrySim:
     """The continuous envs' simulation on MuJoCo Warp (the arguments of
     :class:`~hri_envs.physics.carry.CarrySim`): a one-world :class:`WarpCarryWorlds` on
-    Warp's default device, or a shared world (:func:`sharing`).
+    Warp's default device, or a vector env's world handed out (:data:`SHARED`).
     """
-    if _SHARED:
-        return _SHARED.pop(0)
-    return WarpCarrySim(WarpCarryWorlds(graph, 1, drive, design, max_step_m, max_step_rad,
-                                        sensor, device), 0)
+    return SHARED.take() or WarpCarrySim(WarpCarryWorlds(graph, 1, drive, design, max_step_m,
+                                                         max_step_rad, sensor, device), 0)
 
 
 class WarpCarrySim:

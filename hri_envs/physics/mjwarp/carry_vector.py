@@ -14,7 +14,7 @@ from hri_envs.envs.config import check_autoreset_mode
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
 from hri_envs.physics.continuous import ACTION_SIZE, CarryEnv
 from hri_envs.physics.mjwarp.carry import WarpCarryWorlds
-from hri_envs.physics.mjwarp.carry_sim import WarpCarrySim, sharing
+from hri_envs.physics.mjwarp.carry_sim import SHARED, WarpCarrySim
 from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 __all__ = ["CarryVectorEnv"]
@@ -103,7 +103,7 @@ class CarryVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
                                       max_step_m=kwargs.get("max_step_m", 0.02),
                                       max_step_rad=kwargs.get("max_step_rad", 0.06),
                                       sensor=kwargs.get("sensor"), device=device)
-        with sharing([WarpCarrySim(self.worlds, i) for i in range(n)]):
+        with SHARED.sharing([WarpCarrySim(self.worlds, i) for i in range(n)]):
             self.envs = [CarryEnv(scenario, backend="mjwarp", drive=drive, **kwargs)
                          for _ in range(n)]
         self.single_observation_space = self.envs[0].observation_space

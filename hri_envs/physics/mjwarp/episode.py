@@ -9,14 +9,14 @@ one world of a shared one and steps them together (:attr:`WarpSim.pending`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
 
 from hri_envs.physics.episode import PhysicsEpisode
+from hri_envs.physics.mjwarp.handout import Handout
 from hri_envs.physics.mjwarp.worlds import WarpWorlds
 from hri_envs.physics.seats import Seats
 from hri_envs.physics.sim import StepResult
@@ -111,26 +111,15 @@ class WarpPhysicsEpisode(PhysicsEpisode):
     """
 
     name: ClassVar[str] = "mjwarp"
-    _shared: ClassVar[list[WarpSim] | None] = None
-
-    @classmethod
-    @contextmanager
-    def sharing(cls, sims: list[WarpSim]) -> Iterator[None]:
-        """Within the block, episodes built take their worlds from ``sims`` in order (the
-        vector env's worlds) instead of making a one-world :class:`WarpWorlds` each.
-        """
-        cls._shared = list(sims)
-        try:
-            yield
-        finally:
-            cls._shared = None
+    #: A vector env's worlds for the episodes it builds (``with SHARED.sharing(sims):``).
+    SHARED: ClassVar[Handout[WarpSim]] = Handout()
 
     @classmethod
     def make_sim(cls, graph: TaskGraph, options: dict[str, Any]) -> WarpSim:
-        """A one-world :class:`WarpWorlds` (Warp's default device), or a shared world."""
-        if cls._shared:
-            return cls._shared.pop(0)
-        return WarpSim(WarpWorlds(graph, 1, options=options), 0)
+        """A one-world :class:`WarpWorlds` (Warp's default device), or a vector env's world
+        handed out (:attr:`SHARED`).
+        """
+        return cls.SHARED.take() or WarpSim(WarpWorlds(graph, 1, options=options), 0)
 
     def show(self, layout: tuple[tuple[float, float], ...] | None, title: str,
              fps: float) -> None:

@@ -123,7 +123,7 @@ class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             raise ConfigError("the Panda vector env does not record videos; use the single "
                               "env for physics={'video_path': ...}", field="physics")
         self.worlds = WarpWorlds(self.graph, n, options=options, device=device)
-        with WarpPhysicsEpisode.sharing([WarpSim(self.worlds, i) for i in range(n)]):
+        with WarpPhysicsEpisode.SHARED.sharing([WarpSim(self.worlds, i) for i in range(n)]):
             self.envs = [RobotEnv(scenario, backend="mjwarp", **kwargs) for _ in range(n)]
         self.single_observation_space = self.envs[0].observation_space
         self.single_action_space = spaces.Discrete(self.graph.n_actions)
