@@ -141,7 +141,7 @@ def make_runs(target: str, expected: str) -> Callable[[str], None]:
         line = next(x for x in done.stdout.splitlines() if expected in x)
         if line.startswith(".venv/bin/hri-bench"):
             parses(line)
-        assert target in command
+        assert _words(command)[1] == target, command  # the page's make target is ours
 
     return check
 
