@@ -151,6 +151,8 @@ def script_flags(command: str, *, config: str | None = None) -> None:
     a tyro field (``--total-steps``: ``total_steps:``) in the script's source, or in the
     module ``config`` that defines the dataclass it reads."""
     words = _words(command)
+    if words[1] == "-m":  # python -m package.module: its file in the checkout
+        words = [words[0], words[2].replace(".", "/") + ".py", *words[3:]]
     script = ROOT / words[1]
     assert words[0] == ".venv/bin/python" and script.is_file(), command
     source = script.read_text() + ((ROOT / config).read_text() if config else "")
@@ -429,6 +431,13 @@ def _status() -> list[str]:
     return done.stdout.splitlines()
 
 
+def _without_made_agents(command: str) -> str:
+    """``command`` with the agents that the page's earlier commands make (a module it writes,
+    ``mylab.follower:Follower``; a model it trains, ``sb3:out/...zip``) as ``passive``, so
+    that it parses here, before they exist."""
+    return re.sub(r"(?<=[ ,])(mylab\.\w+:\w+|sb3:\S+?\.zip)(?=[ ,]|$)", "passive", command)
+
+
 def _shell_line(command: str, doc: str) -> tuple[str, str]:
     """What runs for ``command`` of page ``doc`` (the shell text) and a note for the log."""
     plan = PLAN[command]
@@ -438,7 +447,7 @@ def _shell_line(command: str, doc: str) -> tuple[str, str]:
     if plan == RUN:
         return command, "as pasted"
     if isinstance(plan, Scaled):
-        syntax(command)  # the command as the page shows it parses, though a smaller one runs
+        syntax(_without_made_agents(command))  # as the page shows it, though a smaller one runs
         return plan.command, f"scaled: {plan.why}"
     if isinstance(plan, Fed):
         return f"printf %s {shlex.quote(plan.stdin)} | {command}", f"fed: {plan.why}"
