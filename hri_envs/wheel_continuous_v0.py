@@ -7,21 +7,8 @@ see :class:`~hri_envs.physics.continuous.CarryEnv` for the keyword arguments) an
 Gymnasium form is registered as ``hri_envs/WheelPandaContinuous-v0``.
 """
 
-from typing import Any
-
-from pettingzoo.utils.conversions import parallel_to_aec
-from pettingzoo.utils.env import AECEnv
-
-from hri_envs.physics.continuous_parallel import CarryParallelEnv
+from hri_envs.physics.continuous_parallel import entry_points
 
 __all__ = ["env", "parallel_env"]
 
-
-def parallel_env(**kwargs: Any) -> CarryParallelEnv:
-    """The parallel env of the wheel (keyword arguments: ``CarryEnv``'s)."""
-    return CarryParallelEnv("wheel", **kwargs)
-
-
-def env(**kwargs: Any) -> AECEnv:
-    """The AEC form of :func:`parallel_env`."""
-    return parallel_to_aec(parallel_env(**kwargs))
+env, parallel_env = entry_points("wheel")

@@ -6,16 +6,18 @@ parallel_env``) gives :class:`CarryParallelEnv`, agents ``"robot"`` and ``"human
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
-from pettingzoo.utils.env import ParallelEnv
+from pettingzoo.utils.conversions import parallel_to_aec
+from pettingzoo.utils.env import AECEnv, ParallelEnv
 
 from hri_envs.errors import ActionError, ResetNeeded
 from hri_envs.physics.continuous import ACTION_SIZE, CarryEnv, check_box_action
 
-__all__ = ["CarryParallelEnv", "parallel_env"]
+__all__ = ["CarryParallelEnv", "entry_points", "parallel_env"]
 
 AGENTS: tuple[str, str] = ("robot", "human")
 
@@ -134,3 +136,20 @@ class CarryParallelEnv(ParallelEnv[str, np.ndarray, np.ndarray]):
 def parallel_env(scenario: str = "hanger", **kwargs: Any) -> CarryParallelEnv:
     """The parallel env of ``scenario`` (keyword arguments: :class:`CarryEnv`'s)."""
     return CarryParallelEnv(scenario, **kwargs)
+
+
+def entry_points(scenario: str) -> tuple[Callable[..., AECEnv], Callable[..., CarryParallelEnv]]:
+    """``(env, parallel_env)`` of ``scenario``'s continuous env, as its versioned module
+    exports them (``hri_envs.hanger_continuous_v0``): the parallel env and its AEC form
+    (PettingZoo's ``parallel_to_aec``), keyword arguments :class:`CarryEnv`'s.
+    """
+
+    def parallel(**kwargs: Any) -> CarryParallelEnv:
+        return CarryParallelEnv(scenario, **kwargs)
+
+    def aec(**kwargs: Any) -> AECEnv:
+        return parallel_to_aec(parallel(**kwargs))
+
+    parallel.__doc__ = f"The parallel env of the {scenario} (keyword arguments: CarryEnv's)."
+    aec.__doc__ = f"The AEC form of the {scenario}'s parallel env."
+    return aec, parallel
