@@ -46,6 +46,7 @@ from hri_envs.physics.controller import ImpedanceController
 from hri_envs.physics.design import PhysicsDesign, design_for
 from hri_envs.physics.ik import IKFailure, ReferenceIK
 from hri_envs.physics.intention import HumanParams, IntentionHuman, route_states
+from hri_envs.physics.interaction import InteractionMeter, StepInteraction
 from hri_envs.physics.kinematics import (
     Pose,
     TrajectorySample,
@@ -108,6 +109,10 @@ class CarryStep(NamedTuple):
             ``too_weak``, ``ik_failure``).
         saturated: The arm's joints whose torque was at the human's strength limit for
             most of the step (names).
+        peak_force: The largest force [N] of the hand on the handle at a control
+            period's end (:class:`~hri_envs.physics.interaction.InteractionMeter`).
+        force_sq: ∫ |F|² dt [N² s] of it.
+        jerk_sq: ∫ |jerk|² dt [m² s⁻⁵] of the object's origin.
     """
 
     progress: float
@@ -119,6 +124,9 @@ class CarryStep(NamedTuple):
     placed: int
     fault: str | None
     saturated: tuple[str, ...]
+    peak_force: float = 0.0
+    force_sq: float = 0.0
+    jerk_sq: float = 0.0
 
     @property
     def fault_kind(self) -> str | None:
@@ -225,6 +233,10 @@ class CarrySim:
         self.time = 0.0
         self.sensed = np.zeros(6)
         self.sat_counts = np.zeros(len(self.posture))
+        self.meter = InteractionMeter(1, self.dt_control)
+        self._forces = np.zeros((1, _CONTROL_PERIODS))
+        self._velocities = np.zeros((1, _CONTROL_PERIODS, 3))
+        self._interaction: StepInteraction | None = None
 
     # ------------------------------------------------------------------ set-up
     def _gains(self) -> tuple[float, float, float, float]:
@@ -313,6 +325,7 @@ class CarrySim:
         self.left_start, self._calm, self.time, self._strained = False, 0.0, 0.0, 0.0
         self.sensed = np.zeros(6)
         self.sat_counts[:] = 0.0
+        self.meter.reset(slice(None))
 
     def _weld(self, on: bool) -> None:
         sc, m, data = self.scene, self.model, self.data
@@ -417,9 +430,11 @@ class CarrySim:
                 self.ik.reset(robot_q.copy())
                 self.q_ref = self.ik.step(start_grip, self.dt_step).copy()
         except IKFailure as exc:
+            self._interaction = None
             return self._result(0.0, 0.0, 0.0, f"ik_failure: {exc}")
         xfrc = data.xfrc_applied[body]
         lin = ang = disagree = 0.0
+        forces, velocities = self._forces[0], self._velocities[0]
         fault = None
         weight = self.design.object_mass * 9.81
         sat = np.zeros(len(self.posture))
@@ -484,9 +499,12 @@ class CarrySim:
                 # The human's wrench on the handle (its sensor: the object on the handle,
                 # in the handle's frame; the hand's wrench on the object is the same).
                 f, t = self._handle_wrench()
-                lin += math.sqrt(f.dot(f)) * dt_c
+                f_norm = math.sqrt(f.dot(f))
+                lin += f_norm * dt_c
                 ang += math.sqrt(t.dot(t)) * dt_c
                 hv = data.qvel[sc.object_dofs]
+                forces[i] = f_norm
+                velocities[i] = hv[:3]
                 power = f.dot(hv[:3]) + t.dot(w_body)
                 disagree += max(0.0, -float(power)) * dt_c
                 if i == _CONTROL_PERIODS - 1:  # once per step (40 ms)
@@ -498,6 +516,9 @@ class CarrySim:
                 impedance.gains = self._gains()
         self.time += self.dt_step
         self.sat_counts = sat
+        if i < _CONTROL_PERIODS - 1:  # a fault ended the step early: the last sample stands
+            forces[i + 1:], velocities[i + 1:] = forces[i], velocities[i]
+        self._interaction = self.meter.step(slice(None), self._forces, self._velocities)
         if fault is None and not self.robot_holds:
             moved = float(np.linalg.norm(self.object_pose().pos - start_obj))
             strained = bool(np.any(sat > _CONTROL_PERIODS / 2)) and moved < 1e-3
@@ -593,8 +614,11 @@ class CarrySim:
             self._calm = 0.0
         sat = tuple(n for n, c in zip(self.joint_names(), self.sat_counts, strict=True)
                     if c > _CONTROL_PERIODS / 2)
+        inter = self._interaction
+        extra = (0.0, 0.0, 0.0) if inter is None else (
+            float(inter.peak_force[0]), float(inter.force_sq[0]), float(inter.jerk_sq[0]))
         return CarryStep(progress, lin + ang / lever, lin, ang, disagree, self.sensed.copy(),
-                         placed, fault, sat)
+                         placed, fault, sat, *extra)
 
 
 def grip_reference(human: IntentionHuman, grip_in_object: Pose) -> Pose:

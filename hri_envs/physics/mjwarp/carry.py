@@ -50,6 +50,7 @@ from hri_envs.physics.carry import (
 )
 from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.intention import HumanParams
+from hri_envs.physics.interaction import InteractionMeter
 from hri_envs.physics.mjwarp import batchmath as bm
 from hri_envs.physics.mjwarp.carry_human import Samples, WarpArms, WarpIntention, rotate_by
 from hri_envs.physics.mjwarp.control import RobotImpedance, WarpSeats, WristSensors
@@ -124,6 +125,7 @@ class WarpCarryWorlds(WarpModel):
         self.strained, self.calm, self.time = np.zeros(n), np.zeros(n), np.zeros(n)
         self.sensed = np.zeros((n, 6))
         self.sat_counts = np.zeros((n, len(tpl.posture)))
+        self.meter = InteractionMeter(n, self.dt_control)
         self.lowest_z = np.zeros(n)
         self.params: list[HumanParams] = [HumanParams()] * n
         self.scenarios: list[Scenario] = [graph.scenario] * n
@@ -155,6 +157,7 @@ class WarpCarryWorlds(WarpModel):
         self.left_start[i] = False
         self.strained[i] = self.calm[i] = self.time[i] = 0.0
         self.sensed[i], self.sat_counts[i] = 0.0, 0.0
+        self.meter.reset(np.array([i]))
         self.lowest_z[i] = tpl._lowest_z
         self.params[i], self.scenarios[i] = tpl.params, tpl.scenario
         self._placed.add(i)
@@ -170,6 +173,8 @@ class WarpCarryWorlds(WarpModel):
             value[rows] = value[src]
         for part in (self.ik, self.sensors, self.seats, self.human):
             part.copy_rows(src, rows)
+        for value in (self.meter.v_prev, self.meter.a_prev, self.meter.samples):
+            value[rows] = value[src]
         for value in (self.arms.gains, self.arms.lo, self.arms.hi):
             value[rows] = value[src]
         for i in rows:
@@ -237,17 +242,21 @@ class WarpCarryWorlds(WarpModel):
         frozen = np.ones(self.n, bool)
         frozen[rows] = False
         totals = np.zeros((len(rows), 3))  # lin, ang, disagreement
+        samples = (np.zeros((len(rows), _PERIODS)), np.zeros((len(rows), _PERIODS, 3)))
         sat = np.zeros((len(rows), self.arms.lo.shape[1]))
         start_obj = self._get("xpos")[rows, self.scene.object_body].astype(float)
         faults: dict[int, str] = {}
         for p in range(_PERIODS):
-            self._period(p, rows, frozen, plan, agent, totals, sat)
+            self._period(p, rows, frozen, plan, agent, totals, sat, samples)
             if p == _PERIODS - 1:
                 self._check(rows, faults)
         self._after_step(rows, start_obj, sat, faults)
+        inter = self.meter.step(rows, *samples)
         for j, i in enumerate(rows.tolist()):
             lin, ang, disagree = totals[j].tolist()
-            out[i] = self._result(i, lin, ang, disagree, faults.get(i))
+            out[i] = self._result(i, lin, ang, disagree, faults.get(i),
+                                  (float(inter.peak_force[j]), float(inter.force_sq[j]),
+                                   float(inter.jerk_sq[j])))
         return out
 
     def _plan(self, rows: np.ndarray, robot: Commands, human: Commands | None,
@@ -283,7 +292,8 @@ class WarpCarryWorlds(WarpModel):
                      hand_pos, hand_quat, h_delta, h_rot, gains)
 
     def _period(self, p: int, rows: np.ndarray, frozen: np.ndarray, plan: _Plan,
-                agent: np.ndarray, totals: np.ndarray, sat: np.ndarray) -> None:
+                agent: np.ndarray, totals: np.ndarray, sat: np.ndarray,
+                samples: tuple[np.ndarray, np.ndarray]) -> None:
         """One control period of the worlds ``rows`` (CarrySim.step's loop body)."""
         mjw, sc, dt_c, arms = self._mjw, self.scene, self.dt_control, self.arms
         saved = self.freeze(frozen)
@@ -331,9 +341,11 @@ class WarpCarryWorlds(WarpModel):
         self.thaw(frozen, saved)
         live = self._get("sensordata")[rows].astype(float)
         f, t = arms.handle_wrench(self, rows, live, self._handle_adr)
-        totals[:, 0] += np.linalg.norm(f, axis=1) * dt_c
+        f_norm = np.linalg.norm(f, axis=1)
+        totals[:, 0] += f_norm * dt_c
         totals[:, 1] += np.linalg.norm(t, axis=1) * dt_c
         hv = self._get("qvel")[rows, dof0:dof0 + 3].astype(float)
+        samples[0][:, p], samples[1][:, p] = f_norm, hv
         power = bm.dot(f, hv) + bm.dot(t, w_body)
         totals[:, 2] += np.maximum(0.0, -power) * dt_c
         self.sensordata[rows] = live
@@ -424,7 +436,8 @@ class WarpCarryWorlds(WarpModel):
             self._put("mocap_pos", mocap)
 
     def _result(self, i: int, lin: float, ang: float, disagree: float,
-                fault: str | None) -> CarryStep:
+                fault: str | None,
+                interaction: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> CarryStep:
         """CarrySim._result of world ``i``: progress, placement, effort."""
         rows = np.array([i])
         pos, quat = self.object_poses(rows)
@@ -443,7 +456,7 @@ class WarpCarryWorlds(WarpModel):
         sat = tuple(n for n, c in zip(self.joint_names, self.sat_counts[i], strict=True)
                     if c > _PERIODS / 2)
         return CarryStep(progress, lin + ang / self.design.lever, lin, ang, disagree,
-                         self.sensed[i].copy(), placed, fault, sat)
+                         self.sensed[i].copy(), placed, fault, sat, *interaction)
 
 
 class _Plan(NamedTuple):
