@@ -1,12 +1,13 @@
-"""References and baselines for the continuous-control envs (``*PandaContinuous-v0``).
+"""References and baselines for the continuous-control envs (``*PandaContinuous-v0/v1``).
 
-Each is a :class:`ContinuousPolicy`: told an episode began (with the env, for what it may
-know), asked for an action per 25 Hz step from the robot's observation, told the episode
-ended.
+Each is a :class:`~agents.physical.PhysicalAgent`: told an episode began (with its public
+facts, :class:`~hri_envs.physics.robot_view.RobotTask`), asked for an action per 25 Hz step
+from the robot's observation, told the episode ended (the goal revealed in hindsight).
 
 * :class:`UpperReference` knows the intention: it follows the human's own reference (the
   grip pose the object would have at the human's reference now) with full stiffness. It
-  reads the simulation, so it is a reference, not an agent a robot could run.
+  reads the simulation (``privileged``), so it is a reference, not an agent a robot could
+  run.
 * :class:`PassiveFloor`: gravity and payload compensated, zero stiffness (the robot only
   carries the weight; the human drags it).
 * :class:`LiftedLearner`: the paper's Learner (:class:`agents.learner.Learner`) lifted
@@ -20,102 +21,101 @@ ended.
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
 from typing import Any
 
 import numpy as np
 
 from agents.learner import Learner
+from agents.physical import PhysicalAgent, run_physical_episode
 from agents.protocol import Agent, Trace
 from hri_envs.physics.controller import Disagreement
 from hri_envs.physics.kinematics import Pose, StraightLine, compose, rotation_error
 from hri_envs.physics.observer import StateObserver
+from hri_envs.physics.robot_view import EpisodeOutcome, RobotTask
 from hri_envs.physics.seats import Seats
 from hri_envs.task.actions import WAIT
 from hri_envs.task.graph import BOTH, TOGGLE
-from hri_envs.task.scenarios import episode_scenario
+from hri_envs.task.scenarios import scenario_graph
 
-__all__ = ["PASSIVE_ACTION", "ContinuousPolicy", "LiftedLearner", "PassiveFloor",
-           "UpperReference", "follow_action"]
+__all__ = ["PASSIVE_ACTION", "LiftedLearner", "PassiveFloor", "UpperReference",
+           "follow_action", "grip_of", "run_episode"]
 
 #: Zero grip offset, zero stiffness: the passive, gravity-compensated robot.
 PASSIVE_ACTION = np.array([0, 0, 0, 0, 0, 0, -1.0], dtype=np.float32)
 
 
-def follow_action(env: Any, target: Pose, stiffness: float = 1.0) -> np.ndarray:
-    """The action that moves the robot's grip towards ``target`` as fast as the action
-    allows, with the given stiffness scale (0-1).
+def grip_of(task: RobotTask, observation: np.ndarray) -> Pose:
+    """The robot's grip pose in an observation."""
+    pos = task.part(observation, "grip_pos").astype(float)
+    quat = task.part(observation, "grip_quat").astype(float)
+    return Pose(pos, quat / np.linalg.norm(quat))
+
+
+def follow_action(task: RobotTask, grip: Pose, target: Pose, stiffness: float = 1.0
+                  ) -> np.ndarray:
+    """The action that moves the robot's grip from ``grip`` towards ``target`` as fast as
+    the action allows, with the given stiffness scale (0-1).
     """
-    sim = env.sim
-    grip = sim.grip_pose()
     return np.concatenate([
-        np.clip((target.pos - grip.pos) / sim.max_step_m, -1.0, 1.0),
-        np.clip(rotation_error(target.quat, grip.quat) / sim.max_step_rad, -1.0, 1.0),
+        np.clip((target.pos - grip.pos) / task.max_step_m, -1.0, 1.0),
+        np.clip(rotation_error(target.quat, grip.quat) / task.max_step_rad, -1.0, 1.0),
         [2.0 * stiffness - 1.0]]).astype(np.float32)
 
 
-class ContinuousPolicy(ABC):
-    """A robot policy for the continuous envs."""
-
-    name = "policy"
-
-    def begin(self, env: Any) -> None:
-        """An episode began on ``env`` (the unwrapped :class:`~hri_envs.physics.continuous.
-        CarryEnv`).
-        """
-
-    @abstractmethod
-    def act(self, observation: np.ndarray, env: Any) -> np.ndarray:
-        """The robot's (7,) action."""
-
-    def end(self, info: dict[str, Any]) -> None:
-        """The episode ended with the last step's ``info``."""
-
-
-class UpperReference(ContinuousPolicy):
-    """Knows the intention and follows the human's reference (privileged)."""
+class UpperReference(PhysicalAgent):
+    """Knows the intention and follows the human's reference (privileged: a reference)."""
 
     name = "upper"
+    privileged = True
 
-    def act(self, observation: np.ndarray, env: Any) -> np.ndarray:
+    def attach(self, env: Any) -> None:
+        """Reads the simulation: the human's reference and the grip."""
+        self.env = env
+
+    def begin_episode(self, task: RobotTask) -> None:
+        """Keeps the episode's task (the action's scale)."""
+        self.task = task
+
+    def act(self, observation: np.ndarray) -> np.ndarray:
         """Towards the grip pose of the human's reference, stiff."""
-        return follow_action(env, env.sim.human_grip_reference())
+        sim = self.env.sim
+        return follow_action(self.task, sim.grip_pose(), sim.human_grip_reference())
 
 
-class PassiveFloor(ContinuousPolicy):
+class PassiveFloor(PhysicalAgent):
     """The passive, gravity-compensated robot."""
 
     name = "passive"
 
-    def act(self, observation: np.ndarray, env: Any) -> np.ndarray:
+    def act(self, observation: np.ndarray) -> np.ndarray:
         """Zero stiffness."""
         return PASSIVE_ACTION.copy()
 
 
-class LiftedLearner(ContinuousPolicy):
+class LiftedLearner(PhysicalAgent):
     """The paper's Learner on the continuous env, through the motion primitives.
 
     Args:
-        env: The unwrapped env (its task graph, design and action scale: what the robot
-            knows of the task; never the intention or the human's reference).
+        scenario: The scenario's name (its task graph: what the robot knows of the task).
         seed: The Learner's seed.
     """
 
     name = "learner"
 
-    def __init__(self, env: Any, seed: int = 0) -> None:
-        self.graph = env.graph
-        self.design = env.sim.design
+    def __init__(self, scenario: str, seed: int = 0) -> None:
+        self.graph = scenario_graph(scenario)
         self.agent: Agent = Learner(self.graph, 1, seed=seed).single()
+        self.task: RobotTask | None = None
+
+    def begin_episode(self, task: RobotTask) -> None:
+        """A new episode: the start support and the supports' places are known."""
+        self.task = task
+        self.design = task.design
         self.grip_in_object = Pose(self.design.grip_pos, self.design.grip_quat)
         self.davi = Disagreement(self.design)
-        self._reset_episode(env)
-
-    def _reset_episode(self, env: Any) -> None:
-        scenario = episode_scenario(env.scenario_name, env.layout)
-        self.observer = StateObserver(self.graph, scenario, self.design.lever)
-        self.seats = Seats(scenario, self.design)
-        self.start = int(env.start)
+        self.observer = StateObserver(self.graph, task.geometry, self.design.lever)
+        self.seats = Seats(task.geometry, self.design)
+        self.start = int(task.start)
         self.state = self.graph.support_state(self.start, BOTH)
         self.states = [self.state]
         self.robot_actions: list[int] = []
@@ -125,20 +125,18 @@ class LiftedLearner(ContinuousPolicy):
         self.line: StraightLine | None = None
         self.t = 0.0
         self.passive = True
-
-    def begin(self, env: Any) -> None:
-        """A new episode: the start support is known to the robot."""
-        self._reset_episode(env)
+        self._decided = False
         self.agent.begin_episode(self.start)
-        self._decide(env)
 
     def _observe_state(self, observation: np.ndarray) -> int:
-        pos, quat = observation[:3].astype(float), observation[3:7].astype(float)
+        assert self.task is not None
+        pos = self.task.part(observation, "object_pos").astype(float)
+        quat = self.task.part(observation, "object_quat").astype(float)
         quat = quat / np.linalg.norm(quat)
         seat = self.seats.engaged(pos, quat)
         return self.observer.observe(pos, quat, seat, BOTH).state
 
-    def _decide(self, env: Any) -> None:
+    def _decide(self, grip: Pose) -> None:
         g, s = self.graph, self.state
         mask = g.valid[s].astype(np.int8)
         a = int(self.agent.act({"state": s, "start": self.start,
@@ -153,7 +151,7 @@ class LiftedLearner(ContinuousPolicy):
         pos, quat = self.observer.pose(target)
         goal = compose(Pose(pos, quat), *self.grip_in_object)
         d = self.design
-        self.line = StraightLine(env.sim.grip_pose(), goal, d.linear_speed, d.angular_speed,
+        self.line = StraightLine(grip, goal, d.linear_speed, d.angular_speed,
                                  d.motion_min_duration_s)
         self.passive = False
 
@@ -174,58 +172,58 @@ class LiftedLearner(ContinuousPolicy):
         self.states.append(s_next)
         self.last_human, self.state = human, s_next
 
-    def act(self, observation: np.ndarray, env: Any) -> np.ndarray:
+    def act(self, observation: np.ndarray) -> np.ndarray:
         """Follow the current primitive; re-decide when the state changes or it ends."""
+        task = self.task
+        if task is None:
+            raise RuntimeError("begin_episode was not called")
+        grip = grip_of(task, observation)
+        if not self._decided:  # the episode's first decision, from where the grip is
+            self._decided = True
+            self._decide(grip)
         s_next = self._observe_state(observation)
-        dt = env.sim.dt_step
-        self.t += dt
+        self.t += task.dt
         finished = self.line is None and self.t >= 0.4 or (
             self.line is not None and self.t >= self.line.duration + 0.4)
         if s_next != self.state or finished:
             self._transition(s_next)
-            self._decide(env)
+            self._decide(grip)
         if self.passive or self.line is None:
             return PASSIVE_ACTION.copy()
-        sensed = observation[-(6 + 4 * self.graph.n_intentions + 1):][:6].astype(float)
+        sensed = task.part(observation, "wrench").astype(float)
         moving = self.t < self.line.duration
         zero = np.zeros(3)
         scale = self.davi.update(self.davi.force(
             sensed[:3], sensed[3:], self.line.direction if moving else zero,
-            self.line.axis if moving else zero), dt)
+            self.line.axis if moving else zero), task.dt)
         if self.davi.yielded:
             self.passive = True
             return PASSIVE_ACTION.copy()
         ref = self.line.sample(self.t)
-        return follow_action(env, Pose(ref.pos, ref.quat), stiffness=scale)
+        return follow_action(task, grip, Pose(ref.pos, ref.quat), stiffness=scale)
 
-    def end(self, info: dict[str, Any]) -> None:
+    def end_episode(self, outcome: EpisodeOutcome) -> None:
         """Learn from the episode: the intention is revealed where the object was placed."""
         if len(self.robot_actions) == 0:
             self.robot_actions, self.human_actions = [WAIT], [WAIT]
             self.states.append(self.state)
         trace = Trace(np.array(self.states), np.array(self.robot_actions),
                       np.array(self.human_actions))
-        placed = int(info.get("placed", -1))
-        self.agent.end_episode(trace, placed if placed != self.start else -1)
+        self.agent.end_episode(trace, outcome.intention)
 
 
-def run_episode(env: Any, policy: ContinuousPolicy, seed: int | None = None,
+def run_episode(env: Any, policy: PhysicalAgent, seed: int | None = None,
                 options: dict[str, Any] | None = None) -> dict[str, Any]:
-    """One episode of ``policy`` on ``env`` (a ``gym.make``-d env or the unwrapped one);
-    the episode's return, effort, steps, outcome and the last ``info``.
+    """One episode of ``policy`` on ``env`` (a ``gym.make``-d env or the unwrapped one)
+    as a summary: the return, the human's effort, steps, time, where the object was placed,
+    whether at the goal, the fault, the last ``info`` and the outcome
+    (:func:`agents.physical.run_physical_episode`; v0 and v1 ids).
     """
     base = getattr(env, "unwrapped", env)
-    obs, _ = env.reset(seed=seed, options=options)
-    policy.begin(base)
-    total, info = 0.0, {}
-    while True:
-        obs, reward, term, trunc, info = env.step(policy.act(obs, base))
-        total += float(reward)
-        if term or trunc:
-            break
-    policy.end(info)
-    return {"return": total, "effort": float(info.get("episode_effort", 0.0)),
-            "steps": int(base.steps), "time_s": base.steps * base.sim.dt_step,
-            "placed": int(info.get("placed", -1)),
+    run = run_physical_episode(env, policy, seed=seed, options=options)
+    info = run.info
+    effort = float(run.outcome.metrics.get("effort", info.get("episode_effort", 0.0)))
+    return {"return": run.reward, "effort": effort, "steps": run.steps,
+            "time_s": run.steps * base.sim.dt_step, "placed": run.outcome.placed,
             "reached_intention": bool(info.get("reached_intention", False)),
-            "fault": info.get("fault"), "info": info}
+            "fault": run.outcome.fault, "info": info, "outcome": run.outcome}

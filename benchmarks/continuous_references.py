@@ -57,11 +57,10 @@ def main() -> None:
     results: dict[str, dict[str, dict[str, object]]] = {}
     for scenario in args.scenarios.split(","):
         env = gym.make(str(scenario_spec(scenario).continuous_id), drive=args.drive)
-        base = env.unwrapped
         results[scenario] = {}
         for name in args.policies.split(","):
             policy = (UpperReference() if name == "upper" else PassiveFloor()
-                      if name == "passive" else LiftedLearner(base, seed=0))
+                      if name == "passive" else LiftedLearner(scenario, seed=0))
             t0 = time.perf_counter()
             rows = [run_episode(env, policy, seed=i) for i in range(args.episodes)]
             wall = time.perf_counter() - t0

@@ -54,8 +54,10 @@ def c_speed(scenario: str, drive: str, seconds: float) -> dict[str, float]:
         while time.perf_counter() - t0 < seconds:
             obs, _ = env.reset(seed=seed)
             seed += 1
+            policy.attach(base)
+            policy.begin_episode(base.robot_task())
             while True:
-                obs, _, term, trunc, _ = env.step(policy.act(obs, base))
+                obs, _, term, trunc, _ = env.step(policy.act(obs))
                 steps += 1
                 if steps == 60 and snapshot is None:
                     snapshot = mujoco.MjData(base.sim.model)
@@ -93,8 +95,11 @@ def warp_speed(scenario: str, n_worlds: int, steps: int,
     views = [SimpleNamespace(sim=WarpCarrySim(worlds, i)) for i in range(n_worlds)]
     rows, active = np.arange(n_worlds), np.ones(n_worlds, dtype=bool)
 
+    scale = SimpleNamespace(max_step_m=worlds.max_step_m, max_step_rad=worlds.max_step_rad)
+
     def one_step() -> None:
-        actions = np.stack([follow_action(v, v.sim.human_grip_reference()) for v in views])
+        actions = np.stack([follow_action(scale, v.sim.grip_pose(),  # type: ignore[arg-type]
+                                          v.sim.human_grip_reference()) for v in views])
         worlds.step(worlds.commands(rows, actions), active)
 
     one_step()  # the first run on a machine compiles Warp's kernels here

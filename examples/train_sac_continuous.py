@@ -37,25 +37,20 @@ import gymnasium as gym
 import numpy as np
 
 import hri_envs  # noqa: F401
-from baselines.continuous import PassiveFloor, UpperReference
+from agents.physical import PhysicalAgent
+from baselines.continuous import PassiveFloor, UpperReference, run_episode
 
 ENV_ID = "hri_envs/HangerPandaContinuous-v0"
 
 
-def evaluate(env: gym.Env, act: Any, seeds: list[int]) -> dict[str, list[float]]:
-    """Return, effort and goal reached per episode of a policy ``act(obs, env)``."""
+def evaluate(env: gym.Env, agent: PhysicalAgent, seeds: list[int]) -> dict[str, list[float]]:
+    """Return, effort and goal reached per episode of a robot agent."""
     out: dict[str, list[float]] = {"return": [], "effort": [], "reached": []}
     for seed in seeds:
-        obs, _ = env.reset(seed=seed)
-        total, info = 0.0, {}
-        while True:
-            obs, r, term, trunc, info = env.step(act(obs, env.unwrapped))
-            total += float(r)
-            if term or trunc:
-                break
-        out["return"].append(total)
-        out["effort"].append(float(info["episode_effort"]))
-        out["reached"].append(float(info["reached_intention"]))
+        row = run_episode(env, agent, seed=seed)
+        out["return"].append(row["return"])
+        out["effort"].append(row["effort"])
+        out["reached"].append(float(row["reached_intention"]))
     return out
 
 
@@ -136,13 +131,18 @@ def main() -> None:
     eval_env = gym.make(ENV_ID, **kw)
     seeds = [10_000 + i for i in range(args.eval_episodes)]
 
-    def sac_act(obs: np.ndarray, _env: Any) -> np.ndarray:
-        action, _ = model.predict(train.normalize_obs(obs), deterministic=True)
-        return np.asarray(action, dtype=np.float32)
+    class Sac(PhysicalAgent):
+        name = "sac"
+
+        def act(self, observation: np.ndarray) -> np.ndarray:
+            action, _ = model.predict(train.normalize_obs(observation), deterministic=True)
+            return np.asarray(action, dtype=np.float32)
+
+    sac_act = Sac()
 
     t0 = time.perf_counter()
-    refs = {"upper": evaluate(eval_env, UpperReference().act, seeds),
-            "passive": evaluate(eval_env, PassiveFloor().act, seeds)}
+    refs = {"upper": evaluate(eval_env, UpperReference(), seeds),
+            "passive": evaluate(eval_env, PassiveFloor(), seeds)}
     curve: list[dict[str, float]] = []
     for name, res in refs.items():
         print(f"{name} reference: return {np.mean(res['return']):.2f} effort "
@@ -173,8 +173,8 @@ def main() -> None:
     train.training = False
     final_seeds = [20_000 + i for i in range(args.final_episodes)]
     final = {"sac": evaluate(eval_env, sac_act, final_seeds),
-             "passive": evaluate(eval_env, PassiveFloor().act, final_seeds),
-             "upper": evaluate(eval_env, UpperReference().act, final_seeds)}
+             "passive": evaluate(eval_env, PassiveFloor(), final_seeds),
+             "upper": evaluate(eval_env, UpperReference(), final_seeds)}
     diff = paired_ci(np.array(final["sac"]["return"]), np.array(final["passive"]["return"]))
     summary = {
         "env": ENV_ID, "steps": args.steps, "seed": args.seed, "train_wall_s": train_wall,

@@ -17,7 +17,7 @@ import gymnasium
 
 from hri_envs.task.scenarios import SCENARIOS
 
-__all__ = ["register_envs"]
+__all__ = ["continuous_id", "register_envs"]
 
 _ROBOT_ENV = "hri_envs.envs.robot:RobotEnv"
 #: The Panda ids' env: a RobotEnv that refuses a backend other than a physics one.
@@ -51,7 +51,20 @@ def _specs() -> list[dict[str, object]]:
             out.append({"id": spec.continuous_id, "entry_point": _CONTINUOUS_ENV,
                         "vector_entry_point": _CONTINUOUS_VECTOR_ENV,
                         "kwargs": {"scenario": spec.name}})
+            # v1: the placing reward, the intention hidden from info (CarryEnv's history).
+            out.append({"id": continuous_id(spec.continuous_id, 1),
+                        "entry_point": _CONTINUOUS_ENV,
+                        "vector_entry_point": _CONTINUOUS_VECTOR_ENV,
+                        "kwargs": {"scenario": spec.name, "version": 1}})
     return out
+
+
+def continuous_id(v0_id: str, version: int) -> str:
+    """The id of ``version`` of a continuous env whose v0 id is ``v0_id``
+    (``hri_envs/HangerPandaContinuous-v0`` → ``...-v1``).
+    """
+    base, _, _ = v0_id.rpartition("-v")
+    return f"{base}-v{version}"
 
 
 def register_envs() -> None:

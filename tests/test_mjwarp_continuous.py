@@ -256,8 +256,10 @@ def test_whole_episodes_of_the_upper_reference_equal_the_c_backend(scenario):
         env = gym.make(env_id, backend=backend).unwrapped
         obs, _ = env.reset(seed=3, options=B_TO_A)
         policy, steps = UpperReference(), []
+        policy.attach(env)
+        policy.begin_episode(env.robot_task())
         while True:
-            step = _record(env, env.step(policy.act(obs, env)))
+            step = _record(env, env.step(policy.act(obs)))
             obs = step["obs"]
             steps.append(step)
             if step["term"] or step["trunc"]:

@@ -20,7 +20,8 @@ from hri_envs.physics.intention import HumanParams  # noqa: E402
 from hri_envs.physics.kinematics import rotation_error  # noqa: E402
 from hri_envs.task.scenarios import scenario_graph  # noqa: E402
 
-IDS = ["hri_envs/HangerPandaContinuous-v0", "hri_envs/WheelPandaContinuous-v0"]
+IDS = ["hri_envs/HangerPandaContinuous-v0", "hri_envs/WheelPandaContinuous-v0",
+       "hri_envs/HangerPandaContinuous-v1", "hri_envs/WheelPandaContinuous-v1"]
 PASSIVE = np.array([0, 0, 0, 0, 0, 0, -1.0])
 
 
@@ -45,7 +46,8 @@ def test_gymnasium_and_sb3_check_env(env_id: str) -> None:
     env.close()
 
 
-@pytest.mark.parametrize("module", ["hanger_continuous_v0", "wheel_continuous_v0"])
+@pytest.mark.parametrize("module", ["hanger_continuous_v0", "wheel_continuous_v0",
+                                    "hanger_continuous_v1", "wheel_continuous_v1"])
 def test_parallel_api(module: str) -> None:
     import importlib
 
@@ -207,7 +209,7 @@ def test_the_lifted_learner_acts_through_primitives_and_learns() -> None:
     from baselines.continuous import LiftedLearner, run_episode
 
     env = CarryEnv("hanger", max_time_s=6.0)
-    learner = LiftedLearner(env, seed=0)
+    learner = LiftedLearner("hanger", seed=0)
     theta = learner.agent.batch.theta.copy()  # type: ignore[attr-defined]
     run_episode(env, learner, seed=0, options={"start": "B", "intention": "A"})
     assert len(set(learner.states)) >= 2  # the object left its support state

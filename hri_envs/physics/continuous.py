@@ -9,131 +9,41 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import gymnasium as gym
-import mujoco
 import numpy as np
 from gymnasium import spaces
 
 from hri_envs.envs.backends import carry_backend, carry_vector_backend
-from hri_envs.errors import ActionError, ConfigError, ResetNeeded
+from hri_envs.errors import ConfigError, ResetNeeded
 from hri_envs.physics.carry import DRIVES, CarryStep, RobotCommand
-from hri_envs.physics.design import PhysicsDesign
+from hri_envs.physics.carry_reward import (
+    EFFORT_LEVER_M,
+    EpisodeRecord,
+    PlacingReward,
+    RewardWeights,
+    StallClock,
+    check_weights,
+)
+from hri_envs.physics.carry_simulation import ACTION_SIZE, CarrySimulation, check_box_action
 from hri_envs.physics.ik import IKFailure
-from hri_envs.physics.intention import HumanParams, IntentionHuman
-from hri_envs.physics.kinematics import Pose
-from hri_envs.physics.scene import Scene
-from hri_envs.task.geometry import Scenario
+from hri_envs.physics.intention import HumanParams
+from hri_envs.physics.robot_view import RobotTask, observation_layout
 from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 
-__all__ = ["ACTION_SIZE", "CarryEnv", "CarrySimulation", "RewardWeights", "check_box_action",
-           "vector_env"]
+__all__ = ["ACTION_SIZE", "VERSIONS", "CarryEnv", "CarrySimulation", "HiddenIntentionError",
+           "PlacingReward", "RewardWeights", "check_box_action", "vector_env"]
 
-#: The robot's action: grip offset (3), rotation (3), stiffness (1), each in [-1, 1].
-ACTION_SIZE = 7
 _FAULT_KINDS = ("dropped", "slipped", "too_weak")
 _DEFAULT_TIME_S = {"hanger": 30.0, "wheel": 45.0}
+#: The continuous ids' versions: 0 (progress reward, frozen) and 1 (placing reward, the
+#: intention hidden from ``info`` until the episode's end).
+VERSIONS: tuple[int, ...] = (0, 1)
 
 
-@dataclass(frozen=True)
-class RewardWeights:
-    """The reward's weights (see :class:`CarryEnv`, "Rewards").
-
-    Attributes:
-        progress: Reward for the whole route (per unit of route progress).
-        effort: Cost per N s of the human's effort.
-        disagreement: Cost per J of work the human does against the object's motion.
-        fault: Cost of an episode that ends dropped or slipped.
-    """
-
-    progress: float = 10.0
-    effort: float = 0.02
-    disagreement: float = 0.1
-    fault: float = 5.0
-
-
-class CarrySimulation(Protocol):
-    """What the continuous envs use of their simulation: a
-    :class:`~hri_envs.physics.carry.CarrySim` (``backend="mujoco"``) or one world on MuJoCo
-    Warp (:class:`~hri_envs.physics.mjwarp.carry_sim.WarpCarrySim`, ``backend="mjwarp"``).
-    """
-
-    design: PhysicsDesign
-    scene: Scene
-    dt_step: float
-    max_step_m: float
-    max_step_rad: float
-
-    @property
-    def model(self) -> mujoco.MjModel:
-        """The C model (for pictures)."""
-
-    @property
-    def data(self) -> mujoco.MjData:
-        """A C ``MjData`` holding the current state (for pictures)."""
-
-    @property
-    def sensed(self) -> np.ndarray:
-        """(6,) the robot's last wrist reading."""
-
-    @property
-    def human(self) -> IntentionHuman:
-        """The human's intention and reference."""
-
-    def reset(self, start: int, goal: int, rng: np.random.Generator,
-              scenario: Scenario | None = None, human: HumanParams | None = None,
-              robot_holds: bool = True) -> None:
-        """Place an episode's start (:meth:`CarrySim.reset`)."""
-
-    def command(self, action: np.ndarray) -> RobotCommand:
-        """The robot's command for an action."""
-
-    def human_command(self, action: np.ndarray) -> RobotCommand:
-        """The human agent's command for an action."""
-
-    def step(self, cmd: RobotCommand, human_cmd: RobotCommand | None = None) -> CarryStep:
-        """Simulate 40 ms."""
-
-    def object_pose(self) -> Pose:
-        """The object's pose."""
-
-    def grip_pose(self) -> Pose:
-        """The robot's grip frame."""
-
-    def object_velocity(self) -> tuple[np.ndarray, np.ndarray]:
-        """The object's linear and angular velocity."""
-
-    def robot_joints(self) -> tuple[np.ndarray, np.ndarray]:
-        """The robot's joint positions and velocities."""
-
-    def seat_positions(self) -> np.ndarray:
-        """(K, 3) the supports' seats."""
-
-    def progress(self) -> float:
-        """The object's progress along the human's route."""
-
-    def human_grip_reference(self) -> Pose:
-        """The robot's grip pose at the human's reference now."""
-
-    def max_lift_n(self) -> float:
-        """The arm's greatest upward force at the hand [N]."""
-
-
-def check_box_action(agent: str, action: Any, size: int = ACTION_SIZE) -> np.ndarray:
-    """``action`` as a float (size,) array in [-1, 1]; an :class:`ActionError` (a
-    ``ValueError``) naming the agent, the action and the valid range otherwise.
-    """
-    try:
-        a = np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError):
-        a = None
-    if a is None or a.shape != (size,) or not np.all(np.isfinite(a)) \
-            or np.any(np.abs(a) > 1.0 + 1e-6):
-        raise ActionError(f"the {agent}'s action must be {size} finite numbers in [-1, 1] "
-                          f"(Box(-1, 1, ({size},))), got {action!r}")
-    return np.clip(a, -1.0, 1.0)
+class HiddenIntentionError(AttributeError):
+    """The intention was asked for during a v1 episode: it is revealed at the end."""
 
 
 class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -172,13 +82,21 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Rewards
 
-    Per step ``w_p Δprogress - w_e effort - w_d disagreement``: ``progress`` is the object's
-    progress along the human's route to their goal (0 at the start, 1 at the goal: path
-    length of position + lever x angle, projected onto the route), ``effort`` the human's
-    effort (∫ |F| + |τ| / lever dt [N s] of the wrench their hand puts on the handle),
-    ``disagreement`` the work [J] the human does against the object's motion. An episode
-    that ends dropped, slipped or too weak costs ``w_f`` more. Weights :class:`RewardWeights`
-    (defaults 10, 0.02, 0.1, 5).
+    **v1** (``*PandaContinuous-v1``; :class:`~hri_envs.physics.carry_reward.PlacingReward`):
+    placing the object at the human's goal is what pays. Per step ``- w_e effort
+    - w_d disagreement - w_s stall``: ``effort`` the human's effort (∫ |F| + |τ| / 0.1 m dt
+    [N s] of the wrench their hand puts on the handle), ``disagreement`` the work [J] the
+    human does against the object's motion, ``stall`` the seconds the object stalled (moved
+    < 1 cm and turned < 0.05 rad in the last 2 s); at the end ``+ w_place`` if the object
+    rests on the human's goal, else ``- w_fail`` (dropped, slipped, too weak, another
+    support, or the time limit). Defaults 0.02 per N s, 0.1 per J, 0.5 per s, 10, 5.
+
+    **v0** (``*PandaContinuous-v0``, kept as it was; :class:`~hri_envs.physics.
+    carry_reward.RewardWeights`): per step ``w_p Δprogress - w_e effort - w_d
+    disagreement`` with ``progress`` along the human's route (0 at the start, 1 at the goal)
+    and the effort's torque over the scenario's lever; ``- w_f`` for a drop, slip or too weak
+    (defaults 10, 0.02, 0.1, 5). It credits progress without placing and costs nothing for a
+    time-out; docs/physics.md, "Rewards".
 
     ## Starting State
 
@@ -224,17 +142,36 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
     - ``human``: a mapping of :class:`~hri_envs.physics.intention.HumanParams` (``strength``,
       ``stiffness``, ``hesitation_s``, ``reaction_s``, ``grip_force_n``, ``preference``,
       ``speed``) and/or ``preset`` ("default", "weak", "hesitant", "firm");
-    - ``max_time_s``: the time limit [s]; ``reward``: a mapping of :class:`RewardWeights`;
+    - ``max_time_s``: the time limit [s]; ``reward``: a mapping of the version's weights
+      (v1 :class:`PlacingReward`, v0 :class:`RewardWeights`);
     - ``sensor``: the wrist sensor's ``noise_n``, ``bias_n``, ``delay_s``;
     - ``max_step_m``, ``max_step_rad``: the action's scale;
-    - ``render_mode``: None or "rgb_array".
+    - ``render_mode``: None or "rgb_array";
+    - ``population``: v1: the name of a physical human population; a member is drawn at
+      every reset from ``np_random`` (:mod:`hri_envs.physics.population`);
+    - ``version``: 1 or 0 (set by the registered id).
 
-    ``info`` of every step: ``progress``, ``effort``, ``linear_impulse``,
+    ``info`` (v1) during an episode holds only what the robot's observation shows:
+    ``time_s`` and ``stalled``. The step that ends the episode adds ``placed``,
+    ``reached_intention``, ``fault`` (``fault_detail``) and ``episode``: the human's effort
+    (also per unit of route progress), the impulses, peak and RMS interaction force, the
+    object's RMS jerk, the disagreement work, the time stalled, the time to place, the
+    return, the intention and the outcome (:class:`~hri_envs.physics.carry_reward.
+    EpisodeRecord`). The intention is hidden until then: ``env.unwrapped.intention`` raises
+    :class:`HiddenIntentionError` during a v1 episode. (The simulation itself, ``sim``, holds
+    the human and their route: references and tools may read it, a robot agent never gets
+    it; :meth:`robot_task` is what a robot may know.)
+
+    ``info`` (v0) of every step: ``progress``, ``effort``, ``linear_impulse``,
     ``angular_impulse``, ``disagreement``, ``episode_effort``, ``fault``, ``placed``,
     ``reached_intention``, ``saturated`` (arm joints at their strength limit).
 
     ## Version History
 
+    - v1: the reward pays for placing (progress no longer credited), a time-out and a stall
+      cost, one effort lever for every scenario; ``info`` holds nothing derived from the
+      intention during an episode and reports the interaction figures at its end;
+      ``population``.
     - v0: initial version (``backend="mjwarp"`` added later; the default is unchanged).
     """
 
@@ -245,7 +182,15 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
                  reward: Mapping[str, float] | None = None,
                  sensor: Mapping[str, float] | None = None, max_step_m: float = 0.02,
                  max_step_rad: float = 0.06, render_mode: str | None = None,
-                 backend: str = "mujoco") -> None:
+                 backend: str = "mujoco", population: str | None = None,
+                 version: int = 0) -> None:
+        if version not in VERSIONS:
+            raise ConfigError(f"unknown version {version!r} of the continuous envs; allowed: "
+                              f"{', '.join(map(str, VERSIONS))}", field="version")
+        if population is not None and version == 0:
+            raise ConfigError("population= needs the v1 ids (*PandaContinuous-v1); v0 takes "
+                              "one human (human=...)", field="population")
+        self.version = version
         spec = scenario_spec(scenario)
         if spec.physics_design is None:
             raise ConfigError(f"scenario {scenario!r} has no physical design; allowed: "
@@ -257,7 +202,9 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ConfigError(f"render_mode must be None or 'rgb_array', got {render_mode!r}",
                               field="render_mode")
         self.human_params = HumanParams.of(dict(human) if human is not None else None)
-        self.weights = _weights(reward)
+        self.weights: RewardWeights | PlacingReward = check_weights(
+            PlacingReward if version else RewardWeights, reward)
+        self.population = None if population is None else _population(population, scenario)
         max_time_s = _DEFAULT_TIME_S.get(scenario, 30.0) if max_time_s is None else max_time_s
         if isinstance(max_time_s, bool) or not isinstance(max_time_s, int | float) \
                 or not math.isfinite(max_time_s) or max_time_s <= 0:
@@ -285,12 +232,29 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         self.observation_space = spaces.Box(-np.inf, np.inf, (self.n_obs,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
         self.layout: tuple[tuple[float, float], ...] | None = None
+        self.time_limit_s = float(max_time_s)
+        self.layout_names = observation_layout(n_q, n_k)
         self._renderer: Any = None
         self._done = True
         self.steps = 0
-        self.start, self.intention = 0, 1
+        self.start, self._intention = 0, 1
         self.episode_effort = 0.0
         self._progress = 0.0
+        self._record = EpisodeRecord(self.sim.dt_step)
+        self._stall = StallClock(self.sim.dt_step)
+
+    @property
+    def intention(self) -> int:
+        """The human's goal support: v0 always; v1 only once the episode has ended.
+
+        Raises:
+            HiddenIntentionError: (an ``AttributeError``) during a v1 episode.
+        """
+        if self.version and not self._done:
+            raise HiddenIntentionError(
+                "the intention is hidden during an episode of the v1 ids; it is revealed at "
+                "the episode's end (info['episode']['intention'])")
+        return self._intention
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -326,14 +290,22 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
             self.layout = (opts["layout"] if opts.get("layout") is not None
                            else self._layout_sampler(rng))
         scenario = episode_scenario(self.scenario_name, self.layout)
-        self.start, self.intention = start, goal
+        self.start, self._intention = start, goal
+        human = (self.population.draw(rng) if self.population is not None
+                 else self.human_params)
         self._fault: str | None = None
         try:
             self.sim.reset(start, goal, np.random.default_rng(int(rng.integers(2**63))),
-                           scenario, self.human_params, bool(robot_holds))
+                           scenario, human, bool(robot_holds))
         except IKFailure as exc:
             self._fault = f"ik_failure: {exc}"
         self.steps, self.episode_effort, self._done = 0, 0.0, False
+        self._robot_holds = bool(robot_holds)
+        if self.version:
+            self._record.reset()
+            pose = self.sim.object_pose()
+            self._stall.reset(pose.pos, pose.quat)
+            return self._observation(), {"time_s": 0.0, "stalled": False}
         self._progress = self.sim.progress()
         return self._observation(), {"progress": self._progress, "placed": -1,
                                      "reached_intention": False, "fault": None}
@@ -345,15 +317,59 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ResetNeeded()
         if self._fault is not None:  # the robot could not reach its grip: nothing runs
             self._done = True
-            return self._observation(), 0.0, False, True, {
-                "fault": "ik_failure", "fault_detail": self._fault, "placed": -1,
-                "reached_intention": False, "progress": self._progress}
-        res = self.sim.step(self.sim.command(a))
-        return self._after(res)
+            info: dict[str, Any] = {"fault": "ik_failure", "fault_detail": self._fault,
+                                    "placed": -1, "reached_intention": False}
+            if self.version:
+                info["episode"] = self._record.report(
+                    outcome="ik_failure", placed=-1, intention=self._intention,
+                    progress=0.0, fault="ik_failure")
+            else:
+                info["progress"] = self._progress
+            return self._observation(), 0.0, False, True, info
+        return self._after(self.sim.step(self.sim.command(a)))
 
     def _after(self, res: CarryStep) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """The step's observation, reward, ends and info after the simulation's step."""
+        return self._after_v1(res) if self.version else self._after_v0(res)
+
+    def _after_v1(self, res: CarryStep
+                  ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """v1: the placing reward; the intention only in the last step's info."""
         self.steps += 1
         w = self.weights
+        assert isinstance(w, PlacingReward)
+        pose = self.sim.object_pose()
+        stalled = res.placed < 0 and self._stall.update(pose.pos, pose.quat)
+        effort = res.linear_impulse + res.angular_impulse / EFFORT_LEVER_M
+        reward = (-w.effort * effort - w.disagreement * res.disagreement
+                  - (w.stall * self.sim.dt_step if stalled else 0.0))
+        kind = res.fault_kind
+        terminated = res.placed >= 0 or kind in _FAULT_KINDS
+        truncated = not terminated and (self.steps >= self.max_steps or kind is not None)
+        self._done = terminated or truncated
+        info: dict[str, Any] = {"time_s": self.steps * self.sim.dt_step, "stalled": stalled}
+        if not self._done:
+            self._record.add(res, stalled, reward)
+            return self._observation(), float(reward), False, False, info
+        reached = res.placed == self._intention
+        reward += w.place if reached else -w.fail
+        self._record.add(res, stalled, reward)
+        outcome = ("placed" if reached else "wrong_support" if res.placed >= 0
+                   else kind if kind is not None else "timeout")
+        info.update(placed=res.placed, reached_intention=reached, fault=kind)
+        if res.fault is not None:
+            info["fault_detail"] = res.fault
+        info["episode"] = self._record.report(
+            outcome=outcome, placed=res.placed, intention=self._intention,
+            progress=self.sim.progress(), fault=kind)
+        return self._observation(), float(reward), terminated, truncated, info
+
+    def _after_v0(self, res: CarryStep
+                  ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """v0: the progress reward, everything in every step's info (frozen)."""
+        self.steps += 1
+        w = self.weights
+        assert isinstance(w, RewardWeights)
         reward = (w.progress * (res.progress - self._progress) - w.effort * res.effort
                   - w.disagreement * res.disagreement)
         self._progress = res.progress
@@ -368,11 +384,25 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
                 "linear_impulse": res.linear_impulse, "angular_impulse": res.angular_impulse,
                 "disagreement": res.disagreement, "episode_effort": self.episode_effort,
                 "fault": kind, "placed": res.placed,
-                "reached_intention": res.placed == self.intention,
+                "reached_intention": res.placed == self._intention,
                 "saturated": res.saturated, "time_s": self.steps * self.sim.dt_step}
         if res.fault is not None:
             info["fault_detail"] = res.fault
         return self._observation(), float(reward), terminated, truncated, info
+
+    def robot_task(self) -> RobotTask:
+        """What the robot may know of the current episode (:class:`~hri_envs.physics.
+        robot_view.RobotTask`): the supports, the start, the task graph, the action's scale,
+        the design; never the intention or the human.
+        """
+        return RobotTask(
+            scenario=self.scenario_name, graph=self.graph,
+            geometry=episode_scenario(self.scenario_name, self.layout), start=self.start,
+            seats=np.array(self.sim.seat_positions(), dtype=float), layout=self.layout,
+            dt=self.sim.dt_step, time_limit_s=self.time_limit_s,
+            max_step_m=self.sim.max_step_m, max_step_rad=self.sim.max_step_rad,
+            design=self.sim.design, layout_names=dict(self.layout_names),
+            robot_holds=getattr(self, "_robot_holds", True))
 
     def _support(self, value: Any, key: str) -> int | None:
         if value is None:
@@ -438,16 +468,11 @@ def vector_env(num_envs: int = 1, scenario: str = "hanger", *, backend: str = "m
     return carry_vector_backend(backend)(num_envs, scenario, backend=backend, **kwargs)
 
 
-def _weights(reward: Mapping[str, float] | None) -> RewardWeights:
-    values = dict(reward or {})
-    allowed = ("progress", "effort", "disagreement", "fault")
-    bad = sorted(set(values) - set(allowed))
-    if bad:
-        raise ConfigError(f"unknown reward weight(s) {', '.join(map(repr, bad))}; allowed: "
-                          f"{', '.join(allowed)}", field="reward")
-    for key, value in values.items():
-        if isinstance(value, bool) or not isinstance(value, int | float) \
-                or not math.isfinite(value) or value < 0:
-            raise ConfigError(f"reward weight {key!r} must be a number >= 0, got {value!r}",
-                              field="reward")
-    return RewardWeights(**{k: float(v) for k, v in values.items()})
+def _population(name: Any, scenario: str) -> Any:
+    """The physical human population ``name`` of ``scenario`` (v1's ``population=``)."""
+    from hri_envs.physics.population import physical_population  # noqa: PLC0415
+
+    if not isinstance(name, str):
+        raise ConfigError(f"population must be a population's name, got {name!r}",
+                          field="population")
+    return physical_population(name, scenario)

@@ -55,6 +55,8 @@ class CarryParallelEnv(ParallelEnv[str, np.ndarray, np.ndarray]):
 
     ## Version History
 
+    - v1: :class:`CarryEnv`'s v1 (the placing reward, no intention in ``info`` during an
+      episode; the human's observation still holds their goal).
     - v0: initial version.
     """
 
@@ -63,6 +65,7 @@ class CarryParallelEnv(ParallelEnv[str, np.ndarray, np.ndarray]):
 
     def __init__(self, scenario: str = "hanger", **kwargs: Any) -> None:
         self.env = CarryEnv(scenario, **kwargs)
+        self.metadata = {**self.metadata, "name": f"carry_continuous_v{self.env.version}"}
         self.render_mode = self.env.render_mode
         self.possible_agents = list(AGENTS)
         self.agents: list[str] = []
@@ -83,7 +86,7 @@ class CarryParallelEnv(ParallelEnv[str, np.ndarray, np.ndarray]):
 
     def _observations(self, robot: np.ndarray) -> dict[str, np.ndarray]:
         goal = np.zeros(self.env.graph.n_intentions, dtype=np.float32)
-        goal[self.env.intention] = 1.0
+        goal[self.env._intention] = 1.0  # the human knows their goal
         return {"robot": robot, "human": np.concatenate([robot, goal])}
 
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None
@@ -138,14 +141,16 @@ def parallel_env(scenario: str = "hanger", **kwargs: Any) -> CarryParallelEnv:
     return CarryParallelEnv(scenario, **kwargs)
 
 
-def entry_points(scenario: str) -> tuple[Callable[..., AECEnv], Callable[..., CarryParallelEnv]]:
-    """``(env, parallel_env)`` of ``scenario``'s continuous env, as its versioned module
-    exports them (``hri_envs.hanger_continuous_v0``): the parallel env and its AEC form
-    (PettingZoo's ``parallel_to_aec``), keyword arguments :class:`CarryEnv`'s.
+def entry_points(scenario: str, version: int = 0
+                 ) -> tuple[Callable[..., AECEnv], Callable[..., CarryParallelEnv]]:
+    """``(env, parallel_env)`` of ``scenario``'s continuous env of ``version``, as its
+    versioned module exports them (``hri_envs.hanger_continuous_v0``, ``..._v1``): the
+    parallel env and its AEC form (PettingZoo's ``parallel_to_aec``), keyword arguments
+    :class:`CarryEnv`'s.
     """
 
     def parallel(**kwargs: Any) -> CarryParallelEnv:
-        return CarryParallelEnv(scenario, **kwargs)
+        return CarryParallelEnv(scenario, **{"version": version, **kwargs})
 
     def aec(**kwargs: Any) -> AECEnv:
         return parallel_to_aec(parallel(**kwargs))

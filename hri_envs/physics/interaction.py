@@ -5,9 +5,11 @@ interaction studies report the *peak* and *RMS interaction force* and the *jerk*
 carried object (smoothness). :class:`InteractionMeter` computes them from what each control
 period (125 Hz) of a step samples: the magnitude of the force the human's hand puts on the
 handle and the object's linear velocity at the period's end. Jerk is the second difference
-of the sampled velocity (the third derivative of the position), so the first two samples of
-an episode carry no jerk. The same arrays serve one world (the C backend) and N (MuJoCo
-Warp).
+(the third derivative of the position) of the step's mean velocity, at the env's 25 Hz: the
+mean over the step's periods filters the contact chatter that differences at 125 Hz would
+amplify, so jerk measures how the object is carried, not the simulator's noise. The first
+two steps of an episode carry no jerk. The same arrays serve one world (the C backend) and
+N (MuJoCo Warp).
 """
 
 from __future__ import annotations
@@ -43,9 +45,9 @@ class InteractionMeter:
 
     def __init__(self, n: int, dt: float) -> None:
         self.dt = float(dt)
-        self.v_prev = np.zeros((n, 3))  # the last sampled velocity [m/s]
-        self.a_prev = np.zeros((n, 3))  # the last sampled acceleration [m/s²]
-        self.samples = np.zeros(n, dtype=np.int64)  # velocities sampled this episode
+        self.v_prev = np.zeros((n, 3))  # the last step's mean velocity [m/s]
+        self.a_prev = np.zeros((n, 3))  # the last step's acceleration [m/s²]
+        self.samples = np.zeros(n, dtype=np.int64)  # mean velocities this episode
 
     def reset(self, rows: np.ndarray | slice, velocity: np.ndarray | None = None) -> None:
         """New episodes in ``rows``: the object starts at ``velocity`` ((R, 3); default at
@@ -64,18 +66,14 @@ class InteractionMeter:
             force: (R, P) the hand's force magnitude [N] at each period's end.
             velocity: (R, P, 3) the object's linear velocity [m/s] at each period's end.
         """
-        dt = self.dt
         force = np.asarray(force, dtype=float)
-        v = np.concatenate([self.v_prev[rows][:, None], velocity], axis=1)  # (R, P+1, 3)
-        acc = np.diff(v, axis=1) / dt  # (R, P, 3)
-        a = np.concatenate([self.a_prev[rows][:, None], acc], axis=1)
-        jerk = np.diff(a, axis=1) / dt  # (R, P, 3)
-        # A jerk sample needs three velocities of this episode: the p-th sample of the step
-        # is the (samples + p)-th velocity, valid from the third on.
-        count = self.samples[rows][:, None] + np.arange(1, force.shape[1] + 1)[None]
-        valid = count >= 3
-        jerk_sq = (np.einsum("rpi,rpi->rp", jerk, jerk) * valid).sum(axis=1) * dt
-        self.v_prev[rows] = velocity[:, -1]
-        self.a_prev[rows] = acc[:, -1]
-        self.samples[rows] = count[:, -1]
-        return StepInteraction(force.max(axis=1), (force * force).sum(axis=1) * dt, jerk_sq)
+        dt_step = self.dt * force.shape[1]
+        v = np.asarray(velocity, dtype=float).mean(axis=1)  # (R, 3) the step's mean
+        acc = (v - self.v_prev[rows]) / dt_step
+        jerk = (acc - self.a_prev[rows]) / dt_step
+        count = self.samples[rows] + 1
+        # A jerk sample needs three mean velocities of this episode (the rest is the first).
+        jerk_sq = np.einsum("ri,ri->r", jerk, jerk) * (count >= 3) * dt_step
+        self.v_prev[rows], self.a_prev[rows], self.samples[rows] = v, acc, count
+        return StepInteraction(force.max(axis=1), (force * force).sum(axis=1) * self.dt,
+                               jerk_sq)
