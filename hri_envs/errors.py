@@ -42,7 +42,7 @@ __all__ = [
 EXTRA_OF: dict[str, str] = {
     "matplotlib": "bench", "tqdm": "bench", "scipy": "bench", "numba": "bench",
     "mujoco": "mujoco", "mink": "mujoco", "gymnasium_robotics": "mujoco", "imageio": "mujoco",
-    "imageio_ffmpeg": "mujoco",
+    "imageio_ffmpeg": "mujoco", "PIL": "mujoco",
     "fastapi": "web", "uvicorn": "web", "pyarrow": "web", "minari": "web", "selenium": "web",
     "stable_baselines3": "rl", "sb3_contrib": "rl", "torch": "rl",
     "ray": "ray",

@@ -29,6 +29,7 @@ from hri_envs.physics.carry_reward import (
 from hri_envs.physics.carry_simulation import ACTION_SIZE, CarrySimulation, check_box_action
 from hri_envs.physics.ik import IKFailure
 from hri_envs.physics.intention import HumanParams
+from hri_envs.physics.rendering import RenderSettings
 from hri_envs.physics.robot_view import RobotTask, observation_layout
 from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 
@@ -128,7 +129,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
     import hri_envs
     env = gym.make("hri_envs/HangerPandaContinuous-v0", drive="torque", human=None,
                    max_time_s=None, reward=None, sensor=None, render_mode=None,
-                   backend="mujoco")
+                   backend="mujoco", camera=None, render_goal=False,
+                   render_size=(640, 480))
     ```
 
     - ``scenario``: "hanger" or "wheel" (set by the registered id);
@@ -146,7 +148,13 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
       (v1 :class:`PlacingReward`, v0 :class:`RewardWeights`);
     - ``sensor``: the wrist sensor's ``noise_n``, ``bias_n``, ``delay_s``;
     - ``max_step_m``, ``max_step_rad``: the action's scale;
-    - ``render_mode``: None or "rgb_array";
+    - ``render_mode``: None or "rgb_array"; ``camera``: "overview" (the default), "side",
+      "top" (each fitted at reset to hold the supports, the object and both agents) or a
+      mapping of MuJoCo's free-camera ``lookat``, ``distance``, ``azimuth``, ``elevation``
+      (the keys left out are the overview's); ``render_size``: ``(width, height)`` [px];
+      ``render_goal``: mark the human's goal (for a viewer; False by default, as an agent
+      learning from pixels must not see it). The supports are labelled by name
+      (docs/physics.md, "Pictures");
     - ``population``: v1: the name of a physical human population; a member is drawn at
       every reset from ``np_random`` (:mod:`hri_envs.physics.population`);
     - ``version``: 1 or 0 (set by the registered id).
@@ -183,7 +191,9 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
                  sensor: Mapping[str, float] | None = None, max_step_m: float = 0.02,
                  max_step_rad: float = 0.06, render_mode: str | None = None,
                  backend: str = "mujoco", population: str | None = None,
-                 version: int = 0) -> None:
+                 version: int = 0, camera: str | Mapping[str, Any] | None = None,
+                 render_goal: bool = False, render_size: tuple[int, int] = (640, 480)
+                 ) -> None:
         if version not in VERSIONS:
             raise ConfigError(f"unknown version {version!r} of the continuous envs; allowed: "
                               f"{', '.join(map(str, VERSIONS))}", field="version")
@@ -201,6 +211,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(f"render_mode must be None or 'rgb_array', got {render_mode!r}",
                               field="render_mode")
+        self.render_settings = RenderSettings.check(camera, render_goal, render_size)
         self.human_params = HumanParams.of(dict(human) if human is not None else None)
         self.weights: RewardWeights | PlacingReward = check_weights(
             PlacingReward if version else RewardWeights, reward)
@@ -235,6 +246,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         self.time_limit_s = float(max_time_s)
         self.layout_names = observation_layout(n_q, n_k)
         self._renderer: Any = None
+        self._aimed_at: tuple[int, Any] | None = None
         self._done = True
         self.steps = 0
         self.start, self._intention = 0, 1
@@ -432,15 +444,25 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         return out.astype(np.float32)
 
     def render(self) -> np.ndarray | None:
-        """An RGB picture (``render_mode="rgb_array"``), else None."""
+        """An RGB picture (``render_mode="rgb_array"``), else None: the camera fitted to the
+        episode's start (:class:`~hri_envs.physics.rendering.SceneRenderer`), the supports
+        labelled, the goal marked only with ``render_goal=True``.
+        """
         if self.render_mode != "rgb_array":
             return None
+        cfg = self.render_settings
         if self._renderer is None:
             from hri_envs.physics.rendering import SceneRenderer  # noqa: PLC0415
 
-            self._renderer = SceneRenderer(self.sim.model, self.sim.seat_positions())
-        self._renderer.aim(self.sim.seat_positions())
-        frame: np.ndarray = self._renderer.render(self.sim.data)
+            self._renderer = SceneRenderer(self.sim.model, self.sim.seat_positions(),
+                                           cfg.height, cfg.width, camera=cfg.camera,
+                                           names=self.graph.support_names)
+        episode = (self.start, self.layout)
+        if self.steps == 0 or self._aimed_at != episode:  # a new episode: aim again
+            self._renderer.aim(self.sim.data, self.sim.seat_positions())
+            self._aimed_at = episode
+        frame: np.ndarray = self._renderer.render(
+            self.sim.data, self._intention if cfg.goal else None)
         return frame
 
     def close(self) -> None:

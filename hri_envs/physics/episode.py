@@ -21,6 +21,7 @@ import numpy as np
 from hri_envs.envs.episode import Episode
 from hri_envs.envs.window import check_display
 from hri_envs.errors import DisplayUnavailableError
+from hri_envs.physics.camera import check_camera
 from hri_envs.physics.ik import IKFailure
 from hri_envs.physics.options import prepare_video_path
 from hri_envs.physics.rendering import SceneRenderer, write_video
@@ -72,6 +73,9 @@ class PhysicsEpisode(Episode):
             anything is simulated.
         video_fps: Frames per simulated second in the video (rounded to a whole number of
             control periods, and written at that rate so that the video plays in real time).
+        camera: The pictures' camera (a view name or a mapping of the free camera's
+            numbers, :func:`~hri_envs.physics.camera.check_camera`; fitted to each episode's
+            start); the supports are labelled by name.
         **options: The other ``physics`` options (``preset``, ``randomize`` and the
             parameters of :mod:`hri_envs.physics.options`), validated by the env.
 
@@ -85,7 +89,7 @@ class PhysicsEpisode(Episode):
 
     def __init__(self, rules: EpisodeRules, turn_state: np.ndarray | None,
                  video_path: str | None = None, video_fps: float = 10.0,
-                 **options: Any) -> None:
+                 camera: Any = None, **options: Any) -> None:
         if video_path is not None:  # before anything is simulated
             video_path = prepare_video_path(video_path)
         self.sim = self.make_sim(rules.graph, options)
@@ -98,6 +102,7 @@ class PhysicsEpisode(Episode):
         self.frames: list[np.ndarray] = []
         self.episode_count = 0
         self._renderer: SceneRenderer | None = None
+        self.camera, self._aimed = check_camera(camera, field="physics"), False
         self._viewer: Any = None
         super().__init__(rules, turn_state)
 
@@ -132,6 +137,7 @@ class PhysicsEpisode(Episode):
         except IKFailure as exc:
             self._fault = f"ik_failure: {exc}"
         self.episode_count += 1
+        self._aimed = False
         if self.video_path is not None:
             # A frame every whole number of control periods, written at the rate that
             # gives (video_fps rounded to it: 10 fps → one frame per 96 ms, 10.4 fps).
@@ -182,10 +188,16 @@ class PhysicsEpisode(Episode):
         return info
 
     def render(self, layout: tuple[tuple[float, float], ...] | None = None) -> np.ndarray:
-        """An RGB picture of the simulation (the supports are where the physics has them)."""
+        """An RGB picture of the simulation (the supports are where the physics has them,
+        labelled; the camera fitted to the episode's start, :class:`SceneRenderer`).
+        """
         if self._renderer is None:
-            self._renderer = SceneRenderer(self.sim.model, self.sim.seats.pos)
-        self._renderer.aim(self.sim.seats.pos)
+            self._renderer = SceneRenderer(self.sim.model, self.sim.seats.pos,
+                                           camera=self.camera,
+                                           names=self.rules.graph.support_names)
+        if not self._aimed:  # the camera is fitted to the episode's start
+            self._renderer.aim(self.sim.data, self.sim.seats.pos)
+            self._aimed = True
         return self._renderer.render(self.sim.data)
 
     def flush_video(self) -> None:

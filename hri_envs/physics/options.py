@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from hri_envs.errors import ConfigError, MissingExtraError
+from hri_envs.physics.camera import check_camera
 from hri_envs.physics.design import PRESET_NAMES, PhysicsDesign
 
 __all__ = ["OPTION_KEYS", "PHYSICS_MAXIMA", "PHYSICS_PARAMETERS", "VIDEO_SUFFIXES",
@@ -75,7 +76,7 @@ VIDEO_SUFFIXES: tuple[str, ...] = (".gif", ".mp4", ".mkv", ".avi", ".mov", ".web
 
 #: Every key ``physics={...}`` accepts.
 OPTION_KEYS: tuple[str, ...] = ("video_path", "video_fps", "preset", "randomize",
-                                "attempt_invalid", *PHYSICS_PARAMETERS)
+                                "attempt_invalid", "camera", *PHYSICS_PARAMETERS)
 
 
 def check_options(physics: Mapping[str, Any]) -> dict[str, Any]:
@@ -83,7 +84,8 @@ def check_options(physics: Mapping[str, Any]) -> dict[str, Any]:
 
     The keys are :data:`OPTION_KEYS`: ``video_path`` (a ``str`` or path ending in one of
     :data:`VIDEO_SUFFIXES`, with at most an ``{episode}`` field; every suffix but ".gif"
-    needs imageio-ffmpeg), ``video_fps`` (a positive number), ``preset`` (one of the
+    needs imageio-ffmpeg), ``video_fps`` (a positive number), ``camera`` (the pictures'
+    camera: :func:`~hri_envs.physics.camera.check_camera`), ``preset`` (one of the
     designs' presets), ``attempt_invalid`` (a bool), ``randomize`` (a mapping of numeric keys
     to ``(low, high)``) and the numeric :data:`PHYSICS_PARAMETERS`. Whether the video's
     folder can be written is checked when the episode is built
@@ -104,6 +106,7 @@ def check_options(physics: Mapping[str, Any]) -> dict[str, Any]:
                           field="physics")
     if physics.get("video_path") is not None:
         _video_name(physics["video_path"])
+    check_camera(physics.get("camera"), field="physics")
     attempt = physics.get("attempt_invalid", False)
     if not isinstance(attempt, bool | np.bool_):
         raise ConfigError(f"physics option 'attempt_invalid' must be True or False, got "

@@ -10,13 +10,75 @@ from __future__ import annotations
 import ctypes.util
 import os
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from hri_envs.errors import ConfigError, MissingExtraError
+from hri_envs.physics.camera import CameraPose, check_camera, fit_view, parts, project
 
-__all__ = ["SceneRenderer", "select_gl_backend", "write_video"]
+__all__ = ["RenderSettings", "SceneRenderer", "select_gl_backend", "write_video"]
+
+#: Labels are anchored this far above each support's seat [m].
+LABEL_LIFT_M = 0.12
+#: The goal's mark (only when asked): a translucent sphere at the goal's seat.
+GOAL_RADIUS_M, GOAL_RGBA = 0.07, (0.1, 0.8, 0.2, 0.45)
+#: The labels' fill colours (RGB): a support's, the goal's.
+LABEL_FILL, GOAL_FILL = (250, 250, 240), (150, 230, 150)
+#: How the overview's azimuth is chosen (:class:`ViewScore`): the height [px] of the small
+#: segmented pictures it is judged on, and the weight of each part's log pixel count (the
+#: supports, the gap between their labels: 1).
+SCORE_HEIGHT_PX = 90
+PART_WEIGHTS = {"object": 2.0, "arm": 1.0, "robot": 1.0}
+
+
+class ViewScore:
+    """How well a camera pose shows a scene: from a small segmented picture, the sum over
+    the parts the picture should show (the object, the human's arm, the robot, each support:
+    :func:`~hri_envs.physics.camera.parts`) of ``weight x log(1 + pixels seen)``, plus
+    ``log(1 + px)`` of the least gap between two supports' labels. A part hidden behind
+    another, or drawn small, scores low.
+
+    Args:
+        model: The compiled scene.
+        aspect: The picture's width / height.
+    """
+
+    def __init__(self, model: Any, aspect: float) -> None:
+        import mujoco
+
+        self._mujoco, self.model = mujoco, model
+        self.height, self.width = SCORE_HEIGHT_PX, max(16, round(SCORE_HEIGHT_PX * aspect))
+        self.renderer = mujoco.Renderer(model, self.height, self.width)
+        self.renderer.enable_segmentation_rendering()
+        self.parts = parts(model)
+        self.camera = mujoco.MjvCamera()
+        self.data: Any = None
+        self.seats = np.zeros((0, 3))
+
+    def __call__(self, pose: CameraPose) -> float:
+        """The score of ``pose`` for the state and seats set last (:attr:`data`,
+        :attr:`seats`).
+        """
+        cam = self.camera
+        cam.lookat[:], cam.distance = pose.lookat, pose.distance
+        cam.azimuth, cam.elevation = pose.azimuth, pose.elevation
+        self.renderer.update_scene(self.data, camera=cam)
+        seg = self.renderer.render()
+        geoms = seg[..., 0][seg[..., 1] == int(self._mujoco.mjtObj.mjOBJ_GEOM)]
+        seen = np.bincount(geoms[geoms >= 0], minlength=self.model.ngeom)
+        total = sum(PART_WEIGHTS.get(name, 1.0) * np.log1p(seen[mask].sum())
+                    for name, mask in self.parts.items())
+        xy, _ = project(self.seats + [0.0, 0.0, LABEL_LIFT_M], pose,
+                        float(self.model.vis.global_.fovy), self.width, self.height)
+        gaps = np.linalg.norm(xy[:, None] - xy[None], axis=2)[np.triu_indices(len(xy), 1)]
+        return float(total + (np.log1p(gaps.min()) if gaps.size else 0.0))
+
+    def close(self) -> None:
+        """Release the GL context."""
+        self.renderer.close()
 
 
 def select_gl_backend() -> str:
@@ -26,20 +88,79 @@ def select_gl_backend() -> str:
     return os.environ["MUJOCO_GL"]
 
 
+@dataclass(frozen=True)
+class RenderSettings:
+    """An env's checked picture arguments (:meth:`check`).
+
+    Attributes:
+        camera: A view name or a mapping of the free camera's numbers
+            (:func:`~hri_envs.physics.camera.check_camera`).
+        goal: Whether the human's goal is marked (for a viewer; never by default).
+        width, height: The picture's size in pixels.
+    """
+
+    camera: str | dict[str, Any] = "overview"
+    goal: bool = False
+    width: int = 640
+    height: int = 480
+
+    @classmethod
+    def check(cls, camera: Any = None, render_goal: Any = False,
+              render_size: Any = (640, 480)) -> RenderSettings:
+        """The settings of an env's ``camera``, ``render_goal`` and ``render_size``
+        (``(width, height)``) arguments.
+
+        Raises:
+            ConfigError: A value not allowed, naming the argument and what it allows.
+        """
+        view = check_camera(camera)
+        if not isinstance(render_goal, bool | np.bool_):
+            raise ConfigError(f"render_goal must be True or False, got {render_goal!r}",
+                              field="render_goal")
+        if not isinstance(render_size, tuple | list) or len(render_size) != 2 or any(
+                isinstance(v, bool) or not isinstance(v, int | np.integer)
+                or not 16 <= v <= 4096 for v in render_size):
+            raise ConfigError(f"render_size must be (width, height), whole numbers of pixels "
+                              f"in [16, 4096], got {render_size!r}", field="render_size")
+        return cls(view, bool(render_goal), int(render_size[0]), int(render_size[1]))
+
+
 class SceneRenderer:
-    """Offscreen renderer with a camera framing the scenario's supports.
+    """Offscreen renderer of a physics scene, its supports labelled by name.
+
+    The camera (:mod:`hri_envs.physics.camera`) is a named view fitted to the scene by
+    :meth:`aim` (call it when an episode starts: the supports, the object and both agents
+    in the picture) or a mapping of MuJoCo's free-camera numbers. Each support's name is
+    drawn above its seat; :meth:`render` marks the human's goal only when asked.
 
     Args:
         model: The compiled scene.
-        supports: (K, 3) support positions, to aim the camera.
+        supports: (K, 3) support (seat) positions.
         height, width: Image size in pixels.
+        camera: A view of :data:`~hri_envs.physics.camera.VIEWS` or a mapping of
+            :data:`~hri_envs.physics.camera.CAMERA_KEYS` (checked by
+            :func:`~hri_envs.physics.camera.check_camera`; None: "overview").
+        names: The supports' names, drawn as labels (None: no labels).
+        data: The scene's state to fit the camera to now (None: at the first :meth:`aim`).
+
+    Raises:
+        ConfigError: ``camera`` is not allowed.
+        RuntimeError: No offscreen OpenGL context.
     """
 
     def __init__(self, model: object, supports: np.ndarray, height: int = 360,
-                 width: int = 480) -> None:
+                 width: int = 480, camera: Any = None, names: Sequence[str] | None = None,
+                 data: object | None = None) -> None:
         import mujoco
 
         self._mujoco = mujoco
+        self.view = check_camera(camera)
+        self.names = list(names) if names is not None else None
+        self.model = model
+        frame = model.vis.global_  # type: ignore[attr-defined]
+        # the offscreen buffer must hold the picture (a visual setting; nothing simulated)
+        frame.offwidth, frame.offheight = max(frame.offwidth, width), max(frame.offheight,
+                                                                          height)
         try:
             self.renderer = mujoco.Renderer(model, height, width)
         except Exception as exc:  # no GL context: say how to get one
@@ -49,24 +170,99 @@ class SceneRenderer:
                 "(libosmesa6) and set MUJOCO_GL=egl or MUJOCO_GL=osmesa before importing"
             ) from exc
         self.camera = mujoco.MjvCamera()
-        self.aim(supports)
+        self.supports = np.asarray(supports, dtype=np.float64)
+        self.pose: CameraPose | None = None
+        self._score: ViewScore | None = None
+        if data is not None:
+            self.aim(data, supports)
 
-    def aim(self, supports: np.ndarray) -> None:
-        """Frame the supports (and the space in front of them)."""
-        lo, hi = supports.min(axis=0), supports.max(axis=0)
-        extent = float(np.linalg.norm(hi - lo))
-        self.camera.lookat[:] = (lo + hi) / 2.0 - [0.15 * extent, 0.0, 0.15 * extent]
-        self.camera.distance = 1.15 * extent + 0.6
-        self.camera.azimuth, self.camera.elevation = 200.0, -22.0
+    @property
+    def fovy(self) -> float:
+        """The vertical field of view [deg]."""
+        return float(self.model.vis.global_.fovy)  # type: ignore[attr-defined]
 
-    def render(self, data: object) -> np.ndarray:
-        """An RGB image (height, width, 3) uint8 of the current state."""
+    def aim(self, data: object, supports: np.ndarray) -> CameraPose:
+        """Fit the camera to the scene in ``data`` with the supports at ``supports`` (at the
+        start of an episode: the start state never depends on the human's goal).
+        """
+        self.supports = np.asarray(supports, dtype=np.float64)
+        aspect = self.renderer.width / self.renderer.height
+        if self._score is None:
+            self._score = ViewScore(self.model, aspect)
+        self._score.data, self._score.seats = data, self.supports
+        self.pose = fit_view(self.model, data, self.supports, self.view, aspect, self._score)
+        self.camera.lookat[:] = self.pose.lookat
+        self.camera.distance = self.pose.distance
+        self.camera.azimuth, self.camera.elevation = self.pose.azimuth, self.pose.elevation
+        return self.pose
+
+    def render(self, data: object, goal: int | None = None) -> np.ndarray:
+        """An RGB image (height, width, 3) uint8 of the state in ``data``, the supports
+        labelled; ``goal``: the index of a support to mark as the human's goal (None: no
+        mark, the default everywhere: the goal is the human's hidden intention).
+        """
+        if self.pose is None:
+            self.aim(data, self.supports)
         self.renderer.update_scene(data, camera=self.camera)
-        return np.asarray(self.renderer.render(), dtype=np.uint8)
+        if goal is not None:
+            self._goal_marker(self.supports[goal])
+        image = np.asarray(self.renderer.render(), dtype=np.uint8)
+        if self.names is None:
+            return image
+        return self._labels(image, goal)
+
+    def label_positions(self) -> np.ndarray:
+        """(K, 2) pixel positions (column, row) of the supports' labels' anchors."""
+        assert self.pose is not None
+        xy, _ = project(self.supports + [0.0, 0.0, LABEL_LIFT_M], self.pose, self.fovy,
+                        self.renderer.width, self.renderer.height)
+        return xy
+
+    def _goal_marker(self, seat: np.ndarray) -> None:
+        scene = self.renderer.scene
+        if scene.ngeom >= scene.maxgeom:
+            return
+        mujoco = self._mujoco
+        mujoco.mjv_initGeom(scene.geoms[scene.ngeom], mujoco.mjtGeom.mjGEOM_SPHERE,
+                            np.array([GOAL_RADIUS_M, 0.0, 0.0]), np.asarray(seat, float),
+                            np.eye(3).ravel(), np.array(GOAL_RGBA, dtype=np.float32))
+        scene.ngeom += 1
+
+    def _labels(self, image: np.ndarray, goal: int | None) -> np.ndarray:
+        try:
+            from PIL import Image, ImageDraw, ImageFont
+        except ImportError as exc:
+            raise MissingExtraError(["PIL"], "labelling the supports") from exc
+        assert self.names is not None
+        picture = Image.fromarray(image)
+        draw = ImageDraw.Draw(picture)
+        size = max(10, round(self.renderer.height / 22))
+        font = ImageFont.load_default(size=size)
+        pad = max(2, size // 5)
+        placed: list[tuple[float, float, float, float]] = []
+        anchors = self.label_positions()
+        for k in sorted(range(len(self.names)), key=lambda i: -anchors[i][1]):
+            text = f"{self.names[k]}: goal" if k == goal else self.names[k]
+            col, row = anchors[k]
+            left, top, right, bottom = draw.textbbox((col, row), text, font=font, anchor="mb")
+            box = (left - pad, top - pad, right + pad, bottom + pad)
+            for other in sorted(placed, key=lambda o: -o[3]):  # lift it above any it hides
+                if box[0] < other[2] and other[0] < box[2] and box[1] < other[3] \
+                        and other[1] < box[3]:
+                    lift = box[3] - other[1] + 1
+                    box, row = (box[0], box[1] - lift, box[2], box[3] - lift), row - lift
+            placed.append(box)
+            draw.rounded_rectangle(box, radius=pad, outline=(40, 40, 40),
+                                   fill=GOAL_FILL if k == goal else LABEL_FILL)
+            draw.text((col, row), text, font=font, anchor="mb", fill=(20, 20, 20))
+        return np.asarray(picture, dtype=np.uint8)
 
     def close(self) -> None:
-        """Release the GL context."""
+        """Release the GL contexts."""
         self.renderer.close()
+        if self._score is not None:
+            self._score.close()
+            self._score = None
 
 
 def write_video(frames: Sequence[np.ndarray], path: str | os.PathLike[str],
