@@ -36,11 +36,11 @@ def main() -> None:
         state = g.state_names.index(state_name)
         sim = PandaSim(g)
         sim.reset(0, state=state)
-        renderer = SceneRenderer(sim.model, sim.seats.pos, height=360, width=540)
         hands = (sim.data.site_xpos[sim.scene.grip_site] + sim.data.xpos[sim.arm.hand_body]) / 2
-        cam = renderer.camera
-        cam.lookat[:] = hands - np.array([0.0, 0.0, 0.1])
-        cam.azimuth, cam.elevation, cam.distance = azimuth, elevation, distance
+        camera = {"lookat": hands - np.array([0.0, 0.0, 0.1]), "azimuth": azimuth,
+                  "elevation": elevation, "distance": distance}
+        renderer = SceneRenderer(sim.model, sim.seats.pos, height=360, width=540,
+                                 camera=camera, data=sim.data)
         path = Path(args.out) / f"physics_{name}.png"
         iio.imwrite(path, renderer.render(sim.data), optimize=True)
         renderer.close()
