@@ -7,8 +7,8 @@ from the robot to the human, from the side away from the supports (so that both 
 seen side by side in front of the supports), and stands back just far enough to hold every
 support, the object, the robot and the human in the picture. The agents move while they
 carry the object, so the parts of the scene that can move (the object, the human, a mobile
-robot) are also framed as if carried to every support. A mapping overrides these numbers
-(the ones it leaves out are the overview's).
+robot) are also framed as if carried to every support, standing around it in any direction.
+A mapping overrides these numbers (the ones it leaves out are the overview's).
 
 The fit reads the scene at the episode's start only: its supports and where the start puts
 the agents, never the human's goal (the start state does not depend on it), so a policy that
@@ -51,6 +51,8 @@ TORSO_BODY = "human_torso"
 
 #: The fitted distance is this factor above the tightest one (a margin around the scene).
 _MARGIN = 1.06
+#: The parts that move are framed turned about the object by these angles [deg].
+_TURNS_DEG: tuple[float, ...] = (-30.0, 0.0, 30.0)
 
 
 @dataclass(frozen=True)
@@ -130,7 +132,8 @@ def _roots(model: Any) -> dict[str, int]:
 def scene_points(model: Any, data: Any, seats: np.ndarray) -> np.ndarray:
     """(N, 3) points a fitted view holds: the corners of every visible geom's box but the
     floor's, and those of the geoms that can move (bodies on a free or sliding root, or a
-    mocap body) shifted horizontally as if the object were carried to each support.
+    mocap body) as if the object were carried to each support and the agents stood around
+    it in any direction (turned about the object, every 360 / :data:`_TURNS` degrees).
     """
     movers = {model.jnt_bodyid[j] for j in range(model.njnt)
               if model.jnt_type[j] in (0, 2) and model.body_rootid[model.jnt_bodyid[j]]
@@ -152,8 +155,13 @@ def scene_points(model: Any, data: Any, seats: np.ndarray) -> np.ndarray:
     if moving and OBJECT_BODY in roots:
         held = np.concatenate(moving)
         here = data.xpos[roots[OBJECT_BODY]]
-        shifts = (seats - here) * [1.0, 1.0, 0.0]
-        points = np.concatenate([points, *(held + s for s in shifts)])
+        rel = held - here
+        turns = np.radians(np.asarray(_TURNS_DEG, dtype=float))[:, None]
+        cos, sin = np.cos(turns), np.sin(turns)
+        around = np.stack([cos * rel[:, 0] - sin * rel[:, 1], sin * rel[:, 0] + cos * rel[:, 1],
+                           np.broadcast_to(rel[:, 2], cos.shape[:1] + rel.shape[:1])],
+                          axis=-1).reshape(-1, 3)
+        points = np.concatenate([points, *(seat + around for seat in seats)])
     points[:, 2] = np.maximum(points[:, 2], 0.0)  # nothing below the floor is seen
     return points
 

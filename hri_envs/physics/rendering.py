@@ -28,18 +28,20 @@ GOAL_RADIUS_M, GOAL_RGBA = 0.07, (0.1, 0.8, 0.2, 0.45)
 #: The labels' fill colours (RGB): a support's, the goal's.
 LABEL_FILL, GOAL_FILL = (250, 250, 240), (150, 230, 150)
 #: How the overview's azimuth is chosen (:class:`ViewScore`): the height [px] of the small
-#: segmented pictures it is judged on, and the weight of each part's log pixel count (the
-#: supports, the gap between their labels: 1).
+#: segmented pictures it is judged on, the weight of each part's log pixel count (each
+#: support's: 1), and the credit for labels apart by at least LABEL_GAP picture heights.
 SCORE_HEIGHT_PX = 90
 PART_WEIGHTS = {"object": 2.0, "arm": 1.0, "robot": 1.0}
+LABEL_GAP, LABEL_WEIGHT = 0.12, 3.0
 
 
 class ViewScore:
     """How well a camera pose shows a scene: from a small segmented picture, the sum over
     the parts the picture should show (the object, the human's arm, the robot, each support:
-    :func:`~hri_envs.physics.camera.parts`) of ``weight x log(1 + pixels seen)``, plus
-    ``log(1 + px)`` of the least gap between two supports' labels. A part hidden behind
-    another, or drawn small, scores low.
+    :func:`~hri_envs.physics.camera.parts`) of ``weight x log(1 + pixels seen)``, plus up to
+    :data:`LABEL_WEIGHT` as the least gap between two supports' labels grows to
+    :data:`LABEL_GAP` picture heights. A part hidden behind another, or drawn small, and
+    labels on top of each other score low.
 
     Args:
         model: The compiled scene.
@@ -74,7 +76,8 @@ class ViewScore:
         xy, _ = project(self.seats + [0.0, 0.0, LABEL_LIFT_M], pose,
                         float(self.model.vis.global_.fovy), self.width, self.height)
         gaps = np.linalg.norm(xy[:, None] - xy[None], axis=2)[np.triu_indices(len(xy), 1)]
-        return float(total + (np.log1p(gaps.min()) if gaps.size else 0.0))
+        spread = min(1.0, gaps.min() / (LABEL_GAP * self.height)) if gaps.size else 1.0
+        return float(total + LABEL_WEIGHT * spread)
 
     def close(self) -> None:
         """Release the GL context."""
