@@ -71,7 +71,7 @@ def check_camera(camera: Any, field: str = "camera") -> str | dict[str, Any]:
     Raises:
         ConfigError: An unknown view or key, or a value not allowed (named in the message).
     """
-    allowed = (f"one of {', '.join(map(repr, VIEWS))} or a mapping of "
+    allowed = (f"{', '.join(map(repr, VIEWS))} or a mapping of "
                f"{', '.join(CAMERA_KEYS)}")
     if camera is None:
         return "overview"
