@@ -169,9 +169,12 @@ def jax_script_flags(command: str) -> None:
 
 def syntax(command: str) -> None:
     """The syntax check of a command: an ``hri-bench`` command parses, a script's flags are
-    its own."""
-    if _words(command)[0] == ".venv/bin/python":
-        script_flags(command)
+    its own (after any ``VAR=value`` before the program)."""
+    words = _words(command)
+    while "=" in words[0]:
+        words.pop(0)
+    if words[0] == ".venv/bin/python":
+        script_flags(shlex.join(words))
     else:
         parses(command)
 
@@ -330,6 +333,12 @@ PLAN: dict[str, Plan] = {
     "--seed 0 --out out/hanger_warp": Skip(
         "MuJoCo Warp compiles its kernels first (1.5 min of a core without a cache); "
         "tests/test_mjwarp.py runs it in its own process of `make test`", parses),
+    "MUJOCO_GL=egl .venv/bin/python docs/figures/continuous_videos.py --policies upper,passive "
+    "--out docs/figures": Scaled(
+        "MUJOCO_GL=egl .venv/bin/python docs/figures/continuous_videos.py --policies "
+        "upper,passive --scenarios wheel --max-steps 6 --size 160x120 --out out/videos",
+        "6 steps of the wheel, small pictures, into the workspace (the page's command "
+        "rewrites the committed GIFs in 4 min)"),
     # docs/rl.md
     ".venv/bin/pip install -c constraints.txt -e '.[ray]'": Skip(INSTALL, an_extra),
     ".venv/bin/python examples/train_maskable_ppo.py --timesteps 50000 --n-envs 16": Scaled(

@@ -14,6 +14,7 @@ pytest.importorskip("PIL")
 import hri_envs  # noqa: E402,F401
 from hri_envs.errors import ConfigError  # noqa: E402
 from hri_envs.physics.camera import VIEWS, project, scene_points  # noqa: E402
+from hri_envs.physics.options import check_options  # noqa: E402
 
 HANGER, WHEEL = "hri_envs/HangerPandaContinuous-v0", "hri_envs/WheelPandaContinuous-v0"
 SIZE = (240, 180)
@@ -48,6 +49,9 @@ def test_a_camera_or_picture_argument_not_allowed_is_refused(kwargs, words):
 def test_the_panda_envs_refuse_an_unknown_camera():
     with pytest.raises(ConfigError, match="unknown camera 'front'; allowed: 'overview'"):
         gym.make("hri_envs/HangerPanda-v0", physics={"camera": "front"})
+    with pytest.raises(ConfigError, match="unknown camera key") as err:  # as studies check
+        check_options({"camera": {"fov": 30}})
+    assert err.value.field == "physics"
 
 
 @pytest.mark.parametrize("env_id", [HANGER, WHEEL])
@@ -84,6 +88,8 @@ def test_the_supports_are_labelled_where_they_are():
     r = env._renderer
     anchors = r.label_positions()
     assert ((anchors >= 0) & (anchors <= SIZE)).all()  # each support's label is in the picture
+    seats, _ = project(env.sim.seat_positions(), r.pose, r.fovy, *SIZE)
+    assert np.linalg.norm(anchors - seats, axis=1).max() < 0.1 * SIZE[1]  # just above its seat
     r.names = None
     bare = env.render()
     changed = np.argwhere((labelled != bare).any(axis=2))[:, ::-1]  # (column, row)

@@ -110,7 +110,7 @@ def main() -> None:
                    help=f"comma-separated, from {', '.join(POLICIES)} (default upper,passive)")
     p.add_argument("--scenarios", default="hanger,wheel", help="default hanger,wheel")
     p.add_argument("--seed", type=int, default=1,
-                   help="the episode's seed (default 1: the wheel from C to A, which the "
+                   help="the episode's seed (default 1: the wheel from B to A, which the "
                         "passive robot does not place in its 45 s)")
     p.add_argument("--every", type=int, default=2,
                    help="keep every n-th 40 ms step's picture (default 2)")
