@@ -3,8 +3,8 @@
     MUJOCO_GL=egl .venv/bin/python docs/figures/continuous_videos.py --policies upper,passive \
         --out docs/figures
 
-runs one episode (``--seed``: the same start, goal and wheel layout for every policy) of each
-policy of ``--policies`` (names of :data:`POLICIES`) on each scenario of ``--scenarios`` with
+runs one episode of the v1 ids (``--seed``: the same start, goal and wheel layout for every
+policy) of each policy of ``--policies`` (names of :data:`POLICIES`) on each scenario of ``--scenarios`` with
 ``render_mode="rgb_array"`` (the env's overview camera, the supports labelled, the human's
 goal marked for the viewer), keeps every ``--every``-th step's picture (fewer if the episode
 is long: at most ``--max-frames``), writes a caption on each (scenario, policy, simulated
@@ -26,13 +26,15 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 import hri_envs  # noqa: F401  (registers the ids)
-from baselines.continuous import ContinuousPolicy, LiftedLearner, PassiveFloor, UpperReference
+from agents.physical import PhysicalAgent, outcome_of
+from baselines.continuous import LiftedLearner, PassiveFloor, UpperReference
+from hri_envs.registration import continuous_id
 from hri_envs.task.scenarios import scenario_spec
 
-#: Policy name -> (what the caption calls it, a builder given the unwrapped env).
-POLICIES: dict[str, tuple[str, Callable[[Any], ContinuousPolicy]]] = {
-    "upper": ("upper reference", lambda env: UpperReference()),
-    "passive": ("passive robot", lambda env: PassiveFloor()),
+#: Policy name -> (what the caption calls it, a builder given the scenario's name).
+POLICIES: dict[str, tuple[str, Callable[[str], PhysicalAgent]]] = {
+    "upper": ("upper reference", lambda scenario: UpperReference()),
+    "passive": ("passive robot", lambda scenario: PassiveFloor()),
     "learner": ("lifted Learner", LiftedLearner),
 }
 
@@ -64,21 +66,25 @@ def record(scenario: str, policy: str, seed: int, every: int, max_frames: int,
     last frame held 1.5 s).
     """
     label, build = POLICIES[policy]
-    env = gym.make(str(scenario_spec(scenario).continuous_id), render_mode="rgb_array",
-                   render_goal=True, render_size=size)
+    env_id = continuous_id(str(scenario_spec(scenario).continuous_id), 1)
+    env = gym.make(env_id, render_mode="rgb_array", render_goal=True, render_size=size)
     base = env.unwrapped
     obs, _ = env.reset(seed=seed)
-    agent = build(base)
-    agent.begin(base)
+    agent = build(scenario)
+    if agent.privileged:  # a reference reads the simulation
+        agent.attach(base)
+    task = base.robot_task()
+    agent.begin_episode(task)
     shots: list[tuple[float, np.ndarray]] = [(0.0, env.render())]
     info: dict[str, Any] = {}
+    truncated = False
     while max_steps is None or base.steps < max_steps:
-        obs, _, terminated, truncated, info = env.step(agent.act(obs, base))
+        obs, _, terminated, truncated, info = env.step(agent.act(obs))
         if base.steps % every == 0 or terminated or truncated:
             shots.append((base.steps * base.sim.dt_step, env.render()))
         if terminated or truncated:
+            agent.end_episode(outcome_of(task, info, truncated and not terminated))
             break
-    agent.end(info)
     env.close()
     keep = max(1, math.ceil(len(shots) / max_frames))  # a long episode: fewer frames
     shots = shots[::keep] if shots[-1] is shots[::keep][-1] else [*shots[::keep], shots[-1]]
