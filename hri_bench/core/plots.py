@@ -20,7 +20,7 @@ import matplotlib
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
 
 from hri_bench.core import stats
 from hri_bench.core.results import StudyResult, StudySettings
@@ -204,33 +204,44 @@ def decision_panels(result: Result, agents: Sequence[str] | None = None,
 
 
 def policy_lines(ax: Axes, values: np.ndarray, labels: Sequence[str], *, relative: bool = False,
-                 title: str | None = None) -> None:
+                 title: str | None = None, colors: Sequence[Any] | None = None,
+                 styles: Sequence[str] | None = None, ylabel: bool = True) -> None:
     """Median and interquartile band of probed policy entries over episodes (Figs. 8, 11, 12).
 
     Args:
         ax: Target axes.
         values: (runs, episodes + 1, P) probed probabilities (episode 0 = before learning).
         labels: One label per probe.
-        relative: Values are ratios to waiting, drawn on a log axis with the 1.0 line.
+        relative: Values are ratios to waiting, drawn on a log axis with the 1.0 line and
+            plain numbers on its ticks (0.3, 1, 4: not 3×10⁻¹).
         title: Axes title.
+        colors, styles: One colour and line style per probe (default: a colour each, solid).
+        ylabel: Label the y axis (False where the figure labels its rows once).
     """
     x = np.arange(values.shape[1])
     cmap = matplotlib.colormaps["tab10" if values.shape[2] <= 10 else "tab20"]
     for j, label in enumerate(labels):
         v = values[:, :, j]
-        color = cmap(j % cmap.N)
+        color = colors[j] if colors is not None else cmap(j % cmap.N)
         ax.fill_between(x, np.nanpercentile(v, 25, 0), np.nanpercentile(v, 75, 0), color=color,
-                        alpha=0.15, linewidth=0)
-        ax.plot(x, np.nanmedian(v, 0), color=color, label=label, linewidth=1.5)
+                        alpha=0.12, linewidth=0)
+        ax.plot(x, np.nanmedian(v, 0), color=color, label=label, linewidth=1.5,
+                linestyle=styles[j] if styles is not None else "-")
     ax.set_xlabel("episodes learned")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     if relative:
         ax.set_yscale("log")
+        plain = FuncFormatter(lambda v, _: f"{v:g}")
+        ax.yaxis.set_major_formatter(plain)
+        ax.yaxis.set_minor_formatter(NullFormatter())
+        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 3.0, 5.0)))
         ax.axhline(1.0, color="k", linestyle="-.", linewidth=0.8)
-        ax.set_ylabel("p(preferred action) / p(wait)")
+        if ylabel:
+            ax.set_ylabel("p(preferred action) / p(wait)")
     else:
         ax.set_ylim(-0.02, 1.02)
-        ax.set_ylabel("action probability")
+        if ylabel:
+            ax.set_ylabel("action probability")
     if title:
         ax.set_title(title)
 

@@ -21,6 +21,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
+
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 
 from hri_bench.core.plots import (
     band_legend,
@@ -35,10 +39,27 @@ from hri_bench.run.study import Probe, StudyConfig, StudyResult, graph_for, run_
 from hri_envs.errors import ConfigError
 from hri_envs.task.graph import PUT_ON, ROTATE, TOGGLE, TaskGraph
 
-__all__ = ["FIGURES", "fig8_probes", "make_figures", "wheel_probes"]
+__all__ = ["FIGURES", "action_kind", "fig8_probes", "make_figures", "wheel_probes"]
 
 FIGURES = ("fig10a", "fig10b", "fig10c", "fig11", "fig12", "fig8", "fig4")
 WHEEL_SETTINGS = {"fig10a": (-0.25, 0.0), "fig10b": (-0.5, 0.0), "fig10c": (-0.25, 0.2)}
+#: Figs. 11 and 12: a colour per kind of action probed (colour-blind safe, Okabe-Ito) and a
+#: line style per goal, rather than ten colours in a panel.
+ACTION_COLORS = {"move over": "#0072B2", "move up": "#E69F00", "move down": "#56B4E9",
+                 "rotate": "#009E73", "put on": "#CC79A7", "let go": "#D55E00"}
+GOAL_STYLES = {0: ("-", "towards the rack (A)"), 1: ("--", "towards a stand (B)")}
+
+
+def action_kind(label: str) -> str:
+    """The kind of action (a key of :data:`ACTION_COLORS`) of a Fig. 11/12 probe's label."""
+    what = label.split(": ", 1)[1]
+    return next(kind for kind in ACTION_COLORS if what.startswith(kind.removeprefix("move ")))
+
+
+def _median_band_handles() -> list[Any]:
+    """Legend entries that say what a line and a band are."""
+    return [Line2D([], [], color="0.3", linewidth=1.5, label="line: median of the runs"),
+            Patch(color="0.3", alpha=0.15, linewidth=0, label="band: interquartile range")]
 
 
 def wheel_probes(graph: TaskGraph, preference: str) -> tuple[Probe, ...]:
@@ -149,7 +170,8 @@ def make_figures(
     for fig, pref in (("fig11", "straight"), ("fig12", "detour")):
         if fig not in only:
             continue
-        f, axes = new_figure(3, 3, figsize=(15, 11), sharex=True, sharey=True)
+        f, axes = new_figure(3, 3, figsize=(15, 10.5), sharex=True, sharey=True,
+                             layout="constrained")
         rows = (("learner", "human", "Learner's π̂_H"), ("learner", "robot", "Learner's π_R"),
                 ("maxent", "robot", "plain ME-IRL's π"))
         for col, setting in enumerate(WHEEL_SETTINGS):
@@ -160,13 +182,18 @@ def make_figures(
                 idx = [j for j, p in enumerate(probes) if p.kind == kind]
                 policy_lines(axes[row, col], res.probes[agent][:, :, idx],
                              [probes[j].label for j in idx],
-                             title=f"{name}: r0 = {r0:g}, passive {passive:.0%}")
-        for row in range(3):
-            axes[row, 2].legend(frameon=False, fontsize=7, loc="center left",
-                                bbox_to_anchor=(1, 0.5))
+                             colors=[ACTION_COLORS[action_kind(probes[j].label)] for j in idx],
+                             styles=[GOAL_STYLES[probes[j].intention][0] for j in idx],
+                             title=f"{name}: r0 = {r0:g}, passive {passive:.0%}",
+                             ylabel=col == 0)
+        handles = [Line2D([], [], color=c, linewidth=2, label=k) for k, c in
+                   ACTION_COLORS.items()]
+        handles += [Line2D([], [], color="0.2", linestyle=ls, label=goal)
+                    for ls, goal in GOAL_STYLES.values()]
+        f.legend(handles=[*handles, *_median_band_handles()], loc="outside right center",
+                 frameon=False, fontsize=9, title="action probed", title_fontsize=9)
         f.suptitle(f"{pref.capitalize()} preference: the Learner's human-policy estimate (top), "
-                   "its robot policy (middle), plain ME-IRL's policy (bottom); median and "
-                   "interquartile band")
+                   f"its robot policy (middle), plain ME-IRL's policy (bottom); {runs} runs")
         paths.append(save_figure(f, out / f"{fig}.png"))
     if "fig8" in only:
         graph = graph_for("hanger")
@@ -174,10 +201,18 @@ def make_figures(
                       schedule="random", preference=None, probes=fig8_probes(graph))
         res = run_study(cfg, progress=progress)
         log(f"fig8: {res.wall_time_s:.1f} s")
-        f, axes = new_figure(2, 2, figsize=(10, 7), sharex=True)
+        f, axes = new_figure(2, 2, figsize=(10, 7), sharex=True, layout="constrained")
         for ax, j in zip(axes.ravel(), range(4), strict=True):
             policy_lines(ax, res.probes["learner"][:, :, [j]], [cfg.probes[j].label],
-                         relative=True, title=cfg.probes[j].label)
+                         relative=True, title=cfg.probes[j].label, colors=["C0"],
+                         ylabel=False)
+        for ax in axes[0]:
+            ax.set_xlabel("")
+        f.supylabel("p(preferred action) / p(wait), log scale")
+        f.legend(handles=[*_median_band_handles(),
+                          Line2D([], [], color="k", linestyle="-.", linewidth=0.8,
+                                 label="1: as likely as waiting")],
+                 loc="outside lower center", ncol=3, frameon=False, fontsize=9)
         f.suptitle("Hanger, most frequent preference: preferred action vs waiting "
                    f"({runs} random simulations)")
         paths.append(save_figure(f, out / "fig8.png"))
