@@ -20,7 +20,8 @@ module             contents
 ``episode``        the backend inside the envs (``backend="mujoco"``)
 ``batch``          :class:`PhysicsBatch`, the backend of ``hri-bench study --backend mujoco``
 ``speed``          real-time factor and wall time per abstract step
-``rendering``      headless ``rgb_array`` (EGL, OSMesa fallback) and videos
+``rendering``      headless ``rgb_array`` (EGL, OSMesa fallback), labels, videos
+``camera``         the pictures' camera fitted to the scene; projecting points into them
 ``mjwarp``         the same physics, many worlds at once on MuJoCo Warp (``"mjwarp"``)
 ``whole_arm``      the continuous envs' human: a whole arm on a torso, friction grip
 ``muscles``        the same arm muscle-driven: MyoSuite's ``myoarm_r`` (``arm`` extra)
