@@ -316,6 +316,7 @@ def plot(result: SampleEfficiencyResult, path: str | Path) -> Path:
     The figure is made without pyplot, so no display and no backend choice are needed.
     """
     from matplotlib.figure import Figure
+    from matplotlib.ticker import FuncFormatter
 
     from hri_bench.core.plots import agent_style  # matplotlib, as above
 
@@ -354,11 +355,14 @@ def plot(result: SampleEfficiencyResult, path: str | Path) -> Path:
         ax.text(0.01, 0.02, "▼ below the axis: the greedy policy deadlocks until the step limit",
                 transform=ax.transAxes, fontsize=7.5, color="#444444")
     ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))  # 10, not 10¹
     ax.set_xlabel("episodes of interaction with the same human (log scale)")
     ax.set_ylabel("robot cooperation reward per episode")
     ax.set_title(f"{cfg.scenario}: sample efficiency against one scripted human")
     ax.spines[["top", "right"]].set_visible(False)
-    ax.legend(fontsize=8, loc="center right", frameon=False)
+    # below the axes, where it hides no curve
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2,
+              frameon=False)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120, bbox_inches="tight")
