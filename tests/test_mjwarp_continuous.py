@@ -279,3 +279,20 @@ def test_whole_episodes_of_the_upper_reference_equal_the_c_backend(scenario):
         c[-1]["info"]["episode_effort"], rel=EFFORT_RTOL)
     assert sum(s["reward"] for s in w) == pytest.approx(sum(s["reward"] for s in c),
                                                         abs=RETURN_TOL)
+
+
+def test_the_picture_on_mjwarp_is_the_c_backends():
+    """The same renderer draws the Warp world (copied into the C model): the same camera,
+    fitted at reset, and the same picture."""
+    shots = {}
+    for backend in ("mujoco", "mjwarp"):
+        env = gym.make(HANGER, backend=backend, render_mode="rgb_array",
+                       render_size=(160, 120)).unwrapped
+        env.reset(seed=0, options=B_TO_A)
+        shots[backend] = (env.render().astype(float), env._renderer.pose)
+        env.close()
+    (c_frame, c_pose), (w_frame, w_pose) = shots["mujoco"], shots["mjwarp"]
+    assert np.allclose(c_pose.lookat, w_pose.lookat, atol=1e-3)
+    assert np.allclose((c_pose.azimuth, c_pose.elevation), (w_pose.azimuth, w_pose.elevation),
+                       atol=1e-3)
+    assert np.abs(c_frame - w_frame).mean() < 2.0 and c_frame.std() > 10
