@@ -289,7 +289,7 @@ def test_the_picture_on_mjwarp_is_the_c_backends():
         env = gym.make(HANGER, backend=backend, render_mode="rgb_array",
                        render_size=(160, 120)).unwrapped
         env.reset(seed=0, options=B_TO_A)
-        shots[backend] = (env.render().astype(float), env._renderer.pose)
+        shots[backend] = (env.render().astype(float), env.pictures.renderer.pose)
         env.close()
     (c_frame, c_pose), (w_frame, w_pose) = shots["mujoco"], shots["mjwarp"]
     assert np.allclose(c_pose.lookat, w_pose.lookat, atol=1e-3)

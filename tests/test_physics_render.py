@@ -58,7 +58,7 @@ def test_the_panda_envs_refuse_an_unknown_camera():
 def test_the_overview_holds_the_supports_the_object_and_both_agents(env_id):
     for seed in (0, 1):
         env, frame = picture(env_id, seed)
-        r = env._renderer
+        r = env.pictures.renderer
         # every visible part of the scene now (not the floor) lands inside the picture
         here = env.sim.object_pose().pos[None]
         xy, ahead = project(scene_points(env.sim.model, env.sim.data, here), r.pose,
@@ -77,7 +77,7 @@ def test_each_view_and_a_given_camera_give_their_own_picture():
     assert len({f.tobytes() for f in frames.values()}) == len(VIEWS)
     given = {"lookat": (0.3, 0.2, 0.6), "distance": 2.5, "azimuth": 120.0, "elevation": -20.0}
     env, frame = picture(HANGER, camera=given)
-    pose = env._renderer.pose
+    pose = env.pictures.renderer.pose
     assert (pose.lookat, pose.distance, pose.azimuth, pose.elevation) == tuple(given.values())
     assert not any(np.array_equal(frame, f) for f in frames.values())
     env.close()
@@ -85,7 +85,7 @@ def test_each_view_and_a_given_camera_give_their_own_picture():
 
 def test_the_supports_are_labelled_where_they_are():
     env, labelled = picture(HANGER)
-    r = env._renderer
+    r = env.pictures.renderer
     anchors = r.label_positions()
     assert ((anchors >= 0) & (anchors <= SIZE)).all()  # each support's label is in the picture
     seats, _ = project(env.sim.seat_positions(), r.pose, r.fovy, *SIZE)
@@ -123,7 +123,7 @@ def test_the_camera_is_aimed_again_at_the_wheel_stands_of_each_episode():
         env.render()
         env.step(np.zeros(7))  # a step does not move the camera
         env.render()
-        r = env._renderer
+        r = env.pictures.renderer
         assert np.array_equal(r.supports, env.sim.seat_positions())
         anchors = r.label_positions()
         assert ((anchors >= 0) & (anchors <= SIZE)).all()

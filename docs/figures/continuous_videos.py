@@ -4,13 +4,13 @@
         --out docs/figures
 
 runs one episode of the v1 ids (``--seed``: the same start, goal and wheel layout for every
-policy) of each policy of ``--policies`` (names of :data:`POLICIES`) on each scenario of ``--scenarios`` with
-``render_mode="rgb_array"`` (the env's overview camera, the supports labelled, the human's
-goal marked for the viewer), keeps every ``--every``-th step's picture (fewer if the episode
-is long: at most ``--max-frames``), writes a caption on each (scenario, policy, simulated
-time, and at the end how the episode ended) and saves ``continuous_<scenario>_<policy>.gif``
-in ``--out``, played ``--speed`` times faster than real time. A policy is added to the table
-by one line.
+policy) of each policy of ``--policies`` (names of :data:`POLICIES`) on each scenario of
+``--scenarios`` with ``render_mode="rgb_array"`` (the env's overview camera, the supports
+labelled, the human's goal marked for the viewer), keeps every ``--every``-th step's picture
+(fewer if the episode is long: at most ``--max-frames``), writes a caption on each
+(scenario, policy, simulated time, and at the end how the episode ended) and saves
+``continuous_<scenario>_<policy>.gif`` in ``--out``, played ``--speed`` times faster than
+real time. A policy is added to the table by one line.
 """
 
 from __future__ import annotations

@@ -205,7 +205,7 @@ def decision_panels(result: Result, agents: Sequence[str] | None = None,
 
 def policy_lines(ax: Axes, values: np.ndarray, labels: Sequence[str], *, relative: bool = False,
                  title: str | None = None, colors: Sequence[Any] | None = None,
-                 styles: Sequence[str] | None = None, ylabel: bool = True) -> None:
+                 styles: Sequence[Any] | None = None, ylabel: bool = True) -> None:
     """Median and interquartile band of probed policy entries over episodes (Figs. 8, 11, 12).
 
     Args:
@@ -215,7 +215,8 @@ def policy_lines(ax: Axes, values: np.ndarray, labels: Sequence[str], *, relativ
         relative: Values are ratios to waiting, drawn on a log axis with the 1.0 line and
             plain numbers on its ticks (0.3, 1, 4: not 3×10⁻¹).
         title: Axes title.
-        colors, styles: One colour and line style per probe (default: a colour each, solid).
+        colors: One colour per probe (default: a colour each).
+        styles: One line style per probe (default: solid).
         ylabel: Label the y axis (False where the figure labels its rows once).
     """
     x = np.arange(values.shape[1])

@@ -25,6 +25,7 @@ from typing import Any
 
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
+from matplotlib.typing import LineStyleType
 
 from hri_bench.core.plots import (
     band_legend,
@@ -47,7 +48,8 @@ WHEEL_SETTINGS = {"fig10a": (-0.25, 0.0), "fig10b": (-0.5, 0.0), "fig10c": (-0.2
 #: line style per goal, rather than ten colours in a panel.
 ACTION_COLORS = {"move over": "#0072B2", "move up": "#E69F00", "move down": "#56B4E9",
                  "rotate": "#009E73", "put on": "#CC79A7", "let go": "#D55E00"}
-GOAL_STYLES = {0: ("-", "towards the rack (A)"), 1: ("--", "towards a stand (B)")}
+GOAL_STYLES: dict[int, tuple[LineStyleType, str]] = {0: ("-", "towards the rack (A)"),
+                                                      1: ("--", "towards a stand (B)")}
 
 
 def action_kind(label: str) -> str:

@@ -29,7 +29,7 @@ from hri_envs.physics.carry_reward import (
 from hri_envs.physics.carry_simulation import ACTION_SIZE, CarrySimulation, check_box_action
 from hri_envs.physics.ik import IKFailure
 from hri_envs.physics.intention import HumanParams
-from hri_envs.physics.rendering import RenderSettings
+from hri_envs.physics.rendering import EpisodePictures, RenderSettings
 from hri_envs.physics.robot_view import RobotTask, observation_layout
 from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 
@@ -211,7 +211,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(f"render_mode must be None or 'rgb_array', got {render_mode!r}",
                               field="render_mode")
-        self.render_settings = RenderSettings.check(camera, render_goal, render_size)
+        self.pictures = EpisodePictures(RenderSettings.check(camera, render_goal, render_size))
         self.human_params = HumanParams.of(dict(human) if human is not None else None)
         self.weights: RewardWeights | PlacingReward = check_weights(
             PlacingReward if version else RewardWeights, reward)
@@ -245,8 +245,6 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         self.layout: tuple[tuple[float, float], ...] | None = None
         self.time_limit_s = float(max_time_s)
         self.layout_names = observation_layout(n_q, n_k)
-        self._renderer: Any = None
-        self._aimed_at: tuple[int, Any] | None = None
         self._done = True
         self.steps = 0
         self.start, self._intention = 0, 1
@@ -445,31 +443,18 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def render(self) -> np.ndarray | None:
         """An RGB picture (``render_mode="rgb_array"``), else None: the camera fitted to the
-        episode's start (:class:`~hri_envs.physics.rendering.SceneRenderer`), the supports
-        labelled, the goal marked only with ``render_goal=True``.
+        episode's start, the supports labelled, the goal marked only with ``render_goal=True``
+        (:class:`~hri_envs.physics.rendering.EpisodePictures`).
         """
         if self.render_mode != "rgb_array":
             return None
-        cfg = self.render_settings
-        if self._renderer is None:
-            from hri_envs.physics.rendering import SceneRenderer  # noqa: PLC0415
-
-            self._renderer = SceneRenderer(self.sim.model, self.sim.seat_positions(),
-                                           cfg.height, cfg.width, camera=cfg.camera,
-                                           names=self.graph.support_names)
-        episode = (self.start, self.layout)
-        if self.steps == 0 or self._aimed_at != episode:  # a new episode: aim again
-            self._renderer.aim(self.sim.data, self.sim.seat_positions())
-            self._aimed_at = episode
-        frame: np.ndarray = self._renderer.render(
-            self.sim.data, self._intention if cfg.goal else None)
-        return frame
+        return self.pictures.draw(self.sim.model, self.sim.data, self.sim.seat_positions(),
+                                  self.graph.support_names, (self.start, self.layout),
+                                  self.steps == 0, self._intention)
 
     def close(self) -> None:
         """Release the renderer."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        self.pictures.close()
 
     # ------------------------------------------------------------------ references
     def robot_command(self, action: np.ndarray) -> RobotCommand:

@@ -19,7 +19,8 @@ import numpy as np
 from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.physics.camera import CameraPose, check_camera, fit_view, parts, project
 
-__all__ = ["RenderSettings", "SceneRenderer", "select_gl_backend", "write_video"]
+__all__ = ["EpisodePictures", "RenderSettings", "SceneRenderer", "select_gl_backend",
+           "write_video"]
 
 #: Labels are anchored this far above each support's seat [m].
 LABEL_LIFT_M = 0.12
@@ -266,6 +267,48 @@ class SceneRenderer:
         if self._score is not None:
             self._score.close()
             self._score = None
+
+
+class EpisodePictures:
+    """The pictures of an env's episodes: a :class:`SceneRenderer` made on first use, its
+    camera fitted again whenever an episode starts.
+
+    Args:
+        settings: The env's checked picture arguments.
+    """
+
+    def __init__(self, settings: RenderSettings) -> None:
+        self.settings = settings
+        self.renderer: SceneRenderer | None = None
+        self._episode: Any = None
+
+    def draw(self, model: object, data: object, seats: np.ndarray, names: Sequence[str],
+             episode: Any, starts: bool, goal: int) -> np.ndarray:
+        """A picture of the state in ``data``.
+
+        Args:
+            model: The compiled scene.
+            data: Its state.
+            seats: (K, 3) the supports' seats.
+            names: The supports' names.
+            episode: What tells this episode from the last (e.g. its start and layout).
+            starts: The episode has just started (its camera is fitted again).
+            goal: The human's goal, marked only if the settings ask for it.
+        """
+        cfg = self.settings
+        if self.renderer is None:
+            self.renderer = SceneRenderer(model, seats, cfg.height, cfg.width,
+                                          camera=cfg.camera, names=names)
+        if starts or self._episode != episode:
+            self.renderer.aim(data, seats)
+            self._episode = episode
+        return self.renderer.render(data, goal if cfg.goal else None)
+
+    def close(self) -> None:
+        """Release the renderer."""
+        if self.renderer is not None:
+            self.renderer.close()
+            self.renderer = None
 
 
 def write_video(frames: Sequence[np.ndarray], path: str | os.PathLike[str],
