@@ -148,7 +148,8 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
       a physical one (``dropped``, ``grasp_failed``, ``pulled_out``, ``off_support``)
       with reward r⁻);
     - ``physics``: options of the mujoco backend (docs/physics.md): ``video_path``,
-      ``video_fps``, ``preset`` ("weak-human", "noisy-sensor"), ``randomize``
+      ``video_fps``, ``camera`` (the pictures' camera: "overview", "side", "top" or a
+      mapping), ``preset`` ("weak-human", "noisy-sensor"), ``randomize``
       (``{key: (low, high)}`` per episode), ``attempt_invalid`` (bool: the robot
       physically tries actions the graph refuses) and the parameters ``human_stiffness`` [N/m],
       ``human_force`` [N], ``human_noise`` [N], ``human_delay_s``, ``sensor_noise_n``,

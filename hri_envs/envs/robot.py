@@ -133,7 +133,8 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
       ``"human_action_inferred"``/``"human_action_true"`` and ``"fault"``; a fault
       truncates the episode with ``info["truncation_reason"]``, a physical one with r⁻;
     - ``physics``: options of the mujoco backend (docs/physics.md): ``video_path``,
-      ``video_fps``, ``preset`` ("weak-human", "noisy-sensor"), ``randomize``,
+      ``video_fps``, ``camera`` (the pictures' camera: "overview", "side", "top" or a
+      mapping), ``preset`` ("weak-human", "noisy-sensor"), ``randomize``,
       ``attempt_invalid`` (the robot physically tries actions the graph refuses) and the
       parameters ``human_stiffness``, ``human_force``, ``human_noise``, ``human_delay_s``,
       ``human_mass``, ``sensor_noise_n``, ``sensor_bias_n``, ``sensor_delay_s``,
