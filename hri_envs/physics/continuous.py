@@ -106,7 +106,9 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
     ``np_random`` unless ``reset(options={"start": k, "intention": k})`` fixes them
     (indices or names "A", "B", ...); ``options={"robot_holds": False}`` starts with the
     robot's hand off the object (the human carries alone). The wheel's stands are placed at
-    random per episode (``options={"layout": ((xB, yB), (xC, yC))}`` fixes them).
+    random per episode (``options={"layout": ((xB, yB), (xC, yC))}`` fixes them). v1:
+    ``options={"human": HumanParams or mapping}`` sets this episode's human (else the
+    ``population``'s draw, else ``human``).
 
     ## Episode End
 
@@ -274,12 +276,12 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         opts = dict(options or {})
         # pettingzoo.test's api tests probe reset(options={"options": 1}): ignored, as by
         # the v0 envs (hri_envs.envs.config).
-        unknown = sorted(set(opts) - {"start", "intention", "robot_holds", "layout",
-                                      "options"})
+        allowed = ["start", "intention", "robot_holds", "layout"] + (
+            ["human"] if self.version else [])
+        unknown = sorted(map(str, set(opts) - {*allowed, "options"}))
         if unknown:
             raise ConfigError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; "
-                              "allowed: start, intention, robot_holds, layout",
-                              field="options")
+                              f"allowed: {', '.join(allowed)}", field="options")
         rng = self.np_random
         k = self.graph.n_intentions
         start = self._support(opts.get("start"), "start")
@@ -301,8 +303,12 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
                            else self._layout_sampler(rng))
         scenario = episode_scenario(self.scenario_name, self.layout)
         self.start, self._intention = start, goal
-        human = (self.population.draw(rng) if self.population is not None
-                 else self.human_params)
+        if opts.get("human") is not None:  # v1: this episode's human
+            human = HumanParams.of(opts["human"])
+        elif self.population is not None:
+            human = self.population.draw(rng)
+        else:
+            human = self.human_params
         self._fault: str | None = None
         try:
             self.sim.reset(start, goal, np.random.default_rng(int(rng.integers(2**63))),
