@@ -52,8 +52,8 @@ import numpy as np
 from hri_envs.errors import ConfigError
 from hri_envs.physics.whole_arm import SEGMENTS, Segment, WholeArm, _inertia
 
-__all__ = ["BODY_FIELDS", "DE_LEVA", "SEXES", "STATURE_SURVEY", "ArmBody", "BodySize",
-           "bmi_mass", "stature_at"]
+__all__ = ["BODY_FIELDS", "DE_LEVA", "SEXES", "STATURE_SURVEY", "WARP_BODY_FIELDS", "ArmBody",
+           "BodySize", "bmi_mass", "stature_at"]
 
 SEXES: tuple[str, ...] = ("male", "female")
 #: de Leva (1996), Table 4, per sex: (reference stature [m], {segment: (length [m], fraction
@@ -78,6 +78,11 @@ BODY_FIELDS: tuple[str, ...] = (
     "body_pos", "body_ipos", "body_mass", "body_inertia", "geom_pos", "geom_size",
     "geom_rbound", "geom_aabb", "body_subtreemass", "body_invweight0", "dof_invweight0",
     "dof_M0", "dof_length", "actuator_acc0", "light_poscom0")
+#: The ones of :data:`BODY_FIELDS` that MuJoCo Warp's physics reads, per world there (the
+#: pictures' geoms do not collide, and the torque drive has no muscles).
+WARP_BODY_FIELDS: tuple[str, ...] = (
+    "body_pos", "body_ipos", "body_mass", "body_inertia", "body_subtreemass",
+    "body_invweight0", "dof_invweight0")
 
 
 def stature_at(sex: str, percentile: float) -> float:

@@ -339,7 +339,7 @@ class CarrySim:
 
     def _set_body(self, params: HumanParams) -> None:
         """Check the human's drive and put their body into the model."""
-        if params.drive != self.drive_name:
+        if params.drive is not None and params.drive != self.drive_name:
             raise ConfigError(f"a human of drive {params.drive!r} cannot be simulated by a "
                               f"CarrySim of drive {self.drive_name!r}; allowed: "
                               f"{self.drive_name!r}", field="human")

@@ -60,8 +60,8 @@ class HumanParams:
             the arm's segments, the torso, the shoulder's height and the strength.
         body_mass_kg: Body mass [kg]; the segments' and the torso's masses.
         drive: The arm's drive, "torque" or "muscle" (MyoSuite's arm: one anatomy, the
-            default body only); a :class:`~hri_envs.physics.carry.CarrySim` of another
-            drive refuses the human.
+            default body only), or None: the sim's; a :class:`~hri_envs.physics.carry.
+            CarrySim` of another drive refuses the human.
 
     ``strength`` scales the torque limits of the body (its sex and stature, :meth:`~hri_envs.
     physics.body.BodySize.strength_scale`): 1 is the typical strength of such a body.
@@ -77,7 +77,7 @@ class HumanParams:
     sex: str = "male"
     stature_m: float = 1.741
     body_mass_kg: float = 75.0
-    drive: str = "torque"
+    drive: str | None = None
 
     @property
     def body(self) -> BodySize:
@@ -109,7 +109,7 @@ class HumanParams:
                               f"allowed: preset, {', '.join(allowed)}", field="human")
         for key, value in values.items():
             if key in _CHOICES:
-                if value not in _CHOICES[key]:
+                if value not in _CHOICES[key] and not (key == "drive" and value is None):
                     raise ConfigError(f"human {key!r} must be one of "
                                       f"{', '.join(_CHOICES[key])}, got {value!r}",
                                       field="human")
