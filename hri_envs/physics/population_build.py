@@ -118,10 +118,21 @@ def write(directory: Path, scenarios: dict[str, tuple[dict[str, Any], np.ndarray
                      "window_steps": WINDOW_STEPS, "force_tolerance_n": FORCE_TOLERANCE_N,
                      "path_tolerance_m": PATH_TOLERANCE_M},
            "scenarios": {s: scenarios[s][0] for s in scenarios}}
-    lines = json.dumps(doc, indent=1, sort_keys=True)
-    (directory / DATA_FILE).write_text(lines + "\n")
+    (directory / DATA_FILE).write_text(_dumps(doc) + "\n")
     arrays: dict[str, Any] = {s: v[1] for s, v in scenarios.items()}
     np.savez_compressed(directory / SIGNATURE_FILE, **arrays)
+
+
+def _dumps(doc: Any, indent: str = "") -> str:
+    """JSON with one member (a dict inside a list) per line."""
+    if isinstance(doc, dict) and len(json.dumps(doc)) > 80:
+        inner = indent + " "
+        items = [f"{inner}{json.dumps(k)}: {_dumps(v, inner)}" for k, v in sorted(doc.items())]
+        return "{\n" + ",\n".join(items) + f"\n{indent}}}"
+    if isinstance(doc, list) and doc and isinstance(doc[0], dict):
+        items = [indent + " " + json.dumps(v, sort_keys=True) for v in doc]
+        return "[\n" + ",\n".join(items) + f"\n{indent}]"
+    return json.dumps(doc, sort_keys=True)
 
 
 def nearest(sigs: np.ndarray, sizes: dict[str, int]) -> dict[str, float]:
