@@ -80,6 +80,7 @@ def test_runs_meet_members_in_balanced_blocks():
     n = len(pop)
     block = [pop.member_index(5, r) for r in range(n, 2 * n)]
     assert sorted(block) == list(range(n))
+    assert block == np.random.default_rng([5, 1, 7]).permutation(n).tolist()  # the rule
     assert block != [pop.member_index(6, r) for r in range(n, 2 * n)]
     assert pop.draw(np.random.default_rng(1)) in pop.members
 
