@@ -195,3 +195,16 @@ def test_the_v0_default_human_is_unchanged(env_id):
         h.update(np.asarray(obs, np.float64).tobytes())
         assert not (term or trunc)
     assert (total, h.hexdigest()[:16]) == V0[env_id]
+
+
+def test_the_muscle_arm_takes_its_own_anatomy_only():
+    """MyoSuite's arm has one anatomy: its sim takes a muscle human of the default body (or
+    a human whose drive is the sim's) and refuses another body or a torque human."""
+    pytest.importorskip("myo_sim")
+    pytest.importorskip("scipy")
+    sim = CarrySim(scenario_graph("wheel"), drive="muscle")
+    sim.reset(1, 0, np.random.default_rng(0), human=HumanParams(drive="muscle"))
+    with pytest.raises(ConfigError, match="one anatomy"):
+        sim.reset(1, 0, np.random.default_rng(0), human=HumanParams(stature_m=1.6))
+    with pytest.raises(ConfigError, match="drive 'torque' cannot be simulated"):
+        sim.reset(1, 0, np.random.default_rng(0), human=HumanParams(drive="torque"))
