@@ -10,7 +10,10 @@ physical_populations.json`` and ``physical_signatures.npz``. ``--check N`` probe
 per split and scenario again on this machine and prints the largest distance from the
 committed signatures (0 on the machine that wrote them), with the time a probe took.
 ``--report`` prints the splits' sizes, content hashes and nearest behavioural distances
-(docs/physical-humans.md).
+(docs/physical-humans.md). ``--feasibility N`` runs the upper reference and the passive
+floor (baselines/continuous.py) with the first N members of each test track, one episode
+each (episode i: seed i), and prints per track how often each placed the object at the
+human's goal, their mean effort and the faults.
 """
 
 from __future__ import annotations
@@ -84,6 +87,32 @@ def _report() -> None:
             print(f"  nearest {what}: {d:.2f}")
 
 
+def _feasible(args: tuple[str, int]) -> list[str]:
+    import gymnasium as gym
+
+    import hri_envs  # noqa: F401  (registers the ids)
+    from baselines.continuous import PassiveFloor, UpperReference, run_episode
+
+    scenario, n = args
+    env = gym.make(f"hri_envs/{scenario.capitalize()}PandaContinuous-v0")
+    lines = []
+    test = physical_population("test", scenario)
+    for group, rows in test.groups().items():
+        for policy in (UpperReference(), PassiveFloor()):
+            placed, effort, faults = 0, [], []
+            for k, i in enumerate(rows[:n]):
+                env.unwrapped.human_params = test.members[i]
+                out = run_episode(env, policy, seed=k)
+                placed += out["reached_intention"]
+                effort.append(out["effort"])
+                if out["fault"]:
+                    faults.append(out["fault"])
+            lines.append(f"{scenario} test-{group} {type(policy).__name__}: at the goal "
+                         f"{placed}/{len(effort)}, effort {np.mean(effort):.1f} N s, faults "
+                         f"{faults or 'none'}")
+    return lines
+
+
 def main() -> None:
     """Command line."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -91,6 +120,8 @@ def main() -> None:
     parser.add_argument("--check", type=int, default=0, metavar="N",
                         help="probe N members per split again")
     parser.add_argument("--report", action="store_true", help="sizes, hashes, distances")
+    parser.add_argument("--feasibility", type=int, default=0, metavar="N",
+                        help="the references with N members of each test track")
     args = parser.parse_args()
     if args.write:
         _write()
@@ -98,6 +129,10 @@ def main() -> None:
         _check(args.check)
     if args.report:
         _report()
+    if args.feasibility:
+        with ProcessPoolExecutor(len(SCENARIOS)) as pool:
+            for lines in pool.map(_feasible, [(s, args.feasibility) for s in SCENARIOS]):
+                print("\n".join(lines))
 
 
 if __name__ == "__main__":
