@@ -72,12 +72,15 @@ FEMALE_STRENGTH = 0.52
 _REF_STATURE_M, _REF_MASS_KG = 1.741, 75.0  # the default body
 _TORSO_MASS_KG, _TORSO_INERTIA = 40.0, np.array([2.0, 2.0, 1.0])
 _ARM_BODIES = ("human_upper_arm", "human_forearm", "human_hand")
-#: The MjModel fields :meth:`ArmBody.apply` writes or ``mj_setConst`` derives from them
-#: (per world on MuJoCo Warp).
+#: The MjModel fields :meth:`ArmBody.apply` writes or ``mj_setConst`` derives (restored
+#: exactly for the default body). ``mj_setConst`` also recomputes the bodies' collision
+#: masks from their geoms' (the robot's fingers, switched off at a reset) and the grasp
+#: weld's relative pose (set again by every reset that welds).
 BODY_FIELDS: tuple[str, ...] = (
     "body_pos", "body_ipos", "body_mass", "body_inertia", "geom_pos", "geom_size",
     "geom_rbound", "geom_aabb", "body_subtreemass", "body_invweight0", "dof_invweight0",
-    "dof_M0", "dof_length", "actuator_acc0", "light_poscom0")
+    "dof_M0", "dof_length", "actuator_acc0", "light_poscom0", "body_contype",
+    "body_conaffinity", "eq_data")
 #: The ones of :data:`BODY_FIELDS` that MuJoCo Warp's physics reads, per world there (the
 #: pictures' geoms do not collide, and the torque drive has no muscles).
 WARP_BODY_FIELDS: tuple[str, ...] = (
