@@ -48,6 +48,9 @@ ALONE = {**B_TO_A, "robot_holds": False}
 #: A human agent's action (parallel form): their hand 1 cm ahead and up and turning by
 #: 0.018 rad per step, stiff.
 HUMAN_ACTION = np.array([-0.5, 0.0, 0.5, 0.3, 0.0, -0.1, 1.0])
+#: Bodies other than the default (1.741 m, 75 kg man): a 1st-percentile woman, a tall man.
+SMALL_WOMAN = {"sex": "female", "stature_m": 1.48, "body_mass_kg": 45.0, "strength": 0.8}
+TALL_MAN = {"stature_m": 1.95, "body_mass_kg": 110.0}
 #: (human, reset options, robot policy, human agent's action or None, max_time_s) per world.
 CASES = {
     "carried": ({}, B_TO_A, "upper", None, 1.1),  # truncated at the time limit
@@ -56,6 +59,9 @@ CASES = {
     "human agent": ({}, B_TO_A, "passive", HUMAN_ACTION, 1.1),
     "slip": ({"grip_force_n": 0.3}, ALONE, "passive", None, 1.1),  # dropped
     "too weak": ({"strength": 0.002}, ALONE, "passive", None, 1.1),  # too_weak
+    # bodies other than the default, in the same batch (per-world segments and torso)
+    "small woman": (SMALL_WOMAN, B_TO_A, "upper", None, 1.1),
+    "tall man alone": (TALL_MAN, ALONE, "passive", None, 1.1),
 }
 
 
@@ -174,6 +180,26 @@ def test_the_faults_are_per_world(episodes):
     # The human's grip is a contact in every world: palm and pad on the handle.
     handle = worlds.template.arm.handle_geom
     assert worlds.touching(np.arange(worlds.n), handle)[[0, 1, 2]].all()
+
+
+def test_bodies_are_per_world(episodes):
+    """The worlds of other bodies run without a fault to the time limit (equal to the C
+    backend: test_seeded_episodes_equal_the_c_backend), each with its own segments: the
+    forearm's position on the upper arm (the upper arm's length) and mass per world."""
+    names, worlds = episodes["names"], episodes["worlds"]
+    for name in ("small woman", "tall man alone"):
+        info = episodes["warp"][names.index(name)][-1]["info"]
+        assert info["fault"] is None and info["time_s"] == pytest.approx(1.12), name
+    import mujoco
+
+    forearm = mujoco.mj_name2id(worlds.template.model, mujoco.mjtObj.mjOBJ_BODY,
+                                "human_forearm")
+    pos = worlds.m.body_pos.numpy()[:, forearm, 2]
+    mass = worlds.m.body_mass.numpy()[:, forearm]
+    i, j, k = names.index("carried"), names.index("small woman"), names.index("tall man alone")
+    assert pos[i] == pytest.approx(-0.2817) and mass[i] == pytest.approx(0.0162 * 75)
+    assert pos[j] == pytest.approx(-0.2751 * 1.48 / 1.735)  # her upper arm
+    assert mass[k] == pytest.approx(0.0162 * 110)
 
 
 def _assert_obs_close(warp, c):

@@ -27,6 +27,11 @@ module             contents
 ``muscles``        the same arm muscle-driven: MyoSuite's ``myoarm_r`` (``arm`` extra)
 ``arm_control``    the arm's hand impedance and its torque drive
 ``intention``      the human's route, minimum-jerk reference and yielding; parameters
+``body``           the human's body size: de Leva's segments, ANSUR II statures, strength
+``families``       families of physical humans (ranges of their parameters, sources)
+``probe``          a physical human's behavioural signature and distance
+``population``     frozen physical populations: train, validation, test per scenario
+``population_build``  how they were drawn, distinct by behaviour
 ``carry``          :class:`CarrySim`: robot, whole arm and object stepped at 25 Hz
 ``continuous``     the continuous-control Gymnasium env (``*PandaContinuous-v0``)
 ``continuous_parallel``  its PettingZoo parallel form (the human seat as an agent)

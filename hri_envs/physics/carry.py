@@ -41,11 +41,12 @@ import numpy as np
 
 from hri_envs.errors import ConfigError
 from hri_envs.physics.arm_control import ArmDrive, HandImpedance, TorqueDrive
+from hri_envs.physics.body import ArmBody, BodySize
 from hri_envs.physics.contacts import touches
 from hri_envs.physics.controller import ImpedanceController
 from hri_envs.physics.design import PhysicsDesign, design_for
 from hri_envs.physics.ik import IKFailure, ReferenceIK
-from hri_envs.physics.intention import HumanParams, IntentionHuman, route_states
+from hri_envs.physics.intention import HUMAN_DRIVES, HumanParams, IntentionHuman, route_states
 from hri_envs.physics.interaction import InteractionMeter, StepInteraction
 from hri_envs.physics.kinematics import (
     Pose,
@@ -76,7 +77,7 @@ from hri_envs.task.graph import BOTH, TaskGraph
 __all__ = ["DRIVES", "CarrySim", "CarryStep", "RobotCommand", "grip_reference"]
 
 #: The arm's drives: joint torque motors, or MyoSuite's muscles (the "arm" extra).
-DRIVES: tuple[str, ...] = ("torque", "muscle")
+DRIVES: tuple[str, ...] = HUMAN_DRIVES
 _CONTROL_PERIODS = 5  # control periods (125 Hz) per step (25 Hz)
 _SLIP_M, _SLIP_RAD = 0.03, 0.5  # the handle has left the hand beyond these
 _CALM_S = 0.15  # [s] a placed object stays slow this long
@@ -176,11 +177,13 @@ class CarrySim:
                                                    np.array(list(TORQUE_LIMITS.values())))
             coupling = self.arm.coupling
             posture = COMFORT_POSTURE
+            self.body: ArmBody | None = ArmBody(self.model, self.arm)
         else:
             from hri_envs.physics import muscles  # noqa: PLC0415
 
             self.scene, self.arm, self.arm_drive, coupling, posture = muscles.build(
                 self.scenario, design, self.rest_quat)
+            self.body = None
             self.model = self.scene.model
         self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MIDPHASE
         self.data = mujoco.MjData(self.model)
@@ -272,17 +275,24 @@ class CarrySim:
         """The object on support ``start``, both partners holding it (the robot only if
         ``robot_holds``), the human meaning to bring it to ``goal``.
 
+        The human's body (``human.sex``, ``stature_m``, ``body_mass_kg``) is written into
+        the model (:class:`~hri_envs.physics.body.ArmBody`: only when it changes).
+
         Raises:
             IKFailure: The robot cannot reach its grip (a layout it cannot serve), or the
                 human's arm cannot reach the handle.
+            ConfigError: A human of another drive than the sim's, or a body other than the
+                default for the muscle drive (MyoSuite's arm has one anatomy).
         """
         model, data, sc, design = self.model, self.data, self.scene, self.design
+        params = human if human is not None else HumanParams()
+        self._set_body(params)
         mujoco.mj_resetData(model, data)
         self.set_scenario(scenario if scenario is not None else self.graph.scenario)
-        self.params = human if human is not None else HumanParams()
+        self.params = params
         self.human = IntentionHuman(design, self.params, design.lever)
         self.impedance.gains = self._gains()
-        self.arm_drive.set_strength(self.params.strength)
+        self.arm_drive.set_strength(self.params.strength * self.params.body.strength_scale())
         grip_force = (self.params.grip_force_n if self.params.grip_force_n is not None
                       else _grip_force(design))
         self.arm.set_grip_force(grip_force)
@@ -326,6 +336,19 @@ class CarrySim:
         self.sensed = np.zeros(6)
         self.sat_counts[:] = 0.0
         self.meter.reset(slice(None))
+
+    def _set_body(self, params: HumanParams) -> None:
+        """Check the human's drive and put their body into the model."""
+        if params.drive is not None and params.drive != self.drive_name:
+            raise ConfigError(f"a human of drive {params.drive!r} cannot be simulated by a "
+                              f"CarrySim of drive {self.drive_name!r}; allowed: "
+                              f"{self.drive_name!r}", field="human")
+        if self.body is not None:
+            self.body.apply(params.body, self.data)
+        elif not params.body.is_default:
+            raise ConfigError("the muscle-driven arm (MyoSuite's myoarm_r) has one anatomy: "
+                              "sex, stature_m and body_mass_kg must be the defaults "
+                              f"({BodySize()}), got {params.body}", field="human")
 
     def _weld(self, on: bool) -> None:
         sc, m, data = self.scene, self.model, self.data

@@ -30,11 +30,15 @@ import numpy as np
 
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
+from hri_envs.physics.body import SEXES, BodySize
 from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.kinematics import Pose, StraightLine, TrajectorySample, rotation_error
 from hri_envs.task.graph import BOTH, TaskGraph
 
-__all__ = ["HUMAN_PRESETS", "HumanParams", "IntentionHuman", "route_states"]
+__all__ = ["HUMAN_DRIVES", "HUMAN_PRESETS", "HumanParams", "IntentionHuman", "route_states"]
+
+#: The arm's drives: joint torque motors, or MyoSuite's muscles (the "arm" extra).
+HUMAN_DRIVES: tuple[str, ...] = ("torque", "muscle")
 
 
 @dataclass(frozen=True)
@@ -50,6 +54,17 @@ class HumanParams:
         grip_force_n: How hard [N] the fingers squeeze the handle (None: the scenario's).
         preference: The route's preference (None: the scenario's default).
         speed: Scale of the reference's speed (1: 1.2 x the robot's planned speeds).
+        sex: "male" or "female": de Leva's segment tables of that sex (:mod:`~hri_envs.
+            physics.body`).
+        stature_m: Standing height [m] (1.741: de Leva's male reference subject); scales
+            the arm's segments, the torso, the shoulder's height and the strength.
+        body_mass_kg: Body mass [kg]; the segments' and the torso's masses.
+        drive: The arm's drive, "torque" or "muscle" (MyoSuite's arm: one anatomy, the
+            default body only), or None: the sim's; a :class:`~hri_envs.physics.carry.
+            CarrySim` of another drive refuses the human.
+
+    ``strength`` scales the torque limits of the body (its sex and stature, :meth:`~hri_envs.
+    physics.body.BodySize.strength_scale`): 1 is the typical strength of such a body.
     """
 
     strength: float = 1.0
@@ -59,6 +74,15 @@ class HumanParams:
     grip_force_n: float | None = None
     preference: str | None = None
     speed: float = 1.0
+    sex: str = "male"
+    stature_m: float = 1.741
+    body_mass_kg: float = 75.0
+    drive: str | None = None
+
+    @property
+    def body(self) -> BodySize:
+        """The human's body size."""
+        return BodySize(self.sex, self.stature_m, self.body_mass_kg)
 
     @classmethod
     def of(cls, values: dict[str, Any] | HumanParams | None) -> HumanParams:
@@ -66,7 +90,9 @@ class HumanParams:
 
         Raises:
             ConfigError: (``field="human"``) An unknown key or preset, or a value that is
-                not allowed (strength, stiffness and speed > 0; times >= 0; grip > 0).
+                not allowed (strength, stiffness and speed > 0; times >= 0; grip > 0; sex
+                "male" or "female"; stature 1.3-2.2 m; body mass 35-180 kg; drive
+                "torque" or "muscle").
         """
         if isinstance(values, HumanParams):
             return values
@@ -82,6 +108,12 @@ class HumanParams:
             raise ConfigError(f"unknown human parameter(s) {', '.join(map(repr, unknown))}; "
                               f"allowed: preset, {', '.join(allowed)}", field="human")
         for key, value in values.items():
+            if key in _CHOICES:
+                if value not in _CHOICES[key] and not (key == "drive" and value is None):
+                    raise ConfigError(f"human {key!r} must be one of "
+                                      f"{', '.join(_CHOICES[key])}, got {value!r}",
+                                      field="human")
+                continue
             if key == "preference":
                 if value is not None and not isinstance(value, str):
                     raise ConfigError(f"human 'preference' must be a str, got {value!r}",
@@ -91,10 +123,22 @@ class HumanParams:
                 continue
             positive = key in ("strength", "stiffness", "speed", "grip_force_n")
             ok = isinstance(value, int | float) and not isinstance(value, bool)
+            if key in _RANGES:
+                lo, hi = _RANGES[key]
+                if not (ok and lo <= value <= hi):
+                    raise ConfigError(f"human {key!r} must be a number in [{lo}, {hi}], got "
+                                      f"{value!r}", field="human")
+                continue
             if not (ok and math.isfinite(value) and (value > 0 if positive else value >= 0)):
                 raise ConfigError(f"human {key!r} must be a number {'> 0' if positive else '>= 0'}"
                                   f", got {value!r}", field="human")
         return replace(base, **values)
+
+
+#: The human parameters that take one of a few names.
+_CHOICES: dict[str, tuple[str, ...]] = {"sex": SEXES, "drive": HUMAN_DRIVES}
+#: The body's plausible adult range (stature [m], mass [kg]).
+_RANGES: dict[str, tuple[float, float]] = {"stature_m": (1.3, 2.2), "body_mass_kg": (35.0, 180.0)}
 
 
 #: Named humans. ``weak``: a quarter of the adult's strength and 40 % of the stiffness (the

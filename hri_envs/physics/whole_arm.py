@@ -343,6 +343,9 @@ class WholeArm:
         self.fingers_dof = int(model.jnt_dofadr[jid("human_fingers")])
         self.grip_body = int(model.site_bodyid[self.grip_site])
         self.shoulder_in_torso = np.array(_SHOULDER_IN_TORSO)
+        #: [m] the torso frame's height (the hip) when standing (the body's size,
+        #: :class:`~hri_envs.physics.body.ArmBody`).
+        self.torso_height_m = _TORSO_HEIGHT_M
         #: (3,) where the hand is comfortable, in the torso frame [m]: 0.3 m ahead of the
         #: shoulder, 0.15 m inwards and 0.35 m below it.
         self.hand_in_torso = self.shoulder_in_torso + np.array([0.3, 0.15, -0.35])
@@ -366,7 +369,7 @@ class WholeArm:
         ox, oy, dz = self.hand_in_torso
         # The torso frame (x ahead, y left) faces -x at yaw 0: turned by yaw + 180° about z.
         torso = hand_pos - np.array([-(c * ox - s * oy), -(s * ox + c * oy), dz])
-        return np.array([torso[0], torso[1], torso[2] - _TORSO_HEIGHT_M, yaw])
+        return np.array([torso[0], torso[1], torso[2] - self.torso_height_m, yaw])
 
     @staticmethod
     def yaw_of(quat: np.ndarray, rest_quat: np.ndarray) -> float:

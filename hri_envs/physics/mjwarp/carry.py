@@ -36,6 +36,7 @@ import numpy as np
 
 from hri_envs.envs.backends import backend_spec
 from hri_envs.errors import ConfigError
+from hri_envs.physics.body import WARP_BODY_FIELDS
 from hri_envs.physics.carry import (
     _ANGVEL_SQ_MAX,
     _CALM_S,
@@ -100,8 +101,8 @@ class WarpCarryWorlds(WarpModel):
                               field="drive")
         tpl = self.template = CarrySim(graph, drive, design, max_step_m, max_step_rad, sensor)
         tpl._weld(True)  # the grasp weld's relative pose, the robot fingers' contacts off
-        super().__init__(tpl.model, n_worlds, ("actuator_ctrlrange", "actuator_forcerange"),
-                         device)
+        super().__init__(tpl.model, n_worlds, ("actuator_ctrlrange", "actuator_forcerange",
+                                               *WARP_BODY_FIELDS), device)
         n, sc = self.n, tpl.scene
         self.graph, self.design, self.scene = graph, tpl.design, sc
         self.max_step_m, self.max_step_rad = max_step_m, max_step_rad
@@ -149,6 +150,8 @@ class WarpCarryWorlds(WarpModel):
         self.seats.set_world(i, tpl.seats, self.design.seat_hold)
         self.human.set_world(i, tpl.human)
         self.arms.gains[i] = tpl._gains()
+        self.arms.hand_in_torso[i] = tpl.arm.hand_in_torso
+        self.arms.torso_height[i] = tpl.arm.torso_height_m
         self.arms.lo[i], self.arms.hi[i] = tpl.arm_drive.lo, tpl.arm_drive.hi
         self.robot_holds[i], self.human_holds[i] = tpl.robot_holds, tpl.human_holds
         self.q_ref[i] = tpl.q_ref
@@ -175,7 +178,8 @@ class WarpCarryWorlds(WarpModel):
             part.copy_rows(src, rows)
         for value in (self.meter.v_prev, self.meter.a_prev, self.meter.samples):
             value[rows] = value[src]
-        for value in (self.arms.gains, self.arms.lo, self.arms.hi):
+        for value in (self.arms.gains, self.arms.lo, self.arms.hi, self.arms.hand_in_torso,
+                      self.arms.torso_height):
             value[rows] = value[src]
         for i in rows:
             self.params[int(i)], self.scenarios[int(i)] = self.params[src], self.scenarios[src]
@@ -307,7 +311,7 @@ class WarpCarryWorlds(WarpModel):
         hand_ref, obj_quat = self._human_reference(p, rows, plan, agent, pos, quat)
         ctrl = self._get("ctrl")
         ctrl[rows[:, None], arms.torso_actuators[None]] = arms.torso_targets(hand_ref.pos,
-                                                                             obj_quat)
+                                                                             obj_quat, rows)
         ff = np.zeros((len(rows), 6))
         alone = ~self.robot_holds[rows]
         if alone.any():  # carrying alone: hold up the object's weight

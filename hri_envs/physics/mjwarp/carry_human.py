@@ -21,7 +21,7 @@ from hri_envs.physics.intention import IntentionHuman
 from hri_envs.physics.mjwarp import batchmath as bm
 from hri_envs.physics.mjwarp.control import chain_jacobian
 from hri_envs.physics.mjwarp.model import WarpModel
-from hri_envs.physics.whole_arm import _TORSO_HEIGHT_M, WholeArm
+from hri_envs.physics.whole_arm import WholeArm
 
 __all__ = ["Samples", "WarpArms", "WarpIntention", "rotate_by"]
 
@@ -214,7 +214,10 @@ class WarpArms:
         self.grip_site, self.handle_site = a.grip_site, a.handle_site
         self.arm_qpos, self.arm_dofs = a.arm_qpos, a.arm_dofs
         self.torso_actuators = a.torso_actuators
-        self.hand_in_torso = a.hand_in_torso
+        #: (n, 3) each world's comfortable hand in the torso frame, (n,) its torso height
+        #: [m] (the human's body size, :class:`~hri_envs.physics.body.ArmBody`).
+        self.hand_in_torso = np.tile(a.hand_in_torso, (n, 1))
+        self.torso_height = np.full(n, a.torso_height_m)
         torso_joints = [int(np.flatnonzero(model.jnt_dofadr == d)[0]) for d in a.torso_dofs]
         self.joints = np.array([*torso_joints, *a.arm_joints])
         self.dofs = model.jnt_dofadr[self.joints]
@@ -242,17 +245,18 @@ class WarpArms:
         conj = self.handle_quat * np.array([1.0, -1.0, -1.0, -1.0])
         return bm.quat_mul(hand_quat, np.broadcast_to(conj, hand_quat.shape))
 
-    def torso_targets(self, hand_pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
-        """WholeArm.torso_target(hand_pos, yaw_of(quat)) per world: (R, 4)."""
+    def torso_targets(self, hand_pos: np.ndarray, quat: np.ndarray,
+                      rows: np.ndarray) -> np.ndarray:
+        """WholeArm.torso_target(hand_pos, yaw_of(quat)) per world of ``rows``: (R, 4)."""
         rest = np.broadcast_to(self.rest_quat * np.array([1.0, -1.0, -1.0, -1.0]), quat.shape)
         b = bm.rotate(bm.quat_mul(quat, rest), np.broadcast_to([0.0, 1.0, 0.0], hand_pos.shape))
         yaw = np.where(b[:, 0] * b[:, 0] + b[:, 1] * b[:, 1] < 0.09, 0.0,
                        np.arctan2(-b[:, 0], b[:, 1]))
         c, s = np.cos(yaw), np.sin(yaw)
-        ox, oy, dz = self.hand_in_torso
-        torso = hand_pos - np.stack([-(c * ox - s * oy), -(s * ox + c * oy),
-                                     np.full(len(yaw), dz)], axis=1)
-        return np.stack([torso[:, 0], torso[:, 1], torso[:, 2] - _TORSO_HEIGHT_M, yaw], axis=1)
+        ox, oy, dz = self.hand_in_torso[rows].T
+        torso = hand_pos - np.stack([-(c * ox - s * oy), -(s * ox + c * oy), dz], axis=1)
+        return np.stack([torso[:, 0], torso[:, 1], torso[:, 2] - self.torso_height[rows], yaw],
+                        axis=1)
 
     def _jacobian(self, wm: WarpModel, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         site = wm._get("site_xpos")[rows, self.grip_site].astype(float)
