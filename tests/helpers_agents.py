@@ -91,10 +91,9 @@ class RandomMover(AlwaysWait):
 
     name = "random-mover"
 
-    def __init__(self, graph, rng, run, seed, max_steps, r0, reward, episodes):
+    def __init__(self, graph, rng, max_steps, r0, reward, episodes):
         self.graph, self.rng = graph, rng
-        self.given = {"run": run, "seed": seed, "max_steps": max_steps, "r0": r0,
-                      "reward": reward, "episodes": episodes}
+        self.given = {"max_steps": max_steps, "r0": r0, "reward": reward, "episodes": episodes}
 
     def act(self, observation):
         valid = [a for a, ok in enumerate(observation["action_mask"]) if ok]
