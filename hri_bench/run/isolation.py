@@ -213,6 +213,7 @@ class IsolatedAgent(BatchAgent):
         self.privileged = bool(info["privileged"])
         self._pending: dict[str, np.ndarray] = {}
         self._belief: np.ndarray | None = None
+        self._known = False  # whether _belief is the agent's belief now
         _ask(spec, {"kind": "init", "spec": spec, "scenario": graph.name,
                     "settings": dict(settings)}, {"entropy": agent_entropy(seed, runs)})
 
@@ -228,7 +229,7 @@ class IsolatedAgent(BatchAgent):
 
     def begin_episode(self, starts: np.ndarray) -> None:
         """Start the batch's episodes (no answer awaited)."""
-        self._belief = None
+        self._belief, self._known = None, False
         self._send("begin", {"starts": np.asarray(starts)})
 
     def decide(self, observations: Mapping[str, np.ndarray], active: np.ndarray,
@@ -242,7 +243,7 @@ class IsolatedAgent(BatchAgent):
         arrays.update(self._pending)
         self._pending = {}
         _, back = _ask(self.spec, {"kind": "step", "belief": bool(belief)}, arrays)
-        self._belief = back.get("belief")
+        self._belief, self._known = back.get("belief"), bool(belief)
         return back["actions"]
 
     def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
@@ -252,7 +253,7 @@ class IsolatedAgent(BatchAgent):
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
                 next_states: np.ndarray, active: np.ndarray) -> None:
         """Kept, and sent with the next message."""
-        self._belief = None
+        self._belief, self._known = None, False
         self._pending = {"t_state": np.asarray(states), "t_robot": np.asarray(robot_actions),
                          "t_human": np.asarray(human_actions),
                          "t_next": np.asarray(next_states),
@@ -260,11 +261,11 @@ class IsolatedAgent(BatchAgent):
 
     def belief(self) -> np.ndarray | None:
         """The belief :meth:`decide` brought; else asked for (one round trip)."""
-        if self._belief is None:
+        if not self._known:
             arrays = dict(self._pending)
             self._pending = {}
             _, back = _ask(self.spec, {"kind": "belief", "belief": True}, arrays)
-            self._belief = back.get("belief")
+            self._belief, self._known = back.get("belief"), True
         return self._belief
 
     def end_episode(self, traces: Sequence[Trace], intentions: np.ndarray) -> None:
@@ -280,7 +281,7 @@ class IsolatedAgent(BatchAgent):
             lengths=np.array([len(t.robot_actions) for t in traces], dtype=np.int64),
             intentions=np.asarray(intentions))
         _ask(self.spec, {"kind": "end"}, arrays)
-        self._belief = None
+        self._belief, self._known = None, False
 
 
 def make_isolated(spec: str, graph: TaskGraph, seed: int, runs: Sequence[int],
