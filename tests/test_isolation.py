@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from hri_bench.run import isolation
-from hri_bench.run.agents import agent_identity, agent_privilege, validate_agent_name
+from hri_bench.run.agents import agent_privilege, validate_agent_name
 from hri_bench.run.isolation import IN_PROCESS, agent_streams
 from hri_bench.run.study import StudyConfig, run_study
 from hri_bench.run.wire import WireError, read_message, write_message
