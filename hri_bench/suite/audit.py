@@ -23,9 +23,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from hri_bench.run.agents import agent_identity
 from hri_bench.run.study import simulate_runs
-from hri_bench.suite.submission import round_runs
+from hri_bench.suite.submission import identity_key, replayable, round_runs
 from hri_bench.suite.tracks import TRACKS_BY_VERSION, track_config
 from hri_envs.errors import ConfigError
 
@@ -33,11 +32,6 @@ __all__ = ["Conflict", "conflicts", "replay", "replayable"]
 
 #: At most this many differing runs are named per conflict or replay.
 SHOWN = 5
-
-
-def identity_key(identity: Any) -> str:
-    """A code identity as one comparable string."""
-    return json.dumps(identity, sort_keys=True)
 
 
 class Conflict(NamedTuple):
@@ -90,22 +84,6 @@ def differing_runs(a: Mapping[str, Any], b: Mapping[str, Any]) -> list[int]:
             return list(range(n))
         bad |= {r for r, (u, v) in enumerate(zip(x, y, strict=True)) if u != v}
     return sorted(bad)
-
-
-def replayable(name: str, identity: Mapping[str, Any]) -> str | None:
-    """Why agent ``name``'s runs cannot be replayed here (its code is not the recorded
-    code), or None when they can.
-    """
-    try:
-        now = agent_identity(name)
-    except (ConfigError, OSError, ImportError) as exc:
-        return f"not installed here ({exc})"
-    if identity_key(now) != identity_key(identity):
-        what = {"builtin": "the hri-envs version", "custom": "its source files",
-                "sb3": "the model file", "jaxppo": "the checkpoint"}.get(
-            str(identity.get("kind")), "its code")
-        return f"{what} differ(s) from the recorded one"
-    return None
 
 
 def replay(doc: Mapping[str, Any], k: int, seed: int,

@@ -26,7 +26,7 @@ import numpy as np
 from hri_bench.core.atomic import atomic_writer
 from hri_bench.report import aggregate as agg
 from hri_bench.run import metrics, provenance
-from hri_bench.run.agents import agent_settings
+from hri_bench.run.agents import agent_identity, agent_privilege, agent_settings
 from hri_bench.run.runner import TASK_METRICS
 from hri_bench.run.study import regret_reference
 from hri_bench.suite import results_v3
@@ -102,7 +102,7 @@ def compute(doc: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
     aggregate` of the run scores over every seed, seeded by the first seed. A suite v3
     document (``schema_version`` "2") has its own: :func:`hri_bench.suite.results_v3.compute`.
     """
-    if doc.get("schema_version") == results_v3.SCHEMA_VERSION:
+    if doc.get("schema_version") in (results_v3.SCHEMA_VERSION, results_v3.SCHEMA_V4):
         return results_v3.compute(doc)
     threshold = float(doc["threshold"])
     tracks = doc.get("tracks", {})
@@ -154,15 +154,69 @@ def build(*, suite_version: str, suite_hash: str, track_hashes: Mapping[str, str
         "tracks": dict(tracks),
         "runs": {str(s): dict(runs[str(s)]) for s in seeds},
     }
+    if doc["schema_version"] == results_v3.SCHEMA_V4:
+        doc["roles"] = agent_roles(agents)
     doc["statistics"], doc["aggregate"] = compute(doc)
     return doc
+
+
+def agent_roles(agents: Sequence[str]) -> dict[str, dict[str, bool]]:
+    """What each agent sees besides the robot's view, as a results file of suite v4 records
+    it (:func:`hri_bench.run.agents.agent_privilege`): a reference is never ranked.
+    """
+    out = {}
+    for a in agents:
+        p = agent_privilege(a)
+        out[a] = {"sees_intention": p.sees_intention, "knows_human": p.knows_human,
+                  "reference": p.reference}
+    return out
+
+
+def _role_errors(doc: Mapping[str, Any]) -> list[str]:
+    """Suite v4: every agent has a role, and an agent whose code is installed here (a
+    built-in, a registered agent, a ``module:Class`` whose files hash as recorded) has the
+    role its code declares.
+    """
+    roles = doc.get("roles", {})
+    errors = [f"roles: agent {a!r} has none" for a in doc["agents"] if a not in roles]
+    errors += [f"roles: {a!r} is not an agent of the file" for a in roles
+               if a not in doc["agents"]]
+    for a, ident in doc["agents"].items():
+        if a in roles and replayable(a, ident) is None:
+            own = agent_roles([a])[a]
+            if roles[a] != own:
+                errors.append(f"roles.{a}: recorded {roles[a]}, its code declares {own}")
+    return errors
+
+
+def identity_key(identity: Any) -> str:
+    """A code identity as one comparable string."""
+    return json.dumps(identity, sort_keys=True)
+
+
+def replayable(name: str, identity: Mapping[str, Any]) -> str | None:
+    """Why agent ``name``'s runs cannot be replayed here (its code is not the recorded
+    code), or None when they can.
+    """
+    try:
+        now = agent_identity(name)
+    except (ConfigError, OSError, ImportError) as exc:
+        return f"not installed here ({exc})"
+    if identity_key(now) != identity_key(identity):
+        what = {"builtin": "the hri-envs version", "custom": "its source files",
+                "sb3": "the model file", "jaxppo": "the checkpoint"}.get(
+            str(identity.get("kind")), "its code")
+        return f"{what} differ(s) from the recorded one"
+    return None
 
 
 def schema_version(suite_version: str) -> str:
     """The results file's layout for a suite version: "1" (v1, v2), "2" (v3: the humans
     each run met, :mod:`hri_bench.suite.results_v3`).
     """
-    return SCHEMA_VERSION if suite_version in ("1", "2") else results_v3.SCHEMA_VERSION
+    if suite_version in ("1", "2"):
+        return SCHEMA_VERSION
+    return results_v3.SCHEMA_VERSION if suite_version == "3" else results_v3.SCHEMA_V4
 
 
 #: The deepest nesting of JSON arrays and objects read (a results file nests 7 deep, a
@@ -340,7 +394,7 @@ def _suite_errors(doc: Mapping[str, Any]) -> list[str]:
             if key not in ("seed", "agents") and tr["settings"].get(key) != value:
                 errors.append(f"tracks.{name}.settings.{key} is {tr['settings'].get(key)!r}; "
                               f"the track's is {value!r}")
-        v3 = doc["schema_version"] == results_v3.SCHEMA_VERSION
+        v3 = doc["schema_version"] in (results_v3.SCHEMA_VERSION, results_v3.SCHEMA_V4)
         if v3 and tr.get("members") != json.loads(json.dumps(results_v3.members(cfg))):
             errors.append(f"tracks.{name}.members: not the humans of the track's population")
         if v3 and tr.get("headline") != getattr(TRACKS[name], "headline", False):
@@ -445,6 +499,8 @@ def validate(doc: Any) -> list[str]:
     if errors:
         return errors
     errors = _suite_errors(doc)
+    if doc["schema_version"] == results_v3.SCHEMA_V4:
+        errors += _role_errors(doc)
     if errors:
         return errors
     statistics, aggregate = compute(doc)
@@ -509,7 +565,7 @@ def task_section(doc: Mapping[str, Any]) -> str:
              "log-loss and Brier of the belief (agents exposing one); counteract / idle / "
              "alone: the human's motions against a robot motion, waits with nothing moving, "
              "actions while the robot waited, per episode. Means [95 % CI] over runs.", ""]
-    if doc.get("schema_version") == results_v3.SCHEMA_VERSION:
+    if doc.get("schema_version") in (results_v3.SCHEMA_VERSION, results_v3.SCHEMA_V4):
         lines[2:2] = ["Suite v3: regret is measured against each track's reachable reference "
                       "(blind's exact values on the anchor, else qmdp's mean reward on the same "
                       "human in the same episode), so learning speed and asymptote are defined "
@@ -602,6 +658,7 @@ def merge(docs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     """
     runs: dict[str, dict[str, Any]] = {}
     agents: dict[str, Any] = {}
+    renamed: dict[tuple[str, str], str] = {}
     for fname, doc in docs.items():
         rename: dict[str, str] = {}
         for agent, ident in doc["agents"].items():
@@ -609,7 +666,7 @@ def merge(docs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
             if key in agents and agents[key] != ident:
                 key = f"{agent}@{fname}"
             agents.setdefault(key, ident)
-            rename[agent] = key
+            rename[agent] = renamed[(fname, agent)] = key
         for seed, by_track in doc["runs"].items():
             for track, block in by_track.items():
                 head = {k: v for k, v in block.items() if k != "agents"}  # blind, humans
@@ -622,6 +679,9 @@ def merge(docs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
                               "seeds": sorted(int(s) for s in runs), "runs": runs,
                               "tracks": tracks,
                               "agents": agents, "threshold": first["threshold"]}
+    if "roles" in first:
+        merged["roles"] = {renamed[(f, a)]: role for f, d in docs.items()
+                           for a, role in d.get("roles", {}).items()}
     merged["statistics"], merged["aggregate"] = compute(merged)
     return merged
 
@@ -687,7 +747,7 @@ def write_results(out: Path, doc: Mapping[str, Any]) -> list[Path]:
     path = Path(out) / "results.json"
     with atomic_writer(path) as f:
         f.write(json.dumps(doc, separators=(",", ":"), allow_nan=False) + "\n")
-    if doc.get("schema_version") == results_v3.SCHEMA_VERSION:
+    if doc.get("schema_version") in (results_v3.SCHEMA_VERSION, results_v3.SCHEMA_V4):
         return [path, results_v3.ranking_figure(doc, Path(out) / "ranking.png")]
     return [path, profile_figure(doc, Path(out) / "profiles.png")]
 
