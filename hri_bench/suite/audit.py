@@ -17,7 +17,6 @@ consistent. Two checks close that gap (docs/results.md, "What each check proves"
 from __future__ import annotations
 
 import dataclasses
-import json
 from collections.abc import Mapping
 from typing import Any, NamedTuple
 

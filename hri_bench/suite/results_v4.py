@@ -27,7 +27,8 @@ REACHABLE = ("blind", "qmdp")
 
 def role_mark(agent: str, roles: Mapping[str, Any]) -> str:
     """What the leaderboard says an agent is, from its recorded role: the floor, a reference
-    that sees ι, one that knows the human's model (the reachable reference)."""
+    that sees ι, one that knows the human's model (the reachable reference).
+    """
     role = roles.get(agent, {})
     if agent == FLOOR:
         return " (floor)"
