@@ -161,10 +161,10 @@ def test_ctrl_c_in_process_is_the_resume_command_not_a_traceback(gate, tmp_path,
     out = tmp_path / "suite"
     real = running.track_figure
 
-    def ctrl_c(name, entry, path):
+    def ctrl_c(name, entry, path, **kwargs):
         if name == "hanger-passive":
             raise KeyboardInterrupt
-        return real(name, entry, path)
+        return real(name, entry, path, **kwargs)
 
     monkeypatch.setattr(running, "track_figure", ctrl_c)
     assert main([*SUITE, "--out", str(out)]) == 130

@@ -10,8 +10,11 @@ consistent. Two checks close that gap (docs/results.md, "What each check proves"
   hri-envs version, a ``module:Class`` whose source files hash as recorded, a model file
   with the recorded sha256) and requires the same records, value for value;
 * :func:`conflicts` (``hri-bench leaderboard``) refuses two files that hold different runs
-  under the same suite hash, agent code identity and seed: one of them is not what that
-  code gives.
+  under the same suite hash, agent code identity and seed (one of them is not what that
+  code gives), or different ``blind`` values or humans for the same suite, seed and track
+  (a reference or a human list that is not the suite's; ``hri-bench validate`` recomputes
+  ``blind``'s exact values and each run's human, so a file that forged them is refused on
+  its own).
 """
 
 from __future__ import annotations
@@ -48,11 +51,21 @@ def conflicts(docs: Mapping[str, Mapping[str, Any]]) -> list[Conflict]:
     agrees.
     """
     seen: dict[tuple[str, str, str, str, str], tuple[str, Mapping[str, Any]]] = {}
+    heads: dict[tuple[str, str, str], tuple[str, Mapping[str, Any]]] = {}
     out = []
     for fname, doc in docs.items():
         suite = doc["suite"]["hash"]
         for seed, by_track in doc["runs"].items():
             for track, block in by_track.items():
+                head = {k: v for k, v in block.items() if k != "agents"}  # blind, humans
+                other_head = heads.setdefault((suite, seed, track), (fname, head))
+                if other_head[1] != head:
+                    what = " and ".join(k for k in sorted(set(head) | set(other_head[1]))
+                                        if head.get(k) != other_head[1].get(k))
+                    out.append(Conflict((fname, other_head[0]), f"{fname} and {other_head[0]} "
+                                        f"disagree on the {what} of seed {seed}, track "
+                                        f"{track} (the same suite: the references and the "
+                                        "humans met are the suite's, one file's are not)"))
                 for agent, entry in block["agents"].items():
                     key = (suite, identity_key(doc["agents"].get(agent)), seed, track, agent)
                     if key not in seen:

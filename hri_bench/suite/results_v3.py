@@ -411,8 +411,10 @@ def ranking_figure(doc: Mapping[str, Any], path: Any) -> Any:
         for y, a in enumerate(order):
             e = head["agents"][a]
             color = plots.agent_style(a)[0]  # one colour per agent in every figure
-            ax.errorbar([e["mean"]], [y], xerr=[[e["mean"] - e["ci95"][0]],
-                                                [e["ci95"][1] - e["mean"]]],
+            # A degenerate interval (one human, the floor's 0) may lie a rounding beside
+            # its mean: never a negative bar.
+            ax.errorbar([e["mean"]], [y], xerr=[[max(e["mean"] - e["ci95"][0], 0.0)],
+                                                [max(e["ci95"][1] - e["mean"], 0.0)]],
                         fmt="o", color=color, capsize=3, markersize=6)
             per = [e["per_track"][t]["mean"] for t in head["tracks"]]
             ax.scatter(per, [y + 0.22] * len(per), s=9, color=color, alpha=0.6, linewidths=0)

@@ -395,8 +395,44 @@ def leaderboard_v4(doc: dict[str, Any], results: dict[str, Any] | None) -> str:
     return "\n".join(lines)
 
 
-def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
-    """Mean regret (or reward) per episode with 95 % CI error bars, one line per agent."""
+#: How far beyond the middle of the curves :func:`track_figure`'s axis reaches, in units of
+#: their interquartile spread (Tukey's fences); curves beyond are clipped, and the figure
+#: says which and how far they go.
+FENCE = 3.0
+
+
+def axis_range(entry: dict[str, Any]) -> tuple[tuple[float, float] | None, dict[str, float]]:
+    """The y range of a track's figure and the agents whose curve leaves it, with their most
+    extreme per-episode mean: the range spans every curve unless some lie beyond
+    :data:`FENCE` interquartile spreads of all the curves' points (an agent whose episodes
+    run to the step limit, −20 where the others stay within −2 of 0); None: no clipping.
+    """
+    metric = "regret" if entry["regret_reported"] else "reward"
+    curves = {a: np.asarray(e[metric]["per_episode"]["mean"], dtype=float)
+              for a, e in entry["agents"].items()}
+    points = np.concatenate([c[np.isfinite(c)] for c in curves.values()] or [np.zeros(0)])
+    if points.size < 4:
+        return None, {}
+    q1, q3 = np.percentile(points, [25, 75])
+    spread = max(q3 - q1, 1e-9)
+    low, high = q1 - FENCE * spread, q3 + FENCE * spread
+    out = {}
+    for a, c in curves.items():
+        c = c[np.isfinite(c)]
+        if c.size and (c.min() < low or c.max() > high):
+            out[a] = float(c.min() if c.min() < low else c.max())
+    if not out:
+        return None, {}
+    inside = points[(points >= low) & (points <= high)]
+    pad = 0.08 * max(float(inside.max() - inside.min()), 1e-6)
+    return (float(inside.min()) - pad, float(inside.max()) + pad), out
+
+
+def track_figure(name: str, entry: dict[str, Any], path: Path, clip: bool = False) -> Path:
+    """Mean regret (or reward) per episode with 95 % CI error bars, one line per agent; with
+    ``clip`` (suite v4; v1 to v3 draw as they did), an agent far below (or above) the rest
+    is clipped and named (:func:`axis_range`).
+    """
     from matplotlib.ticker import MaxNLocator  # matplotlib: the bench extra, when drawing
 
     from hri_bench.core import plots  # matplotlib, as above
@@ -415,8 +451,17 @@ def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
                     linewidth=1.4, elinewidth=0.8, capsize=2, linestyle=dashes)
     ax.set_xlabel("episode")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    ax.set_ylabel("regret vs blind per episode" if metric == "regret"
-                  else "robot cooperation reward per episode")
+    label = ("regret vs blind per episode" if metric == "regret"
+             else "robot cooperation reward per episode")
+    limits, clipped = axis_range(entry) if clip else (None, {})
+    if limits is not None:
+        ax.set_ylim(*limits)
+        label += "\naxis clipped; off it: " + ", ".join(
+            f"{plots.LABELS.get(a, a)} ({v:.3g})" for a, v in clipped.items())
+    if limits is not None:
+        ax.set_ylabel(label, fontsize=8)
+    else:
+        ax.set_ylabel(label)
     if metric == "regret":
         ax.axhline(0.0, color="black", linewidth=0.6)
     ax.set_title(f"{name}: {entry['description']}", fontsize=8)
@@ -598,7 +643,8 @@ def _run_tracks(chosen: Sequence[Track], configs: Sequence[Any], doc: dict[str, 
         entry = summarise(track, result)
         recorder.add(track, result)
         doc["tracks"][track.name] = entry
-        track_figure(track.name, entry, store.out / f"{track.name}.png")
+        track_figure(track.name, entry, store.out / f"{track.name}.png",
+                     clip=version not in ("1", "2", "3"))
         walls[track.name] = wall
     return walls, failures
 

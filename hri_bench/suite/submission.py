@@ -19,6 +19,7 @@ import stat
 import zlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -27,14 +28,15 @@ from hri_bench.core.atomic import atomic_writer
 from hri_bench.report import aggregate as agg
 from hri_bench.run import metrics, provenance
 from hri_bench.run.agents import agent_identity, agent_privilege, agent_settings
-from hri_bench.run.runner import TASK_METRICS
+from hri_bench.run.regret import blind_values
+from hri_bench.run.runner import TASK_METRICS, make_schedule
 from hri_bench.run.study import regret_reference
 from hri_bench.suite import results_v3
 from hri_bench.suite.markdown import code, escape, number, with_ci
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION, track_config
 from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 __all__ = ["FORMAT", "MAX_DEPTH", "SCHEMA_PATH", "SCHEMA_VERSION", "build", "compute",
            "lead_section", "load", "merge", "profile_figure", "profile_span", "read_json",
@@ -422,6 +424,33 @@ def _suite_errors(doc: Mapping[str, Any]) -> list[str]:
     return errors
 
 
+def _blind_errors(doc: Mapping[str, Any]) -> list[str]:
+    """``blind``'s recorded values recomputed: they are exact expected rewards (the plan of
+    :func:`hri_bench.run.regret.blind_values` for each run's episode starts), so a forged
+    reference differs from them.
+    """
+    version = doc["suite"]["version"]
+    tracks = TRACKS_BY_VERSION[version]
+    errors = []
+    for seed, by_track in doc["runs"].items():
+        for name, block in by_track.items():
+            if block["blind"] is None:
+                continue
+            cfg = track_config(tracks[name], ("passive",), runs_scale=doc["runs_scale"],
+                               seed=int(seed), version=version)
+            starts = make_schedule(scenario_graph(cfg.scenario), cfg.schedule,
+                                   list(range(cfg.runs)), cfg.n_episodes, cfg.seed).start
+            values = _round(blind_values(SimpleNamespace(config=cfg,
+                                                         schedule={"start": starts})))
+            bad = [r for r, (a, b) in enumerate(zip(values, block["blind"], strict=True))
+                   if a != b]
+            if bad:
+                errors.append(f"runs.{seed}.{name}.blind: run(s) {', '.join(map(str, bad[:5]))}"
+                              f"{' (and more)' if len(bad) > 5 else ''} are not blind's exact "
+                              "expected rewards for the runs' starts (a forged reference)")
+    return errors
+
+
 def _shape_errors(where: str, block: Mapping[str, Any], runs: int, episodes: int,
                   max_steps: int = 100) -> list[str]:
     errors = []
@@ -501,6 +530,9 @@ def validate(doc: Any) -> list[str]:
     errors = _suite_errors(doc)
     if doc["schema_version"] == results_v3.SCHEMA_V4:
         errors += _role_errors(doc)
+    if errors:
+        return errors
+    errors = _blind_errors(doc)
     if errors:
         return errors
     statistics, aggregate = compute(doc)
