@@ -24,7 +24,7 @@ from hri_bench.core.atomic import atomic_writer
 from hri_bench.run.agents import PLANNING_REFERENCES, validate_agent_name
 from hri_bench.run.provenance import code_changes
 from hri_bench.run.studyio import LOCK, FolderLock, check_out
-from hri_bench.suite import audit, resume, submission
+from hri_bench.suite import audit, results_v3, results_v4, resume, submission
 from hri_bench.suite.merged import HEADING, merged_leaderboard
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION
 from hri_envs.errors import ConfigError
@@ -229,8 +229,7 @@ def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[...
         with atomic_writer(args.out / "leaderboard.md") as f:
             f.write(f"# hri-envs benchmark suite v{results['suite']['version']}, seeds "
                     f"{', '.join(map(str, seeds))}\n\nPer seed: `seed-S/leaderboard.md`.\n\n"
-                    + submission.lead_section(results) + "\n"
-                    + submission.task_section(results) + "\n")
+                    + _lead(results) + "\n" + submission.task_section(results) + "\n")
         with atomic_writer(args.out / "suite.json") as f:
             f.write(json.dumps({"suite_version": docs[0]["suite_version"], "seeds": seeds,
                                 "runs_scale": docs[0]["runs_scale"],
@@ -245,6 +244,19 @@ def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[...
                                 "plan": plan}, indent=1) + "\n")
         shutil.rmtree(state, ignore_errors=True)
     return docs
+
+
+def _lead(results: dict[str, Any]) -> str:
+    """The lead of a leaderboard over several seeds: the version's headline (v3, v4) or the
+    aggregate across tracks (v1, v2).
+    """
+    if results["schema_version"] == results_v3.SCHEMA_V4:
+        refs = [a for a, r in results["roles"].items() if r["reference"]]
+        return (results_v4.lead_section(results) + "\n"
+                + results_v3.failure_section(results, refs))
+    if results["schema_version"] == results_v3.SCHEMA_VERSION:
+        return results_v3.lead_section(results) + "\n" + results_v3.failure_section(results)
+    return submission.lead_section(results)
 
 
 def warn_code_changes(recorded: Any, agents: Any) -> None:

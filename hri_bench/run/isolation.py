@@ -14,10 +14,12 @@ seed of the run's index, so an agent that does not know the seed cannot tell whi
 so which human) it faces. The suite's default seed is public: ``hri-bench validate --fresh``
 re-runs a results file's agents on a seed the verifier draws (docs/results.md).
 
-One host per agent and benchmark process is kept and reused for every batch (each batch gets
-a new agent object), and ended with the process. ``HRI_BENCH_IN_PROCESS_AGENTS=1`` makes the
-same agents in the benchmark's own process instead (with the same constructor keywords and
-streams), for a debugger; the command line never sets it.
+A host serves one agent object at a time: when the object is gone, its host waits for the
+next agent of the same class (each batch gets a new agent object in the same host; two
+sessions of a server, in threads, get a host each); every host ends with the process.
+``HRI_BENCH_IN_PROCESS_AGENTS=1`` makes the same agents in the benchmark's own process
+instead (with the same constructor keywords and streams), for a debugger; the command line
+never sets it.
 """
 
 from __future__ import annotations
@@ -28,6 +30,8 @@ import hmac
 import os
 import subprocess
 import sys
+import threading
+import weakref
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -49,7 +53,15 @@ IN_PROCESS = "HRI_BENCH_IN_PROCESS_AGENTS"
 class AgentProcessError(RuntimeError):
     """An agent's process failed: the agent raised (the message has its traceback) or the
     process ended.
+
+    Attributes:
+        kind: The name of the exception the agent raised there ("SystemExit" for
+            ``sys.exit``), or this class's name when its process ended.
     """
+
+    def __init__(self, message: str, kind: str = "AgentProcessError") -> None:
+        super().__init__(message)
+        self.kind = kind
 
 
 def agent_entropy(seed: int, runs: Sequence[int]) -> np.ndarray:
@@ -117,31 +129,43 @@ class _Host:
         self.kill()
 
 
-_HOSTS: dict[str, _Host] = {}
+#: Idle hosts per agent (started by this process), and every host started.
+_IDLE: dict[str, list[_Host]] = {}
+_ALL: list[_Host] = []
+_LOCK = threading.Lock()
 _DESCRIBED: dict[str, dict[str, Any]] = {}
 
 
-def _host(spec: str) -> _Host:
-    """The host of ``spec`` (one per agent and process; a forked process starts its own)."""
-    host = _HOSTS.get(spec)
-    if host is not None and (host.pid != os.getpid() or host.process.poll() is not None):
-        host = None  # inherited from the parent process (its pipes are the parent's), or dead
-    if host is None:
-        host = _HOSTS[spec] = _Host()
+def _acquire(spec: str) -> _Host:
+    """An idle host of ``spec`` started by this process, or a new one: an agent object has
+    a host to itself (two sessions of a server, in threads, never share one).
+    """
+    with _LOCK:
+        idle = _IDLE.setdefault(spec, [])
+        while idle:
+            host = idle.pop()
+            if host.pid == os.getpid() and host.process.poll() is None:
+                return host
+    host = _Host()
+    with _LOCK:
+        _ALL.append(host)
     return host
 
 
-def _drop(spec: str) -> None:
-    host = _HOSTS.pop(spec, None)
-    if host is not None and host.pid == os.getpid():
-        host.kill()
+def _release(spec: str, host: _Host) -> None:
+    """``host`` is free for the next agent of ``spec`` (a dead one is forgotten)."""
+    if host.pid == os.getpid() and host.process.poll() is None:
+        with _LOCK:
+            _IDLE.setdefault(spec, []).append(host)
 
 
 @atexit.register
 def shutdown() -> None:
     """End every host this process started."""
-    for spec in list(_HOSTS):
-        host = _HOSTS.pop(spec)
+    with _LOCK:
+        hosts, _ALL[:] = list(_ALL), []
+        _IDLE.clear()
+    for host in hosts:
         if host.pid == os.getpid():
             host.close()
 
@@ -154,21 +178,21 @@ def _raise(spec: str, error: Mapping[str, str]) -> None:
         raise ActionError(message)
     if kind == "SystemExit":
         raise AgentProcessError(f"agent {spec!r} {message}\n{error.get('traceback', '')}"
-                                .rstrip())
+                                .rstrip(), kind)
     raise AgentProcessError(f"agent {spec!r} raised {kind}: {message}\n"
-                            f"{error.get('traceback', '')}".rstrip())
+                            f"{error.get('traceback', '')}".rstrip(), kind)
 
 
-def _ask(spec: str, header: Mapping[str, Any], arrays: Mapping[str, np.ndarray] | None = None
+def _ask(spec: str, host: _Host, header: Mapping[str, Any],
+         arrays: Mapping[str, np.ndarray] | None = None
          ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """One request to ``spec``'s host; a host that failed mid-request is ended (an answer
-    it may still send would be read as the next one's).
+    """One request to ``host``; a host that failed mid-request is ended (an answer it may
+    still send would be read as the next one's).
     """
-    host = _host(spec)
     try:
         answer, arrays_back = host.request(header, arrays)
     except BaseException:
-        _drop(spec)
+        host.kill()
         raise
     if "error" in answer:
         _raise(spec, answer["error"])
@@ -187,7 +211,10 @@ def describe(spec: str) -> dict[str, Any]:
         if os.environ.get(IN_PROCESS) == "1":
             _DESCRIBED[spec] = agent_host._describe(spec)
         else:
-            _DESCRIBED[spec] = _ask(spec, {"kind": "describe", "spec": spec})[0]["describe"]
+            host = _acquire(spec)
+            answer = _ask(spec, host, {"kind": "describe", "spec": spec})[0]
+            _release(spec, host)
+            _DESCRIBED[spec] = answer["describe"]
     return _DESCRIBED[spec]
 
 
@@ -214,17 +241,22 @@ class IsolatedAgent(BatchAgent):
         self._pending: dict[str, np.ndarray] = {}
         self._belief: np.ndarray | None = None
         self._known = False  # whether _belief is the agent's belief now
-        _ask(spec, {"kind": "init", "spec": spec, "scenario": graph.name,
-                    "settings": dict(settings)}, {"entropy": agent_entropy(seed, runs)})
+        self._host = _acquire(spec)
+        weakref.finalize(self, _release, spec, self._host)  # free when this agent is gone
+        self._ask({"kind": "init", "spec": spec, "scenario": graph.name,
+                   "settings": dict(settings)}, {"entropy": agent_entropy(seed, runs)})
+
+    def _ask(self, header: Mapping[str, Any], arrays: Mapping[str, np.ndarray] | None = None
+             ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        return _ask(self.spec, self._host, header, arrays)
 
     def _send(self, kind: str, arrays: dict[str, np.ndarray]) -> None:
         arrays.update(self._pending)
         self._pending = {}
-        host = _host(self.spec)
         try:
-            host.send({"kind": kind}, arrays)
+            self._host.send({"kind": kind}, arrays)
         except BaseException:
-            _drop(self.spec)
+            self._host.kill()
             raise
 
     def begin_episode(self, starts: np.ndarray) -> None:
@@ -242,7 +274,7 @@ class IsolatedAgent(BatchAgent):
         arrays["active"] = np.asarray(active, dtype=bool)
         arrays.update(self._pending)
         self._pending = {}
-        _, back = _ask(self.spec, {"kind": "step", "belief": bool(belief)}, arrays)
+        _, back = self._ask({"kind": "step", "belief": bool(belief)}, arrays)
         self._belief, self._known = back.get("belief"), bool(belief)
         return back["actions"]
 
@@ -264,7 +296,7 @@ class IsolatedAgent(BatchAgent):
         if not self._known:
             arrays = dict(self._pending)
             self._pending = {}
-            _, back = _ask(self.spec, {"kind": "belief", "belief": True}, arrays)
+            _, back = self._ask({"kind": "belief", "belief": True}, arrays)
             self._belief, self._known = back.get("belief"), True
         return self._belief
 
@@ -280,7 +312,7 @@ class IsolatedAgent(BatchAgent):
             human=np.concatenate([t.human_actions for t in traces]),
             lengths=np.array([len(t.robot_actions) for t in traces], dtype=np.int64),
             intentions=np.asarray(intentions))
-        _ask(self.spec, {"kind": "end"}, arrays)
+        self._ask({"kind": "end"}, arrays)
         self._belief, self._known = None, False
 
 
