@@ -123,7 +123,7 @@ def _make(header: Mapping[str, Any], arrays: Mapping[str, np.ndarray]) -> BatchA
     if issubclass(cls, BatchAgent):
         if "rngs" in keys:
             given["rngs"] = rngs
-        return cls(graph, len(rngs), **{k: given[k] for k in keys})  # type: ignore[call-arg]
+        return cls(graph, len(rngs), **{k: given[k] for k in keys})  # type: ignore[call-arg,arg-type]
 
     def one(i: int) -> Agent:
         return cls(**{k: rngs[i] if k == "rng" else given[k] for k in keys})

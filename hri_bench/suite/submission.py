@@ -440,8 +440,8 @@ def _blind_errors(doc: Mapping[str, Any]) -> list[str]:
                                seed=int(seed), version=version)
             starts = make_schedule(scenario_graph(cfg.scenario), cfg.schedule,
                                    list(range(cfg.runs)), cfg.n_episodes, cfg.seed).start
-            values = _round(blind_values(SimpleNamespace(config=cfg,
-                                                         schedule={"start": starts})))
+            runs: Any = SimpleNamespace(config=cfg, schedule={"start": starts})  # what it reads
+            values = _round(blind_values(runs))
             bad = [r for r, (a, b) in enumerate(zip(values, block["blind"], strict=True))
                    if a != b]
             if bad:
