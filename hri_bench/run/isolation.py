@@ -212,8 +212,10 @@ def describe(spec: str) -> dict[str, Any]:
             _DESCRIBED[spec] = agent_host._describe(spec)
         else:
             host = _acquire(spec)
-            answer = _ask(spec, host, {"kind": "describe", "spec": spec})[0]
-            _release(spec, host)
+            try:
+                answer = _ask(spec, host, {"kind": "describe", "spec": spec})[0]
+            finally:
+                _release(spec, host)  # an answer (an error too) leaves it ready
             _DESCRIBED[spec] = answer["describe"]
     return _DESCRIBED[spec]
 

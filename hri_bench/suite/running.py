@@ -387,7 +387,8 @@ def leaderboard_v4(doc: dict[str, Any], results: dict[str, Any] | None) -> str:
         refs = [a for a, r in results.get("roles", {}).items() if r["reference"]]
         parts += [results_v4.lead_section(results),
                   results_v3.failure_section(results, refs)]
-    lines = [*parts, "## Power" + rest.split("\n## ", 1)[0].rstrip("\n"), ""]
+    power = rest.split("\n## ", 1)[0].rstrip("\n").replace("validation-v2", "validation-v3")
+    lines = [*parts, "## Power" + power, ""]
     if results is not None:
         lines.append(task_section(results))
     for name, tr in doc["tracks"].items():
