@@ -41,11 +41,14 @@ def _suite(out: Path, args: argparse.Namespace, in_process: bool) -> float:
 def main() -> None:
     """Time the suite both ways and print the ratio."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs-scale", type=float, default=0.25)
-    parser.add_argument("--repeats", type=int, default=2)
-    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--runs-scale", type=float, default=0.25,
+                        help="the suite's --runs-scale (default 0.25)")
+    parser.add_argument("--repeats", type=int, default=2,
+                        help="pairs of runs, isolated then in-process (default 2)")
+    parser.add_argument("--jobs", type=int, default=2, help="the suite's --jobs (default 2)")
     parser.add_argument("--agents", default="baselines.countqmdp:CountQMDP,"
-                                            "examples.custom_learner:GoalMemory")
+                                            "examples.custom_learner:GoalMemory",
+                        help="the agents of one's own (module:Class, comma-separated)")
     args = parser.parse_args()
     times: dict[bool, list[float]] = {True: [], False: []}
     with tempfile.TemporaryDirectory() as tmp:
