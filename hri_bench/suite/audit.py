@@ -26,7 +26,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from hri_bench.run.study import simulate_runs
-from hri_bench.suite.submission import identity_key, replayable, round_runs
+from hri_bench.suite.evidence import identity_key, replayable
+from hri_bench.suite.submission import round_runs
 from hri_bench.suite.tracks import TRACKS_BY_VERSION, track_config
 from hri_envs.errors import ConfigError
 

@@ -27,7 +27,8 @@ from typing import Any
 
 from hri_bench.run.study import run_study
 from hri_bench.suite import results_v3
-from hri_bench.suite.submission import SuiteRecorder, replayable
+from hri_bench.suite.evidence import replayable
+from hri_bench.suite.submission import SuiteRecorder
 from hri_bench.suite.tracks import TRACKS_BY_VERSION, track_config
 from hri_envs.errors import ConfigError
 from hri_envs.humans.families import FAMILIES

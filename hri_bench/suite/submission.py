@@ -19,7 +19,6 @@ import stat
 import zlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -27,16 +26,16 @@ import numpy as np
 from hri_bench.core.atomic import atomic_writer
 from hri_bench.report import aggregate as agg
 from hri_bench.run import metrics, provenance
-from hri_bench.run.agents import agent_identity, agent_privilege, agent_settings
-from hri_bench.run.regret import blind_values
-from hri_bench.run.runner import TASK_METRICS, make_schedule
+from hri_bench.run.agents import agent_settings
+from hri_bench.run.runner import TASK_METRICS
 from hri_bench.run.study import regret_reference
 from hri_bench.suite import results_v3
+from hri_bench.suite.evidence import agent_roles, blind_errors, role_errors
 from hri_bench.suite.markdown import code, escape, number, with_ci
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION, track_config
 from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
-from hri_envs.task.scenarios import scenario_graph, scenario_spec
+from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["FORMAT", "MAX_DEPTH", "SCHEMA_PATH", "SCHEMA_VERSION", "build", "compute",
            "lead_section", "load", "merge", "profile_figure", "profile_span", "read_json",
@@ -160,56 +159,6 @@ def build(*, suite_version: str, suite_hash: str, track_hashes: Mapping[str, str
         doc["roles"] = agent_roles(agents)
     doc["statistics"], doc["aggregate"] = compute(doc)
     return doc
-
-
-def agent_roles(agents: Sequence[str]) -> dict[str, dict[str, bool]]:
-    """What each agent sees besides the robot's view, as a results file of suite v4 records
-    it (:func:`hri_bench.run.agents.agent_privilege`): a reference is never ranked.
-    """
-    out = {}
-    for a in agents:
-        p = agent_privilege(a)
-        out[a] = {"sees_intention": p.sees_intention, "knows_human": p.knows_human,
-                  "reference": p.reference}
-    return out
-
-
-def _role_errors(doc: Mapping[str, Any]) -> list[str]:
-    """Suite v4: every agent has a role, and an agent whose code is installed here (a
-    built-in, a registered agent, a ``module:Class`` whose files hash as recorded) has the
-    role its code declares.
-    """
-    roles = doc.get("roles", {})
-    errors = [f"roles: agent {a!r} has none" for a in doc["agents"] if a not in roles]
-    errors += [f"roles: {a!r} is not an agent of the file" for a in roles
-               if a not in doc["agents"]]
-    for a, ident in doc["agents"].items():
-        if a in roles and replayable(a, ident) is None:
-            own = agent_roles([a])[a]
-            if roles[a] != own:
-                errors.append(f"roles.{a}: recorded {roles[a]}, its code declares {own}")
-    return errors
-
-
-def identity_key(identity: Any) -> str:
-    """A code identity as one comparable string."""
-    return json.dumps(identity, sort_keys=True)
-
-
-def replayable(name: str, identity: Mapping[str, Any]) -> str | None:
-    """Why agent ``name``'s runs cannot be replayed here (its code is not the recorded
-    code), or None when they can.
-    """
-    try:
-        now = agent_identity(name)
-    except (ConfigError, OSError, ImportError) as exc:
-        return f"not installed here ({exc})"
-    if identity_key(now) != identity_key(identity):
-        what = {"builtin": "the hri-envs version", "custom": "its source files",
-                "sb3": "the model file", "jaxppo": "the checkpoint"}.get(
-            str(identity.get("kind")), "its code")
-        return f"{what} differ(s) from the recorded one"
-    return None
 
 
 def schema_version(suite_version: str) -> str:
@@ -424,33 +373,6 @@ def _suite_errors(doc: Mapping[str, Any]) -> list[str]:
     return errors
 
 
-def _blind_errors(doc: Mapping[str, Any]) -> list[str]:
-    """``blind``'s recorded values recomputed: they are exact expected rewards (the plan of
-    :func:`hri_bench.run.regret.blind_values` for each run's episode starts), so a forged
-    reference differs from them.
-    """
-    version = doc["suite"]["version"]
-    tracks = TRACKS_BY_VERSION[version]
-    errors = []
-    for seed, by_track in doc["runs"].items():
-        for name, block in by_track.items():
-            if block["blind"] is None:
-                continue
-            cfg = track_config(tracks[name], ("passive",), runs_scale=doc["runs_scale"],
-                               seed=int(seed), version=version)
-            starts = make_schedule(scenario_graph(cfg.scenario), cfg.schedule,
-                                   list(range(cfg.runs)), cfg.n_episodes, cfg.seed).start
-            runs: Any = SimpleNamespace(config=cfg, schedule={"start": starts})  # what it reads
-            values = _round(blind_values(runs))
-            bad = [r for r, (a, b) in enumerate(zip(values, block["blind"], strict=True))
-                   if a != b]
-            if bad:
-                errors.append(f"runs.{seed}.{name}.blind: run(s) {', '.join(map(str, bad[:5]))}"
-                              f"{' (and more)' if len(bad) > 5 else ''} are not blind's exact "
-                              "expected rewards for the runs' starts (a forged reference)")
-    return errors
-
-
 def _shape_errors(where: str, block: Mapping[str, Any], runs: int, episodes: int,
                   max_steps: int = 100) -> list[str]:
     errors = []
@@ -529,10 +451,10 @@ def validate(doc: Any) -> list[str]:
         return errors
     errors = _suite_errors(doc)
     if doc["schema_version"] == results_v3.SCHEMA_V4:
-        errors += _role_errors(doc)
+        errors += role_errors(doc)
     if errors:
         return errors
-    errors = _blind_errors(doc)
+    errors = blind_errors(doc)
     if errors:
         return errors
     statistics, aggregate = compute(doc)
