@@ -1,7 +1,13 @@
 """The pilots behind suite v2's and v3's run counts: how much the agents' scores spread.
 
+    .venv/bin/python benchmarks/suite_power.py --version 4 [--blocks 4] [--seed 1000] [--jobs 2]
     .venv/bin/python benchmarks/suite_power.py --version 3 [--blocks 4] [--seed 1000] [--jobs 2]
     .venv/bin/python benchmarks/suite_power.py --version 2 [--runs 256] [--seed 1000] [--jobs 2]
+
+**Version 4** runs v3's pilot on v4's tracks and the *validation-v3* split (the humans
+distinct by behaviour) and prints ``PILOT_V4``, which ``hri_bench/suite/tracks.py`` holds
+exactly as printed (``tests/test_suite_v4.py`` runs the pilot and compares; the full
+comparison is a slow test).
 
 **Version 3** (:func:`pilot_v3`) runs every v3 track on the *validation-v2* split's group of
 the same humans' families (the test split is never looked at; the paper's anchor on its own
@@ -83,8 +89,11 @@ def components(diff: np.ndarray, humans: np.ndarray) -> tuple[float, float]:
     return float(np.sqrt(max(between2, 0.0))), within
 
 
-def pilot_v3(blocks: int, seed: int, jobs: int, only: str | None) -> None:
-    """Run v3's pilot (module docstring) and print ``PILOT_V3``."""
+def pilot_v3(blocks: int, seed: int, jobs: int, only: str | None, version: str = "3",
+             quiet: bool = False) -> dict[str, tuple[float, float]]:
+    """Run v3's pilot (module docstring) on ``version``'s tracks; the pilot's dict (the
+    (between, within) spreads per track, rounded as frozen).
+    """
     from hri_bench.report import ranking
     from hri_bench.run.study import regret_reference, run_study
     from hri_bench.suite import (
@@ -98,10 +107,11 @@ def pilot_v3(blocks: int, seed: int, jobs: int, only: str | None) -> None:
     from hri_bench.suite.results_v3 import run_humans
 
     found: dict[str, tuple[float, float]] = {}
-    for track in select_tracks(only, "3"):
+    say = (lambda *a, **k: None) if quiet else print
+    for track in select_tracks(only, version):
         t0 = time.perf_counter()
         cfg = track_config(track, DEFAULT_AGENTS_V3, seed=seed, jobs=jobs,
-                           executor="process" if jobs > 1 else "serial", version="3")
+                           executor="process" if jobs > 1 else "serial", version=version)
         population = dict(track.settings).get("population")
         if population is not None:  # the same families, the validation split's humans
             cfg = dataclasses.replace(cfg, population=population.replace("test-", "validation-"))
@@ -127,24 +137,21 @@ def pilot_v3(blocks: int, seed: int, jobs: int, only: str | None) -> None:
             n_blocks = power_v3(between, within, n_h if population else 1)
             shown = detectable_v3(between, within, 40, MAX_BLOCKS) if population else 0.0
             need[(a, b)] = ((n_blocks, shown, between, within))
-            print(f"  {track.name:26s} {a:>10s} vs {b:10s} between {between:.4f} within "
-                  f"{within:.4f}", flush=True)
+            say(f"  {track.name:26s} {a:>10s} vs {b:10s} between {between:.4f} within "
+                f"{within:.4f}", flush=True)
         (a, b), (_, shown, between, within) = max(need.items(), key=lambda kv: kv[1][:2])
         found[track.name] = (round(between, 4), round(within, 4))
-        print(f"{track.name:28s} ({a} vs {b}) between {between:.4f}, within {within:.4f}; at "
-              f"{MAX_BLOCKS} runs per human of 40 it detects {shown} (target {DELTA_V3}) "
-              f"({time.perf_counter() - t0:.1f} s)", flush=True)
-    print("PILOT_V3: dict[str, tuple[float, float]] = {")
-    for name, (between, within) in found.items():
-        print(f'    "{name}": ({between}, {within}),')
-    print("}")
+        say(f"{track.name:28s} ({a} vs {b}) between {between:.4f}, within {within:.4f}; at "
+            f"{MAX_BLOCKS} runs per human of 40 it detects {shown} (target {DELTA_V3}) "
+            f"({time.perf_counter() - t0:.1f} s)", flush=True)
+    return found
 
 
 def main() -> None:
     """Run the pilot and print the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--version", choices=("2", "3"), default="3",
-                        help="the suite version whose pilot to run (default 3)")
+    parser.add_argument("--version", choices=("2", "3", "4"), default="4",
+                        help="the suite version whose pilot to run (default 4)")
     parser.add_argument("--runs", type=int, default=256, help="v2: runs per track")
     parser.add_argument("--blocks", type=int, default=4,
                         help="v3: runs per validation human (the paper's anchor: 60 runs)")
@@ -152,8 +159,12 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2, help="worker processes")
     parser.add_argument("--tracks", default=None, help="comma-separated tracks (default all)")
     args = parser.parse_args()
-    if args.version == "3":
-        pilot_v3(args.blocks, args.seed, args.jobs, args.tracks)
+    if args.version in ("3", "4"):
+        found = pilot_v3(args.blocks, args.seed, args.jobs, args.tracks, args.version)
+        print(f"PILOT_V{args.version}: dict[str, tuple[float, float]] = {{")
+        for name, (between, within) in found.items():
+            print(f'    "{name}": ({between}, {within}),')
+        print("}")
         return
     from hri_bench.run.study import run_study
 

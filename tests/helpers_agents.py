@@ -1,5 +1,7 @@
 """A user-written agent, imported by path in the benchmark tests (``module:Class``)."""
 
+import numpy as np
+
 from agents.protocol import Agent
 
 
@@ -91,10 +93,9 @@ class RandomMover(AlwaysWait):
 
     name = "random-mover"
 
-    def __init__(self, graph, rng, run, seed, max_steps, r0, reward, episodes):
+    def __init__(self, graph, rng, max_steps, r0, reward, episodes):
         self.graph, self.rng = graph, rng
-        self.given = {"run": run, "seed": seed, "max_steps": max_steps, "r0": r0,
-                      "reward": reward, "episodes": episodes}
+        self.given = {"max_steps": max_steps, "r0": r0, "reward": reward, "episodes": episodes}
 
     def act(self, observation):
         valid = [a for a, ok in enumerate(observation["action_mask"]) if ok]
@@ -155,3 +156,21 @@ class WaitsForGate(AlwaysWait):
         while not gate.exists() and time.monotonic() < deadline:
             time.sleep(0.01)
         return 0
+
+
+class CountsStarts(AlwaysWait):
+    """Exposes a belief: the share of earlier episodes that ended on each support (uniform
+    before the first), so the benchmark scores it.
+    """
+
+    name = "counts-starts"
+
+    def __init__(self, graph):
+        self.counts = np.ones(graph.n_intentions)
+
+    def end_episode(self, trace, intention):
+        if intention >= 0:
+            self.counts[intention] += 1
+
+    def belief(self):
+        return self.counts / self.counts.sum()

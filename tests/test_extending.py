@@ -25,7 +25,8 @@ SCRIPT = textwrap.dedent("""
     from hri_bench.suite import default_agents
 
     SMALL = {"1": ("hanger-paper,wheel-drift", 0.01), "2": ("wheel-test-inconsistent", 0.05),
-             "3": ("wheel-test-inconsistent,hanger-paper", 0.05)}
+             "3": ("wheel-test-inconsistent,hanger-paper", 0.05),
+             "4": ("wheel-test-inconsistent,hanger-paper", 0.05)}
 
     def published(tag):
         seen = {}

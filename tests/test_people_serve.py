@@ -23,6 +23,7 @@ from hri_bench.data.replay import replay  # noqa: E402
 from hri_bench.people.serve.app import create_app  # noqa: E402
 from hri_bench.people.serve.design import ServeConfig, assignment, pair_circuit  # noqa: E402
 from hri_bench.people.serve.session import parse_message  # noqa: E402
+from hri_bench.run.isolation import IN_PROCESS  # noqa: E402
 from hri_envs.errors import ConfigError  # noqa: E402
 from hri_envs.humans.scripted import preference_human  # noqa: E402
 from hri_envs.task.scenarios import scenario_graph  # noqa: E402
@@ -235,12 +236,15 @@ def test_a_reload_resumes_and_a_second_tab_takes_over(tmp_path):
     assert done["type"] == "done"
 
 
-def test_a_crashed_session_loses_no_step_of_the_others(tmp_path):
+def test_a_crashed_session_loses_no_step_of_the_others(tmp_path, monkeypatch):
     """Two participants; the second one's robot raises in its second episode. That session
     ends (``failed``, its first episode kept); the first participant's episode already
-    written stays as it was, and the session plays on to the end."""
+    written stays as it was, and the session plays on to the end. (The agent counts its
+    instances in a class attribute: it is made in the server's process, where that count is
+    shared; in processes of their own, each session's would start at 0.)"""
     from tests.helpers_agents import SecondMadeCrashes
 
+    monkeypatch.setenv(IN_PROCESS, "1")
     SecondMadeCrashes.made = 0
     cfg, client = _client(tmp_path, agent="tests.helpers_agents:SecondMadeCrashes")
     with client:

@@ -18,6 +18,7 @@ from hri_bench.report import aggregate
 from hri_bench.run import agents as bench_agents
 from hri_bench.run import metrics, provenance
 from hri_bench.run.agents import contract_keywords, make_agent
+from hri_bench.run.isolation import IN_PROCESS, agent_streams
 from hri_bench.run.runner import make_schedule, simulate
 from hri_bench.run.study import StudyConfig, graph_for, run_study
 from hri_bench.suite import submission
@@ -194,8 +195,8 @@ def test_a_suite_made_results_file_validates(suite_dir, capsys):
     assert "valid" in capsys.readouterr().out
     ident = doc["agents"]["tests.helpers_agents:RandomMover"]
     assert ident["kind"] == "custom" and "tests/helpers_agents.py" in ident["files"]
-    assert {"rng", "run", "seed", "max_steps", "r0", "reward", "episodes"} <= set(
-        ident["constructor"])
+    assert set(ident["constructor"]) == {"graph", "rng", "max_steps", "r0", "reward",
+                                         "episodes"}
     assert doc["agents"]["learner"]["kind"] == "builtin"
     assert set(doc["software"]) >= {"numpy", "gymnasium", "pettingzoo", "mujoco", "hri-envs"}
     learner = doc["statistics"]["0"]["hanger-paper"]["learner"]
@@ -330,14 +331,18 @@ def test_code_changes_names_the_changed_file(tmp_path, monkeypatch):
 
 
 # --------------------------------------------------------------------------- the contract
-def test_a_custom_agent_gets_the_contract_and_its_generator_is_jobs_independent():
+def test_a_custom_agent_gets_the_contract_and_its_generator_is_jobs_independent(monkeypatch):
+    # Made in this process (the same keywords and streams as in its own) to look inside it.
+    monkeypatch.setenv(IN_PROCESS, "1")
     graph = graph_for("wheel")
     agent = make_agent("tests.helpers_agents:RandomMover", graph, preference_human(graph), [4, 7],
                        seed=5, r0=-0.25, max_steps=60, reward="no-free-toggle", episodes=3)
     first = agent.agents[1]
-    assert first.given == {"run": 7, "seed": 5, "max_steps": 60, "r0": -0.25,
-                           "reward": "no-free-toggle", "episodes": 3}
-    assert first.rng.random() == np.random.default_rng([5, 7]).random()
+    assert first.given == {"max_steps": 60, "r0": -0.25, "reward": "no-free-toggle",
+                           "episodes": 3}
+    assert first.rng.random() == agent_streams(5, [7])[0].random()
+    assert first.rng.random() != np.random.default_rng([5, 7]).random()  # not (seed, run)
+    monkeypatch.delenv(IN_PROCESS)
     spec = "tests.helpers_agents:RandomMover"
     results = [run_study(StudyConfig("wheel", agents=(spec,), runs=4, episodes=3, seed=2,
                                      jobs=jobs, executor=ex))
@@ -347,7 +352,8 @@ def test_a_custom_agent_gets_the_contract_and_its_generator_is_jobs_independent(
     assert results[0].metrics[spec]["reward"].std() > 0  # it does draw
 
 
-def test_old_signatures_keep_working_and_kwargs_get_everything():
+def test_old_signatures_keep_working_and_kwargs_get_everything(monkeypatch):
+    monkeypatch.setenv(IN_PROCESS, "1")
     graph = graph_for("hanger")
     human = preference_human(graph)
     assert contract_keywords(AlwaysWait) == ()
@@ -355,18 +361,24 @@ def test_old_signatures_keep_working_and_kwargs_get_everything():
                                  r0=-0.33).agents[0], AlwaysWait)
     got = make_agent("tests.helpers_agents:TakesKeywords", graph, human, [3], seed=1,
                      r0=-0.33).agents[0].kwargs
-    assert set(got) == {"graph", "seed", "run", "rng", "r0", "reward", "max_steps", "episodes"}
+    assert set(got) == {"graph", "rng", "r0", "reward", "max_steps", "episodes"}
 
     class OldBatch(BatchAgent):
         def __init__(self, graph, n_runs):
             super().__init__(n_runs)
 
     class NewBatch(OldBatch):
+        def __init__(self, graph, n_runs, *, rngs, r0):
+            super().__init__(graph, n_runs)
+            self.rngs, self.r0 = rngs, r0
+
+    class AsksForTheRuns(OldBatch):
         def __init__(self, graph, n_runs, *, rngs, runs):
             super().__init__(graph, n_runs)
-            self.rngs, self.runs = rngs, runs
 
-    assert contract_keywords(OldBatch) == () and contract_keywords(NewBatch) == ("runs", "rngs")
+    assert contract_keywords(OldBatch) == () and contract_keywords(NewBatch) == ("rngs", "r0")
+    with pytest.raises(ConfigError, match="requires runs in its constructor"):
+        contract_keywords(AsksForTheRuns)
 
 
 def test_a_study_records_a_custom_agent_s_code_and_its_replay_warns(tmp_path, capsys):

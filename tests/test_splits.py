@@ -86,11 +86,56 @@ FROZEN_V2 = {
 }
 
 
+#: Split version 3 (suite v4): its members distinct by behaviour (tests/test_splits_v3.py).
+FROZEN_V3 = {
+    ('validation-v3', 'hanger'):
+        "42dd8308712eb503d3a4dffd9a9f6fe6324b4f657d1061dcbf7e37d28b573721",
+    ('validation-v3-scripted', 'hanger'):
+        "5b47de909b312e3ad750c89cec56ddf569c728c0be8cf12ea75426e949ba5833",
+    ('validation-v3-misspecified', 'hanger'):
+        "5f684d76b848e8979c43d77dfe7e61176cf0e92c21088cda8b3bb5016b71a305",
+    ('validation-v3-adaptive', 'hanger'):
+        "9f225e0e16e56ced955912f11a8310364ba10046d5757039e79bcfa66c571abe",
+    ('validation-v3-inconsistent', 'hanger'):
+        "d6c482319073b8bd3bbd5c2806c853cc20aaa0ab0d96f0988211b9217116d2aa",
+    ('test-v3', 'hanger'):
+        "af177658543a1af3869a14c845621502444f33113c57203be86006398967e318",
+    ('test-v3-scripted', 'hanger'):
+        "32bf52dfcf5639fbdad46154c869166338eac8043076316d3bc6d2b9befb38a5",
+    ('test-v3-misspecified', 'hanger'):
+        "3b5da4039a0643f89e2da15855d80c39eb97e857294c39a1d7293a1e5194d796",
+    ('test-v3-adaptive', 'hanger'):
+        "179bdded62f58f7288133b3a1f2fb429ad6cfc5293337971caa7a471eb91b5a6",
+    ('test-v3-inconsistent', 'hanger'):
+        "33209fa0e5d73bb7a40a39c549ea7727260ce273a482b732028c663751a172fa",
+    ('validation-v3', 'wheel'):
+        "536c4e45f4b8fa72b7d9c6cdf33cf27e892694b0fc724726d0a1d1d89f282071",
+    ('validation-v3-scripted', 'wheel'):
+        "7836b36f7d53dc82d27a29031c105633d044208e97a4947114417db8f0aed5b7",
+    ('validation-v3-misspecified', 'wheel'):
+        "bba244ede4672ae4cfdc4b51e475e4d758ac7b7438a9c2f6a66cea4fdfb77506",
+    ('validation-v3-adaptive', 'wheel'):
+        "951eab42affbc55b86116c34f4e5a7279234c1571f3eab154f5f25471d377b0b",
+    ('validation-v3-inconsistent', 'wheel'):
+        "3bb03b66d8c0c6ee38f1295ae42f530be6a66e57f847d4522b136c185370f8f9",
+    ('test-v3', 'wheel'):
+        "68d0f1033d91411996393f3bd1c7956a0f8d9e96f9c2f585281cfd76c23a12fd",
+    ('test-v3-scripted', 'wheel'):
+        "f655f6904323ad5d57d9b6e4fd49f2084dbb8c2450089434df69b838742e4fa9",
+    ('test-v3-misspecified', 'wheel'):
+        "37d6d5fc63583845832dfd9ea44d848be29349c6ceb7535339a0ec2a016d86b5",
+    ('test-v3-adaptive', 'wheel'):
+        "2119d9e4a595a62a9ec87520891cc84ed8fc7840b1a944710d4e558650235585",
+    ('test-v3-inconsistent', 'wheel'):
+        "fda185d5e11f8219e9d976e5593c42894eacbf5c98d2af15517c5650ef6a4501",
+}
+
 def test_every_split_is_frozen_under_its_hash():
     hashes = {key: spec.content_hash() for key, spec in MIXTURES.items()}
     assert {k: h for k, h in hashes.items() if k in FROZEN} == FROZEN
     assert {k: h for k, h in hashes.items() if k in FROZEN_V2} == FROZEN_V2
-    assert set(hashes) - set(FROZEN) - set(FROZEN_V2) == {
+    assert {k: h for k, h in hashes.items() if k in FROZEN_V3} == FROZEN_V3
+    assert set(hashes) - set(FROZEN) - set(FROZEN_V2) - set(FROZEN_V3) == {
         (f"validation-v2-{g}", sc) for g in GROUPS for sc in ("hanger", "wheel")}
     spec = MIXTURES[("test", "wheel")]
     for change in ({"generator_seed": 1}, {"members": 63}, {"version": "2"}):

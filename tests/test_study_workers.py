@@ -17,12 +17,23 @@ import numpy as np
 import pytest
 
 from hri_bench.cli import main
+from hri_bench.run.isolation import IN_PROCESS
 from hri_bench.run.study import StudyConfig, UnitLostError, run_study
 from hri_envs.errors import ConfigError
 from tests.helpers_processes import children, finish, start_cli
 
 #: Seconds a study with a dead or hung worker may take to end (it ends in about one).
 PROMPT = 30
+
+
+@pytest.fixture(autouse=True)
+def _agents_in_the_worker(monkeypatch):
+    """The agents of tests/helpers_faults.py end or stall the process they run in. An agent
+    of one's own runs in a process of its own (its death is that agent's failure,
+    tests/test_isolation.py); these tests are about the pool's workers, so the agents run in
+    the worker, as the benchmark's own agents do.
+    """
+    monkeypatch.setenv(IN_PROCESS, "1")
 
 
 def _study(agent, *extra):

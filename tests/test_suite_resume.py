@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from hri_bench.cli import main
+from hri_bench.run.isolation import IN_PROCESS
 from hri_bench.suite import running
 from tests.helpers_processes import finish, start_cli
 
@@ -160,10 +161,10 @@ def test_ctrl_c_in_process_is_the_resume_command_not_a_traceback(gate, tmp_path,
     out = tmp_path / "suite"
     real = running.track_figure
 
-    def ctrl_c(name, entry, path):
+    def ctrl_c(name, entry, path, **kwargs):
         if name == "hanger-passive":
             raise KeyboardInterrupt
-        return real(name, entry, path)
+        return real(name, entry, path, **kwargs)
 
     monkeypatch.setattr(running, "track_figure", ctrl_c)
     assert main([*SUITE, "--out", str(out)]) == 130
@@ -221,6 +222,7 @@ def test_a_bad_out_is_one_line(where, tmp_path, capsys, monkeypatch):
 
 def test_a_dead_worker_ends_the_suite_naming_the_track_and_resume_completes(gate, tmp_path,
                                                                            monkeypatch):
+    monkeypatch.setenv(IN_PROCESS, "1")  # the agent ends the worker (tests/test_study_workers.py)
     args = ["suite", "--suite-version", "1", "--tracks", "hanger-paper,wheel-paper",
             "--runs-scale", "0.01", "--jobs", "2", "--no-progress", "--agents",
             "passive,tests.helpers_faults:ExitsProcess"]

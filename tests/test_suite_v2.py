@@ -32,8 +32,8 @@ def tiny2(tmp_path_factory):
     return out, run_suite(out, runs_scale=0.05, version="2")
 
 
-def test_v2_keeps_the_test_split_as_headline_and_v3_is_the_default(tmp_path, monkeypatch):
-    assert suite.LATEST == "3"
+def test_v2_keeps_the_test_split_as_headline_and_v4_is_the_default(tmp_path, monkeypatch):
+    assert suite.LATEST == "4"
     headline = [t.name for t in TRACKS_V2.values() if t.headline]
     assert headline == ["hanger-test", "wheel-test"]
     for sc in ("hanger", "wheel"):
@@ -140,7 +140,7 @@ def test_an_unknown_version_or_a_track_of_another_version_fails_naming_the_flag(
 
     monkeypatch.setattr("hri_bench.suite.running.run_study", boom)
     for argv, flag, text in (
-            (["--suite-version", "4"], "--suite-version", "invalid choice: '4'"),
+            (["--suite-version", "5"], "--suite-version", "invalid choice: '5'"),
             (["--tracks", "wheel-heldout", "--suite-version", "2"], "--tracks",
              "unknown track(s) wheel-heldout of suite v2; allowed: hanger-test"),
             (["--population", "test"], "--population", "a suite track of its own takes")):

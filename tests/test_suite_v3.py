@@ -95,8 +95,8 @@ def test_normalised_scores_and_their_range():
     assert ranking.weighted_iqm(np.array([0, 0, 0, 100.0]), np.full(4, 0.25)) == 0.0
 
 
-def test_v3_is_the_default_and_its_headline_tracks_partition_the_test_humans():
-    assert suite.LATEST == "3"
+def test_v3_s_headline_tracks_partition_the_test_humans():
+    assert "3" in suite.SUITE_VERSIONS
     head = [t for t in TRACKS_V3.values() if t.headline]
     assert len(head) == 8 and all(not t.name.endswith("paper") for t in head)
     for sc in ("hanger", "wheel"):
@@ -135,7 +135,8 @@ def test_power_picks_the_fewest_runs_per_human_that_detect_the_target():
 def v3_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("suite3") / "s"
     assert main(["suite", "--out", str(out), "--tracks", "wheel-test-inconsistent,hanger-paper",
-                 "--runs-scale", "0.05", "--agents", "learner,goalfilter", "--no-progress"]) == 0
+                 "--runs-scale", "0.05", "--agents", "learner,goalfilter", "--no-progress",
+                 "--suite-version", "3"]) == 0
     return out
 
 

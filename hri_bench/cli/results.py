@@ -19,12 +19,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from hri_bench.cli.args import whole
+from hri_bench.cli.args import bounded, whole
 from hri_bench.core.atomic import atomic_writer
 from hri_bench.run.agents import PLANNING_REFERENCES, validate_agent_name
 from hri_bench.run.provenance import code_changes
 from hri_bench.run.studyio import LOCK, FolderLock, check_out
-from hri_bench.suite import audit, resume, submission
+from hri_bench.suite import audit, results_v3, results_v4, resume, submission
 from hri_bench.suite.merged import HEADING, merged_leaderboard
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION
 from hri_envs.errors import ConfigError
@@ -54,6 +54,16 @@ def add_parsers(sub: Any) -> None:
                           "recorded values exactly (default 0: no replay)")
     val.add_argument("--replay-seed", type=whole, default=None, metavar="S",
                      help="seed of the runs --replay picks (default: a fresh one, printed)")
+    val.add_argument("--fresh", action="store_true",
+                     help="also re-run the file's agents (suite v3, v4) on a seed this "
+                          "command draws and fresh humans of the test families, and fail "
+                          "where an agent's headline differs from the submitted one beyond "
+                          "their intervals (the seed is printed after the run)")
+    val.add_argument("--fresh-seed", type=whole, default=None, metavar="S",
+                     help="the seed of --fresh (default: drawn from the operating system); "
+                          "to repeat a check")
+    val.add_argument("--jobs", type=bounded(int, "a whole number >= 1", lambda v: v >= 1),
+                     default=1, help="worker processes of --fresh (default 1)")
     val.set_defaults(command_parser=val)
     lb = sub.add_parser("leaderboard", help="merge validated results files into a leaderboard",
                         description="Validate every results file in DIR (*.json, *.json.gz; "
@@ -219,8 +229,7 @@ def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[...
         with atomic_writer(args.out / "leaderboard.md") as f:
             f.write(f"# hri-envs benchmark suite v{results['suite']['version']}, seeds "
                     f"{', '.join(map(str, seeds))}\n\nPer seed: `seed-S/leaderboard.md`.\n\n"
-                    + submission.lead_section(results) + "\n"
-                    + submission.task_section(results) + "\n")
+                    + _lead(results) + "\n" + submission.task_section(results) + "\n")
         with atomic_writer(args.out / "suite.json") as f:
             f.write(json.dumps({"suite_version": docs[0]["suite_version"], "seeds": seeds,
                                 "runs_scale": docs[0]["runs_scale"],
@@ -237,6 +246,19 @@ def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[...
     return docs
 
 
+def _lead(results: dict[str, Any]) -> str:
+    """The lead of a leaderboard over several seeds: the version's headline (v3, v4) or the
+    aggregate across tracks (v1, v2).
+    """
+    if results["schema_version"] == results_v3.SCHEMA_V4:
+        refs = [a for a, r in results["roles"].items() if r["reference"]]
+        return (results_v4.lead_section(results) + "\n"
+                + results_v3.failure_section(results, refs))
+    if results["schema_version"] == results_v3.SCHEMA_VERSION:
+        return results_v3.lead_section(results) + "\n" + results_v3.failure_section(results)
+    return submission.lead_section(results)
+
+
 def warn_code_changes(recorded: Any, agents: Any) -> None:
     """Warn on stderr for each agent of a study's ``--config`` (a summary.json) whose code
     differs from the identity ``recorded`` (the file's ``agent_configs``, as the caller read
@@ -246,9 +268,11 @@ def warn_code_changes(recorded: Any, agents: Any) -> None:
         print(f"hri-bench study: warning: {line}", file=sys.stderr)
 
 
-def validate(path: Path, replay: int = 0, replay_seed: int | None = None) -> int:
-    """``hri-bench validate FILE [--replay K]``: 0 when valid (and every replayed run
-    identical); 1 with one line per problem.
+def validate(path: Path, replay: int = 0, replay_seed: int | None = None,
+             fresh: bool = False, fresh_seed: int | None = None, jobs: int = 1) -> int:
+    """``hri-bench validate FILE [--replay K] [--fresh]``: 0 when valid (every replayed run
+    identical, every agent's fresh headline within its interval); 1 with one line per
+    problem.
     """
     try:
         doc = submission.load(path)
@@ -267,6 +291,12 @@ def validate(path: Path, replay: int = 0, replay_seed: int | None = None) -> int
         checked, bad, skipped = audit.replay(doc, replay, seed, progress=sys.stderr.isatty())
         for agent, why in skipped.items():
             print(f"  not replayed: agent {agent!r}: {why}")
+        if skipped or not checked:
+            print(f"{path}: REPLAY INCOMPLETE: {len(checked)} run(s) replayed; "
+                  + (f"agent(s) {', '.join(map(repr, skipped))} could not be: a replay "
+                     "vouches for every agent of the file or fails" if skipped
+                     else "nothing could be replayed"), file=sys.stderr)
+            return 1
         if bad:
             print(f"{path}: REPLAY FAILED ({len(bad)} of {len(checked)} run(s) differ; "
                   f"--replay-seed {seed}):", file=sys.stderr)
@@ -275,6 +305,34 @@ def validate(path: Path, replay: int = 0, replay_seed: int | None = None) -> int
             return 1
         print(f"{path}: {len(checked)} replayed run(s) identical (--replay {replay} "
               f"--replay-seed {seed})")
+    if fresh:
+        return _fresh(path, doc, fresh_seed, jobs)
+    return 0
+
+
+def _fresh(path: Path, doc: Any, seed: int | None, jobs: int) -> int:
+    """``--fresh``: the agents on a drawn seed and fresh humans (:mod:`hri_bench.suite.fresh`)."""
+    from hri_bench.suite.fresh import fresh_check
+
+    drawn = secrets.randbelow(2**31) if seed is None else seed
+    try:
+        found = fresh_check(doc, drawn, jobs)
+    except ConfigError as exc:
+        print(f"hri-bench validate: {exc}", file=sys.stderr)
+        return 1
+    if found.skipped:
+        print(f"{path}: FRESH CHECK INCOMPLETE: " + "; ".join(
+            f"agent {a!r} cannot be re-run here ({why})" for a, why in found.skipped.items()),
+              file=sys.stderr)
+        return 1
+    for line in found.lines:
+        print(f"  {line}")
+    where = f"(fresh seed {drawn}, drawn after the submission; --fresh-seed {drawn} repeats it)"
+    if found.failed:
+        print(f"{path}: FRESH CHECK FAILED for {', '.join(map(repr, found.failed))} {where}",
+              file=sys.stderr)
+        return 1
+    print(f"{path}: every agent's headline on fresh humans is within its interval {where}")
     return 0
 
 
@@ -364,5 +422,6 @@ def leaderboard(folder: Path, out: Path | None, parser: argparse.ArgumentParser)
 def run(args: argparse.Namespace) -> int:
     """Dispatch ``validate`` and ``leaderboard``."""
     if args.command == "validate":
-        return validate(args.file, args.replay, args.replay_seed)
+        return validate(args.file, args.replay, args.replay_seed, args.fresh, args.fresh_seed,
+                        args.jobs)
     return leaderboard(args.dir, args.out, args.command_parser)

@@ -28,6 +28,15 @@ track weighs the same); its replicates are the means of the tracks' replicates (
 resampled on its own: the headline tracks partition the test humans). The IQM (a robustness
 column) is the mean over tracks of each track's weighted interquartile mean.
 
+**The references' own noise (suite v4).** A :class:`Track` given each run's ``reference``
+and ``floor`` values holds raw run values, not normalised ones: every replicate then
+re-estimates the reference and the floor from its own draw of humans and runs, and
+normalises with them, ``(W x - W floor) / (W reference - W floor)``; the point estimate does
+the same with the point weights. So an interval covers the references' noise too, the floor
+agent scores exactly 0 (and the reference agent exactly 1) in every replicate, and a paired
+difference ``W (x_a - x_b) / (W reference - W floor)`` shares the scale of its replicate.
+:func:`shared_ranks` gives agents whose paired difference's interval includes 0 one rank.
+
 **Pairs.** For agents ``a`` and ``b`` on a track: the paired difference ``z[a] - z[b]``
 with its two-stage CI, a **win** for ``a`` when the CI lies above 0, a **loss** below, a
 **tie** otherwise; over the headline tracks, the mean difference with its CI and the
@@ -47,8 +56,8 @@ import numpy as np
 from hri_envs.errors import ConfigError
 
 __all__ = ["LEVEL", "REPLICATES", "Track", "compare", "headline", "human_groups",
-           "normalise", "public", "replicate_weights", "summarise", "track_seed",
-           "weighted_iqm"]
+           "normalise", "public", "replicate_weights", "shared_ranks", "summarise",
+           "track_seed", "weighted_iqm", "worse_than_floor"]
 
 #: Bootstrap replicates (as :data:`hri_bench.core.stats.N_RESAMPLES`).
 REPLICATES = 2000
@@ -162,6 +171,10 @@ class Track:
         humans: (n,) each run's human (an id; runs of one human across seeds share it).
         seed: Seeds the bootstrap (the first suite seed).
         headline: Whether the track is part of the headline.
+        reference: (n,) each run's value of the reference, or None: ``scores`` are
+            normalised already. Given (with ``floor``), ``scores`` are raw run values and
+            every replicate normalises with its own reference and floor (module docstring).
+        floor: (n,) each run's value of the floor (with ``reference``).
     """
 
     name: str
@@ -169,6 +182,23 @@ class Track:
     humans: Sequence[Hashable]
     seed: int
     headline: bool = True
+    reference: np.ndarray | None = None
+    floor: np.ndarray | None = None
+
+    def scale(self) -> tuple[float, float, np.ndarray, np.ndarray]:
+        """``(floor, span, floors, spans)``: the floor and reference − floor of the point
+        estimate and of every replicate ((0, 1, 0, 1) for normalised scores).
+
+        Raises:
+            ConfigError: The point's reference is not :data:`MIN_RANGE` above its floor.
+        """
+        if self.reference is None or self.floor is None:
+            return 0.0, 1.0, np.zeros(1), np.ones(1)
+        w, big = self.weights()
+        ref, flo = np.asarray(self.reference, dtype=float), np.asarray(self.floor, dtype=float)
+        floor, span = float(w @ flo), float(w @ ref - w @ flo)
+        normalise(np.zeros(1), floor + span, floor)  # refuses a range below MIN_RANGE
+        return floor, span, big @ flo, big @ ref - big @ flo
 
     def weights(self) -> tuple[np.ndarray, np.ndarray]:
         """:func:`replicate_weights` of the track's humans (cached per object)."""
@@ -186,9 +216,10 @@ def summarise(track: Track, agent: str) -> dict[str, Any]:
     """
     w, big = track.weights()
     z = np.asarray(track.scores[agent], dtype=float)
-    reps, iqms = big @ z, weighted_iqm(z, big)
-    return {"mean": float(w @ z), "ci95": _interval(reps),
-            "iqm": float(weighted_iqm(z, w)), "iqm_ci95": _interval(iqms),
+    floor, span, floors, spans = track.scale()
+    reps, iqms = (big @ z - floors) / spans, (weighted_iqm(z, big) - floors) / spans
+    return {"mean": (float(w @ z) - floor) / span, "ci95": _interval(reps),
+            "iqm": (float(weighted_iqm(z, w)) - floor) / span, "iqm_ci95": _interval(iqms),
             "_mean": reps, "_iqm": iqms}
 
 
@@ -202,10 +233,11 @@ def compare(track: Track, a: str, b: str) -> dict[str, Any]:
     za, zb = (np.asarray(track.scores[x], dtype=float) for x in (a, b))
     d = za - zb
     better = (za > zb) + 0.5 * (za == zb)
-    reps, p_reps = big @ d, big @ better
+    _, span, _, spans = track.scale()
+    reps, p_reps = big @ d / spans, big @ better
     ci = _interval(reps)
     outcome = "win" if ci[0] > 0 else "loss" if ci[1] < 0 else "tie"
-    return {"difference": {"mean": float(w @ d), "ci95": ci}, "outcome": outcome,
+    return {"difference": {"mean": float(w @ d) / span, "ci95": ci}, "outcome": outcome,
             "improvement": {"mean": float(w @ better), "ci95": _interval(p_reps)},
             "_difference": reps, "_improvement": p_reps}
 
@@ -263,3 +295,27 @@ def headline(tracks: Sequence[Track], agents: Sequence[str]) -> dict[str, Any]:
                                 "ci95": _interval(imp)},
                 "per_track": {name: public(e) for name, e in per.items()}}
     return out
+
+
+def shared_ranks(order: Sequence[str], pairs: Mapping[str, Mapping[str, Any]]) -> dict[str, int]:
+    """Each agent's rank: 1 + the agents whose paired headline difference to it has its
+    interval above 0 (:func:`headline`'s ``pairs``). Agents that no interval separates share
+    a rank (a leaderboard shows "2=").
+    """
+    return {a: 1 + sum(pairs[b][a]["difference"]["ci95"][0] > 0 for b in order if b != a)
+            for a in order}
+
+
+def worse_than_floor(tracks: Sequence[Track], agent: str, floor: str) -> float | None:
+    """The share of the headline tracks' humans on whom ``agent``'s mean over their runs is
+    below ``floor``'s (None without headline humans).
+    """
+    below, humans = 0, 0
+    for t in tracks:
+        if not t.headline:
+            continue
+        x, f = np.asarray(t.scores[agent], dtype=float), np.asarray(t.scores[floor], dtype=float)
+        for g in human_groups(t.humans):
+            humans += 1
+            below += bool(x[g].mean() < f[g].mean())
+    return below / humans if humans else None

@@ -24,12 +24,19 @@ masked, its GRU memory kept across a run's episodes. ``PATH`` is its ``.npz`` ch
 ``jaxppo`` alone plays the checkpoints shipped with the package (:data:`JAXPPO_CHECKPOINTS`,
 trained by ``benchmarks/train_jax_ppo.py`` on the ``train`` split).
 
-Any other entry of the form ``module:Class`` imports ``Class`` from ``module``: a
-:class:`~agents.protocol.Agent` subclass is instantiated once per run, a
-:class:`~agents.protocol.BatchAgent` subclass once per batch as ``Class(graph, n_runs)``.
-Either is also given, by keyword, each of :data:`CONTRACT` its constructor names (or all of
-them if it takes ``**kwargs``); a constructor that names none of them is called as before
+Any other entry of the form ``module:Class`` is an agent of your own, and it runs in a
+process of its own (:mod:`hri_bench.run.isolation`): that process imports ``Class`` from
+``module`` (this one never does), instantiates an :class:`~agents.protocol.Agent` subclass
+once per run, a :class:`~agents.protocol.BatchAgent` subclass once per batch as
+``Class(graph, n_runs)``, and gives it, by keyword, each of :data:`CONTRACT` its
+constructor names (or all of them if it takes ``**kwargs``): never the study's seed, the run
+indices or the human. A constructor that names none of them is called as before
 (``Class()``, or ``Class(graph=...)`` for an ``Agent``; docs/agents.md, "Your own agent").
+``sb3:PATH`` and ``jaxppo:PATH`` run in the benchmark's process: their code is shipped, and
+the user's file is read as data (weights and JSON, never unpickled).
+
+:func:`agent_privilege` says what an agent sees besides the robot's view (the intention, the
+human's model), from what it declares: that decides whether a suite shows it as a reference.
 
 :func:`agent_identity` names an agent's code for a results file: a built-in agent by the
 installed ``hri-envs`` version; ``sb3:PATH`` by the model file's sha256, ``jaxppo[:PATH]``
@@ -44,7 +51,6 @@ from __future__ import annotations
 import hashlib
 import importlib
 import importlib.metadata
-import inspect
 import json
 import sys
 from collections.abc import Callable, Sequence
@@ -57,18 +63,21 @@ from agents.config import default_config
 from agents.learner import Learner
 from agents.learning import algorithm1
 from agents.learning.algorithm1 import Workspace
-from agents.protocol import METHODS, Agent, BatchAgent, Batched, missing_methods, run_streams
+from agents.protocol import METHODS, Agent, BatchAgent, missing_methods
 from baselines import CountQMDP, GoalFilter, Imitator, MaxEntIRL, Oracle, Passive
 from baselines.bounds import Blind, Informed
 from baselines.product import QMDP, PerRunInformed
 from hri_bench.core.imports import import_class
+from hri_bench.run.agent_host import ISOLATED_CONTRACT, isolated_keywords
+from hri_bench.run.isolation import describe, make_isolated
 from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["AGENTS", "CONTRACT", "DEFAULT_STUDY_AGENTS", "JAXPPO", "JAXPPO_CHECKPOINTS",
-           "JAXPPO_PREFIX", "SB3_PREFIX", "AgentContext", "AgentSpec", "agent_identity",
+           "JAXPPO_PREFIX", "SB3_PREFIX", "AgentContext", "AgentSpec", "Privilege",
+           "agent_identity", "agent_privilege",
            "agent_settings", "agent_spec", "contract_keywords", "import_agent", "jaxppo_path",
            "make_agent", "package_version", "register_agent", "validate_agent_name"]
 
@@ -238,7 +247,7 @@ def validate_agent_name(name: str) -> None:
                               field="agents")
         return
     if ":" in name and all(name.split(":", 1)):
-        import_agent(name)
+        describe(name)  # in its own process: nothing of it runs in this one
         return
     raise ConfigError(
         f"unknown agent {name!r}; allowed: {', '.join(AGENTS)}, "
@@ -268,35 +277,12 @@ def import_agent(spec: str) -> type[Agent] | type[BatchAgent]:
 
 
 #: What a custom agent's constructor may ask for, by keyword (docs/agents.md, "Your own
-#: agent"). ``Agent`` classes (one per run) get ``run`` and ``rng``, ``BatchAgent`` classes
-#: (one per batch) ``runs`` and ``rngs``; both get the rest.
-CONTRACT: dict[str, str] = {
-    "graph": "the task graph (hri_envs.task.graph.TaskGraph)",
-    "seed": "the study's base seed",
-    "run": "Agent: this run's index",
-    "rng": "Agent: this run's generator, numpy default_rng([seed, run]) (run_streams)",
-    "runs": "BatchAgent: the batch's run indices",
-    "rngs": "BatchAgent: one generator per run of the batch, as rng",
-    "r0": "the study's waiting reward r0",
-    "reward": "the reward rule's name (hri_envs.task.episode.REWARD_RULES)",
-    "max_steps": "the step limit per episode",
-    "episodes": "episodes per run",
-}
-
-
-def contract_keywords(cls: type) -> tuple[str, ...]:
-    """The :data:`CONTRACT` keywords ``cls``'s constructor is given: those it names, or
-    all that fit its flavour when it takes ``**kwargs``.
-    """
-    params = inspect.signature(cls).parameters
-    batch = issubclass(cls, BatchAgent)
-    fits = [k for k in CONTRACT if k not in (("run", "rng") if batch else ("runs", "rngs"))]
-    if batch:
-        fits.remove("graph")  # given by position
-    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
-        return tuple(fits)
-    return tuple(k for k in fits if k in params and params[k].kind in (
-        inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD))
+#: agent"): :data:`hri_bench.run.agent_host.ISOLATED_CONTRACT`. It is never told the study's
+#: seed, its runs or their humans (:data:`~hri_bench.run.agent_host.WITHHELD`).
+CONTRACT: dict[str, str] = ISOLATED_CONTRACT
+#: The :data:`CONTRACT` keywords a class's constructor is given
+#: (:func:`hri_bench.run.agent_host.isolated_keywords`).
+contract_keywords = isolated_keywords
 
 
 # --------------------------------------------------------------------------- the built-ins
@@ -403,6 +389,43 @@ for _spec in (
     register_agent(_spec)
 
 
+@dataclass(frozen=True)
+class Privilege:
+    """What an agent sees besides the robot's view, from what it declares.
+
+    Attributes:
+        sees_intention: It is handed ι (a registered agent whose ``intention_blind`` is
+            False; a ``module:Class`` whose class sets ``privileged = True``).
+        knows_human: It is handed the human's model (a registered agent that ``plans``).
+    """
+
+    sees_intention: bool
+    knows_human: bool
+
+    @property
+    def reference(self) -> bool:
+        """Whether a suite shows it as a reference, never ranked among learners."""
+        return self.sees_intention or self.knows_human
+
+
+def agent_privilege(name: str) -> Privilege:
+    """What agent ``name`` sees (:class:`Privilege`): a registered agent's
+    :class:`AgentSpec` fields, a ``module:Class``'s ``privileged`` attribute as its process
+    reads it (:func:`hri_bench.run.isolation.describe`); ``sb3:PATH`` and ``jaxppo[:PATH]``
+    see the robot's view only.
+
+    Raises:
+        ConfigError: ``name`` is not an agent (:func:`validate_agent_name`).
+    """
+    spec = AGENTS.get(name)
+    if spec is not None:
+        return Privilege(not spec.intention_blind, spec.plans)
+    validate_agent_name(name)
+    if name.startswith(SB3_PREFIX) or jaxppo_path(name) is not None:
+        return Privilege(False, False)
+    return Privilege(bool(describe(name)["privileged"]), False)
+
+
 def agent_settings(name: str, scenario: str, r0: float,
                    learner: dict[str, Any] | None = None) -> dict[str, Any] | None:
     """The settings :func:`make_agent` gives agent ``name`` (for ``summary.json``).
@@ -471,23 +494,8 @@ def make_agent(
         from agents.jax_ppo.agent import JaxPPOAgent  # the jax extra
 
         return JaxPPOAgent(path, graph, n)
-    cls = import_agent(name)
-    keys = contract_keywords(cls)
-    given: dict[str, Any] = {"graph": graph, "seed": seed, "runs": list(runs), "r0": r0,
-                             "reward": reward, "max_steps": max_steps, "episodes": episodes}
-    if issubclass(cls, BatchAgent):
-        if "rngs" in keys:
-            given["rngs"] = run_streams(seed, runs)
-        kwargs = {k: given[k] for k in keys}
-        return cls(graph, n, **kwargs)  # type: ignore[call-arg,arg-type]  # documented contract
-
-    def one(run: int) -> Agent:
-        per_run = {**given, "run": run}
-        if "rng" in keys:
-            per_run["rng"] = run_streams(seed, [run])[0]
-        return cls(**{k: per_run[k] for k in keys})
-
-    return Batched.from_factory(one, runs)
+    settings = {"r0": r0, "reward": reward, "max_steps": max_steps, "episodes": episodes}
+    return make_isolated(name, graph, seed, runs, settings)
 
 
 def _sha256(path: Path) -> str:
@@ -521,6 +529,27 @@ def _source_files(module_name: str) -> tuple[Path, list[Path]]:
     return (Path("."), []) if path is None else (Path(path).parent, [Path(path)])
 
 
+def _unimported_files(module_name: str) -> tuple[Path, list[Path]]:
+    """:func:`_source_files` found on ``sys.path`` without importing (running) anything."""
+    import importlib.machinery
+
+    parts = module_name.split(".")
+    path: list[str] | None = None
+    found = []
+    for i in range(len(parts)):
+        spec = importlib.machinery.PathFinder.find_spec(".".join(parts[:i + 1]), path)
+        if spec is None:
+            raise ConfigError(f"cannot find module {module_name!r} on the path", field="agents")
+        found.append(spec)
+        path = list(spec.submodule_search_locations or [])
+    top = found[0]
+    if top.origin and Path(top.origin).name == "__init__.py":
+        package = Path(top.origin).parent
+        return package.parent, sorted(p for p in package.rglob("*.py") if p.is_file())
+    origin = found[-1].origin
+    return (Path("."), []) if not origin else (Path(origin).parent, [Path(origin)])
+
+
 def agent_identity(name: str) -> dict[str, Any]:
     """How agent ``name`` of a study is identified (module docstring)."""
     spec = AGENTS.get(name)
@@ -543,9 +572,9 @@ def agent_identity(name: str) -> dict[str, Any]:
                   for p in files}
         return {"kind": "jaxppo", "path": str(model),
                 "sha256": _combined(hashes) if hashes else None}
-    cls = import_agent(name)
-    root, files = _source_files(cls.__module__)
+    info = describe(name)  # its process imports it; this one only reads its files
+    root, files = _unimported_files(info["module"])
     hashes = {p.relative_to(root).as_posix(): _sha256(p) for p in files}
-    return {"kind": "custom", "module": cls.__module__, "class": cls.__qualname__,
+    return {"kind": "custom", "module": info["module"], "class": info["class"],
             "files": hashes, "code_sha256": _combined(hashes),
-            "constructor": list(contract_keywords(cls))}
+            "constructor": list(info["keywords"])}

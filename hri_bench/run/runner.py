@@ -236,6 +236,9 @@ class _Loop:
         # next episode's member before each episode, from each run's own generator.
         self.draws = type(human).draw is not BatchHuman.draw
         self.privileged = bool(getattr(agent, "privileged", False))
+        # An agent in a process of its own (hri_bench.run.isolation): one message per step
+        # brings its belief and its actions.
+        self.decide = getattr(agent, "decide", None)
         self.rows = np.arange(n_b)
         self.scratch = np.empty((n_b, graph.n_intentions))  # _score_belief's, every step
         self.states = np.zeros((n_b, max_steps + 1), dtype=np.int64)
@@ -295,11 +298,14 @@ class _Loop:
             "action_mask": self.graph.valid[s].astype(np.int8)}
         if self.privileged:
             obs["intention"] = eps.intention
-        if p.has_belief:
-            p.has_belief = _score_belief(self._belief(), eps.intention, active, t, p.totals,
-                                         self.rows, w, self.scratch)
         try:
-            chosen = self.agent.act(obs, active)
+            if self.decide is not None:  # the belief it had before acting comes with it
+                chosen = self.decide(obs, active, p.has_belief)
+            if p.has_belief:
+                p.has_belief = _score_belief(self._belief(), eps.intention, active, t,
+                                             p.totals, self.rows, w, self.scratch)
+            if self.decide is None:
+                chosen = self.agent.act(obs, active)
         except ActionError as exc:  # a Batched agent's: add where it happened
             raise ActionError(f"{exc} (episode {e + 1}, step {t + 1})") from None
         a_r = np.where(active, _checked("act()", chosen, active, n_actions, self.run_ids, e, t),

@@ -6,9 +6,12 @@ module          contents
 ``markdown``    names from users and files made safe in every leaderboard's text
 ``tracks``      every version's tracks and constants, a track's study
 ``resume``      the suite's folder: its lock, checks, finished tracks and units, resume
-``results_v3``  suite v3's per-run humans, normalised scores and ranking sections
+``results_v3``  suite v3's (and v4's) per-run humans, normalised scores and ranking sections
+``results_v4``  suite v4's headline: learners apart from references, shared ranks
+``evidence``    roles, ``blind``'s exact values, which agents' code is installed here
 ``submission``  the results file: read, build, compute, validate, merge; the recorder
 ``audit``       what a valid file cannot prove: replayed runs, conflicting files
+``fresh``       ``validate --fresh``: the agents on a drawn seed and fresh humans
 ``merged``      ``hri-bench leaderboard``: validated files merged into one leaderboard
 ``running``     :func:`run_suite`: the tracks' studies, ``suite.json``, the leaderboards
 ==============  ====================================================================

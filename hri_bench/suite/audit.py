@@ -10,21 +10,23 @@ consistent. Two checks close that gap (docs/results.md, "What each check proves"
   hri-envs version, a ``module:Class`` whose source files hash as recorded, a model file
   with the recorded sha256) and requires the same records, value for value;
 * :func:`conflicts` (``hri-bench leaderboard``) refuses two files that hold different runs
-  under the same suite hash, agent code identity and seed: one of them is not what that
-  code gives.
+  under the same suite hash, agent code identity and seed (one of them is not what that
+  code gives), or different ``blind`` values or humans for the same suite, seed and track
+  (a reference or a human list that is not the suite's; ``hri-bench validate`` recomputes
+  ``blind``'s exact values and each run's human, so a file that forged them is refused on
+  its own).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import json
 from collections.abc import Mapping
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from hri_bench.run.agents import agent_identity
 from hri_bench.run.study import simulate_runs
+from hri_bench.suite.evidence import identity_key, replayable
 from hri_bench.suite.submission import round_runs
 from hri_bench.suite.tracks import TRACKS_BY_VERSION, track_config
 from hri_envs.errors import ConfigError
@@ -33,11 +35,6 @@ __all__ = ["Conflict", "conflicts", "replay", "replayable"]
 
 #: At most this many differing runs are named per conflict or replay.
 SHOWN = 5
-
-
-def identity_key(identity: Any) -> str:
-    """A code identity as one comparable string."""
-    return json.dumps(identity, sort_keys=True)
 
 
 class Conflict(NamedTuple):
@@ -55,11 +52,21 @@ def conflicts(docs: Mapping[str, Mapping[str, Any]]) -> list[Conflict]:
     agrees.
     """
     seen: dict[tuple[str, str, str, str, str], tuple[str, Mapping[str, Any]]] = {}
+    heads: dict[tuple[str, str, str], tuple[str, Mapping[str, Any]]] = {}
     out = []
     for fname, doc in docs.items():
         suite = doc["suite"]["hash"]
         for seed, by_track in doc["runs"].items():
             for track, block in by_track.items():
+                head = {k: v for k, v in block.items() if k != "agents"}  # blind, humans
+                other_head = heads.setdefault((suite, seed, track), (fname, head))
+                if other_head[1] != head:
+                    what = " and ".join(k for k in sorted(set(head) | set(other_head[1]))
+                                        if head.get(k) != other_head[1].get(k))
+                    out.append(Conflict((fname, other_head[0]), f"{fname} and {other_head[0]} "
+                                        f"disagree on the {what} of seed {seed}, track "
+                                        f"{track} (the same suite: the references and the "
+                                        "humans met are the suite's, one file's are not)"))
                 for agent, entry in block["agents"].items():
                     key = (suite, identity_key(doc["agents"].get(agent)), seed, track, agent)
                     if key not in seen:
@@ -90,22 +97,6 @@ def differing_runs(a: Mapping[str, Any], b: Mapping[str, Any]) -> list[int]:
             return list(range(n))
         bad |= {r for r, (u, v) in enumerate(zip(x, y, strict=True)) if u != v}
     return sorted(bad)
-
-
-def replayable(name: str, identity: Mapping[str, Any]) -> str | None:
-    """Why agent ``name``'s runs cannot be replayed here (its code is not the recorded
-    code), or None when they can.
-    """
-    try:
-        now = agent_identity(name)
-    except (ConfigError, OSError, ImportError) as exc:
-        return f"not installed here ({exc})"
-    if identity_key(now) != identity_key(identity):
-        what = {"builtin": "the hri-envs version", "custom": "its source files",
-                "sb3": "the model file", "jaxppo": "the checkpoint"}.get(
-            str(identity.get("kind")), "its code")
-        return f"{what} differ(s) from the recorded one"
-    return None
 
 
 def replay(doc: Mapping[str, Any], k: int, seed: int,

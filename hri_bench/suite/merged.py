@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from hri_bench.core.atomic import atomic_writer
-from hri_bench.suite import results_v3
+from hri_bench.suite import results_v3, results_v4
 from hri_bench.suite.audit import conflicts
 from hri_bench.suite.markdown import code, escape
 from hri_bench.suite.submission import (
@@ -85,9 +85,14 @@ def merged_leaderboard(files: Iterable[Path], out: Path) -> Merged:
         subs.append(f"- {code(fname)}: {who}; agents {', '.join(code(a) for a in doc['agents'])};"
                     f" seeds {doc['seeds']}, runs scale {doc['runs_scale']}")
     version = next(iter(valid.values()))["suite"]["version"]
-    v3 = merged["schema_version"] == results_v3.SCHEMA_VERSION
-    sections = ([results_v3.lead_section(merged), results_v3.failure_section(merged)] if v3
-                else [lead_section(merged)])
+    v3 = merged["schema_version"] in (results_v3.SCHEMA_VERSION, results_v3.SCHEMA_V4)
+    if merged["schema_version"] == results_v3.SCHEMA_V4:
+        refs = [a for a, r in merged.get("roles", {}).items() if r["reference"]]
+        sections = [results_v4.lead_section(merged), results_v3.failure_section(merged, refs)]
+    elif v3:
+        sections = [results_v3.lead_section(merged), results_v3.failure_section(merged)]
+    else:
+        sections = [lead_section(merged)]
     text = "\n".join([f"{HEADING}{version})",
                       "", "Merged from validated results files (`hri-bench validate`):", "",
                       *subs, "", *sections, task_section(merged)])

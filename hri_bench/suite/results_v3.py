@@ -20,6 +20,7 @@ import numpy as np
 
 from hri_bench.report import ranking
 from hri_bench.run import metrics
+from hri_bench.run.agents import agent_spec
 from hri_bench.suite.markdown import code, escape, number, with_ci
 from hri_bench.suite.tracks import FLOOR
 from hri_envs.humans.finite_state import as_model
@@ -32,14 +33,14 @@ __all__ = ["FLOOR", "REACHABLE", "SCHEMA_VERSION", "compute", "failure_section",
 
 #: The results file's layout for suite v3.
 SCHEMA_VERSION = "2"
+#: Suite v4's: v3's, with the agents' roles (``roles``: what each sees, whether it is a
+#: reference) and the reference and floor re-estimated in every bootstrap replicate.
+SCHEMA_V4 = "3"
 #: The normalised score's floor (0) and the reachable references (1), in order of
 #: preference: blind's exact values where they were recorded, else ``qmdp``.
 REACHABLE = ("blind", "qmdp")
 #: The humans each agent's worst list names.
 WORST = 5
-#: Agents that see the intention, and the references: marked in the leaderboard.
-MARKS = {"informed": " (ref., sees ι)", "oracle": " (sees ι)", "qmdp": " (ref., reachable)",
-         "blind": " (ref., reachable)", "passive": " (floor)"}
 
 
 # ------------------------------------------------------------------- who each run met
@@ -119,6 +120,8 @@ def compute(doc: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
     """
     threshold = float(doc["threshold"])
     tracks = doc.get("tracks", {})
+    v4 = doc.get("schema_version") == SCHEMA_V4
+    scales: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}  # v4: reference and floor
     statistics: dict[str, Any] = {}
     pooled: dict[str, dict[str, list[np.ndarray]]] = {}
     gaps: dict[str, dict[str, list[np.ndarray]]] = {}
@@ -129,9 +132,17 @@ def compute(doc: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
         statistics[seed] = {}
         for track, block in by_track.items():
             norm, ref = _normalisation(block)
-            z = _scores(block, norm)
             drift = tracks.get(track, {}).get("settings", {}).get("human_drift")
-            one = ranking.Track(track, z, block["humans"], int(seed))
+            if v4:  # raw run means, normalised per replicate
+                z = {a: np.asarray(e["reward"], dtype=float).mean(1)
+                     for a, e in block["agents"].items()}
+                scale = (ref.mean(1) if norm["reference"] == "blind" else z["qmdp"], z[FLOOR])
+                scales.setdefault(track, []).append(scale)
+                one = ranking.Track(track, z, block["humans"], int(seed), reference=scale[0],
+                                    floor=scale[1])
+            else:
+                z = _scores(block, norm)
+                one = ranking.Track(track, z, block["humans"], int(seed))
             per_agent = {}
             for agent, entry in block["agents"].items():
                 arrays = {k: np.asarray(v, dtype=float) for k, v in entry.items()}
@@ -151,7 +162,10 @@ def compute(doc: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
     order = [t for t in tracks if t in every] + sorted(every - set(tracks))
     ranked = [ranking.Track(t, {a: np.concatenate(pooled[t][a]) for a in agents},
                             np.concatenate(humans[t]).tolist(), seed0,
-                            headline=bool(tracks.get(t, {}).get("headline", False)))
+                            headline=bool(tracks.get(t, {}).get("headline", False)),
+                            **({"reference": np.concatenate([r for r, _ in scales[t]]),
+                                "floor": np.concatenate([f for _, f in scales[t]])} if v4
+                               else {}))
               for t in order]
     aggregate: dict[str, Any] = {"score": "normalised: 1 at the track's reachable reference "
                                           "(blind exact, else qmdp), 0 at the floor (passive)",
@@ -172,6 +186,13 @@ def compute(doc: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
                         for a in agents}
     aggregate["families"] = {a: _families(ranked, gaps, tracks, a) for a in agents}
     aggregate["worst"] = {a: _worst(ranked, gaps, tracks, a) for a in agents}
+    if v4:
+        roles = doc.get("roles", {})
+        blind = [a for a in aggregate["headline"]["order"]
+                 if not roles.get(a, {}).get("reference", False)]
+        aggregate["ranks"] = ranking.shared_ranks(blind, aggregate["headline"]["pairs"])
+        aggregate["worse_than_floor"] = {a: ranking.worse_than_floor(ranked, a, FLOOR)
+                                         for a in agents}
     return statistics, aggregate
 
 
@@ -186,6 +207,12 @@ def _gap(track: ranking.Track, gap: np.ndarray) -> dict[str, Any]:
     w, big = track.weights()
     lo, hi = np.quantile(big @ gap, [(1 - ranking.LEVEL) / 2, (1 + ranking.LEVEL) / 2])
     return {"mean": float(w @ gap), "ci95": [float(lo), float(hi)]}
+
+
+def _normalised(track: ranking.Track, agent: str) -> np.ndarray:
+    """The agent's run scores normalised with the track's point reference and floor."""
+    floor, span, _, _ = track.scale()
+    return (np.asarray(track.scores[agent], dtype=float) - floor) / span
 
 
 def _per_human(track: ranking.Track, values: np.ndarray) -> dict[Any, float]:
@@ -206,7 +233,7 @@ def _families(ranked: Sequence[ranking.Track], gaps: Mapping[str, Any],
             continue
         members = tracks.get(t.name, {}).get("members") or []
         gap = _per_human(t, np.concatenate(gaps[t.name][agent]))
-        score = _per_human(t, np.asarray(t.scores[agent]))
+        score = _per_human(t, _normalised(t, agent))
         for h, g in gap.items():
             family = members[h]["family"] if h < len(members) else "?"
             row = rows.setdefault(family, {"gap": [], "normalised": []})
@@ -224,7 +251,7 @@ def _worst(ranked: Sequence[ranking.Track], gaps: Mapping[str, Any],
         if not t.headline:
             continue
         members = tracks.get(t.name, {}).get("members") or []
-        score = _per_human(t, np.asarray(t.scores[agent]))
+        score = _per_human(t, _normalised(t, agent))
         gap = _per_human(t, np.concatenate(gaps[t.name][agent]))
         for h, z in score.items():
             m = members[h] if h < len(members) else {}
@@ -235,8 +262,24 @@ def _worst(ranked: Sequence[ranking.Track], gaps: Mapping[str, Any],
 
 
 # --------------------------------------------------------------------- leaderboard text
+def mark(agent: str) -> str:
+    """What the leaderboard of suite v3 says an agent is, from what its registered
+    :class:`~hri_bench.run.agents.AgentSpec` declares (not from its name): the floor, an agent
+    that sees ι (a reference or not), a reference that knows the human's model; nothing for
+    an agent of one's own (suite v4 reads each agent's role from the file instead).
+    """
+    spec = agent_spec(agent)
+    if agent == FLOOR:
+        return " (floor)"
+    if spec is None:
+        return ""
+    if not spec.intention_blind:
+        return " (ref., sees ι)" if spec.role == "reference" else " (sees ι)"
+    return " (ref., reachable)" if spec.plans else ""
+
+
 def _name(agent: str) -> str:
-    return f"{code(agent)}{MARKS.get(agent, '')}"
+    return f"{code(agent)}{mark(agent)}"
 
 
 def lead_section(doc: Mapping[str, Any]) -> str:
@@ -314,15 +357,17 @@ def lead_section(doc: Mapping[str, Any]) -> str:
     return "\n".join([*lines, ""])
 
 
-def failure_section(doc: Mapping[str, Any]) -> str:
-    """What learners fail on: per agent the gap to the reachable reference per track and
-    per family, and its worst humans.
+def failure_section(doc: Mapping[str, Any], references: Sequence[str] = ("informed", "oracle")
+                    ) -> str:
+    """What learners fail on: per agent but ``references`` (v3: the agents that see ι;
+    v4: every reference by its role) the gap to the reachable reference per track and per
+    family, and its worst humans.
     """
     agg = doc["aggregate"]
     head = agg.get("headline")
     if head is None:
         return ""
-    order = [a for a in head["order"] if a not in ("informed", "oracle")]
+    order = [a for a in head["order"] if a not in references]
     tracks = list(next(iter(agg["gap"].values())))
     lines = ["## What the agents fail on", "",
              "Gap to the reachable reference: its mean episode reward minus the agent's, "
@@ -366,8 +411,10 @@ def ranking_figure(doc: Mapping[str, Any], path: Any) -> Any:
         for y, a in enumerate(order):
             e = head["agents"][a]
             color = plots.agent_style(a)[0]  # one colour per agent in every figure
-            ax.errorbar([e["mean"]], [y], xerr=[[e["mean"] - e["ci95"][0]],
-                                                [e["ci95"][1] - e["mean"]]],
+            # A degenerate interval (one human, the floor's 0) may lie a rounding beside
+            # its mean: never a negative bar.
+            ax.errorbar([e["mean"]], [y], xerr=[[max(e["mean"] - e["ci95"][0], 0.0)],
+                                                [max(e["ci95"][1] - e["mean"], 0.0)]],
                         fmt="o", color=color, capsize=3, markersize=6)
             per = [e["per_track"][t]["mean"] for t in head["tracks"]]
             ax.scatter(per, [y + 0.22] * len(per), s=9, color=color, alpha=0.6, linewidths=0)

@@ -41,7 +41,7 @@ import numpy as np
 from hri_bench.core import stats
 from hri_bench.core.atomic import atomic_writer
 from hri_bench.run import metrics, provenance
-from hri_bench.run.agents import PLANNING_REFERENCES, REFERENCE_AGENTS
+from hri_bench.run.agents import PLANNING_REFERENCES, REFERENCE_AGENTS, agent_privilege
 from hri_bench.run.regret import ALL_REFERENCES, REFERENCES, reference_summary
 from hri_bench.run.study import (
     StudyResult,
@@ -50,7 +50,7 @@ from hri_bench.run.study import (
     regret_reference,
     run_study,
 )
-from hri_bench.suite import results_v3
+from hri_bench.suite import results_v3, results_v4
 from hri_bench.suite.markdown import code, escape, number, with_ci
 from hri_bench.suite.resume import SUITE_LOG, TrackStore, complete_suite, suite_plan
 from hri_bench.suite.submission import SuiteRecorder, lead_section, task_section, write_results
@@ -86,6 +86,7 @@ __all__ = [
     "leaderboard",
     "leaderboard_v2",
     "leaderboard_v3",
+    "leaderboard_v4",
     "run_suite",
     "track_figure",
     "track_summary",
@@ -369,8 +370,70 @@ def leaderboard_v3(doc: dict[str, Any], results: dict[str, Any] | None) -> str:
     return "\n".join(lines)
 
 
-def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
-    """Mean regret (or reward) per episode with 95 % CI error bars, one line per agent."""
+def leaderboard_v4(doc: dict[str, Any], results: dict[str, Any] | None) -> str:
+    """The ``leaderboard.md`` text of a v4 suite: v3's (:func:`leaderboard_v3`) with the
+    learners ranked apart from the references, shared ranks and the references' noise in
+    the intervals (:func:`hri_bench.suite.results_v4.lead_section`).
+    """
+    text = leaderboard_v3(doc, None)
+    head, rest = text.split("\n## Power", 1)
+    head = head.replace("the frozen test split v2 (160 different humans per scenario, none a "
+                        "train or validation human)", "the frozen test split v3 (160 humans "
+                        "per scenario, none the same as another or as a train or validation "
+                        "human by behaviour, docs/humans.md)").replace(
+        "\"Ranking (suite v3)\"", "\"Ranking (suite v4)\"")
+    parts = [head.rstrip("\n"), ""]
+    if results is not None:
+        refs = [a for a, r in results.get("roles", {}).items() if r["reference"]]
+        parts += [results_v4.lead_section(results),
+                  results_v3.failure_section(results, refs)]
+    power = rest.split("\n## ", 1)[0].rstrip("\n").replace("validation-v2", "validation-v3")
+    lines = [*parts, "## Power" + power, ""]
+    if results is not None:
+        lines.append(task_section(results))
+    for name, tr in doc["tracks"].items():
+        lines += _track_section(name, tr)
+    return "\n".join(lines)
+
+
+#: How far beyond the middle of the curves :func:`track_figure`'s axis reaches, in units of
+#: their interquartile spread (Tukey's fences); curves beyond are clipped, and the figure
+#: says which and how far they go.
+FENCE = 3.0
+
+
+def axis_range(entry: dict[str, Any]) -> tuple[tuple[float, float] | None, dict[str, float]]:
+    """The y range of a track's figure and the agents whose curve leaves it, with their most
+    extreme per-episode mean: the range spans every curve unless some lie beyond
+    :data:`FENCE` interquartile spreads of all the curves' points (an agent whose episodes
+    run to the step limit, −20 where the others stay within −2 of 0); None: no clipping.
+    """
+    metric = "regret" if entry["regret_reported"] else "reward"
+    curves = {a: np.asarray(e[metric]["per_episode"]["mean"], dtype=float)
+              for a, e in entry["agents"].items()}
+    points = np.concatenate([c[np.isfinite(c)] for c in curves.values()] or [np.zeros(0)])
+    if points.size < 4:
+        return None, {}
+    q1, q3 = np.percentile(points, [25, 75])
+    spread = max(q3 - q1, 1e-9)
+    low, high = q1 - FENCE * spread, q3 + FENCE * spread
+    out = {}
+    for a, c in curves.items():
+        c = c[np.isfinite(c)]
+        if c.size and (c.min() < low or c.max() > high):
+            out[a] = float(c.min() if c.min() < low else c.max())
+    if not out:
+        return None, {}
+    inside = points[(points >= low) & (points <= high)]
+    pad = 0.08 * max(float(inside.max() - inside.min()), 1e-6)
+    return (float(inside.min()) - pad, float(inside.max()) + pad), out
+
+
+def track_figure(name: str, entry: dict[str, Any], path: Path, clip: bool = False) -> Path:
+    """Mean regret (or reward) per episode with 95 % CI error bars, one line per agent; with
+    ``clip`` (suite v4; v1 to v3 draw as they did), an agent far below (or above) the rest
+    is clipped and named (:func:`axis_range`).
+    """
     from matplotlib.ticker import MaxNLocator  # matplotlib: the bench extra, when drawing
 
     from hri_bench.core import plots  # matplotlib, as above
@@ -389,8 +452,17 @@ def track_figure(name: str, entry: dict[str, Any], path: Path) -> Path:
                     linewidth=1.4, elinewidth=0.8, capsize=2, linestyle=dashes)
     ax.set_xlabel("episode")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    ax.set_ylabel("regret vs blind per episode" if metric == "regret"
-                  else "robot cooperation reward per episode")
+    label = ("regret vs blind per episode" if metric == "regret"
+             else "robot cooperation reward per episode")
+    limits, clipped = axis_range(entry) if clip else (None, {})
+    if limits is not None:
+        ax.set_ylim(*limits)
+        label += "\naxis clipped; off it: " + ", ".join(
+            f"{plots.LABELS.get(a, a)} ({v:.3g})" for a, v in clipped.items())
+    if limits is not None:
+        ax.set_ylabel(label, fontsize=8)
+    else:
+        ax.set_ylabel(label)
     if metric == "regret":
         ax.axhline(0.0, color="black", linewidth=0.6)
     ax.set_title(f"{name}: {entry['description']}", fontsize=8)
@@ -508,11 +580,22 @@ def _suite_header(version: str, seed: int, runs_scale: float, agents: Sequence[s
                 "agents": ranked, "converged_threshold": CONVERGED,
                 "references": dict(REFERENCES), "tracks": {}}
     ranked = [a for a in agents if a not in PLANNING_REFERENCES]
+    if version not in ("2", "3"):  # v4: what each agent declares, an agent of one's own too
+        every = list(dict.fromkeys([*agents, *ALL_REFERENCES, FLOOR]))
+        sees = {a: agent_privilege(a) for a in every}
+        ranked = [a for a in agents if not sees[a].reference]
+        blind_ones = [a for a in every if not sees[a].sees_intention]
+        references = {**ALL_REFERENCES, **{a: "sees the intention" if p.sees_intention else
+                                           "knows the human's model"
+                                           for a, p in sees.items()
+                                           if p.reference and a not in ALL_REFERENCES}}
+    else:
+        blind_ones = list(INTENTION_BLIND if version == "2" else INTENTION_BLIND_V3)
+        references = dict(ALL_REFERENCES)
     return {"suite_version": version, "seed": seed, "runs_scale": runs_scale,
             "agents": ranked, "converged_threshold": CONVERGED,
-            "references": dict(ALL_REFERENCES),
-            "intention_blind": list(INTENTION_BLIND if version == "2"
-                                    else INTENTION_BLIND_V3),
+            "references": references,
+            "intention_blind": blind_ones,
             "power": {"delta": DELTA, "power": POWER, "alpha": ALPHA,
                       "min_runs": MIN_RUNS, "max_runs": MAX_RUNS,
                       "pilot": "benchmarks/suite_power.py: seed 1000, 256 runs per track"},
@@ -561,7 +644,8 @@ def _run_tracks(chosen: Sequence[Track], configs: Sequence[Any], doc: dict[str, 
         entry = summarise(track, result)
         recorder.add(track, result)
         doc["tracks"][track.name] = entry
-        track_figure(track.name, entry, store.out / f"{track.name}.png")
+        track_figure(track.name, entry, store.out / f"{track.name}.png",
+                     clip=version not in ("1", "2", "3"))
         walls[track.name] = wall
     return walls, failures
 
@@ -608,4 +692,6 @@ def _leaderboard_text(doc: dict[str, Any], results: dict[str, Any] | None) -> st
             board = (board[:cut] + lead_section(results) + "\n" + task_section(results) + "\n"
                      + board[cut:])
         return board
-    return leaderboard_v3(doc, results)
+    if version == "3":
+        return leaderboard_v3(doc, results)
+    return leaderboard_v4(doc, results)

@@ -30,6 +30,7 @@ from hri_bench.run.agents import agent_settings
 from hri_bench.run.runner import TASK_METRICS
 from hri_bench.run.study import regret_reference
 from hri_bench.suite import results_v3
+from hri_bench.suite.evidence import agent_roles, blind_errors, role_errors
 from hri_bench.suite.markdown import code, escape, number, with_ci
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION, track_config
 from hri_envs.envs.backends import BACKENDS
@@ -102,7 +103,7 @@ def compute(doc: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
     aggregate` of the run scores over every seed, seeded by the first seed. A suite v3
     document (``schema_version`` "2") has its own: :func:`hri_bench.suite.results_v3.compute`.
     """
-    if doc.get("schema_version") == results_v3.SCHEMA_VERSION:
+    if doc.get("schema_version") in (results_v3.SCHEMA_VERSION, results_v3.SCHEMA_V4):
         return results_v3.compute(doc)
     threshold = float(doc["threshold"])
     tracks = doc.get("tracks", {})
@@ -154,6 +155,8 @@ def build(*, suite_version: str, suite_hash: str, track_hashes: Mapping[str, str
         "tracks": dict(tracks),
         "runs": {str(s): dict(runs[str(s)]) for s in seeds},
     }
+    if doc["schema_version"] == results_v3.SCHEMA_V4:
+        doc["roles"] = agent_roles(agents)
     doc["statistics"], doc["aggregate"] = compute(doc)
     return doc
 
@@ -162,7 +165,9 @@ def schema_version(suite_version: str) -> str:
     """The results file's layout for a suite version: "1" (v1, v2), "2" (v3: the humans
     each run met, :mod:`hri_bench.suite.results_v3`).
     """
-    return SCHEMA_VERSION if suite_version in ("1", "2") else results_v3.SCHEMA_VERSION
+    if suite_version in ("1", "2"):
+        return SCHEMA_VERSION
+    return results_v3.SCHEMA_VERSION if suite_version == "3" else results_v3.SCHEMA_V4
 
 
 #: The deepest nesting of JSON arrays and objects read (a results file nests 7 deep, a
@@ -340,7 +345,7 @@ def _suite_errors(doc: Mapping[str, Any]) -> list[str]:
             if key not in ("seed", "agents") and tr["settings"].get(key) != value:
                 errors.append(f"tracks.{name}.settings.{key} is {tr['settings'].get(key)!r}; "
                               f"the track's is {value!r}")
-        v3 = doc["schema_version"] == results_v3.SCHEMA_VERSION
+        v3 = doc["schema_version"] in (results_v3.SCHEMA_VERSION, results_v3.SCHEMA_V4)
         if v3 and tr.get("members") != json.loads(json.dumps(results_v3.members(cfg))):
             errors.append(f"tracks.{name}.members: not the humans of the track's population")
         if v3 and tr.get("headline") != getattr(TRACKS[name], "headline", False):
@@ -445,6 +450,11 @@ def validate(doc: Any) -> list[str]:
     if errors:
         return errors
     errors = _suite_errors(doc)
+    if doc["schema_version"] == results_v3.SCHEMA_V4:
+        errors += role_errors(doc)
+    if errors:
+        return errors
+    errors = blind_errors(doc)
     if errors:
         return errors
     statistics, aggregate = compute(doc)
@@ -509,7 +519,7 @@ def task_section(doc: Mapping[str, Any]) -> str:
              "log-loss and Brier of the belief (agents exposing one); counteract / idle / "
              "alone: the human's motions against a robot motion, waits with nothing moving, "
              "actions while the robot waited, per episode. Means [95 % CI] over runs.", ""]
-    if doc.get("schema_version") == results_v3.SCHEMA_VERSION:
+    if doc.get("schema_version") in (results_v3.SCHEMA_VERSION, results_v3.SCHEMA_V4):
         lines[2:2] = ["Suite v3: regret is measured against each track's reachable reference "
                       "(blind's exact values on the anchor, else qmdp's mean reward on the same "
                       "human in the same episode), so learning speed and asymptote are defined "
@@ -602,6 +612,7 @@ def merge(docs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     """
     runs: dict[str, dict[str, Any]] = {}
     agents: dict[str, Any] = {}
+    renamed: dict[tuple[str, str], str] = {}
     for fname, doc in docs.items():
         rename: dict[str, str] = {}
         for agent, ident in doc["agents"].items():
@@ -609,7 +620,7 @@ def merge(docs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
             if key in agents and agents[key] != ident:
                 key = f"{agent}@{fname}"
             agents.setdefault(key, ident)
-            rename[agent] = key
+            rename[agent] = renamed[(fname, agent)] = key
         for seed, by_track in doc["runs"].items():
             for track, block in by_track.items():
                 head = {k: v for k, v in block.items() if k != "agents"}  # blind, humans
@@ -622,6 +633,9 @@ def merge(docs: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
                               "seeds": sorted(int(s) for s in runs), "runs": runs,
                               "tracks": tracks,
                               "agents": agents, "threshold": first["threshold"]}
+    if "roles" in first:
+        merged["roles"] = {renamed[(f, a)]: role for f, d in docs.items()
+                           for a, role in d.get("roles", {}).items()}
     merged["statistics"], merged["aggregate"] = compute(merged)
     return merged
 
@@ -687,7 +701,7 @@ def write_results(out: Path, doc: Mapping[str, Any]) -> list[Path]:
     path = Path(out) / "results.json"
     with atomic_writer(path) as f:
         f.write(json.dumps(doc, separators=(",", ":"), allow_nan=False) + "\n")
-    if doc.get("schema_version") == results_v3.SCHEMA_VERSION:
+    if doc.get("schema_version") in (results_v3.SCHEMA_VERSION, results_v3.SCHEMA_V4):
         return [path, results_v3.ranking_figure(doc, Path(out) / "ranking.png")]
     return [path, profile_figure(doc, Path(out) / "profiles.png")]
 

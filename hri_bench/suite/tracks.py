@@ -52,6 +52,7 @@ __all__ = [
     "TRACKS_BY_VERSION",
     "TRACKS_V2",
     "TRACKS_V3",
+    "TRACKS_V4",
     "Track",
     "TrackV3",
     "check_version",
@@ -65,8 +66,8 @@ __all__ = [
 #: Version of the first track set (v1; frozen).
 SUITE_VERSION = "1"
 #: The suite versions, and the default one.
-SUITE_VERSIONS: tuple[str, ...] = ("1", "2", "3")
-LATEST = "3"
+SUITE_VERSIONS: tuple[str, ...] = ("1", "2", "3", "4")
+LATEST = "4"
 # Every published suite version lists its scenarios, agents and references by value: it never
 # reads a registry, so registering a scenario, a family or an agent changes none of them.
 #: The scenarios of every published version, in their order.
@@ -290,10 +291,15 @@ def power_v3(between: float, within: float, humans: int) -> int:
     return MAX_BLOCKS
 
 
-def _tracks_v3() -> tuple[TrackV3, ...]:
+def _tracks_v3(split: str = "test-v2", pilot: dict[str, tuple[float, float]] | None = None,
+               scripted: str = "none of them a train human") -> tuple[TrackV3, ...]:
+    """The headline tracks on ``split``'s groups and the paper's anchors, their runs from
+    ``pilot`` (v3: :data:`PILOT_V3` on test-v2; v4: :data:`PILOT_V4` on test-v3).
+    """
+    pilot = PILOT_V3 if pilot is None else pilot
     texts = {
         "scripted": ("the test split's scripted humans (the Learner's own model family: any "
-                     "preference, passive or Boltzmann), none of them a train human", True),
+                     f"preference, passive or Boltzmann), {scripted}", True),
         "misspecified": ("the test split's misspecified humans: low, avoid, rotate-low, "
                          "impatient (preferences φ does not encode)", True),
         "adaptive": ("the test split's adaptive humans: follower, trust, wary (they learn "
@@ -306,16 +312,16 @@ def _tracks_v3() -> tuple[TrackV3, ...]:
     for group, (text, stable) in texts.items():
         for sc in ("hanger", "wheel"):
             name = f"{sc}-test-{group}"
-            humans = MIXTURES[(f"test-v2-{group}", sc)].size
-            between, within = PILOT_V3[name]
+            humans = MIXTURES[(f"{split}-{group}", sc)].size
+            between, within = pilot[name]
             blocks = power_v3(between, within, humans)
             out.append(TrackV3(name, sc, f"HEADLINE: {text}", humans * blocks,
-                               (("population", f"test-v2-{group}"),), None, headline=True,
+                               (("population", f"{split}-{group}"),), None, headline=True,
                                stable=stable, humans=humans, blocks=blocks,
                                pilot_between=between, pilot_within=within))
     for sc in ("hanger", "wheel"):
         name = f"{sc}-paper"
-        between, within = PILOT_V3[name]
+        between, within = pilot[name]
         runs = power_v3(between, within, 1)
         out.append(TrackV3(name, sc, "anchor, outside the headline: the paper's settings "
                            "(deterministic human, default preference); blind exact", runs, (),
@@ -326,9 +332,22 @@ def _tracks_v3() -> tuple[TrackV3, ...]:
 
 #: Suite v3's tracks, by name.
 TRACKS_V3: dict[str, TrackV3] = {t.name: t for t in _tracks_v3()}
+#: v4's pilot (``benchmarks/suite_power.py --version 4``: the validation-v3 split's groups
+#: and the paper's human, seed 1000, never the test split), as v3's: what the script prints,
+#: compared by a test.
+PILOT_V4: dict[str, tuple[float, float]] = {
+    "hanger-test-scripted": (0.1666, 0.1938), "wheel-test-scripted": (0.5151, 0.1174),
+    "hanger-test-misspecified": (1.2085, 0.0394), "wheel-test-misspecified": (1.3565, 0.0199),
+    "hanger-test-adaptive": (0.1255, 0.1201), "wheel-test-adaptive": (0.1125, 0.0727),
+    "hanger-test-inconsistent": (0.1421, 0.3099), "wheel-test-inconsistent": (0.266, 0.2476),
+    "hanger-paper": (0.0, 0.0483), "wheel-paper": (0.0, 0.0394),
+}
+#: Suite v4's tracks, by name: v3's on the test split v3 (humans distinct by behaviour).
+TRACKS_V4: dict[str, TrackV3] = {t.name: t for t in _tracks_v3(
+    "test-v3", PILOT_V4, "each distinct by behaviour from every train and validation human")}
 #: The tracks of each version.
 TRACKS_BY_VERSION: dict[str, dict[str, Track]] = {"1": TRACKS, "2": TRACKS_V2,
-                                                  "3": dict(TRACKS_V3)}
+                                                  "3": dict(TRACKS_V3), "4": dict(TRACKS_V4)}
 
 
 def default_agents(version: str) -> tuple[str, ...]:

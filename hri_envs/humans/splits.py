@@ -41,12 +41,14 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from hri_envs.errors import ConfigError
+from hri_envs.humans.distance import TOLERANCE, same_behaviour
 from hri_envs.humans.families import FAMILIES, GROUPS, check_params, family_params
 from hri_envs.humans.finite_state import FiniteStateHuman, FiniteStateHumans, as_model
 from hri_envs.humans.populations import (
@@ -64,13 +66,16 @@ from hri_envs.task.scenarios import scenario_graph, scenario_spec
 __all__ = [
     "ALL_PREFERENCES",
     "ALL_SUPPORTS",
+    "FROZEN_PATH",
     "MIXTURES",
     "SPLITS",
     "Component",
     "MixtureHumans",
     "MixtureSpec",
     "SPLITS_V2",
+    "SPLITS_V3",
     "family_population",
+    "frozen_document",
     "member_fingerprint",
     "draw_human",
     "population",
@@ -125,6 +130,10 @@ class MixtureSpec:
             (:func:`member_fingerprint`) equals an earlier member's, or a member's of a
             split named in ``exclude``, is drawn again (split version 2).
         exclude: Splits (names, same scenario) whose humans this one must not hold.
+        tolerance: With ``distinct``: 0 compares models by fingerprint (split version 2);
+            above 0, two humans are the same when their
+            :func:`~hri_envs.humans.distance.behaviour_distance` is below it (split
+            version 3).
     """
 
     name: str
@@ -138,6 +147,7 @@ class MixtureSpec:
     group: str | None = None
     distinct: bool = False
     exclude: tuple[str, ...] = ()
+    tolerance: float = 0.0
 
     @property
     def scenarios(self) -> tuple[str, ...]:
@@ -163,9 +173,20 @@ class MixtureSpec:
             ConfigError: A ``distinct`` split whose component cannot give as many different
                 humans as it is allotted (its choices allow too few models).
         """
+        frozen = _frozen().get(self.frozen_key()) if self.tolerance else None
+        if frozen is not None and frozen["generator"] == self.generator_hash():
+            out = [HumanDraw(None, family=f, params=tuple((k, v) for k, v in params))
+                   for f, params in frozen["members"]]
+            return tuple(d for d in out if self.group is None
+                         or FAMILIES[str(d.family)].group == self.group)
+        return self.draw_members()
+
+    def draw_members(self) -> tuple[HumanDraw, ...]:
+        """:attr:`member_draws`, drawn (not read from :data:`FROZEN_PATH`)."""
         graph = scenario_graph(self.scenario)
         rng = np.random.default_rng(self.generator_seed)
         taken = self._excluded_fingerprints() if self.distinct else None
+        kept = _Kept(graph, self._excluded_models(), self.tolerance) if self.tolerance else None
         out = []
         for comp, count in zip(self.components, _allocate(self.components, self.members),
                                strict=True):
@@ -184,16 +205,38 @@ class MixtureSpec:
                             f"split {self.name!r} ({self.scenario}): the {comp.family} "
                             f"component gave {got} different humans in {tries - 1} draws, "
                             f"it is allotted {count}: widen its choices", field="population")
-                    fingerprint = member_fingerprint(graph, draw)
-                    if fingerprint in taken:
-                        continue
-                    taken.add(fingerprint)
+                    if kept is not None:
+                        if not kept.add(draw):
+                            continue
+                    else:
+                        fingerprint = member_fingerprint(graph, draw)
+                        if fingerprint in taken:
+                            continue
+                        taken.add(fingerprint)
                 out.append(draw)
                 got += 1
         if self.group is not None:
             out = [d for d in out if d.family is not None
                    and FAMILIES[d.family].group == self.group]
         return tuple(out)
+
+    def frozen_key(self) -> str:
+        """The key of the whole split's members in :data:`FROZEN_PATH`."""
+        return f"{self.scenario}|{self.version}|{self.generator_seed}"
+
+    def generator_hash(self) -> str:
+        """SHA-256 of what draws the whole split (every field but the name, description and
+        group): a frozen member list is used only when it matches.
+        """
+        spec = {k: v for k, v in dataclasses.asdict(self).items()
+                if k not in ("name", "description", "group")}
+        return _sha256(_jsonable(spec))
+
+    def _excluded_models(self) -> list[Any]:
+        """The models of the members of the splits in :attr:`exclude` (same scenario)."""
+        graph = scenario_graph(self.scenario)
+        return [as_model(build_human(graph, d)) for name in self.exclude
+                for d in MIXTURES[(name, self.scenario)].member_draws]
 
     def _excluded_fingerprints(self) -> set[str]:
         """The models of the members of the splits in :attr:`exclude` (same scenario)."""
@@ -242,7 +285,8 @@ class MixtureSpec:
         field but the description, the seeding of the runs, and the member list).
         """
         spec = {k: v for k, v in dataclasses.asdict(self).items() if k != "description"}
-        for k, default in (("distinct", False), ("exclude", ())):  # version 1: as it was
+        for k, default in (("distinct", False), ("exclude", ()),  # version 1: as it was
+                           ("tolerance", 0.0)):  # version 2: as it was
             if spec[k] == default:
                 del spec[k]
         doc = {"kind": "mixture", "spec": _jsonable(spec),
@@ -253,6 +297,49 @@ class MixtureSpec:
 
 #: A distinct split draws a component's members again at most this many times per member.
 _MAX_TRIES = 200
+#: Split version 3's members as drawn (comparing every candidate by behaviour takes about a
+#: minute per split, so they are drawn once and frozen here, each with the hash of what drew
+#: it: :meth:`MixtureSpec.generator_hash`; ``benchmarks/split_distances.py --write`` writes
+#: it, and a test draws them again).
+FROZEN_PATH = Path(__file__).with_name("splits_v3.json")
+
+
+@lru_cache(maxsize=1)
+def _frozen() -> dict[str, Any]:
+    if not FROZEN_PATH.is_file():
+        return {}
+    doc: dict[str, Any] = json.loads(FROZEN_PATH.read_text())
+    return doc
+
+
+def frozen_document(specs: Sequence[MixtureSpec]) -> dict[str, Any]:
+    """:data:`FROZEN_PATH`'s document for the whole splits ``specs``, drawn afresh."""
+    return {s.frozen_key(): {"name": s.name, "generator": s.generator_hash(),
+                             "members": [[d.family, [list(p) for p in d.params]]
+                                         for d in s.draw_members()]}
+            for s in specs}
+
+
+class _Kept:
+    """The humans a split version 3 holds so far (and those it excludes), by model: a draw
+    is kept when no kept human is the same (:func:`~hri_envs.humans.distance.same_behaviour`
+    at ``tolerance``).
+    """
+
+    def __init__(self, graph: TaskGraph, excluded: Sequence[Any], tolerance: float) -> None:
+        self.graph, self.tolerance = graph, tolerance
+        self.models = list(excluded)
+        self.refused: set[HumanDraw] = set()  # the kept humans only grow: refused for good
+
+    def add(self, draw: HumanDraw) -> bool:
+        if draw in self.refused:
+            return False
+        model = as_model(build_human(self.graph, draw))
+        if any(same_behaviour(model, m, self.tolerance) for m in reversed(self.models)):
+            self.refused.add(draw)
+            return False
+        self.models.append(model)
+        return True
 
 
 def member_fingerprint(graph: TaskGraph, draw: HumanDraw) -> str:
@@ -405,6 +492,7 @@ def _mixtures() -> dict[tuple[str, str], MixtureSpec]:
             group=group) for group in GROUPS)
         out.update({(m.name, sc): m for m in specs + views})
         out.update(_mixtures_v2(sc, i))
+        out.update(_mixtures_v3(sc, i))
     return out
 
 
@@ -430,6 +518,67 @@ def _mixtures_v2(sc: str, i: int) -> dict[tuple[str, str], MixtureSpec]:
                                                      for c in g),
                             seed, tuple(c for g in groups.values() for c in g),
                             held_out=held_out, distinct=True, exclude=previous)
+        out[(name, sc)] = whole
+        for group in GROUPS:
+            out[(f"{name}-{group}", sc)] = dataclasses.replace(
+                whole, name=f"{name}-{group}", group=group,
+                description=f"the {name} split's {group} humans")
+        previous = (*previous, name)
+    return out
+
+
+def _v3_groups(scale: int) -> dict[str, tuple[Component, ...]]:
+    """The components of a version-3 split per group: ``20 · scale`` members each, on
+    grids wide enough to give that many humans distinct by behaviour.
+    """
+    def n(count: int) -> int:
+        return count * scale
+
+    low_beta = ("rationality", _grid(0.3, 12.0, 40, log=True))
+    return {
+        "scripted": _counted((
+            ("preference", n(4), (_PREFS, ("passive", _grid(0.02, 0.95, 94)))),
+            ("preference", n(5), (_PREFS, ("rationality", _grid(0.3, 40.0, 80, log=True)))),
+            ("preference", n(11), (_PREFS, ("passive", _grid(0.05, 0.9, 35)), low_beta)),
+        )),
+        "misspecified": _v2_groups(scale)["misspecified"],
+        "adaptive": _counted((
+            ("follower", n(5), (("k", tuple(range(1, 16))), _PREFS)),
+            ("trust", n(8), (("passive", _grid(0.2, 0.95, 31)), ("fall", (1, 2, 3)), _PREFS)),
+            ("wary", n(7), (("levels", tuple(range(2, 13))), ("forgive", (0, 1)), _PREFS)),
+        )),
+        "inconsistent": _counted((
+            ("fickle", n(17), (("hazard", _grid(0.02, 0.8, 40)), ("changes", (1, 2, 3)),
+                               _PREFS)),
+            ("moody", n(3), (("p", _grid(0.05, 1.0, 96)),)),
+        )),
+    }
+
+
+#: The version-3 splits (suite v4): ``validation-v3`` and ``test-v3`` and their groups.
+SPLITS_V3: tuple[str, ...] = ("validation-v3", "test-v3")
+
+
+def _mixtures_v3(sc: str, i: int) -> dict[tuple[str, str], MixtureSpec]:
+    """Split version 3 of one scenario: v2's layout (a validation split of 20 humans per
+    group for the pilot, a test split of 40 per group), each human distinct by behaviour
+    (:data:`~hri_envs.humans.distance.TOLERANCE`) from every other and from every train and
+    validation human (versions 1 to 3).
+    """
+    out: dict[tuple[str, str], MixtureSpec] = {}
+    previous: tuple[str, ...] = ("train", "validation", "validation-v2")
+    for name, scale, seed, held_out, text in (
+            ("validation-v3", 1, 2200 + i, False, "validation split v3: the test split's "
+             "families, 20 humans each, distinct by behaviour"),
+            ("test-v3", 2, 3200 + i, True, "TEST split v3 (suite v4's evaluation set): 40 "
+             "humans of each group, distinct by behaviour from each other and from every "
+             "train and validation human")):
+        groups = _v3_groups(scale)
+        whole = MixtureSpec(name, sc, "3", text, sum(int(c.weight) for g in groups.values()
+                                                     for c in g),
+                            seed, tuple(c for g in groups.values() for c in g),
+                            held_out=held_out, distinct=True, exclude=previous,
+                            tolerance=TOLERANCE)
         out[(name, sc)] = whole
         for group in GROUPS:
             out[(f"{name}-{group}", sc)] = dataclasses.replace(

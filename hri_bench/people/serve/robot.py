@@ -52,7 +52,8 @@ class Stopped(Exception):
 
 def _describe(exc: BaseException) -> str:
     text = str(exc).strip().replace("\n", " ")
-    return f"{type(exc).__name__}: {text[:300]}" if text else type(exc).__name__
+    kind = getattr(exc, "kind", type(exc).__name__)  # an agent in its own process: its error's
+    return f"{kind}: {text[:300]}" if text else kind
 
 
 class AgentWorker:
@@ -115,7 +116,8 @@ class AgentWorker:
         ok, value = box[0]
         if ok:
             return value
-        raise AgentFailed(f"the robot's program failed ({type(value).__name__} in {what})",
+        kind = getattr(value, "kind", type(value).__name__)  # in its own process: its error's
+        raise AgentFailed(f"the robot's program failed ({kind} in {what})",
                           f"the agent's {what} raised {_describe(value)}") from value
 
     def stop(self, status: str) -> None:
