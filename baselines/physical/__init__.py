@@ -1,0 +1,129 @@
+"""The robots of the continuous physical envs (``*PandaContinuous-v1``), by name.
+
+:data:`PHYSICAL_AGENTS` is what the physical evaluation reads
+(``benchmarks/physical_baselines.py``, and the physical suite): each entry makes the
+agent for one run, ``PHYSICAL_AGENTS[name](scenario, seed)`` (a run: a few episodes with
+one human; an agent that learns, learns across them), and says whether it is privileged
+(it reads the simulation: a reference, never ranked among robots), whether it is one of
+the two references that bound a normalised score (the upper reference, 1, and the
+passive floor, 0) and what it does.
+docs/physical-baselines.md has each robot's figures and where it wins and loses.
+
+=========================  =====================================================
+``upper``                  reference (privileged): follows the human's own reference
+``passive``                reference (a robot): zero stiffness, the human drags it
+``admittance``             fixed admittance ``v = F / D``, ``ω = τ / D_r``
+``variable-admittance``    damping falls as the human pushes on, rises as they hold back
+``goal-blend``             goal inference over routes, predict-then-blend
+``goal-qmdp``              acts on the goal posterior (QMDP / hindsight optimisation)
+``learner``                the paper's Learner through compliant motion primitives
+=========================  =====================================================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from agents.physical import PhysicalAgent
+from baselines.physical.admittance import FixedAdmittance, VariableAdmittance
+from baselines.physical.blend import GoalBlend
+from baselines.physical.hindsight import GoalQMDP
+from hri_envs.errors import ConfigError
+
+__all__ = ["PHYSICAL_AGENTS", "PhysicalAgentEntry", "make_physical_agent"]
+
+
+@dataclass(frozen=True)
+class PhysicalAgentEntry:
+    """One robot of the registry: call it with ``(scenario, seed)`` for a new agent.
+
+    Attributes:
+        factory: Makes the agent for a run.
+        privileged: It reads the simulation (the intention, the human's reference): a
+            reference, shown apart and never ranked among robots.
+        description: One line on what it does.
+        reference: One of the two references a normalised score is anchored to (the
+            upper reference and the passive floor).
+    """
+
+    factory: Callable[[str, int], PhysicalAgent]
+    privileged: bool
+    description: str
+    reference: bool = False
+
+    def __call__(self, scenario: str, seed: int = 0) -> PhysicalAgent:
+        """A new agent for one run on ``scenario`` (``seed``: its own randomness)."""
+        return self.factory(scenario, seed)
+
+
+def _upper(scenario: str, seed: int) -> PhysicalAgent:
+    # baselines.continuous imports this package's admittance: import it when called.
+    from baselines.continuous import UpperReference  # noqa: PLC0415
+
+    return UpperReference()
+
+
+def _passive(scenario: str, seed: int) -> PhysicalAgent:
+    from baselines.continuous import PassiveFloor  # noqa: PLC0415
+
+    return PassiveFloor()
+
+
+def _admittance(scenario: str, seed: int) -> PhysicalAgent:
+    return FixedAdmittance(scenario)
+
+
+def _variable(scenario: str, seed: int) -> PhysicalAgent:
+    return VariableAdmittance(scenario)
+
+
+def _blend(scenario: str, seed: int) -> PhysicalAgent:
+    return GoalBlend(scenario)
+
+
+def _qmdp(scenario: str, seed: int) -> PhysicalAgent:
+    return GoalQMDP(scenario)
+
+
+def _learner(scenario: str, seed: int) -> PhysicalAgent:
+    from baselines.continuous import LiftedLearner  # noqa: PLC0415
+
+    return LiftedLearner(scenario, seed=seed)
+
+
+#: The physical robots by name (see the module docstring).
+PHYSICAL_AGENTS: dict[str, PhysicalAgentEntry] = {
+    "upper": PhysicalAgentEntry(
+        _upper, True, "reference: knows the goal and follows the human's own reference",
+        reference=True),
+    "passive": PhysicalAgentEntry(
+        _passive, False, "reference floor: gravity compensated, zero stiffness",
+        reference=True),
+    "admittance": PhysicalAgentEntry(
+        _admittance, False, "fixed admittance: moves at F / D and turns at tau / D_r"),
+    "variable-admittance": PhysicalAgentEntry(
+        _variable, False, "variable admittance: damping falls as the human pushes on, "
+        "rises as they hold back (Duchaine & Gosselin 2007; Lecours et al. 2012)"),
+    "goal-blend": PhysicalAgentEntry(
+        _blend, False, "infers the goal over the routes, blends its motion towards it "
+        "with the admittance by confidence (Dragan & Srinivasa 2013)"),
+    "goal-qmdp": PhysicalAgentEntry(
+        _qmdp, False, "adds the motion of greatest value expected over the goal "
+        "posterior to the admittance (QMDP / hindsight, Javdani et al. 2015)"),
+    "learner": PhysicalAgentEntry(
+        _learner, False, "the paper's Learner through compliant primitives, following "
+        "the human with the admittance between them; learns across a run"),
+}
+
+
+def make_physical_agent(name: str, scenario: str, seed: int = 0) -> PhysicalAgent:
+    """The registry's agent ``name`` for a run on ``scenario``.
+
+    Raises:
+        ConfigError: An unknown name (the message lists the names).
+    """
+    if name not in PHYSICAL_AGENTS:
+        raise ConfigError(f"unknown physical agent {name!r}; allowed: "
+                          f"{', '.join(PHYSICAL_AGENTS)}", field="agent")
+    return PHYSICAL_AGENTS[name](scenario, seed)
