@@ -141,7 +141,7 @@ class LearnerLead:
 #: TUNED_FIXED`).
 TUNED_LEARNER: dict[str, LearnerLead] = {
     "hanger": LearnerLead(lead=LeadParams(speed_mps=0.3)),
-    "wheel": LearnerLead(lead=LeadParams(speed_mps=0.5)),
+    "wheel": LearnerLead(engage_cos=0.5, lead=LeadParams(speed_mps=0.245)),
 }
 
 

@@ -143,7 +143,7 @@ TUNED_FIXED: dict[str, AdmittanceGains] = {
 TUNED_VARIABLE: dict[str, VariableGains] = {
     "hanger": VariableGains(TUNED_FIXED["hanger"], min_ratio=0.4, force_ref_n=1.5,
                             rate_s=0.1, mass_s=0.05),
-    "wheel": VariableGains(TUNED_FIXED["wheel"], min_ratio=0.6, force_ref_n=3.0,
+    "wheel": VariableGains(TUNED_FIXED["wheel"], min_ratio=0.4, force_ref_n=0.75,
                            rate_s=0.1, mass_s=0.05),
 }
 

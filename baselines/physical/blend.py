@@ -64,7 +64,7 @@ class BlendParams:
 TUNED_BLEND: dict[str, BlendParams] = {
     "hanger": BlendParams(LeadParams(speed_mps=0.42, filter=FilterParams(kappa_f=1.0)),
                           alpha_max=0.6),
-    "wheel": BlendParams(LeadParams(speed_mps=0.5)),
+    "wheel": BlendParams(LeadParams(speed_mps=0.5), confidence_lo=0.7, alpha_max=0.6),
 }
 
 

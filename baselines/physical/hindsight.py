@@ -66,7 +66,8 @@ class QMDPParams:
 TUNED_QMDP: dict[str, QMDPParams] = {
     "hanger": QMDPParams(LeadParams(speed_mps=0.103, filter=FilterParams(kappa_f=1.0)),
                          effort_weight=2.0),
-    "wheel": QMDPParams(LeadParams(speed_mps=0.5)),
+    "wheel": QMDPParams(LeadParams(speed_mps=0.12, yield_n=24.0,
+                                   filter=FilterParams(kappa_f=0.0)), effort_weight=0.25),
 }
 
 
