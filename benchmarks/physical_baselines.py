@@ -10,17 +10,17 @@ with seed i, so it has the same start, goal, layout and human for every agent. A
 made once per run of ``--run-episodes`` consecutive episodes (a learning agent learns
 across them). Every episode is a row of ``episodes.csv`` in the output folder (agent,
 scenario, human, seed, outcome, return, effort, effort per progress, peak and RMS force,
-RMS jerk, time to place, ...; written as runs finish), so paired comparisons need no
-re-run; ``summary.json`` and the printed table have, per scenario, human and agent, the
-goal rate (Clopper-Pearson 95 % CI), the means of effort, return, peak force and time to
-place (95 % bootstrap CIs) and the paired differences of effort and return against
-``--against`` (default: the fixed admittance), episode by episode; for a robot with a
-belief over goals, how often and how soon it put 0.9 on the goal, and its paired effort
-difference on the episodes where it did so within the first half of the episode and on
-the others. Without ``--out`` the
-folder is a new temporary one, printed at the end. ``--from-csv`` summarises an existing
-``episodes.csv`` without running anything. Wall times depend on the machine's load; the
-figures do not.
+RMS jerk, time to place, when a robot with a belief inferred the goal, ...; written as
+runs finish), so paired comparisons need no re-run. ``summary.json`` and the printed
+table have, per scenario, human (and all humans together) and agent: the goal rate
+(Clopper-Pearson 95 % CI); the means of effort, return, peak force and time to place (95 %
+bootstrap CIs); the paired differences of effort and return against ``--against``
+(default: the fixed admittance), episode by episode (by human and seed); for a robot with
+a belief over goals, how often and how soon it put 0.9 on the goal, and its paired effort
+difference on the episodes where it did so within the first half of the episode and on the
+others. Without ``--out`` the folder is a new temporary one, printed at the end.
+``--from-csv`` summarises an existing ``episodes.csv`` without running anything. Wall
+times depend on the machine's load; the figures do not.
 """
 
 from __future__ import annotations
@@ -41,6 +41,9 @@ import numpy as np
 from baselines.physical import PHYSICAL_AGENTS, make_physical_agent
 from baselines.physical.runs import HUMANS, ROW_FIELDS, make_env, run_seeds
 from hri_bench.core.stats import bootstrap_ci
+
+#: The summary's name for all humans together (with more than one human).
+ALL = "all"
 
 #: The figures summarised per agent (mean and 95 % bootstrap CI).
 MEANS = ("effort", "return", "peak_force", "rms_force", "rms_jerk", "effort_per_progress",
@@ -92,8 +95,9 @@ def _mean_ci(values: Sequence[Any], seed: int) -> dict[str, Any]:
 def _paired(rows: list[dict[str, Any]], base: list[dict[str, Any]], key: str, seed: int
             ) -> dict[str, Any] | None:
     """Mean of (agent - base) over the seeds both ran, with its bootstrap CI."""
-    theirs = {r["seed"]: float(r[key]) for r in base}
-    d = _finite([float(r[key]) - theirs[r["seed"]] for r in rows if r["seed"] in theirs])
+    theirs = {(r["human"], r["seed"]): float(r[key]) for r in base}
+    d = _finite([float(r[key]) - theirs[r["human"], r["seed"]] for r in rows
+                 if (r["human"], r["seed"]) in theirs])
     if len(d) == 0:
         return None
     return {"mean": float(d.mean()), "ci95": list(bootstrap_ci(d, "mean", seed)),
@@ -127,10 +131,14 @@ def summarise(rows: list[dict[str, Any]], against: str, seed: int = 0) -> dict[s
     groups: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
     for r in rows:
         groups.setdefault((r["scenario"], r["human"], r["agent"]), []).append(r)
+    if len({r["human"] for r in rows}) > 1:  # and over all humans, paired by (human, seed)
+        for r in rows:
+            groups.setdefault((r["scenario"], ALL, r["agent"]), []).append(r)
     out: dict[str, Any] = {}
     order = {name: i for i, name in enumerate(PHYSICAL_AGENTS)}
+    humans = [*HUMANS, ALL]
     for (scenario, human, agent), rs in sorted(groups.items(), key=lambda kv: (
-            kv[0][0], HUMANS.index(kv[0][1]), order[kv[0][2]])):
+            kv[0][0], humans.index(kv[0][1]), order[kv[0][2]])):
         k = sum(str(r["reached_intention"]) in ("True", "true", "1") for r in rs)
         entry: dict[str, Any] = {
             "episodes": len(rs), "placed_at_goal": k,
@@ -207,13 +215,20 @@ def _names(text: str, allowed: Sequence[str], what: str) -> list[str]:
 
 
 def run_all(args: argparse.Namespace, out: Path) -> list[dict[str, Any]]:
-    """Runs every job on ``args.jobs`` processes, appending rows to episodes.csv."""
-    jobs, rows = jobs_of(args), []
+    """Runs every job on ``args.jobs`` processes, appending rows to episodes.csv (with
+    ``args.resume``, after the rows already there, skipping the runs they hold).
+    """
+    path = out / "episodes.csv"
+    rows = read_rows(path) if args.resume and path.is_file() else []
+    done_runs = {(r["agent"], r["scenario"], r["human"], r["run"]) for r in rows}
+    jobs = [j for j in jobs_of(args)
+            if (j["agent"], j["scenario"], j["human"], j["run"]) not in done_runs]
     t0 = time.perf_counter()
-    with (out / "episodes.csv").open("w", newline="") as f, \
+    with path.open("a" if rows else "w", newline="") as f, \
             ProcessPoolExecutor(args.jobs) as pool:
         writer = csv.DictWriter(f, fieldnames=ROW_FIELDS)
-        writer.writeheader()
+        if not rows:
+            writer.writeheader()
         futures = {pool.submit(run_job, job): job for job in jobs}
         for i, done in enumerate(as_completed(futures), 1):
             job, new = futures[done], done.result()
@@ -257,6 +272,8 @@ def main() -> None:
                    help="output folder (default: a new temporary folder, printed)")
     p.add_argument("--from-csv", default=None,
                    help="summarise this episodes.csv instead of running")
+    p.add_argument("--resume", action="store_true",
+                   help="keep the runs already in --out's episodes.csv and run the others")
     args = p.parse_args()
     args.agents = _names(args.agents, list(PHYSICAL_AGENTS), "agent(s)")
     args.humans = _names(args.humans, HUMANS, "human(s)")
