@@ -9,10 +9,11 @@ For each agent and scenario it starts from the parameters in the code (``TUNED_*
 at a time over a few candidate values (:data:`SEARCH`: multiples of the current value, or
 fixed values), keeping a change only if it raises the objective, for ``--passes`` passes.
 The objective is the mean v1 return over the training episodes: seeds ``--first-seed``
-(1000) onwards, ``--seeds`` of them per human, for the default human and every preset (or
-``--population train``, passed to the env, once the populations exist); every candidate
-meets the same episodes. An agent that learns (the lifted Learner) runs each human's
-episodes in order, as one run. When ``admittance`` is tuned in the same call, the agents
+(1000) onwards, ``--seeds`` of them per human, for the default human and every preset
+(or, with ``--population train``, as many episodes of the physical populations' training
+split, passed to the env: a member drawn per seed); every candidate meets the same
+episodes. An agent that learns (the lifted Learner) runs each human's episodes in order,
+as one run. When ``admittance`` is tuned in the same call, the agents
 after it are tuned with (and keep) its chosen gains. Every evaluation is a line of
 ``tuning.jsonl`` in the output folder; the chosen parameters are printed as the Python to
 put into the code. Never evaluate on seeds 0-29: they are the evaluation's.
@@ -115,10 +116,14 @@ def run_human(job: dict[str, Any]) -> list[dict[str, Any]]:
 def evaluate(pool: ProcessPoolExecutor, kind: str, scenario: str, params: Any,
              args: argparse.Namespace) -> dict[str, float]:
     """The objective (mean return) and the goal rate and effort of ``params``."""
-    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    humans = ["default"] if args.population else args.humans
+    n, first = args.seeds, args.first_seed
+    if args.population:  # as many episodes as with the named humans, members drawn per seed
+        parts = [("default", list(range(first + i * n, first + (i + 1) * n)))
+                 for i in range(len(args.humans))]
+    else:
+        parts = [(h, list(range(first, first + n))) for h in args.humans]
     jobs = [{"kind": kind, "scenario": scenario, "params": params, "human": h,
-             "population": args.population, "seeds": seeds} for h in humans]
+             "population": args.population, "seeds": seeds} for h, seeds in parts]
     rows = [r for rs in pool.map(run_human, jobs) for r in rs]
     return {"return": float(np.mean([r["return"] for r in rows])),
             "goal_rate": float(np.mean([bool(r["reached_intention"]) for r in rows])),
@@ -202,7 +207,8 @@ def main() -> None:
                    help="train on this physical population (e.g. train) instead of the "
                         "named humans: passed to the env")
     p.add_argument("--seeds", type=int, default=4,
-                   help="training episodes per human (default 4)")
+                   help="training episodes per human (default 4; with --population, as "
+                        "many episodes in all as with the humans, a member drawn per seed)")
     p.add_argument("--first-seed", type=int, default=1000,
                    help="the first training seed (default 1000; 0-29 are the evaluation's)")
     p.add_argument("--passes", type=int, default=1,
