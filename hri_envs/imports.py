@@ -15,7 +15,17 @@ from typing import Any
 
 from hri_envs.errors import ConfigError
 
-__all__ = ["import_class", "import_object"]
+__all__ = ["import_class", "import_object", "with_cwd_on_path"]
+
+
+def with_cwd_on_path() -> None:
+    """Put the current folder on ``sys.path`` (last) unless it is there: ``module:Class``
+    names the user's own modules "importable from the folder you run in", also when the
+    program is a console script (whose ``sys.path[0]`` is the script's folder).
+    """
+    here = os.getcwd()
+    if here not in sys.path and "" not in sys.path:
+        sys.path.append(here)
 
 
 def import_object(spec: str, what: str, field: str) -> Any:
@@ -31,9 +41,7 @@ def import_object(spec: str, what: str, field: str) -> Any:
             included) or has no such attribute.
     """
     module, _, attr = spec.partition(":")
-    here = os.getcwd()
-    if here not in sys.path and "" not in sys.path:
-        sys.path.append(here)
+    with_cwd_on_path()
     try:
         return getattr(importlib.import_module(module), attr)
     except (Exception, SystemExit) as exc:  # the user's module may raise anything on import

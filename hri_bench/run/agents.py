@@ -73,6 +73,7 @@ from hri_bench.run.isolation import describe, make_isolated
 from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
+from hri_envs.imports import with_cwd_on_path
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["AGENTS", "CONTRACT", "DEFAULT_STUDY_AGENTS", "JAXPPO", "JAXPPO_CHECKPOINTS",
@@ -533,6 +534,7 @@ def _unimported_files(module_name: str) -> tuple[Path, list[Path]]:
     """:func:`_source_files` found on ``sys.path`` without importing (running) anything."""
     import importlib.machinery
 
+    with_cwd_on_path()  # as import_object would import it
     parts = module_name.split(".")
     path: list[str] | None = None
     found = []

@@ -41,6 +41,7 @@ from agents.protocol import BatchAgent, Trace
 from hri_bench.run import agent_host
 from hri_bench.run.wire import WireError, read_message, write_message
 from hri_envs.errors import ActionError, ConfigError
+from hri_envs.imports import with_cwd_on_path
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["IN_PROCESS", "AgentProcessError", "IsolatedAgent", "agent_streams", "describe",
@@ -85,6 +86,7 @@ class _Host:
             [sys.executable, "-m", agent_host.__name__], stdin=subprocess.PIPE,
             stdout=subprocess.PIPE, close_fds=True)
         self.pid = os.getpid()
+        with_cwd_on_path()  # the user's modules, importable from the folder run in
         self.send({"kind": "path", "sys_path": list(sys.path)})
 
     def send(self, header: Mapping[str, Any], arrays: Mapping[str, np.ndarray] | None = None
