@@ -1,0 +1,172 @@
+"""Record how the continuous envs' episodes end, for tests/test_physics_equivalence.py.
+
+The reference file ``continuous_reference.json`` was written by the continuous envs as they
+were before their control periods were compiled (numba) for speed; the test replays a few of
+its episodes with today's code and asks for the same ends: the same last step and outcome
+(placed, fault, goal reached), the human's effort and the interaction measures within 1e-6
+relative, the object's final position within 1e-6 m. ``--check`` replays every recorded
+episode and prints the largest differences (the full equivalence check). Re-running without
+``--check`` overwrites the reference with the *current* code's numbers, so only do that on
+purpose.
+
+Cases: both scenarios with the upper reference and the passive floor, seeds 0-19 (the
+torque-driven arm); the human carrying alone (``robot_holds=False``, the passive robot),
+seeds 0-2; the human seat as an agent (the parallel env, seeded random human actions, a
+passive robot), seeds 0-2, 100 steps; the muscle-driven arm, seed 0, 40 steps.
+
+Usage::
+
+    python tests/data/make_continuous_reference.py [--check] [--cases NAME,...] [OUT.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import hri_envs  # noqa: F401
+from baselines.continuous import PASSIVE_ACTION, UpperReference
+from hri_envs.physics.continuous_parallel import parallel_env
+from hri_envs.task.scenarios import scenario_spec
+
+DEFAULT = Path(__file__).parent / "continuous_reference.json"
+SEEDS = range(20)
+#: (name, scenario, policy, seeds, drive, step limit or None, robot holds)
+CASES: tuple[tuple[str, str, str, range, str, int | None, bool], ...] = tuple(
+    (f"{sc}-{pol}", sc, pol, SEEDS, "torque", None, True)
+    for sc in ("hanger", "wheel") for pol in ("upper", "passive")) + tuple(
+    (f"{sc}-alone", sc, "passive", range(3), "torque", None, False)
+    for sc in ("hanger", "wheel")) + tuple(
+    (f"{sc}-human-agent", sc, "human-agent", range(3), "torque", 100, True)
+    for sc in ("hanger", "wheel")) + (
+    ("wheel-muscle", "wheel", "upper", range(1), "muscle", 40, True),)
+#: The CarryStep fields summed over an episode, and the one whose maximum is kept.
+SUMMED = ("effort", "linear_impulse", "angular_impulse", "disagreement", "force_sq", "jerk_sq")
+
+
+def _episode(env: Any, parallel: Any, policy: str, seed: int, limit: int | None,
+             robot_holds: bool) -> dict[str, Any]:
+    """Run one episode; what it ended with."""
+    base = env.unwrapped if parallel is None else parallel.env
+    steps: list[Any] = []
+    step = base.sim.step
+
+    def recording(*args: Any, **kwargs: Any) -> Any:
+        res = step(*args, **kwargs)
+        steps.append(res)
+        return res
+
+    base.sim.step = recording
+    options = {"robot_holds": robot_holds}
+    rng = np.random.default_rng(seed)
+    if parallel is None:
+        obs, _ = env.reset(seed=seed, options=options)
+    else:
+        obs = parallel.reset(seed=seed, options=options)[0]["robot"]
+    upper = UpperReference()
+    total, n = 0.0, 0
+    while True:
+        action = upper.act(obs, base) if policy == "upper" else PASSIVE_ACTION.copy()
+        if parallel is None:
+            obs, reward, term, trunc, info = env.step(action)
+        else:
+            human = np.clip(0.4 * rng.standard_normal(7) + [0, 0, 0, 0, 0, 0, 0.5], -1, 1)
+            out, rewards, terms, truncs, infos = parallel.step({"robot": action,
+                                                                "human": human})
+            obs, reward, term, trunc, info = (out["robot"], rewards["robot"], terms["robot"],
+                                              truncs["robot"], infos["robot"])
+        total += reward
+        n += 1
+        if term or trunc or (limit is not None and n >= limit):
+            break
+    del base.sim.step
+    pose = base.sim.object_pose()
+    ends = {
+        "steps": n, "terminated": bool(term), "truncated": bool(trunc),
+        "fault": info.get("fault"), "fault_detail": info.get("fault_detail"),
+        "placed": int(info["placed"]), "reached": bool(info["reached_intention"]),
+        "episode_effort": float(info["episode_effort"]), "return": float(total),
+        "peak_force": max(float(r.peak_force) for r in steps),
+        "pos": pose.pos.tolist(), "quat": pose.quat.tolist(),
+        "sensed": base.sim.sensed.tolist(), "obs": np.asarray(obs, float).tolist()}
+    for key in SUMMED:
+        ends[key] = float(sum(getattr(r, key) for r in steps))
+    return ends
+
+
+def record(names: set[str] | None = None) -> dict[str, list[dict[str, Any]]]:
+    """Every case's episodes (or those of ``names``)."""
+    out: dict[str, list[dict[str, Any]]] = {}
+    for name, scenario, policy, seeds, drive, limit, holds in CASES:
+        if names is not None and name not in names:
+            continue
+        env = parallel = None
+        if policy == "human-agent":
+            parallel = parallel_env(scenario)
+        else:
+            env = gym.make(str(scenario_spec(scenario).continuous_id), drive=drive)
+        out[name] = [{"seed": s, **_episode(env, parallel, policy, s, limit, holds)}
+                     for s in seeds]
+        print(f"{name}: {len(out[name])} episodes", file=sys.stderr, flush=True)
+    return out
+
+
+def compare(ref: dict[str, Any], got: dict[str, Any]) -> list[str]:
+    """How ``got`` (an episode's ends) differs from ``ref`` beyond the tolerances:
+    the same step count and outcome, sums within 1e-6 relative (1e-9 absolute), the object's
+    final position within 1e-6 m.
+    """
+    bad = [f"{k}: {ref[k]!r} != {got[k]!r}" for k in
+           ("steps", "terminated", "truncated", "fault", "placed", "reached") if ref[k] != got[k]]
+    for k in ("episode_effort", "return", "peak_force", *SUMMED):
+        if not math.isclose(ref[k], got[k], rel_tol=1e-6, abs_tol=1e-9):
+            bad.append(f"{k}: {ref[k]!r} != {got[k]!r}")
+    off = float(np.max(np.abs(np.subtract(ref["pos"], got["pos"]))))
+    if off > 1e-6:
+        bad.append(f"object position off by {off:.3g} m")
+    return bad
+
+
+def deviations(ref: dict[str, Any], got: dict[str, Any]) -> tuple[float, float]:
+    """The largest relative difference of the sums and the position's difference [m]."""
+    rel = max(abs(ref[k] - got[k]) / max(abs(ref[k]), 1e-9)
+              for k in ("episode_effort", "peak_force", *SUMMED))
+    return rel, float(np.max(np.abs(np.subtract(ref["pos"], got["pos"]))))
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("out", nargs="?", type=Path, default=DEFAULT)
+    p.add_argument("--check", action="store_true",
+                   help="replay every recorded episode and compare (writes nothing)")
+    p.add_argument("--cases", default=None, help="comma-separated case names (default all)")
+    args = p.parse_args()
+    names = set(args.cases.split(",")) if args.cases else None
+    if not args.check:
+        args.out.write_text(json.dumps(record(names), indent=1) + "\n")
+        return
+    reference = json.loads(args.out.read_text())
+    failed = 0
+    for name, episodes in record(names).items():
+        worst_rel = worst_pos = 0.0
+        for ref, got in zip(reference[name], episodes, strict=True):
+            bad = compare(ref, got)
+            rel, pos = deviations(ref, got)
+            worst_rel, worst_pos = max(worst_rel, rel), max(worst_pos, pos)
+            if bad:
+                failed += 1
+                print(f"{name} seed {ref['seed']}: " + "; ".join(bad))
+        print(f"{name}: {len(episodes)} episodes, largest relative difference {worst_rel:.2g}, "
+              f"position {worst_pos:.2g} m")
+    sys.exit(1 if failed else 0)
+
+
+if __name__ == "__main__":
+    main()
