@@ -42,6 +42,7 @@ import numpy as np
 from hri_envs.errors import ConfigError
 from hri_envs.physics.arm_control import ArmDrive, HandImpedance, TorqueDrive
 from hri_envs.physics.body import ArmBody, BodySize
+from hri_envs.physics.carry_periods import CarryPeriods
 from hri_envs.physics.contacts import touches
 from hri_envs.physics.controller import ImpedanceController
 from hri_envs.physics.design import PhysicsDesign, design_for
@@ -50,12 +51,8 @@ from hri_envs.physics.intention import HUMAN_DRIVES, HumanParams, IntentionHuman
 from hri_envs.physics.interaction import InteractionMeter, StepInteraction
 from hri_envs.physics.kinematics import (
     Pose,
-    TrajectorySample,
     compose,
-    cross3,
-    quat_conj,
     quat_mul,
-    quat_to_mat,
     rotation_error,
 )
 from hri_envs.physics.observer import StateObserver
@@ -240,6 +237,8 @@ class CarrySim:
         self._forces = np.zeros((1, _CONTROL_PERIODS))
         self._velocities = np.zeros((1, _CONTROL_PERIODS, 3))
         self._interaction: StepInteraction | None = None
+        self.periods = CarryPeriods(self)
+        self._joint_names = self.joint_names()
 
     # ------------------------------------------------------------------ set-up
     def _gains(self) -> tuple[float, float, float, float]:
@@ -395,7 +394,7 @@ class CarrySim:
 
     def progress(self) -> float:
         """The object's progress along the human's route now."""
-        return self.human.progress(*self.object_pose())
+        return self.periods.progress(*self.object_pose())
 
     def _hand_pose(self, obj: Pose) -> Pose:
         """The human's grip frame when it holds the handle of the object at ``obj``."""
@@ -405,7 +404,7 @@ class CarrySim:
         """Where the robot's grip would be with the object at the human's reference now
         (what an upper reference that knows the intention follows).
         """
-        return grip_reference(self.human, self.grip_in_object)
+        return Pose(*self.periods.grip_reference(self.grip_in_object))
 
     def command(self, action: np.ndarray) -> RobotCommand:
         """The robot's command for an action in [-1, 1]^7 (grip offset, rotation, stiffness)."""
@@ -436,9 +435,7 @@ class CarrySim:
         seat's agent, :meth:`human_command`) replaces the scripted human's reference for
         the step (their impedance's stiffness scaled by its stiffness).
         """
-        model, data, sc = self.model, self.data, self.scene
-        k, dt_c, body = self.control_every, self.dt_control, sc.object_body
-        human, arm, impedance, drive = self.human, self.arm, self.impedance, self.arm_drive
+        data, sc = self.data, self.scene
         lever = self.design.lever
         start_grip = self.grip_pose()
         stiff = cmd.stiffness > 1e-3 and self.robot_holds
@@ -455,133 +452,47 @@ class CarrySim:
         except IKFailure as exc:
             self._interaction = None
             return self._result(0.0, 0.0, 0.0, f"ik_failure: {exc}")
-        xfrc = data.xfrc_applied[body]
-        lin = ang = disagree = 0.0
-        forces, velocities = self._forces[0], self._velocities[0]
-        fault = None
         weight = self.design.object_mass * 9.81
-        sat = np.zeros(len(self.posture))
-        start_obj = data.xpos[body].copy()
+        start_obj = data.xpos[sc.object_body].copy()
+        command, gains = None, tuple(self.impedance.gains)
         if human_cmd is not None:
             q = np.empty(4)
-            mujoco.mju_mat2Quat(q, data.site_xmat[arm.grip_site])
-            hand0 = Pose(data.site_xpos[arm.grip_site].copy(), q)
-            h_delta = human_cmd.target.pos - hand0.pos
-            h_rot = rotation_error(human_cmd.target.quat, hand0.quat)
-            gains = self._gains()
-            impedance.gains = tuple(g * human_cmd.stiffness for g in gains)  # type: ignore[assignment]
+            mujoco.mju_mat2Quat(q, data.site_xmat[self.arm.grip_site])
+            hand0 = Pose(data.site_xpos[self.arm.grip_site].copy(), q)
+            command = np.concatenate([hand0.pos, hand0.quat, human_cmd.target.pos - hand0.pos,
+                                      rotation_error(human_cmd.target.quat, hand0.quat)])
+            gains = tuple(g * human_cmd.stiffness for g in self._gains())
+        motion = np.concatenate([start_grip.pos, start_grip.quat, delta, rotvec, vel, angvel])
+        res = self.periods.run(motion, min(cmd.stiffness, 1.0), stiff, command, gains)
+        self.sensed = res.sensed
+        fault = None
         try:
-            for i in range(_CONTROL_PERIODS):
-                mujoco.mj_step1(model, data)
-                pos, quat = data.xpos[body], data.xquat[body]
-                qv = data.qvel[sc.object_dofs]
-                v, w_body = qv[:3].copy(), np.empty(3)
-                mujoco.mju_rotVecQuat(w_body, qv[3:].copy(), quat)
-                # The human: reference, torso, arm torques.
-                if human_cmd is None:
-                    ref = human.advance(dt_c, pos, quat)
-                    hand_ref = self._hand_reference(ref)
-                    ref_quat = ref.quat
-                else:
-                    s_h = (i + 1) / _CONTROL_PERIODS
-                    hand_ref = TrajectorySample(hand0.pos + s_h * h_delta,
-                                                _rotate(hand0.quat, s_h * h_rot),
-                                                h_delta / self.dt_step, h_rot / self.dt_step)
-                    ref_quat = quat_mul(hand_ref.quat, quat_conj(self.handle_quat))
-                data.ctrl[arm.torso_actuators] = arm.torso_target(
-                    hand_ref.pos, arm.yaw_of(ref_quat, self.rest_quat))
-                ff = None
-                if not self.robot_holds:  # carrying alone: hold up the object's weight
-                    grip = data.site_xpos[arm.grip_site]
-                    r = data.xipos[body] - grip
-                    ff = np.array([0.0, 0.0, weight, *cross3(r, (0.0, 0.0, weight))])
-                tau = impedance.torques(data, hand_ref, ff)
-                made = drive.apply(data, tau)
-                sat += (made <= drive.lo + 1e-9) | (made >= drive.hi - 1e-9)
-                # The robot.
-                rot = data.xmat[body].reshape(3, 3)
-                self.sensed = self.sensor.external(data, self.robot_holds, pos, rot)
-                seat = self.seats.engaged(pos, quat)
-                if seat >= 0:
-                    f_seat, t_seat = self.seats.wrench(seat, pos, quat, v, w_body)
-                    xfrc[:3], xfrc[3:] = f_seat, t_seat
-                else:
-                    xfrc[:] = 0.0
-                    self.left_start = True
-                ref_r = None
-                if stiff:
-                    s = (i + 1) / _CONTROL_PERIODS
-                    ref_r = TrajectorySample(start_grip.pos + s * delta,
-                                             _rotate(start_grip.quat, s * rotvec), vel, angvel)
-                tau_r = self.controller.torques(data, ref_r, self.q_ref,
-                                                min(cmd.stiffness, 1.0), self.robot_holds)
-                data.ctrl[sc.robot_actuators] = tau_r
-                mujoco.mj_step2(model, data)
-                if k > 1:
-                    mujoco.mj_step(model, data, nstep=k - 1)
-                # The human's wrench on the handle (its sensor: the object on the handle,
-                # in the handle's frame; the hand's wrench on the object is the same).
-                f, t = self._handle_wrench()
-                f_norm = math.sqrt(f.dot(f))
-                lin += f_norm * dt_c
-                ang += math.sqrt(t.dot(t)) * dt_c
-                hv = data.qvel[sc.object_dofs]
-                forces[i] = f_norm
-                velocities[i] = hv[:3]
-                power = f.dot(hv[:3]) + t.dot(w_body)
-                disagree += max(0.0, -float(power)) * dt_c
-                if i == _CONTROL_PERIODS - 1:  # once per step (40 ms)
-                    self._check(pos)
+            self._check(data.xpos[sc.object_body])
         except _Fault as exc:
             fault = str(exc)
-        finally:
-            if human_cmd is not None:
-                impedance.gains = self._gains()
         self.time += self.dt_step
-        self.sat_counts = sat
-        if i < _CONTROL_PERIODS - 1:  # a fault ended the step early: the last sample stands
-            forces[i + 1:], velocities[i + 1:] = forces[i], velocities[i]
+        self.sat_counts = res.sat
+        self._forces[:], self._velocities[:] = res.forces, res.velocities
         self._interaction = self.meter.step(slice(None), self._forces, self._velocities)
         if fault is None and not self.robot_holds:
             moved = float(np.linalg.norm(self.object_pose().pos - start_obj))
-            strained = bool(np.any(sat > _CONTROL_PERIODS / 2)) and moved < 1e-3
+            strained = bool(np.any(res.sat > _CONTROL_PERIODS / 2)) and moved < 1e-3
             self._strained = self._strained + self.dt_step if strained else 0.0
             if self._strained >= _STRAINED_S and self.max_lift_n() < weight:
                 fault = "too_weak: the human cannot carry the object alone; " + \
                     self._why_slipped()
         if sc.platform_mocap >= 0:
             data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + self.design.base_pos[:2]
-        return self._result(lin, ang, disagree, fault, lever)
-
-    def _hand_reference(self, ref: TrajectorySample) -> TrajectorySample:
-        rot = quat_to_mat(ref.quat)
-        r = rot.dot(self.handle_pos)
-        return TrajectorySample(ref.pos + r, quat_mul(ref.quat, self.handle_quat),
-                                ref.vel + np.array(cross3(ref.angvel.tolist(), r.tolist())),
-                                ref.angvel)
-
-    def _handle_wrench(self) -> tuple[np.ndarray, np.ndarray]:
-        """The hand's force [N] and torque [N m] on the handle, in the world (torque about
-        the handle's centre).
-        """
-        d, site = self.data, self.arm.handle_site
-        rot = d.site_xmat[site].reshape(3, 3)
-        return (-rot.dot(d.sensordata[self._hf:self._hf + 3]),
-                -rot.dot(d.sensordata[self._ht:self._ht + 3]))
+        return self._result(res.lin, res.ang, res.disagree, fault, lever)
 
     def _check(self, pos: np.ndarray) -> None:
         data, sc = self.data, self.scene
         if touches(data, sc.floor_geom) or pos[2] < self._lowest_z - _DROP_BELOW_M:
             raise _Fault("dropped: the object " + ("hit the floor" if touches(
                 data, sc.floor_geom) else "fell below every support"))
-        if not np.all(np.isfinite(data.qpos)):
+        finite, off, angle = self.periods.slip()
+        if not finite:
             raise _Fault("unstable: the simulation diverged")
-        gp, hp = data.site_xpos[self.arm.grip_site], data.site_xpos[self.arm.handle_site]
-        off = float(np.linalg.norm(gp - hp))
-        q1, q2 = np.empty(4), np.empty(4)
-        mujoco.mju_mat2Quat(q1, data.site_xmat[self.arm.grip_site])
-        mujoco.mju_mat2Quat(q2, data.site_xmat[self.arm.handle_site])
-        angle = float(np.linalg.norm(rotation_error(q1, q2)))
         if off > _SLIP_M or angle > _SLIP_RAD:
             self.human_holds = False
             why = self._why_slipped()
@@ -624,7 +535,7 @@ class CarrySim:
                 lever: float | None = None) -> CarryStep:
         lever = self.design.lever if lever is None else lever
         pose = self.object_pose()
-        progress = self.human.progress(pose.pos, pose.quat)
+        progress = self.periods.progress(pose.pos, pose.quat)
         placed = -1
         seat = self.seats.engaged(pose.pos, pose.quat)
         v = self.data.qvel[self.scene.object_dofs]
@@ -635,7 +546,7 @@ class CarrySim:
                 placed = seat
         else:
             self._calm = 0.0
-        sat = tuple(n for n, c in zip(self.joint_names(), self.sat_counts, strict=True)
+        sat = tuple(n for n, c in zip(self._joint_names, self.sat_counts, strict=True)
                     if c > _CONTROL_PERIODS / 2)
         inter = self._interaction
         extra = (0.0, 0.0, 0.0) if inter is None else (

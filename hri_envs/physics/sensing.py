@@ -86,6 +86,26 @@ class SensorModel:
                          w[5] + k * z[5] * lever])
 
 
+    def apply_all(self, wrenches: np.ndarray) -> np.ndarray:
+        """The last of the readings :meth:`apply` gives for the true (P, 6) ``wrenches`` of
+        P control periods in order (the same draws and delay line; without a delay the
+        noise of all P periods is drawn at once, the same numbers).
+        """
+        if self.delay_steps or self.noise_n <= 0.0:
+            out = self.bias.copy()
+            for w in wrenches:
+                out = self.apply(w)
+            return np.array(out, dtype=float)
+        z = self._rng.standard_normal((len(wrenches), 6))
+        k, lever = self.noise_n, self.lever
+        # Element by element what apply() computes for the last wrench.
+        w = (wrenches[-1] + self.bias).tolist()
+        zl = z[-1].tolist()
+        return np.array([w[0] + k * zl[0], w[1] + k * zl[1], w[2] + k * zl[2],
+                         w[3] + k * zl[3] * lever, w[4] + k * zl[4] * lever,
+                         w[5] + k * zl[5] * lever])
+
+
 class WristSensor:
     """Reads the wrist sensor and estimates the external wrench on the held object.
 
