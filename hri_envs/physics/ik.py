@@ -9,6 +9,9 @@ task (paper Sect. 4.2 uses a GP-learned IK for the same purpose).
 
 from __future__ import annotations
 
+from ctypes import c_int
+
+import daqp
 import mink
 import mujoco
 import numpy as np
@@ -17,6 +20,8 @@ from hri_envs.errors import PhysicsFault
 from hri_envs.physics.kinematics import Pose, slerp
 
 __all__ = ["IKFailure", "ReferenceIK"]
+
+_C_INT = np.dtype(c_int)  # daqp's constraint senses
 
 
 class IKFailure(PhysicsFault):
@@ -51,6 +56,16 @@ class ReferenceIK:
         self.home[:n_joints] = home
         self.home[n_joints:] = 0.04  # fingers open
         self.posture.set_target(self.home)
+        self.tasks = [self.frame, self.posture]
+        # What mink's build_ik computes anew each step though it never changes: the posture
+        # task's weighted Jacobian (cost x identity) and the joint limits' G = [P; -P].
+        proj = self.limits[0].projection_matrix
+        self._posture_wj = self.posture.cost[:, None] * self.posture.compute_jacobian(
+            self.configuration)
+        self._cached = proj is not None and not np.any(
+            model.jnt_type == mujoco.mjtJoint.mjJNT_BALL)
+        self._limit_g = np.vstack([proj, -proj]) if proj is not None else np.zeros((0, 0))
+        self._dq_max, self._dq_min = np.empty(model.nv), np.empty(model.nv)
 
     @property
     def q(self) -> np.ndarray:
@@ -80,13 +95,49 @@ class ReferenceIK:
         """
         self.frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3(target.quat),
                                                                      target.pos))
-        try:
-            v = mink.solve_ik(self.configuration, [self.frame, self.posture], dt, "daqp",
-                              damping=1e-4, limits=self.limits)
-        except mink.NoSolutionFound as exc:
-            raise IKFailure(f"mink found no IK solution: {exc}") from exc
-        self.configuration.integrate_inplace(v, dt)
+        return self._advance(dt)
+
+    def _advance(self, dt: float) -> np.ndarray:
+        """:meth:`step` towards the frame task's target as set."""
+        # mink.solve_ik(configuration, tasks, dt, "daqp", damping=1e-4, limits=...) without
+        # its limit check (a debug log) and qpsolvers' dispatch: the same QP (qp()), which
+        # daqp solves with the arguments qpsolvers passes (the same solution).
+        p, q, g, h = self.qp(dt)
+        x, _, exitflag, _ = daqp.solve(p, q, g, h, np.full(h.size, -1e30),
+                                       np.zeros(h.size, _C_INT))
+        if exitflag <= 0:
+            raise IKFailure(f"mink found no IK solution: {mink.NoSolutionFound('daqp')}")
+        self.configuration.integrate_inplace(x / dt, dt)
         return self.configuration.q[: self.n]
+
+    def qp(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The step's QP ``min ½ xᵀ P x + qᵀ x, G x <= h`` as ``mink.build_ik`` builds it
+        (the same numbers, tests/test_physics_ik.py), reusing what does not change.
+        """
+        cfg = self.configuration
+        if not self._cached:
+            problem = mink.build_ik(cfg, self.tasks, dt, 1e-4, self.limits)
+            n = self.model.nv
+            return (np.asarray(problem.P), problem.q,
+                    np.zeros((0, n)) if problem.G is None else np.asarray(problem.G),
+                    np.zeros(0) if problem.h is None else problem.h)
+        wj_f, we_f, mu_f = self.frame.compute_qp_residual(cfg)
+        post = self.posture
+        we_p = post.cost * (-post.gain * post.compute_error(cfg))
+        mu_p = post.lm_damping * float(we_p @ we_p)
+        w = np.vstack([wj_f, self._posture_wj])
+        p = w.T @ w
+        q = -(np.concatenate([we_f, we_p]) @ w)
+        mu = 0.0
+        mu += mu_f
+        mu += mu_p
+        p.flat[:: self.model.nv + 1] += 1e-4 + mu
+        limit = self.limits[0]
+        mujoco.mj_differentiatePos(self.model, self._dq_max, 1.0, cfg.q, limit.upper)
+        mujoco.mj_differentiatePos(self.model, self._dq_min, 1.0, limit.lower, cfg.q)
+        h = np.hstack([limit.gain * self._dq_max[limit.indices],
+                       limit.gain * self._dq_min[limit.indices]])
+        return p, q, self._limit_g, h
 
     def current(self) -> Pose:
         """The grip frame's pose at the reference configuration."""
@@ -106,8 +157,11 @@ class ReferenceIK:
             self.step(Pose(start.pos + x * (target.pos - start.pos),
                            slerp(start.quat, target.quat, x)), 0.05)
         err = np.inf
-        for _ in range(iterations):
-            self.step(target, 0.05)
+        for it in range(iterations):
+            if it == 0:
+                self.step(target, 0.05)  # sets the target, the same for every iteration
+            else:
+                self._advance(0.05)
             err = self.error()
             if err < tolerance:
                 break
