@@ -18,7 +18,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["InteractionMeter", "StepInteraction"]
+from hri_envs.physics.jit import kernel
+
+__all__ = ["InteractionMeter", "StepInteraction", "meter_step"]
 
 
 class StepInteraction(NamedTuple):
@@ -66,14 +68,42 @@ class InteractionMeter:
             force: (R, P) the hand's force magnitude [N] at each period's end.
             velocity: (R, P, 3) the object's linear velocity [m/s] at each period's end.
         """
-        force = np.asarray(force, dtype=float)
-        dt_step = self.dt * force.shape[1]
-        v = np.asarray(velocity, dtype=float).mean(axis=1)  # (R, 3) the step's mean
-        acc = (v - self.v_prev[rows]) / dt_step
-        jerk = (acc - self.a_prev[rows]) / dt_step
-        count = self.samples[rows] + 1
+        force = np.ascontiguousarray(force, dtype=float)
+        idx = (np.arange(len(self.samples))[rows] if isinstance(rows, slice)
+               else np.asarray(rows, dtype=np.int64))
+        out = np.empty((3, len(idx)))
+        meter_step(idx, force, np.ascontiguousarray(velocity, dtype=float), self.v_prev,
+                   self.a_prev, self.samples, self.dt, out)
+        return StepInteraction(out[0], out[1], out[2])
+
+
+@kernel
+def meter_step(rows, force, velocity, v_prev, a_prev, samples, dt, out):
+    """InteractionMeter.step's arithmetic per world (compiled): ``out`` (3, R) the peak force,
+    ∫ |F|² dt and ∫ |jerk|² dt of the worlds ``rows`` from their samples ``force`` (R, P)
+    and ``velocity`` (R, P, 3); their last mean velocity, acceleration and count
+    (``v_prev``, ``a_prev``, ``samples``: (N, ...)) updated.
+    """
+    n_p = force.shape[1]
+    dt_step = dt * n_p
+    for j in range(len(rows)):
+        i = rows[j]
+        peak, f_sq, j_sq = -np.inf, 0.0, 0.0
+        for p in range(n_p):
+            f = force[j, p]
+            peak = max(peak, f)
+            f_sq += f * f
+        count = samples[i] + 1
+        for c in range(3):
+            v = 0.0
+            for p in range(n_p):
+                v += velocity[j, p, c]
+            v /= n_p  # the step's mean
+            a = (v - v_prev[i, c]) / dt_step
+            jerk = (a - a_prev[i, c]) / dt_step
+            j_sq += jerk * jerk
+            v_prev[i, c], a_prev[i, c] = v, a
+        samples[i] = count
         # A jerk sample needs three mean velocities of this episode (the rest is the first).
-        jerk_sq = np.einsum("ri,ri->r", jerk, jerk) * (count >= 3) * dt_step
-        self.v_prev[rows], self.a_prev[rows], self.samples[rows] = v, acc, count
-        return StepInteraction(force.max(axis=1), (force * force).sum(axis=1) * self.dt,
-                               jerk_sq)
+        out[0, j], out[1, j] = peak, f_sq * dt
+        out[2, j] = j_sq * dt_step if count >= 3 else 0.0
