@@ -1,10 +1,11 @@
-"""Record how the continuous envs' episodes end, for tests/test_physics_equivalence.py.
+"""Record how the continuous envs' episodes end, for tests/test_physics_continuous_reference.py.
 
 The reference file ``continuous_reference.json`` was written by the continuous envs as they
 were before their control periods were compiled (numba) for speed; the test replays a few of
 its episodes with today's code and asks for the same ends: the same last step and outcome
 (placed, fault, goal reached), the human's effort and the interaction measures within 1e-6
-relative, the object's final position within 1e-6 m. ``--check`` replays every recorded
+relative, the object's final position within 1e-6 m, the wrist's last reading within 1e-6
+(relative, or N). ``--check`` replays every recorded
 episode and prints the largest differences (the full equivalence check). Re-running without
 ``--check`` overwrites the reference with the *current* code's numbers, so only do that on
 purpose.
@@ -14,9 +15,15 @@ torque-driven arm); the human carrying alone (``robot_holds=False``, the passive
 seeds 0-2; the human seat as an agent (the parallel env, seeded random human actions, a
 passive robot), seeds 0-2, 100 steps; the muscle-driven arm, seed 0, 40 steps.
 
+``--check --perturb 1e-15`` shows how far rounding alone moves each episode's end: the
+object moved by 1e-15 m after the reset (a few units in the last place) moves the ends of
+the passive wheel's time-outs (seeds 6 and 15) by more than 1e-6 relative, in the code that
+recorded the reference as in today's.
+
 Usage::
 
-    python tests/data/make_continuous_reference.py [--check] [--cases NAME,...] [OUT.json]
+    python tests/data/make_continuous_reference.py [--check [--perturb M]] [--cases NAME,...]
+        [OUT.json]
 """
 
 from __future__ import annotations
@@ -29,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import mujoco
 import numpy as np
 
 import hri_envs  # noqa: F401
@@ -51,9 +59,11 @@ CASES: tuple[tuple[str, str, str, range, str, int | None, bool], ...] = tuple(
 SUMMED = ("effort", "linear_impulse", "angular_impulse", "disagreement", "force_sq", "jerk_sq")
 
 
-def _episode(env: Any, parallel: Any, policy: str, seed: int, limit: int | None,
-             robot_holds: bool) -> dict[str, Any]:
-    """Run one episode; what it ended with."""
+def episode(env: Any, parallel: Any, policy: str, seed: int, limit: int | None,
+            robot_holds: bool, perturb: float = 0.0) -> dict[str, Any]:
+    """Run one episode; what it ended with. ``perturb`` [m] moves the object along x right
+    after the reset (a probe of how sensitive the episode is to rounding).
+    """
     base = env.unwrapped if parallel is None else parallel.env
     steps: list[Any] = []
     step = base.sim.step
@@ -70,6 +80,10 @@ def _episode(env: Any, parallel: Any, policy: str, seed: int, limit: int | None,
         obs, _ = env.reset(seed=seed, options=options)
     else:
         obs = parallel.reset(seed=seed, options=options)[0]["robot"]
+    if perturb:
+        sim = base.sim
+        sim.data.qpos[sim.scene.object_qpos[0]] += perturb
+        mujoco.mj_forward(sim.model, sim.data)
     upper = UpperReference()
     total, n = 0.0, 0
     while True:
@@ -101,20 +115,28 @@ def _episode(env: Any, parallel: Any, policy: str, seed: int, limit: int | None,
     return ends
 
 
-def record(names: set[str] | None = None) -> dict[str, list[dict[str, Any]]]:
+def run_case(name: str, seeds: range | list[int] | None = None,
+             perturb: float = 0.0) -> list[dict[str, Any]]:
+    """The ends of case ``name``'s episodes (its seeds, or ``seeds``)."""
+    _, scenario, policy, case_seeds, drive, limit, holds = next(c for c in CASES
+                                                                 if c[0] == name)
+    env = parallel = None
+    if policy == "human-agent":
+        parallel = parallel_env(scenario)
+    else:
+        env = gym.make(str(scenario_spec(scenario).continuous_id), drive=drive)
+    return [{"seed": s, **episode(env, parallel, policy, s, limit, holds, perturb)}
+            for s in (case_seeds if seeds is None else seeds)]
+
+
+def record(names: set[str] | None = None,
+           perturb: float = 0.0) -> dict[str, list[dict[str, Any]]]:
     """Every case's episodes (or those of ``names``)."""
     out: dict[str, list[dict[str, Any]]] = {}
-    for name, scenario, policy, seeds, drive, limit, holds in CASES:
-        if names is not None and name not in names:
-            continue
-        env = parallel = None
-        if policy == "human-agent":
-            parallel = parallel_env(scenario)
-        else:
-            env = gym.make(str(scenario_spec(scenario).continuous_id), drive=drive)
-        out[name] = [{"seed": s, **_episode(env, parallel, policy, s, limit, holds)}
-                     for s in seeds]
-        print(f"{name}: {len(out[name])} episodes", file=sys.stderr, flush=True)
+    for name, *_ in CASES:
+        if names is None or name in names:
+            out[name] = run_case(name, perturb=perturb)
+            print(f"{name}: {len(out[name])} episodes", file=sys.stderr, flush=True)
     return out
 
 
@@ -131,6 +153,8 @@ def compare(ref: dict[str, Any], got: dict[str, Any]) -> list[str]:
     off = float(np.max(np.abs(np.subtract(ref["pos"], got["pos"]))))
     if off > 1e-6:
         bad.append(f"object position off by {off:.3g} m")
+    if not np.allclose(got["sensed"], ref["sensed"], rtol=1e-6, atol=1e-6):
+        bad.append(f"wrist reading {got['sensed']} != {ref['sensed']}")
     return bad
 
 
@@ -147,6 +171,9 @@ def main() -> None:
     p.add_argument("--check", action="store_true",
                    help="replay every recorded episode and compare (writes nothing)")
     p.add_argument("--cases", default=None, help="comma-separated case names (default all)")
+    p.add_argument("--perturb", type=float, default=0.0,
+                   help="with --check: move the object by this much [m] along x after each "
+                        "reset (how far rounding alone moves an episode's end)")
     args = p.parse_args()
     names = set(args.cases.split(",")) if args.cases else None
     if not args.check:
@@ -154,7 +181,7 @@ def main() -> None:
         return
     reference = json.loads(args.out.read_text())
     failed = 0
-    for name, episodes in record(names).items():
+    for name, episodes in record(names, args.perturb).items():
         worst_rel = worst_pos = 0.0
         for ref, got in zip(reference[name], episodes, strict=True):
             bad = compare(ref, got)

@@ -1,0 +1,34 @@
+"""The continuous envs end their episodes as they did before their control periods were
+compiled (numba, :mod:`hri_envs.physics.carry_periods`).
+
+``tests/data/continuous_reference.json`` holds the ends of seeded episodes recorded from the
+numpy implementation (``tests/data/make_continuous_reference.py``, which also replays every
+recorded episode with ``--check``). A few well-conditioned episodes are replayed here: the
+same last step and outcome, the human's effort, impulses, disagreement and interaction
+measures within 1e-6 relative, the object's final position within 1e-6 m.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("mujoco")
+
+from tests.data.make_continuous_reference import compare, run_case  # noqa: E402
+
+REFERENCE = json.loads((Path(__file__).parent / "data" / "continuous_reference.json")
+                       .read_text())
+#: (case, seed): both scenarios with the upper reference and the passive floor, the human
+#: agent's commands (the parallel env) and a human carrying alone.
+EPISODES = (("hanger-upper", 0), ("wheel-upper", 0), ("hanger-passive", 0),
+            ("wheel-passive", 0), ("hanger-human-agent", 0), ("wheel-alone", 0))
+
+
+@pytest.mark.parametrize(("case", "seed"), EPISODES)
+def test_episode_ends_as_recorded(case: str, seed: int) -> None:
+    ref = next(e for e in REFERENCE[case] if e["seed"] == seed)
+    got = run_case(case, [seed])[0]
+    assert compare(ref, got) == []
