@@ -8,7 +8,9 @@ beside it:
         --worlds 1,64,1024
 
 ``--backend mujoco`` (the default) runs the env with the upper reference (whole episodes,
-seeds 0, 1, ...) for ``--seconds`` of wall time and reports simulated seconds per wall second
+seeds 0, 1, ...) for ``--seconds`` of wall time (after one untimed reset and step, which
+load the compiled control periods, or compile them on a cold cache: the time is printed)
+and reports simulated seconds per wall second
 and per CPU second of the process (one thread: what one core gives when other jobs share the
 machine); then steps the same compiled scene with ``mujoco.mj_step`` alone, side by side in
 the same process, two ways:
@@ -66,6 +68,10 @@ def c_speed(scenario: str, drive: str, seconds: float) -> dict[str, float]:
     spec = mujoco.mjtState.mjSTATE_INTEGRATION
     states: list[np.ndarray] = []
     with threadpool_limits(1):
+        t_first = time.perf_counter()  # the compiled kernels: loaded, or compiled once
+        obs, _ = env.reset(seed=0)
+        env.step(policy.act(obs, base))
+        first = time.perf_counter() - t_first
         steps, seed = 0, 0
         t0, c0 = time.perf_counter(), time.process_time()
         snapshot = None
@@ -103,7 +109,7 @@ def c_speed(scenario: str, drive: str, seconds: float) -> dict[str, float]:
             "replay_states": len(states), "replay_steps_per_s": replay[0] / replay[1],
             "replay_rtf": replay[0] * h / replay[1], "replay_rtf_cpu": replay[0] * h / replay[2],
             "raw_steps_per_s": n / raw_wall, "raw_rtf": n * h / raw_wall,
-            "raw_rtf_cpu": n * h / raw_cpu, "nv": model.nv, "nu": model.nu}
+            "raw_rtf_cpu": n * h / raw_cpu, "nv": model.nv, "nu": model.nu, "first_s": first}
 
 
 def _replay(model: mujoco.MjModel, states: list[np.ndarray], nstep: int,
@@ -185,7 +191,8 @@ def main() -> None:
         print(f"{args.scenario} ({args.drive}), C backend: env {c['steps']} steps in "
               f"{c['wall']:.1f} s = {c['world_steps_per_s']:.0f} world-steps/s, "
               f"{c['env_rtf']:.1f}x real time by the wall clock, {c['env_rtf_cpu']:.1f}x per "
-              f"CPU second of the process (nv {c['nv']}, nu {c['nu']})")
+              f"CPU second of the process (nv {c['nv']}, nu {c['nu']}; the untimed first "
+              f"reset and step before, which load or compile the kernels: {c['first_s']:.1f} s)")
         print(f"  raw mj_step, the env's states ({c['replay_states']} states x 20 steps): "
               f"{c['replay_steps_per_s']:.0f} steps/s, {c['replay_rtf']:.1f}x real time by "
               f"the wall clock, {c['replay_rtf_cpu']:.1f}x per CPU second; env / raw "
