@@ -32,3 +32,27 @@ def test_episode_ends_as_recorded(case: str, seed: int) -> None:
     ref = next(e for e in REFERENCE[case] if e["seed"] == seed)
     got = run_case(case, [seed])[0]
     assert compare(ref, got) == []
+
+
+@pytest.mark.parametrize("scenario", ["hanger", "wheel"])
+def test_the_compiled_observation_is_the_simulations_state(scenario: str) -> None:
+    """CarrySim.observation_state (one compiled call) is what the numpy accessors read."""
+    import gymnasium as gym  # noqa: PLC0415
+    import numpy as np  # noqa: PLC0415
+
+    from baselines.continuous import UpperReference  # noqa: PLC0415
+    from hri_envs.task.scenarios import scenario_spec  # noqa: PLC0415
+
+    env = gym.make(str(scenario_spec(scenario).continuous_id))
+    base, policy = env.unwrapped, UpperReference()
+    obs, _ = env.reset(seed=2)
+    for _ in range(30):
+        obs, *_ = env.step(policy.act(obs, base))
+        sim = base.sim
+        obj, grip = sim.object_pose(), sim.grip_pose()
+        v, w = sim.object_velocity()
+        joints, joint_vel = sim.robot_joints()
+        expected = np.concatenate([obj.pos, obj.quat * np.sign(obj.quat[0] or 1.0), v, w,
+                                   grip.pos, grip.quat * np.sign(grip.quat[0] or 1.0), joints,
+                                   joint_vel])
+        np.testing.assert_array_equal(sim.observation_state(), expected)

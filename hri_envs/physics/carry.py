@@ -42,7 +42,7 @@ import numpy as np
 from hri_envs.errors import ConfigError
 from hri_envs.physics.arm_control import ArmDrive, HandImpedance, TorqueDrive
 from hri_envs.physics.body import ArmBody, BodySize
-from hri_envs.physics.carry_periods import CarryPeriods
+from hri_envs.physics.carry_periods import CarryPeriods, PeriodsResult
 from hri_envs.physics.contacts import touches
 from hri_envs.physics.controller import ImpedanceController
 from hri_envs.physics.design import PhysicsDesign, design_for
@@ -388,6 +388,13 @@ class CarrySim:
         n = len(self.scene.robot_dofs)
         return self.data.qpos[:n].copy(), self.data.qvel[:n].copy()
 
+    def observation_state(self) -> np.ndarray:
+        """What the continuous envs observe of the simulation, in one array (20 + 2n,): the
+        object's position, quaternion (w >= 0), linear and angular velocity; the grip's
+        position and quaternion (w >= 0); the robot's joint positions and velocities.
+        """
+        return self.periods.observe()
+
     def seat_positions(self) -> np.ndarray:
         """(K, 3) the supports' seats in the current layout."""
         return self.seats.pos
@@ -410,12 +417,9 @@ class CarrySim:
         """The robot's command for an action in [-1, 1]^7 (grip offset, rotation, stiffness)."""
         grip = self.grip_pose()
         a = np.asarray(action, dtype=float)
-        pos = grip.pos + self.max_step_m * a[:3]
-        rv = self.max_step_rad * a[3:6]
-        angle = float(np.linalg.norm(rv))
-        dq = (np.array([1.0, 0, 0, 0]) if angle < 1e-12 else
-              np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * rv / angle]))
-        return RobotCommand(Pose(pos, quat_mul(dq, grip.quat)), (float(a[6]) + 1.0) / 2.0)
+        return RobotCommand(Pose(grip.pos + self.max_step_m * a[:3],
+                                 _rotate(grip.quat, self.max_step_rad * a[3:6], True)),
+                            (float(a[6]) + 1.0) / 2.0)
 
     # ------------------------------------------------------------------ step
     def human_command(self, action: np.ndarray) -> RobotCommand:
@@ -467,13 +471,12 @@ class CarrySim:
         self.sensed = res.sensed
         fault = None
         try:
-            self._check(data.xpos[sc.object_body])
+            self._check(data.xpos[sc.object_body], res)
         except _Fault as exc:
             fault = str(exc)
         self.time += self.dt_step
         self.sat_counts = res.sat
-        self._forces[:], self._velocities[:] = res.forces, res.velocities
-        self._interaction = self.meter.step(slice(None), self._forces, self._velocities)
+        self._interaction = StepInteraction(*(np.array([x]) for x in res.interaction))
         if fault is None and not self.robot_holds:
             moved = float(np.linalg.norm(self.object_pose().pos - start_obj))
             strained = bool(np.any(res.sat > _CONTROL_PERIODS / 2)) and moved < 1e-3
@@ -483,16 +486,16 @@ class CarrySim:
                     self._why_slipped()
         if sc.platform_mocap >= 0:
             data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + self.design.base_pos[:2]
-        return self._result(res.lin, res.ang, res.disagree, fault, lever)
+        return self._result(res.lin, res.ang, res.disagree, fault, lever, res)
 
-    def _check(self, pos: np.ndarray) -> None:
+    def _check(self, pos: np.ndarray, res: PeriodsResult) -> None:
         data, sc = self.data, self.scene
         if touches(data, sc.floor_geom) or pos[2] < self._lowest_z - _DROP_BELOW_M:
             raise _Fault("dropped: the object " + ("hit the floor" if touches(
                 data, sc.floor_geom) else "fell below every support"))
-        finite, off, angle = self.periods.slip()
-        if not finite:
+        if not res.finite:
             raise _Fault("unstable: the simulation diverged")
+        off, angle = res.off, res.angle
         if off > _SLIP_M or angle > _SLIP_RAD:
             self.human_holds = False
             why = self._why_slipped()
@@ -532,14 +535,18 @@ class CarrySim:
         return float(ratio.min())
 
     def _result(self, lin: float, ang: float, disagree: float, fault: str | None,
-                lever: float | None = None) -> CarryStep:
+                lever: float | None = None, res: PeriodsResult | None = None) -> CarryStep:
         lever = self.design.lever if lever is None else lever
-        pose = self.object_pose()
-        progress = self.periods.progress(pose.pos, pose.quat)
         placed = -1
-        seat = self.seats.engaged(pose.pos, pose.quat)
-        v = self.data.qvel[self.scene.object_dofs]
-        slow = float(v[:3].dot(v[:3])) < _VEL_SQ_MAX and float(v[3:].dot(v[3:])) < _ANGVEL_SQ_MAX
+        if res is not None:  # the step's periods measured it all
+            progress, seat, slow = res.progress, res.seat, res.slow
+        else:
+            pose = self.object_pose()
+            progress = self.periods.progress(pose.pos, pose.quat)
+            seat = self.seats.engaged(pose.pos, pose.quat)
+            v = self.data.qvel[self.scene.object_dofs]
+            slow = (float(v[:3].dot(v[:3])) < _VEL_SQ_MAX
+                    and float(v[3:].dot(v[3:])) < _ANGVEL_SQ_MAX)
         if seat >= 0 and self.left_start and slow:
             self._calm += self.dt_step
             if self._calm >= _CALM_S:
@@ -564,13 +571,15 @@ def grip_reference(human: IntentionHuman, grip_in_object: Pose) -> Pose:
     return compose(Pose(ref.pos, ref.quat), *grip_in_object)
 
 
-def _rotate(quat: np.ndarray, rotvec: np.ndarray) -> np.ndarray:
-    """``quat`` turned by the world-frame rotation vector ``rotvec``."""
-    angle = float(np.linalg.norm(rotvec))
+def _rotate(quat: np.ndarray, rotvec: np.ndarray, copy: bool = False) -> np.ndarray:
+    """``quat`` turned by the world-frame rotation vector ``rotvec`` (a new array if
+    ``copy``, else ``quat`` itself for no rotation).
+    """
+    angle = math.sqrt(float(rotvec.dot(rotvec)))  # = np.linalg.norm(rotvec), bit for bit
     if angle < 1e-12:
-        return quat
-    dq = np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * rotvec / angle])
-    return quat_mul(dq, quat)
+        return quat_mul(np.array([1.0, 0.0, 0.0, 0.0]), quat) if copy else quat
+    s = math.sin(angle / 2)
+    return quat_mul(np.array([math.cos(angle / 2), *(s * rotvec / angle)]), quat)
 
 
 def _grip_force(design: PhysicsDesign) -> float:

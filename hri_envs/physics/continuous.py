@@ -434,15 +434,19 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _observation(self) -> np.ndarray:
         sim = self.sim
+        onehot = np.zeros(self.graph.n_intentions)
+        onehot[self.start] = 1.0
+        frac = self.steps / self.max_steps
+        state = getattr(sim, "observation_state", None)  # the C backend's, in one call
+        if state is not None:
+            return np.concatenate([state(), sim.sensed, onehot, sim.seat_positions().ravel(),
+                                   [frac]]).astype(np.float32)
         obj = sim.object_pose()
         q = obj.quat if obj.quat[0] >= 0 else -obj.quat
         v, w = sim.object_velocity()
         grip = sim.grip_pose()
         gq = grip.quat if grip.quat[0] >= 0 else -grip.quat
         joints, joint_vel = sim.robot_joints()
-        onehot = np.zeros(self.graph.n_intentions)
-        onehot[self.start] = 1.0
-        frac = self.steps / self.max_steps
         out = np.concatenate([obj.pos, q, v, w, grip.pos, gq, joints, joint_vel, sim.sensed,
                               onehot, sim.seat_positions().ravel(), [frac]])
         return out.astype(np.float32)

@@ -4,7 +4,7 @@ numba's ``cache=True`` keeps a compiled function on disk and compiles it anew wh
 source file changes, not when a function it calls from another file does: a cached caller
 would go on running the old code of an edited callee. The continuous envs' kernels call
 each other across modules (:mod:`~hri_envs.physics.lawmath` from the laws, the laws from
-:mod:`~hri_envs.physics.carry_periods`), so :func:`kernel` compiles with ``cache=True``
+:mod:`~hri_envs.physics.carry_stages`), so :func:`kernel` compiles with ``cache=True``
 into a directory named by a hash of all of :data:`SOURCES` (and this file): editing any of
 them starts a fresh cache, compiled once (about 20 s of one core; ``make test`` does it
 beside mypy: :func:`preload`).
@@ -27,7 +27,7 @@ from numba.core import config as _config
 __all__ = ["SOURCES", "cache_dir", "kernel", "preload"]
 
 #: The modules (in this package) whose functions are compiled with :func:`kernel`.
-SOURCES: tuple[str, ...] = ("lawmath.py", "laws.py", "human_laws.py", "carry_periods.py",
+SOURCES: tuple[str, ...] = ("lawmath.py", "laws.py", "human_laws.py", "carry_stages.py",
                             "interaction.py", "mjc.py")
 _F = TypeVar("_F", bound=Callable[..., Any])
 

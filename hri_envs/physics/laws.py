@@ -35,8 +35,8 @@ import numpy as np
 from hri_envs.physics import lawmath as lm
 from hri_envs.physics.jit import kernel
 
-__all__ = ["handle_sample", "robot_null_space", "robot_task", "seat_wrench", "sensor_noise",
-           "wrist_wrench"]
+__all__ = ["handle_sample", "handle_slip", "robot_null_space", "robot_task", "seat_engaged",
+           "seat_wrench", "sensor_noise", "wrist_wrench"]
 
 
 @kernel
@@ -100,6 +100,38 @@ def sensor_noise(true: np.ndarray, bias: np.ndarray, noise: np.ndarray, z: np.nd
 
 
 @kernel
+def seat_engaged(pos: np.ndarray, quat: np.ndarray, seat_pos: np.ndarray,
+                 seat_exit: np.ndarray, seat_quat: np.ndarray, capture: float,
+                 max_angle: float) -> np.ndarray:
+    """Seats.engaged per world: (R,) the support whose seat holds the object, or -1.
+
+    Args:
+        pos: (R, 3) the object's position.
+        quat: (R, 4) its orientation.
+        seat_pos: (R, K, 3) the seats.
+        seat_exit: (R, K, 3) their exit directions.
+        seat_quat: (R, K, 4) their orientations.
+        capture: The capture distance [m].
+        max_angle: The capture angle [rad].
+    """
+    seat = np.full(pos.shape[0], -1)
+    for r in range(pos.shape[0]):
+        x, y, z = pos[r, 0], pos[r, 1], pos[r, 2]
+        q = lm.quat4(quat[r])
+        for k in range(seat_pos.shape[1]):
+            ex, ey, ez = seat_pos[r, k, 0] - x, seat_pos[r, k, 1] - y, seat_pos[r, k, 2] - z
+            n = lm.vec3(seat_exit[r, k])
+            along = -(ex * n[0] + ey * n[1] + ez * n[2])
+            if abs(along) < capture and (ex * ex + ey * ey + ez * ez) - along * along \
+                    < capture * capture:
+                e = lm.rotation_error(lm.quat4(seat_quat[r, k]), q)
+                if math.sqrt(lm.dot3(e, e)) < max_angle:
+                    seat[r] = k
+                    break
+    return seat
+
+
+@kernel
 def seat_wrench(pos: np.ndarray, quat: np.ndarray, vel: np.ndarray, angvel: np.ndarray,
                 seat_pos: np.ndarray, seat_exit: np.ndarray, seat_quat: np.ndarray,
                 capture: float, max_angle: float, gains: np.ndarray, hold: np.ndarray,
@@ -121,34 +153,23 @@ def seat_wrench(pos: np.ndarray, quat: np.ndarray, vel: np.ndarray, angvel: np.n
         hold: (R,) the detent force [N].
         out: (R, 6) the wrench.
     """
-    seat = np.full(pos.shape[0], -1)
+    seat = seat_engaged(pos, quat, seat_pos, seat_exit, seat_quat, capture, max_angle)
     ks, kd, kr, dr, fade_m = gains[0], gains[1], gains[2], gains[3], gains[4]
     for r in range(pos.shape[0]):
-        x, y, z = pos[r, 0], pos[r, 1], pos[r, 2]
-        q = lm.quat4(quat[r])
-        for k in range(seat_pos.shape[1]):
-            ex, ey, ez = seat_pos[r, k, 0] - x, seat_pos[r, k, 1] - y, seat_pos[r, k, 2] - z
-            n = lm.vec3(seat_exit[r, k])
-            along = -(ex * n[0] + ey * n[1] + ez * n[2])
-            if abs(along) < capture and (ex * ex + ey * ey + ez * ez) - along * along \
-                    < capture * capture:
-                e = lm.rotation_error(lm.quat4(seat_quat[r, k]), q)
-                if math.sqrt(lm.dot3(e, e)) < max_angle:
-                    seat[r] = k
-                    break
         k = seat[r]
         if k < 0:
             for c in range(6):
                 out[r, c] = 0.0
             continue
-        e = (seat_pos[r, k, 0] - x, seat_pos[r, k, 1] - y, seat_pos[r, k, 2] - z)
+        e = (seat_pos[r, k, 0] - pos[r, 0], seat_pos[r, k, 1] - pos[r, 1],
+             seat_pos[r, k, 2] - pos[r, 2])
         n = lm.vec3(seat_exit[r, k])
         f = (ks * e[0] - kd * vel[r, 0], ks * e[1] - kd * vel[r, 1], ks * e[2] - kd * vel[r, 2])
         f_out = lm.dot3(f, n)
         along = -lm.dot3(e, n)
         fade = min(max((capture - along) / fade_m, 0.0), 1.0)
         extra = max(f_out, -hold[r]) - f_out
-        er = lm.rotation_error(lm.quat4(seat_quat[r, k]), q)
+        er = lm.rotation_error(lm.quat4(seat_quat[r, k]), lm.quat4(quat[r]))
         for c in range(3):
             out[r, c] = (f[c] + extra * n[c]) * fade
             out[r, 3 + c] = (kr * er[c] - dr * angvel[r, c]) * fade
