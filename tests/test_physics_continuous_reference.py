@@ -46,8 +46,10 @@ def test_the_compiled_observation_is_the_simulations_state(scenario: str) -> Non
     env = gym.make(str(scenario_spec(scenario).continuous_id))
     base, policy = env.unwrapped, UpperReference()
     obs, _ = env.reset(seed=2)
+    policy.attach(base)
+    policy.begin_episode(base.robot_task())
     for _ in range(30):
-        obs, *_ = env.step(policy.act(obs, base))
+        obs, *_ = env.step(policy.act(obs))
         sim = base.sim
         obj, grip = sim.object_pose(), sim.grip_pose()
         v, w = sim.object_velocity()

@@ -85,9 +85,11 @@ def episode(env: Any, parallel: Any, policy: str, seed: int, limit: int | None,
         sim.data.qpos[sim.scene.object_qpos[0]] += perturb
         mujoco.mj_forward(sim.model, sim.data)
     upper = UpperReference()
+    upper.attach(base)
+    upper.begin_episode(base.robot_task())
     total, n = 0.0, 0
     while True:
-        action = upper.act(obs, base) if policy == "upper" else PASSIVE_ACTION.copy()
+        action = upper.act(obs) if policy == "upper" else PASSIVE_ACTION.copy()
         if parallel is None:
             obs, reward, term, trunc, info = env.step(action)
         else:
