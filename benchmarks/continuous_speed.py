@@ -10,10 +10,9 @@ beside it:
 ``--backend mujoco`` (the default) runs the env with the upper reference (whole episodes,
 seeds 0, 1, ...) for ``--seconds`` of wall time (after one untimed reset and step, which
 load the compiled control periods, or compile them on a cold cache: the time is printed)
-and reports simulated seconds per wall second
-and per CPU second of the process (one thread: what one core gives when other jobs share the
-machine); then steps the same compiled scene with ``mujoco.mj_step`` alone, side by side in
-the same process, two ways:
+and reports simulated seconds per wall second and per CPU second of the process (one
+thread: what one core gives when other jobs share the machine); then steps the same
+compiled scene with ``mujoco.mj_step`` alone, side by side in the same process, two ways:
 
 * *raw, the env's states* (what the ratio env / raw is taken against): the physics state at
   the start of every tenth env step of the run above is kept (``mj_getState``, the full
@@ -28,7 +27,8 @@ the same process, two ways:
   figure times mostly a cheaper scene than the env's (hanger about 16 µs per physics step
   against 24 µs for the env's own states).
 
-The ratio env / raw is printed per CPU second and by the wall clock.
+The ratio env / raw is printed per CPU second and by the wall clock; ``--runs N`` measures
+N times in the process and prints its range.
 
 ``--backend mjwarp`` steps N worlds of the same scene together on MuJoCo Warp
 (:class:`~hri_envs.physics.mjwarp.carry.WarpCarryWorlds`, Warp's default device or
@@ -168,6 +168,24 @@ def warp_speed(scenario: str, n_worlds: int, steps: int,
             "world_steps_per_s": world_steps / wall, "rtf": world_steps * worlds.dt / wall}
 
 
+def _print_c(scenario: str, drive: str, c: dict[str, float]) -> None:
+    print(f"{scenario} ({drive}), C backend: env {c['steps']} steps in "
+          f"{c['wall']:.1f} s = {c['world_steps_per_s']:.0f} world-steps/s, "
+          f"{c['env_rtf']:.1f}x real time by the wall clock, {c['env_rtf_cpu']:.1f}x per "
+          f"CPU second of the process (nv {c['nv']}, nu {c['nu']}; the untimed first "
+          f"reset and step before, which load or compile the kernels: {c['first_s']:.1f} s)")
+    print(f"  raw mj_step, the env's states ({c['replay_states']} states x 20 steps): "
+          f"{c['replay_steps_per_s']:.0f} steps/s, {c['replay_rtf']:.1f}x real time by "
+          f"the wall clock, {c['replay_rtf_cpu']:.1f}x per CPU second; env / raw "
+          f"{c['env_rtf_cpu'] / c['replay_rtf_cpu']:.2f} per CPU second, "
+          f"{c['env_rtf'] / c['replay_rtf']:.2f} by the wall clock")
+    print(f"  raw mj_step, one state run on (the earlier figure): "
+          f"{c['raw_steps_per_s']:.0f} steps/s, {c['raw_rtf']:.1f}x real time by the wall "
+          f"clock, {c['raw_rtf_cpu']:.1f}x per CPU second; env / raw "
+          f"{c['env_rtf_cpu'] / c['raw_rtf_cpu']:.2f} per CPU second; "
+          f"load average {os.getloadavg()}", flush=True)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scenario", default="hanger", help="hanger (default) or wheel")
@@ -186,25 +204,22 @@ def main() -> None:
     p.add_argument("--device", default=None,
                    help="Warp's device, e.g. cpu or cuda:0 (default: Warp's default, a GPU "
                         "where there is one)")
+    p.add_argument("--runs", type=int, default=1,
+                   help="C backend: measure this many times in the process (default 1); "
+                        "the range of env / raw is printed")
     args = p.parse_args()
     print(f"load average before: {os.getloadavg()}")
     if args.backend in ("mujoco", "both"):
-        c = c_speed(args.scenario, args.drive, args.seconds)
-        print(f"{args.scenario} ({args.drive}), C backend: env {c['steps']} steps in "
-              f"{c['wall']:.1f} s = {c['world_steps_per_s']:.0f} world-steps/s, "
-              f"{c['env_rtf']:.1f}x real time by the wall clock, {c['env_rtf_cpu']:.1f}x per "
-              f"CPU second of the process (nv {c['nv']}, nu {c['nu']}; the untimed first "
-              f"reset and step before, which load or compile the kernels: {c['first_s']:.1f} s)")
-        print(f"  raw mj_step, the env's states ({c['replay_states']} states x 20 steps): "
-              f"{c['replay_steps_per_s']:.0f} steps/s, {c['replay_rtf']:.1f}x real time by "
-              f"the wall clock, {c['replay_rtf_cpu']:.1f}x per CPU second; env / raw "
-              f"{c['env_rtf_cpu'] / c['replay_rtf_cpu']:.2f} per CPU second, "
-              f"{c['env_rtf'] / c['replay_rtf']:.2f} by the wall clock")
-        print(f"  raw mj_step, one state run on (the earlier figure): "
-              f"{c['raw_steps_per_s']:.0f} steps/s, {c['raw_rtf']:.1f}x real time by the wall "
-              f"clock, {c['raw_rtf_cpu']:.1f}x per CPU second; env / raw "
-              f"{c['env_rtf_cpu'] / c['raw_rtf_cpu']:.2f} per CPU second; "
-              f"load average {os.getloadavg()}", flush=True)
+        ratios: list[tuple[float, float]] = []
+        for _ in range(args.runs):
+            c = c_speed(args.scenario, args.drive, args.seconds)
+            ratios.append((c["env_rtf_cpu"] / c["replay_rtf_cpu"], c["env_rtf"] / c["replay_rtf"]))
+            _print_c(args.scenario, args.drive, c)
+        if args.runs > 1:
+            cpu, wall = zip(*ratios, strict=True)
+            print(f"{args.scenario} ({args.drive}), env / raw over {args.runs} runs: "
+                  f"{min(cpu):.2f}-{max(cpu):.2f} per CPU second, {min(wall):.2f}-{max(wall):.2f} "
+                  f"by the wall clock", flush=True)
     if args.backend in ("mjwarp", "both"):
         for n in (int(x) for x in args.worlds.split(",")):
             w = warp_speed(args.scenario, n, args.steps, args.device)

@@ -33,6 +33,13 @@ module             contents
 ``population``     frozen physical populations: train, validation, test per scenario
 ``population_build``  how they were drawn, distinct by behaviour
 ``carry``          :class:`CarrySim`: robot, whole arm and object stepped at 25 Hz
+``human_laws``     the human's control-period laws, compiled, over a world axis
+``laws``           sensor, seats, robot controller, handle: the same, compiled
+``lawmath``        compiled pose arithmetic on plain floats (MuJoCo's formulas)
+``carry_stages``   a step's five control periods in one compiled call (C backend)
+``carry_periods``  the compiled stages bound to a :class:`CarrySim`
+``mjc``            MuJoCo's C functions for compiled code (``mj_step1``, ...)
+``jit``            the compiled kernels' decorator and cache (numba)
 ``continuous``     the continuous-control Gymnasium env (``*PandaContinuous-v0``)
 ``continuous_parallel``  its PettingZoo parallel form (the human seat as an agent)
 =================  ==============================================================

@@ -66,6 +66,9 @@ class ReferenceIK:
             model.jnt_type == mujoco.mjtJoint.mjJNT_BALL)
         self._limit_g = np.vstack([proj, -proj]) if proj is not None else np.zeros((0, 0))
         self._dq_max, self._dq_min = np.empty(model.nv), np.empty(model.nv)
+        # The stacked weighted Jacobians and errors (frame task's 6 rows, then the posture's).
+        self._w, self._e = np.empty((6 + model.nv, model.nv)), np.empty(6 + model.nv)
+        self._w[6:] = self._posture_wj
 
     @property
     def q(self) -> np.ndarray:
@@ -125,9 +128,10 @@ class ReferenceIK:
         post = self.posture
         we_p = post.cost * (-post.gain * post.compute_error(cfg))
         mu_p = post.lm_damping * float(we_p @ we_p)
-        w = np.vstack([wj_f, self._posture_wj])
+        w, e = self._w, self._e
+        w[:6], e[:6], e[6:] = wj_f, we_f, we_p
         p = w.T @ w
-        q = -(np.concatenate([we_f, we_p]) @ w)
+        q = -(e @ w)
         mu = 0.0
         mu += mu_f
         mu += mu_p
