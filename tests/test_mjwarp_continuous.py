@@ -73,7 +73,8 @@ def _action(policy, env):
     if policy == "lead":  # along the human's current line, stiff
         human = env.sim.human
         return np.array([*human.lines[human.index].direction, 0.0, 0.0, 0.0, 1.0])
-    return follow_action(env, env.sim.human_grip_reference()).astype(float)
+    sim = env.sim  # the action's scale (max_step_m, max_step_rad) is the simulation's
+    return follow_action(sim, sim.grip_pose(), sim.human_grip_reference()).astype(float)
 
 
 def _record(env, out):

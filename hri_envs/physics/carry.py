@@ -19,14 +19,15 @@ is (and a stiffness), and simulates 40 ms:
 * the wrist sensor reads the external wrench on the object (:mod:`~hri_envs.physics.
   sensing`: compensated, biased, noisy, delayed).
 
-What a step reports (:class:`CarryStep`): the route progress, the human's effort (the
-wrench their hand puts on the handle, integrated: the paper's H2 measure from the human's
-side), the disagreement (work the human does *against* the object's motion), where the
-object rests, and a fault: ``dropped`` (the object touched the floor or fell, or slipped
-out of the hand of a human who carries it alone), ``slipped`` (the handle slipped out of
-the human's hand), ``too_weak`` (a human who carries the object alone has pushed at their
-strength limit for 1 s without moving it, and the arm cannot lift its weight) or
-``ik_failure``.
+The five control periods run compiled (:mod:`~hri_envs.physics.carry_periods`): those
+classes' laws over a world axis. What a step reports (:class:`CarryStep`): the route
+progress, the human's effort (the wrench their hand puts on the handle, integrated: the
+paper's H2 measure from the human's side), the disagreement (work the human does *against*
+the object's motion), where the object rests, and a fault: ``dropped`` (the object touched
+the floor or fell, or slipped out of the hand of a human who carries it alone),
+``slipped`` (the handle slipped out of the human's hand), ``too_weak`` (a human who
+carries the object alone has pushed at their strength limit for 1 s without moving it, and
+the arm cannot lift its weight) or ``ik_failure``.
 """
 
 from __future__ import annotations
@@ -34,7 +35,6 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Mapping
-from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -43,6 +43,9 @@ from hri_envs.errors import ConfigError
 from hri_envs.physics.arm_control import ArmDrive, HandImpedance, TorqueDrive
 from hri_envs.physics.body import ArmBody, BodySize
 from hri_envs.physics.carry_periods import CarryPeriods, PeriodsResult
+from hri_envs.physics.carry_stages import ANGVEL_SQ_MAX, PERIODS, VEL_SQ_MAX
+from hri_envs.physics.carry_types import CarryStep, RobotCommand, grip_reference
+from hri_envs.physics.carry_types import rotate as _rotate
 from hri_envs.physics.contacts import touches
 from hri_envs.physics.controller import ImpedanceController
 from hri_envs.physics.design import PhysicsDesign, design_for
@@ -52,7 +55,6 @@ from hri_envs.physics.interaction import InteractionMeter, StepInteraction
 from hri_envs.physics.kinematics import (
     Pose,
     compose,
-    quat_mul,
     rotation_error,
 )
 from hri_envs.physics.observer import StateObserver
@@ -75,61 +77,13 @@ __all__ = ["DRIVES", "CarrySim", "CarryStep", "RobotCommand", "grip_reference"]
 
 #: The arm's drives: joint torque motors, or MyoSuite's muscles (the "arm" extra).
 DRIVES: tuple[str, ...] = HUMAN_DRIVES
-_CONTROL_PERIODS = 5  # control periods (125 Hz) per step (25 Hz)
+_CONTROL_PERIODS = PERIODS  # control periods (125 Hz) per step (25 Hz)
 _SLIP_M, _SLIP_RAD = 0.03, 0.5  # the handle has left the hand beyond these
 _CALM_S = 0.15  # [s] a placed object stays slow this long
-_VEL_SQ_MAX, _ANGVEL_SQ_MAX = 1e-4, 2.5e-3
+_VEL_SQ_MAX, _ANGVEL_SQ_MAX = VEL_SQ_MAX, ANGVEL_SQ_MAX  # a placed object is this slow
 _REACH_ERROR_MAX_M = 0.01  # [m] + 0.2 m/rad: the arm's IK error at a reset
 _STRAINED_S = 1.0  # [s] at the strength limit without moving the object: too weak
 _DROP_BELOW_M = 0.15  # [m] the object this far below the lowest support point: dropped
-
-
-class RobotCommand(NamedTuple):
-    """The robot's command for one step: the grip target and the stiffness scale (0-1)."""
-
-    target: Pose
-    stiffness: float
-
-
-class CarryStep(NamedTuple):
-    """What one 40 ms step did.
-
-    Attributes:
-        progress: The object's progress along the human's route (0 start, 1 goal).
-        effort: ∫ (|F| + |τ| / lever) dt [N s] of the wrench the human's hand puts on the
-            handle (torque about the handle).
-        linear_impulse, angular_impulse: ∫ |F| dt [N s] and ∫ |τ| dt [N m s] of it.
-        disagreement: ∫ max(0, -(F·v + τ·ω)) dt [J]: the work the human does against
-            the object's motion.
-        sensed: (6,) the robot's last wrist reading of the external wrench [N, N m].
-        placed: The support the object rests on after leaving its start (-1: none yet).
-        fault: None, or ``"<kind>: <detail>"`` (kinds ``dropped``, ``slipped``,
-            ``too_weak``, ``ik_failure``).
-        saturated: The arm's joints whose torque was at the human's strength limit for
-            most of the step (names).
-        peak_force: The largest force [N] of the hand on the handle at a control
-            period's end (:class:`~hri_envs.physics.interaction.InteractionMeter`).
-        force_sq: ∫ |F|² dt [N² s] of it.
-        jerk_sq: ∫ |jerk|² dt [m² s⁻⁵] of the object's origin.
-    """
-
-    progress: float
-    effort: float
-    linear_impulse: float
-    angular_impulse: float
-    disagreement: float
-    sensed: np.ndarray
-    placed: int
-    fault: str | None
-    saturated: tuple[str, ...]
-    peak_force: float = 0.0
-    force_sq: float = 0.0
-    jerk_sq: float = 0.0
-
-    @property
-    def fault_kind(self) -> str | None:
-        """The fault's kind without its detail, or None."""
-        return None if self.fault is None else self.fault.split(":", 1)[0]
 
 
 class _Fault(Exception):
@@ -439,8 +393,7 @@ class CarrySim:
         seat's agent, :meth:`human_command`) replaces the scripted human's reference for
         the step (their impedance's stiffness scaled by its stiffness).
         """
-        data, sc = self.data, self.scene
-        lever = self.design.lever
+        data, sc, lever = self.data, self.scene, self.design.lever
         start_grip = self.grip_pose()
         stiff = cmd.stiffness > 1e-3 and self.robot_holds
         delta = cmd.target.pos - start_grip.pos
@@ -560,26 +513,6 @@ class CarrySim:
             float(inter.peak_force[0]), float(inter.force_sq[0]), float(inter.jerk_sq[0]))
         return CarryStep(progress, lin + ang / lever, lin, ang, disagree, self.sensed.copy(),
                          placed, fault, sat, *extra)
-
-
-def grip_reference(human: IntentionHuman, grip_in_object: Pose) -> Pose:
-    """Where the robot's grip would be with the object at ``human``'s reference now (the
-    start of its current line until it starts moving, the route's end once it is done).
-    """
-    ref = human.lines[human.index].sample(max(human.t, 0.0)) if not human.done \
-        else human.lines[-1].sample(math.inf)
-    return compose(Pose(ref.pos, ref.quat), *grip_in_object)
-
-
-def _rotate(quat: np.ndarray, rotvec: np.ndarray, copy: bool = False) -> np.ndarray:
-    """``quat`` turned by the world-frame rotation vector ``rotvec`` (a new array if
-    ``copy``, else ``quat`` itself for no rotation).
-    """
-    angle = math.sqrt(float(rotvec.dot(rotvec)))  # = np.linalg.norm(rotvec), bit for bit
-    if angle < 1e-12:
-        return quat_mul(np.array([1.0, 0.0, 0.0, 0.0]), quat) if copy else quat
-    s = math.sin(angle / 2)
-    return quat_mul(np.array([math.cos(angle / 2), *(s * rotvec / angle)]), quat)
 
 
 def _grip_force(design: PhysicsDesign) -> float:
