@@ -40,10 +40,10 @@ import mujoco
 import numpy as np
 
 from hri_envs.errors import ConfigError
+from hri_envs.physics import carry_stages as stages
 from hri_envs.physics.arm_control import ArmDrive, HandImpedance, TorqueDrive
 from hri_envs.physics.body import ArmBody, BodySize
 from hri_envs.physics.carry_periods import CarryPeriods, PeriodsResult
-from hri_envs.physics.carry_stages import ANGVEL_SQ_MAX, PERIODS, VEL_SQ_MAX
 from hri_envs.physics.carry_types import CarryStep, RobotCommand, grip_reference
 from hri_envs.physics.carry_types import rotate as _rotate
 from hri_envs.physics.contacts import touches
@@ -77,10 +77,10 @@ __all__ = ["DRIVES", "CarrySim", "CarryStep", "RobotCommand", "grip_reference"]
 
 #: The arm's drives: joint torque motors, or MyoSuite's muscles (the "arm" extra).
 DRIVES: tuple[str, ...] = HUMAN_DRIVES
-_CONTROL_PERIODS = PERIODS  # control periods (125 Hz) per step (25 Hz)
+_CONTROL_PERIODS = stages.PERIODS  # control periods (125 Hz) per step (25 Hz)
 _SLIP_M, _SLIP_RAD = 0.03, 0.5  # the handle has left the hand beyond these
 _CALM_S = 0.15  # [s] a placed object stays slow this long
-_VEL_SQ_MAX, _ANGVEL_SQ_MAX = VEL_SQ_MAX, ANGVEL_SQ_MAX  # a placed object is this slow
+_VEL_SQ_MAX, _ANGVEL_SQ_MAX = stages.VEL_SQ_MAX, stages.ANGVEL_SQ_MAX  # placed: this slow
 _REACH_ERROR_MAX_M = 0.01  # [m] + 0.2 m/rad: the arm's IK error at a reset
 _STRAINED_S = 1.0  # [s] at the strength limit without moving the object: too weak
 _DROP_BELOW_M = 0.15  # [m] the object this far below the lowest support point: dropped
@@ -369,11 +369,11 @@ class CarrySim:
 
     def command(self, action: np.ndarray) -> RobotCommand:
         """The robot's command for an action in [-1, 1]^7 (grip offset, rotation, stiffness)."""
-        grip = self.grip_pose()
         a = np.asarray(action, dtype=float)
-        return RobotCommand(Pose(grip.pos + self.max_step_m * a[:3],
-                                 _rotate(grip.quat, self.max_step_rad * a[3:6], True)),
-                            (float(a[6]) + 1.0) / 2.0)
+        out = np.empty(7)
+        stages.grip_target(self.data.site_xpos, self.data.site_xmat, self.scene.grip_site, a,
+                           self.max_step_m, self.max_step_rad, out)
+        return RobotCommand(Pose(out[:3], out[3:]), (float(a[6]) + 1.0) / 2.0)
 
     # ------------------------------------------------------------------ step
     def human_command(self, action: np.ndarray) -> RobotCommand:
@@ -394,11 +394,12 @@ class CarrySim:
         the step (their impedance's stiffness scaled by its stiffness).
         """
         data, sc, lever = self.data, self.scene, self.design.lever
-        start_grip = self.grip_pose()
+        motion = np.empty(19)  # the grip now, the translation and rotation, their rates
+        stages.grip_motion(data.site_xpos, data.site_xmat, sc.grip_site,
+                           np.asarray(cmd.target.pos, float),
+                           np.asarray(cmd.target.quat, float), self.dt_step, motion)
+        start_grip = Pose(motion[:3], motion[3:7])
         stiff = cmd.stiffness > 1e-3 and self.robot_holds
-        delta = cmd.target.pos - start_grip.pos
-        rotvec = rotation_error(cmd.target.quat, start_grip.quat)
-        vel, angvel = delta / self.dt_step, rotvec / self.dt_step
         robot_q = data.qpos[:len(sc.robot_qpos)]
         try:
             if stiff:
@@ -419,7 +420,6 @@ class CarrySim:
             command = np.concatenate([hand0.pos, hand0.quat, human_cmd.target.pos - hand0.pos,
                                       rotation_error(human_cmd.target.quat, hand0.quat)])
             gains = tuple(g * human_cmd.stiffness for g in self._gains())
-        motion = np.concatenate([start_grip.pos, start_grip.quat, delta, rotvec, vel, angvel])
         res = self.periods.run(motion, min(cmd.stiffness, 1.0), stiff, command, gains)
         self.sensed = res.sensed
         fault = None

@@ -27,8 +27,8 @@ from hri_envs.physics.jit import kernel
 from hri_envs.physics.mjc import mj_jac, mj_jacSite, mj_solveM, mj_step, mj_step1, mj_step2
 from hri_envs.physics.whole_arm import _TORSO_HEIGHT_M
 
-__all__ = ["PERIODS", "after_stage", "carry_step", "human_stage", "object_angvel", "observe",
-           "robot_stage", "slip", "tail_stage"]
+__all__ = ["PERIODS", "after_stage", "carry_step", "grip_motion", "grip_target", "human_stage",
+           "object_angvel", "observe", "robot_stage", "slip", "tail_stage"]
 
 PERIODS = 5  # control periods (125 Hz) per step (25 Hz)
 VEL_SQ_MAX, ANGVEL_SQ_MAX = 1e-4, 2.5e-3  # [m²/s²], [rad²/s²]: a placed object is slow
@@ -285,3 +285,37 @@ def observe(qpos, qvel, xpos, xquat, site_xpos, site_xmat, body, obj_dof, grip, 
     for c in range(n):
         out[20 + c] = qpos[c]
         out[20 + n + c] = qvel[c]
+
+
+@kernel
+def grip_target(site_xpos, site_xmat, grip, action, max_step_m, max_step_rad, out):
+    """CarrySim.command's target for an action (7,) in [-1, 1]: ``out`` (7,) the grip's
+    position moved by ``max_step_m`` x a[0:3] and its quaternion turned by ``max_step_rad``
+    x a[3:6] (world frame).
+    """
+    q = lm.rotate_by(lm.mat_to_quat(site_xmat[grip]),
+                     (max_step_rad * action[3], max_step_rad * action[4],
+                      max_step_rad * action[5]))
+    for c in range(3):
+        out[c] = site_xpos[grip, c] + max_step_m * action[c]
+    for c in range(4):
+        out[3 + c] = q[c]
+
+
+@kernel
+def grip_motion(site_xpos, site_xmat, grip, target_pos, target_quat, dt_step, out):
+    """The robot grip's line for a step towards a target, ``out`` (19,): the grip's position
+    and quaternion now, the translation and rotation vector to the target, and their rates
+    over ``dt_step`` (CarrySim.step).
+    """
+    q = lm.mat_to_quat(site_xmat[grip])
+    r = lm.rotation_error(lm.quat4(target_quat), q)
+    for c in range(3):
+        d = target_pos[c] - site_xpos[grip, c]
+        out[c] = site_xpos[grip, c]
+        out[7 + c] = d
+        out[10 + c] = r[c]
+        out[13 + c] = d / dt_step
+        out[16 + c] = r[c] / dt_step
+    for c in range(4):
+        out[3 + c] = q[c]
