@@ -11,21 +11,22 @@ beside it:
 seeds 0, 1, ...) for ``--seconds`` of wall time (after one untimed reset and step, which
 load the compiled control periods, or compile them on a cold cache: the time is printed)
 and reports simulated seconds per wall second and per CPU second of the process (one
-thread: what one core gives when other jobs share the machine); then steps the same
-compiled scene with ``mujoco.mj_step`` alone, side by side in the same process, two ways:
+thread: what one core gives when other jobs share the machine), beside raw ``mj_step`` of
+the same compiled scene, two ways:
 
 * *raw, the env's states* (what the ratio env / raw is taken against): the physics state at
-  the start of every tenth env step of the run above is kept (``mj_getState``, the full
-  integration state with the controls and applied forces), and each is stepped 20 times (one
-  env step's physics, 40 ms) with its controls held, over and over for ``min(--seconds, 10)``
-  wall seconds; only ``mj_step`` is timed. This is the physics the env itself runs: the same
-  contacts (hand on the handle, object on its supports), the same solver work;
-* *raw, one state run on* (the earlier figure, kept for comparison): from the state at the
-  60th env step (both partners holding the object) the scene runs on with the controls held
-  for as long. Left alone, the handle slips out of the still hand after about 40 simulated
-  seconds and the object swings free without contacts for the rest of the run, so this
-  figure times mostly a cheaper scene than the env's (hanger about 16 µs per physics step
-  against 24 µs for the env's own states).
+  the start of every tenth env step is kept (``mj_getState``, the full integration state
+  with the controls and applied forces), and each is stepped 20 times (one env step's
+  physics, 40 ms) with its controls held, one after the other; only ``mj_step`` is timed.
+  This is the physics the env itself runs: the same contacts (hand on the handle, object
+  on its supports), the same solver work. The env and this raw stepping take turns of
+  0.25 s of wall time each, so both meet the same load of the machine;
+* *raw, one state run on* (the earlier figure, kept for comparison), after the turns: from
+  the state at the 60th env step (both partners holding the object) the scene runs on with
+  the controls held for ``min(--seconds, 10)`` s. Left alone, the handle slips out of the
+  still hand after about 40 simulated seconds and the object swings free without contacts
+  for the rest of the run, so this figure times mostly a cheaper scene than the env's
+  (hanger about 16 µs per physics step against 24 µs for the env's own states).
 
 The ratio env / raw is printed per CPU second and by the wall clock; ``--runs N`` measures
 N times in the process and prints its range.
@@ -47,7 +48,9 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from collections.abc import Iterator
 from types import SimpleNamespace
+from typing import Any
 
 import gymnasium as gym
 import mujoco
@@ -58,6 +61,36 @@ import hri_envs  # noqa: F401
 from baselines.continuous import UpperReference, follow_action
 from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
+_TURN_S = 0.25  # [s] of wall time the env and raw mj_step take turns
+
+
+def _episodes(env: gym.Env, base: Any, policy: UpperReference, states: list[np.ndarray],
+              snapshot: mujoco.MjData) -> Iterator[int]:
+    """Whole episodes of the upper reference (seeds 0, 1, ...), one env step per ``next``;
+    keeps the physics state at the start of every tenth step in ``states`` and the one of
+    the 60th step in ``snapshot``.
+    """
+    model = base.sim.model
+    spec = mujoco.mjtState.mjSTATE_INTEGRATION
+    steps, seed = 0, 0
+    while True:
+        obs, _ = env.reset(seed=seed)
+        seed += 1
+        policy.attach(base)
+        policy.begin_episode(base.robot_task())
+        while True:
+            if steps % 10 == 0:  # the env's own physics states, for the raw figure
+                state = np.empty(mujoco.mj_stateSize(model, spec))
+                mujoco.mj_getState(model, base.sim.data, state, spec)
+                states.append(state)
+            obs, _, term, trunc, _ = env.step(policy.act(obs))
+            steps += 1
+            if steps == 60:
+                mujoco.mj_copyData(snapshot, model, base.sim.data)
+            yield steps
+            if term or trunc:
+                break
+
 
 def c_speed(scenario: str, drive: str, seconds: float) -> dict[str, float]:
     """The C backend's env and raw ``mj_step`` (see the module)."""
@@ -65,8 +98,9 @@ def c_speed(scenario: str, drive: str, seconds: float) -> dict[str, float]:
     base = env.unwrapped
     policy = UpperReference()
     model = base.sim.model
-    spec = mujoco.mjtState.mjSTATE_INTEGRATION
     states: list[np.ndarray] = []
+    snapshot = mujoco.MjData(model)
+    per_step = round(base.sim.dt_step / model.opt.timestep)
     with threadpool_limits(1):
         t_first = time.perf_counter()  # the compiled kernels: loaded, or compiled once
         obs, _ = env.reset(seed=0)
@@ -74,66 +108,53 @@ def c_speed(scenario: str, drive: str, seconds: float) -> dict[str, float]:
         policy.begin_episode(base.robot_task())
         env.step(policy.act(obs))
         first = time.perf_counter() - t_first
-        steps, seed = 0, 0
-        t0, c0 = time.perf_counter(), time.process_time()
-        snapshot = None
-        while time.perf_counter() - t0 < seconds:
-            obs, _ = env.reset(seed=seed)
-            seed += 1
-            policy.attach(base)
-            policy.begin_episode(base.robot_task())
-            while True:
-                if steps % 10 == 0:  # the env's own physics states, for the raw figure
-                    state = np.empty(mujoco.mj_stateSize(model, spec))
-                    mujoco.mj_getState(model, base.sim.data, state, spec)
-                    states.append(state)
-                obs, _, term, trunc, _ = env.step(policy.act(obs))
-                steps += 1
-                if steps == 60 and snapshot is None:
-                    snapshot = mujoco.MjData(model)
-                    mujoco.mj_copyData(snapshot, model, base.sim.data)
-                if term or trunc:
-                    break
-        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-        dt_step = base.sim.dt_step
-        per_step = round(dt_step / model.opt.timestep)
-        replay = _replay(model, states, per_step, min(seconds, 10.0))
-        data = snapshot if snapshot is not None else base.sim.data
+        run = _episodes(env, base, policy, states, snapshot)
+        steps, wall, cpu = 0, 0.0, 0.0
+        replay = _Replay(model, per_step)
+        while wall < seconds:  # the env and raw mj_step in turns of _TURN_S each
+            t0, c0 = time.perf_counter(), time.process_time()
+            while time.perf_counter() - t0 < _TURN_S:
+                steps = next(run)
+            wall += time.perf_counter() - t0
+            cpu += time.process_time() - c0
+            replay.run(states, _TURN_S)
         n, t1, c1 = 0, time.perf_counter(), time.process_time()
         while time.perf_counter() - t1 < min(seconds, 10.0):
-            mujoco.mj_step(model, data, nstep=100)
+            mujoco.mj_step(model, snapshot, nstep=100)
             n += 100
         raw_wall, raw_cpu = time.perf_counter() - t1, time.process_time() - c1
     env.close()
-    h = model.opt.timestep
+    h, dt_step = model.opt.timestep, base.sim.dt_step
     return {"steps": steps, "wall": wall, "env_rtf": steps * dt_step / wall,
             "env_rtf_cpu": steps * dt_step / cpu, "world_steps_per_s": steps * per_step / wall,
-            "replay_states": len(states), "replay_steps_per_s": replay[0] / replay[1],
-            "replay_rtf": replay[0] * h / replay[1], "replay_rtf_cpu": replay[0] * h / replay[2],
+            "replay_states": len(states), "replay_steps_per_s": replay.n / replay.wall,
+            "replay_rtf": replay.n * h / replay.wall, "replay_rtf_cpu": replay.n * h / replay.cpu,
             "raw_steps_per_s": n / raw_wall, "raw_rtf": n * h / raw_wall,
             "raw_rtf_cpu": n * h / raw_cpu, "nv": model.nv, "nu": model.nu, "first_s": first}
 
 
-def _replay(model: mujoco.MjModel, states: list[np.ndarray], nstep: int,
-            seconds: float) -> tuple[int, float, float]:
-    """Physics steps, wall and CPU seconds of ``mj_step`` alone: ``nstep`` steps from each of
-    ``states`` in turn, round and round, for ``seconds`` of wall time.
+class _Replay:
+    """Raw ``mj_step`` of the env's states: ``nstep`` steps from each in turn (only
+    ``mj_step`` timed), resuming where the last turn stopped.
     """
-    spec = mujoco.mjtState.mjSTATE_INTEGRATION
-    data = mujoco.MjData(model)
-    n, wall, cpu = 0, 0.0, 0.0
-    t_end = time.perf_counter() + seconds
-    while time.perf_counter() < t_end:
-        for state in states:
-            mujoco.mj_setState(model, data, state, spec)
+
+    def __init__(self, model: mujoco.MjModel, nstep: int) -> None:
+        self.model, self.nstep = model, nstep
+        self.data = mujoco.MjData(model)
+        self.n, self.wall, self.cpu, self.next = 0, 0.0, 0.0, 0
+
+    def run(self, states: list[np.ndarray], seconds: float) -> None:
+        """Step the states for about ``seconds`` of wall time."""
+        spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        t_end = time.perf_counter() + seconds
+        while states and time.perf_counter() < t_end:
+            mujoco.mj_setState(self.model, self.data, states[self.next % len(states)], spec)
+            self.next += 1
             t0, c0 = time.perf_counter(), time.process_time()
-            mujoco.mj_step(model, data, nstep=nstep)
-            wall += time.perf_counter() - t0
-            cpu += time.process_time() - c0
-            n += nstep
-            if t0 > t_end:
-                break
-    return n, wall, cpu
+            mujoco.mj_step(self.model, self.data, nstep=self.nstep)
+            self.wall += time.perf_counter() - t0
+            self.cpu += time.process_time() - c0
+            self.n += self.nstep
 
 
 def warp_speed(scenario: str, n_worlds: int, steps: int,
