@@ -33,7 +33,6 @@ the arm cannot lift its weight) or ``ik_failure``.
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Mapping
 
 import mujoco
@@ -43,10 +42,18 @@ from hri_envs.errors import ConfigError
 from hri_envs.physics import carry_stages as stages
 from hri_envs.physics.arm_control import ArmDrive, HandImpedance, TorqueDrive
 from hri_envs.physics.body import ArmBody, BodySize
+from hri_envs.physics.carry_faults import (  # noqa: F401 (the constants: mjwarp's too)
+    _DROP_BELOW_M,
+    _SLIP_M,
+    _SLIP_RAD,
+    CarryFault,
+    check_faults,
+    max_lift_n,
+    why_slipped,
+)
 from hri_envs.physics.carry_periods import CarryPeriods, PeriodsResult
 from hri_envs.physics.carry_types import CarryStep, RobotCommand, grip_reference
 from hri_envs.physics.carry_types import rotate as _rotate
-from hri_envs.physics.contacts import touches
 from hri_envs.physics.controller import ImpedanceController
 from hri_envs.physics.design import PhysicsDesign, design_for
 from hri_envs.physics.ik import IKFailure, ReferenceIK
@@ -78,16 +85,10 @@ __all__ = ["DRIVES", "CarrySim", "CarryStep", "RobotCommand", "grip_reference"]
 #: The arm's drives: joint torque motors, or MyoSuite's muscles (the "arm" extra).
 DRIVES: tuple[str, ...] = HUMAN_DRIVES
 _CONTROL_PERIODS = stages.PERIODS  # control periods (125 Hz) per step (25 Hz)
-_SLIP_M, _SLIP_RAD = 0.03, 0.5  # the handle has left the hand beyond these
 _CALM_S = 0.15  # [s] a placed object stays slow this long
 _VEL_SQ_MAX, _ANGVEL_SQ_MAX = stages.VEL_SQ_MAX, stages.ANGVEL_SQ_MAX  # placed: this slow
 _REACH_ERROR_MAX_M = 0.01  # [m] + 0.2 m/rad: the arm's IK error at a reset
 _STRAINED_S = 1.0  # [s] at the strength limit without moving the object: too weak
-_DROP_BELOW_M = 0.15  # [m] the object this far below the lowest support point: dropped
-
-
-class _Fault(Exception):
-    pass
 
 
 class CarrySim:
@@ -424,8 +425,8 @@ class CarrySim:
         self.sensed = res.sensed
         fault = None
         try:
-            self._check(data.xpos[sc.object_body], res)
-        except _Fault as exc:
+            check_faults(self, data.xpos[sc.object_body], res)
+        except CarryFault as exc:
             fault = str(exc)
         self.time += self.dt_step
         self.sat_counts = res.sat
@@ -436,36 +437,19 @@ class CarrySim:
             self._strained = self._strained + self.dt_step if strained else 0.0
             if self._strained >= _STRAINED_S and self.max_lift_n() < weight:
                 fault = "too_weak: the human cannot carry the object alone; " + \
-                    self._why_slipped()
+                    why_slipped(self)
         if sc.platform_mocap >= 0:
             data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + self.design.base_pos[:2]
         return self._result(res.lin, res.ang, res.disagree, fault, lever, res)
 
-    def _check(self, pos: np.ndarray, res: PeriodsResult) -> None:
-        data, sc = self.data, self.scene
-        if touches(data, sc.floor_geom) or pos[2] < self._lowest_z - _DROP_BELOW_M:
-            raise _Fault("dropped: the object " + ("hit the floor" if touches(
-                data, sc.floor_geom) else "fell below every support"))
-        if not res.finite:
-            raise _Fault("unstable: the simulation diverged")
-        off, angle = res.off, res.angle
-        if off > _SLIP_M or angle > _SLIP_RAD:
-            self.human_holds = False
-            why = self._why_slipped()
-            kind = "slipped" if self.robot_holds else "dropped"
-            raise _Fault(f"{kind}: the handle slipped out of the human's hand "
-                         f"({off * 100:.1f} cm, {math.degrees(angle):.0f}° off); {why}")
-
-    def _why_slipped(self) -> str:
-        sat = [n for n, c in zip(self.joint_names(), self.sat_counts, strict=True) if c > 0]
-        weight = self.design.object_mass * 9.81
-        lift = self.max_lift_n()
-        if not self.robot_holds and lift < weight:
-            return (f"the arm can lift at most {lift:.1f} N here, the object weighs "
-                    f"{weight:.1f} N (joints at their strength limit: "
-                    f"{', '.join(sat) or 'none'})")
-        return (f"grip force {self.model.actuator_forcerange[self.arm.fingers, 1]:.1f} N; "
-                f"joints at their strength limit: {', '.join(sat) or 'none'}")
+    def _handle_wrench(self) -> tuple[np.ndarray, np.ndarray]:
+        """The hand's force [N] and torque [N m] on the handle, in the world (torque about
+        the handle's centre).
+        """
+        d, site = self.data, self.arm.handle_site
+        rot = d.site_xmat[site].reshape(3, 3)
+        return (-rot.dot(d.sensordata[self._hf:self._hf + 3]),
+                -rot.dot(d.sensordata[self._ht:self._ht + 3]))
 
     def joint_names(self) -> list[str]:
         """The names of the arm's driven joints."""
@@ -474,18 +458,9 @@ class CarrySim:
 
     def max_lift_n(self) -> float:
         """The largest upward force [N] the hand can hold statically in the current posture
-        within the human's strength: min over joints of limit / |(Jᵀ ẑ)_j| (0 if a joint
-        that must resist has no strength).
+        within the human's strength (:func:`~hri_envs.physics.carry_faults.max_lift_n`).
         """
-        m, data = self.model, self.data
-        jacp = np.zeros((3, m.nv))
-        mujoco.mj_jacSite(m, data, jacp, None, self.arm.grip_site)
-        c = self.coupling.update(data)
-        moment = jacp[2, self.coupling.dofs].dot(c)  # (n,) torque per N of upward force
-        lim = np.minimum(-self.arm_drive.lo, self.arm_drive.hi)
-        with np.errstate(divide="ignore"):
-            ratio = np.where(np.abs(moment) > 1e-9, lim / np.abs(moment), np.inf)
-        return float(ratio.min())
+        return max_lift_n(self)
 
     def _result(self, lin: float, ang: float, disagree: float, fault: str | None,
                 lever: float | None = None, res: PeriodsResult | None = None) -> CarryStep:

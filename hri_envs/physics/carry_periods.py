@@ -99,8 +99,8 @@ class CarryPeriods:
         self.coupling = np.eye(n)[None]  # the torque-driven arm's own coordinates
         self.route = hl.RouteArrays(1, design.lever)
         imp = sim.impedance
-        self.human_k = np.concatenate([sim.handle_pos, sim.handle_quat, sim.rest_quat,
-                                       arm.hand_in_torso]).astype(float)
+        self.human_k = np.concatenate([sim.handle_pos, sim.handle_quat,
+                                       sim.rest_quat]).astype(float)
         self.posture, self.kn_h, self.dn_h = imp.posture, float(imp.kn), float(imp.dn)
         self.weight_n = design.object_mass * 9.81
         self.sensor_k = np.concatenate([sensor.hand_weight, sensor.object_weight,
@@ -182,7 +182,9 @@ class CarryPeriods:
             r_dur=r.dur, r_length=r.length, command=cmd, gains=np.asarray(gains, float)[None],
             lo=drive.lo[None], hi=drive.hi[None], seat_pos=seats.pos[None],
             seat_exit=seats.exit[None], seat_quat=seats.quat[None], motion=motion[None],
-            q_ref=sim.q_ref[None], noisy=noisy, bias=model.bias, noise=model.noise_n,
+            q_ref=sim.q_ref[None], hand_in_torso=np.asarray(sim.arm.hand_in_torso, float),
+            torso_height=float(sim.arm.torso_height_m), noisy=noisy, bias=model.bias,
+            noise=model.noise_n,
             z=model._rng.standard_normal((PERIODS, 6)) if noisy else self._true)
         args, slot = self._args, self._slot
         for name, value in step.items():
@@ -256,9 +258,9 @@ class CarryPeriods:
                 qpos, qvel, xpos, xquat, xipos, site_xpos, site_xmat, ctrl, body, hsite,
                 self.torso_acts, self.arm_acts, self.arm_qpos, self.arm_dofs, cols,
                 np.asarray(coupling.update(data), float)[None],
-                *self._human_args(v["command"]), hk[0:3], hk[3:7], hk[7:11], hk[11:14],
-                v["gains"], self.weight_n, self.posture, self.kn_h, self.dn_h, v["lo"],
-                v["hi"], self.hjac, tau, sat]
+                *self._human_args(v["command"]), hk[0:3], hk[3:7], hk[7:11],
+                v["hand_in_torso"], v["torso_height"], v["gains"], self.weight_n,
+                self.posture, self.kn_h, self.dn_h, v["lo"], v["hi"], self.hjac, tau, sat]
             human_stage(*human_args)
             made = drive.apply(data, tau[0])
             sat[0] += (made <= drive.lo + 1e-9) | (made >= drive.hi - 1e-9)

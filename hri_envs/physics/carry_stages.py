@@ -25,7 +25,6 @@ from hri_envs.physics.controller import _LAMBDA_INV_REGULARIZATION
 from hri_envs.physics.interaction import meter_step
 from hri_envs.physics.jit import kernel
 from hri_envs.physics.mjc import mj_jac, mj_jacSite, mj_solveM, mj_step, mj_step1, mj_step2
-from hri_envs.physics.whole_arm import _TORSO_HEIGHT_M
 
 __all__ = ["PERIODS", "after_stage", "carry_step", "grip_motion", "grip_target", "human_stage",
            "object_angvel", "observe", "robot_stage", "slip", "tail_stage"]
@@ -39,8 +38,8 @@ def human_stage(s, dt_c, dt_step, scripted, robot_holds, torque, m, d, qpos, qve
                 xquat, xipos, site_xpos, site_xmat, ctrl, body, site, torso_acts, arm_acts,
                 arm_qpos, arm_dofs, cols, coupling, r_index, r_t, r_done, r_n, r_hes,
                 r_start, r_delta, r_rotvec, r_q0, r_q1, r_dur, grid, phase, lever, command,
-                handle_pos, handle_quat, rest_quat, hand_in_torso, gains, weight_n, posture,
-                kn, dn, lo, hi, jac, tau, sat):
+                handle_pos, handle_quat, rest_quat, hand_in_torso, torso_height, gains,
+                weight_n, posture, kn, dn, lo, hi, jac, tau, sat):
     """The human's part of a control period (after ``mj_step1``) for one world: their
     reference (scripted, advancing along the route, or the human agent's ``command`` (1, 13):
     start position, quaternion, translation and rotation of the step, at the fraction ``s``),
@@ -62,7 +61,7 @@ def human_stage(s, dt_c, dt_step, scripted, robot_holds, torque, m, d, qpos, qve
         hl.commanded_reference(command[:, 0:3], command[:, 3:7], command[:, 7:10],
                                command[:, 10:13], s, dt_step, handle_quat, href, obj_quat)
     torso = np.empty((1, 4))
-    hl.torso_target(href[:, :3], obj_quat, rest_quat, hand_in_torso, _TORSO_HEIGHT_M, torso)
+    hl.torso_target(href[:, :3], obj_quat, rest_quat, hand_in_torso, torso_height, torso)
     for c in range(4):
         ctrl[torso_acts[c]] = torso[0, c]
     ff = np.zeros((1, 6))
@@ -197,11 +196,12 @@ def carry_step(k, dt_c, dt_step, scripted, robot_holds, stiff, scale, m, d, qpos
                xquat, xmat, xipos, site_xpos, site_xmat, subtree_com, sensordata, qfrc_bias,
                ctrl, xfrc, ids, torso_acts, arm_acts, arm_qpos, arm_dofs, robot_acts,
                coupling, r_index, r_t, r_done, r_n, r_hes, r_start, r_delta, r_rotvec, r_q0,
-               r_q1, r_dur, r_length, grid, phase, lever, command, human_k, gains, weight_n,
-               posture, kn_h, dn_h, lo, hi, sensor_k, seat_pos, seat_exit, seat_quat, capture,
-               max_angle, seat_gains, hold, motion, q_ref, robot_gains, weight, kn, dn, tau_hi,
-               hjac, rjac, cjac, rhs, minv, noisy, bias, noise, z, noise_lever, v_prev, a_prev,
-               samples, true, acc, forces, velocities, sat, left, sensed, post):
+               r_q1, r_dur, r_length, grid, phase, lever, command, human_k, hand_in_torso,
+               torso_height, gains, weight_n, posture, kn_h, dn_h, lo, hi, sensor_k, seat_pos,
+               seat_exit, seat_quat, capture, max_angle, seat_gains, hold, motion, q_ref,
+               robot_gains, weight, kn, dn, tau_hi, hjac, rjac, cjac, rhs, minv, noisy, bias,
+               noise, z, noise_lever, v_prev, a_prev, samples, true, acc, forces, velocities,
+               sat, left, sensed, post):
     """The five control periods of a step of one world with the torque-driven arm: per
     period ``mj_step1``, :func:`human_stage`, :func:`robot_stage`, ``mj_step2`` and ``k - 1``
     more ``mj_step``, :func:`after_stage`; then :func:`tail_stage` and, if ``noisy`` (a
@@ -212,8 +212,7 @@ def carry_step(k, dt_c, dt_step, scripted, robot_holds, stiff, scale, m, d, qpos
     start from zero. The arguments are :meth:`CarryPeriods.run`'s.
     """
     body, obj_dof, hsite, wrist, hand_body, f_adr, t_adr, grip, hf, ht, handle = ids
-    handle_pos, handle_quat, rest_quat, hand_in_torso = (human_k[0:3], human_k[3:7],
-                                                         human_k[7:11], human_k[11:14])
+    handle_pos, handle_quat, rest_quat = human_k[0:3], human_k[3:7], human_k[7:11]
     hand_weight, object_weight, object_com = sensor_k[0:3], sensor_k[3:6], sensor_k[6:9]
     acc[:], sat[:], left[:] = 0.0, 0.0, False
     tau = np.empty((1, len(arm_qpos)))
@@ -225,8 +224,8 @@ def carry_step(k, dt_c, dt_step, scripted, robot_holds, stiff, scale, m, d, qpos
                     xquat, xipos, site_xpos, site_xmat, ctrl, body, hsite, torso_acts,
                     arm_acts, arm_qpos, arm_dofs, arm_dofs, coupling, r_index, r_t, r_done,
                     r_n, r_hes, r_start, r_delta, r_rotvec, r_q0, r_q1, r_dur, grid, phase,
-                    lever, command, handle_pos, handle_quat, rest_quat, hand_in_torso, gains,
-                    weight_n, posture, kn_h, dn_h, lo, hi, hjac, tau, sat)
+                    lever, command, handle_pos, handle_quat, rest_quat, hand_in_torso,
+                    torso_height, gains, weight_n, posture, kn_h, dn_h, lo, hi, hjac, tau, sat)
         robot_stage(s, robot_holds, stiff, scale, m, d, qpos, qvel, xpos, xquat, xmat, xipos,
                     site_xpos, site_xmat, subtree_com, sensordata, qfrc_bias, ctrl, xfrc,
                     body, obj_dof, wrist, hand_body, f_adr, t_adr, grip, robot_acts,
