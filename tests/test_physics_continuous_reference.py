@@ -22,9 +22,10 @@ from tests.data.make_continuous_reference import compare, run_case  # noqa: E402
 REFERENCE = json.loads((Path(__file__).parent / "data" / "continuous_reference.json")
                        .read_text())
 #: (case, seed): both scenarios with the upper reference and the passive floor, the human
-#: agent's commands (the parallel env) and a human carrying alone.
+#: agent's commands (the parallel env), a human carrying alone, a smaller human's body.
 EPISODES = (("hanger-upper", 0), ("wheel-upper", 0), ("hanger-passive", 0),
-            ("wheel-passive", 0), ("hanger-human-agent", 0), ("wheel-alone", 0))
+            ("wheel-passive", 0), ("hanger-human-agent", 0), ("wheel-alone", 0),
+            ("hanger-body", 0), ("wheel-body", 0))
 
 
 @pytest.mark.parametrize(("case", "seed"), EPISODES)

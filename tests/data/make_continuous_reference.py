@@ -13,7 +13,9 @@ purpose.
 Cases: both scenarios with the upper reference and the passive floor, seeds 0-19 (the
 torque-driven arm); the human carrying alone (``robot_holds=False``, the passive robot),
 seeds 0-2; the human seat as an agent (the parallel env, seeded random human actions, a
-passive robot), seeds 0-2, 100 steps; the muscle-driven arm, seed 0, 40 steps.
+passive robot), seeds 0-2, 100 steps; the muscle-driven arm, seed 0, 40 steps; a smaller
+human's body (female, 1.55 m, 55 kg: the hanger with the upper reference, the wheel with the
+passive floor), seeds 0-1.
 
 ``--check --perturb 1e-15`` shows how far rounding alone moves each episode's end: the
 object moved by 1e-15 m after the reset (a few units in the last place) moves the ends of
@@ -54,7 +56,12 @@ CASES: tuple[tuple[str, str, str, range, str, int | None, bool], ...] = tuple(
     for sc in ("hanger", "wheel")) + tuple(
     (f"{sc}-human-agent", sc, "human-agent", range(3), "torque", 100, True)
     for sc in ("hanger", "wheel")) + (
-    ("wheel-muscle", "wheel", "upper", range(1), "muscle", 40, True),)
+    ("wheel-muscle", "wheel", "upper", range(1), "muscle", 40, True),) + tuple(
+    (f"{sc}-body", sc, pol, range(2), "torque", None, True)
+    for sc, pol in (("hanger", "upper"), ("wheel", "passive")))
+#: The humans of the cases whose name ends so (default: the scenario's default human).
+HUMANS: dict[str, dict[str, Any]] = {
+    "body": {"sex": "female", "stature_m": 1.55, "body_mass_kg": 55.0}}
 #: The CarryStep fields summed over an episode, and the one whose maximum is kept.
 SUMMED = ("effort", "linear_impulse", "angular_impulse", "disagreement", "force_sq", "jerk_sq")
 
@@ -123,10 +130,11 @@ def run_case(name: str, seeds: range | list[int] | None = None,
     _, scenario, policy, case_seeds, drive, limit, holds = next(c for c in CASES
                                                                  if c[0] == name)
     env = parallel = None
+    human = HUMANS.get(name.rsplit("-", 1)[-1])
     if policy == "human-agent":
         parallel = parallel_env(scenario)
     else:
-        env = gym.make(str(scenario_spec(scenario).continuous_id), drive=drive)
+        env = gym.make(str(scenario_spec(scenario).continuous_id), drive=drive, human=human)
     return [{"seed": s, **episode(env, parallel, policy, s, limit, holds, perturb)}
             for s in (case_seeds if seeds is None else seeds)]
 
