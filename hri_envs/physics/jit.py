@@ -6,7 +6,7 @@ would go on running the old code of an edited callee. The continuous envs' kerne
 each other across modules (:mod:`~hri_envs.physics.lawmath` from the laws, the laws from
 :mod:`~hri_envs.physics.carry_stages`), so :func:`kernel` compiles with ``cache=True``
 into a directory named by a hash of all of :data:`SOURCES` (and this file): editing any of
-them starts a fresh cache, compiled once (about 20 s of one core; ``make test`` does it
+them starts a fresh cache, compiled once (about 25 s of one core; ``make test`` does it
 beside mypy: :func:`preload`).
 
 The cache lives in ``hri_envs/physics/__pycache__/kernels-<hash>`` (or, when that is not
