@@ -4,7 +4,6 @@ behaviour, families within their ranges, and a body size that changes the simula
 
 import copy
 import dataclasses
-import hashlib
 
 import gymnasium as gym
 import mujoco
@@ -179,9 +178,12 @@ def test_human_params_refuse_bodies_and_drives_that_do_not_exist(sims):
 
 
 #: A seeded v0 episode (seed 7, 60 steps of uniform actions from default_rng(1)): its return
-#: and the SHA-256 of its observations, as before the body became a parameter.
-V0 = {"hri_envs/HangerPandaContinuous-v0": (3.046585557250564, "14f11b4d052054fc"),
-      "hri_envs/WheelPandaContinuous-v0": (0.4711824582222092, "e5898e44250ce1e0")}
+#: and the sum of its observations' magnitudes, as before the body became a parameter (the
+#: SHA-256 of the observations was 14f11b4d052054fc, e5898e44250ce1e0). The compiled
+#: control periods (hri_envs/physics/carry_stages.py) change the last bits, not the episode:
+#: both within 1e-9 relative (tests/test_physics_continuous_reference.py for whole episodes).
+V0 = {"hri_envs/HangerPandaContinuous-v0": (3.046585557250564, 2194.1294150214962),
+      "hri_envs/WheelPandaContinuous-v0": (0.4711824582222092, 3437.5762569670296)}
 
 
 @pytest.mark.parametrize("env_id", list(V0))
@@ -189,13 +191,14 @@ def test_the_v0_default_human_is_unchanged(env_id):
     env = gym.make(env_id)
     env.reset(seed=7)
     rng = np.random.default_rng(1)
-    total, h = 0.0, hashlib.sha256()
+    total, size = 0.0, 0.0
     for _ in range(60):
         obs, r, term, trunc, _ = env.step(rng.uniform(-1, 1, 7).astype(np.float32))
         total += r
-        h.update(np.asarray(obs, np.float64).tobytes())
+        size += float(np.abs(np.asarray(obs, np.float64)).sum())
         assert not (term or trunc)
-    assert (total, h.hexdigest()[:16]) == V0[env_id]
+    assert total == pytest.approx(V0[env_id][0], rel=1e-9)
+    assert size == pytest.approx(V0[env_id][1], rel=1e-9)
 
 
 def test_the_muscle_arm_takes_its_own_anatomy_only():
