@@ -197,3 +197,17 @@ def test_the_parallel_v1_form() -> None:
     still = np.array([0, 0, 0, 0, 0, 0, 1.0], dtype=np.float32)
     _, _, _, _, infos = env.step({"robot": still, "human": still})
     assert set(infos["robot"]) == {"time_s", "stalled"}
+
+
+def test_the_costs_stop_at_the_cap_so_placing_always_scores_above_failing() -> None:
+    """A cap of 0.5 on the per-step costs: a placed episode returns place - 0.5 at least,
+    and the episode's charged cost is the cap (the human's effort is reported in full)."""
+    env = _make(HANGER_V1, reward={"cost_cap": 0.5})
+    run = run_physical_episode(env, PassiveFloor(), seed=0)
+    ep = run.outcome.metrics
+    assert ep["outcome"] == "placed" and ep["effort"] * 0.02 > 0.5
+    assert ep["cost"] == pytest.approx(0.5)
+    assert run.reward == pytest.approx(10.0 - 0.5)
+    hover = run_physical_episode(_make(HANGER_V1, reward={"cost_cap": 0.5}), Hover(),
+                                 seed=0)
+    assert hover.reward == pytest.approx(-5.0 - 0.5)

@@ -31,6 +31,7 @@ import numpy as np
 from agents.config import default_config
 from agents.learning import algorithm1, partner_mdp
 from hri_bench.cli import people as cli_people
+from hri_bench.cli import physical as cli_physical
 from hri_bench.cli import results as cli_results
 from hri_bench.cli.args import bounded, whole
 from hri_bench.people.play import play
@@ -394,6 +395,9 @@ def _suite_parser(sub: Any) -> None:
                            "track.")
     suite.add_argument("--out", required=True, type=Path,
                        help="output directory (new or empty, unless --resume or --overwrite)")
+    suite.add_argument("--physical", action="store_true",
+                       help="the physical suite instead (robots that feel the human on the "
+                            "continuous envs; its flags: hri-bench suite --physical --help)")
     suite.add_argument("--resume", action="store_true",
                        help="continue the suite interrupted in --out (same settings): tracks "
                             "and units already finished are not run again")
@@ -805,6 +809,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     for word in argv:  # Python 3.11's argparse reads "--jobs=--" as an empty list
         if word.startswith("--") and word.endswith("=--"):
             parser.error(f"argument {word[:-3]}: expected one argument, got '--'")
+    if cli_physical.wants_physical(argv):  # its own flags: hri_bench/cli/physical.py
+        return cli_physical.main(argv)
     args = parser.parse_args(argv)
     try:
         return _dispatch(args, parser, argv)

@@ -8,15 +8,18 @@ Two reward versions:
 * **v1** (:class:`PlacingReward`; ids ``*PandaContinuous-v1``): *placing the object at the
   human's goal is what pays*. Per step the robot pays for the human's effort (the impulse of
   their hand's wrench, one lever for every scenario: :data:`EFFORT_LEVER_M`), for the work
-  the human does against the object's motion and for every second the object stalls; the
-  episode's end pays ``place`` when the object rests on the human's goal, and costs ``fail``
-  when it ends any other way (dropped, slipped, too weak, resting on another support, or the
-  time limit). Nothing of the reward before the end depends on where the human wants to go:
-  the goal enters only through the terminal term.
+  the human does against the object's motion and for every second the object stalls, until
+  these costs reach ``cost_cap`` in the episode (nothing more after that); the episode's end
+  pays ``place`` when the object rests on the human's goal, and costs ``fail`` when it ends
+  any other way (dropped, slipped, too weak, resting on another support, or the time limit).
+  Nothing of the reward before the end depends on where the human wants to go: the goal
+  enters only through the terminal term.
 
-  A placed episode scores above every failed one while the human's effort stays below
-  ``(place + fail) / effort`` = 750 N s (with the defaults), three times the most any robot
-  needed in our measurements (docs/physics.md); so effort is never ranked without completion.
+  With the cap at ``place`` (the default), an episode's return lies in ``[-fail - place,
+  place]``: an episode that placed the object at the goal returns at least 0, one that did
+  not at most ``-fail``. So effort is never ranked without completion, and a human whom no
+  robot can help (the handle slips whatever it does) costs every robot the same bounded
+  amount instead of dwarfing the other episodes.
 
 :class:`EpisodeRecord` accumulates the figures of one episode from the simulation's steps:
 the human's effort (also per unit of route progress, at the end), the linear and angular
@@ -76,6 +79,8 @@ class PlacingReward:
             of their hand's wrench on the handle).
         disagreement: Cost per J of work the human does against the object's motion.
         stall: Cost per second the object stalls (:class:`StallClock`).
+        cost_cap: The most the per-step costs (effort, disagreement, stall) take from an
+            episode; after that they are not charged.
     """
 
     place: float = 10.0
@@ -83,6 +88,7 @@ class PlacingReward:
     effort: float = 0.02
     disagreement: float = 0.1
     stall: float = 0.5
+    cost_cap: float = 10.0
 
 
 def check_weights(cls: type, values: Mapping[str, Any] | None) -> Any:
@@ -157,6 +163,7 @@ class EpisodeRecord:
         self.effort = self.linear = self.angular = self.disagreement = 0.0
         self.peak = self.force_sq = self.jerk_sq = self.stall_s = 0.0
         self.ret = 0.0
+        self.cost = 0.0  # the per-step costs charged so far (v1: up to the cap)
 
     def add(self, step: Any, stalled: bool, reward: float) -> None:
         """One step of the simulation (a :class:`~hri_envs.physics.carry.CarryStep`)."""
@@ -170,6 +177,10 @@ class EpisodeRecord:
         self.jerk_sq += step.jerk_sq
         self.stall_s += self.dt if stalled else 0.0
         self.ret += reward
+
+    def charge(self, cost: float) -> None:
+        """A step's per-step cost as charged (after the cap)."""
+        self.cost += cost
 
     def report(self, *, outcome: str, placed: int, intention: int, progress: float,
                fault: str | None) -> dict[str, Any]:
@@ -190,4 +201,5 @@ class EpisodeRecord:
             "rms_force": math.sqrt(self.force_sq / time_s) if time_s > 0 else 0.0,
             "rms_jerk": math.sqrt(self.jerk_sq / time_s) if time_s > 0 else 0.0,
             "disagreement": self.disagreement, "stall_s": self.stall_s,
+            "cost": self.cost,
         }

@@ -90,7 +90,9 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
     human does against the object's motion, ``stall`` the seconds the object stalled (moved
     < 1 cm and turned < 0.05 rad in the last 2 s); at the end ``+ w_place`` if the object
     rests on the human's goal, else ``- w_fail`` (dropped, slipped, too weak, another
-    support, or the time limit). Defaults 0.02 per N s, 0.1 per J, 0.5 per s, 10, 5.
+    support, or the time limit). Defaults 0.02 per N s, 0.1 per J, 0.5 per s, 10, 5. The
+    per-step costs stop at ``cost_cap`` (10) per episode, so a return lies in [-15, 10]:
+    at least 0 when the object was placed at the goal, at most -5 when not.
 
     **v0** (``*PandaContinuous-v0``, kept as it was; :class:`~hri_envs.physics.
     carry_reward.RewardWeights`): per step ``w_p Δprogress - w_e effort - w_d
@@ -357,8 +359,10 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         pose = self.sim.object_pose()
         stalled = res.placed < 0 and self._stall.update(pose.pos, pose.quat)
         effort = res.linear_impulse + res.angular_impulse / EFFORT_LEVER_M
-        reward = (-w.effort * effort - w.disagreement * res.disagreement
-                  - (w.stall * self.sim.dt_step if stalled else 0.0))
+        cost = (w.effort * effort + w.disagreement * res.disagreement
+                + (w.stall * self.sim.dt_step if stalled else 0.0))
+        reward = -min(cost, max(w.cost_cap - self._record.cost, 0.0))  # capped per episode
+        self._record.charge(-reward)
         kind = res.fault_kind
         terminated = res.placed >= 0 or kind in _FAULT_KINDS
         truncated = not terminated and (self.steps >= self.max_steps or kind is not None)

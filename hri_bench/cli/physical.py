@@ -1,0 +1,115 @@
+"""``hri-bench suite --physical``: the physical suite (robots that feel the human).
+
+Its own flags (docs/physics.md, "The physical suite"); the graph suite's parser routes here
+when ``--physical`` is given (:func:`wants_physical`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from hri_bench.cli.args import bounded, whole
+from hri_envs.errors import ConfigError
+
+__all__ = ["main", "wants_physical"]
+
+
+def wants_physical(argv: Sequence[str]) -> bool:
+    """Whether the command line asks for the physical suite (``suite ... --physical``)."""
+    return bool(argv) and argv[0] == "suite" and "--physical" in argv[1:]
+
+
+def _parser() -> argparse.ArgumentParser:
+    from hri_bench.suite.physical_tracks import (  # noqa: PLC0415
+        DEFAULT_AGENTS,
+        PHYSICAL_LATEST,
+        PHYSICAL_VERSIONS,
+        TRACKS_P1,
+    )
+
+    p = argparse.ArgumentParser(
+        prog="hri-bench suite --physical",
+        description="Run the physical suite: robots that feel the human, ranked on the "
+                    "held-out physical humans of the test split on the continuous envs' v1 "
+                    "(*PandaContinuous-v1); write results.json, leaderboard.md and figures.")
+    p.add_argument("--physical", action="store_true", help=argparse.SUPPRESS)
+    p.add_argument("--out", required=True, type=Path,
+                   help="output directory (new or empty, unless --resume or --overwrite)")
+    p.add_argument("--suite-version", choices=PHYSICAL_VERSIONS, default=PHYSICAL_LATEST,
+                   help=f"the physical track set (default {PHYSICAL_LATEST})")
+    p.add_argument("--agents", default=None,
+                   help="robots to rank, comma-separated (default: "
+                        f"{','.join(DEFAULT_AGENTS)}; the upper reference and the passive "
+                        "floor are always run)")
+    p.add_argument("--tracks", default=None,
+                   help=f"comma-separated tracks (default all: {', '.join(TRACKS_P1)})")
+    p.add_argument("--jobs", type=bounded(int, "a whole number >= 1", lambda v: v >= 1),
+                   default=1, help="worker processes (default 1)")
+    p.add_argument("--runs-scale", type=bounded(float, "a number in (0, 10]",
+                                                lambda v: math.isfinite(v) and 0 < v <= 10),
+                   default=1.0, help="multiply every track's runs (default 1)")
+    p.add_argument("--seed", type=whole, default=0, help="base seed, >= 0 (default 0)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the suite interrupted in --out (same settings)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="start afresh in a non-empty --out")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    return p
+
+
+def _progress(enabled: bool) -> Any:
+    if not enabled:
+        return None
+    try:
+        from tqdm import tqdm  # noqa: PLC0415
+    except ModuleNotFoundError:
+        return None
+    bar: dict[str, Any] = {}
+
+    def update(done: int, total: int) -> None:
+        if "bar" not in bar:
+            bar["bar"] = tqdm(total=total, unit="unit", desc="physical suite")
+        bar["bar"].n = done
+        bar["bar"].refresh()
+        if done >= total:
+            bar["bar"].close()
+            bar.pop("bar")
+
+    return update
+
+
+def main(argv: Sequence[str]) -> int:
+    """Run ``hri-bench suite --physical ...`` (``argv`` without the program name)."""
+    args = _parser().parse_args(list(argv)[1:])
+    from hri_bench.suite.physical_running import run_physical_suite  # noqa: PLC0415
+
+    agents = None if args.agents is None else [a.strip() for a in args.agents.split(",")
+                                               if a.strip()]
+    t0 = time.perf_counter()
+    try:
+        doc = run_physical_suite(args.out, version=args.suite_version, agents=agents,
+                                 seeds=(args.seed,), runs_scale=args.runs_scale,
+                                 jobs=args.jobs, tracks=args.tracks, resume=args.resume,
+                                 overwrite=args.overwrite,
+                                 progress=_progress(not args.no_progress))
+    except ConfigError as exc:
+        print(f"hri-bench suite --physical: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"\nstopped; the finished units are kept in {args.out}. Resume with the same "
+              "command and --resume", file=sys.stderr)
+        return 130
+    from hri_bench.suite.physical_board import headline_table  # noqa: PLC0415
+
+    print(headline_table(doc))
+    print(f"physical suite v{doc['suite_version']}: {len(doc['tracks'])} tracks in "
+          f"{time.perf_counter() - t0:.1f} s (--jobs {args.jobs}); wrote "
+          f"{args.out / 'results.json'}, {args.out / 'leaderboard.md'}, "
+          f"{args.out / 'ranking.png'} and {args.out / 'goal_effort.png'}")
+    return 0
