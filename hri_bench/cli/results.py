@@ -26,6 +26,7 @@ from hri_bench.run.provenance import code_changes
 from hri_bench.run.studyio import LOCK, FolderLock, check_out
 from hri_bench.suite import audit, results_v3, results_v4, resume, submission
 from hri_bench.suite.merged import HEADING, merged_leaderboard
+from hri_bench.suite.physical_results import FORMAT as PHYSICAL_FORMAT
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION
 from hri_envs.errors import ConfigError
 
@@ -276,6 +277,8 @@ def validate(path: Path, replay: int = 0, replay_seed: int | None = None,
     """
     try:
         doc = submission.load(path)
+        if isinstance(doc, dict) and doc.get("format") == PHYSICAL_FORMAT:
+            return _validate_physical(path, doc, replay, replay_seed, fresh)
         problems = submission.validate(doc)
     except ConfigError as exc:
         print(f"hri-bench validate: {exc}", file=sys.stderr)
@@ -310,6 +313,46 @@ def validate(path: Path, replay: int = 0, replay_seed: int | None = None,
     return 0
 
 
+def _validate_physical(path: Path, doc: Any, replay: int, replay_seed: int | None,
+                       fresh: bool) -> int:
+    """``validate`` of a physical suite's results file (:mod:`hri_bench.suite.physical_audit`)."""
+    from hri_bench.suite.physical_audit import replay_physical, validate_physical  # noqa: PLC0415
+
+    problems = validate_physical(doc)
+    if problems:
+        print(f"{path}: INVALID ({len(problems)} problem(s)):", file=sys.stderr)
+        for line in problems:
+            print(f"  {line}", file=sys.stderr)
+        return 1
+    print(f"{path}: valid physical results (suite version and hash, the runs' humans, every "
+          "statistic recomputed)")
+    if fresh:
+        print("hri-bench validate: --fresh is not available for physical results files; "
+              "--replay K re-simulates their runs", file=sys.stderr)
+        return 1
+    if not replay:
+        return 0
+    seed = secrets.randbelow(2**31) if replay_seed is None else replay_seed
+    found = replay_physical(doc, replay, seed)
+    for agent, why in found.skipped.items():
+        print(f"  not replayed: agent {agent!r}: {why}")
+    if found.skipped or not found.checked:
+        print(f"{path}: REPLAY INCOMPLETE: {len(found.checked)} run(s) replayed; "
+              + (f"agent(s) {', '.join(map(repr, found.skipped))} could not be: a replay "
+                 "vouches for every agent of the file or fails" if found.skipped
+                 else "nothing could be replayed"), file=sys.stderr)
+        return 1
+    if found.differ:
+        print(f"{path}: REPLAY FAILED ({len(found.differ)} of {len(found.checked)} run(s) "
+              f"differ; --replay-seed {seed}):", file=sys.stderr)
+        for line in found.differ:
+            print(f"  {line}", file=sys.stderr)
+        return 1
+    print(f"{path}: {len(found.checked)} replayed run(s) identical, the references' included "
+          f"(--replay {replay} --replay-seed {seed})")
+    return 0
+
+
 def _fresh(path: Path, doc: Any, seed: int | None, jobs: int) -> int:
     """``--fresh``: the agents on a drawn seed and fresh humans (:mod:`hri_bench.suite.fresh`)."""
     from hri_bench.suite.fresh import fresh_check
@@ -337,7 +380,7 @@ def _fresh(path: Path, doc: Any, seed: int | None, jobs: int) -> int:
 
 
 #: What ``hri-bench leaderboard`` writes into its ``--out`` (besides its lock).
-LEADERBOARD_FILES = ("leaderboard.md", "profiles.png", "ranking.png")
+LEADERBOARD_FILES = ("leaderboard.md", "profiles.png", "ranking.png", "goal_effort.png")
 
 
 def _leaderboard_out(out: Path) -> str | None:

@@ -218,6 +218,7 @@ def main() -> None:
     sys.stdout = sys.stderr
     threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True).start()
     session = _Session()
+    physical: Any = None  # the physical suite's robot (hri_bench.run.physical_host)
     while True:
         try:
             header, arrays = read_message(inbox)
@@ -231,7 +232,14 @@ def main() -> None:
             sys.path[:] = [p for p in header["sys_path"] if isinstance(p, str)]
             continue
         try:
-            answer = session.run(str(kind), header, arrays)
+            if str(kind).startswith("physical."):
+                if physical is None:
+                    from hri_bench.run.physical_session import PhysicalSession  # noqa: PLC0415
+
+                    physical = PhysicalSession()
+                answer = physical.run(str(kind), header, arrays)
+            else:
+                answer = session.run(str(kind), header, arrays)
         except BaseException as exc:  # the agent's: reported, never the end of the host
             failure = _failure(exc)
             if kind == "begin":

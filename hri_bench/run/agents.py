@@ -80,7 +80,8 @@ __all__ = ["AGENTS", "CONTRACT", "DEFAULT_STUDY_AGENTS", "JAXPPO", "JAXPPO_CHECK
            "JAXPPO_PREFIX", "SB3_PREFIX", "AgentContext", "AgentSpec", "Privilege",
            "agent_identity", "agent_privilege",
            "agent_settings", "agent_spec", "contract_keywords", "import_agent", "jaxppo_path",
-           "make_agent", "package_version", "register_agent", "validate_agent_name"]
+           "make_agent", "package_version", "register_agent", "source_identity",
+           "validate_agent_name"]
 
 
 @dataclass(frozen=True)
@@ -580,3 +581,13 @@ def agent_identity(name: str) -> dict[str, Any]:
     return {"kind": "custom", "module": info["module"], "class": info["class"],
             "files": hashes, "code_sha256": _combined(hashes),
             "constructor": list(info["keywords"])}
+
+
+def source_identity(module_name: str) -> dict[str, Any]:
+    """``files`` (each ``.py`` file of the module's package and its sha256, found on the path
+    without importing anything) and ``code_sha256`` (one hash of them all): how a results
+    file names the code of an agent of your own.
+    """
+    root, files = _unimported_files(module_name)
+    hashes = {p.relative_to(root).as_posix(): _sha256(p) for p in files}
+    return {"files": hashes, "code_sha256": _combined(hashes)}

@@ -44,8 +44,8 @@ from hri_envs.errors import ActionError, ConfigError
 from hri_envs.imports import with_cwd_on_path
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["IN_PROCESS", "AgentProcessError", "IsolatedAgent", "agent_streams", "describe",
-           "make_isolated", "shutdown"]
+__all__ = ["IN_PROCESS", "AgentProcessError", "IsolatedAgent", "acquire_host", "agent_streams",
+           "ask_host", "describe", "make_isolated", "release_host", "shutdown"]
 
 #: The environment variable that runs agents of your own in the benchmark's process.
 IN_PROCESS = "HRI_BENCH_IN_PROCESS_AGENTS"
@@ -199,6 +199,13 @@ def _ask(spec: str, host: _Host, header: Mapping[str, Any],
     if "error" in answer:
         _raise(spec, answer["error"])
     return answer, arrays_back
+
+
+#: The host functions other kinds of isolated agent use (the physical suite's robots,
+#: :mod:`hri_bench.run.physical_host`): a host for an agent object, its release, a request.
+acquire_host = _acquire
+release_host = _release
+ask_host = _ask
 
 
 def describe(spec: str) -> dict[str, Any]:

@@ -17,6 +17,7 @@ from hri_bench.core.atomic import atomic_writer
 from hri_bench.suite import results_v3, results_v4
 from hri_bench.suite.audit import conflicts
 from hri_bench.suite.markdown import code, escape
+from hri_bench.suite.physical_results import FORMAT as PHYSICAL_FORMAT
 from hri_bench.suite.submission import (
     FORMAT,
     lead_section,
@@ -55,6 +56,7 @@ def merged_leaderboard(files: Iterable[Path], out: Path) -> Merged:
     skipped, not refused: a suite's folder holds its ``suite.json`` beside ``results.json``.
     """
     refused, skipped, valid = [], [], {}
+    physical: dict[str, Any] = {}
     for path in files:
         try:
             doc = load(path)
@@ -62,6 +64,9 @@ def merged_leaderboard(files: Iterable[Path], out: Path) -> Merged:
             refused.append(f"{path}: {exc}")
             continue
         kind = doc.get("format") if isinstance(doc, dict) else None
+        if kind == PHYSICAL_FORMAT:
+            physical[str(path)] = doc
+            continue
         if kind != FORMAT:
             skipped.append(f"{path}: skipped: not a results file (its format is {kind!r}, "
                            f"not {FORMAT!r})")
@@ -72,6 +77,10 @@ def merged_leaderboard(files: Iterable[Path], out: Path) -> Merged:
                            + (f" (and {len(problems) - 5} more)" if len(problems) > 5 else ""))
         else:
             valid[path.name] = doc
+    if physical and not valid and not refused:
+        return _physical(physical, out, skipped)
+    skipped += [f"{p}: skipped: a physical suite's results (merge them in a folder of their "
+                "own)" for p in physical]
     valid, apart = _mergeable(valid)
     refused += apart
     if not valid:
@@ -103,6 +112,39 @@ def merged_leaderboard(files: Iterable[Path], out: Path) -> Merged:
     fig = (results_v3.ranking_figure(merged, out / "ranking.png") if v3
            else profile_figure(merged, out / "profiles.png"))
     return Merged([out / "leaderboard.md", fig], refused, skipped)
+
+
+def _physical(docs: Mapping[str, Any], out: Path, skipped: list[str]) -> Merged:
+    """A folder of physical results files: validated, merged
+    (:func:`hri_bench.suite.physical_audit.merge_physical`), ``leaderboard.md`` and the
+    figures written.
+    """
+    from hri_bench.suite.physical_audit import merge_physical, validate_physical  # noqa: PLC0415
+    from hri_bench.suite.physical_board import leaderboard, write_figures  # noqa: PLC0415
+
+    refused, valid = [], {}
+    for path, doc in docs.items():
+        problems = validate_physical(doc)
+        if problems:
+            refused.append(f"{path}: refused: " + "; ".join(problems[:5]))
+        else:
+            valid[path] = doc
+    result = merge_physical(valid)
+    refused += result.refused
+    if result.doc is None:
+        return Merged([], refused, skipped)
+    out.mkdir(parents=True, exist_ok=True)
+    body = leaderboard(result.doc).split("\n", 1)[1]  # its own title replaced
+    text = "\n".join([f"{HEADING}{result.doc['suite_version']}, physical)", "",
+                      "Merged from validated physical results files (`hri-bench validate`):",
+                      "", *(f"- {code(Path(f).name)}: agents "
+                            f"{', '.join(code(a) for a in docs[f]['agents'])}"
+                            for f in result.merged), body])
+    with atomic_writer(out / "leaderboard.md") as f:
+        f.write(text)
+    for stale in ("profiles.png",):
+        (out / stale).unlink(missing_ok=True)
+    return Merged([out / "leaderboard.md", *write_figures(result.doc, out)], refused, skipped)
 
 
 def _mergeable(valid: Mapping[str, Mapping[str, Any]]

@@ -173,16 +173,3 @@ def _finite(value: Any) -> Any:
         return float(value) if np.isfinite(value) else None
     return value
 
-
-def _below_floor(tracks: Sequence[ranking.Track], agent: str) -> float:
-    """The share of the headline tracks' humans on whose runs the agent's mean score is
-    below the floor's (each track weighs the same).
-    """
-    shares = []
-    for t in tracks:
-        if not t.headline:
-            continue
-        below = [float(np.mean(t.scores[agent][g]) < np.mean(t.scores[FLOOR][g]))
-                 for g in ranking.human_groups(t.humans)]
-        shares.append(float(np.mean(below)))
-    return float(np.mean(shares)) if shares else float("nan")

@@ -50,8 +50,8 @@ from hri_bench.suite.physical_tracks import (
 )
 from hri_envs.errors import ConfigError
 
-__all__ = ["RUNS_PER_UNIT", "UNITS_DIR", "physical_suite_hash", "plan_units",
-           "run_physical_suite"]
+__all__ = ["RUNS_PER_UNIT", "UNITS_DIR", "is_custom", "make_robot", "physical_suite_hash",
+           "plan_units", "run_physical_suite"]
 
 #: Runs per unit of work (one agent, one track): small enough to keep both cores busy and
 #: lose little to an interruption.
@@ -95,8 +95,20 @@ def _key(unit: PhysicalUnit) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
-def _make(name: str, scenario: str, stream: np.random.Generator) -> Any:
-    """A registry robot for one run, seeded from the run's own stream."""
+def is_custom(name: str) -> bool:
+    """Whether ``name`` is a robot of your own (``module:Class``), not a registry name."""
+    return ":" in name
+
+
+def make_robot(name: str, scenario: str, stream: np.random.Generator) -> Any:
+    """A robot for one run, seeded from the run's own stream: a registry robot here, a
+    ``module:Class`` in a process of its own (:mod:`hri_bench.run.physical_host`).
+    """
+    if is_custom(name):
+        from hri_bench.run.physical_host import IsolatedPhysicalAgent  # noqa: PLC0415
+
+        return IsolatedPhysicalAgent(name, scenario,
+                                     np.frombuffer(stream.bytes(32), dtype=np.uint8))
     from baselines.physical import make_physical_agent  # noqa: PLC0415
 
     return make_physical_agent(name, scenario, int(stream.integers(2**31)))
@@ -107,7 +119,7 @@ def _work(unit: PhysicalUnit) -> dict[str, np.ndarray]:
     from hri_envs.physics.population import physical_population  # noqa: PLC0415
 
     humans = physical_population(unit.population, unit.scenario).members
-    return simulate_unit(unit, _make, humans)
+    return simulate_unit(unit, make_robot, humans)
 
 
 def _execute(units: Sequence[PhysicalUnit], store: Path, jobs: int,
@@ -172,6 +184,16 @@ def _members(t: PhysicalTrack) -> list[dict[str, Any]]:
 
 
 def _agent_entry(name: str) -> dict[str, Any]:
+    if is_custom(name):
+        from hri_bench.run.agents import source_identity  # noqa: PLC0415
+        from hri_bench.run.physical_host import describe_physical  # noqa: PLC0415
+
+        info = describe_physical(name)
+        return {"privileged": False, "reference": False,
+                "description": f"{info['module']}.{info['class']} (your own)",
+                "identity": {"kind": "custom", "module": info["module"],
+                             "class": info["class"], "constructor": list(info["keywords"]),
+                             **source_identity(info["module"])}}
     from baselines.physical import PHYSICAL_AGENTS  # noqa: PLC0415
 
     entry = PHYSICAL_AGENTS[name]
@@ -198,10 +220,20 @@ def run_physical_suite(out: str | os.PathLike[str], *, version: str = PHYSICAL_L
     ranked = list(DEFAULT_AGENTS if agents is None else agents)
     from baselines.physical import PHYSICAL_AGENTS  # noqa: PLC0415
 
-    unknown = [a for a in ranked if a not in PHYSICAL_AGENTS]
+    unknown = [a for a in ranked if a not in PHYSICAL_AGENTS and not is_custom(a)]
     if unknown or not ranked:
         raise ConfigError(f"unknown physical robot(s) {', '.join(map(repr, unknown)) or '(none)'}"
-                          f"; allowed: {', '.join(PHYSICAL_AGENTS)}", field="agents")
+                          f"; allowed: {', '.join(PHYSICAL_AGENTS)}, or module:Class of your "
+                          "own", field="agents")
+    privileged = [a for a in ranked if not is_custom(a) and PHYSICAL_AGENTS[a].privileged]
+    if privileged:
+        raise ConfigError(f"{', '.join(map(repr, privileged))} read(s) the simulation: a "
+                          "reference, always run and shown apart, never ranked", field="agents")
+    from hri_bench.run.physical_host import describe_physical  # noqa: PLC0415
+
+    for a in ranked:
+        if is_custom(a):
+            describe_physical(a)  # imports it in a host: a clear error before any run
     every = list(dict.fromkeys([*ranked, FLOOR, REFERENCE]))
     if not (isinstance(runs_scale, int | float) and 0 < runs_scale <= 10):
         raise ConfigError(f"runs_scale must be in (0, 10], got {runs_scale!r}",
