@@ -352,6 +352,11 @@ def test_speed_reports_the_physics_beside_the_c_backend(capsys):
         assert steps[n] > 0 and rtf[n] == pytest.approx(steps[n] * 0.002, abs=0.006)
     assert figures["physics_warp_setup_s"] > 0
     assert any(line.startswith("physics_warp_device") for line in out)
+    for scenario in ("hanger", "wheel"):  # the continuous envs beside raw mj_step
+        env, raw = (figures[f"continuous_{scenario}_{k}_rtf_cpu"] for k in ("env", "raw"))
+        assert 0 < env < raw
+        assert figures[f"continuous_{scenario}_env_over_raw"] == pytest.approx(
+            env / raw, rel=0.05)
 
 
 def test_the_graph_vector_env_still_refuses_the_simulated_backends():

@@ -27,16 +27,25 @@ from PIL import Image, ImageDraw, ImageFont
 
 import hri_envs  # noqa: F401  (registers the ids)
 from agents.physical import PhysicalAgent, outcome_of
-from baselines.continuous import LiftedLearner, PassiveFloor, UpperReference
+from baselines.physical import PHYSICAL_AGENTS, make_physical_agent
 from hri_envs.registration import continuous_id
 from hri_envs.task.scenarios import scenario_spec
 
-#: Policy name -> (what the caption calls it, a builder given the scenario's name).
+#: What the caption calls a robot of the registry (else its name).
+LABELS = {"upper": "upper reference", "passive": "passive robot",
+          "admittance": "fixed admittance", "variable-admittance": "variable admittance",
+          "goal-blend": "goal inference, blend", "goal-qmdp": "goal inference, QMDP",
+          "learner": "lifted Learner", "rl": "residual RL"}
+
+
+def _builder(name: str) -> Callable[[str], PhysicalAgent]:
+    return lambda scenario: make_physical_agent(name, scenario, 0)
+
+
+#: Policy name -> (what the caption calls it, a builder given the scenario's name): every
+#: robot of ``baselines.physical.PHYSICAL_AGENTS``.
 POLICIES: dict[str, tuple[str, Callable[[str], PhysicalAgent]]] = {
-    "upper": ("upper reference", lambda scenario: UpperReference()),
-    "passive": ("passive robot", lambda scenario: PassiveFloor()),
-    "learner": ("lifted Learner", LiftedLearner),
-}
+    name: (LABELS.get(name, name), _builder(name)) for name in PHYSICAL_AGENTS}
 
 
 def caption(frame: np.ndarray, text: str) -> np.ndarray:

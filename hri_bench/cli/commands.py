@@ -751,6 +751,12 @@ def _speed(args: argparse.Namespace) -> int:
                "learner_threads": "threads sharing a batched update (HRI_ENVS_THREADS)",
                "physics_c_world_steps_per_s": "MuJoCo's C library, one world (the C backend)",
                "physics_c_realtime_factor": "simulated s per wall s, C backend",
+               "continuous_hanger_env_rtf_cpu": "hanger continuous env, simulated s per CPU s",
+               "continuous_hanger_raw_rtf_cpu": "raw mj_step of its states, likewise",
+               "continuous_hanger_env_over_raw": "env / raw (goal >= 0.5)",
+               "continuous_wheel_env_rtf_cpu": "wheel continuous env, simulated s per CPU s",
+               "continuous_wheel_raw_rtf_cpu": "raw mj_step of its states, likewise",
+               "continuous_wheel_env_over_raw": "env / raw (goal >= 0.5)",
                "physics_warp": "",
                "physics_warp_device": "Warp's device",
                "physics_warp_world_steps_per_s_by_worlds":

@@ -171,6 +171,27 @@ PHYSICS_WORLDS: dict[str, tuple[int, ...]] = {"full": (1, 64, 1024, 4096), "tiny
 PHYSICS_PERIODS: dict[str, int] = {"full": 25, "tiny": 2}
 
 
+#: Wall seconds each continuous env is timed for (beside raw ``mj_step``), per size.
+CONTINUOUS_SECONDS: dict[str, float] = {"full": 10.0, "tiny": 1.0}
+
+
+def continuous_figures(seconds: float) -> dict[str, Any]:
+    """The continuous envs (hanger, wheel; torque drive; the upper reference acting) on one
+    core: simulated seconds per CPU second of the env and of raw ``mj_step`` of the env's own
+    physics states, and their ratio (:func:`hri_bench.report.continuous_speed.c_speed`).
+    """
+    from hri_bench.report.continuous_speed import c_speed
+
+    out: dict[str, Any] = {}
+    for scenario in ("hanger", "wheel"):
+        c = c_speed(scenario, "torque", seconds)
+        out[f"continuous_{scenario}_env_rtf_cpu"] = round(c["env_rtf_cpu"], 1)
+        out[f"continuous_{scenario}_raw_rtf_cpu"] = round(c["replay_rtf_cpu"], 1)
+        out[f"continuous_{scenario}_env_over_raw"] = round(
+            c["env_rtf_cpu"] / c["replay_rtf_cpu"], 3)
+    return out
+
+
 def measure_physics(size: str = "full", worlds: tuple[int, ...] | None = None,
                     device: str | None = None) -> dict[str, Any]:
     """The physics figures: MuJoCo Warp for each number of worlds, beside MuJoCo's C library.
@@ -199,6 +220,7 @@ def measure_physics(size: str = "full", worlds: tuple[int, ...] | None = None,
         "physics_c_world_steps_per_s": round(c.realtime_factor / dt, 1),
         "physics_c_realtime_factor": round(c.realtime_factor, 2),
     }
+    figures.update(continuous_figures(CONTINUOUS_SECONDS[size]))
     try:  # the mjwarp extra: its modules, then Warp itself (the cache's folder)
         from hri_envs.physics.mjwarp.device import kernel_cache_dir
         from hri_envs.physics.mjwarp.speed import warp_world_steps

@@ -9,7 +9,7 @@ in units of a few runs of one agent (:func:`hri_bench.run.physical.simulate_unit
 * ``DIR/leaderboard.md``: the headline and the tracks (:mod:`hri_bench.suite.physical_board`);
 * ``DIR/ranking.png``, ``DIR/goal_effort.png``: the headline with its CIs; per track each
   agent's goal rate against the human's effort;
-* ``DIR/suite_log.json``: wall times and how the suite was run.
+* ``DIR/suite_log.json``: the wall time, the units' CPU time, the jobs and the load.
 
 A finished unit is kept in ``DIR/.physical-units/`` until the suite ends, so ``--resume``
 after an interruption runs only the rest, and gives the same files (every draw of a run
@@ -57,6 +57,8 @@ __all__ = ["RUNS_PER_UNIT", "UNITS_DIR", "is_custom", "make_robot", "physical_su
 #: lose little to an interruption.
 RUNS_PER_UNIT = 4
 UNITS_DIR = ".physical-units"
+#: A unit's CPU seconds (its process's), kept beside its figures for ``suite_log.json``.
+CPU_KEY = "cpu_s"
 
 
 def physical_suite_hash(version: str, tracks: Sequence[PhysicalTrack]) -> str:
@@ -119,7 +121,10 @@ def _work(unit: PhysicalUnit) -> dict[str, np.ndarray]:
     from hri_envs.physics.population import physical_population  # noqa: PLC0415
 
     humans = physical_population(unit.population, unit.scenario).members
-    return simulate_unit(unit, make_robot, humans)
+    cpu = time.process_time()
+    figures = simulate_unit(unit, make_robot, humans)
+    figures[CPU_KEY] = np.array(time.process_time() - cpu)  # this process's (robots' hosts
+    return figures                                          # of your own not counted)
 
 
 def _execute(units: Sequence[PhysicalUnit], store: Path, jobs: int,
@@ -150,6 +155,11 @@ def _execute(units: Sequence[PhysicalUnit], store: Path, jobs: int,
 def _load(store: Path, unit: PhysicalUnit) -> dict[str, np.ndarray]:
     with np.load(store / f"{_key(unit)}.npz", allow_pickle=False) as z:
         return {k: z[k] for k in FIGURES}
+
+
+def _cpu(store: Path, unit: PhysicalUnit) -> float:
+    with np.load(store / f"{_key(unit)}.npz", allow_pickle=False) as z:
+        return float(z[CPU_KEY]) if CPU_KEY in z else 0.0
 
 
 def _assemble(tracks: Sequence[PhysicalTrack], agents: Sequence[str], seed: int,
@@ -258,7 +268,9 @@ def run_physical_suite(out: str | os.PathLike[str], *, version: str = PHYSICAL_L
             runs[str(seed)] = _assemble(chosen, every, int(seed), runs_scale, units, store)
         doc = _document(version, chosen, every, seeds, runs_scale, runs)
         wall = time.perf_counter() - t0
-        _write(folder, doc, wall, jobs)
+        cpu = sum(_cpu(store, u) for seed in seeds
+                  for u in plan_units(chosen, every, int(seed), runs_scale))
+        _write(folder, doc, wall, jobs, cpu)
         shutil.rmtree(store, ignore_errors=True)
         return doc
     finally:
@@ -279,12 +291,12 @@ def _document(version: str, chosen: Sequence[PhysicalTrack], agents: Sequence[st
     return doc
 
 
-def _write(folder: Path, doc: dict[str, Any], wall: float, jobs: int) -> None:
+def _write(folder: Path, doc: dict[str, Any], wall: float, jobs: int, cpu: float) -> None:
     with atomic_writer(folder / "results.json") as f:
         json.dump(doc, f, indent=1, allow_nan=False)
     with atomic_writer(folder / "leaderboard.md") as f:
         f.write(leaderboard(doc))
     write_figures(doc, folder)
     with atomic_writer(folder / "suite_log.json") as f:
-        json.dump({"wall_time_s": wall, "jobs": jobs, "load_average": os.getloadavg()}, f,
-                  indent=1)
+        json.dump({"wall_time_s": wall, "jobs": jobs, "cpu_time_s": cpu,
+                   "load_average": os.getloadavg()}, f, indent=1)

@@ -6,9 +6,9 @@ envs' v1 (``*PandaContinuous-v1``: the reward pays for placing the object at the
 goal; docs/physics.md). Version 1 (:data:`TRACKS_P1`): one track per scenario and test group
 (``nominal`` adults, ``weak``, ``hesitant``, ``heldout`` body-size extremes absent from
 train), 32 humans each, every track a headline track (each weighs the same; together they
-partition the test humans). Each human is met :attr:`PhysicalTrack.blocks` times (runs),
-each run :attr:`PhysicalTrack.episodes` episodes with random starts and goals; an agent is
-made once per run and may learn across the run's episodes.
+partition the test humans). Each human is met :attr:`PhysicalTrack.blocks` times (runs; once
+in version 1), each run :attr:`PhysicalTrack.episodes` episodes with random starts and
+goals; an agent is made once per run and may learn across the run's episodes.
 
 Per run the **score** is the mean over its episodes of the v1 return (placing at the goal
 +10, any other end -5, the human's effort -0.02 per N s, the work against the object's
@@ -86,7 +86,7 @@ def _tracks_p1() -> dict[str, PhysicalTrack]:
     for sc in _SCENARIOS:
         for group, text in _GROUPS.items():
             name = f"{sc}-{group}"
-            out[name] = PhysicalTrack(name, sc, f"test-{group}", text, humans=32, blocks=2,
+            out[name] = PhysicalTrack(name, sc, f"test-{group}", text, humans=32, blocks=1,
                                       episodes=2)
     return out
 
