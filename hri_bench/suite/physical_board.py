@@ -124,6 +124,25 @@ def leaderboard(doc: Mapping[str, Any]) -> str:
     return "\n".join([*lines, ""])
 
 
+#: Colour-blind-safe colours (Okabe & Ito) and markers for the robots, in headline order; the
+#: references keep theirs.
+_COLORS = ("#0072B2", "#E69F00", "#009E73", "#CC79A7", "#56B4E9", "#D55E00", "#F0E442")
+_MARKERS = ("o", "s", "^", "D", "v", "P", "X")
+_REFERENCES = {REFERENCE: ("#000000", "*"), FLOOR: ("#999999", "o")}
+
+
+def _styles(agents: list[str]) -> dict[str, tuple[str, str]]:
+    """Each agent's (colour, marker): no two robots of a figure share both."""
+    out, i = {}, 0
+    for a in agents:
+        if a in _REFERENCES:
+            out[a] = _REFERENCES[a]
+        else:
+            out[a] = (_COLORS[i % len(_COLORS)], _MARKERS[i % len(_MARKERS)])
+            i += 1
+    return out
+
+
 def write_figures(doc: Mapping[str, Any], folder: Path) -> list[Path]:
     """``ranking.png`` (the headline with its CIs, each track as dots) and
     ``goal_effort.png`` (per scenario, each robot's goal rate against the human's effort).
@@ -134,14 +153,15 @@ def write_figures(doc: Mapping[str, Any], folder: Path) -> list[Path]:
     if head is None:
         return []
     order = head["order"][::-1]
+    style = _styles([*head["order"], REFERENCE])
     fig, ax = plots.new_figure(figsize=(6.4, 0.45 * max(len(order), 4) + 1.2))
     for y, a in enumerate(order):
         e = head["agents"][a]
-        color = plots.agent_style(a)[0]
+        color, marker = style[a]
         lo, hi = e["ci95"]
         ax.errorbar([e["mean"]], [y], xerr=[[max(e["mean"] - lo, 0.0)],
                                             [max(hi - e["mean"], 0.0)]],
-                    fmt="o", color=color, capsize=3)
+                    fmt=marker, color=color, capsize=3)
         per = [e["per_track"][t]["mean"] for t in head["tracks"]]
         ax.scatter(per, [y + 0.22] * len(per), s=9, color=color, alpha=0.6, linewidths=0)
     ax.set_yticks(range(len(order)), list(order))
@@ -164,7 +184,9 @@ def write_figures(doc: Mapping[str, Any], folder: Path) -> list[Path]:
                 if s["effort"]["mean"] is not None:
                     xs.append(s["effort"]["mean"])
                     ys.append(s["placed_goal"]["mean"])
-            ax.scatter(xs, ys, label=a, color=plots.agent_style(a)[0], s=18)
+            ax.scatter(xs, ys, label=a, color=style[a][0], marker=style[a][1], s=28,
+                       alpha=0.85)
+        ax.set_ylim(-0.03, 1.05)
         ax.set_xlabel("human's effort per episode [N s] (lower is better)")
         ax.set_ylabel("goal rate (placed at the human's goal)")
         ax.set_title(f"{sc}: one dot per track", fontsize=9)
