@@ -35,6 +35,7 @@ from pathlib import Path
 import pytest
 
 from hri_bench.cli import build_parser
+from hri_bench.cli.physical import build_physical_parser, wants_physical
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ("README.md", *(f"docs/{p.name}" for p in sorted((ROOT / "docs").glob("*.md"))))
@@ -127,6 +128,9 @@ def parses(command: str, *, replace: tuple[tuple[str, str], ...] = ()) -> None:
     while "=" in words[0]:  # VAR=value before the program
         words.pop(0)
     assert words[0] == ".venv/bin/hri-bench", command
+    if wants_physical(words[1:]):  # the physical suite has a parser of its own
+        build_physical_parser().parse_args(words[2:])
+        return
     build_parser().parse_args(words[1:])
 
 
@@ -339,6 +343,22 @@ PLAN: dict[str, Plan] = {
         "upper,passive --scenarios wheel --max-steps 6 --size 160x120 --out out/videos",
         "6 steps of the wheel, small pictures, into the workspace (the page's command "
         "rewrites the committed GIFs in 4 min)"),
+    # docs/physical-benchmark.md
+    ".venv/bin/hri-bench suite --physical --out out/physical --jobs 2": Scaled(
+        ".venv/bin/hri-bench suite --physical --out out/physical --runs-scale 0.01 --tracks "
+        "hanger-nominal --agents admittance", "one track, 2 runs, one robot, one process"),
+    ".venv/bin/hri-bench suite --physical --out out/physical-smoke --runs-scale 0.03 --jobs 2":
+        Skip("every track of the physical suite (2 minutes of both cores); the command "
+             "above runs one of them", parses),
+    ".venv/bin/hri-bench suite --physical --out out/mine --agents mylab.robots:Mine,admittance":
+        Scaled(".venv/bin/hri-bench suite --physical --out out/mine --agents "
+               "tests.helpers_physical:OwnAdmittance --runs-scale 0.01 --tracks hanger-nominal",
+               "a robot of one's own from the tests (mylab is the reader's), one track"),
+    ".venv/bin/hri-bench validate out/physical/results.json": RUN,
+    ".venv/bin/hri-bench validate out/physical/results.json --replay 2": Scaled(
+        ".venv/bin/hri-bench validate out/physical/results.json --replay 1",
+        "one run per track and agent re-simulated"),
+    ".venv/bin/hri-bench leaderboard out/physical": RUN,
     # docs/rl.md
     ".venv/bin/pip install -c constraints.txt -e '.[ray]'": Skip(INSTALL, an_extra),
     ".venv/bin/python examples/train_maskable_ppo.py --timesteps 50000 --n-envs 16": Scaled(

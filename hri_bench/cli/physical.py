@@ -17,7 +17,7 @@ from typing import Any
 from hri_bench.cli.args import bounded, whole
 from hri_envs.errors import ConfigError
 
-__all__ = ["main", "wants_physical"]
+__all__ = ["build_physical_parser", "main", "wants_physical"]
 
 
 def wants_physical(argv: Sequence[str]) -> bool:
@@ -25,7 +25,8 @@ def wants_physical(argv: Sequence[str]) -> bool:
     return bool(argv) and argv[0] == "suite" and "--physical" in argv[1:]
 
 
-def _parser() -> argparse.ArgumentParser:
+def build_physical_parser() -> argparse.ArgumentParser:
+    """The parser of ``hri-bench suite --physical`` (its flags, apart from the graph suite's)."""
     from hri_bench.suite.physical_tracks import (  # noqa: PLC0415
         DEFAULT_AGENTS,
         PHYSICAL_LATEST,
@@ -86,7 +87,7 @@ def _progress(enabled: bool) -> Any:
 
 def main(argv: Sequence[str]) -> int:
     """Run ``hri-bench suite --physical ...`` (``argv`` without the program name)."""
-    args = _parser().parse_args(list(argv)[1:])
+    args = build_physical_parser().parse_args(list(argv)[1:])
     from hri_bench.suite.physical_running import run_physical_suite  # noqa: PLC0415
 
     agents = None if args.agents is None else [a.strip() for a in args.agents.split(",")
