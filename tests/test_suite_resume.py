@@ -176,6 +176,33 @@ def test_ctrl_c_in_process_is_the_resume_command_not_a_traceback(gate, tmp_path,
     _identical(out, reference)
 
 
+@pytest.mark.parametrize("killed", ["before the plan's removal", "after the plan's removal"])
+def test_a_kill_as_the_work_folder_is_removed_leaves_nothing_after_resume(
+        killed, gate, tmp_path, capsys, monkeypatch):
+    """Issue 43: a SIGKILL between writing suite_log.json and removing .suite/ left .suite/,
+    and --resume said "nothing to do" without removing it (the kill is simulated: finish()
+    stops where the kill came)."""
+    from hri_bench.suite import resume
+
+    opened, reference = gate
+    monkeypatch.setenv("HRI_TEST_GATE", str(opened))
+    out = tmp_path / "suite"
+
+    def killed_in_finish(store):
+        if killed == "after the plan's removal":
+            (store.state / resume.PLAN).unlink()
+
+    monkeypatch.setattr(resume.TrackStore, "finish", killed_in_finish)
+    assert main([*SUITE, "--out", str(out)]) == 0
+    assert (out / ".suite").is_dir() and (out / "suite_log.json").is_file()
+    monkeypatch.undo()
+    monkeypatch.setenv("HRI_TEST_GATE", str(opened))
+    capsys.readouterr()
+    assert main([*SUITE, "--out", str(out), "--resume"]) == 0
+    assert ("nothing to do" in capsys.readouterr().out) == (killed != "before the plan's removal")
+    _identical(out, reference)
+
+
 #: suite.json is written as results.json is; a unit's .npz as the study's (tests/
 #: test_study_faults.py, in the default run).
 @pytest.mark.parametrize("victim", ["results.json",
