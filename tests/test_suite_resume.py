@@ -252,7 +252,7 @@ def test_a_dead_worker_ends_the_suite_naming_the_track_and_resume_completes(gate
     monkeypatch.setenv(IN_PROCESS, "1")  # the agent ends the worker (tests/test_study_workers.py)
     args = ["suite", "--suite-version", "1", "--tracks", "hanger-paper,wheel-paper",
             "--runs-scale", "0.01", "--jobs", "2", "--no-progress", "--agents",
-            "passive,tests.helpers_faults:ExitsProcess"]
+            "passive,tests.helpers_faults:KillsItself"]
     out = tmp_path / "suite"
     closed = tmp_path / "closed"
     t = time.monotonic()
@@ -261,8 +261,8 @@ def test_a_dead_worker_ends_the_suite_naming_the_track_and_resume_completes(gate
     assert time.monotonic() - t < PROMPT
     err = err.strip()
     assert err.startswith("hri-bench: suite stopped: track hanger-paper, agent "
-                          "'tests.helpers_faults:ExitsProcess', run")
-    assert "exit status 3" in err and err.endswith("--resume") and "\n" not in err
+                          "'tests.helpers_faults:KillsItself', run")
+    assert "killed (SIGKILL" in err and err.endswith("--resume") and "\n" not in err
     opened = tmp_path / "open"
     opened.touch()
     monkeypatch.setenv("HRI_TEST_GATE", str(opened))
