@@ -176,6 +176,23 @@ def test_ctrl_c_in_process_is_the_resume_command_not_a_traceback(gate, tmp_path,
     _identical(out, reference)
 
 
+def test_the_librarys_resume_of_a_complete_suite_removes_what_a_kill_left(tmp_path):
+    """run_suite(resume=True) asks complete_suite first: a .suite/ left without its plan by
+    a kill after suite_log.json was written is removed there too (the CLI's path is
+    SuiteDir's, below); one that still holds its plan is a suite in progress, kept."""
+    from hri_bench.suite.resume import PLAN, STATE, SUITE_LOG, complete_suite
+
+    plan = {"version": "v3", "agents": ["passive"]}
+    (tmp_path / SUITE_LOG).write_text(json.dumps({"plan": plan}))
+    (tmp_path / "suite.json").write_text(json.dumps({"tracks": {}}))
+    (tmp_path / STATE / "units").mkdir(parents=True)
+    (tmp_path / STATE / PLAN).write_text(json.dumps(plan))
+    assert complete_suite(tmp_path, plan) is None and (tmp_path / STATE).is_dir()
+    (tmp_path / STATE / PLAN).unlink()  # killed after the plan's removal
+    assert complete_suite(tmp_path, plan) == {"tracks": {}}
+    assert not (tmp_path / STATE).exists()
+
+
 @pytest.mark.parametrize("killed", ["before the plan's removal", "after the plan's removal"])
 def test_a_kill_as_the_work_folder_is_removed_leaves_nothing_after_resume(
         killed, gate, tmp_path, capsys, monkeypatch):
