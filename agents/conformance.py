@@ -81,7 +81,13 @@ def check_agent(maker: AgentMaker, scenario: str = "hanger", *, episodes: int = 
 
     def play() -> list[int]:
         env = RobotEnv(scenario, **(env_kwargs or {}))
-        agent = _single(maker, env.graph)
+        try:
+            agent = _single(maker, env.graph)
+        except ConfigError:
+            raise
+        except Exception as exc:  # the agent's own constructor
+            raise ConfigError(f"the agent cannot be made: {type(exc).__name__}: {exc}",
+                              field="agent") from exc
         actions: list[int] = []
         for e in range(episodes):
             try:
@@ -99,7 +105,13 @@ def check_agent(maker: AgentMaker, scenario: str = "hanger", *, episodes: int = 
                                   f"in state {int(s[t])} of episode {e + 1}, where it is not "
                                   "valid (the observation's action_mask says which are)",
                                   field="action")
-            belief = read_belief(getattr(agent, "batch", agent), None)
+            try:
+                belief = read_belief(getattr(agent, "batch", agent), None)
+            except ConfigError:
+                raise
+            except Exception as exc:  # the agent's own belief()
+                raise ConfigError(f"the agent's belief() failed after episode {e + 1}: "
+                                  f"{type(exc).__name__}: {exc}", field="belief") from exc
             if belief is not None and np.asarray(belief).shape[-1] != env.graph.n_intentions:
                 raise ConfigError(f"the agent's belief has {np.asarray(belief).shape[-1]} "
                                   f"entries; the scenario has {env.graph.n_intentions} "

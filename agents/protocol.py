@@ -169,8 +169,14 @@ def read_belief(agent: Agent | BatchAgent, n_runs: int | None = None) -> np.ndar
     value = held() if callable(held) else None
     if value is None:
         return None
-    b = np.asarray(value, dtype=float)
     name = agent_name(agent)
+    try:
+        b = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):  # a str, a dict, a ragged list: not a vector of numbers
+        raise ConfigError(f"belief() of agent {name!r} returned {type(value).__name__} "
+                          f"{str(value)[:60]!r}; a belief is an array of numbers, a "
+                          f"probability vector over the supports per run",
+                          field="belief") from None
     if n_runs is not None and (b.ndim != 2 or b.shape[0] != n_runs):
         raise ConfigError(f"belief() of agent {name!r} returned shape {b.shape}; expected "
                           f"({n_runs}, K)", field="belief")

@@ -83,7 +83,8 @@ def check_out(out: Path, overwrite_shipped: bool) -> bool:
     """Refuse an ``--out`` this script must not write into; True for the shipped folder.
 
     Raises:
-        ConfigError: ``out`` is a file, the shipped checkpoints without
+        ConfigError: ``out`` is a file or cannot be created (a file on its path), the
+            shipped checkpoints without
             ``overwrite_shipped``, inside a package or ``docs/``, or a folder holding
             files this script did not write (``field="out"``).
     """
@@ -91,6 +92,10 @@ def check_out(out: Path, overwrite_shipped: bool) -> bool:
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out} is not a folder; give a folder for the checkpoint and its "
                           "curve", field="out")
+    above = next((p for p in out.absolute().parents if p.exists()), None)
+    if above is not None and not above.is_dir():  # checked now, not after the training
+        raise ConfigError(f"{out} cannot be created: {above} is not a folder; give a folder "
+                          "for the checkpoint and its curve", field="out")
     if where == SHIPPED:
         if not overwrite_shipped:
             raise ConfigError(f"{out} holds the package's shipped checkpoints; train into a "

@@ -27,7 +27,7 @@ from hri_envs.humans.scripted import preference_human
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.task import episode as rules
 from hri_envs.task.actions import WAIT
-from hri_envs.task.episode import EpisodeRules, RewardRule, StepTable, reward_rule
+from hri_envs.task.episode import RewardRule
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import SCENARIOS, ScenarioSpec, scenario_graph, scenario_spec
 
@@ -36,6 +36,11 @@ __all__ = ["check_human", "check_reward_rule", "check_scenario"]
 
 def _fail(what: str, field: str) -> ConfigError:
     return ConfigError(what, field=field)
+
+
+def _named(exc: BaseException) -> str:
+    """An exception as its class and message (a ConfigError's message alone)."""
+    return str(exc) if isinstance(exc, ConfigError) else f"{type(exc).__name__}: {exc}"
 
 
 def check_scenario(spec: ScenarioSpec | str, *, env: bool = True) -> str:
@@ -63,9 +68,10 @@ def check_scenario(spec: ScenarioSpec | str, *, env: bool = True) -> str:
     for preference in spec.preferences:
         try:
             human = preference_human(graph, preference)
-        except ConfigError as exc:
+        except Exception as exc:  # ConfigError, or what the scenario's route raised
             raise _fail(f"scenario {spec.name!r}: preference {preference!r} does not lead the "
-                        f"object anywhere a scripted human can follow ({exc})", "route") from exc
+                        f"object anywhere a scripted human can follow ({_named(exc)})",
+                        "route") from exc
         for start in range(graph.n_intentions):
             for goal in range(graph.n_intentions):
                 if goal != start and not _leads(graph, human, start, goal):
@@ -129,19 +135,31 @@ def check_human(human: HumanLike, scenario: str, *, episodes: int = 4, seed: int
     from hri_envs.envs.robot import RobotEnv
 
     graph = scenario_graph(scenario)
-    first = _play(RobotEnv(scenario, human=human), episodes, seed)
+    first = _play(_seated(lambda: RobotEnv(scenario, human=human), human), episodes, seed)
     from hri_envs.humans.spec import HumanSpec
 
     if isinstance(human, HumanSpec):  # a spec can be seated afresh: the same seed, the same
-        again = _play(RobotEnv(scenario, human=human), episodes, seed)
+        again = _play(_seated(lambda: RobotEnv(scenario, human=human), human), episodes, seed)
         if again != first:
             raise _fail(f"human {human!r}: two envs with seed {seed} saw different actions",
                         "human")
-        seat = seat_human(graph, human=human, n_runs=3)
+        seat = _seated(lambda: seat_human(graph, human=human, n_runs=3), human)
         if seat.n_runs != 3:
             raise _fail(f"human {human!r}: a seat of 3 rows has {seat.n_runs}", "human")
     return (f"human {human!r} on the {scenario}: {episodes} episodes with valid actions"
             + (", reproducible by seed" if isinstance(human, HumanSpec) else ""))
+
+
+def _seated(make: Any, human: Any) -> Any:
+    """``make()``: an env or seat of ``human``; what its family or model raises is a
+    ConfigError naming the human.
+    """
+    try:
+        return make()
+    except ConfigError:
+        raise
+    except Exception as exc:  # the family's builder or the human's own code
+        raise _fail(f"human {human!r} cannot be seated: {_named(exc)}", "human") from exc
 
 
 def _play(env: Any, episodes: int, seed: int) -> list[int]:
@@ -152,7 +170,11 @@ def _play(env: Any, episodes: int, seed: int) -> list[int]:
     rng = np.random.default_rng(seed)
     seen: list[int] = []
     for e in range(episodes):
-        obs, _ = env.reset(seed=seed + e)
+        try:
+            obs, _ = env.reset(seed=seed + e)
+        except Exception as exc:
+            raise _fail(f"the human failed at the reset of episode {e + 1}: {_named(exc)}",
+                        "human") from exc
         done = False
         while not done:
             mask = obs["action_mask"].astype(bool)
@@ -177,28 +199,10 @@ def check_reward_rule(rule: RewardRule | str, scenarios: tuple[str, ...] | None 
             [-1, 0], or differ between the env's fused table (:class:`StepTable`) and
             :func:`~hri_envs.task.episode.step_reward` (``field="reward"``).
     """
-    rule = reward_rule(rule)
+    rule = rules.reward_rule(rule) if isinstance(rule, str) else rule
+    if not isinstance(rule, RewardRule):
+        raise _fail(f"check_reward_rule takes a RewardRule or a registered rule's name, got "
+                    f"{rule!r}", "reward")
     for name in scenarios or tuple(SCENARIOS):
-        graph = scenario_graph(name)
-        n_s, n_a, n_k = graph.n_states, graph.n_actions, graph.n_intentions
-        s = np.arange(n_s)[:, None, None, None, None]
-        a_r = np.arange(n_a)[None, :, None, None, None]
-        a_h = np.arange(n_a)[None, None, :, None, None]
-        start = np.arange(n_k)[None, None, None, :, None]
-        lifted = np.array([False, True])[None, None, None, None, :]
-        s_next = graph.next_state[s, a_r, a_h]
-        shape = (n_s, n_a, n_a, n_k, 2)
-        direct = np.broadcast_to(rules.step_reward(graph, s, a_r, a_h, s_next, -0.3,
-                                                   reward=rule, start=start, lifted=lifted),
-                                 shape)
-        if not np.all(np.isfinite(direct)) or direct.min() < -1.0 or direct.max() > 0.0:
-            raise _fail(f"reward rule {rule.name!r} on the {name}: rewards must be finite "
-                        f"and in [-1, 0], got [{direct.min()}, {direct.max()}]", "reward")
-        table = StepTable(EpisodeRules(graph, -0.3, rule))
-        keys = table.key(np.arange(n_s)[:, None, None, None, None], start, lifted)
-        fused = table.reward[keys + (a_r * n_a + a_h)]
-        if not np.array_equal(np.broadcast_to(fused, shape), direct):
-            raise _fail(f"reward rule {rule.name!r} on the {name}: the envs' fused table and "
-                        "step_reward differ (the rule must depend on the step and its "
-                        "context only)", "reward")
+        rules.verify_reward_rule(rule, name)
     return f"reward rule {rule.name!r}: rewards in [-1, 0], the same on every path"

@@ -116,3 +116,147 @@ def test_a_scenario_whose_routes_do_not_lead_to_the_goal_fails():
     with pytest.raises(ConfigError, match="does not lead the object") as err:
         check_scenario(stuck, env=False)
     assert err.value.field == "route"
+
+
+# ------------------------------------------------------------------ issue 43: the third fault round
+def _nan(step):
+    return np.full(np.shape(step.paper), np.nan)
+
+
+@pytest.mark.parametrize(("charge", "text"), [
+    (_nan, r"rewards must be finite and in \[-1, 0\], got \[nan, nan\]"),
+    (lambda step: step.paper + 5.0, r"rewards must be finite and in \[-1, 0\], got \[4.0, 5.0\]"),
+    (lambda step: 1 / 0, r"charge\(\) raised ZeroDivisionError: division by zero"),
+    (lambda step: np.zeros(7), r"charge\(\) returned rewards of shape \(7,\); they must "
+                               r"broadcast with the step's arrays"),
+    (lambda step: step.s + step.missing, r"charge\(\) raised AttributeError"),
+    (lambda step: "cheap", r"charge\(\) raised ValueError"),
+])
+def test_a_reward_rule_that_breaks_the_contract_is_refused_where_it_enters(charge, text):
+    """register_reward_rule promised a ConfigError and gave none: RobotEnv(reward=rule) then
+    returned nan rewards and a study's mean was nan. Every door (registration, an env given
+    the rule object, the conformance check) now refuses it, naming the field."""
+    from hri_envs.envs.robot import RobotEnv
+    from hri_envs.task.episode import register_reward_rule
+
+    rule = RewardRule("broken-rule", "breaks the contract", charge)
+    for door in (lambda: register_reward_rule(rule), lambda: RobotEnv(reward=rule),
+                 lambda: check_reward_rule(rule)):
+        with pytest.raises(ConfigError, match=text) as err:
+            door()
+        assert err.value.field == "reward"
+    assert "broken-rule" not in REWARD_RULES
+
+
+def test_a_good_reward_rule_object_works_unregistered():
+    from hri_envs.envs.robot import RobotEnv
+
+    rule = RewardRule("halved", "half the paper's", lambda step: step.paper / 2)
+    env = RobotEnv(reward=rule)
+    env.reset(seed=0)
+    assert np.isfinite(env.step(0)[1])
+
+
+def _box(**changes):
+    import dataclasses
+
+    from tests import scenario_box
+
+    return dataclasses.replace(scenario_box.SPEC, **{"name": "box-faulty", **changes})
+
+
+def _nan_support():
+    import dataclasses
+
+    from tests import scenario_box
+
+    geometry = scenario_box.geometry()
+    supports = list(geometry.supports)
+    supports[1] = dataclasses.replace(supports[1], position=np.array([np.nan, 0.1, 1.1]))
+    return dataclasses.replace(geometry, supports=tuple(supports))
+
+
+@pytest.mark.parametrize(("changes", "field", "text"), [
+    ({"r0": float("nan")}, "r0", r"r0 must be a number in the open interval \(-1, 0\), got nan"),
+    ({"r0": 5.0}, "r0", r"r0 must be a number in the open interval \(-1, 0\), got 5.0"),
+    ({"gamma": 1.5}, "gamma", r"gamma must be a number in \[0, 1\), got 1.5"),
+    ({"gamma": "0.9"}, "gamma", r"gamma must be a number in \[0, 1\)"),
+    ({"episodes": 0}, "episodes", r"episodes must be a whole number >= 1, got 0"),
+    ({"episodes": 2.5}, "episodes", r"episodes must be a whole number >= 1"),
+    ({"name": ""}, "name", r"a scenario's name must be letters, digits, '-' and '_'"),
+    ({"name": "a/b"}, "name", r"a scenario's name must be .*, got 'a/b'"),
+    ({"name": 3}, "name", r"a scenario's name must be"),
+    ({"preferences": ()}, "preferences", r"preferences must be a tuple of one or more names"),
+    ({"geometry": _nan_support}, "geometry",
+     r"support 'B''s position must be 3 finite numbers \[m\]"),
+])
+def test_a_scenario_spec_with_a_bad_field_is_refused_naming_it(changes, field, text):
+    """register_scenario and check_scenario accepted r0 NaN or +5, gamma 1.5, episodes 0,
+    a support at NaN and names '' and 'a/b'."""
+    from hri_envs.task.scenarios import register_scenario
+
+    spec = _box(**changes)
+    for door in (lambda: register_scenario(spec), lambda: check_scenario(spec, env=False)):
+        with pytest.raises(ConfigError, match=text) as err:
+            door()
+        assert err.value.field == field
+    assert spec.name not in SCENARIOS
+
+
+def test_a_scenarios_route_that_raises_is_named():
+    def route(scenario, preference, start, goal):
+        raise KeyError(preference)
+
+    with pytest.raises(ConfigError, match=r"scenario 'box-faulty': preference 'over-first' "
+                                          r"does not lead.*\(KeyError: 'over-first'\)") as err:
+        check_scenario(_box(route=route), env=False)
+    assert err.value.field == "route"
+
+
+def test_a_family_that_raises_is_named():
+    from hri_envs.humans.families import Family, register_family
+
+    def broken(graph, *, k: int = 1):
+        raise RuntimeError("the family's own bug")
+
+    register_family(Family("broken-family", "misspecified", broken, "raises"))
+    try:
+        with pytest.raises(ConfigError, match=r"cannot be seated: RuntimeError: the family's "
+                                              r"own bug") as err:
+            check_human(HumanSpec(population="broken-family"), "hanger")
+        assert err.value.field == "human"
+    finally:
+        FAMILIES.pop("broken-family")
+
+
+class _WordBelief(Passive):
+    def belief(self):
+        return np.array([["A", "B", "C"]])
+
+
+class _DictBelief(Passive):
+    def belief(self):
+        return {"A": 1.0}
+
+
+class _RaisingBelief(Passive):
+    def belief(self):
+        raise LookupError("no belief yet")
+
+
+class _FailsToBuild(Passive):
+    def __init__(self, graph, n_runs):
+        raise OSError("weights missing")
+
+
+@pytest.mark.parametrize(("agent", "field", "text"), [
+    (_WordBelief, "belief", r"belief\(\) of agent '.*' returned ndarray .*; a belief is an "
+                            r"array of numbers"),
+    (_DictBelief, "belief", r"belief\(\) of agent '.*' returned dict"),
+    (_RaisingBelief, "belief", r"belief\(\) failed after episode 1: LookupError: no belief yet"),
+    (_FailsToBuild, "agent", r"the agent cannot be made: OSError: weights missing"),
+])
+def test_an_agent_that_breaks_the_protocol_is_named(agent, field, text):
+    with pytest.raises(ConfigError, match=text) as err:
+        check_agent(agent, episodes=1)
+    assert err.value.field == field

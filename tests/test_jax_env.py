@@ -542,3 +542,30 @@ def test_checked_inputs_step_as_before(hanger_env):
             np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
     one = env.step(jax.random.key(3), state, np.int64(4), params)
     assert int(one[1].steps) in (0, 1)
+
+
+@pytest.mark.parametrize("index", [2**28, 2**28 + 5, -1, 1.5, True, np.array([0, 2**28]),
+                                   2**70])
+def test_an_env_index_that_would_wrap_to_another_envs_numbers_is_refused(hanger_env, index):
+    """Issue 43: index 2**28 drew env 0's numbers (16 index + stream wraps in 32 bits)."""
+    from hri_envs.jax.env import uniform
+
+    env, params, _, _ = hanger_env
+    key = jax.random.key(0)
+    seed = jax.random.bits(key, (2,), jnp.uint32)
+    for draw in (lambda: env.draws(key, params, index), lambda: uniform(seed, index, 1)):
+        with pytest.raises(ConfigError, match=r"an env's index must be a whole number in "
+                                              r"0\.\.268,435,455") as exc:
+            draw()
+        assert exc.value.field == "index"
+
+
+def test_the_last_index_of_the_largest_batch_draws_its_own_numbers(hanger_env):
+    from hri_envs.jax.env import MAX_BATCH, uniform
+
+    env, params, _, _ = hanger_env
+    seed = jax.random.bits(jax.random.key(0), (2,), jnp.uint32)
+    last = jnp.arange(MAX_BATCH - 2, MAX_BATCH, dtype=jnp.uint32)
+    assert len({float(uniform(seed, i, s)) for i in (0, *last.tolist()) for s in (0, 15)}) == 6
+    jitted = jax.jit(lambda i: uniform(seed, i, 0))(jnp.uint32(3))  # traced: not checked
+    assert float(jitted) == float(uniform(seed, 3, 0))

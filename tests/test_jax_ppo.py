@@ -298,6 +298,14 @@ def test_train_script_refuses_a_folder_it_did_not_write(tmp_path, capsys):
     assert (out / "notes.txt").read_text() == "keep me"
     (tmp_path / "file").write_text("x")
     assert run(["--out", str(tmp_path / "file")]) == 2
+    capsys.readouterr()
+    # Issue 43: a file on the path was a raw [Errno 20], after the whole training.
+    for out in (tmp_path / "file" / "x", tmp_path / "file" / "x" / "y"):
+        assert run(["--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err == (f"train_jax_ppo.py: error: argument --out: {out} cannot be created: "
+                       f"{tmp_path / 'file'} is not a folder; give a folder for the checkpoint "
+                       "and its curve\n")
 
 
 def test_train_script_writes_its_folder_and_may_write_it_again(trained, tmp_path, capsys):

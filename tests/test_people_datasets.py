@@ -251,6 +251,10 @@ DAMAGES = {
         [1] * len(m) for m in c]), "action_mask is not state"),
     "NaN reward": (lambda d, ep: _rewrite(ep, "robot_reward", edit=lambda c: [
         float("nan")] * len(c)), "robot_reward is nan"),
+    "a human reward of 1e308": (lambda d, ep: _rewrite(ep, "human_reward", edit=lambda c: [
+        1e308] + c[1:]), "step 0: human_reward is 1e+308; the goal reward is -1, 0 or +1"),
+    "a robot reward of +5": (lambda d, ep: _rewrite(ep, "robot_reward", edit=lambda c: c[:2] + [
+        5.0] + c[3:]), "step 2: robot_reward is 5.0; every reward rule's rewards are in [-1, 0]"),
     "short belief": (lambda d, ep: _rewrite(ep, "belief", edit=lambda c: [[0.5]] * len(c)),
                      "belief has 1 entries, not 3"),
     "odd layout": (lambda d, ep: _rewrite(ep, "layout", edit=lambda c: [[1.0]] * len(c)),
@@ -394,6 +398,25 @@ def test_replay_names_a_session_without_the_env_settings(recorded, tmp_path):
         with pytest.raises(ConfigError, match="s0001/session.json") as err:
             replay(dataset, ["s0001"])
         assert err.value.field == "dataset"
+
+
+def test_replay_of_every_session_refuses_one_without_session_json(recorded, tmp_path, capsys):
+    """Issue 43: replay replayed the other sessions and exited 0 while 'dataset show'
+    refused the dataset; both refuse it now, naming the folder (a session asked for by
+    name still replays)."""
+    from hri_bench.cli import main
+
+    dataset = _copy(recorded, tmp_path)
+    (dataset.path / "sessions" / "s0002" / "session.json").unlink()
+    with pytest.raises(ConfigError, match="s0002: episode files without a session.json") as err:
+        replay(dataset)
+    assert err.value.field == "dataset"
+    for argv in (["replay", "synthetic-hanger"], ["dataset", "show", "synthetic-hanger"]):
+        with pytest.raises(SystemExit) as exit_:
+            main([*argv, "--data", str(tmp_path)])
+        assert exit_.value.code == 2, argv
+        assert "s0002: episode files without a session.json" in capsys.readouterr().err
+    assert all(r.agrees for r in replay(dataset, ["s0001"]))
 
 
 def test_uniform_accuracy_is_that_of_a_uniform_choice(recorded):

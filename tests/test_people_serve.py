@@ -171,9 +171,8 @@ def test_bad_and_forged_messages_get_an_error_and_change_nothing(tmp_path):
     steps = dataset.steps(participants=[done["participant"]])
     assert steps.column("human_action").to_pylist()[0] == 1  # the first valid answer
     assert steps.num_rows == done["outcomes"][0]["steps"]
-    # the other participant's session never moved
-    other_dir = [p for p in dataset.participants() if p != done["participant"]]
-    assert len(other_dir) == 1 and not dataset.episode_paths(other_dir)
+    # the other participant's session never moved: never played, it left no folder
+    assert dataset.participants() == [done["participant"]]
 
 
 @pytest.mark.parametrize("first, code", [
@@ -281,8 +280,10 @@ class HangsInAct(AlwaysWait):
     """Never returns from its first decision (until the test releases it)."""
 
     release = threading.Event()
+    entered = threading.Event()
 
     def act(self, observation):
+        HangsInAct.entered.set()
         HangsInAct.release.wait(60)
         return 0
 
@@ -422,29 +423,168 @@ def test_a_session_that_cannot_be_recorded_is_refused_with_json(tmp_path, monkey
         assert r.status_code == 503 and r.json()["field"] == "sessions", r.text
         monkeypatch.undo()
         _join(client)
-    (meta,) = open_dataset("hanger-people-v0", tmp_path).sessions()
-    assert meta["session_index"] == 0  # the design's row was not used up
+        (meta,) = open_dataset("hanger-people-v0", tmp_path).sessions()
+        assert meta["session_index"] == 0  # the design's row was not used up
 
 
 def test_the_server_is_full_at_max_sessions_and_stops_them_on_shutdown(tmp_path):
     cfg, client = _client(tmp_path, max_sessions=1)
     with client:
-        _join(client)
+        token = _join(client)
         r = _post(client, {"consent": True})
         assert r.status_code == 503 and "full" in r.json()["error"]
+        with client.websocket_connect("/ws") as ws:  # played: recorded when stopped
+            _answer(ws, _hello(ws, token))
+            assert _next_view(ws)["step"] == 2
     assert [s["status"] for s in open_dataset(cfg.dataset_id, tmp_path).sessions()] == [
         "stopped"]
 
 
-def test_an_idle_session_is_abandoned(tmp_path):
-    cfg, client = _client(tmp_path, idle_timeout_s=1.0)
+def test_an_idle_session_is_abandoned(tmp_path, clock):
+    cfg, client = _client(tmp_path, idle_timeout_s=60.0)
     with client:
         token = _join(client)
         with client.websocket_connect("/ws") as ws:
-            assert _hello(ws, token)["type"] == "frame"
+            _answer(ws, _hello(ws, token))
+            assert _next_view(ws)["step"] == 2
+            clock.advance(60.5)
             ended = _next_view(ws)
     assert ended["type"] == "ended" and ended["reason"] == "abandoned"
     assert open_dataset(cfg.dataset_id, tmp_path).sessions()[0]["status"] == "abandoned"
+
+
+class FakeClock:
+    """The clock of the sessions' and the robot calls' time limits, moved by the test only
+    (time stands still otherwise: no limit is reached by a slow machine)."""
+
+    def __init__(self):
+        self.now = 1000.0
+
+    def __call__(self):
+        return self.now
+
+    def advance(self, seconds):
+        self.now += seconds
+
+
+@pytest.fixture
+def clock(monkeypatch):
+    from hri_bench.people.serve import robot as robot_module
+    from hri_bench.people.serve import session as session_module
+
+    fake = FakeClock()
+    monkeypatch.setattr(session_module, "_clock", fake)
+    monkeypatch.setattr(robot_module, "_clock", fake)
+    return fake
+
+
+def _until(condition, timeout=30.0):
+    """Whether ``condition()`` holds within ``timeout`` seconds (a bound, not a margin)."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.02)
+    return True
+
+
+def test_a_hung_robot_is_shown_on_the_page_and_the_idle_timeout_ends_it(
+        tmp_path, clock, monkeypatch):
+    """A robot that hung left the page on "Preparing the robot..." and, with an
+    --agent-timeout above --idle-timeout, ran past the idle timeout. Now the page says the
+    robot is thinking after 3 s, and the session ends (failed, named) at the idle timeout."""
+    from hri_bench.people.serve.robot import SLOW_S
+
+    monkeypatch.setenv(IN_PROCESS, "1")  # the agent in this process: the test releases it
+    HangsInAct.release.clear()
+    HangsInAct.entered.clear()
+    cfg, client = _client(tmp_path, agent="tests.test_people_serve:HangsInAct",
+                          agent_timeout_s=3600.0, idle_timeout_s=600.0, episodes=1)
+    try:
+        with client:
+            token = _join(client)
+            session = client.app.state.sessions.get(token)
+            with client.websocket_connect("/ws") as ws:
+                ws.send_text(json.dumps({"type": "hello", "session": token}))
+                assert HangsInAct.entered.wait(30)
+                clock.advance(SLOW_S)
+                assert _until(lambda: "thinking" in session.view()[1])
+                while "message" not in (m := json.loads(ws.receive_text())):
+                    assert m["type"] == "wait", m
+                assert m["message"] == "The robot is thinking (act)...", m
+                clock.advance(600.0 - SLOW_S - 1.0)
+                assert not session.finished.wait(0.5)  # not before the idle timeout
+                clock.advance(1.0)
+                assert session.finished.wait(30)
+                m = json.loads(ws.receive_text())
+            assert m["type"] == "ended" and m["reason"] == "failed", m
+            assert "did not answer in time (act() took over 600 s)" in m["error"], m
+        (meta,) = open_dataset(cfg.dataset_id, tmp_path).sessions()
+        assert meta["status"] == "failed" and "(--idle-timeout)" in meta["error"], meta
+    finally:
+        HangsInAct.release.set()
+
+
+def test_joins_nobody_plays_do_not_keep_the_study_full(tmp_path, clock):
+    """A local client that read the page's token could join up to --max-sessions and hold
+    them until the idle timeout (30 min). Now a session nobody has played is closed once no
+    page has been connected to it for CLAIM_TIMEOUT_S; a page that is connected keeps it."""
+    from hri_bench.people.serve.session import CLAIM_TIMEOUT_S
+
+    cfg, client = _client(tmp_path, max_sessions=3)
+    with client:
+        manager = client.app.state.sessions
+        never, left, watched = _join(client), _join(client), _join(client)
+        with client.websocket_connect("/ws") as ws:  # says hello, then leaves
+            assert _hello(ws, left)["type"] == "frame"
+        assert _until(lambda: manager.get(left)._owner is None)
+        assert _post(client, {"consent": True}).status_code == 503
+        with client.websocket_connect("/ws") as ws:
+            first = _hello(ws, watched)  # the page shows the first step, unanswered
+            clock.advance(CLAIM_TIMEOUT_S - 1)
+            assert not manager.get(never).finished.wait(0.5)
+            clock.advance(2)
+            assert manager.get(never).finished.wait(30) and manager.get(left).finished.wait(30)
+            assert manager.running() == 1 and _join(client)  # room again
+            _answer(ws, first)  # the watched session plays on
+            assert _next_view(ws)["step"] == 2
+        played = manager.get(watched).participant
+    assert [s["participant"] for s in open_dataset(cfg.dataset_id, tmp_path).sessions()
+            ] == [played]
+
+
+def test_joins_never_played_leave_no_folder_and_give_their_place_on(tmp_path, clock):
+    """Every join that was never played left a session folder (300 joins, 300 folders).
+    Now such a session, closed without its page, stopped or abandoned before its first
+    answer, leaves nothing, and its row of the design goes to the next participant, also
+    after a restart."""
+    from hri_bench.people.serve.session import CLAIM_TIMEOUT_S
+
+    cfg, client = _client(tmp_path, episodes=1)
+    with client:
+        manager = client.app.state.sessions
+        tokens = [_join(client) for _ in range(6)]
+        dataset = open_dataset(cfg.dataset_id, tmp_path)
+        assert len(dataset.session_dirs()) == 6  # recorded while they run
+        clock.advance(CLAIM_TIMEOUT_S + 1)
+        assert all(manager.get(t).finished.wait(30) for t in tokens)
+        assert dataset.session_dirs() == [] and manager.running() == 0
+        token = _join(client)
+        with client.websocket_connect("/ws") as ws:
+            assert _play(ws, _hello(ws, token))["type"] == "done"
+        _join(client)  # stopped at shutdown, unplayed: nothing left
+    (meta,) = dataset.sessions()
+    assert meta["status"] == "complete" and meta["session_index"] == 0
+
+    # a server started again numbers on from the sessions on disk, filling the gaps
+    from hri_bench.data.datasets import SessionWriter
+
+    SessionWriter(dataset, "p0123456789ab", {"session_index": 3}).finish("complete")
+    cfg, client = _client(tmp_path)
+    with client:
+        indices = [client.app.state.sessions.get(_join(client)).design.index
+                   for _ in range(4)]
+    assert indices == [1, 2, 4, 5]
 
 
 def test_ended_sessions_are_freed_and_a_reload_still_shows_the_end(tmp_path):
@@ -704,7 +844,7 @@ def test_only_the_served_page_can_join(tmp_path, change, status, field):
         assert r.status_code == status and r.json()["field"] == field, r.text
         assert r.json()["error"]
         _join(client)  # the study was not filled: the page's own request still gets in
-    assert len(open_dataset(cfg.dataset_id, tmp_path).session_dirs()) == 1
+        assert len(open_dataset(cfg.dataset_id, tmp_path).session_dirs()) == 1
 
 
 def test_every_route_answers_only_to_this_servers_host(tmp_path):

@@ -435,3 +435,32 @@ def test_a_study_replay_reads_its_config_once_within_the_limit(tmp_path, capsys,
                  str(tmp_path / "again")]) == 0
     assert f"warning: agent '{spec}': its source files' hash differs" in capsys.readouterr().err
     assert opened == ["rb"]
+
+
+def _renamed(value, old, new):
+    """``value`` (a JSON document) with every key ``old`` renamed ``new``."""
+    if isinstance(value, dict):
+        return {(new if k == old else k): _renamed(v, old, new) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_renamed(v, old, new) for v in value]
+    return value
+
+
+@pytest.mark.parametrize("name", ["pass|ive", "pass\nive", "<b>passive</b>", "`passive`",
+                                  " passive", "pa\x00ss"])
+def test_agent_names_a_leaderboard_cannot_show_are_refused(suite_dir, tmp_path, name, capsys):
+    """Issue 43: validate accepted names holding |, line breaks or HTML (consistent files:
+    the statistics match); the suite's own --agents refuses them too."""
+    doc = _renamed(submission.load(suite_dir / "results.json"), "passive", name)
+    problems = submission.validate(doc)
+    assert problems and problems[0].startswith("agents: agent name ")
+    assert any(p.startswith("runs.0.hanger-paper.agents: agent name ") for p in problems)
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps(doc))
+    assert main(["validate", str(path)]) == 1
+    assert "INVALID" in capsys.readouterr().err
+    from hri_bench.run.agents import validate_agent_name
+
+    with pytest.raises(ConfigError, match="agent name") as err:
+        validate_agent_name(name)
+    assert err.value.field == "agents"

@@ -384,6 +384,76 @@ def test_an_agent_calling_sys_exit_fails_alone(jobs, tmp_path, capsys):
         run_study(StudyConfig("wheel", agents=(bad,), runs=2, episodes=1))
 
 
+#: Agents that end their process or raise KeyboardInterrupt themselves (tests/helpers_faults.py)
+#: while the gate is closed.
+ENDERS = ("tests.helpers_faults:ExitsProcess", "tests.helpers_faults:RaisesKeyboardInterrupt")
+ONE_RULE = ["study", "wheel", "--runs", "2", "--episodes", "2", "--no-progress", "--agents",
+            ",".join(("passive", *ENDERS))]
+
+
+@pytest.fixture(scope="module")
+def one_rule_reference(tmp_path_factory):
+    """The study with the gate open: every agent runs."""
+    root = tmp_path_factory.mktemp("one-rule")
+    gate = root / "open"
+    gate.touch()
+    out = root / "reference"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("HRI_TEST_GATE", str(gate))
+        assert main([*ONE_RULE, "--out", str(out)]) == 0
+    return gate, out
+
+
+@pytest.mark.parametrize("isolated", [True, False], ids=["own-process", "in-process"])
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_an_agent_that_ends_its_process_or_raises_ctrl_c_is_left_out_like_one_that_raises(
+        jobs, isolated, one_rule_reference, tmp_path, monkeypatch):
+    """Issue 43: in the benchmark's process at --jobs 1, os._exit(3) ended hri-bench with
+    exit 3 and nothing on stderr (on --resume too) and KeyboardInterrupt was taken for Ctrl-C
+    (exit 130); at --jobs 2 both stopped the study. One rule now (docs/benchmark.md): the
+    agent is left out, the others finish, exit 1; --resume runs only its units."""
+    gate, reference = one_rule_reference
+    if not isolated:
+        monkeypatch.setenv("HRI_BENCH_IN_PROCESS_AGENTS", "1")
+    out = tmp_path / "study"
+    args = [*ONE_RULE, "--jobs", jobs, "--out", str(out)]
+    proc = start_cli(args, tmp_path / "closed")
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 1, err
+    assert f"agent(s) {', '.join(ENDERS)} raised; no results for them" in err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["failed_agents"] == list(ENDERS) and set(summary["agents"]) == {"passive"}
+    log = (out / "errors.log").read_text()
+    assert "os._exit(3)" in log or "exit status 3" in log
+    assert "KeyboardInterrupt: deliberate" in log
+    proc = start_cli([*args, "--resume"], gate)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err
+    for name in ("summary.json", "episodes.csv"):
+        assert (out / name).read_bytes() == (reference / name).read_bytes(), name
+
+
+def test_a_stop_of_the_study_is_not_taken_for_an_agents_ctrl_c(monkeypatch):
+    """The study's own SIGINT (StudyStopped, from stop_on_signals) stops it; a plain
+    KeyboardInterrupt where Python's default handler runs (a library caller's Ctrl-C)
+    too."""
+    from hri_bench.run import study
+    from hri_bench.run.studyio import stop_on_signals
+
+    unit = study._units(StudyConfig("wheel", agents=("passive",), runs=1, episodes=1))[0]
+    for raised in (study.StudyStopped("signal 2"), KeyboardInterrupt()):
+        def stop(_unit, raised=raised):
+            raise raised
+
+        monkeypatch.setattr(study, "_run_unit", stop)
+        with pytest.raises(KeyboardInterrupt):
+            study._run_unit_caught(unit)
+    with stop_on_signals():  # where the study handles SIGINT: a plain one is the agent's
+        failure = study._run_unit_caught(unit)
+    assert isinstance(failure, study.UnitFailure)
+    assert "agent 'passive' raised KeyboardInterrupt" in str(failure.error)
+
+
 def test_invalid_action_names_agent_run_and_step():
     cfg = StudyConfig("wheel", agents=("tests.helpers_agents:OutOfRange",), runs=2, episodes=1)
     with pytest.raises(ActionError, match=r"agent 'tests.helpers_agents:OutOfRange': act\(\) "

@@ -176,6 +176,50 @@ def test_ctrl_c_in_process_is_the_resume_command_not_a_traceback(gate, tmp_path,
     _identical(out, reference)
 
 
+def test_the_librarys_resume_of_a_complete_suite_removes_what_a_kill_left(tmp_path):
+    """run_suite(resume=True) asks complete_suite first: a .suite/ left without its plan by
+    a kill after suite_log.json was written is removed there too (the CLI's path is
+    SuiteDir's, below); one that still holds its plan is a suite in progress, kept."""
+    from hri_bench.suite.resume import PLAN, STATE, SUITE_LOG, complete_suite
+
+    plan = {"version": "v3", "agents": ["passive"]}
+    (tmp_path / SUITE_LOG).write_text(json.dumps({"plan": plan}))
+    (tmp_path / "suite.json").write_text(json.dumps({"tracks": {}}))
+    (tmp_path / STATE / "units").mkdir(parents=True)
+    (tmp_path / STATE / PLAN).write_text(json.dumps(plan))
+    assert complete_suite(tmp_path, plan) is None and (tmp_path / STATE).is_dir()
+    (tmp_path / STATE / PLAN).unlink()  # killed after the plan's removal
+    assert complete_suite(tmp_path, plan) == {"tracks": {}}
+    assert not (tmp_path / STATE).exists()
+
+
+@pytest.mark.parametrize("killed", ["before the plan's removal", "after the plan's removal"])
+def test_a_kill_as_the_work_folder_is_removed_leaves_nothing_after_resume(
+        killed, gate, tmp_path, capsys, monkeypatch):
+    """Issue 43: a SIGKILL between writing suite_log.json and removing .suite/ left .suite/,
+    and --resume said "nothing to do" without removing it (the kill is simulated: finish()
+    stops where the kill came)."""
+    from hri_bench.suite import resume
+
+    opened, reference = gate
+    monkeypatch.setenv("HRI_TEST_GATE", str(opened))
+    out = tmp_path / "suite"
+
+    def killed_in_finish(store):
+        if killed == "after the plan's removal":
+            (store.state / resume.PLAN).unlink()
+
+    monkeypatch.setattr(resume.TrackStore, "finish", killed_in_finish)
+    assert main([*SUITE, "--out", str(out)]) == 0
+    assert (out / ".suite").is_dir() and (out / "suite_log.json").is_file()
+    monkeypatch.undo()
+    monkeypatch.setenv("HRI_TEST_GATE", str(opened))
+    capsys.readouterr()
+    assert main([*SUITE, "--out", str(out), "--resume"]) == 0
+    assert ("nothing to do" in capsys.readouterr().out) == (killed != "before the plan's removal")
+    _identical(out, reference)
+
+
 #: suite.json is written as results.json is; a unit's .npz as the study's (tests/
 #: test_study_faults.py, in the default run).
 @pytest.mark.parametrize("victim", ["results.json",
@@ -225,7 +269,7 @@ def test_a_dead_worker_ends_the_suite_naming_the_track_and_resume_completes(gate
     monkeypatch.setenv(IN_PROCESS, "1")  # the agent ends the worker (tests/test_study_workers.py)
     args = ["suite", "--suite-version", "1", "--tracks", "hanger-paper,wheel-paper",
             "--runs-scale", "0.01", "--jobs", "2", "--no-progress", "--agents",
-            "passive,tests.helpers_faults:ExitsProcess"]
+            "passive,tests.helpers_faults:KillsItself"]
     out = tmp_path / "suite"
     closed = tmp_path / "closed"
     t = time.monotonic()
@@ -234,8 +278,8 @@ def test_a_dead_worker_ends_the_suite_naming_the_track_and_resume_completes(gate
     assert time.monotonic() - t < PROMPT
     err = err.strip()
     assert err.startswith("hri-bench: suite stopped: track hanger-paper, agent "
-                          "'tests.helpers_faults:ExitsProcess', run")
-    assert "exit status 3" in err and err.endswith("--resume") and "\n" not in err
+                          "'tests.helpers_faults:KillsItself', run")
+    assert "killed (SIGKILL" in err and err.endswith("--resume") and "\n" not in err
     opened = tmp_path / "open"
     opened.touch()
     monkeypatch.setenv("HRI_TEST_GATE", str(opened))

@@ -143,12 +143,14 @@ def _serve_parser(sub: Any) -> None:
                        help="sessions at once (default 50)")
     serve.add_argument("--idle-timeout", type=_real(lambda v: 1 <= v <= 604800,
                                                     "seconds in [1, 604800]"),
-                       default=1800.0, help="close a session idle this long (default 1800 s)")
+                       default=1800.0, help="close a session idle this long (default 1800 s; "
+                                            "one nobody has played after 30 s without its page)")
     serve.add_argument("--agent-timeout", type=_real(lambda v: 0.1 <= v <= 86400,
                                                      "seconds in [0.1, 86400]"),
                        default=60.0, help="end a session whose robot takes longer than this "
                                           "for one call (making it, a step, its learning "
-                                          "after an episode; default 60 s)")
+                                          "after an episode; default 60 s, and never "
+                                          "longer than --idle-timeout)")
     serve.set_defaults(command_parser=serve)
 
 

@@ -19,8 +19,9 @@ names the file, the step and what is wrong:
   graph's for the recorded state and actions, an action mask that is not the state's, the
   robot's ``last_human_action`` not the human's previous action, an episode end before
   the last step or none at it;
-* a reward or time that is not finite, a belief that is not a probability per intention,
-  a layout of an odd number of coordinates.
+* a reward or time that is not finite, a robot reward outside [-1, 0] (every reward
+  rule's range) or a human reward other than -1, 0 and +1 (the goal reward's), a belief
+  that is not a probability per intention, a layout of an odd number of coordinates.
 
 Whether the recorded rewards and episode ends are the env's is ``hri-bench replay``'s
 check (:mod:`hri_bench.data.replay`). This module imports nothing from the package but
@@ -215,6 +216,11 @@ def check_steps(table: Any, path: Path, graph: TaskGraph, *, participant: str,
         if not np.isfinite(x).all():
             t = int(np.flatnonzero(~np.isfinite(x))[0])
             raise _refuse(path, f"step {t}: {name} is {x[t]}, not a number")
+    r_r, r_h = col["robot_reward"].astype(float), col["human_reward"].astype(float)
+    first((r_r < -1.0) | (r_r > 0.0), lambda t: f"robot_reward is {r_r[t]}; every reward "
+          "rule's rewards are in [-1, 0]")
+    first(~np.isin(r_h, (-1.0, 0.0, 1.0)), lambda t: f"human_reward is {r_h[t]}; the goal "
+          "reward is -1, 0 or +1")
     ms = col["client_response_ms"].astype(float)  # nulls are NaN
     first(np.isinf(ms) | (ms < 0), lambda t: f"client_response_ms is {ms[t]}")
 

@@ -361,6 +361,20 @@ class Dataset:
         finally:
             os.close(fd)
 
+    def check_orphans(self) -> None:
+        """Refuse a session folder holding episode files but no ``session.json`` (its
+        settings and status are unknown: neither its steps nor the dataset's can be read as
+        a whole).
+
+        Raises:
+            ConfigError: Naming the first such folder (``field="dataset"``).
+        """
+        orphans = [d for d in self.session_dirs() if not (d / _SESSION_FILE).is_file()
+                   and self.episode_paths([d.name])]
+        if orphans:
+            raise ConfigError(f"{orphans[0]}: episode files without a session.json",
+                              field="dataset")
+
     def episode_paths(self, participants: Sequence[str] | None = None) -> list[Path]:
         """The episode files of ``participants`` (default all), by participant and episode."""
         dirs = self.session_dirs()
@@ -383,11 +397,7 @@ class Dataset:
         pa = _pa()
         if participants is None:
             participants = self.participants(unfinished=False)
-            orphans = [d for d in self.session_dirs() if not (d / _SESSION_FILE).is_file()
-                       and self.episode_paths([d.name])]
-            if orphans:
-                raise ConfigError(f"{orphans[0]}: episode files without a session.json",
-                                  field="dataset")
+            self.check_orphans()
         paths = self.episode_paths(participants)
         target = schema()
         if not paths:

@@ -139,8 +139,12 @@ def replay(dataset: Dataset, participants: Sequence[str] | None = None, *,
 
     Raises:
         ConfigError: A participant the dataset does not have, or a damaged dataset
-            (:meth:`Dataset.steps`, a ``session.json`` without the env's settings).
+            (:meth:`Dataset.steps`, a ``session.json`` without the env's settings; with
+            every session asked for, a session's episodes without its ``session.json``, as
+            :meth:`Dataset.steps` refuses them).
     """
+    if not participants:
+        dataset.check_orphans()
     known = dataset.participants()
     unknown = sorted(set(participants or ()) - set(known))
     if unknown:

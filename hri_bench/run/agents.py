@@ -77,8 +77,8 @@ from hri_envs.imports import with_cwd_on_path
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["AGENTS", "CONTRACT", "DEFAULT_STUDY_AGENTS", "JAXPPO", "JAXPPO_CHECKPOINTS",
-           "JAXPPO_PREFIX", "SB3_PREFIX", "AgentContext", "AgentSpec", "Privilege",
-           "agent_identity", "agent_privilege",
+           "JAXPPO_PREFIX", "NAME_FORBIDDEN", "SB3_PREFIX", "AgentContext", "AgentSpec",
+           "Privilege", "agent_identity", "agent_name_problem", "agent_privilege",
            "agent_settings", "agent_spec", "contract_keywords", "import_agent", "jaxppo_path",
            "make_agent", "package_version", "register_agent", "source_identity",
            "validate_agent_name"]
@@ -224,9 +224,31 @@ def jaxppo_path(name: str) -> Path | None:
     return None
 
 
+#: Characters an agent's name never holds: they break the leaderboard's Markdown tables
+#: and HTML (besides ``,``, which separates ``--agents``).
+NAME_FORBIDDEN = "|<>`"
+
+
+def agent_name_problem(name: Any) -> str | None:
+    """What is wrong with ``name`` as an agent's name in a results file or leaderboard
+    (None: nothing): it is printable text of at most 300 characters, without
+    :data:`NAME_FORBIDDEN` or surrounding spaces.
+    """
+    if not isinstance(name, str) or not name:
+        return "an agent's name is a non-empty string"
+    bad = sorted({c for c in name if c in NAME_FORBIDDEN or not c.isprintable()})
+    if bad:
+        return (f"agent name {name[:60]!r} holds {', '.join(map(repr, bad))}; a name is "
+                f"printable text without {', '.join(NAME_FORBIDDEN)} (they break the "
+                "leaderboard's tables) or line breaks")
+    if name != name.strip() or len(name) > 300:
+        return f"agent name {name[:60]!r} has surrounding spaces or over 300 characters"
+    return None
+
+
 def validate_agent_name(name: str) -> None:
     """Raise a :class:`~hri_envs.errors.ConfigError` naming the allowed agents unless
-    ``name`` is one.
+    ``name`` is one (and a name a leaderboard can show: :func:`agent_name_problem`).
 
     For ``sb3:PATH`` the file must exist (its contents are checked when it is loaded); for
     ``module:Class`` the class is imported and must subclass :class:`~agents.protocol.Agent`
@@ -235,6 +257,9 @@ def validate_agent_name(name: str) -> None:
     """
     if name in AGENTS:
         return
+    problem = agent_name_problem(name)
+    if problem is not None:
+        raise ConfigError(problem, field="agents")
     if name.startswith(SB3_PREFIX):
         model = Path(name[len(SB3_PREFIX):])
         if not model.is_file():

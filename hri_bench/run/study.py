@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from multiprocessing.connection import wait as mp_wait
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -81,6 +81,7 @@ __all__ = [
     "StudyConfig",
     "StudyResult",
     "UNIT_TIME_LIMIT",
+    "StudyStopped",
     "UnitFailure",
     "UnitLostError",
     "UnitResult",
@@ -655,19 +656,75 @@ def simulate_runs(cfg: StudyConfig, agent: str, runs: Sequence[int]
     return out
 
 
+class StudyStopped(KeyboardInterrupt):
+    """A stop signal (SIGINT) of the study's own process, raised by the handler of
+    :func:`hri_bench.run.studyio.stop_on_signals` (SIGTERM: its subclass
+    ``StudyTerminated``): what tells a stop of the study from an agent that raises
+    ``KeyboardInterrupt`` itself.
+    """
+
+
+class _ProcessExit(BaseException):
+    """``os._exit(code)`` called by an agent running in this process (:func:`_no_exit`)."""
+
+    def __init__(self, code: Any) -> None:
+        super().__init__(f"the agent called os._exit({code!r}) in the benchmark's process")
+        self.code = code
+
+
+@contextlib.contextmanager
+def _no_exit() -> Iterator[None]:
+    """Within the block, ``os._exit`` called in this process raises :class:`_ProcessExit`
+    instead of ending it (an agent's unit: its failure, not the study's end); a process
+    forked within keeps the real one.
+    """
+    real, pid = os._exit, os.getpid()
+
+    def refuse(status: int) -> NoReturn:
+        if os.getpid() != pid:
+            real(status)
+        raise _ProcessExit(status)
+
+    os._exit = refuse
+    try:
+        yield
+    finally:
+        os._exit = real
+
+
+def _agent_stop(exc: BaseException) -> bool:
+    """Whether a ``KeyboardInterrupt`` came from the agent rather than from a stop of the
+    study: not :class:`StudyStopped`, and raised where SIGINT is handled by the study (or
+    ignored, as in a pool worker) rather than by Python's default handler.
+    """
+    return not isinstance(exc, StudyStopped) and (
+        signal.getsignal(signal.SIGINT) is not signal.default_int_handler)
+
+
 def _run_unit_caught(unit: _Unit) -> UnitResult | UnitFailure:
     """:func:`_run_unit`, returning an agent's exception instead of raising it.
 
-    An agent that calls ``sys.exit()`` fails like one that raises (a :class:`RuntimeError`
-    naming it): it must not end the study, nor a pool worker (whose unit would never end).
+    An agent that calls ``sys.exit()`` or ``os._exit()`` or raises ``KeyboardInterrupt``
+    itself fails like one that raises (a :class:`RuntimeError` naming it): it must not end
+    the study, nor a pool worker (whose unit would never end). A stop of the study itself
+    (Ctrl-C, SIGTERM: :class:`StudyStopped`) is raised on.
     """
     try:
-        return _run_unit(unit)
-    except (Exception, SystemExit) as exc:
+        with _no_exit():
+            return _run_unit(unit)
+    except KeyboardInterrupt as exc:
+        if not _agent_stop(exc):
+            raise
+        return UnitFailure(unit.agent, unit.runs, RuntimeError(
+            f"agent {unit.agent!r} raised KeyboardInterrupt" + (f" ({exc})" if str(exc) else "")),
+            traceback.format_exc())
+    except (Exception, SystemExit, _ProcessExit) as exc:
         text = traceback.format_exc()
         error: Exception
         if isinstance(exc, SystemExit):
             error = RuntimeError(f"agent {unit.agent!r} called sys.exit({exc.code!r})")
+        elif isinstance(exc, _ProcessExit):
+            error = RuntimeError(f"agent {unit.agent!r} called os._exit({exc.code!r})")
         else:
             try:
                 pickle.dumps(exc)

@@ -47,6 +47,7 @@ from hri_bench.run.runner import TASK_METRICS
 from hri_bench.run.study import (
     StudyConfig,
     StudyResult,
+    StudyStopped,
     UnitResult,
     _Unit,
     _units,
@@ -95,18 +96,20 @@ def _close_locks_in_child() -> None:
 os.register_at_fork(after_in_child=_close_locks_in_child)
 
 
-class StudyTerminated(KeyboardInterrupt):
+class StudyTerminated(StudyStopped):
     """SIGTERM arrived during a study (handled like Ctrl-C: stop, keep finished units)."""
 
 
 @contextlib.contextmanager
 def stop_on_signals() -> Iterator[None]:
-    """Within the block, SIGINT raises :class:`KeyboardInterrupt` and SIGTERM
-    :class:`StudyTerminated` (also when the launching shell had SIGINT ignored, as for a
-    background job). Only in the main thread; elsewhere a no-op.
+    """Within the block, SIGINT raises :class:`~hri_bench.run.study.StudyStopped` (a
+    :class:`KeyboardInterrupt`) and SIGTERM :class:`StudyTerminated` (also when the
+    launching shell had SIGINT ignored, as for a background job): a stop of the study, never
+    taken for an agent that raises ``KeyboardInterrupt``. Only in the main thread; elsewhere
+    a no-op.
     """
     def interrupt(signum: int, frame: FrameType | None) -> None:
-        raise KeyboardInterrupt(f"signal {signum}")
+        raise StudyStopped(f"signal {signum}")
 
     def terminate(signum: int, frame: FrameType | None) -> None:
         raise StudyTerminated(f"signal {signum}")

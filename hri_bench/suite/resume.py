@@ -160,7 +160,17 @@ class SuiteDir(LockedFolder):
                 return
             _same_plan(log["plan"], self.plan, self.out, "complete ")
             self.complete = True
+            _drop_state(self.out)
         remove_temporary(self.out, OUTPUT_FILES)
+
+
+def _drop_state(out: Path) -> None:
+    """Remove what a suite killed while it removed ``.suite`` left (its plan was removed
+    first, so the suite is complete: :meth:`TrackStore.finish`).
+    """
+    if (out / STATE).is_dir() and not (out / STATE / PLAN).exists():
+        shutil.rmtree(out / STATE)
+        fsync_dir(out)
 
 
 def _read(path: Path) -> Any:
@@ -183,13 +193,17 @@ def _same_plan(saved: Any, plan: dict[str, Any], out: Path, what: str) -> None:
 
 def complete_suite(out: Path, plan: dict[str, Any]) -> dict[str, Any] | None:
     """``suite.json``'s document if ``out`` holds the complete suite of ``plan`` (its
-    ``suite_log.json``, written last, records that plan and no ``.suite`` is in progress).
+    ``suite_log.json``, written last, records that plan and no ``.suite`` is in progress);
+    what a kill left of ``.suite`` after its plan was removed is removed then.
     """
     log = _read(Path(out) / SUITE_LOG)
     if not isinstance(log, dict) or log.get("plan") != plan or (Path(out) / STATE / PLAN).exists():
         return None
     doc = _read(Path(out) / "suite.json")
-    return doc if isinstance(doc, dict) else None
+    if not isinstance(doc, dict):
+        return None
+    _drop_state(Path(out))
+    return doc
 
 
 class TrackStore:

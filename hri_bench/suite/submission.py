@@ -26,7 +26,7 @@ import numpy as np
 from hri_bench.core.atomic import atomic_writer
 from hri_bench.report import aggregate as agg
 from hri_bench.run import metrics, provenance
-from hri_bench.run.agents import agent_settings
+from hri_bench.run.agents import agent_name_problem, agent_settings
 from hri_bench.run.runner import TASK_METRICS
 from hri_bench.run.study import regret_reference
 from hri_bench.suite import results_v3
@@ -307,6 +307,21 @@ def _schema_errors(doc: Any) -> list[str]:
     return out
 
 
+def _name_errors(doc: Mapping[str, Any]) -> list[str]:
+    """Agent names no leaderboard can show as given (:func:`~hri_bench.run.agents.
+    agent_name_problem`: ``|``, line breaks, HTML), in ``agents`` and every run's block.
+    """
+    named = [("agents", name) for name in doc["agents"]]
+    named += [(f"runs.{seed}.{track}.agents", name) for seed, tracks in doc["runs"].items()
+              for track, block in tracks.items() for name in block["agents"]]
+    errors = []
+    for where, name in named:
+        problem = agent_name_problem(name)
+        if problem is not None:
+            errors.append(f"{where}: {problem}")
+    return errors
+
+
 def _suite_errors(doc: Mapping[str, Any]) -> list[str]:
     """The suite's version and hashes, each track's runs and episodes, every array's shape."""
     errors = []
@@ -447,6 +462,9 @@ def validate(doc: Any) -> list[str]:
     the aggregate recomputed from the per-run data.
     """
     errors = _schema_errors(doc)
+    if errors:
+        return errors
+    errors = _name_errors(doc)
     if errors:
         return errors
     errors = _suite_errors(doc)

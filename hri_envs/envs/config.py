@@ -27,6 +27,7 @@ __all__ = [
     "check_autoreset_mode",
     "check_backend",
     "check_env_settings",
+    "check_layout",
     "check_max_cycles",
     "check_options_mapping",
     "check_physics_options",
@@ -226,11 +227,23 @@ def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -
                               field="turn_back")
         turn_back = bool(value)
     if options.get("layout") is not None:
-        layout = _check_layout(options["layout"])
-        check = scenario_spec(scenario.name).check_layout
-        if check is not None:
-            check(layout)
+        layout = check_layout(options["layout"], scenario.name)
     return ResetOptions(start, intention, turn_back, layout)
+
+
+def check_layout(value: Any, scenario: str
+                 ) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A reset's ``layout`` option of ``scenario`` (the wheel's stands ``((xB, yB), (xC,
+    yC))`` [m], finite and where the scenario's waypoints fit) as a tuple of floats.
+
+    Raises:
+        ConfigError: (``field="layout"``) Anything else.
+    """
+    layout = _check_layout(value)
+    check = scenario_spec(scenario).check_layout
+    if check is not None:
+        check(layout)
+    return layout
 
 
 def check_autoreset_mode(value: Any) -> AutoresetMode:

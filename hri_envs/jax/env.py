@@ -200,10 +200,30 @@ def uniform(seed: Array, index: Array, stream: int) -> Array:
     Distinct ``(index, stream)`` give distinct hashes for one seed (the hash is a bijection
     of ``16 index + stream``); 24 bits each, so every value is exact in float32. Each
     stream is its own computation, so the draws a step does not use cost nothing.
+
+    Raises:
+        ConfigError: (``field="index"``) A concrete ``index`` that is not a whole number in
+            ``0 .. 2**28 - 1`` (``16 index`` would wrap to another env's numbers), or a
+            ``stream`` outside ``0 .. 15``; a traced index is not checked (a batch's
+            ``arange(n)`` is, through ``n``).
     """
+    if _concrete(index):
+        _check_index(index)
+    if not 0 <= stream < 16:
+        raise ConfigError(f"uniform's stream must be in 0..15, got {stream!r}", field="stream")
     x = jnp.asarray(index).astype(jnp.uint32) * jnp.uint32(16) + jnp.uint32(stream)
     h = _mix(_mix(x ^ seed[0]) ^ seed[1])
     return (h >> 8).astype(jnp.float32) * jnp.float32(2.0 ** -24)
+
+
+def _check_index(index: Any) -> None:
+    """A concrete env index (or array of them): whole numbers in ``0 .. MAX_BATCH - 1``."""
+    values = np.asarray(index)
+    if values.dtype.kind not in "iu" or (values.size and not (
+            values.min() >= 0 and values.max() < MAX_BATCH)):
+        raise ConfigError(f"an env's index must be a whole number in 0..{MAX_BATCH - 1:,} (the "
+                          f"draws hash 16 index + stream in 32 bits: a larger index would draw "
+                          f"another env's numbers), got {_describe(index)}", field="index")
 
 
 def uniforms(seed: Array, index: Array, n: int = N_STREAMS) -> Array:
@@ -535,7 +555,13 @@ class JaxRobotEnv:
         return StepDraws(get(0), get(1), reset)
 
     def draws(self, key: Array, params: EnvParams, index: Array | int = 0) -> StepDraws:
-        """The draws of env ``index`` of a batch for one step, from ``key`` (:func:`uniform`)."""
+        """The draws of env ``index`` of a batch for one step, from ``key`` (:func:`uniform`).
+
+        Raises:
+            ConfigError: A concrete ``index`` outside ``0 .. 2**28 - 1`` (``field="index"``).
+        """
+        if _concrete(index):
+            _check_index(index)
         seed = jax.random.bits(key, (2,), jnp.uint32)
         return self.draws_from_uniforms(lambda k: uniform(seed, jnp.asarray(index), k), params)
 

@@ -96,10 +96,12 @@ class CarrySimulation(Protocol):
 
 def check_box_action(agent: str, action: Any, size: int = ACTION_SIZE) -> np.ndarray:
     """``action`` as a float (size,) array in [-1, 1]; an :class:`ActionError` (a
-    ``ValueError``) naming the agent, the action and the valid range otherwise.
+    ``ValueError``) naming the agent, the action and the valid range otherwise (also for
+    strings, complex numbers and bools: no action is parsed or cut to its real part).
     """
-    try:
-        a = np.asarray(action, dtype=np.float64)
+    try:  # numbers only: a str or complex action is refused, not parsed or cut to its real part
+        given = np.asarray(action)
+        a = given.astype(np.float64) if given.dtype.kind in "iuf" else None
     except (TypeError, ValueError):
         a = None
     # One comparison for both: NaN and ±inf fail it.

@@ -15,7 +15,9 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from hri_envs.checks import check_real
 from hri_envs.envs.backends import carry_backend, carry_vector_backend
+from hri_envs.envs.config import check_layout, check_options_mapping, check_seed
 from hri_envs.errors import ConfigError, ResetNeeded
 from hri_envs.physics.carry import DRIVES, CarryStep, RobotCommand
 from hri_envs.physics.carry_reward import (
@@ -33,14 +35,50 @@ from hri_envs.physics.rendering import EpisodePictures, RenderSettings
 from hri_envs.physics.robot_view import RobotTask, observation_layout
 from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 
-__all__ = ["ACTION_SIZE", "VERSIONS", "CarryEnv", "CarrySimulation", "HiddenIntentionError",
-           "PlacingReward", "RewardWeights", "check_box_action", "vector_env"]
+__all__ = ["ACTION_SIZE", "SENSOR_KEYS", "VERSIONS", "CarryEnv", "CarrySimulation",
+           "HiddenIntentionError", "PlacingReward", "RewardWeights", "check_box_action",
+           "check_sensor", "check_step_scale", "vector_env"]
 
 _FAULT_KINDS = ("dropped", "slipped", "too_weak")
 _DEFAULT_TIME_S = {"hanger": 30.0, "wheel": 45.0}
 #: The continuous ids' versions: 0 (progress reward, frozen) and 1 (placing reward, the
 #: intention hidden from ``info`` until the episode's end).
 VERSIONS: tuple[int, ...] = (0, 1)
+#: The keys of ``sensor=`` (the wrist sensor model's overrides).
+SENSOR_KEYS: tuple[str, ...] = ("noise_n", "bias_n", "delay_s")
+
+
+def check_sensor(sensor: Any) -> dict[str, float]:
+    """``sensor=`` (None or a mapping of :data:`SENSOR_KEYS` to finite numbers >= 0) as a
+    dict.
+
+    Raises:
+        ConfigError: (``field="sensor"``) Anything else: a NaN or inf would reach the
+            observation from the first step.
+    """
+    if sensor is None:
+        return {}
+    allowed = f"None or a mapping of {', '.join(SENSOR_KEYS)} to finite numbers >= 0"
+    if not isinstance(sensor, Mapping):
+        raise ConfigError(f"sensor must be {allowed}, got {sensor!r}", field="sensor")
+    bad = sorted(map(repr, set(sensor) - set(SENSOR_KEYS)))
+    if bad:
+        raise ConfigError(f"unknown sensor key(s) {', '.join(bad)}; sensor must be {allowed}",
+                          field="sensor")
+    return {key: check_real(value, "sensor", low=0.0, label=f"sensor {key!r}",
+                            allowed="a finite number >= 0")
+            for key, value in sensor.items()}
+
+
+def check_step_scale(max_step_m: Any, max_step_rad: Any) -> None:
+    """The action's scale: ``max_step_m`` [m] and ``max_step_rad`` [rad], finite and > 0.
+
+    Raises:
+        ConfigError: (``field`` the argument) Anything else (an infinite step would command
+            an infinite target).
+    """
+    for key, value in (("max_step_m", max_step_m), ("max_step_rad", max_step_rad)):
+        check_real(value, key, low=0.0, low_open=True, allowed="a finite number > 0")
 
 
 class HiddenIntentionError(AttributeError):
@@ -216,7 +254,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ConfigError(f"render_mode must be None or 'rgb_array', got {render_mode!r}",
                               field="render_mode")
         self.pictures = EpisodePictures(RenderSettings.check(camera, render_goal, render_size))
-        self.human_params = HumanParams.of(dict(human) if human is not None else None)
+        self.human_params = HumanParams.of(human)
         self.weights: RewardWeights | PlacingReward = check_weights(
             PlacingReward if version else RewardWeights, reward)
         self.population = None if population is None else _population(population, scenario)
@@ -225,15 +263,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
                 or not math.isfinite(max_time_s) or max_time_s <= 0:
             raise ConfigError(f"max_time_s must be a positive number [s], got {max_time_s!r}",
                               field="max_time_s")
-        for key, value in (("max_step_m", max_step_m), ("max_step_rad", max_step_rad)):
-            if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
-                raise ConfigError(f"{key} must be a positive number, got {value!r}", field=key)
-        sensor = dict(sensor or {})
-        bad = sorted(set(sensor) - {"noise_n", "bias_n", "delay_s"})
-        if bad or any(not isinstance(v, int | float) or isinstance(v, bool) or v < 0
-                      for v in sensor.values()):
-            raise ConfigError(f"sensor takes noise_n, bias_n, delay_s (numbers >= 0), got "
-                              f"{sensor!r}", field="sensor")
+        check_step_scale(max_step_m, max_step_rad)
+        sensor = check_sensor(sensor)
         make_sim = carry_backend(backend, drive)
         self.scenario_name, self.render_mode, self.backend = scenario, render_mode, backend
         self.graph = scenario_graph(scenario)
@@ -274,11 +305,12 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode; see the class docstring for ``options``."""
-        super().reset(seed=seed)
-        opts = dict(options or {})
+        super().reset(seed=check_seed(seed))
+        opts = dict(check_options_mapping(options) if options is not None else {})
         # pettingzoo.test's api tests probe reset(options={"options": 1}): ignored, as by
         # the v0 envs (hri_envs.envs.config).
-        allowed = ["start", "intention", "robot_holds", "layout"] + (
+        allowed = ["start", "intention", "robot_holds"] + (
+            ["layout"] if self._layout_sampler is not None else []) + (
             ["human"] if self.version else [])
         unknown = sorted(map(str, set(opts) - {*allowed, "options"}))
         if unknown:
@@ -301,8 +333,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
                               f"{robot_holds!r}", field="options")
         self.layout = None
         if self._layout_sampler is not None:
-            self.layout = (opts["layout"] if opts.get("layout") is not None
-                           else self._layout_sampler(rng))
+            self.layout = (check_layout(opts["layout"], self.scenario_name)
+                           if opts.get("layout") is not None else self._layout_sampler(rng))
         scenario = episode_scenario(self.scenario_name, self.layout)
         self.start, self._intention = start, goal
         if opts.get("human") is not None:  # v1: this episode's human

@@ -6,7 +6,7 @@ parallel_env``) gives :class:`CarryParallelEnv`, agents ``"robot"`` and ``"human
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -102,10 +102,13 @@ class CarryParallelEnv(ParallelEnv[str, np.ndarray, np.ndarray]):
         """Both agents act for 40 ms."""
         if not self.agents:
             raise ResetNeeded()
+        if not isinstance(actions, Mapping):
+            raise ActionError(f"step() takes a dict of one action per agent ({{'robot': ..., "
+                              f"'human': ...}}), got {type(actions).__name__}")
         missing = [a for a in AGENTS if a not in actions]
         if missing:
             raise ActionError(f"actions needed for {', '.join(missing)}; got "
-                              f"{sorted(actions)}")
+                              f"{sorted(map(repr, actions))}")
         a_r = check_box_action("robot", actions["robot"])
         a_h = check_box_action("human", actions["human"])
         env = self.env

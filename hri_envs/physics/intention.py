@@ -23,6 +23,7 @@ the abstract benchmark's human families.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -85,7 +86,7 @@ class HumanParams:
         return BodySize(self.sex, self.stature_m, self.body_mass_kg)
 
     @classmethod
-    def of(cls, values: dict[str, Any] | HumanParams | None) -> HumanParams:
+    def of(cls, values: Mapping[str, Any] | HumanParams | None) -> HumanParams:
         """Parameters from a mapping (``preset`` names a base, :data:`HUMAN_PRESETS`).
 
         Raises:
@@ -96,20 +97,25 @@ class HumanParams:
         """
         if isinstance(values, HumanParams):
             return values
+        if values is not None and not isinstance(values, Mapping):
+            raise ConfigError(f"human must be None or a mapping of human parameters (e.g. "
+                              f"{{'preset': 'weak'}}; presets {', '.join(HUMAN_PRESETS)}), got "
+                              f"{values!r}", field="human")
         values = dict(values or {})
         preset = values.pop("preset", None)
-        if preset is not None and preset not in HUMAN_PRESETS:
+        if preset is not None and (not isinstance(preset, str) or preset not in HUMAN_PRESETS):
             raise ConfigError(f"unknown human preset {preset!r}; allowed: "
                               f"{', '.join(HUMAN_PRESETS)}", field="human")
         base = HUMAN_PRESETS[preset] if preset is not None else cls()
         allowed = [f.name for f in fields(cls)]
-        unknown = sorted(set(values) - set(allowed))
+        unknown = sorted(map(repr, set(values) - set(allowed)))
         if unknown:
-            raise ConfigError(f"unknown human parameter(s) {', '.join(map(repr, unknown))}; "
+            raise ConfigError(f"unknown human parameter(s) {', '.join(unknown)}; "
                               f"allowed: preset, {', '.join(allowed)}", field="human")
         for key, value in values.items():
             if key in _CHOICES:
-                if value not in _CHOICES[key] and not (key == "drive" and value is None):
+                chosen = isinstance(value, str) and value in _CHOICES[key]
+                if not chosen and not (key == "drive" and value is None):
                     raise ConfigError(f"human {key!r} must be one of "
                                       f"{', '.join(_CHOICES[key])}, got {value!r}",
                                       field="human")

@@ -67,6 +67,7 @@ __all__ = [
     "step_reward",
     "turn_back",
     "unneeded_toggle",
+    "verify_reward_rule",
 ]
 
 IntArray = np.ndarray | int
@@ -136,18 +137,103 @@ def register_reward_rule(rule: RewardRule) -> RewardRule:
     if not isinstance(rule, RewardRule) or not (isinstance(rule.name, str) and rule.name):
         raise ConfigError(f"register_reward_rule takes a RewardRule with a name, got {rule!r}",
                           field="reward")
+    _checked(rule)
     REWARD_RULES[rule.name] = rule
     return rule
 
 
-def reward_rule(name: str | RewardRule) -> RewardRule:
-    """The registered rule ``name`` (a :class:`RewardRule` passes through).
+#: Rules that passed :func:`verify_reward_rule` on every registered scenario (or are being
+#: checked: the check builds the envs' tables, which ask for the rule again).
+_VERIFIED: dict[int, RewardRule] = {}
+
+
+def _checked(rule: RewardRule) -> RewardRule:
+    """``rule`` once :func:`verify_reward_rule` passed on the registered scenarios (once
+    per rule object; the built-in rules are the package's own and not checked).
+    """
+    if rule.charge is None or _VERIFIED.get(id(rule)) is rule:
+        return rule
+    from hri_envs.task.scenarios import SCENARIOS  # noqa: PLC0415  (the scenarios use us)
+
+    _VERIFIED[id(rule)] = rule
+    try:
+        for name in SCENARIOS:
+            _verify(rule, name)
+    except BaseException:
+        del _VERIFIED[id(rule)]
+        raise
+    return rule
+
+
+def verify_reward_rule(rule: RewardRule, scenario: str) -> None:
+    """Check ``rule`` on every (state, robot action, human action, start, lifted) of
+    ``scenario``'s graph: rewards of the steps' shape, finite, in [-1, 0], the same on the
+    envs' fused table (:class:`StepTable`) as by :func:`step_reward`.
 
     Raises:
-        ConfigError: An unknown name; the message lists the registered rules.
+        ConfigError: (``field="reward"``) Any of these does not hold, or the rule raised
+            (its exception is named).
+    """
+    known = _VERIFIED.get(id(rule)) is rule
+    _VERIFIED[id(rule)] = rule  # the tables built here ask for the rule again
+    try:
+        _verify(rule, scenario)
+    finally:
+        if not known:
+            del _VERIFIED[id(rule)]
+
+
+def _verify(rule: RewardRule, scenario: str) -> None:
+    from hri_envs.task.scenarios import scenario_graph  # noqa: PLC0415  (the scenarios use us)
+
+    graph = scenario_graph(scenario)
+    n_s, n_a, n_k = graph.n_states, graph.n_actions, graph.n_intentions
+    s = np.arange(n_s)[:, None, None, None, None]
+    a_r = np.arange(n_a)[None, :, None, None, None]
+    a_h = np.arange(n_a)[None, None, :, None, None]
+    start = np.arange(n_k)[None, None, None, :, None]
+    lifted = np.array([False, True])[None, None, None, None, :]
+    s_next = graph.next_state[s, a_r, a_h]
+    shape = (n_s, n_a, n_a, n_k, 2)
+    where = f"reward rule {rule.name!r} on the {scenario}"
+    try:
+        got = step_reward(graph, s, a_r, a_h, s_next, -0.3, reward=rule, start=start,
+                          lifted=lifted)
+    except Exception as exc:  # the rule's own code: name what it raised
+        raise ConfigError(f"{where}: charge() raised {type(exc).__name__}: {exc} (it takes a "
+                          "RewardStep whose arrays broadcast and returns rewards in [-1, 0])",
+                          field="reward") from exc
+    try:
+        direct = np.broadcast_to(got, shape)
+    except ValueError:
+        raise ConfigError(f"{where}: charge() returned rewards of shape {got.shape}; they must "
+                          f"broadcast with the step's arrays (here {shape})",
+                          field="reward") from None
+    if not np.all(np.isfinite(direct)) or direct.min() < -1.0 or direct.max() > 0.0:
+        raise ConfigError(f"{where}: rewards must be finite and in [-1, 0], got "
+                          f"[{direct.min()}, {direct.max()}]", field="reward")
+    try:
+        table = StepTable(EpisodeRules(graph, -0.3, rule))
+        keys = table.key(np.arange(n_s)[:, None, None, None, None], start, lifted)
+        fused = np.broadcast_to(table.reward[keys + (a_r * n_a + a_h)], shape)
+    except Exception as exc:  # the rule on the envs' tables
+        raise ConfigError(f"{where}: charge() raised {type(exc).__name__} on the envs' fused "
+                          f"table: {exc}", field="reward") from exc
+    if not np.array_equal(fused, direct):
+        raise ConfigError(f"{where}: the envs' fused table and step_reward differ (the rule "
+                          "must depend on the step and its context only)", field="reward")
+
+
+def reward_rule(name: str | RewardRule) -> RewardRule:
+    """The registered rule ``name``; a :class:`RewardRule` passes through once
+    :func:`verify_reward_rule` passed on the registered scenarios.
+
+    Raises:
+        ConfigError: An unknown name (the message lists the registered rules), or a rule
+            that fails the check (``field="reward"``).
     """
     if isinstance(name, RewardRule):
-        return name
+        return _checked(name)
     rule = REWARD_RULES.get(name) if isinstance(name, str) else None
     if rule is None:
         raise ConfigError(f"unknown reward {name!r}; allowed: {', '.join(REWARD_RULES)}",
@@ -644,8 +730,9 @@ def _no_free_toggle(step: RewardStep) -> np.ndarray:
 
 #: The built-in rules: the paper's (v0, the default) and its variant that charges r0 for a
 #: robot grasp toggle the next motion does not need (docs/task-model.md, "Reward").
-PAPER = register_reward_rule(RewardRule(
-    "paper", "the paper's rule: grasping and letting go cost nothing"))
-NO_FREE_TOGGLE = register_reward_rule(RewardRule(
+PAPER = RewardRule("paper", "the paper's rule: grasping and letting go cost nothing")
+NO_FREE_TOGGLE = RewardRule(
     "no-free-toggle", "as 'paper', but a robot grasp toggle that the next motion does not "
-    "need costs r0, like waiting", _no_free_toggle))
+    "need costs r0, like waiting", _no_free_toggle)
+REWARD_RULES.update({PAPER.name: PAPER, NO_FREE_TOGGLE.name: NO_FREE_TOGGLE})
+_VERIFIED.update({id(PAPER): PAPER, id(NO_FREE_TOGGLE): NO_FREE_TOGGLE})

@@ -97,10 +97,13 @@ class ServeConfig:
             ``{supports}`` are filled in).
         show_belief: Show the robot's belief about the goal during play.
         max_sessions: The most sessions running at once.
-        idle_timeout_s: A session whose participant does nothing this long is closed.
+        idle_timeout_s: A session whose participant does nothing this long is closed (one
+            nobody has played yet, after 30 s without a connected page:
+            :data:`~hri_bench.people.serve.session.CLAIM_TIMEOUT_S`).
         agent_timeout_s: The longest one call of the robot's agent may take (making it,
-            an ``act``, its learning after an episode); a longer one ends the session
-            (``failed``), as an agent that raises or exits does.
+            an ``act``, its learning after an episode), and never longer than
+            ``idle_timeout_s``; a longer one ends the session (``failed``), as an agent
+            that raises or exits does.
         learner: Changes to the Learner's configuration, as (name, value) pairs.
     """
 

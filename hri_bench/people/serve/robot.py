@@ -3,13 +3,14 @@
 The robot's agent is code the server does not control (``module:Class``, ``sb3:PATH``). Each
 session makes it and calls it (``begin_episode``, ``act``, ``observe``, ``end_episode``,
 ``belief``) through :class:`AgentWorker`: a daemon thread of the session's own that makes
-each call in turn while the session's thread waits at most ``timeout_s`` seconds for it.
-Whatever the call raises, :class:`SystemExit` and :class:`KeyboardInterrupt` included, or
-a call that does not return in time, comes back to the session as one
-:class:`AgentFailed` naming the call and the error, and the session ends (``failed``)
-with that error on the page. A hung call's thread cannot be stopped from outside: it is
-left waiting (a daemon thread, it does not keep the server from exiting) with the agent
-it holds.
+each call in turn while the session's thread waits at most ``timeout_s`` seconds for it
+(``--agent-timeout``, never longer than ``--idle-timeout``), telling the page after
+:data:`SLOW_S` seconds that the robot is thinking. Whatever the call raises,
+:class:`SystemExit` and :class:`KeyboardInterrupt` included, or a call that does not
+return in time, comes back to the session as one :class:`AgentFailed` naming the call and
+the error, and the session ends (``failed``) with that error on the page. A hung call's
+thread cannot be stopped from outside: it is left waiting (a daemon thread, it does not
+keep the server from exiting) with the agent it holds.
 """
 
 from __future__ import annotations
@@ -56,16 +57,27 @@ def _describe(exc: BaseException) -> str:
     return f"{kind}: {text[:300]}" if text else kind
 
 
+#: Seconds a call of the agent may take before the session is told it is slow.
+SLOW_S = 3.0
+#: The clock of the calls' time limits (a test may put a fake clock in its place).
+_clock = time.monotonic
+
+
 class AgentWorker:
     """The thread that makes one session's calls of its agent, one at a time.
 
     Args:
         name: The thread's name.
         timeout_s: The longest a call may take.
+        limit: The setting that sets ``timeout_s``, for messages.
+        on_slow: Called (with the call's name, from the waiting thread) once a call has
+            taken :data:`SLOW_S` seconds, so that the page can say the robot is busy.
     """
 
-    def __init__(self, name: str, timeout_s: float) -> None:
+    def __init__(self, name: str, timeout_s: float, limit: str = "--agent-timeout",
+                 on_slow: Callable[[str], None] | None = None) -> None:
         self.timeout_s = float(timeout_s)
+        self.limit, self.on_slow = limit, on_slow
         self.hung = False
         self._stop: str | None = None
         self._calls: queue.SimpleQueue[tuple[Callable[[], Any], list[Any], threading.Event]
@@ -100,19 +112,24 @@ class AgentWorker:
                               f"an earlier call of the agent hung; {what} not made")
         box: list[Any] = []
         done = threading.Event()
+        started = _clock()
         self._calls.put((fn, box, done))
-        deadline = time.monotonic() + self.timeout_s
-        while not done.wait(min(0.1, max(0.0, deadline - time.monotonic()))):
+        deadline = started + self.timeout_s
+        slow = self.on_slow
+        while not done.wait(min(0.1, max(0.0, deadline - _clock()))):
             if self._stop is not None:  # the server stops: it does not wait for the call
                 self.hung = True
                 raise Stopped(self._stop)
-            if time.monotonic() < deadline:
+            if slow is not None and _clock() - started >= SLOW_S:
+                slow(what)
+                slow = None
+            if _clock() < deadline:
                 continue
             self.hung = True
             raise AgentFailed(
                 f"the robot did not answer in time ({what} took over {self.timeout_s:g} s)",
                 f"the agent's {what} did not return within {self.timeout_s:g} s "
-                "(--agent-timeout)")
+                f"({self.limit})")
         ok, value = box[0]
         if ok:
             return value

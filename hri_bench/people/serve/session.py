@@ -21,6 +21,7 @@ import json
 import logging
 import queue
 import secrets
+import shutil
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -54,6 +55,12 @@ log = logging.getLogger("hri_bench.serve")
 MAX_MESSAGE = 1024
 #: Client response times above this are not believed (recorded as unknown).
 MAX_RT_MS = 24 * 3600 * 1000.0
+#: Seconds a session nobody has played yet stays without a connected page before it is
+#: abandoned (and its folder removed): the page connects as soon as it has joined, and
+#: reconnects within seconds; a client that joins and leaves holds a place no longer.
+CLAIM_TIMEOUT_S = 30.0
+#: The clock of the sessions' timeouts (a test may put a fake clock in its place).
+_clock = time.monotonic
 
 
 @functools.cache
@@ -195,7 +202,8 @@ class Session:
         self._expect: tuple[str, int, frozenset[int]] | None = None  # (type, seq, actions)
         self._stop: str | None = None
         self.final_seq: int | None = None  # the seq of the last view (done, ended)
-        self.last_activity = time.monotonic()
+        self.last_activity = _clock()
+        self._unwatched = self.last_activity  # since when no page is connected
         self.outcomes: list[dict[str, Any]] = []
         self.finished = threading.Event()
         self.error: str | None = None  # why it failed, for the page
@@ -203,7 +211,13 @@ class Session:
         self.person = PersonHuman(self.graph, self._ask)
         # the robot is made, and called, in a worker thread of its own (robot.py), by the
         # session's thread: an agent that fails or hangs ends this session only
-        self.worker = AgentWorker(f"robot-{self.participant}", config.agent_timeout_s)
+        # a call may take --agent-timeout, and no longer than --idle-timeout: a hung robot
+        # idles the session too; the page is told when the robot is slow
+        timeout, limit = min((config.agent_timeout_s, "--agent-timeout"),
+                             (config.idle_timeout_s, "--idle-timeout"))
+        self.worker = AgentWorker(f"robot-{self.participant}", timeout, limit, self._slow)
+        self.played = False  # the page has answered a view
+        self.discarded = False  # ended unplayed: its folder was removed
         self.agent: GuardedAgent | None = None
         self.recorder: RecordingHumans | None = None
         starts = np.array([[p[0] for p in design.pairs]], dtype=np.int64)
@@ -251,6 +265,7 @@ class Session:
         with self._lock:
             if self._owner is handle:
                 self._owner = None
+                self._unwatched = _clock()
 
     def view(self) -> tuple[int, str]:
         """The current view: its ``seq`` and its JSON text."""
@@ -282,7 +297,8 @@ class Session:
                                    f"offered: {', '.join(map(str, sorted(actions)))}",
                                    field="action")
             self._expect = None
-            self.last_activity = time.monotonic()
+            self.last_activity = _clock()
+            self.played = True
             if kind == "action":
                 rt = msg.get("rt_ms")
                 self.person.client_response_ms[0] = np.nan if rt is None else float(rt)
@@ -311,9 +327,16 @@ class Session:
         for listener in listeners:
             listener()
 
+    def _slow(self, what: str) -> None:
+        """The robot is slow to answer: the page says so (a view to wait on)."""
+        self._publish({"type": "wait", "message": "The robot is thinking "
+                       f"({what.removesuffix('()')})..."}, None)
+
     def _wait(self) -> int:
-        """Block until the page answers the current view; the action (0 for continue)."""
-        idle = self.config.idle_timeout_s
+        """Block until the page answers the current view; the action (0 for continue). The
+        session is abandoned after ``idle_timeout_s`` without an answer, and, before its
+        first answer, after :data:`CLAIM_TIMEOUT_S` without a connected page.
+        """
         while True:
             try:
                 kind, action = self._actions.get(timeout=0.5)
@@ -325,7 +348,11 @@ class Session:
                 raise Stopped(stop)
             if kind in ("action", "continue"):
                 return action
-            if time.monotonic() - self.last_activity > idle:
+            now = _clock()
+            with self._lock:
+                unclaimed = (not self.played and self._owner is None
+                             and now - self._unwatched > CLAIM_TIMEOUT_S)
+            if unclaimed or now - self.last_activity > self.config.idle_timeout_s:
                 raise Stopped("abandoned")
 
     def _header(self) -> dict[str, Any]:
@@ -460,8 +487,12 @@ class Session:
         if detail is not None:
             self.writer.meta["error"] = detail
         try:
-            self.writer.finish(status)
-            make_private(self.writer.path)
+            if not self.played and status in ("abandoned", "stopped") and not self.writer.episodes:
+                shutil.rmtree(self.writer.path)  # a join never played: nothing to keep
+                self.discarded = True
+            else:
+                self.writer.finish(status)
+                make_private(self.writer.path)
         except OSError:
             log.exception("session %s: cannot write its metadata", self.participant)
         if status == "complete":
@@ -513,6 +544,28 @@ class EndedSession:
         raise MessageError("the session is over", field="type")
 
 
+def _rows(dataset: Any) -> tuple[int, list[int]]:
+    """A :class:`~hri_bench.data.datasets.Dataset`'s next new row of the design, and the
+    rows below it no session holds (a join never played leaves no folder: its row is given
+    to the next participant), from the sessions' ``session_index``; with a session whose
+    file cannot be read, no row is reused.
+    """
+    taken: set[int] = set()
+    unread = 0
+    for folder in dataset.session_dirs():
+        try:
+            index = json.loads((folder / "session.json").read_text(encoding="utf-8")).get(
+                "session_index")
+        except (OSError, ValueError, AttributeError):
+            index = None
+        if isinstance(index, int) and not isinstance(index, bool) and index >= 0:
+            taken.add(index)
+        else:
+            unread += 1
+    joined = max(max(taken, default=-1) + 1, len(taken) + unread)
+    return joined, ([] if unread else sorted(set(range(joined)) - taken))
+
+
 #: How long, and up to how many bytes in all, the last views of ended sessions are kept.
 ENDED_KEEP_S = 3600.0
 ENDED_KEEP_BYTES = 8 << 20
@@ -550,7 +603,7 @@ class SessionManager:
         self._sessions: dict[str, Session] = {}  # running
         self._ended: dict[str, EndedSession] = {}  # in the order they ended
         self._ended_bytes = 0
-        self._joined = len(self.dataset.session_dirs())
+        self._joined, self._free = _rows(self.dataset)
 
     def create(self) -> Session:
         """A new participant's session, started.
@@ -563,7 +616,7 @@ class SessionManager:
             if len(self._sessions) >= cfg.max_sessions:
                 raise ConfigError(f"the study is full ({cfg.max_sessions} sessions at once); "
                                   "try again later", field="sessions")
-            index = self._joined
+            index = self._free[0] if self._free else self._joined
             design = assignment(cfg, index)
             participant = new_participant_id()
             writer = SessionWriter(self.dataset, participant, {
@@ -574,7 +627,7 @@ class SessionManager:
                 "schedule": [[int(a), int(b), False] for a, b in design.pairs],
                 "preference": design.preference, "serve_settings": cfg.settings(),
                 **agent_identity(cfg.agent, cfg.scenario, cfg.waiting_reward, dict(cfg.learner))})
-            self._joined += 1  # the design's row is taken once the session is on disk
+            self._take(index)  # the design's row is taken once the session is on disk
             session = Session(cfg, design, writer, on_end=self._retire)
             self._sessions[session.token] = session
         session.thread.start()
@@ -587,10 +640,19 @@ class SessionManager:
         """
         ended = EndedSession(session)
         with self._lock:
+            if session.discarded:  # never played: its row of the design goes to the next
+                self._free = sorted({*self._free, session.design.index})
             self._sessions.pop(session.token, None)
             self._ended[session.token] = ended
             self._ended_bytes += len(ended.text)
             self._prune()
+
+    def _take(self, index: int) -> None:
+        """Row ``index`` of the design is a session's (lock held)."""
+        if index in self._free:
+            self._free.remove(index)
+        else:
+            self._joined = index + 1
 
     def _prune(self) -> None:
         """Drop the last views kept too long or beyond the byte budget (lock held)."""

@@ -12,7 +12,7 @@ from hri_envs.checks import check_whole
 from hri_envs.envs.backends import carry_backend
 from hri_envs.envs.config import check_autoreset_mode
 from hri_envs.errors import ActionError, ConfigError, ResetNeeded
-from hri_envs.physics.continuous import ACTION_SIZE, CarryEnv
+from hri_envs.physics.continuous import ACTION_SIZE, CarryEnv, check_sensor, check_step_scale
 from hri_envs.physics.mjwarp.carry import WarpCarryWorlds
 from hri_envs.physics.mjwarp.carry_sim import SHARED, WarpCarrySim
 from hri_envs.task.scenarios import scenario_graph, scenario_spec
@@ -99,6 +99,8 @@ class CarryVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self.num_envs = n = check_whole(num_envs, "num_envs", minimum=1, maximum=1_000_000)
         self.backend, self.render_mode = backend, None
         carry_backend(backend, drive)  # the drive runs here (else a clear error)
+        check_step_scale(kwargs.get("max_step_m", 0.02), kwargs.get("max_step_rad", 0.06))
+        check_sensor(kwargs.get("sensor"))
         self.worlds = WarpCarryWorlds(scenario_graph(scenario), n, drive,
                                       max_step_m=kwargs.get("max_step_m", 0.02),
                                       max_step_rad=kwargs.get("max_step_rad", 0.06),
@@ -129,7 +131,8 @@ class CarryVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     def _actions(self, actions: Any) -> np.ndarray:
         n = self.num_envs
         try:
-            a = np.asarray(actions, dtype=np.float64)
+            given = np.asarray(actions)  # numbers only: no str parsed, no complex cut
+            a = given.astype(np.float64) if given.dtype.kind in "iuf" else None
         except (TypeError, ValueError):
             a = None
         if a is None or a.shape != (n, ACTION_SIZE) or not np.all(np.isfinite(a)) \

@@ -11,6 +11,11 @@ registered here, in one place; :func:`register_scenario` adds one of your own
 
 from __future__ import annotations
 
+import re
+
+import numpy as np
+
+from hri_envs.checks import check_real, check_whole
 from hri_envs.errors import ConfigError
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph, build_graph
@@ -23,6 +28,7 @@ __all__ = [
     "Op",
     "Route",
     "ScenarioSpec",
+    "check_spec",
     "episode_scenario",
     "natural_route",
     "register_scenario",
@@ -45,17 +51,13 @@ def register_scenario(spec: ScenarioSpec) -> None:
     checks the rest (its routes, an episode of every env).
 
     Raises:
-        ConfigError: ``spec`` is not a :class:`ScenarioSpec`, its default preference is not
-            one of its preferences, or its graph does not build or has another number of
-            actions than ``n_actions``.
+        ConfigError: ``spec`` is not a :class:`ScenarioSpec`, a field is not allowed (the
+            field named: :func:`check_spec`), or its graph does not build or has another
+            number of actions than ``n_actions``.
     """
     if not isinstance(spec, ScenarioSpec):
         raise ConfigError(f"register_scenario takes a ScenarioSpec, got {spec!r}",
                           field="spec")
-    if spec.default_preference not in spec.preferences:
-        raise ConfigError(f"the default preference {spec.default_preference!r} of scenario "
-                          f"{spec.name!r} is not one of its preferences "
-                          f"{', '.join(spec.preferences)}", field="default_preference")
     graph = _build(spec)
     if graph.n_actions != spec.n_actions:
         raise ConfigError(f"scenario {spec.name!r}: its graph has {graph.n_actions} actions "
@@ -78,9 +80,58 @@ def scenario_spec(name: str) -> ScenarioSpec:
 _GRAPHS: dict[str, TaskGraph] = {}
 
 
+#: What a scenario's name may hold: it names files, folders and Gymnasium ids.
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]*")
+
+
+def check_spec(spec: ScenarioSpec) -> None:
+    """Check a spec's plain fields (its graph is checked by building it).
+
+    ``name`` letters, digits, ``-`` and ``_`` (it names files and ids); ``r0`` in (-1, 0);
+    ``gamma`` in [0, 1); ``episodes`` and ``n_actions`` whole numbers >= 1; ``preferences``
+    one or more names, ``default_preference`` one of them.
+
+    Raises:
+        ConfigError: The first field that is not allowed (``field`` its name).
+    """
+    if not (isinstance(spec.name, str) and NAME_PATTERN.fullmatch(spec.name)):
+        raise ConfigError(f"a scenario's name must be letters, digits, '-' and '_' (it names "
+                          f"files and Gymnasium ids), starting with a letter or digit, got "
+                          f"{spec.name!r}", field="name")
+    label = f"scenario {spec.name!r}: "
+    check_real(spec.r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True,
+               label=label + "r0", allowed="a number in the open interval (-1, 0)")
+    check_real(spec.gamma, "gamma", low=0.0, high=1.0, high_open=True, label=label + "gamma",
+               allowed="a number in [0, 1)")
+    check_whole(spec.episodes, "episodes", minimum=1, label=label + "episodes")
+    check_whole(spec.n_actions, "n_actions", minimum=1, label=label + "n_actions")
+    prefs = spec.preferences
+    if not (isinstance(prefs, tuple) and prefs and all(isinstance(p, str) for p in prefs)):
+        raise ConfigError(f"{label}preferences must be a tuple of one or more names, got "
+                          f"{prefs!r}", field="preferences")
+    if spec.default_preference not in prefs:
+        raise ConfigError(f"the default preference {spec.default_preference!r} of scenario "
+                          f"{spec.name!r} is not one of its preferences "
+                          f"{', '.join(prefs)}", field="default_preference")
+
+
+def _check_geometry(scenario: Scenario, name: str) -> None:
+    """Every support's position and mounting point: 3 finite numbers [m]."""
+    for support in scenario.supports:
+        for what in ("position", "mounting"):
+            xyz = np.asarray(getattr(support, what), dtype=float)
+            if xyz.shape != (3,) or not np.all(np.isfinite(xyz)):
+                raise ConfigError(f"scenario {name!r}: support {support.name!r}'s {what} must "
+                                  f"be 3 finite numbers [m], got {getattr(support, what)!r}",
+                                  field="geometry")
+
+
 def _build(spec: ScenarioSpec) -> TaskGraph:
+    check_spec(spec)
     try:
-        graph = build_graph(spec.geometry(), spec=spec)
+        scenario = spec.geometry()
+        _check_geometry(scenario, spec.name)
+        graph = build_graph(scenario, spec=spec)
     except ConfigError:
         raise
     except Exception as exc:  # a user's geometry: say whose and what

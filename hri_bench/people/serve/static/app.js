@@ -169,7 +169,8 @@ function handle(m) {
     onEnded(m);
   } else {
     show("play");
-    $("status").textContent = "Preparing the robot...";
+    $("options").replaceChildren();  // the robot is busy: nothing to choose meanwhile
+    $("status").textContent = m.message || "Preparing the robot...";
   }
 }
 
