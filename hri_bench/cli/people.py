@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.config import default_config
+from hri_bench.core.physical_robots import default_robot
 from hri_bench.data import datasets
 from hri_bench.data import fit as fitting
 from hri_bench.data.datasets import create_dataset, open_dataset
@@ -43,6 +44,7 @@ COMMANDS = ("serve", "dataset", "replay")
 
 #: ServeConfig field -> the flag it comes from.
 _SERVE_ARGUMENTS = {"scenario": "scenario", "agent": "--agent", "episodes": "--episodes",
+                    "physical": "--physical", "max_time_s": "--max-time",
                     "dataset": "--dataset", "data": "--data", "host": "--host",
                     "allowed_hosts": "--allow-host",
                     "port": "--port", "seed": "--seed", "max_steps": "--max-steps",
@@ -104,9 +106,19 @@ def _serve_parser(sub: Any) -> None:
                            "against a robot agent that learns across the session's episodes; "
                            "every session is recorded as a dataset (docs/people.md).")
     serve.add_argument("scenario", choices=SCENARIOS, nargs="?", default="hanger")
-    serve.add_argument("--agent", default="learner",
+    serve.add_argument("--agent", default=None,
                        help="the robot: an agent name as for 'study --agents' (default "
-                            "learner; sb3:PATH, module:Class; not oracle, informed, blind, qmdp)")
+                            "learner; sb3:PATH, module:Class; not oracle, informed, blind, "
+                            "qmdp); with --physical a physical robot (default: the best "
+                            "shipped one)")
+    serve.add_argument("--max-time", type=_real(lambda v: 1 <= v <= 3600,
+                                                "seconds in [1, 3600]"), default=None,
+                       help="with --physical: the time limit per episode (default: the "
+                            "env's, 30 s hanger, 45 s wheel)")
+    serve.add_argument("--physical", action="store_true",
+                       help="the continuous physical task: the participant leads the "
+                            "simulated arm's hand with the mouse, a finger or the keys "
+                            "(docs/people.md, 'Leading the arm')")
     serve.add_argument("--episodes", type=_whole(1, 1000), default=8,
                        help="episodes per session (default 8)")
     serve.add_argument("--dataset", default=None,
@@ -259,18 +271,22 @@ def _serve(args: argparse.Namespace) -> int:
         if text is not None:
             texts[name] = text
     try:
-        config = ServeConfig(args.scenario, agent=args.agent, episodes=args.episodes,
+        agent = args.agent or (default_robot() if args.physical else "learner")
+        config = ServeConfig(args.scenario, agent=agent, episodes=args.episodes,
                              dataset=args.dataset, data=args.data, host=args.host,
                              port=args.port, allowed_hosts=tuple(args.allow_host or ()),
                              seed=args.seed, max_steps=args.max_steps,
                              r0=args.r0, reward=args.reward, preferences=prefs,
                              show_belief=args.show_belief, max_sessions=args.max_sessions,
                              idle_timeout_s=args.idle_timeout,
-                             agent_timeout_s=args.agent_timeout, **texts)
+                             agent_timeout_s=args.agent_timeout, physical=args.physical,
+                             max_time_s=args.max_time,
+                             **texts)
         if config.agent.startswith("sb3:"):
             MissingExtraError.require(["stable_baselines3", "sb3_contrib", "torch"],
                                       "an 'sb3:' agent")
-        create_dataset(config.dataset_id, config.scenario, synthetic=False, root=config.data)
+        create_dataset(config.dataset_id, config.scenario, synthetic=False, root=config.data,
+                       physical=config.physical)
     except ConfigError as exc:
         _fail(parser, exc, _SERVE_ARGUMENTS)
     try:
