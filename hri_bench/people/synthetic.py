@@ -91,12 +91,14 @@ class LeadStats:
 
     Attributes:
         latency_ms: Input sent to its frame received, per step.
+        latency_at: When each of ``latency_ms`` was measured (``time.monotonic()``).
         first_ms: ``continue`` (or hello) to an episode's first frame.
         errors: Errors the server sent, and sessions that ended otherwise than done.
         participants: The ids shown at the sessions' ends.
     """
 
     latency_ms: list[float] = field(default_factory=list)
+    latency_at: list[float] = field(default_factory=list)
     first_ms: list[float] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
     participants: list[str] = field(default_factory=list)
@@ -170,6 +172,7 @@ async def lead(url: str, leader: Callable[[str], ScriptedLeader], stats: LeadSta
             elif sent_at:
                 latency = 1000 * (now - sent_at)
                 stats.latency_ms.append(latency)
+                stats.latency_at.append(time.monotonic())
             target = scripted.target(m)
             wait = sent_at + STEP_S - time.perf_counter()
             if wait > 0:

@@ -93,6 +93,7 @@ class Lead:
         self.robot: PhysicalAgent = _call("making the agent", make_robot, agent, scenario,
                                           int(seed))
         self.sent: set[str] = set()
+        self.cameras: dict[tuple[Any, ...], dict[str, Any]] = {}
         self.rows: list[dict[str, Any]] = []
         self.obs: dict[str, np.ndarray] = {}
         self.pending: tuple[np.ndarray, list[float] | None] | None = None
@@ -144,11 +145,23 @@ class Lead:
         seats = self.sim.seat_positions()
         layout = [] if self.base.layout is None else [float(v) for xy in self.base.layout
                                                        for v in xy]
-        return {**scene, **self._frame(), "belief": self._belief(),
-                "camera": scene3d.camera(self.sim.model, self.sim.data, seats, ASPECT,
-                                         self._score()),
+        frame = self._frame()
+        return {**scene, **frame, "belief": self._belief(), "camera": self._camera(
+                    scene["scene"], seats, frame["poses"]),
                 "layout": layout, "time_s": 0.0,
                 "time_limit_s": self.base.time_limit_s}, text
+
+    def _camera(self, key: str, seats: np.ndarray, poses: list[float]) -> dict[str, Any]:
+        """The page's camera for the episode's start (:func:`scene3d.camera`), reused for a
+        start drawn alike (the same scene, seats and bodies' poses to the centimetre): the
+        renderer's choice of azimuth draws a few dozen small pictures, most of a reset's time.
+        """
+        start = (key, *np.round(np.asarray(seats, dtype=float), 2).ravel().tolist(),
+                 *np.round(np.asarray(poses, dtype=float), 2).tolist())
+        if start not in self.cameras:
+            self.cameras[start] = scene3d.camera(self.sim.model, self.sim.data, seats, ASPECT,
+                                                 self._score())
+        return self.cameras[start]
 
     def _score(self) -> Any:
         """The renderer's judge of a view (made once; None without offscreen GL)."""

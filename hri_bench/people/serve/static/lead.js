@@ -182,8 +182,8 @@ export class Lead {
     v.setBelief(m.belief || null);
     v.draw();
     const force = Math.hypot(...m.force);
-    this.forceText.textContent = `Your hand pushes the handle with ${force.toFixed(0)} N. ` +
-      `Time: ${m.time_s.toFixed(1)} of ${m.time_limit_s.toFixed(0)} s.`;
+    this.forceText.textContent = `The force of your hand on the handle: ` +
+      `${force.toFixed(0)} N. Time: ${m.time_s.toFixed(1)} of ${m.time_limit_s.toFixed(0)} s.`;
     document.body.dataset.drawn = String(m.seq);
     document.body.dataset.time = String(m.time_s);
     this.schedule(m.seq);

@@ -106,6 +106,10 @@ export class SceneView {
                                        0.1, 0xd9480f, 0.05, 0.035);
     this.arrow.visible = false;
     this.marks.add(this.arrow);
+    for (const mark of [this.target, this.lead, this.arrow.line, this.arrow.cone]) {
+      mark.material.depthTest = false;  // drawn over the scene: never hidden behind it
+      mark.renderOrder = 10;
+    }
     this.pending = false;
   }
 
