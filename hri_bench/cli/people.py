@@ -210,7 +210,8 @@ def _dataset_parsers(sub: Any) -> None:
     fit.add_argument("--smoothing", type=_real(lambda v: v > 0, "a number > 0"), default=1.0,
                      help="behaviour cloning's smoothing α (default 1)")
     fit.add_argument("--out", type=Path, default=None,
-                     help="a folder for the models (bc.npz, irl.npz)")
+                     help="a folder for the models (bc.npz, irl.npz; a physical dataset's: "
+                          "<dataset>.population.json)")
     fit.add_argument("--data", type=Path, default=None, help=_DATA_HELP)
     for p in (listing, show, export, record, fit):
         p.set_defaults(command_parser=p)
@@ -432,6 +433,8 @@ def _below_uniform(name: str, score: dict[str, Any], steps: int, uniform: float,
 def _fit(args: argparse.Namespace, dataset: Any) -> int:
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)  # before fitting: an OSError at once
+    if dataset.physical:
+        return _fit_physical(args, dataset)
     models = [fitting.fit(dataset, "bc", smoothing=args.smoothing),
               fitting.fit(dataset, "irl")]
     scores = fitting.evaluate(dataset, models)
@@ -458,6 +461,30 @@ def _fit(args: argparse.Namespace, dataset: Any) -> int:
             print(f"  wrote {m.save(args.out / f'{m.kind}.npz')}")
     print(f"  use as a population: --population recorded:{dataset.dataset_id} (bc) or "
           f"recorded-irl:{dataset.dataset_id} (irl)")
+    return 0
+
+
+def _fit_physical(args: argparse.Namespace, dataset: Any) -> int:
+    """``dataset fit`` of a physical dataset (:mod:`hri_bench.people.physical_fit`)."""
+    from hri_bench.people.physical_fit import fit_physical  # noqa: PLC0415
+
+    fit = fit_physical(dataset)
+    kind = "SYNTHETIC (scripted humans)" if dataset.synthetic else "people"
+    s = fit.scores
+    print(f"{dataset.dataset_id} ({kind}): a reference human fitted to each of "
+          f"{len(fit.train)} training participants; {len(fit.held_out)} held out")
+    print("  hand-target RMS error [m] (position and rotation x 0.1 m), the fitted "
+          "population's nearest member vs the default human:")
+    print(f"    train     {s['train']:.4f} vs {s['default_train']:.4f} "
+          f"({s['steps_train']:.0f} steps)")
+    print(f"    held out  {s['held_out']:.4f} vs {s['default_held_out']:.4f} "
+          f"({s['steps_held_out']:.0f} steps)")
+    for who, m in zip(fit.train, fit.members, strict=True):
+        print(f"    {who}: speed {m.speed:.3f}, reaction {m.reaction_s:.3f} s, hesitation "
+              f"{m.hesitation_s:.3f} s, preference {m.preference}")
+    if args.out is not None:
+        path = fit.save(args.out / f"{dataset.dataset_id}.population.json")
+        print(f"  wrote {path}; use as a physical population: --population fitted:{path}")
     return 0
 
 

@@ -223,10 +223,12 @@ class ServedApp:
 
 def record_synthetic(scenario: str, dataset: str, *, sessions: int, episodes: int,
                      population: str = "train", agent: str | None = None, seed: int = 0,
-                     data: str | os.PathLike[str] | None = None, at_once: int = 2) -> Any:
+                     data: str | os.PathLike[str] | None = None, at_once: int = 2,
+                     max_time_s: float | None = None) -> Any:
     """Record ``sessions`` synthetic participants of a physical population through the
     page's protocol (the module docstring) into the synthetic dataset ``dataset``; returns
-    it (:class:`~hri_bench.data.datasets.Dataset`). ``at_once`` sessions run together.
+    it (:class:`~hri_bench.data.datasets.Dataset`). ``at_once`` sessions run together;
+    ``max_time_s`` is the episodes' time limit (None: the env's).
     """
     from pathlib import Path  # noqa: PLC0415
 
@@ -239,6 +241,7 @@ def record_synthetic(scenario: str, dataset: str, *, sessions: int, episodes: in
                          dataset=dataset, data=None if data is None else Path(data),
                          seed=seed, physical=True, synthetic=True, population=population,
                          max_sessions=max(1, at_once), idle_timeout_s=600.0,
+                         max_time_s=max_time_s,
                          agent_timeout_s=600.0)
     pop = physical_population(population, scenario)
     umask = os.umask(0o077)
