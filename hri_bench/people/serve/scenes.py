@@ -21,6 +21,7 @@ import gzip
 import json
 import threading
 from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -131,7 +132,16 @@ class _GraphScene:
 
     @functools.lru_cache(maxsize=1024)  # noqa: B019
     def camera(self, layout: Layout | None, start: int) -> str:
-        """The camera fitted to an episode's start (as JSON text, to be shared)."""
+        """The camera fitted to an episode's start (as JSON text, to be shared).
+
+        The renderer that judges the views holds an OpenGL context, which is current in
+        one thread at a time: it is made and used in one thread of its own
+        (:data:`_GL_THREAD`), whichever session's thread asks (a second session's thread
+        once failed with an EGL error).
+        """
+        return _GL_THREAD.submit(self._camera, layout, start).result()
+
+    def _camera(self, layout: Layout | None, start: int) -> str:
         with self._lock:
             self._place(layout, int(self.graph.support_state(start, 0)))
             if self._score is None:
@@ -139,6 +149,10 @@ class _GraphScene:
             return json.dumps(scene3d.camera(self.sim.model, self.sim.data,
                                              self.sim.seats.pos, ASPECT,
                                              self._score or None))
+
+
+#: The one thread the graph scenes' offscreen renderers are made and used in.
+_GL_THREAD = ThreadPoolExecutor(max_workers=1, thread_name_prefix="hri-bench-gl")
 
 
 @functools.cache
