@@ -484,7 +484,8 @@ def _fit_physical(args: argparse.Namespace, dataset: Any) -> int:
               f"{m.hesitation_s:.3f} s, preference {m.preference}")
     if args.out is not None:
         path = fit.save(args.out / f"{dataset.dataset_id}.population.json")
-        print(f"  wrote {path}; use as a physical population: --population fitted:{path}")
+        print(f"  wrote {path}; name it as a physical population: fitted:{path} (the "
+              "continuous v1 envs' population=; docs/people.md, 'Fitted physical humans')")
     return 0
 
 
