@@ -15,7 +15,8 @@ and every row), and its participants are ``s0001``, ...
 * :func:`lead` plays one session as a client (also what ``benchmarks/serve_load.py
   --physical`` runs, many at once, measuring the time from an input to its frame);
 * :func:`record_synthetic` serves the app in this process on a free port of 127.0.0.1 and
-  records sessions of a population's members (``hri-bench dataset record --physical``).
+  records sessions of a population's members (``benchmarks/people_physical_fit.py``
+  records them for the fitted physical human, :mod:`hri_bench.people.physical_fit`).
 """
 
 from __future__ import annotations
