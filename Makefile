@@ -8,7 +8,7 @@ DEMO_OUT ?= out/demo
 # `make serve SERVE_ARGS="wheel --episodes 10"`: the arguments of `hri-bench serve`.
 SERVE_ARGS ?= hanger --data out/datasets
 
-.PHONY: demo test speed serve clean system-deps
+.PHONY: demo test speed serve web clean system-deps
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -45,7 +45,7 @@ system-deps:
 	fi
 
 # Lint, type and layer checks first, so that pytest's summaries are the last lines.
-test: $(VENV)/.test-installed system-deps
+test: $(VENV)/.test-installed system-deps web
 	$(VENV)/bin/ruff check hri_envs agents baselines hri_bench tests examples benchmarks
 	@# MuJoCo Warp's tests run in a process of their own, beside the others: they keep about
 	@# one core busy (Warp compiles its kernels once, about 1.5 min of one core without a
@@ -75,11 +75,29 @@ test: $(VENV)/.test-installed system-deps
 	cat "$$warp_log"; exit $$warp_status
 
 # A person plays the human in a browser (http://127.0.0.1:8000/); sessions are recorded.
-serve: $(VENV)/.serve-installed
+serve: $(VENV)/.serve-installed web
 	$(VENV)/bin/hri-bench serve $(SERVE_ARGS)
+
+# The page's 3D view draws with three.js, installed from npm at the version web/package-lock.json
+# pins and copied into the page's folder (served by hri-bench serve itself: the page loads
+# nothing from elsewhere). Without npm the page still works and says how to build it.
+WEB_VENDOR := hri_bench/people/serve/static/vendor
+web: $(WEB_VENDOR)/.built
+
+$(WEB_VENDOR)/.built: web/package.json web/package-lock.json
+	@if command -v npm >/dev/null; then \
+	  (cd web && npm ci --ignore-scripts --no-audit --no-fund --loglevel=error) \
+	  && mkdir -p $(WEB_VENDOR) \
+	  && cp web/node_modules/three/build/three.module.js web/node_modules/three/build/three.core.js $(WEB_VENDOR)/ \
+	  && cp web/node_modules/three/LICENSE $(WEB_VENDOR)/three.LICENSE \
+	  && touch $@ \
+	  || echo "make web: npm ci failed; the page's 3D view is not built (see above)"; \
+	else \
+	  echo "make web: npm is not installed; the page's 3D view is not built (apt-get install npm, then make web)"; \
+	fi
 
 speed: $(VENV)/.demo-installed
 	$(VENV)/bin/hri-bench speed
 
 clean:
-	rm -rf $(VENV) out .pytest_cache .ruff_cache .mypy_cache
+	rm -rf $(VENV) out .pytest_cache .ruff_cache .mypy_cache web/node_modules $(WEB_VENDOR)

@@ -327,6 +327,22 @@ PLAN: dict[str, Plan] = {
     ".venv/bin/python benchmarks/serve_load.py --sessions 20 --episodes 8 --think-ms 300": Skip(
         "20 simultaneous browser clients against a server for minutes; "
         "tests/test_people_serve.py drives the same server", script_flags),
+    ".venv/bin/hri-bench serve hanger --physical --data out/datasets": Skip(
+        SERVE.replace("browser.py", "lead_browser.py"), parses),
+    ".venv/bin/hri-bench serve wheel --physical --agent admittance --show-belief --max-time 45 "
+    "--data out/datasets": Skip(SERVE.replace("browser.py", "lead_browser.py"), parses),
+    "MUJOCO_GL=egl .venv/bin/python docs/figures/people_screenshots.py --out docs/figures": Skip(
+        "four servers and headless chromium sessions, writing the docs' figures; "
+        "tests/test_people_lead_browser.py drives the same page", syntax),
+    "MUJOCO_GL=egl .venv/bin/python benchmarks/people_physical_fit.py --data out/datasets "
+    "--sessions 8 --out out/physical-fit": Skip(
+        "minutes of sessions led in real time through a server; "
+        "tests/test_people_physical_fit.py records, fits and seats the same", syntax),
+    ".venv/bin/hri-bench dataset fit hanger-physical-synthetic --data out/datasets --out "
+    "out/models": Skip("fits the dataset the skipped command above records", parses),
+    ".venv/bin/python benchmarks/serve_load.py --physical --sessions 10 --episodes 4": Skip(
+        "10 sessions led at 25 Hz against a server for minutes; "
+        "tests/test_people_lead_browser.py drives the same server", script_flags),
     # docs/physics.md
     ".venv/bin/pip install -c constraints.txt -e '.[mjwarp]'": Skip(INSTALL, an_extra),
     ".venv/bin/hri-bench study hanger --backend mujoco --agents learner --runs 4 --episodes 2 "

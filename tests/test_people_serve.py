@@ -22,6 +22,7 @@ from hri_bench.data.datasets import open_dataset  # noqa: E402
 from hri_bench.data.replay import replay  # noqa: E402
 from hri_bench.people.serve.app import create_app  # noqa: E402
 from hri_bench.people.serve.design import ServeConfig, assignment, pair_circuit  # noqa: E402
+from hri_bench.people.serve.scenes import built  # noqa: E402
 from hri_bench.people.serve.session import parse_message  # noqa: E402
 from hri_bench.run.isolation import IN_PROCESS  # noqa: E402
 from hri_envs.errors import ConfigError  # noqa: E402
@@ -95,7 +96,13 @@ def test_a_whole_session_is_played_recorded_and_replays(tmp_path, scenario):
         token = _join(client)
         with client.websocket_connect("/ws") as ws:
             first = _hello(ws, token)
-            assert first["type"] == "frame" and first["picture"].startswith("data:image/png")
+            assert first["type"] == "frame"
+            if built():  # the 3D view: the scene's description by key, the bodies' poses
+                scene = client.get(f"/api/scene/{first['scene']}").json()
+                assert len(first["poses"]) == 7 * len(scene["bodies"])
+                assert {"eye", "target", "labels", "seats"} <= set(first["camera"])
+            else:  # the 2D picture, and the page says how to build the 3D view
+                assert first["picture"].startswith("data:image/png")
             assert first["episode"] == 1 and first["goal_name"] in ("A", "B", "C")
             assert [o["key"] for o in first["options"]] == ["1", "2"]
             done = _play(ws, first, scenario)
@@ -792,7 +799,7 @@ def test_headers_origin_and_public_settings(tmp_path):
         assert client.get("/app.js").status_code == 200
         study = client.get("/api/study").json()
         assert set(study) == {"scenario", "object", "supports", "episodes", "consent",
-                              "instructions"}
+                              "instructions", "physical"}
         assert "clothes hanger" in study["instructions"] and "{object}" not in study[
             "instructions"]
         token = _join(client)

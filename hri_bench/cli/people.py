@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.config import default_config
+from hri_bench.core.physical_robots import default_robot
 from hri_bench.data import datasets
 from hri_bench.data import fit as fitting
 from hri_bench.data.datasets import create_dataset, open_dataset
@@ -43,6 +44,7 @@ COMMANDS = ("serve", "dataset", "replay")
 
 #: ServeConfig field -> the flag it comes from.
 _SERVE_ARGUMENTS = {"scenario": "scenario", "agent": "--agent", "episodes": "--episodes",
+                    "physical": "--physical", "max_time_s": "--max-time",
                     "dataset": "--dataset", "data": "--data", "host": "--host",
                     "allowed_hosts": "--allow-host",
                     "port": "--port", "seed": "--seed", "max_steps": "--max-steps",
@@ -104,9 +106,19 @@ def _serve_parser(sub: Any) -> None:
                            "against a robot agent that learns across the session's episodes; "
                            "every session is recorded as a dataset (docs/people.md).")
     serve.add_argument("scenario", choices=SCENARIOS, nargs="?", default="hanger")
-    serve.add_argument("--agent", default="learner",
+    serve.add_argument("--agent", default=None,
                        help="the robot: an agent name as for 'study --agents' (default "
-                            "learner; sb3:PATH, module:Class; not oracle, informed, blind, qmdp)")
+                            "learner; sb3:PATH, module:Class; not oracle, informed, blind, "
+                            "qmdp); with --physical a physical robot (default: the best "
+                            "shipped one)")
+    serve.add_argument("--max-time", type=_real(lambda v: 1 <= v <= 3600,
+                                                "seconds in [1, 3600]"), default=None,
+                       help="with --physical: the time limit per episode (default: the "
+                            "env's, 30 s hanger, 45 s wheel)")
+    serve.add_argument("--physical", action="store_true",
+                       help="the continuous physical task: the participant leads the "
+                            "simulated arm's hand with the mouse, a finger or the keys "
+                            "(docs/people.md, 'Leading the arm')")
     serve.add_argument("--episodes", type=_whole(1, 1000), default=8,
                        help="episodes per session (default 8)")
     serve.add_argument("--dataset", default=None,
@@ -200,7 +212,8 @@ def _dataset_parsers(sub: Any) -> None:
     fit.add_argument("--smoothing", type=_real(lambda v: v > 0, "a number > 0"), default=1.0,
                      help="behaviour cloning's smoothing α (default 1)")
     fit.add_argument("--out", type=Path, default=None,
-                     help="a folder for the models (bc.npz, irl.npz)")
+                     help="a folder for the models (bc.npz, irl.npz; a physical dataset's: "
+                          "<dataset>.population.json)")
     fit.add_argument("--data", type=Path, default=None, help=_DATA_HELP)
     for p in (listing, show, export, record, fit):
         p.set_defaults(command_parser=p)
@@ -261,18 +274,22 @@ def _serve(args: argparse.Namespace) -> int:
         if text is not None:
             texts[name] = text
     try:
-        config = ServeConfig(args.scenario, agent=args.agent, episodes=args.episodes,
+        agent = args.agent or (default_robot() if args.physical else "learner")
+        config = ServeConfig(args.scenario, agent=agent, episodes=args.episodes,
                              dataset=args.dataset, data=args.data, host=args.host,
                              port=args.port, allowed_hosts=tuple(args.allow_host or ()),
                              seed=args.seed, max_steps=args.max_steps,
                              r0=args.r0, reward=args.reward, preferences=prefs,
                              show_belief=args.show_belief, max_sessions=args.max_sessions,
                              idle_timeout_s=args.idle_timeout,
-                             agent_timeout_s=args.agent_timeout, **texts)
+                             agent_timeout_s=args.agent_timeout, physical=args.physical,
+                             max_time_s=args.max_time,
+                             **texts)
         if config.agent.startswith("sb3:"):
             MissingExtraError.require(["stable_baselines3", "sb3_contrib", "torch"],
                                       "an 'sb3:' agent")
-        create_dataset(config.dataset_id, config.scenario, synthetic=False, root=config.data)
+        create_dataset(config.dataset_id, config.scenario, synthetic=False, root=config.data,
+                       physical=config.physical)
     except ConfigError as exc:
         _fail(parser, exc, _SERVE_ARGUMENTS)
     try:
@@ -418,6 +435,8 @@ def _below_uniform(name: str, score: dict[str, Any], steps: int, uniform: float,
 def _fit(args: argparse.Namespace, dataset: Any) -> int:
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)  # before fitting: an OSError at once
+    if dataset.physical:
+        return _fit_physical(args, dataset)
     models = [fitting.fit(dataset, "bc", smoothing=args.smoothing),
               fitting.fit(dataset, "irl")]
     scores = fitting.evaluate(dataset, models)
@@ -444,6 +463,31 @@ def _fit(args: argparse.Namespace, dataset: Any) -> int:
             print(f"  wrote {m.save(args.out / f'{m.kind}.npz')}")
     print(f"  use as a population: --population recorded:{dataset.dataset_id} (bc) or "
           f"recorded-irl:{dataset.dataset_id} (irl)")
+    return 0
+
+
+def _fit_physical(args: argparse.Namespace, dataset: Any) -> int:
+    """``dataset fit`` of a physical dataset (:mod:`hri_bench.people.physical_fit`)."""
+    from hri_bench.people.physical_fit import fit_physical  # noqa: PLC0415
+
+    fit = fit_physical(dataset)
+    kind = "SYNTHETIC (scripted humans)" if dataset.synthetic else "people"
+    s = fit.scores
+    print(f"{dataset.dataset_id} ({kind}): a reference human fitted to each of "
+          f"{len(fit.train)} training participants; {len(fit.held_out)} held out")
+    print("  hand-target RMS error [m] (position and rotation x 0.1 m), the fitted "
+          "population's nearest member vs the default human:")
+    print(f"    train     {s['train']:.4f} vs {s['default_train']:.4f} "
+          f"({s['steps_train']:.0f} steps)")
+    print(f"    held out  {s['held_out']:.4f} vs {s['default_held_out']:.4f} "
+          f"({s['steps_held_out']:.0f} steps)")
+    for who, m in zip(fit.train, fit.members, strict=True):
+        print(f"    {who}: speed {m.speed:.3f}, reaction {m.reaction_s:.3f} s, hesitation "
+              f"{m.hesitation_s:.3f} s, preference {m.preference}")
+    if args.out is not None:
+        path = fit.save(args.out / f"{dataset.dataset_id}.population.json")
+        print(f"  wrote {path}; name it as a physical population: fitted:{path} (the "
+              "continuous v1 envs' population=; docs/people.md, 'Fitted physical humans')")
     return 0
 
 

@@ -57,6 +57,13 @@ import numpy as np
 
 from hri_bench.core.atomic import atomic_path, atomic_writer, fsync_dir
 from hri_bench.data.checks import check_steps, read_episode
+from hri_bench.data.physical import (
+    NULLABLE,
+    PHYSICAL_COLUMNS,
+    PHYSICAL_SCHEMA,
+    check_physical_steps,
+    robot_episode_arrays,
+)
 from hri_envs import __version__  # importing hri_envs registers the env ids
 from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
@@ -149,14 +156,19 @@ def _arrow_type(pa: Any, name: str) -> Any:
     if name.startswith("list<"):
         return pa.list_(_arrow_type(pa, name[5:-1]))
     return {"string": pa.string(), "bool": pa.bool_(), "int8": pa.int8(),
-            "int16": pa.int16(), "int32": pa.int32(), "float64": pa.float64()}[name]
+            "int16": pa.int16(), "int32": pa.int32(), "float32": pa.float32(),
+            "float64": pa.float64()}[name]
 
 
-def schema(metadata: Mapping[str, str] | None = None) -> Any:
-    """The Arrow schema of :data:`COLUMNS` (each field's meaning in its metadata)."""
+def schema(metadata: Mapping[str, str] | None = None, *, physical: bool = False) -> Any:
+    """The Arrow schema of :data:`COLUMNS` (``physical``: of
+    :data:`~hri_bench.data.physical.PHYSICAL_COLUMNS`), each field's meaning in its metadata.
+    """
     pa = _pa()
-    fields = [pa.field(n, _arrow_type(pa, t), nullable=n in ("belief", "client_response_ms"),
-                       metadata={"doc": doc}) for n, t, doc in COLUMNS]
+    columns, nullable = ((PHYSICAL_COLUMNS, NULLABLE) if physical
+                         else (COLUMNS, frozenset({"belief", "client_response_ms"})))
+    fields = [pa.field(n, _arrow_type(pa, t), nullable=n in nullable, metadata={"doc": doc})
+              for n, t, doc in columns]
     return pa.schema(fields, metadata=dict(metadata or {}))
 
 
@@ -259,6 +271,13 @@ class Dataset:
     def synthetic(self) -> bool:
         """Whether the sessions are scripted humans' (never human data)."""
         return bool(self.meta["synthetic"])
+
+    @property
+    def physical(self) -> bool:
+        """Whether the sessions are of the continuous physical envs (schema
+        :data:`~hri_bench.data.physical.PHYSICAL_SCHEMA`), not of the task graph.
+        """
+        return self.meta.get("schema") == PHYSICAL_SCHEMA
 
     @property
     def minari_id(self) -> str:
@@ -399,15 +418,19 @@ class Dataset:
             participants = self.participants(unfinished=False)
             self.check_orphans()
         paths = self.episode_paths(participants)
-        target = schema()
+        target = schema(physical=self.physical)
         if not paths:
             return target.empty_table()
         graph = scenario_graph(self.scenario)
         tables, seen = [], dict[tuple[str, int], Path]()
         for path in paths:
             table = read_episode(path, target)
-            check_steps(table, path, graph, participant=path.parent.name,
-                        synthetic=self.synthetic)
+            if self.physical:
+                check_physical_steps(table, path, self.scenario, participant=path.parent.name,
+                                     synthetic=self.synthetic)
+            else:
+                check_steps(table, path, graph, participant=path.parent.name,
+                            synthetic=self.synthetic)
             key = (path.parent.name, int(table.column("episode")[0].as_py()))
             if key in seen:
                 raise ConfigError(f"{path}: episode {key[1] + 1} of {key[0]} is in "
@@ -473,9 +496,10 @@ def open_dataset(name: str | os.PathLike[str], root: str | os.PathLike[str] | No
                               f"there: {known}); give a dataset id or a dataset folder",
                               field=field)
     meta = _read_json(path / _DATASET_FILE, "a dataset's metadata")
-    if meta.get("schema") != SCHEMA_VERSION or meta.get("scenario") not in SCENARIOS:
-        raise ConfigError(f"{path}: not a dataset of schema {SCHEMA_VERSION} for a known "
-                          "scenario", field=field)
+    if meta.get("schema") not in (SCHEMA_VERSION, PHYSICAL_SCHEMA) \
+            or meta.get("scenario") not in SCENARIOS:
+        raise ConfigError(f"{path}: not a dataset of schema {SCHEMA_VERSION} or "
+                          f"{PHYSICAL_SCHEMA} for a known scenario", field=field)
     try:  # it names folders and Minari's files: a plain name, never a path
         if check_dataset_id(meta.get("dataset_id"), field) != meta["dataset_id"]:
             raise ConfigError("not of the form name-vN", field=field)
@@ -489,27 +513,32 @@ def open_dataset(name: str | os.PathLike[str], root: str | os.PathLike[str] | No
 
 
 def create_dataset(dataset_id: str, scenario: str, *, synthetic: bool,
-                   root: str | os.PathLike[str] | None = None, description: str = ""
-                   ) -> Dataset:
+                   root: str | os.PathLike[str] | None = None, description: str = "",
+                   physical: bool = False) -> Dataset:
     """Create the dataset ``dataset_id`` under the root, or open it if it exists with the
-    same scenario and the same kind of data (people or synthetic), to add sessions to it.
+    same scenario and the same kind of data (people or synthetic, graph or ``physical``
+    sessions), to add sessions to it.
 
     Raises:
         ConfigError: A bad id, or an existing dataset of another scenario or kind (people
-            and scripted humans never share a dataset; ``field="dataset"``).
+            and scripted humans never share a dataset, nor graph and physical sessions;
+            ``field="dataset"``).
     """
     dataset_id = check_dataset_id(dataset_id)
     path = data_root(root) / dataset_id
     with _lock:
         if (path / _DATASET_FILE).is_file():
             found = open_dataset(path)
-            if found.scenario != scenario or found.synthetic != synthetic:
-                kind = "synthetic" if found.synthetic else "people's"
+            if found.scenario != scenario or found.synthetic != synthetic \
+                    or found.physical != physical:
+                kind = ("synthetic" if found.synthetic else "people's") + (
+                    " physical" if found.physical else "")
                 raise ConfigError(f"dataset {dataset_id!r} holds {kind} {found.scenario} "
                                   "sessions; give another dataset id", field="dataset")
             return found
         (path / "sessions").mkdir(parents=True, exist_ok=True)
-        meta = {"dataset_id": dataset_id, "schema": SCHEMA_VERSION, "scenario": scenario,
+        meta = {"dataset_id": dataset_id,
+                "schema": PHYSICAL_SCHEMA if physical else SCHEMA_VERSION, "scenario": scenario,
                 "synthetic": bool(synthetic), "created_utc": _utc(),
                 "description": description, "hri_envs_version": __version__}
         _write_json(path / _DATASET_FILE, meta)
@@ -553,7 +582,8 @@ class SessionWriter:
                               field="participant")
         self.path.mkdir(parents=True)
         fsync_dir(self.path.parent)
-        self.meta: dict[str, Any] = {"participant": participant, "schema": SCHEMA_VERSION,
+        self.meta: dict[str, Any] = {"participant": participant,
+                                     "schema": dataset.meta["schema"],
                                      "dataset_id": dataset.dataset_id,
                                      "synthetic": dataset.synthetic, "status": "running",
                                      "started_utc": _utc(), "finished_utc": None, **meta}
@@ -573,13 +603,15 @@ class SessionWriter:
         pa = _pa()
         import pyarrow.parquet as pq
 
-        missing = [n for n, _, _ in COLUMNS if n not in columns]
+        physical = self.dataset.physical
+        names = [n for n, _, _ in (PHYSICAL_COLUMNS if physical else COLUMNS)]
+        missing = [n for n in names if n not in columns]
         if missing:
             raise ConfigError(f"an episode needs every column; missing {', '.join(missing)}",
                               field="columns")
-        meta = {"schema": SCHEMA_VERSION, "dataset_id": self.dataset.dataset_id,
+        meta = {"schema": self.dataset.meta["schema"], "dataset_id": self.dataset.dataset_id,
                 "scenario": self.dataset.scenario}
-        table = pa.table({n: columns[n] for n, _, _ in COLUMNS}, schema=schema(meta))
+        table = pa.table({n: columns[n] for n in names}, schema=schema(meta, physical=physical))
         target = self.path / _EPISODE_FILE.format(self.episodes + 1)
         with atomic_path(target, ".parquet") as tmp:
             pq.write_table(table, tmp)
@@ -606,7 +638,7 @@ class RobotEpisode:
         participant, episode: Where it comes from.
     """
 
-    observations: dict[str, np.ndarray]
+    observations: dict[str, np.ndarray] | np.ndarray
     actions: np.ndarray
     rewards: np.ndarray
     terminations: np.ndarray
@@ -617,10 +649,17 @@ class RobotEpisode:
 
 
 def robot_episodes(dataset: Dataset) -> Iterator[RobotEpisode]:
-    """The dataset's episodes in the robot's view, in :meth:`Dataset.steps`'s order."""
+    """The dataset's episodes in the robot's view, in :meth:`Dataset.steps`'s order (of a
+    physical dataset: the continuous env's observation vectors and actions,
+    :func:`~hri_bench.data.physical.robot_episode_arrays`).
+    """
     graph = scenario_graph(dataset.scenario)
     table = dataset.steps()
     if table.num_rows == 0:
+        return
+    if dataset.physical:
+        for ep in robot_episode_arrays(table):
+            yield RobotEpisode(**ep)
         return
     cols = {n: table.column(n).to_numpy(zero_copy_only=False)
             for n in ("participant", "episode", "start", "state", "next_state",
@@ -660,6 +699,14 @@ def _check_spaces(env: Any, episodes: Sequence[RobotEpisode]) -> None:
     for ep in episodes:
         where = f"participant {ep.participant} episode {ep.episode + 1}"
         for t in range(len(ep.actions) + 1):
+            if not isinstance(ep.observations, dict):  # a physical episode's vectors
+                if not obs_space.contains(ep.observations[t]):
+                    raise ConfigError(f"{where}, observation {t} (0: after reset) is outside "
+                                      f"the env's {obs_space}; not exported", field="dataset")
+                if t < len(ep.actions) and not act_space.contains(ep.actions[t]):
+                    raise ConfigError(f"{where}, step {t}: the robot's action is outside the "
+                                      f"env's {act_space}; not exported", field="dataset")
+                continue
             obs = {k: v[t] for k, v in ep.observations.items()}
             if not obs_space.contains(obs):
                 bad = next((k for k, v in obs.items() if not obs_space[k].contains(v)), "")
@@ -704,7 +751,7 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
                              infos={k: v.tolist() for k, v in ep.infos.items()},
                              options={"participant": ep.participant, "episode": ep.episode})
                for i, ep in enumerate(episodes)]
-    env = gym.make(str(scenario_spec(dataset.scenario).gym_id))
+    env = gym.make(_gym_id(dataset))
     try:
         _check_spaces(env, episodes)
         _write_minari(dataset, root, buffers, env)
@@ -716,12 +763,23 @@ def export_minari(dataset: Dataset, out: str | os.PathLike[str] | None = None) -
     return root
 
 
+def _gym_id(dataset: Dataset) -> str:
+    """The env whose robot's view a dataset's Minari export is: the graph env, or the
+    continuous env's v1 for a physical dataset.
+    """
+    spec = scenario_spec(dataset.scenario)
+    if not dataset.physical:
+        return str(spec.gym_id)
+    from hri_envs.registration import continuous_id  # noqa: PLC0415
+
+    return continuous_id(str(spec.continuous_id), 1)
+
+
 def _write_minari(dataset: Dataset, root: Path, buffers: list[Any], env: Any) -> None:
     """Build the Minari dataset beside ``root`` and rename it into place."""
     import minari
 
     content = dataset.content_hash()
-    spec = scenario_spec(dataset.scenario)
     kind = "scripted humans (synthetic)" if dataset.synthetic else "people"
     root.parent.mkdir(parents=True, exist_ok=True)
     build = Path(tempfile.mkdtemp(dir=root.parent, prefix=f".{root.name}.build-"))
@@ -736,9 +794,9 @@ def _write_minari(dataset: Dataset, root: Path, buffers: list[Any], env: Any) ->
                 minari.create_dataset_from_buffers(
                     dataset.minari_id, buffers, env=env, algorithm_name="hri-bench",
                     description=(f"The robot's view of {dataset.dataset_id}: {kind} in the "
-                                 f"human's seat of {spec.gym_id}; content {content}; "
+                                 f"human's seat of {_gym_id(dataset)}; content {content}; "
                                  "multi-agent steps in the dataset's Parquet files "
-                                 f"({SCHEMA_VERSION})."),
+                                 f"({dataset.meta['schema']})."),
                     data_format="arrow")
             finally:
                 if before is None:
@@ -765,7 +823,7 @@ def export_parquet(dataset: Dataset, path: str | os.PathLike[str]) -> Path:
     import pyarrow.parquet as pq
 
     table = dataset.steps()
-    meta = {"dataset_id": dataset.dataset_id, "schema": SCHEMA_VERSION,
+    meta = {"dataset_id": dataset.dataset_id, "schema": dataset.meta["schema"],
             "scenario": dataset.scenario, "synthetic": json.dumps(dataset.synthetic),
             "content_hash": dataset.content_hash(),
             "participants": json.dumps(dataset.participants()),

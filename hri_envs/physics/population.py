@@ -25,6 +25,9 @@ name               humans
                    train and validation). Report it; never tune on it.
 ``test-<group>``   one track of the test split: ``test-nominal``, ``test-weak``,
                    ``test-hesitant``, ``test-heldout`` (the same members, filtered).
+``fitted:<path>``  humans fitted to recorded sessions (family ``fitted``), from a
+                   population file (:func:`save_population`; made by
+                   ``hri-bench dataset fit`` of a physical dataset, docs/people.md).
 =================  ==============================================================
 
 A study's runs meet the members in balanced blocks (every member once per block of
@@ -41,8 +44,11 @@ import dataclasses
 import functools
 import hashlib
 import json
+import os
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from importlib import resources
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -51,9 +57,10 @@ from hri_envs.errors import ConfigError
 from hri_envs.physics.families import FAMILIES
 from hri_envs.physics.intention import HumanParams
 
-__all__ = ["DATA_FILE", "SCENARIOS", "SEEDING", "SIGNATURE_FILE", "SPLITS",
-           "PhysicalMember", "PhysicalPopulation", "params_dict", "physical_population",
-           "population_names"]
+__all__ = ["DATA_FILE", "FILE_SCHEMA", "FITTED_PREFIX", "SCENARIOS", "SEEDING",
+           "SIGNATURE_FILE", "SPLITS", "PhysicalMember", "PhysicalPopulation",
+           "fitted_population", "params_dict", "physical_population", "population_names",
+           "save_population"]
 
 SCENARIOS: tuple[str, ...] = ("hanger", "wheel")
 #: Each split's make-up: {split: {family: members}}.
@@ -66,6 +73,9 @@ SPLITS: dict[str, dict[str, int]] = {
 SEEDING = ("study: run r meets member default_rng([seed, r // size, 7]).permutation(size)"
            "[r % size]; env: rng.integers(size)")
 DATA_FILE = "physical_populations.json"
+#: A population file's schema, and the prefix of the names that load one.
+FILE_SCHEMA = "hri-envs/physical-population/1"
+FITTED_PREFIX = "fitted:"
 SIGNATURE_FILE = "physical_signatures.npz"
 _DEFAULTS = dataclasses.asdict(HumanParams())
 
@@ -157,6 +167,9 @@ class PhysicalPopulation:
         """(N, P, W, 9) the members' behavioural signatures as committed
         (:func:`~hri_envs.physics.probe.signature`).
         """
+        if any(e.row < 0 for e in self.entries):
+            raise ConfigError(f"{self.name} has no committed signatures (fitted humans)",
+                              field="population")
         return _signatures()[self.scenario][[e.row for e in self.entries]]
 
 
@@ -176,6 +189,8 @@ def physical_population(name: str, scenario: str) -> PhysicalPopulation:
     if scenario not in SCENARIOS:
         raise ConfigError(f"no physical populations for scenario {scenario!r}; allowed: "
                           f"{', '.join(SCENARIOS)}", field="population")
+    if isinstance(name, str) and name.startswith(FITTED_PREFIX):
+        return _load(name, scenario)
     names = population_names()
     if name not in names:
         raise ConfigError(f"unknown physical population {name!r}; allowed: "
@@ -185,6 +200,56 @@ def physical_population(name: str, scenario: str) -> PhysicalPopulation:
     if group:
         entries = tuple(e for e in entries if e.group == group)
     return PhysicalPopulation(name, scenario, entries)
+
+
+def fitted_population(name: str, scenario: str, members: Sequence[HumanParams],
+                      labels: Sequence[str]) -> PhysicalPopulation:
+    """A population of fitted humans (family and group ``fitted``), in the given order."""
+    entries = tuple(
+        PhysicalMember(p, "fitted", "fitted", label,
+                       _sha256(params_dict(p))[:16], -1)
+        for p, label in zip(members, labels, strict=True))
+    if not entries:
+        raise ConfigError(f"population {name} has no members", field="population")
+    return PhysicalPopulation(name, scenario, entries)
+
+
+def save_population(path: str | os.PathLike[str], scenario: str,
+                    members: Sequence[HumanParams], labels: Sequence[str], *,
+                    source: Mapping[str, Any] | None = None) -> Path:
+    """Write fitted humans as a population file (:data:`FILE_SCHEMA`, JSON: the scenario,
+    each member's label and parameters by value, and where they came from); the name
+    ``fitted:<path>`` loads it. Returns the path.
+    """
+    if scenario not in SCENARIOS:
+        raise ConfigError(f"no physical populations for scenario {scenario!r}; allowed: "
+                          f"{', '.join(SCENARIOS)}", field="population")
+    fitted_population("fitted", scenario, members, labels)  # checks: not empty, paired
+    doc = {"schema": FILE_SCHEMA, "scenario": scenario, "source": dict(source or {}),
+           "members": [{"label": label, "params": params_dict(p)}
+                       for p, label in zip(members, labels, strict=True)]}
+    out = Path(path)
+    out.write_text(json.dumps(doc, indent=1, sort_keys=True, allow_nan=False) + "\n")
+    return out
+
+
+def _load(name: str, scenario: str) -> PhysicalPopulation:
+    """The population file ``name`` points at (``fitted:<path>``)."""
+    path = Path(name[len(FITTED_PREFIX):])
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"population {name}: cannot read {path} as a population file "
+                          f"({exc})", field="population") from None
+    if not isinstance(doc, dict) or doc.get("schema") != FILE_SCHEMA:
+        raise ConfigError(f"population {name}: {path} is not a {FILE_SCHEMA} file",
+                          field="population")
+    if doc.get("scenario") != scenario:
+        raise ConfigError(f"population {name} holds {doc.get('scenario')!r} humans, not "
+                          f"{scenario!r}", field="population")
+    members = doc.get("members") or []
+    return fitted_population(name, scenario, [HumanParams.of(m["params"]) for m in members],
+                             [str(m["label"]) for m in members])
 
 
 @functools.cache

@@ -30,8 +30,8 @@ from collections.abc import Callable
 from typing import Any
 
 from agents.learning import algorithm1
-from hri_bench.core.pictures import picture
 from hri_bench.people.serve.design import ServeConfig
+from hri_bench.people.serve.scenes import graph_view
 from hri_envs.errors import MissingExtraError
 from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
@@ -86,15 +86,17 @@ def serve(config: ServeConfig, *, announce: Callable[[str], None] | None = None)
 def _serve(config: ServeConfig, say: Callable[[str], None], uvicorn: Any,
            create_app: Callable[..., Any]) -> None:
     """:func:`serve` once the web extra is loaded."""
-    if config.agent in ("learner", "maxent"):
+    if config.agent in ("learner", "maxent") and not config.physical:
         # the first participant does not wait for the kernels; compiling them the first
         # time (numba caches them on disk) takes a minute or more
         say("hri-bench serve: loading the robot's compiled kernels (the first time after "
             "installing, they are compiled: a minute or more)")
         algorithm1.preload()
-    if scenario_spec(config.scenario).layout is None:  # one picture per state for all
-        for state in range(scenario_graph(config.scenario).n_states):
-            picture(config.scenario, None, state)
+    if scenario_spec(config.scenario).layout is None and not config.physical:
+        # one view per state for all
+        graph = scenario_graph(config.scenario)
+        for state in range(graph.n_states):
+            graph_view(config.scenario, None, state, max(0, int(graph.support[state])))
     sock = _bind(config.host, config.port)
     host, port = sock.getsockname()[:2]
     try:

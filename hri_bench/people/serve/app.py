@@ -5,6 +5,9 @@ Routes:
 * ``GET /`` — the page (``static/index.html``, carrying this server's page token;
   ``app.js``, ``app.css``);
 * ``GET /api/study`` — the public settings: texts, the task's names, episodes;
+* ``GET /api/scene/KEY`` — a 3D scene the page draws (:mod:`~hri_bench.people.serve.
+  scenes`; public, the same for every participant), and ``/vendor/*.js`` the 3D library
+  (``make web``);
 * ``POST /api/sessions`` with ``{"consent": true}`` — join: a new session (and robot), whose
   secret token the page keeps in its ``localStorage``; 400 without consent, 503 when full;
 * ``WS /ws`` — the session's channel. The first message is ``{"type": "hello", "session":
@@ -39,6 +42,7 @@ from fastapi.responses import FileResponse, JSONResponse, Response
 
 from hri_bench.people.serve.access import TOKEN_HEADER, Access
 from hri_bench.people.serve.design import ServeConfig
+from hri_bench.people.serve.scenes import STORE, VENDOR, VENDOR_FILES, built
 from hri_bench.people.serve.session import (
     EndedSession,
     MessageError,
@@ -87,7 +91,7 @@ def create_app(config: ServeConfig, manager: SessionManager | None = None, *,
     """
     access = Access(config.host, config.port if port is None else port,
                     config.allowed_hosts)
-    sessions = manager if manager is not None else SessionManager(config)
+    sessions = manager if manager is not None else _manager(config)
     public = config.public()
     page = (STATIC / "index.html").read_text(encoding="utf-8")
     if page.count(_TOKEN_SLOT) != 1:
@@ -114,7 +118,8 @@ def create_app(config: ServeConfig, manager: SessionManager | None = None, *,
             response = JSONResponse({"field": "host", "error": _wrong_host(host)}, 400)
         else:
             response = await call_next(request)
-        response.headers.update(_HEADERS)
+        for name, value in _HEADERS.items():  # a route may allow caching (the scenes)
+            response.headers.setdefault(name, value)
         return response
 
     app.middleware("http")(guard)
@@ -125,6 +130,12 @@ def create_app(config: ServeConfig, manager: SessionManager | None = None, *,
 
     for route, (name, media) in _FILES.items():
         app.get(route, include_in_schema=False)(_file_route(name, media))
+    for name in VENDOR_FILES:
+        app.get(f"/vendor/{name}", include_in_schema=False)(_vendor_route(name))
+
+    @app.get("/api/scene/{key}", include_in_schema=False)
+    async def scene(key: str, request: Request) -> Response:
+        return _scene(key, request)
 
     @app.get("/api/study")
     async def study() -> dict[str, Any]:
@@ -149,7 +160,47 @@ def create_app(config: ServeConfig, manager: SessionManager | None = None, *,
 
 
 #: The page's other files: route -> (file in :data:`STATIC`, media type).
-_FILES = {"/app.js": ("app.js", "text/javascript"), "/app.css": ("app.css", "text/css")}
+_FILES = {"/app.js": ("app.js", "text/javascript"), "/app.css": ("app.css", "text/css"),
+          "/view3d.js": ("view3d.js", "text/javascript"),
+          "/lead.js": ("lead.js", "text/javascript")}
+
+
+def _vendor_route(name: str) -> Callable[[], Awaitable[Response]]:
+    """The route of one file of the 3D library (``make web``); 404 with how to build it."""
+    async def serve_file() -> Response:
+        if not built():
+            return JSONResponse({"field": "vendor", "error": "the page's 3D view is not "
+                                 "built: run make web (npm ci) in the repository"}, 404)
+        return FileResponse(VENDOR / name, media_type="text/javascript",
+                            headers={"Cache-Control": "no-cache"})
+
+    return serve_file
+
+
+def _scene(key: str, request: Request) -> Response:
+    """A scene description (:mod:`~hri_bench.people.serve.scenes`), gzip-compressed when the
+    browser takes it; cached by the browser (its key is its content's hash).
+    """
+    found = STORE.get(key)
+    if found is None:
+        return JSONResponse({"field": "scene", "error": "no such scene"}, 404)
+    text, packed = found
+    headers = {"Cache-Control": "private, max-age=86400, immutable", "Vary": "Accept-Encoding"}
+    if "gzip" in request.headers.get("accept-encoding", ""):
+        return Response(packed, media_type="application/json",
+                        headers={**headers, "Content-Encoding": "gzip"})
+    return Response(text, media_type="application/json", headers=headers)
+
+
+def _manager(config: ServeConfig) -> SessionManager:
+    """The sessions of a graph task, or of a physical one (:mod:`~hri_bench.people.serve.
+    lead_session`).
+    """
+    if config.physical:
+        from hri_bench.people.serve.lead_session import LeadSessionManager  # noqa: PLC0415
+
+        return LeadSessionManager(config)
+    return SessionManager(config)
 
 
 def _wrong_host(host: str | None) -> str:

@@ -32,7 +32,8 @@ from hri_envs.errors import ConfigError
 from hri_envs.task.episode import REWARD_RULES
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
 
-__all__ = ["DEFAULT_CONSENT", "DEFAULT_INSTRUCTIONS", "UNSUITED_AGENTS", "Assignment",
+__all__ = ["DEFAULT_CONSENT", "DEFAULT_INSTRUCTIONS", "LEAD_CONSENT", "LEAD_INSTRUCTIONS",
+           "UNSUITED_AGENTS", "Assignment",
            "ServeConfig", "assignment", "describe_preference", "pair_circuit"]
 
 #: Agents that cannot face a person: they copy or plan for a scripted human's policy (the
@@ -58,13 +59,43 @@ DEFAULT_INSTRUCTIONS = """\
 You and the robot carry the {object} between its supports ({supports}). Each episode you are
 given a goal: bring the {object} there and leave it resting on it (let go).
 
-In each step the picture shows where the {object} is: grey when nobody holds it, orange when
-you hold it, blue when the robot does, green when you both do. The robot chooses its action
-at the same time as you; it does not know your goal and learns from what you do. You are in
-control: when you both hold the {object}, it moves your way.
+In each step the picture shows the robot arm, your arm, the supports and the {object}; your
+goal is marked green, and the text under the picture says where the {object} is and who
+holds it. The robot chooses its action at the same time as you; it does not know your goal
+and learns from what you do. You are in control: when you both hold the {object}, it moves
+your way.
 
 Choose an action with its number key (or click it). When an episode is over, press Enter for
 the next one.
+"""
+
+
+#: The consent text of the physical tasks (``physical=True``).
+LEAD_CONSENT = """\
+This is a study of how a robot learns to cooperate with a person. You will carry an object
+together with a simulated robot arm, a few times, by leading a simulated arm's hand with your
+mouse, your finger or the keyboard.
+
+We record what you and the robot do in each step (where you lead the hand, the forces, the
+object's and the robot's motion, the robot's estimate of your goal) and when, under a random
+anonymous code. We record nothing else about you: no name, no address, no browser details.
+
+Taking part is voluntary; you may stop at any time by closing this page. Recorded episodes
+are kept under the anonymous code, which is shown at the end.
+"""
+
+#: The instructions of the physical tasks (``physical=True``).
+LEAD_INSTRUCTIONS = """\
+You and the robot arm hold the {object} together; it rests on one of its supports
+({supports}). Each episode you are given a goal, marked green: carry the {object} there with
+the robot and put it on, so that it rests there.
+
+You lead your arm's hand: the orange ball is where you pull it to. Drag in the picture with
+the mouse or a finger to move the ball up, down, left and right; hold Shift while dragging,
+or use the buttons, to move it nearer or farther; turn the {object} with the turn buttons.
+Keys: arrows (left, right, up, down), W and S (farther, nearer), Q and E (turn). Your hand
+follows the ball as a real arm would, and the red arrow shows the force your hand puts on
+the handle. The robot feels that force through its wrist; it does not know your goal.
 """
 
 
@@ -105,6 +136,18 @@ class ServeConfig:
             ``idle_timeout_s``; a longer one ends the session (``failed``), as an agent
             that raises or exits does.
         learner: Changes to the Learner's configuration, as (name, value) pairs.
+        physical: Serve the continuous physical task (the participant leads the simulated
+            arm's hand; ``agent`` names a physical robot,
+            :mod:`hri_bench.core.physical_robots`) instead of the task graph.
+        synthetic: The sessions are scripted humans' driving the page's input protocol
+            (:mod:`hri_bench.people.synthetic`), recorded in a synthetic dataset; never set
+            for people.
+        population: With ``synthetic`` (physical only): the physical population whose
+            members' bodies and arms take the human's seat (session ``i``'s human is its
+            member of run ``i``, :meth:`~hri_envs.physics.population.PhysicalPopulation.
+            member_index`); people take the default body.
+        max_time_s: The physical task's time limit per episode [s] (None: the env's, 30 s
+            hanger, 45 s wheel).
     """
 
     scenario: str = "hanger"
@@ -127,6 +170,10 @@ class ServeConfig:
     idle_timeout_s: float = 1800.0
     agent_timeout_s: float = 60.0
     learner: tuple[tuple[str, Any], ...] = field(default_factory=tuple)
+    physical: bool = False
+    synthetic: bool = False
+    population: str | None = None
+    max_time_s: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.scenario, str) or self.scenario not in SCENARIOS:
@@ -135,14 +182,26 @@ class ServeConfig:
         if not isinstance(self.agent, str):
             raise ConfigError(f"agent must be an agent's name, got {self.agent!r}",
                               field="agent")
-        try:
-            validate_agent_name(self.agent)
-        except ConfigError as exc:
-            raise ConfigError(str(exc), field="agent") from None
-        if self.agent in UNSUITED_AGENTS:
-            raise ConfigError(f"agent {self.agent!r} copies or plans for a scripted human's "
-                              "policy and cannot face a person; give another (e.g. learner)",
-                              field="agent")
+        check_flag(self.physical, "physical")
+        check_flag(self.synthetic, "synthetic")
+        if self.physical:
+            self._check_physical()
+        else:
+            if self.synthetic or self.population is not None:
+                raise ConfigError("synthetic sessions through the page and their population "
+                                  "are for the physical tasks (hri-bench dataset record "
+                                  "records the graph's)", field="synthetic")
+            if self.max_time_s is not None:
+                raise ConfigError("a time limit is the physical tasks' (--physical); a graph "
+                                  "task's episodes end at --max-steps", field="max_time_s")
+            try:
+                validate_agent_name(self.agent)
+            except ConfigError as exc:
+                raise ConfigError(str(exc), field="agent") from None
+            if self.agent in UNSUITED_AGENTS:
+                raise ConfigError(f"agent {self.agent!r} copies or plans for a scripted "
+                                  "human's policy and cannot face a person; give another "
+                                  "(e.g. learner)", field="agent")
         check_whole(self.episodes, "episodes", minimum=1, maximum=1000)
         check_whole(self.seed, "seed", minimum=0)
         check_whole(self.port, "port", minimum=0, maximum=65535)
@@ -189,10 +248,39 @@ class ServeConfig:
         if self.learner:
             default_config(self.scenario, **dict(self.learner))
 
+    def _check_physical(self) -> None:
+        """A physical robot; the physical texts by default; a population only for
+        synthetic sessions.
+        """
+        from hri_bench.core.physical_robots import check_robot  # noqa: PLC0415
+
+        check_robot(self.agent)
+        if self.learner:
+            raise ConfigError("learner settings are the graph Learner's; the physical robots "
+                              "take none", field="learner")
+        if self.consent == DEFAULT_CONSENT:
+            object.__setattr__(self, "consent", LEAD_CONSENT)
+        if self.instructions == DEFAULT_INSTRUCTIONS:
+            object.__setattr__(self, "instructions", LEAD_INSTRUCTIONS)
+        if self.max_time_s is not None:
+            check_real(self.max_time_s, "max_time_s", low=1.0, high=3600.0,
+                       allowed="None or a number of seconds in [1, 3600]")
+        if self.population is not None:
+            if not self.synthetic:
+                raise ConfigError("a population takes the human's seat in synthetic sessions "
+                                  "only; people take the default body", field="population")
+            from hri_envs.physics.population import physical_population  # noqa: PLC0415
+
+            physical_population(self.population, self.scenario)
+
     @property
     def dataset_id(self) -> str:
         """The dataset the sessions go to."""
-        return self.dataset or f"{self.scenario}-people-v0"
+        if self.dataset:
+            return self.dataset
+        kind = ("-physical" if self.physical else "") + (
+            "-synthetic" if self.synthetic else "-people")
+        return f"{self.scenario}{kind}-v0"
 
     @property
     def waiting_reward(self) -> float:
@@ -220,7 +308,7 @@ class ServeConfig:
 
         return {"scenario": self.scenario, "object": obj, "supports": list(graph.support_names),
                 "episodes": self.episodes, "consent": fill(self.consent),
-                "instructions": fill(self.instructions)}
+                "instructions": fill(self.instructions), "physical": self.physical}
 
     def settings(self) -> dict[str, Any]:
         """The settings recorded with each session (texts by their hash)."""

@@ -32,11 +32,13 @@ import numpy as np
 
 from agents.learning import algorithm1
 from agents.protocol import BatchAgent, read_belief
-from hri_bench.core.pictures import picture
-from hri_bench.data.datasets import SessionWriter, create_dataset, new_participant_id
+from hri_bench.data.datasets import Dataset, SessionWriter, create_dataset, new_participant_id
 from hri_bench.people.recording import RecordingHumans, agent_identity
 from hri_bench.people.serve.design import Assignment, ServeConfig, assignment, describe_preference
+from hri_bench.people.serve.hand import FIELDS as HAND_FIELDS
+from hri_bench.people.serve.hand import check_hand
 from hri_bench.people.serve.robot import AgentFailed, AgentWorker, GuardedAgent, Stopped
+from hri_bench.people.serve.scenes import graph_view, warm
 from hri_bench.people.serve.store import DatasetLock, make_private, mark_interrupted
 from hri_bench.run.agents import make_agent
 from hri_bench.run.runner import Schedule, run_episodes
@@ -85,6 +87,7 @@ MESSAGES: dict[str, tuple[str, ...]] = {
     "hello": ("session",),
     "action": ("seq", "action", "rt_ms"),
     "continue": ("seq",),
+    "hand": HAND_FIELDS,  # a physical task's input (hand.py)
 }
 
 
@@ -147,6 +150,8 @@ def parse_message(text: Any) -> dict[str, Any]:
             raise MessageError("session must be the session's token", field="session")
     else:
         _whole(msg.get("seq"), "seq", 0, 2**31)
+    if kind == "hand":
+        check_hand(msg, MessageError)
     if kind == "action":
         _whole(msg.get("action"), "action", 0, 1000)
         rt = msg.get("rt_ms")
@@ -346,7 +351,7 @@ class Session:
                 stop = self._stop
             if stop is not None:
                 raise Stopped(stop)
-            if kind in ("action", "continue"):
+            if kind in ("action", "continue", "hand"):
                 return action
             now = _clock()
             with self._lock:
@@ -379,7 +384,7 @@ class Session:
                 "options": [{"action": a, "label": g.agent_action_label(s, a, robot=False),
                              "key": str(i + 1) if i < 9 else ""}
                             for i, a in enumerate(options)],
-                "picture": picture(self.config.scenario, self.layouts[self._episode], s)}
+                **self._scene(s)}
         if self.config.show_belief and self.agent is not None:
             belief = read_belief(self.agent)
             if belief is not None:
@@ -392,14 +397,20 @@ class Session:
         self._step += 1
         return a_h
 
+    def _scene(self, state: int) -> dict[str, Any]:
+        """The 3D view of ``state`` in this episode (:func:`~hri_bench.people.serve.scenes.
+        graph_view`).
+        """
+        return graph_view(self.config.scenario, self.layouts[self._episode], state,
+                          self.design.pairs[self._episode][0])
+
     def _prerender(self, episode: int) -> None:
-        """Encode an episode's first picture ahead, while the page shows the last outcome
-        (the wheel's layout is new each episode; later pictures are drawn when first
-        needed, about 7 ms each, and kept).
+        """Compute an episode's first view ahead, while the page shows the last outcome
+        (the wheel's layout is new each episode; later states are placed when first
+        needed, about 10 ms each on the wheel, and kept).
         """
         if 0 <= episode < self.config.episodes:
-            start = int(self.graph.support_state(self.design.pairs[episode][0], 0))
-            picture(self.config.scenario, self.layouts[episode], start)
+            warm(self.config.scenario, self.layouts[episode], self.design.pairs[episode][0])
 
     def _make_robot(self) -> tuple[GuardedAgent, RecordingHumans]:
         """The robot agent, made in its worker as in a study, and the recorder around the
@@ -442,7 +453,7 @@ class Session:
             self.outcomes.append(outcome)
             last = self._episode + 1 == cfg.episodes
             self._publish({"type": "outcome", **self._header(), **outcome, "last": last,
-                           "picture": picture(cfg.scenario, self.layouts[self._episode], end)},
+                           **self._scene(end)},
                           None if last else ("continue", frozenset()))
             # written by the server's writer thread while the page shows the outcome
             self._written = _writer().submit(self.recorder.flush)
@@ -581,15 +592,12 @@ class SessionManager:
     def __init__(self, config: ServeConfig) -> None:
         import pyarrow.parquet  # noqa: F401  (the web extra; loaded once, before a session writes)
 
-        if config.agent in ("learner", "maxent"):
+        if config.agent in ("learner", "maxent") and not config.physical:
             # compiled (the first time after installing) or loaded now, so that no robot's
             # first call waits for them (and none runs into --agent-timeout)
             algorithm1.preload()
         self.config = config
-        self.dataset = create_dataset(config.dataset_id, config.scenario, synthetic=False,
-                                      root=config.data,
-                                      description="people in the human's seat "
-                                                  "(hri-bench serve)")
+        self.dataset = self._open_dataset()
         self._dataset_lock = DatasetLock(self.dataset)  # one server per dataset (store.py)
         try:
             #: Sessions a server that was killed left running, now marked interrupted.
@@ -605,6 +613,13 @@ class SessionManager:
         self._ended_bytes = 0
         self._joined, self._free = _rows(self.dataset)
 
+    def _open_dataset(self) -> Dataset:
+        """The dataset the sessions are recorded in (made if new)."""
+        config = self.config
+        return create_dataset(config.dataset_id, config.scenario, synthetic=False,
+                              root=config.data,
+                              description="people in the human's seat (hri-bench serve)")
+
     def create(self) -> Session:
         """A new participant's session, started.
 
@@ -617,21 +632,24 @@ class SessionManager:
                 raise ConfigError(f"the study is full ({cfg.max_sessions} sessions at once); "
                                   "try again later", field="sessions")
             index = self._free[0] if self._free else self._joined
-            design = assignment(cfg, index)
-            participant = new_participant_id()
-            writer = SessionWriter(self.dataset, participant, {
-                "source": "web", "human": "person", "session_index": index,
-                "scenario": cfg.scenario, "r0": cfg.waiting_reward, "reward_rule": cfg.reward,
-                "max_steps": cfg.max_steps, "seed": cfg.seed, "run": index,
-                "episodes_planned": cfg.episodes,
-                "schedule": [[int(a), int(b), False] for a, b in design.pairs],
-                "preference": design.preference, "serve_settings": cfg.settings(),
-                **agent_identity(cfg.agent, cfg.scenario, cfg.waiting_reward, dict(cfg.learner))})
+            session = self._new_session(index, assignment(cfg, index))
             self._take(index)  # the design's row is taken once the session is on disk
-            session = Session(cfg, design, writer, on_end=self._retire)
             self._sessions[session.token] = session
         session.thread.start()
         return session
+
+    def _new_session(self, index: int, design: Assignment) -> Session:
+        """Participant ``index``'s session, recorded from now (not started)."""
+        cfg = self.config
+        writer = SessionWriter(self.dataset, new_participant_id(), {
+            "source": "web", "human": "person", "session_index": index,
+            "scenario": cfg.scenario, "r0": cfg.waiting_reward, "reward_rule": cfg.reward,
+            "max_steps": cfg.max_steps, "seed": cfg.seed, "run": index,
+            "episodes_planned": cfg.episodes,
+            "schedule": [[int(a), int(b), False] for a, b in design.pairs],
+            "preference": design.preference, "serve_settings": cfg.settings(),
+            **agent_identity(cfg.agent, cfg.scenario, cfg.waiting_reward, dict(cfg.learner))})
+        return Session(cfg, design, writer, on_end=self._retire)
 
     def _retire(self, session: Session) -> None:
         """A session has ended and is recorded: keep its last view only (an

@@ -1,7 +1,8 @@
 // The participant's page of hri-bench serve: consent, then the task over one websocket.
 // The session's token stays in this browser's localStorage, so a reload resumes the
-// session. Text from the server is only ever set as textContent.
-"use strict";
+// session. Text from the server is only ever set as textContent. The task is drawn in 3D
+// (view3d.js, three.js built by `make web`); a physical task's input is lead.js's.
+import {Lead} from "/lead.js";
 
 const KEY = "hri-bench-session";
 const $ = (id) => document.getElementById(id);
@@ -10,6 +11,9 @@ let view = null;       // the last view from the server
 let shownAt = 0;       // when the current frame was painted (performance.now())
 let busy = false;      // an answer to the current view is on its way
 let over = false;      // the session is done or ended: do not reconnect
+let scene = null;      // the 3D view (view3d.js), once loaded
+let sceneFailed = "";  // why the 3D view cannot be shown
+let lead = null;       // a physical task's input (lead.js)
 
 function paragraphs(el, text) {
   el.replaceChildren();
@@ -55,11 +59,53 @@ function next() {
 
 function header(m) {
   $("status").textContent = `Episode ${m.episode} of ${m.episodes}` +
-    (m.step ? ` · step ${m.step}` : "");
+    (m.step && m.type !== "lead" ? ` · step ${m.step}` : "");
   $("goal").textContent = `Your goal: bring it from ${m.start_name} to ${m.goal_name}.`;
   $("preference").hidden = !m.preference;
   $("preference").textContent = m.preference || "";
-  $("picture").src = m.picture;
+}
+
+// The 3D view, loaded once (null where it cannot be: the page says why).
+async function view3d() {
+  if (scene || sceneFailed) return scene;
+  try {
+    const module = await import("/view3d.js");
+    scene = new module.SceneView($("canvas"), $("labels"));
+  } catch (e) {
+    sceneFailed = "The 3D view is not available here: the server's page was not built " +
+      "(run make web in the repository) or this browser has no WebGL.";
+  }
+  return scene;
+}
+
+// Draw a view's scene: in 3D from the server's poses, or its 2D picture.
+async function draw(m) {
+  if (m.picture) {
+    $("view").hidden = true;
+    $("picture").hidden = false;
+    $("picture").src = m.picture;
+    $("view-note").hidden = false;
+    $("view-note").textContent = "A 3D view of the task is shown once the page is built " +
+      "(run make web in the repository).";
+    return null;
+  }
+  const v = await view3d();
+  if (!v) {
+    $("view").hidden = true;
+    $("view-note").hidden = false;
+    $("view-note").textContent = sceneFailed;
+    return null;
+  }
+  $("view").hidden = false;
+  $("picture").hidden = true;
+  await v.load(m.scene);
+  if (m.camera) v.setCamera(m.camera);
+  v.setGoal(m.goal);
+  v.setPoses(m.poses);
+  v.setBelief(m.belief || null);
+  v.draw();
+  document.body.dataset.drawn = String(m.seq);
+  return v;
 }
 
 function painted() {
@@ -69,6 +115,7 @@ function painted() {
 function onFrame(m) {
   show("play");
   header(m);
+  draw(m).catch((e) => error(String(e)));
   $("outcome").hidden = true;
   $("where").textContent = `Now: ${m.state_name}.`;
   $("robot").textContent = `The robot is about to: ${m.robot}.`;
@@ -97,16 +144,23 @@ function onFrame(m) {
 function onOutcome(m) {
   show("play");
   header(m);
+  if (lead) lead.pause();
+  draw(m).catch((e) => error(String(e)));
   $("options").replaceChildren();
   $("robot").textContent = "";
   $("note").hidden = true;
   $("belief").hidden = true;
   $("where").textContent = "";
-  const where = m.reached_name ? `rests on ${m.reached_name}` : "did not arrive in time";
+  const where = m.reached_name ? `rests on ${m.reached_name}` : (m.outcome &&
+    m.outcome !== "timeout" ? `was not put on a support (${m.outcome.replace("_", " ")})` :
+    "did not arrive in time");
   const verdict = m.success ? "You reached your goal." :
     (m.reached_name ? "That was not your goal." : "");
+  const length = m.time_s !== undefined ? `${m.time_s.toFixed(1)} s` : `${m.steps} steps`;
+  const effort = m.effort !== undefined && m.effort !== null ?
+    ` Your effort: ${m.effort} N s.` : "";
   $("outcome-text").textContent =
-    `Episode ${m.episode} is over after ${m.steps} steps: it ${where}. ${verdict} ` +
+    `Episode ${m.episode} is over after ${length}: it ${where}. ${verdict}${effort} ` +
     `The robot's score: ${m.reward}. ` + (m.last ? "" : "The robot learns from it.");
   $("next").hidden = m.last;
   $("next").disabled = false;
@@ -116,6 +170,7 @@ function onOutcome(m) {
 
 function onDone(m) {
   over = true;
+  if (lead) lead.pause();
   show("done");
   $("done-text").textContent = `All episodes are done. Your anonymous code is ${m.participant}.`;
   const list = $("done-list");
@@ -131,6 +186,7 @@ function onDone(m) {
 
 function onEnded(m) {
   over = true;
+  if (lead) lead.pause();
   show("done");
   $("done-text").textContent = `The session has ended (${m.reason}` +
     (m.error ? `: ${m.error}` : "") + `). ` +
@@ -141,6 +197,7 @@ function onEnded(m) {
 function handle(m) {
   if (m.type === "error") {
     error(m.error);
+    if (lead && view && view.type === "lead") lead.retry();
     busy = false;
     for (const b of $("options").querySelectorAll("button")) b.disabled = false;
     $("next").disabled = false;
@@ -161,6 +218,8 @@ function handle(m) {
     document.body.dataset.start = String(m.start);
     document.body.dataset.goal = String(m.goal);
     onFrame(m);
+  } else if (m.type === "lead") {
+    onLead(m);
   } else if (m.type === "outcome") {
     onOutcome(m);
   } else if (m.type === "done") {
@@ -172,6 +231,27 @@ function handle(m) {
     $("options").replaceChildren();  // the robot is busy: nothing to choose meanwhile
     $("status").textContent = m.message || "Preparing the robot...";
   }
+}
+
+// A frame of a physical task: the scene drawn, the participant's input sent back (lead.js).
+function onLead(m) {
+  show("play");
+  header(m);
+  $("outcome").hidden = true;
+  $("options").replaceChildren();
+  $("robot").textContent = "";
+  $("where").textContent = "";
+  $("lead").hidden = false;
+  document.body.dataset.goal = String(m.goal);
+  view3d().then((v) => {
+    if (!v) {
+      $("view-note").hidden = false;
+      $("view-note").textContent = sceneFailed + " The physical task needs it.";
+      return;
+    }
+    if (!lead) lead = new Lead(v, send, $("canvas"), $("force"));
+    lead.frame(m).catch((e) => error(String(e)));
+  });
 }
 
 function connect(token) {
@@ -211,7 +291,12 @@ async function start() {
 }
 
 document.addEventListener("keydown", (e) => {
-  if (e.repeat || e.ctrlKey || e.altKey || e.metaKey || !view) return;
+  if (e.ctrlKey || e.altKey || e.metaKey || !view) return;
+  if (view.type === "lead") {
+    if (lead && lead.key(e.key, true)) e.preventDefault();
+    return;
+  }
+  if (e.repeat) return;
   if (view.type === "frame") {
     const option = view.options.find((o) => o.key && o.key === e.key);
     if (option) {
@@ -222,6 +307,10 @@ document.addEventListener("keydown", (e) => {
     e.preventDefault();
     next();
   }
+});
+
+document.addEventListener("keyup", (e) => {
+  if (lead) lead.key(e.key, false);
 });
 
 async function main() {
