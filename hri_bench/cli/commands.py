@@ -512,7 +512,11 @@ _SUITE_ARGUMENTS = {"tracks": "--tracks", "agents": "--agents", "runs": "--runs-
 
 def _config_error(parser: argparse.ArgumentParser, exc: ConfigError,
                   arguments: dict[str, str]) -> None:
-    """Exit with status 2 like argparse does, naming the argument the bad field came from."""
+    """Exit with status 2 like argparse does, naming the argument the bad field came from;
+    a backend whose extra is missing is reported by :func:`main` in one line (status 1).
+    """
+    if isinstance(exc, BackendUnavailableError):
+        raise exc
     argument = arguments.get(exc.field or "")
     parser.error(f"argument {argument}: {exc}" if argument else str(exc))
 
@@ -812,7 +816,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"hri-bench: {exc}", file=sys.stderr)
         return 1
     except ModuleNotFoundError as exc:
-        missing = MissingExtraError.from_import(exc, "this command")
+        missing = MissingExtraError.from_import(exc, f"hri-bench {args.command}")
         if missing is None:
             raise
         print(f"hri-bench: {missing}", file=sys.stderr)
