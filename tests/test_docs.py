@@ -280,6 +280,20 @@ PLAN: dict[str, Plan] = {
     "--out out/follower": Scaled(".venv/bin/hri-bench study hanger --agents "
                                  "learner,mylab.follower:Follower --runs 2 --out out/follower",
                                  "2 runs instead of 20"),
+    # docs/extending.md
+    ".venv/bin/hri-bench --import mylab.humans study wheel --population sloppy --human-param "
+    "noise=4 --agents learner,passive --runs 20 --out out/sloppy": Scaled(
+        ".venv/bin/hri-bench --import mylab.humans study wheel --population sloppy "
+        "--human-param noise=4 --agents learner,passive --runs 2 --out out/sloppy", "2 runs"),
+    ".venv/bin/hri-bench study --config out/sloppy/summary.json --out out/sloppy-again": RUN,
+    ".venv/bin/hri-bench --import mylab.rewards study wheel --reward costly-wait --agents "
+    "learner,passive --runs 20 --out out/costly": Scaled(
+        ".venv/bin/hri-bench --import mylab.rewards study wheel --reward costly-wait --agents "
+        "learner,passive --runs 2 --out out/costly", "2 runs"),
+    ".venv/bin/hri-bench --import mylab.agents study wheel --agents learner,eager-goalfilter "
+    "--runs 20 --out out/eager": Scaled(
+        ".venv/bin/hri-bench --import mylab.agents study wheel --agents "
+        "learner,eager-goalfilter --runs 2 --out out/eager", "2 runs"),
     # docs/people.md
     ".venv/bin/pip install -c constraints.txt -e '.[web]'": Skip(INSTALL, an_extra),
     # docs/physics.md
@@ -409,7 +423,15 @@ NOT_RUN: dict[str, str] = {
     "docs/benchmark.md:json": "a sketch of summary.json, with elisions",
     "docs/people.md:text": "a dataset's files, a diagram",
     "docs/results.md:json": "a sketch of results.json, with elisions",
+    "docs/extending.md:toml": "a package's entry point (tests/test_own_modules.py installs "
+                              "one)",
 }
+#: Pages whose python blocks each run alone, as a reader pastes them: the blocks that name
+#: their file (``# mylab/humans.py``) are only written, and the others import them.
+ALONE = ("docs/extending.md",)
+#: What the pages' own modules register (``--import mylab.agents``), and a name of the same
+#: kind the test's parser knows, for the syntax checks run before those modules exist.
+REGISTERED_BY_PAGES = {"eager-goalfilter": "goalfilter", "costly-wait": "no-free-toggle"}
 
 
 # --------------------------------------------------------------------------- running
@@ -421,6 +443,11 @@ def _fresh_env() -> dict[str, str]:
     path = [p for p in env.get("PATH", "").split(os.pathsep)
             if p and ".venv" not in Path(p).parts]
     env["PATH"] = os.pathsep.join(path or ["/usr/bin", "/bin"])
+    # A worktree that shares another checkout's .venv (whose editable install imports that
+    # checkout) selects its own code with PYTHONPATH: the pasted commands run this code.
+    if any(p and Path(p).resolve() == ROOT
+           for p in os.environ.get("PYTHONPATH", "").split(os.pathsep)):
+        env["PYTHONPATH"] = str(ROOT)
     return env
 
 
@@ -444,9 +471,13 @@ def _status() -> list[str]:
 
 def _without_made_agents(command: str) -> str:
     """``command`` with the agents that the page's earlier commands make (a module it writes,
-    ``mylab.follower:Follower``; a model it trains, ``sb3:out/...zip``) as ``passive``, so
-    that it parses here, before they exist."""
-    return re.sub(r"(?<=[ ,])(mylab\.\w+:\w+|sb3:\S+?\.zip)(?=[ ,]|$)", "passive", command)
+    ``mylab.follower:Follower``; a model it trains, ``sb3:out/...zip``) as ``passive``, and
+    the names its modules register (:data:`REGISTERED_BY_PAGES`) as built-in ones, so that
+    it parses here, before they exist."""
+    command = re.sub(r"(?<=[ ,])(mylab\.\w+:\w+|sb3:\S+?\.zip)(?=[ ,]|$)", "passive", command)
+    for made, known in REGISTERED_BY_PAGES.items():
+        command = re.sub(rf"(?<=[ ,]){re.escape(made)}(?=[ ,]|$)", known, command)
+    return command
 
 
 def _shell_line(command: str, doc: str) -> tuple[str, str]:
@@ -497,12 +528,21 @@ def python_code(block: Block) -> str:
 
 def run_python(blocks: list[Block], ws: Path, prelude: str = "") -> str:
     """Run consecutive python blocks in one fresh ``.venv/bin/python``; write the blocks
-    that name their file there first."""
+    that name their file there first. On a page of :data:`ALONE`, each block that does not
+    name its file runs in a process of its own (the first after ``prelude``)."""
     for block in blocks:
         named = re.match(r"# ([\w/]+\.py)\n", block.text)
         if named:
             (ws / named.group(1)).parent.mkdir(parents=True, exist_ok=True)
             (ws / named.group(1)).write_text(block.text)
+    if blocks and blocks[0].doc in ALONE:
+        out = []
+        for block in blocks:
+            if not re.match(r"# ([\w/]+\.py)\n", block.text):
+                out.append(_run([".venv/bin/python", "-"], ws, f"the python block at "
+                                f"{block.where}", stdin=prelude + python_code(block)))
+                prelude = ""
+        return "".join(out)
     code = prelude + "".join(python_code(b) for b in blocks)
     where = ", ".join(b.where for b in blocks)
     return _run([".venv/bin/python", "-"], ws, f"the python block(s) at {where}", stdin=code)
@@ -697,3 +737,4 @@ def test_the_study_synopsis_names_its_flags():
     shown = set(re.findall(r"--[a-z][a-z0-9-]*", synopsis))
     assert shown <= flags, shown - flags
     assert flags - {"--help"} <= shown, flags - {"--help"} - shown
+
