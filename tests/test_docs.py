@@ -418,7 +418,8 @@ PYTHON_SCALED: tuple[tuple[str, str, str, str], ...] = (
 )
 #: Fenced blocks that are not commands or code, and why.
 NOT_RUN: dict[str, str] = {
-    "README.md:text": "the packages' floors, a diagram",
+    "README.md:text": "what the tour's first study prints (its lines are checked)",
+    "docs/architecture.md:text": "the packages' floors, a diagram",
     "docs/benchmark.md:text": "the synopsis of `hri-bench study` (its flags are checked)",
     "docs/benchmark.md:json": "a sketch of summary.json, with elisions",
     "docs/people.md:text": "a dataset's files, a diagram",
@@ -738,3 +739,58 @@ def test_the_study_synopsis_names_its_flags():
     assert shown <= flags, shown - flags
     assert flags - {"--help"} <= shown, flags - {"--help"} - shown
 
+
+# --------------------------------------------------------------------------- the README
+#: The README's most lines: what the project is, the two set-up commands, a tour and links;
+#: history, timings and long tables live in CHANGELOG.md and docs/ (issue 43: it had grown
+#: to 826 lines, the project's history before what to do next).
+README_LINES = 400
+#: Where the lead regenerates the physical suite's table (README, "Physical benchmark").
+PHYSICAL_TABLE = ("<!-- physical-benchmark-table: begin", "<!-- physical-benchmark-table: end")
+
+
+def test_the_readme_starts_with_a_quickstart():
+    text = (ROOT / "README.md").read_text()
+    assert len(text.rstrip("\n").split("\n")) <= README_LINES
+    headings = re.findall(r"^## (.+)$", text, re.M)
+    assert headings[:2] == ["Quickstart", "A five-minute tour"], headings
+    quick = text[text.index("## Quickstart"):text.index("## A five-minute tour")]
+    setup = next(b for b in read_blocks("README.md") if b.lang in SHELL)
+    assert commands(setup.text) == ["make demo", "make test"]
+    assert setup.text in quick
+    # the first place a newcomer needs it says why commands start with .venv/bin/
+    assert ".venv/bin/" in quick and "activate" in quick
+    assert text.index("Nothing gets activated") < text.index("```bash\n.venv/bin/")
+    # no history and no speed notes before what to do next
+    assert not re.search(r"\bissues? \d|\bThis change\b|`[0-9a-f]{7}`|\bload average\b", text)
+    assert "## Documentation" in text and "[CHANGELOG.md](CHANGELOG.md)" in text
+    begin, end = (text.index(m) for m in PHYSICAL_TABLE)
+    assert text.index("## Physical benchmark") < begin < end
+
+
+def test_every_link_of_the_pages_leads_somewhere():
+    """The README's content moved into docs/: every relative link of a page (and of the
+    changelog) names a file of the checkout."""
+    for doc in (*DOCS, "CHANGELOG.md"):
+        text = re.sub(r"```.*?```", "", (ROOT / doc).read_text(), flags=re.S)
+        for target in re.findall(r"\]\(([^)\s]+)\)", text):
+            path = target.split("#")[0]
+            if not path or re.match(r"[a-z]+:", path):
+                continue
+            assert ((ROOT / doc).parent / path).exists(), (doc, target)
+
+
+def test_the_tour_shows_what_the_first_study_prints(tmp_path, capsys):
+    """The README's printed table has the columns and the footnote a study prints (the
+    footnote once named the regret module where it no longer was)."""
+    from hri_bench.cli import main
+
+    shown = next(b for b in read_blocks("README.md") if b.lang == "text").text.splitlines()
+    assert main(["study", "wheel", "--agents", "learner,imitator,maxent,passive,oracle",
+                 "--runs", "2", "--episodes", "2", "--preference", "straight", "--r0",
+                 "-0.25", "--no-progress", "--out", str(tmp_path / "wheel")]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert shown[1] in printed  # the header
+    assert shown[-2] in printed  # the regret note
+    assert [line.split()[0] for line in shown[2:7]] == \
+        [line.split()[0] for line in printed[printed.index(shown[1]) + 1:][:5]]
