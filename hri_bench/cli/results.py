@@ -27,7 +27,7 @@ from hri_bench.run.studyio import LOCK, FolderLock, check_out
 from hri_bench.suite import audit, results_v3, results_v4, resume, submission
 from hri_bench.suite.merged import HEADING, merged_leaderboard
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ConfigError, MissingExtraError
 from hri_envs.imports import import_modules
 
 __all__ = ["add_parsers", "add_suite_flags", "leaderboard", "run", "run_suites", "suite_plan",
@@ -406,6 +406,9 @@ def leaderboard(folder: Path, out: Path | None, parser: argparse.ArgumentParser)
     """
     if not folder.is_dir():
         parser.error(f"argument dir: {folder} is not a folder")
+    # it validates every file and draws the ranking: said before any file is read (a file
+    # refused first would hide what is missing)
+    MissingExtraError.require(["jsonschema", "matplotlib"], "hri-bench leaderboard")
     out = folder / "merged" if out is None else out
     created = not out.exists()
     lock = FolderLock(out, "leaderboard")
