@@ -8,6 +8,11 @@ from ``end_episode`` without failing, and two agents made alike act alike on the
 episodes (nothing random but through the generators it was given). The test suite runs it
 over every built-in agent; docs/extending.md, "An agent", ends with it. The human's side
 and the task's have theirs in :mod:`hri_envs.conformance`.
+
+It takes a registered agent's name too, as the scenarios' and reward rules' checks take
+theirs: the benchmark's registry of agents by name
+(:func:`hri_bench.run.agents.register_agent`) sits above this package and adds itself to
+:data:`NAMED` when it is imported (a module that registers an agent imports it).
 """
 
 from __future__ import annotations
@@ -22,10 +27,24 @@ from agents.rollout import run_episode
 from hri_envs.errors import ConfigError
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["check_agent"]
+__all__ = ["NAMED", "check_agent"]
 
 #: What :func:`check_agent` takes: an agent class, or a factory ``make(graph) -> agent``.
 AgentMaker = type[Agent] | type[BatchAgent] | Callable[[TaskGraph], Agent | BatchAgent]
+#: Registries of agents by name: ``(names, maker)`` pairs, ``names()`` the names one knows
+#: and ``maker(name)`` the factory of one (hri_bench.run.agents adds its own).
+NAMED: list[tuple[Callable[[], list[str]], Callable[[str], AgentMaker]]] = []
+
+
+def _named(name: str) -> AgentMaker:
+    """The factory of the agent registered as ``name``."""
+    for names, maker in NAMED:
+        if name in names():
+            return maker(name)
+    known = [n for names, _ in NAMED for n in names()]
+    raise ConfigError(f"unknown agent {name!r}; registered: {', '.join(known) or 'none yet'} "
+                      "(an agent is registered with hri_bench.run.agents.register_agent: "
+                      "import the module that registers it first)", field="agent")
 
 
 def _single(maker: AgentMaker, graph: TaskGraph) -> Agent:
@@ -55,15 +74,17 @@ def _single(maker: AgentMaker, graph: TaskGraph) -> Agent:
     return made
 
 
-def check_agent(maker: AgentMaker, scenario: str = "hanger", *, episodes: int = 3,
+def check_agent(maker: AgentMaker | str, scenario: str = "hanger", *, episodes: int = 3,
                 seed: int = 0, env_kwargs: dict[str, Any] | None = None,
                 allow_invalid: bool = False) -> str:
     """Check an agent in ``scenario``'s robot env.
 
     Args:
-        maker: An :class:`Agent` subclass (made as ``Class(graph=graph)`` or ``Class()``), a
-            :class:`BatchAgent` subclass (``Class(graph, 1)``), or a factory
-            ``make(graph)`` returning either.
+        maker: A registered agent's name (``"learner"``, or one of your own registered with
+            :func:`hri_bench.run.agents.register_agent`: made as a study makes it, for one
+            run against the env's scripted human), an :class:`Agent` subclass (made as
+            ``Class(graph=graph)`` or ``Class()``), a :class:`BatchAgent` subclass
+            (``Class(graph, 1)``), or a factory ``make(graph)`` returning either.
         scenario: A registered scenario with a Gymnasium robot env.
         episodes: Episodes per agent (it learns across them).
         seed: The env's first seed.
@@ -78,6 +99,9 @@ def check_agent(maker: AgentMaker, scenario: str = "hanger", *, episodes: int = 
             differently on the same episodes (``field="agent"``).
     """
     from hri_envs.envs.robot import RobotEnv
+
+    if isinstance(maker, str):
+        maker = _named(maker)
 
     def play() -> list[int]:
         env = RobotEnv(scenario, **(env_kwargs or {}))

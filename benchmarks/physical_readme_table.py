@@ -34,7 +34,7 @@ def table(folder: Path) -> str:
     source = (f"Physical suite v{doc['suite_version']} (hash `{doc['suite_hash'][:12]}`), "
               f"seed {', '.join(map(str, doc['seeds']))}, runs scale {doc['runs_scale']}: "
               f"{log['wall_time_s'] / 60:.1f} min with --jobs {log['jobs']} on this 2-core "
-              f"machine (load average at the end {load}).")
+              f"machine (its load at the end: {load} over 1, 5, 15 min).")
     return f"{BEGIN}\n{headline_table(doc)}\n\n{source}\n{END}"
 
 

@@ -41,6 +41,7 @@ __all__ = [
 #: Top-level module -> the hri-envs extra that installs it (pyproject.toml).
 EXTRA_OF: dict[str, str] = {
     "matplotlib": "bench", "tqdm": "bench", "scipy": "bench", "numba": "bench",
+    "tyro": "bench", "jsonschema": "bench",
     "mujoco": "mujoco", "mink": "mujoco", "gymnasium_robotics": "mujoco", "imageio": "mujoco",
     "imageio_ffmpeg": "mujoco", "PIL": "mujoco",
     "fastapi": "web", "uvicorn": "web", "pyarrow": "web", "minari": "web", "selenium": "web",

@@ -144,7 +144,8 @@ class SecondMadeCrashes(Agent):
 
 class WaitsForGate(AlwaysWait):
     """Waits in ``act`` until the file named by ``$HRI_TEST_GATE`` exists (at most 120 s), so
-    that a study is still running, deterministically, while a test does something beside it."""
+    that a study is still running, deterministically, while a test does something beside it.
+    While it waits, ``$HRI_TEST_GATE.waiting.PID`` names its process."""
 
     def act(self, observation):
         import os
@@ -152,6 +153,8 @@ class WaitsForGate(AlwaysWait):
         from pathlib import Path
 
         gate = Path(os.environ["HRI_TEST_GATE"])
+        if not gate.exists():
+            Path(f"{gate}.waiting.{os.getpid()}").touch()
         deadline = time.monotonic() + 120
         while not gate.exists() and time.monotonic() < deadline:
             time.sleep(0.01)

@@ -20,6 +20,13 @@ def _closed() -> bool:
     return gate is None or not Path(gate).exists()
 
 
+def _say_waiting() -> None:
+    """Create ``$HRI_TEST_GATE.waiting``: the agent is about to wait without end."""
+    gate = os.environ.get("HRI_TEST_GATE")
+    if gate is not None:
+        Path(f"{gate}.waiting").touch()
+
+
 class ExitsProcess(AlwaysWait):
     """``os._exit(3)`` on its first decision: the process ends without a word."""
 
@@ -48,10 +55,12 @@ class RaisesKeyboardInterrupt(AlwaysWait):
 
 
 class Hangs(AlwaysWait):
-    """Sleeps (for an hour) on its first decision."""
+    """Sleeps (for an hour) on its first decision (saying so first: a test that holds the time
+    limit's clock moves it on then)."""
 
     def act(self, observation):
         if _closed():
+            _say_waiting()
             time.sleep(3600)
         return 0
 
@@ -63,6 +72,7 @@ class SpinsInC(AlwaysWait):
 
     def act(self, observation):
         if _closed():
+            _say_waiting()
             signal.pthread_sigmask(signal.SIG_BLOCK, [signal.SIGUSR2])
             signal.sigwait([signal.SIGUSR2])
         return 0

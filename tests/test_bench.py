@@ -175,6 +175,22 @@ def test_play_in_the_terminal_with_scripted_answers():
     assert text.count("Type a number from 1 to") == 3  # "x", "99" and "0"
 
 
+def test_the_play_robot_takes_hold_once_and_waits_while_you_wait():
+    """Issue 43: a person who waited on the start support saw the robot grasp, let go, grasp,
+    ... until the step limit (the paper's reward makes toggles free, and a wait on the start
+    reads as "the goal is here"). Now it grasps once and holds still while they wait; when
+    they grasp too, the carry goes on."""
+    for scenario in ("hanger", "wheel"):
+        answers = iter(["1"] * 12 + ["q"])
+        lines: list[str] = []
+        play(scenario, episodes=1, read=lambda _, a=answers: next(a), write=lines.append,
+             max_steps=40)
+        chosen = [line.split("robot chooses: ")[1] for line in lines if "robot chooses: " in line]
+        assert len(chosen) == 13, lines  # the 13th step is shown, then q
+        assert chosen.count("grasp") == 1 and "let go" not in chosen, (scenario, chosen)
+        assert set(chosen[1:]) == {"wait"}, (scenario, chosen)
+
+
 SPEED_KEYS = {"parallel_env_steps_per_s", "vector_env_steps_per_s", "learner_update_ms",
               "learner_update_batched_ms_per_run", "hanger_study_s", "machine_ms",
               "learner_threads"}

@@ -158,6 +158,6 @@ def test_a_missing_package_met_later_is_one_line_too(monkeypatch, capsys):
 
     monkeypatch.setattr(cli, "_speed", fail)
     assert cli.main(["speed"]) == 1
-    assert capsys.readouterr().err == ("hri-bench: this command needs torch: .venv/bin/pip "
+    assert capsys.readouterr().err == ("hri-bench: hri-bench speed needs torch: .venv/bin/pip "
                                        "install -c constraints.txt -e '.[rl]' (in the "
                                        "hri-envs checkout)\n")

@@ -184,13 +184,13 @@ def syntax(command: str) -> None:
 
 
 def an_extra(command: str) -> None:
-    """``.venv/bin/pip install -c constraints.txt -e '.[EXTRA]'``: the extra exists."""
+    """``.venv/bin/pip install -c constraints.txt -e '.[EXTRA,...]'``: the extras exist."""
     words = _words(command)
     assert words[:5] == [".venv/bin/pip", "install", "-c", "constraints.txt", "-e"], command
-    extra = re.fullmatch(r"\.\[(\w+)\]", words[5]).group(1)
+    named = re.fullmatch(r"\.\[([\w,]+)\]", words[5]).group(1).split(",")
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
         "optional-dependencies"]
-    assert extra in extras, extra
+    assert set(named) <= set(extras), named
 
 
 #: The stand-in for a dataset people recorded with `make serve` (a browser session the test
@@ -284,8 +284,24 @@ PLAN: dict[str, Plan] = {
     "--out out/follower": Scaled(".venv/bin/hri-bench study hanger --agents "
                                  "learner,mylab.follower:Follower --runs 2 --out out/follower",
                                  "2 runs instead of 20"),
+    # docs/extending.md
+    ".venv/bin/hri-bench --import mylab.humans study wheel --population sloppy --human-param "
+    "noise=4 --agents learner,passive --runs 20 --out out/sloppy": Scaled(
+        ".venv/bin/hri-bench --import mylab.humans study wheel --population sloppy "
+        "--human-param noise=4 --agents learner,passive --runs 2 --out out/sloppy", "2 runs"),
+    ".venv/bin/hri-bench study --config out/sloppy/summary.json --out out/sloppy-again": RUN,
+    ".venv/bin/hri-bench --import mylab.rewards study wheel --reward costly-wait --agents "
+    "learner,passive --runs 20 --out out/costly": Scaled(
+        ".venv/bin/hri-bench --import mylab.rewards study wheel --reward costly-wait --agents "
+        "learner,passive --runs 2 --out out/costly", "2 runs"),
+    ".venv/bin/hri-bench --import mylab.agents study wheel --agents learner,eager-goalfilter "
+    "--runs 20 --out out/eager": Scaled(
+        ".venv/bin/hri-bench --import mylab.agents study wheel --agents "
+        "learner,eager-goalfilter --runs 2 --out out/eager", "2 runs"),
     # docs/people.md
     ".venv/bin/pip install -c constraints.txt -e '.[web]'": Skip(INSTALL, an_extra),
+    # docs/physics.md
+    ".venv/bin/pip install -c constraints.txt -e '.[mujoco,arm]'": Skip(INSTALL, an_extra),
     'make serve SERVE_ARGS="hanger --data out/datasets"': Skip(
         SERVE, make_runs("serve", "hri-bench serve hanger --data out/datasets")),
     ".venv/bin/hri-bench serve hanger --data out/datasets": Skip(SERVE, parses),
@@ -438,12 +454,21 @@ PYTHON_SCALED: tuple[tuple[str, str, str, str], ...] = (
 )
 #: Fenced blocks that are not commands or code, and why.
 NOT_RUN: dict[str, str] = {
-    "README.md:text": "the packages' floors, a diagram",
+    "README.md:text": "what the tour's first study prints (its lines are checked)",
+    "docs/architecture.md:text": "the packages' floors, a diagram",
     "docs/benchmark.md:text": "the synopsis of `hri-bench study` (its flags are checked)",
     "docs/benchmark.md:json": "a sketch of summary.json, with elisions",
     "docs/people.md:text": "a dataset's files, a diagram",
     "docs/results.md:json": "a sketch of results.json, with elisions",
+    "docs/extending.md:toml": "a package's entry point (tests/test_own_modules.py installs "
+                              "one)",
 }
+#: Pages whose python blocks each run alone, as a reader pastes them: the blocks that name
+#: their file (``# mylab/humans.py``) are only written, and the others import them.
+ALONE = ("docs/extending.md",)
+#: What the pages' own modules register (``--import mylab.agents``), and a name of the same
+#: kind the test's parser knows, for the syntax checks run before those modules exist.
+REGISTERED_BY_PAGES = {"eager-goalfilter": "goalfilter", "costly-wait": "no-free-toggle"}
 
 
 # --------------------------------------------------------------------------- running
@@ -455,6 +480,11 @@ def _fresh_env() -> dict[str, str]:
     path = [p for p in env.get("PATH", "").split(os.pathsep)
             if p and ".venv" not in Path(p).parts]
     env["PATH"] = os.pathsep.join(path or ["/usr/bin", "/bin"])
+    # A worktree that shares another checkout's .venv (whose editable install imports that
+    # checkout) selects its own code with PYTHONPATH: the pasted commands run this code.
+    if any(p and Path(p).resolve() == ROOT
+           for p in os.environ.get("PYTHONPATH", "").split(os.pathsep)):
+        env["PYTHONPATH"] = str(ROOT)
     return env
 
 
@@ -478,9 +508,13 @@ def _status() -> list[str]:
 
 def _without_made_agents(command: str) -> str:
     """``command`` with the agents that the page's earlier commands make (a module it writes,
-    ``mylab.follower:Follower``; a model it trains, ``sb3:out/...zip``) as ``passive``, so
-    that it parses here, before they exist."""
-    return re.sub(r"(?<=[ ,])(mylab\.\w+:\w+|sb3:\S+?\.zip)(?=[ ,]|$)", "passive", command)
+    ``mylab.follower:Follower``; a model it trains, ``sb3:out/...zip``) as ``passive``, and
+    the names its modules register (:data:`REGISTERED_BY_PAGES`) as built-in ones, so that
+    it parses here, before they exist."""
+    command = re.sub(r"(?<=[ ,])(mylab\.\w+:\w+|sb3:\S+?\.zip)(?=[ ,]|$)", "passive", command)
+    for made, known in REGISTERED_BY_PAGES.items():
+        command = re.sub(rf"(?<=[ ,]){re.escape(made)}(?=[ ,]|$)", known, command)
+    return command
 
 
 def _shell_line(command: str, doc: str) -> tuple[str, str]:
@@ -531,12 +565,21 @@ def python_code(block: Block) -> str:
 
 def run_python(blocks: list[Block], ws: Path, prelude: str = "") -> str:
     """Run consecutive python blocks in one fresh ``.venv/bin/python``; write the blocks
-    that name their file there first."""
+    that name their file there first. On a page of :data:`ALONE`, each block that does not
+    name its file runs in a process of its own (the first after ``prelude``)."""
     for block in blocks:
         named = re.match(r"# ([\w/]+\.py)\n", block.text)
         if named:
             (ws / named.group(1)).parent.mkdir(parents=True, exist_ok=True)
             (ws / named.group(1)).write_text(block.text)
+    if blocks and blocks[0].doc in ALONE:
+        out = []
+        for block in blocks:
+            if not re.match(r"# ([\w/]+\.py)\n", block.text):
+                out.append(_run([".venv/bin/python", "-"], ws, f"the python block at "
+                                f"{block.where}", stdin=prelude + python_code(block)))
+                prelude = ""
+        return "".join(out)
     code = prelude + "".join(python_code(b) for b in blocks)
     where = ", ".join(b.where for b in blocks)
     return _run([".venv/bin/python", "-"], ws, f"the python block(s) at {where}", stdin=code)
@@ -731,3 +774,59 @@ def test_the_study_synopsis_names_its_flags():
     shown = set(re.findall(r"--[a-z][a-z0-9-]*", synopsis))
     assert shown <= flags, shown - flags
     assert flags - {"--help"} <= shown, flags - {"--help"} - shown
+
+
+# --------------------------------------------------------------------------- the README
+#: The README's most lines: what the project is, the two set-up commands, a tour and links;
+#: history, timings and long tables live in CHANGELOG.md and docs/ (issue 43: it had grown
+#: to 826 lines, the project's history before what to do next).
+README_LINES = 400
+#: Where the lead regenerates the physical suite's table (README, "Physical benchmark").
+PHYSICAL_TABLE = ("<!-- physical-suite:begin -->", "<!-- physical-suite:end -->")
+
+
+def test_the_readme_starts_with_a_quickstart():
+    text = (ROOT / "README.md").read_text()
+    assert len(text.rstrip("\n").split("\n")) <= README_LINES
+    headings = re.findall(r"^## (.+)$", text, re.M)
+    assert headings[:2] == ["Quickstart", "A five-minute tour"], headings
+    quick = text[text.index("## Quickstart"):text.index("## A five-minute tour")]
+    setup = next(b for b in read_blocks("README.md") if b.lang in SHELL)
+    assert commands(setup.text) == ["make demo", "make test"]
+    assert setup.text in quick
+    # the first place a newcomer needs it says why commands start with .venv/bin/
+    assert ".venv/bin/" in quick and "activate" in quick
+    assert text.index("Nothing gets activated") < text.index("```bash\n.venv/bin/")
+    # no history and no speed notes before what to do next
+    assert not re.search(r"\bissues? \d|\bThis change\b|`[0-9a-f]{7}`|\bload average\b", text)
+    assert "## Documentation" in text and "[CHANGELOG.md](CHANGELOG.md)" in text
+    begin, end = (text.index(m) for m in PHYSICAL_TABLE)
+    assert text.index("## Physical benchmark") < begin < end
+
+
+def test_every_link_of_the_pages_leads_somewhere():
+    """The README's content moved into docs/: every relative link of a page (and of the
+    changelog) names a file of the checkout."""
+    for doc in (*DOCS, "CHANGELOG.md"):
+        text = re.sub(r"```.*?```", "", (ROOT / doc).read_text(), flags=re.S)
+        for target in re.findall(r"\]\(([^)\s]+)\)", text):
+            path = target.split("#")[0]
+            if not path or re.match(r"[a-z]+:", path):
+                continue
+            assert ((ROOT / doc).parent / path).exists(), (doc, target)
+
+
+def test_the_tour_shows_what_the_first_study_prints(tmp_path, capsys):
+    """The README's printed table has the columns and the footnote a study prints (the
+    footnote once named the regret module where it no longer was)."""
+    from hri_bench.cli import main
+
+    shown = next(b for b in read_blocks("README.md") if b.lang == "text").text.splitlines()
+    assert main(["study", "wheel", "--agents", "learner,imitator,maxent,passive,oracle",
+                 "--runs", "2", "--episodes", "2", "--preference", "straight", "--r0",
+                 "-0.25", "--no-progress", "--out", str(tmp_path / "wheel")]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert shown[1] in printed  # the header
+    assert shown[-2] in printed  # the regret note
+    assert [line.split()[0] for line in shown[2:7]] == \
+        [line.split()[0] for line in printed[printed.index(shown[1]) + 1:][:5]]

@@ -10,7 +10,7 @@ import tomllib
 from pathlib import Path
 
 from hri_bench.cli import build_parser
-from hri_bench.cli.commands import _NEXT_STEPS
+from hri_bench.cli.commands import next_steps
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -46,10 +46,24 @@ def _commands(text):
 
 
 def test_the_demos_next_steps_are_valid_commands():
-    commands = _commands(_NEXT_STEPS)
+    commands = _commands(next_steps(Path("out/demo")))
     assert len(commands) >= 7
     for words in commands:
         _check_command(words)
+
+
+def _outs(commands):
+    return {words[words.index("--out") + 1] for words in commands if "--out" in words}
+
+
+def test_the_demos_next_steps_write_into_the_demos_folder_not_the_readmes():
+    """Following `make demo`'s "what next" and then the README's tour once refused the
+    README's first study: both wrote out/wheel."""
+    demo = _outs(_commands(next_steps(Path("out/demo"))))
+    assert demo and all(o.startswith("out/demo/") for o in demo), demo
+    readme = _outs(_commands((ROOT / "README.md").read_text()))
+    assert readme and not demo & readme, demo & readme
+    assert not any(o == "out/demo" or o.startswith("out/demo/") for o in readme), readme
 
 
 def test_every_command_in_the_readme_works_from_a_fresh_shell():

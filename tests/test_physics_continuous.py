@@ -257,3 +257,46 @@ def test_muscle_driven_arm_makes_the_torques_it_is_asked_for() -> None:
     for _ in range(25):
         res = sim.step(sim.command(_follow(sim)))
         assert res.fault is None
+
+
+def test_the_muscle_arm_on_the_hanger_resets_everywhere_and_slips_off_a() -> None:
+    """What the muscle drive does on the hanger (docs/physics.md, "Two drives"): every
+    (start, goal) pair resets without a fault; from B the upper reference places the object
+    on C; from A the handle slips out of the hand in the first steps, whatever the robot
+    does (the arm's posture on A's peg)."""
+    pytest.importorskip("myo_sim")
+    from baselines.continuous import PassiveFloor, UpperReference, run_episode
+
+    env = gym.make("hri_envs/HangerPandaContinuous-v1", drive="muscle")
+    for start, goal in [("A", "B"), ("A", "C"), ("B", "A"), ("B", "C"), ("C", "A"), ("C", "B")]:
+        env.reset(seed=0, options={"start": start, "intention": goal})
+        assert env.unwrapped._fault is None, (start, goal)  # no IKFailure at the reset
+    placed = run_episode(env, UpperReference(), seed=0, options={"start": "B", "intention": "C"})
+    assert placed["fault"] is None and placed["placed"] == 2 and placed["reached_intention"]
+    for policy in (UpperReference(), PassiveFloor()):
+        slipped = run_episode(env, policy, seed=0, options={"start": "A", "intention": "B"})
+        assert slipped["fault"] == "slipped" and slipped["steps"] <= 5, slipped["info"]
+    env.close()
+
+
+def test_building_the_muscle_arm_prints_and_writes_nothing(tmp_path) -> None:
+    """myo-sim's composition of the arm makes MuJoCo warn "Attaching a spec with an empty
+    prefix" on every build; MuJoCo's default handler prints it and appends it to
+    MUJOCO_LOG.TXT in the current folder. Neither happens."""
+    pytest.importorskip("myo_sim")
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    code = ("import gymnasium as gym, hri_envs\n"
+            "env = gym.make('hri_envs/WheelPandaContinuous-v1', drive='muscle')\n"
+            "env.reset(seed=0)\n"
+            "gym.make('hri_envs/HangerPandaContinuous-v1', drive='muscle').reset(seed=0)\n")
+    done = subprocess.run([sys.executable, "-W", "error::UserWarning", "-c", code],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "PYTHONPATH": str(root)})
+    assert done.returncode == 0, done.stderr
+    assert "empty prefix" not in done.stdout + done.stderr
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()

@@ -5,10 +5,16 @@ message saying what is allowed (exit 2 through argparse).
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
+import os
+import re
+import shlex
+import shutil
+import sys
+from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Any
 
-__all__ = ["bounded", "whole"]
+__all__ = ["as_flags", "bounded", "invocation", "whole"]
 
 
 def bounded(kind: type, allowed: str, ok: Callable[[Any], bool]) -> Callable[[str], Any]:
@@ -30,3 +36,41 @@ def bounded(kind: type, allowed: str, ok: Callable[[Any], bool]) -> Callable[[st
 
 #: A whole number >= 0 (a seed, a count that may be 0).
 whole = bounded(int, "a whole number >= 0", lambda v: v >= 0)
+
+
+def as_flags(message: str, flags: Mapping[str, str]) -> str:
+    """``message`` (the library's, which names Python parameters as ``human_params=``) with
+    each parameter that ``flags`` maps to a command's flag written as that flag
+    (``--human-param``); a parameter given with a value (``population='x'``) is left as it is.
+    """
+    for name, flag in flags.items():
+        if flag.startswith("--"):
+            message = re.sub(rf"(?<![\w.]){re.escape(name)}=(?![\w'\"(\[{{-])", flag, message)
+    return message
+
+
+def invocation() -> str:
+    """How this ``hri-bench`` was started, as the start of a command to paste: the script
+    as typed from this folder (``.venv/bin/hri-bench`` in the checkout; the first command a
+    newcomer has is that path, the virtualenv not activated), ``hri-bench`` when that name
+    on ``PATH`` is this script (an activated virtualenv), or ``python -m hri_bench.cli``
+    with this Python.
+    """
+    script = Path(sys.argv[0]) if sys.argv and sys.argv[0] else None
+    if script is not None and script.name == "hri-bench":
+        found = shutil.which("hri-bench")
+        if found is not None and Path(found).resolve() == script.resolve():
+            return "hri-bench"
+        return shlex.quote(_from_here(script))
+    if script is not None and script.name == "__main__.py" and script.parent.name == "cli":
+        return f"{shlex.quote(_from_here(Path(sys.executable)))} -m hri_bench.cli"
+    return "hri-bench"  # called from Python (tests, a script of one's own)
+
+
+def _from_here(path: Path) -> str:
+    """``path`` relative to the current folder when it is inside it, else absolute."""
+    absolute = Path(os.path.abspath(path))
+    try:
+        return str(absolute.relative_to(Path.cwd()))
+    except ValueError:
+        return str(absolute)

@@ -1,6 +1,6 @@
 """``hri-bench``: reproduce the paper's studies and figures, measure speed, play the human.
 
-Subcommands::
+Subcommands (after any ``--import MODULE``, which imports your own registrations first)::
 
     hri-bench study {hanger,wheel} --out DIR [options]   one study: summary, CSV, plots
     hri-bench figures --out DIR [--runs N] [--jobs J]     the paper's figures (Figs. 4, 8, 10-12)
@@ -33,7 +33,7 @@ from agents.learning import algorithm1, partner_mdp
 from hri_bench.cli import people as cli_people
 from hri_bench.cli import physical as cli_physical
 from hri_bench.cli import results as cli_results
-from hri_bench.cli.args import bounded, whole
+from hri_bench.cli.args import as_flags, bounded, invocation, whole
 from hri_bench.people.play import play
 from hri_bench.report.speed import measure, measure_physics
 from hri_bench.run.agents import (
@@ -78,6 +78,7 @@ from hri_envs.errors import (
 from hri_envs.humans.families import FAMILIES
 from hri_envs.humans.populations import POPULATIONS
 from hri_envs.humans.splits import MIXTURES
+from hri_envs.imports import PLUGIN_GROUP, import_modules, imported_modules, load_plugins
 from hri_envs.task.episode import REWARD_RULES
 from hri_envs.task.scenarios import SCENARIOS
 
@@ -168,6 +169,13 @@ def build_parser() -> argparse.ArgumentParser:
         prog="hri-bench",
         description="Benchmark cooperative learners on the paper's human-robot carrying studies.",
     )
+    parser.add_argument("--import", dest="imports", action="append", default=[],
+                        metavar="MODULE",
+                        help="import MODULE first, so that the scenarios, families, reward "
+                             "rules and agents it registers count (repeatable; before the "
+                             "command; recorded in summary.json and suite.json, so that "
+                             "--config replays it); installed packages' entry points of the "
+                             f"group {PLUGIN_GROUP!r} are imported too (docs/extending.md)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _study_parser(sub)
     _figures_parser(sub)
@@ -457,7 +465,7 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser,
                          runs_scale=args.runs_scale, seed=seed, jobs=args.jobs,
                          executor=executor, progress=not args.no_progress,
                          populations=args.population, resume=args.resume,
-                         unit_time_limit=args.unit_time_limit)
+                         unit_time_limit=args.unit_time_limit, imports=imported_modules())
 
     try:
         with stop_on_signals():  # from the lock on: Ctrl-C keeps the finished work
@@ -478,7 +486,8 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser,
               file=sys.stderr)
         return 143 if isinstance(exc, StudyTerminated) else 130
     except UnitLostError as exc:
-        print(f"hri-bench: suite stopped: {exc}; {_suite_kept(args.out)}; continue with: "
+        print(f"hri-bench: suite stopped: {as_flags(str(exc), _STUDY_ARGUMENTS)}; "
+              f"{_suite_kept(args.out)}; continue with: "
               f"{_resume_hint(argv)}", file=sys.stderr)
         return 1
     except OSError as exc:
@@ -489,12 +498,35 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser,
           f"{time.perf_counter() - t0:.1f} s (--jobs {args.jobs}, {executor})")
     print(f"wrote {args.out / 'suite.json'}, {args.out / 'results.json'}, "
           f"{args.out / 'leaderboard.md'} and one figure per track")
+    board = args.out / "leaderboard.md"
+    print(f"\nThe ranking, from the top of {board}:\n\n"
+          + ranking_excerpt(board.read_text(encoding="utf-8")))
     failed = sorted({a for d in docs for tr in d["tracks"].values() for a in tr["failed_agents"]})
     if failed:
         print(f"agent(s) {', '.join(failed)} raised; no results for them on the tracks where "
               f"they did; tracebacks in {args.out / 'errors.log'}", file=sys.stderr)
         return 1
     return 0
+
+
+def ranking_excerpt(leaderboard: str) -> str:
+    """The ranking at the top of a ``leaderboard.md``: its first table (suite v3 and v4: the
+    ranked agents; v1 and v2: the overview across tracks) and, where a section of references
+    follows it (v4), that section's heading and table.
+    """
+    lines = leaderboard.splitlines()
+    start = next((i for i, line in enumerate(lines) if line.startswith("|")), len(lines))
+    end = next((i for i in range(start, len(lines)) if not lines[i].startswith("|")),
+               len(lines))
+    out = lines[start:end]
+    heading = next((i for i in range(end, len(lines)) if lines[i].startswith("#")), None)
+    if heading is not None and "reference" in lines[heading].lower():
+        first = next((i for i in range(heading, len(lines)) if lines[i].startswith("|")),
+                     len(lines))
+        last = next((i for i in range(first, len(lines)) if not lines[i].startswith("|")),
+                    len(lines))
+        out += ["", lines[heading].lstrip("# "), "", *lines[first:last]]
+    return "\n".join(out)
 
 
 def _suite_kept(out: Path) -> str:
@@ -516,9 +548,14 @@ _SUITE_ARGUMENTS = {"tracks": "--tracks", "agents": "--agents", "runs": "--runs-
 
 def _config_error(parser: argparse.ArgumentParser, exc: ConfigError,
                   arguments: dict[str, str]) -> None:
-    """Exit with status 2 like argparse does, naming the argument the bad field came from."""
+    """Exit with status 2 like argparse does, naming the argument the bad field came from;
+    a backend whose extra is missing is reported by :func:`main` in one line (status 1).
+    """
+    if isinstance(exc, BackendUnavailableError):
+        raise exc
     argument = arguments.get(exc.field or "")
-    parser.error(f"argument {argument}: {exc}" if argument else str(exc))
+    text = as_flags(str(exc), arguments)
+    parser.error(f"argument {argument}: {text}" if argument else text)
 
 
 def _learner_changes(args: argparse.Namespace, parser: argparse.ArgumentParser
@@ -553,7 +590,8 @@ def _study_config(args: argparse.Namespace, parser: argparse.ArgumentParser,
             human_rationality=args.human_rationality, population=args.population,
             human_drift=args.human_drift, learner=tuple(sorted(learner.items())),
             reward=args.reward, physics_preset=args.physics_preset,
-            human_params=tuple(args.human_params or ()), **execution,
+            human_params=tuple(args.human_params or ()), imports=imported_modules(),
+            **execution,
         )
     given = [flag for field, flag in _STUDY_ARGUMENTS.items()
              if field not in EXECUTION_FIELDS and field != "scenario"
@@ -641,8 +679,9 @@ def _require_for_study(cfg: Any, *, progress: bool) -> None:
 
 
 def _resume_hint(argv: Sequence[str]) -> str:
+    """The command that resumes this one, as it can be pasted (:func:`invocation`)."""
     words = [w for w in argv if w not in ("--overwrite", "--resume")]
-    return "hri-bench " + " ".join(shlex.quote(w) for w in words) + " --resume"
+    return f"{invocation()} " + " ".join(shlex.quote(w) for w in words) + " --resume"
 
 
 def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
@@ -671,7 +710,8 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
         return 143 if isinstance(exc, StudyTerminated) else 130
     except UnitLostError as exc:
         kept = len(list((Path(args.out) / UNITS).glob("*.npz")))
-        print(f"hri-bench: study stopped: {exc}; {kept} finished unit(s) kept in "
+        print(f"hri-bench: study stopped: {as_flags(str(exc), _STUDY_ARGUMENTS)}; {kept} "
+              f"finished unit(s) kept in "
               f"{Path(args.out) / UNITS}; continue with: {_resume_hint(argv)}",
               file=sys.stderr)
         return 1
@@ -791,16 +831,21 @@ def _demo(args: argparse.Namespace) -> int:
     print(f"done in {time.perf_counter() - t0:.0f} s; plots:")
     for p in paths:
         print(f"  {p}")
-    print(_NEXT_STEPS)
+    print(next_steps(args.out))
     return 0
 
 
-#: What ``hri-bench demo`` (``make demo``) suggests next; every command runs as printed.
-_NEXT_STEPS = """
+def next_steps(out: Path) -> str:
+    """What ``hri-bench demo --out OUT`` (``make demo``: ``out/demo``) suggests next; every
+    command runs as printed from the checkout, and what it writes goes into ``OUT`` (not
+    where the README's tour writes).
+    """
+    at = shlex.quote(str(out))
+    return f"""
 What to try next, from this folder (README.md 'A tour', docs/benchmark.md):
-  .venv/bin/hri-bench study wheel --runs 20 --out out/wheel   # one study: summary, CSV, plots
-  .venv/bin/hri-bench study wheel --human-passive 0.2 --runs 20 --out out/passive
-  .venv/bin/hri-bench suite --out out/suite --jobs 2          # the benchmark's leaderboard
+  .venv/bin/hri-bench study wheel --runs 20 --out {at}/wheel   # one study: summary, CSV, plots
+  .venv/bin/hri-bench study wheel --human-passive 0.2 --runs 20 --out {at}/passive
+  .venv/bin/hri-bench suite --out {at}/suite --jobs 2          # the benchmark's leaderboard
   .venv/bin/hri-bench play hanger                             # you are the human
   .venv/bin/python examples/custom_learner.py                 # your own agent, benchmarked
   .venv/bin/python examples/train_maskable_ppo.py             # needs the rl extra (below)
@@ -808,10 +853,36 @@ What to try next, from this folder (README.md 'A tour', docs/benchmark.md):
 Extras: .venv/bin/pip install -c constraints.txt -e '.[rl]'  (or '.[mujoco]', '.[ray]')"""
 
 
+def _leading_imports(argv: Sequence[str]) -> list[str]:
+    """The modules of the ``--import MODULE`` (or ``--import=MODULE``) options before the
+    command (what they register must exist before the parser is built: its choices and
+    checks read the registries).
+    """
+    modules, words = [], list(argv)
+    while words:
+        word = words.pop(0)
+        if word == "--import" and words:
+            modules.append(words.pop(0))
+        elif word.startswith("--import="):
+            modules.append(word.partition("=")[2])
+        else:
+            break
+    return modules
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hri-bench`` console script."""
-    parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        load_plugins()
+    except ConfigError as exc:  # an installed package's: not the command's arguments
+        print(f"hri-bench: {exc}", file=sys.stderr)
+        return 1
+    try:
+        import_modules(_leading_imports(argv), field="--import")
+    except ConfigError as exc:
+        build_parser().error(f"argument --import: {exc}")
+    parser = build_parser()
     for word in argv:  # Python 3.11's argparse reads "--jobs=--" as an empty list
         if word.startswith("--") and word.endswith("=--"):
             parser.error(f"argument {word[:-3]}: expected one argument, got '--'")
@@ -824,7 +895,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"hri-bench: {exc}", file=sys.stderr)
         return 1
     except ModuleNotFoundError as exc:
-        missing = MissingExtraError.from_import(exc, "this command")
+        missing = MissingExtraError.from_import(exc, f"hri-bench {args.command}")
         if missing is None:
             raise
         print(f"hri-bench: {missing}", file=sys.stderr)

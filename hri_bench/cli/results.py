@@ -28,7 +28,8 @@ from hri_bench.suite import audit, results_v3, results_v4, resume, submission
 from hri_bench.suite.merged import HEADING, merged_leaderboard
 from hri_bench.suite.physical_results import FORMAT as PHYSICAL_FORMAT
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ConfigError, MissingExtraError
+from hri_envs.imports import import_modules
 
 __all__ = ["add_parsers", "add_suite_flags", "leaderboard", "run", "run_suites", "suite_plan",
            "warn_code_changes",
@@ -116,7 +117,8 @@ def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
             tracks = list(doc["suite"]["tracks"])
             plan = {"agents": agents, "tracks": tracks, "populations": [],
                     "runs_scale": doc["runs_scale"], "seeds": _listed(doc["seeds"]),
-                    "identities": doc["agents"], "version": version}
+                    "identities": doc["agents"], "version": version,
+                    "imports": _recorded_imports(doc)}
         else:
             version = doc["suite_version"]
             known = TRACKS_BY_VERSION.get(version, {})
@@ -130,7 +132,8 @@ def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
                                     for t, tr in doc["tracks"].items() if t not in known],
                     "runs_scale": doc["runs_scale"],
                     "seeds": _listed(doc["seeds"] if "seeds" in doc else [doc["seed"]]),
-                    "identities": identities or {}, "version": version}
+                    "identities": identities or {}, "version": version,
+                    "imports": _recorded_imports(doc)}
     except (KeyError, TypeError, AttributeError, ConfigError) as exc:
         parser.error(f"argument --config: {path}: not a suite.json or results.json (missing "
                      f"{exc})")
@@ -139,6 +142,23 @@ def _read_config(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
                      f"one of {', '.join(SUITE_VERSIONS)}")
     _check_plan(plan, path, parser)
     return plan
+
+
+def _recorded_imports(doc: dict[str, Any]) -> Any:
+    """The modules a suite.json or results.json records as imported for their registrations
+    (its ``imports``, and its tracks' settings'), in order; what is not a list is kept as it
+    is, for :func:`_check_plan` to name.
+    """
+    found = doc.get("imports", [])
+    if not isinstance(found, list):
+        return found
+    found = list(found)
+    for track in (doc.get("tracks") or {}).values():
+        recorded = (track.get("settings") or {}).get("imports", [])
+        if not isinstance(recorded, list):
+            return recorded
+        found += [m for m in recorded if m not in found]
+    return found
 
 
 def _listed(value: Any) -> Any:
@@ -179,6 +199,8 @@ def _check_plan(plan: dict[str, Any], path: Path, parser: argparse.ArgumentParse
         bad("seeds", "--seeds", "distinct whole numbers >= 0")
     if not isinstance(plan["identities"], dict):
         bad("identities", "--config", "the agents' code identities (an object)")
+    if not _names(plan["imports"]):
+        bad("imports", "--import", "a list of distinct module names")
 
 
 def suite_plan(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list[int]:
@@ -188,11 +210,15 @@ def suite_plan(args: argparse.Namespace, parser: argparse.ArgumentParser) -> lis
     if args.config is None:
         return _seeds(args.seeds, parser) if args.seeds is not None else [args.seed]
     given = [f"--{k.replace('_', '-')}" for k, v in vars(args).items()
-             if k not in (*EXECUTION_FLAGS, "config", "command", "command_parser")
+             if k not in (*EXECUTION_FLAGS, "config", "command", "command_parser", "imports")
              and v != parser.get_default(k)]
     if given:
         parser.error(f"argument --config: it replays the recorded suite; drop {', '.join(given)}")
     plan = _read_config(args.config, parser)
+    try:  # what the suite's agents and populations were registered by
+        import_modules(plan["imports"])
+    except ConfigError as exc:
+        parser.error(f"argument --config: {args.config}: {exc}")
     for agent in plan["agents"]:  # a custom agent that no longer imports: exit 2 here
         try:
             validate_agent_name(agent)
@@ -235,6 +261,8 @@ def run_suites(args: argparse.Namespace, seeds: list[int], run_one: Callable[...
             f.write(json.dumps({"suite_version": docs[0]["suite_version"], "seeds": seeds,
                                 "runs_scale": docs[0]["runs_scale"],
                                 "agents": docs[0]["agents"],
+                                **({"imports": docs[0]["imports"]}
+                                   if docs[0].get("imports") else {}),
                                 "tracks": {n: {"settings": t["settings"]}
                                            for n, t in docs[0]["tracks"].items()},
                                 "provenance": docs[0].get("provenance", {})}, indent=1)
@@ -421,6 +449,9 @@ def leaderboard(folder: Path, out: Path | None, parser: argparse.ArgumentParser)
     """
     if not folder.is_dir():
         parser.error(f"argument dir: {folder} is not a folder")
+    # it validates every file and draws the ranking: said before any file is read (a file
+    # refused first would hide what is missing)
+    MissingExtraError.require(["jsonschema", "matplotlib"], "hri-bench leaderboard")
     out = folder / "merged" if out is None else out
     created = not out.exists()
     lock = FolderLock(out, "leaderboard")

@@ -7,6 +7,15 @@ of the state, they are not the task's action indices (docs/agents.md, "Action nu
 The robot learns from each finished episode, as in the paper's simulator with a user
 interface. The episodes run in the benchmark's own loop
 (:func:`hri_bench.run.runner.run_episodes`), with you as its human.
+
+The robot is the Learner with one change: it never makes a grasp toggle the object's next
+motion does not need (:func:`hri_envs.task.episode.unneeded_toggle`: letting go on the
+start support before the object was lifted, grasping on the goal), and waits instead. The
+paper's reward makes a toggle free (docs/task-model.md, "Reward"), so while you wait the
+Learner would grasp and let go over and over: a wait on the start support reads, under its
+model of you, as "the object is where I want it", and even when it believes otherwise,
+letting go costs it nothing where waiting for you costs r0. A person waits to watch what
+the robot does; the robot now takes hold once and waits for you.
 """
 
 from __future__ import annotations
@@ -20,6 +29,8 @@ from agents.learner import Learner
 from hri_bench.run.runner import Schedule, run_episodes
 from hri_envs.envs.backends import GraphBatch
 from hri_envs.humans.protocol import BatchHuman
+from hri_envs.task import episode as rules
+from hri_envs.task.actions import WAIT
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import scenario_graph
 
@@ -28,6 +39,19 @@ __all__ = ["play"]
 
 class _Quit(Exception):
     """The player typed q."""
+
+
+class _PlayLearner(Learner):
+    """The Learner, waiting where it would make a grasp toggle that the object's next motion
+    does not need (the module's docstring says why).
+    """
+
+    def act(self, observations: Mapping[str, np.ndarray], active: np.ndarray) -> np.ndarray:
+        """The Learner's actions, its unneeded toggles replaced by waiting."""
+        actions = super().act(observations, active)
+        states = np.asarray(observations["state"], dtype=np.int64).reshape(self.n_runs)
+        pointless = rules.unneeded_toggle(self.graph, states, actions, self.start, self.lifted)
+        return np.where(pointless, WAIT, actions)
 
 
 class _TerminalHuman(BatchHuman):
@@ -98,7 +122,7 @@ def play(
     """
     graph = scenario_graph(scenario)
     cfg = default_config(scenario)
-    robot = Learner(graph, 1, cfg, seed=seed)
+    robot = _PlayLearner(graph, 1, cfg, seed=seed)
     human = _TerminalHuman(graph, robot, read, write)
     names = graph.support_names
     rng = np.random.default_rng(seed)

@@ -10,7 +10,8 @@ process of its own"):
   declares ``privileged = True``, the constructor keywords it is given), or why it cannot
   run;
 * ``init``: make the agent for a batch of runs from the public task graph (by scenario
-  name), the study's r0, reward rule, step limit and episodes, and one random stream per run
+  name, after importing the modules the study imported for their registrations), the
+  study's r0, reward rule, step limit and episodes, and one random stream per run
   (:data:`ISOLATED_CONTRACT`); never the human, the study's seed or the run indices;
 * ``begin``, ``step``, ``end``: the episodes, one message per batched step (the previous
   transition travels with the next observation) and one answered per episode's end; the
@@ -37,7 +38,7 @@ import numpy as np
 from agents.protocol import METHODS, Agent, BatchAgent, Batched, Trace, missing_methods
 from hri_bench.run.wire import read_message, write_message
 from hri_envs.errors import ActionError, ConfigError
-from hri_envs.imports import import_class
+from hri_envs.imports import import_class, import_modules
 
 __all__ = ["ISOLATED_CONTRACT", "WITHHELD", "isolated_keywords", "main"]
 
@@ -115,6 +116,7 @@ def _streams(entropy: np.ndarray) -> list[np.random.Generator]:
 def _make(header: Mapping[str, Any], arrays: Mapping[str, np.ndarray]) -> BatchAgent:
     from hri_envs.task.scenarios import scenario_graph
 
+    import_modules(header.get("imports", ()))  # a scenario of the user's own, say
     cls = _load(header["spec"])
     graph = scenario_graph(header["scenario"])
     keys = isolated_keywords(cls)

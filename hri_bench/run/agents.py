@@ -52,6 +52,7 @@ import hashlib
 import importlib
 import importlib.metadata
 import json
+import os
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -59,6 +60,7 @@ from pathlib import Path
 from typing import Any
 
 import agents as agents_package
+from agents import conformance
 from agents.config import default_config
 from agents.learner import Learner
 from agents.learning import algorithm1
@@ -72,9 +74,9 @@ from hri_bench.run.agent_host import ISOLATED_CONTRACT, isolated_keywords
 from hri_bench.run.isolation import describe, make_isolated
 from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import BatchHuman
-from hri_envs.humans.scripted import PreferredActions, ScriptedHuman
-from hri_envs.imports import with_cwd_on_path
+from hri_envs.humans.scripted import PreferredActions, ScriptedHuman, preference_human
 from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["AGENTS", "CONTRACT", "DEFAULT_STUDY_AGENTS", "JAXPPO", "JAXPPO_CHECKPOINTS",
            "JAXPPO_PREFIX", "NAME_FORBIDDEN", "SB3_PREFIX", "AgentContext", "AgentSpec",
@@ -346,8 +348,8 @@ def _make_oracle(c: AgentContext) -> BatchAgent:
 def _make_exact(c: AgentContext, cls: type[Informed] | type[Blind]) -> BatchAgent:
     if not isinstance(c.human, ScriptedHuman):
         raise ConfigError("agent 'blind' plans for one scripted human shared by every "
-                          "run; studies whose runs have humans of their own (--population, "
-                          "--human-drift) are not supported: use qmdp and informed for a "
+                          "run; studies whose runs have humans of their own (population=, "
+                          "human_drift=) are not supported: use qmdp and informed for a "
                           "bracket", field="agents")
     return cls(c.graph, c.human, len(c.runs), r0=c.r0, max_steps=c.max_steps,
                reward=c.reward)
@@ -560,9 +562,11 @@ def _unimported_files(module_name: str) -> tuple[Path, list[Path]]:
     """:func:`_source_files` found on ``sys.path`` without importing (running) anything."""
     import importlib.machinery
 
-    with_cwd_on_path()  # as import_object would import it
     parts = module_name.split(".")
-    path: list[str] | None = None
+    # where the agent's own process finds it: the environment, then the current folder
+    # (hri_envs.imports), which this process has not put on its path
+    here = os.getcwd()
+    path: list[str] | None = [*sys.path, *([] if here in sys.path or "" in sys.path else [here])]
     found = []
     for i in range(len(parts)):
         spec = importlib.machinery.PathFinder.find_spec(".".join(parts[:i + 1]), path)
@@ -606,6 +610,23 @@ def agent_identity(name: str) -> dict[str, Any]:
     return {"kind": "custom", "module": info["module"], "class": info["class"],
             "files": hashes, "code_sha256": _combined(hashes),
             "constructor": list(info["keywords"])}
+
+
+def _maker_of(name: str) -> Callable[[TaskGraph], BatchAgent]:
+    """A factory of the registered agent ``name`` for :func:`agents.conformance.check_agent`:
+    made as a study makes it, for one run against the scenario's scripted human.
+    """
+    spec = AGENTS[name]
+
+    def make(graph: TaskGraph) -> BatchAgent:
+        human = preference_human(graph)  # the robot env's own scripted human
+        r0 = scenario_spec(graph.name).r0
+        return spec.make(AgentContext(graph, human, (0,), 0, r0, {}, 100, "paper", 3))
+
+    return make
+
+
+conformance.NAMED.append((lambda: list(AGENTS), _maker_of))
 
 
 def source_identity(module_name: str) -> dict[str, Any]:

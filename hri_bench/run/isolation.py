@@ -41,7 +41,7 @@ from agents.protocol import BatchAgent, Trace
 from hri_bench.run import agent_host
 from hri_bench.run.wire import WireError, read_message, write_message
 from hri_envs.errors import ActionError, ConfigError
-from hri_envs.imports import with_cwd_on_path
+from hri_envs.imports import imported_modules, with_cwd_on_path
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["IN_PROCESS", "AgentProcessError", "IsolatedAgent", "acquire_host", "agent_streams",
@@ -255,7 +255,8 @@ class IsolatedAgent(BatchAgent):
         self._host = _acquire(spec)
         weakref.finalize(self, _release, spec, self._host)  # free when this agent is gone
         self._ask({"kind": "init", "spec": spec, "scenario": graph.name,
-                   "settings": dict(settings)}, {"entropy": agent_entropy(seed, runs)})
+                   "settings": dict(settings), "imports": list(imported_modules())},
+                  {"entropy": agent_entropy(seed, runs)})
 
     def _ask(self, header: Mapping[str, Any], arrays: Mapping[str, np.ndarray] | None = None
              ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:

@@ -53,7 +53,7 @@ from hri_envs.humans.populations import (
 from hri_envs.humans.scripted import ScriptedHuman, preference_human
 from hri_envs.task.scenarios import scenario_graph
 
-__all__ = ["REFERENCES", "blind_values"]
+__all__ = ["REFERENCES", "blind_values", "what_ran"]
 
 #: What each reference agent is, for reports (suite v1's wording, frozen).
 REFERENCES: dict[str, str] = {
@@ -75,9 +75,23 @@ _TOO_LARGE = ("the exact blind plan is made for deterministic (or passive) scrip
               "draws rationality or preference weights)")
 _BOTH = ("the exact blind plan does not fit a human who is both passive and turns back (too "
          "many beliefs)")
+#: What a suite reports where the exact blind plan does not fit (the suite adds both ends).
+_BRACKET = "a bracket (qmdp below, informed above) is reported"
 _MODEL = ("the exact blind plan fits deterministic scripted humans; this population has "
           "members with a finite state or a stochastic law (misspecified, adaptive, "
-          "inconsistent or Boltzmann): a bracket (qmdp below, informed above) is reported")
+          "inconsistent or Boltzmann): " + _BRACKET)
+
+
+def what_ran(note: str, agents: Sequence[str]) -> str:
+    """``note`` (why regret is not reported, as a suite records it) made true of a study
+    whose agents are ``agents``: its bracket is reported only when ``qmdp`` and ``informed``
+    both ran, else the note says which to add.
+    """
+    if not note.endswith(_BRACKET) or {"qmdp", "informed"} <= set(agents):
+        return note
+    missing = [a for a in ("qmdp", "informed") if a not in agents]
+    return (note[:-len(_BRACKET)] + f"no reference ran for a bracket (add {' and '.join(missing)}"
+            " to the agents: qmdp below, informed above)")
 
 
 def blind_refusal(cfg: Any) -> str | None:
@@ -86,14 +100,14 @@ def blind_refusal(cfg: Any) -> str | None:
     """
     if getattr(cfg, "per_run_humans", False):
         return ("agent 'blind' plans for one scripted human shared by every run; this "
-                "study's runs have humans of their own (--population, --human-drift): leave "
+                "study's runs have humans of their own (population=, human_drift=): leave "
                 "it out (regret still uses blind's exact values where they fit) or run "
                 "informed and qmdp for a bracket")
     if not math.isinf(cfg.human_rationality):
-        return (_TOO_LARGE + " (--human-rationality); run informed and qmdp for a bracket "
+        return (_TOO_LARGE + " (human_rationality=); run informed and qmdp for a bracket "
                 "instead")
     if cfg.human_passive > 0 and cfg.turn_back > 0:
-        return _BOTH + " (--human-passive with --turn-back)"
+        return _BOTH + " (human_passive= with turn_back=)"
     return None
 
 
@@ -122,7 +136,7 @@ def refuse_references(cfg: Any) -> None:
                                         and POPULATIONS[population].turn_back[1] > 0)
         if turning:
             raise ConfigError("agent 'qmdp' keeps a posterior over the human's finite state; "
-                              "humans who turn back halfway (--turn-back, or a population "
+                              "humans who turn back halfway (turn_back=, or a population "
                               "that draws it) are not supported", field="agents")
 
 

@@ -45,7 +45,13 @@ from hri_bench.run.agents import (
     validate_agent_name,
 )
 from hri_bench.run.humans import custom_population_info, is_custom
-from hri_bench.run.regret import ALL_REFERENCES, blind_values, reference_summary, refuse_references
+from hri_bench.run.regret import (
+    ALL_REFERENCES,
+    blind_values,
+    reference_summary,
+    refuse_references,
+    what_ran,
+)
 from hri_bench.run.runner import TASK_METRICS, make_schedule, simulate
 from hri_envs import __version__
 from hri_envs.checks import check_flag, check_real, check_whole
@@ -65,6 +71,7 @@ from hri_envs.humans.scripted import ScriptedHuman, preferences_for
 from hri_envs.humans.spec import HumanSpec
 from hri_envs.humans.splits import population, population_hash
 from hri_envs.humans.tables import TableHumans
+from hri_envs.imports import import_modules
 from hri_envs.task.episode import REWARD_RULES
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
@@ -207,6 +214,12 @@ class StudyConfig:
             MuJoCo Warp; :meth:`time_limit`); a unit over it ends the study with a
             :class:`UnitLostError` naming it, as a worker that dies does
             (docs/benchmark.md, "Interrupted studies").
+        imports: Modules whose import registers what the study names (a scenario, a
+            family, a reward rule, an agent of your own by name): imported first, here and
+            in every process that runs its units (:func:`hri_envs.imports.import_modules`;
+            ``hri-bench --import MODULE`` and the installed plugins give
+            :func:`hri_envs.imports.imported_modules`), and recorded in the settings, so that
+            a replay (``--config``) imports them again.
     """
 
     scenario: str
@@ -233,11 +246,13 @@ class StudyConfig:
     physics_preset: str | None = None
     human_params: tuple[tuple[str, Any], ...] = ()
     unit_time_limit: float | None = None
+    imports: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        """Validate every field, in the fields' order (a :class:`ConfigError` names the field
-        in its ``field`` attribute).
+        """Import :attr:`imports`, then validate every field, in the fields' order (a
+        :class:`ConfigError` names the field in its ``field`` attribute).
         """
+        import_modules(self.imports, field="imports")
         self._check_task()
         self._check_execution()
         self._check_humans()
@@ -310,9 +325,9 @@ class StudyConfig:
         self._text("population", "a population's name or 'module:Class'")
         self._pairs("human_params", "a family's parameters, e.g. (('k', 3),)")
         if self.human_params and self.population is None:
-            raise ConfigError("human_params sets the parameters of a family named as the "
-                              "population (e.g. --population impatient --human-param k=3); "
-                              "no population is given", field="human_params")
+            raise ConfigError("human_params= sets the parameters of the family that "
+                              "population= names; no population is given",
+                              field="human_params")
         if self.population is not None:
             self.human.check(graph_for(self.scenario))
             if self.preference is not None:
@@ -330,13 +345,13 @@ class StudyConfig:
                                       "(leave it at its default)", field=name)
         if is_custom(self.population):
             if self.human_drift is not None:
-                raise ConfigError("a human of your own (--population module:Class) does not "
-                                  "drift; leave out --human-drift", field="human_drift")
+                raise ConfigError("a human of your own (a population named module:Class) does "
+                                  "not drift; leave out human_drift=", field="human_drift")
             if "oracle" in self.agents and not is_recorded(self.population):
                 # a fitted human is a policy table: the oracle copies its likeliest action
                 raise ConfigError("the oracle copies a scripted human's preferred actions; "
-                                  "leave it out with --population module:Class",
-                                  field="agents")
+                                  "leave it out of agents= with a population named "
+                                  "module:Class", field="agents")
 
     def _check_learning(self) -> None:
         """The references the humans allow, the Learner's changes, the reward rule, the
@@ -520,7 +535,7 @@ class StudyConfig:
 EXECUTION_FIELDS = ("jobs", "executor", "ray_address", "unit_time_limit")
 #: Fields added after the settings' format was published, with their defaults: left out of
 #: :meth:`StudyConfig.settings` at the default, and taken as the default when missing.
-LATER_FIELDS: dict[str, Any] = {"human_params": ()}
+LATER_FIELDS: dict[str, Any] = {"human_params": (), "imports": ()}
 
 
 def _jsonable(value: Any) -> Any:
@@ -606,6 +621,7 @@ class UnitFailure:
 
 def _run_unit(unit: _Unit) -> UnitResult:
     cfg = unit.config
+    import_modules(cfg.imports)  # a spawned worker (or Ray's) has not imported them yet
     graph = graph_for(cfg.scenario)
     runs = list(unit.runs)
     human, labels = _humans(cfg, unit.preference, runs)
@@ -818,7 +834,7 @@ def _lost(unit: _Unit, reason: str) -> UnitLostError:
 
 def _over_time(limit: float) -> str:
     return (f"it ran longer than the time limit of {limit:g} s per unit of work (a hanging "
-            "agent? --unit-time-limit sets the limit)")
+            "agent? unit_time_limit= sets the limit)")
 
 
 def _worker_init(mask: Iterable[int]) -> None:
@@ -957,6 +973,38 @@ def _death(worker: _Worker) -> str:
             "called, ended the process: os._exit?)")
 
 
+#: The environment variable naming a file whose content is the time in seconds that the
+#: unit time limit reads instead of the monotonic clock, in the parent's watchdog and in the
+#: serial executor's alarm alike: a test advances it once its hanging agent is known to wait
+#: (tests/test_study_workers.py), so that no unit ever runs over the limit on a loaded
+#: machine's account. Unset (always, outside tests): :func:`time.monotonic`.
+CLOCK_FILE = "HRI_BENCH_CLOCK_FILE"
+#: How often the watchdogs look at a :data:`CLOCK_FILE`'s time (and re-check the real clock
+#: after the alarm's first ring), in seconds.
+_CLOCK_POLL_S = 0.05
+
+
+def _clock() -> float:
+    """The time the unit time limit is measured by (:data:`CLOCK_FILE`)."""
+    path = os.environ.get(CLOCK_FILE)
+    if not path:
+        return time.monotonic()
+    try:
+        return float(Path(path).read_text())  # written whole (os.replace) by its test
+    except (OSError, ValueError):  # not written yet: the clock's start
+        return 0.0
+
+
+def _wait_for(deadline: float) -> float | None:
+    """How long a watchdog may wait for a unit that ends at ``deadline`` of :func:`_clock`
+    (None: no limit); with a :data:`CLOCK_FILE`, at most :data:`_CLOCK_POLL_S`.
+    """
+    if math.isinf(deadline):
+        return None
+    left = max(0.0, deadline - _clock())
+    return min(left, _CLOCK_POLL_S) if os.environ.get(CLOCK_FILE) else left
+
+
 def _execute_pool(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int], method: str | None
                   ) -> Iterator[tuple[int, UnitResult | UnitFailure]]:
     """The units ``todo`` on ``min(jobs, len(todo))`` worker processes, as they finish.
@@ -975,7 +1023,7 @@ def _execute_pool(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int], met
         if queue:
             i = queue.pop()
             w.conn.send((i, units[i]))
-            busy[w] = (i, time.monotonic())
+            busy[w] = (i, _clock())
         else:
             w.conn.send(None)
 
@@ -984,9 +1032,8 @@ def _execute_pool(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int], met
             assign(w)
         while busy:
             first = min(started for _, started in busy.values())
-            timeout = None if math.isinf(limit) else max(0.0, first + limit - time.monotonic())
             ready = set(mp_wait([x for w in busy for x in (w.conn, w.process.sentinel)],
-                                timeout))
+                                _wait_for(first + limit)))
             for w, (i, started) in list(busy.items()):
                 if w.conn in ready:
                     try:
@@ -1000,7 +1047,7 @@ def _execute_pool(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int], met
                     yield index, out
                 elif w.process.sentinel in ready:
                     raise _lost(units[i], _death(w))
-                elif time.monotonic() - started > limit:
+                elif _clock() - started > limit:
                     raise _lost(units[i], _over_time(limit))
     finally:
         _stop_pool(workers)
@@ -1012,7 +1059,10 @@ class _TimeUp(BaseException):
 
 @contextlib.contextmanager
 def _alarm(seconds: float) -> Iterator[None]:
-    """Raise :class:`_TimeUp` in this thread after ``seconds`` of wall time (SIGALRM).
+    """Raise :class:`_TimeUp` in this thread once ``seconds`` of :func:`_clock` have passed
+    (SIGALRM: its first ring after ``seconds`` of wall time, then every
+    :data:`_CLOCK_POLL_S` until the clock says so; with a :data:`CLOCK_FILE`, every
+    :data:`_CLOCK_POLL_S` from the start).
 
     Only in the main thread, and only when no other interval timer is running (a test
     runner's, say); elsewhere, and for ``inf``, no limit.
@@ -1021,12 +1071,15 @@ def _alarm(seconds: float) -> Iterator[None]:
             or signal.getitimer(signal.ITIMER_REAL)[0] > 0):
         yield
         return
+    started = _clock()
 
     def ring(signum: int, frame: Any) -> None:
-        raise _TimeUp
+        if _clock() - started > seconds:
+            raise _TimeUp
 
     previous = signal.signal(signal.SIGALRM, ring)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    first = _CLOCK_POLL_S if os.environ.get(CLOCK_FILE) else seconds
+    signal.setitimer(signal.ITIMER_REAL, first, _CLOCK_POLL_S)
     try:
         yield
     finally:
@@ -1086,13 +1139,12 @@ def _execute_ray(cfg: StudyConfig, units: list[_Unit], index: list[int]
         while queue or running:
             while queue and len(running) < cfg.jobs:
                 unit, i = queue.pop()
-                running[remote.remote(unit)] = (unit, i, time.monotonic())
+                running[remote.remote(unit)] = (unit, i, _clock())
             first = min(started for _, _, started in running.values())
-            timeout = None if math.isinf(limit) else max(0.0, first + limit - time.monotonic())
-            done, _ = ray.wait(list(running), num_returns=1, timeout=timeout)
+            done, _ = ray.wait(list(running), num_returns=1, timeout=_wait_for(first + limit))
             if not done:
                 unit, _, started = min(running.values(), key=lambda x: x[2])
-                if time.monotonic() - started > limit:
+                if _clock() - started > limit:
                     raise _lost(unit, _over_time(limit))
                 continue
             unit, i, _ = running.pop(done[0])
@@ -1197,16 +1249,34 @@ def run_study(
                        humans=humans, failures=failures)
 
 
-def regret_reference(result: StudyResult) -> tuple[np.ndarray | None, str]:
+#: The file that computes regret, as the checkout holds it (derived from the module).
+REGRET_SOURCE = Path(blind_values.__code__.co_filename).resolve().relative_to(
+    Path(__file__).resolve().parents[2]).as_posix()
+#: How the suites record regret, word for word as version 1 wrote it (its files are
+#: reproduced byte for byte): the file has moved to :data:`REGRET_SOURCE` since.
+_RECORDED_REGRET = ("blind's exact expected episode reward from the episode's start support "
+                    "minus the agent's reward, mean over runs (hri_bench/regret.py)")
+
+
+def regret_reference(result: StudyResult, *, recorded: bool = True
+                     ) -> tuple[np.ndarray | None, str]:
     """Blind's exact expected reward per (run, episode) and how regret is computed; None
     (with the reason) where the exact blind plan is too large for the study's human.
+
+    Args:
+        result: The study.
+        recorded: The note as the suites record it (frozen); False: as a study's
+            ``summary.json`` and console say it, naming the file that computes regret and,
+            where no exact plan fits, whether the references of a bracket ran.
     """
     try:
         values = blind_values(result)
     except ConfigError as exc:
-        return None, f"not reported: {exc}"
-    return values, ("blind's exact expected episode reward from the episode's start support "
-                    "minus the agent's reward, mean over runs (hri_bench/regret.py)")
+        note = f"not reported: {exc}"
+        return None, note if recorded else what_ran(note, result.config.agents)
+    if recorded:
+        return values, _RECORDED_REGRET
+    return values, _RECORDED_REGRET.rsplit("(", 1)[0] + f"({REGRET_SOURCE})"
 
 
 def summarize(result: StudyResult) -> dict[str, Any]:
@@ -1217,7 +1287,7 @@ def summarize(result: StudyResult) -> dict[str, Any]:
     """
     cfg = result.config
     agents: dict[str, Any] = {}
-    blind, regret_note = regret_reference(result)
+    blind, regret_note = regret_reference(result, recorded=False)
     for name, m in result.metrics.items():
         r = m["reward"]
         agents[name] = {

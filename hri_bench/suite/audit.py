@@ -116,7 +116,7 @@ def replay(doc: Mapping[str, Any], k: int, seed: int,
         agent that could not be replayed the reason.
     """
     if not (isinstance(k, int) and k >= 1):
-        raise ConfigError(f"--replay takes a whole number >= 1 of runs, got {k!r}",
+        raise ConfigError(f"k must be a whole number >= 1 of runs to replay, got {k!r}",
                           field="replay")
     version = doc["suite"]["version"]
     tracks = TRACKS_BY_VERSION[version]

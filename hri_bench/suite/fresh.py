@@ -106,8 +106,8 @@ def fresh_check(doc: Mapping[str, Any], seed: int, jobs: int = 1) -> FreshResult
     """
     if doc.get("schema_version") not in (results_v3.SCHEMA_VERSION, results_v3.SCHEMA_V4) \
             or doc["aggregate"].get("headline") is None:
-        raise ConfigError("--fresh compares headlines: give a results file of suite v3 or v4 "
-                          "with a headline", field="fresh")
+        raise ConfigError("the fresh check compares headlines: give a results file of suite "
+                          "v3 or v4 with a headline", field="fresh")
     skipped = {a: why for a, ident in doc["agents"].items()
                if (why := replayable(a, ident)) is not None}
     if skipped:

@@ -486,6 +486,7 @@ def run_suite(
     version: str = LATEST,
     resume: bool = False,
     unit_time_limit: float | None = None,
+    imports: Sequence[str] = (),
 ) -> dict[str, Any]:
     """Run the suite's tracks and write its files into ``out``; return suite.json's document.
 
@@ -518,6 +519,10 @@ def run_suite(
         unit_time_limit: The most wall seconds one unit of work may take
             (:attr:`~hri_bench.run.study.StudyConfig.unit_time_limit`; None: the backend's
             default).
+        imports: Modules whose registrations the suite uses (an agent of your own by
+            name, a population's family): imported in every process that runs a track,
+            recorded in ``suite.json`` and every track's settings
+            (:attr:`~hri_bench.run.study.StudyConfig.imports`).
 
     Raises:
         ConfigError: Unknown track, bad agents, bad runs_scale (before any simulation);
@@ -536,7 +541,8 @@ def run_suite(
     chosen = versioned + [population_track(p, version) for p in populations]
     configs = [dataclasses.replace(
         track_config(t, agents, runs_scale=runs_scale, seed=seed, jobs=jobs,
-                     executor=executor, version=version), unit_time_limit=unit_time_limit)
+                     executor=executor, version=version), unit_time_limit=unit_time_limit,
+        imports=tuple(imports))
                for t in chosen]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -548,6 +554,9 @@ def run_suite(
             return complete
     store = TrackStore(out, plan, resume=resume)
     doc = _suite_header(version, seed, runs_scale, agents)
+    if imports:  # before the tracks (left out when none: the files of earlier suites)
+        doc["imports"] = list(imports)
+        doc["tracks"] = doc.pop("tracks")
     t0 = time.perf_counter()
     recorder = SuiteRecorder(seed, runs_scale, version)  # results.json (submission.py)
     walls, failures = _run_tracks(chosen, configs, doc, recorder, store, progress)

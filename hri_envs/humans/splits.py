@@ -631,8 +631,9 @@ def population(name: str, scenario: str, params: Mapping[str, Any] | None = None
     if not isinstance(name, str):
         raise ConfigError(f"population must be a name, got {name!r}", field="population")
     if params and name not in FAMILIES:
-        raise ConfigError(f"--human-param sets a family's parameters; {name!r} is not a "
-                          f"family (families: {', '.join(FAMILIES)})", field="human_params")
+        raise ConfigError(f"human_params= sets a family's parameters; {name!r} is not a "
+                          f"family (families: {', '.join(FAMILIES)}; a family of your own "
+                          "once the module that registers it is imported)", field="human_params")
     if name in POPULATIONS:
         spec = POPULATIONS[name]
         if scenario not in spec.scenarios:

@@ -45,10 +45,18 @@ module             contents
 =================  ==============================================================
 
 Importing this package selects MuJoCo's headless OpenGL backend (``MUJOCO_GL``) unless it
-is set already; do so before anything imports ``mujoco`` to render.
+is set already; do so before anything imports ``mujoco`` to render. Without the "mujoco"
+extra it raises :class:`~hri_envs.errors.MissingExtraError`, whose message is the one line
+that says what to install (every Panda and continuous id, backend and command that
+simulates the physics imports this package first).
 """
 
-from hri_envs.physics.rendering import select_gl_backend
+from hri_envs.errors import MissingExtraError
+
+MissingExtraError.require(["mujoco", "mink", "gymnasium_robotics"],
+                          "the physics (the Panda and continuous envs, backend='mujoco')")
+
+from hri_envs.physics.rendering import select_gl_backend  # noqa: E402
 
 select_gl_backend()
 

@@ -28,6 +28,7 @@ MuJoCo's activation dynamics then turn the excitations into activations (10-40 m
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 
 import mujoco
@@ -54,12 +55,43 @@ _GRIP_IN_HAND = np.array([0.0, -0.035, -0.02])  # [m] the palm, off the third me
 _REGULARIZATION = 1e-4  # λ of the activation problem
 
 
+#: What MuJoCo says each time myo-sim composes ``myoarm_r`` (it attaches the arm to its
+#: scaffold without a prefix; we attach the result with :data:`_PREFIX`, so it does not
+#: apply): dropped, not printed nor written to ``MUJOCO_LOG.TXT`` (:func:`_quiet_load`).
+_EMPTY_PREFIX_WARNING = "Attaching a spec with an empty prefix"
+
+
+def _quiet_load(name: str) -> mujoco.MjSpec:
+    """``myo_sim.load_spec(name)`` without MuJoCo's empty-prefix warning.
+
+    MuJoCo's default warning handler prints to the terminal and appends to
+    ``MUJOCO_LOG.TXT`` in the current folder; for the duration of the load a handler of our
+    own drops that one warning and passes any other on (to the handler installed before,
+    else as a Python warning).
+    """
+    import myo_sim  # noqa: PLC0415
+
+    previous = mujoco.get_mju_user_warning()
+
+    def handler(message: str) -> None:
+        if message.startswith(_EMPTY_PREFIX_WARNING):
+            return
+        if previous is not None:
+            previous(message)
+        else:
+            warnings.warn(f"MuJoCo: {message}", RuntimeWarning, stacklevel=2)
+
+    mujoco.set_mju_user_warning(handler)
+    try:
+        return myo_sim.load_spec(name)
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
 def _myo_spec() -> mujoco.MjSpec:
     """``myoarm_r`` without its floor and finger joints, nothing colliding, self-carried."""
     MissingExtraError.require(["myo_sim", "scipy"], "the muscle-driven arm (drive='muscle')")
-    import myo_sim  # noqa: PLC0415
-
-    myo = myo_sim.load_spec("myoarm_r")
+    myo = _quiet_load("myoarm_r")
     floor = myo.geom("floor")
     if floor is not None:
         myo.delete(floor)
