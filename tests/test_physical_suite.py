@@ -151,3 +151,11 @@ def test_an_interrupted_suite_resumes_to_the_same_runs(suite, tmp_path):
                                progress=lambda done, total: resumed.append(done), **SETTINGS)
     assert resumed[0] == 2  # the two finished units were not run again
     assert again["runs"] == doc["runs"] and again["statistics"] == doc["statistics"]
+
+
+def test_the_physical_suite_is_found_after_leading_imports():
+    from hri_bench.cli.physical import wants_physical
+
+    assert wants_physical(["--import", "mylab.robots", "--import=x", "suite", "--physical"])
+    assert not wants_physical(["--import", "suite", "study", "--physical"])
+    assert not wants_physical(["suite", "--out", "x"])

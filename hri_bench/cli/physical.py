@@ -17,12 +17,28 @@ from typing import Any
 from hri_bench.cli.args import bounded, whole
 from hri_envs.errors import ConfigError
 
-__all__ = ["build_physical_parser", "main", "wants_physical"]
+__all__ = ["build_physical_parser", "command_words", "main", "wants_physical"]
+
+
+def command_words(argv: Sequence[str]) -> list[str]:
+    """``argv`` from the command on: the leading ``--import MODULE`` options (which the
+    program handles before any command) left out.
+    """
+    words, i = list(argv), 0
+    while i < len(words):
+        if words[i] == "--import":
+            i += 2
+        elif words[i].startswith("--import="):
+            i += 1
+        else:
+            break
+    return words[i:]
 
 
 def wants_physical(argv: Sequence[str]) -> bool:
     """Whether the command line asks for the physical suite (``suite ... --physical``)."""
-    return bool(argv) and argv[0] == "suite" and "--physical" in argv[1:]
+    words = command_words(argv)
+    return bool(words) and words[0] == "suite" and "--physical" in words[1:]
 
 
 def build_physical_parser() -> argparse.ArgumentParser:
@@ -87,7 +103,7 @@ def _progress(enabled: bool) -> Any:
 
 def main(argv: Sequence[str]) -> int:
     """Run ``hri-bench suite --physical ...`` (``argv`` without the program name)."""
-    args = build_physical_parser().parse_args(list(argv)[1:])
+    args = build_physical_parser().parse_args(command_words(argv)[1:])
     from hri_bench.suite.physical_running import run_physical_suite  # noqa: PLC0415
 
     agents = None if args.agents is None else [a.strip() for a in args.agents.split(",")
