@@ -151,6 +151,14 @@ def test_an_interrupted_suite_resumes_to_the_same_runs(suite, tmp_path):
                                progress=lambda done, total: resumed.append(done), **SETTINGS)
     assert resumed[0] == 2  # the two finished units were not run again
     assert again["runs"] == doc["runs"] and again["statistics"] == doc["statistics"]
+    # a robot added to the finished suite: only its unit runs, the others' are kept
+    added: list[tuple[int, int]] = []
+    more = run_physical_suite(out, agents=["admittance", OWN, NOSY, "variable-admittance"],
+                              resume=True, progress=lambda d, t: added.append((d, t)),
+                              **SETTINGS)
+    assert added[0] == (5, 6)
+    kept = more["runs"]["0"]["hanger-nominal"]["agents"]
+    assert all(kept[a] == e for a, e in doc["runs"]["0"]["hanger-nominal"]["agents"].items())
 
 
 def test_the_physical_suite_is_found_after_leading_imports():

@@ -11,9 +11,11 @@ in units of a few runs of one agent (:func:`hri_bench.run.physical.simulate_unit
   agent's goal rate against the human's effort;
 * ``DIR/suite_log.json``: the wall time, the units' CPU time, the jobs and the load.
 
-A finished unit is kept in ``DIR/.physical-units/`` until the suite ends, so ``--resume``
+Every finished unit is kept in ``DIR/.physical-units/`` (a few kB each), so ``--resume``
 after an interruption runs only the rest, and gives the same files (every draw of a run
-comes from the suite seed, the track and the run).
+comes from the suite seed, the track and the run); ``--resume`` with more robots in
+``--agents`` after a suite ended runs only the new robots' units (the references' and the
+others' are kept). ``--overwrite`` starts afresh.
 """
 
 from __future__ import annotations
@@ -271,7 +273,6 @@ def run_physical_suite(out: str | os.PathLike[str], *, version: str = PHYSICAL_L
         cpu = sum(_cpu(store, u) for seed in seeds
                   for u in plan_units(chosen, every, int(seed), runs_scale))
         _write(folder, doc, wall, jobs, cpu)
-        shutil.rmtree(store, ignore_errors=True)
         return doc
     finally:
         lock.release()
