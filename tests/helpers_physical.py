@@ -51,3 +51,19 @@ class Nosy(PhysicalAgent):
     def act(self, observation: np.ndarray) -> np.ndarray:
         """A small random push: its own stream."""
         return self.rng.uniform(-0.05, 0.05, 7)
+
+
+class Breaks(PhysicalAgent):
+    """Raises on its third step."""
+
+    name = "breaks"
+
+    def __init__(self) -> None:
+        self.steps = 0
+
+    def act(self, observation: np.ndarray) -> np.ndarray:
+        """Stands still, then raises."""
+        self.steps += 1
+        if self.steps == 3:
+            raise ValueError("the robot's own bug")
+        return np.zeros(7)

@@ -167,3 +167,13 @@ def test_the_physical_suite_is_found_after_leading_imports():
     assert wants_physical(["--import", "mylab.robots", "--import=x", "suite", "--physical"])
     assert not wants_physical(["--import", "suite", "study", "--physical"])
     assert not wants_physical(["suite", "--out", "x"])
+
+
+def test_a_robot_that_raises_ends_the_suite_with_one_line(tmp_path, capsys):
+    out = tmp_path / "broken"
+    code = cli_main(["suite", "--physical", "--out", str(out), "--runs-scale", "0.01",
+                     "--tracks", "hanger-nominal", "--agents", "tests.helpers_physical:Breaks",
+                     "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 1 and "a robot failed" in err and "the robot's own bug" in err
+    assert "Traceback" not in err.split("\n")[0] and "--resume" in err

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from hri_bench.cli.args import bounded, whole
-from hri_envs.errors import ConfigError
+from hri_envs.errors import ActionError, ConfigError
 
 __all__ = ["build_physical_parser", "command_words", "main", "wants_physical"]
 
@@ -104,6 +104,7 @@ def _progress(enabled: bool) -> Any:
 def main(argv: Sequence[str]) -> int:
     """Run ``hri-bench suite --physical ...`` (``argv`` without the program name)."""
     args = build_physical_parser().parse_args(command_words(argv)[1:])
+    from hri_bench.run.isolation import AgentProcessError  # noqa: PLC0415
     from hri_bench.suite.physical_running import run_physical_suite  # noqa: PLC0415
 
     agents = None if args.agents is None else [a.strip() for a in args.agents.split(",")
@@ -118,6 +119,12 @@ def main(argv: Sequence[str]) -> int:
     except ConfigError as exc:
         print(f"hri-bench suite --physical: {exc}", file=sys.stderr)
         return 2
+    except (AgentProcessError, ActionError) as exc:  # a robot of one's own failed
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        print(f"hri-bench suite --physical: a robot failed: {first}\nThe finished units are "
+              f"kept in {args.out}: fix the robot and run the same command with --resume",
+              file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print(f"\nstopped; the finished units are kept in {args.out}. Resume with the same "
               "command and --resume", file=sys.stderr)
