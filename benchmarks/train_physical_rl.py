@@ -205,7 +205,7 @@ def main() -> None:
     progress = Progress()
     model.learn(total_timesteps=args.steps, callback=progress)
     progress.bar.close()
-    if rows[-1]["steps"] != model.num_timesteps:
+    if model.num_timesteps - rows[-1]["steps"] >= args.n_steps * args.n_envs:
         checkpoint(model.num_timesteps)
     venv.close()
     eval_env.close()

@@ -8,10 +8,14 @@ VariableAdmittance`) plus a learned correction::
     r      = clip(MLP(x), -1, 1)                   (tanh hidden layers, linear output)
     action = clip(a_base + scale * r, -1, 1)
 
-The MLP's last layer starts at zero, so the untrained policy *is* the variable admittance;
-training (``benchmarks/train_physical_rl.py``: PPO of stable-baselines3 on the train split
-of the physical humans, observation normalisation by ``VecNormalize``) learns only what
-improves on it. :class:`ResidualEnv` is the env the policy is trained on (the base
+except once a seat holds the object after it left its start (the base's ``settling``):
+then the action is the base's alone, holding still while the seat pulls the object home
+(a residual there, the training's exploration noise above all, kept the object from coming
+to rest: every episode of a first try timed out). The MLP's last layer starts at zero, so
+the untrained policy *is* the variable admittance; training
+(``benchmarks/train_physical_rl.py``: PPO of stable-baselines3 on the train split of the
+physical humans, observation normalisation by ``VecNormalize``) learns only what improves
+on it. :class:`ResidualEnv` is the env the policy is trained on (the base
 controller runs inside it, its state reset at every reset), and :class:`ResidualAdmittance`
 the numpy-only robot that acts from a checkpoint: an ``.npz`` (never a pickle) holding
 
