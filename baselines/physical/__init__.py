@@ -17,6 +17,7 @@ docs/physical-baselines.md has each robot's figures and where it wins and loses.
 ``goal-blend``             goal inference over routes, predict-then-blend
 ``goal-qmdp``              acts on the goal posterior (QMDP / hindsight optimisation)
 ``learner``                the paper's Learner through compliant motion primitives
+``rl``                     learned (PPO) residual over the variable admittance
 =========================  =====================================================
 """
 
@@ -86,6 +87,12 @@ def _qmdp(scenario: str, seed: int) -> PhysicalAgent:
     return GoalQMDP(scenario)
 
 
+def _rl(scenario: str, seed: int) -> PhysicalAgent:
+    from baselines.physical.residual import ResidualAdmittance  # noqa: PLC0415
+
+    return ResidualAdmittance(scenario)
+
+
 def _learner(scenario: str, seed: int) -> PhysicalAgent:
     from baselines.continuous import LiftedLearner  # noqa: PLC0415
 
@@ -114,6 +121,9 @@ PHYSICAL_AGENTS: dict[str, PhysicalAgentEntry] = {
     "learner": PhysicalAgentEntry(
         _learner, False, "the paper's Learner through compliant primitives, following "
         "the human with the admittance between them; learns across a run"),
+    "rl": PhysicalAgentEntry(
+        _rl, False, "learned: the variable admittance plus a residual trained with PPO on "
+        "the train humans (numpy inference from an .npz)"),
 }
 
 
