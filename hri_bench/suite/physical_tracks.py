@@ -39,7 +39,7 @@ REFERENCE, FLOOR = "upper", "passive"
 #: The robots version 1 ranks by default (names of :mod:`baselines.physical`), the floor
 #: among them.
 DEFAULT_AGENTS: tuple[str, ...] = ("admittance", "variable-admittance", "goal-blend",
-                                   "goal-qmdp", "learner", FLOOR)
+                                   "goal-qmdp", "learner", "rl", FLOOR)
 _SCENARIOS = ("hanger", "wheel")
 _GROUPS = {
     "nominal": "nominal adults (both sexes, 5th-95th percentile bodies, any preference) with "
