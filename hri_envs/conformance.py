@@ -56,7 +56,7 @@ def check_scenario(spec: ScenarioSpec | str, *, env: bool = True) -> str:
 
     if isinstance(spec, str):
         spec = scenario_spec(spec)
-    graph = scenario_graph(spec.name) if SCENARIOS.get(spec.name) is spec else _build(spec)
+    graph = scenario_graph(spec.name) if SCENARIOS.find(spec.name) is spec else _build(spec)
     if graph.n_actions != spec.n_actions:
         raise _fail(f"scenario {spec.name!r}: its graph has {graph.n_actions} actions, the "
                     f"spec says n_actions={spec.n_actions}", "n_actions")
@@ -73,7 +73,7 @@ def check_scenario(spec: ScenarioSpec | str, *, env: bool = True) -> str:
                                 f"lead the object from {graph.support_names[start]} to "
                                 f"{graph.support_names[goal]} with the robot following",
                                 "route")
-    if env and SCENARIOS.get(spec.name) is spec:
+    if env and SCENARIOS.find(spec.name) is spec:
         _check_env(spec.name)
     return (f"scenario {spec.name!r}: {graph.n_states} states, {graph.n_actions} actions, "
             f"{len(spec.preferences)} preference(s) lead every start to every goal"

@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 
 from hri_envs.errors import ConfigError
+from hri_envs.registry import Registry
 from hri_envs.task.actions import ROBOT_BIT, TAKE_OFF, TOGGLE, WAIT
 
 if TYPE_CHECKING:
@@ -121,23 +122,26 @@ class RewardRule:
         return step.paper if self.charge is None else np.asarray(self.charge(step), float)
 
 
-#: The reward rules, by name (:func:`register_reward_rule`).
-REWARD_RULES: dict[str, RewardRule] = {}
+#: The reward rules, by name (:func:`register_reward_rule`; a
+#: :class:`~hri_envs.registry.Registry`).
+REWARD_RULES: Registry[RewardRule] = Registry("reward", RewardRule, field="reward")
 
 
-def register_reward_rule(rule: RewardRule) -> RewardRule:
+def register_reward_rule(rule: RewardRule, *, replace: bool = False) -> RewardRule:
     """Make ``rule`` known to the envs and ``hri-bench`` (``--reward``); returns it.
 
+    Whether it charges a step within [-1, 0] and like the paper rule where nothing differs is
+    :func:`hri_envs.conformance.check_reward_rule`'s to check.
+
+    Args:
+        rule: The rule.
+        replace: Replace the rule registered under its name (otherwise refused).
+
     Raises:
-        ConfigError: ``rule`` is not a :class:`RewardRule`, has an empty name, or charges
-            a step outside [-1, 0] or unlike the paper rule where nothing differs
-            (:func:`hri_envs.conformance.check_reward_rule`).
+        ConfigError: ``rule`` is not a :class:`RewardRule` or has an empty name, or its name
+            is another rule's and ``replace`` is False.
     """
-    if not isinstance(rule, RewardRule) or not (isinstance(rule.name, str) and rule.name):
-        raise ConfigError(f"register_reward_rule takes a RewardRule with a name, got {rule!r}",
-                          field="reward")
-    REWARD_RULES[rule.name] = rule
-    return rule
+    return REWARD_RULES.register(rule, replace=replace)
 
 
 def reward_rule(name: str | RewardRule) -> RewardRule:
@@ -148,11 +152,7 @@ def reward_rule(name: str | RewardRule) -> RewardRule:
     """
     if isinstance(name, RewardRule):
         return name
-    rule = REWARD_RULES.get(name) if isinstance(name, str) else None
-    if rule is None:
-        raise ConfigError(f"unknown reward {name!r}; allowed: {', '.join(REWARD_RULES)}",
-                          field="reward")
-    return rule
+    return REWARD_RULES.get(name)
 
 
 def __getattr__(name: str) -> Any:
