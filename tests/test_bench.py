@@ -343,14 +343,15 @@ class _FailsOnSecondStep:
         return Failing(graph, runs, seed, physics)
 
 
-def test_a_physical_failure_costs_r_minus_and_the_other_runs_go_on(monkeypatch):
+def test_a_physical_failure_costs_r_minus_and_the_other_runs_go_on(request):
     from hri_bench.run.agents import make_agent
     from hri_bench.run.runner import make_schedule, simulate
     from hri_envs.envs import backends
     from hri_envs.humans.scripted import preference_human
 
-    monkeypatch.setitem(backends.BACKENDS, "failing", backends.BackendSpec(
+    backends.register_backend(backends.BackendSpec(
         "failing", "hri_envs.envs.episode:Episode", "tests.test_bench:_FailsOnSecondStep"))
+    request.addfinalizer(lambda: backends.BACKENDS.unregister("failing"))
     graph = scenario_graph("hanger")
     human = preference_human(graph)
     schedule = make_schedule(graph, "random", [0, 1], 2, 0)

@@ -3,13 +3,18 @@ shown to fail on what breaks the contract they check (docs/extending.md)."""
 
 from __future__ import annotations
 
+import importlib.util
+
 import numpy as np
 import pytest
 
 from agents.conformance import check_agent
 from baselines import Passive
 from hri_bench.run.agents import AGENTS, AgentContext
-from hri_envs.conformance import check_human, check_reward_rule, check_scenario
+from hri_envs.conformance import check_backend, check_human, check_reward_rule, check_scenario
+from hri_envs.envs import backends
+from hri_envs.envs.backends import BACKENDS, BackendSpec, BatchStep, GraphBatch, register_backend
+from hri_envs.envs.episode import Episode
 from hri_envs.errors import ConfigError
 from hri_envs.humans.families import FAMILIES
 from hri_envs.humans.scripted import preference_human
@@ -32,6 +37,15 @@ def test_every_registered_family_conforms(family):
 @pytest.mark.parametrize("rule", sorted(REWARD_RULES))
 def test_every_registered_reward_rule_conforms(rule):
     check_reward_rule(rule)
+
+
+@pytest.mark.parametrize("backend", [
+    pytest.param(name, marks=pytest.mark.skip(reason="on MuJoCo Warp: tests/test_mjwarp.py"))
+    if name == "mjwarp" else name for name in BACKENDS])
+def test_every_registered_backend_conforms(backend):
+    if any(importlib.util.find_spec(m) is None for m in BACKENDS[backend].requires):
+        pytest.skip(f"backend {backend!r} needs its extra")
+    assert check_backend(backend).startswith(f"backend {backend!r} on the hanger")
 
 
 @pytest.mark.parametrize("name", sorted(a for a, s in AGENTS.items() if s.intention_blind))
@@ -226,7 +240,7 @@ def test_a_family_that_raises_is_named():
             check_human(HumanSpec(population="broken-family"), "hanger")
         assert err.value.field == "human"
     finally:
-        FAMILIES.pop("broken-family")
+        FAMILIES.unregister("broken-family")
 
 
 class _WordBelief(Passive):
@@ -260,3 +274,88 @@ def test_an_agent_that_breaks_the_protocol_is_named(agent, field, text):
     with pytest.raises(ConfigError, match=text) as err:
         check_agent(agent, episodes=1)
     assert err.value.field == field
+
+
+# ------------------------------------------------------------------ a backend of one's own
+class _OffGraph(GraphBatch):
+    """Reports a state the graph does not have."""
+
+    def transition(self, state, a_r, a_h, active):
+        step = super().transition(state, a_r, a_h, active)
+        return step._replace(next_state=step.next_state + self.graph.n_states)
+
+
+class _SharedStream(GraphBatch):
+    """Its sensor misreads the human from one generator for the whole batch: a run's
+    numbers depend on the runs batched with it."""
+
+    def __init__(self, graph, runs, seed, physics=None):
+        super().__init__(graph, runs, seed, physics)
+        self.rng = np.random.default_rng(seed)
+
+    def transition(self, state, a_r, a_h, active):
+        seen = np.where(self.rng.random(len(state)) < 0.5, 0, a_h)
+        return BatchStep(self.graph.next_state[state, a_r, a_h], seen, None, {})
+
+
+class _UnseededBatch(GraphBatch):
+    """Misreads the human from the global generator: not reproducible."""
+
+    def transition(self, state, a_r, a_h, active):
+        seen = np.where(np.random.random(len(state)) < 0.5, 0, a_h)  # noqa: NPY002
+        return BatchStep(self.graph.next_state[state, a_r, a_h], seen, None, {})
+
+
+class _Figures(GraphBatch):
+    """Names a figure it never reports."""
+
+    extras = ("impulse",)
+
+
+class _Slips(Episode):
+    """The single env's object slips back at random, from the global generator."""
+
+    def transition(self, a_r, a_h):
+        nxt = super().transition(a_r, a_h)
+        return self.state if np.random.random() < 0.3 else nxt  # noqa: NPY002
+
+
+@pytest.fixture
+def own_backend():
+    """Registers backend "own" (the graph's classes under another name) for the test."""
+    spec = register_backend(BackendSpec("own", "hri_envs.envs.episode:Episode",
+                                        "hri_envs.envs.backends:GraphBatch"))
+    yield spec
+    BACKENDS.unregister("own")
+
+
+def test_a_backend_of_ones_own_is_registered_and_conforms(own_backend):
+    assert own_backend in BACKENDS.values() and backends.backend_spec("own") is own_backend
+    assert check_backend("own", "wheel").startswith("backend 'own' on the wheel")
+
+
+@pytest.mark.parametrize(("episode", "batch", "match", "field"), [
+    ("Episode", "_OffGraph", "next_state is .*integers in \\[0, ", "backend"),
+    ("Episode", "_SharedStream", "moved differently alone than in a batch", "backend"),
+    ("Episode", "_UnseededBatch", "moved differently the second time", "backend"),
+    ("Episode", "_Figures", "finite values of each of its extras", "backend"),
+    ("_Slips", "GraphBatch", "robot env played the same seeds differently|check_env", "env"),
+    ("GraphBatch", "GraphBatch", "is not a subclass of hri_envs.envs.episode.Episode",
+     "backend"),
+])
+def test_a_broken_backend_fails_its_conformance_check(own_backend, episode, batch, match,
+                                                      field):
+    where = {"Episode": "hri_envs.envs.episode", "GraphBatch": "hri_envs.envs.backends"}
+    broken = BackendSpec("own", f"{where.get(episode, 'tests.test_conformance')}:{episode}",
+                         f"{where.get(batch, 'tests.test_conformance')}:{batch}")
+    register_backend(broken, replace=True)
+    with pytest.raises(ConfigError, match=match) as err:
+        check_backend("own")
+    assert err.value.field == field
+
+
+def test_check_backend_checks_registered_backends_only():
+    with pytest.raises(ConfigError, match="register_backend") as err:
+        check_backend(BackendSpec("elsewhere", "hri_envs.envs.episode:Episode",
+                                  "hri_envs.envs.backends:GraphBatch"))
+    assert err.value.field == "backend"

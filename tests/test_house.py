@@ -113,7 +113,7 @@ def test_a_human_of_ones_own_is_refused_before_simulating_where_it_cannot_serve(
 def box():
     scenario_box.register()
     yield scenario_graph("box")
-    SCENARIOS.pop("box")  # the other tests see the suite's two scenarios only
+    SCENARIOS.unregister("box")  # the other tests see the suite's two scenarios only
 
 
 def test_a_scenario_of_the_tests_runs_in_the_pettingzoo_and_gymnasium_envs(box):

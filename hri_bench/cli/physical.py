@@ -14,10 +14,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from hri_bench.cli.args import bounded, whole
+from hri_bench.cli.args import as_flags, bounded, whole
 from hri_envs.errors import ActionError, ConfigError
 
 __all__ = ["build_physical_parser", "command_words", "main", "wants_physical"]
+
+
+#: run_physical_suite's parameters as this command's flags (in its error messages).
+_FLAGS = {"resume": "--resume", "overwrite": "--overwrite", "runs_scale": "--runs-scale",
+          "agents": "--agents", "tracks": "--tracks", "jobs": "--jobs"}
 
 
 def command_words(argv: Sequence[str]) -> list[str]:
@@ -117,7 +122,7 @@ def main(argv: Sequence[str]) -> int:
                                  overwrite=args.overwrite,
                                  progress=_progress(not args.no_progress))
     except ConfigError as exc:
-        print(f"hri-bench suite --physical: {exc}", file=sys.stderr)
+        print(f"hri-bench suite --physical: {as_flags(str(exc), _FLAGS)}", file=sys.stderr)
         return 2
     except (AgentProcessError, ActionError) as exc:  # a robot of one's own failed
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__

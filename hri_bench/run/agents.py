@@ -1,5 +1,9 @@
 """Which robot agents the benchmark can run, by name.
 
+The registry (:class:`~agents.registry.AgentSpec`, :data:`~agents.registry.AGENTS`,
+:func:`~agents.registry.register_agent`) is :mod:`agents.registry`'s, re-exported here; this
+module registers the built-in agents and resolves the names that are not registered.
+
 Built in: ``learner``, ``imitator``, ``maxent``, ``passive``, ``oracle``, ``goalfilter`` (a
 Bayesian goal filter that learns no preference, :mod:`baselines.goalfilter`), ``countqmdp``
 (counts of the human's actions per context, a Bayes filter over ι and QMDP planning,
@@ -66,6 +70,15 @@ from agents.learner import Learner
 from agents.learning import algorithm1
 from agents.learning.algorithm1 import Workspace
 from agents.protocol import METHODS, Agent, BatchAgent, missing_methods
+from agents.registry import (
+    AGENTS,
+    JAXPPO,
+    ROLES,
+    AgentContext,
+    AgentSpec,
+    agent_spec,
+    register_agent,
+)
 from baselines import CountQMDP, GoalFilter, Imitator, MaxEntIRL, Oracle, Passive
 from baselines.bounds import Blind, Informed
 from baselines.product import QMDP, PerRunInformed
@@ -79,106 +92,11 @@ from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["AGENTS", "CONTRACT", "DEFAULT_STUDY_AGENTS", "JAXPPO", "JAXPPO_CHECKPOINTS",
-           "JAXPPO_PREFIX", "NAME_FORBIDDEN", "SB3_PREFIX", "AgentContext", "AgentSpec",
-           "Privilege", "agent_identity", "agent_name_problem", "agent_privilege",
+           "JAXPPO_PREFIX", "NAME_FORBIDDEN", "ROLES", "SB3_PREFIX", "AgentContext",
+           "AgentSpec", "Privilege", "agent_identity", "agent_name_problem", "agent_privilege",
            "agent_settings", "agent_spec", "contract_keywords", "import_agent", "jaxppo_path",
            "make_agent", "package_version", "register_agent", "source_identity",
            "validate_agent_name"]
-
-
-@dataclass(frozen=True)
-class AgentContext:
-    """What the benchmark hands an agent's maker: one batch of a study's runs.
-
-    Attributes:
-        graph: The task graph (it knows its scenario: ``graph.spec``).
-        human: The scripted human, or the runs' humans (the Oracle and the references read
-            their models).
-        runs: The batch's run indices (randomness derives from ``(seed, run)``).
-        seed: The study's base seed.
-        r0: The study's waiting reward.
-        learner: Changes to the Learner's configuration (``--learner-*``).
-        max_steps: The step limit per episode.
-        reward: The reward rule's name.
-        episodes: Episodes per run.
-    """
-
-    graph: TaskGraph
-    human: ScriptedHuman | BatchHuman
-    runs: tuple[int, ...]
-    seed: int
-    r0: float
-    learner: dict[str, Any]
-    max_steps: int
-    reward: str
-    episodes: int
-
-
-@dataclass(frozen=True)
-class AgentSpec:
-    """A robot agent the benchmark knows by name (docs/extending.md, "An agent").
-
-    Attributes:
-        name: Registry key (``--agents NAME``).
-        make: ``make(context) -> BatchAgent`` for one batch of runs (:class:`AgentContext`).
-        role: "learner", "baseline" or "reference" (a bound the suites add where it fits
-            and never rank).
-        intention_blind: It must infer the intention (``blind`` is its ceiling); False for
-            an agent that sees ι (the Oracle, ``informed``).
-        plans: It plans with the human's model (a reference: refused for humans without one).
-        shared_human: It plans for one human shared by every run (a study groups its runs by
-            the human's preference for it).
-        description: One line for help texts.
-        settings: ``settings(scenario, r0, learner) -> dict | None``: what ``summary.json``
-            records of its configuration (None: nothing).
-        warm: Called once before a study forks its workers (e.g. to load compiled kernels
-            the workers then inherit); None: nothing to do.
-    """
-
-    name: str
-    make: Callable[[AgentContext], BatchAgent]
-    role: str = "baseline"
-    intention_blind: bool = True
-    plans: bool = False
-    shared_human: bool = False
-    description: str = ""
-    settings: Callable[[str, float, dict[str, Any]], dict[str, Any] | None] | None = None
-    warm: Callable[[], Any] | None = None
-
-
-#: The agents the benchmark knows by name (:func:`register_agent`).
-AGENTS: dict[str, AgentSpec] = {}
-ROLES: tuple[str, ...] = ("learner", "baseline", "reference")
-
-
-def register_agent(spec: AgentSpec) -> AgentSpec:
-    """Make an agent known to ``hri-bench study --agents`` and ``suite --agents``; returns
-    it. A published suite's agents are listed by value and never change with this.
-
-    Raises:
-        ConfigError: ``spec`` is not an :class:`AgentSpec`, its name has a ``:`` (the form
-            of ``module:Class``, ``sb3:PATH``) or is another agent's, or its role is not one
-            of :data:`ROLES` (``field="agents"``).
-    """
-    if not isinstance(spec, AgentSpec) or not (isinstance(spec.name, str) and spec.name):
-        raise ConfigError(f"register_agent takes an AgentSpec with a name, got {spec!r}",
-                          field="agents")
-    if ":" in spec.name or spec.name == JAXPPO:
-        raise ConfigError(f"agent name {spec.name!r} is taken by a form of its own "
-                          "(module:Class, sb3:PATH, jaxppo[:PATH]); choose another",
-                          field="agents")
-    if spec.role not in ROLES:
-        raise ConfigError(f"agent {spec.name!r}: role {spec.role!r} is not one of "
-                          f"{', '.join(ROLES)}", field="agents")
-    if spec.name in AGENTS and AGENTS[spec.name] != spec:
-        raise ConfigError(f"agent {spec.name!r} is registered already", field="agents")
-    AGENTS[spec.name] = spec
-    return spec
-
-
-def agent_spec(name: str) -> AgentSpec | None:
-    """The registered agent ``name`` (None: not a registered name)."""
-    return AGENTS.get(name)
 
 
 #: The study's default agents (``hri-bench study --agents``): the paper's five, by value.
@@ -209,8 +127,6 @@ def __getattr__(name: str) -> Any:
 SB3_PREFIX = "sb3:"
 #: Agent names ``jaxppo:PATH`` load a recurrent PPO policy trained in JAX.
 JAXPPO_PREFIX = "jaxppo:"
-#: The agent name that plays the shipped JAX PPO checkpoints (:data:`JAXPPO_CHECKPOINTS`).
-JAXPPO = "jaxppo"
 #: The shipped checkpoints, one ``<scenario>.npz`` per scenario (package data).
 JAXPPO_CHECKPOINTS = Path(agents_package.__file__).parent / "jax_ppo" / "checkpoints"
 
@@ -446,7 +362,7 @@ def agent_privilege(name: str) -> Privilege:
     Raises:
         ConfigError: ``name`` is not an agent (:func:`validate_agent_name`).
     """
-    spec = AGENTS.get(name)
+    spec = AGENTS.find(name)
     if spec is not None:
         return Privilege(not spec.intention_blind, spec.plans)
     validate_agent_name(name)
@@ -466,7 +382,7 @@ def agent_settings(name: str, scenario: str, r0: float,
     (:func:`agent_identity`: its source files' sha256 and the
     constructor keywords it is given); the other agents: None (they have none).
     """
-    spec = AGENTS.get(name)
+    spec = AGENTS.find(name)
     if spec is not None:
         return None if spec.settings is None else spec.settings(scenario, r0, learner or {})
     path = Path(name[len(SB3_PREFIX):]) if name.startswith(SB3_PREFIX) else jaxppo_path(name)
@@ -510,7 +426,7 @@ def make_agent(
     """
     validate_agent_name(name)
     n = len(runs)
-    spec = AGENTS.get(name)
+    spec = AGENTS.find(name)
     if spec is not None:
         return spec.make(AgentContext(graph, human, tuple(int(r) for r in runs), seed, r0,
                                       dict(learner or {}), max_steps, reward, episodes))
@@ -584,7 +500,7 @@ def _unimported_files(module_name: str) -> tuple[Path, list[Path]]:
 
 def agent_identity(name: str) -> dict[str, Any]:
     """How agent ``name`` of a study is identified (module docstring)."""
-    spec = AGENTS.get(name)
+    spec = AGENTS.find(name)
     if spec is not None and spec.make.__module__ == __name__:  # shipped with hri-envs
         return {"kind": "builtin", "package": "hri-envs", "version": package_version("hri-envs")}
     if spec is not None:  # registered by a package of the user's: its maker's source

@@ -37,10 +37,10 @@ from hri_bench.core.atomic import atomic_writer, move_into_place
 from hri_bench.core.results import StudyResult  # re-exported; shared with the plots
 from hri_bench.data.fit import is_recorded
 from hri_bench.run.agents import (
+    AGENTS,
     BUILTIN_AGENTS,
     REFERENCE_AGENTS,
     agent_settings,
-    agent_spec,
     make_agent,
     validate_agent_name,
 )
@@ -1106,7 +1106,7 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
                 raise _lost(units[i], _over_time(cfg.time_limit())) from None
             yield i, out
     elif cfg.executor == "process":
-        for spec in filter(None, map(agent_spec, dict.fromkeys(cfg.agents))):
+        for spec in filter(None, map(AGENTS.find, dict.fromkeys(cfg.agents))):
             if spec.warm is not None:
                 spec.warm()  # e.g. the Learner's compiled kernels: forked workers inherit them
         # JAX's runtime is multithreaded: a worker forked after it started in this process

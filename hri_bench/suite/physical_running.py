@@ -253,8 +253,8 @@ def run_physical_suite(out: str | os.PathLike[str], *, version: str = PHYSICAL_L
     folder = Path(out)
     if folder.exists() and any(p.name != UNITS_DIR for p in folder.iterdir()) \
             and not (resume or overwrite):
-        raise ConfigError(f"{folder} already holds files: add --resume to finish an "
-                          "interrupted suite, or --overwrite to start again", field="out")
+        raise ConfigError(f"{folder} already holds files: give resume= to finish an "
+                          "interrupted suite, or overwrite= to start again", field="out")
     lock = FolderLock(folder, "physical suite")
     lock.acquire()
     try:

@@ -20,7 +20,7 @@ import numpy as np
 
 from hri_bench.report import ranking
 from hri_bench.run import metrics
-from hri_bench.run.agents import agent_spec
+from hri_bench.run.agents import AGENTS
 from hri_bench.suite.markdown import code, escape, number, with_ci
 from hri_bench.suite.tracks import FLOOR
 from hri_envs.humans.finite_state import as_model
@@ -268,7 +268,7 @@ def mark(agent: str) -> str:
     that sees ι (a reference or not), a reference that knows the human's model; nothing for
     an agent of one's own (suite v4 reads each agent's role from the file instead).
     """
-    spec = agent_spec(agent)
+    spec = AGENTS.find(agent)
     if agent == FLOOR:
         return " (floor)"
     if spec is None:

@@ -26,6 +26,7 @@ import numpy as np
 
 from hri_envs.envs.episode import Episode
 from hri_envs.errors import BackendUnavailableError, ConfigError, install_command
+from hri_envs.registry import Registry
 from hri_envs.task.graph import TaskGraph
 
 __all__ = [
@@ -103,12 +104,55 @@ class BackendSpec:
     unit_time_limit: float = DEFAULT_UNIT_TIME_LIMIT
 
 
-BACKENDS: dict[str, BackendSpec] = {}
+def _check(spec: BackendSpec) -> None:
+    """What :func:`register_backend` checks (its docstring)."""
+    entries = {"episode": spec.episode, "batch": spec.batch, "options": spec.options,
+               "vector_entry": spec.vector_entry, "carry": spec.carry,
+               "carry_vector": spec.carry_vector}
+    for field, entry in entries.items():
+        if entry is None and field not in ("episode", "batch"):
+            continue
+        if not (isinstance(entry, str) and all(entry.partition(":")[::2])):
+            raise ConfigError(f"backend {spec.name!r}: {field} must be a 'module:name' entry "
+                              f"point, got {entry!r}", field="backend")
+    for field in ("requires", "presets", "carry_drives"):
+        value = getattr(spec, field)
+        if not (isinstance(value, tuple) and all(isinstance(v, str) and v for v in value)):
+            raise ConfigError(f"backend {spec.name!r}: {field} must be a tuple of names, got "
+                              f"{value!r}", field="backend")
+    if spec.presets and spec.options is None:
+        raise ConfigError(f"backend {spec.name!r} names presets but no options checker to "
+                          "accept them", field="backend")
+    if not (isinstance(spec.unit_time_limit, int | float) and spec.unit_time_limit > 0):
+        raise ConfigError(f"backend {spec.name!r}: unit_time_limit must be a number of "
+                          f"seconds > 0 (inf: none), got {spec.unit_time_limit!r}",
+                          field="backend")
 
 
-def register_backend(spec: BackendSpec) -> None:
-    """Make ``spec.name`` a valid ``backend=`` for the envs and ``hri-bench study``."""
-    BACKENDS[spec.name] = spec
+#: The backends, by name (:func:`register_backend`; a :class:`~hri_envs.registry.Registry`).
+BACKENDS: Registry[BackendSpec] = Registry("backend", BackendSpec, field="backend",
+                                           check=_check)
+
+
+def register_backend(spec: BackendSpec, *, replace: bool = False) -> BackendSpec:
+    """Make ``spec.name`` a valid ``backend=`` for the envs and ``hri-bench study``; returns
+    it.
+
+    Nothing of the backend is imported here (its extra may be missing);
+    :func:`hri_envs.conformance.check_backend` loads it and runs it.
+
+    Args:
+        spec: The backend.
+        replace: Replace the backend registered under its name (otherwise refused).
+
+    Raises:
+        ConfigError: ``spec`` is not a :class:`BackendSpec` or has no name, an entry point
+            is not ``"module:name"``, ``requires``, ``presets`` or ``carry_drives`` is not a
+            tuple of names, it names presets without an options checker, its
+            ``unit_time_limit`` is not > 0, or its name is another backend's and
+            ``replace`` is False.
+    """
+    return BACKENDS.register(spec, replace=replace)
 
 
 register_backend(BackendSpec("graph", "hri_envs.envs.episode:Episode",
@@ -139,10 +183,7 @@ register_backend(BackendSpec("mjwarp", "hri_envs.physics.mjwarp.episode:WarpPhys
 
 def backend_spec(name: str) -> BackendSpec:
     """The registered backend ``name``; a clear error for an unknown or unavailable one."""
-    spec = BACKENDS.get(name) if isinstance(name, str) else None
-    if spec is None:
-        raise ConfigError(f"unknown backend {name!r}; allowed: {', '.join(BACKENDS)}",
-                          field="backend")
+    spec = BACKENDS.get(name)
     missing = [m for m in spec.requires if importlib.util.find_spec(m) is None]
     if missing:
         raise BackendUnavailableError(

@@ -43,6 +43,7 @@ from hri_envs.humans import adaptive, inconsistent, misspecified
 from hri_envs.humans.finite_state import FiniteStateHuman
 from hri_envs.humans.rational import rational_human, validate_rationality
 from hri_envs.humans.scripted import ScriptedHuman, check_probability, preference_human
+from hri_envs.registry import Registry
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import SCENARIOS, scenario_graph
 
@@ -95,22 +96,8 @@ class Family:
 #: The family groups, in order: the Learner's own model family, then the kinds of human it
 #: does not assume (docs/humans.md, "Families").
 GROUPS: tuple[str, ...] = ("scripted", "misspecified", "adaptive", "inconsistent")
-#: The families, by name (:func:`register_family` adds one).
-FAMILIES: dict[str, Family] = {}
-
-
-def register_family(family: Family) -> Family:
-    """Make a human family known to populations, ``--population NAME`` and the envs'
-    ``population=``; returns it. docs/extending.md, "A human family", walks through it.
-
-    Raises:
-        ConfigError: ``family`` is not a :class:`Family`, its group is not one of
-            :data:`GROUPS`, its builder takes a parameter that is not keyword-only with a
-            default, or its name is another family's (``field="family"``).
-    """
-    if not isinstance(family, Family) or not (isinstance(family.name, str) and family.name):
-        raise ConfigError(f"register_family takes a Family with a name, got {family!r}",
-                          field="family")
+def _check(family: Family) -> None:
+    """What :func:`register_family` checks (its docstring)."""
     if family.group not in GROUPS:
         raise ConfigError(f"family {family.name!r}: group {family.group!r} is not one of "
                           f"{', '.join(GROUPS)}", field="family")
@@ -123,10 +110,28 @@ def register_family(family: Family) -> Family:
         raise ConfigError(f"family {family.name!r}: build's parameters after the graph must be "
                           f"keyword-only with defaults; not so: {', '.join(loose)}",
                           field="family")
-    if family.name in FAMILIES and FAMILIES[family.name] != family:
-        raise ConfigError(f"family {family.name!r} is registered already", field="family")
-    FAMILIES[family.name] = family
-    return family
+
+
+#: The families, by name (:func:`register_family` adds one; a
+#: :class:`~hri_envs.registry.Registry`).
+FAMILIES: Registry[Family] = Registry("human family", Family, field="family", check=_check)
+
+
+def register_family(family: Family, *, replace: bool = False) -> Family:
+    """Make a human family known to populations, ``--population NAME`` and the envs'
+    ``population=``; returns it. docs/extending.md, "A human family", walks through it.
+
+    Args:
+        family: The family.
+        replace: Replace the family registered under its name (otherwise refused).
+
+    Raises:
+        ConfigError: ``family`` is not a :class:`Family`, its group is not one of
+            :data:`GROUPS`, its builder takes a parameter that is not keyword-only with a
+            default, or its name is another family's and ``replace`` is False
+            (``field="family"``).
+    """
+    return FAMILIES.register(family, replace=replace)
 
 
 for _family in (

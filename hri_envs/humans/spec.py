@@ -41,6 +41,7 @@ from hri_envs.humans.scripted import ScriptedHuman, check_probability, preferenc
 from hri_envs.humans.splits import draw_human, population, population_seat
 from hri_envs.humans.tables import TableHumans
 from hri_envs.imports import import_class
+from hri_envs.registry import Registry
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["HUMAN_KEYWORDS", "POPULATION_KINDS", "HumanSpec", "PopulationKind",
@@ -70,17 +71,31 @@ class PopulationKind:
     check: Callable[[str, str], None] | None = None
 
 
-#: The prefixed kinds, by prefix (:func:`register_population_kind`).
-POPULATION_KINDS: dict[str, PopulationKind] = {}
+def _check_kind(kind: PopulationKind) -> None:
+    if not kind.prefix.endswith(":"):
+        raise ConfigError(f"a population kind's prefix ends with ':', got {kind.prefix!r}",
+                          field="population")
 
 
-def register_population_kind(kind: PopulationKind) -> PopulationKind:
-    """Make humans named ``kind.prefix + ...`` known to every :class:`HumanSpec`."""
-    if not isinstance(kind, PopulationKind) or not kind.prefix.endswith(":"):
-        raise ConfigError(f"register_population_kind takes a PopulationKind whose prefix ends "
-                          f"with ':', got {kind!r}", field="population")
-    POPULATION_KINDS[kind.prefix] = kind
-    return kind
+#: The prefixed kinds, by prefix (:func:`register_population_kind`; a
+#: :class:`~hri_envs.registry.Registry`).
+POPULATION_KINDS: Registry[PopulationKind] = Registry(
+    "population kind", PopulationKind, field="population", check=_check_kind, key="prefix")
+
+
+def register_population_kind(kind: PopulationKind, *, replace: bool = False
+                             ) -> PopulationKind:
+    """Make humans named ``kind.prefix + ...`` known to every :class:`HumanSpec`; returns it.
+
+    Args:
+        kind: The kind.
+        replace: Replace the kind registered under its prefix (otherwise refused).
+
+    Raises:
+        ConfigError: ``kind`` is not a :class:`PopulationKind`, its prefix does not end with
+            ``:``, or it is another kind's and ``replace`` is False.
+    """
+    return POPULATION_KINDS.register(kind, replace=replace)
 
 
 def _kind_of(name: str) -> PopulationKind | None:

@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 
 from hri_envs.errors import ConfigError
+from hri_envs.registry import Registry
 from hri_envs.task.actions import ROBOT_BIT, TAKE_OFF, TOGGLE, WAIT
 
 if TYPE_CHECKING:
@@ -122,24 +123,30 @@ class RewardRule:
         return step.paper if self.charge is None else np.asarray(self.charge(step), float)
 
 
-#: The reward rules, by name (:func:`register_reward_rule`).
-REWARD_RULES: dict[str, RewardRule] = {}
+#: The reward rules, by name (:func:`register_reward_rule`; a
+#: :class:`~hri_envs.registry.Registry`).
+REWARD_RULES: Registry[RewardRule] = Registry("reward", RewardRule, field="reward")
 
 
-def register_reward_rule(rule: RewardRule) -> RewardRule:
+def register_reward_rule(rule: RewardRule, *, replace: bool = False) -> RewardRule:
     """Make ``rule`` known to the envs and ``hri-bench`` (``--reward``); returns it.
 
+    Whether it charges a step within [-1, 0] and like the paper rule where nothing differs is
+    :func:`hri_envs.conformance.check_reward_rule`'s to check.
+
+    Args:
+        rule: The rule.
+        replace: Replace the rule registered under its name (otherwise refused).
+
     Raises:
-        ConfigError: ``rule`` is not a :class:`RewardRule`, has an empty name, or charges
-            a step outside [-1, 0] or unlike the paper rule where nothing differs
-            (:func:`hri_envs.conformance.check_reward_rule`).
+        ConfigError: ``rule`` is not a :class:`RewardRule` or has an empty name, or its name
+            is another rule's and ``replace`` is False.
     """
     if not isinstance(rule, RewardRule) or not (isinstance(rule.name, str) and rule.name):
         raise ConfigError(f"register_reward_rule takes a RewardRule with a name, got {rule!r}",
                           field="reward")
     _checked(rule)
-    REWARD_RULES[rule.name] = rule
-    return rule
+    return REWARD_RULES.register(rule, replace=replace)
 
 
 #: Rules that passed :func:`verify_reward_rule` on every registered scenario (or are being
@@ -234,11 +241,10 @@ def reward_rule(name: str | RewardRule) -> RewardRule:
     """
     if isinstance(name, RewardRule):
         return _checked(name)
-    rule = REWARD_RULES.get(name) if isinstance(name, str) else None
-    if rule is None:
+    if not isinstance(name, str):
         raise ConfigError(f"unknown reward {name!r}; allowed: {', '.join(REWARD_RULES)}",
                           field="reward")
-    return rule
+    return REWARD_RULES.get(name)
 
 
 def __getattr__(name: str) -> Any:
@@ -734,5 +740,6 @@ PAPER = RewardRule("paper", "the paper's rule: grasping and letting go cost noth
 NO_FREE_TOGGLE = RewardRule(
     "no-free-toggle", "as 'paper', but a robot grasp toggle that the next motion does not "
     "need costs r0, like waiting", _no_free_toggle)
-REWARD_RULES.update({PAPER.name: PAPER, NO_FREE_TOGGLE.name: NO_FREE_TOGGLE})
+for _rule in (PAPER, NO_FREE_TOGGLE):  # the package's own: not verified (no scenarios yet)
+    REWARD_RULES.register(_rule)
 _VERIFIED.update({id(PAPER): PAPER, id(NO_FREE_TOGGLE): NO_FREE_TOGGLE})

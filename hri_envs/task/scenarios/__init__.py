@@ -17,6 +17,7 @@ import numpy as np
 
 from hri_envs.checks import check_real, check_whole
 from hri_envs.errors import ConfigError
+from hri_envs.registry import Registry
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph, build_graph
 from hri_envs.task.scenarios import hanger, wheel
@@ -37,43 +38,54 @@ __all__ = [
     "spec_of",
 ]
 
-#: The registry, by name.
-SCENARIOS: dict[str, ScenarioSpec] = {}
-
-
-def register_scenario(spec: ScenarioSpec) -> None:
-    """Make ``spec`` known to the envs, the humans, the learners and ``hri-bench``.
-
-    Registering a name again replaces the spec. Its graph is built here, so a spec whose
-    geometry does not build, or whose ``n_actions`` is not its graph's, fails now rather than
-    at first use. Its Gymnasium ids, if any, are registered by
-    :func:`hri_envs.registration.register_envs`; :func:`hri_envs.conformance.check_scenario`
-    checks the rest (its routes, an episode of every env).
-
-    Raises:
-        ConfigError: ``spec`` is not a :class:`ScenarioSpec`, a field is not allowed (the
-            field named: :func:`check_spec`), or its graph does not build or has another
-            number of actions than ``n_actions``.
-    """
-    if not isinstance(spec, ScenarioSpec):
-        raise ConfigError(f"register_scenario takes a ScenarioSpec, got {spec!r}",
-                          field="spec")
+def _check(spec: ScenarioSpec) -> None:
+    """What :func:`register_scenario` checks (its docstring)."""
+    if spec.default_preference not in spec.preferences:
+        raise ConfigError(f"the default preference {spec.default_preference!r} of scenario "
+                          f"{spec.name!r} is not one of its preferences "
+                          f"{', '.join(spec.preferences)}", field="default_preference")
     graph = _build(spec)
     if graph.n_actions != spec.n_actions:
         raise ConfigError(f"scenario {spec.name!r}: its graph has {graph.n_actions} actions "
                           f"(the supports' moves, the heights and the fixed ones), the spec "
                           f"says n_actions={spec.n_actions}", field="n_actions")
-    SCENARIOS[spec.name] = spec
-    _GRAPHS[spec.name] = graph
+
+
+#: The registry, by name (:class:`~hri_envs.registry.Registry`).
+SCENARIOS: Registry[ScenarioSpec] = Registry("scenario", ScenarioSpec, field="scenario",
+                                             check=_check)
+
+
+def register_scenario(spec: ScenarioSpec, *, replace: bool = False) -> ScenarioSpec:
+    """Make ``spec`` known to the envs, the humans, the learners and ``hri-bench``; returns
+    it.
+
+    Its graph is built here, so a spec whose geometry does not build, or whose
+    ``n_actions`` is not its graph's, fails now rather than at first use. Its Gymnasium ids,
+    if any, are registered by :func:`hri_envs.registration.register_envs`;
+    :func:`hri_envs.conformance.check_scenario` checks the rest (its routes, an episode of
+    every env).
+
+    Args:
+        spec: The scenario.
+        replace: Replace the scenario registered under its name (otherwise refused).
+
+    Raises:
+        ConfigError: ``spec`` is not a :class:`ScenarioSpec`, its name is another
+            scenario's (and ``replace`` is False), its default preference is not one of its
+            preferences, or its graph does not build or has another number of actions than
+            ``n_actions``.
+    """
+    if isinstance(spec, ScenarioSpec):
+        check_spec(spec)  # the plain fields first: each error names its field
+    SCENARIOS.register(spec, replace=replace)
+    _GRAPHS[spec.name] = _build(spec)
+    return spec
 
 
 def scenario_spec(name: str) -> ScenarioSpec:
     """The registered scenario ``name``; a :class:`ConfigError` listing them otherwise."""
-    spec = SCENARIOS.get(name) if isinstance(name, str) else None
-    if spec is None:
-        raise ConfigError(f"unknown scenario {name!r}; allowed: {', '.join(SCENARIOS)}",
-                          field="scenario")
-    return spec
+    return SCENARIOS.get(name)
 
 
 #: The registered scenarios' graphs (built once, at registration).
