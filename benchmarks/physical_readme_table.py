@@ -6,8 +6,8 @@
 replaces what stands between ``<!-- physical-suite:begin -->`` and
 ``<!-- physical-suite:end -->`` in README.md (``--readme``) with the suite's headline table
 (:func:`hri_bench.suite.physical_board.headline_table`, the top of its ``leaderboard.md``)
-and a line saying where it came from: the suite's wall time, jobs and load average from its
-``suite_log.json``. ``--check`` exits 1 when the README's table differs (nothing written).
+and a line saying where it came from: from its ``suite_log.json``, the units' CPU time and
+the last command's wall time, jobs and load. ``--check`` exits 1 when the README's table differs (nothing written).
 """
 
 from __future__ import annotations
@@ -31,10 +31,13 @@ def table(folder: Path) -> str:
         raise SystemExit(f"{folder / 'results.json'} is not valid: {problems[0]}")
     log = json.loads((folder / "suite_log.json").read_text())
     load = ", ".join(f"{x:.1f}" for x in log["load_average"])
+    cpu = float(log.get("cpu_time_s", 0.0))
     source = (f"Physical suite v{doc['suite_version']} (hash `{doc['suite_hash'][:12]}`), "
               f"seed {', '.join(map(str, doc['seeds']))}, runs scale {doc['runs_scale']}: "
-              f"{log['wall_time_s'] / 60:.1f} min with --jobs {log['jobs']} on this 2-core "
-              f"machine (its load at the end: {load} over 1, 5, 15 min).")
+              f"{cpu / 60:.0f} core-minutes of simulation in its units (about "
+              f"{cpu / 120:.0f} min with --jobs 2 on an idle 2-core machine); the last "
+              f"command on its folder took {log['wall_time_s'] / 60:.1f} min with --jobs "
+              f"{log['jobs']} (machine load at its end: {load} over 1, 5, 15 min).")
     return f"{BEGIN}\n{headline_table(doc)}\n\n{source}\n{END}"
 
 
