@@ -7,7 +7,8 @@ replaces what stands between ``<!-- physical-suite:begin -->`` and
 ``<!-- physical-suite:end -->`` in README.md (``--readme``) with the suite's headline table
 (:func:`hri_bench.suite.physical_board.headline_table`, the top of its ``leaderboard.md``)
 and a line saying where it came from: from its ``suite_log.json``, the units' CPU time and
-the last command's wall time, jobs and load. ``--check`` exits 1 when the README's table differs (nothing written).
+the last command's wall time, jobs and load. ``--check`` exits 1 when the README's table
+differs (nothing written).
 """
 
 from __future__ import annotations
