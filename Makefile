@@ -19,7 +19,7 @@ $(VENV)/.demo-installed: pyproject.toml constraints.txt | $(PY)
 	touch $@
 
 $(VENV)/.serve-installed: pyproject.toml constraints.txt | $(PY)
-	$(PIP) -e ".[bench,web]"
+	$(PIP) -e ".[bench,web,mujoco]"
 	touch $@ $(VENV)/.demo-installed
 
 $(VENV)/.test-installed: pyproject.toml constraints.txt | $(PY)

@@ -27,7 +27,8 @@ import numpy as np
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--scenario", default="hanger", choices=("hanger", "wheel"))
+    p.add_argument("--scenario", default="hanger", choices=("hanger", "wheel"),
+                   help="the task the synthetic people lead (default hanger)")
     p.add_argument("--dataset", default=None,
                    help="the dataset id (default <scenario>-physical-synthetic)")
     p.add_argument("--data", type=Path, required=True, help="the datasets' root")
@@ -39,7 +40,7 @@ def main() -> None:
                    help="the robots of the study (comma-separated)")
     p.add_argument("--blocks", type=int, default=1, help="runs per fitted human (1)")
     p.add_argument("--episodes", type=int, default=1, help="episodes per run (1)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="the random seed (default 0)")
     p.add_argument("--out", type=Path, required=True, help="a folder for the results")
     args = p.parse_args()
 

@@ -46,7 +46,8 @@ def main() -> int:
     """Replace (or ``--check``) the README's table."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("suite", type=Path, help="the physical suite's --out folder")
-    p.add_argument("--readme", type=Path, default=Path("README.md"))
+    p.add_argument("--readme", type=Path, default=Path("README.md"),
+                   help="the page whose table to replace (default README.md)")
     p.add_argument("--check", action="store_true", help="exit 1 if the table differs")
     args = p.parse_args()
     text = args.readme.read_text()

@@ -120,10 +120,11 @@ def _uptime() -> str:
 def main() -> None:
     """Train, evaluate on validation periodically, write the best checkpoint and the curve."""
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--scenario", choices=["hanger", "wheel"], required=True)
+    p.add_argument("--scenario", choices=["hanger", "wheel"], required=True,
+                   help="the scenario to train on")
     p.add_argument("--steps", type=int, default=200_000, help="training env steps")
     p.add_argument("--n-envs", type=int, default=2, help="env processes (default 2)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="the random seed (default 0)")
     p.add_argument("--out", default=None, help="output folder (default out/physical-rl/<s>)")
     p.add_argument("--scale", type=float, default=0.3, help="the residual's scale")
     p.add_argument("--eval-every", type=int, default=20_000, help="steps between evaluations")

@@ -14,10 +14,12 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from agents.physical import PhysicalAgent
 from hri_envs.errors import ConfigError
+
+if TYPE_CHECKING:  # the physics needs the mujoco extra, which the CLI may run without
+    from agents.physical import PhysicalAgent
 
 __all__ = ["DEFAULT_ORDER", "check_robot", "default_robot", "make_robot", "robot_names"]
 

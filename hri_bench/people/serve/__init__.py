@@ -31,7 +31,6 @@ from typing import Any
 
 from agents.learning import algorithm1
 from hri_bench.people.serve.design import ServeConfig
-from hri_bench.people.serve.scenes import graph_view
 from hri_envs.errors import MissingExtraError
 from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
@@ -93,7 +92,10 @@ def _serve(config: ServeConfig, say: Callable[[str], None], uvicorn: Any,
             "installing, they are compiled: a minute or more)")
         algorithm1.preload()
     if scenario_spec(config.scenario).layout is None and not config.physical:
-        # one view per state for all
+        # one view per state for all (MuJoCo draws them: the mujoco extra, which make serve
+        # installs; imported here so that the CLI runs without it)
+        from hri_bench.people.serve.scenes import graph_view  # noqa: PLC0415
+
         graph = scenario_graph(config.scenario)
         for state in range(graph.n_states):
             graph_view(config.scenario, None, state, max(0, int(graph.support[state])))
