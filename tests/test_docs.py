@@ -440,11 +440,8 @@ SETUP: dict[str, tuple[str, ...]] = {
     "docs/people.md": (PEOPLE,),
 }
 #: Python blocks run before a page's own, in the same process: the page builds on them.
-PRELUDE: dict[str, tuple[str, int]] = {
-    # "[scenarios.md] walks through one ... Then: check_scenario('box')": its three blocks
-    # that define and register the box
-    "docs/extending.md": ("docs/scenarios.md", 3),
-}
+#: (None now: docs/extending.md imports the box it checks, each of its blocks runs alone.)
+PRELUDE: dict[str, tuple[str, int]] = {}
 #: Python blocks scaled down: (page, text in a block, replacement, why).
 PYTHON_SCALED: tuple[tuple[str, str, str, str], ...] = (
     ("docs/rl.md", "total_timesteps=30_000", "total_timesteps=1_024",

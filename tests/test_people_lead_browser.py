@@ -101,6 +101,12 @@ def _wait(driver, condition, timeout=120.0):
                          f"{driver.find_element('tag name', 'body').text}")
 
 
+def _frames(driver, n):
+    """Wait until the page has drawn ``n`` more frames (each answered by one step)."""
+    start = int(_page(driver)["drawn"])
+    _wait(driver, lambda: int(_page(driver).get("drawn", start)) >= start + n)
+
+
 def test_a_person_leads_the_arm_and_the_recording_replays(server, browser, monkeypatch):
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.keys import Keys
@@ -111,12 +117,19 @@ def test_a_person_leads_the_arm_and_the_recording_replays(server, browser, monke
     browser.find_element("id", "agree").click()
     browser.find_element("id", "start").click()
     _wait(browser, lambda: (p := _page(browser)).get("view") == "lead" and p.get("drawn"))
-    # the person lifts the target with the up arrow, then drags it sideways with the mouse
-    ActionChains(browser).key_down(Keys.ARROW_UP).pause(0.6).key_up(Keys.ARROW_UP).perform()
+    # the person lifts the target with the up arrow, then drags it sideways with the mouse;
+    # each input lasts frames of the page, not seconds (a loaded machine steps slowly)
+    ActionChains(browser).key_down(Keys.ARROW_UP).perform()
+    _frames(browser, 10)
+    ActionChains(browser).key_up(Keys.ARROW_UP).perform()
     canvas = browser.find_element("id", "canvas")
-    ActionChains(browser).move_to_element(canvas).click_and_hold().pause(0.2) \
-        .move_by_offset(-40, 0).pause(0.2).move_by_offset(-40, 0).pause(0.2).release() \
-        .perform()
+    ActionChains(browser).move_to_element(canvas).click_and_hold().perform()
+    for _ in range(2):
+        _frames(browser, 2)
+        ActionChains(browser).move_by_offset(-40, 0).perform()
+    _frames(browser, 2)
+    ActionChains(browser).release().perform()
+    assert _page(browser).get("view") == "lead", "the episode ended before the inputs did"
     # the episode runs out at its time limit (the page keeps stepping with no input)
     _wait(browser, lambda: _page(browser).get("view") in ("outcome", "done"))
     if _page(browser).get("view") == "outcome":
