@@ -25,7 +25,6 @@ from typing import Any
 import numpy as np
 
 from hri_bench.data.checks import _check_session, _lists, _refuse
-from hri_envs.physics.kinematics import rotation_error
 from hri_envs.task.scenarios import scenario_graph
 
 __all__ = ["ACTION_SIZE", "INPUTS", "PHYSICAL_COLUMNS", "PHYSICAL_SCHEMA", "STEP_S",
@@ -106,6 +105,10 @@ def human_action(hand_pos: np.ndarray, hand_quat: np.ndarray, target: np.ndarray
     (:meth:`hri_envs.physics.carry.CarrySim.human_command` turns it into the hand's
     reference).
     """
+    # Here, not at the top: the dataset checks (and so the CLI) must not import the physics
+    # (MuJoCo, mink and, through qpsolvers, JAX, which makes a study spawn its workers).
+    from hri_envs.physics.kinematics import rotation_error  # noqa: PLC0415
+
     target = np.asarray(target, dtype=np.float64)
     move = (target[:3] - hand_pos) / max_step_m
     quat = target[3:] / np.linalg.norm(target[3:])
