@@ -84,6 +84,20 @@ def test_killed_study_leaves_no_workers_and_resumes_identically(sig, reference, 
     assert not (out / ".units").exists()
 
 
+def test_the_cli_imports_neither_jax_nor_the_physics():
+    # JAX in the process makes a study start its workers by spawn (slower to start, and
+    # multiprocessing's resource tracker a third child: the kill test above counted it), and
+    # the physics needs the "mujoco" extra: a graph study needs neither. The people commands'
+    # modules once imported both at the CLI's import (hri_envs.physics imports mink, whose
+    # qpsolvers imports JAX).
+    code = ("import sys, hri_bench.cli; "
+            "print(sorted(m for m in ('jax', 'mink', 'hri_envs.physics') if m in sys.modules))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[]"
+
+
 def test_nothing_left_to_simulate_starts_no_pool(monkeypatch):
     # A resumed study whose units are all on disk only writes its files: a pool forked and
     # terminated for nothing once hung in terminate() (issue 24).

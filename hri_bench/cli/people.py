@@ -23,7 +23,6 @@ from pathlib import Path
 from typing import Any
 
 from agents.config import default_config
-from hri_bench.core.physical_robots import default_robot
 from hri_bench.data import datasets
 from hri_bench.data import fit as fitting
 from hri_bench.data.datasets import create_dataset, open_dataset
@@ -274,7 +273,15 @@ def _serve(args: argparse.Namespace) -> int:
         if text is not None:
             texts[name] = text
     try:
-        agent = args.agent or (default_robot() if args.physical else "learner")
+        if args.agent is None and args.physical:
+            # Here, not at the top: it imports the physics (MuJoCo, mink and, through
+            # qpsolvers, JAX), which every other command would import for nothing, and
+            # JAX in the process makes a study start its workers by spawn.
+            from hri_bench.core.physical_robots import default_robot  # noqa: PLC0415
+
+            agent = default_robot()
+        else:
+            agent = args.agent or "learner"
         config = ServeConfig(args.scenario, agent=agent, episodes=args.episodes,
                              dataset=args.dataset, data=args.data, host=args.host,
                              port=args.port, allowed_hosts=tuple(args.allow_host or ()),

@@ -105,7 +105,8 @@ def human_action(hand_pos: np.ndarray, hand_quat: np.ndarray, target: np.ndarray
     (:meth:`hri_envs.physics.carry.CarrySim.human_command` turns it into the hand's
     reference).
     """
-    # the physics needs the mujoco extra: imported here, so reading datasets does not
+    # Here, not at the top: the dataset checks (and so the CLI) must not import the physics
+    # (MuJoCo, mink and, through qpsolvers, JAX, which makes a study spawn its workers).
     from hri_envs.physics.kinematics import rotation_error  # noqa: PLC0415
 
     target = np.asarray(target, dtype=np.float64)

@@ -26,7 +26,6 @@ from pathlib import Path
 from typing import Any
 
 from hri_bench.core.pictures import picture
-from hri_bench.people import scene3d
 from hri_envs.task.scenarios import Layout, episode_scenario, scenario_graph
 
 __all__ = ["STORE", "VENDOR", "SceneStore", "built", "graph_view", "warm"]
@@ -56,6 +55,8 @@ class SceneStore:
 
     def add(self, doc: dict[str, Any]) -> str:
         """Keep a description (its ``key`` computed if missing); returns its key."""
+        from hri_bench.people import scene3d  # noqa: PLC0415 (the physics: when asked)
+
         key = str(doc.get("key") or scene3d.scene_key(doc))
         with self._lock:
             if key in self._docs:
@@ -98,6 +99,7 @@ class _GraphScene:
     """One scenario's v0 scene and the poses of its states (thread-safe)."""
 
     def __init__(self, scenario: str) -> None:
+        from hri_bench.people import scene3d  # noqa: PLC0415
         from hri_envs.physics.sim import PandaSim  # noqa: PLC0415 (MuJoCo: when asked)
 
         self.scenario = scenario
@@ -126,6 +128,8 @@ class _GraphScene:
     @functools.lru_cache(maxsize=4096)  # noqa: B019 (one per scenario, kept for the server)
     def poses(self, layout: Layout | None, state: int) -> tuple[float, ...]:
         """The drawn bodies' poses in ``state`` with the supports at ``layout``."""
+        from hri_bench.people import scene3d  # noqa: PLC0415
+
         with self._lock:
             self._place(layout, state)
             return tuple(scene3d.body_poses(self.sim.data, self.bodies))
@@ -142,6 +146,8 @@ class _GraphScene:
         return _GL_THREAD.submit(self._camera, layout, start).result()
 
     def _camera(self, layout: Layout | None, start: int) -> str:
+        from hri_bench.people import scene3d  # noqa: PLC0415
+
         with self._lock:
             self._place(layout, int(self.graph.support_state(start, 0)))
             if self._score is None:
