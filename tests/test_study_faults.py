@@ -455,13 +455,19 @@ def test_a_stop_of_the_study_is_not_taken_for_an_agents_ctrl_c(monkeypatch):
     from hri_bench.run.studyio import stop_on_signals
 
     unit = study._units(StudyConfig("wheel", agents=("passive",), runs=1, episodes=1))[0]
-    for raised in (study.StudyStopped("signal 2"), KeyboardInterrupt()):
-        def stop(_unit, raised=raised):
-            raise raised
+    # Python's default handler, as a library caller has it (an earlier test of the same
+    # worker may have left another one installed)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        for raised in (study.StudyStopped("signal 2"), KeyboardInterrupt()):
+            def stop(_unit, raised=raised):
+                raise raised
 
-        monkeypatch.setattr(study, "_run_unit", stop)
-        with pytest.raises(KeyboardInterrupt):
-            study._run_unit_caught(unit)
+            monkeypatch.setattr(study, "_run_unit", stop)
+            with pytest.raises(KeyboardInterrupt):
+                study._run_unit_caught(unit)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     with stop_on_signals():  # where the study handles SIGINT: a plain one is the agent's
         failure = study._run_unit_caught(unit)
     assert isinstance(failure, study.UnitFailure)
