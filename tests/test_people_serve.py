@@ -756,7 +756,7 @@ def test_serve_killed_and_started_again(tmp_path):
             found = re.search(r"serving on (http://127\.0\.0\.1:\d+/)", line)
             if found:
                 return proc, found.group(1), lines
-        proc.wait(30)
+        proc.wait(120)
         return proc, None, lines
 
     first, url, _ = start()
@@ -784,7 +784,7 @@ def test_serve_killed_and_started_again(tmp_path):
         assert url3 and "marked 1 session(s)" in "".join(lines), "".join(lines)
     finally:
         third.send_signal(signal.SIGINT)
-        third.wait(30)
+        third.wait(120)  # it must end on Ctrl-C (a loaded machine once took over 30 s)
     (meta,) = open_dataset("hanger-people-v0", data).sessions()
     assert meta["status"] == "interrupted" and meta["participant"] in "".join(lines)
 
