@@ -1071,3 +1071,17 @@ def test_response_times_are_recorded_per_step(tmp_path):
     first = table.slice(0, 1).to_pylist()[0]
     assert first["response_s"] >= 0.05 and first["t_action"] > first["t_shown"] > 1.7e9
     assert np.all(np.asarray(table.column("response_s")) >= 0)
+
+
+def test_a_person_leads_against_a_registered_robot_never_the_reference():
+    """serve --physical takes the physical registry's robots that feel the human only: the
+    upper reference reads the simulated human's route, which a person does not have."""
+    pytest.importorskip("mujoco")
+    from hri_bench.core.physical_robots import check_robot, default_robot, robot_names
+
+    assert default_robot() in robot_names() and "upper" not in robot_names()
+    with pytest.raises(ConfigError, match="cannot face a person") as err:
+        ServeConfig("hanger", agent="upper", physical=True)
+    assert err.value.field == "agent"
+    with pytest.raises(ConfigError, match="is not a physical robot; allowed: .*admittance"):
+        check_robot("admitance")
