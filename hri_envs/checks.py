@@ -14,13 +14,17 @@ from __future__ import annotations
 
 import math
 import operator
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import Any, TypeVar
 
 import numpy as np
 
 from hri_envs.errors import ActionError, ConfigError
 
-__all__ = ["check_flag", "check_real", "check_whole", "integer_action", "integer_or_none"]
+__all__ = ["check_flag", "check_real", "check_whole", "integer_action", "integer_or_none",
+           "select_named"]
+
+_T = TypeVar("_T")
 
 _INT64_MIN, _INT64_MAX = int(np.iinfo(np.int64).min), int(np.iinfo(np.int64).max)
 
@@ -145,3 +149,23 @@ def integer_action(value: Any, who: str, where: str = "") -> int:
                           "an action is an integer (int or numpy integer; bool, float and str "
                           "are refused, not rounded)")
     return number
+
+
+def select_named(table: Mapping[str, _T], names: str | Sequence[str] | None, field: str,
+                 what: str) -> list[_T]:
+    """The entries of ``table`` that ``names`` names (comma-separated or a list; None: all),
+    in ``table``'s order.
+
+    Raises:
+        ConfigError: No name, or one not in ``table`` (``field``; the message says ``what``
+            they are and lists the allowed).
+    """
+    if names is None:
+        return list(table.values())
+    wanted = [n.strip() for n in names.split(",")] if isinstance(names, str) else list(names)
+    wanted = [n for n in wanted if n]
+    unknown = [n for n in wanted if n not in table]
+    if unknown or not wanted:
+        raise ConfigError(f"unknown {what} {', '.join(map(str, unknown)) or '(none given)'}; "
+                          f"allowed: {', '.join(table)}", field=field)
+    return [v for k, v in table.items() if k in wanted]

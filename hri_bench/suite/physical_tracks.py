@@ -25,6 +25,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from hri_envs.checks import select_named
 from hri_envs.errors import ConfigError
 
 __all__ = ["DEFAULT_AGENTS", "FLOOR", "PHYSICAL_LATEST", "PHYSICAL_TRACKS",
@@ -112,17 +113,8 @@ def select_physical_tracks(names: str | Sequence[str] | None,
     Raises:
         ConfigError: An unknown track (the message lists the version's tracks).
     """
-    tracks = PHYSICAL_TRACKS[check_physical_version(version)]
-    if names is None:
-        return list(tracks.values())
-    wanted = [n.strip() for n in names.split(",")] if isinstance(names, str) else list(names)
-    wanted = [n for n in wanted if n]
-    unknown = [n for n in wanted if n not in tracks]
-    if unknown or not wanted:
-        raise ConfigError(f"unknown track(s) {', '.join(unknown) or '(none given)'} of the "
-                          f"physical suite v{version}; allowed: {', '.join(tracks)}",
-                          field="tracks")
-    return [t for t in tracks.values() if t.name in wanted]
+    return select_named(PHYSICAL_TRACKS[check_physical_version(version)], names, "tracks",
+                        f"track(s) of the physical suite v{version}")
 
 
 def track_runs(track: PhysicalTrack, runs_scale: float) -> int:

@@ -36,6 +36,7 @@ from hri_bench.data.datasets import open_dataset
 from hri_bench.data.fit import is_recorded
 from hri_bench.run.agents import PLANNING_REFERENCES
 from hri_bench.run.study import StudyConfig
+from hri_envs.checks import select_named
 from hri_envs.errors import ConfigError
 from hri_envs.humans.splits import MIXTURES
 
@@ -373,16 +374,8 @@ def select_tracks(names: str | Sequence[str] | None, version: str = LATEST
         ConfigError: An unknown track name (the message lists the version's tracks), or an
             unknown version.
     """
-    tracks = TRACKS_BY_VERSION[check_version(version)]
-    if names is None:
-        return list(tracks.values())
-    wanted = [n.strip() for n in names.split(",")] if isinstance(names, str) else list(names)
-    wanted = [n for n in wanted if n]
-    unknown = [n for n in wanted if n not in tracks]
-    if unknown or not wanted:
-        raise ConfigError(f"unknown track(s) {', '.join(unknown) or '(none given)'} of suite "
-                          f"v{version}; allowed: {', '.join(tracks)}", field="tracks")
-    return [t for t in tracks.values() if t.name in wanted]
+    return select_named(TRACKS_BY_VERSION[check_version(version)], names, "tracks",
+                        f"track(s) of suite v{version}")
 
 
 def population_track(population: str, version: str = LATEST) -> Track:
