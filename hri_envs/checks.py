@@ -152,13 +152,13 @@ def integer_action(value: Any, who: str, where: str = "") -> int:
 
 
 def select_named(table: Mapping[str, _T], names: str | Sequence[str] | None, field: str,
-                 what: str) -> list[_T]:
+                 what: str, of: str = "") -> list[_T]:
     """The entries of ``table`` that ``names`` names (comma-separated or a list; None: all),
     in ``table``'s order.
 
     Raises:
         ConfigError: No name, or one not in ``table`` (``field``; the message says ``what``
-            they are and lists the allowed).
+            they are, ``of`` what, and lists the allowed).
     """
     if names is None:
         return list(table.values())
@@ -166,6 +166,6 @@ def select_named(table: Mapping[str, _T], names: str | Sequence[str] | None, fie
     wanted = [n for n in wanted if n]
     unknown = [n for n in wanted if n not in table]
     if unknown or not wanted:
-        raise ConfigError(f"unknown {what} {', '.join(map(str, unknown)) or '(none given)'}; "
-                          f"allowed: {', '.join(table)}", field=field)
+        raise ConfigError(f"unknown {what} {', '.join(map(str, unknown)) or '(none given)'}"
+                          f"{of}; allowed: {', '.join(table)}", field=field)
     return [v for k, v in table.items() if k in wanted]

@@ -114,7 +114,7 @@ def select_physical_tracks(names: str | Sequence[str] | None,
         ConfigError: An unknown track (the message lists the version's tracks).
     """
     return select_named(PHYSICAL_TRACKS[check_physical_version(version)], names, "tracks",
-                        f"track(s) of the physical suite v{version}")
+                        "track(s)", f" of the physical suite v{version}")
 
 
 def track_runs(track: PhysicalTrack, runs_scale: float) -> int:

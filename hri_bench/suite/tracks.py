@@ -374,8 +374,8 @@ def select_tracks(names: str | Sequence[str] | None, version: str = LATEST
         ConfigError: An unknown track name (the message lists the version's tracks), or an
             unknown version.
     """
-    return select_named(TRACKS_BY_VERSION[check_version(version)], names, "tracks",
-                        f"track(s) of suite v{version}")
+    return select_named(TRACKS_BY_VERSION[check_version(version)], names, "tracks", "track(s)",
+                        f" of suite v{version}")
 
 
 def population_track(population: str, version: str = LATEST) -> Track:
