@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from hri_bench.cli import main
-from hri_bench.cli.args import invocation
-from hri_bench.cli.commands import _resume_hint, ranking_excerpt
+from hri_bench.cli.args import invocation, resume_hint
+from hri_bench.cli.commands import ranking_excerpt
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -68,7 +68,7 @@ def test_the_resume_command_is_printed_as_it_can_be_pasted(monkeypatch):
     monkeypatch.setenv("PATH", "/usr/bin:/bin")  # the checkout's virtualenv not activated
     monkeypatch.setattr(sys, "argv", [str(ROOT / ".venv" / "bin" / "hri-bench")])
     assert invocation() == ".venv/bin/hri-bench"
-    assert _resume_hint(["study", "wheel", "--out", "out/x", "--overwrite"]) == \
+    assert resume_hint(["study", "wheel", "--out", "out/x", "--overwrite"]) == \
         ".venv/bin/hri-bench study wheel --out out/x --resume"
     monkeypatch.setenv("PATH", f"{ROOT / '.venv' / 'bin'}{os.pathsep}/usr/bin")  # activated
     assert invocation() == "hri-bench"

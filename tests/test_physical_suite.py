@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from hri_bench.cli import main as cli_main
+from hri_bench.cli.args import resume_hint
 from hri_bench.suite import physical_results as pr
 from hri_bench.suite.merged import merged_leaderboard
 from hri_bench.suite.physical_audit import merge_physical, replay_physical, validate_physical
@@ -171,9 +172,9 @@ def test_the_physical_suite_is_found_after_leading_imports():
 
 def test_a_robot_that_raises_ends_the_suite_with_one_line(tmp_path, capsys):
     out = tmp_path / "broken"
-    code = cli_main(["suite", "--physical", "--out", str(out), "--runs-scale", "0.01",
-                     "--tracks", "hanger-nominal", "--agents", "tests.helpers_physical:Breaks",
-                     "--no-progress"])
+    argv = ["suite", "--physical", "--out", str(out), "--runs-scale", "0.01", "--tracks",
+            "hanger-nominal", "--agents", "tests.helpers_physical:Breaks", "--no-progress"]
+    code = cli_main(argv)
     err = capsys.readouterr().err
     assert code == 1 and "a robot failed" in err and "the robot's own bug" in err
-    assert "Traceback" not in err.split("\n")[0] and "--resume" in err
+    assert "Traceback" not in err and resume_hint(argv) in err  # the command to paste

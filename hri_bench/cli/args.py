@@ -10,11 +10,11 @@ import re
 import shlex
 import shutil
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["as_flags", "bounded", "invocation", "whole"]
+__all__ = ["as_flags", "bounded", "invocation", "resume_hint", "whole"]
 
 
 def bounded(kind: type, allowed: str, ok: Callable[[Any], bool]) -> Callable[[str], Any]:
@@ -65,6 +65,14 @@ def invocation() -> str:
     if script is not None and script.name == "__main__.py" and script.parent.name == "cli":
         return f"{shlex.quote(_from_here(Path(sys.executable)))} -m hri_bench.cli"
     return "hri-bench"  # called from Python (tests, a script of one's own)
+
+
+def resume_hint(argv: Sequence[str]) -> str:
+    """The command that resumes this one (``argv``: its words after the program), as it can
+    be pasted (:func:`invocation`).
+    """
+    words = [w for w in argv if w not in ("--overwrite", "--resume")]
+    return f"{invocation()} " + " ".join(shlex.quote(w) for w in words) + " --resume"
 
 
 def _from_here(path: Path) -> str:

@@ -33,7 +33,7 @@ from agents.learning import algorithm1, partner_mdp
 from hri_bench.cli import people as cli_people
 from hri_bench.cli import physical as cli_physical
 from hri_bench.cli import results as cli_results
-from hri_bench.cli.args import as_flags, bounded, invocation, whole
+from hri_bench.cli.args import as_flags, bounded, resume_hint, whole
 from hri_bench.people.play import play
 from hri_bench.report.speed import measure, measure_physics
 from hri_bench.run.agents import (
@@ -482,13 +482,13 @@ def _suite(args: argparse.Namespace, parser: argparse.ArgumentParser,
     except ConfigError as exc:  # a seed's folder of another suite (--resume)
         _config_error(parser, exc, _SUITE_ARGUMENTS)
     except KeyboardInterrupt as exc:
-        print(f"\nstopped; {_suite_kept(args.out)}. Resume with:\n  {_resume_hint(argv)}",
+        print(f"\nstopped; {_suite_kept(args.out)}. Resume with:\n  {resume_hint(argv)}",
               file=sys.stderr)
         return 143 if isinstance(exc, StudyTerminated) else 130
     except UnitLostError as exc:
         print(f"hri-bench: suite stopped: {as_flags(str(exc), _STUDY_ARGUMENTS)}; "
               f"{_suite_kept(args.out)}; continue with: "
-              f"{_resume_hint(argv)}", file=sys.stderr)
+              f"{resume_hint(argv)}", file=sys.stderr)
         return 1
     except OSError as exc:
         return _cannot_write(exc, args.out, argv, kept="the finished tracks and units are kept")
@@ -678,12 +678,6 @@ def _require_for_study(cfg: Any, *, progress: bool) -> None:
                     raise ConfigError(f"agent {name!r}: {exc}", field="agents") from None
 
 
-def _resume_hint(argv: Sequence[str]) -> str:
-    """The command that resumes this one, as it can be pasted (:func:`invocation`)."""
-    words = [w for w in argv if w not in ("--overwrite", "--resume")]
-    return f"{invocation()} " + " ".join(shlex.quote(w) for w in words) + " --resume"
-
-
 def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
            argv: Sequence[str]) -> int:
     executor = args.executor or ("process" if args.jobs > 1 else "serial")
@@ -706,13 +700,13 @@ def _study(args: argparse.Namespace, parser: argparse.ArgumentParser,
         units = Path(args.out) / UNITS
         kept = len(list(units.glob("*.npz")))
         print(f"\nstopped; {kept} finished unit(s) kept in {units}. Resume with:\n"
-              f"  {_resume_hint(argv)}", file=sys.stderr)
+              f"  {resume_hint(argv)}", file=sys.stderr)
         return 143 if isinstance(exc, StudyTerminated) else 130
     except UnitLostError as exc:
         kept = len(list((Path(args.out) / UNITS).glob("*.npz")))
         print(f"hri-bench: study stopped: {as_flags(str(exc), _STUDY_ARGUMENTS)}; {kept} "
               f"finished unit(s) kept in "
-              f"{Path(args.out) / UNITS}; continue with: {_resume_hint(argv)}",
+              f"{Path(args.out) / UNITS}; continue with: {resume_hint(argv)}",
               file=sys.stderr)
         return 1
     except OSError as exc:
@@ -734,7 +728,7 @@ def _cannot_write(exc: OSError, out: Path, argv: Sequence[str], *,
     """Report a file that cannot be written (a full disk, say) in one line; exit status 1."""
     reason = exc.strerror or str(exc)
     print(f"hri-bench: cannot write {exc.filename or out}: {reason}; {kept}; once it can be "
-          f"written, continue with: {_resume_hint(argv)}", file=sys.stderr)
+          f"written, continue with: {resume_hint(argv)}", file=sys.stderr)
     return 1
 
 

@@ -12,10 +12,9 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
-from hri_bench.cli.args import as_flags, bounded, whole
-from hri_envs.errors import ActionError, ConfigError
+from hri_bench.cli.args import as_flags, bounded, resume_hint, whole
+from hri_envs.errors import ActionError, ConfigError, MissingExtraError
 
 __all__ = ["build_physical_parser", "command_words", "main", "wants_physical"]
 
@@ -85,27 +84,6 @@ def build_physical_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _progress(enabled: bool) -> Any:
-    if not enabled:
-        return None
-    try:
-        from tqdm import tqdm  # noqa: PLC0415
-    except ModuleNotFoundError:
-        return None
-    bar: dict[str, Any] = {}
-
-    def update(done: int, total: int) -> None:
-        if "bar" not in bar:
-            bar["bar"] = tqdm(total=total, unit="unit", desc="physical suite")
-        bar["bar"].n = done
-        bar["bar"].refresh()
-        if done >= total:
-            bar["bar"].close()
-            bar.pop("bar")
-
-    return update
-
-
 def main(argv: Sequence[str]) -> int:
     """Run ``hri-bench suite --physical ...`` (``argv`` without the program name)."""
     args = build_physical_parser().parse_args(command_words(argv)[1:])
@@ -114,26 +92,42 @@ def main(argv: Sequence[str]) -> int:
 
     agents = None if args.agents is None else [a.strip() for a in args.agents.split(",")
                                                if a.strip()]
+    # before any simulation: the figures need matplotlib, the bar tqdm (the bench extra)
+    MissingExtraError.require(["matplotlib", *([] if args.no_progress else ["tqdm"])],
+                              "the physical suite's figures and progress bar")
     t0 = time.perf_counter()
+    bar = None
+    if not args.no_progress:
+        from tqdm.auto import tqdm  # noqa: PLC0415  (the bench extra)
+
+        bar = tqdm(unit="unit", desc="physical suite")
+
+    def progress(done: int, total: int) -> None:
+        if bar is not None:
+            bar.total, bar.n = total, done
+            bar.refresh()
+
     try:
         doc = run_physical_suite(args.out, version=args.suite_version, agents=agents,
                                  seeds=(args.seed,), runs_scale=args.runs_scale,
                                  jobs=args.jobs, tracks=args.tracks, resume=args.resume,
-                                 overwrite=args.overwrite,
-                                 progress=_progress(not args.no_progress))
+                                 overwrite=args.overwrite, progress=progress)
     except ConfigError as exc:
         print(f"hri-bench suite --physical: {as_flags(str(exc), _FLAGS)}", file=sys.stderr)
         return 2
     except (AgentProcessError, ActionError) as exc:  # a robot of one's own failed
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"hri-bench suite --physical: a robot failed: {first}\nThe finished units are "
-              f"kept in {args.out}: fix the robot and run the same command with --resume",
-              file=sys.stderr)
+              f"kept in {args.out}; fix the robot, then continue with:\n  "
+              f"{resume_hint(argv)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print(f"\nstopped; the finished units are kept in {args.out}. Resume with the same "
-              "command and --resume", file=sys.stderr)
+        print(f"\nstopped; the finished units are kept in {args.out}. Resume with:\n  "
+              f"{resume_hint(argv)}", file=sys.stderr)
         return 130
+    finally:
+        if bar is not None:
+            bar.close()
     from hri_bench.suite.physical_board import headline_table  # noqa: PLC0415
 
     print(headline_table(doc))
