@@ -154,37 +154,32 @@ def _execute(units: Sequence[PhysicalUnit], store: Path, jobs: int,
             keep(futures[fut], fut.result())
 
 
-def _load(store: Path, unit: PhysicalUnit) -> dict[str, np.ndarray]:
+def _load(store: Path, unit: PhysicalUnit) -> tuple[dict[str, np.ndarray], float]:
+    """A finished unit's figures and CPU seconds."""
     with np.load(store / f"{_key(unit)}.npz", allow_pickle=False) as z:
-        return {k: z[k] for k in FIGURES}
+        return {k: z[k] for k in FIGURES}, float(z[CPU_KEY]) if CPU_KEY in z else 0.0
 
 
-def _cpu(store: Path, unit: PhysicalUnit) -> float:
-    with np.load(store / f"{_key(unit)}.npz", allow_pickle=False) as z:
-        return float(z[CPU_KEY]) if CPU_KEY in z else 0.0
-
-
-def _assemble(tracks: Sequence[PhysicalTrack], agents: Sequence[str], seed: int,
-              runs_scale: float, units: Sequence[PhysicalUnit], store: Path
-              ) -> dict[str, Any]:
-    """The ``runs[seed]`` block: per track each run's human and each agent's figures."""
-    out: dict[str, Any] = {}
-    for t in tracks:
-        n = track_runs(t, runs_scale)
-        block: dict[str, Any] = {"humans": [0] * n, "agents": {}}
-        for agent in agents:
-            figs = {k: np.full((n, t.episodes), np.nan) for k in FIGURES}
-            for u in units:
-                if u.track != t.name or u.agent != agent:
-                    continue
-                loaded = _load(store, u)
-                for k in FIGURES:
-                    figs[k][list(u.runs)] = loaded[k]
-                for r, m in zip(u.runs, u.members, strict=True):
-                    block["humans"][r] = int(m)
-            block["agents"][agent] = pr.round_runs(figs)
-        out[t.name] = block
-    return out
+def _assemble(tracks: Sequence[PhysicalTrack], runs_scale: float,
+              units: Sequence[PhysicalUnit], store: Path) -> tuple[dict[str, Any], float]:
+    """The ``runs[seed]`` block of one seed's ``units`` (per track each run's human and each
+    agent's figures, the agents in the units' order) and the units' CPU seconds.
+    """
+    sizes = {t.name: (track_runs(t, runs_scale), t.episodes) for t in tracks}
+    humans = {t: [0] * n for t, (n, _) in sizes.items()}
+    figures: dict[str, dict[str, dict[str, np.ndarray]]] = {t: {} for t in sizes}
+    cpu = 0.0
+    for u in units:
+        loaded, seconds = _load(store, u)
+        cpu += seconds
+        figs = figures[u.track].setdefault(
+            u.agent, {k: np.full(sizes[u.track], np.nan) for k in FIGURES})
+        for k in FIGURES:
+            figs[k][list(u.runs)] = loaded[k]
+        for r, m in zip(u.runs, u.members, strict=True):
+            humans[u.track][r] = int(m)
+    return {t: {"humans": humans[t], "agents": {a: pr.round_runs(f) for a, f in by.items()}}
+            for t, by in figures.items()}, cpu
 
 
 def _members(t: PhysicalTrack) -> list[dict[str, Any]]:
@@ -264,15 +259,14 @@ def run_physical_suite(out: str | os.PathLike[str], *, version: str = PHYSICAL_L
         store.mkdir(parents=True, exist_ok=True)
         t0 = time.perf_counter()
         runs: dict[str, Any] = {}
+        cpu = 0.0
         for seed in seeds:
             units = plan_units(chosen, every, int(seed), runs_scale)
             _execute(units, store, jobs, progress or (lambda done, total: None))
-            runs[str(seed)] = _assemble(chosen, every, int(seed), runs_scale, units, store)
+            runs[str(seed)], seconds = _assemble(chosen, runs_scale, units, store)
+            cpu += seconds
         doc = _document(version, chosen, every, seeds, runs_scale, runs)
-        wall = time.perf_counter() - t0
-        cpu = sum(_cpu(store, u) for seed in seeds
-                  for u in plan_units(chosen, every, int(seed), runs_scale))
-        _write(folder, doc, wall, jobs, cpu)
+        _write(folder, doc, time.perf_counter() - t0, jobs, cpu)
         return doc
     finally:
         lock.release()
