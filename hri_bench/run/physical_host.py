@@ -38,18 +38,26 @@ from hri_envs.physics.robot_view import EpisodeOutcome, RobotTask
 __all__ = ["IsolatedPhysicalAgent", "describe_physical", "task_message"]
 
 
+#: What each ``module:Class`` is, asked once per process (:func:`describe_physical`).
+_DESCRIBED: dict[str, dict[str, Any]] = {}
+
+
 def describe_physical(spec: str) -> dict[str, Any]:
     """What ``module:Class`` is, imported in a host: ``module``, ``class``, ``name`` and the
-    constructor keywords it is given.
+    constructor keywords it is given (asked once per process, like
+    :func:`hri_bench.run.isolation.describe`).
     """
-    if os.environ.get(isolation.IN_PROCESS) == "1":
-        return describe_class(spec)
-    host = isolation.acquire_host(spec)
-    try:
-        return isolation.ask_host(spec, host, {"kind": "physical.describe",
-                                               "spec": spec})[0]["describe"]
-    finally:
-        isolation.release_host(spec, host)
+    if spec not in _DESCRIBED:
+        if os.environ.get(isolation.IN_PROCESS) == "1":
+            _DESCRIBED[spec] = describe_class(spec)
+        else:
+            host = isolation.acquire_host(spec)
+            try:
+                _DESCRIBED[spec] = isolation.ask_host(
+                    spec, host, {"kind": "physical.describe", "spec": spec})[0]["describe"]
+            finally:
+                isolation.release_host(spec, host)
+    return _DESCRIBED[spec]
 
 
 def task_message(task: RobotTask) -> tuple[dict[str, Any], dict[str, np.ndarray]]:

@@ -19,7 +19,7 @@ from hri_envs.errors import ActionError, ConfigError
 from hri_envs.imports import import_class
 from hri_envs.physics.robot_view import EpisodeOutcome, RobotTask
 
-__all__ = ["PhysicalSession", "describe_class"]
+__all__ = ["PhysicalSession", "describe_class", "task_from_message"]
 
 _KEYWORDS = ("rng", "scenario")
 
@@ -33,6 +33,12 @@ def _load(spec: str) -> type[PhysicalAgent]:
     return cls
 
 
+def _keywords(cls: type) -> list[str]:
+    """The constructor keywords of :data:`_KEYWORDS` that ``cls`` names."""
+    params = inspect.signature(cls).parameters
+    return [k for k in _KEYWORDS if k in params]
+
+
 def describe_class(spec: str) -> dict[str, Any]:
     """``module:Class`` imported here: ``module``, ``class``, ``name`` and the constructor
     keywords it is given (``rng``, ``scenario``: those its constructor names).
@@ -41,14 +47,16 @@ def describe_class(spec: str) -> dict[str, Any]:
         ConfigError: It does not import, is not a :class:`PhysicalAgent`, or is privileged.
     """
     cls = _load(spec)
-    params = inspect.signature(cls).parameters
-    keys = [k for k in _KEYWORDS if k in params]
     name = vars(cls).get("name") if isinstance(vars(cls).get("name"), str) else None
     return {"module": cls.__module__, "class": cls.__qualname__,
-            "name": name or cls.__name__, "keywords": keys}
+            "name": name or cls.__name__, "keywords": _keywords(cls)}
 
 
-def _task(header: Mapping[str, Any], arrays: Mapping[str, np.ndarray]) -> RobotTask:
+def task_from_message(header: Mapping[str, Any], arrays: Mapping[str, np.ndarray]
+                      ) -> RobotTask:
+    """The :class:`RobotTask` :func:`hri_bench.run.physical_host.task_message` sent (the
+    scenario's graph, geometry and design rebuilt from its public name and layout).
+    """
     from hri_envs.physics.design import design_for  # noqa: PLC0415
     from hri_envs.task.scenarios import episode_scenario, scenario_graph  # noqa: PLC0415
 
@@ -87,16 +95,15 @@ class PhysicalSession:
         if kind == "physical.init":
             self.agent = None
             cls = _load(header["spec"])
-            keys = describe_class(header["spec"])["keywords"]
             rng = np.random.default_rng(int.from_bytes(bytes(arrays["entropy"]), "big"))
             given = {"rng": rng, "scenario": str(header["scenario"])}
-            self.agent = cls(**{k: given[k] for k in keys})
+            self.agent = cls(**{k: given[k] for k in _keywords(cls)})
             return {}, {}
         agent = self.agent
         if agent is None:
             raise RuntimeError("no robot: init failed or never came")
         if kind == "physical.begin":
-            agent.begin_episode(_task(header, arrays))
+            agent.begin_episode(task_from_message(header, arrays))
             return {}, {}
         if kind == "physical.act":
             out = {"action": _action(agent.act(np.asarray(arrays["obs"])))}
