@@ -301,13 +301,19 @@ def validate(path: Path, replay: int = 0, replay_seed: int | None = None,
              fresh: bool = False, fresh_seed: int | None = None, jobs: int = 1) -> int:
     """``hri-bench validate FILE [--replay K] [--fresh]``: 0 when valid (every replayed run
     identical, every agent's fresh headline within its interval); 1 with one line per
-    problem.
+    problem. A physical suite's file is checked by :mod:`hri_bench.suite.physical_audit`
+    (no ``--fresh`` for it), any other by :mod:`hri_bench.suite.submission` and
+    :mod:`hri_bench.suite.audit`.
     """
     try:
         doc = submission.load(path)
-        if isinstance(doc, dict) and doc.get("format") == PHYSICAL_FORMAT:
-            return _validate_physical(path, doc, replay, replay_seed, fresh)
-        problems = submission.validate(doc)
+        physical = isinstance(doc, dict) and doc.get("format") == PHYSICAL_FORMAT
+        if physical:
+            from hri_bench.suite.physical_audit import validate_physical  # noqa: PLC0415
+
+            problems = validate_physical(doc)
+        else:
+            problems = submission.validate(doc)
     except ConfigError as exc:
         print(f"hri-bench validate: {exc}", file=sys.stderr)
         return 1
@@ -316,10 +322,22 @@ def validate(path: Path, replay: int = 0, replay_seed: int | None = None,
         for line in problems:
             print(f"  {line}", file=sys.stderr)
         return 1
-    print(f"{path}: valid (schema, suite version and hashes, every statistic recomputed)")
+    print(f"{path}: valid " + ("physical results (suite version and hash, the runs' humans"
+                               if physical else "(schema, suite version and hashes")
+          + ", every statistic recomputed)")
+    if fresh and physical:
+        print("hri-bench validate: --fresh is not available for physical results files; "
+              "--replay K re-simulates their runs", file=sys.stderr)
+        return 1
     if replay:
         seed = secrets.randbelow(2**31) if replay_seed is None else replay_seed
-        checked, bad, skipped = audit.replay(doc, replay, seed, progress=sys.stderr.isatty())
+        if physical:
+            from hri_bench.suite.physical_audit import replay_physical  # noqa: PLC0415
+
+            checked, bad, skipped = replay_physical(doc, replay, seed)
+        else:
+            checked, bad, skipped = audit.replay(doc, replay, seed,
+                                                 progress=sys.stderr.isatty())
         for agent, why in skipped.items():
             print(f"  not replayed: agent {agent!r}: {why}")
         if skipped or not checked:
@@ -334,50 +352,10 @@ def validate(path: Path, replay: int = 0, replay_seed: int | None = None,
             for line in bad:
                 print(f"  {line}", file=sys.stderr)
             return 1
-        print(f"{path}: {len(checked)} replayed run(s) identical (--replay {replay} "
-              f"--replay-seed {seed})")
+        print(f"{path}: {len(checked)} replayed run(s) identical, the references' included "
+              f"(--replay {replay} --replay-seed {seed})")
     if fresh:
         return _fresh(path, doc, fresh_seed, jobs)
-    return 0
-
-
-def _validate_physical(path: Path, doc: Any, replay: int, replay_seed: int | None,
-                       fresh: bool) -> int:
-    """``validate`` of a physical suite's results file (:mod:`hri_bench.suite.physical_audit`)."""
-    from hri_bench.suite.physical_audit import replay_physical, validate_physical  # noqa: PLC0415
-
-    problems = validate_physical(doc)
-    if problems:
-        print(f"{path}: INVALID ({len(problems)} problem(s)):", file=sys.stderr)
-        for line in problems:
-            print(f"  {line}", file=sys.stderr)
-        return 1
-    print(f"{path}: valid physical results (suite version and hash, the runs' humans, every "
-          "statistic recomputed)")
-    if fresh:
-        print("hri-bench validate: --fresh is not available for physical results files; "
-              "--replay K re-simulates their runs", file=sys.stderr)
-        return 1
-    if not replay:
-        return 0
-    seed = secrets.randbelow(2**31) if replay_seed is None else replay_seed
-    found = replay_physical(doc, replay, seed)
-    for agent, why in found.skipped.items():
-        print(f"  not replayed: agent {agent!r}: {why}")
-    if found.skipped or not found.checked:
-        print(f"{path}: REPLAY INCOMPLETE: {len(found.checked)} run(s) replayed; "
-              + (f"agent(s) {', '.join(map(repr, found.skipped))} could not be: a replay "
-                 "vouches for every agent of the file or fails" if found.skipped
-                 else "nothing could be replayed"), file=sys.stderr)
-        return 1
-    if found.differ:
-        print(f"{path}: REPLAY FAILED ({len(found.differ)} of {len(found.checked)} run(s) "
-              f"differ; --replay-seed {seed}):", file=sys.stderr)
-        for line in found.differ:
-            print(f"  {line}", file=sys.stderr)
-        return 1
-    print(f"{path}: {len(found.checked)} replayed run(s) identical, the references' included "
-          f"(--replay {replay} --replay-seed {seed})")
     return 0
 
 

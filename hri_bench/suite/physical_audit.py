@@ -189,8 +189,8 @@ def validate_physical(doc: Any) -> list[str]:
 class Replay(NamedTuple):
     """What :func:`replay_physical` found."""
 
-    #: ``(seed, track, agent, run)`` of every run replayed.
-    checked: list[tuple[str, str, str, int]]
+    #: Every run replayed, ``agent seed/track/run`` (as :func:`hri_bench.suite.audit.replay`).
+    checked: list[str]
     #: One line per replayed run whose figures differ from the file's.
     differ: list[str]
     #: Agents that could not be replayed here, and why.
@@ -241,7 +241,7 @@ def replay_physical(doc: Mapping[str, Any], k: int, seed: int,
             for agent in doc["agents"]:
                 if agent not in skipped:
                     plan.append((s, t, agent, runs, [humans[r] for r in runs]))
-    checked: list[tuple[str, str, str, int]] = []
+    checked: list[str] = []
     differ: list[str] = []
     for i, (s, t, agent, runs, members) in enumerate(plan):
         if progress:
@@ -252,7 +252,7 @@ def replay_physical(doc: Mapping[str, Any], k: int, seed: int,
         got = pr.round_runs(simulate_unit(unit, make_robot, pop.members))
         stored = doc["runs"][s][t.name]["agents"][agent]
         for j, r in enumerate(runs):
-            checked.append((s, t.name, agent, r))
+            checked.append(f"{agent} {s}/{t.name}/{r}")
             bad = [f for f in FIGURES if got[f][j] != stored[f][r]]
             if bad:
                 differ.append(f"seed {s}, track {t.name}, agent {agent!r}, run {r}: "
