@@ -38,6 +38,7 @@ from hri_bench.suite.physical_tracks import (
     PhysicalTrack,
     track_runs,
 )
+from hri_bench.suite.submission import compare_recomputed
 
 __all__ = ["PhysicalMerge", "Replay", "is_physical", "merge_physical", "replay_physical",
            "validate_physical"]
@@ -143,28 +144,6 @@ def _runs(doc: Mapping[str, Any]) -> list[str]:
     return problems
 
 
-def _first_difference(path: str, a: Any, b: Any) -> str | None:
-    """Where ``a`` (the file's) and ``b`` (recomputed) first differ, or None."""
-    if isinstance(a, dict) and isinstance(b, dict):
-        for k in sorted(set(a) | set(b)):
-            if k not in a or k not in b:
-                return f"{path}.{k}"
-            found = _first_difference(f"{path}.{k}", a[k], b[k])
-            if found:
-                return found
-        return None
-    if isinstance(a, list | tuple) and isinstance(b, list | tuple):
-        if len(a) != len(b):
-            return path
-        for i, (x, y) in enumerate(zip(a, b, strict=True)):
-            found = _first_difference(f"{path}[{i}]", x, y)
-            if found:
-                return found
-        return None
-    return None if a == b and type(a) is type(b) or (
-        isinstance(a, int | float) and isinstance(b, int | float) and a == b) else path
-
-
 def validate_physical(doc: Any) -> list[str]:
     """What is wrong with a physical results document; an empty list when it is valid
     (module docstring: what is checked, in order; a stage's problems stop the later ones).
@@ -179,10 +158,7 @@ def validate_physical(doc: Any) -> list[str]:
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         return [f"malformed: {type(exc).__name__}: {exc}"]
     for key, value in (("statistics", statistics), ("aggregate", aggregate)):
-        where = _first_difference(key, doc.get(key), json.loads(json.dumps(value)))
-        if where:
-            problems.append(f"{key} differ from those recomputed from the runs (first at "
-                            f"{where})")
+        compare_recomputed(key, doc.get(key), json.loads(json.dumps(value)), problems)
     return problems
 
 

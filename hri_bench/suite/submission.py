@@ -37,9 +37,9 @@ from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
 from hri_envs.task.scenarios import scenario_spec
 
-__all__ = ["FORMAT", "MAX_DEPTH", "SCHEMA_PATH", "SCHEMA_VERSION", "build", "compute",
-           "lead_section", "load", "merge", "profile_figure", "profile_span", "read_json",
-           "track_runs", "validate"]
+__all__ = ["FORMAT", "MAX_DEPTH", "SCHEMA_PATH", "SCHEMA_VERSION", "build",
+           "compare_recomputed", "compute", "lead_section", "load", "merge", "profile_figure",
+           "profile_span", "read_json", "track_runs", "validate"]
 
 FORMAT = "hri-bench-results"
 #: Version of the results file's layout (the schema); a change gets a new one.
@@ -417,8 +417,10 @@ def _shape_errors(where: str, block: Mapping[str, Any], runs: int, episodes: int
     return errors
 
 
-def _compare(path: str, recorded: Any, recomputed: Any, out: list[str]) -> None:
-    """Append one line per value of ``recorded`` that differs from ``recomputed``."""
+def compare_recomputed(path: str, recorded: Any, recomputed: Any, out: list[str]) -> None:
+    """Append one line per value of ``recorded`` (a results file's statistics) that differs
+    from ``recomputed`` (the same computed from its runs), at most 50.
+    """
     if len(out) >= 50:
         return
     if isinstance(recomputed, Mapping):
@@ -432,13 +434,13 @@ def _compare(path: str, recorded: Any, recomputed: Any, out: list[str]) -> None:
                 out.append(f"{path}.{k}: recorded {_short(recorded[k])}, not a statistic "
                            "of the per-run data")
             else:
-                _compare(f"{path}.{k}", recorded[k], recomputed[k], out)
+                compare_recomputed(f"{path}.{k}", recorded[k], recomputed[k], out)
     elif isinstance(recomputed, list):
         if not isinstance(recorded, list) or len(recorded) != len(recomputed):
             out.append(f"{path}: recorded {_short(recorded)}, recomputed {_short(recomputed)}")
             return
         for i, (a, b) in enumerate(zip(recorded, recomputed, strict=True)):
-            _compare(f"{path}[{i}]", a, b, out)
+            compare_recomputed(f"{path}[{i}]", a, b, out)
     elif isinstance(recomputed, float) and isinstance(recorded, int | float) and not \
             isinstance(recorded, bool):
         if not math.isclose(float(recorded), recomputed, rel_tol=RTOL, abs_tol=1e-12):
@@ -477,8 +479,8 @@ def validate(doc: Any) -> list[str]:
         return errors
     statistics, aggregate = compute(doc)
     mismatches: list[str] = []
-    _compare("statistics", doc["statistics"], statistics, mismatches)
-    _compare("aggregate", doc["aggregate"], aggregate, mismatches)
+    compare_recomputed("statistics", doc["statistics"], statistics, mismatches)
+    compare_recomputed("aggregate", doc["aggregate"], aggregate, mismatches)
     return mismatches
 
 
