@@ -7,6 +7,7 @@ the object with less effort than the passive robot.
 from __future__ import annotations
 
 import warnings
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -15,7 +16,11 @@ import pytest
 import hri_envs  # noqa: F401
 from agents.physical import PhysicalAgent, run_physical_episode
 from baselines.physical import PHYSICAL_AGENTS, make_physical_agent
-from baselines.physical.admittance import AdmittanceGains, FixedAdmittance
+from baselines.physical.admittance import (
+    AdmittanceGains,
+    FixedAdmittance,
+    VariableGains,
+)
 from baselines.physical.blend import BlendParams, GoalBlend, arbitration
 from baselines.physical.routes import FilterParams, RouteFilter, Routes
 from hri_envs.errors import ConfigError
@@ -89,6 +94,18 @@ def test_the_registry_names_the_baselines_and_their_references() -> None:
         assert agent.privileged == entry.privileged, name
     with pytest.raises(ConfigError, match="allowed: upper, passive"):
         make_physical_agent("oracle", "hanger")
+
+
+@pytest.mark.parametrize(("make", "key"), [
+    (lambda: AdmittanceGains(damping=0.0), "damping"),
+    (lambda: AdmittanceGains(rot_damping=-1.0), "rot_damping"),
+    (lambda: VariableGains(force_ref_n=0.0), "force_ref_n"),
+    (lambda: VariableGains(lever_m=float("nan")), "lever_m"),
+])
+def test_admittance_gains_that_must_be_positive_are_refused(make: Any, key: str) -> None:
+    with pytest.raises(ConfigError, match=f"{key} must be > 0") as err:
+        make()
+    assert err.value.field == key
 
 
 @pytest.mark.parametrize("scenario", ["hanger", "wheel"])

@@ -51,6 +51,13 @@ __all__ = ["TUNED_FIXED", "TUNED_VARIABLE", "AdmittanceGains", "FixedAdmittance"
            "VariableAdmittance", "VariableGains", "settle_action"]
 
 
+def _require_positive(params: Any, keys: tuple[str, ...]) -> None:
+    """Raise a :class:`ConfigError` (``field=`` the key) unless each ``params.<key>`` is > 0."""
+    for key in keys:
+        if not getattr(params, key) > 0:
+            raise ConfigError(f"{key} must be > 0, got {getattr(params, key)!r}", field=key)
+
+
 @dataclass(frozen=True)
 class AdmittanceGains:
     """A fixed admittance's parameters.
@@ -76,10 +83,7 @@ class AdmittanceGains:
     settle_stiffness: float = 0.0
 
     def __post_init__(self) -> None:
-        for key in ("damping", "rot_damping"):
-            if not getattr(self, key) > 0:
-                raise ConfigError(f"{key} must be > 0, got {getattr(self, key)!r}",
-                                  field=key)
+        _require_positive(self, ("damping", "rot_damping"))
         for key in ("deadband_n", "deadband_nm", "filter_s"):
             if not getattr(self, key) >= 0:
                 raise ConfigError(f"{key} must be >= 0, got {getattr(self, key)!r}",
@@ -119,10 +123,7 @@ class VariableGains:
         if not 0 < self.min_ratio <= 1 <= self.max_ratio:
             raise ConfigError(f"need 0 < min_ratio <= 1 <= max_ratio, got {self.min_ratio!r}"
                               f", {self.max_ratio!r}", field="min_ratio")
-        for key in ("force_ref_n", "lever_m"):
-            if not getattr(self, key) > 0:
-                raise ConfigError(f"{key} must be > 0, got {getattr(self, key)!r}",
-                                  field=key)
+        _require_positive(self, ("force_ref_n", "lever_m"))
         for key in ("rate_s", "mass_s"):
             if not getattr(self, key) >= 0:
                 raise ConfigError(f"{key} must be >= 0, got {getattr(self, key)!r}",
