@@ -19,9 +19,11 @@ from baselines.physical import PHYSICAL_AGENTS, make_physical_agent
 from baselines.physical.admittance import (
     AdmittanceGains,
     FixedAdmittance,
+    VariableAdmittance,
     VariableGains,
 )
 from baselines.physical.blend import BlendParams, GoalBlend, arbitration
+from baselines.physical.hindsight import GoalQMDP
 from baselines.physical.routes import FilterParams, RouteFilter, Routes
 from hri_envs.errors import ConfigError
 from hri_envs.physics.design import design_for
@@ -94,6 +96,15 @@ def test_the_registry_names_the_baselines_and_their_references() -> None:
         assert agent.privileged == entry.privileged, name
     with pytest.raises(ConfigError, match="allowed: upper, passive"):
         make_physical_agent("oracle", "hanger")
+
+
+@pytest.mark.parametrize("make", [FixedAdmittance, VariableAdmittance, GoalBlend, GoalQMDP])
+def test_a_baseline_without_tuned_parameters_for_the_scenario_says_which_it_has(
+        make: type) -> None:
+    with pytest.raises(ConfigError, match="no tuned parameters for scenario 'kitchen'; "
+                                          "allowed: hanger, wheel") as err:
+        make("kitchen")
+    assert err.value.field == "scenario"
 
 
 @pytest.mark.parametrize(("make", "key"), [

@@ -48,7 +48,7 @@ from hri_envs.errors import ConfigError
 from hri_envs.physics.robot_view import RobotTask
 
 __all__ = ["TUNED_FIXED", "TUNED_VARIABLE", "AdmittanceGains", "FixedAdmittance",
-           "VariableAdmittance", "VariableGains", "settle_action"]
+           "VariableAdmittance", "VariableGains", "settle_action", "tuned"]
 
 
 def _require_positive(params: Any, keys: tuple[str, ...]) -> None:
@@ -154,7 +154,12 @@ def settle_action(gains: AdmittanceGains) -> np.ndarray:
     return np.array([0, 0, 0, 0, 0, 0, 2.0 * gains.settle_stiffness - 1.0], dtype=np.float32)
 
 
-def _tuned(table: dict[str, Any], scenario: str) -> Any:
+def tuned(table: dict[str, Any], scenario: str) -> Any:
+    """``table[scenario]``: a baseline's tuned parameters for the scenario.
+
+    Raises:
+        ConfigError: (``field="scenario"``) The table has no such scenario.
+    """
     try:
         return table[scenario]
     except KeyError:
@@ -180,7 +185,7 @@ class FixedAdmittance(PhysicalAgent):
     def __init__(self, scenario: str | None = None, gains: AdmittanceGains | None = None
                  ) -> None:
         if gains is None:
-            gains = _tuned(TUNED_FIXED, scenario or "")
+            gains = tuned(TUNED_FIXED, scenario or "")
         self.gains = gains
         self.task: RobotTask | None = None
 
@@ -226,7 +231,7 @@ class VariableAdmittance(FixedAdmittance):
     def __init__(self, scenario: str | None = None, gains: VariableGains | None = None
                  ) -> None:
         if gains is None:
-            gains = _tuned(TUNED_VARIABLE, scenario or "")
+            gains = tuned(TUNED_VARIABLE, scenario or "")
         self.variable = gains
         super().__init__(gains=gains.base)
 
