@@ -195,6 +195,19 @@ def _log(log: Any, kind: str, scenario: str, path: str, value: Any, params: Any,
           f"{score['goal_rate']:.2f} effort {score['effort']:.1f}", flush=True)
 
 
+def _on_admittance(kind: str, start: Any, fixed: Any) -> Any:
+    """``start`` on the fixed admittance just tuned (``fixed``, if any) instead of its own."""
+    if fixed is None:
+        return start
+    if kind == "variable-admittance":
+        return dataclasses.replace(start, base=fixed)
+    if kind in ("goal-blend", "goal-qmdp"):
+        return put(start, "lead.admittance", fixed)
+    if kind == "learner":
+        return dataclasses.replace(start, admittance=fixed)
+    return start
+
+
 def main() -> None:
     """Tune the agents on the training episodes and print the chosen parameters."""
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -231,13 +244,7 @@ def main() -> None:
         for scenario in [s for s in args.scenarios.split(",") if s]:
             fixed = None
             for kind in kinds:
-                start = TABLES[kind][scenario]
-                if fixed is not None and kind == "variable-admittance":
-                    start = dataclasses.replace(start, base=fixed)
-                elif fixed is not None and kind in ("goal-blend", "goal-qmdp"):
-                    start = put(start, "lead.admittance", fixed)
-                elif fixed is not None and kind == "learner":
-                    start = dataclasses.replace(start, admittance=fixed)
+                start = _on_admittance(kind, TABLES[kind][scenario], fixed)
                 best = tune(pool, kind, scenario, start, args, log)
                 fixed = best if kind == "admittance" else fixed
                 chosen.setdefault(kind, {})[scenario] = best

@@ -7,6 +7,7 @@ the object with less effort than the passive robot.
 from __future__ import annotations
 
 import warnings
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -15,8 +16,14 @@ import pytest
 import hri_envs  # noqa: F401
 from agents.physical import PhysicalAgent, run_physical_episode
 from baselines.physical import PHYSICAL_AGENTS, make_physical_agent
-from baselines.physical.admittance import AdmittanceGains, FixedAdmittance
+from baselines.physical.admittance import (
+    AdmittanceGains,
+    FixedAdmittance,
+    VariableAdmittance,
+    VariableGains,
+)
 from baselines.physical.blend import BlendParams, GoalBlend, arbitration
+from baselines.physical.hindsight import GoalQMDP
 from baselines.physical.routes import FilterParams, RouteFilter, Routes
 from hri_envs.errors import ConfigError
 from hri_envs.physics.design import design_for
@@ -89,6 +96,27 @@ def test_the_registry_names_the_baselines_and_their_references() -> None:
         assert agent.privileged == entry.privileged, name
     with pytest.raises(ConfigError, match="allowed: upper, passive"):
         make_physical_agent("oracle", "hanger")
+
+
+@pytest.mark.parametrize("make", [FixedAdmittance, VariableAdmittance, GoalBlend, GoalQMDP])
+def test_a_baseline_without_tuned_parameters_for_the_scenario_says_which_it_has(
+        make: type) -> None:
+    with pytest.raises(ConfigError, match="no tuned parameters for scenario 'kitchen'; "
+                                          "allowed: hanger, wheel") as err:
+        make("kitchen")
+    assert err.value.field == "scenario"
+
+
+@pytest.mark.parametrize(("make", "key"), [
+    (lambda: AdmittanceGains(damping=0.0), "damping"),
+    (lambda: AdmittanceGains(rot_damping=-1.0), "rot_damping"),
+    (lambda: VariableGains(force_ref_n=0.0), "force_ref_n"),
+    (lambda: VariableGains(lever_m=float("nan")), "lever_m"),
+])
+def test_admittance_gains_that_must_be_positive_are_refused(make: Any, key: str) -> None:
+    with pytest.raises(ConfigError, match=f"{key} must be > 0") as err:
+        make()
+    assert err.value.field == key
 
 
 @pytest.mark.parametrize("scenario", ["hanger", "wheel"])

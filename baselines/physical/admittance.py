@@ -48,7 +48,14 @@ from hri_envs.errors import ConfigError
 from hri_envs.physics.robot_view import RobotTask
 
 __all__ = ["TUNED_FIXED", "TUNED_VARIABLE", "AdmittanceGains", "FixedAdmittance",
-           "VariableAdmittance", "VariableGains", "settle_action"]
+           "VariableAdmittance", "VariableGains", "settle_action", "tuned"]
+
+
+def _require_positive(params: Any, keys: tuple[str, ...]) -> None:
+    """Raise a :class:`ConfigError` (``field=`` the key) unless each ``params.<key>`` is > 0."""
+    for key in keys:
+        if not getattr(params, key) > 0:
+            raise ConfigError(f"{key} must be > 0, got {getattr(params, key)!r}", field=key)
 
 
 @dataclass(frozen=True)
@@ -76,10 +83,7 @@ class AdmittanceGains:
     settle_stiffness: float = 0.0
 
     def __post_init__(self) -> None:
-        for key in ("damping", "rot_damping"):
-            if not getattr(self, key) > 0:
-                raise ConfigError(f"{key} must be > 0, got {getattr(self, key)!r}",
-                                  field=key)
+        _require_positive(self, ("damping", "rot_damping"))
         for key in ("deadband_n", "deadband_nm", "filter_s"):
             if not getattr(self, key) >= 0:
                 raise ConfigError(f"{key} must be >= 0, got {getattr(self, key)!r}",
@@ -119,10 +123,7 @@ class VariableGains:
         if not 0 < self.min_ratio <= 1 <= self.max_ratio:
             raise ConfigError(f"need 0 < min_ratio <= 1 <= max_ratio, got {self.min_ratio!r}"
                               f", {self.max_ratio!r}", field="min_ratio")
-        for key in ("force_ref_n", "lever_m"):
-            if not getattr(self, key) > 0:
-                raise ConfigError(f"{key} must be > 0, got {getattr(self, key)!r}",
-                                  field=key)
+        _require_positive(self, ("force_ref_n", "lever_m"))
         for key in ("rate_s", "mass_s"):
             if not getattr(self, key) >= 0:
                 raise ConfigError(f"{key} must be >= 0, got {getattr(self, key)!r}",
@@ -153,7 +154,12 @@ def settle_action(gains: AdmittanceGains) -> np.ndarray:
     return np.array([0, 0, 0, 0, 0, 0, 2.0 * gains.settle_stiffness - 1.0], dtype=np.float32)
 
 
-def _tuned(table: dict[str, Any], scenario: str) -> Any:
+def tuned(table: dict[str, Any], scenario: str) -> Any:
+    """``table[scenario]``: a baseline's tuned parameters for the scenario.
+
+    Raises:
+        ConfigError: (``field="scenario"``) The table has no such scenario.
+    """
     try:
         return table[scenario]
     except KeyError:
@@ -179,7 +185,7 @@ class FixedAdmittance(PhysicalAgent):
     def __init__(self, scenario: str | None = None, gains: AdmittanceGains | None = None
                  ) -> None:
         if gains is None:
-            gains = _tuned(TUNED_FIXED, scenario or "")
+            gains = tuned(TUNED_FIXED, scenario or "")
         self.gains = gains
         self.task: RobotTask | None = None
 
@@ -225,7 +231,7 @@ class VariableAdmittance(FixedAdmittance):
     def __init__(self, scenario: str | None = None, gains: VariableGains | None = None
                  ) -> None:
         if gains is None:
-            gains = _tuned(TUNED_VARIABLE, scenario or "")
+            gains = tuned(TUNED_VARIABLE, scenario or "")
         self.variable = gains
         super().__init__(gains=gains.base)
 

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from baselines.physical.admittance import tuned
 from baselines.physical.goal_robot import GoalRobot, LeadParams, Step
 from baselines.physical.routes import FilterParams
 from baselines.physical.sensing import clamp, unit
@@ -90,10 +91,7 @@ class GoalBlend(GoalRobot):
 
     def __init__(self, scenario: str, params: BlendParams | None = None) -> None:
         if params is None:
-            if scenario not in TUNED_BLEND:
-                raise ConfigError(f"no tuned parameters for scenario {scenario!r}; allowed: "
-                                  f"{', '.join(TUNED_BLEND)}", field="scenario")
-            params = TUNED_BLEND[scenario]
+            params = tuned(TUNED_BLEND, scenario)
         self.blend = params
         self.alpha = 0.0
         super().__init__(scenario, params.lead)

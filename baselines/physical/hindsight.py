@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from baselines.physical.admittance import tuned
 from baselines.physical.goal_robot import GoalRobot, LeadParams, Step
 from baselines.physical.routes import FilterParams
 from baselines.physical.sensing import unit
@@ -100,10 +101,7 @@ class GoalQMDP(GoalRobot):
 
     def __init__(self, scenario: str, params: QMDPParams | None = None) -> None:
         if params is None:
-            if scenario not in TUNED_QMDP:
-                raise ConfigError(f"no tuned parameters for scenario {scenario!r}; allowed: "
-                                  f"{', '.join(TUNED_QMDP)}", field="scenario")
-            params = TUNED_QMDP[scenario]
+            params = tuned(TUNED_QMDP, scenario)
         self.qmdp = params
         self.chosen = np.zeros(6)
         super().__init__(scenario, params.lead)
