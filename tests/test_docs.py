@@ -35,7 +35,8 @@ from pathlib import Path
 import pytest
 
 from hri_bench.cli import build_parser
-from hri_bench.cli.physical import build_physical_parser, command_words, wants_physical
+from hri_bench.cli.args import split_imports
+from hri_bench.cli.physical import build_physical_parser, wants_physical
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ("README.md", *(f"docs/{p.name}" for p in sorted((ROOT / "docs").glob("*.md"))))
@@ -129,7 +130,7 @@ def parses(command: str, *, replace: tuple[tuple[str, str], ...] = ()) -> None:
         words.pop(0)
     assert words[0] == ".venv/bin/hri-bench", command
     if wants_physical(words[1:]):  # the physical suite has a parser of its own
-        build_physical_parser().parse_args(command_words(words[1:])[1:])
+        build_physical_parser().parse_args(split_imports(words[1:])[1][1:])
         return
     build_parser().parse_args(words[1:])
 

@@ -14,7 +14,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["as_flags", "bounded", "invocation", "resume_hint", "whole"]
+__all__ = ["as_flags", "bounded", "invocation", "resume_hint", "split_imports", "whole"]
 
 
 def bounded(kind: type, allowed: str, ok: Callable[[Any], bool]) -> Callable[[str], Any]:
@@ -65,6 +65,23 @@ def invocation() -> str:
     if script is not None and script.name == "__main__.py" and script.parent.name == "cli":
         return f"{shlex.quote(_from_here(Path(sys.executable)))} -m hri_bench.cli"
     return "hri-bench"  # called from Python (tests, a script of one's own)
+
+
+def split_imports(argv: Sequence[str]) -> tuple[list[str], list[str]]:
+    """``(modules, rest)``: the modules of the ``--import MODULE`` (or ``--import=MODULE``)
+    options before the command (what they register must exist before the parser is built:
+    its choices and checks read the registries), and the words from the command on.
+    """
+    modules, words = [], list(argv)
+    while words:
+        if words[0] == "--import" and len(words) > 1:
+            modules.append(words[1])
+            words = words[2:]
+        elif words[0].startswith("--import="):
+            modules.append(words.pop(0).partition("=")[2])
+        else:
+            break
+    return modules, words
 
 
 def resume_hint(argv: Sequence[str]) -> str:

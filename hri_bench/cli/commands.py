@@ -33,7 +33,7 @@ from agents.learning import algorithm1, partner_mdp
 from hri_bench.cli import people as cli_people
 from hri_bench.cli import physical as cli_physical
 from hri_bench.cli import results as cli_results
-from hri_bench.cli.args import as_flags, bounded, resume_hint, whole
+from hri_bench.cli.args import as_flags, bounded, resume_hint, split_imports, whole
 from hri_bench.people.play import play
 from hri_bench.report.speed import measure, measure_physics
 from hri_bench.run.agents import (
@@ -847,23 +847,6 @@ What to try next, from this folder (README.md 'A tour', docs/benchmark.md):
 Extras: .venv/bin/pip install -c constraints.txt -e '.[rl]'  (or '.[mujoco]', '.[ray]')"""
 
 
-def _leading_imports(argv: Sequence[str]) -> list[str]:
-    """The modules of the ``--import MODULE`` (or ``--import=MODULE``) options before the
-    command (what they register must exist before the parser is built: its choices and
-    checks read the registries).
-    """
-    modules, words = [], list(argv)
-    while words:
-        word = words.pop(0)
-        if word == "--import" and words:
-            modules.append(words.pop(0))
-        elif word.startswith("--import="):
-            modules.append(word.partition("=")[2])
-        else:
-            break
-    return modules
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hri-bench`` console script."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -873,7 +856,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"hri-bench: {exc}", file=sys.stderr)
         return 1
     try:
-        import_modules(_leading_imports(argv), field="--import")
+        import_modules(split_imports(argv)[0], field="--import")
     except ConfigError as exc:
         build_parser().error(f"argument --import: {exc}")
     parser = build_parser()

@@ -13,10 +13,10 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from hri_bench.cli.args import as_flags, bounded, resume_hint, whole
+from hri_bench.cli.args import as_flags, bounded, resume_hint, split_imports, whole
 from hri_envs.errors import ActionError, ConfigError, MissingExtraError
 
-__all__ = ["build_physical_parser", "command_words", "main", "wants_physical"]
+__all__ = ["build_physical_parser", "main", "wants_physical"]
 
 
 #: run_physical_suite's parameters as this command's flags (in its error messages).
@@ -24,24 +24,9 @@ _FLAGS = {"resume": "--resume", "overwrite": "--overwrite", "runs_scale": "--run
           "agents": "--agents", "tracks": "--tracks", "jobs": "--jobs"}
 
 
-def command_words(argv: Sequence[str]) -> list[str]:
-    """``argv`` from the command on: the leading ``--import MODULE`` options (which the
-    program handles before any command) left out.
-    """
-    words, i = list(argv), 0
-    while i < len(words):
-        if words[i] == "--import":
-            i += 2
-        elif words[i].startswith("--import="):
-            i += 1
-        else:
-            break
-    return words[i:]
-
-
 def wants_physical(argv: Sequence[str]) -> bool:
     """Whether the command line asks for the physical suite (``suite ... --physical``)."""
-    words = command_words(argv)
+    words = split_imports(argv)[1]
     return bool(words) and words[0] == "suite" and "--physical" in words[1:]
 
 
@@ -86,7 +71,7 @@ def build_physical_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str]) -> int:
     """Run ``hri-bench suite --physical ...`` (``argv`` without the program name)."""
-    args = build_physical_parser().parse_args(command_words(argv)[1:])
+    args = build_physical_parser().parse_args(split_imports(argv)[1][1:])
     from hri_bench.run.isolation import AgentProcessError  # noqa: PLC0415
     from hri_bench.suite.physical_running import run_physical_suite  # noqa: PLC0415
 
