@@ -37,9 +37,7 @@ import os
 import random
 import re
 import resource
-import signal
 import subprocess
-import sys
 import tempfile
 import time
 import urllib.request
@@ -47,29 +45,19 @@ from typing import Any
 
 import numpy as np
 
+from hri_bench.people.serve.launch import start_serve, stop_serve
 from hri_envs.humans.scripted import preference_human
 from hri_envs.task.scenarios import scenario_graph
 
 
 def start_server(data: str, episodes: int, sessions: int, scenario: str,
                  extra: tuple[str, ...] = ()) -> tuple[subprocess.Popen[str], str]:
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "hri_bench.cli", "serve", scenario, "--port", "0", "--data", data,
-         "--episodes", str(episodes), "--max-sessions", str(sessions), "--max-steps", "60",
-         *extra],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    assert proc.stdout is not None
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        line = proc.stdout.readline()
-        found = re.search(r"serving on (http://127\.0\.0\.1:\d+/)", line)
-        if found:
-            return proc, found.group(1)
-        if not line:
-            break
-    proc.kill()
-    raise SystemExit("the server did not start")
+    proc, url, lines = start_serve(
+        [scenario, "--port", "0", "--data", data, "--episodes", str(episodes),
+         "--max-sessions", str(sessions), "--max-steps", "60", *extra], timeout=120)
+    if url is None:
+        raise SystemExit("the server did not start:\n" + "".join(lines))
+    return proc, url
 
 
 T0 = time.perf_counter()
@@ -186,8 +174,7 @@ def physical(args: argparse.Namespace) -> None:
             per = asyncio.run(leaders(url, args.sessions, args.scenario, args.seconds,
                                       args.stagger))
         finally:
-            proc.send_signal(signal.SIGINT)
-            proc.wait(60)
+            stop_serve(proc, 60)
         wall = time.perf_counter() - t0
         load_after = os.getloadavg()
         # the server's and its session processes' CPU (reaped by it, then by us), and ours
@@ -263,8 +250,7 @@ def main() -> None:
             steps, starts, errors = asyncio.run(run(url, args.sessions, args.think_ms,
                                                     args.scenario, args.seconds))
         finally:
-            proc.send_signal(signal.SIGINT)
-            proc.wait(30)
+            stop_serve(proc, 30)
         wall = time.perf_counter() - t0
         load_after = os.getloadavg()
     q = np.percentile(steps, [50, 95, 99, 100]) if steps else [float("nan")] * 4
