@@ -35,12 +35,10 @@ import asyncio
 import json
 import os
 import random
-import re
 import resource
 import subprocess
 import tempfile
 import time
-import urllib.request
 from typing import Any
 
 import numpy as np
@@ -63,25 +61,12 @@ def start_server(data: str, episodes: int, sessions: int, scenario: str,
 T0 = time.perf_counter()
 
 
-def join(url: str) -> str:
-    """Join as the page does: its Origin, the token it carries, JSON."""
-    with urllib.request.urlopen(url, timeout=30) as r:
-        page = r.read().decode()
-    token = re.search(r'<meta name="hri-bench-token" content="([^"]+)">', page)
-    assert token is not None, "the page carries no token"
-    req = urllib.request.Request(url + "api/sessions", data=b'{"consent": true}',
-                                 headers={"Content-Type": "application/json",
-                                          "Origin": url.rstrip("/"),
-                                          "X-HRI-Bench-Token": token.group(1)},
-                                 method="POST")
-    with urllib.request.urlopen(req, timeout=30) as r:
-        return str(json.loads(r.read())["session"])
-
-
 async def participant(url: str, think_ms: float, scenario: str, rng: random.Random,
                       steps: list[float], starts: list[float], errors: list[str],
                       deadline: float) -> None:
     import websockets
+
+    from hri_bench.people.synthetic import join
 
     human = preference_human(scenario_graph(scenario), None)
     token = await asyncio.to_thread(join, url)
