@@ -35,65 +35,38 @@ import asyncio
 import json
 import os
 import random
-import re
 import resource
-import signal
 import subprocess
-import sys
 import tempfile
 import time
-import urllib.request
 from typing import Any
 
 import numpy as np
 
+from hri_bench.people.serve.launch import start_serve, stop_serve
 from hri_envs.humans.scripted import preference_human
 from hri_envs.task.scenarios import scenario_graph
 
 
 def start_server(data: str, episodes: int, sessions: int, scenario: str,
                  extra: tuple[str, ...] = ()) -> tuple[subprocess.Popen[str], str]:
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "hri_bench.cli", "serve", scenario, "--port", "0", "--data", data,
-         "--episodes", str(episodes), "--max-sessions", str(sessions), "--max-steps", "60",
-         *extra],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    assert proc.stdout is not None
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        line = proc.stdout.readline()
-        found = re.search(r"serving on (http://127\.0\.0\.1:\d+/)", line)
-        if found:
-            return proc, found.group(1)
-        if not line:
-            break
-    proc.kill()
-    raise SystemExit("the server did not start")
+    proc, url, lines = start_serve(
+        [scenario, "--port", "0", "--data", data, "--episodes", str(episodes),
+         "--max-sessions", str(sessions), "--max-steps", "60", *extra], timeout=120)
+    if url is None:
+        raise SystemExit("the server did not start:\n" + "".join(lines))
+    return proc, url
 
 
 T0 = time.perf_counter()
-
-
-def join(url: str) -> str:
-    """Join as the page does: its Origin, the token it carries, JSON."""
-    with urllib.request.urlopen(url, timeout=30) as r:
-        page = r.read().decode()
-    token = re.search(r'<meta name="hri-bench-token" content="([^"]+)">', page)
-    assert token is not None, "the page carries no token"
-    req = urllib.request.Request(url + "api/sessions", data=b'{"consent": true}',
-                                 headers={"Content-Type": "application/json",
-                                          "Origin": url.rstrip("/"),
-                                          "X-HRI-Bench-Token": token.group(1)},
-                                 method="POST")
-    with urllib.request.urlopen(req, timeout=30) as r:
-        return str(json.loads(r.read())["session"])
 
 
 async def participant(url: str, think_ms: float, scenario: str, rng: random.Random,
                       steps: list[float], starts: list[float], errors: list[str],
                       deadline: float) -> None:
     import websockets
+
+    from hri_bench.people.synthetic import join
 
     human = preference_human(scenario_graph(scenario), None)
     token = await asyncio.to_thread(join, url)
@@ -186,8 +159,7 @@ def physical(args: argparse.Namespace) -> None:
             per = asyncio.run(leaders(url, args.sessions, args.scenario, args.seconds,
                                       args.stagger))
         finally:
-            proc.send_signal(signal.SIGINT)
-            proc.wait(60)
+            stop_serve(proc, 60)
         wall = time.perf_counter() - t0
         load_after = os.getloadavg()
         # the server's and its session processes' CPU (reaped by it, then by us), and ours
@@ -263,8 +235,7 @@ def main() -> None:
             steps, starts, errors = asyncio.run(run(url, args.sessions, args.think_ms,
                                                     args.scenario, args.seconds))
         finally:
-            proc.send_signal(signal.SIGINT)
-            proc.wait(30)
+            stop_serve(proc, 30)
         wall = time.perf_counter() - t0
         load_after = os.getloadavg()
     q = np.percentile(steps, [50, 95, 99, 100]) if steps else [float("nan")] * 4

@@ -4,13 +4,7 @@ Then both datasets are loaded and checked against the env's own replay of the sa
 actions. Skipped where chromium, chromium-driver or the ``web`` extra are missing
 (``make test`` installs them)."""
 
-import os
 import re
-import shutil
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -18,17 +12,17 @@ import pytest
 
 pytest.importorskip("pyarrow")
 pytest.importorskip("fastapi")
-webdriver = pytest.importorskip("selenium.webdriver")
+pytest.importorskip("selenium.webdriver")
 
 from hri_bench.data.datasets import export_minari, export_parquet, open_dataset  # noqa: E402
 from hri_bench.data.replay import replay  # noqa: E402
+from hri_bench.people.serve.browser import chromium, have_chromium, wait_for  # noqa: E402
+from hri_bench.people.serve.launch import start_serve, stop_serve  # noqa: E402
 from hri_envs.humans.scripted import preference_human  # noqa: E402
 from hri_envs.task.scenarios import scenario_graph  # noqa: E402
 
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-DRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
 pytestmark = [
-    pytest.mark.skipif(not (os.path.exists(CHROMIUM) and os.path.exists(DRIVER)),
+    pytest.mark.skipif(not have_chromium(),
                        reason="needs Debian's chromium and chromium-driver (make test "
                               "installs them)"),
     pytest.mark.xdist_group("people-browser"),
@@ -38,32 +32,11 @@ EPISODES = 3
 
 def _start(data, *extra):
     """``hri-bench serve`` on a free port of 127.0.0.1; (process, url)."""
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "hri_bench.cli", "serve", "hanger", "--port", "0",
-         "--data", str(data), "--episodes", str(EPISODES), "--max-steps", "40", *extra],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    assert proc.stdout is not None
-    url, lines = None, []
-    deadline = time.monotonic() + 60
-    while url is None and time.monotonic() < deadline:
-        line = proc.stdout.readline()
-        if not line:
-            break
-        lines.append(line)
-        found = re.search(r"serving on (http://127\.0\.0\.1:\d+/)", line)
-        url = found.group(1) if found else None
+    proc, url, lines = start_serve(
+        ["hanger", "--port", "0", "--data", str(data), "--episodes", str(EPISODES),
+         "--max-steps", "40", *extra], timeout=60)
     assert url, "".join(lines)
     return proc, url
-
-
-def _stop(proc):
-    proc.send_signal(signal.SIGINT)
-    try:
-        proc.wait(20)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
 
 
 @pytest.fixture
@@ -72,35 +45,18 @@ def server(tmp_path):
     data = tmp_path / "data"
     proc, url = _start(data)
     yield url, data
-    _stop(proc)
+    stop_serve(proc, 20)
 
 
 @pytest.fixture
 def browser(tmp_path):
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for flag in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-                 "--no-first-run", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync",
-                 "--disable-dev-shm-usage", f"--user-data-dir={tmp_path / 'profile'}",
-                 "--window-size=900,1000"):
-        options.add_argument(flag)
-    driver = webdriver.Chrome(service=Service(DRIVER), options=options)
+    driver = chromium(tmp_path / "profile", webgl=False, window=(900, 1000))
     yield driver
     driver.quit()
 
 
 def _wait(driver, condition, timeout=15.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.01)
-    raise AssertionError(f"timed out at {_view(driver)}; the page shows "
-                         f"{driver.find_element('tag name', 'body').text}")
+    return wait_for(driver, condition, timeout, poll=0.01)
 
 
 def _view(driver):
@@ -231,4 +187,4 @@ def test_the_page_says_why_a_session_ended(tmp_path, browser):
         text = browser.find_element("id", "done-text").text
         assert "failed" in text and "SystemExit in act()" in text, text
     finally:
-        _stop(proc)
+        stop_serve(proc, 20)

@@ -497,3 +497,45 @@ def test_an_interrupted_recording_is_marked_and_left_out(tmp_path, monkeypatch):
         thread.join()
     assert not dataset.recorder_alive()
     assert dataset.participants(unfinished=False) == ["s0001", "s0002", "s0003"]
+
+
+#: Damages to a physical episode file and what the refusal says.
+PHYSICAL_DAMAGES = {
+    "ends twice": ("terminated", lambda c: [True] * len(c),
+                   "step 0: the episode ends (terminated or truncated) before its last step"),
+    "ends neither way": ("truncated", lambda c: [False] * len(c),
+                         "the last step must be terminated or truncated, not neither"),
+    "NaN stiffness": ("stiffness", lambda c: [float("nan")] * len(c),
+                      "step 0: stiffness is nan, not a number"),
+    "an infinite frame time": ("t_frame", lambda c: c[:1] + [float("inf")] + c[2:],
+                               "step 1: t_frame is inf, not a number"),
+    "stiffness 2": ("stiffness", lambda c: [2.0] * len(c), "stiffness must be in [0, 1]"),
+}
+
+
+@pytest.fixture(scope="module")
+def physical_recorded(tmp_path_factory):
+    """One synthetic participant's short physical episode, recorded through the page."""
+    from hri_bench.people.synthetic import record_synthetic
+
+    root = tmp_path_factory.mktemp("physical")
+    record_synthetic("hanger", "dmg", sessions=1, episodes=1, data=root, at_once=1,
+                     max_time_s=2.0)
+    return root
+
+
+@pytest.mark.parametrize("damage", list(PHYSICAL_DAMAGES))
+def test_a_damaged_physical_episode_is_refused_naming_the_file(physical_recorded, tmp_path,
+                                                               damage):
+    import shutil
+
+    root = tmp_path / "data"
+    shutil.copytree(physical_recorded, root)
+    episode = root / "dmg-v0" / "sessions" / "s0001" / "episode-0001.parquet"
+    open_dataset("dmg", root).steps()  # as recorded, it reads
+    name, edit, says = PHYSICAL_DAMAGES[damage]
+    _rewrite(episode, name, edit=edit)
+    with pytest.raises(ConfigError) as err:
+        open_dataset("dmg", root).steps()
+    assert err.value.field == "dataset" and says in str(err.value)
+    assert "episode-0001.parquet" in str(err.value)

@@ -6,13 +6,7 @@ hand targets and stiffness the page sent, through the same env and robot). Skipp
 chromium, chromium-driver, the ``web`` extra or the page's three.js (``make web``) are
 missing (``make test`` installs them)."""
 
-import os
 import re
-import shutil
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -20,17 +14,22 @@ import pytest
 
 pytest.importorskip("pyarrow")
 pytest.importorskip("fastapi")
-webdriver = pytest.importorskip("selenium.webdriver")
+pytest.importorskip("selenium.webdriver")
 
 from hri_bench.data.datasets import export_minari, open_dataset  # noqa: E402
 from hri_bench.data.physical_replay import replay_physical  # noqa: E402
+from hri_bench.people.serve.browser import (  # noqa: E402
+    chromium,
+    have_chromium,
+    page_state,
+    wait_for,
+)
+from hri_bench.people.serve.launch import start_serve, stop_serve  # noqa: E402
 
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-DRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
 THREE = (Path(__file__).parents[1] / "hri_bench" / "people" / "serve" / "static" / "vendor"
          / "three.module.js")
 pytestmark = [
-    pytest.mark.skipif(not (os.path.exists(CHROMIUM) and os.path.exists(DRIVER)),
+    pytest.mark.skipif(not have_chromium(),
                        reason="needs Debian's chromium and chromium-driver (make test "
                               "installs them)"),
     pytest.mark.skipif(not THREE.exists(), reason="needs the page's three.js (make web)"),
@@ -43,68 +42,25 @@ MAX_TIME_S = 6.0  # one short episode: 150 steps at 25 Hz
 def server(tmp_path):
     """``hri-bench serve hanger --physical`` on a free port of 127.0.0.1; (url, data)."""
     data = tmp_path / "data"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "hri_bench.cli", "serve", "hanger", "--physical", "--port", "0",
-         "--data", str(data), "--episodes", "1", "--max-time", str(MAX_TIME_S),
-         "--agent", "admittance"],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    assert proc.stdout is not None
-    url, lines = None, []
-    deadline = time.monotonic() + 120
-    while url is None and time.monotonic() < deadline:
-        line = proc.stdout.readline()
-        if not line:
-            break
-        lines.append(line)
-        found = re.search(r"serving on (http://127\.0\.0\.1:\d+/)", line)
-        url = found.group(1) if found else None
+    proc, url, lines = start_serve(
+        ["hanger", "--physical", "--port", "0", "--data", str(data), "--episodes", "1",
+         "--max-time", str(MAX_TIME_S), "--agent", "admittance"], timeout=120)
     assert url, "".join(lines)
     yield url, data
-    proc.send_signal(signal.SIGINT)
-    try:
-        proc.wait(30)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
+    stop_serve(proc, 30)
 
 
 @pytest.fixture
 def browser(tmp_path):
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for flag in ("--headless", "--no-sandbox", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update",
-                 "--disable-sync", "--disable-dev-shm-usage", "--enable-unsafe-swiftshader",
-                 "--use-angle=swiftshader", f"--user-data-dir={tmp_path / 'profile'}",
-                 "--window-size=640,760"):
-        options.add_argument(flag)
-    driver = webdriver.Chrome(service=Service(DRIVER), options=options)
+    driver = chromium(tmp_path / "profile", webgl=True, window=(640, 760))
     yield driver
     driver.quit()
 
 
-def _page(driver):
-    return driver.execute_script("return Object.assign({}, document.body.dataset);")
-
-
-def _wait(driver, condition, timeout=120.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.02)
-    raise AssertionError(f"timed out; the page's state {_page(driver)}; it shows "
-                         f"{driver.find_element('tag name', 'body').text}")
-
-
 def _frames(driver, n):
     """Wait until the page has drawn ``n`` more frames (each answered by one step)."""
-    start = int(_page(driver)["drawn"])
-    _wait(driver, lambda: int(_page(driver).get("drawn", start)) >= start + n)
+    start = int(page_state(driver)["drawn"])
+    wait_for(driver, lambda: int(page_state(driver).get("drawn", start)) >= start + n)
 
 
 def test_a_person_leads_the_arm_and_the_recording_replays(server, browser, monkeypatch):
@@ -113,10 +69,10 @@ def test_a_person_leads_the_arm_and_the_recording_replays(server, browser, monke
 
     url, data = server
     browser.get(url)
-    _wait(browser, lambda: _page(browser).get("view") == "consent")
+    wait_for(browser, lambda: page_state(browser).get("view") == "consent")
     browser.find_element("id", "agree").click()
     browser.find_element("id", "start").click()
-    _wait(browser, lambda: (p := _page(browser)).get("view") == "lead" and p.get("drawn"))
+    wait_for(browser, lambda: (p := page_state(browser)).get("view") == "lead" and p.get("drawn"))
     # the person lifts the target with the up arrow, then drags it sideways with the mouse;
     # each input lasts frames of the page, not seconds (a loaded machine steps slowly)
     ActionChains(browser).key_down(Keys.ARROW_UP).perform()
@@ -129,12 +85,12 @@ def test_a_person_leads_the_arm_and_the_recording_replays(server, browser, monke
         ActionChains(browser).move_by_offset(-40, 0).perform()
     _frames(browser, 2)
     ActionChains(browser).release().perform()
-    assert _page(browser).get("view") == "lead", "the episode ended before the inputs did"
+    assert page_state(browser).get("view") == "lead", "the episode ended before the inputs did"
     # the episode runs out at its time limit (the page keeps stepping with no input)
-    _wait(browser, lambda: _page(browser).get("view") in ("outcome", "done"))
-    if _page(browser).get("view") == "outcome":
+    wait_for(browser, lambda: page_state(browser).get("view") in ("outcome", "done"))
+    if page_state(browser).get("view") == "outcome":
         ActionChains(browser).send_keys(Keys.ENTER).perform()
-    _wait(browser, lambda: _page(browser).get("view") == "done")
+    wait_for(browser, lambda: page_state(browser).get("view") == "done")
     participant = re.search(r"code is (p[0-9a-f]{12})",
                             browser.find_element("id", "done-text").text).group(1)
 

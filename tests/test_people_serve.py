@@ -22,6 +22,7 @@ from hri_bench.data.datasets import open_dataset  # noqa: E402
 from hri_bench.data.replay import replay  # noqa: E402
 from hri_bench.people.serve.app import create_app  # noqa: E402
 from hri_bench.people.serve.design import ServeConfig, assignment, pair_circuit  # noqa: E402
+from hri_bench.people.serve.launch import start_serve, stop_serve  # noqa: E402
 from hri_bench.people.serve.scenes import built  # noqa: E402
 from hri_bench.people.serve.session import parse_message  # noqa: E402
 from hri_bench.run.isolation import IN_PROCESS  # noqa: E402
@@ -736,28 +737,14 @@ def test_serve_killed_and_started_again(tmp_path):
     """The whole story with real processes: ``kill -9`` mid-session, a second server on the
     same dataset refused (exit 2, --dataset) while the first runs, the next one marks the
     session interrupted; files are private from the start (umask 077)."""
-    import os
     import signal
-    import subprocess
-    import sys
     import urllib.request
 
     data = tmp_path / "data"
 
     def start(*extra):
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "hri_bench.cli", "serve", "hanger", "--agent", "passive",
-             "--port", "0", "--data", str(data), *extra],
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-            env={**os.environ, "PYTHONUNBUFFERED": "1"})
-        lines = []
-        for line in proc.stdout:
-            lines.append(line)
-            found = re.search(r"serving on (http://127\.0\.0\.1:\d+/)", line)
-            if found:
-                return proc, found.group(1), lines
-        proc.wait(120)
-        return proc, None, lines
+        return start_serve(["hanger", "--agent", "passive", "--port", "0", "--data",
+                            str(data), *extra], timeout=300)
 
     first, url, _ = start()
     try:
@@ -783,8 +770,8 @@ def test_serve_killed_and_started_again(tmp_path):
     try:
         assert url3 and "marked 1 session(s)" in "".join(lines), "".join(lines)
     finally:
-        third.send_signal(signal.SIGINT)
-        third.wait(120)  # it must end on Ctrl-C (a loaded machine once took over 30 s)
+        # it must end on Ctrl-C (a loaded machine once took over 30 s)
+        assert stop_serve(third, 120)
     (meta,) = open_dataset("hanger-people-v0", data).sessions()
     assert meta["status"] == "interrupted" and meta["participant"] in "".join(lines)
 

@@ -14,69 +14,29 @@ Needs the ``web`` extra, ``make web`` (three.js) and chromium with chromium-driv
 from __future__ import annotations
 
 import argparse
-import os
-import re
-import signal
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
-CHROMIUM, DRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+from hri_bench.people.serve.browser import chromium, page_state, wait_for
+from hri_bench.people.serve.launch import start_serve, stop_serve
 
 
 def start(scenario: str, data: str, *extra: str) -> tuple[subprocess.Popen[str], str]:
     """``hri-bench serve`` on a free port; (process, url)."""
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "hri_bench.cli", "serve", scenario, "--port", "0", "--data",
-         data, *extra], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    assert proc.stdout is not None
-    deadline = time.monotonic() + 300
-    while time.monotonic() < deadline:
-        line = proc.stdout.readline()
-        found = re.search(r"serving on (http://127\.0\.0\.1:\d+/)", line)
-        if found:
-            return proc, found.group(1)
-        if not line:
-            break
-    proc.kill()
-    raise SystemExit(f"serve {scenario} {' '.join(extra)} did not start")
-
-
-def browser(profile: str) -> Any:
-    """Headless chromium (WebGL through SwiftShader, in software)."""
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for flag in ("--headless", "--no-sandbox", "--disable-dev-shm-usage",
-                 "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
-                 "--window-size=960,1180", f"--user-data-dir={profile}"):
-        options.add_argument(flag)
-    return webdriver.Chrome(service=Service(DRIVER), options=options)
-
-
-def dataset(driver: Any) -> dict[str, str]:
-    return driver.execute_script("return Object.assign({}, document.body.dataset);")
-
-
-def wait(driver: Any, condition: Any, timeout: float = 120.0) -> Any:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.05)
-    raise SystemExit(f"timed out; the page shows {dataset(driver)}")
+    proc, url, lines = start_serve([scenario, "--port", "0", "--data", data, *extra],
+                                   timeout=300)
+    if url is None:
+        raise SystemExit(f"serve {scenario} {' '.join(extra)} did not start:\n"
+                         + "".join(lines))
+    return proc, url
 
 
 def consent(driver: Any, url: str) -> None:
     driver.get(url)
-    wait(driver, lambda: dataset(driver).get("view") == "consent")
+    wait_for(driver, lambda: page_state(driver).get("view") == "consent")
     driver.find_element("id", "agree").click()
     driver.find_element("id", "start").click()
 
@@ -86,10 +46,10 @@ def graph(driver: Any, url: str, out: Path) -> None:
     from selenium.webdriver.common.action_chains import ActionChains
 
     consent(driver, url)
-    wait(driver, lambda: (d := dataset(driver)).get("drawn") and d["drawn"] == d["seq"])
-    seen = dataset(driver)["seq"]
+    wait_for(driver, lambda: (d := page_state(driver)).get("drawn") and d["drawn"] == d["seq"])
+    seen = page_state(driver)["seq"]
     ActionChains(driver).send_keys("1").perform()  # wait: the robot takes its grasp
-    wait(driver, lambda: (d := dataset(driver)).get("drawn") and d["drawn"] == d["seq"]
+    wait_for(driver, lambda: (d := page_state(driver)).get("drawn") and d["drawn"] == d["seq"]
          and d["seq"] != seen)
     time.sleep(1.0)
     driver.save_screenshot(str(out))
@@ -101,8 +61,8 @@ def lead(driver: Any, url: str, out: Path, seconds: float) -> None:
     from selenium.webdriver.common.keys import Keys
 
     consent(driver, url)
-    wait(driver, lambda: dataset(driver).get("view") == "lead"
-         and dataset(driver).get("drawn"))
+    wait_for(driver, lambda: page_state(driver).get("view") == "lead"
+         and page_state(driver).get("drawn"))
     canvas = driver.find_element("id", "canvas")
     ActionChains(driver).key_down(Keys.ARROW_UP).pause(0.8).key_up(Keys.ARROW_UP).perform()
     ActionChains(driver).move_to_element(canvas).click_and_hold().pause(0.2) \
@@ -128,7 +88,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for i, (scenario, extra, name) in enumerate(jobs):
             proc, url = start(scenario, f"{tmp}/data{i}", *extra)
-            driver = browser(f"{tmp}/profile{i}")
+            driver = chromium(f"{tmp}/profile{i}", webgl=True, window=(960, 1180))
             try:
                 if "--physical" in extra:
                     lead(driver, url, args.out / name, args.seconds)
@@ -137,8 +97,7 @@ def main() -> None:
                 print(args.out / name)
             finally:
                 driver.quit()
-                proc.send_signal(signal.SIGINT)
-                proc.wait(60)
+                stop_serve(proc, 60)
 
 
 if __name__ == "__main__":

@@ -204,18 +204,10 @@ def check_steps(table: Any, path: Path, graph: TaskGraph, *, participant: str,
     first(col["robot_last_human_action"] != last_h, lambda t: "robot_last_human_action "
           f"{col['robot_last_human_action'][t]} is not the human's previous action "
           f"{last_h[t]}")
-    ends = col["terminated"].astype(bool) | col["truncated"].astype(bool)
-    first(ends & (np.arange(n) < n - 1), lambda t: "the episode ends (terminated or "
-          "truncated) before its last step")
-    first((np.arange(n) == n - 1) & (col["terminated"] == col["truncated"]), lambda t:
-          "the last step must be terminated or truncated, not "
-          + ("both" if col["terminated"][t] else "neither"))
+    _check_ends(col, path, n)
     _check_lists(table, path, graph, s)
-    for name in ("robot_reward", "human_reward", "t_shown", "t_action", "response_s"):
-        x = col[name].astype(float)
-        if not np.isfinite(x).all():
-            t = int(np.flatnonzero(~np.isfinite(x))[0])
-            raise _refuse(path, f"step {t}: {name} is {x[t]}, not a number")
+    _check_numbers(col, ("robot_reward", "human_reward", "t_shown", "t_action", "response_s"),
+                   path)
     r_r, r_h = col["robot_reward"].astype(float), col["human_reward"].astype(float)
     first((r_r < -1.0) | (r_r > 0.0), lambda t: f"robot_reward is {r_r[t]}; every reward "
           "rule's rewards are in [-1, 0]")
@@ -223,6 +215,29 @@ def check_steps(table: Any, path: Path, graph: TaskGraph, *, participant: str,
           "reward is -1, 0 or +1")
     ms = col["client_response_ms"].astype(float)  # nulls are NaN
     first(np.isinf(ms) | (ms < 0), lambda t: f"client_response_ms is {ms[t]}")
+
+
+def _check_ends(col: dict[str, np.ndarray], path: Path, n: int) -> None:
+    """The episode of ``n`` steps ends (terminated or truncated, not both) at its last step
+    and only there (also the physical episodes', :mod:`hri_bench.data.physical`).
+    """
+    ends = col["terminated"].astype(bool) | col["truncated"].astype(bool)
+    early = ends & (np.arange(n) < n - 1)
+    if early.any():
+        raise _refuse(path, f"step {int(np.flatnonzero(early)[0])}: the episode ends "
+                            "(terminated or truncated) before its last step")
+    if col["terminated"][-1] == col["truncated"][-1]:
+        raise _refuse(path, f"step {n - 1}: the last step must be terminated or truncated, "
+                            f"not {'both' if col['terminated'][-1] else 'neither'}")
+
+
+def _check_numbers(col: dict[str, np.ndarray], names: tuple[str, ...], path: Path) -> None:
+    """The columns ``names`` hold a number (not NaN, not infinite) at every step."""
+    for name in names:
+        x = col[name].astype(float)
+        if not np.isfinite(x).all():
+            t = int(np.flatnonzero(~np.isfinite(x))[0])
+            raise _refuse(path, f"step {t}: {name} is {x[t]}, not a number")
 
 
 def _check_session(col: dict[str, np.ndarray], path: Path, participant: str,

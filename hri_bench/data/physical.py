@@ -24,7 +24,13 @@ from typing import Any
 
 import numpy as np
 
-from hri_bench.data.checks import _check_session, _lists, _refuse
+from hri_bench.data.checks import (
+    _check_ends,
+    _check_numbers,
+    _check_session,
+    _lists,
+    _refuse,
+)
 from hri_envs.task.scenarios import scenario_graph
 
 __all__ = ["ACTION_SIZE", "INPUTS", "PHYSICAL_COLUMNS", "PHYSICAL_SCHEMA", "STEP_S",
@@ -207,11 +213,7 @@ def check_physical_steps(table: Any, path: Path, scenario: str, *, participant: 
             t = int(np.flatnonzero((np.abs(x) > 1.0 + 1e-6).any(1))[0])
             raise _refuse(path, f"step {t}: {name} leaves [-1, 1]")
     _check_end(col, path, n, k)
-    for name in ("reward", "stiffness", "t_input", "t_frame", "step_s"):
-        x = col[name].astype(float)
-        if not np.isfinite(x).all():
-            t = int(np.flatnonzero(~np.isfinite(x))[0])
-            raise _refuse(path, f"step {t}: {name} is {x[t]}, not a number")
+    _check_numbers(col, ("reward", "stiffness", "t_input", "t_frame", "step_s"), path)
     if ((col["stiffness"] < 0) | (col["stiffness"] > 1)).any():
         raise _refuse(path, "stiffness must be in [0, 1]")
     bad = ~np.isin(col["input"], INPUTS)
@@ -226,14 +228,7 @@ def check_physical_steps(table: Any, path: Path, scenario: str, *, participant: 
 
 def _check_end(col: dict[str, np.ndarray], path: Path, n: int, k: int) -> None:
     """The episode ends at its last step only, with its outcome and placed support."""
-    ends = col["terminated"].astype(bool) | col["truncated"].astype(bool)
-    early = ends & (np.arange(n) < n - 1)
-    if early.any():
-        raise _refuse(path, f"step {int(np.flatnonzero(early)[0])}: the episode ends "
-                            "(terminated or truncated) before its last step")
-    if col["terminated"][-1] == col["truncated"][-1]:
-        raise _refuse(path, f"step {n - 1}: the last step must be terminated or truncated, "
-                            f"not {'both' if col['terminated'][-1] else 'neither'}")
+    _check_ends(col, path, n)
     outcome = col["outcome"]
     if any(o is not None for o in outcome[:-1]) or outcome[-1] not in OUTCOMES:
         raise _refuse(path, f"outcome must be null before the last step and one of "

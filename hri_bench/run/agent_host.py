@@ -31,7 +31,7 @@ import threading
 import time
 import traceback
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -40,7 +40,7 @@ from hri_bench.run.wire import read_message, write_message
 from hri_envs.errors import ActionError, ConfigError
 from hri_envs.imports import import_class, import_modules
 
-__all__ = ["ISOLATED_CONTRACT", "WITHHELD", "isolated_keywords", "main"]
+__all__ = ["ISOLATED_CONTRACT", "WITHHELD", "host_pipes", "isolated_keywords", "main"]
 
 #: What an agent of your own may ask for by constructor keyword (docs/agents.md, "Your own
 #: agent"). ``Agent`` classes (one per run) get ``rng``, ``BatchAgent`` classes (one per batch)
@@ -203,22 +203,36 @@ def _failure(exc: BaseException) -> dict[str, str]:
 
 
 def _watch_parent(parent: int) -> None:
-    """End this process when the benchmark's process is gone (killed, or its worker was)."""
+    """End this process when its parent is gone (killed, or its worker was)."""
     while True:
         time.sleep(0.5)
         if os.getppid() != parent:
             os._exit(1)
 
 
-def main() -> None:
-    """Serve one benchmark process until it closes the pipe or says ``close``."""
+def host_pipes() -> tuple[BinaryIO, BinaryIO]:
+    """A host process's pipes to its parent, taken off its standard input and output.
+
+    Also used by :mod:`hri_bench.people.serve.lead_worker`.
+
+    Returns:
+        (inbox, outbox): the messages read and written. Standard input is then empty and
+        standard output is standard error (what the code hosted prints never goes into the
+        messages), and a thread ends this process when its parent is gone.
+    """
     inbox = os.fdopen(os.dup(0), "rb")
     outbox = os.fdopen(os.dup(1), "wb")
-    os.dup2(2, 1)  # the agent's prints go to standard error, never into the messages
+    os.dup2(2, 1)  # the hosted code's prints go to standard error, never into the messages
     null = os.open(os.devnull, os.O_RDONLY)
     os.dup2(null, 0)
     sys.stdout = sys.stderr
     threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True).start()
+    return inbox, outbox
+
+
+def main() -> None:
+    """Serve one benchmark process until it closes the pipe or says ``close``."""
+    inbox, outbox = host_pipes()
     session = _Session()
     physical: Any = None  # the physical suite's robot (hri_bench.run.physical_host)
     while True:

@@ -45,7 +45,8 @@ from hri_envs.imports import imported_modules, with_cwd_on_path
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["IN_PROCESS", "AgentProcessError", "IsolatedAgent", "acquire_host", "agent_streams",
-           "ask_host", "describe", "make_isolated", "release_host", "shutdown"]
+           "ask_host", "describe", "host_ended", "kill_host", "make_isolated", "release_host",
+           "shutdown"]
 
 #: The environment variable that runs agents of your own in the benchmark's process.
 IN_PROCESS = "HRI_BENCH_IN_PROCESS_AGENTS"
@@ -78,6 +79,30 @@ def agent_streams(seed: int, runs: Sequence[int]) -> list[np.random.Generator]:
             for row in agent_entropy(seed, runs)]
 
 
+def host_ended(process: subprocess.Popen[bytes], exc: BaseException) -> str:
+    """Why a host process no longer answers (``exc``: what reading or writing raised): how
+    it ended, given 2 s to end, or that it stopped answering.
+
+    Also used by :mod:`hri_bench.people.serve.lead_process`.
+    """
+    try:
+        code = process.wait(timeout=2)
+    except subprocess.TimeoutExpired:
+        return f"its process stopped answering ({exc})"
+    return (f"its process was killed (signal {-code})" if code < 0
+            else f"its process ended with exit status {code}")
+
+
+def kill_host(process: subprocess.Popen[bytes]) -> None:
+    """Kill a host process now (if it runs), reap it and close its pipes."""
+    if process.poll() is None:
+        process.kill()
+    process.wait()
+    for f in (process.stdin, process.stdout):
+        if f is not None:
+            f.close()
+
+
 class _Host:
     """One agent host process and its pipes."""
 
@@ -107,20 +132,10 @@ class _Host:
             raise AgentProcessError(self._ended(exc)) from None
 
     def _ended(self, exc: BaseException) -> str:
-        try:
-            code = self.process.wait(timeout=2)
-        except subprocess.TimeoutExpired:
-            return f"its process stopped answering ({exc})"
-        return (f"its process was killed (signal {-code})" if code < 0
-                else f"its process ended with exit status {code}")
+        return host_ended(self.process, exc)
 
     def kill(self) -> None:
-        if self.process.poll() is None:
-            self.process.kill()
-        self.process.wait()
-        for f in (self.process.stdin, self.process.stdout):
-            if f is not None:
-                f.close()
+        kill_host(self.process)
 
     def close(self) -> None:
         try:

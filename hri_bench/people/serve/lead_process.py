@@ -23,6 +23,7 @@ import numpy as np
 
 from hri_bench.people.serve import lead_worker
 from hri_bench.people.serve.robot import AgentFailed, Stopped
+from hri_bench.run.isolation import host_ended, kill_host
 from hri_bench.run.wire import WireError, read_message, write_message
 
 __all__ = ["LeadProcess", "SparePool"]
@@ -86,12 +87,7 @@ class LeadProcess:
         return answer, out
 
     def _ended(self, exc: BaseException) -> str:
-        try:
-            code = self.process.wait(timeout=2)
-        except subprocess.TimeoutExpired:
-            return f"its process stopped answering ({exc})"
-        return (f"its process was killed (signal {-code})" if code < 0
-                else f"its process ended with exit status {code}")
+        return host_ended(self.process, exc)
 
     def stop(self, status: str) -> None:
         """A request under way (or the next) gives up waiting: :class:`Stopped`."""
@@ -99,12 +95,7 @@ class LeadProcess:
 
     def kill(self) -> None:
         """End the process now."""
-        if self.process.poll() is None:
-            self.process.kill()
-        self.process.wait()
-        for f in (self.process.stdin, self.process.stdout):
-            if f is not None:
-                f.close()
+        kill_host(self.process)
 
     def close(self) -> None:
         """Say ``close`` and wait a little for the process to end; kill it otherwise."""

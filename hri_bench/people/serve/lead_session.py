@@ -35,7 +35,7 @@ from hri_bench.data.physical import STEP_S
 from hri_bench.people.serve.design import Assignment, ServeConfig
 from hri_bench.people.serve.lead_process import LeadProcess, SparePool
 from hri_bench.people.serve.scenes import STORE
-from hri_bench.people.serve.session import MessageError, Session, SessionManager, _writer
+from hri_bench.people.serve.session import Session, SessionManager, _writer
 from hri_envs import __version__
 
 __all__ = ["LeadSession", "LeadSessionManager", "episode_seeds"]
@@ -72,6 +72,8 @@ class LeadSession(Session):
             default).
     """
 
+    _STEP_ANSWER = "your hand's target"
+
     def __init__(self, config: ServeConfig, design: Assignment, writer: SessionWriter,
                  on_end: Callable[[Session], None] | None, process: LeadProcess,
                  human: Mapping[str, Any]) -> None:
@@ -94,17 +96,7 @@ class LeadSession(Session):
         """
         arrived = time.time()
         with self._lock:
-            expect = self._expect
-            if expect is None:
-                raise MessageError("the session is not waiting for you now", field="type")
-            kind, seq, _ = expect
-            if msg["type"] != kind:
-                want = "your hand's target" if kind == "hand" else "'continue'"
-                raise MessageError(f"the page shows a {self._view['type']}; it waits for "
-                                   f"{want}", field="type")
-            if msg["seq"] != seq:
-                raise MessageError(f"seq {msg['seq']} does not answer the view on the page "
-                                   f"(seq {seq}); reload the page", field="seq")
+            kind, _, _ = self._expected(msg)
             self._expect = None
             self.last_activity = time.monotonic()
             self._actions.put((kind, 0))

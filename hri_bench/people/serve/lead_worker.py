@@ -28,9 +28,7 @@ A robot that raises is answered as ``{"ok": false, "error", "detail"}`` naming t
 from __future__ import annotations
 
 import math
-import os
 import sys
-import threading
 import time
 import traceback
 from collections.abc import Mapping
@@ -42,6 +40,7 @@ from agents.physical import PhysicalAgent, outcome_of
 from hri_bench.core.physical_robots import make_robot
 from hri_bench.data.physical import hand_pose, human_action
 from hri_bench.people import scene3d
+from hri_bench.run.agent_host import host_pipes
 from hri_bench.run.wire import read_message, write_message
 from hri_envs.physics.intention import HumanParams
 
@@ -302,23 +301,9 @@ def _serve(inbox: Any, outbox: Any) -> None:
                                    "detail": f"{type(exc).__name__}: {str(exc)[:300]}"})
 
 
-def _watch_parent(parent: int) -> None:
-    """End this process when the server's is gone."""
-    while True:
-        time.sleep(0.5)
-        if os.getppid() != parent:
-            os._exit(1)
-
-
 def main() -> None:
     """Serve the server's process until it closes the pipe or says ``close``."""
-    inbox = os.fdopen(os.dup(0), "rb")
-    outbox = os.fdopen(os.dup(1), "wb")
-    os.dup2(2, 1)  # the robot's prints go to standard error, never into the messages
-    null = os.open(os.devnull, os.O_RDONLY)
-    os.dup2(null, 0)
-    sys.stdout = sys.stderr
-    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True).start()
+    inbox, outbox = host_pipes()  # the robot's prints go to standard error
     # imported now, so that a process started ahead of a session has them ready
     import hri_envs.physics.continuous_parallel  # noqa: F401, PLC0415
     from hri_bench.core.physical_robots import robot_names  # noqa: PLC0415

@@ -286,17 +286,7 @@ class Session:
                 changes.
         """
         with self._lock:
-            expect = self._expect
-            if expect is None:
-                raise MessageError("the session is not waiting for you now", field="type")
-            kind, seq, actions = expect
-            if msg["type"] != kind:
-                want = "an action" if kind == "action" else "'continue'"
-                raise MessageError(f"the page shows a {self._view['type']}; it waits for "
-                                   f"{want}", field="type")
-            if msg["seq"] != seq:
-                raise MessageError(f"seq {msg['seq']} does not answer the view on the page "
-                                   f"(seq {seq}); reload the page", field="seq")
+            kind, seq, actions = self._expected(msg)
             if kind == "action" and msg["action"] not in actions:
                 raise MessageError(f"action {msg['action']} is not offered in this step; "
                                    f"offered: {', '.join(map(str, sorted(actions)))}",
@@ -308,6 +298,30 @@ class Session:
                 rt = msg.get("rt_ms")
                 self.person.client_response_ms[0] = np.nan if rt is None else float(rt)
             self._actions.put((kind, int(msg.get("action", 0))))
+
+    #: What the page waits for in a step, as the participant is told.
+    _STEP_ANSWER = "an action"
+
+    def _expected(self, msg: Mapping[str, Any]) -> tuple[str, int, frozenset[int]]:
+        """The answer the page's view waits for, (type, seq, actions), if ``msg`` gives it
+        (called holding the lock).
+
+        Raises:
+            MessageError: No view waits, or ``msg`` is of another type or answers another
+                view (``seq``).
+        """
+        expect = self._expect
+        if expect is None:
+            raise MessageError("the session is not waiting for you now", field="type")
+        kind, seq, _ = expect
+        if msg["type"] != kind:
+            want = "'continue'" if kind == "continue" else self._STEP_ANSWER
+            raise MessageError(f"the page shows a {self._view['type']}; it waits for "
+                               f"{want}", field="type")
+        if msg["seq"] != seq:
+            raise MessageError(f"seq {msg['seq']} does not answer the view on the page "
+                               f"(seq {seq}); reload the page", field="seq")
+        return expect
 
     def stop(self, status: str = "stopped") -> None:
         """End the session (the thread records ``status`` and exits, without waiting for a
