@@ -1072,3 +1072,27 @@ def test_a_person_leads_against_a_registered_robot_never_the_reference():
     assert err.value.field == "agent"
     with pytest.raises(ConfigError, match="is not a physical robot; allowed: .*admittance"):
         check_robot("admitance")
+
+
+def test_a_physical_sessions_answer_counts_as_played_on_the_sessions_clock(monkeypatch):
+    """A page that answered a lead view has played (a played session is never abandoned as
+    unclaimed when its page drops, nor its folder removed), and its activity is read on the
+    sessions' clock (which the tests hold): LeadSession.handle shares Session's bookkeeping.
+    A message that answers another view changes nothing."""
+    import queue
+    import threading
+
+    from hri_bench.people.serve import session as session_module
+    from hri_bench.people.serve.lead_session import LeadSession
+    from hri_bench.people.serve.session import MessageError
+
+    monkeypatch.setattr(session_module, "_clock", lambda: 1234.0)
+    lead = LeadSession.__new__(LeadSession)  # the handling alone, without its worker process
+    lead._lock, lead._actions, lead._hand = threading.Lock(), queue.Queue(), None
+    lead._expect, lead._view = ("hand", 3, frozenset()), {"type": "lead"}
+    lead.played, lead.last_activity = False, 0.0
+    with pytest.raises(MessageError, match="seq 2 does not answer"):
+        lead.handle({"type": "hand", "seq": 2, "target": [0.0] * 7})
+    assert not lead.played and lead.last_activity == 0.0 and lead._actions.empty()
+    lead.handle({"type": "hand", "seq": 3, "target": [0.0] * 7})
+    assert lead.played and lead.last_activity == 1234.0 and lead._actions.get() == ("hand", 0)

@@ -97,8 +97,7 @@ class LeadSession(Session):
         arrived = time.time()
         with self._lock:
             kind, _, _ = self._expected(msg)
-            self._expect = None
-            self.last_activity = time.monotonic()
+            self._answered()
             self._actions.put((kind, 0))
             self._hand = {**msg, "t_input": arrived} if kind == "hand" else None
 

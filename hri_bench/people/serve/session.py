@@ -291,9 +291,7 @@ class Session:
                 raise MessageError(f"action {msg['action']} is not offered in this step; "
                                    f"offered: {', '.join(map(str, sorted(actions)))}",
                                    field="action")
-            self._expect = None
-            self.last_activity = _clock()
-            self.played = True
+            self._answered()
             if kind == "action":
                 rt = msg.get("rt_ms")
                 self.person.client_response_ms[0] = np.nan if rt is None else float(rt)
@@ -322,6 +320,15 @@ class Session:
             raise MessageError(f"seq {msg['seq']} does not answer the view on the page "
                                f"(seq {seq}); reload the page", field="seq")
         return expect
+
+    def _answered(self) -> None:
+        """The page answered the view (lock held): nothing awaited, the session active and
+        played (a session once played is never abandoned as unclaimed nor its folder
+        removed).
+        """
+        self._expect = None
+        self.last_activity = _clock()
+        self.played = True
 
     def stop(self, status: str = "stopped") -> None:
         """End the session (the thread records ``status`` and exits, without waiting for a
