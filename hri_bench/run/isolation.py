@@ -153,7 +153,7 @@ _LOCK = threading.Lock()
 _DESCRIBED: dict[str, dict[str, Any]] = {}
 
 
-def _acquire(spec: str) -> _Host:
+def acquire_host(spec: str) -> _Host:
     """An idle host of ``spec`` started by this process, or a new one: an agent object has
     a host to itself (two sessions of a server, in threads, never share one).
     """
@@ -169,7 +169,7 @@ def _acquire(spec: str) -> _Host:
     return host
 
 
-def _release(spec: str, host: _Host) -> None:
+def release_host(spec: str, host: _Host) -> None:
     """``host`` is free for the next agent of ``spec`` (a dead one is forgotten)."""
     if host.pid == os.getpid() and host.process.poll() is None:
         with _LOCK:
@@ -200,7 +200,7 @@ def _raise(spec: str, error: Mapping[str, str]) -> None:
                             f"{error.get('traceback', '')}".rstrip(), kind)
 
 
-def _ask(spec: str, host: _Host, header: Mapping[str, Any],
+def ask_host(spec: str, host: _Host, header: Mapping[str, Any],
          arrays: Mapping[str, np.ndarray] | None = None
          ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """One request to ``host``; a host that failed mid-request is ended (an answer it may
@@ -216,13 +216,6 @@ def _ask(spec: str, host: _Host, header: Mapping[str, Any],
     return answer, arrays_back
 
 
-#: The host functions other kinds of isolated agent use (the physical suite's robots,
-#: :mod:`hri_bench.run.physical_host`): a host for an agent object, its release, a request.
-acquire_host = _acquire
-release_host = _release
-ask_host = _ask
-
-
 def describe(spec: str) -> dict[str, Any]:
     """What ``module:Class`` is, as its host imports it: ``flavour`` ("agent" or "batch"),
     ``module``, ``class``, ``name``, ``privileged`` and ``keywords`` (cached per process).
@@ -235,11 +228,11 @@ def describe(spec: str) -> dict[str, Any]:
         if os.environ.get(IN_PROCESS) == "1":
             _DESCRIBED[spec] = agent_host._describe(spec)
         else:
-            host = _acquire(spec)
+            host = acquire_host(spec)
             try:
-                answer = _ask(spec, host, {"kind": "describe", "spec": spec})[0]
+                answer = ask_host(spec, host, {"kind": "describe", "spec": spec})[0]
             finally:
-                _release(spec, host)  # an answer (an error too) leaves it ready
+                release_host(spec, host)  # an answer (an error too) leaves it ready
             _DESCRIBED[spec] = answer["describe"]
     return _DESCRIBED[spec]
 
@@ -267,15 +260,15 @@ class IsolatedAgent(BatchAgent):
         self._pending: dict[str, np.ndarray] = {}
         self._belief: np.ndarray | None = None
         self._known = False  # whether _belief is the agent's belief now
-        self._host = _acquire(spec)
-        weakref.finalize(self, _release, spec, self._host)  # free when this agent is gone
+        self._host = acquire_host(spec)
+        weakref.finalize(self, release_host, spec, self._host)  # free when this agent is gone
         self._ask({"kind": "init", "spec": spec, "scenario": graph.name,
                    "settings": dict(settings), "imports": list(imported_modules())},
                   {"entropy": agent_entropy(seed, runs)})
 
     def _ask(self, header: Mapping[str, Any], arrays: Mapping[str, np.ndarray] | None = None
              ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        return _ask(self.spec, self._host, header, arrays)
+        return ask_host(self.spec, self._host, header, arrays)
 
     def _send(self, kind: str, arrays: dict[str, np.ndarray]) -> None:
         arrays.update(self._pending)
