@@ -39,8 +39,9 @@ import numpy as np
 from hri_envs.errors import ConfigError
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["MAX_EPISODE_BYTES", "MAX_EPISODE_ROWS", "MAX_EPISODE_VALUES", "check_steps",
-           "read_episode"]
+__all__ = ["MAX_EPISODE_BYTES", "MAX_EPISODE_ROWS", "MAX_EPISODE_VALUES", "check_ends",
+           "check_numbers", "check_session", "check_steps", "list_column", "read_episode",
+           "refusal"]
 
 #: The most rows (steps) an episode file may hold (``--max-steps`` allows 10,000).
 MAX_EPISODE_ROWS = 100_000
@@ -51,7 +52,8 @@ MAX_EPISODE_VALUES = 4_000_000
 MAX_EPISODE_BYTES = 64 * 2**20
 
 
-def _refuse(path: Path, what: str) -> ConfigError:
+def refusal(path: Path, what: str) -> ConfigError:
+    """The error that refuses dataset file ``path`` because of ``what``."""
     return ConfigError(f"{path}: {what}", field="dataset")
 
 
@@ -87,11 +89,11 @@ def read_episode(path: Path, target: Any) -> Any:
     import pyarrow.parquet as pq
 
     if not path.is_file():
-        raise _refuse(path, "is not a file (an episode is one Parquet file)")
+        raise refusal(path, "is not a file (an episode is one Parquet file)")
 
     def unreadable(exc: Exception) -> ConfigError:
         reason = " ".join(str(exc).split()) or type(exc).__name__
-        return _refuse(path, f"is not a readable Parquet file ({reason})")
+        return refusal(path, f"is not a readable Parquet file ({reason})")
 
     errors = (pa.ArrowException, OSError, ValueError, IndexError)
     try:
@@ -103,10 +105,10 @@ def read_episode(path: Path, target: Any) -> Any:
     except errors as exc:
         raise unreadable(exc) from None
     if meta.num_rows > MAX_EPISODE_ROWS:
-        raise _refuse(path, f"holds {meta.num_rows} rows; an episode file holds at most "
+        raise refusal(path, f"holds {meta.num_rows} rows; an episode file holds at most "
                             f"{MAX_EPISODE_ROWS} steps")
     if values > MAX_EPISODE_VALUES or size > MAX_EPISODE_BYTES:
-        raise _refuse(path, f"holds {values} values in {size / 2**20:.1f} MiB; an episode "
+        raise refusal(path, f"holds {values} values in {size / 2**20:.1f} MiB; an episode "
                             f"file holds at most {MAX_EPISODE_VALUES} values in "
                             f"{MAX_EPISODE_BYTES // 2**20} MiB")
     try:
@@ -115,31 +117,31 @@ def read_episode(path: Path, target: Any) -> Any:
         raise unreadable(exc) from None
     missing = [f.name for f in target if f.name not in table.schema.names]
     if missing:
-        raise _refuse(path, f"has no column {', '.join(missing)} (the schema's columns are "
+        raise refusal(path, f"has no column {', '.join(missing)} (the schema's columns are "
                             "in docs/people.md, 'Datasets')")
     columns = []
     for field in target:
         col = table.column(field.name)
         want, got = _kind(pa, field.type), _kind(pa, col.type)
         if not _accepts(want, got):
-            raise _refuse(path, f"column {field.name} is {col.type}; the schema's is "
+            raise refusal(path, f"column {field.name} is {col.type}; the schema's is "
                                 f"{field.type}")
         if col.null_count and not field.nullable:
-            raise _refuse(path, f"column {field.name} has {col.null_count} null value(s)")
+            raise refusal(path, f"column {field.name} has {col.null_count} null value(s)")
         try:
             col = col.cast(field.type)
         except (pa.ArrowException, ValueError) as exc:
-            raise _refuse(path, f"column {field.name}: values its type {field.type} cannot "
+            raise refusal(path, f"column {field.name}: values its type {field.type} cannot "
                                 f"hold ({' '.join(str(exc).split())})") from None
         if pa.types.is_list(field.type):
             values = pc.list_flatten(col)
             if values.null_count:
-                raise _refuse(path, f"column {field.name} has null values in its lists")
+                raise refusal(path, f"column {field.name} has null values in its lists")
         columns.append(col)
     return pa.Table.from_arrays(columns, schema=target)
 
 
-def _lists(col: Any) -> tuple[np.ndarray, np.ndarray]:
+def list_column(col: Any) -> tuple[np.ndarray, np.ndarray]:
     """(lengths (N,), flat values) of a list column; null lists have length -1."""
     import pyarrow.compute as pc
 
@@ -156,16 +158,16 @@ def check_steps(table: Any, path: Path, graph: TaskGraph, *, participant: str,
     """
     n = table.num_rows
     if n == 0:
-        raise _refuse(path, "holds no step (an episode file has one row per step)")
+        raise refusal(path, "holds no step (an episode file has one row per step)")
     col = {name: table.column(name).to_numpy(zero_copy_only=False)
            for name in table.schema.names if name not in ("action_mask", "belief", "layout")}
 
     def first(bad: np.ndarray, what: Callable[[int], str]) -> None:
         if bad.any():
             t = int(np.flatnonzero(bad)[0])
-            raise _refuse(path, f"step {t}: {what(t)}")
+            raise refusal(path, f"step {t}: {what(t)}")
 
-    _check_session(col, path, participant, synthetic)
+    check_session(col, path, participant, synthetic)
     limits = (("start", graph.n_intentions, "supports"),
               ("assigned_intention", graph.n_intentions, "intentions"),
               ("intention", graph.n_intentions, "intentions"),
@@ -178,19 +180,19 @@ def check_steps(table: Any, path: Path, graph: TaskGraph, *, participant: str,
         x = col[name].astype(np.int64)
         if ((x < 0) | (x >= limit)).any():
             t = int(np.flatnonzero((x < 0) | (x >= limit))[0])
-            raise _refuse(path, f"step {t}: {name} {x[t]} is outside [0, {limit}) (the "
+            raise refusal(path, f"step {t}: {name} {x[t]} is outside [0, {limit}) (the "
                                 f"{graph.name}'s {what})")
     for name in ("start", "assigned_intention"):
         x = col[name]
         if (x != x[0]).any():
             t = int(np.flatnonzero(x != x[0])[0])
-            raise _refuse(path, f"step {t}: {name} {x[t]} differs from step 0's {x[0]} (one "
+            raise refusal(path, f"step {t}: {name} {x[t]} differs from step 0's {x[0]} (one "
                                 f"episode has one {name})")
     s, s1 = col["state"].astype(np.int64), col["next_state"].astype(np.int64)
     a_r, a_h = col["robot_action"].astype(np.int64), col["human_action"].astype(np.int64)
     home = int(graph.support_state(int(col["start"][0]), 0))
     if s[0] != home:
-        raise _refuse(path, f"step 0: state {s[0]} is not the start support's state {home}")
+        raise refusal(path, f"step 0: state {s[0]} is not the start support's state {home}")
     moved = graph.next_state[s, a_r, a_h]
     first(s1 != moved, lambda t: f"next_state {s1[t]}: the {graph.name} goes from state "
           f"{s[t]} with actions (robot {a_r[t]}, human {a_h[t]}) to {moved[t]}")
@@ -204,9 +206,9 @@ def check_steps(table: Any, path: Path, graph: TaskGraph, *, participant: str,
     first(col["robot_last_human_action"] != last_h, lambda t: "robot_last_human_action "
           f"{col['robot_last_human_action'][t]} is not the human's previous action "
           f"{last_h[t]}")
-    _check_ends(col, path, n)
+    check_ends(col, path, n)
     _check_lists(table, path, graph, s)
-    _check_numbers(col, ("robot_reward", "human_reward", "t_shown", "t_action", "response_s"),
+    check_numbers(col, ("robot_reward", "human_reward", "t_shown", "t_action", "response_s"),
                    path)
     r_r, r_h = col["robot_reward"].astype(float), col["human_reward"].astype(float)
     first((r_r < -1.0) | (r_r > 0.0), lambda t: f"robot_reward is {r_r[t]}; every reward "
@@ -217,77 +219,77 @@ def check_steps(table: Any, path: Path, graph: TaskGraph, *, participant: str,
     first(np.isinf(ms) | (ms < 0), lambda t: f"client_response_ms is {ms[t]}")
 
 
-def _check_ends(col: dict[str, np.ndarray], path: Path, n: int) -> None:
+def check_ends(col: dict[str, np.ndarray], path: Path, n: int) -> None:
     """The episode of ``n`` steps ends (terminated or truncated, not both) at its last step
     and only there (also the physical episodes', :mod:`hri_bench.data.physical`).
     """
     ends = col["terminated"].astype(bool) | col["truncated"].astype(bool)
     early = ends & (np.arange(n) < n - 1)
     if early.any():
-        raise _refuse(path, f"step {int(np.flatnonzero(early)[0])}: the episode ends "
+        raise refusal(path, f"step {int(np.flatnonzero(early)[0])}: the episode ends "
                             "(terminated or truncated) before its last step")
     if col["terminated"][-1] == col["truncated"][-1]:
-        raise _refuse(path, f"step {n - 1}: the last step must be terminated or truncated, "
+        raise refusal(path, f"step {n - 1}: the last step must be terminated or truncated, "
                             f"not {'both' if col['terminated'][-1] else 'neither'}")
 
 
-def _check_numbers(col: dict[str, np.ndarray], names: tuple[str, ...], path: Path) -> None:
+def check_numbers(col: dict[str, np.ndarray], names: tuple[str, ...], path: Path) -> None:
     """The columns ``names`` hold a number (not NaN, not infinite) at every step."""
     for name in names:
         x = col[name].astype(float)
         if not np.isfinite(x).all():
             t = int(np.flatnonzero(~np.isfinite(x))[0])
-            raise _refuse(path, f"step {t}: {name} is {x[t]}, not a number")
+            raise refusal(path, f"step {t}: {name} is {x[t]}, not a number")
 
 
-def _check_session(col: dict[str, np.ndarray], path: Path, participant: str,
+def check_session(col: dict[str, np.ndarray], path: Path, participant: str,
                    synthetic: bool) -> None:
     """One episode of ``participant``'s session, steps 0, 1, ..."""
     who = col["participant"]
     if (who != participant).any():
         other = who[np.flatnonzero(who != participant)[0]]
-        raise _refuse(path, f"holds steps of participant {other!r}, in the folder of "
+        raise refusal(path, f"holds steps of participant {other!r}, in the folder of "
                             f"{participant!r} (a copied file?)")
     if (col["synthetic"] != synthetic).any():
-        raise _refuse(path, f"has rows with synthetic {not synthetic} in a "
+        raise refusal(path, f"has rows with synthetic {not synthetic} in a "
                             f"{'synthetic' if synthetic else 'people'} dataset")
     for name in ("session_index", "episode"):
         if (col[name] != col[name][0]).any():
-            raise _refuse(path, f"holds more than one {name} "
+            raise refusal(path, f"holds more than one {name} "
                                 f"({sorted(set(col[name].tolist()))[:5]})")
     if col["episode"][0] < 0 or col["session_index"][0] < 0:
-        raise _refuse(path, f"episode {col['episode'][0]} and session_index "
+        raise refusal(path, f"episode {col['episode'][0]} and session_index "
                             f"{col['session_index'][0]} must be >= 0")
     steps = col["step"]
     if (steps != np.arange(len(steps))).any():
         t = int(np.flatnonzero(steps != np.arange(len(steps)))[0])
-        raise _refuse(path, f"row {t} is step {steps[t]}; the rows are steps 0, 1, 2, ...")
+        raise refusal(path, f"row {t} is step {steps[t]}; the rows are steps 0, 1, 2, ...")
 
 
 def _check_lists(table: Any, path: Path, graph: TaskGraph, states: np.ndarray) -> None:
     """The action masks, beliefs and layout."""
     n_a, n_i = graph.n_actions, graph.n_intentions
-    lengths, masks = _lists(table.column("action_mask"))
+    lengths, masks = list_column(table.column("action_mask"))
     if (lengths != n_a).any():
         t = int(np.flatnonzero(lengths != n_a)[0])
-        raise _refuse(path, f"step {t}: action_mask has {lengths[t]} entries, not {n_a}")
+        raise refusal(path, f"step {t}: action_mask has {lengths[t]} entries, not {n_a}")
     wrong = (masks.reshape(-1, n_a) != graph.valid[states]).any(1)
     if wrong.any():
         t = int(np.flatnonzero(wrong)[0])
-        raise _refuse(path, f"step {t}: action_mask is not state {states[t]}'s valid actions "
+        raise refusal(path, f"step {t}: action_mask is not state {states[t]}'s valid actions "
                             f"{graph.valid[states[t]].astype(int).tolist()}")
-    lengths, beliefs = _lists(table.column("belief"))
+    lengths, beliefs = list_column(table.column("belief"))
     if ((lengths != n_i) & (lengths != -1)).any():
         t = int(np.flatnonzero((lengths != n_i) & (lengths != -1))[0])
-        raise _refuse(path, f"step {t}: belief has {lengths[t]} entries, not {n_i} (one per "
+        raise refusal(path, f"step {t}: belief has {lengths[t]} entries, not {n_i} (one per "
                             "intention) or null")
     bad = ~np.isfinite(beliefs) | (beliefs < 0) | (beliefs > 1)
     if bad.any():
         k = int(np.flatnonzero(bad)[0])
         t = int(np.repeat(np.arange(len(lengths)), np.maximum(lengths, 0))[k])
-        raise _refuse(path, f"step {t}: belief holds {beliefs[k]}, not a probability")
-    lengths, layout = _lists(table.column("layout"))
+        raise refusal(path, f"step {t}: belief holds {beliefs[k]}, not a probability")
+    lengths, layout = list_column(table.column("layout"))
     if (lengths % 2).any() or (lengths != lengths[0]).any() or not np.isfinite(layout).all():
-        raise _refuse(path, "layout must be one list of finite (x, y) pairs for the episode")
+        raise refusal(path, "layout must be one list of finite (x, y) pairs for the episode")
     if lengths[0] and (layout.reshape(len(lengths), -1) != layout[:lengths[0]]).any():
-        raise _refuse(path, "layout differs between steps (one episode has one layout)")
+        raise refusal(path, "layout differs between steps (one episode has one layout)")

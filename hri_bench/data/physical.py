@@ -25,11 +25,11 @@ from typing import Any
 import numpy as np
 
 from hri_bench.data.checks import (
-    _check_ends,
-    _check_numbers,
-    _check_session,
-    _lists,
-    _refuse,
+    check_ends,
+    check_numbers,
+    check_session,
+    list_column,
+    refusal,
 )
 from hri_envs.task.scenarios import scenario_graph
 
@@ -147,14 +147,14 @@ def observation_size(scenario: str) -> int:
 
 def _matrix(table: Any, name: str, width: int, path: Path) -> np.ndarray:
     """A list column of ``width`` finite values per row as an (N, width) array."""
-    lengths, values = _lists(table.column(name))
+    lengths, values = list_column(table.column(name))
     if (lengths != width).any():
         t = int(np.flatnonzero(lengths != width)[0])
-        raise _refuse(path, f"step {t}: {name} has {lengths[t]} values, not {width}")
+        raise refusal(path, f"step {t}: {name} has {lengths[t]} values, not {width}")
     out = values.astype(np.float64).reshape(-1, width)
     bad = ~np.isfinite(out).all(axis=1)
     if bad.any():
-        raise _refuse(path, f"step {int(np.flatnonzero(bad)[0])}: {name} holds a value that "
+        raise refusal(path, f"step {int(np.flatnonzero(bad)[0])}: {name} holds a value that "
                             "is not a finite number")
     return out
 
@@ -172,24 +172,24 @@ def check_physical_steps(table: Any, path: Path, scenario: str, *, participant: 
     """
     n = table.num_rows
     if n == 0:
-        raise _refuse(path, "holds no step (an episode file has one row per step)")
+        raise refusal(path, "holds no step (an episode file has one row per step)")
     skip = {name for name, kind, _ in PHYSICAL_COLUMNS if kind.startswith("list")}
     col = {name: table.column(name).to_numpy(zero_copy_only=False)
            for name in table.schema.names if name not in skip}
-    _check_session(col, path, participant, synthetic)
+    check_session(col, path, participant, synthetic)
     k = scenario_graph(scenario).n_intentions
     for name in ("start", "assigned_intention"):
         x = col[name].astype(np.int64)
         if ((x < 0) | (x >= k)).any() or (x != x[0]).any():
-            raise _refuse(path, f"{name} must be one support in [0, {k}) for the episode, "
+            raise refusal(path, f"{name} must be one support in [0, {k}) for the episode, "
                                 f"got {sorted(set(x.tolist()))[:5]}")
     start, goal = int(col["start"][0]), int(col["assigned_intention"][0])
     if start == goal:
-        raise _refuse(path, f"the goal {goal} is the start support")
+        raise refusal(path, f"the goal {goal} is the start support")
     times = col["time_s"].astype(float)
     if not np.allclose(times, STEP_S * np.arange(n), atol=1e-6):
         t = int(np.flatnonzero(~np.isclose(times, STEP_S * np.arange(n), atol=1e-6))[0])
-        raise _refuse(path, f"step {t}: time_s {times[t]} is not {STEP_S * t:.2f} (steps of "
+        raise refusal(path, f"step {t}: time_s {times[t]} is not {STEP_S * t:.2f} (steps of "
                             f"{STEP_S} s from 0)")
     n_obs = observation_size(scenario)
     robot = _matrix(table, "robot_observation", n_obs, path)
@@ -198,59 +198,59 @@ def check_physical_steps(table: Any, path: Path, scenario: str, *, participant: 
     if (human[:, :n_obs] != robot).any() or (human[:, n_obs:] != onehot[goal]).any():
         t = int(np.flatnonzero((human[:, :n_obs] != robot).any(1)
                                | (human[:, n_obs:] != onehot[goal]).any(1))[0])
-        raise _refuse(path, f"step {t}: human_observation is not the robot's with the "
+        raise refusal(path, f"step {t}: human_observation is not the robot's with the "
                             f"goal {goal}'s one-hot appended")
-    lengths, _ = _lists(table.column("final_observation"))
+    lengths, _ = list_column(table.column("final_observation"))
     if (lengths[:-1] != 0).any() or lengths[-1] != n_obs:
-        raise _refuse(path, f"final_observation must be empty before the last step and hold "
+        raise refusal(path, f"final_observation must be empty before the last step and hold "
                             f"{n_obs} values at it")
     first_start = n_obs - 4 * k - 1  # the start's one-hot, then the seats, then the time
     if (robot[:, first_start:first_start + k] != onehot[start]).any():
-        raise _refuse(path, f"robot_observation's start one-hot is not support {start}'s")
+        raise refusal(path, f"robot_observation's start one-hot is not support {start}'s")
     for name, width in _FIXED.items():
         x = _matrix(table, name, width, path)
         if name.endswith("_action") and (np.abs(x) > 1.0 + 1e-6).any():
             t = int(np.flatnonzero((np.abs(x) > 1.0 + 1e-6).any(1))[0])
-            raise _refuse(path, f"step {t}: {name} leaves [-1, 1]")
+            raise refusal(path, f"step {t}: {name} leaves [-1, 1]")
     _check_end(col, path, n, k)
-    _check_numbers(col, ("reward", "stiffness", "t_input", "t_frame", "step_s"), path)
+    check_numbers(col, ("reward", "stiffness", "t_input", "t_frame", "step_s"), path)
     if ((col["stiffness"] < 0) | (col["stiffness"] > 1)).any():
-        raise _refuse(path, "stiffness must be in [0, 1]")
+        raise refusal(path, "stiffness must be in [0, 1]")
     bad = ~np.isin(col["input"], INPUTS)
     if bad.any():
-        raise _refuse(path, f"step {int(np.flatnonzero(bad)[0])}: input must be one of "
+        raise refusal(path, f"step {int(np.flatnonzero(bad)[0])}: input must be one of "
                             f"{', '.join(INPUTS)}")
     ms = col["client_latency_ms"].astype(float)
     if (np.isinf(ms) | (ms < 0)).any():
-        raise _refuse(path, "client_latency_ms must be null or a time >= 0")
+        raise refusal(path, "client_latency_ms must be null or a time >= 0")
     _check_belief_layout(table, path, k)
 
 
 def _check_end(col: dict[str, np.ndarray], path: Path, n: int, k: int) -> None:
     """The episode ends at its last step only, with its outcome and placed support."""
-    _check_ends(col, path, n)
+    check_ends(col, path, n)
     outcome = col["outcome"]
     if any(o is not None for o in outcome[:-1]) or outcome[-1] not in OUTCOMES:
-        raise _refuse(path, f"outcome must be null before the last step and one of "
+        raise refusal(path, f"outcome must be null before the last step and one of "
                             f"{', '.join(OUTCOMES)} at it, got {outcome[-1]!r}")
     placed = col["placed"].astype(np.int64)
     if (placed[:-1] != -1).any() or not -1 <= placed[-1] < k:
-        raise _refuse(path, "placed must be -1 before the last step and a support or -1 at "
+        raise refusal(path, "placed must be -1 before the last step and a support or -1 at "
                             "it")
 
 
 def _check_belief_layout(table: Any, path: Path, k: int) -> None:
-    lengths, beliefs = _lists(table.column("belief"))
+    lengths, beliefs = list_column(table.column("belief"))
     if ((lengths != k) & (lengths != -1)).any():
         t = int(np.flatnonzero((lengths != k) & (lengths != -1))[0])
-        raise _refuse(path, f"step {t}: belief has {lengths[t]} entries, not {k} or null")
+        raise refusal(path, f"step {t}: belief has {lengths[t]} entries, not {k} or null")
     if (~np.isfinite(beliefs) | (beliefs < 0) | (beliefs > 1)).any():
-        raise _refuse(path, "belief holds a value that is not a probability")
-    lengths, layout = _lists(table.column("layout"))
+        raise refusal(path, "belief holds a value that is not a probability")
+    lengths, layout = list_column(table.column("layout"))
     if (lengths % 2).any() or (lengths != lengths[0]).any() or not np.isfinite(layout).all():
-        raise _refuse(path, "layout must be one list of finite (x, y) pairs for the episode")
+        raise refusal(path, "layout must be one list of finite (x, y) pairs for the episode")
     if lengths[0] and (layout.reshape(len(lengths), -1) != layout[:lengths[0]]).any():
-        raise _refuse(path, "layout differs between steps (one episode has one layout)")
+        raise refusal(path, "layout differs between steps (one episode has one layout)")
 
 
 def robot_episode_arrays(table: Any) -> Iterator[dict[str, Any]]:
