@@ -12,7 +12,7 @@ import pytest
 
 from hri_envs.errors import ConfigError
 from hri_envs.physics.body import BodySize, bmi_mass, stature_at
-from hri_envs.physics.carry import CarrySim, _grip_force
+from hri_envs.physics.carry import CarrySim, default_grip_force
 from hri_envs.physics.families import FAMILIES, GROUPS
 from hri_envs.physics.intention import HumanParams
 from hri_envs.physics.population import (
@@ -119,7 +119,7 @@ def _within(value, lo, hi, tol):
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_members_are_within_their_familys_ranges(scenario, sims):
-    grip = _grip_force(sims[scenario].design)
+    grip = default_grip_force(sims[scenario].design)
     prefs = scenario_spec(scenario).preferences
     for split in SPLITS:
         for h, name in zip(*[(p := physical_population(split, scenario)).members,

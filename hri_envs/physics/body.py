@@ -50,7 +50,7 @@ import mujoco
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.physics.whole_arm import SEGMENTS, Segment, WholeArm, _inertia
+from hri_envs.physics.whole_arm import SEGMENTS, Segment, WholeArm, segment_inertia
 
 __all__ = ["BODY_FIELDS", "DE_LEVA", "SEXES", "STATURE_SURVEY", "WARP_BODY_FIELDS", "ArmBody",
            "BodySize", "bmi_mass", "stature_at"]
@@ -218,7 +218,7 @@ class ArmBody:
         for b, geoms, child, name in zip(self.segs, self.seg_geoms, children, SEGMENTS,
                                          strict=True):
             seg, seg0 = segs[name], SEGMENTS[name]
-            m.body_mass[b], m.body_inertia[b] = seg.mass, _inertia(seg)
+            m.body_mass[b], m.body_inertia[b] = seg.mass, segment_inertia(seg)
             m.body_ipos[b] = (0.0, 0.0, -seg.length / 2)
             m.body_pos[child] = (0.0, 0.0, -seg.length)
             along, across = seg.length / seg0.length, seg.radius / seg0.radius

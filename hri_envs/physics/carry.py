@@ -248,7 +248,7 @@ class CarrySim:
         self.impedance.gains = self._gains()
         self.arm_drive.set_strength(self.params.strength * self.params.body.strength_scale())
         grip_force = (self.params.grip_force_n if self.params.grip_force_n is not None
-                      else _grip_force(design))
+                      else default_grip_force(design))
         self.arm.set_grip_force(grip_force)
         self.sensor.reset(rng.spawn(1)[0])
         self.start, self.goal = start, goal
@@ -490,7 +490,7 @@ class CarrySim:
                          placed, fault, sat, *extra)
 
 
-def _grip_force(design: PhysicsDesign) -> float:
+def default_grip_force(design: PhysicsDesign) -> float:
     """The default grip force [N]: enough for the object's weight about 4 times over with
     friction 1 on palm and fingers.
     """

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.physics.carry import CarrySim, _grip_force
+from hri_envs.physics.carry import CarrySim, default_grip_force
 from hri_envs.physics.families import FAMILIES
 from hri_envs.physics.ik import IKFailure
 from hri_envs.physics.intention import HumanParams
@@ -74,7 +74,7 @@ def build_scenario(scenario: str, progress: Callable[[str], None] | None = None
     """
     graph = scenario_graph(scenario)
     sim = CarrySim(graph)
-    grip = _grip_force(sim.design)
+    grip = default_grip_force(sim.design)
     prefs = scenario_spec(scenario).preferences
     kept: list[np.ndarray] = []
     doc: dict[str, Any] = {"rejected": {}}

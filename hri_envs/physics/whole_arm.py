@@ -218,7 +218,7 @@ def _hinge(body: mujoco.MjsBody, name: str, axis: tuple[float, float, float],
                    armature=_JOINT_ARMATURE)
 
 
-def _inertia(seg: Segment) -> list[float]:
+def segment_inertia(seg: Segment) -> list[float]:
     """A solid cylinder's principal inertia about its centre (axis z)."""
     m, r, length = seg.mass, seg.radius, seg.length
     across = m * (3 * r * r + length * length) / 12.0
@@ -238,7 +238,7 @@ def add_whole_arm(spec: mujoco.MjSpec, design: PhysicsDesign, rest_quat: np.ndar
     upper, fore, hand_seg = SEGMENTS["upper_arm"], SEGMENTS["forearm"], SEGMENTS["hand"]
     arm = torso.add_body(name="human_upper_arm", pos=list(_SHOULDER_IN_TORSO), gravcomp=1.0)
     arm.mass, arm.ipos, arm.explicitinertial = upper.mass, [0, 0, -upper.length / 2], True
-    arm.inertia = _inertia(upper)
+    arm.inertia = segment_inertia(upper)
     for name, axis, rng in zip(ARM_JOINTS[:3], ((0, -1, 0), (-1, 0, 0), (0, 0, 1)),
                                _RANGES[:3], strict=True):
         _hinge(arm, name, axis, rng)
@@ -246,14 +246,14 @@ def add_whole_arm(spec: mujoco.MjSpec, design: PhysicsDesign, rest_quat: np.ndar
             rgba=_SHIRT)
     forearm = arm.add_body(name="human_forearm", pos=[0, 0, -upper.length], gravcomp=1.0)
     forearm.mass, forearm.ipos = fore.mass, [0, 0, -fore.length / 2]
-    forearm.inertia, forearm.explicitinertial = _inertia(fore), True
+    forearm.inertia, forearm.explicitinertial = segment_inertia(fore), True
     _hinge(forearm, ARM_JOINTS[3], (0, -1, 0), _RANGES[3])
     _hinge(forearm, ARM_JOINTS[4], (0, 0, 1), _RANGES[4])
     _visual(forearm, type=cap, fromto=[0, 0, 0, 0, 0, -fore.length], size=[fore.radius, 0, 0],
             rgba=_SKIN)
     hand = forearm.add_body(name="human_hand", pos=[0, 0, -fore.length], gravcomp=1.0)
     hand.mass, hand.ipos = hand_seg.mass, [0, 0, -hand_seg.length / 2]
-    hand.inertia, hand.explicitinertial = _inertia(hand_seg), True
+    hand.inertia, hand.explicitinertial = segment_inertia(hand_seg), True
     _hinge(hand, ARM_JOINTS[5], (0, -1, 0), _RANGES[5])
     _hinge(hand, ARM_JOINTS[6], (1, 0, 0), _RANGES[6])
     for name, limit in zip(ARM_JOINTS, TORQUE_LIMITS.values(), strict=True):

@@ -35,7 +35,7 @@ from hri_bench.data.physical import STEP_S
 from hri_bench.people.serve.design import Assignment, ServeConfig
 from hri_bench.people.serve.lead_process import LeadProcess, SparePool
 from hri_bench.people.serve.scenes import STORE
-from hri_bench.people.serve.session import Session, SessionManager, _writer
+from hri_bench.people.serve.session import Session, SessionManager, writer_pool
 from hri_envs import __version__
 
 __all__ = ["LeadSession", "LeadSessionManager", "episode_seeds"]
@@ -176,7 +176,7 @@ class LeadSession(Session):
                        else round(float(figures["effort"]), 1),
                        "reward": round(float(np.sum(columns["reward"])), 3)}
             self.outcomes.append(outcome)
-            self._written = _writer().submit(self._write,
+            self._written = writer_pool().submit(self._write,
                                              self._columns(episode, columns, rows, summary))
             last = episode + 1 == cfg.episodes
             self._publish({"type": "outcome", **self._header(), **outcome, "last": last,

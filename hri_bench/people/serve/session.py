@@ -66,7 +66,7 @@ _clock = time.monotonic
 
 
 @functools.cache
-def _writer() -> ThreadPoolExecutor:
+def writer_pool() -> ThreadPoolExecutor:
     """The thread that writes finished episodes, one at a time, in the order handed in."""
     return ThreadPoolExecutor(1, thread_name_prefix="hri-bench-writer")
 
@@ -477,7 +477,7 @@ class Session:
                            **self._scene(end)},
                           None if last else ("continue", frozenset()))
             # written by the server's writer thread while the page shows the outcome
-            self._written = _writer().submit(self.recorder.flush)
+            self._written = writer_pool().submit(self.recorder.flush)
             if last:
                 return
             self._prerender(self._episode + 1)
