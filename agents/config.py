@@ -8,7 +8,7 @@ from typing import Any
 
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.errors import ConfigError
-from hri_envs.task.scenarios import SCENARIOS, scenario_spec
+from hri_envs.task.scenarios import SCENARIOS, ScenarioSpec, scenario_spec
 
 __all__ = ["MAX_PRETRAIN_PASSES", "LearnerConfig", "default_config"]
 
@@ -96,15 +96,23 @@ class LearnerConfig:
         return dataclasses.asdict(self)
 
 
-def default_config(scenario: str, **changes: Any) -> LearnerConfig:
+def default_config(scenario: ScenarioSpec | str, **changes: Any) -> LearnerConfig:
     """The paper's parameters for a scenario (γ and r0 from its
     :class:`~hri_envs.task.scenarios.ScenarioSpec`: hanger γ = 0.9, r0 = -0.33; wheel
     γ = 0.6, r0 = -0.25), with optional changes.
+
+    Args:
+        scenario: The scenario; a registered one's name where a user names it (the
+            library passes the spec it resolved).
+        changes: :class:`LearnerConfig` fields to change.
+
+    Raises:
+        ConfigError: An unknown scenario name, or a change that is not allowed.
     """
-    spec = scenario_spec(scenario)
+    spec = scenario_spec(scenario) if isinstance(scenario, str) else scenario
     pref = changes.get("initial_preference")
     if pref is not None and pref not in spec.preferences:
-        raise ConfigError(f"initial_preference must be None or one of the {scenario} "
+        raise ConfigError(f"initial_preference must be None or one of the {spec.name} "
                           f"preferences ({', '.join(spec.preferences[:3])}, ...), got {pref!r}",
                           field="initial_preference")
     return LearnerConfig(gamma=spec.gamma, r0=spec.r0).replace(**changes)

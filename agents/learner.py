@@ -34,6 +34,7 @@ from hri_envs.task import episode as rules
 from hri_envs.task import mdp as task_mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["MAX_STATE_BYTES", "Learner", "LearnerStateError", "graph_fingerprint",
            "sample_actions"]
@@ -101,7 +102,7 @@ class Learner(BatchAgent):
     ) -> None:
         super().__init__(n_runs)
         self.graph = graph
-        self.config = config if config is not None else default_config(graph.name)
+        self.config = config if config is not None else default_config(spec_of(graph))
         runs = range(n_runs) if runs is None else runs
         if len(runs) != n_runs:
             raise ConfigError(f"runs must have n_runs={n_runs} entries, got {len(runs)}",

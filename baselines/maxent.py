@@ -23,6 +23,7 @@ from hri_envs.task import episode as rules
 from hri_envs.task import mdp as task_mdp
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["MaxEntIRL"]
 
@@ -49,7 +50,7 @@ class MaxEntIRL(_Tracking):
                  *, seed: int = 0, runs: Sequence[int] | None = None) -> None:
         super().__init__(graph, n_runs)
         self.config = (config if config is not None
-                       else default_config(graph.name, learning_rate=0.03))
+                       else default_config(spec_of(graph), learning_rate=0.03))
         self.rngs = run_streams(seed, range(n_runs) if runs is None else runs)
         n_i, n_s, n_a = graph.n_intentions, graph.n_states, graph.n_actions
         # Both agents take the same action; for the grasp toggle the "matching" human action

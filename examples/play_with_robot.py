@@ -78,10 +78,10 @@ def main(argv: list[str] | None = None) -> list[float]:
     cfg = tyro.cli(Config, args=argv, description=__doc__.splitlines()[0])
     if cfg.auto:
         player = ScriptedPlayer(cfg.scenario, cfg.seed, cfg.quiet)
-        rewards = play(cfg.scenario, episodes=cfg.episodes, seed=cfg.seed,
+        rewards = play(player.graph, episodes=cfg.episodes, seed=cfg.seed,
                        read=player.read, write=player.write)
     else:
-        rewards = play(cfg.scenario, episodes=cfg.episodes, seed=cfg.seed)
+        rewards = play(graph_for(cfg.scenario), episodes=cfg.episodes, seed=cfg.seed)
     print("robot reward per episode: " + " ".join(f"{r:.2f}" for r in rewards))
     return rewards
 

@@ -43,7 +43,7 @@ from hri_envs.task import episode as rules
 from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import RewardRule
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import SCENARIOS, ScenarioSpec, scenario_graph, scenario_spec
+from hri_envs.task.scenarios import SCENARIOS, ScenarioSpec, graph_of, scenario_spec
 
 __all__ = ["check_backend", "check_human", "check_reward_rule", "check_scenario"]
 
@@ -71,11 +71,9 @@ def check_scenario(spec: ScenarioSpec | str, *, env: bool = True) -> str:
             the robot following (``field="route"``); the env fails ``check_env``
             (``field="env"``).
     """
-    from hri_envs.task.scenarios import _build
-
     if isinstance(spec, str):
         spec = scenario_spec(spec)
-    graph = scenario_graph(spec.name) if SCENARIOS.find(spec.name) is spec else _build(spec)
+    graph = graph_of(spec)
     if graph.n_actions != spec.n_actions:
         raise _fail(f"scenario {spec.name!r}: its graph has {graph.n_actions} actions, the "
                     f"spec says n_actions={spec.n_actions}", "n_actions")
@@ -148,8 +146,8 @@ def check_human(human: HumanLike, scenario: str, *, episodes: int = 4, seed: int
     """
     from hri_envs.envs.robot import RobotEnv
 
-    graph = scenario_graph(scenario)
-    first = _play(_seated(lambda: RobotEnv(scenario, human=human), human), episodes, seed)
+    env = _seated(lambda: RobotEnv(scenario, human=human), human)
+    first = _play(env, episodes, seed)
     from hri_envs.humans.spec import HumanSpec
 
     if isinstance(human, HumanSpec):  # a spec can be seated afresh: the same seed, the same
@@ -157,7 +155,7 @@ def check_human(human: HumanLike, scenario: str, *, episodes: int = 4, seed: int
         if again != first:
             raise _fail(f"human {human!r}: two envs with seed {seed} saw different actions",
                         "human")
-        seat = _seated(lambda: seat_human(graph, human=human, n_runs=3), human)
+        seat = _seated(lambda: seat_human(env.graph, human=human, n_runs=3), human)
         if seat.n_runs != 3:
             raise _fail(f"human {human!r}: a seat of 3 rows has {seat.n_runs}", "human")
     return (f"human {human!r} on the {scenario}: {episodes} episodes with valid actions"
@@ -217,8 +215,9 @@ def check_reward_rule(rule: RewardRule | str, scenarios: tuple[str, ...] | None 
     if not isinstance(rule, RewardRule):
         raise _fail(f"check_reward_rule takes a RewardRule or a registered rule's name, got "
                     f"{rule!r}", "reward")
-    for name in scenarios or tuple(SCENARIOS):
-        rules.verify_reward_rule(rule, name)
+    specs = [scenario_spec(name) for name in scenarios] if scenarios else SCENARIOS.values()
+    for spec in specs:
+        rules.verify_reward_rule(rule, graph_of(spec))
     return f"reward rule {rule.name!r}: rewards in [-1, 0], the same on every path"
 
 
@@ -259,8 +258,7 @@ def check_backend(spec: BackendSpec | str, scenario: str = "hanger", *, episodes
     assert isinstance(name, str)
     found = backend_spec(name)  # registered, and its extra installed
     _check_entries(found)
-    steps = _check_backend_env(name, scenario, episodes, max_steps, seed)
-    graph = scenario_graph(scenario)
+    steps, graph = _check_backend_env(name, scenario, episodes, max_steps, seed)
     first = _play_batch(name, graph, tuple(range(runs)), max_steps, seed)
     if _play_batch(name, graph, tuple(range(runs)), max_steps, seed) != first:
         raise _fail(f"backend {name!r}: the same runs moved differently the second time: "
@@ -305,8 +303,10 @@ def _check_entries(spec: BackendSpec) -> None:
 
 
 def _check_backend_env(name: str, scenario: str, episodes: int, max_steps: int,
-                       seed: int) -> int:
-    """Gymnasium's ``check_env`` on its robot env, and the same episodes twice."""
+                       seed: int) -> tuple[int, TaskGraph]:
+    """Gymnasium's ``check_env`` on its robot env, and the same episodes twice: the steps
+    of one play, and the env's task graph.
+    """
     from gymnasium.utils.env_checker import check_env
 
     from hri_envs.envs.robot import RobotEnv
@@ -315,7 +315,8 @@ def _check_backend_env(name: str, scenario: str, episodes: int, max_steps: int,
         return RobotEnv(scenario, backend=name, max_cycles=max_steps)
 
     try:
-        check_env(make(), skip_render_check=True)
+        checked = make()
+        check_env(checked, skip_render_check=True)
     except Exception as exc:  # gymnasium raises AssertionError and others
         raise _fail(f"backend {name!r}: its robot env fails gymnasium's check_env: "
                     f"{type(exc).__name__}: {exc}", "env") from exc
@@ -341,7 +342,7 @@ def _check_backend_env(name: str, scenario: str, episodes: int, max_steps: int,
     if play() != first:
         raise _fail(f"backend {name!r}: its robot env played the same seeds differently: draw "
                     "randomness only from the generators reset(seed=...) gives", "env")
-    return len(first)
+    return len(first), checked.graph
 
 
 def _play_batch(name: str, graph: TaskGraph, runs: tuple[int, ...], max_steps: int,

@@ -165,8 +165,8 @@ def test_figures_subset_are_written(tmp_path):
 def test_play_in_the_terminal_with_scripted_answers():
     answers = iter(["x", "99", "0"] + ["2"] * 200)  # junk first, then always the second choice
     lines: list[str] = []
-    totals = play("wheel", episodes=1, read=lambda _: next(answers), write=lines.append,
-                  max_steps=6)
+    totals = play(scenario_graph("wheel"), episodes=1, read=lambda _: next(answers),
+                  write=lines.append, max_steps=6)
     assert len(totals) == 1
     text = "\n".join(lines)
     assert "Robot belief" in text and "robot chooses" in text and "Type a number" in text
@@ -183,8 +183,8 @@ def test_the_play_robot_takes_hold_once_and_waits_while_you_wait():
     for scenario in ("hanger", "wheel"):
         answers = iter(["1"] * 12 + ["q"])
         lines: list[str] = []
-        play(scenario, episodes=1, read=lambda _, a=answers: next(a), write=lines.append,
-             max_steps=40)
+        play(scenario_graph(scenario), episodes=1, read=lambda _, a=answers: next(a),
+             write=lines.append, max_steps=40)
         chosen = [line.split("robot chooses: ")[1] for line in lines if "robot chooses: " in line]
         assert len(chosen) == 13, lines  # the 13th step is shown, then q
         assert chosen.count("grasp") == 1 and "let go" not in chosen, (scenario, chosen)

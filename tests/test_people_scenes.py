@@ -23,7 +23,7 @@ def _body(scene, name):
 def test_a_graph_state_is_drawn_where_the_graph_puts_the_object_and_the_robot(scenario):
     """The object at the abstract state's pose; the robot's grip on the object's grip block
     when the robot holds it, away from it when it does not (who holds: the page's text)."""
-    scene = scenes._GraphScene(scenario)
+    scene = scenes._GraphScene(scenario_graph(scenario))
     graph = scene.graph
     spec = scenario_spec(scenario)
     layout = None if spec.layout is None else spec.layout(np.random.default_rng(3))
@@ -46,7 +46,7 @@ def test_a_graph_state_is_drawn_where_the_graph_puts_the_object_and_the_robot(sc
 
 
 def test_the_description_holds_the_visible_geoms_and_the_pandas_meshes():
-    scene = scenes._GraphScene("hanger")
+    scene = scenes._GraphScene(scenario_graph("hanger"))
     doc = scene.doc
     model = scene.sim.model
     assert doc["key"] == scene3d.scene_key(doc)
@@ -67,7 +67,7 @@ def test_the_description_holds_the_visible_geoms_and_the_pandas_meshes():
 
 
 def test_the_camera_holds_the_supports_and_both_agents():
-    scene = scenes._GraphScene("wheel")
+    scene = scenes._GraphScene(scenario_graph("wheel"))
     cam = json.loads(scene.camera(None, 0))
     eye, target = np.array(cam["eye"]), np.array(cam["target"])
     forward = (target - eye) / np.linalg.norm(target - eye)

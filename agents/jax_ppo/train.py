@@ -39,7 +39,7 @@ from hri_envs.humans.populations import PopulationSpec
 from hri_envs.humans.splits import MixtureSpec, population
 from hri_envs.jax.env import EnvState, JaxRobotEnv, uniform
 from hri_envs.task.actions import WAIT
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import NamedScenario
 
 __all__ = ["TrainConfig", "TrainResult", "make_env", "sample_actions", "train"]
 
@@ -49,7 +49,7 @@ MAX_TRIAL = 10_000
 
 
 @dataclass(frozen=True)
-class TrainConfig:
+class TrainConfig(NamedScenario):
     """What to train, on what, how long (JSON-ready; stored in the checkpoint).
 
     The attributes' descriptions are ``benchmarks/train_jax_ppo.py --help``'s help texts
@@ -129,7 +129,7 @@ class TrainConfig:
 
     def trial_length(self) -> int:
         """Episodes per trial (the scenario's study length by default)."""
-        return self.episodes_per_trial or scenario_spec(self.scenario).episodes
+        return self.episodes_per_trial or self.spec.episodes
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready."""

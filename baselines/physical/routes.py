@@ -6,7 +6,7 @@ through the task graph's abstract states (take off, moves over, up or down, rota
 put on), as the scripted preference humans of the abstract benchmark do; which route
 depends on their *preference*, an ordering of those moves. The robot knows the task graph,
 the episode's geometry and the scenario's list of preferences (all public:
-``task.graph``, ``task.geometry``, ``scenario_spec(...).preferences``); it does not know
+``task.graph``, ``task.geometry``, ``spec_of(task.graph).preferences``); it does not know
 the human's goal or preference. So its hypotheses are the pairs (goal, preference), each
 a route: the abstract states of :func:`~hri_envs.physics.intention.route_states` as object
 poses (:class:`~hri_envs.physics.observer.StateObserver`), a polyline in the space of
@@ -45,7 +45,7 @@ from hri_envs.physics.intention import route_states
 from hri_envs.physics.kinematics import rotation_error
 from hri_envs.physics.observer import StateObserver
 from hri_envs.physics.robot_view import RobotTask
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["FilterParams", "Projection", "RouteFilter", "Routes"]
 
@@ -84,7 +84,7 @@ class Routes:
     def __init__(self, task: RobotTask, preferences: Sequence[str] | None = None) -> None:
         graph = task.graph
         prefs = tuple(preferences if preferences is not None
-                      else scenario_spec(task.scenario).preferences)
+                      else spec_of(task.graph).preferences)
         if not prefs:
             raise ConfigError("preferences must name at least one preference",
                               field="preferences")

@@ -80,7 +80,7 @@ from hri_envs.humans.populations import POPULATIONS
 from hri_envs.humans.splits import MIXTURES
 from hri_envs.imports import PLUGIN_GROUP, import_modules, imported_modules, load_plugins
 from hri_envs.task.episode import REWARD_RULES
-from hri_envs.task.scenarios import SCENARIOS
+from hri_envs.task.scenarios import SCENARIOS, scenario_graph
 
 __all__ = ["build_parser", "main"]
 
@@ -901,7 +901,7 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser,
     if args.command in ("serve", "dataset", "replay"):
         return cli_people.run(args)
     if args.command == "play":
-        play(args.scenario, episodes=args.episodes, seed=args.seed)
+        play(scenario_graph(args.scenario), episodes=args.episodes, seed=args.seed)
         return 0
     return _demo(args)
 

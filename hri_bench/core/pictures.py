@@ -17,7 +17,8 @@ import zlib
 import numpy as np
 
 from hri_envs.envs.render import SideView
-from hri_envs.task.scenarios import Layout, episode_scenario, scenario_graph
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import Layout, episode_geometry
 
 __all__ = ["picture", "png"]
 
@@ -38,12 +39,12 @@ def png(rgb: np.ndarray, level: int = 3) -> bytes:
 
 
 @functools.lru_cache(maxsize=256)
-def _view(scenario: str, layout: Layout | None) -> SideView:
-    return SideView(episode_scenario(scenario, layout), scenario_graph(scenario))
+def _view(graph: TaskGraph, layout: Layout | None) -> SideView:
+    return SideView(episode_geometry(graph, layout), graph)
 
 
 @functools.lru_cache(maxsize=8192)
-def picture(scenario: str, layout: Layout | None, state: int) -> str:
-    """The side view of ``scenario`` (supports at ``layout``) in ``state`` as a PNG data URL."""
-    rgb = _view(scenario, layout).draw(int(state))
+def picture(graph: TaskGraph, layout: Layout | None, state: int) -> str:
+    """The side view of ``graph`` (supports at ``layout``) in ``state`` as a PNG data URL."""
+    rgb = _view(graph, layout).draw(int(state))
     return "data:image/png;base64," + base64.b64encode(png(rgb)).decode("ascii")

@@ -66,7 +66,7 @@ from hri_bench.data.physical import (
 )
 from hri_envs import __version__  # importing hri_envs registers the env ids
 from hri_envs.errors import ConfigError, MissingExtraError
-from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
+from hri_envs.task.scenarios import SCENARIOS, NamedScenario
 
 __all__ = [
     "COLUMNS",
@@ -245,7 +245,7 @@ def _write_json(path: Path, doc: Mapping[str, Any]) -> None:
 
 
 @dataclass(frozen=True)
-class Dataset:
+class Dataset(NamedScenario):
     """A dataset folder (:func:`open_dataset`, :func:`create_dataset`).
 
     Attributes:
@@ -421,12 +421,12 @@ class Dataset:
         target = schema(physical=self.physical)
         if not paths:
             return target.empty_table()
-        graph = scenario_graph(self.scenario)
+        graph = self.graph
         tables, seen = [], dict[tuple[str, int], Path]()
         for path in paths:
             table = read_episode(path, target)
             if self.physical:
-                check_physical_steps(table, path, self.scenario, participant=path.parent.name,
+                check_physical_steps(table, path, graph, participant=path.parent.name,
                                      synthetic=self.synthetic)
             else:
                 check_steps(table, path, graph, participant=path.parent.name,
@@ -653,7 +653,7 @@ def robot_episodes(dataset: Dataset) -> Iterator[RobotEpisode]:
     physical dataset: the continuous env's observation vectors and actions,
     :func:`~hri_bench.data.physical.robot_episode_arrays`).
     """
-    graph = scenario_graph(dataset.scenario)
+    graph = dataset.graph
     table = dataset.steps()
     if table.num_rows == 0:
         return
@@ -767,7 +767,7 @@ def _gym_id(dataset: Dataset) -> str:
     """The env whose robot's view a dataset's Minari export is: the graph env, or the
     continuous env's v1 for a physical dataset.
     """
-    spec = scenario_spec(dataset.scenario)
+    spec = dataset.spec
     if not dataset.physical:
         return str(spec.gym_id)
     from hri_envs.registration import continuous_id  # noqa: PLC0415

@@ -52,7 +52,7 @@ from hri_envs.humans.fitted import (
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.task.actions import WAIT
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import scenario_graph
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["KINDS", "PREFIXES", "FittedModel", "evaluate", "fit", "is_recorded",
            "recorded_human", "recorded_info", "split_participants", "validate_recorded"]
@@ -111,7 +111,7 @@ def _episodes(dataset: Dataset, participants: list[str]) -> _Episodes:
     col = {n: table.column(n).to_numpy(zero_copy_only=False)
            for n in ("participant", "episode", "step", "start", "assigned_intention", "state",
                      "next_state", "robot_action", "human_action", "terminated")}
-    graph = scenario_graph(dataset.scenario)
+    graph = dataset.graph
     invalid = ~graph.valid[col["state"].astype(np.int64), col["human_action"].astype(np.int64)]
     if invalid.any():
         i = int(np.flatnonzero(invalid)[0])
@@ -142,7 +142,7 @@ def _episodes(dataset: Dataset, participants: list[str]) -> _Episodes:
 def _irl_policy(graph: TaskGraph, episodes: _Episodes, passes: int) -> tuple[np.ndarray,
                                                                               np.ndarray]:
     """(θ, π̂_H (I, S, A)) after ``passes`` of the Learner's update over the episodes."""
-    learner = Learner(graph, 1, default_config(graph.name))
+    learner = Learner(graph, 1, default_config(spec_of(graph)))
     for _ in range(passes):
         for trace, goal in zip(episodes.traces, episodes.goals, strict=True):
             if goal >= 0:
@@ -201,7 +201,7 @@ def fit(dataset: Dataset, kind: str = "bc", *, smoothing: float = 1.0,
     """
     if kind not in KINDS:
         raise ConfigError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}", field="kind")
-    graph = scenario_graph(dataset.scenario)
+    graph = dataset.graph
     train, test = split_participants(dataset.dataset_id, dataset.participants(unfinished=False))
     episodes = _episodes(dataset, train)
     if not episodes.traces:
@@ -262,7 +262,7 @@ def evaluate(dataset: Dataset, models: list[FittedModel]) -> dict[str, Any]:
     without held-out participants), and for each model where its log-likelihood goes
     (:func:`_breakdown`, under ``"breakdown"``).
     """
-    graph = scenario_graph(dataset.scenario)
+    graph = dataset.graph
     _, test = split_participants(dataset.dataset_id, dataset.participants(unfinished=False))
     steps = _episodes(dataset, test).steps
     uniform = np.broadcast_to(uniform_policy(graph), (graph.n_intentions,
@@ -288,26 +288,27 @@ def _model(path: str, content_hash: str, kind: str) -> FittedModel:
     return fit(open_dataset(path), kind)
 
 
-def _dataset_of(name: str, scenario: str) -> tuple[str, Dataset]:
+def _dataset_of(name: str, graph: TaskGraph) -> tuple[str, Dataset]:
     kind, ident = _parse(name)
     if not ident:
         raise ConfigError(f"population {name!r} names no dataset; give e.g. "
-                          f"'recorded:{scenario}-people-v0'", field="population")
+                          f"'recorded:{graph.name}-people-v0'", field="population")
     dataset = open_dataset(ident, field="population")
-    if dataset.scenario != scenario:
+    if dataset.scenario != graph.name:
         raise ConfigError(f"population {name!r}: dataset {dataset.dataset_id} was recorded "
-                          f"on the {dataset.scenario}, not the {scenario}", field="population")
+                          f"on the {dataset.scenario}, not the {graph.name}",
+                          field="population")
     return kind, dataset
 
 
-def validate_recorded(name: str, scenario: str) -> None:
+def validate_recorded(name: str, graph: TaskGraph) -> None:
     """Raise a :class:`ConfigError` (``field="population"``) unless ``name`` names a recorded
-    dataset of ``scenario`` whose steps all pass the checks (:mod:`hri_bench.data.checks`,
+    dataset of ``graph``'s scenario whose steps all pass the checks (:mod:`hri_bench.data.checks`,
     and valid human actions) with a training participant's episode (the root is
     ``$HRI_BENCH_DATASETS``, else ``~/.hri-bench/datasets``; a dataset folder's path works
     too). Studies call it before anything is simulated.
     """
-    _, dataset = _dataset_of(name, scenario)
+    _, dataset = _dataset_of(name, graph)
     try:
         dataset.content_hash()  # reads and checks every finished session's steps
         train, _ = split_participants(dataset.dataset_id, dataset.participants(unfinished=False))
@@ -319,24 +320,24 @@ def validate_recorded(name: str, scenario: str) -> None:
                           "episode of a training participant yet", field="population")
 
 
-def recorded_info(name: str, scenario: str) -> dict[str, Any]:
+def recorded_info(name: str, graph: TaskGraph) -> dict[str, Any]:
     """A recorded population's ``population_info`` (as a split's,
     :meth:`hri_bench.run.study.StudyConfig.population_info`): ``hash`` is the content hash
     of the dataset's finished sessions (:meth:`Dataset.content_hash`, what the model is
     fitted to and scored on), ``version`` the dataset id's, ``members`` the training
     participants; and ``dataset_id``, ``synthetic``, ``fit`` (bc or irl).
     """
-    kind, dataset = _dataset_of(name, scenario)
+    kind, dataset = _dataset_of(name, graph)
     train, _ = split_participants(dataset.dataset_id, dataset.participants(unfinished=False))
     return {"name": name, "version": dataset.dataset_id.rsplit("-v", 1)[1],
             "hash": dataset.content_hash(), "held_out": None, "members": len(train),
             "dataset_id": dataset.dataset_id, "synthetic": dataset.synthetic, "fit": kind}
 
 
-def recorded_human(name: str, scenario: str) -> ScriptedHuman:
-    """The human ``recorded:DATASET`` (bc) or ``recorded-irl:DATASET`` (irl) names, fitted
-    once per process and dataset content.
+def recorded_human(name: str, graph: TaskGraph) -> ScriptedHuman:
+    """The human ``recorded:DATASET`` (bc) or ``recorded-irl:DATASET`` (irl) names on
+    ``graph``, fitted once per process and dataset content.
     """
-    kind, dataset = _dataset_of(name, scenario)
+    kind, dataset = _dataset_of(name, graph)
     model = _model(str(dataset.path.resolve()), dataset.content_hash(), kind)
-    return fitted_human(scenario_graph(scenario), model.policy, name)
+    return fitted_human(graph, model.policy, name)

@@ -31,7 +31,7 @@ from hri_bench.data.checks import (
     list_column,
     refusal,
 )
-from hri_envs.task.scenarios import scenario_graph
+from hri_envs.task.graph import TaskGraph
 
 __all__ = ["ACTION_SIZE", "INPUTS", "PHYSICAL_COLUMNS", "PHYSICAL_SCHEMA", "STEP_S",
            "check_physical_steps", "hand_pose", "human_action", "observation_size",
@@ -136,12 +136,11 @@ def hand_pose(sim: Any) -> tuple[np.ndarray, np.ndarray]:
     return data.site_xpos[site].copy(), quat
 
 
-def observation_size(scenario: str) -> int:
-    """The robot's observation size of the continuous env of ``scenario`` (hanger 53, wheel
-    59: 13 + 7 + 2 joints + 6 + 4 K + 1).
+def observation_size(graph: TaskGraph) -> int:
+    """The robot's observation size of the continuous env of ``graph``'s scenario (hanger
+    53, wheel 59: 13 + 7 + 2 joints + 6 + 4 K + 1).
     """
-    graph = scenario_graph(scenario)
-    joints = 10 if scenario == "wheel" else 7
+    joints = 10 if graph.name == "wheel" else 7
     return 13 + 7 + 2 * joints + 6 + 4 * graph.n_intentions + 1
 
 
@@ -159,11 +158,11 @@ def _matrix(table: Any, name: str, width: int, path: Path) -> np.ndarray:
     return out
 
 
-def check_physical_steps(table: Any, path: Path, scenario: str, *, participant: str,
+def check_physical_steps(table: Any, path: Path, graph: TaskGraph, *, participant: str,
                          synthetic: bool) -> None:
     """Raise a :class:`~hri_envs.errors.ConfigError` naming ``path`` and the step unless the
     table (one episode file, read by :func:`~hri_bench.data.checks.read_episode`) is one
-    episode of ``participant``'s physical session on ``scenario``: steps 0, 1, ... of one
+    episode of ``participant``'s physical session on ``graph``'s scenario: steps 0, 1, ... of one
     episode, 0.04 s apart from 0; the start and the goal within the supports and the same
     in every step, and the observations' one-hots theirs; lists of the right sizes and
     finite; actions in [-1, 1]; the end (terminated or truncated) at the last step only,
@@ -177,7 +176,7 @@ def check_physical_steps(table: Any, path: Path, scenario: str, *, participant: 
     col = {name: table.column(name).to_numpy(zero_copy_only=False)
            for name in table.schema.names if name not in skip}
     check_session(col, path, participant, synthetic)
-    k = scenario_graph(scenario).n_intentions
+    k = graph.n_intentions
     for name in ("start", "assigned_intention"):
         x = col[name].astype(np.int64)
         if ((x < 0) | (x >= k)).any() or (x != x[0]).any():
@@ -191,7 +190,7 @@ def check_physical_steps(table: Any, path: Path, scenario: str, *, participant: 
         t = int(np.flatnonzero(~np.isclose(times, STEP_S * np.arange(n), atol=1e-6))[0])
         raise refusal(path, f"step {t}: time_s {times[t]} is not {STEP_S * t:.2f} (steps of "
                             f"{STEP_S} s from 0)")
-    n_obs = observation_size(scenario)
+    n_obs = observation_size(graph)
     robot = _matrix(table, "robot_observation", n_obs, path)
     human = _matrix(table, "human_observation", n_obs + k, path)
     onehot = np.eye(k)

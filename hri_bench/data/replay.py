@@ -28,7 +28,6 @@ from hri_bench.data.datasets import UNFINISHED, Dataset
 from hri_envs.errors import ConfigError, HriEnvsError
 from hri_envs.humans.protocol import Human
 from hri_envs.task import episode as rules
-from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 __all__ = ["EpisodeReplay", "ReplayHuman", "replay"]
 
@@ -170,7 +169,7 @@ def _episode(dataset: Dataset, session: dict[str, Any], steps: list[dict[str, An
              say: Callable[[str], None], frames: str | Path | None,
              pause: Callable[[], None] | None) -> EpisodeReplay:
     """Replay one episode's recorded ``steps`` (see :func:`replay`)."""
-    graph = scenario_graph(dataset.scenario)
+    graph = dataset.graph
     names = graph.support_names
     who, ep = steps[0]["participant"], steps[0]["episode"]
     flat = steps[0]["layout"]
@@ -180,7 +179,7 @@ def _episode(dataset: Dataset, session: dict[str, Any], steps: list[dict[str, An
         options["layout"] = tuple((flat[k], flat[k + 1]) for k in range(0, len(flat), 2))
     where = dataset.path / "sessions" / who / "session.json"
     try:
-        env = gym.make(str(scenario_spec(dataset.scenario).gym_id),
+        env = gym.make(str(dataset.spec.gym_id),
                        human=ReplayHuman([s["human_action"] for s in steps]),
                        render_mode="rgb_array", **_settings(session, where))
         obs, _ = env.reset(seed=0, options=options)

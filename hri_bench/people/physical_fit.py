@@ -233,14 +233,12 @@ def fit_physical(dataset: Dataset) -> PhysicalFit:
     if not dataset.physical:
         raise ConfigError(f"{dataset.dataset_id} holds graph sessions; fit them with "
                           "hri_bench.data.fit.fit", field="dataset")
-    from hri_envs.task.scenarios import scenario_spec  # noqa: PLC0415
-
     who = dataset.participants(unfinished=False)
     if len(who) < 2:
         raise ConfigError(f"{dataset.dataset_id} has {len(who)} finished participant(s); a "
                           "physical fit needs two or more (one held out)", field="dataset")
     train, test = split_participants(dataset.dataset_id, who)
-    preferences = tuple(scenario_spec(dataset.scenario).preferences)
+    preferences = tuple(dataset.spec.preferences)
     fitting, held = _people(dataset, train), _people(dataset, test)
     members = tuple(_fit_person(dataset.scenario, p, preferences) for p in fitting)
     sc = dataset.scenario

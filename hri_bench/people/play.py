@@ -32,7 +32,7 @@ from hri_envs.humans.protocol import BatchHuman
 from hri_envs.task import episode as rules
 from hri_envs.task.actions import WAIT
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import scenario_graph
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["play"]
 
@@ -101,7 +101,7 @@ class _TerminalHuman(BatchHuman):
 
 
 def play(
-    scenario: str,
+    graph: TaskGraph,
     *,
     episodes: int = 3,
     seed: int = 0,
@@ -112,7 +112,7 @@ def play(
     """Play episodes as the human against the Learner; returns the robot reward per episode.
 
     Args:
-        scenario: "hanger" or "wheel".
+        graph: The scenario's task graph.
         episodes: Number of episodes (a random start support each).
         seed: Seed of the starts and of the robot.
         max_steps: Step limit per episode.
@@ -120,8 +120,7 @@ def play(
             (``EOFError``) ends the game like typing ``q``.
         write: Output function.
     """
-    graph = scenario_graph(scenario)
-    cfg = default_config(scenario)
+    cfg = default_config(spec_of(graph))
     robot = _PlayLearner(graph, 1, cfg, seed=seed)
     human = _TerminalHuman(graph, robot, read, write)
     names = graph.support_names

@@ -39,7 +39,7 @@ from hri_envs.physics.intention import HumanParams, IntentionHuman, route_states
 from hri_envs.physics.kinematics import Pose, compose
 from hri_envs.physics.observer import StateObserver
 from hri_envs.physics.whole_arm import handle_quat_in_object
-from hri_envs.task.scenarios import episode_scenario, scenario_graph
+from hri_envs.task.scenarios import episode_geometry, scenario_graph
 
 __all__ = ["LeadStats", "ScriptedLeader", "join", "lead", "record_synthetic"]
 
@@ -68,7 +68,7 @@ class ScriptedLeader:
         """An episode's first frame: plan the route from its start to its goal."""
         flat = view.get("layout") or []
         layout = tuple(zip(flat[::2], flat[1::2], strict=True)) or None
-        geometry = episode_scenario(self.scenario, layout)
+        geometry = episode_geometry(self.graph, layout)
         observer = StateObserver(self.graph, geometry, self.design.lever)
         states = route_states(self.graph, int(view["start"]), int(view["goal"]),
                               self.params.preference)

@@ -45,10 +45,10 @@ import numpy as np
 
 from baselines import Oracle, Passive
 from hri_bench.run.runner import make_schedule, simulate
-from hri_bench.run.study import StudyConfig, graph_for, run_study
+from hri_bench.run.study import StudyConfig, run_study
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
-from hri_envs.task.scenarios import SCENARIOS, scenario_spec
+from hri_envs.task.scenarios import SCENARIOS, NamedScenario
 
 __all__ = [
     "RL_ALGORITHMS",
@@ -63,7 +63,7 @@ __all__ = [
 RL_ALGORITHMS: tuple[str, ...] = ("ppo", "dqn")
 _STEPS_PER_EPISODE = 15
 @dataclass(frozen=True)
-class SampleEfficiencyConfig:
+class SampleEfficiencyConfig(NamedScenario):
     """What to measure.
 
     Attributes:
@@ -99,7 +99,7 @@ class SampleEfficiencyConfig:
     threshold: float = 0.9
 
     def __post_init__(self) -> None:
-        if scenario_spec(self.scenario).gym_id is None:  # (an unknown one raises there)
+        if self.spec.gym_id is None:  # (an unknown one raises there)
             raise ConfigError(f"scenario {self.scenario!r} registers no Gymnasium id to train "
                               "RL on", field="scenario")
         bad = [a for a in self.algorithms if a not in RL_ALGORITHMS]
@@ -126,7 +126,7 @@ class SampleEfficiencyConfig:
     @property
     def waiting_reward(self) -> float:
         """r0 after defaults."""
-        return scenario_spec(self.scenario).r0 if self.r0 is None else self.r0
+        return self.spec.r0 if self.r0 is None else self.r0
 
 
 @dataclass
@@ -213,7 +213,7 @@ def episodes_to_reach(episodes: np.ndarray, score: np.ndarray, threshold: float)
 
 def _reference(cfg: SampleEfficiencyConfig, agent: Any) -> float:
     """Mean reward of a fixed agent on the evaluation episodes."""
-    graph = graph_for(cfg.scenario)
+    graph = cfg.graph
     human = preference_human(graph, cfg.preference)
     runs = np.arange(cfg.eval_runs)
     schedule = make_schedule(graph, "random", runs, cfg.eval_episodes, cfg.seed, human)
@@ -234,7 +234,7 @@ def _train_curve(cfg: SampleEfficiencyConfig, algo: str, seed: int
     steps: list[float] = []
 
     def evaluate(model: Any, n_episodes: int) -> None:
-        agent = SB3BatchAgent(model, cfg.eval_runs, graph=graph_for(cfg.scenario))
+        agent = SB3BatchAgent(model, cfg.eval_runs, graph=cfg.graph)
         while len(rewards) < len(checkpoints) and checkpoints[len(rewards)] <= n_episodes:
             episodes.append(n_episodes)
             rewards.append(_reference(cfg, agent))
@@ -248,7 +248,7 @@ def _train_curve(cfg: SampleEfficiencyConfig, algo: str, seed: int
     budget = _STEPS_PER_EPISODE * checkpoints[-1]
     train: Callable[..., Any] = train_maskable_ppo if algo == "ppo" else train_dqn
     n_envs = cfg.n_envs if algo == "ppo" else 1
-    env_id = scenario_spec(cfg.scenario).gym_id
+    env_id = cfg.spec.gym_id
     model = train(env_id, budget, n_envs=n_envs, vec="vector", seed=seed,
                   callback=callback, **env_kwargs)
     if len(rewards) < len(checkpoints):  # budget spent first: evaluate where training ended
@@ -269,7 +269,7 @@ def run_sample_efficiency(cfg: SampleEfficiencyConfig, *, verbose: bool = False
         episodes=cfg.episodes, preference=cfg.preference, r0=cfg.r0, seed=cfg.seed),
         progress=verbose)
     learner = study.metrics["learner"]["reward"]
-    graph = graph_for(cfg.scenario)
+    graph = cfg.graph
     n = cfg.eval_runs
     references = {
         "oracle": _reference(cfg, Oracle(graph, preference_human(graph, cfg.preference), n)),

@@ -89,7 +89,7 @@ from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import PreferredActions, ScriptedHuman, preference_human
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["AGENTS", "CONTRACT", "DEFAULT_STUDY_AGENTS", "JAXPPO", "JAXPPO_CHECKPOINTS",
            "JAXPPO_PREFIX", "NAME_FORBIDDEN", "ROLES", "SB3_PREFIX", "AgentContext",
@@ -245,12 +245,12 @@ def _countqmdp_settings(scenario: str, r0: float, learner: dict[str, Any]) -> di
 
 
 def _make_learner(c: AgentContext) -> BatchAgent:
-    cfg = default_config(c.graph.name, **{"r0": c.r0, **c.learner})
+    cfg = default_config(spec_of(c.graph), **{"r0": c.r0, **c.learner})
     return Learner(c.graph, len(c.runs), cfg, seed=c.seed, runs=c.runs, workspace=Workspace())
 
 
 def _make_maxent(c: AgentContext) -> BatchAgent:
-    cfg = default_config(c.graph.name, r0=c.r0, learning_rate=0.03)
+    cfg = default_config(spec_of(c.graph), r0=c.r0, learning_rate=0.03)
     return MaxEntIRL(c.graph, len(c.runs), cfg, seed=c.seed, runs=c.runs)
 
 
@@ -536,7 +536,7 @@ def _maker_of(name: str) -> Callable[[TaskGraph], BatchAgent]:
 
     def make(graph: TaskGraph) -> BatchAgent:
         human = preference_human(graph)  # the robot env's own scripted human
-        r0 = scenario_spec(graph.name).r0
+        r0 = spec_of(graph).r0
         return spec.make(AgentContext(graph, human, (0,), 0, r0, {}, 100, "paper", 3))
 
     return make

@@ -30,21 +30,16 @@ from hri_bench.data.fit import (
     recorded_info,
     validate_recorded,
 )
-from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.spec import HumanSpec, PopulationKind, register_population_kind
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["custom_population_info", "is_custom", "population_changes"]
 
 
-def _fitted(name: str, graph: TaskGraph) -> ScriptedHuman:
-    return recorded_human(name, graph.name)
-
-
 for _prefix in PREFIXES:
     register_population_kind(PopulationKind(
         _prefix, "a human model fitted to a recorded dataset's training participants",
-        _fitted, validate_recorded))
+        recorded_human, validate_recorded))
 
 
 def is_custom(name: str | None) -> bool:
@@ -54,14 +49,14 @@ def is_custom(name: str | None) -> bool:
     return name is not None and HumanSpec(population=name).kind in ("class", "prefixed")
 
 
-def custom_population_info(name: str, scenario: str) -> dict[str, Any]:
+def custom_population_info(name: str, graph: TaskGraph) -> dict[str, Any]:
     """The ``population_info`` of a human from outside the registered populations: a
     recorded dataset's has its content hash (:func:`hri_bench.data.fit.recorded_info`), so
     that a study replayed after the recordings changed says so (:func:`population_changes`);
     a ``module:Class`` has none.
     """
     if is_recorded(name):
-        return recorded_info(name, scenario)
+        return recorded_info(name, graph)
     return {"name": name, "version": None, "hash": None, "held_out": None, "members": None}
 
 

@@ -51,7 +51,6 @@ from hri_envs.humans.populations import (
     population_spec,
 )
 from hri_envs.humans.scripted import ScriptedHuman, preference_human
-from hri_envs.task.scenarios import scenario_graph
 
 __all__ = ["REFERENCES", "blind_values", "what_ran"]
 
@@ -226,7 +225,7 @@ def blind_values(result: StudyResult) -> np.ndarray:
         return _per_run_values(result)
     if cfg.human_passive > 0 and cfg.turn_back > 0:
         raise ConfigError(_BOTH, field="agents")
-    graph = scenario_graph(cfg.scenario)
+    graph = cfg.graph
     prefs = cfg.preference_of_run()
     starts = np.asarray(result.schedule["start"], dtype=np.int64)
     out = np.zeros(starts.shape)
@@ -251,7 +250,7 @@ def _per_run_values(result: StudyResult) -> np.ndarray:
         spec = population_spec(population, cfg.scenario)
         if spec.rationality is not None or spec.theta:
             raise ConfigError(_TOO_LARGE, field="agents")
-    graph = scenario_graph(cfg.scenario)
+    graph = cfg.graph
     starts = np.asarray(result.schedule["start"], dtype=np.int64)
     prefs = cfg.preference_of_run()
     seqs: list[list[HumanDraw]] = []

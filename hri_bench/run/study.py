@@ -67,14 +67,14 @@ from hri_envs.humans.populations import (
 )
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.rational import validate_rationality
-from hri_envs.humans.scripted import ScriptedHuman, preferences_for
+from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.spec import HumanSpec
 from hri_envs.humans.splits import population, population_hash
 from hri_envs.humans.tables import TableHumans
 from hri_envs.imports import import_modules
 from hri_envs.task.episode import REWARD_RULES
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
+from hri_envs.task.scenarios import SCENARIOS, NamedScenario, scenario_graph
 
 __all__ = [
     "EXECUTION_FIELDS",
@@ -166,8 +166,11 @@ class Probe:
 
 
 @dataclass(frozen=True)
-class StudyConfig:
+class StudyConfig(NamedScenario):
     """What to simulate. ``None`` fields take the scenario's defaults.
+
+    The scenario is named here and resolved once: the study passes :attr:`graph` and
+    :attr:`spec` down (:class:`~hri_envs.task.scenarios.NamedScenario`), never the name.
 
     Attributes:
         scenario: "hanger" or "wheel".
@@ -277,8 +280,8 @@ class StudyConfig:
         if self.episodes is not None:
             check_whole(self.episodes, "episodes", minimum=1, maximum=MAX_EPISODES,
                         label="episodes (None or a number)")
-        self._choice("schedule", ("random", *scenario_spec(self.scenario).schedules))
-        prefs = preferences_for(self.scenario)
+        self._choice("schedule", ("random", *self.spec.schedules))
+        prefs = self.spec.preferences
         if self.preference is not None and (not isinstance(self.preference, str)
                                             or self.preference not in (*prefs, "all")):
             raise ConfigError(f"preference must be 'all' or one of {', '.join(prefs)}, got "
@@ -317,7 +320,7 @@ class StudyConfig:
             raise ConfigError(f"probes must be a tuple of Probe, got {self.probes!r}",
                               field="probes")
         for probe in self.probes:
-            probe.check(graph_for(self.scenario))
+            probe.check(self.graph)
 
     def _check_humans(self) -> None:
         """Rationality, population and its parameters, drift, and what each allows."""
@@ -329,7 +332,7 @@ class StudyConfig:
                               "population= names; no population is given",
                               field="human_params")
         if self.population is not None:
-            self.human.check(graph_for(self.scenario))
+            self.human.check(self.graph)
             if self.preference is not None:
                 raise ConfigError("give either a population or a preference, not both",
                                   field="preference")
@@ -360,7 +363,7 @@ class StudyConfig:
         refuse_references(self)
         self._pairs("learner", "LearnerConfig fields, e.g. (('beta', 0.9),)")
         if self.learner:
-            default_config(self.scenario, **dict(self.learner))
+            default_config(self.spec, **dict(self.learner))
         self._choice("reward", tuple(REWARD_RULES))
         self._text("physics_preset", "a preset's name")
         if self.physics_preset is not None:
@@ -419,7 +422,7 @@ class StudyConfig:
         if self.population is None:
             return None
         if is_custom(self.population):  # a recorded dataset's has its content hash
-            return custom_population_info(self.population, self.scenario)
+            return custom_population_info(self.population, self.graph)
         spec = population(self.population, self.scenario, dict(self.human_params))
         members = getattr(spec, "size", None)
         return {"name": self.population, "version": getattr(spec, "version", "1"),
@@ -453,21 +456,20 @@ class StudyConfig:
         """Episodes per run after defaults."""
         if self.episodes is not None:
             return self.episodes
-        spec = scenario_spec(self.scenario)
-        fixed = spec.schedules.get(self.schedule)
-        return spec.episodes if fixed is None else len(fixed)
+        fixed = self.spec.schedules.get(self.schedule)
+        return self.spec.episodes if fixed is None else len(fixed)
 
     @property
     def waiting_reward(self) -> float:
         """r0 after defaults."""
-        return scenario_spec(self.scenario).r0 if self.r0 is None else self.r0
+        return self.spec.r0 if self.r0 is None else self.r0
 
     def preference_of_run(self) -> list[str]:
         """The human preference of each run."""
-        prefs = preferences_for(self.scenario)
+        prefs = self.spec.preferences
         if self.preference == "all":
             return [prefs[r % len(prefs)] for r in range(self.runs)]
-        default = scenario_spec(self.scenario).default_preference
+        default = self.spec.default_preference
         return [self.preference or default] * self.runs
 
     def settings(self) -> dict[str, Any]:
@@ -582,7 +584,7 @@ def _humans(cfg: StudyConfig, preference: str, runs: list[int]
     run's own scripted humans (a population's draw, a drift), or a human class of the user's
     (``--population module:Class``).
     """
-    graph = graph_for(cfg.scenario)
+    graph = cfg.graph
     spec = cfg.human
     if is_custom(cfg.population):
         assert cfg.population is not None
@@ -622,7 +624,7 @@ class UnitFailure:
 def _run_unit(unit: _Unit) -> UnitResult:
     cfg = unit.config
     import_modules(cfg.imports)  # a spawned worker (or Ray's) has not imported them yet
-    graph = graph_for(cfg.scenario)
+    graph = cfg.graph
     runs = list(unit.runs)
     human, labels = _humans(cfg, unit.preference, runs)
     schedule = make_schedule(graph, cfg.schedule, runs, cfg.n_episodes, cfg.seed, human)
@@ -1309,7 +1311,7 @@ def summarize(result: StudyResult) -> dict[str, Any]:
             agents[name][k].update(pe, overall=stats.aggregate(m[k], cfg.seed,
                                                                 iqm_ci=k == "reward"))
     prefs = sorted(set(cfg.preference_of_run()))
-    spec = scenario_spec(cfg.scenario)
+    spec = cfg.spec
     return {
         "scenario": cfg.scenario,
         "backend": cfg.backend,
@@ -1387,7 +1389,7 @@ def write_outputs(result: StudyResult, out: str | os.PathLike[str], *, plots: bo
         writer = csv.writer(f)
         writer.writerow(["agent", "run", "episode", "preference", "start", "goal", "turn_back",
                          *METRICS, *extras])
-        names = graph_for(cfg.scenario).support_names
+        names = cfg.graph.support_names
         s = result.schedule
         for agent, m in result.metrics.items():
             for r in range(cfg.runs):

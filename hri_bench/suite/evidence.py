@@ -25,7 +25,6 @@ from hri_bench.run.regret import blind_values
 from hri_bench.run.runner import make_schedule
 from hri_bench.suite.tracks import TRACKS_BY_VERSION, track_config
 from hri_envs.errors import ConfigError
-from hri_envs.task.scenarios import scenario_graph
 
 __all__ = ["agent_roles", "blind_errors", "identity_key", "replayable", "role_errors"]
 
@@ -102,7 +101,7 @@ def blind_errors(doc: Mapping[str, Any]) -> list[str]:
                 continue
             cfg = track_config(tracks[name], ("passive",), runs_scale=doc["runs_scale"],
                                seed=int(seed), version=version)
-            starts = make_schedule(scenario_graph(cfg.scenario), cfg.schedule,
+            starts = make_schedule(cfg.graph, cfg.schedule,
                                    list(range(cfg.runs)), cfg.n_episodes, cfg.seed).start
             runs: Any = SimpleNamespace(config=cfg, schedule={"start": starts})  # what it reads
             values = _round(blind_values(runs))

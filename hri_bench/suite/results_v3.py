@@ -26,7 +26,6 @@ from hri_bench.suite.tracks import FLOOR
 from hri_envs.humans.finite_state import as_model
 from hri_envs.humans.scripted import preference_human
 from hri_envs.humans.splits import MixtureSpec, population
-from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 __all__ = ["FLOOR", "REACHABLE", "SCHEMA_VERSION", "compute", "failure_section",
            "lead_section", "members", "run_humans"]
@@ -48,9 +47,9 @@ def members(cfg: Any) -> list[dict[str, Any]]:
     """The humans a track's study meets (``tracks.T.members``): a split's members, or the
     one scripted human of a track without a population.
     """
-    graph = scenario_graph(cfg.scenario)
+    graph = cfg.graph
     if cfg.population is None:
-        pref = cfg.preference or scenario_spec(cfg.scenario).default_preference
+        pref = cfg.preference or cfg.spec.default_preference
         model = as_model(preference_human(graph, pref, passive=cfg.human_passive,
                                           turn_back=cfg.turn_back))
         return [{"family": "preference", "params": [["preference", pref]], "label": pref,

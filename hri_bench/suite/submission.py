@@ -35,7 +35,6 @@ from hri_bench.suite.markdown import code, escape, number, with_ci
 from hri_bench.suite.tracks import SUITE_VERSIONS, TRACKS_BY_VERSION, track_config
 from hri_envs.envs.backends import BACKENDS
 from hri_envs.errors import ConfigError
-from hri_envs.task.scenarios import scenario_spec
 
 __all__ = ["FORMAT", "MAX_DEPTH", "SCHEMA_PATH", "SCHEMA_VERSION", "build",
            "compare_recomputed", "compute", "lead_section", "load", "merge", "profile_figure",
@@ -681,7 +680,7 @@ class SuiteRecorder:
         if TRACKS_BY_VERSION[self.version].get(track.name) != track:
             return
         cfg = result.config
-        spec = scenario_spec(cfg.scenario)
+        spec = cfg.spec
         env_ids = {"gymnasium": spec.panda_id if BACKENDS[cfg.backend].physical
                    else spec.gym_id,
                    "pettingzoo": spec.pettingzoo_module}

@@ -16,7 +16,14 @@ from hri_envs.checks import check_real, check_whole
 from hri_envs.envs.backends import BACKENDS, check_backend, options_checker
 from hri_envs.errors import ConfigError
 from hri_envs.task.geometry import Scenario
-from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import (
+    ScenarioSpec,
+    episode_scenario,
+    scenario_graph,
+    scenario_spec,
+    spec_of,
+)
 
 __all__ = [
     "BACKENDS",
@@ -165,13 +172,12 @@ class ResetOptions(NamedTuple):
 _NO_OPTIONS = ResetOptions()  # immutable, so one serves every reset without options
 
 
-def _check_option_keys(options: Mapping[str, Any], scenario: Scenario) -> None:
-    has_layout = scenario_spec(scenario.name).layout is not None
-    allowed = RESET_OPTION_KEYS if has_layout else RESET_OPTION_KEYS[:3]
+def _check_option_keys(options: Mapping[str, Any], spec: ScenarioSpec) -> None:
+    allowed = RESET_OPTION_KEYS if spec.layout is not None else RESET_OPTION_KEYS[:3]
     unknown = sorted(map(repr, set(options) - set(allowed) - _IGNORED_OPTION_KEYS))
     if unknown:
         raise ConfigError(
-            f"unknown reset option(s) {', '.join(unknown)} for the {scenario.name}; "
+            f"unknown reset option(s) {', '.join(unknown)} for the {spec.name}; "
             f"allowed: {', '.join(allowed)}", field="options"
         )
 
@@ -197,8 +203,8 @@ def check_options_mapping(options: Any) -> Mapping[str, Any]:
     return options
 
 
-def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -> ResetOptions:
-    """Validate the reset options of a single-episode env.
+def parse_reset_options(options: Mapping[str, Any] | None, graph: TaskGraph) -> ResetOptions:
+    """Validate the reset options of a single-episode env on ``graph``.
 
     Allowed keys: ``start`` and ``intention`` (a support index or name; they must differ),
     ``turn_back`` (bool) and, for the wheel, ``layout`` (stand positions, see
@@ -209,7 +215,8 @@ def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -
     check_options_mapping(options)
     if not options:
         return _NO_OPTIONS
-    _check_option_keys(options, scenario)
+    spec, scenario = spec_of(graph), graph.scenario
+    _check_option_keys(options, spec)
     start = intention = turn_back = layout = None
     if options.get("start") is not None:
         start = support_index(options["start"], scenario, "start")
@@ -227,7 +234,7 @@ def parse_reset_options(options: Mapping[str, Any] | None, scenario: Scenario) -
                               field="turn_back")
         turn_back = bool(value)
     if options.get("layout") is not None:
-        layout = check_layout(options["layout"], scenario.name)
+        layout = _spec_layout(options["layout"], spec)
     return ResetOptions(start, intention, turn_back, layout)
 
 
@@ -239,10 +246,15 @@ def check_layout(value: Any, scenario: str
     Raises:
         ConfigError: (``field="layout"``) Anything else.
     """
+    return _spec_layout(value, scenario_spec(scenario))
+
+
+def _spec_layout(value: Any, spec: ScenarioSpec
+                 ) -> tuple[tuple[float, float], tuple[float, float]]:
+    """:func:`check_layout` for the scenario ``spec``."""
     layout = _check_layout(value)
-    check = scenario_spec(scenario).check_layout
-    if check is not None:
-        check(layout)
+    if spec.check_layout is not None:
+        spec.check_layout(layout)
     return layout
 
 

@@ -25,7 +25,7 @@ from hri_envs.task.episode import (
     draw_start_intention,
     start_state,
 )
-from hri_envs.task.scenarios import episode_scenario
+from hri_envs.task.scenarios import episode_geometry
 
 __all__ = ["Episode", "EpisodeRules", "Transition", "draw_other_support",
            "draw_start_intention"]
@@ -197,7 +197,7 @@ class Episode:
     def render(self, layout: tuple[tuple[float, float], ...] | None) -> np.ndarray:
         """An RGB picture of the current state, the supports at ``layout``."""
         graph = self.rules.graph
-        return render_rgb(episode_scenario(graph.name, layout), graph, self.state)
+        return render_rgb(episode_geometry(graph, layout), graph, self.state)
 
     def show(self, layout: tuple[tuple[float, float], ...] | None, title: str,
              fps: float) -> None:

@@ -269,7 +269,7 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, dict[str, Any]], dict[str, dict[str, Any]]]:
         """Start an episode; see the class docstring for ``options``."""
-        opts = parse_reset_options(options, self.graph.scenario)
+        opts = parse_reset_options(options, self.graph)
         if check_seed(seed) is not None:
             self._np_random, self._np_random_seed = seeding.np_random(seed)
         rng = self.np_random

@@ -227,7 +227,7 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode; see the class docstring for ``options``."""
-        opts = parse_reset_options(options, self.graph.scenario)
+        opts = parse_reset_options(options, self.graph)
         super().reset(seed=check_seed(seed))
         rng = self.np_random
         human = self._human

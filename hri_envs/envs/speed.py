@@ -15,9 +15,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hri_envs.envs.config import scenario_graph
 from hri_envs.envs.parallel import CooperationParallelEnv
 from hri_envs.envs.vector import RobotVectorEnv
+from hri_envs.task.graph import TaskGraph
 
 __all__ = ["SpeedResult", "parallel_env_steps_per_s", "valid_choices", "vector_env_steps_per_s"]
 
@@ -30,11 +30,12 @@ class SpeedResult(NamedTuple):
     seconds: float
 
 
-def valid_choices(scenario: str, rng: np.random.Generator, n: int) -> np.ndarray:
-    """(n, S) random valid action per state: column j holds one draw for every state (the
-    speed workloads' robot and human; :mod:`hri_envs.jax.speed` draws the same table).
+def valid_choices(graph: TaskGraph, rng: np.random.Generator, n: int) -> np.ndarray:
+    """(n, S) random valid action per state of ``graph``: column j holds one draw for every
+    state (the speed workloads' robot and human; :mod:`hri_envs.jax.speed` draws the same
+    table).
     """
-    valid = scenario_graph(scenario).valid  # (S, A)
+    valid = graph.valid  # (S, A)
     u = rng.random((n,) + valid.shape) * valid  # (n, S, A); invalid actions score 0
     return np.argmax(u, axis=-1)  # (n, S)
 
@@ -58,8 +59,8 @@ def parallel_env_steps_per_s(
     env = CooperationParallelEnv(scenario)
     rng = np.random.default_rng(seed)
     # A fixed table of random valid actions per (draw, state), cycled through.
-    human = valid_choices(scenario, rng, 256).tolist()
-    robot = valid_choices(scenario, rng, 256).tolist()
+    human = valid_choices(env.graph, rng, 256).tolist()
+    robot = valid_choices(env.graph, rng, 256).tolist()
     best = np.inf
     for _ in range(repeats):
         obs, _ = env.reset(seed=seed)
@@ -98,8 +99,8 @@ def vector_env_steps_per_s(
     """
     env = RobotVectorEnv(num_envs, scenario)
     rng = np.random.default_rng(seed)
-    n_s = scenario_graph(scenario).n_states
-    table = valid_choices(scenario, rng, 64).reshape(-1)  # (64 S,)
+    n_s = env.graph.n_states
+    table = valid_choices(env.graph, rng, 64).reshape(-1)  # (64 S,)
     offsets = rng.integers(64, size=(64, num_envs)) * n_s  # (64, N)
     best = np.inf
     for _ in range(repeats):

@@ -35,9 +35,10 @@ import numpy as np
 from hri_envs.checks import check_real, check_whole
 from hri_envs.errors import ConfigError
 from hri_envs.humans.finite_state import FiniteStateHuman, carry_to, one_hot
-from hri_envs.humans.scripted import preference_human, preferences_for
+from hri_envs.humans.scripted import preference_human
 from hri_envs.task.actions import TAKE_OFF, WAIT
 from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["follower_human", "trust_human", "wary_human"]
 
@@ -64,7 +65,7 @@ def follower_human(graph: TaskGraph, *, k: int = 3, preference: str | None = Non
             after ``preference``).
     """
     k = check_whole(k, "k", minimum=1, maximum=50)
-    prefs = preferences_for(graph.name)
+    prefs = spec_of(graph).preferences
     own = preference_human(graph, preference)
     if other is None:
         other = prefs[(prefs.index(own.name) + 1) % len(prefs)]

@@ -22,7 +22,7 @@ family             group            model (parameters; module)
 ``moody``          inconsistent     changes its preference at random episodes (p, preferences)
 =================  ===============  ==========================================================
 
-:func:`build_family` builds one (cached per scenario and parameters); parameters not given
+:func:`build_family` builds one (cached per graph and parameters); parameters not given
 take the defaults of the model's function. Every parameter is checked: an unknown name or
 an impossible value raises a :class:`~hri_envs.errors.ConfigError` whose ``field`` is
 ``human_params`` (``--human-param`` of ``hri-bench study``).
@@ -45,7 +45,6 @@ from hri_envs.humans.rational import rational_human, validate_rationality
 from hri_envs.humans.scripted import ScriptedHuman, check_probability, preference_human
 from hri_envs.registry import Registry
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import SCENARIOS, scenario_graph
 
 __all__ = ["FAMILIES", "GROUPS", "Family", "HumanModel", "build_family", "check_params",
            "family_params", "register_family"]
@@ -207,15 +206,13 @@ def build_family(graph: TaskGraph, family: str, params: Mapping[str, Any] | None
             refuses (the message names the parameter).
     """
     full = family_params(family, params)
-    key = tuple(sorted(full.items()))
-    if graph.name in SCENARIOS and graph is scenario_graph(graph.name):
-        return _cached(graph.name, family, key)
-    return _build(graph, family, full)
+    return _cached(graph, family, tuple(sorted(full.items())))
 
 
 @functools.lru_cache(maxsize=512)
-def _cached(scenario: str, family: str, key: tuple[tuple[str, Any], ...]) -> HumanModel:
-    return _build(scenario_graph(scenario), family, dict(key))
+def _cached(graph: TaskGraph, family: str, key: tuple[tuple[str, Any], ...]) -> HumanModel:
+    """:func:`_build`, once per graph (a graph hashes by identity), family and parameters."""
+    return _build(graph, family, dict(key))
 
 
 def _build(graph: TaskGraph, family: str, params: dict[str, Any]) -> HumanModel:

@@ -24,7 +24,7 @@ import numpy as np
 from hri_envs.checks import check_real, check_whole
 from hri_envs.errors import ConfigError
 from hri_envs.humans.finite_state import FiniteStateHuman, carry_to, keep_z, one_hot
-from hri_envs.humans.scripted import preference_human, preferences_for
+from hri_envs.humans.scripted import preference_human
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import spec_of
 
@@ -68,7 +68,7 @@ def moody_human(graph: TaskGraph, *, p: float = 0.25,
             the default first).
     """
     p = check_real(p, "p", low=0.0, high=1.0, allowed="a probability in [0, 1]")
-    allowed = preferences_for(graph.name)
+    allowed = spec_of(graph).preferences
     if preferences is None:
         first = spec_of(graph).default_preference
         names = [first, *[q for q in allowed if q != first]][:4]

@@ -33,7 +33,7 @@ from hri_envs.humans.scripted import ScriptedHuman, boltzmann_human, preference_
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
+from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 __all__ = [
     "POPULATIONS",
@@ -190,8 +190,9 @@ def population_spec(name: str, scenario: str | None = None) -> PopulationSpec:
 
 
 @functools.lru_cache(maxsize=256)
-def _base_human(scenario: str, preference: str) -> ScriptedHuman:
-    return preference_human(scenario_graph(scenario), preference)
+def _base_human(graph: TaskGraph, preference: str) -> ScriptedHuman:
+    """:func:`preference_human`, once per graph (a graph hashes by identity) and preference."""
+    return preference_human(graph, preference)
 
 
 def build_human(graph: TaskGraph, draw: HumanDraw) -> Any:
@@ -207,11 +208,7 @@ def build_human(graph: TaskGraph, draw: HumanDraw) -> Any:
                                 passive=draw.passive)
         return dataclasses.replace(human, turn_back=draw.turn_back)
     assert draw.preference is not None
-    if graph.name in SCENARIOS and graph is scenario_graph(graph.name):
-        base = _base_human(graph.name, draw.preference)
-    else:
-        base = preference_human(graph, draw.preference)
-    human = rational_human(base, draw.rationality)
+    human = rational_human(_base_human(graph, draw.preference), draw.rationality)
     if draw.passive == human.passive and draw.turn_back == human.turn_back:
         return human
     return dataclasses.replace(human, passive=draw.passive, turn_back=draw.turn_back)

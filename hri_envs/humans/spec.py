@@ -61,14 +61,14 @@ class PopulationKind:
         prefix: The names' prefix, e.g. ``"recorded:"``.
         description: One line for help texts.
         build: ``build(name, graph)`` -> the human model every run and row shares.
-        check: ``check(name, scenario)`` raises a :class:`ConfigError` for a bad name;
+        check: ``check(name, graph)`` raises a :class:`ConfigError` for a bad name;
             None: ``build`` decides.
     """
 
     prefix: str
     description: str
     build: Callable[[str, TaskGraph], ScriptedHuman | FiniteStateHuman]
-    check: Callable[[str, str], None] | None = None
+    check: Callable[[str, TaskGraph], None] | None = None
 
 
 def _check_kind(kind: PopulationKind) -> None:
@@ -190,8 +190,7 @@ class HumanSpec:
         if kind == "prefixed":
             found = _kind_of(self.population)
             assert found is not None
-            (found.check or (lambda name, _: found.build(name, graph)))(self.population,
-                                                                       graph.name)
+            (found.check or found.build)(self.population, graph)
         elif kind == "class":
             self.human_class()
         else:

@@ -61,7 +61,7 @@ from hri_envs.humans.populations import (
 )
 from hri_envs.humans.protocol import BatchHuman, Rows, all_rows
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import scenario_graph, scenario_spec
+from hri_envs.task.scenarios import NamedScenario, scenario_spec, spec_of
 
 __all__ = [
     "ALL_PREFERENCES",
@@ -112,7 +112,7 @@ class Component:
 
 
 @dataclass(frozen=True)
-class MixtureSpec:
+class MixtureSpec(NamedScenario):
     """A frozen, versioned population: a list of members drawn once from a mixture.
 
     Attributes:
@@ -154,6 +154,7 @@ class MixtureSpec:
         """The scenarios it applies to (one)."""
         return (self.scenario,)
 
+
     @property
     def size(self) -> int:
         """How many humans the list holds (after the group's filter); a ``distinct`` split
@@ -183,7 +184,7 @@ class MixtureSpec:
 
     def draw_members(self) -> tuple[HumanDraw, ...]:
         """:attr:`member_draws`, drawn (not read from :data:`FROZEN_PATH`)."""
-        graph = scenario_graph(self.scenario)
+        graph = self.graph
         rng = np.random.default_rng(self.generator_seed)
         taken = self._excluded_fingerprints() if self.distinct else None
         kept = _Kept(graph, self._excluded_models(), self.tolerance) if self.tolerance else None
@@ -234,13 +235,13 @@ class MixtureSpec:
 
     def _excluded_models(self) -> list[Any]:
         """The models of the members of the splits in :attr:`exclude` (same scenario)."""
-        graph = scenario_graph(self.scenario)
+        graph = self.graph
         return [as_model(build_human(graph, d)) for name in self.exclude
                 for d in MIXTURES[(name, self.scenario)].member_draws]
 
     def _excluded_fingerprints(self) -> set[str]:
         """The models of the members of the splits in :attr:`exclude` (same scenario)."""
-        graph = scenario_graph(self.scenario)
+        graph = self.graph
         out: set[str] = set()
         for name in self.exclude:
             out |= {member_fingerprint(graph, d)
@@ -251,7 +252,7 @@ class MixtureSpec:
         """Each member's model fingerprint (:func:`member_fingerprint`), in list order: the
         content hash of the human itself (two members with one fingerprint act alike).
         """
-        graph = scenario_graph(self.scenario)
+        graph = self.graph
         return tuple(member_fingerprint(graph, d) for d in self.member_draws)
 
     def draw(self, scenario: str, seed: int, run: int) -> HumanDraw:
@@ -363,12 +364,10 @@ def _allocate(components: Sequence[Component], members: int) -> list[int]:
 
 
 def _expand(graph: TaskGraph, values: tuple[Any, ...]) -> list[Any]:
-    from hri_envs.humans.scripted import preferences_for
-
     out: list[Any] = []
     for v in values:
         if v == ALL_PREFERENCES:
-            out += list(preferences_for(graph.name))
+            out += list(spec_of(graph).preferences)
         elif v == ALL_SUPPORTS:
             out += list(graph.support_names)
         else:
@@ -614,7 +613,7 @@ def family_population(scenario: str, family: str, params: Mapping[str, Any] | No
                        f"({FAMILIES[family].description})",
                        1, 0, (Component(family, 1.0, tuple((k, (v,)) for k, v in given)),),
                        held_out=FAMILIES[family].group != "scripted")
-    check_params(scenario_graph(scenario), family, params)  # impossible values raise
+    check_params(spec.graph, family, params)  # impossible values raise
     return spec
 
 

@@ -32,10 +32,7 @@ from hri_envs.envs.config import check_env_settings, scenario_graph
 from hri_envs.envs.spaces import robot_observation_space
 from hri_envs.errors import ActionError, ConfigError
 from hri_envs.humans.populations import PopulationSpec, validate_drift
-from hri_envs.humans.scripted import (
-    ScriptedHuman,
-    preferences_for,
-)
+from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.seat import human_spec
 from hri_envs.humans.spec import HumanSpec
 from hri_envs.humans.splits import MixtureSpec
@@ -51,7 +48,7 @@ from hri_envs.jax.tables import (
     step_arrays,
 )
 from hri_envs.task.actions import WAIT
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["OUTCOME_BITS", "EnvParams", "EnvState", "JaxRobotEnv", "Member", "ResetDraws",
            "StepDraws", "uniform", "uniforms"]
@@ -415,7 +412,7 @@ class JaxRobotEnv:
             assert human is not None
             plain = is_plain(human, graph)
             if plain is None:  # its own table, after the preference humans
-                extra, fixed_entry = human, len(preferences_for(graph.name))
+                extra, fixed_entry = human, len(spec_of(graph).preferences)
             else:
                 fixed_entry = plain
             fixed_passive, fixed_turn = human.passive, human.turn_back
@@ -440,7 +437,7 @@ class JaxRobotEnv:
         self._fixed = (fixed_entry, fixed_passive, fixed_turn)
         self._params: dict[Any, EnvParams] = {}
         self._shapes: dict[str, tuple[int, ...]] | None = None
-        self.spec = scenario_spec(self.scenario)
+        self.spec = spec_of(graph)
 
     # ----------------------------------------------------------------- spaces
     def action_space(self, params: EnvParams | None = None) -> spaces.Discrete:

@@ -16,7 +16,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from hri_envs.envs.config import scenario_graph
 from hri_envs.envs.speed import valid_choices
 from hri_envs.jax.env import JaxRobotEnv
 
@@ -56,8 +55,8 @@ def jax_env_steps_per_s(num_envs: int = 65_536, scenario: str = "hanger", steps:
     env = JaxRobotEnv(scenario, population=population)
     params = env.default_params
     rng = np.random.default_rng(seed)
-    n_s = scenario_graph(scenario).n_states
-    table = jnp.asarray(valid_choices(scenario, rng, 64).reshape(-1), dtype=jnp.int32)  # (64 S,)
+    n_s = env.graph.n_states
+    table = jnp.asarray(valid_choices(env.graph, rng, 64).reshape(-1), dtype=jnp.int32)  # (64 S,)
     offsets = jnp.asarray(rng.integers(64, size=(64, num_envs)) * n_s, dtype=jnp.int32)
 
     @jax.jit

@@ -24,7 +24,7 @@ import numpy as np
 from hri_envs.errors import ConfigError
 from hri_envs.humans.populations import PopulationSpec
 from hri_envs.humans.rational import preference_q
-from hri_envs.humans.scripted import ScriptedHuman, preference_human, preferences_for
+from hri_envs.humans.scripted import ScriptedHuman, preference_human
 from hri_envs.humans.splits import MixtureSpec
 from hri_envs.humans.splits import population as named_population
 from hri_envs.task.episode import EpisodeRules, StepTable
@@ -144,7 +144,7 @@ class HumanBank:
 
 def human_bank(graph: TaskGraph, extra: ScriptedHuman | None = None) -> HumanBank:
     """The scenario's preference humans (deterministic, never passive), and ``extra`` last."""
-    prefs = preferences_for(graph.name)
+    prefs = spec_of(graph).preferences
     humans = [preference_human(graph, p) for p in prefs]
     qs = [preference_q(h) for h in humans]  # -inf on invalid actions
     if extra is not None:
@@ -209,7 +209,7 @@ def mixture_arrays(graph: TaskGraph, spec: MixtureSpec) -> PopulationArrays:
     if spec.scenario != graph.name:
         raise ConfigError(f"population {spec.name!r} is for the {spec.scenario}, not the "
                           f"{graph.name}", field="population")
-    names = preferences_for(graph.name)
+    names = spec_of(graph).preferences
     entries, rates = [], []
     for draw in spec.member_draws:
         params = dict(draw.params)
@@ -252,7 +252,7 @@ def population_arrays(graph: TaskGraph, population: str | PopulationSpec | Mixtu
     if graph.name not in spec.scenarios:
         raise ConfigError(f"population {spec.name!r} is for {', '.join(spec.scenarios)}; not "
                           f"{graph.name!r}", field="population")
-    names = preferences_for(graph.name)
+    names = spec_of(graph).preferences
     chosen = names if spec.preferences == ("*",) else (  # "*": every preference
         spec.preferences or (spec_of(graph).default_preference,))
     prefs = np.array([names.index(p) for p in chosen], dtype=np.int32)
@@ -268,7 +268,7 @@ def is_plain(human: ScriptedHuman, graph: TaskGraph) -> int | None:
     """The bank index of ``human`` when it is one of the scenario's preference humans with
     rates only (deterministic, the preference's own table); None otherwise.
     """
-    names = preferences_for(graph.name)
+    names = spec_of(graph).preferences
     if human.name not in names or not human.deterministic:
         return None
     base = preference_human(graph, human.name)

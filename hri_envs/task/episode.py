@@ -160,21 +160,21 @@ def _checked(rule: RewardRule) -> RewardRule:
     """
     if rule.charge is None or _VERIFIED.get(id(rule)) is rule:
         return rule
-    from hri_envs.task.scenarios import SCENARIOS  # noqa: PLC0415  (the scenarios use us)
+    from hri_envs.task.scenarios import SCENARIOS, graph_of  # noqa: PLC0415  (they use us)
 
     _VERIFIED[id(rule)] = rule
     try:
-        for name in SCENARIOS:
-            _verify(rule, name)
+        for spec in SCENARIOS.values():
+            _verify(rule, graph_of(spec))
     except BaseException:
         del _VERIFIED[id(rule)]
         raise
     return rule
 
 
-def verify_reward_rule(rule: RewardRule, scenario: str) -> None:
+def verify_reward_rule(rule: RewardRule, graph: TaskGraph) -> None:
     """Check ``rule`` on every (state, robot action, human action, start, lifted) of
-    ``scenario``'s graph: rewards of the steps' shape, finite, in [-1, 0], the same on the
+    ``graph``: rewards of the steps' shape, finite, in [-1, 0], the same on the
     envs' fused table (:class:`StepTable`) as by :func:`step_reward`.
 
     Raises:
@@ -184,16 +184,13 @@ def verify_reward_rule(rule: RewardRule, scenario: str) -> None:
     known = _VERIFIED.get(id(rule)) is rule
     _VERIFIED[id(rule)] = rule  # the tables built here ask for the rule again
     try:
-        _verify(rule, scenario)
+        _verify(rule, graph)
     finally:
         if not known:
             del _VERIFIED[id(rule)]
 
 
-def _verify(rule: RewardRule, scenario: str) -> None:
-    from hri_envs.task.scenarios import scenario_graph  # noqa: PLC0415  (the scenarios use us)
-
-    graph = scenario_graph(scenario)
+def _verify(rule: RewardRule, graph: TaskGraph) -> None:
     n_s, n_a, n_k = graph.n_states, graph.n_actions, graph.n_intentions
     s = np.arange(n_s)[:, None, None, None, None]
     a_r = np.arange(n_a)[None, :, None, None, None]
@@ -202,7 +199,7 @@ def _verify(rule: RewardRule, scenario: str) -> None:
     lifted = np.array([False, True])[None, None, None, None, :]
     s_next = graph.next_state[s, a_r, a_h]
     shape = (n_s, n_a, n_a, n_k, 2)
-    where = f"reward rule {rule.name!r} on the {scenario}"
+    where = f"reward rule {rule.name!r} on the {graph.name}"
     try:
         got = step_reward(graph, s, a_r, a_h, s_next, -0.3, reward=rule, start=start,
                           lifted=lifted)

@@ -32,7 +32,6 @@ from typing import Any
 from agents.learning import algorithm1
 from hri_bench.people.serve.design import ServeConfig
 from hri_envs.errors import MissingExtraError
-from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 __all__ = ["ServeConfig", "require_web", "serve"]
 
@@ -91,14 +90,14 @@ def _serve(config: ServeConfig, say: Callable[[str], None], uvicorn: Any,
         say("hri-bench serve: loading the robot's compiled kernels (the first time after "
             "installing, they are compiled: a minute or more)")
         algorithm1.preload()
-    if scenario_spec(config.scenario).layout is None and not config.physical:
+    if config.spec.layout is None and not config.physical:
         # one view per state for all (MuJoCo draws them: the mujoco extra, which make serve
         # installs; imported here so that the CLI runs without it)
         from hri_bench.people.serve.scenes import graph_view  # noqa: PLC0415
 
-        graph = scenario_graph(config.scenario)
+        graph = config.graph
         for state in range(graph.n_states):
-            graph_view(config.scenario, None, state, max(0, int(graph.support[state])))
+            graph_view(graph, None, state, max(0, int(graph.support[state])))
     sock = _bind(config.host, config.port)
     host, port = sock.getsockname()[:2]
     try:

@@ -30,7 +30,7 @@ from hri_bench.run.agents import validate_agent_name
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.errors import ConfigError
 from hri_envs.task.episode import REWARD_RULES
-from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec
+from hri_envs.task.scenarios import SCENARIOS, NamedScenario
 
 __all__ = ["DEFAULT_CONSENT", "DEFAULT_INSTRUCTIONS", "LEAD_CONSENT", "LEAD_INSTRUCTIONS",
            "UNSUITED_AGENTS", "Assignment",
@@ -100,7 +100,7 @@ the handle. The robot feels that force through its wrist; it does not know your 
 
 
 @dataclass(frozen=True)
-class ServeConfig:
+class ServeConfig(NamedScenario):
     """The settings of ``hri-bench serve`` (docs/people.md).
 
     Attributes:
@@ -231,7 +231,7 @@ class ServeConfig:
                 raise ConfigError(f"allowed_hosts: expected a host name or address, "
                                   f"optionally with ':PORT' (IPv6 in brackets), got "
                                   f"{name!r}", field="allowed_hosts") from None
-        allowed = scenario_spec(self.scenario).preferences
+        allowed = self.spec.preferences
         bad = [p for p in self.preferences if p not in allowed]
         if bad or not isinstance(self.preferences, tuple):
             raise ConfigError(f"preferences must be of the {self.scenario}'s: "
@@ -246,7 +246,7 @@ class ServeConfig:
         check_flag(self.show_belief, "show_belief")
         check_dataset_id(self.dataset_id)
         if self.learner:
-            default_config(self.scenario, **dict(self.learner))
+            default_config(self.spec, **dict(self.learner))
 
     def _check_physical(self) -> None:
         """A physical robot; the physical texts by default; a population only for
@@ -285,7 +285,7 @@ class ServeConfig:
     @property
     def waiting_reward(self) -> float:
         """r0 after defaults."""
-        return scenario_spec(self.scenario).r0 if self.r0 is None else self.r0
+        return self.spec.r0 if self.r0 is None else self.r0
 
     @property
     def local_only(self) -> bool:
@@ -299,7 +299,7 @@ class ServeConfig:
 
     def public(self) -> dict[str, Any]:
         """What the page may know: texts, the task's names, episodes; nothing of the server."""
-        graph = scenario_graph(self.scenario)
+        graph = self.graph
         obj = graph.scenario.object_name
         supports = ", ".join(graph.support_names)
 
@@ -355,7 +355,7 @@ class Assignment:
 
 def assignment(config: ServeConfig, index: int) -> Assignment:
     """Participant ``index``'s counterbalanced design (see the module docstring)."""
-    circuit = pair_circuit(scenario_graph(config.scenario).n_intentions)
+    circuit = pair_circuit(config.graph.n_intentions)
     pairs = tuple(circuit[(index + e) % len(circuit)] for e in range(config.episodes))
     prefs = config.preferences
     return Assignment(index, pairs, prefs[index % len(prefs)] if prefs else None)

@@ -26,7 +26,8 @@ from pathlib import Path
 from typing import Any
 
 from hri_bench.core.pictures import picture
-from hri_envs.task.scenarios import Layout, episode_scenario, scenario_graph
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import Layout, episode_geometry
 
 __all__ = ["STORE", "VENDOR", "SceneStore", "built", "graph_view", "warm"]
 
@@ -98,12 +99,11 @@ STORE = SceneStore()
 class _GraphScene:
     """One scenario's v0 scene and the poses of its states (thread-safe)."""
 
-    def __init__(self, scenario: str) -> None:
+    def __init__(self, graph: TaskGraph) -> None:
         from hri_bench.people import scene3d  # noqa: PLC0415
         from hri_envs.physics.sim import PandaSim  # noqa: PLC0415 (MuJoCo: when asked)
 
-        self.scenario = scenario
-        self.graph = scenario_graph(scenario)
+        self.graph = graph
         self.sim = PandaSim(self.graph)
         model = self.sim.model
         self.bodies = scene3d.drawn_bodies(model)
@@ -118,7 +118,7 @@ class _GraphScene:
         """Put the sim in ``state`` (lock held)."""
         from hri_envs.physics.ik import IKFailure  # noqa: PLC0415
 
-        scenario = episode_scenario(self.scenario, layout)
+        scenario = episode_geometry(self.graph, layout)
         start = max(0, int(self.graph.support[state]))
         try:
             self.sim.reset(start, scenario, state=state)
@@ -162,30 +162,31 @@ _GL_THREAD = ThreadPoolExecutor(max_workers=1, thread_name_prefix="hri-bench-gl"
 
 
 @functools.cache
-def _scene(scenario: str) -> _GraphScene:
-    scene = _GraphScene(scenario)
+def _scene(graph: TaskGraph) -> _GraphScene:
+    scene = _GraphScene(graph)
     STORE.add(scene.doc)
     return scene
 
 
-def graph_view(scenario: str, layout: Layout | None, state: int, start: int) -> dict[str, Any]:
+def graph_view(graph: TaskGraph, layout: Layout | None, state: int, start: int
+               ) -> dict[str, Any]:
     """What a graph task's view carries to draw ``state``: ``scene`` (the description's key),
     ``poses`` and ``camera`` (fitted at the episode's start support ``start``) when the 3D
     view is built, else ``picture`` (the graph backend's side view, a PNG data URL).
     """
     if not built():
-        return {"picture": picture(scenario, layout, state)}
-    scene = _scene(scenario)
+        return {"picture": picture(graph, layout, state)}
+    scene = _scene(graph)
     STORE.add(scene.doc)  # kept while the server runs (a store full of others drops it)
     return {"scene": scene.key, "poses": list(scene.poses(layout, int(state))),
             "camera": json.loads(scene.camera(layout, int(start)))}
 
 
-def warm(scenario: str, layout: Layout | None, start: int) -> None:
+def warm(graph: TaskGraph, layout: Layout | None, start: int) -> None:
     """Compute an episode's first view ahead (the scene, its camera and start state)."""
     if built():
-        scene = _scene(scenario)
+        scene = _scene(graph)
         scene.camera(layout, int(start))
         scene.poses(layout, int(scene.graph.support_state(start, 0)))
     else:
-        picture(scenario, layout, int(scenario_graph(scenario).support_state(start, 0)))
+        picture(graph, layout, int(graph.support_state(start, 0)))

@@ -46,7 +46,7 @@ from hri_envs.envs.backends import GraphBatch
 from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import Layout, scenario_graph, scenario_spec
+from hri_envs.task.scenarios import Layout
 
 __all__ = ["EndedSession", "MessageError", "PersonHuman", "Session", "SessionManager",
            "load_json", "parse_message"]
@@ -197,7 +197,7 @@ class Session:
         self.on_end = on_end
         self.token = secrets.token_urlsafe(32)
         self.participant = writer.participant
-        self.graph = scenario_graph(config.scenario)
+        self.graph = config.graph
         self._lock = threading.Lock()
         self._actions: queue.Queue[tuple[str, int]] = queue.Queue()
         self._listeners: list[Callable[[], None]] = []
@@ -228,7 +228,7 @@ class Session:
         starts = np.array([[p[0] for p in design.pairs]], dtype=np.int64)
         goals = np.array([[p[1] for p in design.pairs]], dtype=np.int64)
         self.schedule = Schedule(starts, goals, np.zeros((1, n_e), dtype=bool))
-        sample = scenario_spec(config.scenario).layout
+        sample = config.spec.layout
         rng = np.random.default_rng([config.seed, design.index, 3])
         self.layouts: list[Layout | None] = [None if sample is None else sample(rng)
                                              for _ in range(n_e)]
@@ -422,7 +422,7 @@ class Session:
         """The 3D view of ``state`` in this episode (:func:`~hri_bench.people.serve.scenes.
         graph_view`).
         """
-        return graph_view(self.config.scenario, self.layouts[self._episode], state,
+        return graph_view(self.graph, self.layouts[self._episode], state,
                           self.design.pairs[self._episode][0])
 
     def _prerender(self, episode: int) -> None:
@@ -431,7 +431,7 @@ class Session:
         needed, about 10 ms each on the wheel, and kept).
         """
         if 0 <= episode < self.config.episodes:
-            warm(self.config.scenario, self.layouts[episode], self.design.pairs[episode][0])
+            warm(self.graph, self.layouts[episode], self.design.pairs[episode][0])
 
     def _make_robot(self) -> tuple[GuardedAgent, RecordingHumans]:
         """The robot agent, made in its worker as in a study, and the recorder around the

@@ -12,6 +12,8 @@ registered here, in one place; :func:`register_scenario` adds one of your own
 from __future__ import annotations
 
 import re
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -26,11 +28,14 @@ from hri_envs.task.scenarios.spec import Layout, Op, Route, ScenarioSpec, natura
 __all__ = [
     "SCENARIOS",
     "Layout",
+    "NamedScenario",
     "Op",
     "Route",
     "ScenarioSpec",
     "check_spec",
+    "episode_geometry",
     "episode_scenario",
+    "graph_of",
     "natural_route",
     "register_scenario",
     "scenario_graph",
@@ -159,6 +164,17 @@ def spec_of(graph: TaskGraph) -> ScenarioSpec:
     return graph.spec if graph.spec is not None else scenario_spec(graph.name)
 
 
+def graph_of(spec: ScenarioSpec) -> TaskGraph:
+    """The task graph of ``spec``: the registered scenario's (built once, at registration),
+    or built now for a spec that is not registered (one checked before registering it).
+
+    Raises:
+        ConfigError: An unregistered spec's geometry does not build a graph.
+    """
+    graph = _GRAPHS.get(spec.name)
+    return graph if graph is not None and graph.spec is spec else _build(spec)
+
+
 def scenario_graph(name: str) -> TaskGraph:
     """The (read-only, shared) task graph of a scenario, built once per process; it knows
     its spec (:attr:`TaskGraph.spec`).
@@ -166,14 +182,48 @@ def scenario_graph(name: str) -> TaskGraph:
     return _GRAPHS[scenario_spec(name).name]
 
 
-def episode_scenario(name: str, layout: Layout | None) -> Scenario:
-    """The geometry of one episode: the scenario's supports moved to ``layout`` if it has
-    random layouts (the wheel's stands), else its fixed geometry.
+class NamedScenario:
+    """A mixin of what names its scenario (``scenario``, as a file or a frozen definition
+    stores it: a study's, a dataset's, a split's): the name is resolved here, once, and
+    the rest is given :attr:`graph` and :attr:`spec`, never the name.
+
+    Pickled without the graph: a process that unpickles it resolves the name again (after
+    importing the modules that register its scenario).
     """
-    spec = scenario_spec(name)
+
+    if TYPE_CHECKING:  # a field, or a property (a dataset's is read from its file)
+        @property
+        def scenario(self) -> str:
+            """The scenario's name."""
+
+    @cached_property
+    def graph(self) -> TaskGraph:
+        """The registered scenario's task graph (it knows its :attr:`spec`)."""
+        return scenario_graph(self.scenario)
+
+    @property
+    def spec(self) -> ScenarioSpec:
+        """The registered scenario (:attr:`graph`'s :class:`ScenarioSpec`)."""
+        return spec_of(self.graph)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The instance's state without the resolved graph."""
+        return {k: v for k, v in self.__dict__.items() if k != "graph"}
+
+
+def episode_scenario(name: str, layout: Layout | None) -> Scenario:
+    """The geometry of one episode of the scenario ``name`` (:func:`episode_geometry`)."""
+    return episode_geometry(scenario_graph(name), layout)
+
+
+def episode_geometry(graph: TaskGraph, layout: Layout | None) -> Scenario:
+    """The geometry of one episode on ``graph``: its scenario's supports moved to ``layout``
+    if it has random layouts (the wheel's stands), else the graph's fixed geometry.
+    """
+    spec = spec_of(graph)
     if layout is not None and spec.layout is not None:
         return spec.geometry(layout)
-    return scenario_graph(name).scenario
+    return graph.scenario
 
 
 # The suite's scenarios, in this order (the one place a scenario is registered).
