@@ -32,7 +32,7 @@ from typing import ClassVar
 import numpy as np
 
 from agents.protocol import Trace
-from baselines.simple import _Tracking
+from baselines.simple import Tracking
 from hri_envs.checks import check_real
 from hri_envs.humans.finite_state import one_hot
 from hri_envs.humans.rational import D_MAX
@@ -72,7 +72,7 @@ def shortest_path_policy(graph: TaskGraph, beta: float, epsilon: float) -> np.nd
     return np.where(free[None, None, :, None], law[None], one_hot(table, n_a))
 
 
-class GoalFilter(_Tracking):
+class GoalFilter(Tracking):
     """A Bayes filter over the goal with a fixed shortest-path human model (module docstring).
 
     Args:

@@ -18,7 +18,7 @@ from agents.config import LearnerConfig, default_config
 from agents.learner import sample_actions
 from agents.learning import mdp, partner_mdp
 from agents.protocol import Trace, run_streams
-from baselines.simple import _Tracking
+from baselines.simple import Tracking
 from hri_envs.task import episode as rules
 from hri_envs.task import mdp as task_mdp
 from hri_envs.task.features import initial_theta
@@ -28,7 +28,7 @@ from hri_envs.task.scenarios import spec_of
 __all__ = ["MaxEntIRL"]
 
 
-class MaxEntIRL(_Tracking):
+class MaxEntIRL(Tracking):
     """Algorithm 4 for ``n_runs`` independent runs.
 
     Args:

@@ -1,4 +1,5 @@
-"""The Passive agent (Alg. 2), the Imitator (Alg. 3) and the Oracle (upper bound).
+"""The Passive agent (Alg. 2), the Imitator (Alg. 3) and the Oracle (upper bound), and the
+start-and-lift bookkeeping every baseline shares (:class:`Tracking`).
 
 All three are batched :class:`~agents.protocol.BatchAgent` implementations: arrays with a
 leading run axis, one independent stream of episodes per run.
@@ -18,11 +19,14 @@ from hri_envs.task import episode as rules
 from hri_envs.task import mdp as task_mdp
 from hri_envs.task.graph import BOTH, ROBOT_BIT, TAKE_OFF, TOGGLE, WAIT, TaskGraph
 
-__all__ = ["Imitator", "Oracle", "Passive"]
+__all__ = ["Imitator", "Oracle", "Passive", "Tracking"]
 
 
-class _Tracking(BatchAgent):
-    """Shared bookkeeping: the start support and whether the object has left it."""
+class Tracking(BatchAgent):
+    """The bookkeeping the baselines share: each run's start support, whether the object has
+    left it, and the Passive baseline's action from them (the base class of every baseline
+    of this package).
+    """
 
     def __init__(self, graph: TaskGraph, n_runs: int) -> None:
         super().__init__(n_runs)
@@ -31,11 +35,13 @@ class _Tracking(BatchAgent):
         self.lifted = np.zeros(n_runs, dtype=bool)
 
     def begin_episode(self, starts: np.ndarray) -> None:
+        """Keep each run's start support; no run has lifted the object yet."""
         self.start = np.asarray(starts, dtype=np.int64).reshape(self.n_runs).copy()
         self.lifted = np.zeros(self.n_runs, dtype=bool)
 
     def observe(self, states: np.ndarray, robot_actions: np.ndarray, human_actions: np.ndarray,
                 next_states: np.ndarray, active: np.ndarray) -> None:
+        """Note the active runs whose object has left its start support."""
         self.lifted |= active & rules.left_start(self.graph, next_states, self.start)
 
     def passive(self, states: np.ndarray) -> np.ndarray:
@@ -47,7 +53,7 @@ class _Tracking(BatchAgent):
         """Nothing to learn by default."""
 
 
-class Passive(_Tracking):
+class Passive(Tracking):
     """Algorithm 2: grasp at the start, let go at the goal, gravity compensation in between.
 
     As an extension (so that Table 2's episode 8 can end), the start counts as a goal once
@@ -61,7 +67,7 @@ class Passive(_Tracking):
         return self.passive(np.asarray(observations["state"], dtype=np.int64))
 
 
-class Imitator(_Tracking):
+class Imitator(Tracking):
     """Algorithm 3: repeat the human's most recent action seen in the same state from the
     same start support; behave passively where nothing was observed yet.
 
@@ -91,7 +97,7 @@ class Imitator(_Tracking):
                     self.table[b, start, s] = a
 
 
-class Oracle(_Tracking):
+class Oracle(Tracking):
     """Knows the human's current intention and scripted preference: the upper bound.
 
     It takes the human's preferred action in free space and handles its own grasp at the

@@ -118,9 +118,9 @@ class RebuildsHumans(_Waits):
         if seed is None or runs is None:
             return
         from baselines.product import QMDP
-        from hri_bench.run.study import StudyConfig, _humans
+        from hri_bench.run.study import StudyConfig, unit_humans
 
         cfg = StudyConfig(graph.name, population=TARGET, runs=int(max(runs)) + 1, seed=seed)
-        humans, _ = _humans(cfg, "", [int(r) for r in runs])
+        humans, _ = unit_humans(cfg, "", [int(r) for r in runs])
         self.recovered = len(runs)
         self.inner = QMDP(graph, humans, n_runs, **self._settings())

@@ -28,6 +28,7 @@ from hypothesis.extra import numpy as hnp
 
 import hri_envs  # noqa: F401  (registers the ids)
 from hri_bench.cli import commands as cli
+from hri_bench.cli import parser as cli_parser
 from hri_envs.checks import integer_or_none
 from hri_envs.envs.config import check_physics_options
 from hri_envs.envs.parallel import CooperationParallelEnv
@@ -277,8 +278,8 @@ def outs(tmp_path_factory):
 def _cli(argv):
     """(exit code or the accepted StudyConfig, stderr) of ``hri-bench`` run in-process."""
     err = io.StringIO()
-    with mock.patch("hri_bench.cli.commands.run_in", _stop), contextlib.redirect_stderr(err), \
-            contextlib.redirect_stdout(io.StringIO()):
+    with mock.patch("hri_bench.cli.study_command.run_in", _stop), \
+            contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
         try:
             result = cli.main(argv)
         except SystemExit as stop:
@@ -289,8 +290,8 @@ def _cli(argv):
     return result, err.getvalue()
 
 
-_FLAGS = sorted({*(v for k, v in cli._STUDY_ARGUMENTS.items() if v.startswith("--")),
-                 *(flag for flag, _, _ in cli._LEARNER_FLAGS.values())})
+_FLAGS = sorted({*(v for k, v in cli_parser.STUDY_ARGUMENTS.items() if v.startswith("--")),
+                 *(flag for flag, _, _ in cli_parser.LEARNER_FLAGS.values())})
 _TEXT = st.one_of(st.text(max_size=10), st.sampled_from([
     "-1", "0", "1", "2", "1e15", "1000000", "nan", "inf", "-inf", "1.5", "0.5", "-0.5", "",
     "true", "learner", "passive,passive", "x:y", ":x", ".x:y", "sb3:/nonexistent", "hanger",

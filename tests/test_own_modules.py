@@ -196,6 +196,7 @@ CLI_MESSAGES = {
     "hri_bench/cli": "the command line",
     "hri_bench/people": "hri-bench serve's page and options (docs/people.md)",
     "hri_bench/run/studyio.py": "hri-bench study's output folder (--resume, --overwrite)",
+    "hri_bench/run/folders.py": "a command's locked output folder (--resume, --overwrite)",
     "hri_bench/suite/resume.py": "hri-bench suite's output folder (--resume, --overwrite)",
     "hri_bench/suite/merged.py": "hri-bench leaderboard's advice on merging files",
     "hri_bench/report/sample_efficiency.py": "a script's own command line",

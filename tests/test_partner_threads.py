@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from agents.learner import Learner
-from agents.learning import algorithm1, mdp, partner_mdp
+from agents.learning import algorithm1, compiled, mdp, partner_mdp
 from agents.protocol import Trace
 from hri_bench.report.speed import _wheel_trace
 from hri_bench.run.study import graph_for
@@ -94,7 +94,7 @@ def test_thread_setting_is_checked(threads, monkeypatch):
     assert partner_mdp.threads() == 3
     monkeypatch.delenv(partner_mdp.THREADS_ENV)
     threads(None)
-    assert partner_mdp.threads() == partner_mdp._cores() >= 1  # the default: every core
+    assert partner_mdp.threads() == compiled._cores() >= 1  # the default: every core
 
 
 def _child_threads(_):
@@ -112,10 +112,10 @@ def test_a_forked_child_runs_the_kernels_on_one_thread(threads):
 def test_a_child_forked_before_the_parent_chose_runs_on_one_thread(threads, monkeypatch):
     """The default (every core) is the importing process's; its forked workers get one."""
     monkeypatch.delenv(partner_mdp.THREADS_ENV, raising=False)
-    monkeypatch.setattr(partner_mdp, "_threads", None)
+    monkeypatch.setattr(compiled, "_threads", None)
     with multiprocessing.get_context("fork").Pool(1) as pool:
         assert pool.map(_child_threads, [0]) == [1]
-    assert partner_mdp.threads() == partner_mdp._cores()
+    assert partner_mdp.threads() == compiled._cores()
 
 
 @needs_jit
@@ -136,7 +136,7 @@ def test_threads_give_the_same_numbers_bit_for_bit(threads):
         return learner
 
     one, two = learn(1), learn(2)
-    assert partner_mdp._threads_here(100) == 2
+    assert compiled._threads_here(100) == 2
     for name, a, b in zip(algorithm1.Models._fields, one._models, two._models, strict=True):
         assert a.tobytes() == b.tobytes(), name
 

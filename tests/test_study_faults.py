@@ -454,7 +454,7 @@ def test_a_stop_of_the_study_is_not_taken_for_an_agents_ctrl_c(monkeypatch):
     from hri_bench.run import study
     from hri_bench.run.studyio import stop_on_signals
 
-    unit = study._units(StudyConfig("wheel", agents=("passive",), runs=1, episodes=1))[0]
+    unit = study.study_units(StudyConfig("wheel", agents=("passive",), runs=1, episodes=1))[0]
     # Python's default handler, as a library caller has it (an earlier test of the same
     # worker may have left another one installed)
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
@@ -526,11 +526,11 @@ def test_truncations_are_counted_in_the_summary(tmp_path):
 def test_a_unit_an_earlier_version_wrote_without_the_task_metrics_is_simulated_again(tmp_path):
     # --resume of a study begun before the task's metrics existed: its units lack them.
     from hri_bench.run.runner import TASK_METRICS
-    from hri_bench.run.study import _units
+    from hri_bench.run.study import study_units
     from hri_bench.run.studyio import StudyDir
 
     cfg = StudyConfig("wheel", agents=("passive",), runs=2, episodes=1)
-    units = _units(cfg)
+    units = study_units(cfg)
     with StudyDir(tmp_path / "study", cfg) as folder:
         run_study(cfg, on_result=lambda i, res: folder.save_unit(i, units[i], res))
         assert sorted(folder.load_done(units)) == list(range(len(units)))

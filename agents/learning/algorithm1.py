@@ -31,122 +31,24 @@ from typing import NamedTuple
 import numpy as np
 
 from agents.learning import mdp
-from agents.learning.partner_mdp import (
-    _c,
-    _check_iteration,
-    _check_range,
-    _check_shape,
-    _in_parts,
-    _joined,
-    _valid,
-    expected_feature_counts,
+from agents.learning.compiled import (
+    check_iteration,
+    check_range,
+    check_shape,
+    contiguous,
+    in_parts,
+    joined_traces,
     kernels,
-    loop_free_counts,
-    solve_soft,
+    valid_table,
 )
+from agents.learning.learner_data import Models, Params, Tables, Workspace
+from agents.learning.partner_mdp import expected_feature_counts, loop_free_counts, solve_soft
 from agents.learning.partner_mdp import preload as preload_kernels
 from hri_envs.errors import ConfigError
 from hri_envs.task import mdp as task_mdp
-from hri_envs.task.graph import TaskGraph
 
 __all__ = ["Models", "Params", "Tables", "Workspace", "preload", "reference_update", "update",
            "update_models"]
-
-
-class Tables(NamedTuple):
-    """A graph's tables in the layouts the kernels take (own, writeable, contiguous copies,
-    so that neither the kernels copy them per call nor a read-only variant is compiled).
-
-    Attributes:
-        next_state: (S, A, A) int64 joint table ``next_state[s, a_R, a_H]``.
-        valid: (S, A) bool valid actions (of both partners).
-        reward: (S, A, A) float64 the robot's joint reward R_R (with the Learner's r0).
-        features: (I, S, F) float64 φ(s, ι).
-        terminal: (I,) int64 the absorbing goal state of each intention.
-    """
-
-    next_state: np.ndarray
-    valid: np.ndarray
-    reward: np.ndarray
-    features: np.ndarray
-    terminal: np.ndarray
-
-    @classmethod
-    def of(cls, graph: TaskGraph, r0: float) -> Tables:
-        """The tables of ``graph`` with the robot reward of ``r0``."""
-        return cls(np.array(graph.next_state, dtype=np.int64), np.array(graph.valid, dtype=bool),
-                   np.array(graph.reward(r0), dtype=np.float64),
-                   np.array(graph.features, dtype=np.float64),
-                   np.array(graph.terminal, dtype=np.int64))
-
-
-class Params(NamedTuple):
-    """The update's parameters (the Learner's configuration, :class:`agents.config.
-    LearnerConfig`).
-
-    Attributes:
-        gamma: Discount γ in [0, 1) of every Q-iteration.
-        human_temperature: τ_H of π̂_H.
-        robot_temperature: τ of the robot policy the human model assumes.
-        irl_temperature: τ of the IRL's soft-max policy.
-        learning_rate: λ of the IRL step.
-        max_iter: Cap on policy-improvement rounds.
-    """
-
-    gamma: float
-    human_temperature: float
-    robot_temperature: float
-    irl_temperature: float
-    learning_rate: float
-    max_iter: int = 100
-
-
-class Models(NamedTuple):
-    """The Learner's model of both partners after :func:`update` (B runs, I intentions).
-
-    Attributes:
-        theta: (B, F) feature weights of the human's reward.
-        state_reward: (B, I, S) that reward, θ·φ(s, ι).
-        q_h: (B, I, S, A) the human's Q.
-        greedy_h: (B, I, S) int its greedy actions (the next update's warm start).
-        pi_h: (B, I, S, A) the human policy estimate π̂_H.
-        q_r: (B, I, S, A) the robot's Q.
-        greedy_r: (B, I, S) int its greedy actions.
-        pi_r: (B, I, S, A) the robot's soft-max policy the human model assumes.
-    """
-
-    theta: np.ndarray
-    state_reward: np.ndarray
-    q_h: np.ndarray
-    greedy_h: np.ndarray
-    pi_h: np.ndarray
-    q_r: np.ndarray
-    greedy_r: np.ndarray
-    pi_r: np.ndarray
-
-
-class Workspace:
-    """Arrays an update may write its results into, handed over explicitly.
-
-    A learner that keeps nothing of an earlier update's models gives them to its workspace
-    (:meth:`give`) when an update replaces them; the next update writes into them
-    (:meth:`take`) instead of fresh arrays, which spares the allocator fresh pages (about a
-    sixth of a 100-run update's time). So with a workspace, the arrays a learner exposes
-    are overwritten by the update after next: whoever keeps them copies them. The benchmark
-    gives its learners one; a learner made without one never overwrites an array.
-    """
-
-    def __init__(self) -> None:
-        self._spare: Models | None = None
-
-    def give(self, models: Models) -> None:
-        """Models no one reads any more: the next update may write into their arrays."""
-        self._spare = models
-
-    def take(self) -> Models | None:
-        """The arrays to write the next update into (None: fresh ones)."""
-        spare, self._spare = self._spare, None
-        return spare
 
 
 def update(tables: Tables, params: Params, theta: np.ndarray, pi_r: np.ndarray,
@@ -298,8 +200,8 @@ def _checked(tables: Tables, params: Params, theta: np.ndarray, pi_r: np.ndarray
         ConfigError: An array of the wrong shape, an index out of range, or parameters
             :func:`~agents.learning.partner_mdp.solve_soft` refuses.
     """
-    phi = _c(np.asarray(tables.features), np.float64)
-    th = _c(np.asarray(theta), np.float64)
+    phi = contiguous(np.asarray(tables.features), np.float64)
+    th = contiguous(np.asarray(theta), np.float64)
     if phi.ndim != 3 or th.ndim != 2:
         raise ConfigError(f"features must be (I, S, F) and theta (B, F), got shapes "
                           f"{phi.shape} and {th.shape}",
@@ -307,37 +209,38 @@ def _checked(tables: Tables, params: Params, theta: np.ndarray, pi_r: np.ndarray
     n_i, n_s, n_f = phi.shape
     n_a = np.shape(tables.valid)[-1]
     n_b = len(th)
-    nxt = _c(np.asarray(tables.next_state), np.int64)
-    _check_shape("next_state", nxt, (n_s, n_a, n_a))
-    _check_range("next_state", nxt, 0, n_s)
-    ok = _valid(tables.valid, n_s, n_a)
-    joint = _c(np.asarray(tables.reward), np.float64)
-    _check_shape("reward", joint, (n_s, n_a, n_a))
-    term = _c(np.asarray(tables.terminal), np.int64)
-    _check_shape("terminal", term, (n_i,))
-    _check_range("terminal", term, -1, n_s)
-    _check_shape("theta", th, (n_b, n_f))
-    pi = _c(np.asarray(pi_r), np.float64)
-    _check_shape("pi_r", pi, (n_b, n_i, n_s, n_a))
+    nxt = contiguous(np.asarray(tables.next_state), np.int64)
+    check_shape("next_state", nxt, (n_s, n_a, n_a))
+    check_range("next_state", nxt, 0, n_s)
+    ok = valid_table(tables.valid, n_s, n_a)
+    joint = contiguous(np.asarray(tables.reward), np.float64)
+    check_shape("reward", joint, (n_s, n_a, n_a))
+    term = contiguous(np.asarray(tables.terminal), np.int64)
+    check_shape("terminal", term, (n_i,))
+    check_range("terminal", term, -1, n_s)
+    check_shape("theta", th, (n_b, n_f))
+    pi = contiguous(np.asarray(pi_r), np.float64)
+    check_shape("pi_r", pi, (n_b, n_i, n_s, n_a))
     if warm is not None:
-        warm = (_c(np.asarray(warm[0]), np.int64), _c(np.asarray(warm[1]), np.int64))
+        warm = (contiguous(np.asarray(warm[0]), np.int64),
+                contiguous(np.asarray(warm[1]), np.int64))
         for name, w in zip(("greedy_h", "greedy_r"), warm, strict=True):
-            _check_shape(name, w, (n_b, n_i, n_s))
-            _check_range(name, w, 0, n_a)
-    _check_iteration(params.gamma, params.max_iter)
+            check_shape(name, w, (n_b, n_i, n_s))
+            check_range(name, w, 0, n_a)
+    check_iteration(params.gamma, params.max_iter)
     if state_reward is not None:
-        state_reward = _c(np.asarray(state_reward), np.float64)
-        _check_shape("state_reward", state_reward, (n_b, n_i, n_s))
+        state_reward = contiguous(np.asarray(state_reward), np.float64)
+        check_shape("state_reward", state_reward, (n_b, n_i, n_s))
     if out is not None:
         _check_out(out, (n_b, n_i, n_s, n_a))
     intent = states = offsets = None
     if state_traces is not None:
-        intent = _c(np.asarray(intentions).reshape(-1), np.int64)
+        intent = contiguous(np.asarray(intentions).reshape(-1), np.int64)
         if len(intent) != n_b or len(state_traces) != n_b:
             raise ConfigError(f"give one trace and one intention per run ({n_b}), got "
                               f"{len(state_traces)} and {len(intent)}", field="intentions")
-        _check_range("intentions", intent, -1, n_i)
-        states, offsets = _joined(state_traces, n_s)
+        check_range("intentions", intent, -1, n_i)
+        states, offsets = joined_traces(state_traces, n_s)
     return _Batch(Tables(nxt, ok, joint, phi, term), th, pi, warm, state_reward, intent,
                   states, offsets)
 
@@ -386,7 +289,7 @@ def _compiled_update(steps: _CompiledSteps, batch: _Batch, out: Models | None) -
         steps.human_model(new, lo, hi)  # l. 20-22: π̂_H = softmax(τ_H Q_H) per intention
         steps.robot_model(new, lo, hi)  # l. 3-5: the robot's Q and the policy π̂_H assumes
 
-    _in_parts(runs, n_b, mdps=n_b * (2 * n_i + irl))
+    in_parts(runs, n_b, mdps=n_b * (2 * n_i + irl))
     return new
 
 

@@ -21,26 +21,41 @@ Each function has two implementations whose results agree to rounding, ~1e-15
 (tests/test_partner_mdp.py checks them against each other): vectorised numpy, and compiled
 loops (:mod:`agents.learning._jit`) used when numba is importable and the environment variable
 ``HRI_ENVS_NO_JIT`` is not set to a non-empty value other than ``0``. The compiled code is
-cached on disk, so a machine compiles it once (:func:`kernels`).
+cached on disk, so a machine compiles it once. Whether the compiled path is on, the threads
+a batch is shared among and the checks of the kernels' inputs are
+:mod:`agents.learning.compiled`'s (:func:`kernels`, :func:`jit_enabled`, :func:`set_threads`
+and :func:`threads` are re-exported here).
 """
 
 from __future__ import annotations
 
-import functools
-import itertools
-import os
-import threading
-from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
-from types import ModuleType
+from collections.abc import Sequence
 
 import numpy as np
 
 from agents.learning import mdp
+from agents.learning.compiled import (
+    THREADS_ENV,
+    as_shape,
+    check_range,
+    check_shape,
+    contiguous,
+    in_parts,
+    iteration_inputs,
+    jit_enabled,
+    joined_traces,
+    kernels,
+    set_threads,
+    terminal_states,
+    threads,
+    trace_lengths,
+    valid_table,
+)
 from hri_envs.errors import ConfigError
 from hri_envs.task import mdp as task_mdp
 
 __all__ = [
+    "THREADS_ENV",
     "belief_policy",
     "expected_feature_counts",
     "jit_enabled",
@@ -56,229 +71,6 @@ __all__ = [
 ]
 
 _NEG = -1e300
-
-
-@functools.cache
-def kernels() -> ModuleType | None:
-    """The compiled kernels (:mod:`agents.learning._jit`), or None for the numpy path.
-
-    None when ``HRI_ENVS_NO_JIT`` is set (to anything but "" or "0") or numba cannot be
-    imported. Decided once per process. The first call in a process imports numba and
-    loads the kernels from numba's on-disk cache (compiling them the first time on a
-    machine, a few seconds).
-    """
-    if os.environ.get("HRI_ENVS_NO_JIT", "") not in ("", "0"):
-        return None
-    try:
-        from agents.learning import _jit
-    except ImportError:
-        return None
-    return _jit
-
-
-def preload() -> bool:
-    """Load every compiled kernel now; whether the compiled path is on.
-
-    The first compiled call of a process starts numba's code generator (≈ 0.3-0.8 s even
-    with the on-disk cache). Calling this before forking worker processes lets them inherit
-    the loaded kernels instead of each paying that again.
-    """
-    jit = kernels()
-    if jit is None:
-        return False
-    nxt = np.zeros((1, 1, 1), np.int64)
-    one = np.ones((1, 1, 1))
-    none = np.full(1, -1, np.int64)
-    zero = np.zeros(1, np.int64)
-    valid = np.ones((1, 1), np.bool_)
-    jit.partner_backup(nxt, one, np.zeros((1, 1)), none)
-    jit.partner_reward(one, one, none)
-    jit.solve_partner_q(nxt, one, one, valid, none, 0.5, np.zeros((1, 1), np.int64), False, 1)
-    jit.expected_feature_counts(nxt, one, one, one, zero, none, np.ones(1, np.int64),
-                                np.zeros((1, 1)), 0, 1)
-    jit.belief_policy(np.ones((1, 1, 1, 1)), np.ones((1, 1)), zero, zero, valid, 1.0, 0.5)
-    jit.out_of_range(zero, 0, 1)
-    jit.loop_free_counts(np.ones((1, 1, 2)), zero, np.array([0, 1]), zero)
-    jit.solve_soft(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
-                   np.zeros((1, 1), np.int64), False, 1, 1.0, np.empty((1, 1, 1)),
-                   np.empty((1, 1), np.int64), np.zeros((1, 1, 1)), 0, 1)
-    return True
-
-
-#: Environment variable: threads the compiled kernels share a batch of MDPs among.
-THREADS_ENV = "HRI_ENVS_THREADS"
-#: Batches smaller than this many MDPs per thread run on one thread (not worth a hand-out).
-_MIN_PER_THREAD = 48
-_threads: tuple[int, int] | None = None  # (threads, the id of the process that chose them)
-_pool: tuple[ThreadPoolExecutor, int, int] | None = None  # (helpers, how many, process id)
-_IMPORTED_BY = os.getpid()  # a process forked after the import has another id
-
-
-def _cores() -> int:
-    """Cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
-def set_threads(n: int | None) -> None:
-    """Share each batch of MDPs among ``n`` threads in this process (None: the default).
-
-    The default is the environment variable ``HRI_ENVS_THREADS``, or else the number of
-    cores this process may run on. With more than one thread, a batch is cut into
-    consecutive parts that the calling thread and ``n - 1`` helper threads take in turn,
-    each solving its part with the serial kernel (which releases the GIL), so the numbers
-    do not depend on the number of threads. The setting belongs to the process that made
-    it: a child forked from it (a study's worker), or forked from the process that
-    imported this module before it chose, runs the kernels on one thread unless it calls
-    this itself, so that workers do not oversubscribe the cores. Only the main thread
-    hands work out.
-
-    Raises:
-        ConfigError: ``n`` < 1, or ``HRI_ENVS_THREADS`` is not a whole number >= 1.
-    """
-    global _threads
-    if n is None:
-        raw = os.environ.get(THREADS_ENV, "").strip()
-        try:
-            n = int(raw) if raw else _cores()
-        except ValueError:
-            n = 0
-        if n < 1:
-            raise ConfigError(f"{THREADS_ENV} must be a whole number >= 1, got {raw!r}",
-                              field=THREADS_ENV)
-    elif n < 1:
-        raise ConfigError(f"threads must be >= 1, got {n}", field="threads")
-    _threads = (n, os.getpid())
-
-
-def threads() -> int:
-    """Threads the compiled kernels share a batch among in this process (1: serial)."""
-    if _threads is None:
-        if os.getpid() != _IMPORTED_BY:
-            return 1
-        set_threads(None)
-    assert _threads is not None
-    n, pid = _threads
-    return n if pid == os.getpid() else 1
-
-
-def _threads_here(n_mdps: int) -> int:
-    """Threads to share a batch of ``n_mdps`` MDPs among here and now (1: the caller's)."""
-    n = threads()
-    if n == 1 or threading.current_thread() is not threading.main_thread():
-        return 1
-    return max(1, min(n, n_mdps // _MIN_PER_THREAD))
-
-
-def _in_parts(solve: Callable[[int, int], None], n_items: int, mdps: int | None = None
-              ) -> None:
-    """``solve(0, n_items)``, done in consecutive parts on :func:`_threads_here` threads.
-
-    ``solve(lo, hi)`` does the items (MDPs, or runs of ``mdps`` MDPs in all) lo..hi-1,
-    writing into results made beforehand. With N threads the batch is cut into 2N parts
-    that the calling thread and N - 1 helpers take in turn, so that a thread slowed down
-    (its core busy with other work) takes fewer.
-    """
-    global _pool
-    n_t = _threads_here(n_items if mdps is None else mdps)
-    n_t = min(n_t, n_items)
-    if n_t <= 1:
-        solve(0, n_items)
-        return
-    if _pool is None or _pool[1] < n_t - 1 or _pool[2] != os.getpid():
-        if _pool is not None and _pool[2] == os.getpid():
-            _pool[0].shutdown(wait=False)  # too few helpers for a larger setting
-        _pool = (ThreadPoolExecutor(n_t - 1, thread_name_prefix="hri-envs"), n_t - 1,
-                 os.getpid())
-    n_p = min(2 * n_t, n_items)
-    cuts = [i * n_items // n_p for i in range(n_p + 1)]
-    turns = itertools.count()  # next() is atomic under the GIL
-
-    def work() -> None:
-        while (i := next(turns)) < n_p:
-            solve(cuts[i], cuts[i + 1])
-
-    helpers = [_pool[0].submit(work) for _ in range(n_t - 1)]
-    work()
-    for helper in helpers:
-        helper.result()
-
-
-def jit_enabled() -> bool:
-    """Whether the compiled kernels are used in this process (see :func:`kernels`)."""
-    return kernels() is not None
-
-
-def _check_range(name: str, x: np.ndarray, low: int, high: int) -> None:
-    """Raise ConfigError unless every entry of the int array ``x`` is in [low, high).
-
-    The compiled kernels index without bounds checks (an index out of range reads or
-    writes outside the array), so every index array is checked before they run (by a
-    compiled pass where the kernels are on: a numpy reduction costs more than a small
-    kernel call).
-    """
-    jit = kernels()
-    if jit is not None and x.dtype == np.int64 and x.flags.c_contiguous:
-        bad = jit.out_of_range(x, low, high)
-    else:
-        bad = x.size > 0 and (int(x.min()) < low or int(x.max()) >= high)
-    if bad:
-        raise ConfigError(f"{name} must hold indices in [{low}, {high}), got values from "
-                          f"{int(x.min())} to {int(x.max())}", field=name)
-
-
-def _terminal(terminal: np.ndarray | int | None, lead: tuple[int, ...]) -> np.ndarray:
-    """(N,) int64 absorbing state per MDP (-1: none) from a value broadcastable to ``lead``."""
-    if terminal is None:
-        return np.full(int(np.prod(lead)), -1, np.int64)
-    return _flat(terminal, lead, np.int64, "terminal").reshape(-1)
-
-
-def _flat(x: np.ndarray | int, shape: tuple[int, ...], dtype: type, name: str) -> np.ndarray:
-    """``x`` broadcast to ``shape``, as :func:`_c`.
-
-    Raises:
-        ConfigError: ``x`` does not broadcast to ``shape`` (the compiled kernels would read
-            past its end).
-    """
-    arr = np.asarray(x)
-    if arr.shape != shape:
-        try:
-            arr = np.broadcast_to(arr, shape)
-        except ValueError:
-            raise ConfigError(f"{name} has shape {arr.shape}, which does not broadcast to "
-                              f"{shape}", field=name) from None
-    return _c(arr, dtype)
-
-
-def _check_shape(name: str, x: np.ndarray, shape: tuple[int, ...]) -> None:
-    """Raise ConfigError unless ``x`` has ``shape`` (the kernels index by the others' sizes)."""
-    if x.shape != shape:
-        raise ConfigError(f"{name} must have shape {shape}, got {x.shape}", field=name)
-
-
-def _valid(valid: np.ndarray, n_s: int, n_a: int) -> np.ndarray:
-    """The (S, A) valid-action table as the kernels take it, its shape checked."""
-    ok = _c(np.asarray(valid), dtype=np.bool_)
-    _check_shape("valid", ok, (n_s, n_a))
-    return ok
-
-
-def _c(x: np.ndarray, dtype: type) -> np.ndarray:
-    """``x`` as a C-contiguous, writeable array of ``dtype`` (copied only if it is not).
-
-    The compiled kernels then see one array type per argument: numba compiles (and caches)
-    a separate version for read-only or non-contiguous arrays. The common case, an array
-    that already is one, is answered without :func:`numpy.require` (whose generality costs
-    more than a small kernel call).
-    """
-    if type(x) is np.ndarray and x.dtype == dtype:
-        flags = x.flags
-        if flags.c_contiguous and flags.writeable:
-            return x
-    return np.require(x, dtype, ("C", "W"))
 
 
 def partner_backup(next_state: np.ndarray, partner: np.ndarray, values: np.ndarray,
@@ -300,12 +92,12 @@ def partner_backup(next_state: np.ndarray, partner: np.ndarray, values: np.ndarr
     """
     lead = partner.shape[:-2]
     n_s, n_a, n_p = next_state.shape
-    nxt = _c(next_state, dtype=np.int64)
-    _check_range("next_state", nxt, 0, n_s)
-    pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
-    x = _flat(values, (*lead, n_s), np.float64, "values").reshape(-1, n_s)
-    term = _terminal(terminal, lead)
-    _check_range("terminal", term, -1, n_s)
+    nxt = contiguous(next_state, dtype=np.int64)
+    check_range("next_state", nxt, 0, n_s)
+    pi = contiguous(partner, dtype=np.float64).reshape(-1, n_s, n_p)
+    x = as_shape(values, (*lead, n_s), np.float64, "values").reshape(-1, n_s)
+    term = terminal_states(terminal, lead)
+    check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
         out = jit.partner_backup(nxt, pi, x, term)
@@ -339,12 +131,12 @@ def partner_reward(reward: np.ndarray, partner: np.ndarray,
     """
     lead = partner.shape[:-2]
     n_s, n_a, n_p = reward.shape
-    pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
-    term = _terminal(terminal, lead)
-    _check_range("terminal", term, -1, n_s)
+    pi = contiguous(partner, dtype=np.float64).reshape(-1, n_s, n_p)
+    term = terminal_states(terminal, lead)
+    check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
-        r = _c(reward, dtype=np.float64)
+        r = contiguous(reward, dtype=np.float64)
         out = jit.partner_reward(r, pi, term)
     else:
         out = np.einsum("sap,nsp->nsa", reward, pi)
@@ -372,22 +164,22 @@ def belief_policy(q: np.ndarray, belief: np.ndarray, states: np.ndarray, valid: 
     Returns:
         (B, A) probabilities.
     """
-    states = _c(states, np.int64)
+    states = contiguous(states, np.int64)
     n_b, n_i, n_s, n_a = q.shape
-    _check_shape("states", states, (n_b,))
-    _check_shape("belief", belief, (n_b, n_i))
-    _check_range("states", states, 0, n_s)
-    base = np.full(n_b, -1, np.int64) if baseline is None else _c(baseline, np.int64)
+    check_shape("states", states, (n_b,))
+    check_shape("belief", belief, (n_b, n_i))
+    check_range("states", states, 0, n_s)
+    base = np.full(n_b, -1, np.int64) if baseline is None else contiguous(baseline, np.int64)
     if baseline is not None:
-        _check_shape("baseline", base, (n_b,))
-        _check_range("baseline", base, 0, n_a)
+        check_shape("baseline", base, (n_b,))
+        check_range("baseline", base, 0, n_a)
     jit = kernels()
     if jit is None:
         rows = np.arange(len(states))
         mixed = np.einsum("bi,bia->ba", belief, q[rows, :, states])
         return mdp.bounded_softmax(mixed, valid[states], temperature, eta, baseline)
-    return jit.belief_policy(_c(q, np.float64), _c(belief, np.float64),
-                             states, base, _valid(valid, n_s, n_a), float(temperature),
+    return jit.belief_policy(contiguous(q, np.float64), contiguous(belief, np.float64),
+                             states, base, valid_table(valid, n_s, n_a), float(temperature),
                              float(eta))
 
 
@@ -428,10 +220,10 @@ def solve_partner_q(
     """
     lead = partner.shape[:-2]
     n_s, n_a, _ = next_state.shape
-    nxt, pi, term, act, warm = _iteration_inputs(next_state, partner, gamma, terminal, policy,
+    nxt, pi, term, act, warm = iteration_inputs(next_state, partner, gamma, terminal, policy,
                                                  max_iter)
-    r = _flat(reward, (*lead, n_s, n_a), np.float64, "reward").reshape(-1, n_s, n_a)
-    ok = _valid(valid, n_s, n_a)
+    r = as_shape(reward, (*lead, n_s, n_a), np.float64, "reward").reshape(-1, n_s, n_a)
+    ok = valid_table(valid, n_s, n_a)
     jit = kernels()
     if jit is not None:
         q, greedy = jit.solve_partner_q(nxt, pi, r, ok, term, float(gamma), act, warm,
@@ -496,14 +288,14 @@ def solve_soft(
     lead = partner.shape[:-2]
     n_s, n_a, _ = next_state.shape
     if joint_reward is not None:
-        joint = _c(np.asarray(joint_reward), dtype=np.float64)
-        _check_shape("joint_reward", joint, next_state.shape)
+        joint = contiguous(np.asarray(joint_reward), dtype=np.float64)
+        check_shape("joint_reward", joint, next_state.shape)
         values = np.zeros((1, 1))
     else:
         assert state_reward is not None
         joint = np.zeros((1, 1, 1))
-        values = _flat(state_reward, (*lead, n_s), np.float64, "state_reward").reshape(-1, n_s)
-    use_joint, ok = joint_reward is not None, _valid(valid, n_s, n_a)
+        values = as_shape(state_reward, (*lead, n_s), np.float64, "state_reward").reshape(-1, n_s)
+    use_joint, ok = joint_reward is not None, valid_table(valid, n_s, n_a)
     jit = kernels()
     if jit is None:
         reward = (partner_reward(joint, partner, terminal) if use_joint
@@ -511,7 +303,7 @@ def solve_soft(
         q, greedy = solve_partner_q(next_state, partner, reward, ok, gamma,
                                     terminal=terminal, policy=policy, max_iter=max_iter)
         return q, greedy, task_mdp.softmax(q, ok, temperature)
-    nxt, pi, term, act, warm = _iteration_inputs(next_state, partner, gamma, terminal, policy,
+    nxt, pi, term, act, warm = iteration_inputs(next_state, partner, gamma, terminal, policy,
                                                  max_iter)
     n = len(pi)
     q, greedy, soft = (np.empty((n, n_s, n_a)), np.empty((n, n_s), np.int64),
@@ -521,43 +313,9 @@ def solve_soft(
         jit.solve_soft(nxt, pi, values, joint, use_joint, ok, term, float(gamma), act, warm,
                        int(max_iter), float(temperature), q, greedy, soft, lo, hi)
 
-    _in_parts(part, n)
+    in_parts(part, n)
     return (q.reshape(*lead, n_s, n_a), greedy.reshape(*lead, n_s),
             soft.reshape(*lead, n_s, n_a))
-
-
-def _iteration_inputs(next_state: np.ndarray, partner: np.ndarray, gamma: float,
-                      terminal: np.ndarray | int | None, policy: np.ndarray | None,
-                      max_iter: int
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
-    """Checked, flattened inputs of a policy iteration (:func:`solve_partner_q`,
-    :func:`solve_soft`): ``(next_state, partner (N, S, P), terminal (N,), starting actions
-    (N, S), whether they are a warm start)``.
-
-    Raises:
-        ConfigError: ``gamma`` outside [0, 1), ``max_iter`` < 1, or an index out of range.
-    """
-    _check_iteration(gamma, max_iter)
-    lead = partner.shape[:-2]
-    n_s, n_a, n_p = next_state.shape
-    nxt = _c(next_state, dtype=np.int64)
-    _check_range("next_state", nxt, 0, n_s)
-    pi = _c(partner, dtype=np.float64).reshape(-1, n_s, n_p)
-    term = _terminal(terminal, lead)
-    _check_range("terminal", term, -1, n_s)
-    warm = policy is not None
-    act = (_flat(policy, (*lead, n_s), np.int64, "policy").reshape(-1, n_s) if policy is not None
-           else np.zeros((len(pi), n_s), np.int64))
-    _check_range("policy", act, 0, n_a)
-    return nxt, pi, term, act, warm
-
-
-def _check_iteration(gamma: float, max_iter: int) -> None:
-    """Raise ConfigError unless ``gamma`` is in [0, 1) and ``max_iter`` >= 1."""
-    if not 0.0 <= gamma < 1.0:
-        raise ConfigError(f"gamma must be in [0, 1), got {gamma}", field="gamma")
-    if max_iter < 1:
-        raise ConfigError(f"max_iter must be >= 1, got {max_iter}", field="max_iter")
 
 
 def _evaluation_matrix(nxt: np.ndarray, pi: np.ndarray, act: np.ndarray, term: np.ndarray,
@@ -632,21 +390,21 @@ def expected_feature_counts(
         (N, F).
     """
     n_s, n_a, n_p = next_state.shape
-    nxt = _c(next_state, dtype=np.int64)
-    _check_range("next_state", nxt, 0, n_s)
-    pi = _c(partner, dtype=np.float64)
-    own = _c(policy, dtype=np.float64)
-    phi = _c(features, dtype=np.float64)
-    start_, term, hor = (_c(np.asarray(x), dtype=np.int64)
+    nxt = contiguous(next_state, dtype=np.int64)
+    check_range("next_state", nxt, 0, n_s)
+    pi = contiguous(partner, dtype=np.float64)
+    own = contiguous(policy, dtype=np.float64)
+    phi = contiguous(features, dtype=np.float64)
+    start_, term, hor = (contiguous(np.asarray(x), dtype=np.int64)
                          for x in (start, terminal, horizon))
     n = len(pi)
     for name, arr, shape in (("partner", pi, (n, n_s, n_p)), ("policy", own, (n, n_s, n_a)),
                              ("features", phi, (n, n_s, phi.shape[-1])),
                              ("start", start_, (n,)), ("terminal", term, (n,)),
                              ("horizon", hor, (n,))):
-        _check_shape(name, arr, shape)
-    _check_range("start", start_, 0, n_s)
-    _check_range("terminal", term, -1, n_s)
+        check_shape(name, arr, shape)
+    check_range("start", start_, 0, n_s)
+    check_range("terminal", term, -1, n_s)
     jit = kernels()
     if jit is not None:
         out = np.zeros((len(pi), phi.shape[-1]))
@@ -654,7 +412,7 @@ def expected_feature_counts(
         def counts(lo: int, hi: int) -> None:
             jit.expected_feature_counts(nxt, pi, own, phi, start_, term, hor, out, lo, hi)
 
-        _in_parts(counts, len(pi))
+        in_parts(counts, len(pi))
         return out
     n_b = len(pi)
     rows = np.arange(n_b)
@@ -694,43 +452,44 @@ def loop_free_counts(features: np.ndarray, state_traces: Sequence[np.ndarray],
         ConfigError: A trace is empty, or a state or intention is out of range.
     """
     n_i, n_s, n_f = features.shape
-    intent = _c(np.asarray(intentions).reshape(-1), np.int64)
+    intent = contiguous(np.asarray(intentions).reshape(-1), np.int64)
     if len(intent) != len(state_traces):
         raise ConfigError(f"intentions must have one entry per trace ({len(state_traces)}), "
                           f"got {len(intent)}", field="intentions")
-    _check_range("intentions", intent, 0, n_i)
+    check_range("intentions", intent, 0, n_i)
     jit = kernels()
     if jit is None or n_f < 2 or not len(state_traces):  # numpy sums one feature pairwise
-        _trace_lengths(state_traces)
+        trace_lengths(state_traces)
         demo = mdp.demonstrations(features, state_traces, intent)
         return demo.counts, demo.start, demo.horizon
-    states, offsets = _joined(state_traces, n_s)
-    return jit.loop_free_counts(_c(features, np.float64), states, offsets, intent)
+    states, offsets = joined_traces(state_traces, n_s)
+    return jit.loop_free_counts(contiguous(features, np.float64), states, offsets, intent)
 
 
-def _trace_lengths(state_traces: Sequence[np.ndarray]) -> np.ndarray:
-    """(B,) the traces' lengths.
+def preload() -> bool:
+    """Load every compiled kernel now; whether the compiled path is on.
 
-    Raises:
-        ConfigError: A trace is empty.
+    The first compiled call of a process starts numba's code generator (≈ 0.3-0.8 s even
+    with the on-disk cache). Calling this before forking worker processes lets them inherit
+    the loaded kernels instead of each paying that again.
     """
-    lengths = np.array([len(t) for t in state_traces], np.int64)
-    if len(lengths) and lengths.min() < 1:
-        raise ConfigError("every state trace must hold at least one state",
-                          field="state_traces")
-    return lengths
-
-
-def _joined(state_traces: Sequence[np.ndarray], n_s: int) -> tuple[np.ndarray, np.ndarray]:
-    """The traces one after another, and (B + 1,) where each starts (the kernels' form).
-
-    Raises:
-        ConfigError: A trace is empty, or a state is out of range.
-    """
-    lengths = _trace_lengths(state_traces)
-    states = _c(np.concatenate(state_traces) if len(state_traces) else np.zeros(0, np.int64),
-                np.int64)
-    _check_range("state_traces", states, 0, n_s)
-    offsets = np.zeros(len(lengths) + 1, np.int64)
-    np.cumsum(lengths, out=offsets[1:])
-    return states, offsets
+    jit = kernels()
+    if jit is None:
+        return False
+    nxt = np.zeros((1, 1, 1), np.int64)
+    one = np.ones((1, 1, 1))
+    none = np.full(1, -1, np.int64)
+    zero = np.zeros(1, np.int64)
+    valid = np.ones((1, 1), np.bool_)
+    jit.partner_backup(nxt, one, np.zeros((1, 1)), none)
+    jit.partner_reward(one, one, none)
+    jit.solve_partner_q(nxt, one, one, valid, none, 0.5, np.zeros((1, 1), np.int64), False, 1)
+    jit.expected_feature_counts(nxt, one, one, one, zero, none, np.ones(1, np.int64),
+                                np.zeros((1, 1)), 0, 1)
+    jit.belief_policy(np.ones((1, 1, 1, 1)), np.ones((1, 1)), zero, zero, valid, 1.0, 0.5)
+    jit.out_of_range(zero, 0, 1)
+    jit.loop_free_counts(np.ones((1, 1, 2)), zero, np.array([0, 1]), zero)
+    jit.solve_soft(nxt, one, np.zeros((1, 1)), one, False, valid, none, 0.5,
+                   np.zeros((1, 1), np.int64), False, 1, 1.0, np.empty((1, 1, 1)),
+                   np.empty((1, 1), np.int64), np.zeros((1, 1, 1)), 0, 1)
+    return True

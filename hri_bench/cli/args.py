@@ -14,6 +14,8 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from hri_envs.errors import BackendUnavailableError, ConfigError
+
 __all__ = ["as_flags", "bounded", "invocation", "resume_hint", "split_imports", "whole"]
 
 
@@ -99,3 +101,24 @@ def _from_here(path: Path) -> str:
         return str(absolute.relative_to(Path.cwd()))
     except ValueError:
         return str(absolute)
+
+
+def config_error(parser: argparse.ArgumentParser, exc: ConfigError,
+                 arguments: dict[str, str]) -> None:
+    """Exit with status 2 like argparse does, naming the argument the bad field came from;
+    a backend whose extra is missing is reported by :func:`main` in one line (status 1).
+    """
+    if isinstance(exc, BackendUnavailableError):
+        raise exc
+    argument = arguments.get(exc.field or "")
+    text = as_flags(str(exc), arguments)
+    parser.error(f"argument {argument}: {text}" if argument else text)
+
+
+def cannot_write(exc: OSError, out: Path, argv: Sequence[str], *,
+                 kept: str = "the finished units are kept") -> int:
+    """Report a file that cannot be written (a full disk, say) in one line; exit status 1."""
+    reason = exc.strerror or str(exc)
+    print(f"hri-bench: cannot write {exc.filename or out}: {reason}; {kept}; once it can be "
+          f"written, continue with: {resume_hint(argv)}", file=sys.stderr)
+    return 1

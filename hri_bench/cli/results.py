@@ -22,8 +22,8 @@ from typing import Any
 from hri_bench.cli.args import bounded, whole
 from hri_bench.core.atomic import atomic_writer
 from hri_bench.run.agents import PLANNING_REFERENCES, validate_agent_name
+from hri_bench.run.folders import LOCK, FolderLock, check_out
 from hri_bench.run.provenance import code_changes
-from hri_bench.run.studyio import LOCK, FolderLock, check_out
 from hri_bench.suite import audit, results_v3, results_v4, resume, submission
 from hri_bench.suite.merged import HEADING, merged_leaderboard
 from hri_bench.suite.physical_results import FORMAT as PHYSICAL_FORMAT

@@ -28,7 +28,7 @@ from agents.protocol import BatchAgent, read_belief
 from hri_bench.data.datasets import Dataset, SessionWriter, create_dataset
 from hri_bench.run.agents import agent_settings, make_agent
 from hri_bench.run.runner import human_streams, make_schedule, run_episodes
-from hri_bench.run.study import _humans, graph_for
+from hri_bench.run.study import graph_for, unit_humans
 from hri_envs import __version__
 from hri_envs.envs.backends import batch_backend
 from hri_envs.errors import ConfigError
@@ -254,7 +254,7 @@ def record_study(cfg: Any, dataset_id: str, *, root: str | None = None,
     runs = list(range(cfg.runs))
     pref = "" if cfg.population else ("all" if cfg.preference == "all"
                                       else cfg.preference_of_run()[0])
-    human, labels = _humans(cfg, pref, runs)
+    human, labels = unit_humans(cfg, pref, runs)
     schedule = make_schedule(graph, cfg.schedule, runs, cfg.n_episodes, cfg.seed, human)
     agent = make_agent(cfg.agents[0], graph, human, runs, seed=cfg.seed, r0=cfg.waiting_reward,
                        learner=dict(cfg.learner), max_steps=cfg.max_steps, reward=cfg.reward)

@@ -8,18 +8,29 @@ metrics, and ``hri-bench play`` drives the same loop with you as the human. The 
 rules (start state, lifting, turning back, end, reward, decisions) are those of
 :mod:`hri_envs.task.episode`. Every random draw of run ``r`` comes from generators seeded by
 ``(seed, r)`` alone, so a run's numbers do not depend on which batch, process or machine
-simulated it.
+simulated it. What the loop is given and gives (the schedule, the human generators, the
+metrics) is :mod:`hri_bench.run.episodes`'s, re-exported here.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from agents.protocol import BatchAgent, Trace, read_belief
+from hri_bench.run.episodes import (
+    BELIEF_METRICS,
+    LOG_LOSS_FLOOR,
+    TASK_METRICS,
+    EpisodeMetrics,
+    EpisodeResult,
+    Schedule,
+    human_streams,
+    make_schedule,
+)
 from hri_envs.envs.backends import BatchBackend, BatchStep, batch_backend
 from hri_envs.errors import ActionError, ConfigError
 from hri_envs.humans.protocol import BatchHuman
@@ -28,7 +39,6 @@ from hri_envs.humans.tables import TableHumans
 from hri_envs.task.actions import TAKE_OFF, WAIT
 from hri_envs.task.episode import EpisodeBatch, EpisodeRules, classify
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import spec_of
 
 __all__ = [
     "BELIEF_METRICS",
@@ -41,122 +51,6 @@ __all__ = [
     "run_episodes",
     "simulate",
 ]
-
-
-@dataclass(frozen=True)
-class Schedule:
-    """Start support, intended goal and turning back, per run and episode.
-
-    Attributes:
-        start: (B, E) int.
-        goal: (B, E) int, the intention at the start of the episode.
-        turn_back: (B, E) bool, the human returns to the start halfway.
-    """
-
-    start: np.ndarray
-    goal: np.ndarray
-    turn_back: np.ndarray
-
-
-def make_schedule(
-    graph: TaskGraph,
-    kind: str,
-    runs: Sequence[int] | np.ndarray,
-    episodes: int,
-    seed: int,
-    human: ScriptedHuman | BatchHuman | None = None,
-) -> Schedule:
-    """Episode schedule: ``"random"`` (start and goal ≠ start drawn per episode) or one of
-    the scenario's fixed schedules (the hanger's ``"table2"``, paper Table 2), cycled if
-    more episodes are asked for.
-
-    Random schedules draw from ``(seed, run, 2)`` only; turning back is drawn with each
-    run's human's ``turn_back`` probability.
-    """
-    n_b, n_k = len(runs), graph.n_intentions
-    fixed = spec_of(graph).schedules
-    if kind in fixed:
-        names = graph.support_names
-        table = fixed[kind]
-        rows = [table[e % len(table)] for e in range(episodes)]
-        start = np.array([[names.index(r[0]) for r in rows]] * n_b, dtype=np.int64)
-        goal = np.array([[names.index(r[1]) for r in rows]] * n_b, dtype=np.int64)
-        turn = np.array([[r[2] for r in rows]] * n_b, dtype=bool)
-        return Schedule(start.reshape(n_b, episodes), goal.reshape(n_b, episodes),
-                        turn.reshape(n_b, episodes))
-    if kind != "random":
-        raise ConfigError(f"unknown schedule {kind!r} for the {graph.name}; allowed: "
-                          f"{', '.join(['random', *fixed])}", field="schedule")
-    start = np.zeros((n_b, episodes), dtype=np.int64)
-    goal = np.zeros((n_b, episodes), dtype=np.int64)
-    turn = np.zeros((n_b, episodes), dtype=bool)
-    p_turn = np.zeros(n_b)
-    if human is not None:
-        p_turn[:] = human.turn_back
-    for i, r in enumerate(runs):
-        rng = np.random.default_rng([int(seed), int(r), 2])
-        start[i] = rng.integers(0, n_k, episodes)
-        goal[i] = (start[i] + rng.integers(1, n_k, episodes)) % n_k
-        turn[i] = rng.random(episodes) < p_turn[i]
-    return Schedule(start, goal, turn)
-
-
-#: Per-episode metrics of the task itself (docs/results.md, "Metrics"): ``map_steps`` the
-#: robot's decisions before its most likely intention is right for good (its belief's
-#: unique maximum on the current ι at every later decision; the episode's length when it
-#: is wrong at the last one), ``log_loss`` and ``brier`` the mean over its decisions of
-#: -ln b(ι) and Σ_k (b(k) - [k = ι])² (these three NaN for agents exposing no belief,
-#: :func:`agents.protocol.read_belief`); human effort: ``counteract`` the human's motions
-#: against a different robot motion, ``human_idle`` the human's waits in which nothing
-#: moved, ``human_alone`` the human's actions while the robot waited (counts per episode).
-TASK_METRICS: tuple[str, ...] = ("map_steps", "log_loss", "brier", "counteract", "human_idle",
-                                 "human_alone")
-#: The belief metrics of :data:`TASK_METRICS` (NaN for agents without a belief).
-BELIEF_METRICS: tuple[str, ...] = TASK_METRICS[:3]
-#: Probabilities are clipped here in the log-loss, which stays finite (≤ 34.5).
-LOG_LOSS_FLOOR = 1e-15
-
-
-@dataclass
-class EpisodeMetrics:
-    """Per-run, per-episode results, each (B, E) (or (B,) for one episode of a batch).
-
-    Attributes:
-        reward: Summed robot cooperation reward.
-        correct: Fraction of steps where the robot acted and got the effect it acted towards.
-        passive: Fraction of steps where the robot waited.
-        wrong: Fraction of steps where the robot acted otherwise.
-        steps: Episode length.
-        truncated: The episode did not end (step limit or a backend fault).
-        extras: The backend's per-episode figures (the physics: impulses, duration, ...).
-        task: The :data:`TASK_METRICS`.
-    """
-
-    reward: np.ndarray
-    correct: np.ndarray
-    passive: np.ndarray
-    wrong: np.ndarray
-    steps: np.ndarray
-    truncated: np.ndarray
-    extras: dict[str, np.ndarray] = field(default_factory=dict)
-    task: dict[str, np.ndarray] = field(default_factory=dict)
-
-
-@dataclass
-class EpisodeResult:
-    """One episode of every run of a batch.
-
-    Attributes:
-        episode: The episode's index in the schedule.
-        metrics: Its :class:`EpisodeMetrics`, each array (B,).
-        traces: What the robot saw, per run.
-        intentions: Where each episode ended, -1 where truncated (nothing revealed).
-    """
-
-    episode: int
-    metrics: EpisodeMetrics
-    traces: list[Trace]
-    intentions: np.ndarray
 
 
 def run_episodes(
@@ -443,11 +337,6 @@ def _checked(who: str, actions: object, active: np.ndarray, n_actions: int,
         raise ActionError(f"{who} returned action {arr[i]} for run {run} in {where}; "
                           f"actions are integers in [0, {n_actions})")
     return arr
-
-
-def human_streams(seed: int, runs: Sequence[int] | np.ndarray) -> list[np.random.Generator]:
-    """The human's generator of each run: seeded by ``(seed, run, 1)`` only."""
-    return [np.random.default_rng([int(seed), int(r), 1]) for r in runs]
 
 
 def simulate(

@@ -553,7 +553,9 @@ def _jsonable(value: Any) -> Any:
 
 
 @dataclass(frozen=True)
-class _Unit:
+class Unit:
+    """A unit of a study's work: one agent's runs ``runs`` with the human preference."""
+
     config: StudyConfig
     agent: str
     preference: str
@@ -576,7 +578,7 @@ def _json_float(x: float) -> float | str:
     return str(x) if math.isinf(x) else x
 
 
-def _humans(cfg: StudyConfig, preference: str, runs: list[int]
+def unit_humans(cfg: StudyConfig, preference: str, runs: list[int]
             ) -> tuple[ScriptedHuman | BatchHuman, list[str]]:
     """The unit's human(s) and each run's human label (per episode for drift: "a>b").
 
@@ -621,12 +623,12 @@ class UnitFailure:
     traceback: str
 
 
-def _run_unit(unit: _Unit) -> UnitResult:
+def _run_unit(unit: Unit) -> UnitResult:
     cfg = unit.config
     import_modules(cfg.imports)  # a spawned worker (or Ray's) has not imported them yet
     graph = cfg.graph
     runs = list(unit.runs)
-    human, labels = _humans(cfg, unit.preference, runs)
+    human, labels = unit_humans(cfg, unit.preference, runs)
     schedule = make_schedule(graph, cfg.schedule, runs, cfg.n_episodes, cfg.seed, human)
     agent = make_agent(unit.agent, graph, human, runs, seed=cfg.seed, r0=cfg.waiting_reward,
                        learner=dict(cfg.learner), max_steps=cfg.max_steps, reward=cfg.reward,
@@ -667,7 +669,7 @@ def simulate_runs(cfg: StudyConfig, agent: str, runs: Sequence[int]
         groups.setdefault("" if cfg.population else prefs[r], []).append(r)
     position = {r: i for i, r in enumerate(rows)}
     for pref, members in groups.items():
-        metrics = _run_unit(_Unit(cfg, agent, pref, tuple(members)))[0]
+        metrics = _run_unit(Unit(cfg, agent, pref, tuple(members)))[0]
         for k, v in metrics.items():
             out.setdefault(k, np.zeros((len(rows),) + v.shape[1:]))[
                 [position[r] for r in members]] = v
@@ -719,7 +721,7 @@ def _agent_stop(exc: BaseException) -> bool:
         signal.getsignal(signal.SIGINT) is not signal.default_int_handler)
 
 
-def _run_unit_caught(unit: _Unit) -> UnitResult | UnitFailure:
+def _run_unit_caught(unit: Unit) -> UnitResult | UnitFailure:
     """:func:`_run_unit`, returning an agent's exception instead of raising it.
 
     An agent that calls ``sys.exit()`` or ``os._exit()`` or raises ``KeyboardInterrupt``
@@ -766,7 +768,7 @@ def _runs_per_unit(cfg: StudyConfig) -> int:
     return max(1, UNIT_EPISODES // cfg.n_episodes)
 
 
-def _units(cfg: StudyConfig) -> list[_Unit]:
+def study_units(cfg: StudyConfig) -> list[Unit]:
     """The study's work: per agent and human preference, chunks of runs of at most
     :func:`_runs_per_unit` runs, and at least ``jobs`` chunks (to keep the workers busy).
     """
@@ -786,7 +788,7 @@ def _units(cfg: StudyConfig) -> list[_Unit]:
         for pref, runs in groups.items():
             n_chunks = max(min(cfg.jobs, len(runs)), -(-len(runs) // per_unit))
             for chunk in np.array_split(np.asarray(runs), n_chunks):
-                units.append(_Unit(cfg, agent, pref, tuple(int(r) for r in chunk)))
+                units.append(Unit(cfg, agent, pref, tuple(int(r) for r in chunk)))
     return units
 
 
@@ -830,7 +832,7 @@ def _runs_text(runs: Sequence[int]) -> str:
     return f"runs {shown}" + (f", ... ({len(runs)} runs)" if len(runs) > 3 else "")
 
 
-def _lost(unit: _Unit, reason: str) -> UnitLostError:
+def _lost(unit: Unit, reason: str) -> UnitLostError:
     return UnitLostError(unit.agent, unit.runs, reason)
 
 
@@ -1007,7 +1009,7 @@ def _wait_for(deadline: float) -> float | None:
     return min(left, _CLOCK_POLL_S) if os.environ.get(CLOCK_FILE) else left
 
 
-def _execute_pool(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int], method: str | None
+def _execute_pool(cfg: StudyConfig, units: list[Unit], todo: Sequence[int], method: str | None
                   ) -> Iterator[tuple[int, UnitResult | UnitFailure]]:
     """The units ``todo`` on ``min(jobs, len(todo))`` worker processes, as they finish.
 
@@ -1089,7 +1091,7 @@ def _alarm(seconds: float) -> Iterator[None]:
         signal.signal(signal.SIGALRM, previous)
 
 
-def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
+def _execute(cfg: StudyConfig, units: list[Unit], todo: Sequence[int]
              ) -> Generator[tuple[int, UnitResult | UnitFailure], None, None]:
     """Yield (unit index, result or failure) for the units ``todo`` as they finish.
 
@@ -1120,7 +1122,7 @@ def _execute(cfg: StudyConfig, units: list[_Unit], todo: Sequence[int]
         yield from _execute_ray(cfg, [units[i] for i in todo], list(todo))
 
 
-def _execute_ray(cfg: StudyConfig, units: list[_Unit], index: list[int]
+def _execute_ray(cfg: StudyConfig, units: list[Unit], index: list[int]
                  ) -> Iterator[tuple[int, UnitResult | UnitFailure]]:
     """The units on Ray, at most ``jobs`` in flight, as they finish; a task whose worker
     fails, or that runs past the time limit (counted from its submission), raises
@@ -1135,7 +1137,7 @@ def _execute_ray(cfg: StudyConfig, units: list[_Unit], index: list[int]
                  include_dashboard=False, log_to_driver=False)
     remote = ray.remote(_run_unit_caught)
     queue = list(reversed(list(zip(units, index, strict=True))))
-    running: dict[Any, tuple[_Unit, int, float]] = {}
+    running: dict[Any, tuple[Unit, int, float]] = {}
     limit = cfg.time_limit()
     try:
         while queue or running:
@@ -1189,7 +1191,7 @@ def run_study(
             ``cfg.unit_time_limit`` (whatever ``keep_going``); the units finished before it
             were passed to ``on_result``.
     """
-    units = _units(cfg)
+    units = study_units(cfg)
     done = dict(done or {})
     if cfg.mixture_population and cfg.population is not None:
         spec = population(cfg.population, cfg.scenario, dict(cfg.human_params))

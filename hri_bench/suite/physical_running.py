@@ -36,8 +36,8 @@ import numpy as np
 
 from hri_bench.core.atomic import atomic_writer
 from hri_bench.run import provenance
+from hri_bench.run.folders import FolderLock
 from hri_bench.run.physical import FIGURES, PhysicalUnit, simulate_unit
-from hri_bench.run.studyio import FolderLock
 from hri_bench.suite import physical_results as pr
 from hri_bench.suite.physical_board import leaderboard, write_figures
 from hri_bench.suite.physical_tracks import (

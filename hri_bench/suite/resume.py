@@ -1,7 +1,7 @@
 """A suite's output folder: locked, checked before anything runs, and resumable.
 
 ``hri-bench suite --out DIR`` (docs/benchmark.md, "Suite") holds, as ``hri-bench study``
-does, ``DIR/.lock`` while it works (:class:`~hri_bench.run.studyio.FolderLock`: a second
+does, ``DIR/.lock`` while it works (:class:`~hri_bench.run.folders.FolderLock`: a second
 suite or study on ``DIR`` is refused), refuses a non-empty ``DIR`` unless ``--resume`` or
 ``--overwrite``, and keeps its work in ``DIR/.suite`` until every file is written:
 
@@ -10,7 +10,7 @@ suite or study on ``DIR`` is refused), refuses a non-empty ``DIR`` unless ``--re
 - ``.suite/NN-TRACK.npz`` and ``.json``: each finished track's study (its arrays, the agents
   that raised, its wall time), so that a resumed suite does not run it again;
 - ``.suite/NN-TRACK/``: the finished units of the track in progress
-  (:func:`~hri_bench.run.studyio.save_unit`), so that it loses at most the units in progress.
+  (:func:`~hri_bench.run.unitfiles.save_unit`), so that it loses at most the units in progress.
 
 ``suite_log.json``, written last, records the plan too; ``.suite`` is then removed, and a
 resume of the complete suite does nothing. ``--overwrite`` removes only the files a suite
@@ -30,11 +30,10 @@ from pathlib import Path
 from typing import Any
 
 from hri_bench.core.atomic import atomic_writer, fsync_dir
-from hri_bench.run.study import StudyConfig, StudyResult, _Unit
-from hri_bench.run.studyio import (
-    LOCK,
-    LockedFolder,
-    differing_keys,
+from hri_bench.run.folders import LOCK, LockedFolder
+from hri_bench.run.study import StudyConfig, StudyResult, Unit
+from hri_bench.run.studyio import differing_keys
+from hri_bench.run.unitfiles import (
     load_result,
     load_units,
     remove_temporary,
@@ -109,7 +108,7 @@ def _remove(paths: Sequence[Path]) -> None:
 
 class SuiteDir(LockedFolder):
     """The output folder of one suite (``plan``, :func:`suite_plan`), locked and checked
-    before anything runs (:class:`~hri_bench.run.studyio.LockedFolder`).
+    before anything runs (:class:`~hri_bench.run.folders.LockedFolder`).
 
     Args:
         out: The folder (created if missing).
@@ -246,11 +245,11 @@ class TrackStore:
             return None
         return loaded[0], float(loaded[1]["track_wall_time_s"])
 
-    def units_done(self, k: int, track: Track, units: list[_Unit]) -> dict[int, Any]:
+    def units_done(self, k: int, track: Track, units: list[Unit]) -> dict[int, Any]:
         """The finished units of track ``k`` in progress."""
         return load_units(self._base(k, track), units)
 
-    def save_unit(self, k: int, track: Track, index: int, unit: _Unit, result: Any) -> None:
+    def save_unit(self, k: int, track: Track, index: int, unit: Unit, result: Any) -> None:
         """Keep a finished unit of track ``k``."""
         folder = self._base(k, track)
         folder.mkdir(exist_ok=True)
