@@ -86,13 +86,13 @@ def test_a_grasp_closes_both_fingers_on_the_grip(hanger):
     close = sim._close_on_grip
 
     def logged(totals):
-        weld = sim._weld
-        sim._weld = lambda on: (pressed.append(finger_forces(
+        weld = sim.weld
+        sim.weld = lambda on: (pressed.append(finger_forces(
             sim.model, sim.data, sim.scene.finger_geoms, sim.scene.grip_geom)), weld(on))
         try:
             close(totals)
         finally:
-            del sim._weld
+            del sim.weld
 
     sim._close_on_grip = logged
     try:

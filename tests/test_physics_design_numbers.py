@@ -64,7 +64,7 @@ def test_no_bare_float_thresholds_in_the_physics_loop():
     tree = ast.parse(inspect.getsource(sim.PandaSim))
     for fn in ast.walk(tree):
         if isinstance(fn, ast.FunctionDef) and fn.name in ("step", "_run", "_robot_toggle",
-                                                          "_check_stable", "reset", "_weld"):
+                                                          "_check_stable", "reset", "weld"):
             for node in ast.walk(fn):
                 if isinstance(node, ast.Constant) and isinstance(node.value, float):
                     assert node.value in (0.0, 1.0), (fn.name, node.value, node.lineno)

@@ -248,7 +248,7 @@ def test_an_object_nobody_holds_drops(hanger):
     g, sim = hanger
     s = _named(g, "held at B′ column, 0.87 m, rail-facing")
     sim.reset(0, state=s)
-    sim._weld(False)
+    sim.weld(False)
     sim.human.holding = False
     r = sim.step(s, WAIT, WAIT)
     assert r.fault_kind == "dropped" and not r.graph_agrees

@@ -121,7 +121,7 @@ def _episode(env: Any, robot: Any, human: HumanParams, meta: dict[str, Any], epi
         replayed = {"robot_observation": obs["robot"], "robot_action": a_r,
                     "human_action": a_h, "hand_pose": np.concatenate([pos, quat])}
         obs, reward, terms, truncs, infos = env.step({"robot": a_r, "human": a_h})
-        replayed["hand_force"] = base.sim._handle_wrench()[0]
+        replayed["hand_force"] = base.sim.handle_wrench()[0]
         rewards.append(float(reward["robot"]))
         found = [d for name, col, tol in _COMPARED
                  if (d := _differs(name, row[col], replayed[col], tol)) is not None]

@@ -40,12 +40,10 @@ import numpy as np
 
 from hri_envs.errors import ConfigError
 from hri_envs.physics import carry_stages as stages
+from hri_envs.physics import laws
 from hri_envs.physics.arm_control import ArmDrive, HandImpedance, TorqueDrive
 from hri_envs.physics.body import ArmBody, BodySize
-from hri_envs.physics.carry_faults import (  # noqa: F401 (the constants: mjwarp's too)
-    _DROP_BELOW_M,
-    _SLIP_M,
-    _SLIP_RAD,
+from hri_envs.physics.carry_faults import (
     CarryFault,
     check_faults,
     max_lift_n,
@@ -68,7 +66,7 @@ from hri_envs.physics.observer import StateObserver
 from hri_envs.physics.scene import build_robot_model, build_scene
 from hri_envs.physics.seats import Seats
 from hri_envs.physics.sensing import SensorModel, WristSensor
-from hri_envs.physics.sim import _FINGER_ON_GRIP_M
+from hri_envs.physics.sim import FINGER_ON_GRIP_M, FINGER_OPEN_M
 from hri_envs.physics.whole_arm import (
     ARM_JOINTS,
     COMFORT_POSTURE,
@@ -80,15 +78,17 @@ from hri_envs.physics.whole_arm import (
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import BOTH, TaskGraph
 
-__all__ = ["DRIVES", "CarrySim", "CarryStep", "RobotCommand", "grip_reference"]
+__all__ = ["CALM_S", "DRIVES", "STRAINED_S", "CarrySim", "CarryStep", "RobotCommand",
+           "grip_reference"]
 
 #: The arm's drives: joint torque motors, or MyoSuite's muscles (the "arm" extra).
 DRIVES: tuple[str, ...] = HUMAN_DRIVES
-_CONTROL_PERIODS = stages.PERIODS  # control periods (125 Hz) per step (25 Hz)
-_CALM_S = 0.15  # [s] a placed object stays slow this long
-_VEL_SQ_MAX, _ANGVEL_SQ_MAX = stages.VEL_SQ_MAX, stages.ANGVEL_SQ_MAX  # placed: this slow
+#: [s] a placed object stays slow this long (squared speeds below
+#: :data:`~hri_envs.physics.carry_stages.VEL_SQ_MAX`, ``ANGVEL_SQ_MAX``).
+CALM_S = 0.15
 _REACH_ERROR_MAX_M = 0.01  # [m] + 0.2 m/rad: the arm's IK error at a reset
-_STRAINED_S = 1.0  # [s] at the strength limit without moving the object: too weak
+#: [s] at the strength limit without moving the object: too weak.
+STRAINED_S = 1.0
 
 
 class CarrySim:
@@ -105,6 +105,14 @@ class CarrySim:
     Raises:
         ConfigError: An unknown drive.
         MissingExtraError: ``drive="muscle"`` without the "arm" extra (myo-sim).
+
+    Attributes:
+        handle_force_adr, handle_torque_adr: The handle's force and torque sensors' addresses
+            in ``sensordata`` (the object on the handle, in the handle's frame).
+        lowest_z: [m] the lowest support point of the scenario's layout (below it by
+            :data:`~hri_envs.physics.carry_faults.DROP_BELOW_M`: dropped).
+        period_forces, period_velocities: (1, 5), (1, 5, 3) the last step's samples per
+            control period of the hand's force on the handle and the object's velocity.
     """
 
     def __init__(self, graph: TaskGraph, drive: str = "torque",
@@ -142,7 +150,7 @@ class CarrySim:
         self.dt = float(self.model.opt.timestep)
         self.control_every = max(1, int(design.control_every_steps))
         self.dt_control = self.control_every * self.dt
-        self.dt_step = _CONTROL_PERIODS * self.dt_control
+        self.dt_step = stages.PERIODS * self.dt_control
         self.posture = np.asarray(posture, dtype=float)
         self.coupling = coupling
         self.controller = ImpedanceController(self.scene)
@@ -170,13 +178,12 @@ class CarrySim:
         for name in ("human_handle_force", "human_handle_torque"):
             if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, name) < 0:
                 raise AssertionError(f"the scene lacks the sensor {name!r}")
-        self._hf = int(m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR,
-                                                      "human_handle_force")])
-        self._ht = int(m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR,
-                                                      "human_handle_torque")])
+        self.handle_force_adr, self.handle_torque_adr = (
+            int(m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, name)])
+            for name in ("human_handle_force", "human_handle_torque"))
         self.params = HumanParams()
         self.human = IntentionHuman(design, self.params, design.lever)
-        self.impedance = HandImpedance(m, self.arm, coupling, self.posture, self._gains())
+        self.impedance = HandImpedance(m, self.arm, coupling, self.posture, self.hand_gains())
         self.robot_holds = True
         self.human_holds = True
         self.start, self.goal = 0, 1
@@ -184,19 +191,20 @@ class CarrySim:
         self.left_start = False
         self._strained = 0.0
         self._calm = 0.0
-        self._lowest_z = 0.0
+        self.lowest_z = 0.0
         self.time = 0.0
         self.sensed = np.zeros(6)
         self.sat_counts = np.zeros(len(self.posture))
         self.meter = InteractionMeter(1, self.dt_control)
-        self._forces = np.zeros((1, _CONTROL_PERIODS))
-        self._velocities = np.zeros((1, _CONTROL_PERIODS, 3))
+        self.period_forces = np.zeros((1, stages.PERIODS))
+        self.period_velocities = np.zeros((1, stages.PERIODS, 3))
         self._interaction: StepInteraction | None = None
         self.periods = CarryPeriods(self)
         self._joint_names = self.joint_names()
 
     # ------------------------------------------------------------------ set-up
-    def _gains(self) -> tuple[float, float, float, float]:
+    def hand_gains(self) -> tuple[float, float, float, float]:
+        """The hand impedance's (K, D, K_r, D_r) of the human's stiffness now."""
         d, k = self.design, self.params.stiffness
         return (k * d.human_stiffness, k * d.human_damping, k * d.human_rot_stiffness,
                 k * d.human_rot_damping)
@@ -216,7 +224,7 @@ class CarrySim:
             self.data.mocap_pos[self.scene.support_mocap[k]] = sup.position
         self.seats.set_scenario(scenario)
         self.observer.set_scenario(scenario)
-        self._lowest_z = float(self.observer.pos[:, 2].min())
+        self.lowest_z = float(self.observer.pos[:, 2].min())
 
     def route(self, start: int, goal: int) -> list[Pose]:
         """The object poses of the human's route from ``start`` to ``goal``."""
@@ -245,7 +253,7 @@ class CarrySim:
         self.set_scenario(scenario if scenario is not None else self.graph.scenario)
         self.params = params
         self.human = IntentionHuman(design, self.params, design.lever)
-        self.impedance.gains = self._gains()
+        self.impedance.gains = self.hand_gains()
         self.arm_drive.set_strength(self.params.strength * self.params.body.strength_scale())
         grip_force = (self.params.grip_force_n if self.params.grip_force_n is not None
                       else default_grip_force(design))
@@ -265,9 +273,9 @@ class CarrySim:
             raise IKFailure(f"the robot cannot reach its grip on support {start}")
         self.q_ref = self.ik.q
         data.qpos[sc.robot_qpos] = self.q_ref
-        data.qpos[sc.finger_qpos] = _FINGER_ON_GRIP_M
+        data.qpos[sc.finger_qpos] = FINGER_ON_GRIP_M
         self.robot_holds = robot_holds
-        self._weld(robot_holds)
+        self.weld(robot_holds)
         if not robot_holds:  # the robot's hand waits out of the way
             data.qpos[sc.robot_qpos] = self.home if not self.n_base else q0
         # The human: torso in reach, arm on the handle, fingers closed.
@@ -304,7 +312,10 @@ class CarrySim:
                               "sex, stature_m and body_mass_kg must be the defaults "
                               f"({BodySize()}), got {params.body}", field="human")
 
-    def _weld(self, on: bool) -> None:
+    def weld(self, on: bool) -> None:
+        """The robot's grasp on (the weld at the nominal grip, the fingers closed on the
+        grip) or off (the fingers open); the robot fingers' contacts stay off.
+        """
         sc, m, data = self.scene, self.model, self.data
         if on:
             inv_q = np.array([self._site_quat[0], *-self._site_quat[1:]])
@@ -315,7 +326,7 @@ class CarrySim:
             m.eq_data[sc.weld, 3:6] = rel.pos
             m.eq_data[sc.weld, 6:10] = rel.quat
         data.eq_active[sc.weld] = int(on)
-        data.ctrl[sc.finger_actuators] = _FINGER_ON_GRIP_M if on else 0.04
+        data.ctrl[sc.finger_actuators] = FINGER_ON_GRIP_M if on else FINGER_OPEN_M
         m.geom_contype[sc.finger_geoms.ravel()] = 0
 
     # ------------------------------------------------------------------ poses
@@ -372,8 +383,9 @@ class CarrySim:
         """The robot's command for an action in [-1, 1]^7 (grip offset, rotation, stiffness)."""
         a = np.asarray(action, dtype=float)
         out = np.empty(7)
-        stages.grip_target(self.data.site_xpos, self.data.site_xmat, self.scene.grip_site, a,
-                           self.max_step_m, self.max_step_rad, out)
+        g = self.scene.grip_site
+        laws.grip_target(self.data.site_xpos[g:g + 1], self.data.site_xmat[g:g + 1], a[None],
+                         self.max_step_m, self.max_step_rad, out[None])
         return RobotCommand(Pose(out[:3], out[3:]), (float(a[6]) + 1.0) / 2.0)
 
     # ------------------------------------------------------------------ step
@@ -396,9 +408,10 @@ class CarrySim:
         """
         data, sc, lever = self.data, self.scene, self.design.lever
         motion = np.empty(19)  # the grip now, the translation and rotation, their rates
-        stages.grip_motion(data.site_xpos, data.site_xmat, sc.grip_site,
-                           np.asarray(cmd.target.pos, float),
-                           np.asarray(cmd.target.quat, float), self.dt_step, motion)
+        g = sc.grip_site
+        laws.grip_motion(data.site_xpos[g:g + 1], data.site_xmat[g:g + 1],
+                         np.asarray(cmd.target.pos, float)[None],
+                         np.asarray(cmd.target.quat, float)[None], self.dt_step, motion[None])
         start_grip = Pose(motion[:3], motion[3:7])
         stiff = cmd.stiffness > 1e-3 and self.robot_holds
         robot_q = data.qpos[:len(sc.robot_qpos)]
@@ -420,7 +433,7 @@ class CarrySim:
             hand0 = Pose(data.site_xpos[self.arm.grip_site].copy(), q)
             command = np.concatenate([hand0.pos, hand0.quat, human_cmd.target.pos - hand0.pos,
                                       rotation_error(human_cmd.target.quat, hand0.quat)])
-            gains = tuple(g * human_cmd.stiffness for g in self._gains())
+            gains = tuple(g * human_cmd.stiffness for g in self.hand_gains())
         res = self.periods.run(motion, min(cmd.stiffness, 1.0), stiff, command, gains)
         self.sensed = res.sensed
         fault = None
@@ -433,23 +446,23 @@ class CarrySim:
         self._interaction = StepInteraction(*(np.array([x]) for x in res.interaction))
         if fault is None and not self.robot_holds:
             moved = float(np.linalg.norm(self.object_pose().pos - start_obj))
-            strained = bool(np.any(res.sat > _CONTROL_PERIODS / 2)) and moved < 1e-3
+            strained = bool(np.any(res.sat > stages.PERIODS / 2)) and moved < 1e-3
             self._strained = self._strained + self.dt_step if strained else 0.0
-            if self._strained >= _STRAINED_S and self.max_lift_n() < weight:
+            if self._strained >= STRAINED_S and self.max_lift_n() < weight:
                 fault = "too_weak: the human cannot carry the object alone; " + \
                     why_slipped(self)
         if sc.platform_mocap >= 0:
             data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + self.design.base_pos[:2]
         return self._result(res.lin, res.ang, res.disagree, fault, lever, res)
 
-    def _handle_wrench(self) -> tuple[np.ndarray, np.ndarray]:
+    def handle_wrench(self) -> tuple[np.ndarray, np.ndarray]:
         """The hand's force [N] and torque [N m] on the handle, in the world (torque about
         the handle's centre).
         """
         d, site = self.data, self.arm.handle_site
         rot = d.site_xmat[site].reshape(3, 3)
-        return (-rot.dot(d.sensordata[self._hf:self._hf + 3]),
-                -rot.dot(d.sensordata[self._ht:self._ht + 3]))
+        f, t = self.handle_force_adr, self.handle_torque_adr
+        return -rot.dot(d.sensordata[f:f + 3]), -rot.dot(d.sensordata[t:t + 3])
 
     def joint_names(self) -> list[str]:
         """The names of the arm's driven joints."""
@@ -473,16 +486,16 @@ class CarrySim:
             progress = self.periods.progress(pose.pos, pose.quat)
             seat = self.seats.engaged(pose.pos, pose.quat)
             v = self.data.qvel[self.scene.object_dofs]
-            slow = (float(v[:3].dot(v[:3])) < _VEL_SQ_MAX
-                    and float(v[3:].dot(v[3:])) < _ANGVEL_SQ_MAX)
+            slow = (float(v[:3].dot(v[:3])) < stages.VEL_SQ_MAX
+                    and float(v[3:].dot(v[3:])) < stages.ANGVEL_SQ_MAX)
         if seat >= 0 and self.left_start and slow:
             self._calm += self.dt_step
-            if self._calm >= _CALM_S:
+            if self._calm >= CALM_S:
                 placed = seat
         else:
             self._calm = 0.0
         sat = tuple(n for n, c in zip(self._joint_names, self.sat_counts, strict=True)
-                    if c > _CONTROL_PERIODS / 2)
+                    if c > stages.PERIODS / 2)
         inter = self._interaction
         extra = (0.0, 0.0, 0.0) if inter is None else (
             float(inter.peak_force[0]), float(inter.force_sq[0]), float(inter.jerk_sq[0]))

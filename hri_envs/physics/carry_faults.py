@@ -17,10 +17,13 @@ if TYPE_CHECKING:
     from hri_envs.physics.carry import CarrySim
     from hri_envs.physics.carry_periods import PeriodsResult
 
-__all__ = ["CarryFault", "check_faults", "max_lift_n", "why_slipped"]
+__all__ = ["DROP_BELOW_M", "SLIP_M", "SLIP_RAD", "CarryFault", "check_faults", "max_lift_n",
+           "why_slipped"]
 
-_SLIP_M, _SLIP_RAD = 0.03, 0.5  # the handle has left the hand beyond these
-_DROP_BELOW_M = 0.15  # [m] the object this far below the lowest support point: dropped
+#: [m], [rad]: the handle has left the hand when this far off, or turned, from its grip.
+SLIP_M, SLIP_RAD = 0.03, 0.5
+#: [m] the object this far below the lowest support point: dropped.
+DROP_BELOW_M = 0.15
 
 
 class CarryFault(Exception):
@@ -32,13 +35,13 @@ def check_faults(sim: CarrySim, pos: np.ndarray, res: PeriodsResult) -> None:
     or the handle slipped out of the human's hand (then they no longer hold it).
     """
     data, sc = sim.data, sim.scene
-    if touches(data, sc.floor_geom) or pos[2] < sim._lowest_z - _DROP_BELOW_M:
+    if touches(data, sc.floor_geom) or pos[2] < sim.lowest_z - DROP_BELOW_M:
         raise CarryFault("dropped: the object " + ("hit the floor" if touches(
             data, sc.floor_geom) else "fell below every support"))
     if not res.finite:
         raise CarryFault("unstable: the simulation diverged")
     off, angle = res.off, res.angle
-    if off > _SLIP_M or angle > _SLIP_RAD:
+    if off > SLIP_M or angle > SLIP_RAD:
         sim.human_holds = False
         why = why_slipped(sim)
         kind = "slipped" if sim.robot_holds else "dropped"

@@ -56,7 +56,7 @@ class PeriodsResult:
         progress: The route progress; seat: the seat holding the object (-1: none); slow:
             the object is slow.
         interaction: The step's peak force, ∫ |F|² dt and ∫ |jerk|² dt (samples in the
-            simulation's ``_forces``, ``_velocities``).
+            simulation's ``period_forces``, ``period_velocities``).
     """
 
     def __init__(self, acc: np.ndarray, sat: np.ndarray, sensed: np.ndarray,
@@ -86,7 +86,8 @@ class CarryPeriods:
         sensor = sim.sensor
         self.ids = np.array([sc.object_body, sc.object_dofs[0], arm.grip_site, sensor.site,
                              sc.hand_body, sensor.force_adr, sensor.torque_adr, sc.grip_site,
-                             sim._hf, sim._ht, arm.handle_site], dtype=np.int64)
+                             sim.handle_force_adr, sim.handle_torque_adr, arm.handle_site],
+                            dtype=np.int64)
         if not np.array_equal(sc.object_dofs, sc.object_dofs[0] + np.arange(6)):
             raise ValueError("the object's free joint must have consecutive dofs")
         self.torso_acts = np.asarray(arm.torso_actuators, dtype=np.int64)
@@ -115,7 +116,8 @@ class CarryPeriods:
         self.robot_gains = np.array([*design.stiffness, *design.damping,
                                      *design.passive_damping], dtype=float)
         self.weight = np.asarray(ctl.weight, dtype=float)
-        self.kn, self.dn, self.tau_hi = ctl.kn, ctl.dn, ctl._tau_hi
+        self.kn, self.dn = ctl.kn, ctl.dn
+        self.tau_hi = np.asarray(sc.torque_limit, dtype=float)
         nv = m.nv
         self.hjac, self.rjac = np.zeros((1, 6, nv)), np.zeros((1, 6, nv))
         self.cjac = np.zeros((1, 3, nv))
@@ -146,7 +148,8 @@ class CarryPeriods:
             tau_hi=self.tau_hi, hjac=self.hjac, rjac=self.rjac, cjac=self.cjac, rhs=self.rhs,
             minv=self.minv, noise_lever=sim.sensor.model.lever, v_prev=meter.v_prev,
             a_prev=meter.a_prev, samples=meter.samples, true=self._true, acc=self._acc,
-            forces=sim._forces, velocities=sim._velocities, sat=self._sat, left=self._left,
+            forces=sim.period_forces, velocities=sim.period_velocities, sat=self._sat,
+            left=self._left,
             sensed=self._sensed, post=self._post)
         self._args: list[Any] = [None] * len(names)
         for name, value in fixed.items():
@@ -185,7 +188,7 @@ class CarryPeriods:
             q_ref=sim.q_ref[None], hand_in_torso=np.asarray(sim.arm.hand_in_torso, float),
             torso_height=float(sim.arm.torso_height_m), noisy=noisy, bias=model.bias,
             noise=model.noise_n,
-            z=model._rng.standard_normal((PERIODS, 6)) if noisy else self._true)
+            z=model.rng.standard_normal((PERIODS, 6)) if noisy else self._true)
         args, slot = self._args, self._slot
         for name, value in step.items():
             args[slot[name]] = value

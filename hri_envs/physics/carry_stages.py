@@ -21,16 +21,18 @@ from hri_envs.physics import human_laws as hl
 from hri_envs.physics import lawmath as lm
 from hri_envs.physics import laws
 from hri_envs.physics.arm_control import POSTURE_REGULARIZATION
-from hri_envs.physics.controller import _LAMBDA_INV_REGULARIZATION
+from hri_envs.physics.controller import LAMBDA_INV_REGULARIZATION
 from hri_envs.physics.interaction import meter_step
 from hri_envs.physics.jit import kernel
 from hri_envs.physics.mjc import mj_jac, mj_jacSite, mj_solveM, mj_step, mj_step1, mj_step2
 
-__all__ = ["PERIODS", "after_stage", "carry_step", "grip_motion", "grip_target", "human_stage",
-           "object_angvel", "observe", "robot_stage", "slip", "tail_stage"]
+__all__ = ["ANGVEL_SQ_MAX", "PERIODS", "VEL_SQ_MAX", "after_stage", "carry_step",
+           "human_stage", "object_angvel", "observe", "robot_stage", "slip", "tail_stage"]
 
-PERIODS = 5  # control periods (125 Hz) per step (25 Hz)
-VEL_SQ_MAX, ANGVEL_SQ_MAX = 1e-4, 2.5e-3  # [m²/s²], [rad²/s²]: a placed object is slow
+#: Control periods (125 Hz) per step (25 Hz).
+PERIODS = 5
+#: [m²/s²], [rad²/s²]: a placed object is slower than these (squared speeds).
+VEL_SQ_MAX, ANGVEL_SQ_MAX = 1e-4, 2.5e-3
 
 
 @kernel
@@ -61,15 +63,13 @@ def human_stage(s, dt_c, dt_step, scripted, robot_holds, torque, m, d, qpos, qve
         hl.commanded_reference(command[:, 0:3], command[:, 3:7], command[:, 7:10],
                                command[:, 10:13], s, dt_step, handle_quat, href, obj_quat)
     torso = np.empty((1, 4))
-    hl.torso_target(href[:, :3], obj_quat, rest_quat, hand_in_torso, torso_height, torso)
+    hl.torso_target(href[:, :3], obj_quat, rest_quat, hand_in_torso.reshape((1, 3)),
+                    np.full(1, torso_height), torso)
     for c in range(4):
         ctrl[torso_acts[c]] = torso[0, c]
-    ff = np.zeros((1, 6))
-    if not robot_holds:  # carrying alone: hold up the object's weight
-        r = (xipos[body, 0] - site_xpos[site, 0], xipos[body, 1] - site_xpos[site, 1],
-             xipos[body, 2] - site_xpos[site, 2])
-        t = lm.cross3(r, (0.0, 0.0, weight_n))
-        ff[0, 2], ff[0, 3], ff[0, 4], ff[0, 5] = weight_n, t[0], t[1], t[2]
+    ff = np.empty((1, 6))
+    hl.carried_weight(np.full(1, not robot_holds), xipos[body:body + 1],
+                      site_xpos[site:site + 1], weight_n, ff)
     mj_jacSite(m, d, jac[0, :3].ctypes.data, jac[0, 3:].ctypes.data, site)
     n = len(arm_qpos)
     q, qd = np.empty((1, n)), np.empty((1, n))
@@ -116,16 +116,8 @@ def robot_stage(s, robot_holds, stiff, scale, m, d, qpos, qvel, xpos, xquat, xma
     mj_jacSite(m, d, jac[0, :3].ctypes.data, jac[0, 3:].ctypes.data, grip)
     if robot_holds:
         mj_jac(m, d, jac_com[0].ctypes.data, 0, xipos[body].ctypes.data, hand_body)
-    ref = np.zeros((1, 13))
-    if stiff:
-        p = lm.rotate_by(lm.quat4(motion[0, 3:7]), (s * motion[0, 10], s * motion[0, 11],
-                                                     s * motion[0, 12]))
-        for c in range(3):
-            ref[0, c] = motion[0, c] + s * motion[0, 7 + c]
-            ref[0, 7 + c] = motion[0, 13 + c]
-            ref[0, 10 + c] = motion[0, 16 + c]
-        for c in range(4):
-            ref[0, 3 + c] = p[c]
+    ref = np.empty((1, 13))
+    laws.robot_reference(motion, s, np.full(1, stiff), ref)
     tau = np.empty((1, n))
     rj, rh = jac[:, :, :n], rhs[:, :, :n]
     laws.robot_task(rj, qvel[:n].reshape((1, n)), site_xpos[grip:grip + 1],
@@ -134,7 +126,7 @@ def robot_stage(s, robot_holds, stiff, scale, m, d, qpos, qvel, xpos, xquat, xma
                     weight, qpos[:n].reshape((1, n)), q_ref, kn, dn, tau, rh)
     mj_solveM(m, d, minv.ctypes.data, rhs.ctypes.data, 7)
     out = np.empty((1, n))
-    laws.robot_null_space(rj, minv[:, :, :n], rh, tau, _LAMBDA_INV_REGULARIZATION, -tau_hi,
+    laws.robot_null_space(rj, minv[:, :, :n], rh, tau, LAMBDA_INV_REGULARIZATION, -tau_hi,
                           tau_hi, out)
     for c in range(n):
         ctrl[robot_acts[c]] = out[0, c]
@@ -183,11 +175,12 @@ def tail_stage(qpos, qvel, xpos, xquat, site_xpos, site_xmat, body, obj_dof, gri
 
 @kernel
 def object_angvel(qvel, xquat, body, obj_dof):
-    """(1, 3) the object's angular velocity in the world (its free joint's is local)."""
-    w = lm.rotate_vec((qvel[obj_dof + 3], qvel[obj_dof + 4], qvel[obj_dof + 5]),
-                      lm.quat4(xquat[body]))
+    """(1, 3) the object's angular velocity in the world (its free joint's is local;
+    :func:`~hri_envs.physics.laws.world_angvel`).
+    """
     out = np.empty((1, 3))
-    out[0, 0], out[0, 1], out[0, 2] = w[0], w[1], w[2]
+    laws.world_angvel(xquat[body:body + 1], qvel[obj_dof + 3:obj_dof + 6].reshape((1, 3)),
+                      out)
     return out
 
 
@@ -284,37 +277,3 @@ def observe(qpos, qvel, xpos, xquat, site_xpos, site_xmat, body, obj_dof, grip, 
     for c in range(n):
         out[20 + c] = qpos[c]
         out[20 + n + c] = qvel[c]
-
-
-@kernel
-def grip_target(site_xpos, site_xmat, grip, action, max_step_m, max_step_rad, out):
-    """CarrySim.command's target for an action (7,) in [-1, 1]: ``out`` (7,) the grip's
-    position moved by ``max_step_m`` x a[0:3] and its quaternion turned by ``max_step_rad``
-    x a[3:6] (world frame).
-    """
-    q = lm.rotate_by(lm.mat_to_quat(site_xmat[grip]),
-                     (max_step_rad * action[3], max_step_rad * action[4],
-                      max_step_rad * action[5]))
-    for c in range(3):
-        out[c] = site_xpos[grip, c] + max_step_m * action[c]
-    for c in range(4):
-        out[3 + c] = q[c]
-
-
-@kernel
-def grip_motion(site_xpos, site_xmat, grip, target_pos, target_quat, dt_step, out):
-    """The robot grip's line for a step towards a target, ``out`` (19,): the grip's position
-    and quaternion now, the translation and rotation vector to the target, and their rates
-    over ``dt_step`` (CarrySim.step).
-    """
-    q = lm.mat_to_quat(site_xmat[grip])
-    r = lm.rotation_error(lm.quat4(target_quat), q)
-    for c in range(3):
-        d = target_pos[c] - site_xpos[grip, c]
-        out[c] = site_xpos[grip, c]
-        out[7 + c] = d
-        out[10 + c] = r[c]
-        out[13 + c] = d / dt_step
-        out[16 + c] = r[c] / dt_step
-    for c in range(4):
-        out[3 + c] = q[c]

@@ -26,10 +26,10 @@ from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.kinematics import TrajectorySample, rotation_error
 from hri_envs.physics.scene import Scene
 
-__all__ = ["Disagreement", "ImpedanceController"]
+__all__ = ["LAMBDA_INV_REGULARIZATION", "Disagreement", "ImpedanceController"]
 
-# Numerical method: Tikhonov regularisation of J M⁻¹ Jᵀ before it is inverted.
-_LAMBDA_INV_REGULARIZATION = 1e-6
+#: Numerical method: Tikhonov regularisation of J M⁻¹ Jᵀ before it is inverted.
+LAMBDA_INV_REGULARIZATION = 1e-6
 
 
 class ImpedanceController:
@@ -53,7 +53,7 @@ class ImpedanceController:
         self._minv = np.zeros((7, m.nv))
         self._jac = np.zeros((6, n))
         self._wrench = np.zeros(6)
-        self._reg = _LAMBDA_INV_REGULARIZATION * np.eye(6)
+        self._reg = LAMBDA_INV_REGULARIZATION * np.eye(6)
         self._lam_inv = np.zeros((6, 6))
         self._lam_x = np.zeros(6)
         # The robot's joints lead the model and are contiguous in qpos and qvel (no ball or

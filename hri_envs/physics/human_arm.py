@@ -146,6 +146,12 @@ class HumanArm:
         actuators: (6,) its actuators.
         weld: Equality id of the human's grasp.
         following: The actuators have their following gains (else reaching gains).
+        rest_t: (3, 3) the object's rest orientation's transpose (the wrist angles' zero).
+        range_lo, range_hi: (6,) the joints' ranges.
+        reach_gains: (6,), (6,) the reaching gains (K_p, K_v) of :meth:`apply`'s design.
+        follow_damping: (6,) the following gains' damping.
+        noise_scale: (6,) the hand's reference noise per unit of the noise's draw.
+        lead: (6,) [s] K_v / K_p, the velocity feed-forward as a reference offset.
     """
 
     def __init__(self, model: mujoco.MjModel, design: PhysicsDesign,
@@ -173,15 +179,15 @@ class HumanArm:
         self.handle = np.asarray(design.handle_pos, dtype=float)
         # Hand frame in the object frame: the object's rest orientation undone.
         self.hand_quat_in_object = quat_conj(np.asarray(rest_quat, dtype=float))
-        self._rest_t = quat_to_mat(rest_quat).T
-        self._lo = model.jnt_range[self.joints, 0].copy()
-        self._hi = model.jnt_range[self.joints, 1].copy()
+        self.rest_t = quat_to_mat(rest_quat).T
+        self.range_lo = model.jnt_range[self.joints, 0].copy()
+        self.range_hi = model.jnt_range[self.joints, 1].copy()
         self._ctrl = np.zeros(6)
         self._wrench = np.zeros(6)
-        self._reach_gains = (np.ones(6), np.ones(6))
-        self._follow_damping = np.ones(6)
-        self._noise_scale = np.zeros(6)
-        self._lead = np.zeros(6)
+        self.reach_gains = (np.ones(6), np.ones(6))
+        self.follow_damping = np.ones(6)
+        self.noise_scale = np.zeros(6)
+        self.lead = np.zeros(6)
         self._lever = np.zeros(3)
         self._rot_flat = np.zeros(9)
         self._rot = self._rot_flat.reshape(3, 3)  # a view: mju_quat2Mat fills it
@@ -197,12 +203,12 @@ class HumanArm:
         kp = np.array([design.human_stiffness] * 3 + [design.human_rot_stiffness] * 3)
         kv = np.array([design.human_damping] * 3 + [design.human_rot_damping] * 3)
         limit = np.array([design.human_force] * 3 + [design.human_torque] * 3)
-        self._reach_gains = (kp, kv)
-        self._follow_damping = np.array([design.human_follow_damping[0]] * 3
-                                        + [design.human_follow_damping[1]] * 3)
-        self._noise_scale = design.human_noise * np.array(
+        self.reach_gains = (kp, kv)
+        self.follow_damping = np.array([design.human_follow_damping[0]] * 3
+                                       + [design.human_follow_damping[1]] * 3)
+        self.noise_scale = design.human_noise * np.array(
             [1.0] * 3 + [design.human_noise_torque_lever_m] * 3) / kp
-        self._lead = kv / kp  # [s]: the velocity feed-forward as a reference offset
+        self.lead = kv / kp  # [s]: the velocity feed-forward as a reference offset
         m = self.model
         m.actuator_forcerange[self.actuators, 0] = -limit
         m.actuator_forcerange[self.actuators, 1] = limit
@@ -212,9 +218,9 @@ class HumanArm:
 
     def _set_gains(self, following: bool) -> None:
         m, acts = self.model, self.actuators
-        kp, kv = self._reach_gains
+        kp, kv = self.reach_gains
         if following:
-            kp, kv = np.zeros(6), self._follow_damping
+            kp, kv = np.zeros(6), self.follow_damping
         m.actuator_gainprm[acts, 0] = kp
         m.actuator_biasprm[acts, 1] = -kp
         m.actuator_biasprm[acts, 2] = -kv
@@ -230,12 +236,12 @@ class HumanArm:
         lever = self._lever
         rot.dot(self.handle, out=lever)  # the handle from the object's origin
         out[:3] = pos + lever
-        r = rot.dot(self._rest_t).tolist()  # the hand's orientation in the world
+        r = rot.dot(self.rest_t).tolist()  # the hand's orientation in the world
         # One call for both yaw and roll (numpy's arctan2 and arcsin, as before).
         out[3], out[5] = np.arctan2((r[1][0], r[2][1]), (r[0][0], r[2][2])).tolist()
         out[4] = np.arcsin(min(max(-r[2][0], -1.0), 1.0))
-        np.maximum(out, self._lo, out=out)  # = np.clip(out, lo, hi)
-        return np.minimum(out, self._hi, out=out)
+        np.maximum(out, self.range_lo, out=out)  # = np.clip(out, lo, hi)
+        return np.minimum(out, self.range_hi, out=out)
 
     def place(self, data: mujoco.MjData, pos: np.ndarray, quat: np.ndarray,
               holding: bool) -> None:
@@ -297,7 +303,7 @@ class HumanArm:
         rates = [v0 + w1 * r2 - w2 * r1, v1 + w2 * r0 - w0 * r2, v2 + w0 * r1 - w1 * r0,
                  *data.xaxis[self.joints[3:]].dot(ref.angvel).tolist()]
         ctrl[:] = [c + (k * q + s * n) for c, k, q, s, n in zip(
-            ctrl.tolist(), self._lead.tolist(), rates, self._noise_scale.tolist(),
+            ctrl.tolist(), self.lead.tolist(), rates, self.noise_scale.tolist(),
             noise.tolist(), strict=True)]
         data.ctrl[self.actuators] = ctrl
 

@@ -7,7 +7,8 @@ world's route as arrays; :func:`route_progress`,
 :meth:`~hri_envs.physics.intention.IntentionHuman.progress`), the hand's reference for the
 object's (:func:`hand_reference`) or for the human agent's command
 (:func:`commanded_reference`), the torso's servo targets (:func:`torso_target`,
-:class:`~hri_envs.physics.whole_arm.WholeArm`), the hand impedance (:func:`hand_impedance`,
+:class:`~hri_envs.physics.whole_arm.WholeArm`), the object's weight on the hand of a human
+carrying alone (:func:`carried_weight`), the hand impedance (:func:`hand_impedance`,
 :class:`~hri_envs.physics.arm_control.HandImpedance`) and the torque drive
 (:func:`torque_drive`, :class:`~hri_envs.physics.arm_control.TorqueDrive`).
 """
@@ -22,8 +23,9 @@ from hri_envs.physics import lawmath as lm
 from hri_envs.physics.intention import IntentionHuman
 from hri_envs.physics.jit import kernel
 
-__all__ = ["RouteArrays", "commanded_reference", "hand_impedance", "hand_reference",
-           "intention_advance", "route_frame", "route_progress", "torque_drive", "torso_target"]
+__all__ = ["RouteArrays", "carried_weight", "commanded_reference", "hand_impedance",
+           "hand_reference", "intention_advance", "route_frame", "route_progress", "torque_drive",
+           "torso_target"]
 
 
 @kernel
@@ -199,20 +201,37 @@ def commanded_reference(pos0: np.ndarray, quat0: np.ndarray, delta: np.ndarray,
 
 @kernel
 def torso_target(hand_pos: np.ndarray, obj_quat: np.ndarray, rest_quat: np.ndarray,
-                 hand_in_torso: np.ndarray, height: float, out: np.ndarray) -> None:
+                 hand_in_torso: np.ndarray, height: np.ndarray, out: np.ndarray) -> None:
     """WholeArm.torso_target(hand_pos, WholeArm.yaw_of(obj_quat, rest_quat)) per world:
-    (R, 4) the torso's slide and yaw targets.
+    (R, 4) the torso's slide and yaw targets (``hand_in_torso`` (R, 3): each world's
+    comfortable hand in the torso's frame, ``height`` (R,): its torso's height [m]).
     """
     rc = lm.quat_conj(lm.quat4(rest_quat))
-    ox, oy, dz = hand_in_torso[0], hand_in_torso[1], hand_in_torso[2]
     for j in range(hand_pos.shape[0]):
+        ox, oy, dz = hand_in_torso[j, 0], hand_in_torso[j, 1], hand_in_torso[j, 2]
         b = lm.rotate_vec((0.0, 1.0, 0.0), lm.quat_mul(lm.quat4(obj_quat[j]), rc))
         yaw = 0.0 if b[0] * b[0] + b[1] * b[1] < 0.09 else math.atan2(-b[0], b[1])
         c, s = math.cos(yaw), math.sin(yaw)
         out[j, 0] = hand_pos[j, 0] - -(c * ox - s * oy)
         out[j, 1] = hand_pos[j, 1] - -(s * ox + c * oy)
-        out[j, 2] = (hand_pos[j, 2] - dz) - height
+        out[j, 2] = (hand_pos[j, 2] - dz) - height[j]
         out[j, 3] = yaw
+
+
+@kernel
+def carried_weight(alone: np.ndarray, com: np.ndarray, grip: np.ndarray, weight_n: float,
+                   ff: np.ndarray) -> None:
+    """The hand's feed-forward wrench per world into ``ff`` (R, 6): where the human carries
+    alone (``alone`` (R,)), the object's weight ``weight_n`` [N] held up at its centre of
+    mass ``com`` (R, 3) from the grip frame at ``grip`` (R, 3); zero elsewhere.
+    """
+    for j in range(com.shape[0]):
+        for c in range(6):
+            ff[j, c] = 0.0
+        if alone[j]:
+            r = (com[j, 0] - grip[j, 0], com[j, 1] - grip[j, 1], com[j, 2] - grip[j, 2])
+            t = lm.cross3(r, (0.0, 0.0, weight_n))
+            ff[j, 2], ff[j, 3], ff[j, 4], ff[j, 5] = weight_n, t[0], t[1], t[2]
 
 
 @kernel
@@ -347,6 +366,14 @@ class RouteArrays:
         grid, phase: The minimum-jerk phase s(τ) tabulated as IntentionHuman does.
     """
 
+    start: np.ndarray
+    delta: np.ndarray
+    rotvec: np.ndarray
+    q0: np.ndarray
+    q1: np.ndarray
+    dur: np.ndarray
+    length: np.ndarray
+
     def __init__(self, n: int, lever: float) -> None:
         self.n, self.lever = n, float(lever)
         self.index = np.zeros(n, dtype=np.int64)
@@ -360,20 +387,26 @@ class RouteArrays:
         self.phase = self.grid**3 * (10.0 - 15.0 * self.grid + 6.0 * self.grid**2)
 
     def _alloc(self, n_lines: int) -> None:
-        n = self.n
+        """Room for routes of ``n_lines`` lines (the other worlds' lines are kept)."""
+        n, old = self.n, getattr(self, "start", None)
         unit = np.zeros((n, n_lines, 4))
         unit[..., 0] = 1.0
-        self.start, self.delta = np.zeros((n, n_lines, 3)), np.zeros((n, n_lines, 3))
-        self.rotvec = np.zeros((n, n_lines, 3))
-        self.q0, self.q1 = unit, unit.copy()
-        self.dur, self.length = np.ones((n, n_lines)), np.zeros((n, n_lines))
+        new: dict[str, np.ndarray] = {
+            "start": np.zeros((n, n_lines, 3)), "delta": np.zeros((n, n_lines, 3)),
+            "rotvec": np.zeros((n, n_lines, 3)), "q0": unit, "q1": unit.copy(),
+            "dur": np.ones((n, n_lines)), "length": np.zeros((n, n_lines))}
+        for name, value in new.items():
+            if old is not None:
+                prev = getattr(self, name)
+                value[:, :prev.shape[1]] = prev
+            setattr(self, name, value)
 
     def bind(self, i: int, human: IntentionHuman) -> None:
         """World ``i`` follows ``human`` (its route, line, clock and end) unless it does."""
         if self.humans[i] is not human:
             lines = human.lines
             if len(lines) > self.start.shape[1]:
-                self._alloc(len(lines))  # one world here (the C backend): nothing to keep
+                self._alloc(len(lines))
             for k, ln in enumerate(lines):
                 self.start[i, k], self.delta[i, k], self.rotvec[i, k] = (
                     ln.start.pos, ln.delta, ln.rotvec)
@@ -385,6 +418,15 @@ class RouteArrays:
             self.hesitation[i] = human.params.hesitation_s
             self.humans[i] = human
         self.index[i], self.t[i], self.done[i] = human.index, human.t, human.done
+
+    def copy_rows(self, src: int, rows: np.ndarray) -> None:
+        """The worlds ``rows`` follow world ``src``'s route from where it is."""
+        for name in ("index", "t", "done", "n_lines", "hesitation", "start", "delta", "rotvec",
+                     "q0", "q1", "dur", "length"):
+            value = getattr(self, name)
+            value[rows] = value[src]
+        for i in rows:
+            self.humans[int(i)] = self.humans[src]
 
     def store(self, i: int) -> None:
         """World ``i``'s line, clock and end back into its human."""

@@ -16,7 +16,11 @@ torso's targets, the hand impedance, the torque drive); here:
   :meth:`~hri_envs.physics.controller.ImpedanceController.torques` before and after
   ``M⁻¹`` (MuJoCo's ``mj_solveM`` on the C backend, MuJoCo Warp's ``solve_m`` over worlds);
 * :func:`handle_sample`: the hand's wrench on the handle after the physics, what a step
-  integrates (effort, disagreement) and samples (the interaction measures).
+  integrates (effort, disagreement) and samples (the interaction measures);
+  :func:`handle_slip`: how far the handle is off the hand's grip;
+* :func:`grip_target`, :func:`grip_motion`, :func:`robot_reference`: a command's grip target,
+  the grip's straight line over a step and its reference at a fraction of the step;
+  :func:`world_angvel`: the object's angular velocity in the world.
 
 The numpy classes they mirror stay the discrete Panda backend's (:class:`~hri_envs.physics.
 sim.PandaSim`) and the muscle-driven arm's. Formulas and their order are those classes',
@@ -35,8 +39,9 @@ import numpy as np
 from hri_envs.physics import lawmath as lm
 from hri_envs.physics.jit import kernel
 
-__all__ = ["handle_sample", "handle_slip", "robot_null_space", "robot_task", "seat_engaged",
-           "seat_wrench", "sensor_noise", "wrist_wrench"]
+__all__ = ["grip_motion", "grip_target", "handle_sample", "handle_slip", "robot_null_space",
+           "robot_reference", "robot_task", "seat_engaged", "seat_wrench", "sensor_noise",
+           "world_angvel", "wrist_wrench"]
 
 
 @kernel
@@ -337,3 +342,73 @@ def handle_slip(grip_pos: np.ndarray, grip_mat: np.ndarray, handle_pos: np.ndarr
         off[r] = math.sqrt(dx * dx + dy * dy + dz * dz)
         e = lm.rotation_error(lm.mat_to_quat(grip_mat[r]), lm.mat_to_quat(handle_mat[r]))
         angle[r] = math.sqrt(lm.dot3(e, e))
+
+
+@kernel
+def world_angvel(quat: np.ndarray, local: np.ndarray, out: np.ndarray) -> None:
+    """``out`` (R, 3): the angular velocities ``local`` (R, 3) in the bodies' frames (a free
+    joint's) turned into the world by the bodies' orientations ``quat`` (R, 4).
+    """
+    for r in range(quat.shape[0]):
+        w = lm.rotate_vec((local[r, 0], local[r, 1], local[r, 2]), lm.quat4(quat[r]))
+        out[r, 0], out[r, 1], out[r, 2] = w[0], w[1], w[2]
+
+
+@kernel
+def grip_target(site_pos: np.ndarray, site_mat: np.ndarray, action: np.ndarray,
+                max_step_m: float, max_step_rad: float, out: np.ndarray) -> None:
+    """CarrySim.command's target per world for actions (R, 7) in [-1, 1]: ``out`` (R, 7)
+    the grip frame's position ``site_pos`` (R, 3) moved by ``max_step_m`` x a[0:3] and its
+    quaternion (of ``site_mat`` (R, 9)) turned by ``max_step_rad`` x a[3:6] (world frame).
+    """
+    for r in range(site_pos.shape[0]):
+        q = lm.rotate_by(lm.mat_to_quat(site_mat[r]),
+                         (max_step_rad * action[r, 3], max_step_rad * action[r, 4],
+                          max_step_rad * action[r, 5]))
+        for c in range(3):
+            out[r, c] = site_pos[r, c] + max_step_m * action[r, c]
+        for c in range(4):
+            out[r, 3 + c] = q[c]
+
+
+@kernel
+def grip_motion(site_pos: np.ndarray, site_mat: np.ndarray, target_pos: np.ndarray,
+                target_quat: np.ndarray, dt_step: float, out: np.ndarray) -> None:
+    """The robot grip's line for a step towards its target per world, ``out`` (R, 19): the
+    grip's position ``site_pos`` (R, 3) and quaternion (of ``site_mat`` (R, 9)) now, the
+    translation and rotation vector to the target (``target_pos`` (R, 3), ``target_quat``
+    (R, 4)), and their rates over ``dt_step`` (CarrySim.step).
+    """
+    for r in range(site_pos.shape[0]):
+        q = lm.mat_to_quat(site_mat[r])
+        e = lm.rotation_error(lm.quat4(target_quat[r]), q)
+        for c in range(3):
+            d = target_pos[r, c] - site_pos[r, c]
+            out[r, c] = site_pos[r, c]
+            out[r, 7 + c] = d
+            out[r, 10 + c] = e[c]
+            out[r, 13 + c] = d / dt_step
+            out[r, 16 + c] = e[c] / dt_step
+        for c in range(4):
+            out[r, 3 + c] = q[c]
+
+
+@kernel
+def robot_reference(motion: np.ndarray, s: float, stiff: np.ndarray, ref: np.ndarray) -> None:
+    """The grip frame's reference (R, 13) per world a fraction ``s`` of the way along its
+    line ``motion`` (R, 19) (:func:`grip_motion`) where ``stiff`` (R,) (zero elsewhere):
+    position, quaternion, linear and angular velocity.
+    """
+    for r in range(motion.shape[0]):
+        if not stiff[r]:
+            for c in range(13):
+                ref[r, c] = 0.0
+            continue
+        p = lm.rotate_by(lm.quat4(motion[r, 3:7]), (s * motion[r, 10], s * motion[r, 11],
+                                                     s * motion[r, 12]))
+        for c in range(3):
+            ref[r, c] = motion[r, c] + s * motion[r, 7 + c]
+            ref[r, 7 + c] = motion[r, 13 + c]
+            ref[r, 10 + c] = motion[r, 16 + c]
+        for c in range(4):
+            ref[r, 3 + c] = p[c]

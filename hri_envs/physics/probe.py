@@ -65,7 +65,7 @@ def signature(sim: CarrySim, human: HumanParams) -> np.ndarray:
         n = 0
         for n in range(steps):
             res = sim.step(sim.command(action))
-            f, t = sim._handle_wrench()
+            f, t = sim.handle_wrench()
             rows[n, :3], rows[n, 3:6] = f, t / lever
             rows[n, 6:] = sim.object_pose().pos
             if res.fault is not None:

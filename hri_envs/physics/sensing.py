@@ -49,6 +49,9 @@ class SensorModel:
         delay_s: Delay [s] of the reading.
         torque_lever_m: Torque noise and bias are the force's times this lever [m].
         dt: Control (physics) time step [s].
+
+    Attributes:
+        rng: The noise's generator (the episode's, from :meth:`reset`).
     """
 
     def __init__(self, noise_n: float, bias_n: float, delay_s: float, torque_lever_m: float,
@@ -57,11 +60,11 @@ class SensorModel:
         self.delay_steps = max(0, round(delay_s / dt))
         self.bias = np.zeros(6)
         self._queue: deque[np.ndarray] = deque()
-        self._rng = np.random.default_rng(0)
+        self.rng = np.random.default_rng(0)
 
     def reset(self, rng: np.random.Generator) -> None:
         """New episode: a fresh bias direction, an empty delay line."""
-        self._rng = rng
+        self.rng = rng
         self.bias[:] = 0.0
         if self.bias_n > 0.0:
             d = rng.standard_normal(6)
@@ -79,7 +82,7 @@ class SensorModel:
             return wrench + self.bias
         # Element by element what numpy would compute, on plain floats (6 values).
         k, lever = self.noise_n, self.lever
-        z = self._rng.standard_normal(6).tolist()
+        z = self.rng.standard_normal(6).tolist()
         w = (wrench + self.bias).tolist()
         return np.array([w[0] + k * z[0], w[1] + k * z[1], w[2] + k * z[2],
                          w[3] + k * z[3] * lever, w[4] + k * z[4] * lever,
@@ -96,7 +99,7 @@ class SensorModel:
             for w in wrenches:
                 out = self.apply(w)
             return np.array(out, dtype=float)
-        z = self._rng.standard_normal((len(wrenches), 6))
+        z = self.rng.standard_normal((len(wrenches), 6))
         k, lever = self.noise_n, self.lever
         # Element by element what apply() computes for the last wrench.
         w = (wrenches[-1] + self.bias).tolist()
@@ -205,6 +208,7 @@ class HandleSensor:
     Attributes:
         noise_n: Standard deviation [N] of the reading's white noise.
         last_n: The last noisy reading [N].
+        rng: The noise's generator (the episode's, from :meth:`reset`).
     """
 
     def __init__(self, model: mujoco.MjModel, threshold_n: float) -> None:
@@ -213,11 +217,11 @@ class HandleSensor:
         self.threshold_n = float(threshold_n)
         self.noise_n = 0.0
         self.last_n = 0.0
-        self._rng = np.random.default_rng(0)
+        self.rng = np.random.default_rng(0)
 
     def reset(self, rng: np.random.Generator, noise_n: float) -> None:
         """New episode: the noise's generator and its standard deviation [N]."""
-        self._rng, self.noise_n = rng, float(noise_n)
+        self.rng, self.noise_n = rng, float(noise_n)
         self.last_n = 0.0
 
     def true_force(self, data: mujoco.MjData) -> float:
@@ -226,6 +230,6 @@ class HandleSensor:
 
     def human_holds(self, data: mujoco.MjData) -> bool:
         """Read the sensor once (noisy) and judge whether the human holds the object."""
-        noise = self.noise_n * self._rng.standard_normal() if self.noise_n > 0.0 else 0.0
+        noise = self.noise_n * self.rng.standard_normal() if self.noise_n > 0.0 else 0.0
         self.last_n = max(0.0, self.true_force(data) + noise)  # a touch sensor reads >= 0
         return self.last_n > self.threshold_n

@@ -10,7 +10,7 @@ abstract state and both agents' abstract actions and runs them physically:
 2. an action that is not valid in the state after the toggles is refused by its agent's
    skill layer, and a refused action aborts the step's motion for both (the graph's rule);
    with ``physics={"attempt_invalid": True}`` the robot's skill layer refuses nothing: it
-   tries any grasp toggle or motion (:meth:`PandaSim._motion_target`) and the physics
+   tries any grasp toggle or motion (:meth:`PandaSim.motion_target`) and the physics
    decides what happens (the human still refuses what is invalid for them);
 3. *motions*: the robot tracks a straight line from the actual grip pose to the target
    state's pose with the impedance controller; the simulated human's arm pulls it towards
@@ -73,17 +73,20 @@ from hri_envs.task.graph import (
     TaskGraph,
 )
 
-__all__ = ["PHYSICAL_FAULTS", "PandaSim", "StepPlan", "StepResult", "plan_step"]
+__all__ = ["FINGER_HOLD_STIFFENING", "FINGER_ON_GRIP_M", "FINGER_OPEN_M", "PHYSICAL_FAULTS",
+           "PandaSim", "StepPlan", "StepResult", "plan_step"]
 
 #: Faults that are physical failures of the task (punished with r⁻ by the episode rules).
 PHYSICAL_FAULTS = ("dropped", "grasp_failed", "pulled_out", "off_support")
 
 # Physical thresholds and times are fields of PhysicsDesign; these are fixed by the model.
-_FINGER_OPEN_M = 0.04  # [m] finger joint position of the open hand (the Panda's maximum)
+#: [m] finger joint position of the open hand (the Panda's maximum).
+FINGER_OPEN_M = 0.04
 #: [m] finger joint position where the closing fingers stop on the grip block at the nominal
 #: grip (2.18-2.19 cm measured after grasps on both scenes): held there while welded.
-_FINGER_ON_GRIP_M = 0.0219
-_FINGER_HOLD_STIFFENING = 10.0  # [-] the finger servos' stiffness x this while welded
+FINGER_ON_GRIP_M = 0.0219
+#: [-] the finger servos' stiffness x this while welded.
+FINGER_HOLD_STIFFENING = 10.0
 _PLATFORM_Z_M = 0.1  # [m] height of the mobile base's floor platform mocap (scene.py)
 # Numerical method: iterations of the reset IK solve onto the grip and the waiting pose.
 _RESET_GRIP_IK_ITERATIONS = 300
@@ -187,6 +190,11 @@ class PandaSim:
         ik_rate: Rate [Hz] of the IK reference updates.
         options: Validated ``physics`` options (:mod:`~hri_envs.physics.options`; keys
             listed in docs/physics.md), applied at each :meth:`reset`.
+
+    Attributes:
+        finger_contype: The robot fingers' geoms' contact types (restored when the weld
+            lets go).
+        lowest_z: [m] the lowest support point of the scenario's layout.
     """
 
     def __init__(self, graph: TaskGraph, design: PhysicsDesign | None = None,
@@ -227,7 +235,7 @@ class PandaSim:
         self.home = home
         self.base_offset = self._base_offset() if n_base else np.zeros(3)
         m = self.model
-        self._finger_contype = m.geom_contype[self.scene.finger_geoms.ravel()].copy()
+        self.finger_contype = m.geom_contype[self.scene.finger_geoms.ravel()].copy()
         self._finger_kp = m.actuator_gainprm[self.scene.finger_actuators, 0].copy()
         self._site_pos = m.site_pos[self.scene.grip_site].copy()
         self._site_quat = m.site_quat[self.scene.grip_site].copy()
@@ -264,7 +272,8 @@ class PandaSim:
         site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "grip")
         return self.design.base_pos - data.site_xpos[site]
 
-    def _pregrasp(self, grip: Pose) -> Pose:
+    def pregrasp(self, grip: Pose) -> Pose:
+        """The pose ``pregrasp_distance_m`` back from the grip pose ``grip`` along its z."""
         return compose(grip, np.array([0.0, 0.0, -self.design.pregrasp_distance_m]),
                        np.array([1.0, 0, 0, 0]))
 
@@ -290,7 +299,7 @@ class PandaSim:
             self.data.mocap_pos[self.scene.support_mocap[k]] = sup.position
         self.seats.set_scenario(scenario)
         self.observer.set_scenario(scenario)
-        self._lowest_z = float(self.observer.pos[:, 2].min())
+        self.lowest_z = float(self.observer.pos[:, 2].min())
 
     def reset(self, start: int, scenario: Scenario | None = None,
               rng: np.random.Generator | None = None, state: int | None = None) -> int:
@@ -325,7 +334,7 @@ class PandaSim:
         pos, quat = self.observer.pose(s0)
         data.qpos[sc.object_qpos] = np.concatenate([pos, quat])
         grip = self.state_grip_pose(s0)
-        target = grip if mu & ROBOT_BIT else self._pregrasp(grip)
+        target = grip if mu & ROBOT_BIT else self.pregrasp(grip)
         q0 = self.home.copy()
         if self.n_base:
             q0[:3] = target.pos + self.base_offset - design.base_pos
@@ -340,9 +349,9 @@ class PandaSim:
             raise IKFailure(f"the robot cannot reach its pose in state {s0}")
         self.q_ref = self.ik.q
         data.qpos[sc.robot_qpos] = self.q_ref
-        data.qpos[sc.finger_qpos] = _FINGER_ON_GRIP_M if mu & ROBOT_BIT else _FINGER_OPEN_M
+        data.qpos[sc.finger_qpos] = FINGER_ON_GRIP_M if mu & ROBOT_BIT else FINGER_OPEN_M
         data.eq_active[sc.weld] = 0
-        self._weld(bool(mu & ROBOT_BIT))
+        self.weld(bool(mu & ROBOT_BIT))
         self.human.holding = bool(mu & HUMAN_BIT)
         self.arm.place(data, pos, quat, self.human.holding)
         if sc.platform_mocap >= 0:
@@ -353,7 +362,10 @@ class PandaSim:
         return s0
 
     # ------------------------------------------------------------------ grasp
-    def _weld(self, on: bool) -> None:
+    def weld(self, on: bool) -> None:
+        """The robot's grasp weld on (at the grip pose now, the fingers held on the grip,
+        their contacts off) or off (the fingers' contacts on again).
+        """
         sc, m = self.scene, self.model
         if on:
             # Pose of the hand body (link 7) in the object frame: grip ∘ site⁻¹.
@@ -370,11 +382,11 @@ class PandaSim:
         # to where they meet the grip block there, 10x stiffer: without the block to stop
         # them, their weight would slide them into it.
         acts = sc.finger_actuators
-        data.ctrl[acts] = _FINGER_ON_GRIP_M if on else _FINGER_OPEN_M
-        kp = self._finger_kp * (_FINGER_HOLD_STIFFENING if on else 1.0)
+        data.ctrl[acts] = FINGER_ON_GRIP_M if on else FINGER_OPEN_M
+        kp = self._finger_kp * (FINGER_HOLD_STIFFENING if on else 1.0)
         m.actuator_gainprm[acts, 0] = kp
         m.actuator_biasprm[acts, 1] = -kp
-        m.geom_contype[sc.finger_geoms.ravel()] = 0 if on else self._finger_contype
+        m.geom_contype[sc.finger_geoms.ravel()] = 0 if on else self.finger_contype
         self.holding = on
 
     @staticmethod
@@ -414,7 +426,7 @@ class PandaSim:
             self.arm.hold(self.data, self.human.holding)  # the hand's weld is the grasp bit
             line = None
             if robot_moves:
-                goal = self.state_grip_pose(self._motion_target(s1, a_r))
+                goal = self.state_grip_pose(self.motion_target(s1, a_r))
                 design = self.design
                 line = StraightLine(self.grip_pose(), goal, design.linear_speed,
                                     design.angular_speed, design.motion_min_duration_s)
@@ -461,7 +473,7 @@ class PandaSim:
                           obs.angle_error, fault, float(totals.linear_impulse_true),
                           float(totals.angular_impulse_true), self.human.holding, human_seen)
 
-    def _motion_target(self, s: int, a: int) -> int:
+    def motion_target(self, s: int, a: int) -> int:
         """The abstract state whose pose the robot's motion ``a`` aims at from ``s``.
 
         A valid motion aims where the graph leads. An invalid one (tried only with
@@ -493,9 +505,9 @@ class PandaSim:
             self._run(line, None, totals, design.grasp_approach_time_limit_s)
             self._close_on_grip(totals)
         else:
-            self._weld(False)
+            self.weld(False)
             grip = self.grip_pose()
-            line = StraightLine(grip, self._pregrasp(grip), design.linear_speed,
+            line = StraightLine(grip, self.pregrasp(grip), design.linear_speed,
                                 design.angular_speed, design.motion_min_duration_s)
             self._run(line, None, totals, design.release_retreat_time_limit_s)
 
@@ -512,7 +524,7 @@ class PandaSim:
                   min_time_s=design.grasp_close_time_s)
         forces = finger_forces(self.model, self.data, sc.finger_geoms, sc.grip_geom)
         if forces.min() < design.grasp_contact_force_n:
-            self.data.ctrl[sc.finger_actuators] = _FINGER_OPEN_M
+            self.data.ctrl[sc.finger_actuators] = FINGER_OPEN_M
             raise _Fault(f"grasp_failed: the fingers press on the grip with {forces[0]:.1f} N "
                          f"and {forces[1]:.1f} N (a hold needs "
                          f"{design.grasp_contact_force_n:g} N each)")
@@ -524,12 +536,12 @@ class PandaSim:
         miss_m = float(np.linalg.norm(grip.pos - self.data.geom_xpos[block]))
         miss_rad = float(np.linalg.norm(rotation_error(quat, grip.quat)))
         if miss_m > design.grasp_tolerance_m or miss_rad > design.grasp_tolerance_rad:
-            self.data.ctrl[sc.finger_actuators] = _FINGER_OPEN_M
+            self.data.ctrl[sc.finger_actuators] = FINGER_OPEN_M
             raise _Fault(f"grasp_failed: the hand closed {miss_m * 100:.1f} cm, "
                          f"{np.rad2deg(miss_rad):.0f}° from the grip (a hold needs "
                          f"{design.grasp_tolerance_m * 100:g} cm, "
                          f"{np.rad2deg(design.grasp_tolerance_rad):.0f}°)")
-        self._weld(True)
+        self.weld(True)
 
     def _run(self, line: StraightLine | None, hold: Pose | None, totals: _Totals,
              limit_s: float, min_time_s: float | None = None) -> tuple[bool, bool]:
@@ -550,7 +562,7 @@ class PandaSim:
                                      design.settle_angvel_sq_max_rad2_s2)
         calm_time_s = design.settle_calm_time_s
         grip_hold_n, overload_max_s = design.grip_hold_force_n, design.grip_overload_time_s
-        drop_z = self._lowest_z - design.drop_margin_m
+        drop_z = self.lowest_z - design.drop_margin_m
         sensor, overload, human, arm = self.sensor, 0.0, self.human, self.arm
         # Periodic work, in control periods.
         check_every = max(1, design.stability_check_every_steps // k)
@@ -604,7 +616,7 @@ class PandaSim:
                     overload = (overload + dt_c if f_true.dot(f_true) > grip_hold_n ** 2
                                 else 0.0)
                     if overload > overload_max_s:
-                        self._weld(False)
+                        self.weld(False)
                         raise _Fault(f"pulled_out: {np.sqrt(f_true @ f_true):.0f} N on the "
                                      "grip")
                 seat = seats.engaged(pos, quat)

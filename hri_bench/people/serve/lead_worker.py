@@ -108,7 +108,7 @@ class Lead:
     def _frame(self) -> dict[str, Any]:
         """What the page draws now (poses, the hand, its force on the handle)."""
         pos, quat = self._hand()
-        force, _ = self.sim._handle_wrench()
+        force, _ = self.sim.handle_wrench()
         handle = self.sim.data.site_xpos[self.sim.arm.handle_site]
         return {"poses": scene3d.body_poses(self.sim.data, self.bodies),
                 "hand": [round(float(v), 5) for v in (*pos, *quat)],
@@ -200,7 +200,7 @@ class Lead:
         before = self.obs
         t = len(self.rows) * self.sim.dt_step
         self.obs, rewards, terms, truncs, infos = self.env.step({"robot": a_r, "human": a_h})
-        force, torque = self.sim._handle_wrench()
+        force, torque = self.sim.handle_wrench()
         term, trunc = bool(terms["robot"]), bool(truncs["robot"])
         info = infos["robot"]
         row = {"time_s": round(t, 6), "robot_observation": before["robot"],

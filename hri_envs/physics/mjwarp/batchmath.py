@@ -12,18 +12,13 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cross", "dot", "line_sample", "mat_to_quat", "quat_conj", "quat_mul",
+__all__ = ["dot", "line_sample", "mat_to_quat", "quat_conj", "quat_mul",
            "quat_to_mat", "rotate", "rotation_error", "slerp"]
 
 
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise dot products of (N, k) arrays: (N,)."""
     return np.einsum("ij,ij->i", a, b)
-
-
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross products of (N, 3) arrays."""
-    return np.cross(a, b)
 
 
 def quat_conj(q: np.ndarray) -> np.ndarray:

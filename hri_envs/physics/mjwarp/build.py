@@ -27,9 +27,9 @@ from hri_envs.physics.mjwarp.control import RobotImpedance, WarpSeats, WristSens
 from hri_envs.physics.mjwarp.ik import BatchIK
 from hri_envs.physics.mjwarp.model import WarpModel
 from hri_envs.physics.sim import (
-    _FINGER_HOLD_STIFFENING,
-    _FINGER_ON_GRIP_M,
-    _FINGER_OPEN_M,
+    FINGER_HOLD_STIFFENING,
+    FINGER_ON_GRIP_M,
+    FINGER_OPEN_M,
     PandaSim,
     StepResult,
 )
@@ -40,7 +40,6 @@ __all__ = ["PER_WORLD", "PandaWorldsState"]
 
 # Phases of a world's abstract step.
 IDLE, APPROACH, CLOSE, RETREAT, MAIN = 0, 1, 2, 3, 4
-FINGER_OPEN_M = _FINGER_OPEN_M
 _CONTACT_OFF_MARGIN_M = -1.0  # a geom margin that no contact reaches
 #: The model values that differ per world.
 _MODEL_PER_WORLD = ("geom_margin", "actuator_gainprm", "actuator_biasprm",
@@ -91,12 +90,12 @@ class PandaWorldsState(WarpModel):
         sc = self.scene = tpl.scene
         # The grasp weld's relative pose is written into the model on the first grasp: do
         # it once before the model is copied to Warp (it is the same for every grasp).
-        tpl._weld(True)
-        tpl._weld(False)
+        tpl.weld(True)
+        tpl.weld(False)
         mjm = copy.copy(tpl.model)
         # Every switchable contact on in the Warp model (MuJoCo Warp fixes the colliding
         # pairs from these bits); per world they are switched by geom margin.
-        mjm.geom_contype[sc.finger_geoms.ravel()] = tpl._finger_contype
+        mjm.geom_contype[sc.finger_geoms.ravel()] = tpl.finger_contype
         mjm.geom_contype[tpl.arm.thumb_pad] = HAND_CONTACT_BIT
         super().__init__(mjm, n_worlds, _MODEL_PER_WORLD, device)
         n = self.n
@@ -115,7 +114,7 @@ class PandaWorldsState(WarpModel):
         self._finger_kp = mjm.actuator_gainprm[sc.finger_actuators, 0].copy()
         self._adr_touch = tpl.handle.adr
         self._handle = self._arm.handle
-        self._arm_lo, self._arm_hi = self._arm._lo, self._arm._hi
+        self._arm_lo, self._arm_hi = self._arm.range_lo, self._arm.range_hi
         self.robot = RobotImpedance(mjm, sc, tpl.controller, self.design)
         self.sensors = WristSensors(n, tpl.sensor, tpl.design.sensor_torque_lever_m)
         self.seats = WarpSeats(n, tpl.seats, self.design)
@@ -178,17 +177,17 @@ class PandaWorldsState(WarpModel):
         s0 = tpl.reset(start, scenario, rng, state)
         self.load_world(i, tpl.model, tpl.data)
         w.rng = tpl.human.rng
-        w.handle_rng, w.handle_noise_n = tpl.handle._rng, tpl.handle.noise_n
+        w.handle_rng, w.handle_noise_n = tpl.handle.rng, tpl.handle.noise_n
         w.scenario = tpl.scenario
         w.design = tpl.human.design
         w.fault, w.result = None, None
         self.sensors.reset_world(i, tpl.sensor.model)
-        self.lowest_z[i] = tpl._lowest_z
+        self.lowest_z[i] = tpl.lowest_z
         self.seats.set_world(i, tpl.seats, tpl.seats.design.seat_hold)
         arm = tpl.arm
-        self.reach_kp[i], self.reach_kv[i] = arm._reach_gains
-        self.follow_kv[i] = arm._follow_damping
-        self.noise_scale[i], self.lead[i] = arm._noise_scale, arm._lead
+        self.reach_kp[i], self.reach_kv[i] = arm.reach_gains
+        self.follow_kv[i] = arm.follow_damping
+        self.noise_scale[i], self.lead[i] = arm.noise_scale, arm.lead
         self.following[i] = arm.following
         self.holding[i] = tpl.holding
         self.human_holding[i] = tpl.human.holding
@@ -242,7 +241,7 @@ class PandaWorldsState(WarpModel):
 
     def _finger_gains(self, rows: np.ndarray, on: np.ndarray) -> None:
         acts = self.scene.finger_actuators
-        kp = self._finger_kp[None] * np.where(on, _FINGER_HOLD_STIFFENING, 1.0)[:, None]
+        kp = self._finger_kp[None] * np.where(on, FINGER_HOLD_STIFFENING, 1.0)[:, None]
         gain, bias = self.m.actuator_gainprm.numpy(), self.m.actuator_biasprm.numpy()
         gain[rows[:, None], acts[None], 0] = kp
         bias[rows[:, None], acts[None], 1] = -kp
@@ -257,7 +256,7 @@ class PandaWorldsState(WarpModel):
         eq[i, self.scene.weld] = on
         self._put("eq_active", eq)
         ctrl = self._get("ctrl")
-        ctrl[i, self.scene.finger_actuators] = _FINGER_ON_GRIP_M if on else FINGER_OPEN_M
+        ctrl[i, self.scene.finger_actuators] = FINGER_ON_GRIP_M if on else FINGER_OPEN_M
         self._put("ctrl", ctrl)
         rows = np.array([i])
         self._finger_gains(rows, np.array([on]))

@@ -7,8 +7,10 @@ by the impedance controller; the human's reference advances along their route (o
 the human agent's command), their arm's impedance and torque drive pull the hand, the torso
 follows; the seats hold a resting object; the wrist sensor reads; 5 control periods of
 MuJoCo Warp's ``step1``/``step2``/``step`` for all worlds at once; the effort, disagreement,
-faults and placement per world. The control laws are vectorised over the worlds
-(:mod:`~hri_envs.physics.mjwarp.control`, :mod:`~hri_envs.physics.mjwarp.carry_human`).
+faults and placement per world. The control laws are the C backend's compiled ones
+(:mod:`~hri_envs.physics.laws`, :mod:`~hri_envs.physics.human_laws`) run over the worlds
+that step (:mod:`~hri_envs.physics.mjwarp.control`,
+:mod:`~hri_envs.physics.mjwarp.carry_human`): only the engine that steps differs.
 
 **Contacts and grasps per world.** The human's grip is friction: the palm and the finger pad
 collide with the handle in every world (``contype`` bit 64, always on, so MuJoCo Warp's
@@ -36,25 +38,18 @@ import numpy as np
 
 from hri_envs.envs.backends import backend_spec
 from hri_envs.errors import ConfigError
+from hri_envs.physics import human_laws as hl
+from hri_envs.physics import laws
 from hri_envs.physics.body import WARP_BODY_FIELDS
-from hri_envs.physics.carry import (
-    _ANGVEL_SQ_MAX,
-    _CALM_S,
-    _CONTROL_PERIODS,
-    _DROP_BELOW_M,
-    _SLIP_M,
-    _SLIP_RAD,
-    _STRAINED_S,
-    _VEL_SQ_MAX,
-    CarrySim,
-    CarryStep,
-)
+from hri_envs.physics.carry import CALM_S, STRAINED_S, CarrySim, CarryStep
+from hri_envs.physics.carry_faults import DROP_BELOW_M, SLIP_M, SLIP_RAD
+from hri_envs.physics.carry_stages import ANGVEL_SQ_MAX, PERIODS, VEL_SQ_MAX
 from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.intention import HumanParams
 from hri_envs.physics.interaction import InteractionMeter
 from hri_envs.physics.mjwarp import batchmath as bm
-from hri_envs.physics.mjwarp.carry_human import Samples, WarpArms, WarpIntention, rotate_by
-from hri_envs.physics.mjwarp.control import RobotImpedance, WarpSeats, WristSensors
+from hri_envs.physics.mjwarp.carry_human import WarpArms
+from hri_envs.physics.mjwarp.control import RobotImpedance, WarpSeats, WristSensors, host
 from hri_envs.physics.mjwarp.ik import BatchIK
 from hri_envs.physics.mjwarp.model import WarpModel
 from hri_envs.task.geometry import Scenario
@@ -62,7 +57,6 @@ from hri_envs.task.graph import TaskGraph
 
 __all__ = ["Commands", "WarpCarryWorlds"]
 
-_PERIODS = _CONTROL_PERIODS
 _PER_WORLD = ("robot_holds", "human_holds", "q_ref", "left_start", "strained", "calm",
               "time", "sensed", "sat_counts", "lowest_z", "sensordata")
 
@@ -100,7 +94,7 @@ class WarpCarryWorlds(WarpModel):
                               f"period); allowed there: {', '.join(drives)}",
                               field="drive")
         tpl = self.template = CarrySim(graph, drive, design, max_step_m, max_step_rad, sensor)
-        tpl._weld(True)  # the grasp weld's relative pose, the robot fingers' contacts off
+        tpl.weld(True)  # the grasp weld's relative pose, the robot fingers' contacts off
         super().__init__(tpl.model, n_worlds, ("actuator_ctrlrange", "actuator_forcerange",
                                                *WARP_BODY_FIELDS), device)
         n, sc = self.n, tpl.scene
@@ -114,12 +108,14 @@ class WarpCarryWorlds(WarpModel):
         self.sensors = WristSensors(n, tpl.sensor, self.design.sensor_torque_lever_m)
         self.seats = WarpSeats(n, tpl.seats, self.design)
         self.ik = BatchIK(tpl.ik.model, n, self.n_base, tpl.ik.home, self.device)
-        self.human = WarpIntention(n, self.design.lever)
+        #: Each world's human's route, line and clock (what ``intention_advance`` of
+        #: :mod:`~hri_envs.physics.human_laws` advances); ``route.humans``: the C humans.
+        self.route = hl.RouteArrays(n, self.design.lever)
         imp = tpl.impedance
         self.arms = WarpArms(n, tpl.model, tpl.arm, tpl.posture, (imp.kn, imp.dn),
                              tpl.arm_drive.actuators,  # type: ignore[attr-defined]
                              tpl.rest_quat, tpl.handle_pos, tpl.handle_quat)
-        self._handle_adr = (tpl._hf, tpl._ht)
+        self.handle_adr = (tpl.handle_force_adr, tpl.handle_torque_adr)
         self.robot_holds, self.human_holds = np.zeros(n, bool), np.zeros(n, bool)
         self.q_ref = np.zeros((n, self.n_robot))
         self.left_start = np.zeros(n, bool)
@@ -148,8 +144,8 @@ class WarpCarryWorlds(WarpModel):
         self.load_world(i, tpl.model, tpl.data)
         self.sensors.reset_world(i, tpl.sensor.model)
         self.seats.set_world(i, tpl.seats, self.design.seat_hold)
-        self.human.set_world(i, tpl.human)
-        self.arms.gains[i] = tpl._gains()
+        self.route.bind(i, tpl.human)
+        self.arms.gains[i] = tpl.hand_gains()
         self.arms.hand_in_torso[i] = tpl.arm.hand_in_torso
         self.arms.torso_height[i] = tpl.arm.torso_height_m
         self.arms.lo[i], self.arms.hi[i] = tpl.arm_drive.lo, tpl.arm_drive.hi
@@ -161,7 +157,7 @@ class WarpCarryWorlds(WarpModel):
         self.strained[i] = self.calm[i] = self.time[i] = 0.0
         self.sensed[i], self.sat_counts[i] = 0.0, 0.0
         self.meter.reset(np.array([i]))
-        self.lowest_z[i] = tpl._lowest_z
+        self.lowest_z[i] = tpl.lowest_z
         self.params[i], self.scenarios[i] = tpl.params, tpl.scenario
         self._placed.add(i)
 
@@ -174,7 +170,7 @@ class WarpCarryWorlds(WarpModel):
         for name in _PER_WORLD:
             value = getattr(self, name)
             value[rows] = value[src]
-        for part in (self.ik, self.sensors, self.seats, self.human):
+        for part in (self.ik, self.sensors, self.seats, self.route):
             part.copy_rows(src, rows)
         for value in (self.meter.v_prev, self.meter.a_prev, self.meter.samples):
             value[rows] = value[src]
@@ -206,12 +202,14 @@ class WarpCarryWorlds(WarpModel):
         as (N, ...) arrays (other worlds: zeros).
         """
         site = self.arms.grip_site if human else self.scene.grip_site
-        pos, quat = self.site_poses(rows, site)
-        a = np.asarray(actions, dtype=float)
+        self._refresh()
+        a = np.ascontiguousarray(actions, dtype=float)
+        target = np.empty((len(rows), 7))
+        laws.grip_target(host(self, "site_xpos", rows, site), host(self, "site_xmat", rows, site),
+                         a, self.max_step_m, self.max_step_rad, target)
         out = Commands(np.zeros((self.n, 3)), np.tile([1.0, 0, 0, 0], (self.n, 1)),
                        np.zeros(self.n))
-        out.pos[rows] = pos + self.max_step_m * a[:, :3]
-        out.quat[rows] = rotate_by(quat, self.max_step_rad * a[:, 3:6])
+        out.pos[rows], out.quat[rows] = target[:, :3], target[:, 3:]
         out.stiffness[rows] = (a[:, 6] + 1.0) / 2.0
         return out
 
@@ -246,13 +244,13 @@ class WarpCarryWorlds(WarpModel):
         frozen = np.ones(self.n, bool)
         frozen[rows] = False
         totals = np.zeros((len(rows), 3))  # lin, ang, disagreement
-        samples = (np.zeros((len(rows), _PERIODS)), np.zeros((len(rows), _PERIODS, 3)))
+        samples = (np.zeros((len(rows), PERIODS)), np.zeros((len(rows), PERIODS, 3)))
         sat = np.zeros((len(rows), self.arms.lo.shape[1]))
         start_obj = self._get("xpos")[rows, self.scene.object_body].astype(float)
         faults: dict[int, str] = {}
-        for p in range(_PERIODS):
+        for p in range(PERIODS):
             self._period(p, rows, frozen, plan, agent, totals, sat, samples)
-            if p == _PERIODS - 1:
+            if p == PERIODS - 1:
                 self._check(rows, faults)
         self._after_step(rows, start_obj, sat, faults)
         inter = self.meter.step(rows, *samples)
@@ -265,134 +263,150 @@ class WarpCarryWorlds(WarpModel):
 
     def _plan(self, rows: np.ndarray, robot: Commands, human: Commands | None,
               agent: np.ndarray) -> _Plan:
-        """The step's set-up per world: the robot's line, its IK reference step (stiff:
-        towards the target; passive: restarted from the actual arm towards its grip), the
-        human agent's line and the hand's gains.
+        """The step's set-up per world: the robot grip's line
+        (:func:`~hri_envs.physics.laws.grip_motion`), its IK reference step (stiff: towards
+        the target; passive: restarted from the actual arm towards its grip), the human
+        agent's line and the hand's gains.
         """
-        n_r, n_b, ik = self.n_robot, self.n_base, self.ik
-        grip_pos, grip_quat = self.site_poses(rows, self.scene.grip_site)
+        n_r, n_b, ik, grip = self.n_robot, self.n_base, self.ik, self.scene.grip_site
         stiffness = robot.stiffness[rows]
         stiff = (stiffness > 1e-3) & self.robot_holds[rows]
-        delta = robot.pos[rows] - grip_pos
-        rotvec = bm.rotation_error(robot.quat[rows], grip_quat)
+        motion = np.empty((len(rows), 19))
+        laws.grip_motion(host(self, "site_xpos", rows, grip), host(self, "site_xmat", rows, grip),
+                         np.ascontiguousarray(robot.pos[rows], dtype=float),
+                         np.ascontiguousarray(robot.quat[rows], dtype=float), self.dt_step,
+                         motion)
         robot_q = self._get("qpos")[rows, :n_r].astype(float)
         loose = rows[~stiff]  # ReferenceIK.reset(robot_q), in every loose world at once
         ik.q[loose] = ik.target[loose] = self.template.ik.home
         ik.q[loose, :n_r] = robot_q[~stiff]
         ik.target[loose, :n_b] = robot_q[~stiff, :n_b]
-        t_pos = np.where(stiff[:, None], robot.pos[rows], grip_pos)
-        t_quat = np.where(stiff[:, None], robot.quat[rows], grip_quat)
+        t_pos = np.where(stiff[:, None], robot.pos[rows], motion[:, :3])
+        t_quat = np.where(stiff[:, None], robot.quat[rows], motion[:, 3:7])
         if len(rows):
             ik.step(rows, t_pos, t_quat, self.dt_step)
             self.q_ref[rows] = ik.q[rows, :n_r]
-        hand_pos, hand_quat = self.site_poses(rows, self.arms.grip_site)
-        h_delta, h_rot = np.zeros_like(hand_pos), np.zeros_like(hand_pos)
+        command = np.zeros((len(rows), 13))  # the hand now, its translation and rotation
         gains = self.arms.gains[rows].copy()
         if human is not None and agent.any():
-            h_delta[agent] = human.pos[rows[agent]] - hand_pos[agent]
-            h_rot[agent] = bm.rotation_error(human.quat[rows[agent]], hand_quat[agent])
+            hand_pos, hand_quat = self.site_poses(rows[agent], self.arms.grip_site)
+            command[agent, :3], command[agent, 3:7] = hand_pos, hand_quat
+            command[agent, 7:10] = human.pos[rows[agent]] - hand_pos
+            command[agent, 10:] = bm.rotation_error(human.quat[rows[agent]], hand_quat)
             gains[agent] *= human.stiffness[rows[agent]][:, None]
-        return _Plan(grip_pos, grip_quat, delta, rotvec, stiff, np.minimum(stiffness, 1.0),
-                     hand_pos, hand_quat, h_delta, h_rot, gains)
+        return _Plan(motion, stiff, np.minimum(stiffness, 1.0), command, gains)
 
     def _period(self, p: int, rows: np.ndarray, frozen: np.ndarray, plan: _Plan,
                 agent: np.ndarray, totals: np.ndarray, sat: np.ndarray,
                 samples: tuple[np.ndarray, np.ndarray]) -> None:
-        """One control period of the worlds ``rows`` (CarrySim.step's loop body)."""
-        mjw, sc, dt_c, arms = self._mjw, self.scene, self.dt_control, self.arms
+        """One control period of the worlds ``rows`` (CarrySim.step's loop body: the C
+        backend's stages, :mod:`~hri_envs.physics.carry_stages`, over the worlds).
+        """
+        mjw, sc, arms, r = self._mjw, self.scene, self.arms, len(rows)
         saved = self.freeze(frozen)
         mjw.step1(self.m, self.d)
-        body = sc.object_body
-        pos = self._get("xpos")[rows, body].astype(float)
-        quat = self._get("xquat")[rows, body].astype(float)
-        dof0 = int(sc.object_dofs[0])
-        qv = self._get("qvel")[rows, dof0:dof0 + 6].astype(float)
-        v, w_body = qv[:, :3], bm.rotate(quat, qv[:, 3:])
-        hand_ref, obj_quat = self._human_reference(p, rows, plan, agent, pos, quat)
+        body, dof0 = sc.object_body, int(sc.object_dofs[0])
+        pos, quat = host(self, "xpos", rows, body), host(self, "xquat", rows, body)
+        vel = host(self, "qvel", rows, slice(dof0, dof0 + 3))
+        angvel = np.empty((r, 3))
+        laws.world_angvel(quat, host(self, "qvel", rows, slice(dof0 + 3, dof0 + 6)), angvel)
+        s = (p + 1) / PERIODS
+        # The human: their reference, the torso's targets, the hand impedance, the drive.
+        hand_ref, obj_quat = self._human_reference(s, rows, plan, agent, pos, quat)
+        torso = np.empty((r, 4))
+        hl.torso_target(np.ascontiguousarray(hand_ref[:, :3]), obj_quat, arms.rest_quat,
+                        arms.hand_in_torso[rows], arms.torso_height[rows], torso)
         ctrl = self._get("ctrl")
-        ctrl[rows[:, None], arms.torso_actuators[None]] = arms.torso_targets(hand_ref.pos,
-                                                                             obj_quat, rows)
-        ff = np.zeros((len(rows), 6))
-        alone = ~self.robot_holds[rows]
-        if alone.any():  # carrying alone: hold up the object's weight
-            r = (self._get("xipos")[rows[alone], body].astype(float)
-                 - self._get("site_xpos")[rows[alone], arms.grip_site].astype(float))
-            up = np.array([0.0, 0.0, self.weight])
-            ff[alone, 2] = self.weight
-            ff[alone, 3:] = np.cross(r, up)
-        tau = arms.torques(self, rows, hand_ref, ff, plan.gains)
-        lo, hi = arms.lo[rows], arms.hi[rows]
-        made = np.clip(tau, lo, hi)
-        ctrl[rows[:, None], arms.actuators[None]] = made
-        sat += (made <= lo + 1e-9) | (made >= hi - 1e-9)
-        rot = self._get("xmat")[rows, body].astype(float)
+        ctrl[rows[:, None], arms.torso_actuators[None]] = torso
         holds = self.robot_holds[rows]
+        ff = np.empty((r, 6))
+        hl.carried_weight(~holds, host(self, "xipos", rows, body),
+                          host(self, "site_xpos", rows, arms.grip_site), self.weight, ff)
+        tau = arms.torques(self, rows, hand_ref, ff, plan.gains)
+        made = np.empty_like(tau)
+        hl.torque_drive(tau, arms.lo[rows], arms.hi[rows], made, sat)
+        ctrl[rows[:, None], arms.actuators[None]] = made
+        # The robot: the wrist sensor, the seats, the impedance controller.
         self.sensed[rows] = self.sensors.external(self, rows, self.sensordata[rows], holds,
-                                                  pos, rot)
-        seat = self.seats.apply(self, rows, body, pos, quat, v, w_body)
+                                                  pos, host(self, "xmat", rows, body))
+        seat = self.seats.apply(self, rows, body, pos, quat, vel, angvel)
         self.left_start[rows[seat < 0]] = True
-        s = (p + 1) / _PERIODS
-        ref = (plan.grip_pos + s * plan.delta, rotate_by(plan.grip_quat, s * plan.rotvec),
-               plan.delta / self.dt_step, plan.rotvec / self.dt_step)
-        q = self._get("qpos")[rows, :self.n_robot].astype(float)
-        qd = self._get("qvel")[rows, :self.n_robot].astype(float)
+        ref = np.empty((r, 13))
+        laws.robot_reference(plan.motion, s, plan.stiff, ref)
+        n_r = self.n_robot
         ctrl[rows[:, None], sc.robot_actuators[None]] = self.robot.torques(
-            self, rows, q, qd, ref, plan.stiff, plan.scale, holds, self.q_ref[rows])
+            self, rows, host(self, "qpos", rows, slice(0, n_r)),
+            host(self, "qvel", rows, slice(0, n_r)), ref, plan.stiff, plan.scale, holds,
+            self.q_ref[rows])
         self._put("ctrl", ctrl)
         mjw.step2(self.m, self.d)
         for _ in range(self.k - 1):
             mjw.step(self.m, self.d)
         self.thaw(frozen, saved)
         live = self._get("sensordata")[rows].astype(float)
-        f, t = arms.handle_wrench(self, rows, live, self._handle_adr)
-        f_norm = np.linalg.norm(f, axis=1)
-        totals[:, 0] += f_norm * dt_c
-        totals[:, 1] += np.linalg.norm(t, axis=1) * dt_c
-        hv = self._get("qvel")[rows, dof0:dof0 + 3].astype(float)
-        samples[0][:, p], samples[1][:, p] = f_norm, hv
-        power = bm.dot(f, hv) + bm.dot(t, w_body)
-        totals[:, 2] += np.maximum(0.0, -power) * dt_c
+        f_adr, t_adr = self.handle_adr
+        laws.handle_sample(np.ascontiguousarray(live[:, f_adr:f_adr + 3]),
+                           np.ascontiguousarray(live[:, t_adr:t_adr + 3]),
+                           host(self, "site_xmat", rows, arms.handle_site),
+                           host(self, "qvel", rows, slice(dof0, dof0 + 3)), angvel,
+                           self.dt_control, totals, samples[0][:, p], samples[1][:, p])
         self.sensordata[rows] = live
 
-    def _human_reference(self, p: int, rows: np.ndarray, plan: _Plan, agent: np.ndarray,
-                         pos: np.ndarray, quat: np.ndarray) -> tuple[Samples, np.ndarray]:
-        """The hand's reference (the scripted human's route, or the agent's line) and the
-        object orientation it stands for, per world.
+    def _human_reference(self, s: float, rows: np.ndarray, plan: _Plan, agent: np.ndarray,
+                         pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The hand's reference (R, 13) (the scripted human's route,
+        :func:`~hri_envs.physics.human_laws.intention_advance`, or the agent's line a
+        fraction ``s`` of the step along) and the object orientation (R, 4) it stands for.
         """
-        r = len(rows)
-        hand = Samples(np.zeros((r, 3)), np.zeros((r, 4)), np.zeros((r, 3)), np.zeros((r, 3)))
-        obj_quat = np.zeros((r, 4))
+        r, route = len(rows), self.route
+        hand, obj_quat = np.empty((r, 13)), np.empty((r, 4))
         scripted = ~agent
         if scripted.any():
-            ref = self.human.advance(rows[scripted], self.dt_control, pos[scripted],
-                                     quat[scripted])
-            for field, value in zip(hand, self.arms.hand_reference(ref), strict=True):
-                field[scripted] = value
-            obj_quat[scripted] = ref.quat
+            ref, href = np.empty((int(scripted.sum()), 13)), np.empty((int(scripted.sum()), 13))
+            hl.intention_advance(rows[scripted], self.dt_control, pos[scripted], quat[scripted],
+                                 route.index, route.t, route.done, route.n_lines,
+                                 route.hesitation, route.start, route.delta, route.rotvec,
+                                 route.q0, route.q1, route.dur, route.lever, route.grid,
+                                 route.phase, ref)
+            hl.hand_reference(ref, self.arms.handle_pos, self.arms.handle_quat, href)
+            hand[scripted], obj_quat[scripted] = href, ref[:, 3:7]
         if agent.any():
-            s_h = (p + 1) / _PERIODS
-            hq = rotate_by(plan.hand_quat[agent], s_h * plan.h_rot[agent])
-            hand.pos[agent] = plan.hand_pos[agent] + s_h * plan.h_delta[agent]
-            hand.quat[agent] = hq
-            hand.vel[agent] = plan.h_delta[agent] / self.dt_step
-            hand.angvel[agent] = plan.h_rot[agent] / self.dt_step
-            obj_quat[agent] = self.arms.object_quat(hq)
+            cmd = plan.command[agent]
+            href, oq = np.empty((len(cmd), 13)), np.empty((len(cmd), 4))
+            hl.commanded_reference(cmd[:, 0:3], cmd[:, 3:7], cmd[:, 7:10], cmd[:, 10:13], s,
+                                   self.dt_step, self.arms.handle_quat, href, oq)
+            hand[agent], obj_quat[agent] = href, oq
         return hand, obj_quat
+
+    def progress(self, rows: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
+        """IntentionHuman.progress per world of ``rows``: (R,) the objects' progress along
+        their humans' routes (:func:`~hri_envs.physics.human_laws.route_progress`).
+        """
+        route, out = self.route, np.empty(len(rows))
+        hl.route_progress(np.asarray(rows, dtype=np.int64), np.ascontiguousarray(pos, float),
+                          np.ascontiguousarray(quat, float), route.n_lines, route.start,
+                          route.delta, route.rotvec, route.q0, route.length, route.lever,
+                          0.05, out)
+        return out
 
     def _check(self, rows: np.ndarray, faults: dict[int, str]) -> None:
         """CarrySim._check per world (the step's last period): dropped, diverged, slipped."""
         pos = self._get("xpos")[rows, self.scene.object_body].astype(float)
         floor = self.touching(rows, self.scene.floor_geom)
-        below = pos[:, 2] < self.lowest_z[rows] - _DROP_BELOW_M
+        below = pos[:, 2] < self.lowest_z[rows] - DROP_BELOW_M
         finite = np.all(np.isfinite(self._get("qpos")[rows]), axis=1)
-        off, angle = self.arms.slip(self, rows)
+        grip, handle = self.arms.grip_site, self.arms.handle_site
+        off, angle = np.empty(len(rows)), np.empty(len(rows))
+        laws.handle_slip(host(self, "site_xpos", rows, grip), host(self, "site_xmat", rows, grip),
+                         host(self, "site_xpos", rows, handle),
+                         host(self, "site_xmat", rows, handle), off, angle)
         for j, i in enumerate(int(i) for i in rows):
             if floor[j] or below[j]:
                 faults[i] = "dropped: the object " + ("hit the floor" if floor[j]
                                                       else "fell below every support")
             elif not finite[j]:
                 faults[i] = "unstable: the simulation diverged"
-            elif off[j] > _SLIP_M or angle[j] > _SLIP_RAD:
+            elif off[j] > SLIP_M or angle[j] > SLIP_RAD:
                 self.human_holds[i] = False
                 kind = "slipped" if self.robot_holds[i] else "dropped"
                 faults[i] = (f"{kind}: the handle slipped out of the human's hand "
@@ -424,9 +438,9 @@ class WarpCarryWorlds(WarpModel):
             ar = rows[alone]
             now = self._get("xpos")[ar, sc.object_body].astype(float)
             moved = np.linalg.norm(now - start_obj[alone], axis=1)
-            strained = np.any(sat[alone] > _PERIODS / 2, axis=1) & (moved < 1e-3)
+            strained = np.any(sat[alone] > PERIODS / 2, axis=1) & (moved < 1e-3)
             self.strained[ar] = np.where(strained, self.strained[ar] + self.dt_step, 0.0)
-            weak = self.strained[ar] >= _STRAINED_S
+            weak = self.strained[ar] >= STRAINED_S
             if weak.any():
                 lift = self.arms.max_lift(self, ar[weak])
                 for i, value in zip(ar[weak], lift, strict=True):
@@ -445,35 +459,33 @@ class WarpCarryWorlds(WarpModel):
         """CarrySim._result of world ``i``: progress, placement, effort."""
         rows = np.array([i])
         pos, quat = self.object_poses(rows)
-        progress = float(self.human.progress(rows, pos, quat)[0])
+        progress = float(self.progress(rows, pos, quat)[0])
         seat = int(self.seats.engaged(rows, pos, quat)[0])
         dof0 = int(self.scene.object_dofs[0])
         v = self._get("qvel")[i, dof0:dof0 + 6].astype(float)
-        slow = float(v[:3].dot(v[:3])) < _VEL_SQ_MAX and float(v[3:].dot(v[3:])) < _ANGVEL_SQ_MAX
+        slow = float(v[:3].dot(v[:3])) < VEL_SQ_MAX and float(v[3:].dot(v[3:])) < ANGVEL_SQ_MAX
         placed = -1
         if seat >= 0 and self.left_start[i] and slow:
             self.calm[i] += self.dt_step
-            if self.calm[i] >= _CALM_S:
+            if self.calm[i] >= CALM_S:
                 placed = seat
         else:
             self.calm[i] = 0.0
         sat = tuple(n for n, c in zip(self.joint_names, self.sat_counts[i], strict=True)
-                    if c > _PERIODS / 2)
+                    if c > PERIODS / 2)
         return CarryStep(progress, lin + ang / self.design.lever, lin, ang, disagree,
                          self.sensed[i].copy(), placed, fault, sat, *interaction)
 
 
 class _Plan(NamedTuple):
-    """A step's set-up of the worlds that step, (R, ...) each (see ``_plan``)."""
+    """A step's set-up of the worlds that step, (R, ...) each (see ``_plan``): the robot
+    grip's line (R, 19), tracking (R,) bool, the stiffness scale (R,), the human agent's
+    line (R, 13: the hand's position and quaternion, translation, rotation) and the hand's
+    gains (R, 4).
+    """
 
-    grip_pos: np.ndarray
-    grip_quat: np.ndarray
-    delta: np.ndarray
-    rotvec: np.ndarray
+    motion: np.ndarray
     stiff: np.ndarray
     scale: np.ndarray
-    hand_pos: np.ndarray
-    hand_quat: np.ndarray
-    h_delta: np.ndarray
-    h_rot: np.ndarray
+    command: np.ndarray
     gains: np.ndarray

@@ -15,12 +15,13 @@ from collections.abc import Mapping
 import mujoco
 import numpy as np
 
+from hri_envs.physics import laws
 from hri_envs.physics.carry import CarryStep, RobotCommand, grip_reference
 from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.intention import HumanParams, IntentionHuman
 from hri_envs.physics.kinematics import Pose
-from hri_envs.physics.mjwarp import batchmath as bm
 from hri_envs.physics.mjwarp.carry import Commands, WarpCarryWorlds
+from hri_envs.physics.mjwarp.control import host
 from hri_envs.physics.mjwarp.handout import Handout
 from hri_envs.physics.scene import Scene
 from hri_envs.task.geometry import Scenario
@@ -90,7 +91,12 @@ class WarpCarrySim:
     @property
     def human(self) -> IntentionHuman:
         """The intention human of this world (its clock brought up to date)."""
-        return self.worlds.human.sync(self.index)
+        route = self.worlds.route
+        route.store(self.index)
+        human = route.humans[self.index]
+        if human is None:
+            raise RuntimeError(f"world {self.index} was never reset")
+        return human
 
     @property
     def time(self) -> float:
@@ -116,9 +122,11 @@ class WarpCarrySim:
         w = self.worlds
         w._refresh()
         dof0 = int(self.scene.object_dofs[0])
-        qv = w._get("qvel")[self.index, dof0:dof0 + 6].astype(float)
-        quat = w._get("xquat")[self.index, self.scene.object_body].astype(float)
-        return qv[:3], bm.rotate(quat[None], qv[None, 3:])[0]
+        qv = host(w, "qvel", self._row, slice(dof0, dof0 + 6))
+        angvel = np.empty((1, 3))
+        laws.world_angvel(host(w, "xquat", self._row, self.scene.object_body),
+                          np.ascontiguousarray(qv[:, 3:]), angvel)
+        return qv[0, :3], angvel[0]
 
     def robot_joints(self) -> tuple[np.ndarray, np.ndarray]:
         """The robot's joint positions and velocities."""
@@ -129,7 +137,7 @@ class WarpCarrySim:
     def progress(self) -> float:
         """The object's progress along the human's route now."""
         pos, quat = self.worlds.object_poses(self._row)
-        return float(self.worlds.human.progress(self._row, pos, quat)[0])
+        return float(self.worlds.progress(self._row, pos, quat)[0])
 
     def human_grip_reference(self) -> Pose:
         """As :meth:`CarrySim.human_grip_reference`."""

@@ -5,22 +5,20 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
+from gymnasium.vector import AutoresetMode
 
-from hri_envs.checks import check_whole
 from hri_envs.envs.backends import carry_backend
-from hri_envs.envs.config import check_autoreset_mode
-from hri_envs.errors import ActionError, ConfigError, ResetNeeded
+from hri_envs.errors import ActionError, ConfigError
 from hri_envs.physics.continuous import ACTION_SIZE, CarryEnv, check_sensor, check_step_scale
 from hri_envs.physics.mjwarp.carry import WarpCarryWorlds
 from hri_envs.physics.mjwarp.carry_sim import SHARED, WarpCarrySim
+from hri_envs.physics.mjwarp.vector_base import WorldsVectorEnv
 from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 __all__ = ["CarryVectorEnv"]
 
 
-class CarryVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
+class CarryVectorEnv(WorldsVectorEnv[np.ndarray]):
     """``num_envs`` copies of the continuous-control env
     (:class:`~hri_envs.physics.continuous.CarryEnv`), their worlds stepped together on MuJoCo
     Warp.
@@ -77,8 +75,6 @@ class CarryVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     - v0: initial version.
     """
 
-    metadata: dict[str, Any] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
-
     def __init__(self, num_envs: int = 1, scenario: str = "hanger", *,
                  backend: str = "mjwarp", device: str | None = None,
                  render_mode: str | None = None,
@@ -90,14 +86,8 @@ class CarryVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         if backend != "mjwarp":
             raise ConfigError(f"the continuous vector env runs on MuJoCo Warp; backend must be "
                               f"'mjwarp', got {backend!r}", field="backend")
-        if render_mode is not None:
-            raise ConfigError(f"the continuous vector env does not render; render_mode must "
-                              f"be None, got {render_mode!r}", field="render_mode")
-        mode = check_autoreset_mode(autoreset_mode)
-        self.metadata = {**type(self).metadata, "autoreset_mode": mode}
-        self._same_step = mode == AutoresetMode.SAME_STEP
-        self.num_envs = n = check_whole(num_envs, "num_envs", minimum=1, maximum=1_000_000)
-        self.backend, self.render_mode = backend, None
+        n = self._configure(num_envs, render_mode, autoreset_mode, "continuous")
+        self.backend = backend
         carry_backend(backend, drive)  # the drive runs here (else a clear error)
         check_step_scale(kwargs.get("max_step_m", 0.02), kwargs.get("max_step_rad", 0.06))
         check_sensor(kwargs.get("sensor"))
@@ -106,27 +96,13 @@ class CarryVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
                                       max_step_rad=kwargs.get("max_step_rad", 0.06),
                                       sensor=kwargs.get("sensor"), device=device)
         with SHARED.sharing([WarpCarrySim(self.worlds, i) for i in range(n)]):
-            self.envs = [CarryEnv(scenario, backend="mjwarp", drive=drive, **kwargs)
-                         for _ in range(n)]
-        self.single_observation_space = self.envs[0].observation_space
-        self.single_action_space = self.envs[0].action_space
-        self.observation_space = batch_space(self.single_observation_space, n)
-        self.action_space = batch_space(self.single_action_space, n)
-        self._ended = np.zeros(n, dtype=bool)
+            self.envs: list[CarryEnv] = [
+                CarryEnv(scenario, backend="mjwarp", drive=drive, **kwargs) for _ in range(n)]
+        self._batch_spaces(self.envs[0].action_space)
         self._obs = np.zeros((n, self.envs[0].n_obs), dtype=np.float32)
-        self._needs_reset = True
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
-              ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Start N episodes (env *i* seeded with ``seed + i``)."""
-        infos: dict[str, Any] = {}
-        for i, env in enumerate(self.envs):
-            self._obs[i], info = env.reset(seed=None if seed is None else seed + i,
-                                           options=options)
-            infos = self._add_info(infos, info, i)
-        self._ended[:] = False
-        self._needs_reset = False
-        return self._obs.copy(), infos
+    def _observations(self) -> np.ndarray:
+        return self._obs.copy()
 
     def _actions(self, actions: Any) -> np.ndarray:
         n = self.num_envs
@@ -145,18 +121,12 @@ class CarryVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                           dict[str, Any]]:
         """Every env's robot acts for 40 ms; the worlds move together."""
-        if self._needs_reset:
-            raise ResetNeeded("call reset() before step()")
+        self._check_started()
         a = self._actions(actions)
         n = self.num_envs
+        stepping, infos = self._begin_step()
         rewards = np.zeros(n)
         terminated, truncated = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
-        infos: dict[str, Any] = {}
-        restart = np.flatnonzero(self._ended) if not self._same_step else np.zeros(0, int)
-        for i in restart:  # next-step autoreset
-            self._obs[i], info = self.envs[i].reset()
-            infos = self._add_info(infos, info, int(i))
-        stepping = ~self._ended if not self._same_step else np.ones(n, dtype=bool)
         sim_active = stepping & np.array([env._fault is None for env in self.envs])
         rows = np.flatnonzero(sim_active)
         results = self.worlds.step(self.worlds.commands(rows, a[rows]), sim_active)
@@ -168,19 +138,10 @@ class CarryVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             infos = self._add_info(infos, info, int(i))
             if terminated[i] or truncated[i]:
                 ended.append(int(i))
-        if self._same_step and ended:
-            final_obs = np.full(n, None, dtype=object)
-            mask = np.zeros(n, dtype=bool)
-            for i in ended:  # the final observations first, then the new episodes
-                final_obs[i], mask[i] = self._obs[i].copy(), True
-            for i in ended:
-                self._obs[i], _ = self.envs[i].reset()
-            infos["final_obs"], infos["_final_obs"] = final_obs, mask
-        if not self._same_step:
-            self._ended = terminated | truncated
+        final: dict[int, np.ndarray] = {}
+        if self._same_step:
+            final = {e: self._obs[e].copy() for e in ended}  # before the new episodes
+            for e in ended:
+                self._obs[e], _ = self.envs[e].reset()
+        self._end_step(terminated, truncated, infos, final)
         return self._obs.copy(), rewards, terminated, truncated, infos
-
-    def close_extras(self, **kwargs: Any) -> None:
-        """Close every env."""
-        for env in self.envs:
-            env.close()

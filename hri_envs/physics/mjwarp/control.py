@@ -1,18 +1,19 @@
-"""The control period's laws over a leading axis of worlds: what the C backends compute for one
-world each control period, on ``(R, ...)`` arrays of the worlds ``rows`` that run it.
+"""The control period's laws over a leading axis of worlds on MuJoCo Warp: the compiled laws
+of :mod:`~hri_envs.physics.laws` (those the C backend of the continuous envs runs with one
+world) with R = the worlds ``rows`` that run the period, their inputs gathered from MuJoCo
+Warp's arrays (host views on the CPU device, as float64).
 
 * :class:`RobotImpedance`: :class:`~hri_envs.physics.controller.ImpedanceController`'s
-  torques (site Jacobians from the joint axes, ``M⁻¹`` by MuJoCo Warp's ``solve_m``, the
-  6 × 6 operational-space inverse by batched solves);
+  torques (:func:`~hri_envs.physics.laws.robot_task`, ``M⁻¹`` by MuJoCo Warp's ``solve_m``,
+  :func:`~hri_envs.physics.laws.robot_null_space`; site Jacobians from the joint axes);
 * :class:`WristSensors`: :class:`~hri_envs.physics.sensing.WristSensor` and its
-  :class:`~hri_envs.physics.sensing.SensorModel` (compensation, bias, noise, delay), with
-  each world's bias, delay line and noise generator;
-* :class:`WarpSeats`: :class:`~hri_envs.physics.seats.Seats` (which seat holds the object,
-  its force law), each world with its own layout;
-* :func:`disagreement`, :func:`davi`: :class:`~hri_envs.physics.controller.Disagreement`.
-
-The formulas and their order are the C code's, so a world follows the C backend's arithmetic
-up to rounding (the physics on MuJoCo Warp is float32).
+  :class:`~hri_envs.physics.sensing.SensorModel` (:func:`~hri_envs.physics.laws.wrist_wrench`,
+  each world's delay line, :func:`~hri_envs.physics.laws.sensor_noise` with each world's
+  bias and noise generator);
+* :class:`WarpSeats`: :class:`~hri_envs.physics.seats.Seats`
+  (:func:`~hri_envs.physics.laws.seat_wrench`), each world with its own layout;
+* :func:`disagreement`, :func:`davi`: :class:`~hri_envs.physics.controller.Disagreement`
+  (the discrete Panda backend's, vectorised in numpy here).
 """
 
 from __future__ import annotations
@@ -22,7 +23,8 @@ from collections import deque
 import mujoco
 import numpy as np
 
-from hri_envs.physics.controller import _LAMBDA_INV_REGULARIZATION, ImpedanceController
+from hri_envs.physics import laws
+from hri_envs.physics.controller import LAMBDA_INV_REGULARIZATION, ImpedanceController
 from hri_envs.physics.design import PhysicsDesign
 from hri_envs.physics.mjwarp import batchmath as bm
 from hri_envs.physics.mjwarp.model import WarpModel
@@ -31,8 +33,16 @@ from hri_envs.physics.seats import Seats
 from hri_envs.physics.sensing import SensorModel, WristSensor
 
 __all__ = ["RobotImpedance", "WarpSeats", "WristSensors", "chain_jacobian", "davi",
-           "disagreement"]
+           "disagreement", "host"]
 
+
+def host(wm: WarpModel, name: str, rows: np.ndarray, *index: int | slice) -> np.ndarray:
+    """The Data array ``name`` of the worlds ``rows`` at ``index`` as a contiguous float64
+    array (what the compiled laws take; a 3 x 3 matrix per world as its 9 entries, row-major
+    as MuJoCo's).
+    """
+    out = np.ascontiguousarray(wm._get(name)[(rows, *index)], dtype=float)
+    return out.reshape(len(rows), 9) if out.shape[1:] == (3, 3) else out
 
 
 def chain_jacobian(wm: WarpModel, rows: np.ndarray, joints: np.ndarray, hinge: np.ndarray,
@@ -62,18 +72,19 @@ class RobotImpedance:
 
     def __init__(self, model: mujoco.MjModel, scene: Scene, controller: ImpedanceController,
                  design: PhysicsDesign) -> None:
-        self.scene, self.design = scene, design
+        self.scene = scene
         self.n = len(scene.robot_dofs)
         jnt = [int(np.flatnonzero(model.jnt_dofadr == d)[0]) for d in scene.robot_dofs]
         self.joints = np.array(jnt)
         self.hinge = model.jnt_type[self.joints] == mujoco.mjtJoint.mjJNT_HINGE
-        self.weight = controller.weight
+        self.weight = np.asarray(controller.weight, dtype=float)
         self.kn, self.dn = controller.kn, controller.dn
-        self.tau_hi = np.asarray(scene.torque_limit, float)
+        self.gains = np.array([*design.stiffness, *design.damping, *design.passive_damping],
+                              dtype=float)
+        self.tau_hi = np.asarray(scene.torque_limit, dtype=float)
 
     def torques(self, wm: WarpModel, rows: np.ndarray, q: np.ndarray, qd: np.ndarray,
-                ref: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-                has_ref: np.ndarray, scale: np.ndarray, payload: np.ndarray,
+                ref: np.ndarray, has_ref: np.ndarray, scale: np.ndarray, payload: np.ndarray,
                 q_ref: np.ndarray) -> np.ndarray:
         """ImpedanceController.torques per world: (R, n) torques of the robot's joints.
 
@@ -82,44 +93,32 @@ class RobotImpedance:
             rows: (R,) the worlds.
             q: (R, n) the robot's joint positions.
             qd: (R, n) their velocities.
-            ref: (R, 3), (R, 4), (R, 3), (R, 3) the grip frame's reference.
+            ref: (R, 13) the grip frame's reference (position, quaternion, velocities).
             has_ref: (R,) bool, tracking (else passive).
             scale: (R,) the stiffness scale.
             payload: (R,) bool, compensate the held object's weight.
             q_ref: (R, n) the null-space posture reference.
         """
-        sc, design = self.scene, self.design
-        site = wm._get("site_xpos")[rows, sc.grip_site].astype(float)
-        site_quat = bm.mat_to_quat(wm._get("site_xmat")[rows, sc.grip_site].astype(float))
+        sc, n, r = self.scene, self.n, len(rows)
+        site = host(wm, "site_xpos", rows, sc.grip_site)
         jac, axis, anchor = chain_jacobian(wm, rows, self.joints, self.hinge, site)
-        hinge = self.hinge[None, :, None]
-        twist = np.einsum("rij,rj->ri", jac, qd)
-        v, w = twist[:, :3], twist[:, 3:]
-        d_pp, d_pr = design.passive_damping
-        s = np.where(has_ref, scale, 0.0)[:, None]
-        k_p, k_r = design.stiffness[0] * s, design.stiffness[1] * s
-        d_p = s * design.damping[0] + (1 - s) * d_pp
-        d_r = s * design.damping[1] + (1 - s) * d_pr
-        p_ref, quat_ref, v_ref, w_ref = ref
-        e_rot = bm.rotation_error(quat_ref, site_quat)
-        active = has_ref[:, None]
-        wrench = np.concatenate([
-            np.where(active, k_p * (p_ref - site) + d_p * (s * v_ref - v), -d_pp * v),
-            np.where(active, k_r * e_rot + d_r * (s * w_ref - w), -d_pr * w)], axis=1)
-        tau = np.einsum("rij,ri->rj", jac, wrench)
-        tau += wm._get("qfrc_bias")[rows, :self.n].astype(float)
-        if payload.any():
-            com = wm._get("xipos")[rows, sc.object_body].astype(float)
-            jc = np.where(hinge, np.cross(axis, com[:, None] - anchor), axis)  # (R, n, 3)
-            tau += np.where(payload[:, None], np.einsum("rji,i->rj", jc, self.weight), 0.0)
-        tau0 = self.kn * (q_ref - q) - self.dn * qd
+        com = host(wm, "xipos", rows, sc.object_body)
+        jac_com = np.ascontiguousarray(np.where(self.hinge[None, :, None], np.cross(
+            axis, com[:, None] - anchor), axis).transpose(0, 2, 1))  # (R, 3, n)
+        tau, rhs = np.empty((r, n)), np.empty((r, 7, n))
+        laws.robot_task(jac, np.ascontiguousarray(qd, dtype=float), site,
+                        host(wm, "site_xmat", rows, sc.grip_site),
+                        np.ascontiguousarray(ref, dtype=float), np.asarray(has_ref, np.bool_),
+                        np.asarray(scale, dtype=float), self.gains,
+                        host(wm, "qfrc_bias", rows, slice(0, n)), np.asarray(payload, np.bool_),
+                        jac_com, self.weight, np.ascontiguousarray(q, dtype=float),
+                        np.ascontiguousarray(q_ref, dtype=float), self.kn, self.dn, tau, rhs)
         # M⁻¹ [Jᵀ | τ₀] by MuJoCo Warp's factorised mass matrix (all worlds, 7 solves).
-        minv = wm.solve_m(rows, [jac[:, c] for c in range(6)] + [tau0], self.n)
-        minv_jt = minv[:, :6]  # (R, 6, n) = (M⁻¹ Jᵀ)ᵀ
-        lam_inv = np.einsum("rin,rjn->rij", minv_jt, jac) + _LAMBDA_INV_REGULARIZATION * np.eye(6)
-        lam_x = np.linalg.solve(lam_inv, np.einsum("rin,rn->ri", jac, minv[:, 6])[..., None])
-        tau0 = tau0 - np.einsum("rin,ri->rn", jac, lam_x[..., 0])
-        return np.clip(tau + tau0, -self.tau_hi, self.tau_hi)
+        minv = wm.solve_m(rows, [rhs[:, c] for c in range(7)], n)
+        out = np.empty((r, n))
+        laws.robot_null_space(jac, minv, rhs, tau, LAMBDA_INV_REGULARIZATION, -self.tau_hi,
+                              self.tau_hi, out)
+        return out
 
 
 class WristSensors:
@@ -140,8 +139,9 @@ class WristSensors:
     def __init__(self, n: int, sensor: WristSensor, lever: float) -> None:
         self.adr_force, self.adr_torque = sensor.force_adr, sensor.torque_adr
         self.site, self.hand = sensor.site, sensor.hand
-        self.hand_weight, self.object_weight = sensor.hand_weight, sensor.object_weight
-        self.object_com = np.asarray(sensor.object_com, float)
+        self.hand_weight = np.asarray(sensor.hand_weight, dtype=float)
+        self.object_weight = np.asarray(sensor.object_weight, dtype=float)
+        self.object_com = np.asarray(sensor.object_com, dtype=float)
         self.lever = lever
         self.noise = np.zeros(n)
         self.bias = np.zeros((n, 6))
@@ -154,7 +154,7 @@ class WristSensors:
         """World ``i`` takes a C sensor model just reset (its bias and generator)."""
         self.noise[i], self.bias[i] = model.noise_n, model.bias
         self.delay[i] = model.delay_steps
-        self.rngs[i] = model._rng
+        self.rngs[i] = model.rng
         self.queues[i] = deque()
         self.true_wrench[i] = 0.0
 
@@ -186,32 +186,32 @@ class WristSensors:
             pos: (R, 3) the object's position.
             rot: (R, 3, 3) its orientation.
         """
-        smat = wm._get("site_xmat")[rows, self.site].astype(float)
-        f_raw = np.einsum("rij,rj->ri", smat, sensordata[:, self.adr_force:self.adr_force + 3])
-        t_raw = np.einsum("rij,rj->ri", smat,
-                          sensordata[:, self.adr_torque:self.adr_torque + 3])
-        site = wm._get("site_xpos")[rows, self.site].astype(float)
-        hand_com = wm._get("subtree_com")[rows, self.hand].astype(float)
-        com = pos + np.einsum("rij,j->ri", rot, self.object_com)
-        gw, ow = self.hand_weight, self.object_weight
-        f_ext = -f_raw - gw - ow
-        t_ext = (-t_raw - np.cross(hand_com - site, gw) - np.cross(com - site, ow)
-                 - np.cross(pos - site, f_ext))
-        true = np.where(holding[:, None], np.concatenate([f_ext, t_ext], axis=1), 0.0)
+        r = len(rows)
+        fa, ta = self.adr_force, self.adr_torque
+        true = np.empty((r, 6))
+        laws.wrist_wrench(np.asarray(holding, np.bool_),
+                          np.ascontiguousarray(sensordata[:, fa:fa + 3], dtype=float),
+                          np.ascontiguousarray(sensordata[:, ta:ta + 3], dtype=float),
+                          host(wm, "site_xpos", rows, self.site),
+                          host(wm, "site_xmat", rows, self.site),
+                          host(wm, "subtree_com", rows, self.hand),
+                          np.ascontiguousarray(pos, dtype=float),
+                          np.ascontiguousarray(rot, dtype=float).reshape(r, 9),
+                          self.hand_weight, self.object_weight, self.object_com, true)
         self.true_wrench[rows] = true
-        out = true.copy()
+        delayed = true.copy()
         for j in np.flatnonzero(self.delay[rows] > 0):
             i = int(rows[j])
             queue = self.queues[i]
             queue.append(true[j].copy())
-            out[j] = queue.popleft() if len(queue) > self.delay[i] else queue[0]
-        out += self.bias[rows]
-        noisy = self.noise[rows] > 0.0
-        if noisy.any():
-            z = np.stack([self._rng(i).standard_normal(6) for i in rows[noisy]])
-            k = self.noise[rows[noisy]][:, None]
-            z[:, 3:] *= self.lever
-            out[noisy] += k * z
+            delayed[j] = queue.popleft() if len(queue) > self.delay[i] else queue[0]
+        noise = self.noise[rows]
+        z = np.zeros((r, 6))
+        for j in np.flatnonzero(noise > 0.0):
+            z[j] = self._rng(rows[j]).standard_normal(6)
+        out = np.empty((r, 6))
+        laws.sensor_noise(delayed, np.ascontiguousarray(self.bias[rows]), noise, z,
+                          self.lever, out)
         return out
 
 
@@ -220,8 +220,9 @@ class WarpSeats:
 
     Args:
         n: The number of worlds.
-        seats: The C template's seats (the seat orientations, the same in every layout).
-        design: Stiffness, damping, capture region, fade.
+        seats: The C template's seats (the seat orientations, the same in every layout; the
+            capture region).
+        design: Stiffness, damping, fade.
 
     Attributes:
         pos, exit: (n, K, 3) each world's seat positions and exit directions.
@@ -230,10 +231,13 @@ class WarpSeats:
     """
 
     def __init__(self, n: int, seats: Seats, design: PhysicsDesign) -> None:
-        self.design = design
+        self.capture, self.max_angle = float(seats.capture), float(seats.max_angle)
+        self.gains = np.array([design.seat_stiffness, design.seat_damping,
+                               design.seat_rot_stiffness, design.seat_rot_damping,
+                               design.seat_fade_m], dtype=float)
         self.pos = np.zeros((n, len(seats.pos), 3))
         self.exit = np.zeros_like(self.pos)
-        self.quat = np.repeat(seats.quat[None], n, axis=0)
+        self.quat = np.repeat(seats.quat[None], n, axis=0).astype(float)
         self.hold = np.zeros(n)
 
     def set_world(self, i: int, seats: Seats, hold: float) -> None:
@@ -247,50 +251,24 @@ class WarpSeats:
 
     def engaged(self, rows: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
         """(R,) the support whose seat holds the object in each world of ``rows``, or -1."""
-        design = self.design
-        cap, max_angle = design.seat_capture_m, design.seat_capture_angle_rad
-        e = self.pos[rows] - pos[:, None]  # (R, K, 3)
-        along = -np.einsum("rkj,rkj->rk", e, self.exit[rows])
-        across2 = np.einsum("rkj,rkj->rk", e, e) - along * along
-        inside = (np.abs(along) < cap) & (across2 < cap * cap)
-        n_k = e.shape[1]
-        out = np.full(len(rows), -1)
-        for k in range(n_k - 1, -1, -1):  # the first seat that holds wins
-            hit = inside[:, k]
-            if hit.any():
-                r = bm.rotation_error(self.quat[rows[hit], k], quat[hit])
-                ok = np.linalg.norm(r, axis=1) < max_angle
-                idx = np.flatnonzero(hit)[ok]
-                out[idx] = k
-        return out
-
-    def wrench(self, rows: np.ndarray, k: np.ndarray, pos: np.ndarray, quat: np.ndarray,
-               vel: np.ndarray, angvel: np.ndarray) -> np.ndarray:
-        """Seats.wrench per world: (R, 6) force and torque of seat ``k`` on the object."""
-        design = self.design
-        e = self.pos[rows, k] - pos
-        force = design.seat_stiffness * e - design.seat_damping * vel
-        n = self.exit[rows, k]
-        f_out = bm.dot(force, n)
-        along = -bm.dot(e, n)
-        fade = np.clip((design.seat_capture_m - along) / design.seat_fade_m, 0.0, 1.0)
-        force = (force + (np.maximum(f_out, -self.hold[rows]) - f_out)[:, None] * n)
-        torque = (design.seat_rot_stiffness * bm.rotation_error(self.quat[rows, k], quat)
-                  - design.seat_rot_damping * angvel)
-        return np.concatenate([force, torque], axis=1) * fade[:, None]
+        return laws.seat_engaged(np.ascontiguousarray(pos, dtype=float),
+                                 np.ascontiguousarray(quat, dtype=float), self.pos[rows],
+                                 self.exit[rows], self.quat[rows], self.capture,
+                                 self.max_angle)
 
     def apply(self, wm: WarpModel, rows: np.ndarray, body: int, pos: np.ndarray,
               quat: np.ndarray, vel: np.ndarray, angvel: np.ndarray) -> np.ndarray:
         """The seats' wrenches on the object ``body`` as its applied force (``xfrc_applied``
         of the worlds ``rows``, the others' unchanged); (R,) the seat of each, or -1.
         """
-        seat = self.engaged(rows, pos, quat)
+        wrench = np.empty((len(rows), 6))
+        seat = laws.seat_wrench(np.ascontiguousarray(pos, dtype=float),
+                                np.ascontiguousarray(quat, dtype=float),
+                                np.ascontiguousarray(vel, dtype=float),
+                                np.ascontiguousarray(angvel, dtype=float), self.pos[rows],
+                                self.exit[rows], self.quat[rows], self.capture,
+                                self.max_angle, self.gains, self.hold[rows], wrench)
         xfrc = wm._get("xfrc_applied")
-        wrench = np.zeros((len(rows), 6))
-        on = seat >= 0
-        if on.any():
-            wrench[on] = self.wrench(rows[on], seat[on], pos[on], quat[on], vel[on],
-                                     angvel[on])
         xfrc[rows, body] = wrench
         wm._put("xfrc_applied", xfrc)
         return seat

@@ -62,7 +62,7 @@ class PandaEvents(PandaWorldsState):
         self._put("xfrc_applied", xfrc)
 
     def _pregrasp(self, grip: Pose) -> Pose:
-        return self.template._pregrasp(grip)
+        return self.template.pregrasp(grip)
 
     def begin_step(self, i: int, s: int, a_r: int, a_h: int) -> None:
         """World ``i`` starts the abstract step (PandaSim.step up to its first run)."""
@@ -104,7 +104,7 @@ class PandaEvents(PandaWorldsState):
         line = None
         observer = self._observer(i)
         if robot_moves:
-            pos, quat = observer.pose(tpl._motion_target(s1, a_r))
+            pos, quat = observer.pose(tpl.motion_target(s1, a_r))
             goal = compose(Pose(pos, quat), *tpl.grip_in_object)
             line = StraightLine(self.grip_pose(i), goal, design.linear_speed,
                                 design.angular_speed, design.motion_min_duration_s)

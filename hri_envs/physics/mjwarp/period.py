@@ -70,7 +70,8 @@ class PandaPeriod(PandaEvents):
         n_r = self.n_robot
         tau = self.robot.torques(self, rows, qpos[rows, :n_r].astype(float),
                                  qvel[rows, :n_r].astype(float),
-                                 (ref.pos, ref.quat, ref.vel, ref.angvel), ref.active,
+                                 np.concatenate([ref.pos, ref.quat, ref.vel, ref.angvel],
+                                                axis=1), ref.active,
                                  ref.scale, holding, self.q_ref[rows])
         ctrl = self._get("ctrl")
         ctrl[rows[:, None], self._acts[None]] = tau
@@ -157,7 +158,7 @@ class PandaPeriod(PandaEvents):
         rot = bm.quat_to_mat(quat)
         out = np.empty((len(pos), 6))
         out[:, :3] = pos + np.einsum("nij,j->ni", rot, self._handle)
-        r = rot @ self._arm._rest_t
+        r = rot @ self._arm.rest_t
         out[:, 3] = np.arctan2(r[:, 1, 0], r[:, 0, 0])
         out[:, 5] = np.arctan2(r[:, 2, 1], r[:, 2, 2])
         out[:, 4] = np.arcsin(np.clip(-r[:, 2, 0], -1.0, 1.0))

@@ -6,24 +6,24 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
-from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
+from gymnasium.vector import AutoresetMode
 
-from hri_envs.checks import check_whole
 from hri_envs.envs.backends import BACKENDS
-from hri_envs.envs.config import check_autoreset_mode, check_physics_options, scenario_graph
+from hri_envs.envs.config import check_physics_options, scenario_graph
 from hri_envs.envs.robot import RobotEnv
-from hri_envs.errors import ActionError, ConfigError, ResetNeeded
+from hri_envs.errors import ActionError, ConfigError
 from hri_envs.humans.finite_state import FiniteStateHuman
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.seat import HumanLike, human_spec
 from hri_envs.humans.spec import HumanSpec
 from hri_envs.physics.mjwarp.episode import WarpPhysicsEpisode, WarpSim
+from hri_envs.physics.mjwarp.vector_base import WorldsVectorEnv
 from hri_envs.physics.mjwarp.worlds import WarpWorlds
 
 __all__ = ["PandaVectorEnv"]
 
-class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
+
+class PandaVectorEnv(WorldsVectorEnv[dict[str, np.ndarray]]):
     """``num_envs`` copies of the Panda env (:class:`~hri_envs.envs.robot.RobotEnv` with the
     physics), their worlds stepped together on MuJoCo Warp.
 
@@ -87,8 +87,6 @@ class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     - v0: initial version.
     """
 
-    metadata: dict[str, Any] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
-
     def __init__(self, num_envs: int = 1, scenario: str = "hanger", *,
                  backend: str = "mjwarp", device: str | None = None,
                  render_mode: str | None = None,
@@ -101,15 +99,8 @@ class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             raise ConfigError(f"the Panda vector env runs the physics on MuJoCo Warp; backend "
                               f"must be one of the physics backends {', '.join(physical)}, got "
                               f"{backend!r}", field="backend")
-        if render_mode is not None:
-            raise ConfigError(f"the Panda vector env does not render; render_mode must be "
-                              f"None, got {render_mode!r}", field="render_mode")
-        mode = check_autoreset_mode(autoreset_mode)
-        self.metadata = {**type(self).metadata, "autoreset_mode": mode}
-        self._same_step = mode == AutoresetMode.SAME_STEP
-        self.num_envs = n = check_whole(num_envs, "num_envs", minimum=1, maximum=1_000_000)
+        n = self._configure(num_envs, render_mode, autoreset_mode, "Panda")
         self.backend = "mjwarp"
-        self.render_mode = None
         human = human_spec(human, human_keywords)
         if not isinstance(human, HumanSpec | ScriptedHuman | FiniteStateHuman):
             raise ConfigError(f"the Panda vector env seats one human per env: give a HumanSpec "
@@ -124,16 +115,13 @@ class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                               "env for physics={'video_path': ...}", field="physics")
         self.worlds = WarpWorlds(self.graph, n, options=options, device=device)
         with WarpPhysicsEpisode.SHARED.sharing([WarpSim(self.worlds, i) for i in range(n)]):
-            self.envs = [RobotEnv(scenario, backend="mjwarp", **kwargs) for _ in range(n)]
-        self.single_observation_space = self.envs[0].observation_space
-        self.single_action_space = spaces.Discrete(self.graph.n_actions)
-        self.observation_space = batch_space(self.single_observation_space, n)
-        self.action_space = batch_space(self.single_action_space, n)
-        self._ended = np.zeros(n, dtype=bool)
+            self.envs: list[RobotEnv] = [RobotEnv(scenario, backend="mjwarp", **kwargs)
+                                         for _ in range(n)]
+        self._batch_spaces(spaces.Discrete(self.graph.n_actions))
         self._obs: list[dict[str, Any]] = [{} for _ in range(n)]
-        self._needs_reset = True
 
-    def _batch(self, obs: list[dict[str, Any]]) -> dict[str, np.ndarray]:
+    def _observations(self) -> dict[str, np.ndarray]:
+        obs = self._obs
         return {"state": np.array([o["state"] for o in obs], dtype=np.int64),
                 "start": np.array([o["start"] for o in obs], dtype=np.int64),
                 "last_human_action": np.array([o["last_human_action"] for o in obs],
@@ -144,37 +132,19 @@ class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         """(N, A) bool, each env's valid robot actions."""
         return np.stack([env.action_masks() for env in self.envs])
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
-              ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Start N episodes (env *i* seeded with ``seed + i``)."""
-        infos: dict[str, Any] = {}
-        for i, env in enumerate(self.envs):
-            obs, info = env.reset(seed=None if seed is None else seed + i, options=options)
-            self._obs[i] = obs
-            infos = self._add_info(infos, info, i)
-        self._ended[:] = False
-        self._needs_reset = False
-        return self._batch(self._obs), infos
-
     def step(self, actions: Any) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray,
                                           np.ndarray, dict[str, Any]]:
         """Every env's robot acts, its human acts; the worlds move together."""
-        if self._needs_reset:
-            raise ResetNeeded("call reset() before step()")
+        self._check_started()
         a = np.asarray(actions)
         n, n_a = self.num_envs, self.graph.n_actions
         if a.shape != (n,) or a.dtype.kind not in "iu" or ((a < 0) | (a >= n_a)).any():
             raise ActionError(f"robot actions must be an integer array of shape ({n},) with "
                               f"values 0..{n_a - 1}; got {a.dtype} {a.shape}")
+        stepping, infos = self._begin_step()
         rewards = np.zeros(n)
         terminated = np.zeros(n, dtype=bool)
         truncated = np.zeros(n, dtype=bool)
-        infos: dict[str, Any] = {}
-        restart = np.flatnonzero(self._ended) if not self._same_step else np.zeros(0, int)
-        for i in restart:  # next-step autoreset
-            self._obs[i], info = self.envs[i].reset()
-            infos = self._add_info(infos, info, int(i))
-        stepping = ~self._ended if not self._same_step else np.ones(n, dtype=bool)
         a_h = np.zeros(n, dtype=np.int64)
         seen: list[dict[str, np.ndarray] | None] = [None] * n
         states = np.zeros(n, dtype=np.int64)
@@ -199,16 +169,5 @@ class PandaVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 if self._same_step:
                     final[int(i)] = obs
                     self._obs[i], _ = env.reset()
-        self._ended = (terminated | truncated) if not self._same_step else self._ended
-        if final:
-            final_obs = np.full(n, None, dtype=object)
-            mask = np.zeros(n, dtype=bool)
-            for i, o in final.items():
-                final_obs[i], mask[i] = o, True
-            infos["final_obs"], infos["_final_obs"] = final_obs, mask
-        return self._batch(self._obs), rewards, terminated, truncated, infos
-
-    def close_extras(self, **kwargs: Any) -> None:
-        """Close every env."""
-        for env in self.envs:
-            env.close()
+        self._end_step(terminated, truncated, infos, final)
+        return self._observations(), rewards, terminated, truncated, infos
