@@ -11,7 +11,8 @@ module             contents
 ``mdp``            bounded soft-max, Bayes filter, loop removal, ME-IRL (dense numpy)
 ``partner_mdp``    the same on the sparse joint table, with compiled kernels
 ``compiled``       whether the kernels are on, their threads, the checks of their inputs
-``_jit``           the compiled kernels (numba); Algorithm 1's steps in ``_jit_learner``,
-                   the loop they all run in ``_jit_mdps``
+``_jit``           the compiled kernels (numba), one file: numba's cache follows the
+                   file of a kernel only, so a kernel calling one of another file would
+                   keep its cached old code after an edit there
 =================  ==============================================================
 """
