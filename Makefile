@@ -64,7 +64,7 @@ test: $(VENV)/.test-installed system-deps web
 	trap 'kill $$warp 2>/dev/null; rm -f "$$warp_log"' EXIT; \
 	set -x; \
 	{ $(PY) -c "from agents.learning.algorithm1 import preload; preload()" \
-	  && $(PY) -c "from hri_envs.physics.jit import preload; preload()"; } & kernels=$$!; \
+	  && $(PY) -c "from hri_envs.physics.carry.jit import preload; preload()"; } & kernels=$$!; \
 	$(VENV)/bin/mypy && $(VENV)/bin/lint-imports && wait $$kernels \
 	&& MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup \
 	  --ignore-glob='tests/test_jax*' --ignore-glob='tests/test_mjwarp*' \

@@ -5,12 +5,12 @@ It plugs into the envs and the physical suite (``hri-bench suite --physical``) t
 calls, the continuous counterpart of :mod:`agents.protocol`:
 
 1. ``begin_episode(task)``: an episode starts; ``task`` is the episode's public facts
-   (:class:`~hri_envs.physics.robot_view.RobotTask`: the supports, the start, the task
+   (:class:`~hri_envs.physics.carry.robot_view.RobotTask`: the supports, the start, the task
    graph, the action's scale, the controller's design, the observation's layout);
 2. ``act(observation)``: the robot's action (``Box(-1, 1, (7,))``: grip target offset,
    rotation, stiffness) for the robot's observation (the object's pose and velocity, its
    own grip and joints, the wrist sensor's wrench, the start, the supports, the time);
-3. ``end_episode(outcome)``: the episode ended (:class:`~hri_envs.physics.robot_view.
+3. ``end_episode(outcome)``: the episode ended (:class:`~hri_envs.physics.carry.robot_view.
    EpisodeOutcome`): where the object came to rest, which reveals the human's goal in
    hindsight, and the episode's figures. Learn here across episodes;
 4. optionally ``belief()``: (K,) probabilities over the supports as the human's goal, for
@@ -45,7 +45,7 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.physics.robot_view import EpisodeOutcome, RobotTask
+from hri_envs.physics.carry.robot_view import EpisodeOutcome, RobotTask
 
 __all__ = ["PhysicalAgent", "PhysicalEpisode", "outcome_of", "run_physical_episode"]
 

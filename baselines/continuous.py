@@ -1,7 +1,7 @@
 """References and baselines for the continuous-control envs (``*PandaContinuous-v0/v1``).
 
 Each is a :class:`~agents.physical.PhysicalAgent`: told an episode began (with its public
-facts, :class:`~hri_envs.physics.robot_view.RobotTask`), asked for an action per 25 Hz step
+facts, :class:`~hri_envs.physics.carry.robot_view.RobotTask`), asked for an action per 25 Hz step
 from the robot's observation, told the episode ended (the goal revealed in hindsight).
 
 * :class:`UpperReference` knows the intention: it follows the human's own reference (the
@@ -21,7 +21,7 @@ from the robot's observation, told the episode ended (the goal revealed in hinds
   object towards the target state with the admittance's motion added, slowing down while
   the human holds back (:func:`~baselines.physical.goal_robot.lead_speed`) and yielding
   (following them until its next decision) when they hold it back for long. (The v0
-  robot's disagreement-aware softening, :class:`~hri_envs.physics.controller.
+  robot's disagreement-aware softening, :class:`~hri_envs.physics.scene.controller.
   Disagreement`, read the wrist's raw wrench against its thresholds and let a turning
   object sag; the admittance keeps the human in control instead.) It learns across
   episodes as in the paper (the intention revealed where the object was placed).
@@ -40,10 +40,10 @@ from agents.protocol import Agent, Trace
 from baselines.physical.admittance import AdmittanceGains, FixedAdmittance, settle_action
 from baselines.physical.goal_robot import LeadParams, embedded_wrench, lead_speed
 from baselines.physical.sensing import object_state, twist_action
-from hri_envs.physics.kinematics import Pose, StraightLine, rotation_error
-from hri_envs.physics.observer import StateObserver
-from hri_envs.physics.robot_view import EpisodeOutcome, RobotTask
-from hri_envs.physics.seats import Seats
+from hri_envs.physics.scene.kinematics import Pose, StraightLine, rotation_error
+from hri_envs.physics.scene.observer import StateObserver
+from hri_envs.physics.carry.robot_view import EpisodeOutcome, RobotTask
+from hri_envs.physics.scene.seats import Seats
 from hri_envs.task.actions import WAIT
 from hri_envs.task.graph import BOTH, TOGGLE
 from hri_envs.task.scenarios import scenario_graph

@@ -32,7 +32,7 @@ The ratio env / raw is printed per CPU second and by the wall clock; ``--runs N`
 N times in the process and prints its range.
 
 ``--backend mjwarp`` steps N worlds of the same scene together on MuJoCo Warp
-(:class:`~hri_envs.physics.mjwarp.carry.WarpCarryWorlds`, Warp's default device or
+(:class:`~hri_envs.physics.carry.warp.worlds.WarpCarryWorlds`, Warp's default device or
 ``--device``) for each N of ``--worlds``: every world a copy of one reset (start B, the
 human's goal A; a reset costs a C IK solve per world, which is not timed), the upper
 reference acting in every world, ``--steps`` env steps of 40 ms timed after one untimed
@@ -61,8 +61,8 @@ from hri_envs.task.scenarios import scenario_graph
 def warp_speed(scenario: str, n_worlds: int, steps: int,
                device: str | None) -> dict[str, float | str]:
     """N worlds on MuJoCo Warp with the upper reference in each (see the module)."""
-    from hri_envs.physics.mjwarp.carry import WarpCarryWorlds
-    from hri_envs.physics.mjwarp.carry_sim import WarpCarrySim
+    from hri_envs.physics.carry.warp.worlds import WarpCarryWorlds
+    from hri_envs.physics.carry.warp.sim import WarpCarrySim
 
     t0 = time.perf_counter()
     worlds = WarpCarryWorlds(scenario_graph(scenario), n_worlds, device=device)

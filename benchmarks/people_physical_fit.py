@@ -49,7 +49,7 @@ def main() -> None:
     from hri_bench.people.synthetic import record_synthetic
     from hri_bench.run.physical import PhysicalUnit, simulate_unit
     from hri_bench.suite.physical_running import make_robot
-    from hri_envs.physics.population import physical_population
+    from hri_envs.physics.carry.human.population import physical_population
 
     dataset_id = args.dataset or f"{args.scenario}-physical-synthetic"
     dataset = create_dataset(dataset_id, args.scenario, synthetic=True, root=args.data,

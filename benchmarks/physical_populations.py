@@ -1,11 +1,11 @@
-"""Make, check and describe the frozen physical populations (hri_envs.physics.population).
+"""Make, check and describe the frozen physical populations (hri_envs.physics.carry.human.population).
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/physical_populations.py --write
     .venv/bin/python benchmarks/physical_populations.py --check 4
     .venv/bin/python benchmarks/physical_populations.py --report
 
 ``--write`` draws every split of both scenarios (one process per scenario; about 0.8 s of
-probing per candidate on one idle core) and writes ``hri_envs/physics/data/
+probing per candidate on one idle core) and writes ``hri_envs/physics/carry/human/data/
 physical_populations.json`` and ``physical_signatures.npz``. ``--check N`` probes N members
 per split and scenario again on this machine and prints the largest distance from the
 committed signatures (0 on the machine that wrote them), with the time a probe took.
@@ -26,10 +26,10 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.physics.carry import CarrySim
-from hri_envs.physics.population import SCENARIOS, SPLITS, physical_population
-from hri_envs.physics.population_build import build_scenario, nearest, write
-from hri_envs.physics.probe import distance, signature
+from hri_envs.physics.carry.sim import CarrySim
+from hri_envs.physics.carry.human.population import SCENARIOS, SPLITS, physical_population
+from hri_envs.physics.carry.human.population_build import build_scenario, nearest, write
+from hri_envs.physics.carry.human.probe import distance, signature
 from hri_envs.task.scenarios import scenario_graph
 
 DATA = Path(__file__).resolve().parents[1] / "hri_envs" / "physics" / "data"

@@ -5,14 +5,14 @@
 Targets (2-core machine): >= 20x real time on one core for the Panda + object + embodied
 human (2 ms physics steps, control at 125 Hz, mink IK at 25 Hz); with ``--async N``: >= 50
 abstract steps/s summed over N Panda envs in Gymnasium's AsyncVectorEnv (random valid
-actions). The measuring code is hri_envs.physics.speed.
+actions). The measuring code is hri_envs.physics.panda.speed.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from hri_envs.physics.speed import (
+from hri_envs.physics.panda.speed import (
     async_steps_per_second,
     physics_realtime_factor,
     seconds_per_abstract_step,

@@ -122,7 +122,7 @@ async def leaders(url: str, n: int, scenario: str, seconds: float, stagger: floa
     ``i * stagger`` seconds after the first; one :class:`LeadStats` per client.
     """
     from hri_bench.people.synthetic import LeadStats, ScriptedLeader, lead
-    from hri_envs.physics.intention import HumanParams
+    from hri_envs.physics.carry.human.intention import HumanParams
 
     stats = [LeadStats() for _ in range(n)]
     deadline = time.monotonic() + seconds

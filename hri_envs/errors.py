@@ -13,7 +13,7 @@ callers caught before this module existed (``ValueError``, ``NotImplementedError
     ├── MissingExtraError (ImportError)
     ├── ResetNeeded (RuntimeError)
     └── PhysicsFault (RuntimeError)
-        └── hri_envs.physics.ik.IKFailure
+        └── hri_envs.physics.scene.ik.IKFailure
 
 This module imports nothing from the package, so that every layer (down to
 :mod:`hri_envs.task`) can use it without import cycles.
@@ -147,7 +147,7 @@ class ResetNeeded(HriEnvsError, RuntimeError):
 
 
 class PhysicsFault(HriEnvsError, RuntimeError):
-    """Base of the physics simulation's faults (e.g. :class:`~hri_envs.physics.ik.IKFailure`).
+    """Base of the physics simulation's faults (e.g. :class:`~hri_envs.physics.scene.ik.IKFailure`).
 
     A :class:`RuntimeError`: the configuration was valid, but the simulation cannot go on.
     """

@@ -4,9 +4,9 @@ Versioned ids with string entry points (nothing is imported until an env is made
 from the scenario registry (:mod:`hri_envs.task.scenarios`). ``vector_entry_point`` serves
 ``gymnasium.make_vec(id, num_envs, vectorization_mode="vector_entry_point")`` with the
 numpy-batched :class:`~hri_envs.envs.vector.RobotVectorEnv` on the graph ids and with
-:class:`~hri_envs.physics.mjwarp.vector.PandaVectorEnv` (N worlds on MuJoCo Warp, the
+:class:`~hri_envs.physics.panda.warp.vector.PandaVectorEnv` (N worlds on MuJoCo Warp, the
 "mjwarp" extra) on the Panda ids, and with
-:class:`~hri_envs.physics.mjwarp.carry_vector.CarryVectorEnv` on the continuous ids. The
+:class:`~hri_envs.physics.carry.warp.vector.CarryVectorEnv` on the continuous ids. The
 envs truncate episodes
 themselves (``max_cycles``), so no ``max_episode_steps`` is set.
 """
@@ -24,10 +24,10 @@ _ROBOT_ENV = "hri_envs.envs.robot:RobotEnv"
 _PANDA_ENV = "hri_envs.envs.robot:panda_env"
 _ROBOT_VECTOR_ENV = "hri_envs.envs.vector:RobotVectorEnv"
 #: The Panda ids' vector env: N worlds on MuJoCo Warp (the "mjwarp" extra).
-_PANDA_VECTOR_ENV = "hri_envs.physics.mjwarp.vector:PandaVectorEnv"
-_CONTINUOUS_ENV = "hri_envs.physics.continuous:CarryEnv"
+_PANDA_VECTOR_ENV = "hri_envs.physics.panda.warp.vector:PandaVectorEnv"
+_CONTINUOUS_ENV = "hri_envs.physics.carry.env:CarryEnv"
 #: The continuous ids' vector env: N worlds on MuJoCo Warp (the "mjwarp" extra).
-_CONTINUOUS_VECTOR_ENV = "hri_envs.physics.continuous:vector_env"
+_CONTINUOUS_VECTOR_ENV = "hri_envs.physics.carry.env:vector_env"
 
 
 

@@ -1,13 +1,13 @@
 """PettingZoo entry points of the wheel's continuous-control env (whole human arm), version 0.
 
 ``parallel_env(**kwargs)`` is the two-agent parallel env
-(:class:`~hri_envs.physics.continuous_parallel.CarryParallelEnv` with ``scenario="wheel"``;
-see :class:`~hri_envs.physics.continuous.CarryEnv` for the keyword arguments) and
+(:class:`~hri_envs.physics.carry.parallel.CarryParallelEnv` with ``scenario="wheel"``;
+see :class:`~hri_envs.physics.carry.env.CarryEnv` for the keyword arguments) and
 ``env(**kwargs)`` its AEC form (PettingZoo's ``parallel_to_aec``). The single-agent
 Gymnasium form is registered as ``hri_envs/WheelPandaContinuous-v0``.
 """
 
-from hri_envs.physics.continuous_parallel import entry_points
+from hri_envs.physics.carry.parallel import entry_points
 
 __all__ = ["env", "parallel_env"]
 

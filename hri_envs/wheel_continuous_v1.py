@@ -2,13 +2,13 @@
 
 Version 1's reward pays for placing the object at the human's goal, and its ``info`` holds
 nothing derived from the intention during an episode
-(:class:`~hri_envs.physics.continuous.CarryEnv`, "Version History"). ``parallel_env(**kwargs)``
-is the two-agent parallel env (:class:`~hri_envs.physics.continuous_parallel.CarryParallelEnv`
+(:class:`~hri_envs.physics.carry.env.CarryEnv`, "Version History"). ``parallel_env(**kwargs)``
+is the two-agent parallel env (:class:`~hri_envs.physics.carry.parallel.CarryParallelEnv`
 with ``scenario="wheel"``, ``version=1``) and ``env(**kwargs)`` its AEC form. The
 single-agent Gymnasium form is registered as ``hri_envs/WheelPandaContinuous-v1``.
 """
 
-from hri_envs.physics.continuous_parallel import entry_points
+from hri_envs.physics.carry.parallel import entry_points
 
 __all__ = ["env", "parallel_env"]
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from agents.physical import PhysicalAgent
 from baselines.physical.admittance import FixedAdmittance
-from hri_envs.physics.robot_view import RobotTask
+from hri_envs.physics.carry.robot_view import RobotTask
 
 
 class OwnAdmittance(FixedAdmittance):

@@ -16,8 +16,8 @@ import pytest
 
 import hri_envs  # noqa: F401  (registers the ids)
 from hri_envs.errors import ActionError, ConfigError
-from hri_envs.physics.continuous import CarryEnv
-from hri_envs.physics.continuous_parallel import CarryParallelEnv
+from hri_envs.physics.carry.env import CarryEnv
+from hri_envs.physics.carry.parallel import CarryParallelEnv
 
 pytest.importorskip("mujoco")
 

@@ -141,7 +141,7 @@ def test_study_on_the_physics_backend(tmp_path):
 
 def test_a_physics_preset_reaches_the_simulator():
     from hri_envs.envs.backends import batch_backend
-    from hri_envs.physics.design import hanger_design
+    from hri_envs.physics.scene.design import hanger_design
 
     cfg = StudyConfig("hanger", backend="mujoco", physics_preset="noisy-sensor", runs=1)
     batch = batch_backend("mujoco")(scenario_graph("hanger"), [0], 0, physics=cfg.physics)

@@ -38,7 +38,7 @@ from hri_envs.envs.vector import RobotVectorEnv
 from hri_envs.errors import ConfigError, HriEnvsError
 from hri_envs.humans.populations import POPULATIONS
 from hri_envs.humans.scripted import preference_human
-from hri_envs.physics.options import OPTION_KEYS
+from hri_envs.physics.panda.options import OPTION_KEYS
 from hri_envs.task.scenarios import scenario_graph
 
 # An overflow or NaN in numpy is a silent wrong result: an error here.

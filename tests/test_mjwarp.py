@@ -113,7 +113,7 @@ def hanger():
     robot-led (15) and human-led from the two free states (7), then on B: both grasp;
     nobody moves; the robot lets go; a world whose simulation is broken.
     """
-    from hri_envs.physics.mjwarp.worlds import WarpWorlds
+    from hri_envs.physics.panda.warp.worlds import WarpWorlds
 
     g = scenario_graph("hanger")
     states = [named(g, n) for n in HANGER_STATES]
@@ -208,7 +208,7 @@ def test_a_world_that_has_ended_its_step_waits_frozen(hanger):
 def test_wheel_motions_equal_the_c_backend():
     """The wheel: every kind of motion from a free state, human-led (6), and taking the
     wheel off its support, robot-led (1), 7 worlds together."""
-    from hri_envs.physics.mjwarp.worlds import WarpWorlds
+    from hri_envs.physics.panda.warp.worlds import WarpWorlds
 
     g = scenario_graph("wheel")
     cases = (_pairs(g, [named(g, WHEEL_STATES[2])], "human", nearest_move_over=True)
@@ -222,7 +222,7 @@ def test_wheel_motions_equal_the_c_backend():
 def test_every_motion_from_every_state_equals_the_c_backend(name):
     """All (state, motion) pairs, robot-led and human-led (108 hanger, 300 wheel), in
     batches of 54 worlds (about 10 and 40 minutes on this project's 2-core machine)."""
-    from hri_envs.physics.mjwarp.worlds import WarpWorlds
+    from hri_envs.physics.panda.warp.worlds import WarpWorlds
 
     g = scenario_graph(name)
     held = [s for s in range(g.n_states) if g.grasp[s] == 3]
@@ -256,7 +256,7 @@ def test_the_vector_env_matches_the_c_env_and_autoresets():
     import gymnasium as gym
 
     import hri_envs  # noqa: F401
-    from hri_envs.physics.mjwarp.vector import PandaVectorEnv
+    from hri_envs.physics.panda.warp.vector import PandaVectorEnv
 
     options = {"start": "B", "intention": "A"}
     env = gym.make_vec("hri_envs/HangerPanda-v0", num_envs=2,
@@ -309,7 +309,7 @@ def test_a_study_gives_the_c_backends_episode_outcomes():
 
 def test_the_parallel_env_runs_on_mjwarp():
     from hri_envs import hanger_v0
-    from hri_envs.physics.mjwarp.episode import WarpSim
+    from hri_envs.physics.panda.warp.episode import WarpSim
 
     env = hanger_v0.parallel_env(backend="mjwarp", max_cycles=3)
     assert isinstance(env.unwrapped._episode.sim, WarpSim)
@@ -323,7 +323,7 @@ def test_the_parallel_env_runs_on_mjwarp():
 
 def test_the_panda_vector_env_refuses_the_graph():
     from hri_envs.errors import ConfigError
-    from hri_envs.physics.mjwarp.vector import PandaVectorEnv
+    from hri_envs.physics.panda.warp.vector import PandaVectorEnv
 
     with pytest.raises(ConfigError, match="physics backends mujoco, mjwarp"):
         PandaVectorEnv(2, backend="graph")
@@ -372,7 +372,7 @@ def test_the_graph_vector_env_still_refuses_the_simulated_backends():
 
 def test_a_missing_extra_names_the_install_command(monkeypatch):
     from hri_envs.errors import MissingExtraError
-    from hri_envs.physics.mjwarp import device
+    from hri_envs.physics.scene.warp import device
 
     real = importlib.util.find_spec
     monkeypatch.setattr(device.importlib.util, "find_spec",

@@ -101,9 +101,9 @@ def _c_episode(seed, human, options, policy, h_action, max_time_s):
 
 def _warp_episodes(cases, seed):
     """Every case a world of one batch: its CarryEnv on a shared WarpCarryWorlds."""
-    from hri_envs.physics.continuous import CarryEnv
-    from hri_envs.physics.mjwarp.carry import WarpCarryWorlds
-    from hri_envs.physics.mjwarp.carry_sim import SHARED, WarpCarrySim
+    from hri_envs.physics.carry.env import CarryEnv
+    from hri_envs.physics.carry.warp.worlds import WarpCarryWorlds
+    from hri_envs.physics.carry.warp.sim import SHARED, WarpCarrySim
     from hri_envs.task.scenarios import scenario_graph
 
     n = len(cases)
@@ -216,7 +216,7 @@ def test_the_vector_env_matches_the_c_env_and_autoresets():
     episodes. Env 0 (seed 7) has the C env's observations (within 1e-3, the sensed wrench
     within 0.01 N: float32), rewards and ends; both truncate together and restart in the
     next step (reward 0)."""
-    from hri_envs.physics.mjwarp.carry_vector import CarryVectorEnv
+    from hri_envs.physics.carry.warp.vector import CarryVectorEnv
 
     env = gym.make_vec(HANGER, num_envs=2, vectorization_mode="vector_entry_point",
                        max_time_s=0.2)
@@ -247,7 +247,7 @@ def test_the_vector_env_matches_the_c_env_and_autoresets():
 def test_the_single_and_parallel_envs_run_on_mjwarp_and_the_muscles_are_refused():
     from hri_envs import hanger_continuous_v0
     from hri_envs.errors import ConfigError
-    from hri_envs.physics.mjwarp.carry_sim import WarpCarrySim
+    from hri_envs.physics.carry.warp.sim import WarpCarrySim
 
     env = hanger_continuous_v0.parallel_env(backend="mjwarp", max_time_s=0.08)
     assert isinstance(env.env.sim, WarpCarrySim) and env.env.sim.worlds.n == 1

@@ -1,5 +1,5 @@
 """The physical human fitted to recorded sessions (hri_bench.people.physical_fit) and the
-population file that seats it (``fitted:<path>``, hri_envs.physics.population)."""
+population file that seats it (``fitted:<path>``, hri_envs.physics.carry.human.population)."""
 
 import json
 
@@ -9,9 +9,9 @@ import pytest
 from hri_bench.people import physical_fit as pf
 from hri_bench.people.synthetic import ScriptedLeader
 from hri_envs.errors import ConfigError
-from hri_envs.physics.intention import HumanParams
-from hri_envs.physics.kinematics import Pose, compose
-from hri_envs.physics.population import physical_population, save_population
+from hri_envs.physics.carry.human.intention import HumanParams
+from hri_envs.physics.scene.kinematics import Pose, compose
+from hri_envs.physics.carry.human.population import physical_population, save_population
 from hri_envs.task.scenarios import scenario_spec
 
 
@@ -64,7 +64,7 @@ def test_a_population_file_seats_its_humans_by_name(tmp_path):
     with pytest.raises(ConfigError, match="no committed signatures"):
         pop.signatures()
     # a v1 env draws its human from it at every reset
-    from hri_envs.physics.continuous import CarryEnv
+    from hri_envs.physics.carry.env import CarryEnv
 
     env = CarryEnv("hanger", version=1, population=f"fitted:{path}")
     seen = set()

@@ -9,7 +9,7 @@ import pytest
 
 from hri_bench.people import scene3d
 from hri_bench.people.serve import scenes
-from hri_envs.physics.kinematics import Pose, compose
+from hri_envs.physics.scene.kinematics import Pose, compose
 from hri_envs.task.graph import ROBOT_BIT
 from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 

@@ -1,4 +1,4 @@
-"""Physical human populations (hri_envs.physics.population): frozen splits, distinct by
+"""Physical human populations (hri_envs.physics.carry.human.population): frozen splits, distinct by
 behaviour, families within their ranges, and a body size that changes the simulated arm.
 """
 
@@ -11,18 +11,18 @@ import numpy as np
 import pytest
 
 from hri_envs.errors import ConfigError
-from hri_envs.physics.body import BodySize, bmi_mass, stature_at
-from hri_envs.physics.carry import CarrySim, default_grip_force
-from hri_envs.physics.families import FAMILIES, GROUPS
-from hri_envs.physics.intention import HumanParams
-from hri_envs.physics.population import (
+from hri_envs.physics.carry.human.body import BodySize, bmi_mass, stature_at
+from hri_envs.physics.carry.sim import CarrySim, default_grip_force
+from hri_envs.physics.carry.human.families import FAMILIES, GROUPS
+from hri_envs.physics.carry.human.intention import HumanParams
+from hri_envs.physics.carry.human.population import (
     SCENARIOS,
     SPLITS,
     physical_population,
     population_names,
 )
-from hri_envs.physics.population_build import fingerprint, nearest
-from hri_envs.physics.probe import distance, distances, signature
+from hri_envs.physics.carry.human.population_build import fingerprint, nearest
+from hri_envs.physics.carry.human.probe import distance, distances, signature
 from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
@@ -180,7 +180,7 @@ def test_human_params_refuse_bodies_and_drives_that_do_not_exist(sims):
 #: A seeded v0 episode (seed 7, 60 steps of uniform actions from default_rng(1)): its return
 #: and the sum of its observations' magnitudes, as before the body became a parameter (the
 #: SHA-256 of the observations was 14f11b4d052054fc, e5898e44250ce1e0). The compiled
-#: control periods (hri_envs/physics/carry_stages.py) change the last bits, not the episode:
+#: control periods (hri_envs/physics/carry/stages.py) change the last bits, not the episode:
 #: both within 1e-9 relative (tests/test_physics_continuous_reference.py for whole episodes).
 V0 = {"hri_envs/HangerPandaContinuous-v0": (3.046585557250564, 2194.1294150214962),
       "hri_envs/WheelPandaContinuous-v0": (0.4711824582222092, 3437.5762569670296)}

@@ -188,9 +188,9 @@ def test_faults_are_reported_not_raised(hanger, tmp_path, monkeypatch):
 
 
 def test_physics_speed_measurements_on_a_tiny_size():
-    """hri_envs.physics.speed for real (no timing thresholds): structure and counts."""
+    """hri_envs.physics.panda.speed for real (no timing thresholds): structure and counts."""
     from hri_envs.humans.scripted import preference_human
-    from hri_envs.physics.speed import physics_realtime_factor, seconds_per_abstract_step
+    from hri_envs.physics.panda.speed import physics_realtime_factor, seconds_per_abstract_step
 
     g = scenario_graph("hanger")
     line = physics_realtime_factor("hanger", repeats=1)

@@ -3,8 +3,8 @@
 import mujoco
 import numpy as np
 
-from hri_envs.physics.kinematics import Pose, StraightLine, rotation_error, slerp
-from hri_envs.physics.mjwarp import batchmath as bm
+from hri_envs.physics.scene.kinematics import Pose, StraightLine, rotation_error, slerp
+from hri_envs.physics.scene.warp import batchmath as bm
 
 
 def _unit_quats(n, seed=0):

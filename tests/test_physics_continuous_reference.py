@@ -1,5 +1,5 @@
 """The continuous envs end their episodes as they did before their control periods were
-compiled (numba, :mod:`hri_envs.physics.carry_periods`).
+compiled (numba, :mod:`hri_envs.physics.carry.periods`).
 
 ``tests/data/continuous_reference.json`` holds the ends of seeded episodes recorded from the
 numpy implementation (``tests/data/make_continuous_reference.py``, which also replays every

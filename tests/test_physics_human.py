@@ -7,8 +7,8 @@ import pytest
 from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ConfigError
 from hri_envs.physics import PandaSim
-from hri_envs.physics.human_arm import HUMAN_JOINTS
-from hri_envs.physics.kinematics import quat_mul, rotation_error
+from hri_envs.physics.panda.human_arm import HUMAN_JOINTS
+from hri_envs.physics.scene.kinematics import quat_mul, rotation_error
 from hri_envs.task.graph import HUMAN_BIT, TOGGLE, WAIT
 from tests.helpers_physics import named as _named
 from tests.helpers_physics import sim_fixture

@@ -1,6 +1,6 @@
 """The reference IK builds mink's QP and gets mink's solution, with less of mink's work.
 
-:class:`~hri_envs.physics.ik.ReferenceIK` reuses what ``mink.build_ik`` would compute anew
+:class:`~hri_envs.physics.scene.ik.ReferenceIK` reuses what ``mink.build_ik`` would compute anew
 every step (the posture task's weighted Jacobian, the joint limits' constraint matrix) and
 calls daqp as qpsolvers does; these tests hold it to mink's numbers, bit for bit.
 """
@@ -16,9 +16,9 @@ pytest.importorskip("mujoco")
 
 import mink  # noqa: E402
 
-from hri_envs.physics.carry import CarrySim  # noqa: E402
-from hri_envs.physics.ik import ReferenceIK  # noqa: E402
-from hri_envs.physics.kinematics import Pose, slerp  # noqa: E402
+from hri_envs.physics.carry.sim import CarrySim  # noqa: E402
+from hri_envs.physics.scene.ik import ReferenceIK  # noqa: E402
+from hri_envs.physics.scene.kinematics import Pose, slerp  # noqa: E402
 from hri_envs.task.scenarios import scenario_graph  # noqa: E402
 
 

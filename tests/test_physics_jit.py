@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("numba")
 
-from hri_envs.physics import jit  # noqa: E402
+from hri_envs.physics.carry import jit  # noqa: E402
 
 PHYSICS = Path(jit.__file__).parent
 

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from hri_envs.envs.config import scenario_graph
-from hri_envs.physics.design import design_for
-from hri_envs.physics.kinematics import Pose, StraightLine, rotation_error, slerp
-from hri_envs.physics.seats import Seats
+from hri_envs.physics.scene.design import design_for
+from hri_envs.physics.scene.kinematics import Pose, StraightLine, rotation_error, slerp
+from hri_envs.physics.scene.seats import Seats
 
 
 def _engaged_by_arrays(seats: Seats, pos: np.ndarray, quat: np.ndarray) -> int:

@@ -7,7 +7,7 @@ pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 
 def test_async_measurement_steps_every_env():
-    from hri_envs.physics.speed import async_steps_per_second
+    from hri_envs.physics.panda.speed import async_steps_per_second
 
     res = async_steps_per_second("hanger", num_envs=2, seconds=0.5, seed=0)
     # Both envs step together: the count is a multiple of the number of envs, at least one

@@ -45,7 +45,7 @@ from baselines.physical.sensing import (
     unit,
 )
 from hri_envs.errors import ConfigError
-from hri_envs.physics.robot_view import RobotTask
+from hri_envs.physics.carry.robot_view import RobotTask
 
 __all__ = ["TUNED_FIXED", "TUNED_VARIABLE", "AdmittanceGains", "FixedAdmittance",
            "VariableAdmittance", "VariableGains", "settle_action", "tuned"]

@@ -31,7 +31,7 @@ from agents.physical import PhysicalAgent
 from baselines.physical.admittance import AdmittanceGains, FixedAdmittance, settle_action
 from baselines.physical.routes import FilterParams, Projection, RouteFilter, Routes
 from baselines.physical.sensing import ObjectState, clamp, object_state, twist_action
-from hri_envs.physics.robot_view import RobotTask
+from hri_envs.physics.carry.robot_view import RobotTask
 
 __all__ = ["GoalRobot", "LeadParams", "Step", "embedded_wrench", "lead_speed"]
 

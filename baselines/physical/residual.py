@@ -45,7 +45,7 @@ import numpy as np
 from agents.physical import PhysicalAgent
 from baselines.physical.admittance import VariableAdmittance
 from hri_envs.errors import ConfigError
-from hri_envs.physics.robot_view import RobotTask
+from hri_envs.physics.carry.robot_view import RobotTask
 
 __all__ = ["ACTION_SIZE", "ResidualAdmittance", "ResidualEnv", "ResidualPolicy",
            "checkpoint_path", "combine", "load_policy", "save_policy"]

@@ -23,7 +23,7 @@ import numpy as np
 import hri_envs  # noqa: F401  (registers the ids)
 from agents.physical import PhysicalAgent, PhysicalEpisode, outcome_of
 from hri_envs.errors import ConfigError
-from hri_envs.physics.intention import HUMAN_PRESETS
+from hri_envs.physics.carry.human.intention import HUMAN_PRESETS
 from hri_envs.registration import continuous_id
 from hri_envs.task.scenarios import scenario_spec
 

@@ -2,7 +2,7 @@
 the human's wrench, and the action that moves the object with a given twist.
 
 Every robot of :mod:`baselines.physical` reads the continuous envs' observation through
-the episode's :class:`~hri_envs.physics.robot_view.RobotTask` only (never the env):
+the episode's :class:`~hri_envs.physics.carry.robot_view.RobotTask` only (never the env):
 
 * :func:`object_state`: the object's pose and velocity and the robot's grip pose;
 * :class:`HumanWrench`: the wrist sensor's estimate of the external wrench on the object,
@@ -25,9 +25,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hri_envs.physics.kinematics import Pose, quat_to_mat
-from hri_envs.physics.robot_view import RobotTask
-from hri_envs.physics.seats import Seats
+from hri_envs.physics.scene.kinematics import Pose, quat_to_mat
+from hri_envs.physics.carry.robot_view import RobotTask
+from hri_envs.physics.scene.seats import Seats
 
 __all__ = ["HumanWrench", "ObjectState", "clamp", "deadband", "lowpass_alpha", "object_state",
            "twist_action", "unit"]
@@ -82,7 +82,7 @@ class HumanWrench:
 
     The wrist sensor's estimate of the external wrench (force [N], torque [N m] about the
     object's origin) minus the seat's wrench when a seat holds the object (the seats'
-    public force law, :class:`~hri_envs.physics.seats.Seats`), with the torque moved to the
+    public force law, :class:`~hri_envs.physics.scene.seats.Seats`), with the torque moved to the
     human's handle (``τ_h = τ - r × F``, ``r`` from the origin to the handle: what the
     hand itself twists), through a first-order low-pass filter of time constant
     ``filter_s``.

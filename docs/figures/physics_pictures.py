@@ -17,7 +17,7 @@ import numpy as np
 
 from hri_envs.envs.config import scenario_graph
 from hri_envs.physics import PandaSim
-from hri_envs.physics.rendering import SceneRenderer
+from hri_envs.physics.scene.rendering import SceneRenderer
 
 # scenario -> (state, camera azimuth [deg], elevation [deg], distance [m])
 SHOTS = {

@@ -4,7 +4,7 @@ A session of ``hri-bench serve --physical`` is recorded like a graph task's (the
 folders, ``dataset.json``, ``session.json``, one Parquet file per finished episode, the
 same anonymous ids, consent by its text's hash: :mod:`hri_bench.data.datasets`) with one
 row per 25 Hz step of the continuous env's parallel form (``hri_envs/*PandaContinuous-v1``,
-:mod:`hri_envs.physics.continuous_parallel`) in the columns :data:`PHYSICAL_COLUMNS`,
+:mod:`hri_envs.physics.carry.parallel`) in the columns :data:`PHYSICAL_COLUMNS`,
 schema ``hri-envs/physical-episodes/1``. A row holds what both seats saw and did in the
 step: the robot's and the human's observations before it, both actions, the participant's
 target for their hand and the impedance scale they asked for, the hand's pose before the
@@ -108,12 +108,12 @@ def human_action(hand_pos: np.ndarray, hand_quat: np.ndarray, target: np.ndarray
     and the rotation vector in units of the action's scale, each shortened as a whole to at
     most 1 per component (the hand moves at most ``max_step_m`` and ``max_step_rad`` per
     step, in the target's direction), and the impedance scale ``2 stiffness - 1``
-    (:meth:`hri_envs.physics.carry.CarrySim.human_command` turns it into the hand's
+    (:meth:`hri_envs.physics.carry.sim.CarrySim.human_command` turns it into the hand's
     reference).
     """
     # Here, not at the top: the dataset checks (and so the CLI) must not import the physics
     # (MuJoCo, mink and, through qpsolvers, JAX, which makes a study spawn its workers).
-    from hri_envs.physics.kinematics import rotation_error  # noqa: PLC0415
+    from hri_envs.physics.scene.kinematics import rotation_error  # noqa: PLC0415
 
     target = np.asarray(target, dtype=np.float64)
     move = (target[:3] - hand_pos) / max_step_m

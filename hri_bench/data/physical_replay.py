@@ -26,7 +26,7 @@ from hri_bench.data.datasets import Dataset
 from hri_bench.data.physical import hand_pose, human_action
 from hri_bench.data.replay import EpisodeReplay
 from hri_envs.errors import ConfigError
-from hri_envs.physics.intention import HumanParams
+from hri_envs.physics.carry.human.intention import HumanParams
 
 __all__ = ["replay_physical"]
 
@@ -73,7 +73,7 @@ def _settings(session: dict[str, Any]) -> dict[str, Any]:
 
 def _session(dataset: Dataset, session: dict[str, Any], table: Any,
              say: Callable[[str], None]) -> list[EpisodeReplay]:
-    from hri_envs.physics.continuous_parallel import CarryParallelEnv  # noqa: PLC0415
+    from hri_envs.physics.carry.parallel import CarryParallelEnv  # noqa: PLC0415
 
     meta = _settings(session)
     env = CarryParallelEnv(dataset.scenario, version=1, max_time_s=meta.get("max_time_s"))

@@ -1,6 +1,6 @@
 """A physical human fitted to recorded physical sessions, and the population that seats it.
 
-The continuous envs' human is the reference human of :class:`~hri_envs.physics.intention.
+The continuous envs' human is the reference human of :class:`~hri_envs.physics.carry.human.intention.
 HumanParams`: a route to their goal (their ``preference``), a minimum-jerk reference along
 it at their ``speed``, started after ``reaction_s`` and paused ``hesitation_s`` before each
 line, yielding to a robot that leads their way. A participant of ``hri-bench serve
@@ -27,7 +27,7 @@ nearest each held-out participant (the error a population of these humans leaves
 person), beside the same error on the training participants and the default human's
 (:class:`HumanParams`) on both. :meth:`PhysicalFit.save` writes the population as a file
 any physical population name may point at: ``fitted:<path>`` (:func:`hri_envs.physics.
-population.physical_population`), so a physical suite or env seats it as it seats the
+carry.human.population.physical_population`), so a physical suite or env seats it as it seats the
 frozen ones.
 """
 
@@ -45,8 +45,8 @@ import numpy as np
 from hri_bench.data.datasets import Dataset
 from hri_bench.data.fit import split_participants
 from hri_envs.errors import ConfigError
-from hri_envs.physics.intention import HumanParams
-from hri_envs.physics.population import save_population
+from hri_envs.physics.carry.human.intention import HumanParams
+from hri_envs.physics.carry.human.population import save_population
 
 __all__ = ["BOUNDS", "FITTED", "LEVER_M", "PhysicalFit", "fit_physical", "target_error"]
 
@@ -205,10 +205,10 @@ class PhysicalFit:
     scores: dict[str, float]
 
     def population(self) -> Any:
-        """The fitted humans as a :class:`~hri_envs.physics.population.PhysicalPopulation`
+        """The fitted humans as a :class:`~hri_envs.physics.carry.human.population.PhysicalPopulation`
         (family ``fitted``, one member per training participant).
         """
-        from hri_envs.physics.population import fitted_population  # noqa: PLC0415
+        from hri_envs.physics.carry.human.population import fitted_population  # noqa: PLC0415
 
         return fitted_population(f"fitted:{self.dataset_id}", self.scenario, self.members,
                                  [f"fitted/{p}" for p in self.train])

@@ -9,11 +9,11 @@ from: nothing of them is kept in this repository), their vertices quantised to 1
 each mesh's bounding box and their triangles, both base64. Each step then carries only
 :func:`body_poses`: every drawn body's position and orientation (``xpos``, ``xquat``).
 
-The camera (:func:`camera`) is the renderer's fit (:func:`hri_envs.physics.camera.fit_view`:
+The camera (:func:`camera`) is the renderer's fit (:func:`hri_envs.physics.scene.camera.fit_view`:
 it looks across the line from the robot to the human and stands back to hold the supports,
 the object and both agents, wherever they carry it), made when an episode starts; the
 supports' labels are anchored where the renderer puts them (:data:`~hri_envs.physics.
-rendering.LABEL_LIFT_M` above each seat).
+scene.rendering.LABEL_LIFT_M` above each seat).
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.physics.camera import axes, fit_view
-from hri_envs.physics.rendering import LABEL_LIFT_M
+from hri_envs.physics.scene.camera import axes, fit_view
+from hri_envs.physics.scene.rendering import LABEL_LIFT_M
 
 __all__ = ["DRAWN_GROUPS", "GEOM_TYPES", "body_poses", "camera", "describe", "drawn_bodies",
            "rotation_axis", "scene_key", "view_score"]
@@ -142,12 +142,12 @@ def body_poses(data: Any, bodies: Sequence[int]) -> list[float]:
 
 
 def view_score(model: Any, aspect: float) -> Any:
-    """The renderer's judge of a view (:class:`~hri_envs.physics.rendering.ViewScore`: small
+    """The renderer's judge of a view (:class:`~hri_envs.physics.scene.rendering.ViewScore`: small
     segmented pictures drawn offscreen), or None where MuJoCo has no offscreen OpenGL (then
     :func:`camera` looks from the overview's fixed side).
     """
     try:
-        from hri_envs.physics.rendering import ViewScore  # noqa: PLC0415
+        from hri_envs.physics.scene.rendering import ViewScore  # noqa: PLC0415
 
         return ViewScore(model, aspect)
     except Exception:  # no GL context on this machine: the fixed side
@@ -157,7 +157,7 @@ def view_score(model: Any, aspect: float) -> Any:
 def camera(model: Any, data: Any, seats: np.ndarray, aspect: float,
            score: Any = None) -> dict[str, Any]:
     """The page's camera for the scene in ``data`` (an episode's start): the renderer's
-    overview fitted to the scene (:func:`~hri_envs.physics.camera.fit_view`; its azimuth
+    overview fitted to the scene (:func:`~hri_envs.physics.scene.camera.fit_view`; its azimuth
     chosen by ``score``, :func:`view_score`, as the renderer chooses it), as an eye, the point
     it looks at and the vertical field of view [deg]; and where the supports' labels are
     anchored.
@@ -178,7 +178,7 @@ def rotation_axis(orientations: np.ndarray) -> list[float]:
     """The world axis the scenario's ``rotate`` turns the object about (unit), from its two
     orientations.
     """
-    from hri_envs.physics.kinematics import rotation_error  # noqa: PLC0415
+    from hri_envs.physics.scene.kinematics import rotation_error  # noqa: PLC0415
 
     v = rotation_error(np.asarray(orientations[1]), np.asarray(orientations[0]))
     n = float(np.linalg.norm(v))

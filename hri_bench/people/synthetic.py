@@ -5,7 +5,7 @@ Where no people's recordings exist, a physical human model is fitted and scored 
 (``hri-bench serve --physical``'s app, with the env and the robot in a session process each),
 joined over HTTP as the page joins, and led over its websocket with ``hand`` messages at
 25 Hz. Each synthetic participant is the continuous envs' reference human
-(:class:`~hri_envs.physics.intention.IntentionHuman`: their route to the goal, a
+(:class:`~hri_envs.physics.carry.human.intention.IntentionHuman`: their route to the goal, a
 minimum-jerk reference along it with their speed, reaction and hesitation, yielding to a
 robot that leads their way) of a member of a physical population, and sends as its hand's
 target where that reference puts the hand (:class:`ScriptedLeader`); the server seats the
@@ -34,11 +34,11 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.physics.design import design_for
-from hri_envs.physics.intention import HumanParams, IntentionHuman, route_states
-from hri_envs.physics.kinematics import Pose, compose
-from hri_envs.physics.observer import StateObserver
-from hri_envs.physics.whole_arm import handle_quat_in_object
+from hri_envs.physics.scene.design import design_for
+from hri_envs.physics.carry.human.intention import HumanParams, IntentionHuman, route_states
+from hri_envs.physics.scene.kinematics import Pose, compose
+from hri_envs.physics.scene.observer import StateObserver
+from hri_envs.physics.carry.human.whole_arm import handle_quat_in_object
 from hri_envs.task.scenarios import episode_geometry, scenario_graph
 
 __all__ = ["LeadStats", "ScriptedLeader", "join", "lead", "record_synthetic"]
@@ -236,7 +236,7 @@ def record_synthetic(scenario: str, dataset: str, *, sessions: int, episodes: in
     from hri_bench.core.physical_robots import default_robot  # noqa: PLC0415
     from hri_bench.data.datasets import open_dataset  # noqa: PLC0415
     from hri_bench.people.serve.design import ServeConfig  # noqa: PLC0415
-    from hri_envs.physics.population import physical_population  # noqa: PLC0415
+    from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
     config = ServeConfig(scenario, agent=agent or default_robot(), episodes=episodes,
                          dataset=dataset, data=None if data is None else Path(data),

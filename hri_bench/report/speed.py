@@ -210,7 +210,7 @@ def measure_physics(size: str = "full", worlds: tuple[int, ...] | None = None,
         worlds: The numbers of worlds (default :data:`PHYSICS_WORLDS` of the size).
         device: Warp's device (default: Warp's default, a GPU where there is one).
     """
-    from hri_envs.physics.speed import physics_realtime_factor
+    from hri_envs.physics.panda.speed import physics_realtime_factor
 
     if size not in SIZES:
         raise ConfigError(f"size must be one of {sorted(SIZES)}, got {size!r}", field="size")
@@ -222,8 +222,8 @@ def measure_physics(size: str = "full", worlds: tuple[int, ...] | None = None,
     }
     figures.update(continuous_figures(CONTINUOUS_SECONDS[size]))
     try:  # the mjwarp extra: its modules, then Warp itself (the cache's folder)
-        from hri_envs.physics.mjwarp.device import kernel_cache_dir
-        from hri_envs.physics.mjwarp.speed import warp_world_steps
+        from hri_envs.physics.scene.warp.device import kernel_cache_dir
+        from hri_envs.physics.panda.warp.speed import warp_world_steps
 
         cache = kernel_cache_dir()
     except ImportError as exc:

@@ -10,7 +10,7 @@ pickled), and is told what a robot may know and nothing else:
   seed, the run, the human or the intention). The class is made with ``rng=`` when its
   constructor names it, ``scenario=`` likewise, else with nothing;
 * ``physical.begin``: the episode's public facts, from which the host rebuilds the
-  :class:`~hri_envs.physics.robot_view.RobotTask` (the scenario's graph and design are
+  :class:`~hri_envs.physics.carry.robot_view.RobotTask` (the scenario's graph and design are
   public; the start, the layout, the seats, the step, the limits and the observation's
   layout travel);
 * ``physical.act``: the observation → the action (and the belief, if asked);
@@ -33,7 +33,7 @@ import numpy as np
 from agents.physical import PhysicalAgent
 from hri_bench.run import isolation
 from hri_bench.run.physical_session import PhysicalSession, describe_class
-from hri_envs.physics.robot_view import EpisodeOutcome, RobotTask
+from hri_envs.physics.carry.robot_view import EpisodeOutcome, RobotTask
 
 __all__ = ["IsolatedPhysicalAgent", "describe_physical", "task_message"]
 

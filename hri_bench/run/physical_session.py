@@ -17,7 +17,7 @@ import numpy as np
 from agents.physical import PhysicalAgent
 from hri_envs.errors import ActionError, ConfigError
 from hri_envs.imports import import_class
-from hri_envs.physics.robot_view import EpisodeOutcome, RobotTask
+from hri_envs.physics.carry.robot_view import EpisodeOutcome, RobotTask
 
 __all__ = ["PhysicalSession", "describe_class", "task_from_message"]
 
@@ -57,7 +57,7 @@ def task_from_message(header: Mapping[str, Any], arrays: Mapping[str, np.ndarray
     """The :class:`RobotTask` :func:`hri_bench.run.physical_host.task_message` sent (the
     scenario's graph, geometry and design rebuilt from its public name and layout).
     """
-    from hri_envs.physics.design import design_for  # noqa: PLC0415
+    from hri_envs.physics.scene.design import design_for  # noqa: PLC0415
     from hri_envs.task.scenarios import episode_scenario, scenario_graph  # noqa: PLC0415
 
     name = str(header["scenario"])

@@ -108,7 +108,7 @@ def _structure(doc: Mapping[str, Any]) -> list[str]:
 
 def _runs(doc: Mapping[str, Any]) -> list[str]:
     """Each run's human is the suite seed's draw; every agent has every figure in shape."""
-    from hri_envs.physics.population import physical_population  # noqa: PLC0415
+    from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
     problems = []
     seeds = [str(s) for s in doc.get("seeds", [])]
@@ -204,7 +204,7 @@ def replay_physical(doc: Mapping[str, Any], k: int, seed: int,
         seed: The verifier's seed of which runs are replayed.
         progress: Called with (done, total) units.
     """
-    from hri_envs.physics.population import physical_population  # noqa: PLC0415
+    from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
     rng = np.random.default_rng(seed)
     skipped = {a: why for a, e in doc["agents"].items() if (why := _replayable(a, e))}

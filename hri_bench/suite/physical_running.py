@@ -65,7 +65,7 @@ CPU_KEY = "cpu_s"
 
 def physical_suite_hash(version: str, tracks: Sequence[PhysicalTrack]) -> str:
     """sha256 of the version, its tracks' definitions and their populations' content."""
-    from hri_envs.physics.population import physical_population  # noqa: PLC0415
+    from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
     doc = {"version": version, "tracks": [
         {**asdict(t), "population_hash": physical_population(t.population,
@@ -78,7 +78,7 @@ def physical_suite_hash(version: str, tracks: Sequence[PhysicalTrack]) -> str:
 def plan_units(tracks: Sequence[PhysicalTrack], agents: Sequence[str], seed: int,
                runs_scale: float) -> list[PhysicalUnit]:
     """The suite's work: per track and agent, chunks of :data:`RUNS_PER_UNIT` runs."""
-    from hri_envs.physics.population import physical_population  # noqa: PLC0415
+    from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
     units = []
     for t in tracks:
@@ -120,7 +120,7 @@ def make_robot(name: str, scenario: str, stream: np.random.Generator) -> Any:
 
 def _work(unit: PhysicalUnit) -> dict[str, np.ndarray]:
     """One unit in a worker (or in the parent with one job)."""
-    from hri_envs.physics.population import physical_population  # noqa: PLC0415
+    from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
     humans = physical_population(unit.population, unit.scenario).members
     cpu = time.process_time()
@@ -183,7 +183,7 @@ def _assemble(tracks: Sequence[PhysicalTrack], runs_scale: float,
 
 
 def _members(t: PhysicalTrack) -> list[dict[str, Any]]:
-    from hri_envs.physics.population import physical_population  # noqa: PLC0415
+    from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
     pop = physical_population(t.population, t.scenario)
     return [{"family": f, "label": lab, "fingerprint": fp}

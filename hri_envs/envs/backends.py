@@ -77,7 +77,7 @@ class BackendSpec:
             backend at once (``gymnasium.make_vec(..., vectorization_mode=
             "vector_entry_point", backend=...)``), None: refused.
         carry: ``"module:callable"`` making the continuous envs' simulation (the arguments
-            of :class:`~hri_envs.physics.carry.CarrySim`), None: the continuous envs do
+            of :class:`~hri_envs.physics.carry.sim.CarrySim`), None: the continuous envs do
             not run on it.
         carry_drives: The human arm's drives it runs (``CarryEnv(drive=...)``).
         carry_vector: ``"module:Class"`` of the continuous envs' vector env (``gymnasium.
@@ -157,25 +157,25 @@ def register_backend(spec: BackendSpec, *, replace: bool = False) -> BackendSpec
 
 register_backend(BackendSpec("graph", "hri_envs.envs.episode:Episode",
                              "hri_envs.envs.backends:GraphBatch", vectorizable=True))
-register_backend(BackendSpec("mujoco", "hri_envs.physics.episode:PhysicsEpisode",
-                             "hri_envs.physics.batch:PhysicsBatch",
+register_backend(BackendSpec("mujoco", "hri_envs.physics.panda.episode:PhysicsEpisode",
+                             "hri_envs.physics.panda.batch:PhysicsBatch",
                              requires=("mujoco", "mink", "gymnasium_robotics"), extra="mujoco",
-                             options="hri_envs.physics.options:check_options",
+                             options="hri_envs.physics.panda.options:check_options",
                              presets=("weak-human", "noisy-sensor"), physical=True,
-                             carry="hri_envs.physics.carry:CarrySim",
+                             carry="hri_envs.physics.carry.sim:CarrySim",
                              carry_drives=("torque", "muscle")))
 # The same physics, many worlds at once on MuJoCo Warp (docs/physics.md, "Many worlds").
-register_backend(BackendSpec("mjwarp", "hri_envs.physics.mjwarp.episode:WarpPhysicsEpisode",
-                             "hri_envs.physics.mjwarp.batch:WarpPhysicsBatch",
+register_backend(BackendSpec("mjwarp", "hri_envs.physics.panda.warp.episode:WarpPhysicsEpisode",
+                             "hri_envs.physics.panda.warp.batch:WarpPhysicsBatch",
                              requires=("mujoco", "mink", "gymnasium_robotics", "warp",
                                        "mujoco_warp", "mink_warp"), extra="mjwarp",
-                             options="hri_envs.physics.options:check_options",
+                             options="hri_envs.physics.panda.options:check_options",
                              presets=("weak-human", "noisy-sensor"), batch_runs=True,
                              physical=True,
-                             vector_entry="hri_envs.physics.mjwarp.vector:PandaVectorEnv",
-                             carry="hri_envs.physics.mjwarp.carry_sim:make_carry_sim",
+                             vector_entry="hri_envs.physics.panda.warp.vector:PandaVectorEnv",
+                             carry="hri_envs.physics.carry.warp.sim:make_carry_sim",
                              carry_drives=("torque",),
-                             carry_vector="hri_envs.physics.mjwarp.carry_vector:CarryVectorEnv",
+                             carry_vector="hri_envs.physics.carry.warp.vector:CarryVectorEnv",
                              # a unit batches up to 1,000 episodes into its worlds, whose speed
                              # is the device's: hours on a CPU
                              unit_time_limit=math.inf))
@@ -217,7 +217,7 @@ def episode_backend(name: str) -> type[Episode]:
 
 def carry_backend(name: str, drive: str) -> Callable[..., Any]:
     """What makes the continuous envs' simulation on backend ``name`` with the arm's
-    ``drive`` (the arguments of :class:`~hri_envs.physics.carry.CarrySim`).
+    ``drive`` (the arguments of :class:`~hri_envs.physics.carry.sim.CarrySim`).
 
     Raises:
         ConfigError: The continuous envs do not run on ``name``, or not with ``drive``

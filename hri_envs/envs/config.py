@@ -130,7 +130,7 @@ def check_physics_options(physics: Mapping[str, Any] | None, backend: str) -> di
     """Validate the ``physics`` options against what ``backend`` accepts.
 
     The backend's own checker does it (:attr:`~hri_envs.envs.backends.BackendSpec.options`;
-    the mujoco backend's keys are in :mod:`hri_envs.physics.options` and docs/physics.md);
+    the mujoco backend's keys are in :mod:`hri_envs.physics.panda.options` and docs/physics.md);
     a backend without options refuses any.
     """
     if physics is not None and not isinstance(physics, Mapping):

@@ -56,7 +56,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     deterministic human that is never passive acts by one look-up too. It runs on the
     graph only: a backend that simulates (``backend="mujoco"`` or ``"mjwarp"``) is refused;
     vectorise the Panda envs with their own vector entry point
-    (:class:`~hri_envs.physics.mjwarp.vector.PandaVectorEnv`, ``gymnasium.make_vec(
+    (:class:`~hri_envs.physics.panda.warp.vector.PandaVectorEnv`, ``gymnasium.make_vec(
     "hri_envs/HangerPanda-v0", num_envs=N, vectorization_mode="vector_entry_point")``, the
     ``mjwarp`` extra) or with Gymnasium's ``vectorization_mode="async"``. Made by
     ``gymnasium.make_vec("hri_envs/Hanger-v0", num_envs=N,

@@ -2,7 +2,7 @@
 
 The graph backend shows its ``rgb_array`` picture in a matplotlib window
 (:class:`FrameWindow`); the physics backend opens MuJoCo's passive viewer instead (see
-:meth:`hri_envs.physics.episode.PhysicsEpisode.show`). Both need a display: where there is
+:meth:`hri_envs.physics.panda.episode.PhysicsEpisode.show`). Both need a display: where there is
 none, :func:`check_display` raises :class:`~hri_envs.errors.DisplayUnavailableError` when the
 env is built, before anything is simulated.
 """

@@ -56,14 +56,14 @@ from hri_envs.errors import MissingExtraError
 MissingExtraError.require(["mujoco", "mink", "gymnasium_robotics"],
                           "the physics (the Panda and continuous envs, backend='mujoco')")
 
-from hri_envs.physics.rendering import select_gl_backend  # noqa: E402
+from hri_envs.physics.scene.rendering import select_gl_backend  # noqa: E402
 
 select_gl_backend()
 
-from hri_envs.physics.design import PhysicsDesign, design_for  # noqa: E402
-from hri_envs.physics.ik import IKFailure  # noqa: E402
-from hri_envs.physics.rendering import SceneRenderer, write_video  # noqa: E402
-from hri_envs.physics.sim import PandaSim, StepResult  # noqa: E402
+from hri_envs.physics.scene.design import PhysicsDesign, design_for  # noqa: E402
+from hri_envs.physics.scene.ik import IKFailure  # noqa: E402
+from hri_envs.physics.scene.rendering import SceneRenderer, write_video  # noqa: E402
+from hri_envs.physics.panda.sim import PandaSim, StepResult  # noqa: E402
 
 __all__ = [
     "IKFailure",

@@ -43,7 +43,7 @@ import numpy as np
 
 import hri_envs  # noqa: F401
 from baselines.continuous import PASSIVE_ACTION, UpperReference
-from hri_envs.physics.continuous_parallel import parallel_env
+from hri_envs.physics.carry.parallel import parallel_env
 from hri_envs.task.scenarios import scenario_spec
 
 DEFAULT = Path(__file__).parent / "continuous_reference.json"

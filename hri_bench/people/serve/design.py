@@ -144,7 +144,7 @@ class ServeConfig(NamedScenario):
             for people.
         population: With ``synthetic`` (physical only): the physical population whose
             members' bodies and arms take the human's seat (session ``i``'s human is its
-            member of run ``i``, :meth:`~hri_envs.physics.population.PhysicalPopulation.
+            member of run ``i``, :meth:`~hri_envs.physics.carry.human.population.PhysicalPopulation.
             member_index`); people take the default body.
         max_time_s: The physical task's time limit per episode [s] (None: the env's, 30 s
             hanger, 45 s wheel).
@@ -269,7 +269,7 @@ class ServeConfig(NamedScenario):
             if not self.synthetic:
                 raise ConfigError("a population takes the human's seat in synthetic sessions "
                                   "only; people take the default body", field="population")
-            from hri_envs.physics.population import physical_population  # noqa: PLC0415
+            from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
             physical_population(self.population, self.scenario)
 

@@ -242,7 +242,7 @@ class LeadSessionManager(SessionManager):
         cfg = self.config
         if cfg.population is None:
             return {}, "person"
-        from hri_envs.physics.population import (  # noqa: PLC0415
+        from hri_envs.physics.carry.human.population import (  # noqa: PLC0415
             params_dict,
             physical_population,
         )

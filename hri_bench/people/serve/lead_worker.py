@@ -4,7 +4,7 @@
 :mod:`hri_bench.people.serve.lead_process` for each physical session of ``hri-bench serve``
 (and by replays and tools that drive the same path). It holds the continuous env's parallel
 form (``hri_envs/*PandaContinuous-v1``, the human seat as an agent:
-:mod:`hri_envs.physics.continuous_parallel`) and the robot, and answers messages
+:mod:`hri_envs.physics.carry.parallel`) and the robot, and answers messages
 (:mod:`hri_bench.run.wire`: JSON and raw arrays, never pickle) on its standard input and
 output; the robot's own prints go to standard error:
 
@@ -42,7 +42,7 @@ from hri_bench.data.physical import hand_pose, human_action
 from hri_bench.people import scene3d
 from hri_bench.run.agent_host import host_pipes
 from hri_bench.run.wire import read_message, write_message
-from hri_envs.physics.intention import HumanParams
+from hri_envs.physics.carry.human.intention import HumanParams
 
 __all__ = ["Lead", "main"]
 
@@ -82,7 +82,7 @@ class Lead:
 
     def __init__(self, scenario: str, agent: str, seed: int, human: Mapping[str, Any],
                  drive: str = "torque", max_time_s: float | None = None) -> None:
-        from hri_envs.physics.continuous_parallel import CarryParallelEnv  # noqa: PLC0415
+        from hri_envs.physics.carry.parallel import CarryParallelEnv  # noqa: PLC0415
 
         self.scenario = scenario
         self.env = CarryParallelEnv(scenario, version=1, drive=drive, max_time_s=max_time_s)
@@ -305,7 +305,7 @@ def main() -> None:
     """Serve the server's process until it closes the pipe or says ``close``."""
     inbox, outbox = host_pipes()  # the robot's prints go to standard error
     # imported now, so that a process started ahead of a session has them ready
-    import hri_envs.physics.continuous_parallel  # noqa: F401, PLC0415
+    import hri_envs.physics.carry.parallel  # noqa: F401, PLC0415
     from hri_bench.core.physical_robots import robot_names  # noqa: PLC0415
 
     robot_names()

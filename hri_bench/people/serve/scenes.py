@@ -4,7 +4,7 @@
   the server's sessions use, by key, compressed once; ``GET /api/scene/KEY`` serves them.
   They are public (the scene every participant of the task sees), never a session's.
 * :func:`graph_view` is a graph task's picture: the v0 scene of the discrete Panda backend
-  (:class:`~hri_envs.physics.sim.PandaSim`) in the state the graph is in (the object at the
+  (:class:`~hri_envs.physics.panda.sim.PandaSim`) in the state the graph is in (the object at the
   abstract state's pose, the robot's hand on its grip when it holds, the human's on the
   handle when they hold), as the drawn bodies' poses and the camera fitted at the episode's
   start (:mod:`hri_bench.people.scene3d`). Poses are computed once per (layout, state) and
@@ -101,7 +101,7 @@ class _GraphScene:
 
     def __init__(self, graph: TaskGraph) -> None:
         from hri_bench.people import scene3d  # noqa: PLC0415
-        from hri_envs.physics.sim import PandaSim  # noqa: PLC0415 (MuJoCo: when asked)
+        from hri_envs.physics.panda.sim import PandaSim  # noqa: PLC0415 (MuJoCo: when asked)
 
         self.graph = graph
         self.sim = PandaSim(self.graph)
@@ -116,7 +116,7 @@ class _GraphScene:
 
     def _place(self, layout: Layout | None, state: int) -> None:
         """Put the sim in ``state`` (lock held)."""
-        from hri_envs.physics.ik import IKFailure  # noqa: PLC0415
+        from hri_envs.physics.scene.ik import IKFailure  # noqa: PLC0415
 
         scenario = episode_geometry(self.graph, layout)
         start = max(0, int(self.graph.support[state]))

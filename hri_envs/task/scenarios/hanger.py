@@ -73,5 +73,5 @@ SPEC = ScenarioSpec(
     gym_id="hri_envs/Hanger-v0", panda_id="hri_envs/HangerPanda-v0",
     continuous_id="hri_envs/HangerPandaContinuous-v0",
     pettingzoo_module="hri_envs.hanger_v0",
-    physics_design="hri_envs.physics.design:hanger_design", schedules={"table2": TABLE2},
+    physics_design="hri_envs.physics.scene.design:hanger_design", schedules={"table2": TABLE2},
 )

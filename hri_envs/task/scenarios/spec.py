@@ -51,7 +51,7 @@ class ScenarioSpec:
         gym_id: Gymnasium id of the robot env on the graph (None: not registered).
         panda_id: Gymnasium id of the robot env on the simulated Panda (None: none).
         continuous_id: Gymnasium id of the continuous-control env on the simulated Panda
-            with the whole human arm (None: none; :mod:`hri_envs.physics.continuous`).
+            with the whole human arm (None: none; :mod:`hri_envs.physics.carry.env`).
         pettingzoo_module: Module of the PettingZoo entry points (None: none; the envs are
             still made with ``scenario=name``).
         physics_design: ``"module:function"`` returning its ``PhysicsDesign`` (None: the

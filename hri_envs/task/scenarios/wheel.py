@@ -115,6 +115,6 @@ SPEC = ScenarioSpec(
     default_preference="straight", route=route, n_actions=12, gym_id="hri_envs/Wheel-v0",
     panda_id="hri_envs/WheelPanda-v0", continuous_id="hri_envs/WheelPandaContinuous-v0",
     pettingzoo_module="hri_envs.wheel_v0",
-    physics_design="hri_envs.physics.design:wheel_design", layout=sample_layout,
+    physics_design="hri_envs.physics.scene.design:wheel_design", layout=sample_layout,
     check_layout=check_layout,
 )

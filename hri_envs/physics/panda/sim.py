@@ -1,0 +1,700 @@
+"""The physics backend's core: one abstract step of both agents on the simulated Panda.
+
+:class:`PandaSim` owns the MuJoCo model and data. :meth:`PandaSim.step` takes the observed
+abstract state and both agents' abstract actions and runs them physically:
+
+1. *grasp toggles*: the robot approaches its grip on the object and closes its fingers; the
+   grasp holds (weld on) only once both fingers press on the object's grip geometry, else
+   it fails; or it opens (weld off) and retreats; the human's grasp welds their hand on or
+   off;
+2. an action that is not valid in the state after the toggles is refused by its agent's
+   skill layer, and a refused action aborts the step's motion for both (the graph's rule);
+   with ``physics={"attempt_invalid": True}`` the robot's skill layer refuses nothing: it
+   tries any grasp toggle or motion (:meth:`PandaSim.motion_target`) and the physics
+   decides what happens (the human still refuses what is invalid for them);
+3. *motions*: the robot tracks a straight line from the actual grip pose to the target
+   state's pose with the impedance controller; the simulated human's arm pulls it towards
+   their own target; disagreement makes the robot yield (:class:`Disagreement`);
+4. the step ends when the object has settled (slow for ``settle_calm_time_s`` with both
+   agents done), or at a time limit; the observed state is the closest abstract state, and
+   the human's action is inferred from the transition.
+
+The robot senses the human only through its wrist force/torque sensor
+(:mod:`~hri_envs.physics.scene.sensing`): the disagreement-aware impedance, the human-action
+inference and the reported impulses use the sensed wrench; the true ones are reported beside
+them (``*_true``).
+
+Faults end the step with ``fault`` set (``"<kind>: <detail>"``) instead of raising. Physical
+failures (:data:`PHYSICAL_FAULTS`): ``dropped`` (the object touched the floor, fell below
+every state, or nobody and no support holds it), ``grasp_failed`` (the closed fingers do
+not both press on the object's grip geometry), ``pulled_out`` (the external force on the
+held object exceeded the grip's hold), ``off_support`` (the object ended far from every
+abstract state, or off every support held by one agent alone). Faults of the simulation
+itself: ``unstable`` and ``ik_failure``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import mujoco
+import numpy as np
+
+from hri_envs.physics.scene.contacts import finger_forces, touches
+from hri_envs.physics.scene.controller import Disagreement, ImpedanceController
+from hri_envs.physics.scene.design import PhysicsDesign, design_for
+from hri_envs.physics.panda.human import SimulatedHuman
+from hri_envs.physics.panda.human_arm import HumanArm
+from hri_envs.physics.scene.ik import IKFailure, ReferenceIK
+from hri_envs.physics.scene.kinematics import (
+    Pose,
+    StraightLine,
+    TrajectorySample,
+    compose,
+    rotation_error,
+)
+from hri_envs.physics.scene.observer import StateObserver, infer_human_action
+from hri_envs.physics.panda.options import PhysicsParams, PhysicsSettings
+from hri_envs.physics.scene.build import build_robot_model, build_scene
+from hri_envs.physics.scene.seats import Seats
+from hri_envs.physics.scene.sensing import HandleSensor, SensorModel, WristSensor
+from hri_envs.task.geometry import Scenario
+from hri_envs.task.graph import (
+    BOTH,
+    HUMAN_BIT,
+    PUT_ON,
+    ROBOT_BIT,
+    TAKE_OFF,
+    TOGGLE,
+    WAIT,
+    TaskGraph,
+)
+
+__all__ = ["FINGER_HOLD_STIFFENING", "FINGER_ON_GRIP_M", "FINGER_OPEN_M", "PHYSICAL_FAULTS",
+           "PandaSim", "StepPlan", "StepResult", "plan_step"]
+
+#: Faults that are physical failures of the task (punished with r⁻ by the episode rules).
+PHYSICAL_FAULTS = ("dropped", "grasp_failed", "pulled_out", "off_support")
+
+# Physical thresholds and times are fields of PhysicsDesign; these are fixed by the model.
+#: [m] finger joint position of the open hand (the Panda's maximum).
+FINGER_OPEN_M = 0.04
+#: [m] finger joint position where the closing fingers stop on the grip block at the nominal
+#: grip (2.18-2.19 cm measured after grasps on both scenes): held there while welded.
+FINGER_ON_GRIP_M = 0.0219
+#: [-] the finger servos' stiffness x this while welded.
+FINGER_HOLD_STIFFENING = 10.0
+_PLATFORM_Z_M = 0.1  # [m] height of the mobile base's floor platform mocap (scene.py)
+# Numerical method: iterations of the reset IK solve onto the grip and the waiting pose.
+_RESET_GRIP_IK_ITERATIONS = 300
+_RESET_PREGRASP_IK_ITERATIONS = 200
+
+
+class StepPlan(NamedTuple):
+    """The abstract side of a physical step (:func:`plan_step`)."""
+
+    human_toggle: bool  # the human grasps or lets go
+    s1: int  # the state after the toggles, where the motions start
+    robot_moves: bool  # the robot's motion runs
+    human_moves: bool  # the human's motion runs
+
+
+def plan_step(g: TaskGraph, s: int, a_r: int, a_h: int, attempt: bool) -> StepPlan:
+    """Which toggles and motions of joint action (``a_r``, ``a_h``) in state ``s`` run, the
+    same on every physics backend.
+
+    The human toggles only where toggling is valid; the motions start from the state after
+    the toggles. With ``attempt`` (``attempt_invalid``) the robot tries any motion and the
+    human refuses an invalid one; otherwise an invalid motion of either aborts both.
+    """
+    toggle_ok = bool(g.valid[s, TOGGLE])
+    human_toggle = a_h == TOGGLE and toggle_ok
+    s1 = int(g.next_state[s, a_r if a_r == TOGGLE and toggle_ok else WAIT,
+                          a_h if human_toggle else WAIT])
+    if attempt:
+        return StepPlan(human_toggle, s1, a_r > TOGGLE, a_h > TOGGLE and bool(g.valid[s1, a_h]))
+    aborted = not (g.valid[s1, a_r] and g.valid[s1, a_h])
+    return StepPlan(human_toggle, s1, a_r > TOGGLE and not aborted,
+                    a_h > TOGGLE and not aborted)
+
+
+class StepResult(NamedTuple):
+    """The outcome of one physical abstract step.
+
+    Attributes:
+        state: The observed (closest) abstract state.
+        human_action: The human's action as the robot infers it.
+        graph_next: The state the graph predicts for the true joint action.
+        graph_agrees: ``state == graph_next``.
+        settled: The object came to rest at a state (else the time limit ended the step).
+        duration: Simulated seconds.
+        linear_impulse: ∫ |F| dt [N s] of the human's wrench as the wrist sensor sees it.
+        angular_impulse: ∫ |τ| dt [N m s], likewise.
+        robot_yielded: The robot gave up its action because the human disagreed.
+        position_error, angle_error: Distance of the object from the observed state's pose.
+        fault: None, or ``"<kind>: <detail>"`` (kinds: :data:`PHYSICAL_FAULTS`,
+            "unstable", "ik_failure").
+        linear_impulse_true, angular_impulse_true: The same from the human's true wrench.
+        human_holds: The human holds the object as the step ends (their grasp bit).
+        human_holds_sensed: What the robot reads off the handle's touch sensor (it observes
+            this; :class:`~hri_envs.physics.scene.sensing.HandleSensor`).
+    """
+
+    state: int
+    human_action: int
+    graph_next: int
+    graph_agrees: bool
+    settled: bool
+    duration: float
+    linear_impulse: float
+    angular_impulse: float
+    robot_yielded: bool
+    position_error: float
+    angle_error: float
+    fault: str | None
+    linear_impulse_true: float = 0.0
+    angular_impulse_true: float = 0.0
+    human_holds: bool = False
+    human_holds_sensed: bool = False
+
+    @property
+    def fault_kind(self) -> str | None:
+        """The fault's kind (``"dropped"``, ...) without the detail, or None."""
+        return None if self.fault is None else self.fault.split(":", 1)[0]
+
+
+class _Fault(Exception):
+    pass
+
+
+@dataclass(slots=True)
+class _Totals:
+    """What the physics loop accumulates over one abstract step (the human's wrench)."""
+
+    linear_impulse: float = 0.0  # ∫ |F_sensed| dt [N s]
+    angular_impulse: float = 0.0  # ∫ |τ_sensed| dt [N m s]
+    human_work: float = 0.0  # ∫ (F_sensed · v + τ_sensed · ω) dt [J]
+    linear_impulse_true: float = 0.0  # ∫ |F_human| dt [N s]
+    angular_impulse_true: float = 0.0  # ∫ |τ_human| dt [N m s]
+
+
+class PandaSim:
+    """A simulated Panda and a simulated human carrying the scenario's object.
+
+    Args:
+        graph: The task graph (state and action numbering, transitions).
+        design: Physical design (default: :func:`design_for` the graph's scenario).
+        ik_rate: Rate [Hz] of the IK reference updates.
+        options: Validated ``physics`` options (:mod:`~hri_envs.physics.panda.options`; keys
+            listed in docs/physics.md), applied at each :meth:`reset`.
+
+    Attributes:
+        finger_contype: The robot fingers' geoms' contact types (restored when the weld
+            lets go).
+        lowest_z: [m] the lowest support point of the scenario's layout.
+    """
+
+    def __init__(self, graph: TaskGraph, design: PhysicsDesign | None = None,
+                 ik_rate: float = 25.0, options: Mapping[str, Any] | None = None) -> None:
+        self.graph = graph
+        self.design = design = design if design is not None else design_for(graph.name)
+        self.scenario = graph.scenario
+        self.scene = build_scene(self.scenario, design)
+        self.model = self.scene.model
+        # No mid-phase (per-body BVH) collision culling: the scene's bodies carry a few
+        # geoms each, so it only costs time (≈ 5 % of the control loop); the contacts, and
+        # the trajectories, are the same bit for bit (docs/physics.md, "Speed").
+        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MIDPHASE
+        self.data = mujoco.MjData(self.model)
+        self.dt = float(self.model.opt.timestep)
+        self.control_every = max(1, int(design.control_every_steps))
+        self.dt_control = self.control_every * self.dt
+        # IK reference updates, in control periods.
+        self.ik_every = max(1, round(1.0 / (ik_rate * self.dt_control)))
+        self.controller = ImpedanceController(self.scene)
+        self.davi = Disagreement(design)
+        self.human = SimulatedHuman(design, np.random.default_rng(0))
+        self.arm = HumanArm(self.model, design, self.scenario.orientations[0])
+        self.seats = Seats(self.scenario, design)
+        self.observer = StateObserver(graph, self.scenario, design.lever)
+        self.settings = PhysicsSettings(design, options)
+        self.sensor = WristSensor(self.scene, SensorModel(
+            design.sensor_noise_n, design.sensor_bias_n, design.sensor_delay_s,
+            design.sensor_torque_lever_m, self.dt_control))
+        self.handle = HandleSensor(self.model, design.hold_touch_min_n)
+        self.params = PhysicsParams.of(design)
+        self._apply(self.settings.base)
+        n, n_base = len(self.scene.robot_dofs), 3 if design.mobile_base else 0
+        self.n_base = n_base
+        home = np.zeros(n)
+        home[n_base:] = design.home
+        self.ik = ReferenceIK(build_robot_model(design), n, n_base, home)
+        self.home = home
+        self.base_offset = self._base_offset() if n_base else np.zeros(3)
+        m = self.model
+        self.finger_contype = m.geom_contype[self.scene.finger_geoms.ravel()].copy()
+        self._finger_kp = m.actuator_gainprm[self.scene.finger_actuators, 0].copy()
+        self._site_pos = m.site_pos[self.scene.grip_site].copy()
+        self._site_quat = m.site_quat[self.scene.grip_site].copy()
+        self.grip_in_object = Pose(design.grip_pos, design.grip_quat)
+        self.on_frame: Callable[[], None] | None = None
+        self.frame_every = 50
+        self.state = 0
+        self.holding = False
+        self.q_ref = home.copy()
+
+    # ------------------------------------------------------------------ poses
+    def object_pose(self) -> Pose:
+        """The object's current pose."""
+        b = self.scene.object_body
+        return Pose(self.data.xpos[b].copy(), self.data.xquat[b].copy())
+
+    def grip_pose(self) -> Pose:
+        """The hand's current grip frame."""
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, self.data.site_xmat[self.scene.grip_site])
+        return Pose(self.data.site_xpos[self.scene.grip_site].copy(), q)
+
+    def state_grip_pose(self, state: int) -> Pose:
+        """The grip frame when the object is at abstract ``state``."""
+        pos, quat = self.observer.pose(state)
+        return compose(Pose(pos, quat), *self.grip_in_object)
+
+    def _base_offset(self) -> np.ndarray:
+        """Mount position relative to the grip in the home posture (mobile base)."""
+        m = self.ik.model
+        data = mujoco.MjData(m)
+        data.qpos[: len(self.home)] = self.home
+        mujoco.mj_kinematics(m, data)
+        site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "grip")
+        return self.design.base_pos - data.site_xpos[site]
+
+    def pregrasp(self, grip: Pose) -> Pose:
+        """The pose ``pregrasp_distance_m`` back from the grip pose ``grip`` along its z."""
+        return compose(grip, np.array([0.0, 0.0, -self.design.pregrasp_distance_m]),
+                       np.array([1.0, 0, 0, 0]))
+
+    # ------------------------------------------------------------------ reset
+    def _apply(self, params: PhysicsParams) -> None:
+        """Use ``params`` from now on: the true human, seats, mass and the sensor model."""
+        self.params = params
+        true = params.true_design(self.design)
+        self.human.design = true
+        self.arm.apply(true)
+        self.seats.design = true
+        b = self.scene.object_body
+        self.model.body_mass[b] = true.object_mass
+        self.model.body_inertia[b] = true.object_inertia
+        self.sensor.model = SensorModel(params.sensor_noise_n, params.sensor_bias_n,
+                                        params.sensor_delay_s,
+                                        self.design.sensor_torque_lever_m, self.dt_control)
+
+    def set_scenario(self, scenario: Scenario) -> None:
+        """Move the supports (the wheel's stands) to ``scenario``'s layout."""
+        self.scenario = scenario
+        for k, sup in enumerate(scenario.supports):
+            self.data.mocap_pos[self.scene.support_mocap[k]] = sup.position
+        self.seats.set_scenario(scenario)
+        self.observer.set_scenario(scenario)
+        self.lowest_z = float(self.observer.pos[:, 2].min())
+
+    def reset(self, start: int, scenario: Scenario | None = None,
+              rng: np.random.Generator | None = None, state: int | None = None) -> int:
+        """Object on support ``start`` (μ = 0), the robot's hand waiting next to its grip.
+
+        Args:
+            start: The support the episode starts on.
+            scenario: The episode's geometry (default: the graph's).
+            rng: Generator of the human's force noise (and, through streams spawned from
+                it, of the sensor's noise and bias and of randomised physics options).
+            state: Place the object in this abstract state instead (for tests and tools):
+                held as its μ says, the robot's hand on its grip when the robot holds.
+
+        Returns:
+            The observed abstract state.
+
+        Raises:
+            IKFailure: The robot cannot reach its pose (a layout it cannot serve).
+        """
+        model, data, sc, design = self.model, self.data, self.scene, self.design
+        mujoco.mj_resetData(model, data)
+        self.set_scenario(scenario if scenario is not None else self.graph.scenario)
+        rng = rng if rng is not None else np.random.default_rng(0)
+        sensor_rng, options_rng, handle_rng = rng.spawn(3)
+        self._apply(self.settings.draw(options_rng))
+        self.human.reset(rng)
+        self.sensor.reset(sensor_rng)
+        self.handle.reset(handle_rng, self.params.handle_noise_n)
+        self.davi.reset()
+        s0 = self.graph.support_state(start, 0) if state is None else int(state)
+        mu = int(self.graph.grasp[s0])
+        pos, quat = self.observer.pose(s0)
+        data.qpos[sc.object_qpos] = np.concatenate([pos, quat])
+        grip = self.state_grip_pose(s0)
+        target = grip if mu & ROBOT_BIT else self.pregrasp(grip)
+        q0 = self.home.copy()
+        if self.n_base:
+            q0[:3] = target.pos + self.base_offset - design.base_pos
+        self.ik.reset(q0)
+        # Reach the grip first, then back off to the waiting pose (a hand-held retreat);
+        # the waiting pose only needs to be near, the grasp approach starts from it.
+        grip_error_m = self.ik.solve(grip, iterations=_RESET_GRIP_IK_ITERATIONS)
+        if grip_error_m > design.reset_grip_ik_error_max_m or (
+                target is not grip
+                and self.ik.solve(target, iterations=_RESET_PREGRASP_IK_ITERATIONS)
+                > design.reset_pregrasp_ik_error_max_m):
+            raise IKFailure(f"the robot cannot reach its pose in state {s0}")
+        self.q_ref = self.ik.q
+        data.qpos[sc.robot_qpos] = self.q_ref
+        data.qpos[sc.finger_qpos] = FINGER_ON_GRIP_M if mu & ROBOT_BIT else FINGER_OPEN_M
+        data.eq_active[sc.weld] = 0
+        self.weld(bool(mu & ROBOT_BIT))
+        self.human.holding = bool(mu & HUMAN_BIT)
+        self.arm.place(data, pos, quat, self.human.holding)
+        if sc.platform_mocap >= 0:
+            data.mocap_pos[sc.platform_mocap] = [*data.qpos[:2] + design.base_pos[:2],
+                                                 _PLATFORM_Z_M]
+        mujoco.mj_forward(model, data)
+        self.state = s0
+        return s0
+
+    # ------------------------------------------------------------------ grasp
+    def weld(self, on: bool) -> None:
+        """The robot's grasp weld on (at the grip pose now, the fingers held on the grip,
+        their contacts off) or off (the fingers' contacts on again).
+        """
+        sc, m = self.scene, self.model
+        if on:
+            # Pose of the hand body (link 7) in the object frame: grip ∘ site⁻¹.
+            inv_q = np.array([self._site_quat[0], *-self._site_quat[1:]])
+            rel = compose(self.grip_in_object, -self._rotate(inv_q, self._site_pos), inv_q)
+            m.eq_data[sc.weld, 0:3] = 0.0
+            m.eq_data[sc.weld, 3:6] = rel.pos
+            m.eq_data[sc.weld, 6:10] = rel.quat
+        data = self.data
+        data.eq_active[sc.weld] = int(on)
+        # While the weld holds, the finger contacts are off: the weld carries the object, and
+        # the four finger contacts were a third to half of MuJoCo's time per step (docs/physics.md,
+        # Robot). The weld holds the object at the nominal grip, so the fingers are servoed
+        # to where they meet the grip block there, 10x stiffer: without the block to stop
+        # them, their weight would slide them into it.
+        acts = sc.finger_actuators
+        data.ctrl[acts] = FINGER_ON_GRIP_M if on else FINGER_OPEN_M
+        kp = self._finger_kp * (FINGER_HOLD_STIFFENING if on else 1.0)
+        m.actuator_gainprm[acts, 0] = kp
+        m.actuator_biasprm[acts, 1] = -kp
+        m.geom_contype[sc.finger_geoms.ravel()] = 0 if on else self.finger_contype
+        self.holding = on
+
+    @staticmethod
+    def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        out = np.empty(3)
+        mujoco.mju_rotVecQuat(out, v, q)
+        return out
+
+    # ------------------------------------------------------------------ step
+    def step(self, s: int, a_r: int, a_h: int) -> StepResult:
+        """Run one abstract step with the robot's action ``a_r`` and the human's ``a_h``.
+
+        Args:
+            s: The abstract state observed before the step (the last step's ``state``).
+            a_r: The robot's abstract action.
+            a_h: The simulated human's true abstract action.
+
+        Returns:
+            The observed next state, the inferred human action, the graph's prediction,
+            impulses, duration and, if the simulation cannot go on, the fault.
+        """
+        g = self.graph
+        t0 = float(self.data.time)
+        totals = _Totals()
+        fault: str | None = None
+        yielded = settled = False
+        toggle_ok = bool(g.valid[s, TOGGLE])
+        attempt = self.settings.attempt_invalid
+        robot_toggle = a_r == TOGGLE and (toggle_ok or attempt)
+        human_toggle, s1, robot_moves, human_moves = plan_step(g, s, a_r, a_h, attempt)
+        try:
+            if robot_toggle:
+                self._robot_toggle(totals)
+            if human_toggle:  # grasp or let go, as the human meant from the state they see
+                self.human.holding = bool(g.grasp[int(g.next_state[s, WAIT, TOGGLE])]
+                                          & HUMAN_BIT)
+            self.arm.hold(self.data, self.human.holding)  # the hand's weld is the grasp bit
+            line = None
+            if robot_moves:
+                goal = self.state_grip_pose(self.motion_target(s1, a_r))
+                design = self.design
+                line = StraightLine(self.grip_pose(), goal, design.linear_speed,
+                                    design.angular_speed, design.motion_min_duration_s)
+            if human_moves:
+                pos, quat = self.observer.pose(int(g.next_state[s1, WAIT, a_h]))
+                self.human.reach(self.object_pose(), Pose(pos, quat))
+            else:
+                self.human.stop()
+            # Holding and not moving: passive (the human may move the object); idle: stiff.
+            hold = None if (self.holding or robot_moves) else self.grip_pose()
+            settled, yielded = self._run(line, hold, totals, self.design.step_time_limit)
+        except _Fault as exc:
+            fault = str(exc)
+        except IKFailure as exc:
+            fault = f"ik_failure: {exc}"
+        self.human.stop()
+        pose = self.object_pose()
+        grasp = (ROBOT_BIT if self.holding else 0) | (HUMAN_BIT if self.human.holding else 0)
+        # The robot knows its own grasp and reads the human's off the handle's touch sensor.
+        human_seen = self.handle.human_holds(self.data)
+        seat = self.seats.engaged(pose.pos, pose.quat)
+        obs = self.observer.observe(pose.pos, pose.quat, seat,
+                                    (grasp & ROBOT_BIT) | (HUMAN_BIT if human_seen else 0))
+        design = self.design
+        far = (obs.position_error > design.timeout_fault_factor * design.position_tolerance
+               or obs.angle_error > design.timeout_fault_factor * design.angle_tolerance)
+        if fault is None and seat < 0 and not grasp:
+            fault = "dropped: nobody holds the object and no support carries it"
+        if fault is None and seat < 0 and grasp not in (0, BOTH):  # attempted actions only
+            fault = ("off_support: only the " + ("robot" if grasp == ROBOT_BIT else "human")
+                     + " holds the object away from every support")
+        if fault is None and far:
+            fault = ("off_support: the object " + ("settled" if settled else "stopped")
+                     + " far from every abstract state")
+        if not np.all(np.isfinite(self.data.qpos)):
+            fault = "unstable: the simulation diverged (NaN)"
+        graph_next = int(g.next_state[s, a_r, a_h])
+        a_h_seen = infer_human_action(g, s, a_r, obs.state, float(totals.human_work),
+                                      design.human_work_min_j)
+        self.state = obs.state
+        return StepResult(obs.state, a_h_seen, graph_next, obs.state == graph_next, settled,
+                          float(self.data.time) - t0, float(totals.linear_impulse),
+                          float(totals.angular_impulse), yielded, obs.position_error,
+                          obs.angle_error, fault, float(totals.linear_impulse_true),
+                          float(totals.angular_impulse_true), self.human.holding, human_seen)
+
+    def motion_target(self, s: int, a: int) -> int:
+        """The abstract state whose pose the robot's motion ``a`` aims at from ``s``.
+
+        A valid motion aims where the graph leads. An invalid one (tried only with
+        ``physics={"attempt_invalid": True}``) aims where it would lead if it were valid:
+        from a support as if both held the object (take off: to the mounting; the other
+        motions: from the mounting), put on from elsewhere than the mounting: straight onto
+        the column's support; any other: where the object already is (no motion).
+        """
+        g = self.graph
+        if g.valid[s, a]:
+            return int(g.next_state[s, a, WAIT])
+        k = int(g.support[s])
+        if k >= 0:
+            mount = int(g.next_state[g.support_state(k, BOTH), TAKE_OFF, WAIT])
+            return mount if a == TAKE_OFF else int(g.next_state[mount, a, WAIT])
+        if a == PUT_ON:
+            return g.support_state(int(g.column[s]), BOTH)
+        return s
+
+    def _robot_toggle(self, totals: _Totals) -> None:
+        design = self.design
+        if not self.holding:  # approach the grip where the object actually is, then close
+            site = self.scene.object_grip_site
+            quat = np.empty(4)
+            mujoco.mju_mat2Quat(quat, self.data.site_xmat[site])
+            line = StraightLine(self.grip_pose(), Pose(self.data.site_xpos[site].copy(), quat),
+                                design.linear_speed, design.angular_speed,
+                                min_duration=design.grasp_approach_min_duration_s)
+            self._run(line, None, totals, design.grasp_approach_time_limit_s)
+            self._close_on_grip(totals)
+        else:
+            self.weld(False)
+            grip = self.grip_pose()
+            line = StraightLine(grip, self.pregrasp(grip), design.linear_speed,
+                                design.angular_speed, design.motion_min_duration_s)
+            self._run(line, None, totals, design.release_retreat_time_limit_s)
+
+    def _close_on_grip(self, totals: _Totals) -> None:
+        """Close the fingers where the hand is; weld only if both press on the grip.
+
+        Raises:
+            _Fault: ``grasp_failed`` when a finger's contact force on the object's grip
+                geometry stays below ``grasp_contact_force_n`` (it closed on nothing).
+        """
+        design, sc = self.design, self.scene
+        self.data.ctrl[sc.finger_actuators] = design.grip_finger_pos_m
+        self._run(None, self.grip_pose(), totals, design.grasp_close_time_s,
+                  min_time_s=design.grasp_close_time_s)
+        forces = finger_forces(self.model, self.data, sc.finger_geoms, sc.grip_geom)
+        if forces.min() < design.grasp_contact_force_n:
+            self.data.ctrl[sc.finger_actuators] = FINGER_OPEN_M
+            raise _Fault(f"grasp_failed: the fingers press on the grip with {forces[0]:.1f} N "
+                         f"and {forces[1]:.1f} N (a hold needs "
+                         f"{design.grasp_contact_force_n:g} N each)")
+        # Fingers on the grip block but the hand off the grip (e.g. beside it along the
+        # block): a weld would snap the object into the hand, so the grasp fails.
+        block, grip = sc.grip_geom, self.grip_pose()  # the grip block is the true grip frame
+        quat = np.empty(4)
+        mujoco.mju_mat2Quat(quat, self.data.geom_xmat[block])
+        miss_m = float(np.linalg.norm(grip.pos - self.data.geom_xpos[block]))
+        miss_rad = float(np.linalg.norm(rotation_error(quat, grip.quat)))
+        if miss_m > design.grasp_tolerance_m or miss_rad > design.grasp_tolerance_rad:
+            self.data.ctrl[sc.finger_actuators] = FINGER_OPEN_M
+            raise _Fault(f"grasp_failed: the hand closed {miss_m * 100:.1f} cm, "
+                         f"{np.rad2deg(miss_rad):.0f}° from the grip (a hold needs "
+                         f"{design.grasp_tolerance_m * 100:g} cm, "
+                         f"{np.rad2deg(design.grasp_tolerance_rad):.0f}°)")
+        self.weld(True)
+
+    def _run(self, line: StraightLine | None, hold: Pose | None, totals: _Totals,
+             limit_s: float, min_time_s: float | None = None) -> tuple[bool, bool]:
+        """Simulate until settled or ``limit_s`` seconds; (settled, robot yielded).
+
+        ``min_time_s`` (default: the design's ``settle_min_time_s``) is the shortest time
+        before the motion can settle; ``totals`` accumulates the human's impulses and work.
+        The control loop runs once per control period (``control_every_steps`` physics
+        steps): it reads the state, sets the robot's torques, the seat's wrench and the
+        human's actuator references, and MuJoCo runs the period's physics steps in C.
+        """
+        model, data, sc, design = self.model, self.data, self.scene, self.design
+        dt_c, k, body = self.dt_control, self.control_every, sc.object_body
+        if min_time_s is None:
+            min_time_s = design.settle_min_time_s
+        ik_error_max_m, ik_error_time_max_s = design.ik_error_max_m, design.ik_error_time_max_s
+        vel_sq_max, angvel_sq_max = (design.settle_vel_sq_max_m2_s2,
+                                     design.settle_angvel_sq_max_rad2_s2)
+        calm_time_s = design.settle_calm_time_s
+        grip_hold_n, overload_max_s = design.grip_hold_force_n, design.grip_overload_time_s
+        drop_z = self.lowest_z - design.drop_margin_m
+        sensor, overload, human, arm = self.sensor, 0.0, self.human, self.arm
+        # Periodic work, in control periods.
+        check_every = max(1, design.stability_check_every_steps // k)
+        platform_every = max(1, design.platform_update_every_steps // k)
+        frame_every = max(1, round(self.frame_every / k))
+        ik_every, dt_ik = self.ik_every, self.ik_every * dt_c
+        self.davi.reset()
+        hold_ref = None if hold is None else TrajectorySample(hold.pos, hold.quat, np.zeros(3),
+                                                              np.zeros(3))
+        zero = np.zeros(3)
+        xfrc = data.xfrc_applied[body]
+        xfrc[:] = 0.0  # no seat wrench left over from the last run
+        # Views into data's arrays (their memory is fixed), set up once per run: pos and
+        # quat follow the simulation; qv, vel and angvel are copies taken each period.
+        pos, quat = data.xpos[body], data.xquat[body]
+        rot = data.xmat[body].reshape(3, 3)
+        dof0 = int(sc.object_dofs[0])
+        qvel_object = data.qvel[dof0:dof0 + 6]  # a free joint's dofs are contiguous
+        qv = np.empty(6)
+        vel, angvel = qv[:3], np.empty(3)
+        acts = sc.robot_actuators
+        ctrl = (data.ctrl[acts[0]:acts[0] + len(acts)]
+                if np.array_equal(acts, np.arange(acts[0], acts[0] + len(acts))) else None)
+        robot_q = data.qpos[:len(sc.robot_qpos)]  # they lead qpos (ImpedanceController)
+        platform = sc.platform_mocap >= 0
+        davi, seats, controller, ik = self.davi, self.seats, self.controller, self.ik
+        # The human's impulses and work, summed in the same order as into totals.
+        lin, ang, work = totals.linear_impulse, totals.angular_impulse, totals.human_work
+        lin_true, ang_true = totals.linear_impulse_true, totals.angular_impulse_true
+        seat_on = False
+        t_line = elapsed = calm = ik_bad = 0.0
+        i = 0
+        yielded = False
+        try:
+            while elapsed < limit_s:
+                mujoco.mj_step1(model, data)
+                qv[:] = qvel_object
+                mujoco.mju_rotVecQuat(angvel, qv[3:], quat)
+                # The human: their reference drives the arm's actuators (MuJoCo applies
+                # them).
+                ref_h = human.advance(dt_c)
+                arm.drive(data, pos, quat, human.holding, ref_h, human.noise)
+                w_h = arm.wrench(data, pos)  # the muscles' wrench of the last physics step
+                f_h, t_h = w_h[:3], w_h[3:]
+                # What the robot senses (the reading of the last physics step): the external
+                # wrench on the held object, compensated, biased, noisy, delayed.
+                sensed = sensor.external(data, self.holding, pos, rot)
+                f_s, t_s = sensed[:3], sensed[3:]
+                if self.holding:
+                    f_true = sensor.true_wrench[:3]
+                    overload = (overload + dt_c if f_true.dot(f_true) > grip_hold_n ** 2
+                                else 0.0)
+                    if overload > overload_max_s:
+                        self.weld(False)
+                        raise _Fault(f"pulled_out: {np.sqrt(f_true @ f_true):.0f} N on the "
+                                     "grip")
+                seat = seats.engaged(pos, quat)
+                if seat >= 0:  # the seat acts at the centre of mass: no lever, no stiff
+                    # coupling
+                    f_seat, t_seat = seats.wrench(seat, pos, quat, vel, angvel)
+                    xfrc[:3] = f_seat
+                    xfrc[3:] = t_seat
+                    seat_on = True
+                elif seat_on:
+                    xfrc[:] = 0.0
+                    seat_on = False
+                scale, ref = 1.0, hold_ref
+                if line is not None and not yielded:
+                    moving = t_line < line.duration
+                    u = line.direction if moving else zero
+                    a = line.axis if moving else zero
+                    scale = davi.update(davi.force(f_s, t_s, u, a), dt_c)
+                    yielded = davi.yielded
+                    ref = line.sample(t_line)
+                    t_line += dt_c * scale
+                if yielded:
+                    ref = None
+                if i % ik_every == 0:
+                    if ref is None:  # passive: the posture reference starts from the actual
+                        ik.reset(robot_q)  # arm (no self-motion runs away)
+                    target = Pose(ref.pos, ref.quat) if ref is not None else self.grip_pose()
+                    self.q_ref = ik.step(target, dt_ik).copy()
+                    if ref is not None and line is not None:
+                        ik_bad = (ik_bad + dt_ik if ik.error() > ik_error_max_m else 0.0)
+                        if ik_bad > ik_error_time_max_s:
+                            raise IKFailure("the IK reference cannot follow the trajectory")
+                tau = controller.torques(data, ref, self.q_ref, scale, self.holding)
+                if ctrl is not None:
+                    ctrl[:] = tau
+                else:
+                    data.ctrl[acts] = tau
+                mujoco.mj_step2(model, data)
+                if k > 1:  # the rest of the control period, torques and references held
+                    mujoco.mj_step(model, data, nstep=k - 1)
+                elapsed += dt_c
+                i += 1
+                # ndarray.dot: the same BLAS routine as @ at half the call's cost.
+                lin += math.sqrt(f_s.dot(f_s)) * dt_c
+                ang += math.sqrt(t_s.dot(t_s)) * dt_c
+                work += (f_s.dot(vel) + t_s.dot(angvel)) * dt_c
+                lin_true += math.sqrt(f_h.dot(f_h)) * dt_c
+                ang_true += math.sqrt(t_h.dot(t_h)) * dt_c
+                if platform and i % platform_every == 0:
+                    data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + design.base_pos[:2]
+                if self.on_frame is not None and i % frame_every == 0:
+                    self.on_frame()
+                if i % check_every == 0:
+                    self._check_stable()
+                    floor = touches(data, sc.floor_geom)
+                    if floor or pos[2] < drop_z:
+                        raise _Fault("dropped: the object " + ("hit the floor" if floor
+                                                               else "fell below every state"))
+                slow = vel.dot(vel) < vel_sq_max and angvel.dot(angvel) < angvel_sq_max
+                robot_done = line is None or yielded or t_line >= line.duration
+                if (slow and robot_done and elapsed >= min_time_s
+                        and human.at_target(pos, quat)):
+                    calm += dt_c
+                    if calm >= calm_time_s:
+                        return True, yielded
+                else:
+                    calm = 0.0
+        finally:
+            totals.linear_impulse, totals.angular_impulse, totals.human_work = lin, ang, work
+            totals.linear_impulse_true, totals.angular_impulse_true = lin_true, ang_true
+        self._check_stable()
+        return False, yielded
+
+    def _check_stable(self) -> None:
+        data = self.data
+        if (data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
+                or data.warning[mujoco.mjtWarning.mjWARN_BADQVEL].number > 0):
+            raise _Fault("unstable: MuJoCo reported bad accelerations or velocities")
+        if (not np.all(np.isfinite(data.qvel))
+                or np.abs(data.qvel).max() > self.design.diverged_qvel_max):
+            raise _Fault("unstable: the simulation diverged")
