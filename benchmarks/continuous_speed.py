@@ -61,8 +61,8 @@ from hri_envs.task.scenarios import scenario_graph
 def warp_speed(scenario: str, n_worlds: int, steps: int,
                device: str | None) -> dict[str, float | str]:
     """N worlds on MuJoCo Warp with the upper reference in each (see the module)."""
-    from hri_envs.physics.carry.warp.worlds import WarpCarryWorlds
     from hri_envs.physics.carry.warp.sim import WarpCarrySim
+    from hri_envs.physics.carry.warp.worlds import WarpCarryWorlds
 
     t0 = time.perf_counter()
     worlds = WarpCarryWorlds(scenario_graph(scenario), n_worlds, device=device)

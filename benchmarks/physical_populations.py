@@ -1,4 +1,5 @@
-"""Make, check and describe the frozen physical populations (hri_envs.physics.carry.human.population).
+"""Make, check and describe the frozen physical populations
+(hri_envs.physics.carry.human.population).
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/physical_populations.py --write
     .venv/bin/python benchmarks/physical_populations.py --check 4
@@ -26,13 +27,13 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.physics.carry.sim import CarrySim
 from hri_envs.physics.carry.human.population import SCENARIOS, SPLITS, physical_population
 from hri_envs.physics.carry.human.population_build import build_scenario, nearest, write
 from hri_envs.physics.carry.human.probe import distance, signature
+from hri_envs.physics.carry.sim import CarrySim
 from hri_envs.task.scenarios import scenario_graph
 
-DATA = Path(__file__).resolve().parents[1] / "hri_envs" / "physics" / "data"
+DATA = Path(__file__).resolve().parents[1] / "hri_envs" / "physics" / "carry" / "human" / "data"
 
 
 def _build(scenario: str) -> tuple[str, tuple[dict[str, Any], np.ndarray], float]:

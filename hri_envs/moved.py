@@ -20,11 +20,11 @@ import importlib.machinery
 import sys
 import types
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["MovedModules", "Scattered", "register"]
+__all__ = ["MovedModules", "Scattered", "old_names", "register"]
 
 
 @dataclass(frozen=True)
@@ -127,6 +127,23 @@ class MovedModules(importlib.abc.MetaPathFinder):
                       DeprecationWarning, stacklevel=2)
         loader = _Forward(new) if isinstance(new, Scattered) else _Alias(new)
         return importlib.machinery.ModuleSpec(fullname, loader)
+
+
+def old_names(package: str, home: str, names: Sequence[str]) -> Callable[[str], Any]:
+    """The ``__getattr__`` of a package that took the name of a module that moved: the old
+    module's public ``names`` are looked up in ``home``, with the warning.
+
+    A module whose new place is a package of the same name cannot be redirected by
+    :class:`MovedModules` (the name is the package's now); its names can.
+    """
+    def __getattr__(name: str) -> Any:  # noqa: N807 (a module's __getattr__)
+        if name not in names:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        warnings.warn(f"{package}.{name} moved to {home}.{name}; the old name goes in the "
+                      f"next release", DeprecationWarning, stacklevel=2)
+        return getattr(importlib.import_module(home), name)
+
+    return __getattr__
 
 
 def register(moved: Mapping[str, str | Scattered]) -> MovedModules:

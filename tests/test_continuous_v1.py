@@ -15,8 +15,8 @@ import hri_envs  # noqa: F401
 from agents.physical import PhysicalAgent, run_physical_episode
 from baselines.continuous import PassiveFloor, UpperReference, follow_action, run_episode
 from hri_envs.errors import ConfigError
-from hri_envs.physics.carry.reward import EFFORT_LEVER_M, STALL_S, PlacingReward, StallClock
 from hri_envs.physics.carry.env import HiddenIntentionError
+from hri_envs.physics.carry.reward import EFFORT_LEVER_M, STALL_S, PlacingReward, StallClock
 from hri_envs.physics.scene.kinematics import Pose
 
 HANGER_V1, WHEEL_V1 = "hri_envs/HangerPandaContinuous-v1", "hri_envs/WheelPandaContinuous-v1"

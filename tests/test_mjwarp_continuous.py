@@ -102,8 +102,8 @@ def _c_episode(seed, human, options, policy, h_action, max_time_s):
 def _warp_episodes(cases, seed):
     """Every case a world of one batch: its CarryEnv on a shared WarpCarryWorlds."""
     from hri_envs.physics.carry.env import CarryEnv
-    from hri_envs.physics.carry.warp.worlds import WarpCarryWorlds
     from hri_envs.physics.carry.warp.sim import SHARED, WarpCarrySim
+    from hri_envs.physics.carry.warp.worlds import WarpCarryWorlds
     from hri_envs.task.scenarios import scenario_graph
 
     n = len(cases)

@@ -34,7 +34,10 @@ def _warning(old, new):
     return rf"^{re.escape(old)} moved to {re.escape(new)}; the old name goes in the next release$"
 
 
-OLD_AND_NEW = {**hri_bench.MOVED, "hri_bench.serve.app": "hri_bench.people.serve.app"}
+OLD_AND_NEW = {**hri_bench.MOVED, "hri_bench.serve.app": "hri_bench.people.serve.app",
+               # the physics by env family (a module of an old package follows it: mjwarp's)
+               **{old: new for old, new in hri_envs.MOVED.items() if isinstance(new, str)},
+               "hri_envs.physics.mjwarp.device": "hri_envs.physics.scene.warp.device"}
 
 
 @pytest.mark.parametrize(("old", "new"), sorted(OLD_AND_NEW.items()))
@@ -135,3 +138,17 @@ def test_the_project_names_modules_by_their_new_names():
             if _OLD.search(line) and "getLogger(" not in line and note not in line:
                 found.append(f"{path.relative_to(ROOT)}:{i}: {line.strip()}")
     assert not found, "\n".join(found)
+
+
+@pytest.mark.parametrize(("package", "name", "home"), [
+    ("hri_envs.physics.scene", "build_scene", "hri_envs.physics.scene.build"),
+    ("hri_envs.physics.carry", "CarrySim", "hri_envs.physics.carry.sim"),
+])
+def test_a_module_that_became_a_package_forwards_its_old_names(package, name, home):
+    """hri_envs.physics.scene and .carry were modules; their names still resolve, warned."""
+    module = importlib.import_module(package)
+    with pytest.warns(DeprecationWarning, match=_warning(f"{package}.{name}", f"{home}.{name}")):
+        value = getattr(module, name)
+    assert value is getattr(importlib.import_module(home), name)
+    with pytest.raises(AttributeError, match="no attribute 'nothing_here'"):
+        module.nothing_here  # noqa: B018

@@ -10,8 +10,8 @@ from hri_bench.people import physical_fit as pf
 from hri_bench.people.synthetic import ScriptedLeader
 from hri_envs.errors import ConfigError
 from hri_envs.physics.carry.human.intention import HumanParams
-from hri_envs.physics.scene.kinematics import Pose, compose
 from hri_envs.physics.carry.human.population import physical_population, save_population
+from hri_envs.physics.scene.kinematics import Pose, compose
 from hri_envs.task.scenarios import scenario_spec
 
 

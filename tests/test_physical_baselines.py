@@ -26,8 +26,8 @@ from baselines.physical.blend import BlendParams, GoalBlend, arbitration
 from baselines.physical.hindsight import GoalQMDP
 from baselines.physical.routes import FilterParams, RouteFilter, Routes
 from hri_envs.errors import ConfigError
-from hri_envs.physics.scene.design import design_for
 from hri_envs.physics.carry.robot_view import RobotTask, observation_layout
+from hri_envs.physics.scene.design import design_for
 from hri_envs.task.scenarios import scenario_graph
 
 HANGER_V1, WHEEL_V1 = "hri_envs/HangerPandaContinuous-v1", "hri_envs/WheelPandaContinuous-v1"

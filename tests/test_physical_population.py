@@ -12,7 +12,6 @@ import pytest
 
 from hri_envs.errors import ConfigError
 from hri_envs.physics.carry.human.body import BodySize, bmi_mass, stature_at
-from hri_envs.physics.carry.sim import CarrySim, default_grip_force
 from hri_envs.physics.carry.human.families import FAMILIES, GROUPS
 from hri_envs.physics.carry.human.intention import HumanParams
 from hri_envs.physics.carry.human.population import (
@@ -23,6 +22,7 @@ from hri_envs.physics.carry.human.population import (
 )
 from hri_envs.physics.carry.human.population_build import fingerprint, nearest
 from hri_envs.physics.carry.human.probe import distance, distances, signature
+from hri_envs.physics.carry.sim import CarrySim, default_grip_force
 from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")

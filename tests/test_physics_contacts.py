@@ -10,9 +10,9 @@ import pytest
 from hri_envs.envs.config import check_physics_options, scenario_graph
 from hri_envs.errors import ConfigError
 from hri_envs.physics import PandaSim
+from hri_envs.physics.panda.sim import _Totals
 from hri_envs.physics.scene.contacts import finger_forces, touches
 from hri_envs.physics.scene.kinematics import Pose, StraightLine, compose
-from hri_envs.physics.panda.sim import _Totals
 from hri_envs.task.graph import HUMAN_BIT, PUT_ON, TAKE_OFF, TOGGLE, WAIT
 from tests.helpers_physics import named as _named
 from tests.helpers_physics import sim_fixture

@@ -13,10 +13,10 @@ pytest.importorskip("mink")
 
 import hri_envs  # noqa: E402,F401
 from hri_envs.errors import ActionError, ConfigError  # noqa: E402
-from hri_envs.physics.carry.sim import CarrySim  # noqa: E402
 from hri_envs.physics.carry.env import CarryEnv  # noqa: E402
-from hri_envs.physics.carry.parallel import parallel_env  # noqa: E402
 from hri_envs.physics.carry.human.intention import HumanParams  # noqa: E402
+from hri_envs.physics.carry.parallel import parallel_env  # noqa: E402
+from hri_envs.physics.carry.sim import CarrySim  # noqa: E402
 from hri_envs.physics.scene.kinematics import rotation_error  # noqa: E402
 from hri_envs.task.scenarios import scenario_graph  # noqa: E402
 

@@ -10,9 +10,9 @@ import pytest
 from hri_envs.envs.config import scenario_graph
 from hri_envs.physics import PandaSim
 from hri_envs.physics.panda import sim
+from hri_envs.physics.panda.human import SimulatedHuman
 from hri_envs.physics.scene.controller import Disagreement
 from hri_envs.physics.scene.design import hanger_design, wheel_design
-from hri_envs.physics.panda.human import SimulatedHuman
 from hri_envs.physics.scene.seats import Seats
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")

@@ -11,13 +11,13 @@ pytest.importorskip("numba")
 
 from hri_envs.physics.carry import jit  # noqa: E402
 
-PHYSICS = Path(jit.__file__).parent
+PHYSICS = Path(jit.__file__).parent  # the carry envs' package: SOURCES are relative to it
 
 
 def test_every_module_with_kernels_names_the_cache() -> None:
     """A module compiled with jit.kernel (or calling MuJoCo from compiled code) that is not
     in jit.SOURCES would keep its old compiled code in the cache after an edit."""
-    compiled = {p.name for p in PHYSICS.glob("*.py")
+    compiled = {p.relative_to(PHYSICS).as_posix() for p in PHYSICS.rglob("*.py")
                 if re.search(r"^@kernel$|types\.ExternalFunction", p.read_text(), re.M)}
     assert compiled, "no compiled modules found"
     assert compiled <= set(jit.SOURCES), compiled - set(jit.SOURCES)
@@ -29,6 +29,7 @@ def test_the_cache_is_named_by_the_sources(tmp_path: Path, monkeypatch) -> None:
     copy = tmp_path / "physics"
     copy.mkdir()
     for name in (*jit.SOURCES, "jit.py"):
+        (copy / name).parent.mkdir(parents=True, exist_ok=True)
         (copy / name).write_text((PHYSICS / name).read_text())
     monkeypatch.setattr(jit, "__file__", str(copy / "jit.py"))
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)

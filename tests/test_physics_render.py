@@ -13,8 +13,8 @@ pytest.importorskip("PIL")
 
 import hri_envs  # noqa: E402,F401
 from hri_envs.errors import ConfigError  # noqa: E402
-from hri_envs.physics.scene.camera import VIEWS, project, scene_points  # noqa: E402
 from hri_envs.physics.panda.options import check_options  # noqa: E402
+from hri_envs.physics.scene.camera import VIEWS, project, scene_points  # noqa: E402
 
 HANGER, WHEEL = "hri_envs/HangerPandaContinuous-v0", "hri_envs/WheelPandaContinuous-v0"
 SIZE = (240, 180)

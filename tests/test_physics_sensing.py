@@ -12,8 +12,8 @@ from hri_envs.envs.backends import BACKENDS
 from hri_envs.envs.config import check_physics_options, scenario_graph
 from hri_envs.errors import ConfigError
 from hri_envs.physics import PandaSim
-from hri_envs.physics.scene.design import PRESET_NAMES, design_for
 from hri_envs.physics.panda.options import OPTION_KEYS, PARAMETER_KEYS, PHYSICS_PARAMETERS
+from hri_envs.physics.scene.design import PRESET_NAMES, design_for
 from hri_envs.physics.scene.sensing import SensorModel
 from hri_envs.task.graph import TAKE_OFF, TOGGLE, WAIT
 from tests.helpers_physics import named as _named

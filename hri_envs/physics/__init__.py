@@ -1,54 +1,39 @@
-"""The physics backend: the cooperation tasks on a simulated Franka Emika Panda (MuJoCo).
+"""The physics: the cooperation tasks on a simulated Franka Emika Panda (MuJoCo).
 
-=================  ==============================================================
-module             contents
-=================  ==============================================================
-``assets``         the Panda MJCF and meshes from the gymnasium-robotics wheel
-``design``         per-scenario physical design: robot placement, grasp, gains
-``scene``          the scene built in code (``MjSpec``): supports, object, Panda
-``kinematics``     poses, quaternions, straight-line minimum-jerk trajectories
-``ik``             mink (daqp) differential IK for the reference configurations
-``controller``     Cartesian impedance + null space + DAVI (disagreement-aware)
-``sensing``        the wrist force/torque sensor: compensation, noise, bias, delay
-``contacts``       reading contacts: floor touches, finger forces on the grip
-``options``        ``physics={...}`` options, presets and per-episode randomisation
-``human``          the simulated human's saturating spring-damper on the handle
-``seats``          supports as unilateral seats (hook, peg, plate)
-``shapes``         the object's and the supports' geometry per scenario design
-``observer``       closest abstract state, human-action inference
-``sim``            :class:`PandaSim`: one abstract step of both agents
-``episode``        the backend inside the envs (``backend="mujoco"``)
-``batch``          :class:`PhysicsBatch`, the backend of ``hri-bench study --backend mujoco``
-``speed``          real-time factor and wall time per abstract step
-``rendering``      headless ``rgb_array`` (EGL, OSMesa fallback), labels, videos
-``camera``         the pictures' camera fitted to the scene; projecting points into them
-``mjwarp``         the same physics, many worlds at once on MuJoCo Warp (``"mjwarp"``)
-``whole_arm``      the continuous envs' human: a whole arm on a torso, friction grip
-``muscles``        the same arm muscle-driven: MyoSuite's ``myoarm_r`` (``arm`` extra)
-``arm_control``    the arm's hand impedance and its torque drive
-``intention``      the human's route, minimum-jerk reference and yielding; parameters
-``body``           the human's body size: de Leva's segments, ANSUR II statures, strength
-``families``       families of physical humans (ranges of their parameters, sources)
-``probe``          a physical human's behavioural signature and distance
-``population``     frozen physical populations: train, validation, test per scenario
-``population_build``  how they were drawn, distinct by behaviour
-``carry``          :class:`CarrySim`: robot, whole arm and object stepped at 25 Hz
-``human_laws``     the human's control-period laws, compiled, over a world axis
-``laws``           sensor, seats, robot controller, handle: the same, compiled
-``lawmath``        compiled pose arithmetic on plain floats (MuJoCo's formulas)
-``carry_stages``   a step's five control periods in one compiled call (C backend)
-``carry_periods``  the compiled stages bound to a :class:`CarrySim`
-``mjc``            MuJoCo's C functions for compiled code (``mj_step1``, ...)
-``jit``            the compiled kernels' decorator and cache (numba)
-``continuous``     the continuous-control Gymnasium env (``*PandaContinuous-v0``)
-``continuous_parallel``  its PettingZoo parallel form (the human seat as an agent)
-=================  ==============================================================
+Three packages, one per system; each says in its opening docstring what it holds and what it
+may import (import-linter keeps it so: pyproject.toml, "Physics: ..."):
+
+=================  ==========================================================================
+package            contents
+=================  ==========================================================================
+``scene``          the shared scene and its numbers: the Panda model, the supports and the
+                   object (``build``, ``shapes``, ``design``), poses (``kinematics``), the
+                   IK reference (``ik``), the impedance controller (``controller``), the wrist
+                   sensor (``sensing``), the seats (``seats``), contacts, the observer of
+                   abstract states, cameras and rendering
+``panda``          the discrete Panda backend of the v0 ids (``HangerPanda-v0``,
+                   ``backend="mujoco"``): :class:`~hri_envs.physics.panda.sim.PandaSim`, one
+                   abstract step of both agents; the hand on six joints; ``physics={...}``
+                   options; the env's episode and the benchmark's batch
+``carry``          the continuous carry envs (``*PandaContinuous-v0/v1``): the env and its
+                   PettingZoo form, :class:`~hri_envs.physics.carry.sim.CarrySim` at 25 Hz,
+                   the compiled control-period laws over a world axis, rewards; its human
+                   (``carry.human``): the whole arm, its body, intention, families and
+                   frozen populations
+=================  ==========================================================================
+
+The MuJoCo Warp backend of each (many worlds at once, ``backend="mjwarp"``, the ``mjwarp``
+extra) is its ``warp`` sub-package: ``scene.warp`` (Warp itself, a scene's N worlds, the
+batched IK), ``panda.warp``, ``carry.warp``. The two families stand on the scene, never on
+each other; a Warp package stands on the C modules beside it, never under them.
 
 Importing this package selects MuJoCo's headless OpenGL backend (``MUJOCO_GL``) unless it
 is set already; do so before anything imports ``mujoco`` to render. Without the "mujoco"
 extra it raises :class:`~hri_envs.errors.MissingExtraError`, whose message is the one line
 that says what to install (every Panda and continuous id, backend and command that
-simulates the physics imports this package first).
+simulates the physics imports this package first). Module names from before the physics
+was split into these packages still import for one release, with a ``DeprecationWarning``
+(CHANGELOG.md, "Deprecated").
 """
 
 from hri_envs.errors import MissingExtraError
@@ -60,10 +45,10 @@ from hri_envs.physics.scene.rendering import select_gl_backend  # noqa: E402
 
 select_gl_backend()
 
+from hri_envs.physics.panda.sim import PandaSim, StepResult  # noqa: E402
 from hri_envs.physics.scene.design import PhysicsDesign, design_for  # noqa: E402
 from hri_envs.physics.scene.ik import IKFailure  # noqa: E402
 from hri_envs.physics.scene.rendering import SceneRenderer, write_video  # noqa: E402
-from hri_envs.physics.panda.sim import PandaSim, StepResult  # noqa: E402
 
 __all__ = [
     "IKFailure",

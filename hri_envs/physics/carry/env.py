@@ -19,7 +19,7 @@ from hri_envs.checks import check_real
 from hri_envs.envs.backends import carry_backend, carry_vector_backend
 from hri_envs.envs.config import check_layout, check_options_mapping, check_seed
 from hri_envs.errors import ConfigError, ResetNeeded
-from hri_envs.physics.carry.sim import DRIVES, CarryStep, RobotCommand
+from hri_envs.physics.carry.human.intention import HumanParams
 from hri_envs.physics.carry.reward import (
     EFFORT_LEVER_M,
     EpisodeRecord,
@@ -28,11 +28,11 @@ from hri_envs.physics.carry.reward import (
     StallClock,
     check_weights,
 )
+from hri_envs.physics.carry.robot_view import RobotTask, observation_layout
+from hri_envs.physics.carry.sim import DRIVES, CarryStep, RobotCommand
 from hri_envs.physics.carry.simulation import ACTION_SIZE, CarrySimulation, check_box_action
 from hri_envs.physics.scene.ik import IKFailure
-from hri_envs.physics.carry.human.intention import HumanParams
 from hri_envs.physics.scene.rendering import EpisodePictures, RenderSettings
-from hri_envs.physics.carry.robot_view import RobotTask, observation_layout
 from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 
 __all__ = ["ACTION_SIZE", "SENSOR_KEYS", "VERSIONS", "CarryEnv", "CarrySimulation",
@@ -97,7 +97,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
     handle by friction and conveys their hidden intention by force: their hand tracks a
     minimum-jerk reference along their route to the goal with an impedance around it,
     pushing against a robot that goes another way and yielding to one that goes theirs
-    (:mod:`hri_envs.physics.carry.human.intention`). The robot never observes the intention; it feels
+    (:mod:`hri_envs.physics.carry.human.intention`). The robot never observes the intention; it
+    feels
     the human through its wrist force/torque sensor. docs/physics.md, "Continuous envs".
 
     ## Action Space
@@ -183,7 +184,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
       (:class:`~hri_envs.physics.carry.warp.vector.CarryVectorEnv`);
     - ``drive``: "torque" (joint torque motors, the default) or "muscle" (MyoSuite's arm,
       the "arm" extra; docs/physics.md says where it works);
-    - ``human``: a mapping of :class:`~hri_envs.physics.carry.human.intention.HumanParams` (``strength``,
+    - ``human``: a mapping of :class:`~hri_envs.physics.carry.human.intention.HumanParams`
+    (``strength``,
       ``stiffness``, ``hesitation_s``, ``reaction_s``, ``grip_force_n``, ``preference``,
       ``speed``) and/or ``preset`` ("default", "weak", "hesitant", "firm");
     - ``max_time_s``: the time limit [s]; ``reward``: a mapping of the version's weights

@@ -14,8 +14,8 @@ import numpy as np
 from hri_envs.physics.scene.contacts import touches
 
 if TYPE_CHECKING:
-    from hri_envs.physics.carry.sim import CarrySim
     from hri_envs.physics.carry.periods import PeriodsResult
+    from hri_envs.physics.carry.sim import CarrySim
 
 __all__ = ["DROP_BELOW_M", "SLIP_M", "SLIP_RAD", "CarryFault", "check_faults", "max_lift_n",
            "why_slipped"]

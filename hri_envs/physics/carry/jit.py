@@ -27,7 +27,7 @@ from numba.core import config as _config
 __all__ = ["SOURCES", "cache_dir", "kernel", "preload"]
 
 #: The modules (in this package) whose functions are compiled with :func:`kernel`.
-SOURCES: tuple[str, ...] = ("lawmath.py", "laws.py", "human_laws.py", "carry_stages.py",
+SOURCES: tuple[str, ...] = ("lawmath.py", "laws.py", "human/laws.py", "stages.py",
                             "interaction.py", "mjc.py")
 _F = TypeVar("_F", bound=Callable[..., Any])
 

@@ -23,8 +23,8 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
-from hri_envs.physics.carry.human import laws as hl
 from hri_envs.physics.carry import laws
+from hri_envs.physics.carry.human import laws as hl
 from hri_envs.physics.carry.stages import (
     ANGVEL_SQ_MAX,
     PERIODS,

@@ -63,10 +63,14 @@ from hri_envs.physics.scene.kinematics import (
     rotation_error,
 )
 from hri_envs.physics.scene.observer import StateObserver
-from hri_envs.physics.scene.build import build_robot_model, build_scene
+from hri_envs.physics.scene.build import (
+    FINGER_ON_GRIP_M,
+    FINGER_OPEN_M,
+    build_robot_model,
+    build_scene,
+)
 from hri_envs.physics.scene.seats import Seats
 from hri_envs.physics.scene.sensing import SensorModel, WristSensor
-from hri_envs.physics.panda.sim import FINGER_ON_GRIP_M, FINGER_OPEN_M
 from hri_envs.physics.carry.human.whole_arm import (
     ARM_JOINTS,
     COMFORT_POSTURE,

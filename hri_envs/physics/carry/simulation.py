@@ -14,11 +14,11 @@ import mujoco
 import numpy as np
 
 from hri_envs.errors import ActionError
-from hri_envs.physics.carry.sim import CarryStep, RobotCommand
-from hri_envs.physics.scene.design import PhysicsDesign
 from hri_envs.physics.carry.human.intention import HumanParams, IntentionHuman
-from hri_envs.physics.scene.kinematics import Pose
+from hri_envs.physics.carry.sim import CarryStep, RobotCommand
 from hri_envs.physics.scene.build import Scene
+from hri_envs.physics.scene.design import PhysicsDesign
+from hri_envs.physics.scene.kinematics import Pose
 from hri_envs.task.geometry import Scenario
 
 __all__ = ["ACTION_SIZE", "CarrySimulation", "check_box_action"]

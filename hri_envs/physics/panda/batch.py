@@ -18,8 +18,8 @@ import numpy as np
 
 from hri_envs.envs.backends import BatchBackend, BatchStep
 from hri_envs.physics.panda.episode import STEP_FIGURES, STEP_MEANS, step_figures
-from hri_envs.physics.scene.ik import IKFailure
 from hri_envs.physics.panda.sim import PandaSim, StepResult
+from hri_envs.physics.scene.ik import IKFailure
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import episode_scenario, spec_of

@@ -21,11 +21,11 @@ import numpy as np
 from hri_envs.envs.episode import Episode
 from hri_envs.envs.window import check_display
 from hri_envs.errors import DisplayUnavailableError
+from hri_envs.physics.panda.options import prepare_video_path
+from hri_envs.physics.panda.sim import PHYSICAL_FAULTS, PandaSim, StepResult
 from hri_envs.physics.scene.camera import check_camera
 from hri_envs.physics.scene.ik import IKFailure
-from hri_envs.physics.panda.options import prepare_video_path
 from hri_envs.physics.scene.rendering import SceneRenderer, write_video
-from hri_envs.physics.panda.sim import PHYSICAL_FAULTS, PandaSim, StepResult
 from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import EpisodeRules
 from hri_envs.task.graph import TaskGraph

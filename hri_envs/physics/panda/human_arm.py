@@ -17,7 +17,7 @@ a ball on a jointless child body of the object (``handle``), which only the thum
 inside a MuJoCo ``touch`` sensor's site (``handle_touch``; a touch sensor counts the contacts
 of its site's body only, so the object's own collision geometry next to the handle does
 not count). That sensor, not the grasp bit, tells the robot whether the human holds
-(:class:`~hri_envs.physics.scene.sensing.HandleSensor`).
+(:class:`HandleSensor`).
 
 At run time (:class:`HumanArm`) the human's reference (:class:`~hri_envs.physics.panda.human.
 SimulatedHuman`) sets the actuators' ``ctrl``: the hand's joint coordinates for the
@@ -37,7 +37,7 @@ import numpy as np
 from hri_envs.physics.scene.design import PhysicsDesign
 from hri_envs.physics.scene.kinematics import TrajectorySample, cross3, quat_conj, quat_to_mat
 
-__all__ = ["HANDLE_TOUCH_SENSOR", "HAND_CONTACT_BIT", "HUMAN_JOINTS", "HumanArm",
+__all__ = ["HANDLE_TOUCH_SENSOR", "HAND_CONTACT_BIT", "HandleSensor", "HUMAN_JOINTS", "HumanArm",
            "add_human_arm"]
 
 #: The arm's joints, from the world to the hand.
@@ -326,3 +326,41 @@ class HumanArm:
         m0, m1, m2 = cross3((hx - ox, hy - oy, hz - oz), force)
         w[:] = (*force, t0 + m0, t1 + m1, t2 + m2)
         return w
+
+
+class HandleSensor:
+    """The handle's touch sensor: how hard the human's thumb presses on it, and so whether
+    the human holds the object.
+
+    Args:
+        model: The compiled scene (with :func:`add_human_arm`).
+        threshold_n: The reading [N] above which the robot takes the human to hold.
+
+    Attributes:
+        noise_n: Standard deviation [N] of the reading's white noise.
+        last_n: The last noisy reading [N].
+        rng: The noise's generator (the episode's, from :meth:`reset`).
+    """
+
+    def __init__(self, model: mujoco.MjModel, threshold_n: float) -> None:
+        sensor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, HANDLE_TOUCH_SENSOR)
+        self.adr = int(model.sensor_adr[sensor])
+        self.threshold_n = float(threshold_n)
+        self.noise_n = 0.0
+        self.last_n = 0.0
+        self.rng = np.random.default_rng(0)
+
+    def reset(self, rng: np.random.Generator, noise_n: float) -> None:
+        """New episode: the noise's generator and its standard deviation [N]."""
+        self.rng, self.noise_n = rng, float(noise_n)
+        self.last_n = 0.0
+
+    def true_force(self, data: mujoco.MjData) -> float:
+        """The noise-free reading [N]: the thumb's normal force on the handle."""
+        return float(data.sensordata[self.adr])
+
+    def human_holds(self, data: mujoco.MjData) -> bool:
+        """Read the sensor once (noisy) and judge whether the human holds the object."""
+        noise = self.noise_n * self.rng.standard_normal() if self.noise_n > 0.0 else 0.0
+        self.last_n = max(0.0, self.true_force(data) + noise)  # a touch sensor reads >= 0
+        return self.last_n > self.threshold_n

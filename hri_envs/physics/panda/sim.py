@@ -35,6 +35,7 @@ itself: ``unstable`` and ``ik_failure``.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -47,7 +48,7 @@ from hri_envs.physics.scene.contacts import finger_forces, touches
 from hri_envs.physics.scene.controller import Disagreement, ImpedanceController
 from hri_envs.physics.scene.design import PhysicsDesign, design_for
 from hri_envs.physics.panda.human import SimulatedHuman
-from hri_envs.physics.panda.human_arm import HumanArm
+from hri_envs.physics.panda.human_arm import HandleSensor, HumanArm, add_human_arm
 from hri_envs.physics.scene.ik import IKFailure, ReferenceIK
 from hri_envs.physics.scene.kinematics import (
     Pose,
@@ -58,9 +59,15 @@ from hri_envs.physics.scene.kinematics import (
 )
 from hri_envs.physics.scene.observer import StateObserver, infer_human_action
 from hri_envs.physics.panda.options import PhysicsParams, PhysicsSettings
-from hri_envs.physics.scene.build import build_robot_model, build_scene
+from hri_envs.physics.scene.build import (
+    FINGER_HOLD_STIFFENING,
+    FINGER_ON_GRIP_M,
+    FINGER_OPEN_M,
+    build_robot_model,
+    build_scene,
+)
 from hri_envs.physics.scene.seats import Seats
-from hri_envs.physics.scene.sensing import HandleSensor, SensorModel, WristSensor
+from hri_envs.physics.scene.sensing import SensorModel, WristSensor
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import (
     BOTH,
@@ -73,20 +80,13 @@ from hri_envs.task.graph import (
     TaskGraph,
 )
 
-__all__ = ["FINGER_HOLD_STIFFENING", "FINGER_ON_GRIP_M", "FINGER_OPEN_M", "PHYSICAL_FAULTS",
+__all__ = ["PHYSICAL_FAULTS",
            "PandaSim", "StepPlan", "StepResult", "plan_step"]
 
 #: Faults that are physical failures of the task (punished with r⁻ by the episode rules).
 PHYSICAL_FAULTS = ("dropped", "grasp_failed", "pulled_out", "off_support")
 
 # Physical thresholds and times are fields of PhysicsDesign; these are fixed by the model.
-#: [m] finger joint position of the open hand (the Panda's maximum).
-FINGER_OPEN_M = 0.04
-#: [m] finger joint position where the closing fingers stop on the grip block at the nominal
-#: grip (2.18-2.19 cm measured after grasps on both scenes): held there while welded.
-FINGER_ON_GRIP_M = 0.0219
-#: [-] the finger servos' stiffness x this while welded.
-FINGER_HOLD_STIFFENING = 10.0
 _PLATFORM_Z_M = 0.1  # [m] height of the mobile base's floor platform mocap (scene.py)
 # Numerical method: iterations of the reset IK solve onto the grip and the waiting pose.
 _RESET_GRIP_IK_ITERATIONS = 300
@@ -140,7 +140,7 @@ class StepResult(NamedTuple):
         linear_impulse_true, angular_impulse_true: The same from the human's true wrench.
         human_holds: The human holds the object as the step ends (their grasp bit).
         human_holds_sensed: What the robot reads off the handle's touch sensor (it observes
-            this; :class:`~hri_envs.physics.scene.sensing.HandleSensor`).
+            this; :class:`~hri_envs.physics.panda.human_arm.HandleSensor`).
     """
 
     state: int
@@ -202,7 +202,8 @@ class PandaSim:
         self.graph = graph
         self.design = design = design if design is not None else design_for(graph.name)
         self.scenario = graph.scenario
-        self.scene = build_scene(self.scenario, design)
+        self.scene = build_scene(self.scenario, design,
+                                 functools.partial(add_human_arm, design=design))
         self.model = self.scene.model
         # No mid-phase (per-body BVH) collision culling: the scene's bodies carry a few
         # geoms each, so it only costs time (≈ 5 % of the control loop); the contacts, and

@@ -29,12 +29,19 @@ import numpy as np
 
 from hri_envs.physics.scene.assets import PANDA_ARM_JOINTS, PANDA_FINGER_JOINTS, panda_xml
 from hri_envs.physics.scene.design import PhysicsDesign
-from hri_envs.physics.panda.human_arm import add_human_arm
 from hri_envs.physics.scene.shapes import DARK, add_visual
 from hri_envs.task.geometry import Scenario
 
-__all__ = ["BASE_JOINTS", "Scene", "build_robot_model", "build_scene"]
+__all__ = ["BASE_JOINTS", "FINGER_HOLD_STIFFENING", "FINGER_ON_GRIP_M", "FINGER_OPEN_M", "Scene",
+           "build_robot_model", "build_scene"]
 
+#: [m] The finger joint position of the Panda's open hand (its maximum).
+FINGER_OPEN_M = 0.04
+#: [m] The finger joint position where the closing fingers stop on the grip block at the
+#: nominal grip (2.18-2.19 cm measured after grasps on both scenes): held there while welded.
+FINGER_ON_GRIP_M = 0.0219
+#: [-] The finger servos' stiffness is multiplied by this while the robot's weld holds.
+FINGER_HOLD_STIFFENING = 10.0
 #: Prismatic joints of the wheel's mobile base (x, y on the floor, z lift).
 BASE_JOINTS: tuple[str, ...] = ("base_x", "base_y", "base_lift")
 _TORQUE_LIMITS = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
@@ -206,16 +213,16 @@ class Scene:
 
 
 def build_scene(scenario: Scenario, design: PhysicsDesign,
-                human: Callable[[mujoco.MjSpec], None] | None = None) -> Scene:
+                human: Callable[[mujoco.MjSpec], None]) -> Scene:
     """Compile the scene of ``scenario`` with the physical ``design``.
 
     Args:
         scenario: The geometry.
         design: The physical design.
         human: Adds the human to the spec (after the object and its collision geometry,
-            before the robot's grip geometry); None: the v0 envs' hand on six joints
-            (:func:`~hri_envs.physics.panda.human_arm.add_human_arm`). The continuous envs pass
-            the whole arm (:mod:`hri_envs.physics.carry.human.whole_arm`).
+            before the robot's grip geometry): the v0 envs' hand on six joints
+            (:func:`~hri_envs.physics.panda.human_arm.add_human_arm`) or the continuous
+            envs' whole arm (:mod:`hri_envs.physics.carry.human.whole_arm`).
     """
     spec = _robot_spec(design)
     spec.visual.global_.offwidth, spec.visual.global_.offheight = 640, 480
@@ -256,10 +263,7 @@ def build_scene(scenario: Scenario, design: PhysicsDesign,
     design.shapes.object_collision(obj, scenario, {
         "contype": _OBJECT_BIT, "conaffinity": _FLOOR_BIT | _SUPPORT_BIT, "group": 3,
         "rgba": (0, 0, 0, 0), "mass": 0.0, **_CONTACT})
-    if human is None:
-        add_human_arm(spec, design)
-    else:
-        human(spec)
+    human(spec)
     _grip_geometry(obj, design)
     _finger_collision(spec)
     _support_collision(spec, scenario, design)

@@ -22,9 +22,9 @@ import math
 import mujoco
 import numpy as np
 
+from hri_envs.physics.scene.build import Scene
 from hri_envs.physics.scene.design import PhysicsDesign
 from hri_envs.physics.scene.kinematics import TrajectorySample, rotation_error
-from hri_envs.physics.scene.build import Scene
 
 __all__ = ["LAMBDA_INV_REGULARIZATION", "Disagreement", "ImpedanceController"]
 

@@ -155,7 +155,8 @@ class PhysicsDesign:
         seat_capture_angle_rad: ... and within this angle of the seat's orientation.
         seat_fade_m: The seat force fades out over this last stretch of the capture region.
         sensor_noise_n, sensor_bias_n, sensor_delay_s: The wrist sensor's white noise
-            (std per control step), constant bias and delay (:mod:`~hri_envs.physics.scene.sensing`).
+            (std per control step), constant bias and delay
+            (:mod:`~hri_envs.physics.scene.sensing`).
         sensor_torque_lever_m: Torque noise and bias are the force's times this lever.
         human_delay_s: The human's reaction delay before a reach starts.
         grasp_tolerance_m, grasp_tolerance_rad: After closing, the hand's grip frame must lie
@@ -253,7 +254,8 @@ class PhysicsDesign:
     sensor_delay_s: float = 0.0
     sensor_torque_lever_m: float = 0.1
     human_delay_s: float = 0.0
-    # The handle's touch sensor: how the robot knows that the human holds (sensing.HandleSensor).
+    # The handle's touch sensor: how the robot knows that the human holds
+    # (panda.human_arm.HandleSensor).
     human_grip_force: float = 6.0
     handle_noise_n: float = 0.2
     hold_touch_min_n: float = 2.0

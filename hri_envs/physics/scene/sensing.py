@@ -22,8 +22,9 @@ the robot senses nothing of the object: the estimate is zero.
 Whether the human holds the object the wrist cannot tell: the human grasps and lets go
 only while a support's seat carries the object, and the seat, not the robot, takes up what
 the hand adds (docs/physics.md). The object's handle is therefore instrumented: a MuJoCo
-``touch`` sensor under the human's thumb (:mod:`~hri_envs.physics.panda.human_arm`), which
-:class:`HandleSensor` reads with white noise.
+``touch`` sensor under the human's thumb, which
+:class:`~hri_envs.physics.panda.human_arm.HandleSensor` reads with white noise (the discrete
+Panda backend's human arm; the continuous envs' human holds by friction).
 """
 
 from __future__ import annotations
@@ -33,11 +34,10 @@ from collections import deque
 import mujoco
 import numpy as np
 
-from hri_envs.physics.panda.human_arm import HANDLE_TOUCH_SENSOR
 from hri_envs.physics.scene.kinematics import cross3
 from hri_envs.physics.scene.build import Scene
 
-__all__ = ["HandleSensor", "SensorModel", "WristSensor"]
+__all__ = ["SensorModel", "WristSensor"]
 
 
 class SensorModel:
@@ -195,41 +195,3 @@ class WristSensor:
         w = self.true_wrench
         w[:] = (*f_ext, t_ext[0] - rf[0], t_ext[1] - rf[1], t_ext[2] - rf[2])
         return self.model.apply(w)
-
-
-class HandleSensor:
-    """The handle's touch sensor: how hard the human's thumb presses on it, and so whether
-    the human holds the object.
-
-    Args:
-        model: The compiled scene (with :func:`~hri_envs.physics.panda.human_arm.add_human_arm`).
-        threshold_n: The reading [N] above which the robot takes the human to hold.
-
-    Attributes:
-        noise_n: Standard deviation [N] of the reading's white noise.
-        last_n: The last noisy reading [N].
-        rng: The noise's generator (the episode's, from :meth:`reset`).
-    """
-
-    def __init__(self, model: mujoco.MjModel, threshold_n: float) -> None:
-        sensor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, HANDLE_TOUCH_SENSOR)
-        self.adr = int(model.sensor_adr[sensor])
-        self.threshold_n = float(threshold_n)
-        self.noise_n = 0.0
-        self.last_n = 0.0
-        self.rng = np.random.default_rng(0)
-
-    def reset(self, rng: np.random.Generator, noise_n: float) -> None:
-        """New episode: the noise's generator and its standard deviation [N]."""
-        self.rng, self.noise_n = rng, float(noise_n)
-        self.last_n = 0.0
-
-    def true_force(self, data: mujoco.MjData) -> float:
-        """The noise-free reading [N]: the thumb's normal force on the handle."""
-        return float(data.sensordata[self.adr])
-
-    def human_holds(self, data: mujoco.MjData) -> bool:
-        """Read the sensor once (noisy) and judge whether the human holds the object."""
-        noise = self.noise_n * self.rng.standard_normal() if self.noise_n > 0.0 else 0.0
-        self.last_n = max(0.0, self.true_force(data) + noise)  # a touch sensor reads >= 0
-        return self.last_n > self.threshold_n

@@ -22,8 +22,8 @@ from abc import ABC, abstractmethod
 import mujoco
 import numpy as np
 
-from hri_envs.physics.scene.kinematics import TrajectorySample, rotation_error
 from hri_envs.physics.carry.human.whole_arm import Coupling, WholeArm
+from hri_envs.physics.scene.kinematics import TrajectorySample, rotation_error
 
 __all__ = ["POSTURE_REGULARIZATION", "ArmDrive", "HandImpedance", "TorqueDrive"]
 

@@ -1,8 +1,10 @@
 """Families of physical humans: ranges of the whole arm's parameters, with what they model.
 
-A :class:`Family` draws :class:`~hri_envs.physics.carry.human.intention.HumanParams` uniformly within
+A :class:`Family` draws :class:`~hri_envs.physics.carry.human.intention.HumanParams` uniformly
+within
 its ranges: the sex (both alike), the stature's percentile (ANSUR II, :func:`~hri_envs.
-physics.carry.human.body.stature_at`) and the body mass index (:func:`~hri_envs.physics.carry.human.body.bmi_mass`),
+physics.carry.human.body.stature_at`) and the body mass index
+(:func:`~hri_envs.physics.carry.human.body.bmi_mass`),
 the strength (a scale of the body's typical strength, :meth:`~hri_envs.physics.carry.human.body.
 BodySize.strength_scale`), the hand's stiffness, the reaction delay, the hesitation before
 each line of the route, the speed, the grip force (a multiple of the scenario's default,

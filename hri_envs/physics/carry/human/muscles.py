@@ -4,7 +4,8 @@ package, Apache-2.0, the "arm" extra) in the carrying scene.
 :func:`build` loads ``myoarm_r`` with ``myo_sim.load_spec`` and puts it into the scene with
 ``MjSpec.attach`` on the torso carrier of :func:`~hri_envs.physics.carry.human.whole_arm.add_torso`
 (turned so that the model faces the robot), and adds the palm, finger pad and handle of
-:func:`~hri_envs.physics.carry.human.whole_arm.add_grip` on its third metacarpal. Changes to the model:
+:func:`~hri_envs.physics.carry.human.whole_arm.add_grip` on its third metacarpal. Changes to the
+model:
 its floor is removed; its finger joints are removed (the fingers are rigid: the finger pad
 grips, the finger muscles still act across the wrist); none of its geoms collide; its
 bodies carry their own weight (``gravcomp``), as the torque-driven arm's do.
@@ -36,9 +37,15 @@ import numpy as np
 
 from hri_envs.errors import MissingExtraError
 from hri_envs.physics.carry.human.arm_control import ArmDrive
-from hri_envs.physics.scene.design import PhysicsDesign
+from hri_envs.physics.carry.human.whole_arm import (
+    Coupling,
+    WholeArm,
+    add_grip,
+    add_torso,
+    grip_quat_world,
+)
 from hri_envs.physics.scene.build import Scene, build_scene
-from hri_envs.physics.carry.human.whole_arm import Coupling, WholeArm, add_grip, add_torso, grip_quat_world
+from hri_envs.physics.scene.design import PhysicsDesign
 from hri_envs.task.geometry import Scenario
 
 __all__ = ["MUSCLE_JOINTS", "MUSCLE_POSTURE", "MuscleCoupling", "MuscleDrive", "build"]

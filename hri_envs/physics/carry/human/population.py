@@ -1,10 +1,12 @@
 """Frozen populations of physical humans: ``train``, ``validation`` and ``test`` per scenario.
 
-The continuous envs' human is a :class:`~hri_envs.physics.carry.human.intention.HumanParams` (the whole
+The continuous envs' human is a :class:`~hri_envs.physics.carry.human.intention.HumanParams` (the
+whole
 arm's strength, stiffness, reaction, hesitation, grip, speed, preference and body size).
 A :class:`PhysicalPopulation` is a frozen list of them, drawn once from the families of
 :mod:`~hri_envs.physics.carry.human.families` with fixed seeds and kept **by value** in
-``hri_envs/physics/carry/human/data/physical_populations.json`` (every member's parameters), with their
+``hri_envs/physics/carry/human/data/physical_populations.json`` (every member's parameters), with
+their
 behavioural signatures (:mod:`~hri_envs.physics.carry.human.probe`) in ``physical_signatures.npz``
 beside it; ``benchmarks/physical_populations.py`` made both and checks them again.
 Members are **distinct by behaviour**: a candidate whose signature came within the
@@ -86,7 +88,8 @@ class PhysicalMember:
 
     Attributes:
         params: The human (what ``CarrySim.reset(..., human=params)`` takes).
-        family: Its family (:data:`~hri_envs.physics.carry.human.families.FAMILIES`); group: its track.
+        family: Its family (:data:`~hri_envs.physics.carry.human.families.FAMILIES`); group: its
+            track.
         label: A short readable name: ``split/family-k (sex, stature, mass)``.
         fingerprint: The first 16 hex digits of the SHA-256 of its parameters.
         row: Its row in the scenario's signature array.
@@ -254,14 +257,14 @@ def _load(name: str, scenario: str) -> PhysicalPopulation:
 
 @functools.cache
 def _document() -> dict[str, Any]:
-    text = resources.files("hri_envs.physics").joinpath("data", DATA_FILE).read_text()
+    text = resources.files(__package__).joinpath("data", DATA_FILE).read_text()
     doc: dict[str, Any] = json.loads(text)
     return doc
 
 
 @functools.cache
 def _signatures() -> dict[str, np.ndarray]:
-    path = resources.files("hri_envs.physics").joinpath("data", SIGNATURE_FILE)
+    path = resources.files(__package__).joinpath("data", SIGNATURE_FILE)
     with resources.as_file(path) as p, np.load(p, allow_pickle=False) as npz:
         return {k: npz[k].astype(float) for k in npz.files}
 

@@ -1,13 +1,16 @@
-"""How the frozen physical populations were made (:mod:`~hri_envs.physics.carry.human.population`), and
+"""How the frozen physical populations were made (:mod:`~hri_envs.physics.carry.human.population`),
+and
 the figures that describe them.
 
 :func:`build_scenario` draws each split's members family by family from
 ``default_rng([GENERATOR_SEED, scenario, split, family])`` (indices into
-:data:`~hri_envs.physics.carry.human.population.SCENARIOS`, :data:`~hri_envs.physics.carry.human.population.SPLITS`
+:data:`~hri_envs.physics.carry.human.population.SCENARIOS`,
+:data:`~hri_envs.physics.carry.human.population.SPLITS`
 and :data:`~hri_envs.physics.carry.human.families.FAMILIES`), probes each candidate
 (:func:`~hri_envs.physics.carry.human.probe.signature`) and keeps it unless its arm cannot hold the
 handle at a probe's start (``IKFailure``) or its signature is within the tolerance
-(:func:`~hri_envs.physics.carry.human.probe.distances` < 1) of a member kept before it, in any split of
+(:func:`~hri_envs.physics.carry.human.probe.distances` < 1) of a member kept before it, in any
+split of
 the scenario (train first, then validation, then test). The result depends on the
 simulator's arithmetic, so it is frozen by value in the data files; ``benchmarks/
 physical_populations.py`` writes them (``--write``) and checks a sample against this
@@ -24,9 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.physics.carry.sim import CarrySim, default_grip_force
 from hri_envs.physics.carry.human.families import FAMILIES
-from hri_envs.physics.scene.ik import IKFailure
 from hri_envs.physics.carry.human.intention import HumanParams
 from hri_envs.physics.carry.human.population import (
     DATA_FILE,
@@ -44,6 +45,8 @@ from hri_envs.physics.carry.human.probe import (
     distances,
     signature,
 )
+from hri_envs.physics.carry.sim import CarrySim, default_grip_force
+from hri_envs.physics.scene.ik import IKFailure
 from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 __all__ = ["GENERATOR_SEED", "build_scenario", "fingerprint", "label", "nearest", "write"]

@@ -1,7 +1,8 @@
 """A physical human's behavioural signature: what they do in a few short, fixed interactions.
 
 Two humans are the same when they behave the same. :func:`signature` puts a human
-(:class:`~hri_envs.physics.carry.human.intention.HumanParams`) into :data:`PROBES`: fixed start / goal
+(:class:`~hri_envs.physics.carry.human.intention.HumanParams`) into :data:`PROBES`: fixed start /
+goal
 pairs of the scenario's default layout, each with a *passive* robot (stiffness 0: the
 human leads and the robot follows) and a *stiff* robot that holds its grip still (the human
 pushes against it towards their goal, up to their strength and grip), for
@@ -27,8 +28,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hri_envs.physics.carry.sim import CarrySim
 from hri_envs.physics.carry.human.intention import HumanParams
+from hri_envs.physics.carry.sim import CarrySim
 
 __all__ = ["FORCE_TOLERANCE_N", "PATH_TOLERANCE_M", "PROBES", "PROBE_S", "WINDOW_STEPS",
            "distance", "distances", "signature", "signatures"]

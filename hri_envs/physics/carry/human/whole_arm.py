@@ -21,7 +21,8 @@ stays as it is for the v0 ids). :func:`add_whole_arm` adds it to a scene's ``MjS
   ``condim`` 4), not a weld: a grip weaker than the load slips, and the continuous envs
   report it (fault ``slipped``).
 
-The muscle-driven variant (:mod:`hri_envs.physics.carry.human.muscles`) replaces the arm by MyoSuite's
+The muscle-driven variant (:mod:`hri_envs.physics.carry.human.muscles`) replaces the arm by
+MyoSuite's
 arm model and keeps the torso, the palm, the pad and the handle.
 """
 

@@ -13,8 +13,8 @@ import numpy as np
 
 from hri_envs.envs.backends import BatchBackend, BatchStep
 from hri_envs.physics.panda.batch import PhysicsBatch
-from hri_envs.physics.scene.ik import IKFailure
 from hri_envs.physics.panda.warp.worlds import WarpWorlds
+from hri_envs.physics.scene.ik import IKFailure
 
 __all__ = ["WarpPhysicsBatch"]
 

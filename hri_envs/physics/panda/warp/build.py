@@ -26,12 +26,11 @@ from hri_envs.physics.scene.warp import batchmath as bm
 from hri_envs.physics.scene.warp.control import RobotImpedance, WarpSeats, WristSensors
 from hri_envs.physics.scene.warp.ik import BatchIK
 from hri_envs.physics.scene.warp.model import WarpModel
-from hri_envs.physics.panda.sim import (
+from hri_envs.physics.panda.sim import PandaSim, StepResult
+from hri_envs.physics.scene.build import (
     FINGER_HOLD_STIFFENING,
     FINGER_ON_GRIP_M,
     FINGER_OPEN_M,
-    PandaSim,
-    StepResult,
 )
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import WAIT, TaskGraph

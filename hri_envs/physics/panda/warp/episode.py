@@ -1,4 +1,5 @@
-"""The ``"mjwarp"`` backend inside the envs: a :class:`~hri_envs.physics.panda.episode.PhysicsEpisode`
+"""The ``"mjwarp"`` backend inside the envs: a
+:class:`~hri_envs.physics.panda.episode.PhysicsEpisode`
 whose simulation is one world of a :class:`~hri_envs.physics.panda.warp.worlds.WarpWorlds`.
 
 A single env (``gymnasium.make("hri_envs/HangerPanda-v0", backend="mjwarp")``,
@@ -16,10 +17,10 @@ import mujoco
 import numpy as np
 
 from hri_envs.physics.panda.episode import PhysicsEpisode
-from hri_envs.physics.scene.warp.handout import Handout
+from hri_envs.physics.panda.sim import StepResult
 from hri_envs.physics.panda.warp.worlds import WarpWorlds
 from hri_envs.physics.scene.seats import Seats
-from hri_envs.physics.panda.sim import StepResult
+from hri_envs.physics.scene.warp.handout import Handout
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
 

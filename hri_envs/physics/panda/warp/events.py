@@ -16,19 +16,19 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.physics.scene.kinematics import Pose, StraightLine, compose
-from hri_envs.physics.scene.warp import batchmath as bm
+from hri_envs.physics.panda.sim import StepResult, plan_step
 from hri_envs.physics.panda.warp.build import (
     APPROACH,
     CLOSE,
-    FINGER_OPEN_M,
     IDLE,
     MAIN,
     RETREAT,
     PandaWorldsState,
 )
+from hri_envs.physics.scene.build import FINGER_OPEN_M
+from hri_envs.physics.scene.kinematics import Pose, StraightLine, compose
 from hri_envs.physics.scene.observer import infer_human_action
-from hri_envs.physics.panda.sim import StepResult, plan_step
+from hri_envs.physics.scene.warp import batchmath as bm
 from hri_envs.task.graph import BOTH, HUMAN_BIT, ROBOT_BIT, TOGGLE, WAIT
 
 __all__ = ["PandaEvents"]

@@ -18,10 +18,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hri_envs.physics.scene.warp import batchmath as bm
 from hri_envs.physics.panda.warp.build import IDLE
-from hri_envs.physics.scene.warp.control import davi, disagreement
 from hri_envs.physics.panda.warp.events import PandaEvents
+from hri_envs.physics.scene.warp import batchmath as bm
+from hri_envs.physics.scene.warp.control import davi, disagreement
 
 __all__ = ["PandaPeriod"]
 

@@ -49,11 +49,11 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from hri_envs.physics.panda.sim import StepResult
 from hri_envs.physics.panda.warp.build import IDLE
+from hri_envs.physics.panda.warp.period import PandaPeriod
 from hri_envs.physics.scene.warp.ik import IK_ADMM_ITERATIONS
 from hri_envs.physics.scene.warp.model import NCONMAX, NJMAX
-from hri_envs.physics.panda.warp.period import PandaPeriod
-from hri_envs.physics.panda.sim import StepResult
 
 __all__ = ["IK_ADMM_ITERATIONS", "NCONMAX", "NJMAX", "WarpWorlds"]
 
@@ -65,7 +65,8 @@ class WarpWorlds(PandaPeriod):
         graph: The task graph.
         n_worlds: How many worlds are stepped together.
         design: Physical design (default: the scenario's).
-        options: Validated ``physics`` options (as for :class:`~hri_envs.physics.panda.sim.PandaSim`).
+        options: Validated ``physics`` options (as for
+            :class:`~hri_envs.physics.panda.sim.PandaSim`).
         device: Warp device (default: Warp's default device, a GPU where there is one).
         ik_rate: Rate [Hz] of the IK reference updates.
 

@@ -1,5 +1,8 @@
 """The physics on MuJoCo Warp: many worlds at once (``backend="mjwarp"``, the ``mjwarp`` extra).
 
+What both families' Warp backends (:mod:`hri_envs.physics.panda.warp`,
+:mod:`hri_envs.physics.carry.warp`) share:
+
 =================  ==============================================================
 module             contents
 =================  ==============================================================
@@ -9,19 +12,8 @@ module             contents
 ``control``        the compiled laws over the worlds: controller, wrist sensor,
                    seats; DAVI
 ``ik``             :class:`BatchIK`: the IK reference, one mink-warp step for all
-``build``          the v0 Panda scene's worlds: per-world arrays, resets, switches
-``events``         a world's abstract step: its start, phases and end
-``period``         the v0 scene's control period, vectorised over the worlds
-``worlds``         :class:`WarpWorlds`: N worlds of the Panda scene in lockstep
-``episode``        the backend inside the v0 envs (``backend="mjwarp"``)
-``batch``          the backend of ``hri-bench study --backend mjwarp``
+``handout``        worlds a vector env built, handed to the single envs it builds
 ``vector_base``    :class:`WorldsVectorEnv`: what the two vector envs share
-``vector``         :class:`PandaVectorEnv`, ``gymnasium.make_vec(..., "vector_entry_point")``
-``speed``          world-steps per second and real-time factor
-``carry_human``    the continuous envs' whole arm per world: indices, hand impedance
-``carry``          :class:`WarpCarryWorlds`: N worlds of the continuous envs' scene
-``carry_sim``      the backend inside the continuous envs (one world)
-``carry_vector``   :class:`CarryVectorEnv`: N continuous envs stepped together
 =================  ==============================================================
 
 Nothing here imports Warp until a world is built; a missing extra is a
