@@ -39,38 +39,21 @@ import mujoco
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.physics.carry import stages
-from hri_envs.physics.carry import laws
-from hri_envs.physics.carry.human.arm_control import ArmDrive, HandImpedance, TorqueDrive
-from hri_envs.physics.carry.human.body import ArmBody, BodySize
+from hri_envs.physics.carry import laws, stages
 from hri_envs.physics.carry.faults import (
     CarryFault,
     check_faults,
     max_lift_n,
     why_slipped,
 )
-from hri_envs.physics.carry.periods import CarryPeriods, PeriodsResult
-from hri_envs.physics.carry.types import CarryStep, RobotCommand, grip_reference
-from hri_envs.physics.carry.types import rotate as _rotate
-from hri_envs.physics.scene.controller import ImpedanceController
-from hri_envs.physics.scene.design import PhysicsDesign, design_for
-from hri_envs.physics.scene.ik import IKFailure, ReferenceIK
-from hri_envs.physics.carry.human.intention import HUMAN_DRIVES, HumanParams, IntentionHuman, route_states
-from hri_envs.physics.carry.interaction import InteractionMeter, StepInteraction
-from hri_envs.physics.scene.kinematics import (
-    Pose,
-    compose,
-    rotation_error,
+from hri_envs.physics.carry.human.arm_control import ArmDrive, HandImpedance, TorqueDrive
+from hri_envs.physics.carry.human.body import ArmBody, BodySize
+from hri_envs.physics.carry.human.intention import (
+    HUMAN_DRIVES,
+    HumanParams,
+    IntentionHuman,
+    route_states,
 )
-from hri_envs.physics.scene.observer import StateObserver
-from hri_envs.physics.scene.build import (
-    FINGER_ON_GRIP_M,
-    FINGER_OPEN_M,
-    build_robot_model,
-    build_scene,
-)
-from hri_envs.physics.scene.seats import Seats
-from hri_envs.physics.scene.sensing import SensorModel, WristSensor
 from hri_envs.physics.carry.human.whole_arm import (
     ARM_JOINTS,
     COMFORT_POSTURE,
@@ -79,6 +62,28 @@ from hri_envs.physics.carry.human.whole_arm import (
     add_whole_arm,
     handle_quat_in_object,
 )
+from hri_envs.physics.carry.interaction import InteractionMeter, StepInteraction
+from hri_envs.physics.carry.periods import CarryPeriods, PeriodsResult
+from hri_envs.physics.carry.types import CarryStep, RobotCommand, grip_reference
+from hri_envs.physics.carry.types import rotate as _rotate
+from hri_envs.physics.scene.build import (
+    FINGER_ON_GRIP_M,
+    FINGER_OPEN_M,
+    build_robot_model,
+    build_scene,
+)
+from hri_envs.physics.scene.controller import ImpedanceController
+from hri_envs.physics.scene.design import PhysicsDesign, design_for
+from hri_envs.physics.scene.ik import IKFailure, ReferenceIK
+from hri_envs.physics.scene.kinematics import (
+    Pose,
+    compose,
+    rotation_error,
+)
+from hri_envs.physics.scene.observer import StateObserver
+from hri_envs.physics.scene.rig import SceneRig
+from hri_envs.physics.scene.seats import Seats
+from hri_envs.physics.scene.sensing import SensorModel, WristSensor
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import BOTH, TaskGraph
 
@@ -95,7 +100,7 @@ _REACH_ERROR_MAX_M = 0.01  # [m] + 0.2 m/rad: the arm's IK error at a reset
 STRAINED_S = 1.0
 
 
-class CarrySim:
+class CarrySim(SceneRig):
     """The robot, the whole human arm and the object of a scenario, stepped at 25 Hz.
 
     Args:
@@ -172,7 +177,7 @@ class CarrySim:
         home[n_base:] = design.home
         self.home = home
         self.ik = ReferenceIK(build_robot_model(design), n, n_base, home)
-        self.base_offset = self._base_offset() if n_base else np.zeros(3)
+        self.base_offset = self.mount_offset() if n_base else np.zeros(3)
         self.grip_in_object = Pose(design.grip_pos, design.grip_quat)
         self.handle_pos = np.asarray(design.handle_pos, dtype=float)
         self.handle_quat = handle_quat_in_object(self.rest_quat)
@@ -212,23 +217,6 @@ class CarrySim:
         d, k = self.design, self.params.stiffness
         return (k * d.human_stiffness, k * d.human_damping, k * d.human_rot_stiffness,
                 k * d.human_rot_damping)
-
-    def _base_offset(self) -> np.ndarray:
-        m = self.ik.model
-        data = mujoco.MjData(m)
-        data.qpos[: len(self.home)] = self.home
-        mujoco.mj_kinematics(m, data)
-        site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "grip")
-        return self.design.base_pos - data.site_xpos[site]
-
-    def set_scenario(self, scenario: Scenario) -> None:
-        """Move the supports (the wheel's stands) to ``scenario``'s layout."""
-        self.scenario = scenario
-        for k, sup in enumerate(scenario.supports):
-            self.data.mocap_pos[self.scene.support_mocap[k]] = sup.position
-        self.seats.set_scenario(scenario)
-        self.observer.set_scenario(scenario)
-        self.lowest_z = float(self.observer.pos[:, 2].min())
 
     def route(self, start: int, goal: int) -> list[Pose]:
         """The object poses of the human's route from ``start`` to ``goal``."""
@@ -334,17 +322,6 @@ class CarrySim:
         m.geom_contype[sc.finger_geoms.ravel()] = 0
 
     # ------------------------------------------------------------------ poses
-    def object_pose(self) -> Pose:
-        """The object's current pose."""
-        b = self.scene.object_body
-        return Pose(self.data.xpos[b].copy(), self.data.xquat[b].copy())
-
-    def grip_pose(self) -> Pose:
-        """The robot hand's grip frame now."""
-        q = np.empty(4)
-        mujoco.mju_mat2Quat(q, self.data.site_xmat[self.scene.grip_site])
-        return Pose(self.data.site_xpos[self.scene.grip_site].copy(), q)
-
     def object_velocity(self) -> tuple[np.ndarray, np.ndarray]:
         """The object's linear and angular velocity (world frame) now."""
         v = self.data.qvel[self.scene.object_dofs]

@@ -17,14 +17,14 @@ import math
 
 import numpy as np
 
-from hri_envs.physics.carry.human import laws as hl
 from hri_envs.physics.carry import lawmath as lm
 from hri_envs.physics.carry import laws
+from hri_envs.physics.carry.human import laws as hl
 from hri_envs.physics.carry.human.arm_control import POSTURE_REGULARIZATION
-from hri_envs.physics.scene.controller import LAMBDA_INV_REGULARIZATION
 from hri_envs.physics.carry.interaction import meter_step
 from hri_envs.physics.carry.jit import kernel
 from hri_envs.physics.carry.mjc import mj_jac, mj_jacSite, mj_solveM, mj_step, mj_step1, mj_step2
+from hri_envs.physics.scene.controller import LAMBDA_INV_REGULARIZATION
 
 __all__ = ["ANGVEL_SQ_MAX", "PERIODS", "VEL_SQ_MAX", "after_stage", "carry_step",
            "human_stage", "object_angvel", "observe", "robot_stage", "slip", "tail_stage"]

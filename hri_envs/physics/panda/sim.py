@@ -44,11 +44,19 @@ from typing import Any, NamedTuple
 import mujoco
 import numpy as np
 
+from hri_envs.physics.panda.human import SimulatedHuman
+from hri_envs.physics.panda.human_arm import HandleSensor, HumanArm, add_human_arm
+from hri_envs.physics.panda.options import PhysicsParams, PhysicsSettings
+from hri_envs.physics.scene.build import (
+    FINGER_HOLD_STIFFENING,
+    FINGER_ON_GRIP_M,
+    FINGER_OPEN_M,
+    build_robot_model,
+    build_scene,
+)
 from hri_envs.physics.scene.contacts import finger_forces, touches
 from hri_envs.physics.scene.controller import Disagreement, ImpedanceController
 from hri_envs.physics.scene.design import PhysicsDesign, design_for
-from hri_envs.physics.panda.human import SimulatedHuman
-from hri_envs.physics.panda.human_arm import HandleSensor, HumanArm, add_human_arm
 from hri_envs.physics.scene.ik import IKFailure, ReferenceIK
 from hri_envs.physics.scene.kinematics import (
     Pose,
@@ -58,14 +66,7 @@ from hri_envs.physics.scene.kinematics import (
     rotation_error,
 )
 from hri_envs.physics.scene.observer import StateObserver, infer_human_action
-from hri_envs.physics.panda.options import PhysicsParams, PhysicsSettings
-from hri_envs.physics.scene.build import (
-    FINGER_HOLD_STIFFENING,
-    FINGER_ON_GRIP_M,
-    FINGER_OPEN_M,
-    build_robot_model,
-    build_scene,
-)
+from hri_envs.physics.scene.rig import SceneRig
 from hri_envs.physics.scene.seats import Seats
 from hri_envs.physics.scene.sensing import SensorModel, WristSensor
 from hri_envs.task.geometry import Scenario
@@ -181,7 +182,7 @@ class _Totals:
     angular_impulse_true: float = 0.0  # ∫ |τ_human| dt [N m s]
 
 
-class PandaSim:
+class PandaSim(SceneRig):
     """A simulated Panda and a simulated human carrying the scenario's object.
 
     Args:
@@ -234,7 +235,7 @@ class PandaSim:
         home[n_base:] = design.home
         self.ik = ReferenceIK(build_robot_model(design), n, n_base, home)
         self.home = home
-        self.base_offset = self._base_offset() if n_base else np.zeros(3)
+        self.base_offset = self.mount_offset() if n_base else np.zeros(3)
         m = self.model
         self.finger_contype = m.geom_contype[self.scene.finger_geoms.ravel()].copy()
         self._finger_kp = m.actuator_gainprm[self.scene.finger_actuators, 0].copy()
@@ -248,30 +249,10 @@ class PandaSim:
         self.q_ref = home.copy()
 
     # ------------------------------------------------------------------ poses
-    def object_pose(self) -> Pose:
-        """The object's current pose."""
-        b = self.scene.object_body
-        return Pose(self.data.xpos[b].copy(), self.data.xquat[b].copy())
-
-    def grip_pose(self) -> Pose:
-        """The hand's current grip frame."""
-        q = np.empty(4)
-        mujoco.mju_mat2Quat(q, self.data.site_xmat[self.scene.grip_site])
-        return Pose(self.data.site_xpos[self.scene.grip_site].copy(), q)
-
     def state_grip_pose(self, state: int) -> Pose:
         """The grip frame when the object is at abstract ``state``."""
         pos, quat = self.observer.pose(state)
         return compose(Pose(pos, quat), *self.grip_in_object)
-
-    def _base_offset(self) -> np.ndarray:
-        """Mount position relative to the grip in the home posture (mobile base)."""
-        m = self.ik.model
-        data = mujoco.MjData(m)
-        data.qpos[: len(self.home)] = self.home
-        mujoco.mj_kinematics(m, data)
-        site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "grip")
-        return self.design.base_pos - data.site_xpos[site]
 
     def pregrasp(self, grip: Pose) -> Pose:
         """The pose ``pregrasp_distance_m`` back from the grip pose ``grip`` along its z."""
@@ -292,15 +273,6 @@ class PandaSim:
         self.sensor.model = SensorModel(params.sensor_noise_n, params.sensor_bias_n,
                                         params.sensor_delay_s,
                                         self.design.sensor_torque_lever_m, self.dt_control)
-
-    def set_scenario(self, scenario: Scenario) -> None:
-        """Move the supports (the wheel's stands) to ``scenario``'s layout."""
-        self.scenario = scenario
-        for k, sup in enumerate(scenario.supports):
-            self.data.mocap_pos[self.scene.support_mocap[k]] = sup.position
-        self.seats.set_scenario(scenario)
-        self.observer.set_scenario(scenario)
-        self.lowest_z = float(self.observer.pos[:, 2].min())
 
     def reset(self, start: int, scenario: Scenario | None = None,
               rng: np.random.Generator | None = None, state: int | None = None) -> int:

@@ -31,11 +31,10 @@ from __future__ import annotations
 
 from collections import deque
 
-import mujoco
 import numpy as np
 
-from hri_envs.physics.scene.kinematics import cross3
 from hri_envs.physics.scene.build import Scene
+from hri_envs.physics.scene.kinematics import cross3
 
 __all__ = ["SensorModel", "WristSensor"]
 

@@ -12,9 +12,9 @@ import numpy as np
 
 from hri_envs.physics.carry.human import laws as hl
 from hri_envs.physics.carry.human.arm_control import POSTURE_REGULARIZATION
+from hri_envs.physics.carry.human.whole_arm import WholeArm
 from hri_envs.physics.scene.warp.control import chain_jacobian, host
 from hri_envs.physics.scene.warp.model import WarpModel
-from hri_envs.physics.carry.human.whole_arm import WholeArm
 
 __all__ = ["WarpArms"]
 

@@ -16,14 +16,14 @@ import mujoco
 import numpy as np
 
 from hri_envs.physics.carry import laws
-from hri_envs.physics.carry.sim import CarryStep, RobotCommand, grip_reference
-from hri_envs.physics.scene.design import PhysicsDesign
 from hri_envs.physics.carry.human.intention import HumanParams, IntentionHuman
-from hri_envs.physics.scene.kinematics import Pose
+from hri_envs.physics.carry.sim import CarryStep, RobotCommand, grip_reference
 from hri_envs.physics.carry.warp.worlds import Commands, WarpCarryWorlds
+from hri_envs.physics.scene.build import Scene
+from hri_envs.physics.scene.design import PhysicsDesign
+from hri_envs.physics.scene.kinematics import Pose
 from hri_envs.physics.scene.warp.control import host
 from hri_envs.physics.scene.warp.handout import Handout
-from hri_envs.physics.scene.build import Scene
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
 

@@ -10,8 +10,8 @@ from gymnasium.vector import AutoresetMode
 from hri_envs.envs.backends import carry_backend
 from hri_envs.errors import ActionError, ConfigError
 from hri_envs.physics.carry.env import ACTION_SIZE, CarryEnv, check_sensor, check_step_scale
-from hri_envs.physics.carry.warp.worlds import WarpCarryWorlds
 from hri_envs.physics.carry.warp.sim import SHARED, WarpCarrySim
+from hri_envs.physics.carry.warp.worlds import WarpCarryWorlds
 from hri_envs.physics.scene.warp.vector_base import WorldsVectorEnv
 from hri_envs.task.scenarios import scenario_graph, scenario_spec
 

@@ -38,17 +38,17 @@ import numpy as np
 
 from hri_envs.envs.backends import backend_spec
 from hri_envs.errors import ConfigError
-from hri_envs.physics.carry.human import laws as hl
 from hri_envs.physics.carry import laws
-from hri_envs.physics.carry.human.body import WARP_BODY_FIELDS
-from hri_envs.physics.carry.sim import CALM_S, STRAINED_S, CarrySim, CarryStep
 from hri_envs.physics.carry.faults import DROP_BELOW_M, SLIP_M, SLIP_RAD
-from hri_envs.physics.carry.stages import ANGVEL_SQ_MAX, PERIODS, VEL_SQ_MAX
-from hri_envs.physics.scene.design import PhysicsDesign
+from hri_envs.physics.carry.human import laws as hl
+from hri_envs.physics.carry.human.body import WARP_BODY_FIELDS
 from hri_envs.physics.carry.human.intention import HumanParams
 from hri_envs.physics.carry.interaction import InteractionMeter
-from hri_envs.physics.scene.warp import batchmath as bm
+from hri_envs.physics.carry.sim import CALM_S, STRAINED_S, CarrySim, CarryStep
+from hri_envs.physics.carry.stages import ANGVEL_SQ_MAX, PERIODS, VEL_SQ_MAX
 from hri_envs.physics.carry.warp.human import WarpArms
+from hri_envs.physics.scene.design import PhysicsDesign
+from hri_envs.physics.scene.warp import batchmath as bm
 from hri_envs.physics.scene.warp.control import RobotImpedance, WarpSeats, WristSensors, host
 from hri_envs.physics.scene.warp.ik import BatchIK
 from hri_envs.physics.scene.warp.model import WarpModel

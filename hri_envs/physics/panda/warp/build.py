@@ -19,19 +19,19 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.physics.scene.design import PhysicsDesign
 from hri_envs.physics.panda.human_arm import HAND_CONTACT_BIT
-from hri_envs.physics.scene.kinematics import Pose
-from hri_envs.physics.scene.warp import batchmath as bm
-from hri_envs.physics.scene.warp.control import RobotImpedance, WarpSeats, WristSensors
-from hri_envs.physics.scene.warp.ik import BatchIK
-from hri_envs.physics.scene.warp.model import WarpModel
 from hri_envs.physics.panda.sim import PandaSim, StepResult
 from hri_envs.physics.scene.build import (
     FINGER_HOLD_STIFFENING,
     FINGER_ON_GRIP_M,
     FINGER_OPEN_M,
 )
+from hri_envs.physics.scene.design import PhysicsDesign
+from hri_envs.physics.scene.kinematics import Pose
+from hri_envs.physics.scene.warp import batchmath as bm
+from hri_envs.physics.scene.warp.control import RobotImpedance, WarpSeats, WristSensors
+from hri_envs.physics.scene.warp.ik import BatchIK
+from hri_envs.physics.scene.warp.model import WarpModel
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import WAIT, TaskGraph
 

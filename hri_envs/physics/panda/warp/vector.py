@@ -17,8 +17,8 @@ from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.seat import HumanLike, human_spec
 from hri_envs.humans.spec import HumanSpec
 from hri_envs.physics.panda.warp.episode import WarpPhysicsEpisode, WarpSim
-from hri_envs.physics.scene.warp.vector_base import WorldsVectorEnv
 from hri_envs.physics.panda.warp.worlds import WarpWorlds
+from hri_envs.physics.scene.warp.vector_base import WorldsVectorEnv
 
 __all__ = ["PandaVectorEnv"]
 

@@ -24,13 +24,13 @@ import mujoco
 import numpy as np
 
 from hri_envs.physics.carry import laws
+from hri_envs.physics.scene.build import Scene
 from hri_envs.physics.scene.controller import LAMBDA_INV_REGULARIZATION, ImpedanceController
 from hri_envs.physics.scene.design import PhysicsDesign
-from hri_envs.physics.scene.warp import batchmath as bm
-from hri_envs.physics.scene.warp.model import WarpModel
-from hri_envs.physics.scene.build import Scene
 from hri_envs.physics.scene.seats import Seats
 from hri_envs.physics.scene.sensing import SensorModel, WristSensor
+from hri_envs.physics.scene.warp import batchmath as bm
+from hri_envs.physics.scene.warp.model import WarpModel
 
 __all__ = ["RobotImpedance", "WarpSeats", "WristSensors", "chain_jacobian", "davi",
            "disagreement", "host"]
