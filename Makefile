@@ -53,7 +53,7 @@ test: $(VENV)/.test-installed system-deps web
 	@# core is left to the rest. Their output is shown when they end; a failure of either fails.
 	@# The Learner's numba kernels (about 30 s of one core on a fresh clone, cached beside
 	@# their module) and the continuous envs' compiled control periods (about 25 s, cached in
-	@# hri_envs/physics/carry/__pycache__/kernels-<hash of their sources>) are compiled once,
+	@# hri_envs/physics/scene/__pycache__/kernels-<hash of their sources>) are compiled once,
 	@# beside mypy, before the tests' processes would each compile them at once. JAX starts threads on import, and a process that forks after
 	@# that may hang: its tests run in a process of their own too, never collected by the run
 	@# whose tests fork pools.
@@ -64,7 +64,7 @@ test: $(VENV)/.test-installed system-deps web
 	trap 'kill $$warp 2>/dev/null; rm -f "$$warp_log"' EXIT; \
 	set -x; \
 	{ $(PY) -c "from agents.learning.algorithm1 import preload; preload()" \
-	  && $(PY) -c "from hri_envs.physics.carry.jit import preload; preload()"; } & kernels=$$!; \
+	  && $(PY) -c "from hri_envs.physics.carry.stages import preload; preload()"; } & kernels=$$!; \
 	$(VENV)/bin/mypy && $(VENV)/bin/lint-imports && wait $$kernels \
 	&& MUJOCO_GL=egl $(PY) -m pytest -q -n auto --dist loadgroup \
 	  --ignore-glob='tests/test_jax*' --ignore-glob='tests/test_mjwarp*' \

@@ -40,9 +40,9 @@ from agents.protocol import Agent, Trace
 from baselines.physical.admittance import AdmittanceGains, FixedAdmittance, settle_action
 from baselines.physical.goal_robot import LeadParams, embedded_wrench, lead_speed
 from baselines.physical.sensing import object_state, twist_action
+from hri_envs.physics.carry.robot_view import EpisodeOutcome, RobotTask
 from hri_envs.physics.scene.kinematics import Pose, StraightLine, rotation_error
 from hri_envs.physics.scene.observer import StateObserver
-from hri_envs.physics.carry.robot_view import EpisodeOutcome, RobotTask
 from hri_envs.physics.scene.seats import Seats
 from hri_envs.task.actions import WAIT
 from hri_envs.task.graph import BOTH, TOGGLE

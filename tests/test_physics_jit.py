@@ -9,9 +9,9 @@ import pytest
 
 pytest.importorskip("numba")
 
-from hri_envs.physics.carry import jit  # noqa: E402
+from hri_envs.physics.scene import jit  # noqa: E402
 
-PHYSICS = Path(jit.__file__).parent  # the carry envs' package: SOURCES are relative to it
+PHYSICS = Path(jit.__file__).parents[1]  # hri_envs/physics: SOURCES are relative to it
 
 
 def test_every_module_with_kernels_names_the_cache() -> None:
@@ -28,12 +28,12 @@ def test_the_cache_is_named_by_the_sources(tmp_path: Path, monkeypatch) -> None:
     here = jit.cache_dir()
     copy = tmp_path / "physics"
     copy.mkdir()
-    for name in (*jit.SOURCES, "jit.py"):
+    for name in jit.SOURCES:
         (copy / name).parent.mkdir(parents=True, exist_ok=True)
         (copy / name).write_text((PHYSICS / name).read_text())
-    monkeypatch.setattr(jit, "__file__", str(copy / "jit.py"))
+    monkeypatch.setattr(jit, "__file__", str(copy / "scene" / "jit.py"))
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
     same = jit.cache_dir()
     assert Path(same).name == Path(here).name
-    (copy / "laws.py").write_text((PHYSICS / "laws.py").read_text() + "\n# edited\n")
+    (copy / "scene/laws.py").write_text((PHYSICS / "scene/laws.py").read_text() + "\n# edited\n")
     assert Path(jit.cache_dir()).name != Path(here).name

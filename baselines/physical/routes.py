@@ -8,8 +8,8 @@ depends on their *preference*, an ordering of those moves. The robot knows the t
 the episode's geometry and the scenario's list of preferences (all public:
 ``task.graph``, ``task.geometry``, ``spec_of(task.graph).preferences``); it does not know
 the human's goal or preference. So its hypotheses are the pairs (goal, preference), each
-a route: the abstract states of :func:`~hri_envs.physics.carry.human.intention.route_states` as object
-poses (:class:`~hri_envs.physics.scene.observer.StateObserver`), a polyline in the space of
+a route: the abstract states of :func:`~hri_envs.physics.carry.human.intention.route_states` as
+object poses (:class:`~hri_envs.physics.scene.observer.StateObserver`), a polyline in the space of
 object poses embedded as ``x = (p, L θ)`` (position [m] and the rotation vector from the
 start's orientation [rad] times the lever ``L`` [m/rad], ``task.design.lever``).
 Preferences that give the same route are merged into one hypothesis whose prior weight is
@@ -42,9 +42,9 @@ import numpy as np
 
 from hri_envs.errors import ConfigError
 from hri_envs.physics.carry.human.intention import route_states
+from hri_envs.physics.carry.robot_view import RobotTask
 from hri_envs.physics.scene.kinematics import rotation_error
 from hri_envs.physics.scene.observer import StateObserver
-from hri_envs.physics.carry.robot_view import RobotTask
 from hri_envs.task.scenarios import spec_of
 
 __all__ = ["FilterParams", "Projection", "RouteFilter", "Routes"]

@@ -25,8 +25,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hri_envs.physics.scene.kinematics import Pose, quat_to_mat
 from hri_envs.physics.carry.robot_view import RobotTask
+from hri_envs.physics.scene.kinematics import Pose, quat_to_mat
 from hri_envs.physics.scene.seats import Seats
 
 __all__ = ["HumanWrench", "ObjectState", "clamp", "deadband", "lowpass_alpha", "object_state",

@@ -1,9 +1,10 @@
 """A physical human fitted to recorded physical sessions, and the population that seats it.
 
-The continuous envs' human is the reference human of :class:`~hri_envs.physics.carry.human.intention.
-HumanParams`: a route to their goal (their ``preference``), a minimum-jerk reference along
-it at their ``speed``, started after ``reaction_s`` and paused ``hesitation_s`` before each
-line, yielding to a robot that leads their way. A participant of ``hri-bench serve
+The continuous envs' human is the reference human of
+:class:`~hri_envs.physics.carry.human.intention.HumanParams`: a route to their goal (their
+``preference``), a minimum-jerk reference along it at their ``speed``, started after ``reaction_s``
+and paused ``hesitation_s`` before each line, yielding to a robot that leads their way. A
+participant of ``hri-bench serve
 --physical`` moves their hand's target themselves; this module finds the reference human
 whose hand target comes nearest theirs, step by step, on the object's recorded motion
 (teacher forcing: the reference advanced on the recorded object poses, exactly as
@@ -205,8 +206,9 @@ class PhysicalFit:
     scores: dict[str, float]
 
     def population(self) -> Any:
-        """The fitted humans as a :class:`~hri_envs.physics.carry.human.population.PhysicalPopulation`
-        (family ``fitted``, one member per training participant).
+        """The fitted humans as a
+        :class:`~hri_envs.physics.carry.human.population.PhysicalPopulation` (family ``fitted``, one
+        member per training participant).
         """
         from hri_envs.physics.carry.human.population import fitted_population  # noqa: PLC0415
 

@@ -34,11 +34,11 @@ from typing import Any
 
 import numpy as np
 
-from hri_envs.physics.scene.design import design_for
 from hri_envs.physics.carry.human.intention import HumanParams, IntentionHuman, route_states
+from hri_envs.physics.carry.human.whole_arm import handle_quat_in_object
+from hri_envs.physics.scene.design import design_for
 from hri_envs.physics.scene.kinematics import Pose, compose
 from hri_envs.physics.scene.observer import StateObserver
-from hri_envs.physics.carry.human.whole_arm import handle_quat_in_object
 from hri_envs.task.scenarios import episode_geometry, scenario_graph
 
 __all__ = ["LeadStats", "ScriptedLeader", "join", "lead", "record_synthetic"]

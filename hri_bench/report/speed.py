@@ -222,8 +222,8 @@ def measure_physics(size: str = "full", worlds: tuple[int, ...] | None = None,
     }
     figures.update(continuous_figures(CONTINUOUS_SECONDS[size]))
     try:  # the mjwarp extra: its modules, then Warp itself (the cache's folder)
-        from hri_envs.physics.scene.warp.device import kernel_cache_dir
         from hri_envs.physics.panda.warp.speed import warp_world_steps
+        from hri_envs.physics.scene.warp.device import kernel_cache_dir
 
         cache = kernel_cache_dir()
     except ImportError as exc:

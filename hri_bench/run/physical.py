@@ -1,8 +1,8 @@
 """Runs of robot agents with physical humans on the continuous envs (the physical suite's loop).
 
 A *run* is a few episodes of one robot agent with one physical human (a member of a
-population, :mod:`hri_envs.physics.carry.human.population`) on a ``*PandaContinuous-v1`` env; the agent
-is made once per run and may learn across its episodes. Every draw of run ``r`` of a track
+population, :mod:`hri_envs.physics.carry.human.population`) on a ``*PandaContinuous-v1`` env; the
+agent is made once per run and may learn across its episodes. Every draw of run ``r`` of a track
 comes from ``(seed, track, r)``: episode ``e`` resets the env with the seed
 :func:`episode_seed` (start, goal and the wheel's layout are the env's draws from it), so
 every agent meets the same episodes (paired comparisons) and a run simulated alone is the

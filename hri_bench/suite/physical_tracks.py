@@ -1,8 +1,8 @@
 """The physical suite's tracks: robots that feel the human, ranked on held-out physical humans.
 
 ``hri-bench suite --physical`` runs robot agents (:mod:`agents.physical`) with the physical
-humans of the frozen ``test`` split (:mod:`hri_envs.physics.carry.human.population`) on the continuous
-envs' v1 (``*PandaContinuous-v1``: the reward pays for placing the object at the human's
+humans of the frozen ``test`` split (:mod:`hri_envs.physics.carry.human.population`) on the
+continuous envs' v1 (``*PandaContinuous-v1``: the reward pays for placing the object at the human's
 goal; docs/physics.md). Version 1 (:data:`TRACKS_P1`): one track per scenario and test group
 (``nominal`` adults, ``weak``, ``hesitant``, ``heldout`` body-size extremes absent from
 train), 32 humans each, every track a headline track (each weighs the same; together they

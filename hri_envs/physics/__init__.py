@@ -10,14 +10,15 @@ package            contents
                    object (``build``, ``shapes``, ``design``), poses (``kinematics``), the
                    IK reference (``ik``), the impedance controller (``controller``), the wrist
                    sensor (``sensing``), the seats (``seats``), contacts, the observer of
-                   abstract states, cameras and rendering
+                   abstract states, cameras and rendering; the control period's laws
+                   compiled over a world axis (``laws``)
 ``panda``          the discrete Panda backend of the v0 ids (``HangerPanda-v0``,
                    ``backend="mujoco"``): :class:`~hri_envs.physics.panda.sim.PandaSim`, one
                    abstract step of both agents; the hand on six joints; ``physics={...}``
                    options; the env's episode and the benchmark's batch
 ``carry``          the continuous carry envs (``*PandaContinuous-v0/v1``): the env and its
                    PettingZoo form, :class:`~hri_envs.physics.carry.sim.CarrySim` at 25 Hz,
-                   the compiled control-period laws over a world axis, rewards; its human
+                   its five control periods in one compiled call, rewards; its human
                    (``carry.human``): the whole arm, its body, intention, families and
                    frozen populations
 =================  ==========================================================================

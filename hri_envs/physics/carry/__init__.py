@@ -4,9 +4,9 @@
 (``env``: :class:`~hri_envs.physics.carry.env.CarryEnv`) and its PettingZoo form
 (``parallel``), the simulation of one step (``sim``: :class:`~hri_envs.physics.carry.sim.
 CarrySim`, with ``types``, ``simulation``, ``faults``), its five control periods compiled in
-one call (``stages``, ``periods``, MuJoCo's C functions in ``mjc``) from laws written once
-over a leading axis of worlds (``laws``; the human's in ``human.laws``; their arithmetic in
-``lawmath``; the numba cache in ``jit``), the interaction measures (``interaction``), the
+one call (``stages``, ``periods``, MuJoCo's C functions in ``mjc``) from the laws written
+once over a leading axis of worlds (the scene's, :mod:`hri_envs.physics.scene.laws`; the
+human's in ``human.laws``), the interaction measures (``interaction``), the
 rewards and figures (``reward``) and what a robot may know (``robot_view``). ``human``: the
 human (the whole arm, its body and drives, the intention conveyed by force, families,
 frozen populations). ``warp``: N worlds of these envs on MuJoCo Warp.

@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hri_envs.physics.carry.jit import kernel
+from hri_envs.physics.scene.jit import kernel
 
 __all__ = ["InteractionMeter", "StepInteraction", "meter_step"]
 

@@ -23,7 +23,6 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
-from hri_envs.physics.carry import laws
 from hri_envs.physics.carry.human import laws as hl
 from hri_envs.physics.carry.stages import (
     ANGVEL_SQ_MAX,
@@ -37,6 +36,7 @@ from hri_envs.physics.carry.stages import (
     robot_stage,
     tail_stage,
 )
+from hri_envs.physics.scene import laws
 
 if TYPE_CHECKING:
     from hri_envs.physics.carry.sim import CarrySim

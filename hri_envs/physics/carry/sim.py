@@ -1,10 +1,11 @@
 """Continuous carrying: the robot's Cartesian grip targets at 25 Hz and a whole human arm.
 
 :class:`CarrySim` owns one MuJoCo scene of a scenario with the whole human arm
-(:mod:`~hri_envs.physics.carry.human.whole_arm`, torque-driven, or :mod:`~hri_envs.physics.carry.human.muscles`,
-muscle-driven). Both partners hold the object from the start (the robot by its grasp weld
-on the grip block, the human by friction on the handle); the human means to bring it to
-their goal support along their route (:mod:`~hri_envs.physics.carry.human.intention`). Each
+(:mod:`~hri_envs.physics.carry.human.whole_arm`, torque-driven, or
+:mod:`~hri_envs.physics.carry.human.muscles`, muscle-driven). Both partners hold the object from the
+start (the robot by its grasp weld on the grip block, the human by friction on the handle); the
+human means to bring it to their goal support along their route
+(:mod:`~hri_envs.physics.carry.human.intention`). Each
 :meth:`CarrySim.step` takes the robot's action, a grip target relative to where its grip
 is (and a stiffness), and simulates 40 ms:
 
@@ -39,7 +40,6 @@ import mujoco
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.physics.carry import laws, stages
 from hri_envs.physics.carry.faults import (
     CarryFault,
     check_faults,
@@ -66,6 +66,7 @@ from hri_envs.physics.carry.interaction import InteractionMeter, StepInteraction
 from hri_envs.physics.carry.periods import CarryPeriods, PeriodsResult
 from hri_envs.physics.carry.types import CarryStep, RobotCommand, grip_reference
 from hri_envs.physics.carry.types import rotate as _rotate
+from hri_envs.physics.scene import laws, stages
 from hri_envs.physics.scene.build import (
     FINGER_ON_GRIP_M,
     FINGER_OPEN_M,

@@ -4,7 +4,7 @@
 per period MuJoCo's ``mj_step1`` (called directly, :mod:`~hri_envs.physics.carry.mjc`),
 :func:`human_stage` (the human's reference, torso targets, hand impedance and torque drive:
 :mod:`~hri_envs.physics.carry.human.laws`), :func:`robot_stage` (the wrist sensor's compensation,
-the seats' law, the robot's impedance controller: :mod:`~hri_envs.physics.carry.laws`),
+the seats' law, the robot's impedance controller: :mod:`~hri_envs.physics.scene.laws`),
 ``mj_step2`` and three more ``mj_step``, :func:`after_stage` (the hand's wrench on the
 handle); then :func:`tail_stage` (what the step reports). The laws get one world, as (1, ...)
 arrays. :class:`~hri_envs.physics.carry.periods.CarryPeriods` binds it to a simulation and
@@ -17,14 +17,14 @@ import math
 
 import numpy as np
 
-from hri_envs.physics.carry import lawmath as lm
-from hri_envs.physics.carry import laws
 from hri_envs.physics.carry.human import laws as hl
 from hri_envs.physics.carry.human.arm_control import POSTURE_REGULARIZATION
 from hri_envs.physics.carry.interaction import meter_step
-from hri_envs.physics.carry.jit import kernel
 from hri_envs.physics.carry.mjc import mj_jac, mj_jacSite, mj_solveM, mj_step, mj_step1, mj_step2
+from hri_envs.physics.scene import lawmath as lm
+from hri_envs.physics.scene import laws
 from hri_envs.physics.scene.controller import LAMBDA_INV_REGULARIZATION
+from hri_envs.physics.scene.jit import kernel
 
 __all__ = ["ANGVEL_SQ_MAX", "PERIODS", "VEL_SQ_MAX", "after_stage", "carry_step",
            "human_stage", "object_angvel", "observe", "robot_stage", "slip", "tail_stage"]
@@ -137,7 +137,7 @@ def after_stage(sensordata, site_xmat, qvel, hf, ht, handle, obj_dof, angvel, dt
                 force, velocity):
     """After a control period's physics, for one world: the hand's wrench on the handle
     integrated into ``acc`` (1, 3) and sampled into ``force`` (1,), ``velocity`` (1, 3)
-    (:func:`~hri_envs.physics.carry.laws.handle_sample`).
+    (:func:`~hri_envs.physics.scene.laws.handle_sample`).
     """
     laws.handle_sample(sensordata[hf:hf + 3].reshape((1, 3)),
                        sensordata[ht:ht + 3].reshape((1, 3)), site_xmat[handle:handle + 1],
@@ -176,7 +176,7 @@ def tail_stage(qpos, qvel, xpos, xquat, site_xpos, site_xmat, body, obj_dof, gri
 @kernel
 def object_angvel(qvel, xquat, body, obj_dof):
     """(1, 3) the object's angular velocity in the world (its free joint's is local;
-    :func:`~hri_envs.physics.carry.laws.world_angvel`).
+    :func:`~hri_envs.physics.scene.laws.world_angvel`).
     """
     out = np.empty((1, 3))
     laws.world_angvel(xquat[body:body + 1], qvel[obj_dof + 3:obj_dof + 6].reshape((1, 3)),
@@ -199,7 +199,7 @@ def carry_step(k, dt_c, dt_step, scripted, robot_holds, stiff, scale, m, d, qpos
     period ``mj_step1``, :func:`human_stage`, :func:`robot_stage`, ``mj_step2`` and ``k - 1``
     more ``mj_step``, :func:`after_stage`; then :func:`tail_stage` and, if ``noisy`` (a
     sensor without a delay line), the wrist's reading into ``sensed`` (6,)
-    (:func:`~hri_envs.physics.carry.laws.sensor_noise` of the last period's wrench and draws
+    (:func:`~hri_envs.physics.scene.laws.sensor_noise` of the last period's wrench and draws
     ``z`` (5, 6)). ``true`` (5, 6) receives each period's compensated wrist wrench,
     ``forces`` (1, 5) and ``velocities`` (1, 5, 3) the samples, ``acc``, ``sat``, ``left``
     start from zero. The arguments are :meth:`CarryPeriods.run`'s.
@@ -242,7 +242,7 @@ def carry_step(k, dt_c, dt_step, scripted, robot_holds, stiff, scale, m, d, qpos
 @kernel
 def slip(qpos, site_xpos, site_xmat, grip, handle, out):
     """``out`` (3,): 1 if ``qpos`` is finite (else 0), the handle's distance [m] and angle
-    [rad] off the hand's grip (:func:`~hri_envs.physics.carry.laws.handle_slip`).
+    [rad] off the hand's grip (:func:`~hri_envs.physics.scene.laws.handle_slip`).
     """
     finite = 1.0
     for v in qpos:
@@ -277,3 +277,21 @@ def observe(qpos, qvel, xpos, xquat, site_xpos, site_xmat, body, obj_dof, grip, 
     for c in range(n):
         out[20 + c] = qpos[c]
         out[20 + n + c] = qvel[c]
+
+
+def preload() -> None:
+    """Compile (or load) the kernels one step of each continuous scenario uses, with the
+    torque-driven arm (``make test`` runs it before the tests' processes would each compile
+    them at once; :mod:`hri_envs.physics.scene.jit`).
+    """
+    from hri_envs.physics.carry.env import CarryEnv  # noqa: PLC0415
+    from hri_envs.task.scenarios import SCENARIOS  # noqa: PLC0415
+
+    for spec in SCENARIOS.values():
+        if spec.continuous_id is None:
+            continue
+        env = CarryEnv(spec.name)
+        env.reset(seed=0)
+        env.sim.human_grip_reference()
+        env.step([0.0] * 7)
+        env.close()

@@ -7,7 +7,11 @@ poses and straight-line trajectories (``kinematics``), the mink IK reference (``
 Cartesian impedance controller and DAVI (``controller``), the wrist force/torque sensor and
 its model (``sensing``), supports as seats (``seats``), contacts (``contacts``), the closest
 abstract state and the human's inferred action (``observer``), cameras (``camera``) and
-headless rendering (``rendering``). ``warp``: the same scene's N worlds on MuJoCo Warp.
+headless rendering (``rendering``); the control period's laws compiled over a leading axis of
+worlds, which the C backends run with one world and MuJoCo Warp with N (``laws``: the wrist
+sensor, the seats, the robot's impedance controller, the handle's wrench; their arithmetic
+in ``lawmath``; the compiled code's cache in ``jit``). ``warp``: the same scene's N worlds
+on MuJoCo Warp.
 
 May import :mod:`hri_envs.task`, :mod:`hri_envs.errors` and :mod:`hri_envs.checks`; never the
 env families (:mod:`~hri_envs.physics.panda`, :mod:`~hri_envs.physics.carry`) or a Warp

@@ -1,14 +1,14 @@
 """The human's control-period laws, compiled (numba), over a leading axis of worlds.
 
-Part of :mod:`hri_envs.physics.carry.laws` (which says what the laws are and how they relate to the
+Part of :mod:`hri_envs.physics.scene.laws` (which says what the laws are and how they relate to the
 numpy classes they mirror): the human's reference along their route
-(:func:`intention_advance`, :meth:`~hri_envs.physics.carry.human.intention.IntentionHuman.advance`, each
-world's route as arrays; :func:`route_progress`,
-:meth:`~hri_envs.physics.carry.human.intention.IntentionHuman.progress`), the hand's reference for the
-object's (:func:`hand_reference`) or for the human agent's command
+(:func:`intention_advance`, :meth:`~hri_envs.physics.carry.human.intention.IntentionHuman.advance`,
+each world's route as arrays; :func:`route_progress`,
+:meth:`~hri_envs.physics.carry.human.intention.IntentionHuman.progress`), the hand's reference for
+the object's (:func:`hand_reference`) or for the human agent's command
 (:func:`commanded_reference`), the torso's servo targets (:func:`torso_target`,
-:class:`~hri_envs.physics.carry.human.whole_arm.WholeArm`), the object's weight on the hand of a human
-carrying alone (:func:`carried_weight`), the hand impedance (:func:`hand_impedance`,
+:class:`~hri_envs.physics.carry.human.whole_arm.WholeArm`), the object's weight on the hand of a
+human carrying alone (:func:`carried_weight`), the hand impedance (:func:`hand_impedance`,
 :class:`~hri_envs.physics.carry.human.arm_control.HandImpedance`) and the torque drive
 (:func:`torque_drive`, :class:`~hri_envs.physics.carry.human.arm_control.TorqueDrive`).
 """
@@ -19,9 +19,9 @@ import math
 
 import numpy as np
 
-from hri_envs.physics.carry import lawmath as lm
 from hri_envs.physics.carry.human.intention import IntentionHuman
-from hri_envs.physics.carry.jit import kernel
+from hri_envs.physics.scene import lawmath as lm
+from hri_envs.physics.scene.jit import kernel
 
 __all__ = ["RouteArrays", "carried_weight", "commanded_reference", "hand_impedance",
            "hand_reference", "intention_advance", "route_frame", "route_progress", "torque_drive",
@@ -351,8 +351,8 @@ def route_frame(rows: np.ndarray, index: np.ndarray, t: np.ndarray, done: np.nda
 
 
 class RouteArrays:
-    """Each world's route (:class:`~hri_envs.physics.carry.human.intention.IntentionHuman`'s straight
-    lines) as arrays, for :func:`~hri_envs.physics.carry.human.laws.intention_advance` and
+    """Each world's route (:class:`~hri_envs.physics.carry.human.intention.IntentionHuman`'s
+    straight lines) as arrays, for :func:`~hri_envs.physics.carry.human.laws.intention_advance` and
     :func:`~hri_envs.physics.carry.human.laws.route_progress`.
 
     Args:

@@ -15,10 +15,10 @@ from collections.abc import Mapping
 import mujoco
 import numpy as np
 
-from hri_envs.physics.carry import laws
 from hri_envs.physics.carry.human.intention import HumanParams, IntentionHuman
 from hri_envs.physics.carry.sim import CarryStep, RobotCommand, grip_reference
 from hri_envs.physics.carry.warp.worlds import Commands, WarpCarryWorlds
+from hri_envs.physics.scene import laws
 from hri_envs.physics.scene.build import Scene
 from hri_envs.physics.scene.design import PhysicsDesign
 from hri_envs.physics.scene.kinematics import Pose

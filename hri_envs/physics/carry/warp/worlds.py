@@ -8,7 +8,7 @@ the human agent's command), their arm's impedance and torque drive pull the hand
 follows; the seats hold a resting object; the wrist sensor reads; 5 control periods of
 MuJoCo Warp's ``step1``/``step2``/``step`` for all worlds at once; the effort, disagreement,
 faults and placement per world. The control laws are the C backend's compiled ones
-(:mod:`~hri_envs.physics.carry.laws`, :mod:`~hri_envs.physics.carry.human.laws`) run over the worlds
+(:mod:`~hri_envs.physics.scene.laws`, :mod:`~hri_envs.physics.carry.human.laws`) run over the worlds
 that step (:mod:`~hri_envs.physics.scene.warp.control`,
 :mod:`~hri_envs.physics.carry.warp.human`): only the engine that steps differs.
 
@@ -38,7 +38,6 @@ import numpy as np
 
 from hri_envs.envs.backends import backend_spec
 from hri_envs.errors import ConfigError
-from hri_envs.physics.carry import laws
 from hri_envs.physics.carry.faults import DROP_BELOW_M, SLIP_M, SLIP_RAD
 from hri_envs.physics.carry.human import laws as hl
 from hri_envs.physics.carry.human.body import WARP_BODY_FIELDS
@@ -47,6 +46,7 @@ from hri_envs.physics.carry.interaction import InteractionMeter
 from hri_envs.physics.carry.sim import CALM_S, STRAINED_S, CarrySim, CarryStep
 from hri_envs.physics.carry.stages import ANGVEL_SQ_MAX, PERIODS, VEL_SQ_MAX
 from hri_envs.physics.carry.warp.human import WarpArms
+from hri_envs.physics.scene import laws
 from hri_envs.physics.scene.design import PhysicsDesign
 from hri_envs.physics.scene.warp import batchmath as bm
 from hri_envs.physics.scene.warp.control import RobotImpedance, WarpSeats, WristSensors, host
@@ -264,7 +264,7 @@ class WarpCarryWorlds(WarpModel):
     def _plan(self, rows: np.ndarray, robot: Commands, human: Commands | None,
               agent: np.ndarray) -> _Plan:
         """The step's set-up per world: the robot grip's line
-        (:func:`~hri_envs.physics.carry.laws.grip_motion`), its IK reference step (stiff: towards
+        (:func:`~hri_envs.physics.scene.laws.grip_motion`), its IK reference step (stiff: towards
         the target; passive: restarted from the actual arm towards its grip), the human
         agent's line and the hand's gains.
         """

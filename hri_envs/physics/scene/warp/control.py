@@ -1,17 +1,17 @@
 """The control period's laws over a leading axis of worlds on MuJoCo Warp: the compiled laws
-of :mod:`~hri_envs.physics.carry.laws` (those the C backend of the continuous envs runs with one
+of :mod:`~hri_envs.physics.scene.laws` (those the C backend of the continuous envs runs with one
 world) with R = the worlds ``rows`` that run the period, their inputs gathered from MuJoCo
 Warp's arrays (host views on the CPU device, as float64).
 
 * :class:`RobotImpedance`: :class:`~hri_envs.physics.scene.controller.ImpedanceController`'s
-  torques (:func:`~hri_envs.physics.carry.laws.robot_task`, ``M⁻¹`` by MuJoCo Warp's ``solve_m``,
-  :func:`~hri_envs.physics.carry.laws.robot_null_space`; site Jacobians from the joint axes);
+  torques (:func:`~hri_envs.physics.scene.laws.robot_task`, ``M⁻¹`` by MuJoCo Warp's ``solve_m``,
+  :func:`~hri_envs.physics.scene.laws.robot_null_space`; site Jacobians from the joint axes);
 * :class:`WristSensors`: :class:`~hri_envs.physics.scene.sensing.WristSensor` and its
-  :class:`~hri_envs.physics.scene.sensing.SensorModel` (:func:`~hri_envs.physics.carry.laws.wrist_wrench`,
-  each world's delay line, :func:`~hri_envs.physics.carry.laws.sensor_noise` with each world's
-  bias and noise generator);
+  :class:`~hri_envs.physics.scene.sensing.SensorModel`
+  (:func:`~hri_envs.physics.scene.laws.wrist_wrench`, each world's delay line,
+  :func:`~hri_envs.physics.scene.laws.sensor_noise` with each world's bias and noise generator);
 * :class:`WarpSeats`: :class:`~hri_envs.physics.scene.seats.Seats`
-  (:func:`~hri_envs.physics.carry.laws.seat_wrench`), each world with its own layout;
+  (:func:`~hri_envs.physics.scene.laws.seat_wrench`), each world with its own layout;
 * :func:`disagreement`, :func:`davi`: :class:`~hri_envs.physics.scene.controller.Disagreement`
   (the discrete Panda backend's, vectorised in numpy here).
 """
@@ -23,7 +23,7 @@ from collections import deque
 import mujoco
 import numpy as np
 
-from hri_envs.physics.carry import laws
+from hri_envs.physics.scene import laws
 from hri_envs.physics.scene.build import Scene
 from hri_envs.physics.scene.controller import LAMBDA_INV_REGULARIZATION, ImpedanceController
 from hri_envs.physics.scene.design import PhysicsDesign

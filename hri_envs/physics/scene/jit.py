@@ -2,14 +2,14 @@
 
 numba's ``cache=True`` keeps a compiled function on disk and compiles it anew when *its own*
 source file changes, not when a function it calls from another file does: a cached caller
-would go on running the old code of an edited callee. The continuous envs' kernels call
-each other across modules (:mod:`~hri_envs.physics.carry.lawmath` from the laws, the laws from
-:mod:`~hri_envs.physics.carry.stages`), so :func:`kernel` compiles with ``cache=True``
-into a directory named by a hash of all of :data:`SOURCES` (and this file): editing any of
-them starts a fresh cache, compiled once (about 25 s of one core; ``make test`` does it
-beside mypy: :func:`preload`).
+would go on running the old code of an edited callee. The kernels call each other
+across modules (:mod:`~hri_envs.physics.scene.lawmath` from the laws, the laws from the
+continuous envs' :mod:`~hri_envs.physics.carry.stages`), so :func:`kernel` compiles with
+``cache=True`` into a directory named by a hash of all of :data:`SOURCES` (this file among
+them): editing any of them starts a fresh cache, compiled once (about 25 s of one core;
+``make test`` does it beside mypy: :func:`hri_envs.physics.carry.stages.preload`).
 
-The cache lives in ``hri_envs/physics/__pycache__/kernels-<hash>`` (or, when that is not
+The cache lives in ``hri_envs/physics/scene/__pycache__/kernels-<hash>`` (or, when that is not
 writable, in ``$XDG_CACHE_HOME/hri_envs`` or ``~/.cache/hri_envs``), or under
 ``NUMBA_CACHE_DIR`` when it is set.
 """
@@ -24,11 +24,13 @@ from typing import Any, TypeVar, cast
 from numba import njit
 from numba.core import config as _config
 
-__all__ = ["SOURCES", "cache_dir", "kernel", "preload"]
+__all__ = ["SOURCES", "cache_dir", "kernel"]
 
-#: The modules (in this package) whose functions are compiled with :func:`kernel`.
-SOURCES: tuple[str, ...] = ("lawmath.py", "laws.py", "human/laws.py", "stages.py",
-                            "interaction.py", "mjc.py")
+#: The modules whose functions are compiled with :func:`kernel` (or that compiled code calls
+#: into MuJoCo through), and this one; paths under ``hri_envs/physics``.
+SOURCES: tuple[str, ...] = ("scene/lawmath.py", "scene/laws.py", "scene/jit.py",
+                            "carry/human/laws.py", "carry/stages.py", "carry/interaction.py",
+                            "carry/mjc.py")
 _F = TypeVar("_F", bound=Callable[..., Any])
 
 
@@ -43,9 +45,10 @@ def _writable(path: str) -> bool:
 def cache_dir() -> str:
     """Where the kernels of the current sources are cached."""
     here = os.path.dirname(os.path.abspath(__file__))
+    physics = os.path.dirname(here)
     digest = hashlib.sha256()
-    for name in (*SOURCES, os.path.basename(__file__)):
-        with open(os.path.join(here, name), "rb") as f:
+    for name in SOURCES:
+        with open(os.path.join(physics, name), "rb") as f:
             digest.update(f.read())
     tag = "kernels-" + digest.hexdigest()[:16]
     if os.environ.get("NUMBA_CACHE_DIR"):
@@ -69,18 +72,3 @@ def kernel(fn: _F) -> _F:
         return cast(_F, njit(cache=True)(fn))
     finally:
         config.CACHE_DIR = previous
-
-
-def preload() -> None:
-    """Compile (or load) the kernels one step of each continuous scenario uses, with the
-    torque-driven arm (``make test`` runs it before the tests' processes would each compile
-    them at once).
-    """
-    from hri_envs.physics.carry.env import CarryEnv  # noqa: PLC0415
-
-    for scenario in ("hanger", "wheel"):
-        env = CarryEnv(scenario)
-        env.reset(seed=0)
-        env.sim.human_grip_reference()
-        env.step([0.0] * 7)
-        env.close()

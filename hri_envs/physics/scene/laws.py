@@ -24,7 +24,7 @@ torso's targets, the hand impedance, the torque drive); here:
 
 The numpy classes they mirror stay the discrete Panda backend's (:class:`~hri_envs.physics.
 panda.sim.PandaSim`) and the muscle-driven arm's. Formulas and their order are those classes',
-element by element (:mod:`~hri_envs.physics.carry.lawmath`), so the results agree to the last
+element by element (:mod:`~hri_envs.physics.scene.lawmath`), so the results agree to the last
 bits (a dot product's summation order, libm against numpy). Jacobians, sensor readings and
 frames come in as arrays: MuJoCo's ``mj_jacSite`` and ``mjData`` on the C backend
 (:mod:`~hri_envs.physics.carry.periods`), the joint axes and MuJoCo Warp's arrays there.
@@ -36,8 +36,8 @@ import math
 
 import numpy as np
 
-from hri_envs.physics.carry import lawmath as lm
-from hri_envs.physics.carry.jit import kernel
+from hri_envs.physics.scene import lawmath as lm
+from hri_envs.physics.scene.jit import kernel
 
 __all__ = ["grip_motion", "grip_target", "handle_sample", "handle_slip", "robot_null_space",
            "robot_reference", "robot_task", "seat_engaged", "seat_wrench", "sensor_noise",

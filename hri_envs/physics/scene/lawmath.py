@@ -1,4 +1,4 @@
-"""Compiled (numba) pose arithmetic on plain floats for :mod:`hri_envs.physics.carry.laws`.
+"""Compiled (numba) pose arithmetic on plain floats for :mod:`hri_envs.physics.scene.laws`.
 
 Quaternions are ``(w, x, y, z)`` tuples of floats, vectors ``(x, y, z)`` tuples; rotation
 matrices are read from row-major (9,) array views, as MuJoCo stores them (``xmat``,
@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from hri_envs.physics.carry.jit import kernel
+from hri_envs.physics.scene.jit import kernel
 
 Vec = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
