@@ -45,7 +45,7 @@ def _build(scenario: str) -> tuple[str, tuple[dict[str, Any], np.ndarray], float
         if count[0] % 32 == 0:
             print(f"{time.perf_counter() - t:6.0f} s {what}", flush=True)
 
-    out = build_scenario(scenario, progress)
+    out = build_scenario(scenario_graph(scenario), progress)
     return scenario, out, time.perf_counter() - t
 
 

@@ -17,6 +17,7 @@ from hri_envs.physics.panda.speed import (
     physics_realtime_factor,
     seconds_per_abstract_step,
 )
+from hri_envs.task.scenarios import scenario_graph
 
 TARGET = 20.0
 ASYNC_TARGET = 50.0
@@ -32,17 +33,17 @@ def main() -> None:
                         help="wall seconds of the --async measurement")
     args = parser.parse_args()
     if args.num_envs:
-        res = async_steps_per_second(args.scenario, args.num_envs, args.seconds)
+        res = async_steps_per_second(scenario_graph(args.scenario), args.num_envs, args.seconds)
         print(f"{args.scenario}: {res.abstract_steps / res.wall_seconds:5.1f} abstract steps/s "
               f"summed over {args.num_envs} async envs ({res.abstract_steps} steps in "
               f"{res.wall_seconds:.1f} s, {res.sim_seconds / res.abstract_steps:.2f} simulated "
               f"s each; target {ASYNC_TARGET:.0f})")
         return
-    rt = physics_realtime_factor(args.scenario)
+    rt = physics_realtime_factor(scenario_graph(args.scenario))
     print(f"{args.scenario}: real-time factor {rt.realtime_factor:5.1f}x "
           f"({rt.sim_seconds:.1f} s simulated in {rt.wall_seconds:.2f} s; per CPU second "
           f"{rt.cpu_realtime_factor:.1f}x; target {TARGET:.0f}x)")
-    ep = seconds_per_abstract_step(args.scenario)
+    ep = seconds_per_abstract_step(scenario_graph(args.scenario))
     print(f"{args.scenario}: {ep.seconds_per_step:.3f} wall s per abstract step "
           f"({ep.abstract_steps} steps, {ep.sim_seconds / ep.abstract_steps:.2f} simulated s "
           f"each, real-time factor {ep.realtime_factor:.1f}x, per CPU second "

@@ -45,7 +45,7 @@ def _task(start: int = B) -> RobotTask:
     graph = scenario_graph("hanger")
     seats = np.array([s.position for s in graph.scenario.supports])
     return RobotTask("hanger", graph, graph.scenario, start, seats, None, 0.04, 30.0, 0.02,
-                     0.06, design_for("hanger"), observation_layout(7, 3))
+                     0.06, design_for(graph), observation_layout(7, 3))
 
 
 def _observation(task: RobotTask, pos: np.ndarray, wrench: np.ndarray) -> np.ndarray:

@@ -193,9 +193,9 @@ def test_physics_speed_measurements_on_a_tiny_size():
     from hri_envs.physics.panda.speed import physics_realtime_factor, seconds_per_abstract_step
 
     g = scenario_graph("hanger")
-    line = physics_realtime_factor("hanger", repeats=1)
+    line = physics_realtime_factor(g, repeats=1)
     assert line.abstract_steps == 2  # over to B and back over to A, once
-    episode = seconds_per_abstract_step("hanger", episodes=1)
+    episode = seconds_per_abstract_step(g, episodes=1)
     # The same episode (B to A, the human leading, the robot only grasping and letting go)
     # on the graph: the physics must take exactly as many abstract steps.
     human, s, n = preference_human(g), g.support_state(1, 0), 0

@@ -24,7 +24,7 @@ def _engaged_by_arrays(seats: Seats, pos: np.ndarray, quat: np.ndarray) -> int:
 @pytest.mark.parametrize("scenario", ["hanger", "wheel"])
 def test_seat_test_matches_the_array_formula_around_every_seat(scenario):
     graph = scenario_graph(scenario)
-    seats = Seats(graph.scenario, design_for(scenario))
+    seats = Seats(graph.scenario, design_for(graph))
     rng = np.random.default_rng(0)
     found = set()
     for k in range(len(seats.pos)):

@@ -101,7 +101,7 @@ def test_physics_option_keys_are_listed_once():
     assert set(PARAMETER_KEYS) == set(PHYSICS_PARAMETERS) <= set(OPTION_KEYS)
     assert set(spec.presets) == set(PRESET_NAMES)
     for scenario in ("hanger", "wheel"):  # every design sets every preset, with known keys
-        presets = design_for(scenario).presets
+        presets = design_for(scenario_graph(scenario)).presets
         assert set(presets) == set(PRESET_NAMES)
         for values in presets.values():
             check_physics_options(values, "mujoco")
@@ -209,7 +209,7 @@ def test_physics_options_set_the_episode(hanger):
         sim.reset(0, rng=np.random.default_rng(seed))
         assert sim.model.body_mass[b] == 0.6  # the true mass ...
         assert sim.controller.weight[2] == pytest.approx(0.3 * 9.81)  # ... the nominal payload
-        weak = design_for("hanger").presets["weak-human"]
+        weak = design_for(scenario_graph("hanger")).presets["weak-human"]
         assert sim.human.design.human_force == weak["human_force"]
         assert sim.human.design.human_delay_s == 0.4
         biases.append(sim.params.sensor_bias_n)

@@ -58,7 +58,7 @@ class ScriptedLeader:
     def __init__(self, scenario: str, params: HumanParams) -> None:
         self.scenario, self.params = scenario, params
         self.graph = scenario_graph(scenario)
-        self.design = design_for(scenario)
+        self.design = design_for(self.graph)
         self.handle = (np.asarray(self.design.handle_pos, dtype=float),
                        handle_quat_in_object(self.graph.scenario.orientations[0]))
         self.human: IntentionHuman | None = None

@@ -22,6 +22,7 @@ from hri_bench.run.study import StudyConfig, graph_for, run_study
 from hri_envs.envs.speed import parallel_env_steps_per_s, vector_env_steps_per_s
 from hri_envs.errors import ConfigError
 from hri_envs.task.mdp import one_blas_thread, softmax
+from hri_envs.task.scenarios import graph_of, hanger
 from hri_envs.task.scenarios.hanger import PREFERENCES as HANGER_PREFERENCES
 
 __all__ = [
@@ -214,7 +215,7 @@ def measure_physics(size: str = "full", worlds: tuple[int, ...] | None = None,
 
     if size not in SIZES:
         raise ConfigError(f"size must be one of {sorted(SIZES)}, got {size!r}", field="size")
-    c = physics_realtime_factor("hanger", repeats=1)
+    c = physics_realtime_factor(graph_of(hanger.SPEC), repeats=1)
     dt = 0.002
     figures: dict[str, Any] = {
         "physics_c_world_steps_per_s": round(c.realtime_factor / dt, 1),
@@ -234,7 +235,8 @@ def measure_physics(size: str = "full", worlds: tuple[int, ...] | None = None,
     setup = None
     dev = ""
     for n in worlds if worlds is not None else PHYSICS_WORLDS[size]:
-        res = warp_world_steps(n, periods=PHYSICS_PERIODS[size], device=device)
+        res = warp_world_steps(n, graph_of(hanger.SPEC), periods=PHYSICS_PERIODS[size],
+                               device=device)
         setup = res.setup_s if setup is None else setup
         dev = res.device
         by_steps[str(n)] = round(res.world_steps_per_s, 1)

@@ -58,17 +58,18 @@ def task_from_message(header: Mapping[str, Any], arrays: Mapping[str, np.ndarray
     scenario's graph, geometry and design rebuilt from its public name and layout).
     """
     from hri_envs.physics.scene.design import design_for  # noqa: PLC0415
-    from hri_envs.task.scenarios import episode_scenario, scenario_graph  # noqa: PLC0415
+    from hri_envs.task.scenarios import episode_geometry, scenario_graph  # noqa: PLC0415
 
     name = str(header["scenario"])
+    graph = scenario_graph(name)  # the message's edge: the name resolved once
     layout = None if header["layout"] is None else tuple(
         (float(x), float(y)) for x, y in header["layout"])
     return RobotTask(
-        scenario=name, graph=scenario_graph(name), geometry=episode_scenario(name, layout),
+        scenario=name, graph=graph, geometry=episode_geometry(graph, layout),
         start=int(header["start"]), seats=np.asarray(arrays["seats"], dtype=float),
         layout=layout, dt=float(header["dt"]), time_limit_s=float(header["time_limit_s"]),
         max_step_m=float(header["max_step_m"]), max_step_rad=float(header["max_step_rad"]),
-        design=design_for(name),
+        design=design_for(graph),
         layout_names={k: slice(int(a), int(b)) for k, (a, b) in header["layout_names"].items()},
         robot_holds=bool(header["robot_holds"]))
 

@@ -15,10 +15,13 @@ May import :mod:`~hri_envs.physics.scene`, :mod:`hri_envs.envs`, :mod:`hri_envs.
 :mod:`hri_envs.task`; never :mod:`~hri_envs.physics.panda`.
 """
 
+from typing import TYPE_CHECKING
+
 from hri_envs.moved import old_names
 
-#: The public names of the module ``hri_envs.physics.carry``, before it became this package,
-#: still found here for one release (CHANGELOG.md, "Deprecated").
-__getattr__ = old_names(__name__, "hri_envs.physics.carry.sim",
-                        ("DRIVES", "CarrySim", "CarryStep",
-                         "RobotCommand", "default_grip_force", "grip_reference"))
+if not TYPE_CHECKING:  # for Python only: a type checker sees the package's own names
+    #: The public names of the module ``hri_envs.physics.carry``, before it became this package,
+    #: still found here for one release (CHANGELOG.md, "Deprecated").
+    __getattr__ = old_names(__name__, "hri_envs.physics.carry.sim",
+                            ("DRIVES", "CarrySim", "CarryStep",
+                             "RobotCommand", "default_grip_force", "grip_reference"))

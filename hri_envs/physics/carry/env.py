@@ -31,16 +31,16 @@ from hri_envs.physics.carry.reward import (
 from hri_envs.physics.carry.robot_view import RobotTask, observation_layout
 from hri_envs.physics.carry.sim import DRIVES, CarryStep, RobotCommand
 from hri_envs.physics.carry.simulation import ACTION_SIZE, CarrySimulation, check_box_action
+from hri_envs.physics.scene.design import physical_scenarios
 from hri_envs.physics.scene.ik import IKFailure
 from hri_envs.physics.scene.rendering import EpisodePictures, RenderSettings
-from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
+from hri_envs.task.scenarios import episode_geometry, scenario_graph, scenario_spec
 
 __all__ = ["ACTION_SIZE", "SENSOR_KEYS", "VERSIONS", "CarryEnv", "CarrySimulation",
            "HiddenIntentionError", "PlacingReward", "RewardWeights", "check_box_action",
            "check_sensor", "check_step_scale", "vector_env"]
 
 _FAULT_KINDS = ("dropped", "slipped", "too_weak")
-_DEFAULT_TIME_S = {"hanger": 30.0, "wheel": 45.0}
 #: The continuous ids' versions: 0 (progress reward, frozen) and 1 (placing reward, the
 #: intention hidden from ``info`` until the episode's end).
 VERSIONS: tuple[int, ...] = (0, 1)
@@ -248,7 +248,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         spec = scenario_spec(scenario)
         if spec.physics_design is None:
             raise ConfigError(f"scenario {scenario!r} has no physical design; allowed: "
-                              "hanger, wheel", field="scenario")
+                              f"{', '.join(physical_scenarios())}", field="scenario")
         if drive not in DRIVES:
             raise ConfigError(f"unknown drive {drive!r}; allowed: {', '.join(DRIVES)}",
                               field="drive")
@@ -260,7 +260,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         self.weights: RewardWeights | PlacingReward = check_weights(
             PlacingReward if version else RewardWeights, reward)
         self.population = None if population is None else _population(population, scenario)
-        max_time_s = _DEFAULT_TIME_S.get(scenario, 30.0) if max_time_s is None else max_time_s
+        max_time_s = spec.continuous_time_s if max_time_s is None else max_time_s
         if isinstance(max_time_s, bool) or not isinstance(max_time_s, int | float) \
                 or not math.isfinite(max_time_s) or max_time_s <= 0:
             raise ConfigError(f"max_time_s must be a positive number [s], got {max_time_s!r}",
@@ -337,7 +337,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         if self._layout_sampler is not None:
             self.layout = (check_layout(opts["layout"], self.scenario_name)
                            if opts.get("layout") is not None else self._layout_sampler(rng))
-        scenario = episode_scenario(self.scenario_name, self.layout)
+        scenario = episode_geometry(self.graph, self.layout)
         self.start, self._intention = start, goal
         if opts.get("human") is not None:  # v1: this episode's human
             human = HumanParams.of(opts["human"])
@@ -451,7 +451,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         """
         return RobotTask(
             scenario=self.scenario_name, graph=self.graph,
-            geometry=episode_scenario(self.scenario_name, self.layout), start=self.start,
+            geometry=episode_geometry(self.graph, self.layout), start=self.start,
             seats=np.array(self.sim.seat_positions(), dtype=float), layout=self.layout,
             dt=self.sim.dt_step, time_limit_s=self.time_limit_s,
             max_step_m=self.sim.max_step_m, max_step_rad=self.sim.max_step_rad,

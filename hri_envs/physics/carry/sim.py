@@ -40,6 +40,7 @@ import mujoco
 import numpy as np
 
 from hri_envs.errors import ConfigError
+from hri_envs.physics.carry import stages
 from hri_envs.physics.carry.faults import (
     CarryFault,
     check_faults,
@@ -66,7 +67,7 @@ from hri_envs.physics.carry.interaction import InteractionMeter, StepInteraction
 from hri_envs.physics.carry.periods import CarryPeriods, PeriodsResult
 from hri_envs.physics.carry.types import CarryStep, RobotCommand, grip_reference
 from hri_envs.physics.carry.types import rotate as _rotate
-from hri_envs.physics.scene import laws, stages
+from hri_envs.physics.scene import laws
 from hri_envs.physics.scene.build import (
     FINGER_ON_GRIP_M,
     FINGER_OPEN_M,
@@ -132,7 +133,7 @@ class CarrySim(SceneRig):
             raise ConfigError(f"unknown arm drive {drive!r}; allowed: {', '.join(DRIVES)}",
                               field="drive")
         self.graph, self.drive_name = graph, drive
-        self.design = design = design if design is not None else design_for(graph.name)
+        self.design = design = design if design is not None else design_for(graph)
         self.scenario = graph.scenario
         self.rest_quat = self.scenario.orientations[0]
         self.max_step_m, self.max_step_rad = max_step_m, max_step_rad

@@ -22,7 +22,7 @@ from hri_envs.physics.panda.sim import PandaSim, StepResult
 from hri_envs.physics.scene.ik import IKFailure
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import episode_scenario, spec_of
+from hri_envs.task.scenarios import episode_geometry, spec_of
 
 __all__ = ["PhysicsBatch"]
 
@@ -68,7 +68,7 @@ class PhysicsBatch(BatchBackend):
     def _scenario(self, i: int) -> Scenario:
         """Row ``i``'s scenario for its next episode (a new stand layout on the wheel)."""
         layout = None if self._sample_layout is None else self._sample_layout(self._layouts[i])
-        return episode_scenario(self.graph.name, layout)
+        return episode_geometry(self.graph, layout)
 
     def begin(self, rows: np.ndarray, start: np.ndarray) -> np.ndarray:
         """Reset the simulator to run ``rows[0]``'s start."""

@@ -29,7 +29,7 @@ from hri_envs.physics.scene.rendering import SceneRenderer, write_video
 from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import EpisodeRules
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import episode_scenario
+from hri_envs.task.scenarios import episode_geometry
 
 __all__ = ["STEP_FIGURES", "STEP_MEANS", "PhysicsEpisode", "step_figures"]
 
@@ -131,7 +131,7 @@ class PhysicsEpisode(Episode):
         self._observed_human = WAIT
         self.result, self._fault = None, None
         self.totals = dict.fromkeys(STEP_FIGURES, 0.0)
-        scenario = episode_scenario(self.rules.graph.name, layout)
+        scenario = episode_geometry(self.rules.graph, layout)
         try:
             self.sim.reset(self.start, scenario, np.random.default_rng(int(rng.integers(2**63))))
         except IKFailure as exc:

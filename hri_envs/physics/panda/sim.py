@@ -201,7 +201,7 @@ class PandaSim(SceneRig):
     def __init__(self, graph: TaskGraph, design: PhysicsDesign | None = None,
                  ik_rate: float = 25.0, options: Mapping[str, Any] | None = None) -> None:
         self.graph = graph
-        self.design = design = design if design is not None else design_for(graph.name)
+        self.design = design = design if design is not None else design_for(graph)
         self.scenario = graph.scenario
         self.scene = build_scene(self.scenario, design,
                                  functools.partial(add_human_arm, design=design))

@@ -50,19 +50,12 @@ class SpeedResult(NamedTuple):
         return self.wall_seconds / max(self.abstract_steps, 1)
 
 
-def _graph(scenario: str) -> TaskGraph:
-    from hri_envs.envs.config import scenario_graph
-
-    return scenario_graph(scenario)
-
-
-def physics_realtime_factor(scenario: str = "hanger", repeats: int = 3) -> SpeedResult:
+def physics_realtime_factor(g: TaskGraph, repeats: int = 3) -> SpeedResult:
     """Real-time factor of the robot tracking straight lines with the object in hand.
 
     The robot carries the object back and forth between the mounting points of supports
-    A and B (column moves, the human following passively), ``repeats`` times.
+    A and B (column moves, the human following passively), ``repeats`` times, on ``g``.
     """
-    g = _graph(scenario)
     sim = PandaSim(g)
     start = int(g.mounting_state[0])
     s = sim.reset(0, state=start)
@@ -81,7 +74,7 @@ def physics_realtime_factor(scenario: str = "hanger", repeats: int = 3) -> Speed
     return SpeedResult(sim_t, wall, steps, cpu)
 
 
-def seconds_per_abstract_step(scenario: str = "hanger", episodes: int = 2) -> SpeedResult:
+def seconds_per_abstract_step(g: TaskGraph, episodes: int = 2) -> SpeedResult:
     """Wall seconds per abstract step over whole episodes (B to A and back to B).
 
     The human follows the user study's most frequent preference and the robot waits
@@ -89,7 +82,6 @@ def seconds_per_abstract_step(scenario: str = "hanger", episodes: int = 2) -> Sp
     """
     from hri_envs.humans.scripted import preference_human
 
-    g = _graph(scenario)
     human = preference_human(g)
     sim = PandaSim(g)
     sim_t = wall = cpu = 0.0
@@ -112,7 +104,7 @@ def seconds_per_abstract_step(scenario: str = "hanger", episodes: int = 2) -> Sp
     return SpeedResult(sim_t, wall, steps, cpu)
 
 
-def async_steps_per_second(scenario: str = "hanger", num_envs: int = 2, seconds: float = 30.0,
+def async_steps_per_second(g: TaskGraph, num_envs: int = 2, seconds: float = 30.0,
                            seed: int = 0) -> SpeedResult:
     """Abstract steps of ``num_envs`` Panda envs in an ``AsyncVectorEnv``, over ``seconds``.
 
@@ -128,7 +120,7 @@ def async_steps_per_second(scenario: str = "hanger", num_envs: int = 2, seconds:
 
     from hri_envs.envs.robot import RobotEnv
 
-    envs = AsyncVectorEnv([functools.partial(RobotEnv, scenario, backend="mujoco")] * num_envs)
+    envs = AsyncVectorEnv([functools.partial(RobotEnv, g.name, backend="mujoco")] * num_envs)
     try:
         rng = np.random.default_rng(seed)
         obs, _ = envs.reset(seed=seed)

@@ -18,9 +18,12 @@ env families (:mod:`~hri_envs.physics.panda`, :mod:`~hri_envs.physics.carry`) or
 package.
 """
 
+from typing import TYPE_CHECKING
+
 from hri_envs.moved import old_names
 
-#: The public names of the module ``hri_envs.physics.scene``, before it became this package,
-#: still found here for one release (CHANGELOG.md, "Deprecated").
-__getattr__ = old_names(__name__, "hri_envs.physics.scene.build",
-                        ("BASE_JOINTS", "Scene", "build_robot_model", "build_scene"))
+if not TYPE_CHECKING:  # for Python only: a type checker sees the package's own names
+    #: The public names of the module ``hri_envs.physics.scene``, before it became this package,
+    #: still found here for one release (CHANGELOG.md, "Deprecated").
+    __getattr__ = old_names(__name__, "hri_envs.physics.scene.build",
+                            ("BASE_JOINTS", "Scene", "build_robot_model", "build_scene"))

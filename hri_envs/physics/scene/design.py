@@ -40,9 +40,11 @@ import numpy as np
 
 from hri_envs.errors import BackendUnavailableError
 from hri_envs.physics.scene.shapes import HangerShapes, SceneShapes, WheelShapes
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import SCENARIOS, spec_of
 
-__all__ = ["PRESET_NAMES", "PhysicsDesign", "design_for", "hanger_design", "wheel_design"]
+__all__ = ["PRESET_NAMES", "PhysicsDesign", "design_for", "hanger_design", "physical_scenarios",
+           "wheel_design"]
 
 #: The named sets of physics options every design defines (``physics={"preset": ...}``):
 #: ``weak-human``, a partner with a third of the default stiffness and strength (below the
@@ -397,16 +399,22 @@ def wheel_design() -> PhysicsDesign:
     )
 
 
-def design_for(scenario: str) -> PhysicsDesign:
-    """The design of a scenario by name (its registry entry's ``physics_design``).
+def design_for(graph: TaskGraph) -> PhysicsDesign:
+    """The physical design of ``graph``'s scenario (its spec's ``physics_design``).
 
     Raises:
         BackendUnavailableError: The scenario has no physical design.
     """
-    entry = scenario_spec(scenario).physics_design
+    spec = spec_of(graph)
+    entry = spec.physics_design
     if entry is None:
-        raise BackendUnavailableError(f"scenario {scenario!r} has no physical design, so no "
+        raise BackendUnavailableError(f"scenario {spec.name!r} has no physical design, so no "
                                       "physics backend; use backend='graph'", field="backend")
     module, _, factory = entry.partition(":")
     design: PhysicsDesign = getattr(importlib.import_module(module), factory)()
     return design
+
+
+def physical_scenarios() -> tuple[str, ...]:
+    """The registered scenarios that have a physical design, by name (for messages)."""
+    return tuple(name for name, spec in SCENARIOS.items() if spec.physics_design is not None)

@@ -52,6 +52,8 @@ class ScenarioSpec:
         panda_id: Gymnasium id of the robot env on the simulated Panda (None: none).
         continuous_id: Gymnasium id of the continuous-control env on the simulated Panda
             with the whole human arm (None: none; :mod:`hri_envs.physics.carry.env`).
+        continuous_time_s: The continuous env's default episode length [s] (its
+            ``max_time_s``).
         pettingzoo_module: Module of the PettingZoo entry points (None: none; the envs are
             still made with ``scenario=name``).
         physics_design: ``"module:function"`` returning its ``PhysicsDesign`` (None: the
@@ -74,6 +76,7 @@ class ScenarioSpec:
     gym_id: str | None = None
     panda_id: str | None = None
     continuous_id: str | None = None
+    continuous_time_s: float = 30.0
     pettingzoo_module: str | None = None
     physics_design: str | None = None
     layout: Callable[..., Layout] | None = None

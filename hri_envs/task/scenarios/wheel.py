@@ -114,6 +114,7 @@ SPEC = ScenarioSpec(
     "wheel", geometry, r0=-0.25, gamma=0.6, episodes=20, preferences=PREFERENCES,
     default_preference="straight", route=route, n_actions=12, gym_id="hri_envs/Wheel-v0",
     panda_id="hri_envs/WheelPanda-v0", continuous_id="hri_envs/WheelPandaContinuous-v0",
+    continuous_time_s=45.0,
     pettingzoo_module="hri_envs.wheel_v0",
     physics_design="hri_envs.physics.scene.design:wheel_design", layout=sample_layout,
     check_layout=check_layout,

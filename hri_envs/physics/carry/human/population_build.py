@@ -47,7 +47,8 @@ from hri_envs.physics.carry.human.probe import (
 )
 from hri_envs.physics.carry.sim import CarrySim, default_grip_force
 from hri_envs.physics.scene.ik import IKFailure
-from hri_envs.task.scenarios import scenario_graph, scenario_spec
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import spec_of
 
 __all__ = ["GENERATOR_SEED", "build_scenario", "fingerprint", "label", "nearest", "write"]
 
@@ -67,18 +68,18 @@ def label(split: str, family: str, k: int, params: HumanParams) -> str:
             f" cm, {params.body_mass_kg:.0f} kg)")
 
 
-def build_scenario(scenario: str, progress: Callable[[str], None] | None = None
+def build_scenario(graph: TaskGraph, progress: Callable[[str], None] | None = None
                    ) -> tuple[dict[str, Any], np.ndarray]:
-    """The scenario's splits (JSON-ready: {split: [member, ...], "rejected": {...}}) and the
-    members' signatures (N, P, W, 9), train, validation and test in order.
+    """The splits of ``graph``'s scenario (JSON-ready: {split: [member, ...], "rejected":
+    {...}}) and the members' signatures (N, P, W, 9), train, validation and test in order.
 
     Raises:
         RuntimeError: A family gave no acceptable member in :data:`_MAX_TRIES` candidates.
     """
-    graph = scenario_graph(scenario)
+    scenario = graph.name
     sim = CarrySim(graph)
     grip = default_grip_force(sim.design)
-    prefs = scenario_spec(scenario).preferences
+    prefs = spec_of(graph).preferences
     kept: list[np.ndarray] = []
     doc: dict[str, Any] = {"rejected": {}}
     s_idx = SCENARIOS.index(scenario)

@@ -12,6 +12,7 @@ from hri_envs.errors import ActionError, ConfigError
 from hri_envs.physics.carry.env import ACTION_SIZE, CarryEnv, check_sensor, check_step_scale
 from hri_envs.physics.carry.warp.sim import SHARED, WarpCarrySim
 from hri_envs.physics.carry.warp.worlds import WarpCarryWorlds
+from hri_envs.physics.scene.design import physical_scenarios
 from hri_envs.physics.scene.warp.vector_base import WorldsVectorEnv
 from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
@@ -82,7 +83,7 @@ class CarryVectorEnv(WorldsVectorEnv[np.ndarray]):
                  drive: str = "torque", **kwargs: Any) -> None:
         if scenario_spec(scenario).physics_design is None:
             raise ConfigError(f"scenario {scenario!r} has no physical design; allowed: "
-                              "hanger, wheel", field="scenario")
+                              f"{', '.join(physical_scenarios())}", field="scenario")
         if backend != "mjwarp":
             raise ConfigError(f"the continuous vector env runs on MuJoCo Warp; backend must be "
                               f"'mjwarp', got {backend!r}", field="backend")

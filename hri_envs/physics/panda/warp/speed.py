@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from hri_envs.physics.panda.warp.worlds import WarpWorlds
-from hri_envs.task.graph import WAIT
+from hri_envs.task.graph import WAIT, TaskGraph
 
 __all__ = ["WorldSpeed", "warp_world_steps"]
 
@@ -54,7 +54,7 @@ class WorldSpeed(NamedTuple):
         return self.world_steps_per_s * self.dt
 
 
-def warp_world_steps(n_worlds: int, scenario: str = "hanger", periods: int = 25,
+def warp_world_steps(n_worlds: int, g: TaskGraph, periods: int = 25,
                      device: str | None = None) -> WorldSpeed:
     """Time ``periods`` control periods of ``n_worlds`` worlds carrying the object.
 
@@ -62,9 +62,6 @@ def warp_world_steps(n_worlds: int, scenario: str = "hanger", periods: int = 25,
     would take longer than the measurement). The clock runs over the ``periods`` periods
     after the first one.
     """
-    from hri_envs.envs.config import scenario_graph
-
-    g = scenario_graph(scenario)
     t0 = time.perf_counter()
     worlds = WarpWorlds(g, n_worlds, device=device)
     s = int(g.mounting_state[0])
