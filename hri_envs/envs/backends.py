@@ -38,6 +38,7 @@ __all__ = [
     "GraphBatch",
     "backend_spec",
     "batch_backend",
+    "body_options",
     "carry_backend",
     "carry_vector_backend",
     "check_backend",
@@ -70,6 +71,10 @@ class BackendSpec:
             None: the backend takes no options.
         presets: Names ``physics={"preset": ...}`` (and ``--physics-preset``) accepts (the
             checker knows them too; listed here for help texts that must not import it).
+        body: ``"module:function"`` turning a :class:`~hri_envs.humans.spec.HumanBody` (a
+            ``HumanSpec(body=...)``) into its ``physics`` options (checked, or a
+            :class:`~hri_envs.errors.ConfigError` with ``field="human"``); None: the backend
+            has no physical human, and refuses a body.
         batch_runs: Its :class:`BatchBackend` simulates many runs at once (a study hands it
             chunks of runs rather than one run at a time).
         physical: It simulates the Panda (its Gymnasium id is the scenario's Panda id).
@@ -95,6 +100,7 @@ class BackendSpec:
     vectorizable: bool = False
     options: str | None = None
     presets: tuple[str, ...] = ()
+    body: str | None = None
     batch_runs: bool = False
     physical: bool = False
     vector_entry: str | None = None
@@ -107,7 +113,7 @@ class BackendSpec:
 def _check(spec: BackendSpec) -> None:
     """What :func:`register_backend` checks (its docstring)."""
     entries = {"episode": spec.episode, "batch": spec.batch, "options": spec.options,
-               "vector_entry": spec.vector_entry, "carry": spec.carry,
+               "body": spec.body, "vector_entry": spec.vector_entry, "carry": spec.carry,
                "carry_vector": spec.carry_vector}
     for field, entry in entries.items():
         if entry is None and field not in ("episode", "batch"):
@@ -162,6 +168,7 @@ register_backend(BackendSpec("mujoco", "hri_envs.physics.episode:PhysicsEpisode"
                              requires=("mujoco", "mink", "gymnasium_robotics"), extra="mujoco",
                              options="hri_envs.physics.options:check_options",
                              presets=("weak-human", "noisy-sensor"), physical=True,
+                             body="hri_envs.physics.options:body_options",
                              carry="hri_envs.physics.carry:CarrySim",
                              carry_drives=("torque", "muscle")))
 # The same physics, many worlds at once on MuJoCo Warp (docs/physics.md, "Many worlds").
@@ -171,6 +178,7 @@ register_backend(BackendSpec("mjwarp", "hri_envs.physics.mjwarp.episode:WarpPhys
                                        "mujoco_warp", "mink_warp"), extra="mjwarp",
                              options="hri_envs.physics.options:check_options",
                              presets=("weak-human", "noisy-sensor"), batch_runs=True,
+                             body="hri_envs.physics.options:body_options",
                              physical=True,
                              vector_entry="hri_envs.physics.mjwarp.vector:PandaVectorEnv",
                              carry="hri_envs.physics.mjwarp.carry_sim:make_carry_sim",
@@ -207,6 +215,24 @@ def options_checker(name: str) -> Callable[[Mapping[str, Any]], dict[str, Any]] 
     """The function checking backend ``name``'s ``physics`` options (None: it takes none)."""
     entry = backend_spec(name).options
     return None if entry is None else _load(entry)
+
+
+def body_options(name: str, body: Any) -> dict[str, Any]:
+    """The ``physics`` options of backend ``name`` that a :class:`~hri_envs.humans.spec.
+    HumanBody` describes (:attr:`BackendSpec.body`).
+
+    Raises:
+        ConfigError: (``field="human"``) The backend has no physical human, or it refuses
+            the body.
+    """
+    entry = backend_spec(name).body
+    if entry is None:
+        takes = [n for n, spec in BACKENDS.items() if spec.body]
+        raise ConfigError(f"backend={name!r} has no physical human: HumanSpec.body applies "
+                          f"to the backends {', '.join(takes)} and the continuous envs",
+                          field="human")
+    options: dict[str, Any] = _load(entry)(body)
+    return options
 
 
 def episode_backend(name: str) -> type[Episode]:
