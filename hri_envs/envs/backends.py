@@ -26,6 +26,7 @@ import numpy as np
 
 from hri_envs.envs.episode import Episode
 from hri_envs.errors import BackendUnavailableError, ConfigError, install_command
+from hri_envs.humans.spec import HumanBody
 from hri_envs.registry import Registry
 from hri_envs.task.graph import TaskGraph
 
@@ -217,7 +218,7 @@ def options_checker(name: str) -> Callable[[Mapping[str, Any]], dict[str, Any]] 
     return None if entry is None else _load(entry)
 
 
-def body_options(name: str, body: Any) -> dict[str, Any]:
+def body_options(name: str, body: HumanBody) -> dict[str, Any]:
     """The ``physics`` options of backend ``name`` that a :class:`~hri_envs.humans.spec.
     HumanBody` describes (:attr:`BackendSpec.body`).
 

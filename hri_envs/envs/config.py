@@ -15,6 +15,7 @@ from gymnasium.vector import AutoresetMode
 from hri_envs.checks import check_real, check_whole
 from hri_envs.envs.backends import BACKENDS, body_options, check_backend, options_checker
 from hri_envs.errors import ConfigError
+from hri_envs.humans.spec import HumanBody
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.scenarios import episode_scenario, scenario_graph, scenario_spec
 
@@ -120,7 +121,7 @@ def check_env_settings(
 
 
 def check_physics_options(physics: Mapping[str, Any] | None, backend: str,
-                          body: Any = None) -> dict[str, Any]:
+                          body: HumanBody | None = None) -> dict[str, Any]:
     """Validate the ``physics`` options against what ``backend`` accepts.
 
     The backend's own checker does it (:attr:`~hri_envs.envs.backends.BackendSpec.options`;
