@@ -218,3 +218,26 @@ def test_a_v1_episodes_human_may_be_a_spec_without_a_population():
                                           ".population") as err:
         env.reset(seed=1, options={"human": HumanSpec(population="train")})
     assert err.value.field == "population"
+
+
+# ----------------------------------------------------------------- a backend's body
+def _unknown_option(body: HumanBody) -> dict:
+    """A broken body converter: an option no checker knows."""
+    return {"human_height": 2.0}
+
+
+def test_a_backends_body_converter_needs_an_options_checker_and_must_suit_it():
+    from hri_envs.conformance import check_backend
+    from hri_envs.envs.backends import BACKENDS, BackendSpec, register_backend
+
+    graph = ("hri_envs.envs.episode:Episode", "hri_envs.envs.backends:GraphBatch")
+    with pytest.raises(ConfigError, match="names body but no options checker") as err:
+        register_backend(BackendSpec("own-body", *graph, body=f"{__name__}:_unknown_option"))
+    assert err.value.field == "backend"
+    register_backend(BackendSpec("own-body", *graph, body=f"{__name__}:_unknown_option",
+                                 options="hri_envs.physics.options:check_options"))
+    try:
+        with pytest.raises(ConfigError, match="options checker refuses.*human_height"):
+            check_backend("own-body")
+    finally:
+        BACKENDS.unregister("own-body")

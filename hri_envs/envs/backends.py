@@ -127,9 +127,10 @@ def _check(spec: BackendSpec) -> None:
         if not (isinstance(value, tuple) and all(isinstance(v, str) and v for v in value)):
             raise ConfigError(f"backend {spec.name!r}: {field} must be a tuple of names, got "
                               f"{value!r}", field="backend")
-    if spec.presets and spec.options is None:
-        raise ConfigError(f"backend {spec.name!r} names presets but no options checker to "
-                          "accept them", field="backend")
+    for field in ("presets", "body"):
+        if getattr(spec, field) and spec.options is None:
+            raise ConfigError(f"backend {spec.name!r} names {field} but no options checker to "
+                              "accept them", field="backend")
     if not (isinstance(spec.unit_time_limit, int | float) and spec.unit_time_limit > 0):
         raise ConfigError(f"backend {spec.name!r}: unit_time_limit must be a number of "
                           f"seconds > 0 (inf: none), got {spec.unit_time_limit!r}",
@@ -155,7 +156,7 @@ def register_backend(spec: BackendSpec, *, replace: bool = False) -> BackendSpec
     Raises:
         ConfigError: ``spec`` is not a :class:`BackendSpec` or has no name, an entry point
             is not ``"module:name"``, ``requires``, ``presets`` or ``carry_drives`` is not a
-            tuple of names, it names presets without an options checker, its
+            tuple of names, it names presets or a body without an options checker, its
             ``unit_time_limit`` is not > 0, or its name is another backend's and
             ``replace`` is False.
     """
