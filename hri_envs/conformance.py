@@ -38,6 +38,7 @@ from hri_envs.envs.episode import Episode
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
 from hri_envs.humans.seat import HumanLike, seat_human
+from hri_envs.humans.spec import HumanBody
 from hri_envs.imports import import_class, import_object
 from hri_envs.task import episode as rules
 from hri_envs.task.actions import WAIT
@@ -275,7 +276,9 @@ def check_backend(spec: BackendSpec | str, scenario: str = "hanger", *, episodes
 
 
 def _check_entries(spec: BackendSpec) -> None:
-    """Its entry points load as what they must be; its options checker takes its presets."""
+    """Its entry points load as what they must be; its options checker takes its presets
+    and the options of a default body (its ``body`` converter's, if it has one).
+    """
     what = f"backend {spec.name!r}'s"
     import_class(spec.episode, f"{what} episode", "backend", (Episode,))
     batch: type[BatchBackend] = import_class(spec.batch, f"{what} batch", "backend",
@@ -283,14 +286,16 @@ def _check_entries(spec: BackendSpec) -> None:
     if not set(batch.step_means) <= set(batch.extras):
         raise _fail(f"backend {spec.name!r}: step_means {batch.step_means} are not all among "
                     f"its extras {batch.extras}", "backend")
-    for field in ("options", "vector_entry", "carry", "carry_vector"):
+    for field in ("options", "body", "vector_entry", "carry", "carry_vector"):
         entry = getattr(spec, field)
         if entry is not None and not callable(import_object(entry, f"{what} {field}",
                                                             "backend")):
             raise _fail(f"backend {spec.name!r}: {field}={entry!r} is not callable", "backend")
     if spec.options is not None:
         checker = import_object(spec.options, f"{what} options", "backend")
-        for options in ({}, *({"preset": p} for p in spec.presets)):
+        bodies = [] if spec.body is None else [
+            import_object(spec.body, f"{what} body", "backend")(HumanBody())]
+        for options in ({}, *({"preset": p} for p in spec.presets), *bodies):
             try:
                 checked = checker(options)
             except Exception as exc:

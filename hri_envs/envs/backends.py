@@ -26,6 +26,7 @@ import numpy as np
 
 from hri_envs.envs.episode import Episode
 from hri_envs.errors import BackendUnavailableError, ConfigError, install_command
+from hri_envs.humans.spec import HumanBody
 from hri_envs.registry import Registry
 from hri_envs.task.graph import TaskGraph
 
@@ -38,6 +39,7 @@ __all__ = [
     "GraphBatch",
     "backend_spec",
     "batch_backend",
+    "body_options",
     "carry_backend",
     "carry_vector_backend",
     "check_backend",
@@ -70,6 +72,10 @@ class BackendSpec:
             None: the backend takes no options.
         presets: Names ``physics={"preset": ...}`` (and ``--physics-preset``) accepts (the
             checker knows them too; listed here for help texts that must not import it).
+        body: ``"module:function"`` turning a :class:`~hri_envs.humans.spec.HumanBody` (a
+            ``HumanSpec(body=...)``) into its ``physics`` options (checked, or a
+            :class:`~hri_envs.errors.ConfigError` with ``field="human"``); None: the backend
+            has no physical human, and refuses a body.
         batch_runs: Its :class:`BatchBackend` simulates many runs at once (a study hands it
             chunks of runs rather than one run at a time).
         physical: It simulates the Panda (its Gymnasium id is the scenario's Panda id).
@@ -95,6 +101,7 @@ class BackendSpec:
     vectorizable: bool = False
     options: str | None = None
     presets: tuple[str, ...] = ()
+    body: str | None = None
     batch_runs: bool = False
     physical: bool = False
     vector_entry: str | None = None
@@ -107,7 +114,7 @@ class BackendSpec:
 def _check(spec: BackendSpec) -> None:
     """What :func:`register_backend` checks (its docstring)."""
     entries = {"episode": spec.episode, "batch": spec.batch, "options": spec.options,
-               "vector_entry": spec.vector_entry, "carry": spec.carry,
+               "body": spec.body, "vector_entry": spec.vector_entry, "carry": spec.carry,
                "carry_vector": spec.carry_vector}
     for field, entry in entries.items():
         if entry is None and field not in ("episode", "batch"):
@@ -120,9 +127,10 @@ def _check(spec: BackendSpec) -> None:
         if not (isinstance(value, tuple) and all(isinstance(v, str) and v for v in value)):
             raise ConfigError(f"backend {spec.name!r}: {field} must be a tuple of names, got "
                               f"{value!r}", field="backend")
-    if spec.presets and spec.options is None:
-        raise ConfigError(f"backend {spec.name!r} names presets but no options checker to "
-                          "accept them", field="backend")
+    for field in ("presets", "body"):
+        if getattr(spec, field) and spec.options is None:
+            raise ConfigError(f"backend {spec.name!r} names {field} but no options checker to "
+                              "accept them", field="backend")
     if not (isinstance(spec.unit_time_limit, int | float) and spec.unit_time_limit > 0):
         raise ConfigError(f"backend {spec.name!r}: unit_time_limit must be a number of "
                           f"seconds > 0 (inf: none), got {spec.unit_time_limit!r}",
@@ -148,7 +156,7 @@ def register_backend(spec: BackendSpec, *, replace: bool = False) -> BackendSpec
     Raises:
         ConfigError: ``spec`` is not a :class:`BackendSpec` or has no name, an entry point
             is not ``"module:name"``, ``requires``, ``presets`` or ``carry_drives`` is not a
-            tuple of names, it names presets without an options checker, its
+            tuple of names, it names presets or a body without an options checker, its
             ``unit_time_limit`` is not > 0, or its name is another backend's and
             ``replace`` is False.
     """
@@ -162,6 +170,7 @@ register_backend(BackendSpec("mujoco", "hri_envs.physics.panda.episode:PhysicsEp
                              requires=("mujoco", "mink", "gymnasium_robotics"), extra="mujoco",
                              options="hri_envs.physics.panda.options:check_options",
                              presets=("weak-human", "noisy-sensor"), physical=True,
+                             body="hri_envs.physics.panda.options:body_options",
                              carry="hri_envs.physics.carry.sim:CarrySim",
                              carry_drives=("torque", "muscle")))
 # The same physics, many worlds at once on MuJoCo Warp (docs/physics.md, "Many worlds").
@@ -171,6 +180,7 @@ register_backend(BackendSpec("mjwarp", "hri_envs.physics.panda.warp.episode:Warp
                                        "mujoco_warp", "mink_warp"), extra="mjwarp",
                              options="hri_envs.physics.panda.options:check_options",
                              presets=("weak-human", "noisy-sensor"), batch_runs=True,
+                             body="hri_envs.physics.panda.options:body_options",
                              physical=True,
                              vector_entry="hri_envs.physics.panda.warp.vector:PandaVectorEnv",
                              carry="hri_envs.physics.carry.warp.sim:make_carry_sim",
@@ -207,6 +217,24 @@ def options_checker(name: str) -> Callable[[Mapping[str, Any]], dict[str, Any]] 
     """The function checking backend ``name``'s ``physics`` options (None: it takes none)."""
     entry = backend_spec(name).options
     return None if entry is None else _load(entry)
+
+
+def body_options(name: str, body: HumanBody) -> dict[str, Any]:
+    """The ``physics`` options of backend ``name`` that a :class:`~hri_envs.humans.spec.
+    HumanBody` describes (:attr:`BackendSpec.body`).
+
+    Raises:
+        ConfigError: (``field="human"``) The backend has no physical human, or it refuses
+            the body.
+    """
+    entry = backend_spec(name).body
+    if entry is None:
+        takes = [n for n, spec in BACKENDS.items() if spec.body]
+        raise ConfigError(f"backend={name!r} has no physical human: HumanSpec.body applies "
+                          f"to the backends {', '.join(takes)} and the continuous envs",
+                          field="human")
+    options: dict[str, Any] = _load(entry)(body)
+    return options
 
 
 def episode_backend(name: str) -> type[Episode]:

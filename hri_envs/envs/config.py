@@ -13,8 +13,9 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from hri_envs.checks import check_real, check_whole
-from hri_envs.envs.backends import BACKENDS, check_backend, options_checker
+from hri_envs.envs.backends import BACKENDS, body_options, check_backend, options_checker
 from hri_envs.errors import ConfigError
+from hri_envs.humans.spec import HumanBody
 from hri_envs.task.geometry import Scenario
 from hri_envs.task.graph import TaskGraph
 from hri_envs.task.scenarios import (
@@ -126,16 +127,27 @@ def check_env_settings(
                        check_render_mode(render_mode, render_modes), check_backend(backend))
 
 
-def check_physics_options(physics: Mapping[str, Any] | None, backend: str) -> dict[str, Any]:
+def check_physics_options(physics: Mapping[str, Any] | None, backend: str,
+                          body: HumanBody | None = None) -> dict[str, Any]:
     """Validate the ``physics`` options against what ``backend`` accepts.
 
     The backend's own checker does it (:attr:`~hri_envs.envs.backends.BackendSpec.options`;
     the mujoco backend's keys are in :mod:`hri_envs.physics.panda.options` and docs/physics.md);
-    a backend without options refuses any.
+    a backend without options refuses any. ``body`` (a :class:`~hri_envs.humans.spec.
+    HumanBody`, a ``HumanSpec``'s) adds the options it stands for
+    (:func:`~hri_envs.envs.backends.body_options`; a backend without a physical human
+    refuses it); a key set both ways is refused (``field="human"``).
     """
     if physics is not None and not isinstance(physics, Mapping):
         raise ConfigError(f"physics must be a mapping of option names to values, got "
                           f"{physics!r}", field="physics")
+    if body is not None:
+        extra = body_options(backend, body)
+        both = sorted(set(extra) & set(physics or {}))
+        if both:
+            raise ConfigError(f"{', '.join(map(repr, both))} given both by the human's body and "
+                              "in physics=; give each once", field="human")
+        physics = {**(physics or {}), **extra}
     if not physics:
         return {}
     check = options_checker(backend)

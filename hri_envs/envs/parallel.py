@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
@@ -123,9 +122,11 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
 
     - ``scenario``: "hanger" or "wheel" (fixed by the versioned modules);
     - ``r0``: the robot's passive reward in (-1, 0) (default -0.33 hanger, -0.25 wheel);
-    - ``human``: a :class:`~hri_envs.humans.spec.HumanSpec` of which only ``turn_back``
-      and ``preference`` (the route on which the human turns back) apply here, or their
-      shorthand keywords:
+    - ``human``: a :class:`~hri_envs.humans.spec.HumanSpec` of which ``turn_back``,
+      ``preference`` (the route on which the human turns back) and, on the Panda backends,
+      ``body`` (the physical human, as for :class:`~hri_envs.envs.robot.RobotEnv`) apply
+      here; any other field set is a :class:`~hri_envs.errors.ConfigError` naming it. Or
+      the shorthand keywords:
     - ``turn_back``: probability per episode that ι turns to the start support halfway (as
       ``options={"turn_back": True}``, drawn at reset; default 0). The human is an agent
       here, so its rationality and preference are the policy you give it, not env options;
@@ -187,18 +188,20 @@ class CooperationParallelEnv(ParallelEnv[str, dict[str, Any], int]):
         **human_keywords: Any,
     ) -> None:
         spec = human_spec(human, human_keywords)
-        if not isinstance(spec, HumanSpec) or dataclasses.replace(
-                spec, turn_back=0.0, preference=None) != HumanSpec():
+        if not isinstance(spec, HumanSpec):
             raise ConfigError("the parallel env's human is an agent (your policy): its human "
                               "spec sets only turn_back (and the preference whose route it "
                               f"turns back on), got {spec!r}", field="human")
+        spec.refuse("the parallel env", ("preference", "turn_back", "body"),
+                    " (its human is an agent, your policy: a spec sets where it turns back "
+                    "and, on a physical backend, its body)", field="human")
         self.turn_back = check_probability(spec.turn_back, "turn_back")
         self.metadata = {**type(self).metadata, "name": f"{scenario}_v0",
                          "render_modes": list(type(self).metadata["render_modes"])}
         (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
                                             self.metadata["render_modes"], backend)
-        physics = check_physics_options(physics, self.backend)
+        physics = check_physics_options(physics, self.backend, spec.body)
         self.render_intention = check_flag(render_intention, "render_intention")
         self.observation_format = check_observation_format(observation_format)
         self.human_reward = check_human_reward(human_reward)

@@ -25,6 +25,7 @@ from hri_envs.envs.window import check_display
 from hri_envs.errors import ConfigError, ResetNeeded
 from hri_envs.humans.protocol import BatchHuman, checked_actions
 from hri_envs.humans.seat import HumanLike, seat_human
+from hri_envs.humans.spec import HumanSpec
 from hri_envs.task.episode import EpisodeRules, reached_intention, revise_intention
 from hri_envs.task.scenarios import scenario_spec, spec_of
 
@@ -105,7 +106,11 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
       description a study and ``serve`` take), or a ready-made human: a
       :class:`~hri_envs.humans.scripted.ScriptedHuman` (for example a Boltzmann human), any
       :class:`~hri_envs.humans.protocol.Human` or one-row
-      :class:`~hri_envs.humans.protocol.BatchHuman` (a human who keeps state, a person);
+      :class:`~hri_envs.humans.protocol.BatchHuman` (a human who keeps state, a person).
+      On the Panda backends the spec's ``body`` (:class:`~hri_envs.humans.spec.HumanBody`)
+      is the physical human: its ``preset`` ("weak-human") and params (the ``human_*``
+      physics options below) join ``physics`` (a key given both ways is refused); the graph
+      backend refuses a body;
     - the spec's shorthand, instead of ``human``:
       ``preference`` (one of :func:`hri_envs.humans.scripted.preferences_for`; default: the
       hanger study's most frequent one, or the wheel's "straight"), ``human_passive``
@@ -170,7 +175,8 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
         (self.scenario_name, self.r0, self.max_cycles, self.render_mode,
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
                                             self.metadata["render_modes"], backend)
-        physics = check_physics_options(physics, self.backend)
+        physics = check_physics_options(
+            physics, self.backend, human.body if isinstance(human, HumanSpec) else None)
         self.render_intention = check_flag(render_intention, "render_intention")
         self.observation_format = check_observation_format(observation_format)
         self._human_window = self.render_mode == "human"
@@ -178,7 +184,8 @@ class RobotEnv(gym.Env[dict[str, Any], np.int64]):
             check_display()
 
         self.graph = scenario_graph(scenario)
-        self._human: BatchHuman = seat_human(self.graph, human=human, **human_keywords)
+        self._human: BatchHuman = seat_human(self.graph, human=human, body=True,
+                                             **human_keywords)
         self.rules = EpisodeRules(self.graph, self.r0, reward)
         self._episode: Episode = episode_backend(self.backend)(self.rules, None, **physics)
         self._sync_turn_state()

@@ -106,7 +106,8 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
       shares, or a population, split or family: each env draws a new member at every
       (auto)reset with the env's ``np_random``), or its shorthand keywords as for
       :class:`~hri_envs.envs.robot.RobotEnv` (``preference``, ``human_passive``,
-      ``turn_back``, ``human_rationality``, ``population``, ``human_params``); or a
+      ``turn_back``, ``human_rationality``, ``population``, ``human_params``; a spec's
+      ``body`` is refused: the env runs the graph); or a
       :class:`~hri_envs.humans.scripted.ScriptedHuman` shared by every env, or a
       :class:`~hri_envs.humans.protocol.BatchHuman` with ``num_envs`` rows (one human per
       env, which may keep state across steps and episodes: the env calls its
@@ -163,7 +164,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             )
         self.graph = scenario_graph(scenario)
         self._human = seat_human(self.graph, human=human, n_runs=self.num_envs,
-                                 **human_keywords)
+                                 env="the numpy vector env", **human_keywords)
         self.rules = EpisodeRules(self.graph, self.r0, reward)
         n_s, n_k, n_a = self.graph.n_states, self.graph.n_intentions, self.graph.n_actions
         self.single_observation_space = robot_observation_space(n_s, n_k, n_a)

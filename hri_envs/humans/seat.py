@@ -48,7 +48,7 @@ def human_spec(human: HumanLike | None, keywords: dict[str, Any]) -> HumanLike:
 
 
 def seat_human(graph: TaskGraph, *, human: HumanLike | None = None, n_runs: int = 1,
-               **keywords: Any) -> BatchHuman:
+               body: bool = False, env: str = "this env", **keywords: Any) -> BatchHuman:
     """The human of an env's seat, for ``n_runs`` streams.
 
     Args:
@@ -58,16 +58,21 @@ def seat_human(graph: TaskGraph, *, human: HumanLike | None = None, n_runs: int 
             :class:`Human` (one stream: ``n_runs`` must be 1) or a :class:`BatchHuman`
             with ``n_runs`` rows.
         n_runs: Rows of the seat (the vector env's envs).
+        body: The env honours a spec's :attr:`HumanSpec.body` itself (its physics); else a
+            spec with a body is refused, naming ``env``.
+        env: The env, for that error.
         keywords: The flat keywords of a spec (``preference``, ``human_passive``,
             ``turn_back``, ``human_rationality``, ``population``, ``human_params``), when
             ``human`` is None.
 
     Raises:
         ConfigError: A value out of range, a human of another scenario or of another number
-            of rows, or a human given both ways.
+            of rows, a human given both ways, or a body the seat cannot honour.
     """
     human = human_spec(human, keywords)
     if isinstance(human, HumanSpec):
+        if not body:
+            human.bodiless(env)
         return human.seat(graph, n_runs)
     if isinstance(human, ScriptedHuman | FiniteStateHuman | BatchHuman):
         if human.graph.name != graph.name or human.graph.n_states != graph.n_states:

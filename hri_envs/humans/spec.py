@@ -12,7 +12,13 @@ and vector envs, the JAX env, a study, ``hri-bench serve``. It is one of
   (one per stream) or :class:`~hri_envs.humans.protocol.BatchHuman` subclass;
 * **a prefixed kind** registered by a package above this one
   (:func:`register_population_kind`; ``hri_bench`` registers ``recorded:DATASET``, a model
-  fitted to recorded people).
+  fitted to recorded people);
+
+and, for the physical envs, its **body** (:class:`HumanBody`: a preset and parameters,
+plain data that the physics layer checks and turns into its own human: the continuous
+envs' :class:`~hri_envs.physics.carry.human.intention.HumanParams`, the Panda backend's ``human_*``
+physics options). An env that cannot honour a field of a spec refuses it
+(:meth:`HumanSpec.refuse`), never ignores it.
 
 :meth:`HumanSpec.seat` builds an env's seat; :meth:`HumanSpec.run_draws` and
 :meth:`HumanSpec.custom` a study's humans. The envs' flat keywords (``preference=``,
@@ -44,7 +50,7 @@ from hri_envs.imports import import_class
 from hri_envs.registry import Registry
 from hri_envs.task.graph import TaskGraph
 
-__all__ = ["HUMAN_KEYWORDS", "POPULATION_KINDS", "HumanSpec", "PopulationKind",
+__all__ = ["HUMAN_KEYWORDS", "POPULATION_KINDS", "HumanBody", "HumanSpec", "PopulationKind",
            "register_population_kind"]
 
 #: The envs' flat keywords for the human, and the :class:`HumanSpec` field each sets.
@@ -103,6 +109,53 @@ def _kind_of(name: str) -> PopulationKind | None:
 
 
 @dataclass(frozen=True)
+class HumanBody:
+    """The physical human of a :class:`HumanSpec`, for the physical envs (plain data).
+
+    What the names mean is the env's (the physics layer checks them and refuses what it
+    does not know, with ``field="human"``):
+
+    * the continuous envs (``*PandaContinuous-*``): ``preset`` one of
+      :data:`~hri_envs.physics.carry.human.intention.HUMAN_PRESETS` ("default", "weak", "hesitant",
+      "firm"), ``params`` the fields of :class:`~hri_envs.physics.carry.human.intention.HumanParams`
+      (``strength``, ``stiffness``, ``hesitation_s``, ``reaction_s``, ``grip_force_n``,
+      ``speed``, ``sex``, ``stature_m``, ``body_mass_kg``, ``drive``);
+    * the Panda backends of the discrete ids (``backend="mujoco"``, ``"mjwarp"``):
+      ``preset`` a human preset of the physics options ("weak-human"), ``params`` the
+      human's physics options (``human_stiffness``, ``human_force``, ``human_noise``,
+      ``human_delay_s``, ``human_mass``, ``human_grip_force``; docs/physics.md).
+
+    Attributes:
+        preset: A named body (None: the env's default).
+        params: Values overriding the preset's, as (name, value) pairs (a mapping is
+            accepted and sorted by name).
+    """
+
+    preset: str | None = None
+    params: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.preset is not None and not (isinstance(self.preset, str) and self.preset):
+            raise ConfigError(f"a human body's preset must be a name or None, got "
+                              f"{self.preset!r}", field="human")
+        if not isinstance(self.params, tuple):
+            object.__setattr__(self, "params", _pairs(self.params, "a human body's params"))
+
+    @classmethod
+    def of(cls, values: Mapping[str, Any]) -> HumanBody:
+        """The body a mapping describes: its ``preset`` key and the other keys' values (the
+        continuous envs' ``human={...}`` shorthand).
+        """
+        rest = {k: v for k, v in values.items() if k != "preset"}
+        return cls(values.get("preset"), _pairs(rest, "a human body's params"))
+
+    def values(self) -> dict[str, Any]:
+        """The body as one mapping: ``preset`` (when set) and the params."""
+        preset = {} if self.preset is None else {"preset": self.preset}
+        return {**preset, **dict(self.params)}
+
+
+@dataclass(frozen=True)
 class HumanSpec:
     """Who the human partner is (module docstring).
 
@@ -114,6 +167,8 @@ class HumanSpec:
         population: A population, split, mixture or family name, ``module:Class``, or a
             registered prefixed kind; None: the scripted human above.
         params: A family's parameters as (name, value) pairs.
+        body: The physical human (:class:`HumanBody`, or a mapping of its ``preset`` and
+            params) of the physical envs; None: the env's default body.
     """
 
     preference: str | None = None
@@ -122,6 +177,7 @@ class HumanSpec:
     rationality: float = math.inf
     population: str | None = None
     params: tuple[tuple[str, Any], ...] = ()
+    body: HumanBody | None = None
 
     def __post_init__(self) -> None:
         for name, field in (("population", "population"), ("preference", "preference")):
@@ -131,6 +187,11 @@ class HumanSpec:
                                   f"{value!r}", field=field)
         if not isinstance(self.params, tuple):
             object.__setattr__(self, "params", _pairs(self.params))
+        if isinstance(self.body, Mapping):
+            object.__setattr__(self, "body", HumanBody.of(self.body))
+        elif self.body is not None and not isinstance(self.body, HumanBody):
+            raise ConfigError(f"body must be a HumanBody, a mapping of its preset and params, "
+                              f"or None, got {self.body!r}", field="human")
 
     @classmethod
     def from_kwargs(cls, **keywords: Any) -> HumanSpec:
@@ -147,6 +208,42 @@ class HumanSpec:
         if "params" in fields:
             fields["params"] = _pairs(fields["params"])
         return cls(**fields)
+
+    def refuse(self, env: str, takes: Sequence[str], why: str = "",
+               field: str | None = None) -> HumanSpec:
+        """``self`` if it sets no field but ``takes`` (the others at their defaults).
+
+        Args:
+            env: The env, for the message (e.g. "the continuous env").
+            takes: The fields the env honours.
+            why: Why the others cannot apply (appended to the message).
+            field: The error's ``field`` (None: the field's flat keyword below).
+
+        Raises:
+            ConfigError: The first field set that ``env`` cannot honour, named (``field``:
+                its flat keyword, e.g. ``"human_rationality"``, or ``"human"`` for
+                ``body``).
+        """
+        keyword = {v: k for k, v in HUMAN_KEYWORDS.items()}
+        for each in dataclasses.fields(self):
+            value = getattr(self, each.name)
+            if each.name not in takes and value != each.default:
+                raise ConfigError(
+                    f"{env} cannot honour HumanSpec.{each.name}={value!r}{why}; it takes "
+                    f"{', '.join(takes) or 'no field'} of a HumanSpec",
+                    field=field or keyword.get(each.name, "human"))
+        return self
+
+    def bodiless(self, env: str) -> HumanSpec:
+        """``self`` if it has no :attr:`body` (an env of the abstract graph, or a seat whose
+        env made its physics already).
+
+        Raises:
+            ConfigError: (``field="human"``) A body, naming ``env``.
+        """
+        return self.refuse(env, [f.name for f in dataclasses.fields(self) if f.name != "body"],
+                           " (a body is the physical human of the Panda backends and the "
+                           "continuous envs, set when such an env is made)")
 
     @property
     def kind(self) -> str:
@@ -268,21 +365,26 @@ class HumanSpec:
         """The spec as JSON-ready data (infinity as "inf")."""
         out = dataclasses.asdict(self)
         out["params"] = [list(p) for p in self.params]
+        if self.body is None:
+            del out["body"]  # as before bodies (the studies' records are unchanged)
+        else:
+            out["body"] = {"preset": self.body.preset,
+                           "params": [list(p) for p in self.body.params]}
         if math.isinf(self.rationality):
             out["rationality"] = "inf"
         return out
 
 
-def _pairs(params: Any) -> tuple[tuple[str, Any], ...]:
-    if isinstance(params, Mapping):
-        params = sorted(params.items())
+def _pairs(params: Any, what: str = "human_params") -> tuple[tuple[str, Any], ...]:
+    if isinstance(params, Mapping):  # by name (a key that is not a name is refused below)
+        params = sorted(params.items(), key=lambda item: str(item[0]))
     if isinstance(params, Sequence) and not isinstance(params, str):
         pairs = [tuple(p) if isinstance(p, Sequence) and not isinstance(p, str) else (p,)
                  for p in params]
         if all(len(p) == 2 and isinstance(p[0], str) for p in pairs):
             return tuple((str(p[0]), p[1]) for p in pairs)
-    raise ConfigError(f"human_params must be a mapping or (name, value) pairs, got {params!r}",
-                      field="human_params")
+    raise ConfigError(f"{what} must be a mapping or (name, value) pairs, got {params!r}",
+                      field="human_params" if what == "human_params" else "human")
 
 
 #: Whether a name is a scripted population's (kept here so that callers ask the spec).

@@ -333,7 +333,8 @@ class JaxRobotEnv:
       ``turn_back``, ``human_rationality``, ``population`` as for the vector env) or a
       :class:`~hri_envs.humans.scripted.ScriptedHuman` shared by every env (humans of the
       human protocol with Python state, families with a state of their own and
-      ``module:Class`` humans cannot run under ``jit``: refused naming them);
+      ``module:Class`` humans cannot run under ``jit``: refused naming them; so is a
+      spec's ``body``, as the env has no physical human);
     - ``population``: a name of
       :data:`~hri_envs.jax.tables.SUPPORTED_POPULATIONS` (or a
       :class:`~hri_envs.humans.populations.PopulationSpec`), or of a split of
@@ -371,7 +372,7 @@ class JaxRobotEnv:
             population = None
         given = human_spec(human, human_keywords)
         if isinstance(given, HumanSpec):
-            spec = given.check(graph)
+            spec = given.bodiless("the JAX env").check(graph)
             if spec.kind in ("class", "prefixed") or spec.params:
                 raise ConfigError(f"the JAX env holds scripted humans and splits of them as "
                                   f"tables, not {spec.population!r}"

@@ -19,7 +19,8 @@ from hri_envs.checks import check_real
 from hri_envs.envs.backends import carry_backend, carry_vector_backend
 from hri_envs.envs.config import check_layout, check_options_mapping, check_seed
 from hri_envs.errors import ConfigError, ResetNeeded
-from hri_envs.physics.carry.human.intention import HumanParams
+from hri_envs.humans.spec import HumanSpec
+from hri_envs.physics.carry.human.intention import HumanParams, carry_human_spec
 from hri_envs.physics.carry.reward import (
     EFFORT_LEVER_M,
     EpisodeRecord,
@@ -148,7 +149,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
     (indices or names "A", "B", ...); ``options={"robot_holds": False}`` starts with the
     robot's hand off the object (the human carries alone). The wheel's stands are placed at
     random per episode (``options={"layout": ((xB, yB), (xC, yC))}`` fixes them). v1:
-    ``options={"human": HumanParams or mapping}`` sets this episode's human (else the
+    ``options={"human": HumanSpec, HumanParams or mapping}`` sets this episode's human (a
+    spec without a population; else the
     ``population``'s draw, else ``human``).
 
     ## Episode End
@@ -184,10 +186,17 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
       (:class:`~hri_envs.physics.carry.warp.vector.CarryVectorEnv`);
     - ``drive``: "torque" (joint torque motors, the default) or "muscle" (MyoSuite's arm,
       the "arm" extra; docs/physics.md says where it works);
-    - ``human``: a mapping of :class:`~hri_envs.physics.carry.human.intention.HumanParams`
-    (``strength``,
-      ``stiffness``, ``hesitation_s``, ``reaction_s``, ``grip_force_n``, ``preference``,
-      ``speed``) and/or ``preset`` ("default", "weak", "hesitant", "firm");
+    - ``human``: a :class:`~hri_envs.humans.spec.HumanSpec` (the one description of the
+      human every env takes): its ``body`` is the physical human (``preset`` "default",
+      "weak", "hesitant", "firm" and params, the fields of :class:`~hri_envs.physics.
+      carry.human.intention.HumanParams`: ``strength``, ``stiffness``, ``hesitation_s``,
+      ``reaction_s``, ``grip_force_n``, ``speed``, ``sex``, ``stature_m``, ``body_mass_kg``,
+      ``drive``), its ``preference`` the route's, its ``population`` a physical population (as
+      ``population=``); ``passive``, ``turn_back``, ``rationality`` and ``params`` are
+      refused (:class:`~hri_envs.errors.ConfigError` naming the field). The shorthand: a
+      mapping of the body's ``preset`` and params (``human={"preset": "weak", "strength":
+      0.7}`` is ``HumanSpec(body=HumanBody("weak", {"strength": 0.7}))``, the same
+      episodes);
     - ``max_time_s``: the time limit [s]; ``reward``: a mapping of the version's weights
       (v1 :class:`PlacingReward`, v0 :class:`RewardWeights`);
     - ``sensor``: the wrist sensor's ``noise_n``, ``bias_n``, ``delay_s``;
@@ -200,7 +209,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
       learning from pixels must not see it). The supports are labelled by name
       (docs/physics.md, "Pictures");
     - ``population``: v1: the name of a physical human population; a member is drawn at
-      every reset from ``np_random`` (:mod:`hri_envs.physics.carry.human.population`);
+      every reset from ``np_random`` (:mod:`hri_envs.physics.carry.human.population`); the shorthand
+      of ``human=HumanSpec(population=...)``;
     - ``version``: 1 or 0 (set by the registered id).
 
     ``info`` (v1) during an episode holds only what the robot's observation shows:
@@ -230,7 +240,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 25}
 
     def __init__(self, scenario: str = "hanger", *, drive: str = "torque",
-                 human: Mapping[str, Any] | None = None, max_time_s: float | None = None,
+                 human: HumanSpec | Mapping[str, Any] | None = None,
+                 max_time_s: float | None = None,
                  reward: Mapping[str, float] | None = None,
                  sensor: Mapping[str, float] | None = None, max_step_m: float = 0.02,
                  max_step_rad: float = 0.06, render_mode: str | None = None,
@@ -241,7 +252,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         if version not in VERSIONS:
             raise ConfigError(f"unknown version {version!r} of the continuous envs; allowed: "
                               f"{', '.join(map(str, VERSIONS))}", field="version")
-        if population is not None and version == 0:
+        self.human = carry_human_spec(human, population)
+        if self.human.population is not None and version == 0:
             raise ConfigError("population= needs the v1 ids (*PandaContinuous-v1); v0 takes "
                               "one human (human=...)", field="population")
         self.version = version
@@ -256,9 +268,10 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ConfigError(f"render_mode must be None or 'rgb_array', got {render_mode!r}",
                               field="render_mode")
         self.pictures = EpisodePictures(RenderSettings.check(camera, render_goal, render_size))
-        self.human_params = HumanParams.of(human)
+        self.human_params = HumanParams.of_spec(self.human)
         self.weights: RewardWeights | PlacingReward = check_weights(
             PlacingReward if version else RewardWeights, reward)
+        population = self.human.population
         self.population = None if population is None else _population(population, scenario)
         max_time_s = spec.continuous_time_s if max_time_s is None else max_time_s
         if isinstance(max_time_s, bool) or not isinstance(max_time_s, int | float) \
@@ -340,7 +353,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         scenario = episode_geometry(self.graph, self.layout)
         self.start, self._intention = start, goal
         if opts.get("human") is not None:  # v1: this episode's human
-            human = HumanParams.of(opts["human"])
+            human = HumanParams.of_spec(carry_human_spec(opts["human"], episode=True))
         elif self.population is not None:
             human = self.population.draw(rng)
         else:

@@ -43,11 +43,13 @@ from typing import Any
 import numpy as np
 
 from hri_envs.errors import ConfigError, MissingExtraError
+from hri_envs.humans.spec import HumanBody
 from hri_envs.physics.scene.camera import check_camera
 from hri_envs.physics.scene.design import PRESET_NAMES, PhysicsDesign
 
-__all__ = ["OPTION_KEYS", "PHYSICS_MAXIMA", "PHYSICS_PARAMETERS", "VIDEO_SUFFIXES",
-           "PhysicsParams", "PhysicsSettings", "check_options", "prepare_video_path"]
+__all__ = ["BODY_KEYS", "BODY_PRESETS", "OPTION_KEYS", "PHYSICS_MAXIMA", "PHYSICS_PARAMETERS",
+           "VIDEO_SUFFIXES", "PhysicsParams", "PhysicsSettings", "body_options",
+           "check_options", "prepare_video_path"]
 
 #: The numeric physics options: key -> (unit, must be > 0 rather than >= 0, meaning).
 #: Their defaults are the scenario's design (docs/physics.md).
@@ -77,6 +79,34 @@ VIDEO_SUFFIXES: tuple[str, ...] = (".gif", ".mp4", ".mkv", ".avi", ".mov", ".web
 #: Every key ``physics={...}`` accepts.
 OPTION_KEYS: tuple[str, ...] = ("video_path", "video_fps", "preset", "randomize",
                                 "attempt_invalid", "camera", *PHYSICS_PARAMETERS)
+
+
+#: The options that describe the physical human: what a
+#: :class:`~hri_envs.humans.spec.HumanBody` may set on these backends (:func:`body_options`).
+BODY_KEYS: tuple[str, ...] = tuple(k for k in PHYSICS_PARAMETERS if k.startswith("human_"))
+#: The presets that describe the physical human (the others, "noisy-sensor", the sensor).
+BODY_PRESETS: tuple[str, ...] = tuple(p for p in PRESET_NAMES if p.endswith("-human"))
+
+
+def body_options(body: HumanBody) -> dict[str, Any]:
+    """The physics options of a :class:`~hri_envs.humans.spec.HumanBody` (a
+    ``HumanSpec(body=...)`` of the Panda envs): its ``preset`` as ``"preset"`` and its
+    params, checked as :func:`check_options` checks them.
+
+    Raises:
+        ConfigError: (``field="human"``) A preset not in :data:`BODY_PRESETS`, a param not
+            in :data:`BODY_KEYS`, or a value not allowed.
+    """
+    if body.preset is not None and body.preset not in BODY_PRESETS:
+        raise ConfigError(f"unknown body preset {body.preset!r} of the Panda backends' human; "
+                          f"allowed: {', '.join(BODY_PRESETS)}", field="human")
+    unknown = sorted(map(repr, {k for k, _ in body.params} - set(BODY_KEYS)))
+    if unknown:
+        raise ConfigError(f"unknown body param(s) {', '.join(unknown)} of the Panda backends' "
+                          f"human; allowed: {', '.join(BODY_KEYS)}", field="human")
+    for key, value in body.params:
+        _check_parameter(key, value, f"the body's {key!r}", field="human")
+    return body.values()
 
 
 def check_options(physics: Mapping[str, Any]) -> dict[str, Any]:
@@ -184,7 +214,7 @@ def prepare_video_path(path: Any) -> str:
     return name
 
 
-def _check_parameter(key: str, value: Any, label: str) -> float:
+def _check_parameter(key: str, value: Any, label: str, field: str = "physics") -> float:
     """A numeric physics parameter: finite, > 0 or >= 0 as its entry says, and at most its
     maximum (:data:`PHYSICS_MAXIMA`) if it has one.
     """
@@ -196,7 +226,7 @@ def _check_parameter(key: str, value: Any, label: str) -> float:
             and number <= top):
         bound = ("> 0" if positive else ">= 0") + (f" and <= {top:g}" if top < math.inf else "")
         raise ConfigError(f"{label} must be a number {bound} [{unit}], got {value!r}",
-                          field="physics")
+                          field=field)
     return number
 
 

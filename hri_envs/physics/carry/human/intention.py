@@ -24,19 +24,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields, replace
+from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
 
 import numpy as np
 
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import preference_human
+from hri_envs.humans.spec import HumanBody, HumanSpec
 from hri_envs.physics.carry.human.body import SEXES, BodySize
 from hri_envs.physics.scene.design import PhysicsDesign
 from hri_envs.physics.scene.kinematics import Pose, StraightLine, TrajectorySample, rotation_error
 from hri_envs.task.graph import BOTH, TaskGraph
 
-__all__ = ["HUMAN_DRIVES", "HUMAN_PRESETS", "HumanParams", "IntentionHuman", "route_states"]
+__all__ = ["CARRY_SPEC_FIELDS", "HUMAN_DRIVES", "HUMAN_PRESETS", "HumanParams",
+           "IntentionHuman", "carry_human_spec", "route_states"]
 
 #: The arm's drives: joint torque motors, or MyoSuite's muscles (the "arm" extra).
 HUMAN_DRIVES: tuple[str, ...] = ("torque", "muscle")
@@ -66,6 +68,8 @@ class HumanParams:
 
     ``strength`` scales the torque limits of the body (its sex and stature, :meth:`~hri_envs.
     physics.carry.human.body.BodySize.strength_scale`): 1 is the typical strength of such a body.
+
+    A :class:`~hri_envs.humans.spec.HumanSpec`'s body names them (:meth:`of_spec`).
     """
 
     strength: float = 1.0
@@ -140,6 +144,22 @@ class HumanParams:
                                   f", got {value!r}", field="human")
         return replace(base, **values)
 
+    @classmethod
+    def of_spec(cls, spec: HumanSpec) -> HumanParams:
+        """The human of a spec's body (its preset and params) and preference.
+
+        Raises:
+            ConfigError: (``field="human"``) As :meth:`of`, or a preference given both as the
+                spec's and in its body.
+        """
+        values = {} if spec.body is None else spec.body.values()
+        if spec.preference is not None:
+            if "preference" in values:
+                raise ConfigError("give the human's preference either as HumanSpec.preference "
+                                  "or in its body, not both", field="human")
+            values["preference"] = spec.preference
+        return cls.of(values)
+
 
 #: The human parameters that take one of a few names.
 _CHOICES: dict[str, tuple[str, ...]] = {"sex": SEXES, "drive": HUMAN_DRIVES}
@@ -156,6 +176,46 @@ HUMAN_PRESETS: dict[str, HumanParams] = {
     "hesitant": HumanParams(hesitation_s=1.0, reaction_s=0.6),
     "firm": HumanParams(stiffness=2.0, hesitation_s=0.1, reaction_s=0.2),
 }
+
+
+#: The :class:`~hri_envs.humans.spec.HumanSpec` fields the continuous envs honour.
+CARRY_SPEC_FIELDS: tuple[str, ...] = ("preference", "population", "body")
+
+
+def carry_human_spec(human: Any, population: Any = None, episode: bool = False) -> HumanSpec:
+    """The continuous envs' human as a :class:`~hri_envs.humans.spec.HumanSpec`: ``human``
+    if it is one, else the spec of the shorthand (``human=`` a mapping of
+    :class:`HumanParams` fields and/or ``preset``, or a :class:`HumanParams`: the body;
+    ``population=`` a physical population's name). ``episode``: one episode's human (the
+    v1 reset option ``human``), which a population cannot be.
+
+    Raises:
+        ConfigError: A spec that sets a field the continuous envs cannot honour
+            (:data:`CARRY_SPEC_FIELDS` only: the human is a physical arm following a route,
+            not the graph's scripted policy), a population given both ways or for one
+            episode, or the shorthand's errors (:meth:`HumanParams.of`; a population that
+            is not a name).
+    """
+    if isinstance(human, HumanSpec):
+        if population is not None:
+            raise ConfigError("give the population either as population= or as "
+                              "human=HumanSpec(population=...), not both", field="population")
+        if episode:
+            return human.refuse("the continuous env's reset option 'human'",
+                                ("preference", "body"), " (one episode's human)")
+        return human.refuse("the continuous env", CARRY_SPEC_FIELDS,
+                            " (its human is a physical arm along a route, not the graph's "
+                            "scripted policy)")
+    params = HumanParams.of(human)  # the shorthand's own errors
+    if population is not None and not isinstance(population, str):
+        raise ConfigError(f"population must be a population's name, got {population!r}",
+                          field="population")
+    body = None
+    if isinstance(human, HumanParams):
+        body = HumanBody.of(asdict(params))
+    elif human is not None:
+        body = HumanBody.of(human)
+    return HumanSpec(population=population, body=body)
 
 
 def route_states(graph: TaskGraph, start: int, goal: int,

@@ -109,7 +109,8 @@ class PandaVectorEnv(WorldsVectorEnv[dict[str, np.ndarray]]):
         kwargs: dict[str, Any] = {"human": human, "r0": r0, "max_cycles": max_cycles,
                                   "physics": physics, "reward": reward}
         self.graph = scenario_graph(scenario)
-        options = check_physics_options(physics, "mjwarp")
+        options = check_physics_options(
+            physics, "mjwarp", human.body if isinstance(human, HumanSpec) else None)
         if "video_path" in options:
             raise ConfigError("the Panda vector env does not record videos; use the single "
                               "env for physics={'video_path': ...}", field="physics")
