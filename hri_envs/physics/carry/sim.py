@@ -156,11 +156,7 @@ class CarrySim(SceneRig):
                 self.scenario, design, self.rest_quat)
             self.body = None
             self.model = self.scene.model
-        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MIDPHASE
-        self.data = mujoco.MjData(self.model)
-        self.dt = float(self.model.opt.timestep)
-        self.control_every = max(1, int(design.control_every_steps))
-        self.dt_control = self.control_every * self.dt
+        self.init_data()
         self.dt_step = stages.PERIODS * self.dt_control
         self.posture = np.asarray(posture, dtype=float)
         self.coupling = coupling

@@ -206,14 +206,7 @@ class PandaSim(SceneRig):
         self.scene = build_scene(self.scenario, design,
                                  functools.partial(add_human_arm, design=design))
         self.model = self.scene.model
-        # No mid-phase (per-body BVH) collision culling: the scene's bodies carry a few
-        # geoms each, so it only costs time (≈ 5 % of the control loop); the contacts, and
-        # the trajectories, are the same bit for bit (docs/physics.md, "Speed").
-        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MIDPHASE
-        self.data = mujoco.MjData(self.model)
-        self.dt = float(self.model.opt.timestep)
-        self.control_every = max(1, int(design.control_every_steps))
-        self.dt_control = self.control_every * self.dt
+        self.init_data()
         # IK reference updates, in control periods.
         self.ik_every = max(1, round(1.0 / (ik_rate * self.dt_control)))
         self.controller = ImpedanceController(self.scene)

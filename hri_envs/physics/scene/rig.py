@@ -1,9 +1,10 @@
 """What a simulation of the scene does alike in both env families: :class:`SceneRig`.
 
 The base of :class:`~hri_envs.physics.panda.sim.PandaSim` (the discrete Panda backend) and
-:class:`~hri_envs.physics.carry.sim.CarrySim` (the continuous envs): the poses they read
-from MuJoCo's data, the supports moved to a layout, and the mobile base's mount offset. Each
-subclass builds the attributes below in its constructor.
+:class:`~hri_envs.physics.carry.sim.CarrySim` (the continuous envs): the compiled model's
+data and timing, the poses they read from MuJoCo's data, the supports moved to a layout,
+and the mobile base's mount offset. Each subclass builds the attributes below in its
+constructor.
 """
 
 from __future__ import annotations
@@ -35,9 +36,13 @@ class SceneRig:
         ik: The robot's IK reference.
         home: The robot's home posture (its joints).
         lowest_z: The lowest support's height [m] (below it by a margin, the object fell).
+        dt: The physics step [s] (:meth:`init_data`).
+        control_every: Physics steps per control period.
+        dt_control: The control period [s].
     """
 
     scene: Scene
+    model: mujoco.MjModel
     data: mujoco.MjData
     design: PhysicsDesign
     scenario: Scenario
@@ -46,6 +51,23 @@ class SceneRig:
     ik: ReferenceIK
     home: np.ndarray
     lowest_z: float
+    dt: float
+    control_every: int
+    dt_control: float
+
+    def init_data(self) -> None:
+        """The model's data and timing: MuJoCo's data, the physics step ``dt``, the control
+        period (``control_every`` steps of ``dt``, ``dt_control`` s) of the design.
+
+        No mid-phase (per-body BVH) collision culling: the scene's bodies carry a few geoms
+        each, so it only costs time (≈ 5 % of the control loop); the contacts, and the
+        trajectories, are the same bit for bit (docs/physics.md, "Speed").
+        """
+        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MIDPHASE
+        self.data = mujoco.MjData(self.model)
+        self.dt = float(self.model.opt.timestep)
+        self.control_every = max(1, int(self.design.control_every_steps))
+        self.dt_control = self.control_every * self.dt
 
     def grip_pose(self) -> Pose:
         """The robot hand's grip frame now."""
