@@ -4,8 +4,9 @@ and :func:`register_agent` (docs/extending.md, "An agent").
 The registry sits here, beside the agent protocol and its conformance check
 (:func:`agents.conformance.check_agent`), as every kind's registry sits in its own package
 (:class:`hri_envs.registry.Registry`). The built-in agents, made of this package's Learner
-and of :mod:`baselines`, are registered by :mod:`hri_bench.run.agents`, which also resolves
-the names that are not registered (``sb3:PATH``, ``jaxppo[:PATH]``, ``module:Class``).
+and of :mod:`baselines`, are registered by :mod:`hri_bench.run.builtin_agents`, which
+:mod:`hri_bench.run.agents` imports; that module also resolves the names that are not
+registered (``sb3:PATH``, ``jaxppo[:PATH]``, ``module:Class``).
 """
 
 from __future__ import annotations

@@ -168,8 +168,8 @@ def script_flags(command: str, *, config: str | None = None) -> None:
 
 def jax_script_flags(command: str) -> None:
     """:func:`script_flags` of benchmarks/train_jax_ppo.py, whose settings are
-    :class:`agents.jax_ppo.train.TrainConfig`'s (without importing JAX here)."""
-    script_flags(command, config="agents/jax_ppo/train.py")
+    :class:`agents.jax_ppo.config.TrainConfig`'s (without importing JAX here)."""
+    script_flags(command, config="agents/jax_ppo/config.py")
 
 
 def syntax(command: str) -> None:

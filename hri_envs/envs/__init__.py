@@ -8,6 +8,7 @@ module                     contents
 ``parallel``               :class:`CooperationParallelEnv` (PettingZoo, human + robot)
 ``robot``                  :class:`RobotEnv` (Gymnasium, robot vs a scripted human)
 ``vector``                 :class:`RobotVectorEnv` (N robot envs stepped in numpy)
+``vector_inputs``          the vector env's checks of its backend, reset options, actions
 ``aec``                    the turn-based (AEC) form of the parallel env
 ``partner``                :class:`PartnerEnv` (Gymnasium, one seat, a fixed partner)
 ``formats``                the "classic"/"flat" observation formats, human rewards

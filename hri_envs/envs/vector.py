@@ -10,18 +10,21 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from hri_envs.checks import check_whole
-from hri_envs.envs.backends import backend_spec
 from hri_envs.envs.config import (
-    RESET_OPTION_KEYS,
     check_autoreset_mode,
     check_env_settings,
-    check_options_mapping,
     check_seed,
     scenario_graph,
-    support_index,
 )
 from hri_envs.envs.spaces import robot_observation_space
-from hri_envs.errors import ActionError, ConfigError, ResetNeeded
+from hri_envs.envs.vector_inputs import (
+    check_robot_actions,
+    check_vector_backend,
+    reset_supports,
+    turn_back_option,
+    vector_reset_options,
+)
+from hri_envs.errors import ConfigError, ResetNeeded
 from hri_envs.humans.protocol import BatchHuman, checked_actions
 from hri_envs.humans.seat import HumanLike, seat_human
 from hri_envs.humans.tables import TableHumans
@@ -37,7 +40,6 @@ from hri_envs.task.greedy_table import GreedyStepTable
 
 __all__ = ["RobotVectorEnv"]
 
-_VECTOR_OPTION_KEYS = RESET_OPTION_KEYS[:3]
 #: The most envs one vector env holds (its arrays are (num_envs,) and (num_envs, A)).
 MAX_NUM_ENVS = 1_000_000
 _INT64 = np.dtype(np.int64)
@@ -151,17 +153,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
          self.backend) = check_env_settings(scenario, r0, max_cycles, render_mode,
                                             self.metadata["render_modes"], backend)
 
-        spec = backend_spec(self.backend)
-        if not spec.vectorizable:
-            batched = ("; or the Panda ids' vector entry point, whose worlds step together on "
-                       "MuJoCo Warp: gymnasium.make_vec('hri_envs/HangerPanda-v0', num_envs=N, "
-                       "vectorization_mode='vector_entry_point')"
-                       if spec.vector_entry is not None else "")
-            raise ConfigError(
-                f"the numpy vector env runs on the graph only, not backend={self.backend!r}; "
-                "use gymnasium.make_vec(..., vectorization_mode='async') for a simulated backend"
-                + batched, field="backend"
-            )
+        check_vector_backend(self.backend)
         self.graph = scenario_graph(scenario)
         self._human = seat_human(self.graph, human=human, n_runs=self.num_envs,
                                  env="the numpy vector env", **human_keywords)
@@ -229,18 +221,6 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             "last_human_action": self._last_human.copy(),
             "action_mask": self.rules.action_mask.take(state, axis=0),
         }
-
-    def _supports(self, value: Any, key: str) -> np.ndarray:
-        scenario = self.graph.scenario
-        items = np.asarray(value, dtype=object)
-        if items.ndim > 1 or items.size not in (1, self.num_envs):
-            raise ConfigError(
-                f"reset option {key!r} must be one support or {self.num_envs} of them "
-                f"(shape ({self.num_envs},)), got shape {items.shape}", field=key
-            )
-        items = items.reshape(-1)
-        idx = np.array([support_index(v, scenario, key) for v in items], dtype=np.int64)
-        return np.broadcast_to(idx, (self.num_envs,)).copy()
 
     def _draw_turn(self, rows: np.ndarray | slice) -> np.ndarray | None:
         """Whether the new episodes of ``rows`` turn back (None: no human of them can)."""
@@ -314,13 +294,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Start N new episodes; see the class docstring for ``options``."""
-        options = dict(check_options_mapping({} if options is None else options))
-        unknown = sorted(map(repr, set(options) - set(_VECTOR_OPTION_KEYS)))
-        if unknown:
-            raise ConfigError(
-                f"unknown reset option(s) {', '.join(unknown)} for the vector env; "
-                f"allowed: {', '.join(_VECTOR_OPTION_KEYS)}", field="options"
-            )
+        options = vector_reset_options(options)
         super().reset(seed=check_seed(seed, "this batched env"))
         human = self._human
         if human is not self._adopted:  # replaced since the last step
@@ -329,8 +303,10 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         human.draw(rng)  # a population's new members, drawn first
         human.seed(np.random.default_rng(int(rng.integers(2**63))))
         n, n_k = self.num_envs, self.graph.n_intentions
-        start = self._supports(options["start"], "start") if "start" in options else None
-        intention = (self._supports(options["intention"], "intention")
+        scenario = self.graph.scenario
+        start = (reset_supports(options["start"], "start", scenario, n)
+                 if "start" in options else None)
+        intention = (reset_supports(options["intention"], "intention", scenario, n)
                      if "intention" in options else None)
         if start is None:
             if intention is None:
@@ -344,12 +320,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                               field="intention")
         turn: np.ndarray | None
         if "turn_back" in options:
-            turn = np.asarray(options["turn_back"])
-            if turn.dtype != np.bool_ or turn.shape not in ((), (1,), (n,)):
-                raise ConfigError(f"reset option 'turn_back' must be a bool or {n} bools "
-                                  f"(shape ({n},)), got {turn.dtype} of shape {turn.shape}",
-                                  field="turn_back")
-            turn = np.broadcast_to(turn, (n,))
+            turn = turn_back_option(options["turn_back"], n)
         else:
             turn = self._draw_turn(slice(None))
         self._turning = False
@@ -380,7 +351,7 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         a_r = actions  # the usual int64 (N,) array needs only the range check
         if (type(a_r) is not np.ndarray or a_r.dtype is not _INT64 or a_r.shape != self._shape
                 or a_r.view(np.uint64).max() >= self._n_actions):
-            a_r = self._check_actions(a_r)
+            a_r = check_robot_actions(a_r, self.num_envs, self._n_actions)
         self._t = t = self._t + 1
         human = self._human
         if human is not self._adopted:
@@ -505,23 +476,6 @@ class RobotVectorEnv(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         start, intention = draw_start_intention(self.np_random, self._n_supports,
                                                 np.array(which.size))
         self._begin(which, start, intention, self._draw_turn(which), waited)
-
-    def _check_actions(self, actions: Any) -> np.ndarray:
-        a = np.asarray(actions)
-        n, n_a = self.num_envs, self._n_actions
-        if a.shape != (n,) or a.dtype.kind not in "iu":
-            raise ActionError(
-                f"robot actions must be an integer array of shape ({n},) in the action space "
-                f"MultiDiscrete([{n_a}] * {n}): integers 0..{n_a - 1}; got {a.dtype} {a.shape}"
-            )
-        a64 = a.astype(np.int64, copy=False)
-        if a64.view(np.uint64).max() >= n_a:  # negative actions wrap round to huge ones
-            bad = a[(a < 0) | (a >= n_a)]
-            raise ActionError(
-                f"robot action(s) {bad[:5].tolist()} outside the robot's action space: "
-                f"valid actions are 0..{n_a - 1}"
-            )
-        return a64
 
     def close_extras(self, **kwargs: Any) -> None:
         """Nothing to release."""
