@@ -41,6 +41,7 @@ import numpy as np
 from baselines.physical import PHYSICAL_AGENTS, make_physical_agent
 from baselines.physical.runs import HUMANS, ROW_FIELDS, make_env, run_seeds
 from hri_bench.core.stats import bootstrap_ci
+from hri_envs.task.scenarios import scenario_spec
 
 #: The summary's name for all humans together (with more than one human).
 ALL = "all"
@@ -52,7 +53,8 @@ MEANS = ("effort", "return", "peak_force", "rms_force", "rms_jerk", "effort_per_
 
 def run_job(job: dict[str, Any]) -> list[dict[str, Any]]:
     """One run in a worker process: the env and the agent are made here."""
-    env = make_env(job["scenario"], job["human"], job["population"], job["max_time_s"])
+    env = make_env(scenario_spec(job["scenario"]), job["human"], job["population"],
+                   job["max_time_s"])
     try:
         agent = make_physical_agent(job["agent"], job["scenario"], seed=job["run"])
         return run_seeds(agent, env, job["seeds"], agent=job["agent"],

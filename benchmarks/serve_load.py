@@ -126,10 +126,11 @@ async def leaders(url: str, n: int, scenario: str, seconds: float, stagger: floa
 
     stats = [LeadStats() for _ in range(n)]
     deadline = time.monotonic() + seconds
+    graph = scenario_graph(scenario)  # the command line's name, resolved once
 
     async def one(i: int) -> None:
         await asyncio.sleep(i * stagger)
-        await lead(url, lambda _: ScriptedLeader(scenario, HumanParams()), stats[i],
+        await lead(url, lambda _: ScriptedLeader(graph, HumanParams()), stats[i],
                    deadline=deadline)
 
     await asyncio.gather(*(one(i) for i in range(n)))

@@ -45,6 +45,7 @@ from baselines.physical.residual import (
     save_policy,
 )
 from baselines.physical.runs import make_env
+from hri_envs.task.scenarios import scenario_spec
 
 CURVE_FIELDS = ("steps", "wall_s", "goal_rate", "return", "return_min", "return_max",
                 "effort", "effort_min", "effort_max", "train_return")
@@ -52,7 +53,8 @@ CURVE_FIELDS = ("steps", "wall_s", "goal_rate", "return", "return_min", "return_
 
 def _env_fn(scenario: str, scale: float, population: str) -> Any:
     def make() -> ResidualEnv:
-        return ResidualEnv(make_env(scenario, population=population), scenario, scale)
+        return ResidualEnv(make_env(scenario_spec(scenario), population=population), scenario,
+                           scale)
     return make
 
 
@@ -160,7 +162,7 @@ def main() -> None:
                                "log_std_init": args.log_std})
     for param in model.policy.action_net.parameters():  # untrained: variable admittance
         torch.nn.init.zeros_(param)
-    eval_env = make_env(args.scenario, population="validation")
+    eval_env = make_env(scenario_spec(args.scenario), population="validation")
     rows: list[dict[str, Any]] = []
     best: dict[str, Any] = {}
     t0 = time.perf_counter()

@@ -43,6 +43,7 @@ from baselines.physical.admittance import (
 from baselines.physical.blend import TUNED_BLEND, GoalBlend
 from baselines.physical.hindsight import TUNED_QMDP, GoalQMDP
 from baselines.physical.runs import HUMANS, make_env, run_seeds
+from hri_envs.task.scenarios import scenario_spec
 
 #: Per agent: (the dotted field, ("x", factors) for multiples of the current value or
 #: ("=", values) for fixed values) searched one after another.
@@ -104,7 +105,7 @@ def put(params: Any, path: str, value: Any) -> Any:
 
 def run_human(job: dict[str, Any]) -> list[dict[str, Any]]:
     """One human's training episodes in a worker process (one run: in order)."""
-    env = make_env(job["scenario"], job["human"], job["population"])
+    env = make_env(scenario_spec(job["scenario"]), job["human"], job["population"])
     try:
         agent = make_agent(job["kind"], job["scenario"], job["params"])
         return run_seeds(agent, env, job["seeds"], agent=job["kind"],

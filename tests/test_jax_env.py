@@ -41,6 +41,7 @@ from hri_envs.jax.tables import (  # noqa: E402
     step_arrays,
 )
 from hri_envs.task.features import initial_theta  # noqa: E402
+from hri_envs.task.scenarios import spec_of  # noqa: E402
 
 SAME = AutoresetMode.SAME_STEP
 
@@ -50,7 +51,7 @@ class RecordingPopulation(PopulationHumans):
 
     def draw(self, rng, rows=None):
         idx = all_rows(rows, self.n_runs)
-        draws = [self.spec.sample(self.graph.name, rng) for _ in idx]
+        draws = [self.spec.sample(self.graph, rng) for _ in idx]
         self.drawn = dict(zip(idx.tolist(), draws, strict=True))
         self.assign(idx, [build_human(self.graph, d) for d in draws])
 
@@ -70,7 +71,7 @@ class RecordingMixture(RecordingPopulation):
 
     def draw(self, rng, rows=None):
         idx = all_rows(rows, self.n_runs)
-        draws = [self.mixture.sample(self.graph.name, rng) for _ in idx]
+        draws = [self.mixture.sample(self.graph, rng) for _ in idx]
         self.history = [*getattr(self, "history", []), *draws]
         self.drawn = dict(zip(idx.tolist(), draws, strict=True))
         self.assign(idx, [build_human(self.graph, d) for d in draws])
@@ -337,7 +338,7 @@ def test_population_draw_matches_the_recipe():
         for seed in range(20):
             rng = np.random.default_rng(seed)
             u = np.random.default_rng(seed).random(4)
-            d = POPULATIONS["heldout"].sample("hanger", rng)
+            d = POPULATIONS["heldout"].sample(scenario_graph("hanger"), rng)
             m = env.member_from_uniforms(jnp.asarray(np.r_[u, 0.5]), params)
             assert int(m.entry) == prefs.index(d.preference)
             np.testing.assert_allclose(float(m.beta), d.rationality, rtol=1e-12)
@@ -389,7 +390,7 @@ def test_without_jax_one_line_says_how_to_install():
 def test_outcome_words_unpack_to_the_step_table(scenario, reward, r0):
     """One word per joint step holds every field of the step table, bit for bit."""
     graph = scenario_graph(scenario)
-    steps = step_arrays(graph, check_r0(r0, scenario), reward)
+    steps = step_arrays(graph, check_r0(r0, spec_of(graph)), reward)
     words, rewards = outcome_words(steps)
     b = OUTCOME_BITS
     assert words.dtype == np.int32 and words.shape == steps.next_state.shape

@@ -12,13 +12,13 @@ from hri_envs.errors import ConfigError
 from hri_envs.physics.carry.human.intention import HumanParams
 from hri_envs.physics.carry.human.population import physical_population, save_population
 from hri_envs.physics.scene.kinematics import Pose, compose
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 
 def _episode(params, start, goal, steps=220):
     """An episode where the object follows the reference of ``params`` exactly: the
     recorded targets are that reference's hand."""
-    leader = ScriptedLeader("hanger", params)
+    leader = ScriptedLeader(scenario_graph("hanger"), params)
     leader.begin({"layout": [], "start": start, "goal": goal}, {"bodies": ["object"]})
     first = leader.human.lines[0].sample(0.0)
     pos, quat = np.asarray(first.pos), np.asarray(first.quat)
@@ -38,14 +38,15 @@ def test_the_fit_finds_the_reference_human_that_made_the_targets():
     episodes = (_episode(true, 0, 1),)
     person = pf._Person("s0001", episodes, HumanParams(stiffness=0.8), 0.5, 220)
     # the true route among others, the timings from the defaults
-    fit = pf._fit_person("hanger", person, (prefs[0], prefs[5], prefs[20]))
+    fit = pf._fit_person(scenario_graph("hanger"), person, (prefs[0], prefs[5], prefs[20]))
     assert fit.preference == true.preference
     assert fit.speed == pytest.approx(0.8, abs=0.03)
     assert fit.reaction_s == pytest.approx(0.6, abs=0.05)
     assert fit.hesitation_s == pytest.approx(0.9, abs=0.1)
     assert fit.stiffness == pytest.approx(0.4)  # the arm's, scaled by what was asked
-    assert pf.target_error("hanger", episodes, fit) < 0.005
-    assert pf.target_error("hanger", episodes, HumanParams(preference=prefs[5])) > 0.05
+    hanger = scenario_graph("hanger")
+    assert pf.target_error(hanger, episodes, fit) < 0.005
+    assert pf.target_error(hanger, episodes, HumanParams(preference=prefs[5])) > 0.05
 
 
 def test_a_population_file_seats_its_humans_by_name(tmp_path):

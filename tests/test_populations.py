@@ -84,27 +84,27 @@ def test_unknown_population_lists_the_allowed_ones() -> None:
 
 def test_population_draws_depend_on_seed_and_run_only() -> None:
     spec = POPULATIONS["mixed-rationality"]
-    a = [spec.draw("hanger", 5, r) for r in range(6)]
-    b = [spec.draw("hanger", 5, r) for r in reversed(range(6))][::-1]
+    a = [spec.draw(scenario_graph("hanger"), 5, r) for r in range(6)]
+    b = [spec.draw(scenario_graph("hanger"), 5, r) for r in reversed(range(6))][::-1]
     assert a == b
     assert len({d.rationality for d in a}) == 6
     assert all(1.0 <= d.rationality <= 20.0 for d in a)
-    assert draw_human("hanger", 5, 2, population="mixed-rationality") == a[2]
+    assert draw_human(scenario_graph("hanger"), 5, 2, population="mixed-rationality") == a[2]
 
 
 def test_hanger_all_covers_many_preferences_and_held_out_is_marked() -> None:
     spec = POPULATIONS["hanger-all"]
-    prefs = {spec.draw("hanger", 0, r).preference for r in range(200)}
+    prefs = {spec.draw(scenario_graph("hanger"), 0, r).preference for r in range(200)}
     assert len(prefs) >= 30 and prefs <= set(preferences_for("hanger"))
     assert [n for n, p in POPULATIONS.items() if p.held_out] == ["heldout"]
 
 
 def test_drift_switches_exactly_at_episode_k() -> None:
     base = HumanDraw("straight")
-    seq = human_sequence("wheel", base, seed=0, run=3, episodes=7, drift=4)
+    seq = human_sequence(scenario_graph("wheel"), base, seed=0, run=3, episodes=7, drift=4)
     assert seq[:4] == [base] * 4
     assert seq[4:] == [HumanDraw("detour")] * 3
-    assert human_sequence("wheel", base, 0, 3, 4, drift=4) == [base] * 4
+    assert human_sequence(scenario_graph("wheel"), base, 0, 3, 4, drift=4) == [base] * 4
 
 
 def test_drifting_human_acts_by_the_new_preference_after_k() -> None:

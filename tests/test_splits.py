@@ -22,6 +22,7 @@ from hri_envs.humans.splits import (
     population_hash,
     population_seat,
 )
+from hri_envs.task.scenarios import scenario_graph
 
 #: The frozen content hashes (version 1 of every split): a change to any split's generator,
 #: seeds or members must come with a new version, and a new hash here.
@@ -198,13 +199,14 @@ def test_a_distinct_split_draws_again_and_refuses_what_it_cannot_fill():
 def test_a_studys_runs_meet_the_members_in_balanced_blocks():
     spec = MIXTURES[("test-adaptive", "wheel")]
     n = spec.size
-    first = [spec.draw("wheel", 3, r) for r in range(n)]
+    wheel = scenario_graph("wheel")
+    first = [spec.draw(wheel, 3, r) for r in range(n)]
     assert sorted(map(str, first)) == sorted(map(str, spec.member_draws))
-    second = [spec.draw("wheel", 3, r) for r in range(n, 2 * n)]
+    second = [spec.draw(wheel, 3, r) for r in range(n, 2 * n)]
     assert sorted(map(str, second)) == sorted(map(str, spec.member_draws))
     assert first != second  # another order per block
-    assert [spec.draw("wheel", 3, r) for r in reversed(range(n))][::-1] == first
-    assert first != [spec.draw("wheel", 4, r) for r in range(n)]  # the seed orders them
+    assert [spec.draw(wheel, 3, r) for r in reversed(range(n))][::-1] == first
+    assert first != [spec.draw(wheel, 4, r) for r in range(n)]  # the seed orders them
 
 
 def test_unknown_names_and_impossible_parameters_fail_naming_the_field():

@@ -25,7 +25,7 @@ from agents.physical import PhysicalAgent, PhysicalEpisode, outcome_of
 from hri_envs.errors import ConfigError
 from hri_envs.physics.carry.human.intention import HUMAN_PRESETS
 from hri_envs.registration import continuous_id
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.scenarios import ScenarioSpec
 
 __all__ = ["HUMANS", "INFERRED", "ROW_FIELDS", "episode_row", "inferred_s", "make_env",
            "run_episode", "run_seeds"]
@@ -45,9 +45,9 @@ ROW_FIELDS: tuple[str, ...] = (
 INFERRED = 0.9
 
 
-def make_env(scenario: str, human: str = "default", population: str | None = None,
+def make_env(spec: ScenarioSpec, human: str = "default", population: str | None = None,
              max_time_s: float | None = None) -> gym.Env:
-    """The scenario's v1 continuous env with the named human (or a population's).
+    """The scenario ``spec``'s v1 continuous env with the named human (or a population's).
 
     Raises:
         ConfigError: An unknown human (the message lists the names).
@@ -62,7 +62,7 @@ def make_env(scenario: str, human: str = "default", population: str | None = Non
         kwargs["population"] = population
     if max_time_s is not None:
         kwargs["max_time_s"] = max_time_s
-    env_id = continuous_id(str(scenario_spec(scenario).continuous_id), 1)
+    env_id = continuous_id(str(spec.continuous_id), 1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         return gym.make(env_id, **kwargs)

@@ -20,7 +20,7 @@ from hri_bench.cli.parser import LEARNER_FLAGS, STUDY_ARGUMENTS
 from hri_bench.run.agents import SB3_PREFIX, jaxppo_path
 from hri_bench.run.humans import population_changes
 from hri_bench.run.regret import REFERENCES
-from hri_bench.run.study import EXECUTION_FIELDS, StudyConfig, UnitLostError, graph_for
+from hri_bench.run.study import EXECUTION_FIELDS, StudyConfig, UnitLostError
 from hri_bench.run.studyio import UNITS, StudyDir, StudyTerminated, run_in, stop_on_signals
 from hri_bench.suite.submission import read_json
 from hri_envs.envs.backends import check_backend
@@ -132,7 +132,7 @@ def require_for_study(cfg: Any, *, progress: bool) -> None:
         for name in cfg.agents:  # a model that cannot be loaded is bad input: exit 2
             if name.startswith(SB3_PREFIX):
                 try:
-                    SB3BatchAgent(name[len(SB3_PREFIX):], 1, graph=graph_for(cfg.scenario))
+                    SB3BatchAgent(name[len(SB3_PREFIX):], 1, graph=cfg.graph)
                 except ConfigError as exc:
                     raise ConfigError(f"agent {name!r}: {exc}", field="agents") from None
     if any(jaxppo_path(a) is not None for a in cfg.agents):
@@ -143,7 +143,7 @@ def require_for_study(cfg: Any, *, progress: bool) -> None:
             path = jaxppo_path(name)
             if path is not None:
                 try:
-                    load_checked(path, graph_for(cfg.scenario))
+                    load_checked(path, cfg.graph)
                 except (ConfigError, LearnerStateError) as exc:
                     raise ConfigError(f"agent {name!r}: {exc}", field="agents") from None
 

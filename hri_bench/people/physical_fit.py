@@ -48,6 +48,7 @@ from hri_bench.data.fit import split_participants
 from hri_envs.errors import ConfigError
 from hri_envs.physics.carry.human.intention import HumanParams
 from hri_envs.physics.carry.human.population import save_population
+from hri_envs.task.graph import TaskGraph
 
 __all__ = ["BOUNDS", "FITTED", "LEVER_M", "PhysicalFit", "fit_physical", "target_error"]
 
@@ -102,22 +103,22 @@ def _people(dataset: Dataset, participants: Sequence[str]) -> list[_Person]:
     return out
 
 
-def _predict(scenario: str, ep: _Episode, params: HumanParams) -> np.ndarray:
+def _predict(graph: TaskGraph, ep: _Episode, params: HumanParams) -> np.ndarray:
     """(T, 7) the reference human's hand targets on the episode's recorded object poses."""
     from hri_bench.people.synthetic import ScriptedLeader  # noqa: PLC0415
 
-    leader = ScriptedLeader(scenario, params)
+    leader = ScriptedLeader(graph, params)
     leader.begin({"layout": ep.layout, "start": ep.start, "goal": ep.goal},
                  {"bodies": ["object"]})
     return np.asarray([leader.target({"poses": list(o)}) for o in ep.objects])
 
 
-def _residuals(scenario: str, episodes: Sequence[_Episode], params: HumanParams
+def _residuals(graph: TaskGraph, episodes: Sequence[_Episode], params: HumanParams
                ) -> np.ndarray:
     """Per step: the target's position error (3) and its rotation error [rad] x LEVER_M."""
     parts = []
     for ep in episodes:
-        pred = _predict(scenario, ep, params)
+        pred = _predict(graph, ep, params)
         dots = np.abs(np.sum(pred[:, 3:] * ep.targets[:, 3:], axis=1)) / (
             np.linalg.norm(pred[:, 3:], axis=1) * np.linalg.norm(ep.targets[:, 3:], axis=1))
         angle = 2.0 * np.arccos(np.clip(dots, 0.0, 1.0))
@@ -125,15 +126,17 @@ def _residuals(scenario: str, episodes: Sequence[_Episode], params: HumanParams
     return np.concatenate(parts).ravel() if parts else np.zeros(0)
 
 
-def target_error(scenario: str, episodes: Sequence[_Episode], params: HumanParams) -> float:
-    """The root-mean-square hand-target error [m] of ``params`` on ``episodes`` (per step,
+def target_error(graph: TaskGraph, episodes: Sequence[_Episode], params: HumanParams
+                 ) -> float:
+    """The root-mean-square hand-target error [m] of ``params`` on ``episodes`` of ``graph``'s
+    scenario (per step,
     over the position's 3 coordinates and the weighted rotation).
     """
-    r = _residuals(scenario, episodes, params)
+    r = _residuals(graph, episodes, params)
     return float(np.sqrt(np.mean(r * r))) if r.size else math.nan
 
 
-def _path_error(scenario: str, episodes: Sequence[_Episode], params: HumanParams) -> float:
+def _path_error(graph: TaskGraph, episodes: Sequence[_Episode], params: HumanParams) -> float:
     """How far the recorded targets lie from the route of ``params`` whatever the timing:
     the mean distance [m] from each recorded target position to the nearest of the
     reference's (fast, without pauses) and back.
@@ -142,7 +145,7 @@ def _path_error(scenario: str, episodes: Sequence[_Episode], params: HumanParams
                                hesitation_s=0.0)
     total = 0.0
     for ep in episodes:
-        pred = _predict(scenario, ep, fast)[:, :3]
+        pred = _predict(graph, ep, fast)[:, :3]
         d = np.linalg.norm(pred[:, None, :] - ep.targets[None, :, :3], axis=2)
         total += float(d.min(axis=0).mean() + d.min(axis=1).mean())
     return total
@@ -155,19 +158,19 @@ def _timed(base: HumanParams, x: Sequence[float] | np.ndarray) -> HumanParams:
                                hesitation_s=hesitation)
 
 
-def _fit_person(scenario: str, person: _Person, preferences: Sequence[str]) -> HumanParams:
+def _fit_person(graph: TaskGraph, person: _Person, preferences: Sequence[str]) -> HumanParams:
     from scipy.optimize import least_squares  # noqa: PLC0415
 
     base = dataclasses.replace(person.human, stiffness=person.human.stiffness
                                * max(person.stiffness, 1e-3))
     preference = min(preferences, key=lambda p: _path_error(
-        scenario, person.episodes, dataclasses.replace(base, preference=p)))
+        graph, person.episodes, dataclasses.replace(base, preference=p)))
     base = dataclasses.replace(base, preference=preference)
     low = np.array([BOUNDS[k][0] for k in FITTED])
     high = np.array([BOUNDS[k][1] for k in FITTED])
 
     def residuals(x: np.ndarray) -> np.ndarray:
-        return _residuals(scenario, person.episodes, _timed(base, x))
+        return _residuals(graph, person.episodes, _timed(base, x))
 
     best: tuple[float, np.ndarray] | None = None
     defaults = HumanParams()
@@ -242,8 +245,8 @@ def fit_physical(dataset: Dataset) -> PhysicalFit:
     train, test = split_participants(dataset.dataset_id, who)
     preferences = tuple(dataset.spec.preferences)
     fitting, held = _people(dataset, train), _people(dataset, test)
-    members = tuple(_fit_person(dataset.scenario, p, preferences) for p in fitting)
-    sc = dataset.scenario
+    members = tuple(_fit_person(dataset.graph, p, preferences) for p in fitting)
+    sc = dataset.graph
 
     def nearest(people: list[_Person]) -> float:
         sq = [min(target_error(sc, p.episodes, m) for m in members) ** 2 * p.steps
@@ -261,5 +264,5 @@ def fit_physical(dataset: Dataset) -> PhysicalFit:
               "default_train": default(fitting), "default_held_out": default(held),
               "steps_train": float(sum(p.steps for p in fitting)),
               "steps_held_out": float(sum(p.steps for p in held))}
-    return PhysicalFit(dataset.dataset_id, sc, dataset.content_hash(), dataset.synthetic,
-                       tuple(train), tuple(test), members, scores)
+    return PhysicalFit(dataset.dataset_id, dataset.scenario, dataset.content_hash(),
+                       dataset.synthetic, tuple(train), tuple(test), members, scores)

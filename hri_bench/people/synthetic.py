@@ -39,7 +39,8 @@ from hri_envs.physics.carry.human.whole_arm import handle_quat_in_object
 from hri_envs.physics.scene.design import design_for
 from hri_envs.physics.scene.kinematics import Pose, compose
 from hri_envs.physics.scene.observer import StateObserver
-from hri_envs.task.scenarios import episode_geometry, scenario_graph
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import episode_geometry
 
 __all__ = ["LeadStats", "ScriptedLeader", "join", "lead", "record_synthetic"]
 
@@ -51,13 +52,13 @@ class ScriptedLeader:
     """A reference human who leads the hand's target as the page's participant would.
 
     Args:
-        scenario: "hanger" or "wheel".
+        graph: The scenario's task graph (its physical design: a physical scenario's).
         params: The human (speed, reaction, hesitation and preference shape the target).
     """
 
-    def __init__(self, scenario: str, params: HumanParams) -> None:
-        self.scenario, self.params = scenario, params
-        self.graph = scenario_graph(scenario)
+    def __init__(self, graph: TaskGraph, params: HumanParams) -> None:
+        self.scenario, self.params = graph.name, params
+        self.graph = graph
         self.design = design_for(self.graph)
         self.handle = (np.asarray(self.design.handle_pos, dtype=float),
                        handle_quat_in_object(self.graph.scenario.orientations[0]))
@@ -255,7 +256,7 @@ def record_synthetic(scenario: str, dataset: str, *, sessions: int, episodes: in
         def leader_of(token: str) -> ScriptedLeader:
             # the member the server seated for this session (its row of the design)
             index = manager.get(token).design.index
-            return ScriptedLeader(scenario, pop.members[pop.member_index(seed, index)])
+            return ScriptedLeader(config.graph, pop.members[pop.member_index(seed, index)])
 
         async def run_all() -> None:
             for block in range(0, sessions, at_once):

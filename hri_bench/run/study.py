@@ -443,7 +443,7 @@ class StudyConfig(NamedScenario):
         """Run ``run``'s human in each episode, as its own draw from ``(seed, run)`` (a
         population, rationality, drift; :meth:`HumanSpec.run_draws`).
         """
-        return self.human.run_draws(self.scenario, self.seed, run, self.n_episodes,
+        return self.human.run_draws(self.graph, self.seed, run, self.n_episodes,
                                     preference, self.human_drift)
 
     @property

@@ -63,14 +63,14 @@ def check_scenario(name: str) -> str:
     return scenario_spec(name).name
 
 
-def check_r0(r0: float | None, scenario: str) -> float:
-    """Validate the robot's passive reward r0 ∈ (-1, 0); None gives the scenario default."""
-    paper = scenario_spec(scenario).r0
+def check_r0(r0: float | None, spec: ScenarioSpec) -> float:
+    """Validate the robot's passive reward r0 ∈ (-1, 0); None gives the scenario's default."""
+    paper = spec.r0
     if r0 is None:
         return paper
     return check_real(r0, "r0", low=-1.0, high=0.0, low_open=True, high_open=True,
                       allowed=f"a number in the open interval (-1, 0) (the paper uses {paper} "
-                              f"for the {scenario})")
+                              f"for the {spec.name})")
 
 
 def check_seed(seed: Any, what: str = "this env") -> int | None:
@@ -121,9 +121,11 @@ def check_env_settings(
     render_modes: list[str],
     backend: str,
 ) -> EnvSettings:
-    """Validate the arguments shared by all envs; r0 None becomes the scenario's default."""
-    scenario = check_scenario(scenario)
-    return EnvSettings(scenario, check_r0(r0, scenario), check_max_cycles(max_cycles),
+    """Validate the arguments shared by all envs (the env constructors' edge: ``scenario``,
+    a name, is resolved here); r0 None becomes the scenario's default.
+    """
+    spec = scenario_spec(scenario)
+    return EnvSettings(spec.name, check_r0(r0, spec), check_max_cycles(max_cycles),
                        check_render_mode(render_mode, render_modes), check_backend(backend))
 
 
@@ -250,15 +252,15 @@ def parse_reset_options(options: Mapping[str, Any] | None, graph: TaskGraph) -> 
     return ResetOptions(start, intention, turn_back, layout)
 
 
-def check_layout(value: Any, scenario: str
+def check_layout(value: Any, graph: TaskGraph
                  ) -> tuple[tuple[float, float], tuple[float, float]]:
-    """A reset's ``layout`` option of ``scenario`` (the wheel's stands ``((xB, yB), (xC,
+    """A reset's ``layout`` option of ``graph``'s scenario (the wheel's stands ``((xB, yB), (xC,
     yC))`` [m], finite and where the scenario's waypoints fit) as a tuple of floats.
 
     Raises:
         ConfigError: (``field="layout"``) Anything else.
     """
-    return _spec_layout(value, scenario_spec(scenario))
+    return _spec_layout(value, spec_of(graph))
 
 
 def _spec_layout(value: Any, spec: ScenarioSpec

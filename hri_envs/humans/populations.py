@@ -33,7 +33,7 @@ from hri_envs.humans.scripted import ScriptedHuman, boltzmann_human, preference_
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task.features import initial_theta
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import scenario_graph, scenario_spec
+from hri_envs.task.scenarios import spec_of
 
 __all__ = [
     "POPULATIONS",
@@ -112,16 +112,18 @@ class PopulationSpec:
     theta: bool = False
     held_out: bool = False
 
-    def draw(self, scenario: str, seed: int, run: int) -> HumanDraw:
-        """The human of run ``run``: every draw from a generator seeded by ``(seed, run, 7)``."""
-        return self.sample(scenario, np.random.default_rng([int(seed), int(run), 7]))
+    def draw(self, graph: TaskGraph, seed: int, run: int) -> HumanDraw:
+        """The human of run ``run`` on ``graph``: every draw from a generator seeded by
+        ``(seed, run, 7)``.
+        """
+        return self.sample(graph, np.random.default_rng([int(seed), int(run), 7]))
 
-    def sample(self, scenario: str, rng: np.random.Generator) -> HumanDraw:
-        """A human drawn with ``rng`` (4 uniforms, then F more for a θ human)."""
-        if scenario not in self.scenarios:
+    def sample(self, graph: TaskGraph, rng: np.random.Generator) -> HumanDraw:
+        """A human on ``graph`` drawn with ``rng`` (4 uniforms, then F more for a θ human)."""
+        if graph.name not in self.scenarios:
             raise ConfigError(f"population {self.name!r} is for {', '.join(self.scenarios)}; "
-                              f"not {scenario!r}", field="population")
-        spec = scenario_spec(scenario)
+                              f"not {graph.name!r}", field="population")
+        spec = spec_of(graph)
         prefs = spec.preferences if self.preferences == ("*",) else (
             self.preferences or (spec.default_preference,))
         # Always consume the same draws in the same order, whatever the spec uses.
@@ -135,16 +137,16 @@ class PopulationSpec:
         turn = self.turn_back[0] + u[3] * (self.turn_back[1] - self.turn_back[0])
         theta = None
         if self.theta:
-            theta = tuple(float(x) for x in _random_theta(scenario, rng))
+            theta = tuple(float(x) for x in _random_theta(graph, rng))
             pref_out: str | None = None
         else:
             pref_out = pref
         return HumanDraw(pref_out, beta, float(passive), float(turn), theta)
 
 
-def _random_theta(scenario: str, rng: np.random.Generator) -> np.ndarray:
-    """θ over the scenario's features: U(-0.5, 0.5) noise on the paper's θ⁰, goal weight 1."""
-    n_f = scenario_graph(scenario).n_features
+def _random_theta(graph: TaskGraph, rng: np.random.Generator) -> np.ndarray:
+    """θ over the graph's features: U(-0.5, 0.5) noise on the paper's θ⁰, goal weight 1."""
+    n_f = graph.n_features
     theta = initial_theta(n_f) + rng.uniform(-0.5, 0.5, n_f)
     theta[0] = 1.0  # resting on the goal support pays: the human gets there
     return theta
@@ -214,24 +216,26 @@ def build_human(graph: TaskGraph, draw: HumanDraw) -> Any:
     return dataclasses.replace(human, passive=draw.passive, turn_back=draw.turn_back)
 
 
-def drifted(scenario: str, draw: HumanDraw, seed: int, run: int) -> HumanDraw:
-    """The human after drifting: another preference (or another θ), from ``(seed, run, 8)``."""
+def drifted(graph: TaskGraph, draw: HumanDraw, seed: int, run: int) -> HumanDraw:
+    """The human on ``graph`` after drifting: another preference (or another θ), from
+    ``(seed, run, 8)``.
+    """
     rng = np.random.default_rng([int(seed), int(run), 8])
     if draw.theta is not None:
         return dataclasses.replace(draw, theta=tuple(float(x)
-                                                     for x in _random_theta(scenario, rng)))
-    prefs = [p for p in scenario_spec(scenario).preferences if p != draw.preference]
+                                                     for x in _random_theta(graph, rng)))
+    prefs = [p for p in spec_of(graph).preferences if p != draw.preference]
     return dataclasses.replace(draw, preference=prefs[int(rng.integers(len(prefs)))])
 
 
-def human_sequence(scenario: str, draw: HumanDraw, seed: int, run: int, episodes: int,
+def human_sequence(graph: TaskGraph, draw: HumanDraw, seed: int, run: int, episodes: int,
                    drift: int | None = None) -> list[HumanDraw]:
     """The human of each episode of a run: ``draw`` throughout, or ``draw`` for the first
     ``drift`` episodes and :func:`drifted` after.
     """
     if drift is None or drift >= episodes:
         return [draw] * episodes
-    after = drifted(scenario, draw, seed, run)
+    after = drifted(graph, draw, seed, run)
     return [draw] * drift + [after] * (episodes - drift)
 
 
@@ -282,5 +286,5 @@ class PopulationHumans(TableHumans):
     def draw(self, rng: np.random.Generator, rows: Rows = None) -> None:
         """Draw a new member for each row of ``rows``, in order, from ``rng``."""
         idx = all_rows(rows, self.n_runs)
-        self.assign(idx, [build_human(self.graph, self.spec.sample(self.graph.name, rng))
+        self.assign(idx, [build_human(self.graph, self.spec.sample(self.graph, rng))
                           for _ in idx])

@@ -38,7 +38,7 @@ from hri_envs.task.graph import (
     WAIT,
     TaskGraph,
 )
-from hri_envs.task.scenarios import Op, scenario_spec, spec_of
+from hri_envs.task.scenarios import Op, ScenarioSpec, scenario_spec, spec_of
 
 __all__ = [
     "PreferredActions",
@@ -52,9 +52,15 @@ __all__ = [
 
 
 
-def preferences_for(scenario: str) -> tuple[str, ...]:
-    """The preference names a scenario accepts."""
-    return scenario_spec(scenario).preferences
+def preferences_for(scenario: TaskGraph | ScenarioSpec | str) -> tuple[str, ...]:
+    """The preference names a scenario accepts: its graph's or spec's, or (a user's public
+    edge) the registered scenario's of that name, resolved here.
+    """
+    if isinstance(scenario, TaskGraph):
+        return spec_of(scenario).preferences
+    if isinstance(scenario, str):
+        scenario = scenario_spec(scenario)  # the public edge: a name, resolved once
+    return scenario.preferences
 
 
 def _apply(graph: TaskGraph, s: int, op: Op) -> tuple[int, int] | None:

@@ -348,18 +348,18 @@ class HumanSpec:
                                      else single() for _ in range(n_rows)])
 
     # ----------------------------------------------------------------- a study's runs
-    def run_draws(self, scenario: str, seed: int, run: int, episodes: int,
+    def run_draws(self, graph: TaskGraph, seed: int, run: int, episodes: int,
                   preference: str | None = None, drift: int | None = None) -> list[HumanDraw]:
         """Run ``run``'s human in each episode of a study, from ``(seed, run)`` alone: a
         population's member of the run (balanced blocks, :meth:`~hri_envs.humans.splits.
         MixtureSpec.draw`), else the scripted human (``preference`` overrides its own: a
         study cycling through preferences), drifted after ``drift`` episodes.
         """
-        draw = draw_human(scenario, seed, run, population=self.population,
+        draw = draw_human(graph, seed, run, population=self.population,
                           preference=preference or self.preference,
                           rationality=self.rationality, passive=self.passive,
                           turn_back=self.turn_back, params=self.params)
-        return human_sequence(scenario, draw, seed, run, episodes, drift)
+        return human_sequence(graph, draw, seed, run, episodes, drift)
 
     def info(self) -> dict[str, Any]:
         """The spec as JSON-ready data (infinity as "inf")."""

@@ -61,7 +61,7 @@ from hri_envs.humans.populations import (
 )
 from hri_envs.humans.protocol import BatchHuman, Rows, all_rows
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import NamedScenario, scenario_spec, spec_of
+from hri_envs.task.scenarios import NamedScenario, spec_of
 
 __all__ = [
     "ALL_PREFERENCES",
@@ -255,14 +255,14 @@ class MixtureSpec(NamedScenario):
         graph = self.graph
         return tuple(member_fingerprint(graph, d) for d in self.member_draws)
 
-    def draw(self, scenario: str, seed: int, run: int) -> HumanDraw:
-        """Run ``run``'s member, balanced: runs ``b·size .. (b+1)·size - 1`` meet every member
-        once, in the order of a permutation drawn from ``(seed, b, 7)`` (``b`` the run's
-        block), so a study's runs depend on ``(seed, run)`` only and a whole number of blocks
-        weighs every member alike (the estimate of the population's mean then carries no
-        sampling error of its make-up).
+    def draw(self, graph: TaskGraph, seed: int, run: int) -> HumanDraw:
+        """Run ``run``'s member (on ``graph``, its scenario's), balanced: runs
+        ``b·size .. (b+1)·size - 1`` meet every member once, in the order of a permutation
+        drawn from ``(seed, b, 7)`` (``b`` the run's block), so a study's runs depend on
+        ``(seed, run)`` only and a whole number of blocks weighs every member alike (the
+        estimate of the population's mean then carries no sampling error of its make-up).
         """
-        self._check_scenario(scenario)
+        self._check_scenario(graph)
         return self.member_draws[self.member_index(seed, run)]
 
     def member_index(self, seed: int, run: int) -> int:
@@ -271,15 +271,17 @@ class MixtureSpec(NamedScenario):
         order = np.random.default_rng([int(seed), block, 7]).permutation(self.size)
         return int(order[slot])
 
-    def sample(self, scenario: str, rng: np.random.Generator) -> HumanDraw:
-        """A member drawn uniformly with ``rng`` (one integer; the envs, per reset)."""
-        self._check_scenario(scenario)
+    def sample(self, graph: TaskGraph, rng: np.random.Generator) -> HumanDraw:
+        """A member (on ``graph``, its scenario's) drawn uniformly with ``rng`` (one integer;
+        the envs, per reset).
+        """
+        self._check_scenario(graph)
         return self.member_draws[int(rng.integers(self.size))]
 
-    def _check_scenario(self, scenario: str) -> None:
-        if scenario != self.scenario:
+    def _check_scenario(self, graph: TaskGraph) -> None:
+        if graph.name != self.scenario:
             raise ConfigError(f"population {self.name!r} is for the {self.scenario}, not "
-                              f"{scenario!r}", field="population")
+                              f"{graph.name!r}", field="population")
 
     def content_hash(self) -> str:
         """SHA-256 of the generator's parameters, its seeds and the members they give (every
@@ -688,7 +690,7 @@ class MixtureHumans(FiniteStateHumans):
         """Draw a new member for each row of ``rows``, in order, from ``rng``."""
         idx = all_rows(rows, self.n_runs)
         graph, sample = self.graph, self.spec.sample
-        self.assign(idx, [self._member(graph, sample(graph.name, rng)) for _ in idx])
+        self.assign(idx, [self._member(graph, sample(graph, rng)) for _ in idx])
 
 
 def population_seat(graph: TaskGraph, name: str, n_runs: int = 1,
@@ -708,7 +710,7 @@ _population = population
 
 
 def draw_human(
-    scenario: str,
+    graph: TaskGraph,
     seed: int,
     run: int,
     *,
@@ -719,7 +721,7 @@ def draw_human(
     turn_back: float = 0.0,
     params: Sequence[tuple[str, Any]] = (),
 ) -> HumanDraw:
-    """Run ``run``'s human: from ``population`` if given, else the fixed settings.
+    """Run ``run``'s human on ``graph``: from ``population`` if given, else the fixed settings.
 
     With a scripted population, ``rationality`` (if finite) overrides the population's β, and
     the passive and turning-back rates are added to the population's (clipped to [0, 1]). A
@@ -727,11 +729,11 @@ def draw_human(
     ``params``) gives its member as it is.
     """
     if population is None:
-        pref = preference or scenario_spec(scenario).default_preference
+        pref = preference or spec_of(graph).default_preference
         return HumanDraw(pref, rationality, passive, turn_back)
     if population not in POPULATIONS:  # a split, mixture or family: its members as they are
-        return _population(population, scenario, dict(params)).draw(scenario, seed, run)
-    d = population_spec(population, scenario).draw(scenario, seed, run)
+        return _population(population, graph.name, dict(params)).draw(graph, seed, run)
+    d = population_spec(population, graph.name).draw(graph, seed, run)
     beta = rationality if not math.isinf(rationality) else d.rationality
     return dataclasses.replace(d, rationality=beta,
                                passive=min(1.0, d.passive + passive),

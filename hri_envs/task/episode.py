@@ -395,7 +395,7 @@ def step_reward(
     ``reward="paper"`` (v0): -1 for a :func:`step_penalty`, ``r0`` when the robot waited
     while the human acted, else 0. Grasping and letting go are never counteracted and cost
     nothing, so a robot can replace a wait by a pointless grasp-and-release (on the wheel,
-    ``scenario_graph('wheel').reward(-0.25)[5, 1, 1]`` and ``[6, 1, 0]`` are both 0).
+    its graph's ``reward(-0.25)[5, 1, 1]`` and ``[6, 1, 0]`` are both 0).
 
     ``reward="no-free-toggle"``: as "paper", except that a robot toggle that is
     :func:`unneeded_toggle` (given the episode's ``start`` and ``lifted`` flag *before* the

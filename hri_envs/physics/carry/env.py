@@ -348,7 +348,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
                               f"{robot_holds!r}", field="options")
         self.layout = None
         if self._layout_sampler is not None:
-            self.layout = (check_layout(opts["layout"], self.scenario_name)
+            self.layout = (check_layout(opts["layout"], self.graph)
                            if opts.get("layout") is not None else self._layout_sampler(rng))
         scenario = episode_geometry(self.graph, self.layout)
         self.start, self._intention = start, goal
