@@ -64,8 +64,9 @@ def test_both_designs_keep_the_former_numbers(factory):
 def test_no_bare_float_thresholds_in_the_physics_loop():
     tree = ast.parse("\n".join(inspect.getsource(c) for c in (sim.PandaSim, grasp.PandaGrasp)))
     for fn in ast.walk(tree):
-        if isinstance(fn, ast.FunctionDef) and fn.name in ("step", "_run", "_robot_toggle",
-                                                          "_check_stable", "reset", "weld"):
+        if isinstance(fn, ast.FunctionDef) and fn.name in (
+                "step", "_run", "_robot_toggle", "_check_stable", "reset", "weld",
+                "_grip_overload", "_seat_wrench", "_follow", "_update_ik", "_check_in_place"):
             for node in ast.walk(fn):
                 if isinstance(node, ast.Constant) and isinstance(node.value, float):
                     assert node.value in (0.0, 1.0), (fn.name, node.value, node.lineno)

@@ -33,7 +33,6 @@ grasp.PandaGrasp`.
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -62,12 +61,7 @@ from hri_envs.physics.scene.contacts import touches
 from hri_envs.physics.scene.controller import Disagreement, ImpedanceController
 from hri_envs.physics.scene.design import PhysicsDesign, design_for
 from hri_envs.physics.scene.ik import IKFailure, ReferenceIK
-from hri_envs.physics.scene.kinematics import (
-    Pose,
-    StraightLine,
-    TrajectorySample,
-    compose,
-)
+from hri_envs.physics.scene.kinematics import Pose, StraightLine, TrajectorySample, compose
 from hri_envs.physics.scene.observer import StateObserver, infer_human_action
 from hri_envs.physics.scene.seats import Seats
 from hri_envs.physics.scene.sensing import SensorModel, WristSensor
@@ -338,11 +332,8 @@ class PandaSim(PandaGrasp):
         dt_c, k, body = self.dt_control, self.control_every, sc.object_body
         if min_time_s is None:
             min_time_s = design.settle_min_time_s
-        ik_error_max_m, ik_error_time_max_s = design.ik_error_max_m, design.ik_error_time_max_s
         vel_sq_max, angvel_sq_max = (design.settle_vel_sq_max_m2_s2,
                                      design.settle_angvel_sq_max_rad2_s2)
-        calm_time_s = design.settle_calm_time_s
-        grip_hold_n, overload_max_s = design.grip_hold_force_n, design.grip_overload_time_s
         drop_z = self.lowest_z - design.drop_margin_m
         sensor, overload, human, arm = self.sensor, 0.0, self.human, self.arm
         # Periodic work, in control periods.
@@ -353,7 +344,6 @@ class PandaSim(PandaGrasp):
         self.davi.reset()
         hold_ref = None if hold is None else TrajectorySample(hold.pos, hold.quat, np.zeros(3),
                                                               np.zeros(3))
-        zero = np.zeros(3)
         xfrc = data.xfrc_applied[body]
         xfrc[:] = 0.0  # no seat wrench left over from the last run
         # Views into data's arrays (their memory is fixed), set up once per run: pos and
@@ -369,107 +359,133 @@ class PandaSim(PandaGrasp):
                 if np.array_equal(acts, np.arange(acts[0], acts[0] + len(acts))) else None)
         robot_q = data.qpos[:len(sc.robot_qpos)]  # they lead qpos (ImpedanceController)
         platform = sc.platform_mocap >= 0
-        davi, seats, controller, ik = self.davi, self.seats, self.controller, self.ik
-        # The human's impulses and work, summed in the same order as into totals.
-        lin, ang, work = totals.linear_impulse, totals.angular_impulse, totals.human_work
-        lin_true, ang_true = totals.linear_impulse_true, totals.angular_impulse_true
-        seat_on = False
+        controller = self.controller
+        seat_on = yielded = False
         t_line = elapsed = calm = ik_bad = 0.0
         i = 0
-        yielded = False
-        try:
-            while elapsed < limit_s:
-                mujoco.mj_step1(model, data)
-                qv[:] = qvel_object
-                mujoco.mju_rotVecQuat(angvel, qv[3:], quat)
-                # The human: their reference drives the arm's actuators (MuJoCo applies
-                # them).
-                ref_h = human.advance(dt_c)
-                arm.drive(data, pos, quat, human.holding, ref_h, human.noise)
-                w_h = arm.wrench(data, pos)  # the muscles' wrench of the last physics step
-                f_h, t_h = w_h[:3], w_h[3:]
-                # What the robot senses (the reading of the last physics step): the external
-                # wrench on the held object, compensated, biased, noisy, delayed.
-                sensed = sensor.external(data, self.holding, pos, rot)
-                f_s, t_s = sensed[:3], sensed[3:]
-                if self.holding:
-                    f_true = sensor.true_wrench[:3]
-                    overload = (overload + dt_c if f_true.dot(f_true) > grip_hold_n ** 2
-                                else 0.0)
-                    if overload > overload_max_s:
-                        self.weld(False)
-                        raise StepFault(f"pulled_out: {np.sqrt(f_true @ f_true):.0f} N on the "
-                                        "grip")
-                seat = seats.engaged(pos, quat)
-                if seat >= 0:  # the seat acts at the centre of mass: no lever, no stiff
-                    # coupling
-                    f_seat, t_seat = seats.wrench(seat, pos, quat, vel, angvel)
-                    xfrc[:3] = f_seat
-                    xfrc[3:] = t_seat
-                    seat_on = True
-                elif seat_on:
-                    xfrc[:] = 0.0
-                    seat_on = False
-                scale, ref = 1.0, hold_ref
-                if line is not None and not yielded:
-                    moving = t_line < line.duration
-                    u = line.direction if moving else zero
-                    a = line.axis if moving else zero
-                    scale = davi.update(davi.force(f_s, t_s, u, a), dt_c)
-                    yielded = davi.yielded
-                    ref = line.sample(t_line)
-                    t_line += dt_c * scale
-                if yielded:
-                    ref = None
-                if i % ik_every == 0:
-                    if ref is None:  # passive: the posture reference starts from the actual
-                        ik.reset(robot_q)  # arm (no self-motion runs away)
-                    target = Pose(ref.pos, ref.quat) if ref is not None else self.grip_pose()
-                    self.q_ref = ik.step(target, dt_ik).copy()
-                    if ref is not None and line is not None:
-                        ik_bad = (ik_bad + dt_ik if ik.error() > ik_error_max_m else 0.0)
-                        if ik_bad > ik_error_time_max_s:
-                            raise IKFailure("the IK reference cannot follow the trajectory")
-                tau = controller.torques(data, ref, self.q_ref, scale, self.holding)
-                if ctrl is not None:
-                    ctrl[:] = tau
-                else:
-                    data.ctrl[acts] = tau
-                mujoco.mj_step2(model, data)
-                if k > 1:  # the rest of the control period, torques and references held
-                    mujoco.mj_step(model, data, nstep=k - 1)
-                elapsed += dt_c
-                i += 1
-                # ndarray.dot: the same BLAS routine as @ at half the call's cost.
-                lin += math.sqrt(f_s.dot(f_s)) * dt_c
-                ang += math.sqrt(t_s.dot(t_s)) * dt_c
-                work += (f_s.dot(vel) + t_s.dot(angvel)) * dt_c
-                lin_true += math.sqrt(f_h.dot(f_h)) * dt_c
-                ang_true += math.sqrt(t_h.dot(t_h)) * dt_c
-                if platform and i % platform_every == 0:
-                    data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + design.base_pos[:2]
-                if self.on_frame is not None and i % frame_every == 0:
-                    self.on_frame()
-                if i % check_every == 0:
-                    self._check_stable()
-                    floor = touches(data, sc.floor_geom)
-                    if floor or pos[2] < drop_z:
-                        raise StepFault("dropped: the object " + ("hit the floor" if floor
-                                                                  else "fell below every state"))
-                slow = vel.dot(vel) < vel_sq_max and angvel.dot(angvel) < angvel_sq_max
-                robot_done = line is None or yielded or t_line >= line.duration
-                if (slow and robot_done and elapsed >= min_time_s
-                        and human.at_target(pos, quat)):
-                    calm += dt_c
-                    if calm >= calm_time_s:
-                        return True, yielded
-                else:
-                    calm = 0.0
-        finally:
-            totals.linear_impulse, totals.angular_impulse, totals.human_work = lin, ang, work
-            totals.linear_impulse_true, totals.angular_impulse_true = lin_true, ang_true
+        while elapsed < limit_s:
+            mujoco.mj_step1(model, data)
+            qv[:] = qvel_object
+            mujoco.mju_rotVecQuat(angvel, qv[3:], quat)
+            # The human: their reference drives the arm's actuators (MuJoCo applies them).
+            ref_h = human.advance(dt_c)
+            arm.drive(data, pos, quat, human.holding, ref_h, human.noise)
+            w_h = arm.wrench(data, pos)  # the muscles' wrench of the last physics step
+            # What the robot senses (the reading of the last physics step): the external
+            # wrench on the held object, compensated, biased, noisy, delayed.
+            sensed = sensor.external(data, self.holding, pos, rot)
+            if self.holding:
+                overload = self._grip_overload(overload)
+            seat_on = self._seat_wrench(xfrc, pos, quat, vel, angvel, seat_on)
+            scale, ref = 1.0, hold_ref
+            if line is not None and not yielded:
+                scale, ref = self._follow(line, t_line, sensed)
+                yielded = self.davi.yielded
+                t_line += dt_c * scale
+            if yielded:
+                ref = None
+            if i % ik_every == 0:
+                ik_bad = self._update_ik(ref, line is not None, dt_ik, ik_bad, robot_q)
+            tau = controller.torques(data, ref, self.q_ref, scale, self.holding)
+            if ctrl is not None:
+                ctrl[:] = tau
+            else:
+                data.ctrl[acts] = tau
+            mujoco.mj_step2(model, data)
+            if k > 1:  # the rest of the control period, torques and references held
+                mujoco.mj_step(model, data, nstep=k - 1)
+            elapsed += dt_c
+            i += 1
+            totals.add(sensed, w_h, vel, angvel, dt_c)
+            if platform and i % platform_every == 0:
+                data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + design.base_pos[:2]
+            if self.on_frame is not None and i % frame_every == 0:
+                self.on_frame()
+            if i % check_every == 0:
+                self._check_in_place(pos, drop_z)
+            slow = vel.dot(vel) < vel_sq_max and angvel.dot(angvel) < angvel_sq_max
+            robot_done = line is None or yielded or t_line >= line.duration
+            if slow and robot_done and elapsed >= min_time_s and human.at_target(pos, quat):
+                calm += dt_c
+                if calm >= design.settle_calm_time_s:
+                    return True, yielded
+            else:
+                calm = 0.0
         self._check_stable()
         return False, yielded
+
+    def _grip_overload(self, overload: float) -> float:
+        """How long [s] the held grip has been pulled beyond its hold, one control period on
+        from ``overload`` (0 while the pull is within it).
+
+        Raises:
+            StepFault: ``pulled_out`` past ``grip_overload_time_s`` (the weld lets go).
+        """
+        f_true, design = self.sensor.true_wrench[:3], self.design
+        overload = (overload + self.dt_control
+                    if f_true.dot(f_true) > design.grip_hold_force_n ** 2 else 0.0)
+        if overload > design.grip_overload_time_s:
+            self.weld(False)
+            raise StepFault(f"pulled_out: {np.sqrt(f_true @ f_true):.0f} N on the grip")
+        return overload
+
+    def _seat_wrench(self, xfrc: np.ndarray, pos: np.ndarray, quat: np.ndarray,
+                     vel: np.ndarray, angvel: np.ndarray, seat_on: bool) -> bool:
+        """The engaged seat's wrench on the object into ``xfrc`` (cleared when the seat that
+        acted lets go); whether a seat acts.
+        """
+        seat = self.seats.engaged(pos, quat)
+        if seat >= 0:  # the seat acts at the centre of mass: no lever, no stiff coupling
+            f_seat, t_seat = self.seats.wrench(seat, pos, quat, vel, angvel)
+            xfrc[:3] = f_seat
+            xfrc[3:] = t_seat
+            return True
+        if seat_on:
+            xfrc[:] = 0.0
+        return False
+
+    def _follow(self, line: StraightLine, t_line: float, sensed: np.ndarray
+                ) -> tuple[float, TrajectorySample]:
+        """The robot's reference on ``line`` at ``t_line`` and the disagreement-aware
+        impedance's scale for the ``sensed`` wrench (0 along an ended line's direction).
+        """
+        davi, zero = self.davi, np.zeros(3)
+        moving = t_line < line.duration
+        u = line.direction if moving else zero
+        a = line.axis if moving else zero
+        scale = davi.update(davi.force(sensed[:3], sensed[3:], u, a), self.dt_control)
+        return scale, line.sample(t_line)
+
+    def _update_ik(self, ref: TrajectorySample | None, tracking: bool, dt_ik: float,
+                   ik_bad: float, robot_q: np.ndarray) -> float:
+        """The IK reference ``q_ref`` one update on, towards ``ref`` (None: the grip where it
+        is); how long [s] the IK has been too far from a tracked line, from ``ik_bad``.
+
+        Raises:
+            IKFailure: It is too far for longer than ``ik_error_time_max_s``.
+        """
+        ik, design = self.ik, self.design
+        if ref is None:  # passive: the posture reference starts from the actual arm (no
+            ik.reset(robot_q)  # self-motion runs away)
+        target = Pose(ref.pos, ref.quat) if ref is not None else self.grip_pose()
+        self.q_ref = ik.step(target, dt_ik).copy()
+        if ref is not None and tracking:
+            ik_bad = (ik_bad + dt_ik if ik.error() > design.ik_error_max_m else 0.0)
+            if ik_bad > design.ik_error_time_max_s:
+                raise IKFailure("the IK reference cannot follow the trajectory")
+        return ik_bad
+
+    def _check_in_place(self, pos: np.ndarray, drop_z: float) -> None:
+        """Stable, and the object off the floor and above ``drop_z``.
+
+        Raises:
+            StepFault: ``unstable`` or ``dropped``.
+        """
+        self._check_stable()
+        floor = touches(self.data, self.scene.floor_geom)
+        if floor or pos[2] < drop_z:
+            raise StepFault("dropped: the object " + ("hit the floor" if floor
+                                                      else "fell below every state"))
 
     def _check_stable(self) -> None:
         data = self.data

@@ -14,8 +14,11 @@ support held by one agent alone). Faults of the simulation itself: ``unstable`` 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
+
+import numpy as np
 
 from hri_envs.task.graph import TOGGLE, WAIT, TaskGraph
 
@@ -111,3 +114,16 @@ class StepTotals:
     human_work: float = 0.0  # ∫ (F_sensed · v + τ_sensed · ω) dt [J]
     linear_impulse_true: float = 0.0  # ∫ |F_human| dt [N s]
     angular_impulse_true: float = 0.0  # ∫ |τ_human| dt [N m s]
+
+    def add(self, sensed: np.ndarray, human: np.ndarray, vel: np.ndarray,
+            angvel: np.ndarray, dt: float) -> None:
+        """One control period ``dt`` [s] of the ``sensed`` and the ``human``'s true wrench on
+        the object moving at ``vel``, ``angvel``.
+        """
+        f_s, t_s, f_h, t_h = sensed[:3], sensed[3:], human[:3], human[3:]
+        # ndarray.dot: the same BLAS routine as @ at half the call's cost.
+        self.linear_impulse += math.sqrt(f_s.dot(f_s)) * dt
+        self.angular_impulse += math.sqrt(t_s.dot(t_s)) * dt
+        self.human_work += (f_s.dot(vel) + t_s.dot(angvel)) * dt
+        self.linear_impulse_true += math.sqrt(f_h.dot(f_h)) * dt
+        self.angular_impulse_true += math.sqrt(t_h.dot(t_h)) * dt
