@@ -10,7 +10,7 @@ import pytest
 from hri_envs.envs.config import check_physics_options, scenario_graph
 from hri_envs.errors import ConfigError
 from hri_envs.physics import PandaSim
-from hri_envs.physics.panda.sim import _Totals
+from hri_envs.physics.panda.steps import StepTotals
 from hri_envs.physics.scene.contacts import finger_forces, touches
 from hri_envs.physics.scene.kinematics import Pose, StraightLine, compose
 from hri_envs.task.graph import HUMAN_BIT, PUT_ON, TAKE_OFF, TOGGLE, WAIT
@@ -159,7 +159,7 @@ def test_a_support_stops_an_object_moved_through_it(hanger):
             sim.on_frame, sim.frame_every = record, 10
             line = StraightLine(sim.grip_pose(), compose(goal, *sim.grip_in_object),
                                 sim.design.linear_speed, sim.design.angular_speed, 0.6)
-            sim._run(line, None, _Totals(), 4.0)
+            sim._run(line, None, StepTotals(), 4.0)
         finally:
             sim.on_frame = None
             sim.model.geom_contype[sup] = saved

@@ -9,7 +9,7 @@ import pytest
 
 from hri_envs.envs.config import scenario_graph
 from hri_envs.physics import PandaSim
-from hri_envs.physics.panda import sim
+from hri_envs.physics.panda import grasp, sim
 from hri_envs.physics.panda.human import SimulatedHuman
 from hri_envs.physics.scene.controller import Disagreement
 from hri_envs.physics.scene.design import hanger_design, wheel_design
@@ -62,10 +62,11 @@ def test_both_designs_keep_the_former_numbers(factory):
 
 
 def test_no_bare_float_thresholds_in_the_physics_loop():
-    tree = ast.parse(inspect.getsource(sim.PandaSim))
+    tree = ast.parse("\n".join(inspect.getsource(c) for c in (sim.PandaSim, grasp.PandaGrasp)))
     for fn in ast.walk(tree):
-        if isinstance(fn, ast.FunctionDef) and fn.name in ("step", "_run", "_robot_toggle",
-                                                          "_check_stable", "reset", "weld"):
+        if isinstance(fn, ast.FunctionDef) and fn.name in (
+                "step", "_run", "_robot_toggle", "_check_stable", "reset", "weld",
+                "_grip_overload", "_seat_wrench", "_follow", "_update_ik", "_check_in_place"):
             for node in ast.walk(fn):
                 if isinstance(node, ast.Constant) and isinstance(node.value, float):
                     assert node.value in (0.0, 1.0), (fn.name, node.value, node.lineno)

@@ -1,15 +1,15 @@
 """The continuous carry envs: the robot's grip targets at 25 Hz and a whole human arm.
 
 ``hri_envs/HangerPandaContinuous-v0/v1`` and ``WheelPandaContinuous-v0/v1``: the env
-(``env``: :class:`~hri_envs.physics.carry.env.CarryEnv`) and its PettingZoo form
-(``parallel``), the simulation of one step (``sim``: :class:`~hri_envs.physics.carry.sim.
-CarrySim`, with ``types``, ``simulation``, ``faults``), its five control periods compiled in
-one call (``stages``, ``periods``, MuJoCo's C functions in ``mjc``) from the laws written
-once over a leading axis of worlds (the scene's, :mod:`hri_envs.physics.scene.laws`; the
-human's in ``human.laws``), the interaction measures (``interaction``), the
-rewards and figures (``reward``) and what a robot may know (``robot_view``). ``human``: the
-human (the whole arm, its body and drives, the intention conveyed by force, families,
-frozen populations). ``warp``: N worlds of these envs on MuJoCo Warp.
+(``env``: :class:`~hri_envs.physics.carry.env.CarryEnv`, its arguments checked in
+``options``) and its PettingZoo form (``parallel``), the simulation of one step (``sim``:
+:class:`~hri_envs.physics.carry.sim.CarrySim`, with ``types``, ``simulation``, ``faults``),
+its five control periods compiled in one call (``stages``, ``periods``, MuJoCo's C functions
+in ``mjc``) from the laws written once over a leading axis of worlds (the scene's,
+:mod:`hri_envs.physics.scene.laws`; the human's in ``human.laws``), the interaction measures
+(``interaction``), the rewards and figures (``reward``) and what a robot may know
+(``robot_view``). ``human``: the human (the whole arm, its body and drives, the intention
+conveyed by force, families, frozen populations). ``warp``: N worlds of these envs on MuJoCo Warp.
 
 May import :mod:`~hri_envs.physics.scene`, :mod:`hri_envs.envs`, :mod:`hri_envs.humans`,
 :mod:`hri_envs.task`; never :mod:`~hri_envs.physics.panda`.

@@ -15,12 +15,18 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from hri_envs.checks import check_real
-from hri_envs.envs.backends import carry_backend, carry_vector_backend
+from hri_envs.envs.backends import carry_backend
 from hri_envs.envs.config import check_layout, check_options_mapping, check_seed
 from hri_envs.errors import ConfigError, ResetNeeded
 from hri_envs.humans.spec import HumanSpec
 from hri_envs.physics.carry.human.intention import HumanParams, carry_human_spec
+from hri_envs.physics.carry.options import (
+    SENSOR_KEYS,
+    check_population,
+    check_sensor,
+    check_step_scale,
+    vector_env,
+)
 from hri_envs.physics.carry.reward import (
     EFFORT_LEVER_M,
     EpisodeRecord,
@@ -45,43 +51,6 @@ _FAULT_KINDS = ("dropped", "slipped", "too_weak")
 #: The continuous ids' versions: 0 (progress reward, frozen) and 1 (placing reward, the
 #: intention hidden from ``info`` until the episode's end).
 VERSIONS: tuple[int, ...] = (0, 1)
-#: The keys of ``sensor=`` (the wrist sensor model's overrides).
-SENSOR_KEYS: tuple[str, ...] = ("noise_n", "bias_n", "delay_s")
-
-
-def check_sensor(sensor: Any) -> dict[str, float]:
-    """``sensor=`` (None or a mapping of :data:`SENSOR_KEYS` to finite numbers >= 0) as a
-    dict.
-
-    Raises:
-        ConfigError: (``field="sensor"``) Anything else: a NaN or inf would reach the
-            observation from the first step.
-    """
-    if sensor is None:
-        return {}
-    allowed = f"None or a mapping of {', '.join(SENSOR_KEYS)} to finite numbers >= 0"
-    if not isinstance(sensor, Mapping):
-        raise ConfigError(f"sensor must be {allowed}, got {sensor!r}", field="sensor")
-    bad = sorted(map(repr, set(sensor) - set(SENSOR_KEYS)))
-    if bad:
-        raise ConfigError(f"unknown sensor key(s) {', '.join(bad)}; sensor must be {allowed}",
-                          field="sensor")
-    return {key: check_real(value, "sensor", low=0.0, label=f"sensor {key!r}",
-                            allowed="a finite number >= 0")
-            for key, value in sensor.items()}
-
-
-def check_step_scale(max_step_m: Any, max_step_rad: Any) -> None:
-    """The action's scale: ``max_step_m`` [m] and ``max_step_rad`` [rad], finite and > 0.
-
-    Raises:
-        ConfigError: (``field`` the argument) Anything else (an infinite step would command
-            an infinite target).
-    """
-    for key, value in (("max_step_m", max_step_m), ("max_step_rad", max_step_rad)):
-        check_real(value, key, low=0.0, low_open=True, allowed="a finite number > 0")
-
-
 class HiddenIntentionError(AttributeError):
     """The intention was asked for during a v1 episode: it is revealed at the end."""
 
@@ -272,7 +241,7 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         self.weights: RewardWeights | PlacingReward = check_weights(
             PlacingReward if version else RewardWeights, reward)
         population = self.human.population
-        self.population = None if population is None else _population(population, scenario)
+        self.population = None if population is None else check_population(population, scenario)
         max_time_s = spec.continuous_time_s if max_time_s is None else max_time_s
         if isinstance(max_time_s, bool) or not isinstance(max_time_s, int | float) \
                 or not math.isfinite(max_time_s) or max_time_s <= 0:
@@ -521,26 +490,3 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
     def robot_command(self, action: np.ndarray) -> RobotCommand:
         """The command an action gives in the current state (for agents and tools)."""
         return self.sim.command(check_box_action("robot", action))
-
-
-def vector_env(num_envs: int = 1, scenario: str = "hanger", *, backend: str = "mjwarp",
-               **kwargs: Any) -> Any:
-    """``num_envs`` continuous envs stepped together on ``backend`` (the continuous ids'
-    ``vector_entry_point``: ``gymnasium.make_vec(id, num_envs=N,
-    vectorization_mode="vector_entry_point")``); keyword arguments: :class:`CarryEnv`'s and
-    the vector env's (:class:`~hri_envs.physics.carry.warp.vector.CarryVectorEnv`).
-
-    Raises:
-        ConfigError: ``backend`` has no vector form of these envs.
-    """
-    return carry_vector_backend(backend)(num_envs, scenario, backend=backend, **kwargs)
-
-
-def _population(name: Any, scenario: str) -> Any:
-    """The physical human population ``name`` of ``scenario`` (v1's ``population=``)."""
-    from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
-
-    if not isinstance(name, str):
-        raise ConfigError(f"population must be a population's name, got {name!r}",
-                          field="population")
-    return physical_population(name, scenario)

@@ -2,7 +2,8 @@
 
 ``gymnasium.make("hri_envs/HangerPanda-v0")`` and ``backend="mujoco"`` of the graph envs and
 of ``hri-bench study``: one abstract step of both agents becomes a grasp or let-go and a
-motion until the object settles (``sim``: :class:`~hri_envs.physics.panda.sim.PandaSim`);
+motion until the object settles (``sim``: :class:`~hri_envs.physics.panda.sim.PandaSim`;
+``steps``: the step's plan, result and faults; ``grasp``: the robot's grasp and weld);
 the human is a hand on six joints (``human_arm``) whose reach is decided in ``human``;
 ``options`` are the ``physics={...}`` options and presets; ``episode`` is the backend inside
 the envs, ``batch`` the benchmark's, ``speed`` its real-time factor. ``warp``: the same

@@ -7,7 +7,7 @@ shared episode rules (:mod:`hri_envs.task.episode`, applied by
 transition is :meth:`PandaSim.step`; the reward is judged on the observed next state and
 the simulated human's true action; the robot observes the *inferred* human action. A
 fault is reported in :attr:`fault`; the envs then truncate the episode. A physical failure
-(:data:`~hri_envs.physics.panda.sim.PHYSICAL_FAULTS`: the object dropped, a grasp failed, it was
+(:data:`~hri_envs.physics.panda.steps.PHYSICAL_FAULTS`: the object dropped, a grasp failed, it was
 pulled out of the grip or ended off every state) earns that step the graph's penalty r⁻.
 """
 

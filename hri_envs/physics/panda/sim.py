@@ -24,49 +24,45 @@ The robot senses the human only through its wrist force/torque sensor
 inference and the reported impulses use the sensed wrench; the true ones are reported beside
 them (``*_true``).
 
-Faults end the step with ``fault`` set (``"<kind>: <detail>"``) instead of raising. Physical
-failures (:data:`PHYSICAL_FAULTS`): ``dropped`` (the object touched the floor, fell below
-every state, or nobody and no support holds it), ``grasp_failed`` (the closed fingers do
-not both press on the object's grip geometry), ``pulled_out`` (the external force on the
-held object exceeded the grip's hold), ``off_support`` (the object ended far from every
-abstract state, or off every support held by one agent alone). Faults of the simulation
-itself: ``unstable`` and ``ik_failure``.
+Faults end the step with ``fault`` set (``"<kind>: <detail>"``) instead of raising; their
+kinds, the step's plan and its result are in :mod:`~hri_envs.physics.panda.steps`. The
+robot's grasp (the weld, closing on the grip) is the base :class:`~hri_envs.physics.panda.
+grasp.PandaGrasp`.
 """
 
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any
 
 import mujoco
 import numpy as np
 
+from hri_envs.physics.panda.grasp import PandaGrasp
 from hri_envs.physics.panda.human import SimulatedHuman
 from hri_envs.physics.panda.human_arm import HandleSensor, HumanArm, add_human_arm
 from hri_envs.physics.panda.options import PhysicsParams, PhysicsSettings
+from hri_envs.physics.panda.steps import (
+    PHYSICAL_FAULTS,
+    StepFault,
+    StepPlan,
+    StepResult,
+    StepTotals,
+    plan_step,
+)
 from hri_envs.physics.scene.build import (
-    FINGER_HOLD_STIFFENING,
     FINGER_ON_GRIP_M,
     FINGER_OPEN_M,
     build_robot_model,
     build_scene,
 )
-from hri_envs.physics.scene.contacts import finger_forces, touches
+from hri_envs.physics.scene.contacts import touches
 from hri_envs.physics.scene.controller import Disagreement, ImpedanceController
 from hri_envs.physics.scene.design import PhysicsDesign, design_for
 from hri_envs.physics.scene.ik import IKFailure, ReferenceIK
-from hri_envs.physics.scene.kinematics import (
-    Pose,
-    StraightLine,
-    TrajectorySample,
-    compose,
-    rotation_error,
-)
+from hri_envs.physics.scene.kinematics import Pose, StraightLine, TrajectorySample, compose
 from hri_envs.physics.scene.observer import StateObserver, infer_human_action
-from hri_envs.physics.scene.rig import SceneRig
 from hri_envs.physics.scene.seats import Seats
 from hri_envs.physics.scene.sensing import SensorModel, WristSensor
 from hri_envs.task.geometry import Scenario
@@ -84,9 +80,6 @@ from hri_envs.task.graph import (
 __all__ = ["PHYSICAL_FAULTS",
            "PandaSim", "StepPlan", "StepResult", "plan_step"]
 
-#: Faults that are physical failures of the task (punished with r⁻ by the episode rules).
-PHYSICAL_FAULTS = ("dropped", "grasp_failed", "pulled_out", "off_support")
-
 # Physical thresholds and times are fields of PhysicsDesign; these are fixed by the model.
 _PLATFORM_Z_M = 0.1  # [m] height of the mobile base's floor platform mocap (scene.py)
 # Numerical method: iterations of the reset IK solve onto the grip and the waiting pose.
@@ -94,95 +87,7 @@ _RESET_GRIP_IK_ITERATIONS = 300
 _RESET_PREGRASP_IK_ITERATIONS = 200
 
 
-class StepPlan(NamedTuple):
-    """The abstract side of a physical step (:func:`plan_step`)."""
-
-    human_toggle: bool  # the human grasps or lets go
-    s1: int  # the state after the toggles, where the motions start
-    robot_moves: bool  # the robot's motion runs
-    human_moves: bool  # the human's motion runs
-
-
-def plan_step(g: TaskGraph, s: int, a_r: int, a_h: int, attempt: bool) -> StepPlan:
-    """Which toggles and motions of joint action (``a_r``, ``a_h``) in state ``s`` run, the
-    same on every physics backend.
-
-    The human toggles only where toggling is valid; the motions start from the state after
-    the toggles. With ``attempt`` (``attempt_invalid``) the robot tries any motion and the
-    human refuses an invalid one; otherwise an invalid motion of either aborts both.
-    """
-    toggle_ok = bool(g.valid[s, TOGGLE])
-    human_toggle = a_h == TOGGLE and toggle_ok
-    s1 = int(g.next_state[s, a_r if a_r == TOGGLE and toggle_ok else WAIT,
-                          a_h if human_toggle else WAIT])
-    if attempt:
-        return StepPlan(human_toggle, s1, a_r > TOGGLE, a_h > TOGGLE and bool(g.valid[s1, a_h]))
-    aborted = not (g.valid[s1, a_r] and g.valid[s1, a_h])
-    return StepPlan(human_toggle, s1, a_r > TOGGLE and not aborted,
-                    a_h > TOGGLE and not aborted)
-
-
-class StepResult(NamedTuple):
-    """The outcome of one physical abstract step.
-
-    Attributes:
-        state: The observed (closest) abstract state.
-        human_action: The human's action as the robot infers it.
-        graph_next: The state the graph predicts for the true joint action.
-        graph_agrees: ``state == graph_next``.
-        settled: The object came to rest at a state (else the time limit ended the step).
-        duration: Simulated seconds.
-        linear_impulse: ∫ |F| dt [N s] of the human's wrench as the wrist sensor sees it.
-        angular_impulse: ∫ |τ| dt [N m s], likewise.
-        robot_yielded: The robot gave up its action because the human disagreed.
-        position_error, angle_error: Distance of the object from the observed state's pose.
-        fault: None, or ``"<kind>: <detail>"`` (kinds: :data:`PHYSICAL_FAULTS`,
-            "unstable", "ik_failure").
-        linear_impulse_true, angular_impulse_true: The same from the human's true wrench.
-        human_holds: The human holds the object as the step ends (their grasp bit).
-        human_holds_sensed: What the robot reads off the handle's touch sensor (it observes
-            this; :class:`~hri_envs.physics.panda.human_arm.HandleSensor`).
-    """
-
-    state: int
-    human_action: int
-    graph_next: int
-    graph_agrees: bool
-    settled: bool
-    duration: float
-    linear_impulse: float
-    angular_impulse: float
-    robot_yielded: bool
-    position_error: float
-    angle_error: float
-    fault: str | None
-    linear_impulse_true: float = 0.0
-    angular_impulse_true: float = 0.0
-    human_holds: bool = False
-    human_holds_sensed: bool = False
-
-    @property
-    def fault_kind(self) -> str | None:
-        """The fault's kind (``"dropped"``, ...) without the detail, or None."""
-        return None if self.fault is None else self.fault.split(":", 1)[0]
-
-
-class _Fault(Exception):
-    pass
-
-
-@dataclass(slots=True)
-class _Totals:
-    """What the physics loop accumulates over one abstract step (the human's wrench)."""
-
-    linear_impulse: float = 0.0  # ∫ |F_sensed| dt [N s]
-    angular_impulse: float = 0.0  # ∫ |τ_sensed| dt [N m s]
-    human_work: float = 0.0  # ∫ (F_sensed · v + τ_sensed · ω) dt [J]
-    linear_impulse_true: float = 0.0  # ∫ |F_human| dt [N s]
-    angular_impulse_true: float = 0.0  # ∫ |τ_human| dt [N m s]
-
-
-class PandaSim(SceneRig):
+class PandaSim(PandaGrasp):
     """A simulated Panda and a simulated human carrying the scenario's object.
 
     Args:
@@ -193,8 +98,6 @@ class PandaSim(SceneRig):
             listed in docs/physics.md), applied at each :meth:`reset`.
 
     Attributes:
-        finger_contype: The robot fingers' geoms' contact types (restored when the weld
-            lets go).
         lowest_z: [m] the lowest support point of the scenario's layout.
     """
 
@@ -229,12 +132,7 @@ class PandaSim(SceneRig):
         self.ik = ReferenceIK(build_robot_model(design), n, n_base, home)
         self.home = home
         self.base_offset = self.mount_offset() if n_base else np.zeros(3)
-        m = self.model
-        self.finger_contype = m.geom_contype[self.scene.finger_geoms.ravel()].copy()
-        self._finger_kp = m.actuator_gainprm[self.scene.finger_actuators, 0].copy()
-        self._site_pos = m.site_pos[self.scene.grip_site].copy()
-        self._site_quat = m.site_quat[self.scene.grip_site].copy()
-        self.grip_in_object = Pose(design.grip_pos, design.grip_quat)
+        self.init_grasp()
         self.on_frame: Callable[[], None] | None = None
         self.frame_every = 50
         self.state = 0
@@ -246,11 +144,6 @@ class PandaSim(SceneRig):
         """The grip frame when the object is at abstract ``state``."""
         pos, quat = self.observer.pose(state)
         return compose(Pose(pos, quat), *self.grip_in_object)
-
-    def pregrasp(self, grip: Pose) -> Pose:
-        """The pose ``pregrasp_distance_m`` back from the grip pose ``grip`` along its z."""
-        return compose(grip, np.array([0.0, 0.0, -self.design.pregrasp_distance_m]),
-                       np.array([1.0, 0, 0, 0]))
 
     # ------------------------------------------------------------------ reset
     def _apply(self, params: PhysicsParams) -> None:
@@ -327,40 +220,6 @@ class PandaSim(SceneRig):
         self.state = s0
         return s0
 
-    # ------------------------------------------------------------------ grasp
-    def weld(self, on: bool) -> None:
-        """The robot's grasp weld on (at the grip pose now, the fingers held on the grip,
-        their contacts off) or off (the fingers' contacts on again).
-        """
-        sc, m = self.scene, self.model
-        if on:
-            # Pose of the hand body (link 7) in the object frame: grip ∘ site⁻¹.
-            inv_q = np.array([self._site_quat[0], *-self._site_quat[1:]])
-            rel = compose(self.grip_in_object, -self._rotate(inv_q, self._site_pos), inv_q)
-            m.eq_data[sc.weld, 0:3] = 0.0
-            m.eq_data[sc.weld, 3:6] = rel.pos
-            m.eq_data[sc.weld, 6:10] = rel.quat
-        data = self.data
-        data.eq_active[sc.weld] = int(on)
-        # While the weld holds, the finger contacts are off: the weld carries the object, and
-        # the four finger contacts were a third to half of MuJoCo's time per step (docs/physics.md,
-        # Robot). The weld holds the object at the nominal grip, so the fingers are servoed
-        # to where they meet the grip block there, 10x stiffer: without the block to stop
-        # them, their weight would slide them into it.
-        acts = sc.finger_actuators
-        data.ctrl[acts] = FINGER_ON_GRIP_M if on else FINGER_OPEN_M
-        kp = self._finger_kp * (FINGER_HOLD_STIFFENING if on else 1.0)
-        m.actuator_gainprm[acts, 0] = kp
-        m.actuator_biasprm[acts, 1] = -kp
-        m.geom_contype[sc.finger_geoms.ravel()] = 0 if on else self.finger_contype
-        self.holding = on
-
-    @staticmethod
-    def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        out = np.empty(3)
-        mujoco.mju_rotVecQuat(out, v, q)
-        return out
-
     # ------------------------------------------------------------------ step
     def step(self, s: int, a_r: int, a_h: int) -> StepResult:
         """Run one abstract step with the robot's action ``a_r`` and the human's ``a_h``.
@@ -376,7 +235,7 @@ class PandaSim(SceneRig):
         """
         g = self.graph
         t0 = float(self.data.time)
-        totals = _Totals()
+        totals = StepTotals()
         fault: str | None = None
         yielded = settled = False
         toggle_ok = bool(g.valid[s, TOGGLE])
@@ -404,7 +263,7 @@ class PandaSim(SceneRig):
             # Holding and not moving: passive (the human may move the object); idle: stiff.
             hold = None if (self.holding or robot_moves) else self.grip_pose()
             settled, yielded = self._run(line, hold, totals, self.design.step_time_limit)
-        except _Fault as exc:
+        except StepFault as exc:
             fault = str(exc)
         except IKFailure as exc:
             fault = f"ik_failure: {exc}"
@@ -459,57 +318,7 @@ class PandaSim(SceneRig):
             return g.support_state(int(g.column[s]), BOTH)
         return s
 
-    def _robot_toggle(self, totals: _Totals) -> None:
-        design = self.design
-        if not self.holding:  # approach the grip where the object actually is, then close
-            site = self.scene.object_grip_site
-            quat = np.empty(4)
-            mujoco.mju_mat2Quat(quat, self.data.site_xmat[site])
-            line = StraightLine(self.grip_pose(), Pose(self.data.site_xpos[site].copy(), quat),
-                                design.linear_speed, design.angular_speed,
-                                min_duration=design.grasp_approach_min_duration_s)
-            self._run(line, None, totals, design.grasp_approach_time_limit_s)
-            self._close_on_grip(totals)
-        else:
-            self.weld(False)
-            grip = self.grip_pose()
-            line = StraightLine(grip, self.pregrasp(grip), design.linear_speed,
-                                design.angular_speed, design.motion_min_duration_s)
-            self._run(line, None, totals, design.release_retreat_time_limit_s)
-
-    def _close_on_grip(self, totals: _Totals) -> None:
-        """Close the fingers where the hand is; weld only if both press on the grip.
-
-        Raises:
-            _Fault: ``grasp_failed`` when a finger's contact force on the object's grip
-                geometry stays below ``grasp_contact_force_n`` (it closed on nothing).
-        """
-        design, sc = self.design, self.scene
-        self.data.ctrl[sc.finger_actuators] = design.grip_finger_pos_m
-        self._run(None, self.grip_pose(), totals, design.grasp_close_time_s,
-                  min_time_s=design.grasp_close_time_s)
-        forces = finger_forces(self.model, self.data, sc.finger_geoms, sc.grip_geom)
-        if forces.min() < design.grasp_contact_force_n:
-            self.data.ctrl[sc.finger_actuators] = FINGER_OPEN_M
-            raise _Fault(f"grasp_failed: the fingers press on the grip with {forces[0]:.1f} N "
-                         f"and {forces[1]:.1f} N (a hold needs "
-                         f"{design.grasp_contact_force_n:g} N each)")
-        # Fingers on the grip block but the hand off the grip (e.g. beside it along the
-        # block): a weld would snap the object into the hand, so the grasp fails.
-        block, grip = sc.grip_geom, self.grip_pose()  # the grip block is the true grip frame
-        quat = np.empty(4)
-        mujoco.mju_mat2Quat(quat, self.data.geom_xmat[block])
-        miss_m = float(np.linalg.norm(grip.pos - self.data.geom_xpos[block]))
-        miss_rad = float(np.linalg.norm(rotation_error(quat, grip.quat)))
-        if miss_m > design.grasp_tolerance_m or miss_rad > design.grasp_tolerance_rad:
-            self.data.ctrl[sc.finger_actuators] = FINGER_OPEN_M
-            raise _Fault(f"grasp_failed: the hand closed {miss_m * 100:.1f} cm, "
-                         f"{np.rad2deg(miss_rad):.0f}° from the grip (a hold needs "
-                         f"{design.grasp_tolerance_m * 100:g} cm, "
-                         f"{np.rad2deg(design.grasp_tolerance_rad):.0f}°)")
-        self.weld(True)
-
-    def _run(self, line: StraightLine | None, hold: Pose | None, totals: _Totals,
+    def _run(self, line: StraightLine | None, hold: Pose | None, totals: StepTotals,
              limit_s: float, min_time_s: float | None = None) -> tuple[bool, bool]:
         """Simulate until settled or ``limit_s`` seconds; (settled, robot yielded).
 
@@ -523,11 +332,8 @@ class PandaSim(SceneRig):
         dt_c, k, body = self.dt_control, self.control_every, sc.object_body
         if min_time_s is None:
             min_time_s = design.settle_min_time_s
-        ik_error_max_m, ik_error_time_max_s = design.ik_error_max_m, design.ik_error_time_max_s
         vel_sq_max, angvel_sq_max = (design.settle_vel_sq_max_m2_s2,
                                      design.settle_angvel_sq_max_rad2_s2)
-        calm_time_s = design.settle_calm_time_s
-        grip_hold_n, overload_max_s = design.grip_hold_force_n, design.grip_overload_time_s
         drop_z = self.lowest_z - design.drop_margin_m
         sensor, overload, human, arm = self.sensor, 0.0, self.human, self.arm
         # Periodic work, in control periods.
@@ -538,7 +344,6 @@ class PandaSim(SceneRig):
         self.davi.reset()
         hold_ref = None if hold is None else TrajectorySample(hold.pos, hold.quat, np.zeros(3),
                                                               np.zeros(3))
-        zero = np.zeros(3)
         xfrc = data.xfrc_applied[body]
         xfrc[:] = 0.0  # no seat wrench left over from the last run
         # Views into data's arrays (their memory is fixed), set up once per run: pos and
@@ -554,113 +359,139 @@ class PandaSim(SceneRig):
                 if np.array_equal(acts, np.arange(acts[0], acts[0] + len(acts))) else None)
         robot_q = data.qpos[:len(sc.robot_qpos)]  # they lead qpos (ImpedanceController)
         platform = sc.platform_mocap >= 0
-        davi, seats, controller, ik = self.davi, self.seats, self.controller, self.ik
-        # The human's impulses and work, summed in the same order as into totals.
-        lin, ang, work = totals.linear_impulse, totals.angular_impulse, totals.human_work
-        lin_true, ang_true = totals.linear_impulse_true, totals.angular_impulse_true
-        seat_on = False
+        controller = self.controller
+        seat_on = yielded = False
         t_line = elapsed = calm = ik_bad = 0.0
         i = 0
-        yielded = False
-        try:
-            while elapsed < limit_s:
-                mujoco.mj_step1(model, data)
-                qv[:] = qvel_object
-                mujoco.mju_rotVecQuat(angvel, qv[3:], quat)
-                # The human: their reference drives the arm's actuators (MuJoCo applies
-                # them).
-                ref_h = human.advance(dt_c)
-                arm.drive(data, pos, quat, human.holding, ref_h, human.noise)
-                w_h = arm.wrench(data, pos)  # the muscles' wrench of the last physics step
-                f_h, t_h = w_h[:3], w_h[3:]
-                # What the robot senses (the reading of the last physics step): the external
-                # wrench on the held object, compensated, biased, noisy, delayed.
-                sensed = sensor.external(data, self.holding, pos, rot)
-                f_s, t_s = sensed[:3], sensed[3:]
-                if self.holding:
-                    f_true = sensor.true_wrench[:3]
-                    overload = (overload + dt_c if f_true.dot(f_true) > grip_hold_n ** 2
-                                else 0.0)
-                    if overload > overload_max_s:
-                        self.weld(False)
-                        raise _Fault(f"pulled_out: {np.sqrt(f_true @ f_true):.0f} N on the "
-                                     "grip")
-                seat = seats.engaged(pos, quat)
-                if seat >= 0:  # the seat acts at the centre of mass: no lever, no stiff
-                    # coupling
-                    f_seat, t_seat = seats.wrench(seat, pos, quat, vel, angvel)
-                    xfrc[:3] = f_seat
-                    xfrc[3:] = t_seat
-                    seat_on = True
-                elif seat_on:
-                    xfrc[:] = 0.0
-                    seat_on = False
-                scale, ref = 1.0, hold_ref
-                if line is not None and not yielded:
-                    moving = t_line < line.duration
-                    u = line.direction if moving else zero
-                    a = line.axis if moving else zero
-                    scale = davi.update(davi.force(f_s, t_s, u, a), dt_c)
-                    yielded = davi.yielded
-                    ref = line.sample(t_line)
-                    t_line += dt_c * scale
-                if yielded:
-                    ref = None
-                if i % ik_every == 0:
-                    if ref is None:  # passive: the posture reference starts from the actual
-                        ik.reset(robot_q)  # arm (no self-motion runs away)
-                    target = Pose(ref.pos, ref.quat) if ref is not None else self.grip_pose()
-                    self.q_ref = ik.step(target, dt_ik).copy()
-                    if ref is not None and line is not None:
-                        ik_bad = (ik_bad + dt_ik if ik.error() > ik_error_max_m else 0.0)
-                        if ik_bad > ik_error_time_max_s:
-                            raise IKFailure("the IK reference cannot follow the trajectory")
-                tau = controller.torques(data, ref, self.q_ref, scale, self.holding)
-                if ctrl is not None:
-                    ctrl[:] = tau
-                else:
-                    data.ctrl[acts] = tau
-                mujoco.mj_step2(model, data)
-                if k > 1:  # the rest of the control period, torques and references held
-                    mujoco.mj_step(model, data, nstep=k - 1)
-                elapsed += dt_c
-                i += 1
-                # ndarray.dot: the same BLAS routine as @ at half the call's cost.
-                lin += math.sqrt(f_s.dot(f_s)) * dt_c
-                ang += math.sqrt(t_s.dot(t_s)) * dt_c
-                work += (f_s.dot(vel) + t_s.dot(angvel)) * dt_c
-                lin_true += math.sqrt(f_h.dot(f_h)) * dt_c
-                ang_true += math.sqrt(t_h.dot(t_h)) * dt_c
-                if platform and i % platform_every == 0:
-                    data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + design.base_pos[:2]
-                if self.on_frame is not None and i % frame_every == 0:
-                    self.on_frame()
-                if i % check_every == 0:
-                    self._check_stable()
-                    floor = touches(data, sc.floor_geom)
-                    if floor or pos[2] < drop_z:
-                        raise _Fault("dropped: the object " + ("hit the floor" if floor
-                                                               else "fell below every state"))
-                slow = vel.dot(vel) < vel_sq_max and angvel.dot(angvel) < angvel_sq_max
-                robot_done = line is None or yielded or t_line >= line.duration
-                if (slow and robot_done and elapsed >= min_time_s
-                        and human.at_target(pos, quat)):
-                    calm += dt_c
-                    if calm >= calm_time_s:
-                        return True, yielded
-                else:
-                    calm = 0.0
-        finally:
-            totals.linear_impulse, totals.angular_impulse, totals.human_work = lin, ang, work
-            totals.linear_impulse_true, totals.angular_impulse_true = lin_true, ang_true
+        while elapsed < limit_s:
+            mujoco.mj_step1(model, data)
+            qv[:] = qvel_object
+            mujoco.mju_rotVecQuat(angvel, qv[3:], quat)
+            # The human: their reference drives the arm's actuators (MuJoCo applies them).
+            ref_h = human.advance(dt_c)
+            arm.drive(data, pos, quat, human.holding, ref_h, human.noise)
+            w_h = arm.wrench(data, pos)  # the muscles' wrench of the last physics step
+            # What the robot senses (the reading of the last physics step): the external
+            # wrench on the held object, compensated, biased, noisy, delayed.
+            sensed = sensor.external(data, self.holding, pos, rot)
+            if self.holding:
+                overload = self._grip_overload(overload)
+            seat_on = self._seat_wrench(xfrc, pos, quat, vel, angvel, seat_on)
+            scale, ref = 1.0, hold_ref
+            if line is not None and not yielded:
+                scale, ref = self._follow(line, t_line, sensed)
+                yielded = self.davi.yielded
+                t_line += dt_c * scale
+            if yielded:
+                ref = None
+            if i % ik_every == 0:
+                ik_bad = self._update_ik(ref, line is not None, dt_ik, ik_bad, robot_q)
+            tau = controller.torques(data, ref, self.q_ref, scale, self.holding)
+            if ctrl is not None:
+                ctrl[:] = tau
+            else:
+                data.ctrl[acts] = tau
+            mujoco.mj_step2(model, data)
+            if k > 1:  # the rest of the control period, torques and references held
+                mujoco.mj_step(model, data, nstep=k - 1)
+            elapsed += dt_c
+            i += 1
+            totals.add(sensed, w_h, vel, angvel, dt_c)
+            if platform and i % platform_every == 0:
+                data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + design.base_pos[:2]
+            if self.on_frame is not None and i % frame_every == 0:
+                self.on_frame()
+            if i % check_every == 0:
+                self._check_in_place(pos, drop_z)
+            slow = vel.dot(vel) < vel_sq_max and angvel.dot(angvel) < angvel_sq_max
+            robot_done = line is None or yielded or t_line >= line.duration
+            if slow and robot_done and elapsed >= min_time_s and human.at_target(pos, quat):
+                calm += dt_c
+                if calm >= design.settle_calm_time_s:
+                    return True, yielded
+            else:
+                calm = 0.0
         self._check_stable()
         return False, yielded
+
+    def _grip_overload(self, overload: float) -> float:
+        """How long [s] the held grip has been pulled beyond its hold, one control period on
+        from ``overload`` (0 while the pull is within it).
+
+        Raises:
+            StepFault: ``pulled_out`` past ``grip_overload_time_s`` (the weld lets go).
+        """
+        f_true, design = self.sensor.true_wrench[:3], self.design
+        overload = (overload + self.dt_control
+                    if f_true.dot(f_true) > design.grip_hold_force_n ** 2 else 0.0)
+        if overload > design.grip_overload_time_s:
+            self.weld(False)
+            raise StepFault(f"pulled_out: {np.sqrt(f_true @ f_true):.0f} N on the grip")
+        return overload
+
+    def _seat_wrench(self, xfrc: np.ndarray, pos: np.ndarray, quat: np.ndarray,
+                     vel: np.ndarray, angvel: np.ndarray, seat_on: bool) -> bool:
+        """The engaged seat's wrench on the object into ``xfrc`` (cleared when the seat that
+        acted lets go); whether a seat acts.
+        """
+        seat = self.seats.engaged(pos, quat)
+        if seat >= 0:  # the seat acts at the centre of mass: no lever, no stiff coupling
+            f_seat, t_seat = self.seats.wrench(seat, pos, quat, vel, angvel)
+            xfrc[:3] = f_seat
+            xfrc[3:] = t_seat
+            return True
+        if seat_on:
+            xfrc[:] = 0.0
+        return False
+
+    def _follow(self, line: StraightLine, t_line: float, sensed: np.ndarray
+                ) -> tuple[float, TrajectorySample]:
+        """The robot's reference on ``line`` at ``t_line`` and the disagreement-aware
+        impedance's scale for the ``sensed`` wrench (0 along an ended line's direction).
+        """
+        davi, zero = self.davi, np.zeros(3)
+        moving = t_line < line.duration
+        u = line.direction if moving else zero
+        a = line.axis if moving else zero
+        scale = davi.update(davi.force(sensed[:3], sensed[3:], u, a), self.dt_control)
+        return scale, line.sample(t_line)
+
+    def _update_ik(self, ref: TrajectorySample | None, tracking: bool, dt_ik: float,
+                   ik_bad: float, robot_q: np.ndarray) -> float:
+        """The IK reference ``q_ref`` one update on, towards ``ref`` (None: the grip where it
+        is); how long [s] the IK has been too far from a tracked line, from ``ik_bad``.
+
+        Raises:
+            IKFailure: It is too far for longer than ``ik_error_time_max_s``.
+        """
+        ik, design = self.ik, self.design
+        if ref is None:  # passive: the posture reference starts from the actual arm (no
+            ik.reset(robot_q)  # self-motion runs away)
+        target = Pose(ref.pos, ref.quat) if ref is not None else self.grip_pose()
+        self.q_ref = ik.step(target, dt_ik).copy()
+        if ref is not None and tracking:
+            ik_bad = (ik_bad + dt_ik if ik.error() > design.ik_error_max_m else 0.0)
+            if ik_bad > design.ik_error_time_max_s:
+                raise IKFailure("the IK reference cannot follow the trajectory")
+        return ik_bad
+
+    def _check_in_place(self, pos: np.ndarray, drop_z: float) -> None:
+        """Stable, and the object off the floor and above ``drop_z``.
+
+        Raises:
+            StepFault: ``unstable`` or ``dropped``.
+        """
+        self._check_stable()
+        floor = touches(self.data, self.scene.floor_geom)
+        if floor or pos[2] < drop_z:
+            raise StepFault("dropped: the object " + ("hit the floor" if floor
+                                                      else "fell below every state"))
 
     def _check_stable(self) -> None:
         data = self.data
         if (data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
                 or data.warning[mujoco.mjtWarning.mjWARN_BADQVEL].number > 0):
-            raise _Fault("unstable: MuJoCo reported bad accelerations or velocities")
+            raise StepFault("unstable: MuJoCo reported bad accelerations or velocities")
         if (not np.all(np.isfinite(data.qvel))
                 or np.abs(data.qvel).max() > self.design.diverged_qvel_max):
-            raise _Fault("unstable: the simulation diverged")
+            raise StepFault("unstable: the simulation diverged")

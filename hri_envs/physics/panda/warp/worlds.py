@@ -88,7 +88,7 @@ class WarpWorlds(PandaPeriod):
             active: (N,) bool, the worlds that step.
 
         Returns:
-            Per world its :class:`~hri_envs.physics.panda.sim.StepResult`, None where inactive.
+            Per world its :class:`~hri_envs.physics.panda.steps.StepResult`, None where inactive.
         """
         self._refresh()
         rows = np.flatnonzero(active)
