@@ -38,10 +38,10 @@ from hri_envs.physics.carry.reward import (
 from hri_envs.physics.carry.robot_view import RobotTask, observation_layout
 from hri_envs.physics.carry.sim import DRIVES, CarryStep, RobotCommand
 from hri_envs.physics.carry.simulation import ACTION_SIZE, CarrySimulation, check_box_action
-from hri_envs.physics.scene.design import physical_scenarios
+from hri_envs.physics.scene.design import physical_graph
 from hri_envs.physics.scene.ik import IKFailure
 from hri_envs.physics.scene.rendering import EpisodePictures, RenderSettings
-from hri_envs.task.scenarios import episode_geometry, scenario_graph, scenario_spec
+from hri_envs.task.scenarios import episode_geometry, spec_of
 
 __all__ = ["ACTION_SIZE", "SENSOR_KEYS", "VERSIONS", "CarryEnv", "CarrySimulation",
            "HiddenIntentionError", "PlacingReward", "RewardWeights", "check_box_action",
@@ -226,10 +226,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ConfigError("population= needs the v1 ids (*PandaContinuous-v1); v0 takes "
                               "one human (human=...)", field="population")
         self.version = version
-        spec = scenario_spec(scenario)
-        if spec.physics_design is None:
-            raise ConfigError(f"scenario {scenario!r} has no physical design; allowed: "
-                              f"{', '.join(physical_scenarios())}", field="scenario")
+        self.graph = physical_graph(scenario)
+        spec = spec_of(self.graph)
         if drive not in DRIVES:
             raise ConfigError(f"unknown drive {drive!r}; allowed: {', '.join(DRIVES)}",
                               field="drive")
@@ -251,7 +249,6 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         sensor = check_sensor(sensor)
         make_sim = carry_backend(backend, drive)
         self.scenario_name, self.render_mode, self.backend = scenario, render_mode, backend
-        self.graph = scenario_graph(scenario)
         self.sim: CarrySimulation = make_sim(self.graph, drive, max_step_m=max_step_m,
                                              max_step_rad=max_step_rad, sensor=sensor)
         self._layout_sampler = spec.layout

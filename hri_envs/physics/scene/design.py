@@ -38,12 +38,12 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from hri_envs.errors import BackendUnavailableError
+from hri_envs.errors import BackendUnavailableError, ConfigError
 from hri_envs.physics.scene.shapes import HangerShapes, SceneShapes, WheelShapes
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import SCENARIOS, spec_of
+from hri_envs.task.scenarios import SCENARIOS, scenario_graph, scenario_spec, spec_of
 
-__all__ = ["PRESET_NAMES", "PhysicsDesign", "design_for", "hanger_design", "physical_scenarios",
+__all__ = ["PRESET_NAMES", "PhysicsDesign", "design_for", "hanger_design", "physical_graph",
            "wheel_design"]
 
 #: The named sets of physics options every design defines (``physics={"preset": ...}``):
@@ -415,6 +415,16 @@ def design_for(graph: TaskGraph) -> PhysicsDesign:
     return design
 
 
-def physical_scenarios() -> tuple[str, ...]:
-    """The registered scenarios that have a physical design, by name (for messages)."""
-    return tuple(name for name, spec in SCENARIOS.items() if spec.physics_design is not None)
+def physical_graph(scenario: str) -> TaskGraph:
+    """The task graph of the registered scenario ``scenario`` (an env constructor's
+    ``scenario=``, resolved once here), which must have a physical design.
+
+    Raises:
+        ConfigError: An unknown scenario, or one without a physical design
+            (``field="scenario"``; the message lists those with one).
+    """
+    if scenario_spec(scenario).physics_design is None:
+        allowed = (name for name, spec in SCENARIOS.items() if spec.physics_design is not None)
+        raise ConfigError(f"scenario {scenario!r} has no physical design; allowed: "
+                          f"{', '.join(allowed)}", field="scenario")
+    return scenario_graph(scenario)

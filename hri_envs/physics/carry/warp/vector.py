@@ -12,9 +12,8 @@ from hri_envs.errors import ActionError, ConfigError
 from hri_envs.physics.carry.env import ACTION_SIZE, CarryEnv, check_sensor, check_step_scale
 from hri_envs.physics.carry.warp.sim import SHARED, WarpCarrySim
 from hri_envs.physics.carry.warp.worlds import WarpCarryWorlds
-from hri_envs.physics.scene.design import physical_scenarios
+from hri_envs.physics.scene.design import physical_graph
 from hri_envs.physics.scene.warp.vector_base import WorldsVectorEnv
-from hri_envs.task.scenarios import scenario_graph, scenario_spec
 
 __all__ = ["CarryVectorEnv"]
 
@@ -81,9 +80,7 @@ class CarryVectorEnv(WorldsVectorEnv[np.ndarray]):
                  render_mode: str | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
                  drive: str = "torque", **kwargs: Any) -> None:
-        if scenario_spec(scenario).physics_design is None:
-            raise ConfigError(f"scenario {scenario!r} has no physical design; allowed: "
-                              f"{', '.join(physical_scenarios())}", field="scenario")
+        graph = physical_graph(scenario)
         if backend != "mjwarp":
             raise ConfigError(f"the continuous vector env runs on MuJoCo Warp; backend must be "
                               f"'mjwarp', got {backend!r}", field="backend")
@@ -92,7 +89,7 @@ class CarryVectorEnv(WorldsVectorEnv[np.ndarray]):
         carry_backend(backend, drive)  # the drive runs here (else a clear error)
         check_step_scale(kwargs.get("max_step_m", 0.02), kwargs.get("max_step_rad", 0.06))
         check_sensor(kwargs.get("sensor"))
-        self.worlds = WarpCarryWorlds(scenario_graph(scenario), n, drive,
+        self.worlds = WarpCarryWorlds(graph, n, drive,
                                       max_step_m=kwargs.get("max_step_m", 0.02),
                                       max_step_rad=kwargs.get("max_step_rad", 0.06),
                                       sensor=kwargs.get("sensor"), device=device)
