@@ -10,7 +10,9 @@
 - :class:`EpisodeCheckpoints`: a callback that counts training episodes and calls you back at
   given counts (sample-efficiency curves);
 - :class:`RandomMasked`: the uniformly random valid-action policy, the floor of RL's
-  normalised scores.
+  normalised scores;
+- :func:`console_logger`: SB3's logger without the empty ``SB3-<time>`` folder SB3 leaves
+  in the temporary directory at every ``learn()`` that logs nowhere.
 
 A trained model plays in the benchmark through :class:`agents.sb3.SB3Agent` (or
 ``hri-bench study ... --agents learner,sb3:PATH``).
@@ -18,6 +20,7 @@ A trained model plays in the benchmark through :class:`agents.sb3.SB3Agent` (or
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, ClassVar
@@ -36,6 +39,7 @@ try:
     from stable_baselines3.common.base_class import BaseAlgorithm
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.logger import HumanOutputFormat, Logger
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
     from stable_baselines3.dqn.policies import MultiInputPolicy as DQNMultiInputPolicy
     from stable_baselines3.dqn.policies import QNetwork
@@ -53,6 +57,7 @@ __all__ = [
     "MaskedQNetwork",
     "RandomMasked",
     "SB3VectorEnv",
+    "console_logger",
     "make_sb3_vec_env",
     "random_valid_actions",
     "train_dqn",
@@ -393,6 +398,17 @@ DQN_DEFAULTS: dict[str, Any] = {
 }
 
 
+def console_logger(verbose: int = 0) -> Logger:
+    """SB3's logger for a model that logs nowhere but the console (``model.set_logger``).
+
+    A model without ``tensorboard_log`` otherwise makes an empty ``SB3-<time>`` folder in
+    the temporary directory at every ``learn()`` (stable-baselines3's ``configure``), which
+    piles up over training runs and tests. The console table is printed as SB3 prints it
+    for ``verbose >= 1``.
+    """
+    return Logger(None, [HumanOutputFormat(sys.stdout)] if verbose >= 1 else [])
+
+
 def train_maskable_ppo(
     env_id: str = "hri_envs/Hanger-v0",
     total_timesteps: int = 20_000,
@@ -428,6 +444,8 @@ def train_maskable_ppo(
     kwargs = {**PPO_DEFAULTS, **(ppo_kwargs or {})}
     model = MaskablePPO("MultiInputPolicy", env, seed=seed, verbose=verbose, device="cpu",
                         **kwargs)
+    if model.tensorboard_log is None:
+        model.set_logger(console_logger(verbose))
     try:
         model.learn(total_timesteps, callback=callback)
     finally:
@@ -457,6 +475,8 @@ def train_dqn(
     kwargs = {**DQN_DEFAULTS, **(dqn_kwargs or {})}
     model = MaskedDQN("MultiInputPolicy", env, seed=seed, verbose=verbose, device="cpu",
                       **kwargs)
+    if model.tensorboard_log is None:
+        model.set_logger(console_logger(verbose))
     try:
         model.learn(total_timesteps, callback=callback)
     finally:

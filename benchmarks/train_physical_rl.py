@@ -146,6 +146,8 @@ def main() -> None:
     from stable_baselines3.common.vec_env import SubprocVecEnv, VecMonitor, VecNormalize
     from tqdm import tqdm
 
+    from agents.rl import console_logger
+
     torch.set_num_threads(1)
     out = Path(args.out or f"out/physical-rl/{args.scenario}")
     out.mkdir(parents=True, exist_ok=True)
@@ -160,6 +162,7 @@ def main() -> None:
                 policy_kwargs={"net_arch": {"pi": [64, 64], "vf": [64, 64]},
                                "activation_fn": torch.nn.Tanh,
                                "log_std_init": args.log_std})
+    model.set_logger(console_logger())  # no empty SB3-<time> folder in the temp dir
     for param in model.policy.action_net.parameters():  # untrained: variable admittance
         torch.nn.init.zeros_(param)
     eval_env = make_env(scenario_spec(args.scenario), population="validation")

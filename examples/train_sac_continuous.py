@@ -109,6 +109,8 @@ def main() -> None:
     from stable_baselines3.common.monitor import Monitor
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
+    from agents.rl import console_logger
+
     torch.set_num_threads(1)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -126,6 +128,7 @@ def main() -> None:
                 batch_size=256, buffer_size=200_000, learning_rate=3e-4, gamma=args.gamma,
                 ent_coef="auto_0.01", seed=args.seed, verbose=0,
                 policy_kwargs={"net_arch": [int(n) for n in args.net.split(",")]})
+    model.set_logger(console_logger())  # no empty SB3-<time> folder in the temp dir
     if args.prior == "passive":
         _passive_prior(model)
     eval_env = gym.make(ENV_ID, **kw)

@@ -1,12 +1,16 @@
 """Shared pytest set-up."""
 
 import os
+import tempfile
 
 # MuJoCo picks its OpenGL backend at import time: headless EGL unless the user chose one.
 os.environ.setdefault("MUJOCO_GL", "egl")
 # pytest-xdist already runs a worker per core: the Learner's batches stay on one thread
 # (tests/test_partner_threads.py sets threads itself).
 os.environ.setdefault("HRI_ENVS_THREADS", "1")
+# Tests that call SB3's learn() on a model of their own log nowhere: one shared folder for
+# SB3's empty log folders instead of a new SB3-<time> folder in the temp dir per call.
+os.environ.setdefault("SB3_LOGDIR", os.path.join(tempfile.gettempdir(), "hri-envs-tests-sb3"))
 
 import pytest  # noqa: E402  (after MUJOCO_GL)
 

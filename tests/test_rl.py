@@ -4,6 +4,7 @@ benchmark, the sample-efficiency study and the RLlib example (skipped without Ra
 import importlib.util
 import json
 import sys
+import tempfile
 from pathlib import Path
 
 import gymnasium as gym
@@ -102,6 +103,20 @@ def test_maskable_ppo_trains_on_sb3_vec_envs_without_invalid_actions(vec):
     assert model.num_timesteps >= 256
     assert record.steps >= 256 and record.invalid == 0
 
+
+
+@pytest.mark.parametrize("verbose", [0, 1])
+def test_training_leaves_no_log_folder_in_the_temp_dir(verbose, tmp_path, monkeypatch, capsys):
+    # SB3 makes an empty SB3-<time> folder in the temp dir at every learn() logging nowhere.
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)
+    train_maskable_ppo("hri_envs/Hanger-v0", 64, n_envs=1, vec="dummy", seed=0,
+                       verbose=verbose, ppo_kwargs={"n_steps": 64, "batch_size": 64})
+    train_dqn("hri_envs/Hanger-v0", 64, seed=0, verbose=verbose,
+              dqn_kwargs={"learning_starts": 16})
+    assert not list(tmp_path.glob("SB3-*"))
+    table = capsys.readouterr().out
+    assert ("total_timesteps" in table) == bool(verbose)  # the console table as before
 
 def test_vector_adapter_follows_sb3_autoreset_conventions():
     venv = make_sb3_vec_env("hri_envs/Hanger-v0", n_envs=4, vec="vector", seed=3)
