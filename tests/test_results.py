@@ -4,6 +4,7 @@ the results file's validator, replays and the custom-agent contract (docs/result
 from __future__ import annotations
 
 import copy
+import hashlib
 import json
 import math
 import os
@@ -464,3 +465,33 @@ def test_agent_names_a_leaderboard_cannot_show_are_refused(suite_dir, tmp_path, 
     with pytest.raises(ConfigError, match="agent name") as err:
         validate_agent_name(name)
     assert err.value.field == "agents"
+
+
+def test_every_agent_name_resolves_to_one_spec_that_answers_every_question(tmp_path):
+    """Issue 42: a name's form (registered, sb3:PATH, jaxppo[:PATH], module:Class) is read
+    once, by resolve_agent; making, privilege, settings and identity ask its spec."""
+    from hri_bench.run.agents import (
+        AGENTS,
+        AgentForm,
+        agent_identity,
+        agent_privilege,
+        agent_settings,
+        resolve_agent,
+    )
+
+    assert resolve_agent("learner") is AGENTS["learner"]
+    model = tmp_path / "model.zip"
+    model.write_bytes(b"0123456789")
+    sb3 = resolve_agent(f"sb3:{model}")
+    assert isinstance(sb3, AgentForm) and sb3.kind == "sb3" and sb3.intention_blind
+    assert agent_settings(f"sb3:{model}", "hanger", -0.33) == {"path": str(model), "bytes": 10}
+    assert agent_identity(f"sb3:{model}")["sha256"] == hashlib.sha256(b"0123456789").hexdigest()
+    assert resolve_agent("jaxppo").kind == "jaxppo"  # type: ignore[attr-defined]
+    custom = resolve_agent("tests.helpers_agents:RandomMover")
+    assert isinstance(custom, AgentForm) and custom.kind == "custom"
+    assert not agent_privilege("tests.helpers_agents:RandomMover").reference
+    assert agent_identity("tests.helpers_agents:RandomMover")["class"] == "RandomMover"
+    for bad in ("nobody", f"sb3:{tmp_path / 'missing.zip'}"):
+        with pytest.raises(ConfigError) as err:
+            resolve_agent(bad)
+        assert err.value.field == "agents"

@@ -40,6 +40,10 @@ indices or the human. A constructor that names none of them is called as before
 ``sb3:PATH`` and ``jaxppo:PATH`` run in the benchmark's process: their code is shipped, and
 the user's file is read as data (weights and JSON, never unpickled).
 
+:func:`resolve_agent` turns any of these names into one :class:`AgentSpec` (the registered
+one, or an :class:`AgentForm` for the forms above); making, privilege, settings and identity
+all ask that spec, so a name's form is read in one place.
+
 :func:`agent_privilege` says what an agent sees besides the robot's view (the intention, the
 human's model), from what it declares: that decides whether a suite shows it as a reference.
 
@@ -53,13 +57,14 @@ by its checkpoint files'; ``module:Class`` by the sha256 of its module's source 
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import importlib.metadata
 import json
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -85,10 +90,10 @@ from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.task.graph import TaskGraph
 
 __all__ = ["AGENTS", "CONTRACT", "DEFAULT_STUDY_AGENTS", "JAXPPO", "JAXPPO_CHECKPOINTS",
-           "JAXPPO_PREFIX", "NAME_FORBIDDEN", "ROLES", "SB3_PREFIX", "AgentContext",
+           "JAXPPO_PREFIX", "NAME_FORBIDDEN", "ROLES", "SB3_PREFIX", "AgentContext", "AgentForm",
            "AgentSpec", "Privilege", "agent_identity", "agent_name_problem", "agent_privilege",
            "agent_settings", "agent_spec", "contract_keywords", "import_agent", "jaxppo_path",
-           "make_agent", "package_version", "register_agent", "source_identity",
+           "make_agent", "package_version", "register_agent", "resolve_agent", "source_identity",
            "validate_agent_name"]
 
 
@@ -157,17 +162,41 @@ def agent_name_problem(name: Any) -> str | None:
     return None
 
 
-def validate_agent_name(name: str) -> None:
-    """Raise a :class:`~hri_envs.errors.ConfigError` naming the allowed agents unless
-    ``name`` is one (and a name a leaderboard can show: :func:`agent_name_problem`).
+@dataclass(frozen=True)
+class AgentForm(AgentSpec):
+    """An agent named by a form instead of registered (``sb3:PATH``, ``jaxppo[:PATH]``,
+    ``module:Class``), made into an :class:`AgentSpec` by :func:`resolve_agent`.
+
+    Attributes:
+        kind: ``"sb3"``, ``"jaxppo"`` or ``"custom"``.
+        identity: ``identity() -> dict``: how a results file names its code
+            (:func:`agent_identity`).
+    """
+
+    kind: str = "custom"
+    identity: Callable[[], dict[str, Any]] | None = None
+
+
+def resolve_agent(name: str) -> AgentSpec:
+    """The agent ``name`` stands for, as an :class:`AgentSpec`: the registered one, or an
+    :class:`AgentForm` for ``sb3:PATH``, ``jaxppo[:PATH]`` and ``module:Class`` (module
+    docstring). Every question about an agent (:func:`make_agent`, :func:`agent_privilege`,
+    :func:`agent_settings`, :func:`agent_identity`) asks the spec this returns.
 
     For ``sb3:PATH`` the file must exist (its contents are checked when it is loaded); for
-    ``module:Class`` the class is imported and must subclass :class:`~agents.protocol.Agent`
-    or :class:`~agents.protocol.BatchAgent` and implement every method of the protocol
-    (:data:`agents.protocol.METHODS`), so a study refuses it before simulating.
+    ``module:Class`` its process imports the class (:func:`hri_bench.run.isolation.describe`),
+    which must subclass :class:`~agents.protocol.Agent` or :class:`~agents.protocol.BatchAgent`
+    and implement every method of the protocol (:data:`agents.protocol.METHODS`), so a study
+    refuses it before simulating.
+
+    Raises:
+        ConfigError: ``name`` is no agent, or not a name a leaderboard can show
+            (:func:`agent_name_problem`); the message names the allowed agents
+            (``field="agents"``).
     """
-    if name in AGENTS:
-        return
+    spec = AGENTS.find(name)
+    if spec is not None:
+        return spec
     problem = agent_name_problem(name)
     if problem is not None:
         raise ConfigError(problem, field="agents")
@@ -176,17 +205,24 @@ def validate_agent_name(name: str) -> None:
         if not model.is_file():
             raise ConfigError(f"agent {name!r}: no SB3 model file at {str(model)!r}; give "
                               "'sb3:PATH' with the .zip written by model.save()", field="agents")
-        return
+        return AgentForm(name, functools.partial(_make_sb3, str(model)),
+                         settings=functools.partial(_file_settings, model), kind="sb3",
+                         identity=functools.partial(_sb3_identity, model))
     path = jaxppo_path(name)
     if path is not None:
         if not (path.is_file() or path.is_dir()):  # the folder's file: when it is loaded
             raise ConfigError(f"agent {name!r}: no JAX PPO checkpoint at {str(path)!r}; give "
                               "'jaxppo:FILE.npz' or 'jaxppo:FOLDER' holding <scenario>.npz",
                               field="agents")
-        return
+        return AgentForm(name, functools.partial(_make_jaxppo, path),
+                         settings=functools.partial(_file_settings, path), kind="jaxppo",
+                         identity=functools.partial(_jaxppo_identity, path))
     if ":" in name and all(name.split(":", 1)):
-        describe(name)  # in its own process: nothing of it runs in this one
-        return
+        info = describe(name)  # in its own process: nothing of it runs in this one
+        identity = functools.partial(_isolated_identity, name)
+        return AgentForm(name, functools.partial(_make_isolated, name),
+                         intention_blind=not info["privileged"],
+                         settings=lambda *_: identity(), kind="custom", identity=identity)
     raise ConfigError(
         f"unknown agent {name!r}; allowed: {', '.join(AGENTS)}, "
         "'sb3:PATH' for a saved stable-baselines3 model, 'jaxppo' or 'jaxppo:PATH' for a "
@@ -194,6 +230,36 @@ def validate_agent_name(name: str) -> None:
         "or 'module:Class' for your own agent",
         field="agents",
     )
+
+
+def validate_agent_name(name: str) -> None:
+    """Raise a :class:`~hri_envs.errors.ConfigError` naming the allowed agents unless
+    ``name`` is one (:func:`resolve_agent`).
+    """
+    resolve_agent(name)
+
+
+def _make_sb3(path: str, ctx: AgentContext) -> BatchAgent:
+    from agents.sb3 import SB3BatchAgent  # the rl extra (stable-baselines3, torch)
+
+    return SB3BatchAgent(path, len(ctx.runs), graph=ctx.graph, seed=ctx.seed, runs=ctx.runs)
+
+
+def _make_jaxppo(path: Path, ctx: AgentContext) -> BatchAgent:
+    from agents.jax_ppo.agent import JaxPPOAgent  # the jax extra
+
+    return JaxPPOAgent(path, ctx.graph, len(ctx.runs))
+
+
+def _make_isolated(name: str, ctx: AgentContext) -> BatchAgent:
+    settings = {"r0": ctx.r0, "reward": ctx.reward, "max_steps": ctx.max_steps,
+                "episodes": ctx.episodes}
+    return make_isolated(name, ctx.graph, ctx.seed, ctx.runs, settings)
+
+
+def _file_settings(path: Path, *_: Any) -> dict[str, Any]:
+    """A model's settings in ``summary.json``: its path and size."""
+    return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
 
 
 def import_agent(spec: str) -> type[Agent] | type[BatchAgent]:
@@ -249,15 +315,10 @@ def agent_privilege(name: str) -> Privilege:
     see the robot's view only.
 
     Raises:
-        ConfigError: ``name`` is not an agent (:func:`validate_agent_name`).
+        ConfigError: ``name`` is not an agent (:func:`resolve_agent`).
     """
-    spec = AGENTS.find(name)
-    if spec is not None:
-        return Privilege(not spec.intention_blind, spec.plans)
-    validate_agent_name(name)
-    if name.startswith(SB3_PREFIX) or jaxppo_path(name) is not None:
-        return Privilege(False, False)
-    return Privilege(bool(describe(name)["privileged"]), False)
+    spec = resolve_agent(name)
+    return Privilege(not spec.intention_blind, spec.plans)
 
 
 def agent_settings(name: str, scenario: str, r0: float,
@@ -271,15 +332,8 @@ def agent_settings(name: str, scenario: str, r0: float,
     (:func:`agent_identity`: its source files' sha256 and the
     constructor keywords it is given); the other agents: None (they have none).
     """
-    spec = AGENTS.find(name)
-    if spec is not None:
-        return None if spec.settings is None else spec.settings(scenario, r0, learner or {})
-    path = Path(name[len(SB3_PREFIX):]) if name.startswith(SB3_PREFIX) else jaxppo_path(name)
-    if path is not None:
-        return {"path": str(path), "bytes": path.stat().st_size if path.is_file() else None}
-    if ":" in name:
-        return agent_identity(name)
-    return None
+    spec = resolve_agent(name)
+    return None if spec.settings is None else spec.settings(scenario, r0, learner or {})
 
 
 def make_agent(
@@ -313,23 +367,9 @@ def make_agent(
         episodes: Episodes per run (the horizon of ``informed`` and ``qmdp`` for humans
             who remember across episodes).
     """
-    validate_agent_name(name)
-    n = len(runs)
-    spec = AGENTS.find(name)
-    if spec is not None:
-        return spec.make(AgentContext(graph, human, tuple(int(r) for r in runs), seed, r0,
-                                      dict(learner or {}), max_steps, reward, episodes))
-    if name.startswith(SB3_PREFIX):
-        from agents.sb3 import SB3BatchAgent  # the rl extra (stable-baselines3, torch)
-
-        return SB3BatchAgent(name[len(SB3_PREFIX):], n, graph=graph, seed=seed, runs=runs)
-    path = jaxppo_path(name)
-    if path is not None:
-        from agents.jax_ppo.agent import JaxPPOAgent  # the jax extra
-
-        return JaxPPOAgent(path, graph, n)
-    settings = {"r0": r0, "reward": reward, "max_steps": max_steps, "episodes": episodes}
-    return make_isolated(name, graph, seed, runs, settings)
+    return resolve_agent(name).make(AgentContext(
+        graph, human, tuple(int(r) for r in runs), seed, r0, dict(learner or {}), max_steps,
+        reward, episodes))
 
 
 def _sha256(path: Path) -> str:
@@ -389,26 +429,32 @@ def _unimported_files(module_name: str) -> tuple[Path, list[Path]]:
 
 def agent_identity(name: str) -> dict[str, Any]:
     """How agent ``name`` of a study is identified (module docstring)."""
-    spec = AGENTS.find(name)
-    if spec is not None and spec.make.__module__ == builtin_agents.__name__:  # shipped
+    spec = resolve_agent(name)
+    if isinstance(spec, AgentForm) and spec.identity is not None:
+        return spec.identity()
+    if spec.make.__module__ == builtin_agents.__name__:  # shipped
         return {"kind": "builtin", "package": "hri-envs", "version": package_version("hri-envs")}
-    if spec is not None:  # registered by a package of the user's: its maker's source
-        root, files = _source_files(spec.make.__module__)
-        hashes = {p.relative_to(root).as_posix(): _sha256(p) for p in files}
-        return {"kind": "custom", "module": spec.make.__module__, "class": f"registered:{name}",
-                "files": hashes, "code_sha256": _combined(hashes), "constructor": []}
-    if name.startswith(SB3_PREFIX):
-        path = Path(name[len(SB3_PREFIX):])
-        return {"kind": "sb3", "path": str(path),
-                "sha256": _sha256(path) if path.is_file() else None}
-    model = jaxppo_path(name)
-    if model is not None:  # a file, or a folder of <scenario>.npz: their combined hash
-        files = sorted(p for p in model.rglob("*") if p.is_file()) if model.is_dir() else (
-            [model] if model.is_file() else [])
-        hashes = {p.relative_to(model).as_posix() if model.is_dir() else p.name: _sha256(p)
-                  for p in files}
-        return {"kind": "jaxppo", "path": str(model),
-                "sha256": _combined(hashes) if hashes else None}
+    # registered by a package of the user's: its maker's source
+    root, files = _source_files(spec.make.__module__)
+    hashes = {p.relative_to(root).as_posix(): _sha256(p) for p in files}
+    return {"kind": "custom", "module": spec.make.__module__, "class": f"registered:{name}",
+            "files": hashes, "code_sha256": _combined(hashes), "constructor": []}
+
+
+def _sb3_identity(path: Path) -> dict[str, Any]:
+    return {"kind": "sb3", "path": str(path), "sha256": _sha256(path) if path.is_file() else None}
+
+
+def _jaxppo_identity(model: Path) -> dict[str, Any]:
+    """A checkpoint file, or a folder of ``<scenario>.npz``: their combined hash."""
+    files = sorted(p for p in model.rglob("*") if p.is_file()) if model.is_dir() else (
+        [model] if model.is_file() else [])
+    hashes = {p.relative_to(model).as_posix() if model.is_dir() else p.name: _sha256(p)
+              for p in files}
+    return {"kind": "jaxppo", "path": str(model), "sha256": _combined(hashes) if hashes else None}
+
+
+def _isolated_identity(name: str) -> dict[str, Any]:
     info = describe(name)  # its process imports it; this one only reads its files
     root, files = _unimported_files(info["module"])
     hashes = {p.relative_to(root).as_posix(): _sha256(p) for p in files}
