@@ -79,3 +79,39 @@ def test_a_bad_spec_fails_at_construction_naming_the_field(kwargs, field, text):
 def test_an_unknown_keyword_is_a_type_error_as_for_any_function():
     with pytest.raises(TypeError, match="unexpected keyword argument.*'human_speed'"):
         gym.make("hri_envs/Wheel-v0", human_speed=2)
+
+
+def test_a_study_reads_its_human_once_into_the_maker_of_its_kind():
+    """Issue 42: a study's units ask one maker, chosen once from its HumanSpec."""
+    from hri_envs.humans.runs import DrawnRuns, OwnHumans, ScriptedRuns, study_humans
+    from hri_envs.humans.scripted import preference_human
+    from hri_envs.humans.spec import PopulationKind, register_population_kind
+    from hri_envs.task.scenarios import scenario_graph
+
+    graph = scenario_graph("hanger")
+    prefs = graph.spec.preferences
+    cycle = tuple(prefs[r % 3] for r in range(6))
+    kw = {"seed": 3, "episodes": 2}
+    assert isinstance(study_humans(HumanSpec(), **kw), ScriptedRuns)
+    assert isinstance(study_humans(HumanSpec(), drift=1, **kw), DrawnRuns)
+    assert isinstance(study_humans(HumanSpec(population="preferences"), **kw), DrawnRuns)
+    own = study_humans(HumanSpec(population="tests.helpers_humans:Copycat"), **kw)
+    assert isinstance(own, OwnHumans)
+    assert own.make(graph, [0, 1], "")[1] == ["tests.helpers_humans:Copycat"] * 2
+    register_population_kind(PopulationKind(  # a kind's model is shared by the runs
+        "issue42-kind:", "test", lambda name, g: preference_human(g)), replace=True)
+    shared, labels = study_humans(HumanSpec(population="issue42-kind:x"), **kw).make(
+        graph, [0, 1], "")
+    assert isinstance(shared, TableHumans) and labels == ["issue42-kind:x"] * 2
+
+    mixed, labels = study_humans(HumanSpec(), run_preferences=cycle, **kw).make(
+        graph, [4, 1, 2], "all")
+    assert labels == [cycle[4], cycle[1], cycle[2]]  # each run meets its own preference
+    assert isinstance(mixed, TableHumans)
+    one, labels = study_humans(HumanSpec(), **kw).make(graph, [0, 1], prefs[5])
+    assert one.name == prefs[5] and labels == [prefs[5]] * 2
+
+    drawn = study_humans(HumanSpec(population="preferences"), **kw)
+    _, first = drawn.make(graph, [0, 1, 2], "")
+    _, again = drawn.make(graph, [2], "")
+    assert again == first[2:]  # a run's human comes from (seed, run) alone, whatever the batch

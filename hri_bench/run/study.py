@@ -58,19 +58,17 @@ from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.envs.backends import BACKENDS, DEFAULT_UNIT_TIME_LIMIT, batch_backend
 from hri_envs.envs.config import check_physics_options
 from hri_envs.errors import ActionError, ConfigError, MissingExtraError
-from hri_envs.humans.finite_state import FiniteStateHumans
 from hri_envs.humans.populations import (
     POPULATIONS,
     HumanDraw,
-    humans_of,
     validate_drift,
 )
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.rational import validate_rationality
+from hri_envs.humans.runs import RunHumans, study_humans
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.spec import HumanSpec
 from hri_envs.humans.splits import population, population_hash
-from hri_envs.humans.tables import TableHumans
 from hri_envs.imports import import_modules
 from hri_envs.task.episode import REWARD_RULES
 from hri_envs.task.graph import TaskGraph
@@ -447,6 +445,14 @@ class StudyConfig(NamedScenario):
                                     preference, self.human_drift)
 
     @property
+    def run_humans(self) -> RunHumans:
+        """The maker of the study's humans for a batch of runs, read once from
+        :attr:`human` (:func:`hri_envs.humans.runs.study_humans`).
+        """
+        return study_humans(self.human, seed=self.seed, episodes=self.n_episodes,
+                            drift=self.human_drift, run_preferences=self.preference_of_run())
+
+    @property
     def physics(self) -> dict[str, Any]:
         """The backend's ``physics`` options this study sets."""
         return {} if self.physics_preset is None else {"preset": self.physics_preset}
@@ -582,31 +588,12 @@ def unit_humans(cfg: StudyConfig, preference: str, runs: list[int]
             ) -> tuple[ScriptedHuman | BatchHuman, list[str]]:
     """The unit's human(s) and each run's human label (per episode for drift: "a>b").
 
-    The one place a study's humans are made: a scripted human shared by the runs, each
-    run's own scripted humans (a population's draw, a drift), or a human class of the user's
+    The one place a study's humans are made, by the maker its human reads as once
+    (:attr:`StudyConfig.run_humans`): a scripted human shared by the runs, each run's own
+    scripted humans (a population's draw, a drift), or a human class of the user's
     (``--population module:Class``).
     """
-    graph = cfg.graph
-    spec = cfg.human
-    if is_custom(cfg.population):
-        assert cfg.population is not None
-        return spec.custom(graph, len(runs)), [cfg.population] * len(runs)
-    if preference == "all" and not cfg.per_run_humans:  # a batch of the runs' preferences
-        prefs = [cfg.preference_of_run()[r] for r in runs]
-        shared = {p: spec.scripted(graph, p) for p in dict.fromkeys(prefs)}
-        return TableHumans([[shared[p]] for p in prefs]), prefs
-    if not cfg.per_run_humans:
-        return spec.scripted(graph, preference), [preference] * len(runs)
-    seqs = [cfg.human_draws(r, preference) for r in runs]
-    labels = [">".join(dict.fromkeys(x.label() for x in seq)) for seq in seqs]
-    flat = humans_of(graph, [d for seq in seqs for d in seq])
-    n_e = cfg.n_episodes
-    per_run = [flat[i * n_e:(i + 1) * n_e] for i in range(len(runs))]
-    if all(isinstance(h, ScriptedHuman) for h in flat):
-        return TableHumans(per_run), labels
-    # A member with a finite state (misspecified, adaptive, inconsistent): one model per run
-    # throughout (such populations do not drift).
-    return FiniteStateHumans([seq[0] for seq in per_run]), labels
+    return cfg.run_humans.make(cfg.graph, runs, preference)
 
 
 #: What a unit yields: metrics, probes, schedule and each run's human label.

@@ -8,6 +8,8 @@ module             contents
 ``populations``    Boltzmann preference humans, populations, drift, :class:`PopulationHumans`
 ``tables``         :class:`TableHumans`: scripted humans in a seat, by table look-up
 ``seat``           :func:`seat_human`: the envs' human arguments as one :class:`BatchHuman`
+``spec``           :class:`HumanSpec`: one frozen description of the human, for every env
+``runs``           :func:`study_humans`: a study's humans for a batch of its runs
 =================  ==============================================================
 """
 

@@ -21,8 +21,10 @@ physics options). An env that cannot honour a field of a spec refuses it
 (:meth:`HumanSpec.refuse`), never ignores it.
 
 :meth:`HumanSpec.seat` builds an env's seat; :meth:`HumanSpec.run_draws` and
-:meth:`HumanSpec.custom` a study's humans. The envs' flat keywords (``preference=``,
-``human_passive=``, ...) are a shorthand for a spec (:meth:`HumanSpec.from_kwargs`).
+:meth:`HumanSpec.custom` a study's humans, through the maker of their kind that
+:func:`hri_envs.humans.runs.study_humans` reads from the spec once. The envs' flat
+keywords (``preference=``, ``human_passive=``, ...) are a shorthand for a spec
+(:meth:`HumanSpec.from_kwargs`).
 """
 
 from __future__ import annotations
