@@ -634,9 +634,9 @@ def _run_unit(unit: Unit) -> UnitResult:
                      reward=cfg.reward, physics=cfg.physics)
     except ActionError as exc:
         raise ActionError(f"agent {unit.agent!r}: {exc}") from exc
-    metrics = {k: np.asarray(getattr(m, k), dtype=float) for k in METRICS}
-    metrics.update({k: np.asarray(v, dtype=float) for k, v in m.extras.items()})
-    metrics.update({k: np.asarray(v, dtype=float) for k, v in m.task.items()})  # results file
+    metrics = {k: np.asarray(v, dtype=float)  # the backend's extras, the task's for the file
+               for k, v in [*((k, getattr(m, k)) for k in METRICS), *m.extras.items(),
+                            *m.task.items()]}
     sched = {"start": schedule.start, "goal": schedule.goal, "turn_back": schedule.turn_back}
     return metrics, probes, sched, labels
 
