@@ -96,6 +96,36 @@ def test_sensor_model_delay_bias_and_noise():
     assert samples[:, 3:].std() == pytest.approx(0.1, rel=0.05)
 
 
+def test_sensor_model_reading_is_the_v0_formula_and_the_compiled_law_bit_for_bit():
+    """The reading is, bit for bit, the frozen v0 one: the wrench plus the bias, plus the
+    noise times the generator's next six standard normals, torques times the lever (one at a
+    time or the last of a batch); a noiseless sensor draws nothing. It is also what the
+    compiled law the Warp worlds and the continuous envs run gives with one world
+    (scene.laws.sensor_noise): the Panda backend keeps a numpy copy so that its processes
+    need not load numba (docs/physics.md, "One law, or a copy on each side")."""
+    from hri_envs.physics.scene import laws
+
+    rng = np.random.default_rng(7)
+    for noise in (0.0, 0.05, 3.7):
+        m = SensorModel(noise_n=noise, bias_n=2.5, delay_s=0.0, torque_lever_m=0.13, dt=0.008)
+        m.reset(np.random.default_rng(3))
+        twin = np.random.default_rng(3)
+        twin.standard_normal(6)  # the bias's draws
+        for batch in (0, 0, 3, 0, 1):
+            wrenches = rng.normal(size=(max(batch, 1), 6)) * 20.0
+            got = m.apply_all(wrenches) if batch else m.apply(wrenches[0])
+            z = twin.standard_normal((max(batch, 1), 6))[-1].tolist() if noise > 0 else [0.0] * 6
+            w = (wrenches[-1] + m.bias).tolist()
+            want = [w[c] + noise * z[c] if noise > 0 else w[c] for c in range(3)] + [
+                w[c] + noise * z[c] * 0.13 if noise > 0 else w[c] for c in range(3, 6)]
+            assert np.array(want).tobytes() == np.asarray(got, float).tobytes()
+            law = np.empty((1, 6))
+            laws.sensor_noise(wrenches[-1:].copy(), m.bias.reshape(1, 6), np.array([noise]),
+                              np.array([z]), 0.13, law)
+            assert law[0].tobytes() == np.asarray(got, float).tobytes()
+        assert m.rng.standard_normal() == twin.standard_normal()  # the same draws, no more
+
+
 def test_physics_option_keys_are_listed_once():
     spec = BACKENDS["mujoco"]
     assert set(PARAMETER_KEYS) == set(PHYSICS_PARAMETERS) <= set(OPTION_KEYS)
