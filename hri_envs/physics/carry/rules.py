@@ -21,7 +21,8 @@ each backend; the rules and the fault messages are here only:
 
 The per-world rules are compiled (:func:`~hri_envs.physics.scene.jit.kernel`, as the laws of
 :mod:`~hri_envs.physics.scene.laws`: outputs into arrays given last): on the C backend they run
-every step for one world, where numpy's cost per call would show; the texts are Python.
+every step for one world, where numpy's cost per call would show (about 17 µs a step in
+numpy, 5 µs compiled, of about 0.9 ms); the texts are Python.
 """
 
 from __future__ import annotations
@@ -37,8 +38,7 @@ from hri_envs.physics.scene.jit import kernel
 __all__ = ["CALM_S", "DROP_BELOW_M", "FAULT_FELL", "FAULT_FLOOR", "FAULT_NONE",
            "FAULT_SLIPPED", "FAULT_TOO_WEAK", "FAULT_UNSTABLE", "MOVED_M", "SLIP_M", "SLIP_RAD",
            "STRAINED_S", "calm_update", "fault_codes", "fault_message", "fault_messages",
-           "saturated_joints",
-           "slip_reason", "strain_update"]
+           "saturated_joints", "slip_reason", "strain_timers", "strain_update"]
 
 #: [m], [rad]: the handle has left the hand when this far off, or turned, from its grip.
 SLIP_M, SLIP_RAD = 0.03, 0.5
@@ -183,21 +183,11 @@ def strain_timers(strained: np.ndarray, sat: np.ndarray, start_pos: np.ndarray,
 def strain_update(strained: np.ndarray, sat: np.ndarray, start_pos: np.ndarray,
                   end_pos: np.ndarray, dt: float, weight: float,
                   max_lift: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
-    """The too-weak rule: :func:`strain_timers` (the timers updated in place), and of the
-    worlds strained for :data:`STRAINED_S`, those whose arm cannot lift the object's weight.
-
-    Args:
-        strained: (R,) the timers [s], updated.
-        sat: (R, n) per arm joint, in how many control periods it was at its limit.
-        start_pos: (R, 3) the object at the step's start.
-        end_pos: (R, 3) the object at the step's end.
-        dt: The step [s].
-        weight: The object's weight [N].
-        max_lift: The arm's greatest lift [N] of the worlds at the given positions in the
-            batch (called only for those strained long enough, and not at all if none is).
-
-    Returns:
-        (R,) bool, the too-weak worlds.
+    """The too-weak rule: (R,) bool, the worlds strained for :data:`STRAINED_S` (their
+    timers ``strained`` updated in place by :func:`strain_timers`, whose arguments these
+    are) whose arm cannot lift the object's ``weight`` [N]. ``max_lift(positions)`` gives
+    the arm's greatest lift [N] of the worlds at those positions in the batch; it is asked
+    only of the worlds strained long enough, and not at all if none is.
     """
     weak = np.empty(len(strained), dtype=np.bool_)
     strain_timers(strained, sat, start_pos, end_pos, dt, weak)
