@@ -3,7 +3,8 @@
 ``hri_envs/HangerPandaContinuous-v0/v1`` and ``WheelPandaContinuous-v0/v1``: the env
 (``env``: :class:`~hri_envs.physics.carry.env.CarryEnv`, its arguments checked in
 ``options``) and its PettingZoo form (``parallel``), the simulation of one step (``sim``:
-:class:`~hri_envs.physics.carry.sim.CarrySim`, with ``types``, ``simulation``, ``faults``),
+:class:`~hri_envs.physics.carry.sim.CarrySim`, with ``types``, ``simulation``, ``faults``;
+the end-of-step rules, faults, strain and placement, written once over worlds in ``rules``),
 its five control periods compiled in one call (``stages``, ``periods``, MuJoCo's C functions
 in ``mjc``) from the laws written once over a leading axis of worlds (the scene's,
 :mod:`hri_envs.physics.scene.laws`; the human's in ``human.laws``), the interaction measures

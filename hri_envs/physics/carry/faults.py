@@ -1,67 +1,50 @@
-"""How a continuous step ends badly: :class:`~hri_envs.physics.carry.sim.CarrySim`'s checks at
-the end of a step (the object dropped, the simulation diverged, the handle slipped out of
-the human's hand), the reasons it gives, and the arm's greatest lift in its posture.
+"""How a continuous step ends badly on the C backend: what
+:class:`~hri_envs.physics.carry.sim.CarrySim` measures for the end-of-step rules of
+:mod:`~hri_envs.physics.carry.rules` (one world: the object dropped, the simulation diverged,
+the handle slipped out of the human's hand), the reasons it gives, and the arm's greatest
+lift in its posture.
 """
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
+from hri_envs.physics.carry import rules
+from hri_envs.physics.carry.rules import DROP_BELOW_M, SLIP_M, SLIP_RAD
 from hri_envs.physics.scene.contacts import touches
 
 if TYPE_CHECKING:
     from hri_envs.physics.carry.periods import PeriodsResult
     from hri_envs.physics.carry.sim import CarrySim
 
-__all__ = ["DROP_BELOW_M", "SLIP_M", "SLIP_RAD", "CarryFault", "check_faults", "max_lift_n",
-           "why_slipped"]
-
-#: [m], [rad]: the handle has left the hand when this far off, or turned, from its grip.
-SLIP_M, SLIP_RAD = 0.03, 0.5
-#: [m] the object this far below the lowest support point: dropped.
-DROP_BELOW_M = 0.15
+__all__ = ["DROP_BELOW_M", "SLIP_M", "SLIP_RAD", "check_faults", "max_lift_n", "why_slipped"]
 
 
-class CarryFault(Exception):
-    """A step's fault: ``"<kind>: <detail>"``."""
-
-
-def check_faults(sim: CarrySim, pos: np.ndarray, res: PeriodsResult) -> None:
-    """Raise :class:`CarryFault` if the object at ``pos`` dropped, the state is not finite
-    or the handle slipped out of the human's hand (then they no longer hold it).
+def check_faults(sim: CarrySim, pos: np.ndarray, res: PeriodsResult) -> str | None:
+    """The fault of a step (:func:`~hri_envs.physics.carry.rules.fault_codes`) whose
+    control periods ended with the object at ``pos``, or None: dropped, not finite, or the
+    handle slipped out of the human's hand (then they no longer hold it).
     """
-    data, sc = sim.data, sim.scene
-    if touches(data, sc.floor_geom) or pos[2] < sim.lowest_z - DROP_BELOW_M:
-        raise CarryFault("dropped: the object " + ("hit the floor" if touches(
-            data, sc.floor_geom) else "fell below every support"))
-    if not res.finite:
-        raise CarryFault("unstable: the simulation diverged")
-    off, angle = res.off, res.angle
-    if off > SLIP_M or angle > SLIP_RAD:
+    off, angle, codes = np.array([res.off]), np.array([res.angle]), np.empty(1, np.int64)
+    rules.fault_codes(np.array([touches(sim.data, sim.scene.floor_geom)]), pos[2:3],
+                      np.array([sim.lowest_z]), np.array([res.finite]), off, angle, codes)
+    if codes[0] == rules.FAULT_SLIPPED:
         sim.human_holds = False
-        why = why_slipped(sim)
-        kind = "slipped" if sim.robot_holds else "dropped"
-        raise CarryFault(f"{kind}: the handle slipped out of the human's hand "
-                         f"({off * 100:.1f} cm, {math.degrees(angle):.0f}° off); {why}")
+    return rules.fault_messages(codes, off, angle, np.array([sim.robot_holds]),
+                                lambda _: why_slipped(sim))[0]
 
 
 def why_slipped(sim: CarrySim) -> str:
-    """Why the handle slipped or the human cannot carry alone: the arm's greatest lift
-    against the object's weight, or the grip force; the joints at their strength limit.
+    """Why the handle slipped or the human cannot carry alone
+    (:func:`~hri_envs.physics.carry.rules.slip_reason`): the arm's greatest lift against the
+    object's weight, or the grip force; the joints at their strength limit.
     """
-    sat = [n for n, c in zip(sim.joint_names(), sim.sat_counts, strict=True) if c > 0]
-    weight = sim.design.object_mass * 9.81
-    lift = max_lift_n(sim)
-    if not sim.robot_holds and lift < weight:
-        return (f"the arm can lift at most {lift:.1f} N here, the object weighs "
-                f"{weight:.1f} N (joints at their strength limit: "
-                f"{', '.join(sat) or 'none'})")
-    return (f"grip force {sim.model.actuator_forcerange[sim.arm.fingers, 1]:.1f} N; "
-            f"joints at their strength limit: {', '.join(sat) or 'none'}")
+    return rules.slip_reason(sim.robot_holds, max_lift_n(sim), sim.design.object_mass * 9.81,
+                             float(sim.model.actuator_forcerange[sim.arm.fingers, 1]),
+                             sim.joint_names(), sim.sat_counts)
 
 
 def max_lift_n(sim: CarrySim) -> float:

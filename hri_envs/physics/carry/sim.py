@@ -40,13 +40,8 @@ import mujoco
 import numpy as np
 
 from hri_envs.errors import ConfigError
-from hri_envs.physics.carry import stages
-from hri_envs.physics.carry.faults import (
-    CarryFault,
-    check_faults,
-    max_lift_n,
-    why_slipped,
-)
+from hri_envs.physics.carry import rules, stages
+from hri_envs.physics.carry.faults import check_faults, max_lift_n, why_slipped
 from hri_envs.physics.carry.human.arm_control import ArmDrive, HandImpedance, TorqueDrive
 from hri_envs.physics.carry.human.body import ArmBody, BodySize
 from hri_envs.physics.carry.human.intention import (
@@ -65,6 +60,7 @@ from hri_envs.physics.carry.human.whole_arm import (
 )
 from hri_envs.physics.carry.interaction import InteractionMeter, StepInteraction
 from hri_envs.physics.carry.periods import CarryPeriods, PeriodsResult
+from hri_envs.physics.carry.rules import CALM_S, STRAINED_S
 from hri_envs.physics.carry.types import CarryStep, RobotCommand, grip_reference
 from hri_envs.physics.carry.types import rotate as _rotate
 from hri_envs.physics.scene import laws
@@ -94,12 +90,7 @@ __all__ = ["CALM_S", "DRIVES", "STRAINED_S", "CarrySim", "CarryStep", "RobotComm
 
 #: The arm's drives: joint torque motors, or MyoSuite's muscles (the "arm" extra).
 DRIVES: tuple[str, ...] = HUMAN_DRIVES
-#: [s] a placed object stays slow this long (squared speeds below
-#: :data:`~hri_envs.physics.carry.stages.VEL_SQ_MAX`, ``ANGVEL_SQ_MAX``).
-CALM_S = 0.15
 _REACH_ERROR_MAX_M = 0.01  # [m] + 0.2 m/rad: the arm's IK error at a reset
-#: [s] at the strength limit without moving the object: too weak.
-STRAINED_S = 1.0
 
 
 class CarrySim(SceneRig):
@@ -196,8 +187,8 @@ class CarrySim(SceneRig):
         self.start, self.goal = 0, 1
         self.q_ref = home.copy()
         self.left_start = False
-        self._strained = 0.0
-        self._calm = 0.0
+        self._strained = np.zeros(1)  # the end-of-step rules' timers (carry.rules), (1,)
+        self._calm = np.zeros(1)
         self.lowest_z = 0.0
         self.time = 0.0
         self.sensed = np.zeros(6)
@@ -284,7 +275,8 @@ class CarrySim(SceneRig):
         if sc.platform_mocap >= 0:
             data.mocap_pos[sc.platform_mocap] = [*data.qpos[:2] + design.base_pos[:2], 0.1]
         mujoco.mj_forward(model, data)
-        self.left_start, self._calm, self.time, self._strained = False, 0.0, 0.0, 0.0
+        self.left_start, self.time = False, 0.0
+        self._calm, self._strained = np.zeros(1), np.zeros(1)
         self.sensed = np.zeros(6)
         self.sat_counts[:] = 0.0
         self.meter.reset(slice(None))
@@ -415,21 +407,16 @@ class CarrySim(SceneRig):
             gains = tuple(g * human_cmd.stiffness for g in self.hand_gains())
         res = self.periods.run(motion, min(cmd.stiffness, 1.0), stiff, command, gains)
         self.sensed = res.sensed
-        fault = None
-        try:
-            check_faults(self, data.xpos[sc.object_body], res)
-        except CarryFault as exc:
-            fault = str(exc)
+        fault = check_faults(self, data.xpos[sc.object_body], res)
         self.time += self.dt_step
         self.sat_counts = res.sat
         self._interaction = StepInteraction(*(np.array([x]) for x in res.interaction))
         if fault is None and not self.robot_holds:
-            moved = float(np.linalg.norm(self.object_pose().pos - start_obj))
-            strained = bool(np.any(res.sat > stages.PERIODS / 2)) and moved < 1e-3
-            self._strained = self._strained + self.dt_step if strained else 0.0
-            if self._strained >= STRAINED_S and self.max_lift_n() < weight:
-                fault = "too_weak: the human cannot carry the object alone; " + \
-                    why_slipped(self)
+            weak = rules.strain_update(self._strained, res.sat[None], start_obj[None],
+                                       self.object_pose().pos[None], self.dt_step, weight,
+                                       lambda _: np.array([self.max_lift_n()]))
+            if weak[0]:
+                fault = rules.fault_message(rules.FAULT_TOO_WEAK, why=why_slipped(self))
         if sc.platform_mocap >= 0:
             data.mocap_pos[sc.platform_mocap, :2] = data.qpos[:2] + self.design.base_pos[:2]
         return self._result(res.lin, res.ang, res.disagree, fault, lever, res)
@@ -457,7 +444,6 @@ class CarrySim(SceneRig):
     def _result(self, lin: float, ang: float, disagree: float, fault: str | None,
                 lever: float | None = None, res: PeriodsResult | None = None) -> CarryStep:
         lever = self.design.lever if lever is None else lever
-        placed = -1
         if res is not None:  # the step's periods measured it all
             progress, seat, slow = res.progress, res.seat, res.slow
         else:
@@ -467,19 +453,16 @@ class CarrySim(SceneRig):
             v = self.data.qvel[self.scene.object_dofs]
             slow = (float(v[:3].dot(v[:3])) < stages.VEL_SQ_MAX
                     and float(v[3:].dot(v[3:])) < stages.ANGVEL_SQ_MAX)
-        if seat >= 0 and self.left_start and slow:
-            self._calm += self.dt_step
-            if self._calm >= CALM_S:
-                placed = seat
-        else:
-            self._calm = 0.0
-        sat = tuple(n for n, c in zip(self._joint_names, self.sat_counts, strict=True)
-                    if c > stages.PERIODS / 2)
+        placed = np.empty(1, np.int64)
+        rules.calm_update(self._calm, np.array([seat]), np.array([self.left_start]),
+                          np.array([slow]), self.dt_step, placed)
+        sat = tuple(rules.saturated_joints(self._joint_names, self.sat_counts,
+                                           stages.PERIODS / 2))
         inter = self._interaction
         extra = (0.0, 0.0, 0.0) if inter is None else (
             float(inter.peak_force[0]), float(inter.force_sq[0]), float(inter.jerk_sq[0]))
         return CarryStep(progress, lin + ang / lever, lin, ang, disagree, self.sensed.copy(),
-                         placed, fault, sat, *extra)
+                         int(placed[0]), fault, sat, *extra)
 
 
 def default_grip_force(design: PhysicsDesign) -> float:

@@ -30,7 +30,7 @@ __all__ = ["SOURCES", "cache_dir", "kernel"]
 #: into MuJoCo through), and this one; paths under ``hri_envs/physics``.
 SOURCES: tuple[str, ...] = ("scene/lawmath.py", "scene/laws.py", "scene/jit.py",
                             "carry/human/laws.py", "carry/stages.py", "carry/interaction.py",
-                            "carry/mjc.py")
+                            "carry/mjc.py", "carry/rules.py")
 _F = TypeVar("_F", bound=Callable[..., Any])
 
 

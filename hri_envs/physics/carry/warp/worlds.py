@@ -7,7 +7,8 @@ by the impedance controller; the human's reference advances along their route (o
 the human agent's command), their arm's impedance and torque drive pull the hand, the torso
 follows; the seats hold a resting object; the wrist sensor reads; 5 control periods of
 MuJoCo Warp's ``step1``/``step2``/``step`` for all worlds at once; the effort, disagreement,
-faults and placement per world. The control laws are the C backend's compiled ones
+faults and placement per world (the end-of-step rules, :mod:`~hri_envs.physics.carry.rules`).
+The control laws are the C backend's compiled ones
 (:mod:`~hri_envs.physics.scene.laws`, :mod:`~hri_envs.physics.carry.human.laws`) run over the worlds
 that step (:mod:`~hri_envs.physics.scene.warp.control`,
 :mod:`~hri_envs.physics.carry.warp.human`): only the engine that steps differs.
@@ -30,7 +31,6 @@ from its state (the C backend's are those of one physics step earlier).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import NamedTuple
 
@@ -38,12 +38,12 @@ import numpy as np
 
 from hri_envs.envs.backends import backend_spec
 from hri_envs.errors import ConfigError
-from hri_envs.physics.carry.faults import DROP_BELOW_M, SLIP_M, SLIP_RAD
+from hri_envs.physics.carry import rules
 from hri_envs.physics.carry.human import laws as hl
 from hri_envs.physics.carry.human.body import WARP_BODY_FIELDS
 from hri_envs.physics.carry.human.intention import HumanParams
 from hri_envs.physics.carry.interaction import InteractionMeter
-from hri_envs.physics.carry.sim import CALM_S, STRAINED_S, CarrySim, CarryStep
+from hri_envs.physics.carry.sim import CarrySim, CarryStep
 from hri_envs.physics.carry.stages import ANGVEL_SQ_MAX, PERIODS, VEL_SQ_MAX
 from hri_envs.physics.carry.warp.human import WarpArms
 from hri_envs.physics.scene import laws
@@ -235,9 +235,13 @@ class WarpCarryWorlds(WarpModel):
         plan = self._plan(rows, robot, human, agent)
         bad = ~np.all(np.isfinite(self.ik.q[rows]), axis=1)
         out: list[CarryStep | None] = [None] * self.n
-        for failed in rows[bad].tolist():
-            out[failed] = self._result(failed, 0.0, 0.0, 0.0, "ik_failure: the IK reference "
-                                       "is not finite")
+        if bad.any():
+            failed = rows[bad].tolist()
+            for i, result in zip(failed, self._results(
+                    rows[bad], np.zeros((len(failed), 3)),
+                    dict.fromkeys(failed, "ik_failure: the IK reference is not finite")),
+                    strict=True):
+                out[i] = result
         keep = ~bad
         rows, agent = rows[keep], agent[keep]
         plan = _Plan(*(x[keep] for x in plan))
@@ -254,11 +258,10 @@ class WarpCarryWorlds(WarpModel):
                 self._check(rows, faults)
         self._after_step(rows, start_obj, sat, faults)
         inter = self.meter.step(rows, *samples)
-        for j, i in enumerate(rows.tolist()):
-            lin, ang, disagree = totals[j].tolist()
-            out[i] = self._result(i, lin, ang, disagree, faults.get(i),
-                                  (float(inter.peak_force[j]), float(inter.force_sq[j]),
-                                   float(inter.jerk_sq[j])))
+        for i, result in zip(rows.tolist(), self._results(
+                rows, totals, faults, np.stack([inter.peak_force, inter.force_sq,
+                                                inter.jerk_sq], axis=1)), strict=True):
+            out[i] = result
         return out
 
     def _plan(self, rows: np.ndarray, robot: Commands, human: Commands | None,
@@ -390,45 +393,36 @@ class WarpCarryWorlds(WarpModel):
         return out
 
     def _check(self, rows: np.ndarray, faults: dict[int, str]) -> None:
-        """CarrySim._check per world (the step's last period): dropped, diverged, slipped."""
+        """check_faults per world (:func:`~hri_envs.physics.carry.rules.fault_codes`, the
+        step's last period): dropped, diverged, slipped (then the human no longer holds).
+        """
         pos = self._get("xpos")[rows, self.scene.object_body].astype(float)
         floor = self.touching(rows, self.scene.floor_geom)
-        below = pos[:, 2] < self.lowest_z[rows] - DROP_BELOW_M
         finite = np.all(np.isfinite(self._get("qpos")[rows]), axis=1)
         grip, handle = self.arms.grip_site, self.arms.handle_site
         off, angle = np.empty(len(rows)), np.empty(len(rows))
         laws.handle_slip(host(self, "site_xpos", rows, grip), host(self, "site_xmat", rows, grip),
                          host(self, "site_xpos", rows, handle),
                          host(self, "site_xmat", rows, handle), off, angle)
-        for j, i in enumerate(int(i) for i in rows):
-            if floor[j] or below[j]:
-                faults[i] = "dropped: the object " + ("hit the floor" if floor[j]
-                                                      else "fell below every support")
-            elif not finite[j]:
-                faults[i] = "unstable: the simulation diverged"
-            elif off[j] > SLIP_M or angle[j] > SLIP_RAD:
-                self.human_holds[i] = False
-                kind = "slipped" if self.robot_holds[i] else "dropped"
-                faults[i] = (f"{kind}: the handle slipped out of the human's hand "
-                             f"({off[j] * 100:.1f} cm, {math.degrees(angle[j]):.0f}° off); "
-                             f"{self._why_slipped(i)}")
+        codes = np.empty(len(rows), np.int64)
+        rules.fault_codes(floor, pos[:, 2], self.lowest_z[rows], finite, off, angle, codes)
+        self.human_holds[rows[codes == rules.FAULT_SLIPPED]] = False
+        messages = rules.fault_messages(codes, off, angle, self.robot_holds[rows],
+                                        lambda j: self._why_slipped(int(rows[j])))
+        faults.update((int(i), m) for i, m in zip(rows, messages, strict=True) if m is not None)
 
     def _why_slipped(self, i: int) -> str:
-        """CarrySim._why_slipped of world ``i``."""
-        names = self.joint_names
-        sat = [n for n, c in zip(names, self.sat_counts[i], strict=True) if c > 0]
+        """why_slipped of world ``i`` (:func:`~hri_envs.physics.carry.rules.slip_reason`)."""
         lift = float(self.arms.max_lift(self, np.array([i]))[0])
-        if not self.robot_holds[i] and lift < self.weight:
-            return (f"the arm can lift at most {lift:.1f} N here, the object weighs "
-                    f"{self.weight:.1f} N (joints at their strength limit: "
-                    f"{', '.join(sat) or 'none'})")
         grip = float(self.m.actuator_forcerange.numpy()[i, self.template.arm.fingers, 1])
-        return (f"grip force {grip:.1f} N; joints at their strength limit: "
-                f"{', '.join(sat) or 'none'}")
+        return rules.slip_reason(bool(self.robot_holds[i]), lift, self.weight, grip,
+                                 self.joint_names, self.sat_counts[i])
 
     def _after_step(self, rows: np.ndarray, start_obj: np.ndarray, sat: np.ndarray,
                     faults: dict[int, str]) -> None:
-        """The clock, the saturation counts, the too-weak test and the platform."""
+        """The clock, the saturation counts, the too-weak rule
+        (:func:`~hri_envs.physics.carry.rules.strain_update`) and the platform.
+        """
         sc = self.scene
         self.time[rows] += self.dt_step
         self.sat_counts[rows] = sat
@@ -437,44 +431,45 @@ class WarpCarryWorlds(WarpModel):
         if alone.size:
             ar = rows[alone]
             now = self._get("xpos")[ar, sc.object_body].astype(float)
-            moved = np.linalg.norm(now - start_obj[alone], axis=1)
-            strained = np.any(sat[alone] > PERIODS / 2, axis=1) & (moved < 1e-3)
-            self.strained[ar] = np.where(strained, self.strained[ar] + self.dt_step, 0.0)
-            weak = self.strained[ar] >= STRAINED_S
-            if weak.any():
-                lift = self.arms.max_lift(self, ar[weak])
-                for i, value in zip(ar[weak], lift, strict=True):
-                    if value < self.weight:
-                        faults[int(i)] = ("too_weak: the human cannot carry the object "
-                                          "alone; " + self._why_slipped(int(i)))
+            strained = self.strained[ar]
+            weak = rules.strain_update(strained, sat[alone], start_obj[alone], now, self.dt_step,
+                                       self.weight, lambda due: self.arms.max_lift(self, ar[due]))
+            self.strained[ar] = strained
+            for i in ar[weak].tolist():
+                faults[i] = rules.fault_message(rules.FAULT_TOO_WEAK, why=self._why_slipped(i))
         if sc.platform_mocap >= 0 and len(rows):
             mocap = self._get("mocap_pos")
             mocap[rows, sc.platform_mocap, :2] = (self._get("qpos")[rows, :2]
                                                   + self.design.base_pos[:2])
             self._put("mocap_pos", mocap)
 
-    def _result(self, i: int, lin: float, ang: float, disagree: float,
-                fault: str | None,
-                interaction: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> CarryStep:
-        """CarrySim._result of world ``i``: progress, placement, effort."""
-        rows = np.array([i])
+    def _results(self, rows: np.ndarray, totals: np.ndarray, faults: dict[int, str],
+                 interaction: np.ndarray | None = None) -> list[CarryStep]:
+        """CarrySim._result of the worlds ``rows``: progress, placement
+        (:func:`~hri_envs.physics.carry.rules.calm_update`), effort (``totals``: (R, 3) lin,
+        ang, disagreement; ``interaction``: (R, 3) the peak force, ∫ |F|² dt, ∫ |jerk|² dt,
+        default zeros).
+        """
         pos, quat = self.object_poses(rows)
-        progress = float(self.progress(rows, pos, quat)[0])
-        seat = int(self.seats.engaged(rows, pos, quat)[0])
+        progress = self.progress(rows, pos, quat)
+        seat = self.seats.engaged(rows, pos, quat)
         dof0 = int(self.scene.object_dofs[0])
-        v = self._get("qvel")[i, dof0:dof0 + 6].astype(float)
-        slow = float(v[:3].dot(v[:3])) < VEL_SQ_MAX and float(v[3:].dot(v[3:])) < ANGVEL_SQ_MAX
-        placed = -1
-        if seat >= 0 and self.left_start[i] and slow:
-            self.calm[i] += self.dt_step
-            if self.calm[i] >= CALM_S:
-                placed = seat
-        else:
-            self.calm[i] = 0.0
-        sat = tuple(n for n, c in zip(self.joint_names, self.sat_counts[i], strict=True)
-                    if c > PERIODS / 2)
-        return CarryStep(progress, lin + ang / self.design.lever, lin, ang, disagree,
-                         self.sensed[i].copy(), placed, fault, sat, *interaction)
+        v = self._get("qvel")[rows, dof0:dof0 + 6].astype(float)
+        slow = ((np.sum(v[:, :3] * v[:, :3], axis=1) < VEL_SQ_MAX)
+                & (np.sum(v[:, 3:] * v[:, 3:], axis=1) < ANGVEL_SQ_MAX))
+        calm, placed = self.calm[rows], np.empty(len(rows), np.int64)
+        rules.calm_update(calm, seat, self.left_start[rows], slow, self.dt_step, placed)
+        self.calm[rows] = calm
+        extra = np.zeros((len(rows), 3)) if interaction is None else interaction
+        out = []
+        for j, i in enumerate(rows.tolist()):
+            lin, ang, disagree = totals[j].tolist()
+            sat = tuple(rules.saturated_joints(self.joint_names, self.sat_counts[i],
+                                               PERIODS / 2))
+            out.append(CarryStep(float(progress[j]), lin + ang / self.design.lever, lin, ang,
+                                 disagree, self.sensed[i].copy(), int(placed[j]), faults.get(i),
+                                 sat, *extra[j].tolist()))
+        return out
 
 
 class _Plan(NamedTuple):
