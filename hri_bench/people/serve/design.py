@@ -271,7 +271,7 @@ class ServeConfig(NamedScenario):
                                   "only; people take the default body", field="population")
             from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
-            physical_population(self.population, self.scenario)
+            physical_population(self.population, self.graph)
 
     @property
     def dataset_id(self) -> str:
