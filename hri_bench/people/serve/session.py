@@ -389,7 +389,7 @@ class Session:
                 "start": int(start), "start_name": names[start], "goal": int(goal),
                 "goal_name": names[goal],
                 "preference": None if pref is None else describe_preference(
-                    self.config.scenario, pref)}
+                    self.config.spec, pref)}
 
     def _ask(self, observations: Mapping[str, np.ndarray]) -> int:
         """The loop asks the person to act: publish the frame, wait for a valid action."""
