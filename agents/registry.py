@@ -21,6 +21,7 @@ from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.registry import Registry
 from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import ScenarioSpec
 
 __all__ = ["AGENTS", "JAXPPO", "ROLES", "AgentContext", "AgentSpec", "agent_spec",
            "register_agent"]
@@ -76,8 +77,9 @@ class AgentSpec:
         shared_human: It plans for one human shared by every run (a study groups its runs by
             the human's preference for it).
         description: One line for help texts.
-        settings: ``settings(scenario, r0, learner) -> dict | None``: what ``summary.json``
-            records of its configuration (None: nothing).
+        settings: ``settings(spec, r0, learner) -> dict | None``: what ``summary.json``
+            records of its configuration on the scenario ``spec`` (a
+            :class:`~hri_envs.task.scenarios.ScenarioSpec`; None: nothing).
         warm: Called once before a study forks its workers (e.g. to load compiled kernels
             the workers then inherit); None: nothing to do.
     """
@@ -89,7 +91,7 @@ class AgentSpec:
     plans: bool = False
     shared_human: bool = False
     description: str = ""
-    settings: Callable[[str, float, dict[str, Any]], dict[str, Any] | None] | None = None
+    settings: Callable[[ScenarioSpec, float, dict[str, Any]], dict[str, Any] | None] | None = None
     warm: Callable[[], Any] | None = None
 
 

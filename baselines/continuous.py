@@ -45,8 +45,8 @@ from hri_envs.physics.scene.kinematics import Pose, StraightLine, rotation_error
 from hri_envs.physics.scene.observer import StateObserver
 from hri_envs.physics.scene.seats import Seats
 from hri_envs.task.actions import WAIT
-from hri_envs.task.graph import BOTH, TOGGLE
-from hri_envs.task.scenarios import scenario_graph
+from hri_envs.task.graph import BOTH, TOGGLE, TaskGraph
+from hri_envs.task.scenarios import as_graph
 
 __all__ = ["PASSIVE_ACTION", "TUNED_LEARNER", "LearnerLead", "LiftedLearner", "PassiveFloor",
            "UpperReference", "follow_action", "grip_of", "run_episode"]
@@ -149,7 +149,8 @@ class LiftedLearner(PhysicalAgent):
     """The paper's Learner on the continuous env, through the motion primitives.
 
     Args:
-        scenario: The scenario's name (its task graph: what the robot knows of the task).
+        scenario: The scenario's task graph (what the robot knows of the task), or a
+            registered scenario's name (resolved here).
         seed: The Learner's seed.
         lead: How it executes its abstract actions (default: the scenario's tuned
             :data:`TUNED_LEARNER`).
@@ -157,13 +158,14 @@ class LiftedLearner(PhysicalAgent):
 
     name = "learner"
 
-    def __init__(self, scenario: str, seed: int = 0, lead: LearnerLead | None = None
-                 ) -> None:
-        self.graph = scenario_graph(scenario)
+    def __init__(self, scenario: TaskGraph | str, seed: int = 0,
+                 lead: LearnerLead | None = None) -> None:
+        self.graph = as_graph(scenario)
         self.agent: Agent = Learner(self.graph, 1, seed=seed).single()
         self.task: RobotTask | None = None
-        self.lead = lead if lead is not None else TUNED_LEARNER.get(scenario, LearnerLead())
-        self.follow = FixedAdmittance(scenario, self.lead.admittance)
+        self.lead = lead if lead is not None else TUNED_LEARNER.get(self.graph.name,
+                                                                    LearnerLead())
+        self.follow = FixedAdmittance(self.graph, self.lead.admittance)
 
     def begin_episode(self, task: RobotTask) -> None:
         """A new episode: the start support and the supports' places are known."""

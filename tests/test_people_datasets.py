@@ -539,3 +539,24 @@ def test_a_damaged_physical_episode_is_refused_naming_the_file(physical_recorded
         open_dataset("dmg", root).steps()
     assert err.value.field == "dataset" and says in str(err.value)
     assert "episode-0001.parquet" in str(err.value)
+
+
+@pytest.mark.parametrize("scenario", ["hanger", "wheel"])
+def test_a_physical_episode_s_observation_size_is_its_env_s(scenario):
+    """The schema's size comes from the scenario's physical design (the wheel's robot has
+    a mobile base: 10 joints), not from its name."""
+    pytest.importorskip("mujoco")
+    import warnings
+
+    import gymnasium as gym
+
+    from hri_bench.data.physical import observation_size
+    from hri_envs.registration import continuous_id
+    from hri_envs.task.scenarios import scenario_graph, spec_of
+
+    graph = scenario_graph(scenario)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        env = gym.make(continuous_id(str(spec_of(graph).continuous_id), 1))
+    assert env.observation_space.shape == (observation_size(graph),)
+    env.close()

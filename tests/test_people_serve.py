@@ -21,14 +21,19 @@ from hri_bench.cli import main  # noqa: E402
 from hri_bench.data.datasets import open_dataset  # noqa: E402
 from hri_bench.data.replay import replay  # noqa: E402
 from hri_bench.people.serve.app import create_app  # noqa: E402
-from hri_bench.people.serve.design import ServeConfig, assignment, pair_circuit  # noqa: E402
+from hri_bench.people.serve.design import (  # noqa: E402
+    ServeConfig,
+    assignment,
+    describe_preference,
+    pair_circuit,
+)
 from hri_bench.people.serve.launch import start_serve, stop_serve  # noqa: E402
 from hri_bench.people.serve.scenes import built  # noqa: E402
 from hri_bench.people.serve.session import parse_message  # noqa: E402
 from hri_bench.run.isolation import IN_PROCESS  # noqa: E402
 from hri_envs.errors import ConfigError  # noqa: E402
 from hri_envs.humans.scripted import preference_human  # noqa: E402
-from hri_envs.task.scenarios import scenario_graph  # noqa: E402
+from hri_envs.task.scenarios import scenario_graph, scenario_spec  # noqa: E402
 from tests.helpers_agents import AlwaysWait  # noqa: E402
 
 pytestmark = pytest.mark.xdist_group("people-serve")
@@ -939,6 +944,22 @@ def test_counterbalanced_design():
                                                     cfg.preferences[0]]
     assert all(d.pairs[e][1] == d.pairs[e + 1][0] for d in designs for e in range(5))
     assert pair_circuit(4)[0][0] == 0 and len(pair_circuit(4)) == 12
+
+
+def test_a_preference_reads_in_its_scenarios_words_or_by_its_name():
+    hanger, wheel = scenario_spec("hanger"), scenario_spec("wheel")
+    assert describe_preference(hanger, "down-over-rotate/over-rotate-up") == (
+        "Between the rail and the peg, carry it this way: to the peg A, move down, then move "
+        "over, then rotate; to the rail (B, C), move over, then rotate, then move up.")
+    assert describe_preference(wheel, "detour") == (
+        "Carry it this way: turn the wheel horizontal at the first opportunity, then carry it "
+        "over at carrying height.")
+    assert describe_preference(wheel, "sideways") == "Carry it the way called 'sideways'."
+    from tests import scenario_box  # a scenario with no words of its own: the default
+
+    assert scenario_box.SPEC.preference_wording is None
+    assert describe_preference(scenario_box.SPEC, "over-first") == (
+        "Carry it the way called 'over-first'.")
 
 
 @pytest.mark.parametrize("kw, field", [

@@ -28,7 +28,7 @@ from baselines.physical.routes import FilterParams, RouteFilter, Routes
 from hri_envs.errors import ConfigError
 from hri_envs.physics.carry.robot_view import RobotTask, observation_layout
 from hri_envs.physics.scene.design import design_for
-from hri_envs.task.scenarios import scenario_graph
+from hri_envs.task.scenarios import graph_of, scenario_graph
 
 HANGER_V1, WHEEL_V1 = "hri_envs/HangerPandaContinuous-v1", "hri_envs/WheelPandaContinuous-v1"
 A, B, C = 0, 1, 2
@@ -101,9 +101,15 @@ def test_the_registry_names_the_baselines_and_their_references() -> None:
 @pytest.mark.parametrize("make", [FixedAdmittance, VariableAdmittance, GoalBlend, GoalQMDP])
 def test_a_baseline_without_tuned_parameters_for_the_scenario_says_which_it_has(
         make: type) -> None:
-    with pytest.raises(ConfigError, match="no tuned parameters for scenario 'kitchen'; "
+    from tests import scenario_box
+
+    with pytest.raises(ConfigError, match="no tuned parameters for scenario 'box'; "
                                           "allowed: hanger, wheel") as err:
-        make("kitchen")
+        make(graph_of(scenario_box.SPEC))  # a scenario's graph, none tuned for it
+    assert err.value.field == "scenario"
+    with pytest.raises(ConfigError, match="unknown scenario 'kitchen'; allowed: hanger, "
+                                          "wheel") as err:
+        make("kitchen")  # a name is resolved at the constructor's top
     assert err.value.field == "scenario"
 
 

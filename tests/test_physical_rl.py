@@ -30,6 +30,7 @@ from baselines.physical.residual import (
     save_policy,
 )
 from hri_envs.errors import ConfigError
+from hri_envs.task.scenarios import scenario_graph
 
 IDS = {"hanger": "hri_envs/HangerPandaContinuous-v1",
        "wheel": "hri_envs/WheelPandaContinuous-v1"}
@@ -63,8 +64,8 @@ def _random_policy(size: int, scenario: str, seed: int = 1) -> ResidualPolicy:
 
 @pytest.mark.parametrize("scenario", ["hanger", "wheel"])
 def test_the_shipped_checkpoint_loads_and_acts_within_the_range(scenario: str) -> None:
-    assert checkpoint_path(scenario).is_file()
-    with np.load(checkpoint_path(scenario), allow_pickle=False) as data:
+    assert checkpoint_path(scenario_graph(scenario)).is_file()
+    with np.load(checkpoint_path(scenario_graph(scenario)), allow_pickle=False) as data:
         assert "w0" in data.files and "obs_mean" in data.files
     agent = PHYSICAL_AGENTS["rl"](scenario, 0)
     assert isinstance(agent, ResidualAdmittance) and not PHYSICAL_AGENTS["rl"].privileged

@@ -171,7 +171,7 @@ def training_population(cfg: TrainConfig) -> PopulationSpec | MixtureSpec:
         ConfigError: An evaluation split or held-out population (``field="population"``),
             or rate ranges given for a split (``field="passive"``/``"turn_back"``).
     """
-    spec = population(cfg.population, cfg.scenario)
+    spec = population(cfg.population, cfg.graph)
     if isinstance(spec, MixtureSpec):
         if cfg.population not in ("train", "validation"):
             raise ConfigError(f"population {cfg.population!r} is for evaluation (or not a "

@@ -2,7 +2,8 @@
 
 :data:`PHYSICAL_AGENTS` is what the physical evaluation reads
 (``benchmarks/physical_baselines.py``, and the physical suite): each entry makes the
-agent for one run, ``PHYSICAL_AGENTS[name](scenario, seed)`` (a run: a few episodes with
+agent for one run, ``PHYSICAL_AGENTS[name](scenario, seed)`` (``scenario`` the task graph,
+or a registered scenario's name, resolved there once; a run: a few episodes with
 one human; an agent that learns, learns across them), and says whether it is privileged
 (it reads the simulation: a reference, never ranked among robots), whether it is one of
 the two references that bound a normalised score (the upper reference, 1, and the
@@ -31,6 +32,8 @@ from baselines.physical.admittance import FixedAdmittance, VariableAdmittance
 from baselines.physical.blend import GoalBlend
 from baselines.physical.hindsight import GoalQMDP
 from hri_envs.errors import ConfigError
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import as_graph
 
 __all__ = ["PHYSICAL_AGENTS", "PhysicalAgentEntry", "make_physical_agent"]
 
@@ -40,7 +43,8 @@ class PhysicalAgentEntry:
     """One robot of the registry: call it with ``(scenario, seed)`` for a new agent.
 
     Attributes:
-        factory: Makes the agent for a run.
+        factory: ``factory(graph, seed)`` makes the agent for a run on the scenario's task
+            graph.
         privileged: It reads the simulation (the intention, the human's reference): a
             reference, shown apart and never ranked among robots.
         description: One line on what it does.
@@ -48,55 +52,57 @@ class PhysicalAgentEntry:
             upper reference and the passive floor).
     """
 
-    factory: Callable[[str, int], PhysicalAgent]
+    factory: Callable[[TaskGraph, int], PhysicalAgent]
     privileged: bool
     description: str
     reference: bool = False
 
-    def __call__(self, scenario: str, seed: int = 0) -> PhysicalAgent:
-        """A new agent for one run on ``scenario`` (``seed``: its own randomness)."""
-        return self.factory(scenario, seed)
+    def __call__(self, scenario: TaskGraph | str, seed: int = 0) -> PhysicalAgent:
+        """A new agent for one run on ``scenario`` (its task graph, or a registered
+        scenario's name, resolved here; ``seed``: its own randomness).
+        """
+        return self.factory(as_graph(scenario), seed)
 
 
-def _upper(scenario: str, seed: int) -> PhysicalAgent:
+def _upper(graph: TaskGraph, seed: int) -> PhysicalAgent:
     # baselines.continuous imports this package's admittance: import it when called.
     from baselines.continuous import UpperReference  # noqa: PLC0415
 
     return UpperReference()
 
 
-def _passive(scenario: str, seed: int) -> PhysicalAgent:
+def _passive(graph: TaskGraph, seed: int) -> PhysicalAgent:
     from baselines.continuous import PassiveFloor  # noqa: PLC0415
 
     return PassiveFloor()
 
 
-def _admittance(scenario: str, seed: int) -> PhysicalAgent:
-    return FixedAdmittance(scenario)
+def _admittance(graph: TaskGraph, seed: int) -> PhysicalAgent:
+    return FixedAdmittance(graph)
 
 
-def _variable(scenario: str, seed: int) -> PhysicalAgent:
-    return VariableAdmittance(scenario)
+def _variable(graph: TaskGraph, seed: int) -> PhysicalAgent:
+    return VariableAdmittance(graph)
 
 
-def _blend(scenario: str, seed: int) -> PhysicalAgent:
-    return GoalBlend(scenario)
+def _blend(graph: TaskGraph, seed: int) -> PhysicalAgent:
+    return GoalBlend(graph)
 
 
-def _qmdp(scenario: str, seed: int) -> PhysicalAgent:
-    return GoalQMDP(scenario)
+def _qmdp(graph: TaskGraph, seed: int) -> PhysicalAgent:
+    return GoalQMDP(graph)
 
 
-def _rl(scenario: str, seed: int) -> PhysicalAgent:
+def _rl(graph: TaskGraph, seed: int) -> PhysicalAgent:
     from baselines.physical.residual import ResidualAdmittance  # noqa: PLC0415
 
-    return ResidualAdmittance(scenario)
+    return ResidualAdmittance(graph)
 
 
-def _learner(scenario: str, seed: int) -> PhysicalAgent:
+def _learner(graph: TaskGraph, seed: int) -> PhysicalAgent:
     from baselines.continuous import LiftedLearner  # noqa: PLC0415
 
-    return LiftedLearner(scenario, seed=seed)
+    return LiftedLearner(graph, seed=seed)
 
 
 #: The physical robots by name (see the module docstring).
@@ -127,13 +133,14 @@ PHYSICAL_AGENTS: dict[str, PhysicalAgentEntry] = {
 }
 
 
-def make_physical_agent(name: str, scenario: str, seed: int = 0) -> PhysicalAgent:
-    """The registry's agent ``name`` for a run on ``scenario``.
+def make_physical_agent(name: str, scenario: TaskGraph | str, seed: int = 0) -> PhysicalAgent:
+    """The registry's agent ``name`` for a run on ``scenario`` (its task graph, or a
+    registered scenario's name, resolved here).
 
     Raises:
-        ConfigError: An unknown name (the message lists the names).
+        ConfigError: An unknown name (the message lists the names), or an unknown scenario.
     """
     if name not in PHYSICAL_AGENTS:
         raise ConfigError(f"unknown physical agent {name!r}; allowed: "
                           f"{', '.join(PHYSICAL_AGENTS)}", field="agent")
-    return PHYSICAL_AGENTS[name](scenario, seed)
+    return PHYSICAL_AGENTS[name].factory(as_graph(scenario), seed)

@@ -46,6 +46,8 @@ from baselines.physical.sensing import (
 )
 from hri_envs.errors import ConfigError
 from hri_envs.physics.carry.robot_view import RobotTask
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import as_graph
 
 __all__ = ["TUNED_FIXED", "TUNED_VARIABLE", "AdmittanceGains", "FixedAdmittance",
            "VariableAdmittance", "VariableGains", "settle_action", "tuned"]
@@ -154,16 +156,19 @@ def settle_action(gains: AdmittanceGains) -> np.ndarray:
     return np.array([0, 0, 0, 0, 0, 0, 2.0 * gains.settle_stiffness - 1.0], dtype=np.float32)
 
 
-def tuned(table: dict[str, Any], scenario: str) -> Any:
-    """``table[scenario]``: a baseline's tuned parameters for the scenario.
+def tuned(table: dict[str, Any], graph: TaskGraph | None) -> Any:
+    """``table[graph.name]``: a baseline's tuned parameters for ``graph``'s scenario (the
+    tables are keyed by the scenario's name).
 
     Raises:
-        ConfigError: (``field="scenario"``) The table has no such scenario.
+        ConfigError: (``field="scenario"``) The table has no such scenario (or ``graph`` is
+            None).
     """
+    name = "" if graph is None else graph.name
     try:
-        return table[scenario]
+        return table[name]
     except KeyError:
-        raise ConfigError(f"no tuned parameters for scenario {scenario!r}; allowed: "
+        raise ConfigError(f"no tuned parameters for scenario {name!r}; allowed: "
                           f"{', '.join(table)}", field="scenario") from None
 
 
@@ -176,16 +181,17 @@ class FixedAdmittance(PhysicalAgent):
     ``gains.stiffness`` (:func:`~baselines.physical.sensing.twist_action`).
 
     Args:
-        scenario: The scenario (its tuned gains, :data:`TUNED_FIXED`), unless ``gains``.
+        scenario: The scenario's task graph, or a registered scenario's name (resolved
+            here): its tuned gains, :data:`TUNED_FIXED`, unless ``gains``.
         gains: The admittance's parameters.
     """
 
     name = "admittance"
 
-    def __init__(self, scenario: str | None = None, gains: AdmittanceGains | None = None
-                 ) -> None:
+    def __init__(self, scenario: TaskGraph | str | None = None,
+                 gains: AdmittanceGains | None = None) -> None:
         if gains is None:
-            gains = tuned(TUNED_FIXED, scenario or "")
+            gains = tuned(TUNED_FIXED, None if scenario is None else as_graph(scenario))
         self.gains = gains
         self.task: RobotTask | None = None
 
@@ -222,16 +228,17 @@ class VariableAdmittance(FixedAdmittance):
     intention (see the module docstring and :meth:`damping`); likewise for rotation.
 
     Args:
-        scenario: The scenario (its tuned gains, :data:`TUNED_VARIABLE`), unless ``gains``.
+        scenario: The scenario's task graph, or a registered scenario's name (resolved
+            here): its tuned gains, :data:`TUNED_VARIABLE`, unless ``gains``.
         gains: The parameters.
     """
 
     name = "variable-admittance"
 
-    def __init__(self, scenario: str | None = None, gains: VariableGains | None = None
-                 ) -> None:
+    def __init__(self, scenario: TaskGraph | str | None = None,
+                 gains: VariableGains | None = None) -> None:
         if gains is None:
-            gains = tuned(TUNED_VARIABLE, scenario or "")
+            gains = tuned(TUNED_VARIABLE, None if scenario is None else as_graph(scenario))
         self.variable = gains
         super().__init__(gains=gains.base)
 

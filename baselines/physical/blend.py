@@ -29,6 +29,8 @@ from baselines.physical.goal_robot import GoalRobot, LeadParams, Step
 from baselines.physical.routes import FilterParams
 from baselines.physical.sensing import clamp, unit
 from hri_envs.errors import ConfigError
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import as_graph
 
 __all__ = ["TUNED_BLEND", "BlendParams", "GoalBlend", "arbitration"]
 
@@ -79,8 +81,8 @@ class GoalBlend(GoalRobot):
     """Predict the goal, then blend the robot's motion towards it with the human's.
 
     Args:
-        scenario: The scenario (the tuned parameters, :data:`TUNED_BLEND`), unless
-            ``params``.
+        scenario: The scenario's task graph, or a registered scenario's name (resolved
+            here): its tuned parameters, :data:`TUNED_BLEND`, unless ``params``.
         params: The parameters.
 
     Attributes:
@@ -89,12 +91,13 @@ class GoalBlend(GoalRobot):
 
     name = "goal-blend"
 
-    def __init__(self, scenario: str, params: BlendParams | None = None) -> None:
+    def __init__(self, scenario: TaskGraph | str, params: BlendParams | None = None) -> None:
+        graph = as_graph(scenario)
         if params is None:
-            params = tuned(TUNED_BLEND, scenario)
+            params = tuned(TUNED_BLEND, graph)
         self.blend = params
         self.alpha = 0.0
-        super().__init__(scenario, params.lead)
+        super().__init__(graph, params.lead)
 
     def prediction(self, step: Step) -> tuple[np.ndarray, float]:
         """The inferred goal's direction (embedded, unit) and its route's remaining length

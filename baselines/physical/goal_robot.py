@@ -32,6 +32,7 @@ from baselines.physical.admittance import AdmittanceGains, FixedAdmittance, sett
 from baselines.physical.routes import FilterParams, Projection, RouteFilter, Routes
 from baselines.physical.sensing import ObjectState, clamp, object_state, twist_action
 from hri_envs.physics.carry.robot_view import RobotTask
+from hri_envs.task.graph import TaskGraph
 
 __all__ = ["GoalRobot", "LeadParams", "Step", "embedded_wrench", "lead_speed"]
 
@@ -98,15 +99,15 @@ class GoalRobot(PhysicalAgent):
     """The base of the goal-inference robots (see the module docstring).
 
     Args:
-        scenario: The scenario (the admittance's tuned gains).
+        graph: The scenario's task graph (the admittance's tuned gains).
         params: How it leads and infers.
     """
 
     name = "goal-robot"
 
-    def __init__(self, scenario: str, params: LeadParams) -> None:
+    def __init__(self, graph: TaskGraph, params: LeadParams) -> None:
         self.params = params
-        self.admittance = FixedAdmittance(scenario, params.admittance)
+        self.admittance = FixedAdmittance(graph, params.admittance)
         self.task: RobotTask | None = None
         self.filter: RouteFilter | None = None
 

@@ -36,6 +36,8 @@ from baselines.physical.goal_robot import GoalRobot, LeadParams, Step
 from baselines.physical.routes import FilterParams
 from baselines.physical.sensing import unit
 from hri_envs.errors import ConfigError
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import as_graph
 
 __all__ = ["TUNED_QMDP", "GoalQMDP", "QMDPParams", "expected_values"]
 
@@ -89,8 +91,8 @@ class GoalQMDP(GoalRobot):
     """Chooses the motion that is best in expectation over the goal posterior.
 
     Args:
-        scenario: The scenario (the tuned parameters, :data:`TUNED_QMDP`), unless
-            ``params``.
+        scenario: The scenario's task graph, or a registered scenario's name (resolved
+            here): its tuned parameters, :data:`TUNED_QMDP`, unless ``params``.
         params: The parameters.
 
     Attributes:
@@ -99,12 +101,13 @@ class GoalQMDP(GoalRobot):
 
     name = "goal-qmdp"
 
-    def __init__(self, scenario: str, params: QMDPParams | None = None) -> None:
+    def __init__(self, scenario: TaskGraph | str, params: QMDPParams | None = None) -> None:
+        graph = as_graph(scenario)
         if params is None:
-            params = tuned(TUNED_QMDP, scenario)
+            params = tuned(TUNED_QMDP, graph)
         self.qmdp = params
         self.chosen = np.zeros(6)
-        super().__init__(scenario, params.lead)
+        super().__init__(graph, params.lead)
 
     def candidates(self, step: Step) -> np.ndarray:
         """(M, 6) the candidate motions (embedded twists) of this step."""

@@ -46,6 +46,8 @@ from agents.physical import PhysicalAgent
 from baselines.physical.admittance import VariableAdmittance
 from hri_envs.errors import ConfigError
 from hri_envs.physics.carry.robot_view import RobotTask
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import as_graph
 
 __all__ = ["ACTION_SIZE", "ResidualAdmittance", "ResidualEnv", "ResidualPolicy",
            "checkpoint_path", "combine", "load_policy", "save_policy"]
@@ -200,9 +202,11 @@ def load_policy(path: str | os.PathLike[str]) -> ResidualPolicy:
                           scenario=str(arrays["scenario"]), **scalars)
 
 
-def checkpoint_path(scenario: str) -> Path:
-    """The shipped checkpoint of ``scenario`` (``baselines/physical/data/rl-<s>.npz``)."""
-    return Path(str(resources.files("baselines.physical") / "data" / f"rl-{scenario}.npz"))
+def checkpoint_path(graph: TaskGraph) -> Path:
+    """The shipped checkpoint of ``graph``'s scenario (``baselines/physical/data/rl-<name>.npz``,
+    by the scenario's name).
+    """
+    return Path(str(resources.files("baselines.physical") / "data" / f"rl-{graph.name}.npz"))
 
 
 class ResidualAdmittance(PhysicalAgent):
@@ -210,8 +214,9 @@ class ResidualAdmittance(PhysicalAgent):
     docstring), acting with numpy only.
 
     Args:
-        scenario: The scenario (its variable admittance's tuned gains, and its shipped
-            checkpoint unless ``policy``).
+        scenario: The scenario's task graph, or a registered scenario's name (resolved
+            here): its variable admittance's tuned gains, and its shipped checkpoint unless
+            ``policy``.
         policy: The residual policy (or the path of its ``.npz``).
 
     Raises:
@@ -221,22 +226,23 @@ class ResidualAdmittance(PhysicalAgent):
 
     name = "rl"
 
-    def __init__(self, scenario: str,
+    def __init__(self, scenario: TaskGraph | str,
                  policy: ResidualPolicy | str | os.PathLike[str] | None = None) -> None:
+        graph = as_graph(scenario)
         if policy is None:
-            path = checkpoint_path(scenario)
+            path = checkpoint_path(graph)
             if not path.is_file():
-                raise ConfigError(f"no residual policy for scenario {scenario!r}; allowed: "
+                raise ConfigError(f"no residual policy for scenario {graph.name!r}; allowed: "
                                   "hanger, wheel", field="scenario")
             policy = path
         if not isinstance(policy, ResidualPolicy):
             policy = load_policy(policy)
-        if policy.scenario and policy.scenario != scenario:
+        if policy.scenario and policy.scenario != graph.name:
             raise ConfigError(f"the residual policy was trained on {policy.scenario!r}, "
-                              f"not {scenario!r}", field="scenario")
-        self.scenario = scenario
+                              f"not {graph.name!r}", field="scenario")
+        self.scenario = graph.name
         self.policy = policy
-        self.base = VariableAdmittance(scenario)
+        self.base = VariableAdmittance(graph)
 
     def begin_episode(self, task: RobotTask) -> None:
         """A new episode: the base controller's state is reset."""
@@ -266,14 +272,16 @@ class ResidualEnv(gym.Wrapper):
 
     Args:
         env: A v1 continuous env of ``scenario`` (``gymnasium.make``-d).
-        scenario: Its scenario.
+        scenario: Its scenario's task graph, or a registered scenario's name (resolved
+            here).
         scale: The residual's scale.
     """
 
-    def __init__(self, env: gym.Env, scenario: str, scale: float) -> None:
+    def __init__(self, env: gym.Env, scenario: TaskGraph | str, scale: float) -> None:
         super().__init__(env)
-        self.scenario, self.scale = scenario, float(scale)
-        self.base = VariableAdmittance(scenario)
+        graph = as_graph(scenario)
+        self.scenario, self.scale = graph.name, float(scale)
+        self.base = VariableAdmittance(graph)
         size = int(np.prod(env.observation_space.shape or (0,))) + ACTION_SIZE
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (size,), np.float32)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)

@@ -103,7 +103,7 @@ def _serve(args: argparse.Namespace) -> int:
         if config.agent.startswith("sb3:"):
             MissingExtraError.require(["stable_baselines3", "sb3_contrib", "torch"],
                                       "an 'sb3:' agent")
-        create_dataset(config.dataset_id, config.scenario, synthetic=False, root=config.data,
+        create_dataset(config.dataset_id, config.graph, synthetic=False, root=config.data,
                        physical=config.physical)
     except ConfigError as exc:
         _fail(parser, exc, SERVE_ARGUMENTS)

@@ -1,7 +1,7 @@
 """The robots of the continuous physical envs a person may face (people in the loop, replays).
 
 The robots are :data:`baselines.physical.PHYSICAL_AGENTS` (each entry makes the agent for
-one run, ``entry(scenario, seed)``, and says whether it is privileged). A person cannot face
+one run, ``entry(graph, seed)``, and says whether it is privileged). A person cannot face
 a privileged robot (a reference that reads the simulated human's route, which a person
 does not have): :func:`check_robot` refuses them. The registry is imported when asked: it
 imports the physics (the ``mujoco`` extra), which the CLI runs without.
@@ -15,6 +15,7 @@ from hri_envs.errors import ConfigError
 
 if TYPE_CHECKING:
     from agents.physical import PhysicalAgent
+    from hri_envs.task.graph import TaskGraph
 
 __all__ = ["DEFAULT_ROBOT", "check_robot", "default_robot", "make_robot", "robot_names"]
 
@@ -50,8 +51,10 @@ def check_robot(name: Any, field: str = "agent") -> str:
     raise ConfigError(f"robot {name!r} {why}; allowed: {', '.join(allowed)}", field=field)
 
 
-def make_robot(name: str, scenario: str, seed: int = 0) -> PhysicalAgent:
-    """A new robot ``name`` for a session on ``scenario`` (``seed``: its own randomness)."""
+def make_robot(name: str, graph: TaskGraph, seed: int = 0) -> PhysicalAgent:
+    """A new robot ``name`` for a session on ``graph``'s scenario (``seed``: its own
+    randomness).
+    """
     from baselines.physical import make_physical_agent  # noqa: PLC0415
 
-    return make_physical_agent(check_robot(name), scenario, int(seed))
+    return make_physical_agent(check_robot(name), graph, int(seed))

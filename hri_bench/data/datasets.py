@@ -66,7 +66,8 @@ from hri_bench.data.physical import (
 )
 from hri_envs import __version__  # importing hri_envs registers the env ids
 from hri_envs.errors import ConfigError, MissingExtraError
-from hri_envs.task.scenarios import SCENARIOS, NamedScenario
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import SCENARIOS, NamedScenario, as_graph
 
 __all__ = [
     "COLUMNS",
@@ -512,24 +513,26 @@ def open_dataset(name: str | os.PathLike[str], root: str | os.PathLike[str] | No
     return Dataset(path, meta)
 
 
-def create_dataset(dataset_id: str, scenario: str, *, synthetic: bool,
+def create_dataset(dataset_id: str, scenario: TaskGraph | str, *, synthetic: bool,
                    root: str | os.PathLike[str] | None = None, description: str = "",
                    physical: bool = False) -> Dataset:
     """Create the dataset ``dataset_id`` under the root, or open it if it exists with the
     same scenario and the same kind of data (people or synthetic, graph or ``physical``
-    sessions), to add sessions to it.
+    sessions), to add sessions to it. ``scenario`` is the task graph, or a registered
+    scenario's name (resolved here); ``dataset.json`` records its name.
 
     Raises:
-        ConfigError: A bad id, or an existing dataset of another scenario or kind (people
-            and scripted humans never share a dataset, nor graph and physical sessions;
-            ``field="dataset"``).
+        ConfigError: A bad id or an unknown scenario, or an existing dataset of another
+            scenario or kind (people and scripted humans never share a dataset, nor graph
+            and physical sessions; ``field="dataset"``).
     """
+    name = as_graph(scenario).name  # what dataset.json records
     dataset_id = check_dataset_id(dataset_id)
     path = data_root(root) / dataset_id
     with _lock:
         if (path / _DATASET_FILE).is_file():
             found = open_dataset(path)
-            if found.scenario != scenario or found.synthetic != synthetic \
+            if found.scenario != name or found.synthetic != synthetic \
                     or found.physical != physical:
                 kind = ("synthetic" if found.synthetic else "people's") + (
                     " physical" if found.physical else "")
@@ -538,7 +541,7 @@ def create_dataset(dataset_id: str, scenario: str, *, synthetic: bool,
             return found
         (path / "sessions").mkdir(parents=True, exist_ok=True)
         meta = {"dataset_id": dataset_id,
-                "schema": PHYSICAL_SCHEMA if physical else SCHEMA_VERSION, "scenario": scenario,
+                "schema": PHYSICAL_SCHEMA if physical else SCHEMA_VERSION, "scenario": name,
                 "synthetic": bool(synthetic), "created_utc": _utc(),
                 "description": description, "hri_envs_version": __version__}
         _write_json(path / _DATASET_FILE, meta)

@@ -138,9 +138,13 @@ def hand_pose(sim: Any) -> tuple[np.ndarray, np.ndarray]:
 
 def observation_size(graph: TaskGraph) -> int:
     """The robot's observation size of the continuous env of ``graph``'s scenario (hanger
-    53, wheel 59: 13 + 7 + 2 joints + 6 + 4 K + 1).
+    53, wheel 59: 13 + 7 + 2 joints + 6 + 4 K + 1; the joints its physical design's robot
+    has, :func:`~hri_envs.physics.scene.build.robot_joints`).
     """
-    joints = 10 if graph.name == "wheel" else 7
+    from hri_envs.physics.scene.build import robot_joints  # noqa: PLC0415
+    from hri_envs.physics.scene.design import design_for  # noqa: PLC0415
+
+    joints = len(robot_joints(design_for(graph)))
     return 13 + 7 + 2 * joints + 6 + 4 * graph.n_intentions + 1
 
 

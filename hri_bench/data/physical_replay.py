@@ -77,7 +77,7 @@ def _session(dataset: Dataset, session: dict[str, Any], table: Any,
 
     meta = _settings(session)
     env = CarryParallelEnv(dataset.scenario, version=1, max_time_s=meta.get("max_time_s"))
-    robot = make_robot(meta["agent"], dataset.scenario, int(meta["robot_seed"]))
+    robot = make_robot(meta["agent"], dataset.graph, int(meta["robot_seed"]))
     human = HumanParams.of(dict(meta.get("human_params") or {}))
     rows = table.to_pylist()
     out = []

@@ -49,6 +49,7 @@ from hri_envs.errors import ConfigError
 from hri_envs.physics.carry.human.intention import HumanParams
 from hri_envs.physics.carry.human.population import save_population
 from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import NamedScenario
 
 __all__ = ["BOUNDS", "FITTED", "LEVER_M", "PhysicalFit", "fit_physical", "target_error"]
 
@@ -185,11 +186,13 @@ def _fit_person(graph: TaskGraph, person: _Person, preferences: Sequence[str]) -
 
 
 @dataclass(frozen=True)
-class PhysicalFit:
-    """Reference humans fitted to a physical dataset's training participants.
+class PhysicalFit(NamedScenario):
+    """Reference humans fitted to a physical dataset's training participants (the
+    scenario's name resolved once: :attr:`graph`).
 
     Attributes:
-        dataset_id, scenario, content_hash: The dataset fitted (its hash at the fit).
+        dataset_id, scenario, content_hash: The dataset fitted (its scenario's name, its
+            hash at the fit).
         synthetic: The dataset holds scripted humans, not people.
         train, held_out: The participants fitted to and held out.
         members: (len(train),) each training participant's fitted human.
@@ -215,7 +218,7 @@ class PhysicalFit:
         """
         from hri_envs.physics.carry.human.population import fitted_population  # noqa: PLC0415
 
-        return fitted_population(f"fitted:{self.dataset_id}", self.scenario, self.members,
+        return fitted_population(f"fitted:{self.dataset_id}", self.graph, self.members,
                                  [f"fitted/{p}" for p in self.train])
 
     def save(self, path: str | Path) -> Path:
@@ -224,7 +227,7 @@ class PhysicalFit:
                   "synthetic": self.synthetic, "train": list(self.train),
                   "held_out": list(self.held_out), "fitted": list(FITTED),
                   "scores": self.scores}
-        return save_population(path, self.scenario, self.members,
+        return save_population(path, self.graph, self.members,
                                [f"fitted/{p}" for p in self.train], source=source)
 
 

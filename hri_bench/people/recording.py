@@ -28,7 +28,7 @@ from agents.protocol import BatchAgent, read_belief
 from hri_bench.data.datasets import Dataset, SessionWriter, create_dataset
 from hri_bench.run.agents import agent_settings, make_agent
 from hri_bench.run.runner import human_streams, make_schedule, run_episodes
-from hri_bench.run.study import graph_for, unit_humans
+from hri_bench.run.study import unit_humans
 from hri_envs import __version__
 from hri_envs.envs.backends import batch_backend
 from hri_envs.errors import ConfigError
@@ -37,15 +37,18 @@ from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.humans.tables import TableHumans
 from hri_envs.task import episode as rules
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import Layout
+from hri_envs.task.scenarios import Layout, ScenarioSpec
 
 __all__ = ["RecordingHumans", "agent_identity", "record_study"]
 
 
-def agent_identity(spec: str, scenario: str, r0: float,
+def agent_identity(agent: str, scenario: ScenarioSpec, r0: float,
                    learner: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """The robot agent's id, configuration and the package version, for a session's record."""
-    return {"agent": spec, "agent_config": agent_settings(spec, scenario, r0, dict(learner or {})),
+    """The robot agent's id, its configuration on the scenario ``scenario`` (its spec) and
+    the package version, for a session's record.
+    """
+    return {"agent": agent,
+            "agent_config": agent_settings(agent, scenario, r0, dict(learner or {})),
             "hri_envs_version": __version__}
 
 
@@ -248,9 +251,9 @@ def record_study(cfg: Any, dataset_id: str, *, root: str | None = None,
                           field="agents")
     if cfg.backend != "graph":
         raise ConfigError("sessions are recorded on the graph backend", field="backend")
-    dataset = create_dataset(dataset_id, cfg.scenario, synthetic=True, root=root,
+    dataset = create_dataset(dataset_id, cfg.graph, synthetic=True, root=root,
                              description=description)
-    graph: TaskGraph = graph_for(cfg.scenario)
+    graph: TaskGraph = cfg.graph
     runs = list(range(cfg.runs))
     pref = "" if cfg.population else ("all" if cfg.preference == "all"
                                       else cfg.preference_of_run()[0])
@@ -260,7 +263,7 @@ def record_study(cfg: Any, dataset_id: str, *, root: str | None = None,
                        learner=dict(cfg.learner), max_steps=cfg.max_steps, reward=cfg.reward)
     humans = TableHumans(human, len(runs)) if isinstance(human, ScriptedHuman) else human
     humans.seed(human_streams(cfg.seed, runs))
-    identity = agent_identity(cfg.agents[0], cfg.scenario, cfg.waiting_reward, dict(cfg.learner))
+    identity = agent_identity(cfg.agents[0], cfg.spec, cfg.waiting_reward, dict(cfg.learner))
     with dataset.recording():  # one recorder at a time; a killed one's sessions: interrupted
         first = len(dataset.session_dirs())
         writers: list[SessionWriter] = []

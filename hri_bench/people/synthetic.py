@@ -245,7 +245,7 @@ def record_synthetic(scenario: str, dataset: str, *, sessions: int, episodes: in
                          max_sessions=max(1, at_once), idle_timeout_s=600.0,
                          max_time_s=max_time_s,
                          agent_timeout_s=600.0)
-    pop = physical_population(population, scenario)
+    pop = physical_population(population, config.graph)
     umask = os.umask(0o077)
     served = ServedApp(config)
     try:

@@ -23,7 +23,8 @@ from threadpoolctl import threadpool_limits
 
 import hri_envs  # noqa: F401
 from baselines.continuous import UpperReference
-from hri_envs.task.scenarios import scenario_spec
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import as_graph, spec_of
 
 __all__ = ["c_speed"]
 
@@ -58,11 +59,14 @@ def _episodes(env: gym.Env, base: Any, policy: UpperReference, states: list[np.n
                 break
 
 
-def c_speed(scenario: str, drive: str, seconds: float) -> dict[str, float]:
-    """The C backend's env and raw ``mj_step`` (see the module)."""
+def c_speed(scenario: TaskGraph | str, drive: str, seconds: float) -> dict[str, float]:
+    """The C backend's env and raw ``mj_step`` (see the module) on ``scenario`` (its task
+    graph, or a registered scenario's name, resolved here).
+    """
+    spec = spec_of(as_graph(scenario))
     with warnings.catch_warnings():  # v0 on purpose: the figures' basis since they began
         warnings.simplefilter("ignore", DeprecationWarning)
-        env = gym.make(str(scenario_spec(scenario).continuous_id), drive=drive)
+        env = gym.make(str(spec.continuous_id), drive=drive)
     base: Any = env.unwrapped
     policy = UpperReference()
     model = base.sim.model

@@ -88,6 +88,7 @@ from hri_envs.errors import ConfigError
 from hri_envs.humans.protocol import BatchHuman
 from hri_envs.humans.scripted import ScriptedHuman
 from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import ScenarioSpec, as_graph, spec_of
 
 __all__ = ["AGENTS", "CONTRACT", "DEFAULT_STUDY_AGENTS", "JAXPPO", "JAXPPO_CHECKPOINTS",
            "JAXPPO_PREFIX", "NAME_FORBIDDEN", "ROLES", "SB3_PREFIX", "AgentContext", "AgentForm",
@@ -321,9 +322,10 @@ def agent_privilege(name: str) -> Privilege:
     return Privilege(not spec.intention_blind, spec.plans)
 
 
-def agent_settings(name: str, scenario: str, r0: float,
+def agent_settings(name: str, scenario: ScenarioSpec | TaskGraph | str, r0: float,
                    learner: dict[str, Any] | None = None) -> dict[str, Any] | None:
-    """The settings :func:`make_agent` gives agent ``name`` (for ``summary.json``).
+    """The settings :func:`make_agent` gives agent ``name`` on ``scenario`` (its spec or task
+    graph, or a registered scenario's name, resolved here) (for ``summary.json``).
 
     The Learner and plain ME-IRL: their :class:`~agents.config.LearnerConfig` as a dict;
     ``countqmdp``: its parameters (:meth:`~baselines.countqmdp.CountQMDP.defaults`, but
@@ -333,7 +335,9 @@ def agent_settings(name: str, scenario: str, r0: float,
     constructor keywords it is given); the other agents: None (they have none).
     """
     spec = resolve_agent(name)
-    return None if spec.settings is None else spec.settings(scenario, r0, learner or {})
+    if spec.settings is None:
+        return None
+    return spec.settings(spec_of(as_graph(scenario)), r0, learner or {})
 
 
 def make_agent(

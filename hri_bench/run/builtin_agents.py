@@ -27,20 +27,23 @@ from baselines.product import QMDP, PerRunInformed
 from hri_envs.errors import ConfigError
 from hri_envs.humans.scripted import PreferredActions, ScriptedHuman, preference_human
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import spec_of
+from hri_envs.task.scenarios import ScenarioSpec, spec_of
 
 __all__: list[str] = []
 
 
-def _learner_settings(scenario: str, r0: float, learner: dict[str, Any]) -> dict[str, Any]:
-    return default_config(scenario, **{"r0": r0, **learner}).to_dict()
+def _learner_settings(spec: ScenarioSpec, r0: float, learner: dict[str, Any]
+                      ) -> dict[str, Any]:
+    return default_config(spec, **{"r0": r0, **learner}).to_dict()
 
 
-def _maxent_settings(scenario: str, r0: float, learner: dict[str, Any]) -> dict[str, Any]:
-    return default_config(scenario, r0=r0, learning_rate=0.03).to_dict()
+def _maxent_settings(spec: ScenarioSpec, r0: float, learner: dict[str, Any]
+                     ) -> dict[str, Any]:
+    return default_config(spec, r0=r0, learning_rate=0.03).to_dict()
 
 
-def _countqmdp_settings(scenario: str, r0: float, learner: dict[str, Any]) -> dict[str, Any]:
+def _countqmdp_settings(spec: ScenarioSpec, r0: float, learner: dict[str, Any]
+                        ) -> dict[str, Any]:
     # its reward rule is the study's own ("reward_rule" of summary.json)
     return {k: v for k, v in CountQMDP.defaults(r0=r0).items() if k != "reward"}
 

@@ -28,6 +28,8 @@ import numpy as np
 
 from agents.physical import PhysicalAgent, run_physical_episode
 from hri_envs.errors import ConfigError
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import NamedScenario, spec_of
 
 __all__ = ["FIGURES", "OUTCOMES", "PhysicalUnit", "agent_stream", "episode_seed",
            "simulate_unit"]
@@ -44,12 +46,15 @@ OUTCOMES: tuple[str, ...] = ("placed", "wrong_support", "timeout", "dropped", "s
 
 
 @dataclass(frozen=True)
-class PhysicalUnit:
+class PhysicalUnit(NamedScenario):
     """Some runs of one agent on one track.
+
+    The scenario's name is resolved once, by the unit (:attr:`graph`, :attr:`spec`); the
+    runs are given the graph.
 
     Attributes:
         track: The track's name (seeds the episodes).
-        scenario: "hanger" or "wheel".
+        scenario: "hanger" or "wheel" (the name: a unit's key hashes it).
         agent: The agent's name (:func:`make`).
         population: The population the runs' humans come from.
         members: Each run's human, an index into the population's members.
@@ -89,18 +94,18 @@ def agent_stream(seed: int, track: str, run: int) -> np.random.Generator:
 _ENVS: dict[tuple[str, str], Any] = {}
 
 
-def _env(scenario: str, drive: str) -> Any:
+def _env(graph: TaskGraph, drive: str) -> Any:
     """One v1 env per (scenario, drive) and process (building a scene takes a while)."""
-    key = (scenario, drive)
+    key = (graph.name, drive)
     if key not in _ENVS:
         import gymnasium as gym  # noqa: PLC0415
 
         from hri_envs.registration import continuous_id  # noqa: PLC0415
-        from hri_envs.task.scenarios import scenario_spec  # noqa: PLC0415
 
-        v0 = scenario_spec(scenario).continuous_id
+        v0 = spec_of(graph).continuous_id
         if v0 is None:
-            raise ConfigError(f"scenario {scenario!r} has no continuous env", field="scenario")
+            raise ConfigError(f"scenario {graph.name!r} has no continuous env",
+                              field="scenario")
         _ENVS[key] = gym.make(continuous_id(v0, 1), drive=drive)
     return _ENVS[key]
 
@@ -115,20 +120,22 @@ def _figures(metrics: Mapping[str, Any], reward: float) -> dict[str, float]:
     return out
 
 
-def simulate_unit(unit: PhysicalUnit, make: Callable[[str, str, np.random.Generator],
+def simulate_unit(unit: PhysicalUnit, make: Callable[[str, TaskGraph, np.random.Generator],
                                                      PhysicalAgent],
                   humans: Sequence[Any]) -> dict[str, np.ndarray]:
     """The unit's runs: per figure of :data:`FIGURES` a (runs, episodes) array.
 
     Args:
         unit: The runs.
-        make: ``make(agent, scenario, stream)``: a fresh agent for a run.
+        make: ``make(agent, graph, stream)``: a fresh agent for a run on the scenario's
+            task graph.
         humans: The population's members (``HumanParams``), indexed by ``unit.members``.
     """
-    env = _env(unit.scenario, unit.drive)
+    graph = unit.graph
+    env = _env(graph, unit.drive)
     out = {k: np.full((len(unit.runs), unit.episodes), np.nan) for k in FIGURES}
     for i, (run, member) in enumerate(zip(unit.runs, unit.members, strict=True)):
-        agent = make(unit.agent, unit.scenario, agent_stream(unit.seed, unit.track, run))
+        agent = make(unit.agent, graph, agent_stream(unit.seed, unit.track, run))
         for e in range(unit.episodes):
             ep = run_physical_episode(env, agent, seed=episode_seed(unit.seed, unit.track,
                                                                     run, e),

@@ -34,6 +34,7 @@ from agents.physical import PhysicalAgent
 from hri_bench.run import isolation
 from hri_bench.run.physical_session import PhysicalSession, describe_class
 from hri_envs.physics.carry.robot_view import EpisodeOutcome, RobotTask
+from hri_envs.task.graph import TaskGraph
 
 __all__ = ["IsolatedPhysicalAgent", "describe_physical", "task_message"]
 
@@ -75,11 +76,11 @@ class IsolatedPhysicalAgent(PhysicalAgent):
 
     Args:
         spec: ``module:Class``.
-        scenario: The scenario's name.
+        graph: The scenario's task graph (its name is what the host is told).
         entropy: (32,) the run's stream's entropy (never the seed or the run).
     """
 
-    def __init__(self, spec: str, scenario: str, entropy: np.ndarray) -> None:
+    def __init__(self, spec: str, graph: TaskGraph, entropy: np.ndarray) -> None:
         info = describe_physical(spec)
         self.spec, self.name = spec, info["name"]  # type: ignore[misc]
         self._local: PhysicalSession | None = None
@@ -88,7 +89,7 @@ class IsolatedPhysicalAgent(PhysicalAgent):
         else:
             self._host = isolation.acquire_host(spec)
             weakref.finalize(self, isolation.release_host, spec, self._host)
-        self._ask({"kind": "physical.init", "spec": spec, "scenario": scenario},
+        self._ask({"kind": "physical.init", "spec": spec, "scenario": graph.name},
                   {"entropy": np.asarray(entropy, dtype=np.uint8)})
         self._belief: np.ndarray | None = None
 

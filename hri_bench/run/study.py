@@ -72,7 +72,7 @@ from hri_envs.humans.splits import population, population_hash
 from hri_envs.imports import import_modules
 from hri_envs.task.episode import REWARD_RULES
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import SCENARIOS, NamedScenario, scenario_graph
+from hri_envs.task.scenarios import SCENARIOS, NamedScenario, as_graph
 
 __all__ = [
     "EXECUTION_FIELDS",
@@ -124,9 +124,11 @@ def _backend_extras(metrics: Mapping[str, Any]) -> list[str]:
     return [k for k in metrics if k not in METRICS and k not in TASK_METRICS]
 
 
-def graph_for(scenario: str) -> TaskGraph:
-    """The task graph of a scenario by name (built once per process)."""
-    return scenario_graph(scenario)
+def graph_for(scenario: TaskGraph | str) -> TaskGraph:
+    """The task graph of a scenario: a registered scenario's name (a script's or a figure's,
+    resolved here, once) or the graph itself (:func:`~hri_envs.task.scenarios.as_graph`).
+    """
+    return as_graph(scenario)
 
 
 @dataclass(frozen=True)

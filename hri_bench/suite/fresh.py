@@ -33,6 +33,7 @@ from hri_bench.suite.tracks import TRACKS_BY_VERSION, track_config
 from hri_envs.errors import ConfigError
 from hri_envs.humans.families import FAMILIES
 from hri_envs.humans.splits import MIXTURES, MixtureSpec
+from hri_envs.task.graph import TaskGraph
 
 __all__ = ["FreshResult", "fresh_check", "fresh_population"]
 
@@ -40,17 +41,18 @@ __all__ = ["FreshResult", "fresh_check", "fresh_population"]
 ALPHA = 0.05
 
 
-def fresh_population(name: str, scenario: str, seed: int) -> str:
+def fresh_population(name: str, graph: TaskGraph, seed: int) -> str:
     """A population of new members from ``name``'s families and parameter ranges (its
-    group's components, the same count, generator seed ``seed``), registered in this
-    process under a new name, which is returned.
+    group's components, the same count, generator seed ``seed``) on ``graph``'s scenario,
+    registered in this process under a new name, which is returned.
     """
-    spec = MIXTURES[(name, scenario)]
+    key = graph.name  # the mixtures are keyed by the scenario's name
+    spec = MIXTURES[(name, key)]
     comps = tuple(c for c in spec.components
                   if spec.group is None or FAMILIES[c.family].group == spec.group)
     fresh = f"fresh-{seed}-{name}"
-    MIXTURES[(fresh, scenario)] = MixtureSpec(
-        fresh, scenario, spec.version, f"fresh humans of {name}'s families", spec.size,
+    MIXTURES[(fresh, key)] = MixtureSpec(
+        fresh, key, spec.version, f"fresh humans of {name}'s families", spec.size,
         int(seed), comps, held_out=True)
     return fresh
 
@@ -85,7 +87,7 @@ def _fresh_document(doc: Mapping[str, Any], seed: int, jobs: int) -> dict[str, A
         cfg = dataclasses.replace(cfg, agents=tuple(a for a in cfg.agents if a in agents))
         if cfg.population is not None:
             cfg = dataclasses.replace(cfg, population=fresh_population(
-                cfg.population, cfg.scenario, seed))
+                cfg.population, cfg.graph, seed))
         recorder.add(track, run_study(cfg))
     fresh = recorder.document()
     assert fresh is not None

@@ -122,7 +122,7 @@ def _runs(doc: Mapping[str, Any]) -> list[str]:
         for t in _tracks(doc):
             block = by_track[t.name]
             n = track_runs(t, doc["runs_scale"])
-            pop = physical_population(t.population, t.scenario)
+            pop = physical_population(t.population, t.graph)
             if block.get("humans") != [pop.member_index(int(seed), r) for r in range(n)]:
                 problems.append(f"seed {seed}, track {t.name}: the runs' humans are not the "
                                 "suite seed's draws")
@@ -224,7 +224,7 @@ def replay_physical(doc: Mapping[str, Any], k: int, seed: int,
             progress(i, len(plan))
         unit = PhysicalUnit(t.name, t.scenario, agent, t.population, tuple(members),
                             tuple(runs), t.episodes, int(s))
-        pop = physical_population(t.population, t.scenario)
+        pop = physical_population(t.population, t.graph)
         got = pr.round_runs(simulate_unit(unit, make_robot, pop.members))
         stored = doc["runs"][s][t.name]["agents"][agent]
         for j, r in enumerate(runs):

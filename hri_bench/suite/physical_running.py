@@ -51,6 +51,7 @@ from hri_bench.suite.physical_tracks import (
     track_runs,
 )
 from hri_envs.errors import ConfigError
+from hri_envs.task.graph import TaskGraph
 
 __all__ = ["RUNS_PER_UNIT", "UNITS_DIR", "is_custom", "make_robot", "physical_suite_hash",
            "plan_units", "run_physical_suite"]
@@ -69,7 +70,7 @@ def physical_suite_hash(version: str, tracks: Sequence[PhysicalTrack]) -> str:
 
     doc = {"version": version, "tracks": [
         {**asdict(t), "population_hash": physical_population(t.population,
-                                                             t.scenario).content_hash()}
+                                                             t.graph).content_hash()}
         for t in tracks]}
     text = json.dumps(doc, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
@@ -82,7 +83,7 @@ def plan_units(tracks: Sequence[PhysicalTrack], agents: Sequence[str], seed: int
 
     units = []
     for t in tracks:
-        pop = physical_population(t.population, t.scenario)
+        pop = physical_population(t.population, t.graph)
         runs = list(range(track_runs(t, runs_scale)))
         members = [pop.member_index(seed, r) for r in runs]
         for agent in agents:
@@ -104,25 +105,26 @@ def is_custom(name: str) -> bool:
     return ":" in name
 
 
-def make_robot(name: str, scenario: str, stream: np.random.Generator) -> Any:
-    """A robot for one run, seeded from the run's own stream: a registry robot here, a
-    ``module:Class`` in a process of its own (:mod:`hri_bench.run.physical_host`).
+def make_robot(name: str, graph: TaskGraph, stream: np.random.Generator) -> Any:
+    """A robot for one run on ``graph``'s scenario, seeded from the run's own stream: a
+    registry robot here, a ``module:Class`` in a process of its own
+    (:mod:`hri_bench.run.physical_host`).
     """
     if is_custom(name):
         from hri_bench.run.physical_host import IsolatedPhysicalAgent  # noqa: PLC0415
 
-        return IsolatedPhysicalAgent(name, scenario,
+        return IsolatedPhysicalAgent(name, graph,
                                      np.frombuffer(stream.bytes(32), dtype=np.uint8))
     from baselines.physical import make_physical_agent  # noqa: PLC0415
 
-    return make_physical_agent(name, scenario, int(stream.integers(2**31)))
+    return make_physical_agent(name, graph, int(stream.integers(2**31)))
 
 
 def _work(unit: PhysicalUnit) -> dict[str, np.ndarray]:
     """One unit in a worker (or in the parent with one job)."""
     from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
-    humans = physical_population(unit.population, unit.scenario).members
+    humans = physical_population(unit.population, unit.graph).members
     cpu = time.process_time()
     figures = simulate_unit(unit, make_robot, humans)
     figures[CPU_KEY] = np.array(time.process_time() - cpu)  # this process's (robots' hosts
@@ -185,7 +187,7 @@ def _assemble(tracks: Sequence[PhysicalTrack], runs_scale: float,
 def _members(t: PhysicalTrack) -> list[dict[str, Any]]:
     from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
-    pop = physical_population(t.population, t.scenario)
+    pop = physical_population(t.population, t.graph)
     return [{"family": f, "label": lab, "fingerprint": fp}
             for f, lab, fp in zip(pop.families, pop.labels, pop.fingerprints, strict=True)]
 

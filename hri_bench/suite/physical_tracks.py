@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 from hri_envs.checks import select_named
 from hri_envs.errors import ConfigError
+from hri_envs.task.scenarios import NamedScenario
 
 __all__ = ["DEFAULT_AGENTS", "FLOOR", "PHYSICAL_LATEST", "PHYSICAL_TRACKS",
            "PHYSICAL_VERSIONS", "REFERENCE", "TRACKS_P1", "PhysicalTrack",
@@ -53,8 +54,8 @@ _GROUPS = {
 
 
 @dataclass(frozen=True)
-class PhysicalTrack:
-    """One track of the physical suite.
+class PhysicalTrack(NamedScenario):
+    """One track of the physical suite (its scenario's name resolved once: :attr:`graph`).
 
     Attributes:
         name: ``<scenario>-<group>``.

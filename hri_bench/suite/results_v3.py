@@ -54,7 +54,7 @@ def members(cfg: Any) -> list[dict[str, Any]]:
                                           turn_back=cfg.turn_back))
         return [{"family": "preference", "params": [["preference", pref]], "label": pref,
                  "fingerprint": model.fingerprint}]
-    spec = population(cfg.population, cfg.scenario, dict(cfg.human_params))
+    spec = population(cfg.population, cfg.graph, dict(cfg.human_params))
     if not isinstance(spec, MixtureSpec):
         raise ValueError(f"suite v3 tracks meet a split's members, not {cfg.population!r}")
     return [{"family": d.family, "params": [list(p) for p in d.params], "label": d.label(),
@@ -66,7 +66,7 @@ def run_humans(cfg: Any) -> list[int]:
     """Each run's human, as an index into :func:`members` (``runs.S.T.humans``)."""
     if cfg.population is None:
         return [0] * cfg.runs
-    spec = population(cfg.population, cfg.scenario, dict(cfg.human_params))
+    spec = population(cfg.population, cfg.graph, dict(cfg.human_params))
     assert isinstance(spec, MixtureSpec)
     return [spec.member_index(cfg.seed, r) for r in range(cfg.runs)]
 

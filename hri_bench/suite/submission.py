@@ -694,7 +694,7 @@ class SuiteRecorder:
             "settings": {k: v for k, v in cfg.settings().items() if k != "seed"},  # in seeds
             "env_ids": env_ids,
             "population": cfg.population_info(), "regret": note,
-            "agent_configs": {a: agent_settings(a, cfg.scenario, cfg.waiting_reward,
+            "agent_configs": {a: agent_settings(a, cfg.spec, cfg.waiting_reward,
                                                 dict(cfg.learner)) for a in cfg.agents}}
         if v3:
             self.tracks[track.name].update(headline=track.headline,

@@ -293,7 +293,7 @@ class HumanSpec:
         elif kind == "class":
             self.human_class()
         else:
-            population(self.population, graph.name, dict(self.params))
+            population(self.population, graph, dict(self.params))
         return self
 
     def human_class(self) -> type[Human] | type[BatchHuman]:

@@ -61,7 +61,7 @@ from hri_envs.humans.populations import (
 )
 from hri_envs.humans.protocol import BatchHuman, Rows, all_rows
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import NamedScenario, spec_of
+from hri_envs.task.scenarios import NamedScenario, as_graph, spec_of
 
 __all__ = [
     "ALL_PREFERENCES",
@@ -602,33 +602,38 @@ def population_names(scenario: str | None = None) -> list[str]:
     return [*v0, *mixed, *FAMILIES]
 
 
-def family_population(scenario: str, family: str, params: Mapping[str, Any] | None = None
+def family_population(graph: TaskGraph, family: str, params: Mapping[str, Any] | None = None
                       ) -> MixtureSpec:
-    """The population of one family with fixed parameters (defaults changed by ``params``).
+    """The population of one family with fixed parameters (defaults changed by ``params``)
+    on ``graph``'s scenario.
 
     Raises:
         ConfigError: (``field="human_params"``) An unknown parameter or an impossible value.
     """
     full = family_params(family, params)
     given = tuple(sorted((k, v) for k, v in full.items() if k in (params or {})))
-    spec = MixtureSpec(family, scenario, "1", f"the {family} family "
+    spec = MixtureSpec(family, graph.name, "1", f"the {family} family "
                        f"({FAMILIES[family].description})",
                        1, 0, (Component(family, 1.0, tuple((k, (v,)) for k, v in given)),),
                        held_out=FAMILIES[family].group != "scripted")
-    check_params(spec.graph, family, params)  # impossible values raise
+    check_params(graph, family, params)  # impossible values raise
     return spec
 
 
-def population(name: str, scenario: str, params: Mapping[str, Any] | None = None
+def population(name: str, scenario: TaskGraph | str, params: Mapping[str, Any] | None = None
                ) -> PopulationSpec | MixtureSpec:
-    """A population by name for ``scenario``: a scripted population, a split or mixture, or
-    a family (with ``params``).
+    """A population by name for ``scenario`` (its task graph, or a registered scenario's
+    name, resolved here): a scripted population, a split or mixture, or a family (with
+    ``params``).
 
     Raises:
         ConfigError: (``field="population"``) An unknown name or one for another scenario,
             the message listing the allowed names; (``field="human_params"``) parameters
-            given for a population that is not a family, or impossible ones.
+            given for a population that is not a family, or impossible ones;
+            (``field="scenario"``) an unknown scenario's name.
     """
+    graph = as_graph(scenario)
+    key = graph.name  # the tables below are keyed by the scenario's name
     if not isinstance(name, str):
         raise ConfigError(f"population must be a name, got {name!r}", field="population")
     if params and name not in FAMILIES:
@@ -637,17 +642,17 @@ def population(name: str, scenario: str, params: Mapping[str, Any] | None = None
                           "once the module that registers it is imported)", field="human_params")
     if name in POPULATIONS:
         spec = POPULATIONS[name]
-        if scenario not in spec.scenarios:
-            raise ConfigError(f"population {name!r} is not for {scenario!r}; allowed for "
-                              f"{scenario}: {', '.join(population_names(scenario))}",
+        if key not in spec.scenarios:
+            raise ConfigError(f"population {name!r} is not for {key!r}; allowed for "
+                              f"{key}: {', '.join(population_names(key))}",
                               field="population")
         return spec
-    if (name, scenario) in MIXTURES:
-        return MIXTURES[(name, scenario)]
+    if (name, key) in MIXTURES:
+        return MIXTURES[(name, key)]
     if name in FAMILIES:
-        return family_population(scenario, name, params)
-    raise ConfigError(f"unknown population {name!r} for the {scenario}; allowed: "
-                      f"{', '.join(population_names(scenario))} (or module:Class)",
+        return family_population(graph, name, params)
+    raise ConfigError(f"unknown population {name!r} for the {key}; allowed: "
+                      f"{', '.join(population_names(key))} (or module:Class)",
                       field="population")
 
 
@@ -699,7 +704,7 @@ def population_seat(graph: TaskGraph, name: str, n_runs: int = 1,
     ``population=``): :class:`~hri_envs.humans.populations.PopulationHumans` for a scripted
     population, :class:`MixtureHumans` for a split, mixture or family.
     """
-    spec = population(name, graph.name, params)
+    spec = population(name, graph, params)
     if isinstance(spec, PopulationSpec):
         return PopulationHumans(graph, name, n_runs)
     return MixtureHumans(graph, spec, n_runs)
@@ -732,7 +737,7 @@ def draw_human(
         pref = preference or spec_of(graph).default_preference
         return HumanDraw(pref, rationality, passive, turn_back)
     if population not in POPULATIONS:  # a split, mixture or family: its members as they are
-        return _population(population, graph.name, dict(params)).draw(graph, seed, run)
+        return _population(population, graph, dict(params)).draw(graph, seed, run)
     d = population_spec(population, graph.name).draw(graph, seed, run)
     beta = rationality if not math.isinf(rationality) else d.rationality
     return dataclasses.replace(d, rationality=beta,

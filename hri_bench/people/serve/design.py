@@ -30,7 +30,7 @@ from hri_bench.run.agents import validate_agent_name
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.errors import ConfigError
 from hri_envs.task.episode import REWARD_RULES
-from hri_envs.task.scenarios import SCENARIOS, NamedScenario
+from hri_envs.task.scenarios import SCENARIOS, NamedScenario, ScenarioSpec
 
 __all__ = ["DEFAULT_CONSENT", "DEFAULT_INSTRUCTIONS", "LEAD_CONSENT", "LEAD_INSTRUCTIONS",
            "UNSUITED_AGENTS", "Assignment",
@@ -271,7 +271,7 @@ class ServeConfig(NamedScenario):
                                   "only; people take the default body", field="population")
             from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
-            physical_population(self.population, self.scenario)
+            physical_population(self.population, self.graph)
 
     @property
     def dataset_id(self) -> str:
@@ -361,24 +361,11 @@ def assignment(config: ServeConfig, index: int) -> Assignment:
     return Assignment(index, pairs, prefs[index % len(prefs)] if prefs else None)
 
 
-_HANGER_STEP = {"down": "move down", "up": "move up", "over": "move over", "rotate": "rotate"}
-_WHEEL = {"straight": "take the shortest way, changing direction as little as possible, and "
-                      "turn the wheel at the last moment",
-          "detour": "turn the wheel horizontal at the first opportunity, then carry it over at "
-                    "carrying height"}
-
-
-def describe_preference(scenario: str, preference: str) -> str:
-    """How a preference reads to a participant (one or two sentences)."""
-    if scenario == "hanger" and "/" in preference:
-        to_peg, to_rail = (part.split("-") for part in preference.split("/"))
-
-        def order(steps: list[str]) -> str:
-            words = [_HANGER_STEP.get(s, s) for s in steps]
-            return ", then ".join(words)
-
-        return (f"Between the rail and the peg, carry it this way: to the peg A, "
-                f"{order(to_peg)}; to the rail (B, C), {order(to_rail)}.")
-    if scenario == "wheel" and preference in _WHEEL:
-        return f"Carry it this way: {_WHEEL[preference]}."
-    return f"Carry it the way called {preference!r}."
+def describe_preference(spec: ScenarioSpec, preference: str) -> str:
+    """How a preference of the scenario ``spec`` reads to a participant (one or two
+    sentences): the scenario's own words (:attr:`ScenarioSpec.preference_wording`), else
+    "Carry it the way called '<preference>'.".
+    """
+    words = spec.preference_wording
+    text = None if words is None else words(preference)
+    return text if text is not None else f"Carry it the way called {preference!r}."

@@ -232,7 +232,7 @@ class LeadSessionManager(SessionManager):
     def _open_dataset(self) -> Dataset:
         cfg = self.config
         kind = "scripted humans through the page" if cfg.synthetic else "people"
-        return create_dataset(cfg.dataset_id, cfg.scenario, synthetic=cfg.synthetic,
+        return create_dataset(cfg.dataset_id, cfg.graph, synthetic=cfg.synthetic,
                               root=cfg.data, physical=True,
                               description=f"{kind} leading the simulated arm (hri-bench "
                                           "serve, physical)")
@@ -247,7 +247,7 @@ class LeadSessionManager(SessionManager):
             physical_population,
         )
 
-        pop = physical_population(cfg.population, cfg.scenario)
+        pop = physical_population(cfg.population, cfg.graph)
         member = pop.member_index(cfg.seed, index)
         return params_dict(pop.members[member]), pop.labels[member]
 

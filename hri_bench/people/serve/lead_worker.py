@@ -89,8 +89,8 @@ class Lead:
         self.base = self.env.env
         self.sim: Any = self.base.sim  # CarrySim: the hand's site and wrench
         self.human = HumanParams.of(dict(human))
-        self.robot: PhysicalAgent = _call("making the agent", make_robot, agent, scenario,
-                                          int(seed))
+        self.robot: PhysicalAgent = _call("making the agent", make_robot, agent,
+                                          self.base.graph, int(seed))
         self.sent: set[str] = set()
         self.cameras: dict[tuple[Any, ...], dict[str, Any]] = {}
         self.rows: list[dict[str, Any]] = []

@@ -389,7 +389,7 @@ class Session:
                 "start": int(start), "start_name": names[start], "goal": int(goal),
                 "goal_name": names[goal],
                 "preference": None if pref is None else describe_preference(
-                    self.config.scenario, pref)}
+                    self.config.spec, pref)}
 
     def _ask(self, observations: Mapping[str, np.ndarray]) -> int:
         """The loop asks the person to act: publish the frame, wait for a valid action."""
@@ -637,7 +637,7 @@ class SessionManager:
     def _open_dataset(self) -> Dataset:
         """The dataset the sessions are recorded in (made if new)."""
         config = self.config
-        return create_dataset(config.dataset_id, config.scenario, synthetic=False,
+        return create_dataset(config.dataset_id, config.graph, synthetic=False,
                               root=config.data,
                               description="people in the human's seat (hri-bench serve)")
 
@@ -669,7 +669,7 @@ class SessionManager:
             "episodes_planned": cfg.episodes,
             "schedule": [[int(a), int(b), False] for a, b in design.pairs],
             "preference": design.preference, "serve_settings": cfg.settings(),
-            **agent_identity(cfg.agent, cfg.scenario, cfg.waiting_reward, dict(cfg.learner))})
+            **agent_identity(cfg.agent, cfg.spec, cfg.waiting_reward, dict(cfg.learner))})
         return Session(cfg, design, writer, on_end=self._retire)
 
     def _retire(self, session: Session) -> None:

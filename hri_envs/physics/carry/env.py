@@ -239,7 +239,8 @@ class CarryEnv(gym.Env[np.ndarray, np.ndarray]):
         self.weights: RewardWeights | PlacingReward = check_weights(
             PlacingReward if version else RewardWeights, reward)
         population = self.human.population
-        self.population = None if population is None else check_population(population, scenario)
+        self.population = None if population is None else check_population(population,
+                                                                           self.graph)
         max_time_s = spec.continuous_time_s if max_time_s is None else max_time_s
         if isinstance(max_time_s, bool) or not isinstance(max_time_s, int | float) \
                 or not math.isfinite(max_time_s) or max_time_s <= 0:

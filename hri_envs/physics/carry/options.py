@@ -13,6 +13,7 @@ from typing import Any
 from hri_envs.checks import check_real
 from hri_envs.envs.backends import carry_vector_backend
 from hri_envs.errors import ConfigError
+from hri_envs.task.graph import TaskGraph
 
 __all__ = ["SENSOR_KEYS", "check_population", "check_sensor", "check_step_scale", "vector_env"]
 
@@ -67,11 +68,13 @@ def vector_env(num_envs: int = 1, scenario: str = "hanger", *, backend: str = "m
     return carry_vector_backend(backend)(num_envs, scenario, backend=backend, **kwargs)
 
 
-def check_population(name: Any, scenario: str) -> Any:
-    """The physical human population ``name`` of ``scenario`` (v1's ``population=``)."""
+def check_population(name: Any, graph: TaskGraph) -> Any:
+    """The physical human population ``name`` of ``graph``'s scenario (v1's
+    ``population=``).
+    """
     from hri_envs.physics.carry.human.population import physical_population  # noqa: PLC0415
 
     if not isinstance(name, str):
         raise ConfigError(f"population must be a population's name, got {name!r}",
                           field="population")
-    return physical_population(name, scenario)
+    return physical_population(name, graph)

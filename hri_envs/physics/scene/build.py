@@ -33,7 +33,7 @@ from hri_envs.physics.scene.shapes import DARK, add_visual
 from hri_envs.task.geometry import Scenario
 
 __all__ = ["BASE_JOINTS", "FINGER_HOLD_STIFFENING", "FINGER_ON_GRIP_M", "FINGER_OPEN_M", "Scene",
-           "build_robot_model", "build_scene"]
+           "build_robot_model", "build_scene", "robot_joints"]
 
 #: [m] The finger joint position of the Panda's open hand (its maximum).
 FINGER_OPEN_M = 0.04
@@ -58,6 +58,13 @@ _FLOOR_BIT, _OBJECT_BIT, _SUPPORT_BIT, _FINGER_BIT, _GRIP_BIT = 1, 2, 4, 8, 16
 GRIP_HALF_SIZE: tuple[float, float, float] = (0.012, 0.02, 0.012)
 _CONTACT = {"condim": 3, "friction": [0.6, 0.005, 0.0001], "margin": 0.001,
             "solref": [0.01, 1.0]}
+
+
+def robot_joints(design: PhysicsDesign) -> tuple[str, ...]:
+    """The robot's controlled joints a design's scene has, in order: the mobile base's
+    (:data:`BASE_JOINTS`) if it has one, then the arm's 7.
+    """
+    return (BASE_JOINTS if design.mobile_base else ()) + PANDA_ARM_JOINTS
 
 
 def _grip_geometry(obj: mujoco.MjsBody, design: PhysicsDesign) -> mujoco.MjsGeom:
@@ -275,7 +282,7 @@ def build_scene(scenario: Scenario, design: PhysicsDesign,
     def aid(name: str) -> int:
         return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
 
-    joints = (BASE_JOINTS if design.mobile_base else ()) + PANDA_ARM_JOINTS
+    joints = robot_joints(design)
     ids = [jid(n) for n in joints]
     acts = [aid(n.split(":")[-1]) for n in joints]
     limits = (_BASE_FORCE_LIMITS if design.mobile_base else ()) + _TORQUE_LIMITS

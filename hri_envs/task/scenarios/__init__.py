@@ -32,6 +32,7 @@ __all__ = [
     "Op",
     "Route",
     "ScenarioSpec",
+    "as_graph",
     "check_spec",
     "episode_geometry",
     "episode_scenario",
@@ -180,6 +181,22 @@ def scenario_graph(name: str) -> TaskGraph:
     its spec (:attr:`TaskGraph.spec`).
     """
     return _GRAPHS[scenario_spec(name).name]
+
+
+def as_graph(scenario: TaskGraph | ScenarioSpec | str) -> TaskGraph:
+    """The task graph of ``scenario`` at the top of a public function a user may call with
+    a scenario's name (``FixedAdmittance("hanger")``, ``physical_population("test",
+    "wheel")``): a graph as it is, a spec's (:func:`graph_of`), a registered scenario's name
+    resolved here, once; what the function calls below takes the graph.
+
+    Raises:
+        ConfigError: An unknown name (the message lists the registered scenarios).
+    """
+    if isinstance(scenario, TaskGraph):
+        return scenario
+    if isinstance(scenario, ScenarioSpec):
+        return graph_of(scenario)
+    return scenario_graph(scenario)
 
 
 class NamedScenario:

@@ -54,6 +54,24 @@ def geometry() -> Scenario:
     )
 
 
+_STEP_WORDS = {"down": "move down", "up": "move up", "over": "move over", "rotate": "rotate"}
+
+
+def wording(preference: str) -> str | None:
+    """How a preference reads to a participant: its order of steps to the peg and to the
+    rail (None for a name without the "/" of the hanger's preferences).
+    """
+    if "/" not in preference:
+        return None
+    to_peg, to_rail = (part.split("-") for part in preference.split("/"))
+
+    def order(steps: list[str]) -> str:
+        return ", then ".join(_STEP_WORDS.get(s, s) for s in steps)
+
+    return (f"Between the rail and the peg, carry it this way: to the peg A, "
+            f"{order(to_peg)}; to the rail (B, C), {order(to_rail)}.")
+
+
 def route(scenario: Scenario, preference: str, start: int, goal: int) -> list[Op]:
     """Between the peg and the rail the preference's order; along the rail the natural one."""
     natural = natural_route(scenario, goal)
@@ -74,4 +92,5 @@ SPEC = ScenarioSpec(
     continuous_id="hri_envs/HangerPandaContinuous-v0",
     pettingzoo_module="hri_envs.hanger_v0",
     physics_design="hri_envs.physics.scene.design:hanger_design", schedules={"table2": TABLE2},
+    preference_wording=wording,
 )

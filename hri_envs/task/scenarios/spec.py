@@ -62,6 +62,10 @@ class ScenarioSpec:
         check_layout: Raises a ``ConfigError`` for a layout (a reset's ``layout`` option)
             the scenario's waypoints do not fit (None: any of the right shape).
         schedules: Fixed episode schedules by name (the hanger's user study: "table2").
+        preference_wording: How a preference reads to a participant of ``hri-bench serve``
+            (one or two sentences; None for a preference it has no words for). None: every
+            preference reads "Carry it the way called '<preference>'."
+            (:func:`hri_bench.people.serve.design.describe_preference`).
     """
 
     name: str
@@ -82,3 +86,4 @@ class ScenarioSpec:
     layout: Callable[..., Layout] | None = None
     check_layout: Callable[[Layout], None] | None = None
     schedules: Mapping[str, tuple[ScheduleRow, ...]] = field(default_factory=dict)
+    preference_wording: Callable[[str], str | None] | None = None

@@ -100,6 +100,17 @@ def geometry(stands: Layout = NOMINAL_STANDS) -> Scenario:
     )
 
 
+_WORDS = {"straight": "take the shortest way, changing direction as little as possible, and "
+                      "turn the wheel at the last moment",
+          "detour": "turn the wheel horizontal at the first opportunity, then carry it over at "
+                    "carrying height"}
+
+
+def wording(preference: str) -> str | None:
+    """How a preference reads to a participant (None for a name that is not one)."""
+    return f"Carry it this way: {_WORDS[preference]}." if preference in _WORDS else None
+
+
 def route(scenario: Scenario, preference: str, start: int, goal: int) -> list[Op]:
     """*straight*: the natural route; *detour*: lie the wheel down first, carry it low."""
     natural = natural_route(scenario, goal)
@@ -117,5 +128,5 @@ SPEC = ScenarioSpec(
     continuous_time_s=45.0,
     pettingzoo_module="hri_envs.wheel_v0",
     physics_design="hri_envs.physics.scene.design:wheel_design", layout=sample_layout,
-    check_layout=check_layout,
+    check_layout=check_layout, preference_wording=wording,
 )

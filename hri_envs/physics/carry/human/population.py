@@ -58,6 +58,8 @@ import numpy as np
 from hri_envs.errors import ConfigError
 from hri_envs.physics.carry.human.families import FAMILIES
 from hri_envs.physics.carry.human.intention import HumanParams
+from hri_envs.task.graph import TaskGraph
+from hri_envs.task.scenarios import as_graph
 
 __all__ = ["DATA_FILE", "FILE_SCHEMA", "FITTED_PREFIX", "SCENARIOS", "SEEDING",
            "SIGNATURE_FILE", "SPLITS", "PhysicalMember", "PhysicalPopulation",
@@ -116,15 +118,23 @@ def _sha256(doc: Any) -> str:
 class PhysicalPopulation:
     """A frozen list of physical humans of one scenario.
 
+    Args:
+        name: The population's name.
+        graph: The scenario's task graph.
+        entries: The members with their family, label, fingerprint.
+
     Attributes:
-        name: The population's name; scenario: "hanger" or "wheel".
+        name: The population's name; graph: the scenario's task graph; scenario: its name,
+            "hanger" or "wheel" (what the hash and the files record).
         entries: The members with their family, label, fingerprint.
         members: (N,) their :class:`HumanParams`; families, labels, fingerprints: (N,) each
             member's.
     """
 
-    def __init__(self, name: str, scenario: str, entries: tuple[PhysicalMember, ...]) -> None:
-        self.name, self.scenario, self.entries = name, scenario, entries
+    def __init__(self, name: str, graph: TaskGraph, entries: tuple[PhysicalMember, ...]
+                 ) -> None:
+        self.name, self.graph, self.entries = name, graph, entries
+        self.scenario = graph.name
         self.members = tuple(e.params for e in entries)
         self.families = tuple(e.family for e in entries)
         self.labels = tuple(e.label for e in entries)
@@ -182,53 +192,60 @@ def population_names() -> tuple[str, ...]:
     return (*SPLITS, *(f"test-{g}" for g in groups))
 
 
-def physical_population(name: str, scenario: str) -> PhysicalPopulation:
-    """The frozen population ``name`` of ``scenario`` (module docstring).
+def physical_population(name: str, scenario: TaskGraph | str) -> PhysicalPopulation:
+    """The frozen population ``name`` of ``scenario`` (module docstring): its task graph, or
+    a registered scenario's name (resolved here).
 
     Raises:
-        ConfigError: An unknown scenario or name (``field="population"``), listing the
-            allowed ones.
+        ConfigError: An unknown scenario (``field="scenario"``), one without physical
+            populations or an unknown name (``field="population"``), listing the allowed
+            ones.
     """
-    if scenario not in SCENARIOS:
-        raise ConfigError(f"no physical populations for scenario {scenario!r}; allowed: "
+    graph = as_graph(scenario)
+    if graph.name not in SCENARIOS:
+        raise ConfigError(f"no physical populations for scenario {graph.name!r}; allowed: "
                           f"{', '.join(SCENARIOS)}", field="population")
     if isinstance(name, str) and name.startswith(FITTED_PREFIX):
-        return _load(name, scenario)
+        return _load(name, graph)
     names = population_names()
     if name not in names:
         raise ConfigError(f"unknown physical population {name!r}; allowed: "
                           f"{', '.join(names)}", field="population")
     split, _, group = name.partition("-")
-    entries = _entries(scenario, split)
+    entries = _entries(graph, split)
     if group:
         entries = tuple(e for e in entries if e.group == group)
-    return PhysicalPopulation(name, scenario, entries)
+    return PhysicalPopulation(name, graph, entries)
 
 
-def fitted_population(name: str, scenario: str, members: Sequence[HumanParams],
+def fitted_population(name: str, graph: TaskGraph, members: Sequence[HumanParams],
                       labels: Sequence[str]) -> PhysicalPopulation:
-    """A population of fitted humans (family and group ``fitted``), in the given order."""
+    """A population of fitted humans (family and group ``fitted``) of ``graph``'s scenario,
+    in the given order.
+    """
     entries = tuple(
         PhysicalMember(p, "fitted", "fitted", label,
                        _sha256(params_dict(p))[:16], -1)
         for p, label in zip(members, labels, strict=True))
     if not entries:
         raise ConfigError(f"population {name} has no members", field="population")
-    return PhysicalPopulation(name, scenario, entries)
+    return PhysicalPopulation(name, graph, entries)
 
 
-def save_population(path: str | os.PathLike[str], scenario: str,
+def save_population(path: str | os.PathLike[str], scenario: TaskGraph | str,
                     members: Sequence[HumanParams], labels: Sequence[str], *,
                     source: Mapping[str, Any] | None = None) -> Path:
-    """Write fitted humans as a population file (:data:`FILE_SCHEMA`, JSON: the scenario,
-    each member's label and parameters by value, and where they came from); the name
+    """Write fitted humans of ``scenario`` (its task graph, or a registered scenario's
+    name, resolved here) as a population file (:data:`FILE_SCHEMA`, JSON: the scenario's
+    name, each member's label and parameters by value, and where they came from); the name
     ``fitted:<path>`` loads it. Returns the path.
     """
-    if scenario not in SCENARIOS:
-        raise ConfigError(f"no physical populations for scenario {scenario!r}; allowed: "
+    graph = as_graph(scenario)
+    if graph.name not in SCENARIOS:
+        raise ConfigError(f"no physical populations for scenario {graph.name!r}; allowed: "
                           f"{', '.join(SCENARIOS)}", field="population")
-    fitted_population("fitted", scenario, members, labels)  # checks: not empty, paired
-    doc = {"schema": FILE_SCHEMA, "scenario": scenario, "source": dict(source or {}),
+    fitted_population("fitted", graph, members, labels)  # checks: not empty, paired
+    doc = {"schema": FILE_SCHEMA, "scenario": graph.name, "source": dict(source or {}),
            "members": [{"label": label, "params": params_dict(p)}
                        for p, label in zip(members, labels, strict=True)]}
     out = Path(path)
@@ -236,8 +253,8 @@ def save_population(path: str | os.PathLike[str], scenario: str,
     return out
 
 
-def _load(name: str, scenario: str) -> PhysicalPopulation:
-    """The population file ``name`` points at (``fitted:<path>``)."""
+def _load(name: str, graph: TaskGraph) -> PhysicalPopulation:
+    """The population file ``name`` points at (``fitted:<path>``), of ``graph``'s scenario."""
     path = Path(name[len(FITTED_PREFIX):])
     try:
         doc = json.loads(path.read_text())
@@ -247,11 +264,11 @@ def _load(name: str, scenario: str) -> PhysicalPopulation:
     if not isinstance(doc, dict) or doc.get("schema") != FILE_SCHEMA:
         raise ConfigError(f"population {name}: {path} is not a {FILE_SCHEMA} file",
                           field="population")
-    if doc.get("scenario") != scenario:
+    if doc.get("scenario") != graph.name:
         raise ConfigError(f"population {name} holds {doc.get('scenario')!r} humans, not "
-                          f"{scenario!r}", field="population")
+                          f"{graph.name!r}", field="population")
     members = doc.get("members") or []
-    return fitted_population(name, scenario, [HumanParams.of(m["params"]) for m in members],
+    return fitted_population(name, graph, [HumanParams.of(m["params"]) for m in members],
                              [str(m["label"]) for m in members])
 
 
@@ -270,8 +287,8 @@ def _signatures() -> dict[str, np.ndarray]:
 
 
 @functools.cache
-def _entries(scenario: str, split: str) -> tuple[PhysicalMember, ...]:
-    doc = _document()["scenarios"][scenario]
+def _entries(graph: TaskGraph, split: str) -> tuple[PhysicalMember, ...]:
+    doc = _document()["scenarios"][graph.name]  # the data file is keyed by name
     row = sum(len(doc[s]) for s in list(SPLITS)[:list(SPLITS).index(split)])
     out = []
     for i, m in enumerate(doc[split]):
