@@ -423,7 +423,7 @@ class StudyConfig(NamedScenario):
             return None
         if is_custom(self.population):  # a recorded dataset's has its content hash
             return custom_population_info(self.population, self.graph)
-        spec = population(self.population, self.scenario, dict(self.human_params))
+        spec = population(self.population, self.graph, dict(self.human_params))
         members = getattr(spec, "size", None)
         return {"name": self.population, "version": getattr(spec, "version", "1"),
                 "hash": population_hash(spec), "held_out": bool(spec.held_out),
@@ -1183,7 +1183,7 @@ def run_study(
     units = study_units(cfg)
     done = dict(done or {})
     if cfg.mixture_population and cfg.population is not None:
-        spec = population(cfg.population, cfg.scenario, dict(cfg.human_params))
+        spec = population(cfg.population, cfg.graph, dict(cfg.human_params))
         getattr(spec, "member_draws", None)  # drawn once, here: forked workers inherit them
     n_e, n_p = cfg.n_episodes, len(cfg.probes)
     keys = METRICS + batch_backend(cfg.backend).extras + TASK_METRICS
@@ -1322,14 +1322,14 @@ def summarize(result: StudyResult) -> dict[str, Any]:
         "human_drift": cfg.human_drift,
         "human_params": _jsonable(cfg.human_params),
         "population_info": cfg.population_info(),
-        "learner": agent_settings("learner", cfg.scenario, cfg.waiting_reward,
+        "learner": agent_settings("learner", cfg.spec, cfg.waiting_reward,
                                   dict(cfg.learner)),
         "version": __version__,
         "env_ids": {"gymnasium": spec.panda_id if BACKENDS[cfg.backend].physical
                     else spec.gym_id,
                     "pettingzoo": spec.pettingzoo_module},
         "settings": cfg.settings(),
-        "agent_configs": {a: agent_settings(a, cfg.scenario, cfg.waiting_reward,
+        "agent_configs": {a: agent_settings(a, cfg.spec, cfg.waiting_reward,
                                             dict(cfg.learner))
                           for a in cfg.agents},
         "failed_agents": sorted(result.failures),
