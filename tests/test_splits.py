@@ -196,6 +196,21 @@ def test_a_distinct_split_draws_again_and_refuses_what_it_cannot_fill():
     assert set(twice.fingerprints()) <= set(train.fingerprints())
 
 
+
+def test_a_study_of_a_split_that_cannot_fill_is_refused_before_it_simulates(monkeypatch):
+    """Issue 42: the study's check draws its split's members (once: forked workers inherit
+    them), so a split that cannot give them all is bad input, not a failure mid-study."""
+    spec = MixtureSpec("x", "wheel", "2", "", 2, 0, (Component("preference", 1.0, (
+        ("preference", (ALL_PREFERENCES,)),)),), distinct=True, exclude=("train",))
+    monkeypatch.setitem(MIXTURES, ("x", "wheel"), spec)
+    with pytest.raises(ConfigError, match="gave 0 different humans") as err:
+        StudyConfig(scenario="wheel", agents=("passive",), runs=2, episodes=1, population="x")
+    assert err.value.field == "population"
+    fine = dataclasses.replace(spec, exclude=())
+    monkeypatch.setitem(MIXTURES, ("x", "wheel"), fine)
+    StudyConfig(scenario="wheel", agents=("passive",), runs=2, episodes=1, population="x")
+    assert "member_draws" in vars(fine)  # drawn by the check, before any unit runs
+
 def test_a_studys_runs_meet_the_members_in_balanced_blocks():
     spec = MIXTURES[("test-adaptive", "wheel")]
     n = spec.size

@@ -346,6 +346,11 @@ class StudyConfig(NamedScenario):
                     raise ConfigError(f"population {self.population!r} gives each run a "
                                       f"frozen member as it is; {name} cannot change it "
                                       "(leave it at its default)", field=name)
+            # Its members are drawn here, once: a split that cannot give them all is
+            # refused before anything is simulated, and a study's forked workers inherit them.
+            assert self.population is not None
+            getattr(population(self.population, self.graph, dict(self.human_params)),
+                    "member_draws", None)
         if is_custom(self.population):
             if self.human_drift is not None:
                 raise ConfigError("a human of your own (a population named module:Class) does "
@@ -1182,9 +1187,6 @@ def run_study(
     """
     units = study_units(cfg)
     done = dict(done or {})
-    if cfg.mixture_population and cfg.population is not None:
-        spec = population(cfg.population, cfg.graph, dict(cfg.human_params))
-        getattr(spec, "member_draws", None)  # drawn once, here: forked workers inherit them
     n_e, n_p = cfg.n_episodes, len(cfg.probes)
     keys = METRICS + batch_backend(cfg.backend).extras + TASK_METRICS
     metrics = {a: {k: np.zeros((cfg.runs, n_e)) for k in keys} for a in cfg.agents}
