@@ -8,7 +8,7 @@ from typing import Any
 
 from hri_envs.checks import check_flag, check_real, check_whole
 from hri_envs.errors import ConfigError
-from hri_envs.task.scenarios import SCENARIOS, ScenarioSpec, scenario_spec
+from hri_envs.task.scenarios import SCENARIOS, ScenarioSpec, as_spec
 
 __all__ = ["MAX_PRETRAIN_PASSES", "LearnerConfig", "default_config"]
 
@@ -109,7 +109,7 @@ def default_config(scenario: ScenarioSpec | str, **changes: Any) -> LearnerConfi
     Raises:
         ConfigError: An unknown scenario name, or a change that is not allowed.
     """
-    spec = scenario_spec(scenario) if isinstance(scenario, str) else scenario
+    spec = as_spec(scenario)
     pref = changes.get("initial_preference")
     if pref is not None and pref not in spec.preferences:
         raise ConfigError(f"initial_preference must be None or one of the {spec.name} "

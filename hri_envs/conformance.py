@@ -44,7 +44,7 @@ from hri_envs.task import episode as rules
 from hri_envs.task.actions import WAIT
 from hri_envs.task.episode import RewardRule
 from hri_envs.task.graph import TaskGraph
-from hri_envs.task.scenarios import SCENARIOS, ScenarioSpec, graph_of, scenario_spec
+from hri_envs.task.scenarios import SCENARIOS, ScenarioSpec, as_spec, graph_of
 
 __all__ = ["check_backend", "check_human", "check_reward_rule", "check_scenario"]
 
@@ -72,8 +72,7 @@ def check_scenario(spec: ScenarioSpec | str, *, env: bool = True) -> str:
             the robot following (``field="route"``); the env fails ``check_env``
             (``field="env"``).
     """
-    if isinstance(spec, str):
-        spec = scenario_spec(spec)
+    spec = as_spec(spec)
     graph = graph_of(spec)
     if graph.n_actions != spec.n_actions:
         raise _fail(f"scenario {spec.name!r}: its graph has {graph.n_actions} actions, the "
@@ -216,7 +215,7 @@ def check_reward_rule(rule: RewardRule | str, scenarios: tuple[str, ...] | None 
     if not isinstance(rule, RewardRule):
         raise _fail(f"check_reward_rule takes a RewardRule or a registered rule's name, got "
                     f"{rule!r}", "reward")
-    specs = [scenario_spec(name) for name in scenarios] if scenarios else SCENARIOS.values()
+    specs = [as_spec(name) for name in scenarios] if scenarios else SCENARIOS.values()
     for spec in specs:
         rules.verify_reward_rule(rule, graph_of(spec))
     return f"reward rule {rule.name!r}: rewards in [-1, 0], the same on every path"

@@ -142,3 +142,20 @@ def test_the_benchmark_re_exports_the_agents_registry():
     for name in ("AGENTS", "AgentSpec", "AgentContext", "register_agent", "agent_spec",
                  "JAXPPO", "ROLES"):
         assert getattr(bench_agents, name) is getattr(agents.registry, name)
+
+
+def test_a_public_function_resolves_a_users_scenario_name_once_and_passes_objects_through():
+    """Issue 42: as_graph / as_spec are the one resolution at a public function's top: a
+    graph or spec passes through as it is (an unregistered spec too), a name is looked up."""
+    from hri_envs.task.scenarios import as_graph, as_spec, scenario_graph
+
+    graph = scenario_graph("wheel")
+    spec = SCENARIOS["wheel"]
+    assert as_graph(graph) is graph and as_graph(spec) is graph and as_graph("wheel") is graph
+    assert as_spec(spec) is spec and as_spec(graph) is spec and as_spec("wheel") is spec
+    odd = dataclasses.replace(spec, name="unregistered-wheel")
+    assert as_spec(odd) is odd and as_graph(odd).spec is odd and as_graph(odd) is not graph
+    for resolve in (as_graph, as_spec):
+        with pytest.raises(ConfigError, match="hanger, wheel") as err:
+            resolve("kitchen")
+        assert err.value.field == "scenario"

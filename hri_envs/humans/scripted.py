@@ -38,7 +38,7 @@ from hri_envs.task.graph import (
     WAIT,
     TaskGraph,
 )
-from hri_envs.task.scenarios import Op, ScenarioSpec, scenario_spec, spec_of
+from hri_envs.task.scenarios import Op, ScenarioSpec, as_spec, spec_of
 
 __all__ = [
     "PreferredActions",
@@ -56,11 +56,7 @@ def preferences_for(scenario: TaskGraph | ScenarioSpec | str) -> tuple[str, ...]
     """The preference names a scenario accepts: its graph's or spec's, or (a user's public
     edge) the registered scenario's of that name, resolved here.
     """
-    if isinstance(scenario, TaskGraph):
-        return spec_of(scenario).preferences
-    if isinstance(scenario, str):
-        scenario = scenario_spec(scenario)  # the public edge: a name, resolved once
-    return scenario.preferences
+    return as_spec(scenario).preferences
 
 
 def _apply(graph: TaskGraph, s: int, op: Op) -> tuple[int, int] | None:

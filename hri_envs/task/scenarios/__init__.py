@@ -33,6 +33,7 @@ __all__ = [
     "Route",
     "ScenarioSpec",
     "as_graph",
+    "as_spec",
     "check_spec",
     "episode_geometry",
     "episode_scenario",
@@ -197,6 +198,22 @@ def as_graph(scenario: TaskGraph | ScenarioSpec | str) -> TaskGraph:
     if isinstance(scenario, ScenarioSpec):
         return graph_of(scenario)
     return scenario_graph(scenario)
+
+
+def as_spec(scenario: ScenarioSpec | TaskGraph | str) -> ScenarioSpec:
+    """The spec of ``scenario`` at the top of a public function a user may call with a
+    scenario's name (:func:`as_graph`'s twin for what needs the spec): a spec as it is (a
+    registered one or one being checked), a graph's (:func:`spec_of`), a registered
+    scenario's name resolved here, once.
+
+    Raises:
+        ConfigError: An unknown name (the message lists the registered scenarios).
+    """
+    if isinstance(scenario, ScenarioSpec):
+        return scenario
+    if isinstance(scenario, TaskGraph):
+        return spec_of(scenario)
+    return scenario_spec(scenario)
 
 
 class NamedScenario:
