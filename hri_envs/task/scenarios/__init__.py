@@ -209,11 +209,7 @@ def as_spec(scenario: ScenarioSpec | TaskGraph | str) -> ScenarioSpec:
     Raises:
         ConfigError: An unknown name (the message lists the registered scenarios).
     """
-    if isinstance(scenario, ScenarioSpec):
-        return scenario
-    if isinstance(scenario, TaskGraph):
-        return spec_of(scenario)
-    return scenario_spec(scenario)
+    return scenario if isinstance(scenario, ScenarioSpec) else spec_of(as_graph(scenario))
 
 
 class NamedScenario:
