@@ -24,6 +24,7 @@ import time
 import traceback
 from collections.abc import Callable, Generator, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from multiprocessing.connection import Connection
 from multiprocessing.connection import wait as mp_wait
 from pathlib import Path
@@ -451,10 +452,11 @@ class StudyConfig(NamedScenario):
         return self.human.run_draws(self.graph, self.seed, run, self.n_episodes,
                                     preference, self.human_drift)
 
-    @property
+    @cached_property
     def run_humans(self) -> RunHumans:
         """The maker of the study's humans for a batch of runs, read once from
-        :attr:`human` (:func:`hri_envs.humans.runs.study_humans`).
+        :attr:`human` (:func:`hri_envs.humans.runs.study_humans`; plain data, pickled with
+        the study's units).
         """
         return study_humans(self.human, seed=self.seed, episodes=self.n_episodes,
                             drift=self.human_drift, run_preferences=self.preference_of_run())
@@ -595,7 +597,7 @@ def unit_humans(cfg: StudyConfig, preference: str, runs: list[int]
             ) -> tuple[ScriptedHuman | BatchHuman, list[str]]:
     """The unit's human(s) and each run's human label (per episode for drift: "a>b").
 
-    The one place a study's humans are made, by the maker its human reads as once
+    The one place a study's humans are made, by the maker of its human's kind, chosen once
     (:attr:`StudyConfig.run_humans`): a scripted human shared by the runs, each run's own
     scripted humans (a population's draw, a drift), or a human class of the user's
     (``--population module:Class``).
