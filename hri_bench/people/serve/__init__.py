@@ -112,14 +112,25 @@ def _serve(config: ServeConfig, say: Callable[[str], None], uvicorn: Any,
               "answering to " + ", ".join(app.state.access.allowed()) +
               " (name others with --allow-host)")
     marked = app.state.sessions.interrupted
-    say(
+    ready = (
         f"hri-bench serve: {config.scenario}, robot {config.agent}, {config.episodes} episodes "
         f"per session; recording to {app.state.sessions.dataset.path} (private to you)\n"
         + (f"marked {len(marked)} session(s) that a stopped server left running as "
            f"interrupted: {', '.join(marked)}\n" if marked else "")
         + f"serving on {url}" + remote)
-    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", ws_max_size=4096,
-                                           access_log=False, lifespan="on"))
+
+    class Server(uvicorn.Server):
+        """Says where it serves once it does, and once Ctrl-C stops it: uvicorn handles the
+        signals by then. Said earlier, a Ctrl-C right after the address could reach asyncio's
+        own handler before uvicorn's, and cancel the start-up without stopping the server.
+        """
+
+        async def startup(self, sockets: list[Any] | None = None) -> None:
+            await super().startup(sockets=sockets)
+            say(ready)
+
+    server = Server(uvicorn.Config(app, log_level="warning", ws_max_size=4096,
+                                   access_log=False, lifespan="on"))
     try:
         server.run(sockets=[sock])
     finally:
